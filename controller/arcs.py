@@ -1,0 +1,77 @@
+"""Pure arc and helix geometry, shared by the segmenter, the planner and the analysis.
+
+An arc is parametrised by the fraction u in [0, 1] of its sweep. With (e1, e2, en) the plane's
+first, second and normal axes (a right-handed triple, so counter-clockwise seen from +en turns
+e1 towards e2):
+
+    theta(u) = theta0 + sigma * A * u          sigma = +1 ccw (G3), -1 cw (G2); A = arc.angle [rad]
+    r(u)     = r0 + (r1 - r0) * u              r0 = arc.radius, r1 = |end - center| in the plane [mm]
+    h(u)     = h0 + (h1 - h0) * u              normal-axis coordinate [mm]
+    p(u)     = center + r(u) * (cos theta e1 + sin theta e2) + h(u) en
+
+so p(0) is the start and p(1) the programmed end exactly (up to rounding). For an exact arc
+r1 == r0; LinuxCNC accepts a small mismatch, which makes the path a gentle spiral.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from controller.moves import Arc
+
+#: (first, second, normal) axis indices per plane: a right-handed triple (G17 XY, G18 ZX, G19 YZ).
+PLANE_AXES: dict[str, tuple[int, int, int]] = {"XY": (0, 1, 2), "XZ": (2, 0, 1), "YZ": (1, 2, 0)}
+
+
+def arc_frame(arc: Arc) -> tuple[int, int, int, float, float, float, float, float, float]:
+    """Return (i1, i2, n, theta0 [rad], sigma, r0 [mm], r1 [mm], h0 [mm], h1 [mm]) for ``arc``."""
+    i1, i2, n = PLANE_AXES[arc.plane]
+    c, s, e = arc.center, arc.start, arc.end
+    theta0 = math.atan2(s[i2] - c[i2], s[i1] - c[i1])
+    sigma = 1.0 if arc.direction == "ccw" else -1.0
+    r1 = math.hypot(e[i1] - c[i1], e[i2] - c[i2])
+    return i1, i2, n, theta0, sigma, arc.radius, r1, s[n], e[n]
+
+
+def arc_points(arc: Arc, u: np.ndarray | float) -> np.ndarray:
+    """Points on the arc at sweep fractions ``u`` (array (k,) or scalar) -> array (k, 3) [mm].
+
+    u = 1 returns the programmed end point exactly.
+    """
+    u_arr = np.atleast_1d(np.asarray(u, dtype=float))
+    i1, i2, n, theta0, sigma, r0, r1, h0, h1 = arc_frame(arc)
+    theta = theta0 + sigma * arc.angle * u_arr
+    r = r0 + (r1 - r0) * u_arr
+    out = np.empty((u_arr.size, 3))
+    out[:, i1] = arc.center[i1] + r * np.cos(theta)
+    out[:, i2] = arc.center[i2] + r * np.sin(theta)
+    out[:, n] = h0 + (h1 - h0) * u_arr
+    out[u_arr == 1.0] = arc.end
+    return out
+
+
+def arc_derivatives(arc: Arc, u: np.ndarray | float) -> tuple[np.ndarray, np.ndarray]:
+    """First and second derivatives dp/du [mm] and d2p/du2 [mm] at fractions ``u`` -> two (k, 3)."""
+    u_arr = np.atleast_1d(np.asarray(u, dtype=float))
+    i1, i2, n, theta0, sigma, r0, r1, h0, h1 = arc_frame(arc)
+    a = sigma * arc.angle
+    theta = theta0 + a * u_arr
+    r = r0 + (r1 - r0) * u_arr
+    dr = r1 - r0
+    cos_t, sin_t = np.cos(theta), np.sin(theta)
+    d1 = np.zeros((u_arr.size, 3))
+    d2 = np.zeros((u_arr.size, 3))
+    d1[:, i1] = dr * cos_t - r * a * sin_t
+    d1[:, i2] = dr * sin_t + r * a * cos_t
+    d1[:, n] = h1 - h0
+    d2[:, i1] = -2.0 * dr * a * sin_t - r * a * a * cos_t
+    d2[:, i2] = 2.0 * dr * a * cos_t - r * a * a * sin_t
+    return d1, d2
+
+
+def arc_length_mm(arc: Arc) -> float:
+    """Path length of the arc, helix or slight spiral [mm] (mean in-plane radius)."""
+    _, _, _, _, _, r0, r1, h0, h1 = arc_frame(arc)
+    return math.hypot(0.5 * (r0 + r1) * arc.angle, h1 - h0)

@@ -1,0 +1,52 @@
+"""Typed errors a user can cause: bad G-code, bad machine files, impossible programs.
+
+Every error carries the file it came from and, for programs, the 1-based source line, so the CLI
+can print ``FILE:LINE: error: MESSAGE`` (or ``FILE: error: MESSAGE``) and exit 2 without a traceback.
+Anything that is not a :class:`GantryError` is a bug in gantry-sim.
+"""
+
+from __future__ import annotations
+
+
+class GantryError(Exception):
+    """Base of all user-caused errors.
+
+    Args:
+        message: What is wrong and what is allowed instead.
+        file: The input file the error is about (program or machine file), if known.
+        line: 1-based line in ``file``, if the error belongs to a line.
+    """
+
+    def __init__(self, message: str, file: str | None = None, line: int | None = None) -> None:
+        super().__init__(message)
+        self.message = message
+        self.file = file
+        self.line = line
+
+    def located(self, file: str) -> GantryError:
+        """Return this error with ``file`` filled in when it had none."""
+        if self.file is None:
+            self.file = file
+        return self
+
+    def __str__(self) -> str:
+        where = self.file or "<input>"
+        if self.line is not None:
+            where = f"{where}:{self.line}"
+        return f"{where}: error: {self.message}"
+
+
+class GcodeError(GantryError):
+    """The program text is invalid for the chosen dialect."""
+
+
+class ConfigError(GantryError):
+    """A machine file (TOML) or a command-line option is invalid."""
+
+
+class PlanningError(GantryError):
+    """A valid program cannot be run on this machine (for example, it leaves the travel)."""
+
+
+class SimulationError(GantryError):
+    """The simulation diverged or produced non-finite values."""

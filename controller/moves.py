@@ -1,0 +1,139 @@
+"""The interpreter's output: exact moves, each with the source line that commanded it.
+
+All positions are program (work) coordinates [mm]; feeds are [mm/min] along the 3-D path (for a
+helix, along the helix). Moves are frozen value objects; ``to_json`` gives the exact
+``gantry parse`` contract (see README, "gantry parse").
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from typing import Literal
+
+Vec3 = tuple[float, float, float]
+Plane = Literal["XY", "XZ", "YZ"]
+Direction = Literal["cw", "ccw"]
+
+
+def _vec(v: Vec3) -> list[float]:
+    return [float(c) for c in v]
+
+
+@dataclass(frozen=True)
+class Rapid:
+    """G0: a straight traverse at the machine's rapid speed.
+
+    Attributes:
+        line: 1-based source line.
+        start: start point [mm].
+        end: end point [mm].
+    """
+
+    line: int
+    start: Vec3
+    end: Vec3
+
+    kind = "rapid"
+
+    @property
+    def length_mm(self) -> float:
+        """Straight-line length [mm]."""
+        return math.dist(self.start, self.end)
+
+    def to_json(self) -> dict:
+        return {"line": self.line, "kind": self.kind, "start": _vec(self.start), "end": _vec(self.end)}
+
+
+@dataclass(frozen=True)
+class Linear:
+    """G1: a straight feed move.
+
+    Attributes:
+        line: 1-based source line.
+        start: start point [mm].
+        end: end point [mm].
+        feed_mm_per_min: programmed speed along the path [mm/min].
+    """
+
+    line: int
+    start: Vec3
+    end: Vec3
+    feed_mm_per_min: float
+
+    kind = "linear"
+
+    @property
+    def length_mm(self) -> float:
+        """Straight-line length [mm]."""
+        return math.dist(self.start, self.end)
+
+    def to_json(self) -> dict:
+        return {
+            "line": self.line,
+            "kind": self.kind,
+            "start": _vec(self.start),
+            "end": _vec(self.end),
+            "feed": float(self.feed_mm_per_min),
+        }
+
+
+@dataclass(frozen=True)
+class Arc:
+    """G2/G3: a circular arc or helix in one of the three principal planes.
+
+    Geometry (see :mod:`controller.arcs`): the in-plane radius goes linearly from ``radius`` (at
+    ``start``) to the end point's distance from ``center`` (equal for an exact arc; LinuxCNC accepts
+    a small mismatch and the path is then a gentle spiral), the polar angle sweeps ``angle``
+    radians in ``direction``, and the normal-axis coordinate goes linearly from start to end.
+
+    Attributes:
+        line: 1-based source line.
+        start: start point [mm].
+        end: end point [mm], exactly as programmed (after dialect rules).
+        feed_mm_per_min: programmed speed along the 3-D path [mm/min].
+        plane: "XY" (G17), "XZ" (G18) or "YZ" (G19).
+        direction: "cw" (G2) or "ccw" (G3), seen from the positive end of the plane's normal axis.
+        center: arc centre [mm]; its normal-axis coordinate equals ``start``'s.
+        radius: distance from ``center`` to ``start`` in the plane [mm], > 0.
+        turns: the P word (1 when absent).
+        angle: total swept angle [rad], > 0 (a full circle is 2*pi; P2 on a half circle is 3*pi).
+    """
+
+    line: int
+    start: Vec3
+    end: Vec3
+    feed_mm_per_min: float
+    plane: Plane
+    direction: Direction
+    center: Vec3
+    radius: float
+    turns: int
+    angle: float
+
+    kind = "arc"
+
+    @property
+    def length_mm(self) -> float:
+        """Path length of the arc or helix [mm] (mean radius for a slight spiral)."""
+        from controller.arcs import arc_length_mm
+
+        return arc_length_mm(self)
+
+    def to_json(self) -> dict:
+        return {
+            "line": self.line,
+            "kind": self.kind,
+            "start": _vec(self.start),
+            "end": _vec(self.end),
+            "feed": float(self.feed_mm_per_min),
+            "plane": self.plane,
+            "direction": self.direction,
+            "center": _vec(self.center),
+            "radius": float(self.radius),
+            "turns": int(self.turns),
+            "angle": float(self.angle),
+        }
+
+
+Move = Rapid | Linear | Arc

@@ -1,0 +1,41 @@
+"""The planner's output sampled at the servo period: the reference the servo follows."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+
+@dataclass(frozen=True)
+class Trajectory:
+    """A reference sampled every ``period_s`` from t = 0 to the end (last sample at rest).
+
+    Attributes:
+        t: (N,) sample times [s], t[k] = k * period_s.
+        pos: (N, 3) reference position, program (work) coordinates [mm].
+        vel: (N, 3) reference velocity [mm/s].
+        acc: (N, 3) reference acceleration [mm/s^2].
+        line: (N,) 1-based source line of the move being executed (int64).
+        period_s: sampling period [s].
+    """
+
+    t: np.ndarray
+    pos: np.ndarray
+    vel: np.ndarray
+    acc: np.ndarray
+    line: np.ndarray
+    period_s: float
+
+    def __post_init__(self) -> None:
+        for name in ("t", "pos", "vel", "acc", "line"):
+            getattr(self, name).setflags(write=False)
+
+    @property
+    def duration_s(self) -> float:
+        """Time of the last sample [s]."""
+        return float(self.t[-1]) if self.t.size else 0.0
+
+    def to_npz_dict(self) -> dict[str, np.ndarray]:
+        """The arrays of the ``gantry plan --out`` contract."""
+        return {"t": self.t, "pos": self.pos, "vel": self.vel, "acc": self.acc, "line": self.line}

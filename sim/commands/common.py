@@ -1,0 +1,57 @@
+"""Argument helpers shared by the subcommands: dialect, machine file, program reading."""
+
+from __future__ import annotations
+
+import argparse
+from pathlib import Path
+
+from controller.errors import GcodeError
+
+DIALECTS = ("linuxcnc", "g2core", "marlin", "laserdyne")
+
+
+def add_dialect(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument(
+        "--dialect", choices=DIALECTS, default="linuxcnc", help="G-code dialect (default: linuxcnc)"
+    )
+
+
+def add_machine(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument(
+        "--machine",
+        type=Path,
+        default=None,
+        metavar="FILE",
+        help="machine file (TOML) laid over the bundled models/gantry.toml",
+    )
+
+
+def load_machine(path: Path | None):
+    """The bundled machine file with ``path`` laid over it (ConfigError on bad input)."""
+    from controller.config import load_machine_config
+    from models import DEFAULT_MACHINE
+
+    return load_machine_config(DEFAULT_MACHINE, path)
+
+
+def read_program(path: Path) -> str:
+    """Read a G-code program as text; unreadable or non-text files are a GcodeError."""
+    try:
+        data = path.read_bytes()
+    except FileNotFoundError:
+        raise GcodeError("program file not found", file=str(path)) from None
+    except IsADirectoryError:
+        raise GcodeError("program path is a directory, expected a G-code file", file=str(path)) from None
+    except OSError as exc:
+        raise GcodeError(f"cannot read program: {exc.strerror}", file=str(path)) from None
+    if b"\x00" in data:
+        raise GcodeError("not a G-code text file (it contains NUL bytes)", file=str(path))
+    try:
+        return data.decode("utf-8")
+    except UnicodeDecodeError as exc:
+        line = data[: exc.start].count(b"\n") + 1
+        raise GcodeError(
+            "not a G-code text file (invalid UTF-8); programs are ASCII/UTF-8 text",
+            file=str(path),
+            line=line,
+        ) from None

@@ -1,0 +1,30 @@
+"""Shared fixtures: the bundled machine and small helpers to write programs to disk."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import pytest
+
+from controller.config import MachineConfig, load_machine_config
+from models import DEFAULT_MACHINE
+
+ROOT = Path(__file__).resolve().parent.parent
+
+
+@pytest.fixture(scope="session")
+def machine() -> MachineConfig:
+    """The bundled machine file, validated."""
+    return load_machine_config(DEFAULT_MACHINE)
+
+
+@pytest.fixture
+def write_program(tmp_path: Path):
+    """Write G-code text to a file in tmp_path and return its path."""
+
+    def _write(text: str, name: str = "prog.ngc") -> Path:
+        path = tmp_path / name
+        path.write_text(text)
+        return path
+
+    return _write
