@@ -10,9 +10,10 @@ from __future__ import annotations
 
 import math
 import tomllib
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any, Callable
+from typing import Any
 
 from controller.errors import ConfigError
 
@@ -241,7 +242,7 @@ def load_machine_config(defaults: Path, override: Path | None = None) -> Machine
         _overlay(merged, _read_toml(override), override)
         source = str(override)
     travel = merged["travel"]
-    for axis, lo, hi in zip("xyz", travel["min_mm"], travel["max_mm"]):
+    for axis, lo, hi in zip("xyz", travel["min_mm"], travel["max_mm"], strict=True):
         if lo >= hi:
             raise ConfigError(
                 f"[travel] {axis}: min_mm ({lo}) must be below max_mm ({hi})", file=source
