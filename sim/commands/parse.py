@@ -18,9 +18,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    from controller.interpreter import interpret
-
     from controller.errors import GantryError
+    from controller.interpreter import interpret
 
     text = read_program(args.program)
     out = sys.stdout
