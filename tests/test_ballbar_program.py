@@ -1,0 +1,78 @@
+"""The circular-test G-code: block layout, geometry of the tangent lead-in/lead-out, errors."""
+
+from __future__ import annotations
+
+import math
+import re
+
+import numpy as np
+import pytest
+
+from controller.errors import ConfigError
+from sim.ballbar_program import circle_test_program
+
+
+def words(line: str) -> dict[str, float | str]:
+    """The words of one block (comments stripped): letter -> number; 'G' -> motion G word."""
+    code = re.sub(r"\(.*?\)", "", line).upper()
+    out: dict[str, float | str] = {}
+    for letter, value in re.findall(r"([A-Z])\s*([-+]?[0-9.]+)", code):
+        out[letter] = value if letter == "G" else float(value)
+    return out
+
+
+@pytest.mark.parametrize(
+    "plane,axes,offs", [("XY", "XY", "IJ"), ("XZ", "XZ", "IK"), ("YZ", "YZ", "JK")]
+)
+@pytest.mark.parametrize("direction", ["cw", "ccw"])
+def test_lead_in_circle_lead_out_are_tangent_arcs(plane, axes, offs, direction):
+    radius = 20.0
+    centre = (1.5, -2.0, 3.0)
+    prog = circle_test_program(plane, radius, 1500.0, (direction,), centre)
+    lines = prog.text.splitlines()
+    lead_in, circle, lead_out = (words(lines[n - 1]) for n in prog.lines[direction])
+    g = "2" if direction == "cw" else "3"
+    assert lead_in["G"] == circle["G"] == lead_out["G"] == g
+    assert lead_in["F"] == 1500.0
+    assert "(measured circle" in lines[prog.circle_line(direction) - 1]
+    c = np.array([centre["XYZ".index(a)] for a in axes])
+    s = np.array([lead_in[a] for a in axes])  # lead-in end = circle start
+    m = c + np.array([lead_in[o] for o in offs])  # lead-in centre (offsets from C)
+    # The circle: no end point (full circle), centre offsets from S back to C.
+    assert not any(a in circle for a in axes)
+    assert np.allclose(s + np.array([circle[o] for o in offs]), c, atol=1e-6)
+    assert np.linalg.norm(s - c) == pytest.approx(radius, abs=1e-5)
+    # Tangency at S: M lies on segment CS at R/2 from both, so the arcs share the normal at S.
+    assert np.allclose(m, (c + s) / 2, atol=1e-6)
+    # Lead-out: from S around the same M back to C.
+    assert np.allclose([lead_out[a] for a in axes], c, atol=1e-6)
+    assert np.allclose(s + np.array([lead_out[o] for o in offs]), m, atol=1e-6)
+    # S at 45 deg: the quadrant crossings are 45 deg from the data arc's ends.
+    d = s - c
+    assert abs(abs(d[0]) - abs(d[1])) < 1e-5
+
+
+def test_ballbar_program_runs_ccw_then_cw_and_ends():
+    prog = circle_test_program()
+    assert prog.directions == ("ccw", "cw")
+    assert prog.lines["ccw"][2] < prog.lines["cw"][0]
+    lines = prog.text.splitlines()
+    assert lines[-1].startswith("M2")
+    assert words(lines[prog.circle_line("ccw") - 1])["I"] == pytest.approx(
+        -50 / math.sqrt(2), abs=1e-6
+    )
+    assert any(line.startswith("G21 G90 G94 G17") for line in lines)
+
+
+@pytest.mark.parametrize(
+    "kwargs,match",
+    [
+        ({"plane": "ZX"}, "XY, XZ, YZ"),
+        ({"radius_mm": 0.0}, "> 0"),
+        ({"feed_mm_per_min": -5.0}, "> 0"),
+        ({"directions": ("up",)}, "'cw' or 'ccw'"),
+    ],
+)
+def test_invalid_options_are_config_errors(kwargs, match):
+    with pytest.raises(ConfigError, match=match):
+        circle_test_program(**kwargs)
