@@ -1,0 +1,44 @@
+"""The tune search (bracket + bisection) on exact error functions of the feed."""
+
+from __future__ import annotations
+
+import pytest
+
+from sim.tune import max_feed_for_radius
+
+
+def quadratic(limit: float, tol: float):
+    """error(feed) = tol * (feed / limit)^2: within tolerance exactly up to ``limit``."""
+    return lambda feed: tol * (feed / limit) ** 2
+
+
+@pytest.mark.parametrize("limit", [137.0, 950.0, 1000.0, 3333.0, 11800.0])
+def test_finds_the_limit_within_the_resolution(limit):
+    row = max_feed_for_radius(10.0, 5.0, quadratic(limit, 5.0), cap_mm_per_min=24000.0)
+    assert row.limited_by == "tolerance"
+    assert limit - 20.0 <= row.max_feed_mm_per_min <= limit
+    assert row.max_error_um <= 5.0
+    assert row.max_error_um == pytest.approx(5.0 * (row.max_feed_mm_per_min / limit) ** 2)
+    # Every feed tried above the answer failed; none below it was skipped past.
+    assert all(e > 5.0 for f, e in row.tried if f > row.max_feed_mm_per_min)
+    assert len(row.tried) < 20
+
+
+def test_cap_when_even_the_max_velocity_passes():
+    row = max_feed_for_radius(10.0, 5.0, quadratic(1e6, 5.0), cap_mm_per_min=24000.0)
+    assert row.limited_by == "max_velocity"
+    assert row.max_feed_mm_per_min == 24000.0
+    assert max(f for f, _ in row.tried) == 24000.0
+
+
+def test_unreachable_when_the_minimum_feed_fails():
+    row = max_feed_for_radius(10.0, 5.0, lambda feed: 6.0, cap_mm_per_min=24000.0)
+    assert row.limited_by == "unreachable"
+    assert row.max_feed_mm_per_min is None
+    assert min(f for f, _ in row.tried) == 100.0
+    assert row.to_json()["max_feed_mm_per_min"] is None
+
+
+def test_resolution_is_respected():
+    row = max_feed_for_radius(10.0, 5.0, quadratic(2345.0, 5.0), 24000.0, resolution_mm_per_min=1.0)
+    assert 2344.0 <= row.max_feed_mm_per_min <= 2345.0
