@@ -60,7 +60,7 @@ class BlockLimits:
 def straight_limits(
     direction: np.ndarray, length_mm: float, feed_mm_per_s: float, vmax, amax, jmax
 ) -> BlockLimits:
-    """Limits along a straight move of unit ``direction``: each axis gets |T_i| of the path value."""
+    """Limits along a straight move of unit ``direction`` (each axis gets |T_i| of the path)."""
     t = np.abs(direction)
     with np.errstate(divide="ignore"):
         v = float(np.min(np.asarray(vmax) / t))

@@ -63,7 +63,7 @@ def _frenet(d1: np.ndarray, d2: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
 
 
 def move_geometry(move: Move, machine: MachineConfig, feed_scale: float) -> MoveGeometry:
-    """Vertices, end tangents/curvatures and 1-D limits of ``move``; feed scaled by ``feed_scale``."""
+    """Vertices, end tangents/curvatures and 1-D limits of ``move`` (feed times ``feed_scale``)."""
     lim = machine.limits
     vmax, amax, jmax = (
         lim.max_velocity_mm_per_s,
