@@ -1,0 +1,155 @@
+"""Per-move path geometry for the planner: vertices, end tangents and curvatures, 1-D limits,
+and the junctions between consecutive moves (speed caps and the direction of the state there).
+
+Curvature vectors k = d2p/ds2 [1/mm] (|k| = 1/R, pointing to the centre); tangents are unit.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from controller.arcs import PLANE_AXES, arc_derivatives, arc_frame
+from controller.config import MachineConfig
+from controller.lookahead import (
+    COLLINEAR_ANGLE_RAD,
+    CORNER_ANGLE_RAD,
+    BlockLimits,
+    arc_limits,
+    junction_cap,
+    straight_limits,
+)
+from controller.moves import Arc, Move, Rapid
+from controller.segment import segment_arc
+from controller.units import mm_per_min_to_mm_per_s
+
+#: Share of the chord tolerance that the smoothing of a junction's velocity/acceleration jump may
+#: use (see :func:`controller.lookahead.junction_cap`).
+JUNCTION_DEVIATION_SHARE = 0.1
+
+
+@dataclass(frozen=True)
+class MoveGeometry:
+    """What the planner needs to know about one move."""
+
+    move: Move
+    vertices: np.ndarray  # (k, 3) [mm], read-only
+    u: np.ndarray | None  # arcs: sweep fractions of the vertices
+    length_mm: float
+    tangent_in: np.ndarray  # unit tangent at the start
+    tangent_out: np.ndarray  # unit tangent at the end
+    curv_in: np.ndarray  # curvature vector at the start [1/mm]
+    curv_out: np.ndarray  # curvature vector at the end [1/mm]
+    limits: BlockLimits
+
+    @property
+    def is_arc(self) -> bool:
+        return isinstance(self.move, Arc)
+
+    @property
+    def start(self) -> np.ndarray:
+        return self.vertices[0]
+
+    def derivatives(self, u: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        return arc_derivatives(self.move, u)
+
+
+def _frenet(d1: np.ndarray, d2: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    speed = float(np.linalg.norm(d1))
+    t = d1 / speed
+    return t, (d2 - np.dot(d2, t) * t) / speed**2
+
+
+def move_geometry(move: Move, machine: MachineConfig, feed_scale: float) -> MoveGeometry:
+    """Vertices, end tangents/curvatures and 1-D limits of ``move`` (feed times ``feed_scale``)."""
+    lim = machine.limits
+    vmax, amax, jmax = (
+        lim.max_velocity_mm_per_s,
+        lim.max_acceleration_mm_per_s2,
+        lim.max_jerk_mm_per_s3,
+    )
+    zero = np.zeros(3)
+    if not isinstance(move, Arc):
+        verts = np.array([move.start, move.end], dtype=float)
+        verts.setflags(write=False)
+        length = float(np.linalg.norm(verts[1] - verts[0]))
+        t = (verts[1] - verts[0]) / length if length > 0 else np.array([1.0, 0.0, 0.0])
+        feed = (
+            math.inf
+            if isinstance(move, Rapid)
+            else mm_per_min_to_mm_per_s(move.feed_mm_per_min) * feed_scale
+        )
+        limits = straight_limits(t, length, feed, vmax, amax, jmax)
+        return MoveGeometry(move, verts, None, length, t, t, zero, zero, limits)
+    seg = machine.segmentation
+    verts = segment_arc(move, seg.method, seg.chord_tolerance_mm, seg.segment_length_mm)
+    n = len(verts) - 1
+    u = np.arange(n + 1) / n
+    d1, d2 = arc_derivatives(move, np.array([0.0, 1.0]))
+    t_in, k_in = _frenet(d1[0], d2[0])
+    t_out, k_out = _frenet(d1[1], d2[1])
+    _, _, _, _, _, r0, r1, h0, h1 = arc_frame(move)
+    r_max = max(r0, r1)
+    speed_u = float(min(np.linalg.norm(d1[0]), np.linalg.norm(d1[1])))  # |dp/du| [mm]
+    length = float(0.5 * (np.linalg.norm(d1[0]) + np.linalg.norm(d1[1])))
+    ang = move.angle
+    curvature = r_max * ang * ang / speed_u**2
+    dcurv = r_max * ang**3 / speed_u**3
+    sin_pitch = abs(h1 - h0) / speed_u
+    feed = mm_per_min_to_mm_per_s(move.feed_mm_per_min) * feed_scale
+    limits = arc_limits(
+        PLANE_AXES[move.plane],
+        length,
+        min(sin_pitch, 1.0),
+        curvature,
+        dcurv,
+        feed,
+        vmax,
+        amax,
+        jmax,
+    )
+    return MoveGeometry(move, verts, u, length, t_in, t_out, k_in, k_out, limits)
+
+
+def junctions(geoms: list[MoveGeometry], machine: MachineConfig) -> tuple[np.ndarray, list]:
+    """Speed caps and state directions at the junctions of consecutive moves.
+
+    Returns:
+        caps: (len(geoms) + 1,) [mm/s]; 0 at the program's start and end, at rapids and corners.
+        states: per junction (direction, curvature): the reference there has velocity
+            v * direction and acceleration v^2 * curvature (the tangential part is 0 at
+            junctions). Next to a straight move, its own direction and no curvature (straight
+            moves are followed exactly); between two arcs, the mean of both sides.
+    """
+    n = len(geoms)
+    caps = np.zeros(n + 1)
+    zero = np.zeros(3)
+    states: list = [(g.tangent_in, zero) for g in geoms] + [
+        (geoms[-1].tangent_out if n else zero, zero)
+    ]
+    jerk = float(min(machine.limits.max_jerk_mm_per_s3))
+    dev = JUNCTION_DEVIATION_SHARE * machine.segmentation.chord_tolerance_mm
+    for b in range(1, n):
+        g0, g1 = geoms[b - 1], geoms[b]
+        if isinstance(g0.move, Rapid) or isinstance(g1.move, Rapid):
+            continue
+        cos_k = float(np.clip(np.dot(g0.tangent_out, g1.tangent_in), -1.0, 1.0))
+        kink = math.acos(cos_k)
+        if not (g0.is_arc or g1.is_arc):
+            if kink <= COLLINEAR_ANGLE_RAD:
+                caps[b] = math.inf
+                states[b] = (g1.tangent_in, zero)
+            continue
+        if kink > CORNER_ANGLE_RAD:
+            continue
+        if g0.is_arc and g1.is_arc:
+            d = g0.tangent_out + g1.tangent_in
+            states[b] = (d / np.linalg.norm(d), 0.5 * (g0.curv_out + g1.curv_in))
+        else:
+            straight = g1 if g0.is_arc else g0
+            states[b] = (straight.tangent_in, zero)
+        jump = float(np.linalg.norm(g0.curv_out - g1.curv_in))
+        caps[b] = junction_cap(kink, jump, dev, jerk)
+    return caps, states
