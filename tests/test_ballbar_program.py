@@ -76,3 +76,26 @@ def test_ballbar_program_runs_ccw_then_cw_and_ends():
 def test_invalid_options_are_config_errors(kwargs, match):
     with pytest.raises(ConfigError, match=match):
         circle_test_program(**kwargs)
+
+
+@pytest.mark.parametrize("plane", ["XY", "XZ", "YZ"])
+def test_interpreter_reads_tangent_arcs_and_a_full_circle(plane):
+    from controller.arcs import arc_derivatives
+    from controller.interpreter import parse_program
+
+    prog = circle_test_program(plane, 20.0, 1500.0, ("ccw", "cw"), (5.0, -5.0, 2.0))
+    arcs = {
+        m.line: m for m in parse_program(prog.text, "linuxcnc", "ballbar.ngc") if m.kind == "arc"
+    }
+    for d in ("ccw", "cw"):
+        lead_in, circle, lead_out = (arcs[n] for n in prog.lines[d])
+        assert {lead_in.direction, circle.direction, lead_out.direction} == {d}
+        assert circle.angle == pytest.approx(2 * math.pi)
+        assert lead_in.angle == pytest.approx(math.pi) and lead_out.angle == pytest.approx(math.pi)
+        assert circle.radius == pytest.approx(20.0, abs=1e-5)
+        assert np.allclose(circle.center, (5.0, -5.0, 2.0), atol=1e-6)
+        # The unit tangents agree where the blocks meet: no corner, so no stop.
+        for a, b in ((lead_in, circle), (circle, lead_out)):
+            ta = arc_derivatives(a, 1.0)[0][0]
+            tb = arc_derivatives(b, 0.0)[0][0]
+            assert np.allclose(ta / np.linalg.norm(ta), tb / np.linalg.norm(tb), atol=1e-6)
