@@ -32,8 +32,8 @@ from controller.units import UM_PER_MM
 PLANE_2D: dict[str, tuple[int, int]] = {"XY": (0, 1), "XZ": (0, 2), "YZ": (1, 2)}
 
 #: Reversal-spike windows [deg of travel about the crossing], see ``reversal_spikes``.
-SPIKE_BASELINE_DEG = 10.0
-SPIKE_GAP_DEG = 0.5
+SPIKE_BASELINE_DEG = 15.0
+SPIKE_GAP_DEG = 3.0
 SPIKE_WINDOW_DEG = 10.0
 
 
