@@ -117,7 +117,7 @@ def plot_polar(result: BallbarResult, path: Path) -> None:
             np.append(th, th[0]),
             np.append(res.deviation_um[order], res.deviation_um[order][0]),
             color=colour,
-            lw=1.0,
+            lw=0.6,
             label=label,
         )
     ring = np.linspace(0, 2 * np.pi, 361)
@@ -126,17 +126,18 @@ def plot_polar(result: BallbarResult, path: Path) -> None:
     ax.set_rlim(lo - 0.1 * span, hi + 0.1 * span)
     a, b = s["plane"][0], s["plane"][1]
     ax.set_thetagrids([0, 90, 180, 270], [f"+{a}", f"+{b}", f"-{a}", f"-{b}"])
-    ax.set_rlabel_position(22.5)
-    ax.legend(loc="lower center", bbox_to_anchor=(0.5, -0.16), ncol=2, fontsize=8)
+    ax.set_rlabel_position(67.5)
+    ax.tick_params(axis="y", labelsize=7)
+    ax.legend(loc="lower center", bbox_to_anchor=(0.5, -0.14), ncol=3, fontsize=8)
     e = s["ellipse"]
-    ax.set_title(
+    fig.suptitle(
         f"Ballbar {s['plane']}  R {s['radius_mm']:g} mm  F {s['feed_mm_per_min']:g} mm/min\n"
         f"radial deviation about the LSQ centre [um], magnified; G(b) "
         f"{s['bidirectional_deviation_um']:.2f} um\nellipse {e['magnitude_um']:.2f} um at "
         f"{e['axis_deg']:.0f} deg (CCW), flips with direction: {e['flips_with_direction']}",
         fontsize=9,
     )
-    fig.tight_layout()
+    fig.tight_layout(rect=(0, 0, 1, 0.93))
     fig.savefig(path, dpi=110)
     plt.close(fig)
 

@@ -19,6 +19,9 @@ from controller.errors import GantryError
 COMMANDS: dict[str, str] = {
     "parse": "sim.commands.parse",
     "run": "sim.commands.run",
+    "ballbar": "sim.commands.ballbar",
+    "tune": "sim.commands.tune",
+    "sweep": "sim.commands.sweep",
 }
 
 
