@@ -1,19 +1,22 @@
 """G-code for circular tests: the ballbar program and the per-radius tune program.
 
-Each direction runs the same three arc blocks, all in the circle's sense of rotation:
+The machine moves at rapid to the start point P, on the circle 180 degrees before the measured
+start S, and runs, per direction, three arc blocks on the same circle (centre C, radius R):
 
-    lead-in   a semicircle of radius R/2 from the circle's centre C to the start point S, its
-              centre M the midpoint of C and S; at S it shares the circle's tangent and sense,
-              so the machine joins the circle without a corner;
-    circle    one full 360-degree circle of radius R about C from S back to S (the measured
-              block; written with centre offsets and no end point, a full circle in LinuxCNC
-              and g2core alike);
-    lead-out  the other half of the R/2 circle, from S back to C, again tangent at S.
+    lead-in   a 180-degree run-in arc from P to S: the machine accelerates from rest to the
+              feed on the circle itself, so the measured block starts at full speed with the
+              circle's own curvature (an arc of another radius joining the circle would make
+              the planner slow down at the junction, as any curvature jump does);
+    circle    one full 360-degree circle from S back to S (the measured block; written with
+              centre offsets and no end point, a full circle in LinuxCNC and g2core alike);
+    lead-out  a 180-degree run-out arc from S to P, where the machine stops.
 
-S lies at 45 degrees between the plane's axes so that the four quadrant crossings (where one
-axis reverses) lie inside the data arc, 45 degrees from its ends. Lead-in and lead-out together
-are a full circle of radius R/2 through C and S. Valid LinuxCNC G-code (G21 mm, G90 absolute,
-G94 feed per minute); comments explain each block, for users who run it on a real machine.
+Every block is tangent to the next (same circle, same sense). S lies at 45 degrees between the
+plane's axes so that the four quadrant crossings (where one axis reverses) lie inside the data
+arc, 45 degrees from its ends; P at 225 degrees. After the last direction the machine returns
+to C at rapid. Valid LinuxCNC G-code (G21 mm, G90 absolute, G94 feed per minute); comments
+explain each block, for users who run it on a real machine. This is the run-in / run-out
+layout that ballbar software uses (180-degree overshoot arcs around a 360-degree data arc).
 """
 
 from __future__ import annotations
@@ -119,17 +122,19 @@ def circle_test_program(
     c = [round(v, 6) for v in centre_mm]
     theta_s = math.radians(START_DEG)
     s = _point(tuple(c), plane, radius_mm, theta_s)
-    m = _point(tuple(c), plane, radius_mm / 2.0, theta_s)
+    p = _point(tuple(c), plane, radius_mm, theta_s + math.pi)
+    axes = sorted(PLANE_AXES[plane][:2])
     at_c = " ".join(f"{_AXIS_LETTER[a]}{_num(c[a])}" for a in range(3))
+    at_p = " ".join(f"{_AXIS_LETTER[a]}{_num(p[a])}" for a in axes)
     out = [
         "(gantry-sim circular test, ISO 230-4 style: what a ballbar measures)",
         f"(plane {plane}, radius {_num(radius_mm)} mm, feed {_num(feed_mm_per_min)} mm/min,"
         f" centre {at_c})",
-        "(per direction: a tangent lead-in semicircle of radius R/2 from the centre onto the)",
-        "(circle at 45 deg, one full circle - the measured block - and a tangent lead-out)",
-        "(semicircle back to the centre; all arcs turn the same way, so there is no corner)",
+        "(per direction, all on the circle and in one sense: a 180 deg run-in arc from rest,)",
+        "(one full circle - the measured block, at full feed - and a 180 deg run-out arc)",
         f"G21 G90 G94 {PLANE_WORDS[plane]} (mm, absolute, feed per minute, {plane} plane)",
-        f"G0 {at_c} (to the centre of the circle)",
+        f"G0 {at_c} (the centre of the circle)",
+        f"G0 {at_p} (the start point on the circle, 180 deg before the measured start)",
     ]
     lines: dict[str, tuple[int, int, int]] = {}
     for d in directions:
@@ -137,10 +142,11 @@ def circle_test_program(
         sense = "counter-clockwise" if d == "ccw" else "clockwise"
         out.append(f"({sense}, {g}, seen from the positive end of the plane's normal axis)")
         lead_in = len(out) + 1
-        out.append(f"{_arc_block(g, plane, c, s, m)} F{_num(feed_mm_per_min)} (lead-in)")
+        out.append(f"{_arc_block(g, plane, p, s, c)} F{_num(feed_mm_per_min)} (run-in, 180 deg)")
         out.append(f"{_arc_block(g, plane, s, None, c)} (measured circle, 360 deg)")
-        out.append(f"{_arc_block(g, plane, s, c, m)} (lead-out to the centre)")
+        out.append(f"{_arc_block(g, plane, s, p, c)} (run-out, 180 deg, stop)")
         lines[d] = (lead_in, lead_in + 1, lead_in + 2)
+    out.append(f"G0 {at_c} (back to the centre)")
     out.append("M2 (end of program)")
     return CircleTestProgram(
         text="\n".join(out) + "\n",

@@ -4,14 +4,16 @@ The test program per radius is sim.ballbar_program's (CCW only): a tangent lead-
 one full circle, a tangent lead-out. The error counted is the circle block's own max contour
 error (report.json "blocks"), so lead-in and lead-out transients do not count.
 
-Search. The error is assumed to grow with the feed (true of a servo loop whose lags and
-overshoots grow with speed and acceleration; once the planner's v^2/R <= a cap binds, raising
-the feed no longer changes the motion and the error stops growing). Bracket first: from
-``start_feed`` double until the circle fails or the cap is reached (the feed at which the
-plane's slower axis reaches its max velocity), or halve until it passes (down to
-``min_feed``). Then bisect the bracket [pass, fail] until it is no wider than the feed
-resolution; the answer is the highest feed that was simulated and passed, so it is within one
-resolution step below the true limit.
+Search, from the top. The cap is the feed at which the plane's slower axis reaches its max
+velocity; if the circle passes there, that is the answer ("max_velocity"). Otherwise halve the
+feed until a circle passes (down to ``min_feed``: "unreachable" if even that fails), then
+bisect the bracket [pass, fail] until it is no wider than the feed resolution. The answer is
+the highest feed simulated that passed, within one resolution step below the limit. Going down
+from the top finds the highest passing feed even where the error is not monotonic in the feed
+(Coulomb friction and chord following weigh more at low feeds; and once the planner's
+v^2/R <= a cap binds, a higher feed no longer changes the motion); it assumes only that the
+error does not dip back under the tolerance inside the final bracket. High feeds are also the
+cheap simulations.
 """
 
 from __future__ import annotations
@@ -26,7 +28,6 @@ from controller.units import mm_per_s_to_mm_per_min
 from sim.ballbar_program import circle_test_program
 
 DEFAULT_RESOLUTION_MM_PER_MIN = 20.0
-DEFAULT_START_FEED_MM_PER_MIN = 1000.0
 DEFAULT_MIN_FEED_MM_PER_MIN = 100.0
 
 
@@ -40,6 +41,8 @@ class TuneRow:
             feed fails.
         max_error_um: the circle block's max contour error at that feed [um] (at the minimum
             feed when none passes).
+        circle_feed_mm_per_min: the path speed the planner actually ran that circle at
+            [mm/min]; below the programmed feed where v^2/R <= a (or jerk) binds.
         limited_by: "tolerance" (the bisection's answer), "max_velocity" (the cap passes) or
             "unreachable" (the minimum feed fails).
         tried: every (feed [mm/min], max error [um]) simulated, in the order tried.
@@ -48,6 +51,7 @@ class TuneRow:
     radius_mm: float
     max_feed_mm_per_min: float | None
     max_error_um: float
+    circle_feed_mm_per_min: float
     limited_by: str
     tried: tuple[tuple[float, float], ...]
 
@@ -56,6 +60,7 @@ class TuneRow:
             "radius_mm": self.radius_mm,
             "max_feed_mm_per_min": self.max_feed_mm_per_min,
             "max_error_um": self.max_error_um,
+            "circle_feed_mm_per_min": self.circle_feed_mm_per_min,
             "limited_by": self.limited_by,
             "simulations": len(self.tried),
         }
@@ -63,8 +68,16 @@ class TuneRow:
 
 def circle_error_um(
     machine: MachineConfig, plane: str, radius_mm: float, feed_mm_per_min: float
-) -> float:
-    """Max contour error [um] of the full-circle block of the tune program at this feed."""
+) -> tuple[float, float]:
+    """Simulate the tune program at this feed.
+
+    Returns:
+        (the full-circle block's max contour error [um], the reference's median path speed on
+        that block [mm/min]: the feed actually run, below the programmed one where the
+        planner's acceleration or jerk caps bind).
+    """
+    import numpy as np
+
     from sim.api import run_program
 
     program = circle_test_program(plane, radius_mm, feed_mm_per_min, ("ccw",))
@@ -73,7 +86,11 @@ def circle_error_um(
     errors = [b["max_error_um"] for b in result.report["blocks"] if b["line"] == line]
     if not errors:
         raise RuntimeError(f"the report has no block for the circle's line {line}")
-    return float(max(errors))
+    tr = result.trace
+    on = np.asarray(tr.line) == line
+    ref, t = np.asarray(tr.ref)[on], np.asarray(tr.t)[on]
+    speed = np.linalg.norm(np.diff(ref, axis=0), axis=1) / np.diff(t)
+    return float(max(errors)), mm_per_s_to_mm_per_min(float(np.median(speed)))
 
 
 def feed_cap_mm_per_min(machine: MachineConfig, plane: str) -> float:
@@ -86,55 +103,45 @@ def feed_cap_mm_per_min(machine: MachineConfig, plane: str) -> float:
 def max_feed_for_radius(
     radius_mm: float,
     tolerance_um: float,
-    error_at: Callable[[float], float],
+    evaluate: Callable[[float], tuple[float, float]],
     cap_mm_per_min: float,
     resolution_mm_per_min: float = DEFAULT_RESOLUTION_MM_PER_MIN,
-    start_feed_mm_per_min: float = DEFAULT_START_FEED_MM_PER_MIN,
     min_feed_mm_per_min: float = DEFAULT_MIN_FEED_MM_PER_MIN,
 ) -> TuneRow:
-    """Bracket, then bisect, the highest feed with ``error_at(feed) <= tolerance_um``.
+    """Bracket from the cap down, then bisect, the highest feed whose error <= ``tolerance_um``.
 
     Args:
         radius_mm: the radius (reported only) [mm].
         tolerance_um: the contour tolerance [um].
-        error_at: feed [mm/min] -> the circle's max contour error [um] (one simulation).
+        evaluate: feed [mm/min] -> (the circle's max contour error [um], the feed run
+            [mm/min]); one simulation.
         cap_mm_per_min: the highest feed tried [mm/min].
         resolution_mm_per_min: the bisection stops when the bracket is this narrow [mm/min].
-        start_feed_mm_per_min: the first feed tried [mm/min].
         min_feed_mm_per_min: the lowest feed tried while bracketing [mm/min].
     """
-    seen: dict[float, float] = {}
+    seen: dict[float, tuple[float, float]] = {}
 
     def passes(feed: float) -> bool:
         if feed not in seen:
-            seen[feed] = error_at(feed)
-        return seen[feed] <= tolerance_um
+            seen[feed] = evaluate(feed)
+        return seen[feed][0] <= tolerance_um
 
     def row(feed: float | None, at: float, why: str) -> TuneRow:
-        tried = tuple((float(f), float(e)) for f, e in seen.items())
-        return TuneRow(float(radius_mm), feed, float(seen[at]), why, tried)
+        tried = tuple((float(f), float(e)) for f, (e, _) in seen.items())
+        err, run_feed = seen[at]
+        return TuneRow(float(radius_mm), feed, float(err), float(run_feed), why, tried)
 
-    feed = min(start_feed_mm_per_min, cap_mm_per_min)
-    if passes(feed):
-        lo = feed
-        while True:
-            if lo >= cap_mm_per_min:
-                return row(lo, lo, "max_velocity")
-            up = min(2.0 * lo, cap_mm_per_min)
-            if not passes(up):
-                hi = up
-                break
-            lo = up
-    else:
-        hi = feed
-        while True:
-            down = max(hi / 2.0, min_feed_mm_per_min)
-            if down >= hi:
-                return row(None, hi, "unreachable")
-            if passes(down):
-                lo = down
-                break
-            hi = down
+    hi = cap_mm_per_min
+    if passes(hi):
+        return row(hi, hi, "max_velocity")
+    while True:
+        down = max(hi / 2.0, min_feed_mm_per_min)
+        if down >= hi:
+            return row(None, hi, "unreachable")
+        if passes(down):
+            lo = down
+            break
+        hi = down
     while hi - lo > resolution_mm_per_min:
         mid = 0.5 * (lo + hi)
         if passes(mid):
@@ -164,11 +171,14 @@ def tune(
     rows = []
     for radius in radii_mm:
 
-        def error_at(feed: float, radius: float = radius) -> float:
-            err = circle_error_um(machine, plane, radius, feed)
+        def evaluate(feed: float, radius: float = radius) -> tuple[float, float]:
+            err, run_feed = circle_error_um(machine, plane, radius, feed)
             if progress is not None:
-                progress(f"R {radius:g} mm  F {feed:.0f} mm/min  max error {err:.2f} um")
-            return err
+                progress(
+                    f"R {radius:g} mm  F {feed:.0f} mm/min (runs at {run_feed:.0f})  "
+                    f"max error {err:.2f} um"
+                )
+            return err, run_feed
 
-        rows.append(max_feed_for_radius(radius, tolerance_um, error_at, cap, resolution_mm_per_min))
+        rows.append(max_feed_for_radius(radius, tolerance_um, evaluate, cap, resolution_mm_per_min))
     return rows
