@@ -1,11 +1,13 @@
 """Feed tuning: per radius, the highest feed whose full circle stays within a contour tolerance.
 
-The test program per radius is sim.ballbar_program's (CCW only): a tangent lead-in semicircle,
-one full circle, a tangent lead-out. The error counted is the circle block's own max contour
+The test program per radius is sim.ballbar_program's (CCW only): a tangent 180-degree run-in arc,
+one full circle, a tangent run-out arc. The error counted is the circle block's own max contour
 error (report.json "blocks"), so lead-in and lead-out transients do not count.
 
 Search, from the top. The cap is the feed at which the plane's slower axis reaches its max
-velocity; if the circle passes there, that is the answer ("max_velocity"). Otherwise halve the
+velocity; if the circle passes there, that is the answer ("machine_limits": the machine's
+velocity, acceleration and jerk limits, not the tolerance, bound the circle's speed; the row's
+circle_feed_mm_per_min says how fast the planner actually ran it). Otherwise halve the
 feed until a circle passes (down to ``min_feed``: "unreachable" if even that fails), then
 bisect the bracket [pass, fail] until it is no wider than the feed resolution. The answer is
 the highest feed simulated that passed, within one resolution step below the limit. Going down
@@ -43,7 +45,7 @@ class TuneRow:
             feed when none passes).
         circle_feed_mm_per_min: the path speed the planner actually ran that circle at
             [mm/min]; below the programmed feed where v^2/R <= a (or jerk) binds.
-        limited_by: "tolerance" (the bisection's answer), "max_velocity" (the cap passes) or
+        limited_by: "tolerance" (the bisection's answer), "machine_limits" (the cap passes) or
             "unreachable" (the minimum feed fails).
         tried: every (feed [mm/min], max error [um]) simulated, in the order tried.
     """
@@ -133,7 +135,7 @@ def max_feed_for_radius(
 
     hi = cap_mm_per_min
     if passes(hi):
-        return row(hi, hi, "max_velocity")
+        return row(hi, hi, "machine_limits")
     while True:
         down = max(hi / 2.0, min_feed_mm_per_min)
         if down >= hi:

@@ -26,7 +26,7 @@ def test_finds_the_limit_within_the_resolution(limit):
 
 def test_cap_when_even_the_max_velocity_passes():
     row = max_feed_for_radius(10.0, 5.0, quadratic(1e6, 5.0), cap_mm_per_min=24000.0)
-    assert row.limited_by == "max_velocity"
+    assert row.limited_by == "machine_limits"
     assert row.max_feed_mm_per_min == 24000.0
     assert max(f for f, _ in row.tried) == 24000.0
 
@@ -47,7 +47,7 @@ def test_resolution_is_respected():
 def test_highest_passing_feed_when_the_error_falls_with_feed():
     # Friction-dominated: the error is largest at low feed, and passes above 3000 mm/min.
     row = max_feed_for_radius(10.0, 5.0, lambda f: (4.0 if f > 3000 else 6.0, f), 24000.0)
-    assert row.limited_by == "max_velocity" and row.max_feed_mm_per_min == 24000.0
+    assert row.limited_by == "machine_limits" and row.max_feed_mm_per_min == 24000.0
     assert len(row.tried) == 1
 
 
