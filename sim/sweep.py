@@ -233,6 +233,9 @@ def run_sweep(
 
         if journal is not None:
             journal.parent.mkdir(parents=True, exist_ok=True)
+            if journal.exists() and not journal.read_bytes().endswith(b"\n"):
+                with open(journal, "a") as fh:
+                    fh.write("\n")  # end a line an interruption cut short
         bar = tqdm(
             total=len(points),
             initial=len(points) - len(todo),
