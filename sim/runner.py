@@ -92,8 +92,9 @@ def simulate(
     hix, hiy, hiz = servo.hi
     nsub = gantry.substeps
     step, kinematics = mujoco.mj_step, mujoco.mj_kinematics
+    mm = MM_PER_M
     q = qpos.tolist()
-    px, py, pz = q[ix] * MM_PER_M, q[iy] * MM_PER_M, q[iz] * MM_PER_M
+    px, py, pz = q[ix] * mm, q[iy] * mm, q[iz] * mm
 
     bar = None
     if _want_progress(progress, traj.duration_s):
@@ -104,11 +105,10 @@ def simulate(
     try:
         for lo in range(0, n, CHUNK):
             hi = min(n, lo + CHUNK)
-            for k in range(lo, hi):
+            for bx, by, bz in b[lo:hi]:
                 record_site(site.tolist())
                 q = qpos.tolist()
-                x, y, z = q[ix] * MM_PER_M, q[iy] * MM_PER_M, q[iz] * MM_PER_M
-                bx, by, bz = b[k]
+                x, y, z = q[ix] * mm, q[iy] * mm, q[iz] * mm
                 # controller.servo.DiscretePD.force, unrolled: u = b - a x_k + c x_{k-1}, clamped
                 fx = bx - ax * x + cx * px
                 fx = hix if fx > hix else (lox if fx < lox else fx)
@@ -148,18 +148,6 @@ def _check(
 ) -> None:
     """Raise SimulationError if ticks lo..hi (tool site ``site_m`` [m]) diverged or lost the
     reference."""
-    import mujoco
-
-    for w in (mujoco.mjtWarning.mjWARN_BADQACC, mujoco.mjtWarning.mjWARN_BADQVEL,
-              mujoco.mjtWarning.mjWARN_BADQPOS):
-        if d.warning[w].number:
-            k = max(lo, min(hi - 1, round(d.time / machine.servo.period_s)))
-            raise SimulationError(
-                f"the simulation diverged at t = {traj.t[k]:.4f} s (MuJoCo: "
-                f"{mujoco.mjtWarning(w).name}); the servo loop is unstable: check [servo] gains, "
-                f"period and the model's masses and force limits",
-                line=int(traj.line[k]),
-            )
     seg = gantry.tool_to_work_mm(site_m)
     err = np.abs(seg - traj.pos[lo:hi])
     bad = ~np.isfinite(err).all(axis=1)
@@ -176,3 +164,17 @@ def _check(
             f"or too weak: check [servo] gains, feedforward and the model's force limits)",
             line=int(traj.line[k]),
         )
+    import mujoco
+
+    for w in (
+        mujoco.mjtWarning.mjWARN_BADQACC,
+        mujoco.mjtWarning.mjWARN_BADQVEL,
+        mujoco.mjtWarning.mjWARN_BADQPOS,
+    ):
+        if d.warning[w].number:  # MuJoCo reset the state; the time of the fault is lost
+            raise SimulationError(
+                f"the simulation diverged between t = {traj.t[lo]:.4f} and {traj.t[hi - 1]:.4f} s "
+                f"(MuJoCo: {mujoco.mjtWarning(w).name}); the servo loop is unstable: check "
+                "[servo] gains and period and the model's masses and force limits",
+                line=int(traj.line[lo]),
+            )
