@@ -10,7 +10,7 @@ import pytest
 from controller.arcs import arc_derivatives, arc_points
 from controller.interpreter import interpret
 from sim.analysis import analyse, distance_to_program
-from sim.geometry import nearest_on_arc
+from sim.geometry import distance_to_polyline_near, nearest_on_arc
 
 
 def _moves(text: str):
@@ -69,3 +69,19 @@ def test_rapids_do_not_count_and_blocks_are_per_feed_line():
          "rms_error_um": pytest.approx(math.sqrt(2.5))}
     ]
     assert res.parts_um["reference_max"] == 0.0
+
+
+def test_tracking_distance_to_the_reference_polyline_matches_brute_force():
+    rng = np.random.default_rng(0)
+    path = np.cumsum(rng.normal(size=(120, 3)), axis=0)
+    pts = path + rng.normal(scale=0.3, size=path.shape)
+    window = 4
+    expect = []
+    for k, p in enumerate(pts):
+        best = np.inf
+        for s in range(max(0, k - window), min(len(path) - 2, k + window - 1) + 1):
+            a, d = path[s], path[s + 1] - path[s]
+            u = np.clip((p - a) @ d / (d @ d), 0.0, 1.0)
+            best = min(best, float(np.linalg.norm(a + u * d - p)))
+        expect.append(best)
+    assert distance_to_polyline_near(path, pts, window) == pytest.approx(expect, abs=1e-12)
