@@ -156,3 +156,23 @@ def test_pd_circle_radius_matches_the_discrete_loop_gain(tmp_path):
     measured_um = (r_pos.mean() - r_ref.mean()) * 1000
     assert predicted_um > 20.0  # a clear effect, far above the reference's sub-um error
     assert measured_um == pytest.approx(predicted_um, rel=0.05)
+
+
+def test_mujoco_instability_warnings_are_a_simulation_error(machine):
+    """MuJoCo resets a state whose accelerations blow up and counts a warning: that is fatal."""
+    import mujoco
+
+    from controller.errors import SimulationError
+    from controller.interpreter import interpret
+    from controller.planner import plan
+    from sim.runner import _check
+
+    g = load_gantry(machine)
+    traj = plan(tuple(interpret("G1 X1 F600\nM2\n")), machine).sample(machine.servo.period_s)
+    d = mujoco.MjData(g.model)
+    site_m = traj.pos / 1000.0 + g.tool_origin_m  # a trace exactly on the reference
+    _check(d, g, machine, traj, site_m, 0, traj.t.size)
+    d.warning[mujoco.mjtWarning.mjWARN_BADQACC].number = 1
+    with pytest.raises(SimulationError, match="diverged.*BADQACC") as info:
+        _check(d, g, machine, traj, site_m, 0, traj.t.size)
+    assert info.value.line == 1
