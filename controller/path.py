@@ -11,7 +11,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from controller.arcs import PLANE_AXES, arc_derivatives, arc_frame
+from controller.arcs import PLANE_AXES, arc_derivatives, arc_frame, arc_points
 from controller.config import MachineConfig
 from controller.lookahead import (
     COLLINEAR_ANGLE_RAD,
@@ -30,6 +30,11 @@ from controller.units import mm_per_min_to_mm_per_s
 JUNCTION_DEVIATION_SHARE = 0.1
 
 
+#: The closed-form arc pieces (controller.jerk3) overshoot the vertex speed by about
+#: 5e-4 * phi^4 (phi: chord sweep [rad]); the arc's speed cap keeps twice that below the feed.
+FEED_MARGIN_PER_PHI4 = 1e-3
+
+
 @dataclass(frozen=True)
 class MoveGeometry:
     """What the planner needs to know about one move."""
@@ -43,6 +48,7 @@ class MoveGeometry:
     curv_in: np.ndarray  # curvature vector at the start [1/mm]
     curv_out: np.ndarray  # curvature vector at the end [1/mm]
     limits: BlockLimits
+    feed_mm_per_s: float  # programmed path speed after override (inf for rapids) [mm/s]
 
     @property
     def is_arc(self) -> bool:
@@ -51,6 +57,12 @@ class MoveGeometry:
     @property
     def start(self) -> np.ndarray:
         return self.vertices[0]
+
+    def points(self, u: np.ndarray) -> np.ndarray:
+        """Points on the arc at sweep fractions ``u`` (u = 0 and 1: start and end exactly)."""
+        pts = arc_points(self.move, u)
+        pts[u == 0.0] = self.move.start
+        return pts
 
     def derivatives(self, u: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         return arc_derivatives(self.move, u)
@@ -82,7 +94,7 @@ def move_geometry(move: Move, machine: MachineConfig, feed_scale: float) -> Move
             else mm_per_min_to_mm_per_s(move.feed_mm_per_min) * feed_scale
         )
         limits = straight_limits(t, length, feed, vmax, amax, jmax)
-        return MoveGeometry(move, verts, None, length, t, t, zero, zero, limits)
+        return MoveGeometry(move, verts, None, length, t, t, zero, zero, limits, feed)
     seg = machine.segmentation
     verts = segment_arc(move, seg.method, seg.chord_tolerance_mm, seg.segment_length_mm)
     n = len(verts) - 1
@@ -105,12 +117,12 @@ def move_geometry(move: Move, machine: MachineConfig, feed_scale: float) -> Move
         min(sin_pitch, 1.0),
         curvature,
         dcurv,
-        feed,
+        feed * (1.0 - FEED_MARGIN_PER_PHI4 * (ang / n) ** 4 - 1e-9),
         vmax,
         amax,
         jmax,
     )
-    return MoveGeometry(move, verts, u, length, t_in, t_out, k_in, k_out, limits)
+    return MoveGeometry(move, verts, u, length, t_in, t_out, k_in, k_out, limits, feed)
 
 
 def junctions(geoms: list[MoveGeometry], machine: MachineConfig) -> tuple[np.ndarray, list]:

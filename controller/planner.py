@@ -30,6 +30,7 @@ import ruckig
 from controller.config import MachineConfig
 from controller.cubic import CubicBuilder, PiecewiseCubic
 from controller.errors import ConfigError, PlanningError
+from controller.jerk3 import jerk3, piece_limits_ok
 from controller.lookahead import plan_junction_speeds
 from controller.moves import Move
 from controller.path import MoveGeometry, junctions, move_geometry
@@ -37,6 +38,8 @@ from controller.trajectory import Trajectory
 from controller.travel import check_travel
 
 _OK = (ruckig.Result.Working, ruckig.Result.Finished)
+#: Extra vertices at 1/2, 1/4, ... of the first (last) chord of an arc that starts (ends) at rest.
+STOP_REFINEMENT = 8
 
 
 @dataclass(frozen=True)
@@ -51,6 +54,8 @@ class Plan:
         vertices: per move, read-only (k, 3) chord vertices [mm] (first = start, last = end).
         fallback_count: Ruckig pieces that needed the fallback (see the module docstring).
         stretched_count: arc pieces Ruckig made longer than the speed profile asked for.
+        ruckig_piece_count: arc pieces given to Ruckig because the closed-form piece would have
+            broken a limit (typically next to a junction with a curvature jump).
     """
 
     moves: tuple
@@ -60,6 +65,7 @@ class Plan:
     vertices: tuple
     fallback_count: int = 0
     stretched_count: int = 0
+    ruckig_piece_count: int = 0
     curve: PiecewiseCubic = field(default=None, repr=False)  # type: ignore[assignment]
     move_start_s: np.ndarray = field(default=None, repr=False)  # type: ignore[assignment]
     move_lines: np.ndarray = field(default=None, repr=False)  # type: ignore[assignment]
@@ -95,7 +101,7 @@ def _profile_phases(traj: ruckig.Trajectory, dof: int) -> tuple[list, list, list
 
 
 class _Planner:
-    def __init__(self, machine: MachineConfig) -> None:
+    def __init__(self, machine: MachineConfig, pieces: str) -> None:
         lim = machine.limits
         self.r1, self.in1, self.tr1 = (
             ruckig.Ruckig(1),
@@ -110,7 +116,14 @@ class _Planner:
         self.in3.max_velocity = list(lim.max_velocity_mm_per_s)
         self.in3.max_acceleration = list(lim.max_acceleration_mm_per_s2)
         self.in3.max_jerk = list(lim.max_jerk_mm_per_s3)
+        self.limits = (
+            lim.max_velocity_mm_per_s,
+            lim.max_acceleration_mm_per_s2,
+            lim.max_jerk_mm_per_s3,
+        )
+        self.pieces = pieces
         self.out = CubicBuilder()
+        self.ruckig_pieces = 0
         self.fallbacks = 0
         self.stretched = 0
 
@@ -145,7 +158,20 @@ class _Planner:
         return float(ph[:, 0].sum())
 
     def arc(self, g: MoveGeometry, ph: np.ndarray, state_in, state_out) -> float:
-        u = g.u
+        """Pieces between the exact arc states at the chord vertices; returns the duration [s]."""
+        # Vertices: the chord vertices plus the points where the speed profile switches phase
+        # (within one phase the motion is smooth and the closed-form pieces follow it closely).
+        u_knots = ph[1:, 1] / g.length_mm
+        u = np.union1d(g.u, u_knots[(u_knots > 1e-9) & (u_knots < 1.0 - 1e-9)])
+        # Next to a stop the speed grows like s^(2/3): refine the end chords geometrically, so
+        # that the pieces there do not start along a straight line across a whole chord.
+        halves = 0.5 ** np.arange(1, STOP_REFINEMENT + 1)
+        if not np.any(state_in[0]):
+            u = np.union1d(u, u[1] * halves)
+        if not np.any(state_out[0]):
+            u = np.union1d(u, 1.0 - (1.0 - u[-2]) * halves)
+        u = u[np.concatenate(([True], np.diff(u) > 1e-12))]
+        u[-1] = 1.0
         t_k, v_k, a_k = _invert(ph, u[1:-1] * g.length_mm)
         d1, d2 = g.derivatives(u[1:-1])
         speed_u = np.linalg.norm(d1, axis=1)
@@ -155,34 +181,66 @@ class _Planner:
         acc = np.vstack([state_in[1], d2 * ud * ud + d1 * udd, state_out[1]])
         times = np.concatenate(([0.0], t_k, [float(ph[:, 0].sum())]))
         mins = np.maximum(np.diff(times), 0.0)
-        verts = g.vertices
-        inp, tr, total = self.in3, self.tr3, 0.0
-        for k in range(len(u) - 1):
-            inp.current_position = verts[k].tolist()
-            inp.current_velocity = vel[k].tolist()
-            inp.current_acceleration = acc[k].tolist()
-            inp.target_position = verts[k + 1].tolist()
-            inp.target_velocity = vel[k + 1].tolist()
-            inp.target_acceleration = acc[k + 1].tolist()
-            inp.minimum_duration = float(mins[k])
+        verts = g.vertices if u.size == g.u.size else g.points(u)
+        if self.pieces == "ruckig":
+            ok = np.zeros(mins.size, dtype=bool)
+        else:
+            ok = mins > 1e-9
+            safe = np.where(ok, mins, 1.0)
+            ps, vs, as_, js = jerk3(verts, vel, acc, safe)
+            ok &= piece_limits_ok(vs, as_, js, safe, acc[1:], *self.limits, g.feed_mm_per_s)
+        if ok.all():
+            dur = np.repeat(mins / 3.0, 3)
+            for i in range(3):
+                self.out.add(
+                    i,
+                    dur,
+                    ps[:, :, i].ravel(),
+                    vs[:, :, i].ravel(),
+                    as_[:, :, i].ravel(),
+                    js[:, :, i].ravel(),
+                )
+            return float(mins.sum())
+        total = 0.0
+        for k in range(mins.size):
+            if ok[k]:
+                h3 = [mins[k] / 3.0] * 3
+                for i in range(3):
+                    self.out.add(i, h3, ps[k, :, i], vs[k, :, i], as_[k, :, i], js[k, :, i])
+                total += mins[k]
+                continue
+            if self.pieces != "ruckig":
+                self.ruckig_pieces += 1
+            total += self.ruckig_piece(
+                g, verts[k], vel[k], acc[k], verts[k + 1], vel[k + 1], acc[k + 1], mins[k]
+            )
+        return total
+
+    def ruckig_piece(self, g, p0, v0, a0, p1, v1, a1, min_duration: float) -> float:
+        """One 3-DoF Ruckig state-to-state piece (time synchronised); returns its duration [s]."""
+        inp, tr = self.in3, self.tr3
+        inp.current_position, inp.current_velocity = p0.tolist(), v0.tolist()
+        inp.current_acceleration = a0.tolist()
+        inp.target_position, inp.target_velocity = p1.tolist(), v1.tolist()
+        inp.target_acceleration = a1.tolist()
+        inp.minimum_duration = float(min_duration)
+        res = self.r3.calculate(inp, tr)
+        if res not in _OK:
+            self.fallbacks += 1
+            inp.minimum_duration = None
             res = self.r3.calculate(inp, tr)
             if res not in _OK:
-                self.fallbacks += 1
-                inp.minimum_duration = None
-                res = self.r3.calculate(inp, tr)
-                if res not in _OK:
-                    raise PlanningError(
-                        f"Ruckig could not join two chord vertices ({res}) even without a "
-                        "minimum duration; lower the feed or check the machine limits",
-                        line=g.move.line,
-                    )
-            dur = tr.duration
-            if dur > mins[k] * (1 + 1e-6) + 1e-9:
-                self.stretched += 1
-            for i in range(3):
-                self.out.add(i, *_profile_phases(tr, i))
-            total += dur
-        return total
+                raise PlanningError(
+                    f"Ruckig could not join two chord vertices ({res}) even without a "
+                    "minimum duration; lower the feed or check the machine limits",
+                    line=g.move.line,
+                )
+        dur = tr.duration
+        if dur > min_duration * (1 + 1e-6) + 1e-9:
+            self.stretched += 1
+        for i in range(3):
+            self.out.add(i, *_profile_phases(tr, i))
+        return dur
 
 
 def _invert(ph: np.ndarray, s: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -203,7 +261,11 @@ def _invert(ph: np.ndarray, s: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.n
 
 
 def plan(
-    moves: Sequence[Move], machine: MachineConfig, *, feed_override_pct: float = 100.0
+    moves: Sequence[Move],
+    machine: MachineConfig,
+    *,
+    feed_override_pct: float = 100.0,
+    arc_pieces: str = "jerk3",
 ) -> Plan:
     """Plan ``moves`` on ``machine`` (see the module docstring).
 
@@ -211,6 +273,8 @@ def plan(
         moves: the interpreter's moves; the machine is at rest at ``moves[0].start``.
         machine: limits, travel, segmentation.
         feed_override_pct: scales every programmed feed (not rapids) [%], > 0.
+        arc_pieces: "jerk3" (default: closed-form constant-jerk pieces, Ruckig where they would
+            break a limit) or "ruckig" (every arc piece by Ruckig; kept for comparison).
 
     Raises:
         ConfigError: a feed override that is not a finite number > 0.
@@ -219,6 +283,8 @@ def plan(
     """
     if not (np.isfinite(feed_override_pct) and feed_override_pct > 0):
         raise ConfigError(f"feed override must be a number > 0 %, got {feed_override_pct}")
+    if arc_pieces not in ("jerk3", "ruckig"):
+        raise ConfigError(f"arc_pieces must be 'jerk3' or 'ruckig', got {arc_pieces!r}")
     moves = tuple(moves)
     check_travel(moves, machine.travel)
     seg = machine.segmentation
@@ -226,7 +292,7 @@ def plan(
     active = [g for g in geoms if g.length_mm > 1e-9]
     caps, states = junctions(active, machine)
     speeds = plan_junction_speeds([g.limits for g in active], caps)
-    pl = _Planner(machine)
+    pl = _Planner(machine, arc_pieces)
     clock, starts = 0.0, []
     for b, g in enumerate(active):
         starts.append(clock)
@@ -246,6 +312,7 @@ def plan(
         vertices=tuple(g.vertices for g in geoms),
         fallback_count=pl.fallbacks,
         stretched_count=pl.stretched,
+        ruckig_piece_count=pl.ruckig_pieces,
         curve=pl.out.build(),
         move_start_s=np.asarray(starts, dtype=float),
         move_lines=np.asarray([g.move.line for g in active], dtype=np.int64),
