@@ -90,3 +90,13 @@ def piece_limits_ok(
         vel = vs + tf * (as_ + 0.5 * tf * js)
         ok &= np.all(np.einsum("nkd,nkd->nk", vel, vel) <= speed_cap * speed_cap, axis=1)
     return ok
+
+
+def jerk3_points(ps, vs, as_, js, dur: float, per_phase: int = 8) -> np.ndarray:
+    """Positions (3 * per_phase + 1, 3) along one piece (phases as returned by :func:`jerk3`)."""
+    h = dur / 3.0
+    tau = np.linspace(0.0, h, per_phase, endpoint=False)[None, :, None]
+    p, v, a, j = (x[:, None, :] for x in (ps, vs, as_, js))
+    pts = p + tau * (v + tau * (0.5 * a + tau * j / 6.0))
+    last = ps[2] + h * (vs[2] + h * (0.5 * as_[2] + h * js[2] / 6.0))
+    return np.vstack([pts.reshape(-1, 3), last])

@@ -30,16 +30,21 @@ import ruckig
 from controller.config import MachineConfig
 from controller.cubic import CubicBuilder, PiecewiseCubic
 from controller.errors import ConfigError, PlanningError
-from controller.jerk3 import jerk3, piece_limits_ok
+from controller.jerk3 import jerk3, jerk3_points, piece_limits_ok
 from controller.lookahead import plan_junction_speeds
 from controller.moves import Move
-from controller.path import MoveGeometry, junctions, move_geometry
+from controller.path import MoveGeometry, junctions, move_geometry, vertex_states
 from controller.trajectory import Trajectory
 from controller.travel import check_travel
 
 _OK = (ruckig.Result.Working, ruckig.Result.Finished)
-#: Extra vertices at 1/2, 1/4, ... of the first (last) chord of an arc that starts (ends) at rest.
-STOP_REFINEMENT = 8
+#: Largest distance of a piece next to a moving junction from the arc, in chord tolerances;
+#: beyond it the junction's speed is lowered and the program planned again.
+JUNCTION_DEVIATION_MAX = 0.2
+#: Re-planning rounds (each lowers the offending junction caps by JUNCTION_BACKOFF); the last
+#: round stops at the junctions still offending.
+MAX_ROUNDS = 8
+JUNCTION_BACKOFF = 0.6
 
 
 @dataclass(frozen=True)
@@ -122,6 +127,7 @@ class _Planner:
             lim.max_jerk_mm_per_s3,
         )
         self.pieces = pieces
+        self.dev_max = JUNCTION_DEVIATION_MAX * machine.segmentation.chord_tolerance_mm
         self.out = CubicBuilder()
         self.ruckig_pieces = 0
         self.fallbacks = 0
@@ -157,64 +163,56 @@ class _Planner:
             )
         return float(ph[:, 0].sum())
 
-    def arc(self, g: MoveGeometry, ph: np.ndarray, state_in, state_out) -> float:
-        """Pieces between the exact arc states at the chord vertices; returns the duration [s]."""
-        # Vertices: the chord vertices plus the points where the speed profile switches phase
-        # (within one phase the motion is smooth and the closed-form pieces follow it closely).
-        u_knots = ph[1:, 1] / g.length_mm
-        u = np.union1d(g.u, u_knots[(u_knots > 1e-9) & (u_knots < 1.0 - 1e-9)])
-        # Next to a stop the speed grows like s^(2/3): refine the end chords geometrically, so
-        # that the pieces there do not start along a straight line across a whole chord.
-        halves = 0.5 ** np.arange(1, STOP_REFINEMENT + 1)
-        if not np.any(state_in[0]):
-            u = np.union1d(u, u[1] * halves)
-        if not np.any(state_out[0]):
-            u = np.union1d(u, 1.0 - (1.0 - u[-2]) * halves)
-        u = u[np.concatenate(([True], np.diff(u) > 1e-12))]
-        u[-1] = 1.0
-        t_k, v_k, a_k = _invert(ph, u[1:-1] * g.length_mm)
-        d1, d2 = g.derivatives(u[1:-1])
-        speed_u = np.linalg.norm(d1, axis=1)
-        ud = (v_k / speed_u)[:, None]
-        udd = (a_k / speed_u)[:, None]
-        vel = np.vstack([state_in[0], d1 * ud, state_out[0]])
-        acc = np.vstack([state_in[1], d2 * ud * ud + d1 * udd, state_out[1]])
-        times = np.concatenate(([0.0], t_k, [float(ph[:, 0].sum())]))
-        mins = np.maximum(np.diff(times), 0.0)
-        verts = g.vertices if u.size == g.u.size else g.points(u)
+    def arc(self, g: MoveGeometry, ph: np.ndarray, state_in, state_out) -> tuple[float, bool, bool]:
+        """Pieces between the exact arc states at the vertices.
+
+        Returns:
+            (duration [s], bad_in, bad_out): bad_* when the piece next to a moving junction
+            leaves the arc by more than :data:`JUNCTION_DEVIATION_MAX` of the chord tolerance or
+            needed Ruckig to stretch it (the junction speed must then come down).
+        """
+        u, verts, vel, acc, mins = vertex_states(g, ph, state_in, state_out)
+        n = mins.size
+        check = {0: bool(np.any(state_in[0])), n - 1: bool(np.any(state_out[0]))}
         if self.pieces == "ruckig":
-            ok = np.zeros(mins.size, dtype=bool)
+            ok = np.zeros(n, dtype=bool)
         else:
             ok = mins > 1e-9
             safe = np.where(ok, mins, 1.0)
             ps, vs, as_, js = jerk3(verts, vel, acc, safe)
             ok &= piece_limits_ok(vs, as_, js, safe, acc[1:], *self.limits, g.feed_mm_per_s)
+        bad = {0: False, n - 1: False}
         if ok.all():
             dur = np.repeat(mins / 3.0, 3)
             for i in range(3):
-                self.out.add(
-                    i,
-                    dur,
-                    ps[:, :, i].ravel(),
-                    vs[:, :, i].ravel(),
-                    as_[:, :, i].ravel(),
-                    js[:, :, i].ravel(),
-                )
-            return float(mins.sum())
+                cols = (ps[:, :, i], vs[:, :, i], as_[:, :, i], js[:, :, i])
+                self.out.add(i, dur, *(c.ravel() for c in cols))
+            for k in (0, n - 1):
+                if check[k]:
+                    q = jerk3_points(ps[k], vs[k], as_[k], js[k], mins[k])
+                    bad[k] = g.deviation(q, u[k]) > self.dev_max
+            return float(mins.sum()), bad[0], bad[n - 1]
         total = 0.0
-        for k in range(mins.size):
+        for k in range(n):
             if ok[k]:
                 h3 = [mins[k] / 3.0] * 3
                 for i in range(3):
                     self.out.add(i, h3, ps[k, :, i], vs[k, :, i], as_[k, :, i], js[k, :, i])
                 total += mins[k]
+                if check.get(k):
+                    q = jerk3_points(ps[k], vs[k], as_[k], js[k], mins[k])
+                    bad[k] = g.deviation(q, u[k]) > self.dev_max
                 continue
             if self.pieces != "ruckig":
                 self.ruckig_pieces += 1
-            total += self.ruckig_piece(
+            d = self.ruckig_piece(
                 g, verts[k], vel[k], acc[k], verts[k + 1], vel[k + 1], acc[k + 1], mins[k]
             )
-        return total
+            total += d
+            if check.get(k):
+                q = np.array([self.tr3.at_time(t)[0] for t in np.linspace(0.0, d, 25)])
+                bad[k] = d > mins[k] * 1.001 + 1e-9 or g.deviation(q, u[k]) > self.dev_max
+        return total, bad[0], bad[n - 1]
 
     def ruckig_piece(self, g, p0, v0, a0, p1, v1, a1, min_duration: float) -> float:
         """One 3-DoF Ruckig state-to-state piece (time synchronised); returns its duration [s]."""
@@ -241,23 +239,6 @@ class _Planner:
         for i in range(3):
             self.out.add(i, *_profile_phases(tr, i))
         return dur
-
-
-def _invert(ph: np.ndarray, s: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Times, speeds, tangential accelerations where the 1-D profile passes arc lengths ``s``."""
-    keep = ph[:, 0] > 0
-    dur, p, v, a, j = ph[keep].T
-    t0 = np.concatenate(([0.0], np.cumsum(dur)[:-1]))
-    k = np.clip(np.searchsorted(p, s, side="right") - 1, 0, p.size - 1)
-    lo, hi = np.zeros(s.size), dur[k].copy()
-    pk, vk, ak, jk = p[k], v[k], a[k], j[k]
-    for _ in range(60):  # bisection: s(t) is monotone (v >= 0)
-        mid = 0.5 * (lo + hi)
-        below = pk + mid * (vk + mid * (0.5 * ak + mid * jk / 6.0)) < s
-        lo = np.where(below, mid, lo)
-        hi = np.where(below, hi, mid)
-    tau = 0.5 * (lo + hi)
-    return t0[k] + tau, vk + tau * (ak + 0.5 * tau * jk), ak + tau * jk
 
 
 def plan(
@@ -291,18 +272,26 @@ def plan(
     geoms = [move_geometry(m, machine, feed_override_pct / 100.0) for m in moves]
     active = [g for g in geoms if g.length_mm > 1e-9]
     caps, states = junctions(active, machine)
-    speeds = plan_junction_speeds([g.limits for g in active], caps)
-    pl = _Planner(machine, arc_pieces)
-    clock, starts = 0.0, []
-    for b, g in enumerate(active):
-        starts.append(clock)
-        ph = pl.path_profile(g, speeds[b], speeds[b + 1])
-        if g.is_arc:
-            s_in = (states[b][0] * speeds[b], states[b][1] * speeds[b] ** 2)
-            s_out = (states[b + 1][0] * speeds[b + 1], states[b + 1][1] * speeds[b + 1] ** 2)
-            clock += pl.arc(g, ph, s_in, s_out)
-        else:
-            clock += pl.straight(g, ph)
+    for rnd in range(MAX_ROUNDS + 1):
+        speeds = plan_junction_speeds([g.limits for g in active], caps)
+        pl, bad = _Planner(machine, arc_pieces), set()
+        clock, starts = 0.0, []
+        for b, g in enumerate(active):
+            starts.append(clock)
+            ph = pl.path_profile(g, speeds[b], speeds[b + 1])
+            if g.is_arc:
+                s_in = (states[b][0] * speeds[b], states[b][1] * speeds[b] ** 2)
+                s_out = (states[b + 1][0] * speeds[b + 1], states[b + 1][1] * speeds[b + 1] ** 2)
+                dur, bad_in, bad_out = pl.arc(g, ph, s_in, s_out)
+                clock += dur
+                bad |= {b} if bad_in else set()
+                bad |= {b + 1} if bad_out else set()
+            else:
+                clock += pl.straight(g, ph)
+        if not bad:
+            break
+        for b in bad:  # lower the offending junctions; in the last round, stop there
+            caps[b] = 0.0 if rnd == MAX_ROUNDS - 1 else JUNCTION_BACKOFF * speeds[b]
     end = np.asarray(moves[-1].end if moves else (0.0, 0.0, 0.0), dtype=float)
     return Plan(
         moves=moves,
