@@ -171,12 +171,12 @@ def max_reachable_speed(v_from: float, length_mm: float, acc: float, jerk: float
         return v_from
     v0, L = v_from, length_mm
     x = (L * L * jerk) ** (1.0 / 3.0)  # the root for v0 = 0: an upper bound
-    for _ in range(60):
+    for _ in range(200):
         f = x * (x + 2.0 * v0) ** 2 - L * L * jerk
         df = (x + 2.0 * v0) * (3.0 * x + 2.0 * v0)
         step = f / df
         x -= step
-        if abs(step) <= 1e-13 * (x + v0 + 1e-300):
+        if abs(step) <= 1e-15 * x or x <= 0.0:
             break
     if x * jerk < acc * acc:
         return v0 + x

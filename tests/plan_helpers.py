@@ -30,7 +30,9 @@ def arc(line, start, center, angle, plane="XY", direction="ccw", feed=3000.0):
     if abs(angle - 2 * math.pi) < 1e-12:
         end = list(start)
     turns = max(1, math.ceil(angle / (2 * math.pi) - 1e-9))
-    return Arc(line, tuple(start), tuple(end), feed, plane, direction, tuple(center), r, turns, angle)
+    return Arc(
+        line, tuple(start), tuple(end), feed, plane, direction, tuple(center), r, turns, angle
+    )
 
 
 def helix(line, start, center, dz, plane="XY", direction="ccw", turns=1, feed=3000.0):
@@ -41,7 +43,9 @@ def helix(line, start, center, dz, plane="XY", direction="ccw", turns=1, feed=30
     end = list(start)
     end[n] += dz
     angle = 2 * math.pi * turns
-    return Arc(line, tuple(start), tuple(end), feed, plane, direction, tuple(center), r, turns, angle)
+    return Arc(
+        line, tuple(start), tuple(end), feed, plane, direction, tuple(center), r, turns, angle
+    )
 
 
 def limit_ratios(traj, machine) -> dict[str, float]:
@@ -66,7 +70,11 @@ def assert_within_limits(traj, machine, moves) -> None:
         feed = getattr(m, "feed_mm_per_min", None)
         sel = traj.line == m.line
         if feed is not None and sel.any():
-            assert speed[sel].max() <= feed / 60.0 * (1 + REL), (m.line, speed[sel].max(), feed / 60)
+            assert speed[sel].max() <= feed / 60.0 * (1 + REL), (
+                m.line,
+                speed[sel].max(),
+                feed / 60,
+            )
 
 
 def arc_deviation(traj, a: Arc) -> float:
