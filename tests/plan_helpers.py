@@ -83,7 +83,7 @@ def arc_deviation(traj, a: Arc) -> float:
     Each sample is compared with the arc point at the sample's own polar angle (unwrapped along
     time): an upper bound on its distance to the curve.
     """
-    i1, i2, n = PLANE_AXES[a.plane]
+    i1, i2, _n = PLANE_AXES[a.plane]
     sel = traj.line == a.line
     p = traj.pos[sel]
     th = np.unwrap(np.arctan2(p[:, i2] - a.center[i2], p[:, i1] - a.center[i1]))

@@ -139,7 +139,7 @@ def test_corner_is_an_exact_stop_and_collinear_lines_are_not(machine):
 
 def test_feed_override_scales_the_path_speed(machine):
     moves = [Linear(1, (0.0, 0.0, 0.0), (200.0, 0.0, 0.0), 6000.0)]
-    p100, tr100 = _sample(moves, machine)
+    p100, _tr100 = _sample(moves, machine)
     p50, tr50 = _sample(moves, machine, feed_override_pct=50.0)
     assert np.linalg.norm(tr50.vel, axis=1).max() == pytest.approx(50.0, rel=1e-9)
     assert p50.duration_s == pytest.approx(2 * p100.duration_s, rel=0.02)
@@ -150,7 +150,7 @@ def test_feed_override_scales_the_path_speed(machine):
 
 def test_ruckig_pieces_mode_also_keeps_the_limits(machine):
     a = arc(1, (5.0, 0.0, 0.0), (0.0, 0.0, 0.0), 2 * math.pi, feed=3000.0)
-    p, tr = _sample([a], machine, arc_pieces="ruckig")
+    _p, tr = _sample([a], machine, arc_pieces="ruckig")
     # per-axis limits only: Ruckig pieces bound each axis, not the path speed (measured ~0.06 %
     # over F mid-chord), which is why "jerk3" is the default
     r = limit_ratios(tr, machine)

@@ -15,7 +15,7 @@ from tests.plan_helpers import arc, helix
 
 def _sagittas(a, verts) -> np.ndarray:
     """Distance of every chord midpoint from the true arc (radius and normal-axis error)."""
-    i1, i2, n = PLANE_AXES[a.plane]
+    i1, i2, _n = PLANE_AXES[a.plane]
     mid = 0.5 * (verts[1:] + verts[:-1])
     r = np.hypot(mid[:, i1] - a.center[i1], mid[:, i2] - a.center[i2])
     return np.abs(r - a.radius)
