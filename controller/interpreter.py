@@ -124,11 +124,7 @@ def read_words(block: Block, params: dict[int, float]) -> Words:
 
 
 def check_words(w: Words, motion: int | None, dialect: Dialect) -> None:
-    """Step 2: every code is supported and every word has a code that uses it."""
-    for code in w.g.values():
-        if code in G_REFUSED:
-            raise GcodeError(f"{g_name(code)} is not supported: {G_REFUSED[code]}")
-        assert code in G_HANDLED or code in G_NO_PATH_EFFECT
+    """Step 5b: every word has a code that uses it."""
     v = w.values
     for letter in v:
         if letter in _OTHER_AXES:
@@ -167,6 +163,11 @@ class Interpreter:
         """Validate ``block`` on a copy of the state, commit, return (moves, program ended)."""
         w = read_words(block, self.params)
         s, d = self.state, self.dialect
+        # Step 2: every code is one gantry-sim supports.
+        for code in w.g.values():
+            if code in G_REFUSED:
+                raise GcodeError(f"{g_name(code)} is not supported: {G_REFUSED[code]}")
+            assert code in G_HANDLED or code in G_NO_PATH_EFFECT
         # Step 3: feed (in the units in effect BEFORE this block's G20/G21, as rs274 does).
         if "F" in w.values:
             if w.values["F"] < 0.0:
