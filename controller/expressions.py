@@ -100,7 +100,7 @@ class Reader:
                 self.pos += 1
                 break
             op = self._operator()
-            while ops and _BINARY[ops[-1]] >= _BINARY[op] and op != "**":
+            while ops and _BINARY[ops[-1]] >= _BINARY[op]:
                 b, a = values.pop(), values.pop()
                 values.append(("bin", ops.pop(), a, b))
             ops.append(op)
