@@ -51,6 +51,8 @@ def test_parse_error_exits_2_with_file_and_line(write_program, capsys) -> None:
         (b"G1 F10 X" + b"1 " * 500_000 + b"\nM2\n", "finite"),
         (b"(" + b"x" * 1_000_000 + b"\nM2\n", "unclosed comment"),
         (b"G0 Xnan\nM2\n", "bad value"),
+        (b"G0 X" + b"[" * 1_000_000 + b"\nM2\n", "nested more than"),
+        (b"G0 X" + b"-" * 1_000_000 + b"1\nM2\n", "nested more than"),
         (b"G0 X1e400\nM2\n", "E word"),
         (b"\x1b[31m\nM2\n", "bad character"),
     ],
