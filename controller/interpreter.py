@@ -90,6 +90,10 @@ def read_words(block: Block, params: dict[int, float]) -> Words:
             group = G_GROUPS.get(code) if abs(value * 10 - code) < 1e-6 else None
             if group is None:
                 raise GcodeError(f"unknown G code G{value:g}; see README 'Dialects' for the list")
+            if group == "motion" and 800 in (code, g.get(group)):
+                # rs274: G80 beside another motion code is ignored ("G0 X1 G80" is a G0).
+                g[group] = g.get(group, 800) if code == 800 else code
+                continue
             if group in g:
                 raise GcodeError(
                     f"two G codes from one modal group on a line ({g_name(g[group])} and "

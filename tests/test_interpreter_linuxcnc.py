@@ -101,6 +101,13 @@ def test_motion_is_modal_and_feed_is_modal() -> None:
     assert moves[1].end == (1.0, 2.0, 0.0) and moves[1].feed_mm_per_min == 100.0
 
 
+def test_g80_beside_another_motion_code_is_ignored_like_rs274() -> None:
+    # rs274: "G0 X1 G80" traverses to X1; "G2 X3 I1 G80" is an arc and G2 stays modal.
+    moves = run("G0 X1 G80\nG80 G1 X2 F1\nG2 X4 I1 G80\nX6 I1")
+    assert [m.kind for m in moves] == ["rapid", "linear", "arc", "arc"]
+    assert moves[3].end == (6.0, 0.0, 0.0)
+
+
 def test_g91_incremental_and_g90_1_absolute_centres() -> None:
     # rs274: ARC_FEED(3, 1, 2, 1, -2, -1) for the arc on line 3.
     moves = run("G91 F1\nG0 X1 Y1\nG2 X2 Z-1 I1 P2")
