@@ -151,6 +151,10 @@ def check_words(w: Words, motion: int | None, dialect: Dialect) -> None:
                 need = {"D": "cutter compensation (not supported)",
                         "L": "G10 (not supported)", "E": "a code that takes E (none here)"}[letter]
             raise GcodeError(f"{letter} word with no code that uses it; {letter} needs {need}")
+    if "S" not in dialect.ignored_letters and v.get("S", 0.0) < 0.0:
+        raise GcodeError("negative S word; the spindle speed must be >= 0")
+    if v.get("T", 0.0) < 0.0:
+        raise GcodeError("negative T word; tool numbers are >= 0")
     if w.g.get("nonmodal") == 40 and v.get("P", -1.0) < 0.0:
         raise GcodeError("G4 (dwell) needs a P word: the dwell time in seconds, >= 0")
 

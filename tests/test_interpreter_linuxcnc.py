@@ -195,6 +195,8 @@ def test_radius_format_signs_and_semicircle_tolerance() -> None:
         ("G41 D1", 1, "cutter radius compensation"),
         ("G81 X1 Y1 Z-1 R1", 1, "canned cycles"),
         ("G4", 1, "G4 (dwell) needs a P"),
+        ("G0 X1 S-1", 1, "negative S"),
+        ("T-1", 1, "negative T"),
         ("M100", 1, "unsupported M code"),
         ("G12", 1, "unknown G code"),
         ("G0 X1 (a (b) c)", 1, "nested comment"),
