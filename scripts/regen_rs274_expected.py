@@ -26,6 +26,7 @@ import re
 import subprocess
 import sys
 import tempfile
+import time
 from pathlib import Path
 
 ROOT = Path(__file__).resolve().parent.parent
@@ -100,14 +101,22 @@ def rs274_version() -> str:
 
 
 def run_rs274(text: str) -> tuple[int, str, str]:
-    """Run ``rs274 -g`` on ``text`` -> (exit status, stdout, stderr)."""
-    with tempfile.TemporaryDirectory() as tmp:
-        path = Path(tmp) / "prog.ngc"
-        path.write_bytes(text.encode("utf-8"))
-        proc = subprocess.run(
-            ["rs274", "-g", str(path)], capture_output=True, text=True, cwd=tmp, timeout=30
-        )
-    return proc.returncode, proc.stdout, proc.stderr
+    """Run ``rs274 -g`` on ``text`` -> (exit status, stdout, stderr).
+
+    rs274 occasionally dies from a signal when another rs274 runs at the same time (shared
+    state); such runs are retried, a crash that persists is an error.
+    """
+    for attempt in range(8):
+        with tempfile.TemporaryDirectory() as tmp:
+            path = Path(tmp) / "prog.ngc"
+            path.write_bytes(text.encode("utf-8"))
+            proc = subprocess.run(
+                ["rs274", "-g", str(path)], capture_output=True, text=True, cwd=tmp, timeout=30
+            )
+        if proc.returncode >= 0:
+            return proc.returncode, proc.stdout, proc.stderr
+        time.sleep(0.5 * (attempt + 1))
+    raise RuntimeError(f"rs274 keeps crashing (signal {-proc.returncode})")
 
 
 def error_message(stderr: str) -> str | None:
