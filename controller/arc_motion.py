@@ -100,10 +100,9 @@ def arc_move(
         need_both = s.arc_absolute or d.both_offsets_required
         for o in (o1, o2):
             if need_both and o not in v:
-                why = "absolute-centre (G90.1)" if s.arc_absolute else "this dialect's"
+                why = "absolute-centre (G90.1) arcs" if s.arc_absolute else f"{d.name} arcs"
                 raise GcodeError(
-                    f"{o} word missing for a {why} arc in the {s.plane} plane; give both "
-                    f"{o1} and {o2}"
+                    f"{o} word missing: {why} in the {s.plane} plane need both {o1} and {o2}"
                 )
         centre = centre_from_offsets(ps, (v.get(o1, 0.0), v.get(o2, 0.0)), s.arc_absolute)
         r0 = math.hypot(ps[0] - centre[0], ps[1] - centre[1])
