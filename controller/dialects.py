@@ -67,7 +67,8 @@ class Dialect:
             arc may fall short of reaching its end point [mm / inch].
         r_short_is_semicircle: an R too small to reach the end always gives the semicircle.
         require_program_end: the text must end with M2/M30 or a closing ``%`` (rs274).
-        zero_angle_fuzz: a swept angle below this [rad] is a full circle (LinuxCNC's CIRCLE_FUZZ).
+        zero_angle_fuzz: a swept angle below this [rad] is a full circle (end == start up to
+            rounding; a 1e-6 rad arc of R10000 is an arc, as rs274 outputs it).
     """
 
     name: str
@@ -84,7 +85,7 @@ class Dialect:
     min_radius_in: float
     r_short_is_semicircle: bool
     require_program_end: bool
-    zero_angle_fuzz: float = 1e-6
+    zero_angle_fuzz: float = 1e-12
 
 
 _TOL_MM = 2 * 0.01 * math.sqrt(2.0)  # 0.028284 mm, rs274 CENTER_ARC_RADIUS_TOLERANCE_MM

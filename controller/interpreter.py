@@ -96,6 +96,8 @@ class Interpreter:
             s, motion = replace(s, motion=None), None
         elif motion is not None:
             s = replace(s, motion=motion)
+        elif s.motion in (20, 30) and any(c in w.values for c in "IJKR"):
+            motion = s.motion  # rs274: a centre word alone continues a modal G2/G3
         elif has_axes:
             if s.motion is None:
                 raise GcodeError("axis words with no motion mode; put G0, G1, G2 or G3 first")
