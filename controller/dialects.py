@@ -67,6 +67,7 @@ class Dialect:
             arc may fall short of reaching its end point [mm / inch].
         r_short_is_semicircle: an R too small to reach the end always gives the semicircle.
         require_program_end: the text must end with M2/M30 or a closing ``%`` (rs274).
+        max_p: the largest P word allowed, or None (Marlin: 100, ``WITHIN(circles_to_do, 0, 100)``).
         zero_angle_fuzz: a swept angle below this [rad] is a full circle (end == start up to
             rounding; a 1e-6 rad arc of R10000 is an arc, as rs274 outputs it).
     """
@@ -85,6 +86,7 @@ class Dialect:
     min_radius_in: float
     r_short_is_semicircle: bool
     require_program_end: bool
+    max_p: int | None = None
     zero_angle_fuzz: float = 1e-12
 
 
@@ -140,6 +142,7 @@ MARLIN = Dialect(
     min_radius_in=1e-6 / 25.4,
     r_short_is_semicircle=True,
     require_program_end=False,
+    max_p=100,
 )
 
 LASERDYNE_ON_ARC_TOL_MM = 0.005

@@ -85,6 +85,7 @@ def test_marlin_rules() -> None:
     assert arc.angle == pytest.approx(2 * math.pi)
     (extra,) = run("G2 X2 I1 P1", "marlin")  # P adds complete circles
     assert extra.angle == pytest.approx(3 * math.pi) and extra.turns == 2
+    assert "P0 to P100" in error_of("G2 X2 I1 P101", "marlin").message
     (short,) = run("G2 X10 R2", "marlin")  # R too short: Marlin takes the half circle
     assert short.center == pytest.approx((5.0, 0.0, 0.0))
     assert "E word" in error_of("G0 X1 E3\nM2", "linuxcnc").message
