@@ -106,7 +106,7 @@ class Interpreter:
         if d.r_needs_arc_code_first and w.r_before_arc_code:
             raise GcodeError(
                 f"on {d.name} controls R means an arc radius only after G2 or G3 on the same "
-                "line (otherwise it is 'Repeat', which is not supported); write G2 ... R or G3 ... R"
+                "line (otherwise it is 'Repeat', not supported); write G2 ... R or G3 ... R"
             )
         # Step 6: the move, validated against the new state.
         moves: list[Move] = []
