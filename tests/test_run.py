@@ -173,6 +173,6 @@ def test_mujoco_instability_warnings_are_a_simulation_error(machine):
     site_m = traj.pos / 1000.0 + g.tool_origin_m  # a trace exactly on the reference
     _check(d, g, machine, traj, site_m, 0, traj.t.size)
     d.warning[mujoco.mjtWarning.mjWARN_BADQACC].number = 1
-    with pytest.raises(SimulationError, match="diverged.*BADQACC") as info:
+    with pytest.raises(SimulationError, match=r"diverged.*BADQACC") as info:
         _check(d, g, machine, traj, site_m, 0, traj.t.size)
     assert info.value.line == 1
