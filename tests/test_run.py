@@ -48,6 +48,7 @@ def test_short_circle_end_to_end(machine):
     res = run_program(CIRCLE, file="c.ngc", machine=machine)
     rep = res.report
     assert REPORT_KEYS <= rep.keys()
+    assert json.loads(json.dumps(rep)) == rep  # exactly what report.json holds
     assert rep["contour_error_um"].keys() == {"max", "rms", "p95"}
     assert rep["parts_um"].keys() == {"chord_max", "reference_max", "tracking_max"}
     assert [b["line"] for b in rep["blocks"]] == [2, 3, 4]
