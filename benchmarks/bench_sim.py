@@ -34,7 +34,7 @@ from sim.api import run_program
 from sim.machine import load_gantry
 from sim.runner import simulate
 
-REPEATS = 3
+REPEATS = 5
 
 
 def circle(radius: float, feed: float, turns: int = 1) -> str:

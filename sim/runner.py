@@ -79,9 +79,12 @@ def simulate(
     d.qvel[:] = 0.0
     mujoco.mj_kinematics(m, d)
 
-    site_m: list[list[float]] = []
-    forces: list[tuple[float, float, float]] = []
-    record_site, record_force = site_m.append, forces.append
+    # per chunk: flat lists of floats (cheapest to append and to turn into arrays), then arrays
+    site_flat: list[float] = []
+    force_flat: list[float] = []
+    record_site, record_force = site_flat.extend, force_flat.extend
+    site_chunks: list[np.ndarray] = []
+    force_chunks: list[np.ndarray] = []
     qpos, ctrl, site = d.qpos, d.ctrl, d.site_xpos[gantry.site_id]
     ix, iy, iz = gantry.qpos_adr
     ux, uy, uz = gantry.actuator_id
@@ -123,15 +126,19 @@ def simulate(
                 step(m, d, nsub)
                 kinematics(m, d)
                 px, py, pz = x, y, z
-            _check(d, gantry, machine, traj, np.array(site_m[lo:hi]), lo, hi)
+            site_chunks.append(np.array(site_flat).reshape(-1, 3))
+            force_chunks.append(np.array(force_flat).reshape(-1, 3))
+            site_flat.clear()
+            force_flat.clear()
+            _check(d, gantry, machine, traj, site_chunks[-1], lo, hi)
             if bar is not None:
                 bar.update(hi - lo)
     finally:
         if bar is not None:
             bar.close()
     wall = time.perf_counter() - start
-    pos = gantry.tool_to_work_mm(np.array(site_m).reshape(n, 3))
-    force = np.array(forces).reshape(n, 3)
+    pos = gantry.tool_to_work_mm(np.concatenate(site_chunks) if site_chunks else np.empty((0, 3)))
+    force = np.concatenate(force_chunks) if force_chunks else np.empty((0, 3))
     pos.setflags(write=False)
     force.setflags(write=False)
     return SimTrace(pos=pos, force=force, steps=n * nsub, wall_s=wall)
