@@ -40,6 +40,8 @@ def _turns(v: dict[str, float], d: Dialect) -> int:
     whole = round(p)
     if abs(p - whole) > P_INTEGER_TOL:
         raise GcodeError(f"P value {p:g} is not an integer; P is a whole number of turns")
+    if d.max_p is not None and whole > d.max_p:
+        raise GcodeError(f"P value {p:g} too large; the {d.name} dialect allows P0 to P{d.max_p}")
     if d.p_adds_circles:
         if whole < 0:
             raise GcodeError(f"P value {p:g}: P counts extra full circles and must be >= 0")
@@ -100,10 +102,9 @@ def arc_move(
         need_both = s.arc_absolute or d.both_offsets_required
         for o in (o1, o2):
             if need_both and o not in v:
-                why = "absolute-centre (G90.1)" if s.arc_absolute else "this dialect's"
+                why = "absolute-centre (G90.1) arcs" if s.arc_absolute else f"{d.name} arcs"
                 raise GcodeError(
-                    f"{o} word missing for a {why} arc in the {s.plane} plane; give both "
-                    f"{o1} and {o2}"
+                    f"{o} word missing: {why} in the {s.plane} plane need both {o1} and {o2}"
                 )
         centre = centre_from_offsets(ps, (v.get(o1, 0.0), v.get(o2, 0.0)), s.arc_absolute)
         r0 = math.hypot(ps[0] - centre[0], ps[1] - centre[1])

@@ -29,6 +29,7 @@ _FUNCTIONS = (
     "ABS", "ACOS", "ASIN", "COS", "EXP", "FIX", "FUP", "LN", "ROUND", "SIN", "SQRT", "TAN"
 )
 _NUM_CHARS = "0123456789."
+MAX_NESTING = 64  # brackets, signs and # per value: deeper is refused (no recursion blow-up)
 NAMED_PARAMETERS = (
     "named parameters (#<name>) are not supported; use numbered parameters #1..#5399"
 )
@@ -40,12 +41,22 @@ class Reader:
     def __init__(self, text: str, pos: int = 0) -> None:
         self.text = text
         self.pos = pos
+        self.depth = 0
 
     def peek(self) -> str:
         return self.text[self.pos] if self.pos < len(self.text) else ""
 
     def real_value(self) -> Tree:
         """A number, ``#``-parameter, ``[expression]`` or unary function call."""
+        self.depth += 1
+        try:
+            if self.depth > MAX_NESTING:
+                raise GcodeError(f"value nested more than {MAX_NESTING} deep; simplify it")
+            return self._real_value()
+        finally:
+            self.depth -= 1
+
+    def _real_value(self) -> Tree:
         c = self.peek()
         if c == "[":
             return self.expression()
@@ -100,7 +111,7 @@ class Reader:
                 self.pos += 1
                 break
             op = self._operator()
-            while ops and _BINARY[ops[-1]] >= _BINARY[op] and op != "**":
+            while ops and _BINARY[ops[-1]] >= _BINARY[op]:
                 b, a = values.pop(), values.pop()
                 values.append(("bin", ops.pop(), a, b))
             ops.append(op)

@@ -33,7 +33,7 @@ G_HANDLED = frozenset((0, 10, 20, 30, 800, 170, 180, 190, 900, 910, 901, 911, 20
 
 #: codes accepted with no effect on the programmed X/Y/Z path in work coordinates.
 G_NO_PATH_EFFECT = frozenset(
-    (40, 940, 400, 430, 431, 490, 980, 990, 540, 550, 560, 570, 580, 590, 591, 592, 593,
+    (40, 940, 400, 430, 490, 980, 990, 540, 550, 560, 570, 580, 590, 591, 592, 593,
      610, 611, 640, 960, 970, 80, 921, 922)
 )
 
@@ -50,6 +50,7 @@ G_REFUSED: dict[int, str] = {
     930: "inverse-time feed (G93) is not supported; use G94 (units per minute)",
     950: "feed per revolution (G95) is not supported; use G94 (units per minute)",
     **dict.fromkeys((410, 411, 420, 421), "cutter radius compensation is not supported"),
+    431: "a dynamic tool length offset (G43.1) shifts Z coordinates, which is not supported",
     432: "G43.2 (additional tool length offset) is not supported",
     70: "lathe diameter mode (G7) is not supported",
     100: _COORDS,

@@ -11,30 +11,19 @@ then program end), so ``G20 G1 X1`` moves to 1 inch, and ``F10 G20`` keeps 10 mm
 
 from __future__ import annotations
 
-import math
 from collections.abc import Iterator
 from dataclasses import dataclass, replace
 
 from controller.arc_motion import arc_move
 from controller.dialects import Dialect, get_dialect
 from controller.errors import GcodeError
-from controller.expressions import evaluate
-from controller.gcodes import (
-    G_GROUPS,
-    G_HANDLED,
-    G_NO_PATH_EFFECT,
-    G_REFUSED,
-    M_GROUPS,
-    M_PROGRAM_END,
-    g_name,
-    m_allowed,
-)
+from controller.gcodes import G_HANDLED, G_NO_PATH_EFFECT, G_REFUSED, M_PROGRAM_END, g_name
 from controller.lexer import Block, lex
 from controller.moves import Linear, Move, Plane, Rapid, Vec3
 from controller.units import MM_PER_INCH
+from controller.words import check_words, read_words
 
 _PLANES: dict[int, Plane] = {170: "XY", 180: "XZ", 190: "YZ"}
-_OTHER_AXES = "ABCUVW"
 
 
 @dataclass(frozen=True)
@@ -65,96 +54,6 @@ class ModalState:
         return MM_PER_INCH if self.inch else 1.0
 
 
-@dataclass(frozen=True)
-class Words:
-    """One block's evaluated words: G and M codes by modal group, other letters by letter."""
-
-    line: int
-    g: dict[str, int]
-    m: dict[str, int]
-    values: dict[str, float]
-    settings: tuple[tuple[int, float], ...]
-
-
-def read_words(block: Block, params: dict[int, float]) -> Words:
-    """Step 1: evaluate the block's values (with parameters as they were before the line)."""
-    g: dict[str, int] = {}
-    m: dict[str, int] = {}
-    values: dict[str, float] = {}
-    for letter, tree in block.words:
-        value = evaluate(tree, params)
-        if not math.isfinite(value):
-            raise GcodeError(f"{letter} value is not a finite number; values must be finite")
-        if letter == "G":
-            code = round(value * 10)
-            group = G_GROUPS.get(code) if abs(value * 10 - code) < 1e-6 else None
-            if group is None:
-                raise GcodeError(f"unknown G code G{value:g}; see README 'Dialects' for the list")
-            if group in g:
-                raise GcodeError(
-                    f"two G codes from one modal group on a line ({g_name(g[group])} and "
-                    f"{g_name(code)}); use one {group.replace('_', ' ')} code per line"
-                )
-            g[group] = code
-        elif letter == "M":
-            code = round(value)
-            group = M_GROUPS.get(code) if abs(value - code) < 1e-6 else None
-            if group is None:
-                raise GcodeError(f"unsupported M code M{value:g}; allowed: {m_allowed()}")
-            if group in m:
-                raise GcodeError(
-                    f"two M codes from one modal group on a line (M{m[group]} and M{code}); "
-                    f"use one {group.replace('_', ' ')} code per line"
-                )
-            m[group] = code
-        elif letter in values:
-            raise GcodeError(f"multiple {letter} words on one line; give each letter once")
-        else:
-            values[letter] = value
-    settings = []
-    for index_tree, value_tree in block.settings:
-        index = round(evaluate(index_tree, params))
-        if not 1 <= index <= 5399:
-            raise GcodeError(f"parameter #{index} out of range; allowed: #1..#5399")
-        value = evaluate(value_tree, params)
-        if not math.isfinite(value):
-            raise GcodeError(f"#{index} value is not a finite number")
-        settings.append((index, value))
-    return Words(block.line, g, m, values, tuple(settings))
-
-
-def check_words(w: Words, motion: int | None, dialect: Dialect) -> None:
-    """Step 2: every code is supported and every word has a code that uses it."""
-    for code in w.g.values():
-        if code in G_REFUSED:
-            raise GcodeError(f"{g_name(code)} is not supported: {G_REFUSED[code]}")
-        assert code in G_HANDLED or code in G_NO_PATH_EFFECT
-    v = w.values
-    for letter in v:
-        if letter in _OTHER_AXES:
-            raise GcodeError(
-                f"{letter} axis word on a 3-axis machine; allowed axes: X, Y, Z"
-            )
-    arc = motion in (20, 30)
-    uses = {
-        "I": arc, "J": arc, "K": arc, "R": arc,
-        "P": arc or w.g.get("nonmodal") == 40 or w.g.get("path_control") == 640,
-        "Q": w.g.get("path_control") == 640,
-        "H": w.g.get("tool_length") == 430,
-    }
-    for letter in v:
-        if letter in dialect.ignored_letters or letter in "XYZFST":
-            continue
-        if not uses.get(letter, False):
-            need = {"P": "G2, G3, G4 or G64", "Q": "G64", "H": "G43"}.get(letter, "G2 or G3")
-            if letter in "DLE":
-                need = {"D": "cutter compensation (not supported)",
-                        "L": "G10 (not supported)", "E": "a code that takes E (none here)"}[letter]
-            raise GcodeError(f"{letter} word with no code that uses it; {letter} needs {need}")
-    if w.g.get("nonmodal") == 40 and v.get("P", -1.0) < 0.0:
-        raise GcodeError("G4 (dwell) needs a P word: the dwell time in seconds, >= 0")
-
-
 class Interpreter:
     """Runs blocks against a modal state for one dialect (see :func:`interpret`)."""
 
@@ -167,6 +66,11 @@ class Interpreter:
         """Validate ``block`` on a copy of the state, commit, return (moves, program ended)."""
         w = read_words(block, self.params)
         s, d = self.state, self.dialect
+        # Step 2: every code is one gantry-sim supports.
+        for code in w.g.values():
+            if code in G_REFUSED:
+                raise GcodeError(f"{g_name(code)} is not supported: {G_REFUSED[code]}")
+            assert code in G_HANDLED or code in G_NO_PATH_EFFECT
         # Step 3: feed (in the units in effect BEFORE this block's G20/G21, as rs274 does).
         if "F" in w.values:
             if w.values["F"] < 0.0:
@@ -192,11 +96,18 @@ class Interpreter:
             s, motion = replace(s, motion=None), None
         elif motion is not None:
             s = replace(s, motion=motion)
+        elif s.motion in (20, 30) and any(c in w.values for c in "IJKR"):
+            motion = s.motion  # rs274: a centre word alone continues a modal G2/G3
         elif has_axes:
             if s.motion is None:
                 raise GcodeError("axis words with no motion mode; put G0, G1, G2 or G3 first")
             motion = s.motion
         check_words(w, motion, d)
+        if d.r_needs_arc_code_first and w.r_before_arc_code:
+            raise GcodeError(
+                f"on {d.name} controls R means an arc radius only after G2 or G3 on the same "
+                "line (otherwise it is 'Repeat', not supported); write G2 ... R or G3 ... R"
+            )
         # Step 6: the move, validated against the new state.
         moves: list[Move] = []
         if motion is not None:

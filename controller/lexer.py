@@ -15,6 +15,10 @@ from dataclasses import dataclass
 from controller.errors import GcodeError
 from controller.expressions import NAMED_PARAMETERS, Reader, Tree
 
+#: what a comment leaves in a stripped line: words may not be split by it (rs274: ``X(c)1`` is an
+#: error), but it separates words.
+COMMENT = "("
+
 #: letters rs274 reads as words (O-words are refused separately, N only opens a line).
 WORD_LETTERS = frozenset("ABCDEFGHIJKLMPQRSTUVWXYZ")
 
@@ -44,7 +48,7 @@ class Block:
 
 
 def strip_line(raw: str) -> str:
-    """Drop comments and whitespace outside them; upper-case the rest.
+    """Replace comments by ``(``, drop whitespace outside them; upper-case the rest.
 
     Raises:
         GcodeError: nested ``(`` inside a comment, or a comment left open.
@@ -60,6 +64,7 @@ def strip_line(raw: str) -> str:
             continue
         if ch == "(":
             in_comment = True
+            out.append(COMMENT)
         elif ch == ";":
             break
         elif ch not in " \t\r":
@@ -81,9 +86,7 @@ def lex_line(raw: str, line: int) -> Block:
 
 def _lex(raw: str, line: int) -> Block:
     text = strip_line(raw)
-    if text.startswith("%"):
-        if text != "%":
-            raise GcodeError("a '%' line must contain only '%' (and comments)")
+    if text == "%":
         return Block(line, (), (), True, raw)
     reader = Reader(text)
     if reader.peek() == "/":
@@ -99,6 +102,9 @@ def _lex(raw: str, line: int) -> Block:
     settings: list[tuple[Tree, Tree]] = []
     while reader.pos < len(text):
         ch = reader.peek()
+        if ch == COMMENT:
+            reader.pos += 1
+            continue
         if ch == "#":
             reader.pos += 1
             if reader.peek() == "<":
@@ -112,7 +118,7 @@ def _lex(raw: str, line: int) -> Block:
         if ch == "O":
             raise GcodeError("O-words (subroutines, loops, conditionals) are not supported")
         if ch == "%":
-            raise GcodeError("'%' is only allowed alone on the first and last program lines")
+            raise GcodeError("'%' is only allowed alone on a line, opening and closing a program")
         if ch not in WORD_LETTERS:
             what = "N (line numbers must open the line)" if ch == "N" else repr(ch)
             raise GcodeError(

@@ -118,21 +118,36 @@ def arc_limits(
 
 
 def junction_cap(
-    kink_rad: float, curvature_jump_per_mm: float, deviation_mm: float, jerk_mm_per_s3: float
+    kink_rad: float,
+    curvature_jump_per_mm: float,
+    deviation_mm: float,
+    jerk_mm_per_s3: float,
+    chord_mm: float,
 ) -> float:
-    """Highest speed [mm/s] through a tangent junction so that Ruckig's smoothing of its velocity
-    and acceleration jumps deviates by about ``deviation_mm`` at most.
+    """Highest speed [mm/s] through a tangent junction so that the jerk-limited smoothing of its
+    velocity and acceleration jumps stays within ``deviation_mm`` and fits in the adjacent chord.
 
     A velocity jump dv, smoothed with jerk J, takes 2 sqrt(dv/J) and deviates by about
     dv^1.5 / (2 sqrt J): dv <= (2 e sqrt J)^(2/3). An acceleration jump da takes da/J and deviates
     by about da^3 / (6 J^2): da <= (6 e J^2)^(1/3). With dv = v * kink and da = v^2 * |k1 - k2|.
+    The smoothing must also be done well within the chord's time T = chord / v, since the piece
+    ends on the arc's exact state: da / J <= T / 8 and 2 sqrt(dv / J) <= T / 8. The planner checks
+    the pieces next to every moving junction and lowers the cap further where needed.
     """
     cap = math.inf
+    j, e = jerk_mm_per_s3, deviation_mm
     if kink_rad > 0:
-        cap = (2.0 * deviation_mm * math.sqrt(jerk_mm_per_s3)) ** (2.0 / 3.0) / kink_rad
+        cap = min(
+            (2.0 * e * math.sqrt(j)) ** (2.0 / 3.0) / kink_rad,
+            (j * chord_mm**2 / (4.0 * 64.0 * kink_rad)) ** (1.0 / 3.0),
+        )
     if curvature_jump_per_mm > 0:
-        da = (6.0 * deviation_mm * jerk_mm_per_s3**2) ** (1.0 / 3.0)
-        cap = min(cap, math.sqrt(da / curvature_jump_per_mm))
+        da = (6.0 * e * j**2) ** (1.0 / 3.0)
+        cap = min(
+            cap,
+            math.sqrt(da / curvature_jump_per_mm),
+            (j * chord_mm / (8.0 * curvature_jump_per_mm)) ** (1.0 / 3.0),
+        )
     return cap
 
 
@@ -156,12 +171,12 @@ def max_reachable_speed(v_from: float, length_mm: float, acc: float, jerk: float
         return v_from
     v0, L = v_from, length_mm
     x = (L * L * jerk) ** (1.0 / 3.0)  # the root for v0 = 0: an upper bound
-    for _ in range(60):
+    for _ in range(200):
         f = x * (x + 2.0 * v0) ** 2 - L * L * jerk
         df = (x + 2.0 * v0) * (3.0 * x + 2.0 * v0)
         step = f / df
         x -= step
-        if abs(step) <= 1e-13 * (x + v0 + 1e-300):
+        if abs(step) <= 1e-15 * x or x <= 0.0:
             break
     if x * jerk < acc * acc:
         return v0 + x

@@ -11,7 +11,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from controller.arcs import PLANE_AXES, arc_derivatives, arc_frame
+from controller.arcs import PLANE_AXES, arc_derivatives, arc_frame, arc_points
 from controller.config import MachineConfig
 from controller.lookahead import (
     COLLINEAR_ANGLE_RAD,
@@ -30,6 +30,11 @@ from controller.units import mm_per_min_to_mm_per_s
 JUNCTION_DEVIATION_SHARE = 0.1
 
 
+#: The closed-form arc pieces (controller.jerk3) overshoot the vertex speed by about
+#: 5e-4 * phi^4 (phi: chord sweep [rad]); the arc's speed cap keeps twice that below the feed.
+FEED_MARGIN_PER_PHI4 = 1e-3
+
+
 @dataclass(frozen=True)
 class MoveGeometry:
     """What the planner needs to know about one move."""
@@ -43,6 +48,7 @@ class MoveGeometry:
     curv_in: np.ndarray  # curvature vector at the start [1/mm]
     curv_out: np.ndarray  # curvature vector at the end [1/mm]
     limits: BlockLimits
+    feed_mm_per_s: float  # programmed path speed after override (inf for rapids) [mm/s]
 
     @property
     def is_arc(self) -> bool:
@@ -51,6 +57,26 @@ class MoveGeometry:
     @property
     def start(self) -> np.ndarray:
         return self.vertices[0]
+
+    def points(self, u: np.ndarray) -> np.ndarray:
+        """Points on the arc at sweep fractions ``u`` (u = 0 and 1: start and end exactly)."""
+        pts = arc_points(self.move, u)
+        pts[u == 0.0] = self.move.start
+        return pts
+
+    def deviation(self, q: np.ndarray, u_hint: float) -> float:
+        """Largest distance [mm] of points ``q`` (k, 3) near sweep fraction ``u_hint`` from the
+        arc: in-plane radius error and normal-axis error at the point's own polar angle (an
+        upper bound on the distance to the curve)."""
+        i1, i2, n, theta0, sigma, r0, r1, h0, h1 = arc_frame(self.move)
+        c = self.move.center
+        th = np.arctan2(q[:, i2] - c[i2], q[:, i1] - c[i1])
+        th_hint = theta0 + sigma * self.move.angle * u_hint
+        th = th - 2.0 * np.pi * np.round((th - th_hint) / (2.0 * np.pi))
+        u = sigma * (th - theta0) / self.move.angle
+        d_r = np.hypot(q[:, i1] - c[i1], q[:, i2] - c[i2]) - (r0 + (r1 - r0) * u)
+        d_n = q[:, n] - (h0 + (h1 - h0) * u)
+        return float(np.max(np.hypot(d_r, d_n)))
 
     def derivatives(self, u: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         return arc_derivatives(self.move, u)
@@ -82,7 +108,7 @@ def move_geometry(move: Move, machine: MachineConfig, feed_scale: float) -> Move
             else mm_per_min_to_mm_per_s(move.feed_mm_per_min) * feed_scale
         )
         limits = straight_limits(t, length, feed, vmax, amax, jmax)
-        return MoveGeometry(move, verts, None, length, t, t, zero, zero, limits)
+        return MoveGeometry(move, verts, None, length, t, t, zero, zero, limits, feed)
     seg = machine.segmentation
     verts = segment_arc(move, seg.method, seg.chord_tolerance_mm, seg.segment_length_mm)
     n = len(verts) - 1
@@ -105,12 +131,12 @@ def move_geometry(move: Move, machine: MachineConfig, feed_scale: float) -> Move
         min(sin_pitch, 1.0),
         curvature,
         dcurv,
-        feed,
+        feed * (1.0 - FEED_MARGIN_PER_PHI4 * (ang / n) ** 4 - 1e-9),
         vmax,
         amax,
         jmax,
     )
-    return MoveGeometry(move, verts, u, length, t_in, t_out, k_in, k_out, limits)
+    return MoveGeometry(move, verts, u, length, t_in, t_out, k_in, k_out, limits, feed)
 
 
 def junctions(geoms: list[MoveGeometry], machine: MachineConfig) -> tuple[np.ndarray, list]:
@@ -151,5 +177,62 @@ def junctions(geoms: list[MoveGeometry], machine: MachineConfig) -> tuple[np.nda
             straight = g1 if g0.is_arc else g0
             states[b] = (straight.tangent_in, zero)
         jump = float(np.linalg.norm(g0.curv_out - g1.curv_in))
-        caps[b] = junction_cap(kink, jump, dev, jerk)
+        chords = [np.linalg.norm(g0.vertices[-1] - g0.vertices[-2])] if g0.is_arc else []
+        chords += [np.linalg.norm(g1.vertices[1] - g1.vertices[0])] if g1.is_arc else []
+        caps[b] = junction_cap(kink, jump, dev, jerk, float(min(chords)))
     return caps, states
+
+
+#: Extra vertices at 1/2, 1/4, ... of the first (last) chord of an arc that starts (ends) at rest.
+STOP_REFINEMENT = 8
+
+
+def vertex_states(g: MoveGeometry, ph: np.ndarray, state_in, state_out):
+    """Exact arc states where the reference passes through the arc.
+
+    Vertices: the chord vertices, plus the points where the 1-D profile ``ph`` (rows: duration,
+    s, v, a_t, j_t) switches phase (within one phase the motion is smooth), plus, next to a stop,
+    points at 1/2, 1/4, ... of the end chord (there the speed grows like s^(2/3); a piece across
+    the whole chord would start along a straight line).
+
+    Returns:
+        u (k,), positions (k, 3) [mm], velocities (k, 3) [mm/s], accelerations (k, 3) [mm/s^2]
+        (first and last: ``state_in`` / ``state_out``), and the (k - 1,) times between them [s].
+    """
+    u_knots = ph[1:, 1] / g.length_mm
+    u = np.union1d(g.u, u_knots[(u_knots > 1e-9) & (u_knots < 1.0 - 1e-9)])
+    halves = 0.5 ** np.arange(1, STOP_REFINEMENT + 1)
+    if not np.any(state_in[0]):
+        u = np.union1d(u, u[1] * halves)
+    if not np.any(state_out[0]):
+        u = np.union1d(u, 1.0 - (1.0 - u[-2]) * halves)
+    u = u[np.concatenate(([True], np.diff(u) > 1e-12))]
+    u[-1] = 1.0
+    t_k, v_k, a_k = invert_profile(ph, u[1:-1] * g.length_mm)
+    d1, d2 = g.derivatives(u[1:-1])
+    speed_u = np.linalg.norm(d1, axis=1)
+    ud = (v_k / speed_u)[:, None]
+    udd = (a_k / speed_u)[:, None]
+    vel = np.vstack([state_in[0], d1 * ud, state_out[0]])
+    acc = np.vstack([state_in[1], d2 * ud * ud + d1 * udd, state_out[1]])
+    times = np.concatenate(([0.0], t_k, [float(ph[:, 0].sum())]))
+    verts = g.vertices if u.size == g.u.size else g.points(u)
+    return u, verts, vel, acc, np.maximum(np.diff(times), 0.0)
+
+
+def invert_profile(ph: np.ndarray, s: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Times [s], speeds [mm/s], tangential accelerations [mm/s^2] where the 1-D profile ``ph``
+    passes the arc lengths ``s`` [mm] (ascending)."""
+    keep = ph[:, 0] > 0
+    dur, p, v, a, j = ph[keep].T
+    t0 = np.concatenate(([0.0], np.cumsum(dur)[:-1]))
+    k = np.clip(np.searchsorted(p, s, side="right") - 1, 0, p.size - 1)
+    lo, hi = np.zeros(s.size), dur[k].copy()
+    pk, vk, ak, jk = p[k], v[k], a[k], j[k]
+    for _ in range(60):  # bisection: s(t) is monotone (v >= 0)
+        mid = 0.5 * (lo + hi)
+        below = pk + mid * (vk + mid * (0.5 * ak + mid * jk / 6.0)) < s
+        lo = np.where(below, mid, lo)
+        hi = np.where(below, hi, mid)
+    tau = 0.5 * (lo + hi)
+    return t0[k] + tau, vk + tau * (ak + 0.5 * tau * jk), ak + tau * jk

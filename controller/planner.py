@@ -30,13 +30,21 @@ import ruckig
 from controller.config import MachineConfig
 from controller.cubic import CubicBuilder, PiecewiseCubic
 from controller.errors import ConfigError, PlanningError
+from controller.jerk3 import jerk3, jerk3_points, piece_limits_ok
 from controller.lookahead import plan_junction_speeds
 from controller.moves import Move
-from controller.path import MoveGeometry, junctions, move_geometry
+from controller.path import MoveGeometry, junctions, move_geometry, vertex_states
 from controller.trajectory import Trajectory
 from controller.travel import check_travel
 
 _OK = (ruckig.Result.Working, ruckig.Result.Finished)
+#: Largest distance of a piece next to a moving junction from the arc, in chord tolerances;
+#: beyond it the junction's speed is lowered and the program planned again.
+JUNCTION_DEVIATION_MAX = 0.2
+#: Re-planning rounds (each lowers the offending junction caps by JUNCTION_BACKOFF); the last
+#: round stops at the junctions still offending.
+MAX_ROUNDS = 8
+JUNCTION_BACKOFF = 0.6
 
 
 @dataclass(frozen=True)
@@ -51,6 +59,8 @@ class Plan:
         vertices: per move, read-only (k, 3) chord vertices [mm] (first = start, last = end).
         fallback_count: Ruckig pieces that needed the fallback (see the module docstring).
         stretched_count: arc pieces Ruckig made longer than the speed profile asked for.
+        ruckig_piece_count: arc pieces given to Ruckig because the closed-form piece would have
+            broken a limit (typically next to a junction with a curvature jump).
     """
 
     moves: tuple
@@ -60,6 +70,7 @@ class Plan:
     vertices: tuple
     fallback_count: int = 0
     stretched_count: int = 0
+    ruckig_piece_count: int = 0
     curve: PiecewiseCubic = field(default=None, repr=False)  # type: ignore[assignment]
     move_start_s: np.ndarray = field(default=None, repr=False)  # type: ignore[assignment]
     move_lines: np.ndarray = field(default=None, repr=False)  # type: ignore[assignment]
@@ -95,7 +106,7 @@ def _profile_phases(traj: ruckig.Trajectory, dof: int) -> tuple[list, list, list
 
 
 class _Planner:
-    def __init__(self, machine: MachineConfig) -> None:
+    def __init__(self, machine: MachineConfig, pieces: str) -> None:
         lim = machine.limits
         self.r1, self.in1, self.tr1 = (
             ruckig.Ruckig(1),
@@ -110,7 +121,15 @@ class _Planner:
         self.in3.max_velocity = list(lim.max_velocity_mm_per_s)
         self.in3.max_acceleration = list(lim.max_acceleration_mm_per_s2)
         self.in3.max_jerk = list(lim.max_jerk_mm_per_s3)
+        self.limits = (
+            lim.max_velocity_mm_per_s,
+            lim.max_acceleration_mm_per_s2,
+            lim.max_jerk_mm_per_s3,
+        )
+        self.pieces = pieces
+        self.dev_max = JUNCTION_DEVIATION_MAX * machine.segmentation.chord_tolerance_mm
         self.out = CubicBuilder()
+        self.ruckig_pieces = 0
         self.fallbacks = 0
         self.stretched = 0
 
@@ -144,66 +163,90 @@ class _Planner:
             )
         return float(ph[:, 0].sum())
 
-    def arc(self, g: MoveGeometry, ph: np.ndarray, state_in, state_out) -> float:
-        u = g.u
-        t_k, v_k, a_k = _invert(ph, u[1:-1] * g.length_mm)
-        d1, d2 = g.derivatives(u[1:-1])
-        speed_u = np.linalg.norm(d1, axis=1)
-        ud = (v_k / speed_u)[:, None]
-        udd = (a_k / speed_u)[:, None]
-        vel = np.vstack([state_in[0], d1 * ud, state_out[0]])
-        acc = np.vstack([state_in[1], d2 * ud * ud + d1 * udd, state_out[1]])
-        times = np.concatenate(([0.0], t_k, [float(ph[:, 0].sum())]))
-        mins = np.maximum(np.diff(times), 0.0)
-        verts = g.vertices
-        inp, tr, total = self.in3, self.tr3, 0.0
-        for k in range(len(u) - 1):
-            inp.current_position = verts[k].tolist()
-            inp.current_velocity = vel[k].tolist()
-            inp.current_acceleration = acc[k].tolist()
-            inp.target_position = verts[k + 1].tolist()
-            inp.target_velocity = vel[k + 1].tolist()
-            inp.target_acceleration = acc[k + 1].tolist()
-            inp.minimum_duration = float(mins[k])
+    def arc(self, g: MoveGeometry, ph: np.ndarray, state_in, state_out) -> tuple[float, bool, bool]:
+        """Pieces between the exact arc states at the vertices.
+
+        Returns:
+            (duration [s], bad_in, bad_out): bad_* when the piece next to a moving junction
+            leaves the arc by more than :data:`JUNCTION_DEVIATION_MAX` of the chord tolerance or
+            needed Ruckig to stretch it (the junction speed must then come down).
+        """
+        u, verts, vel, acc, mins = vertex_states(g, ph, state_in, state_out)
+        n = mins.size
+        check = {0: bool(np.any(state_in[0])), n - 1: bool(np.any(state_out[0]))}
+        if self.pieces == "ruckig":
+            ok = np.zeros(n, dtype=bool)
+        else:
+            ok = mins > 1e-9
+            safe = np.where(ok, mins, 1.0)
+            ps, vs, as_, js = jerk3(verts, vel, acc, safe)
+            ok &= piece_limits_ok(vs, as_, js, safe, acc[1:], *self.limits, g.feed_mm_per_s)
+        bad = {0: False, n - 1: False}
+        if ok.all():
+            dur = np.repeat(mins / 3.0, 3)
+            for i in range(3):
+                cols = (ps[:, :, i], vs[:, :, i], as_[:, :, i], js[:, :, i])
+                self.out.add(i, dur, *(c.ravel() for c in cols))
+            for k in (0, n - 1):
+                if check[k]:
+                    q = jerk3_points(ps[k], vs[k], as_[k], js[k], mins[k])
+                    bad[k] = g.deviation(q, u[k]) > self.dev_max
+            return float(mins.sum()), bad[0], bad[n - 1]
+        total = 0.0
+        for k in range(n):
+            if ok[k]:
+                h3 = [mins[k] / 3.0] * 3
+                for i in range(3):
+                    self.out.add(i, h3, ps[k, :, i], vs[k, :, i], as_[k, :, i], js[k, :, i])
+                total += mins[k]
+                if check.get(k):
+                    q = jerk3_points(ps[k], vs[k], as_[k], js[k], mins[k])
+                    bad[k] = g.deviation(q, u[k]) > self.dev_max
+                continue
+            if self.pieces != "ruckig":
+                self.ruckig_pieces += 1
+            d = self.ruckig_piece(
+                g, verts[k], vel[k], acc[k], verts[k + 1], vel[k + 1], acc[k + 1], mins[k]
+            )
+            total += d
+            if check.get(k):
+                q = np.array([self.tr3.at_time(t)[0] for t in np.linspace(0.0, d, 25)])
+                bad[k] = d > mins[k] * 1.001 + 1e-9 or g.deviation(q, u[k]) > self.dev_max
+        return total, bad[0], bad[n - 1]
+
+    def ruckig_piece(self, g, p0, v0, a0, p1, v1, a1, min_duration: float) -> float:
+        """One 3-DoF Ruckig state-to-state piece (time synchronised); returns its duration [s]."""
+        inp, tr = self.in3, self.tr3
+        inp.current_position, inp.current_velocity = p0.tolist(), v0.tolist()
+        inp.current_acceleration = a0.tolist()
+        inp.target_position, inp.target_velocity = p1.tolist(), v1.tolist()
+        inp.target_acceleration = a1.tolist()
+        inp.minimum_duration = float(min_duration)
+        res = self.r3.calculate(inp, tr)
+        if res not in _OK:
+            self.fallbacks += 1
+            inp.minimum_duration = None
             res = self.r3.calculate(inp, tr)
             if res not in _OK:
-                self.fallbacks += 1
-                inp.minimum_duration = None
-                res = self.r3.calculate(inp, tr)
-                if res not in _OK:
-                    raise PlanningError(
-                        f"Ruckig could not join two chord vertices ({res}) even without a "
-                        "minimum duration; lower the feed or check the machine limits",
-                        line=g.move.line,
-                    )
-            dur = tr.duration
-            if dur > mins[k] * (1 + 1e-6) + 1e-9:
-                self.stretched += 1
-            for i in range(3):
-                self.out.add(i, *_profile_phases(tr, i))
-            total += dur
-        return total
-
-
-def _invert(ph: np.ndarray, s: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Times, speeds, tangential accelerations where the 1-D profile passes arc lengths ``s``."""
-    keep = ph[:, 0] > 0
-    dur, p, v, a, j = ph[keep].T
-    t0 = np.concatenate(([0.0], np.cumsum(dur)[:-1]))
-    k = np.clip(np.searchsorted(p, s, side="right") - 1, 0, p.size - 1)
-    lo, hi = np.zeros(s.size), dur[k].copy()
-    pk, vk, ak, jk = p[k], v[k], a[k], j[k]
-    for _ in range(60):  # bisection: s(t) is monotone (v >= 0)
-        mid = 0.5 * (lo + hi)
-        below = pk + mid * (vk + mid * (0.5 * ak + mid * jk / 6.0)) < s
-        lo = np.where(below, mid, lo)
-        hi = np.where(below, hi, mid)
-    tau = 0.5 * (lo + hi)
-    return t0[k] + tau, vk + tau * (ak + 0.5 * tau * jk), ak + tau * jk
+                raise PlanningError(
+                    f"Ruckig could not join two chord vertices ({res}) even without a "
+                    "minimum duration; lower the feed or check the machine limits",
+                    line=g.move.line,
+                )
+        dur = tr.duration
+        if dur > min_duration * (1 + 1e-6) + 1e-9:
+            self.stretched += 1
+        for i in range(3):
+            self.out.add(i, *_profile_phases(tr, i))
+        return dur
 
 
 def plan(
-    moves: Sequence[Move], machine: MachineConfig, *, feed_override_pct: float = 100.0
+    moves: Sequence[Move],
+    machine: MachineConfig,
+    *,
+    feed_override_pct: float = 100.0,
+    arc_pieces: str = "jerk3",
 ) -> Plan:
     """Plan ``moves`` on ``machine`` (see the module docstring).
 
@@ -211,6 +254,8 @@ def plan(
         moves: the interpreter's moves; the machine is at rest at ``moves[0].start``.
         machine: limits, travel, segmentation.
         feed_override_pct: scales every programmed feed (not rapids) [%], > 0.
+        arc_pieces: "jerk3" (default: closed-form constant-jerk pieces, Ruckig where they would
+            break a limit) or "ruckig" (every arc piece by Ruckig; kept for comparison).
 
     Raises:
         ConfigError: a feed override that is not a finite number > 0.
@@ -219,24 +264,34 @@ def plan(
     """
     if not (np.isfinite(feed_override_pct) and feed_override_pct > 0):
         raise ConfigError(f"feed override must be a number > 0 %, got {feed_override_pct}")
+    if arc_pieces not in ("jerk3", "ruckig"):
+        raise ConfigError(f"arc_pieces must be 'jerk3' or 'ruckig', got {arc_pieces!r}")
     moves = tuple(moves)
     check_travel(moves, machine.travel)
     seg = machine.segmentation
     geoms = [move_geometry(m, machine, feed_override_pct / 100.0) for m in moves]
     active = [g for g in geoms if g.length_mm > 1e-9]
     caps, states = junctions(active, machine)
-    speeds = plan_junction_speeds([g.limits for g in active], caps)
-    pl = _Planner(machine)
-    clock, starts = 0.0, []
-    for b, g in enumerate(active):
-        starts.append(clock)
-        ph = pl.path_profile(g, speeds[b], speeds[b + 1])
-        if g.is_arc:
-            s_in = (states[b][0] * speeds[b], states[b][1] * speeds[b] ** 2)
-            s_out = (states[b + 1][0] * speeds[b + 1], states[b + 1][1] * speeds[b + 1] ** 2)
-            clock += pl.arc(g, ph, s_in, s_out)
-        else:
-            clock += pl.straight(g, ph)
+    for rnd in range(MAX_ROUNDS + 1):
+        speeds = plan_junction_speeds([g.limits for g in active], caps)
+        pl, bad = _Planner(machine, arc_pieces), set()
+        clock, starts = 0.0, []
+        for b, g in enumerate(active):
+            starts.append(clock)
+            ph = pl.path_profile(g, speeds[b], speeds[b + 1])
+            if g.is_arc:
+                s_in = (states[b][0] * speeds[b], states[b][1] * speeds[b] ** 2)
+                s_out = (states[b + 1][0] * speeds[b + 1], states[b + 1][1] * speeds[b + 1] ** 2)
+                dur, bad_in, bad_out = pl.arc(g, ph, s_in, s_out)
+                clock += dur
+                bad |= {b} if bad_in else set()
+                bad |= {b + 1} if bad_out else set()
+            else:
+                clock += pl.straight(g, ph)
+        if not bad:
+            break
+        for b in bad:  # lower the offending junctions; in the last round, stop there
+            caps[b] = 0.0 if rnd == MAX_ROUNDS - 1 else JUNCTION_BACKOFF * speeds[b]
     end = np.asarray(moves[-1].end if moves else (0.0, 0.0, 0.0), dtype=float)
     return Plan(
         moves=moves,
@@ -246,6 +301,7 @@ def plan(
         vertices=tuple(g.vertices for g in geoms),
         fallback_count=pl.fallbacks,
         stretched_count=pl.stretched,
+        ruckig_piece_count=pl.ruckig_pieces,
         curve=pl.out.build(),
         move_start_s=np.asarray(starts, dtype=float),
         move_lines=np.asarray([g.move.line for g in active], dtype=np.int64),

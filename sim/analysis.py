@@ -21,7 +21,7 @@ import numpy as np
 
 from controller.moves import Arc, Move
 from controller.units import UM_PER_MM
-from sim.geometry import nearest_on_move, nearest_on_polyline
+from sim.geometry import distance_to_polyline_near, nearest_on_move
 
 #: reference samples either side searched for the tracking part (50 ms at 1 kHz)
 TRACKING_WINDOW = 50
@@ -139,7 +139,7 @@ def analyse(
     dist, nearest = distance_to_program(moves, line, pos)
     err_um = dist * UM_PER_MM
     ref_um = distance_to_program(moves, line[feed], ref[feed])[0] * UM_PER_MM
-    track_um = nearest_on_polyline(ref, pos, TRACKING_WINDOW)[feed] * UM_PER_MM
+    track_um = distance_to_polyline_near(ref, pos, TRACKING_WINDOW)[feed] * UM_PER_MM
     blocks = []
     seen: set[int] = set()
     for mv in moves:

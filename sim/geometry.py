@@ -82,24 +82,31 @@ def nearest_on_move(move: Move, pts: np.ndarray) -> np.ndarray:
     return nearest_on_segment(move.start, move.end, pts)
 
 
-def nearest_on_polyline(path: np.ndarray, pts: np.ndarray, window: int) -> np.ndarray:
+def distance_to_polyline_near(path: np.ndarray, pts: np.ndarray, window: int) -> np.ndarray:
     """Distance [mm] from pts[k] to the polyline ``path`` near its k-th vertex.
 
     Both are (n, 3) sampled at the same instants (the reference and the trace); the segments
-    path[k + j] - path[k + j + 1] for j in -window..window-1 are searched, vectorised per j.
+    path[s] - path[s + 1] for s = k - window .. k + window - 1 (clipped to the path) are searched,
+    one vectorised pass per offset, on contiguous slices of edge-padded component arrays.
     """
     n = len(pts)
-    best = np.full(n, np.inf)
-    if n == 1:
+    if n < 2:
         return np.linalg.norm(pts - path, axis=1)
-    k = np.arange(n)
-    for j in range(-window, window):
-        i0 = np.clip(k + j, 0, n - 2)
-        a, b = path[i0], path[i0 + 1]
-        d = b - a
-        length2 = np.einsum("ij,ij->i", d, d)
-        u = np.einsum("ij,ij->i", pts - a, d) / np.where(length2 > 0, length2, 1.0)
-        u = np.clip(u, 0.0, 1.0)
-        dist = np.linalg.norm(a + u[:, None] * d - pts, axis=1)
-        np.minimum(best, dist, out=best)
-    return best
+    w = int(window)
+    seg_a, seg_d = path[:-1], np.diff(path, axis=0)  # segment s: seg_a[s] + u seg_d[s]
+    a = np.concatenate([np.repeat(seg_a[:1], w, 0), seg_a, np.repeat(seg_a[-1:], w + 1, 0)])
+    d = np.concatenate([np.repeat(seg_d[:1], w, 0), seg_d, np.repeat(seg_d[-1:], w + 1, 0)])
+    length2 = np.einsum("ij,ij->i", d, d)
+    inv = np.divide(1.0, length2, out=np.zeros_like(length2), where=length2 > 0)
+    ax, ay, az = (np.ascontiguousarray(a[:, i]) for i in range(3))
+    dx, dy, dz = (np.ascontiguousarray(d[:, i]) for i in range(3))
+    px, py, pz = (np.ascontiguousarray(pts[:, i]) for i in range(3))
+    best = np.full(n, np.inf)
+    for j in range(-w, w):
+        sl = slice(w + j, w + j + n)
+        sx, sy, sz, ex, ey, ez = ax[sl], ay[sl], az[sl], dx[sl], dy[sl], dz[sl]
+        u = ((px - sx) * ex + (py - sy) * ey + (pz - sz) * ez) * inv[sl]
+        np.clip(u, 0.0, 1.0, out=u)
+        dist2 = (sx + u * ex - px) ** 2 + (sy + u * ey - py) ** 2 + (sz + u * ez - pz) ** 2
+        np.minimum(best, dist2, out=best)
+    return np.sqrt(best)

@@ -100,9 +100,11 @@ def plot_path(result, path: Path) -> None:
 
     tr = result.trace
     polys = [(_geometry_polyline(mv), mv.kind) for mv in result.moves]
-    allpts = np.vstack([p for p, _ in polys]) if polys else tr.ref
+    cut = [p for p, kind in polys if kind != "rapid"] or [p for p, _ in polys] or [tr.ref]
+    allpts = np.vstack(cut)
     span = allpts.max(axis=0) - allpts.min(axis=0)
-    i, j = sorted(np.argsort(span)[-2:])
+    # the two axes of largest extent of the feed moves; XY unless Z clearly matters more
+    i, j = sorted(np.argsort(span - np.array([0.0, 0.0, 1e-9]), kind="stable")[-2:])
     extent = float(max(span[i], span[j], 1e-6))
     feed = tr.feed
     emax = float(tr.err_um[feed].max()) / 1000.0 if feed.any() else 0.0

@@ -79,9 +79,12 @@ def simulate(
     d.qvel[:] = 0.0
     mujoco.mj_kinematics(m, d)
 
-    site_m: list[list[float]] = []
-    forces: list[tuple[float, float, float]] = []
-    record_site, record_force = site_m.append, forces.append
+    # per chunk: flat lists of floats (cheapest to append and to turn into arrays), then arrays
+    site_flat: list[float] = []
+    force_flat: list[float] = []
+    record_site, record_force = site_flat.extend, force_flat.extend
+    site_chunks: list[np.ndarray] = []
+    force_chunks: list[np.ndarray] = []
     qpos, ctrl, site = d.qpos, d.ctrl, d.site_xpos[gantry.site_id]
     ix, iy, iz = gantry.qpos_adr
     ux, uy, uz = gantry.actuator_id
@@ -92,8 +95,9 @@ def simulate(
     hix, hiy, hiz = servo.hi
     nsub = gantry.substeps
     step, kinematics = mujoco.mj_step, mujoco.mj_kinematics
+    mm = MM_PER_M
     q = qpos.tolist()
-    px, py, pz = q[ix] * MM_PER_M, q[iy] * MM_PER_M, q[iz] * MM_PER_M
+    px, py, pz = q[ix] * mm, q[iy] * mm, q[iz] * mm
 
     bar = None
     if _want_progress(progress, traj.duration_s):
@@ -104,11 +108,10 @@ def simulate(
     try:
         for lo in range(0, n, CHUNK):
             hi = min(n, lo + CHUNK)
-            for k in range(lo, hi):
+            for bx, by, bz in b[lo:hi]:
                 record_site(site.tolist())
                 q = qpos.tolist()
-                x, y, z = q[ix] * MM_PER_M, q[iy] * MM_PER_M, q[iz] * MM_PER_M
-                bx, by, bz = b[k]
+                x, y, z = q[ix] * mm, q[iy] * mm, q[iz] * mm
                 # controller.servo.DiscretePD.force, unrolled: u = b - a x_k + c x_{k-1}, clamped
                 fx = bx - ax * x + cx * px
                 fx = hix if fx > hix else (lox if fx < lox else fx)
@@ -123,15 +126,19 @@ def simulate(
                 step(m, d, nsub)
                 kinematics(m, d)
                 px, py, pz = x, y, z
-            _check(d, gantry, machine, traj, np.array(site_m[lo:hi]), lo, hi)
+            site_chunks.append(np.array(site_flat).reshape(-1, 3))
+            force_chunks.append(np.array(force_flat).reshape(-1, 3))
+            site_flat.clear()
+            force_flat.clear()
+            _check(d, gantry, machine, traj, site_chunks[-1], lo, hi)
             if bar is not None:
                 bar.update(hi - lo)
     finally:
         if bar is not None:
             bar.close()
     wall = time.perf_counter() - start
-    pos = gantry.tool_to_work_mm(np.array(site_m).reshape(n, 3))
-    force = np.array(forces).reshape(n, 3)
+    pos = gantry.tool_to_work_mm(np.concatenate(site_chunks) if site_chunks else np.empty((0, 3)))
+    force = np.concatenate(force_chunks) if force_chunks else np.empty((0, 3))
     pos.setflags(write=False)
     force.setflags(write=False)
     return SimTrace(pos=pos, force=force, steps=n * nsub, wall_s=wall)
@@ -148,18 +155,6 @@ def _check(
 ) -> None:
     """Raise SimulationError if ticks lo..hi (tool site ``site_m`` [m]) diverged or lost the
     reference."""
-    import mujoco
-
-    for w in (mujoco.mjtWarning.mjWARN_BADQACC, mujoco.mjtWarning.mjWARN_BADQVEL,
-              mujoco.mjtWarning.mjWARN_BADQPOS):
-        if d.warning[w].number:
-            k = max(lo, min(hi - 1, round(d.time / machine.servo.period_s)))
-            raise SimulationError(
-                f"the simulation diverged at t = {traj.t[k]:.4f} s (MuJoCo: "
-                f"{mujoco.mjtWarning(w).name}); the servo loop is unstable: check [servo] gains, "
-                f"period and the model's masses and force limits",
-                line=int(traj.line[k]),
-            )
     seg = gantry.tool_to_work_mm(site_m)
     err = np.abs(seg - traj.pos[lo:hi])
     bad = ~np.isfinite(err).all(axis=1)
@@ -176,3 +171,17 @@ def _check(
             f"or too weak: check [servo] gains, feedforward and the model's force limits)",
             line=int(traj.line[k]),
         )
+    import mujoco
+
+    for w in (
+        mujoco.mjtWarning.mjWARN_BADQACC,
+        mujoco.mjtWarning.mjWARN_BADQVEL,
+        mujoco.mjtWarning.mjWARN_BADQPOS,
+    ):
+        if d.warning[w].number:  # MuJoCo reset the state; the time of the fault is lost
+            raise SimulationError(
+                f"the simulation diverged between t = {traj.t[lo]:.4f} and {traj.t[hi - 1]:.4f} s "
+                f"(MuJoCo: {mujoco.mjtWarning(w).name}); the servo loop is unstable: check "
+                "[servo] gains and period and the model's masses and force limits",
+                line=int(traj.line[lo]),
+            )

@@ -81,7 +81,8 @@ def _check_motion(i: int, got: dict, want: dict, unit_mm: float) -> list[str]:
 @pytest.mark.parametrize("program", PROGRAMS, ids=[p.stem for p in PROGRAMS])
 def test_matches_rs274(program: Path) -> None:
     want = _expected(program)
-    moves, error = _run(program.read_text(), program.name)
+    text = program.read_bytes().decode("utf-8")  # exact bytes (CRLF kept), as `gantry parse`
+    moves, error = _run(text, program.name)
     got = [m.to_json() for m in moves]
     unit_mm = want["print_unit_mm"]
     problems = []
