@@ -107,7 +107,7 @@ def plot_polar(result: BallbarResult, path: Path) -> None:
     devs = np.concatenate([result.ccw.deviation_um, result.cw.deviation_um])
     lo, hi = float(devs.min()), float(devs.max())
     span = max(hi - lo, 1.0)
-    fig = plt.figure(figsize=(7, 7.6))
+    fig = plt.figure(figsize=(7, 8))
     ax = fig.add_subplot(projection="polar")
     for res, colour in ((result.ccw, "tab:blue"), (result.cw, "tab:red")):
         order = np.argsort(res.theta_deg)
@@ -128,7 +128,7 @@ def plot_polar(result: BallbarResult, path: Path) -> None:
     ax.set_thetagrids([0, 90, 180, 270], [f"+{a}", f"+{b}", f"-{a}", f"-{b}"])
     ax.set_rlabel_position(67.5)
     ax.tick_params(axis="y", labelsize=7)
-    ax.legend(loc="lower center", bbox_to_anchor=(0.5, -0.14), ncol=3, fontsize=8)
+    fig.legend(loc="lower center", ncol=3, fontsize=8, frameon=False)
     e = s["ellipse"]
     fig.suptitle(
         f"Ballbar {s['plane']}  R {s['radius_mm']:g} mm  F {s['feed_mm_per_min']:g} mm/min\n"
@@ -137,7 +137,7 @@ def plot_polar(result: BallbarResult, path: Path) -> None:
         f"{e['axis_deg']:.0f} deg (CCW), flips with direction: {e['flips_with_direction']}",
         fontsize=9,
     )
-    fig.tight_layout(rect=(0, 0, 1, 0.93))
+    fig.tight_layout(rect=(0, 0.04, 1, 0.93))
     fig.savefig(path, dpi=110)
     plt.close(fig)
 

@@ -92,9 +92,9 @@ def plot_sweep(rows: list[dict], out_dir: Path) -> None:
     )
 
     def label(c) -> str:
-        a = "machine" if c[0] is None else f"{c[0]:g}"
-        j = "machine" if c[1] is None else f"{c[1]:g}"
-        return f"a {a} mm/s^2, j {j} mm/s^3"
+        a = "machine file" if c[0] is None else f"{c[0]:g} mm/s^2"
+        j = "machine file" if c[1] is None else f"{c[1]:g} mm/s^3"
+        return f"accel {a}, jerk {j}"
 
     fig, ax = plt.subplots(figsize=(7, 4.5))
     for c in combos:
