@@ -41,6 +41,9 @@ CORNER_ANGLE_RAD = math.radians(1.0)
 #: term given to the tangential acceleration's 3 v a_t / R term (see :func:`arc_limits`).
 CURVATURE_MARGINS = (0.99, 0.97, 0.94, 0.9, 0.85, 0.8, 0.7, 0.6, 0.5)
 JERK_SHARES = (0.2, 0.35, 0.5, 0.65, 0.8)
+#: The smoothing of a junction's jump must take at most 1/CHORD_FIT of the adjacent chord's time
+#: (a first guess; the planner then checks the pieces themselves).
+CHORD_FIT = 4.0
 #: Two straight moves are followed exactly: they keep speed only when collinear within this [rad].
 COLLINEAR_ANGLE_RAD = 1e-6
 
@@ -151,22 +154,23 @@ def junction_cap(
     dv^1.5 / (2 sqrt J): dv <= (2 e sqrt J)^(2/3). An acceleration jump da takes da/J and deviates
     by about da^3 / (6 J^2): da <= (6 e J^2)^(1/3). With dv = v * kink and da = v^2 * |k1 - k2|.
     The smoothing must also be done well within the chord's time T = chord / v, since the piece
-    ends on the arc's exact state: da / J <= T / 8 and 2 sqrt(dv / J) <= T / 8. The planner checks
-    the pieces next to every moving junction and lowers the cap further where needed.
+    ends on the arc's exact state: da / J <= T / CHORD_FIT and 2 sqrt(dv / J) <= T / CHORD_FIT.
+    The planner checks the pieces next to every moving junction and lowers the cap further where
+    needed.
     """
     cap = math.inf
     j, e = jerk_mm_per_s3, deviation_mm
     if kink_rad > 0:
         cap = min(
             (2.0 * e * math.sqrt(j)) ** (2.0 / 3.0) / kink_rad,
-            (j * chord_mm**2 / (4.0 * 64.0 * kink_rad)) ** (1.0 / 3.0),
+            (j * chord_mm**2 / (4.0 * CHORD_FIT**2 * kink_rad)) ** (1.0 / 3.0),
         )
     if curvature_jump_per_mm > 0:
         da = (6.0 * e * j**2) ** (1.0 / 3.0)
         cap = min(
             cap,
             math.sqrt(da / curvature_jump_per_mm),
-            (j * chord_mm / (8.0 * curvature_jump_per_mm)) ** (1.0 / 3.0),
+            (j * chord_mm / (CHORD_FIT * curvature_jump_per_mm)) ** (1.0 / 3.0),
         )
     return cap
 

@@ -177,6 +177,8 @@ def junctions(geoms: list[MoveGeometry], machine: MachineConfig) -> tuple[np.nda
             straight = g1 if g0.is_arc else g0
             states[b] = (straight.tangent_in, zero)
         jump = float(np.linalg.norm(g0.curv_out - g1.curv_in))
+        if g0.is_arc and g1.is_arc:  # the junction state takes the mean: each side smooths half
+            jump *= 0.5
         chords = [np.linalg.norm(g0.vertices[-1] - g0.vertices[-2])] if g0.is_arc else []
         chords += [np.linalg.norm(g1.vertices[1] - g1.vertices[0])] if g1.is_arc else []
         caps[b] = junction_cap(kink, jump, dev, jerk, float(min(chords)))

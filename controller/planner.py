@@ -219,8 +219,14 @@ class _Planner:
             )
             total += d
             if check.get(k):
-                q = np.array([self.tr3.at_time(t)[0] for t in np.linspace(0.0, d, 25)])
-                bad[k] = d > mins[k] * 1.001 + 1e-9 or g.deviation(q, u[k]) > self.dev_max
+                pv = [self.tr3.at_time(t) for t in np.linspace(0.0, d, 25)]
+                q = np.array([x[0] for x in pv])
+                speed = np.linalg.norm(np.array([x[1] for x in pv]), axis=1).max()
+                bad[k] = (
+                    d > mins[k] * 1.001 + 1e-9
+                    or g.deviation(q, u[k]) > self.dev_max
+                    or speed > g.feed_mm_per_s
+                )
         return total, bad[0], bad[n - 1]
 
     def ruckig_piece(self, g, p0, v0, a0, p1, v1, a1, min_duration: float) -> float:
