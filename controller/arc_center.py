@@ -9,8 +9,8 @@ in any one length unit. Geometry first:
   picks the centre that makes the arc at most a half circle, a negative R the other one; seen
   along the chord, a cw (G2) short arc has its centre on the right, a ccw (G3) one on the left.
 * Swept angle: the polar angle from start to end about the centre, measured in the direction of
-  travel, in (0, 2*pi]; an angle within ``fuzz`` of zero is a full circle (LinuxCNC's
-  CIRCLE_FUZZ); each extra turn adds 2*pi.
+  travel, in (0, 2*pi]; an angle within ``fuzz`` of zero (end == start up to rounding) is a
+  full circle; each extra turn adds 2*pi.
 """
 
 from __future__ import annotations

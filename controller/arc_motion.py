@@ -40,6 +40,8 @@ def _turns(v: dict[str, float], d: Dialect) -> int:
     whole = round(p)
     if abs(p - whole) > P_INTEGER_TOL:
         raise GcodeError(f"P value {p:g} is not an integer; P is a whole number of turns")
+    if d.max_p is not None and whole > d.max_p:
+        raise GcodeError(f"P value {p:g} too large; the {d.name} dialect allows P0 to P{d.max_p}")
     if d.p_adds_circles:
         if whole < 0:
             raise GcodeError(f"P value {p:g}: P counts extra full circles and must be >= 0")

@@ -67,7 +67,11 @@ class Dialect:
             arc may fall short of reaching its end point [mm / inch].
         r_short_is_semicircle: an R too small to reach the end always gives the semicircle.
         require_program_end: the text must end with M2/M30 or a closing ``%`` (rs274).
-        zero_angle_fuzz: a swept angle below this [rad] is a full circle (LinuxCNC's CIRCLE_FUZZ).
+        r_needs_arc_code_first: R is an arc radius only after G2/G3 on the same line
+            (Laserdyne: otherwise R means "Repeat", which is refused).
+        max_p: the largest P word allowed, or None (Marlin: 100, ``WITHIN(circles_to_do, 0, 100)``).
+        zero_angle_fuzz: a swept angle below this [rad] is a full circle (end == start up to
+            rounding; a 1e-6 rad arc of R10000 is an arc, as rs274 outputs it).
     """
 
     name: str
@@ -84,7 +88,9 @@ class Dialect:
     min_radius_in: float
     r_short_is_semicircle: bool
     require_program_end: bool
-    zero_angle_fuzz: float = 1e-6
+    max_p: int | None = None
+    r_needs_arc_code_first: bool = False
+    zero_angle_fuzz: float = 1e-12
 
 
 _TOL_MM = 2 * 0.01 * math.sqrt(2.0)  # 0.028284 mm, rs274 CENTER_ARC_RADIUS_TOLERANCE_MM
@@ -139,6 +145,7 @@ MARLIN = Dialect(
     min_radius_in=1e-6 / 25.4,
     r_short_is_semicircle=True,
     require_program_end=False,
+    max_p=100,
 )
 
 LASERDYNE_ON_ARC_TOL_MM = 0.005
@@ -166,6 +173,7 @@ LASERDYNE = Dialect(
     min_radius_in=0.00005,
     r_short_is_semicircle=False,
     require_program_end=False,
+    r_needs_arc_code_first=True,
 )
 
 DIALECTS: dict[str, Dialect] = {d.name: d for d in (LINUXCNC, G2CORE, MARLIN, LASERDYNE)}

@@ -96,11 +96,18 @@ class Interpreter:
             s, motion = replace(s, motion=None), None
         elif motion is not None:
             s = replace(s, motion=motion)
+        elif s.motion in (20, 30) and any(c in w.values for c in "IJKR"):
+            motion = s.motion  # rs274: a centre word alone continues a modal G2/G3
         elif has_axes:
             if s.motion is None:
                 raise GcodeError("axis words with no motion mode; put G0, G1, G2 or G3 first")
             motion = s.motion
         check_words(w, motion, d)
+        if d.r_needs_arc_code_first and w.r_before_arc_code:
+            raise GcodeError(
+                f"on {d.name} controls R means an arc radius only after G2 or G3 on the same "
+                "line (otherwise it is 'Repeat', not supported); write G2 ... R or G3 ... R"
+            )
         # Step 6: the move, validated against the new state.
         moves: list[Move] = []
         if motion is not None:

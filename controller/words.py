@@ -21,13 +21,17 @@ _OTHER_AXES = "ABCUVW"
 
 @dataclass(frozen=True)
 class Words:
-    """One block's evaluated words: G and M codes by modal group, other letters by letter."""
+    """One block's evaluated words: G and M codes by modal group, other letters by letter.
+
+    ``r_before_arc_code``: an R word came before any G2/G3 on the line (or the line has none).
+    """
 
     line: int
     g: dict[str, int]
     m: dict[str, int]
     values: dict[str, float]
     settings: tuple[tuple[int, float], ...]
+    r_before_arc_code: bool = False
 
 
 def read_words(block: Block, params: dict[int, float]) -> Words:
@@ -35,6 +39,7 @@ def read_words(block: Block, params: dict[int, float]) -> Words:
     g: dict[str, int] = {}
     m: dict[str, int] = {}
     values: dict[str, float] = {}
+    r_before_arc_code = False
     for letter, tree in block.words:
         value = evaluate(tree, params)
         if not math.isfinite(value):
@@ -68,6 +73,8 @@ def read_words(block: Block, params: dict[int, float]) -> Words:
         elif letter in values:
             raise GcodeError(f"multiple {letter} words on one line; give each letter once")
         else:
+            if letter == "R" and g.get("motion") not in (20, 30):
+                r_before_arc_code = True  # no G2/G3 earlier on the line (Laserdyne: "Repeat")
             values[letter] = value
     settings = []
     for index_tree, value_tree in block.settings:
@@ -78,7 +85,7 @@ def read_words(block: Block, params: dict[int, float]) -> Words:
         if not math.isfinite(value):
             raise GcodeError(f"#{index} value is not a finite number")
         settings.append((index, value))
-    return Words(block.line, g, m, values, tuple(settings))
+    return Words(block.line, g, m, values, tuple(settings), r_before_arc_code)
 
 
 def check_words(w: Words, motion: int | None, dialect: Dialect) -> None:

@@ -85,6 +85,7 @@ def test_marlin_rules() -> None:
     assert arc.angle == pytest.approx(2 * math.pi)
     (extra,) = run("G2 X2 I1 P1", "marlin")  # P adds complete circles
     assert extra.angle == pytest.approx(3 * math.pi) and extra.turns == 2
+    assert "P0 to P100" in error_of("G2 X2 I1 P101", "marlin").message
     (short,) = run("G2 X10 R2", "marlin")  # R too short: Marlin takes the half circle
     assert short.center == pytest.approx((5.0, 0.0, 0.0))
     assert "E word" in error_of("G0 X1 E3\nM2", "linuxcnc").message
@@ -106,6 +107,11 @@ def test_laserdyne_rules() -> None:
     # End point must lie on the arc: 0.005 mm tolerance (documented choice).
     assert run("F10\nG2 X4.004 I2 J0", "laserdyne")
     assert error_of("F10\nG2 X4.006 I2 J0", "laserdyne").line == 2
+    # Seed 004: G2/G3 must be on the line of the R word and before it (else R is "Repeat").
+    (r_arc,) = run("F10\nG2 X4 R2", "laserdyne")
+    assert r_arc.center == pytest.approx((2.0, 0.0, 0.0))
+    assert "Repeat" in error_of("F10\nG2 X4 R2\nX8 R2", "laserdyne").message
+    assert "Repeat" in error_of("F10\nR2 G2 X4", "laserdyne").message
     err = error_of("G20\nG1 X1", "laserdyne")
     assert err.line == 1 and "plane rotation" in err.message
 

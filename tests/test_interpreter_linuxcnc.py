@@ -108,6 +108,19 @@ def test_g80_beside_another_motion_code_is_ignored_like_rs274() -> None:
     assert moves[3].end == (6.0, 0.0, 0.0)
 
 
+def test_centre_word_alone_continues_a_modal_arc_like_rs274() -> None:
+    # rs274: "G2 X10 I5" then "J1" alone is a full circle about (10, 1); "P2" alone is an error.
+    moves = run("F10\nG2 X10 I5\nJ1")
+    assert moves[1].center == (10.0, 1.0, 0.0) and moves[1].angle == pytest.approx(2 * math.pi)
+    assert error_of("F10\nG2 X10 I5\nP2").line == 3
+    assert error_of("F10\nG1 X10\nI1").line == 3
+
+
+def test_tiny_arc_of_huge_radius_is_not_a_full_circle() -> None:
+    (arc,) = run("F500\nG2 X0.01 R10000")
+    assert arc.angle == pytest.approx(1e-6, rel=1e-6)
+
+
 def test_g91_incremental_and_g90_1_absolute_centres() -> None:
     # rs274: ARC_FEED(3, 1, 2, 1, -2, -1) for the arc on line 3.
     moves = run("G91 F1\nG0 X1 Y1\nG2 X2 Z-1 I1 P2")
