@@ -40,11 +40,15 @@ def jerk3(
     Returns:
         (ps, vs, as_, js), each (n, 3 phases, 3 axes): start state and jerk of each phase.
     """
+    return jerk3_pairs(p[:-1], v[:-1], a[:-1], p[1:], v[1:], a[1:], dur)
+
+
+def jerk3_pairs(p0, v0, a0, p1, v1, a1, dur):
+    """Like :func:`jerk3` for independent pieces: states (n, 3) at their starts and ends."""
     h = (dur / 3.0)[:, None]
-    p0, v0, a0 = p[:-1], v[:-1], a[:-1]
-    r0 = (a[1:] - a0) / h
-    r1 = (v[1:] - v0 - 3.0 * h * a0) / h**2
-    r2 = (p[1:] - p0 - 3.0 * h * v0 - 4.5 * h * h * a0) / h**3
+    r0 = (a1 - a0) / h
+    r1 = (v1 - v0 - 3.0 * h * a0) / h**2
+    r2 = (p1 - p0 - 3.0 * h * v0 - 4.5 * h * h * a0) / h**3
     js = np.einsum("kr,rnd->nkd", _M_INV, np.stack([r0, r1, r2]))
     n = dur.size
     ps, vs, as_ = (np.empty((n, 3, 3)) for _ in range(3))
@@ -67,13 +71,14 @@ def piece_limits_ok(
     vmax,
     amax,
     jmax,
-    speed_cap: float,
+    speed_cap,
 ) -> np.ndarray:
     """(n,) True where a piece keeps every axis' limits and the path-speed cap.
 
     Jerk: per phase. Acceleration: linear per phase, so at the phase ends. Velocity per axis:
-    quadratic per phase, so at its ends and its stationary point. Path speed: at 9 points per
-    phase (including the ends).
+    quadratic per phase, so at its ends and its stationary point. Path speed: at 5 points per
+    phase (including the ends; the arc's speed cap keeps a margin below the feed for what lies
+    between, see path.py). ``speed_cap`` [mm/s]: a number or one per piece.
     """
     vmax, amax, jmax = (np.asarray(x, dtype=float) for x in (vmax, amax, jmax))
     ok = np.all(np.abs(js) <= jmax, axis=(1, 2))
@@ -85,10 +90,11 @@ def piece_limits_ok(
     v_stat = vs + tau * (as_ + 0.5 * tau * js)
     v_end = vs + h * (as_ + 0.5 * h * js)
     ok &= np.all(np.abs(v_stat) <= vmax, axis=(1, 2)) & np.all(np.abs(v_end) <= vmax, axis=(1, 2))
-    for f in np.linspace(0.0, 1.0, 9):
+    for f in np.linspace(0.0, 1.0, 5):
         tf = f * h
         vel = vs + tf * (as_ + 0.5 * tf * js)
-        ok &= np.all(np.einsum("nkd,nkd->nk", vel, vel) <= speed_cap * speed_cap, axis=1)
+        cap2 = (np.asarray(speed_cap, dtype=float) ** 2).reshape(-1, 1)
+        ok &= np.all(np.einsum("nkd,nkd->nk", vel, vel) <= cap2, axis=1)
     return ok
 
 

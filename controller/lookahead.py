@@ -9,8 +9,9 @@ Ideal motion along a curve p(s) with unit tangent T and curvature vector k = p''
     velocity  v T
     accel     a_t T + v^2 k
     jerk      j_t T + 3 v a_t k + v^3 p'''
-so per axis |a_i| <= sqrt(a_t^2 + (v^2/R)^2) (T is orthogonal to k) and
-|j_i| <= |j_t| + 3 v |a_t| / R + v^3 |p'''|.
+so per axis |a_i| <= sqrt(a_t^2 + (v^2/R)^2) (T is orthogonal to k) and, since p''' has no
+component along k (circle: -T/R^2; a helix adds the binormal),
+|j_i| <= sqrt((|j_t| + v^3 |p'''|)^2 + (3 v a_t / R)^2).
 
 Junctions (between consecutive feed moves):
 * a corner (tangent direction turns by more than :data:`CORNER_ANGLE_RAD`, or by more than
@@ -36,6 +37,13 @@ import numpy as np
 
 #: Tangent-direction change above which a junction involving an arc is a corner [rad] (1 degree).
 CORNER_ANGLE_RAD = math.radians(1.0)
+#: Fractions of the curvature speed caps tried, and shares of the jerk left by the centripetal
+#: term given to the tangential acceleration's 3 v a_t / R term (see :func:`arc_limits`).
+CURVATURE_MARGINS = (0.99, 0.97, 0.94, 0.9, 0.85, 0.8, 0.7, 0.6, 0.5)
+JERK_SHARES = (0.2, 0.35, 0.5, 0.65, 0.8)
+#: The smoothing of a junction's jump must take at most 1/CHORD_FIT of the adjacent chord's time
+#: (a first guess; the planner then checks the pieces themselves).
+CHORD_FIT = 4.0
 #: Two straight moves are followed exactly: they keep speed only when collinear within this [rad].
 COLLINEAR_ANGLE_RAD = 1e-6
 
@@ -79,7 +87,6 @@ def arc_limits(
     vmax,
     amax,
     jmax,
-    curvature_margin: float = 0.98,
 ) -> BlockLimits:
     """Limits along an arc/helix (conservative, see the module docstring).
 
@@ -91,8 +98,11 @@ def arc_limits(
         dcurv_per_mm2: largest |p'''| along the arc [1/mm^2] (1/R^2 for a circle).
         feed_mm_per_s: programmed feed (after override) [mm/s].
         vmax, amax, jmax: per-axis limits [mm/s], [mm/s^2], [mm/s^3].
-        curvature_margin: fraction of the curvature caps v^2/R <= a and v^3/R^2 <= j used, leaving
-            a little tangential acceleration and jerk to leave and reach the cruise speed.
+
+    The speed cap uses a fraction (:data:`CURVATURE_MARGINS`) of the curvature caps v^2/R <= a
+    and v^3/R^2 <= j, and what the centripetal terms leave of the acceleration and jerk is split
+    between a_t and j_t (:data:`JERK_SHARES`): the pair is chosen that minimises L/cap plus the
+    time to reach the cap from rest (cruise fast on long arcs, keep ramps short on short ones).
     """
     i1, i2, n = plane_axes
     cos_pitch = math.sqrt(max(0.0, 1.0 - sin_pitch * sin_pitch))
@@ -102,18 +112,31 @@ def arc_limits(
     if sin_pitch > 0:
         cap = min(cap, vmax[n] / sin_pitch)
     k, dk = curvature_per_mm, dcurv_per_mm2
-    if k > 0:
-        cap = min(cap, math.sqrt(curvature_margin * a_pl / k))
-    if dk > 0:
-        cap = min(cap, (curvature_margin * j_pl / dk) ** (1.0 / 3.0))
-    a_t = math.sqrt(max(a_pl * a_pl - (cap * cap * k) ** 2, 0.0))
-    j_left = j_pl - cap**3 * dk
-    if k > 0:  # keep at least half of the jerk left for the tangential profile
-        a_t = min(a_t, 0.5 * j_left / (3.0 * cap * k))
-    j_t = j_left - 3.0 * cap * a_t * k
-    if sin_pitch > 0:
-        a_t = min(a_t, amax[n] / sin_pitch)
-        j_t = min(j_t, jmax[n] / sin_pitch)
+    best = None
+    for margin in CURVATURE_MARGINS:
+        cap_m = cap
+        if k > 0:
+            cap_m = min(cap_m, math.sqrt(margin * a_pl / k))
+        if dk > 0:
+            cap_m = min(cap_m, (margin * j_pl / dk) ** (1.0 / 3.0))
+        a_max = math.sqrt(max(a_pl * a_pl - (cap_m * cap_m * k) ** 2, 0.0))
+        j_left = j_pl - cap_m**3 * dk
+        for share in JERK_SHARES:
+            a_t = min(a_max, share * j_left / (3.0 * cap_m * k)) if k > 0 else a_max
+            j_t = math.sqrt(max(j_pl * j_pl - (3.0 * cap_m * a_t * k) ** 2, 0.0)) - cap_m**3 * dk
+            if sin_pitch > 0:
+                a_t = min(a_t, amax[n] / sin_pitch)
+                j_t = min(j_t, jmax[n] / sin_pitch)
+            if a_t <= 0 or j_t <= 0:
+                continue
+            cost = length_mm / cap_m + s_curve_time(cap_m, a_t, j_t)
+            if best is None or cost < best[0]:
+                best = (cost, cap_m, a_t, j_t)
+            if k == 0:
+                break
+        if k == 0 and dk == 0:
+            break
+    _, cap, a_t, j_t = best
     return BlockLimits(length_mm, cap, a_t, j_t)
 
 
@@ -131,22 +154,23 @@ def junction_cap(
     dv^1.5 / (2 sqrt J): dv <= (2 e sqrt J)^(2/3). An acceleration jump da takes da/J and deviates
     by about da^3 / (6 J^2): da <= (6 e J^2)^(1/3). With dv = v * kink and da = v^2 * |k1 - k2|.
     The smoothing must also be done well within the chord's time T = chord / v, since the piece
-    ends on the arc's exact state: da / J <= T / 8 and 2 sqrt(dv / J) <= T / 8. The planner checks
-    the pieces next to every moving junction and lowers the cap further where needed.
+    ends on the arc's exact state: da / J <= T / CHORD_FIT and 2 sqrt(dv / J) <= T / CHORD_FIT.
+    The planner checks the pieces next to every moving junction and lowers the cap further where
+    needed.
     """
     cap = math.inf
     j, e = jerk_mm_per_s3, deviation_mm
     if kink_rad > 0:
         cap = min(
             (2.0 * e * math.sqrt(j)) ** (2.0 / 3.0) / kink_rad,
-            (j * chord_mm**2 / (4.0 * 64.0 * kink_rad)) ** (1.0 / 3.0),
+            (j * chord_mm**2 / (4.0 * CHORD_FIT**2 * kink_rad)) ** (1.0 / 3.0),
         )
     if curvature_jump_per_mm > 0:
         da = (6.0 * e * j**2) ** (1.0 / 3.0)
         cap = min(
             cap,
             math.sqrt(da / curvature_jump_per_mm),
-            (j * chord_mm / (8.0 * curvature_jump_per_mm)) ** (1.0 / 3.0),
+            (j * chord_mm / (CHORD_FIT * curvature_jump_per_mm)) ** (1.0 / 3.0),
         )
     return cap
 

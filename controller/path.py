@@ -177,6 +177,8 @@ def junctions(geoms: list[MoveGeometry], machine: MachineConfig) -> tuple[np.nda
             straight = g1 if g0.is_arc else g0
             states[b] = (straight.tangent_in, zero)
         jump = float(np.linalg.norm(g0.curv_out - g1.curv_in))
+        if g0.is_arc and g1.is_arc:  # the junction state takes the mean: each side smooths half
+            jump *= 0.5
         chords = [np.linalg.norm(g0.vertices[-1] - g0.vertices[-2])] if g0.is_arc else []
         chords += [np.linalg.norm(g1.vertices[1] - g1.vertices[0])] if g1.is_arc else []
         caps[b] = junction_cap(kink, jump, dev, jerk, float(min(chords)))
@@ -199,8 +201,23 @@ def vertex_states(g: MoveGeometry, ph: np.ndarray, state_in, state_out):
         u (k,), positions (k, 3) [mm], velocities (k, 3) [mm/s], accelerations (k, 3) [mm/s^2]
         (first and last: ``state_in`` / ``state_out``), and the (k - 1,) times between them [s].
     """
-    u_knots = ph[1:, 1] / g.length_mm
-    u = np.union1d(g.u, u_knots[(u_knots > 1e-9) & (u_knots < 1.0 - 1e-9)])
+    # Each knot of the 1-D profile becomes a vertex: the nearest chord vertex moves onto it when
+    # within a quarter chord (a piece much shorter than a chord would let rounding dominate its
+    # jerk), or it is added. The reference only passes through exact arc states, so moving a
+    # vertex along the arc does not move the reference off the arc.
+    m = g.u.size - 1
+    u = g.u.copy()
+    snapped = np.zeros(m + 1, dtype=bool)
+    extra = []
+    for uk in ph[1:, 1] / g.length_mm:
+        if not 0.0 < uk < 1.0:
+            continue
+        i = round(uk * m)
+        if 0 < i < m and abs(uk * m - i) < 0.25 and not snapped[i]:
+            u[i], snapped[i] = uk, True
+        elif abs(uk * m - i) > 1e-3:
+            extra.append(uk)
+    u = np.union1d(u, extra)
     halves = 0.5 ** np.arange(1, STOP_REFINEMENT + 1)
     if not np.any(state_in[0]):
         u = np.union1d(u, u[1] * halves)
@@ -216,7 +233,7 @@ def vertex_states(g: MoveGeometry, ph: np.ndarray, state_in, state_out):
     vel = np.vstack([state_in[0], d1 * ud, state_out[0]])
     acc = np.vstack([state_in[1], d2 * ud * ud + d1 * udd, state_out[1]])
     times = np.concatenate(([0.0], t_k, [float(ph[:, 0].sum())]))
-    verts = g.vertices if u.size == g.u.size else g.points(u)
+    verts = g.vertices if np.array_equal(u, g.u) else g.points(u)
     return u, verts, vel, acc, np.maximum(np.diff(times), 0.0)
 
 
@@ -229,10 +246,16 @@ def invert_profile(ph: np.ndarray, s: np.ndarray) -> tuple[np.ndarray, np.ndarra
     k = np.clip(np.searchsorted(p, s, side="right") - 1, 0, p.size - 1)
     lo, hi = np.zeros(s.size), dur[k].copy()
     pk, vk, ak, jk = p[k], v[k], a[k], j[k]
-    for _ in range(60):  # bisection: s(t) is monotone (v >= 0)
+    for _ in range(24):  # bisection: s(t) is monotone (v >= 0) ...
         mid = 0.5 * (lo + hi)
         below = pk + mid * (vk + mid * (0.5 * ak + mid * jk / 6.0)) < s
         lo = np.where(below, mid, lo)
         hi = np.where(below, hi, mid)
     tau = 0.5 * (lo + hi)
+    for _ in range(3):  # ... then Newton, kept inside the bracket
+        f = pk + tau * (vk + tau * (0.5 * ak + tau * jk / 6.0)) - s
+        df = vk + tau * (ak + 0.5 * tau * jk)
+        with np.errstate(divide="ignore", invalid="ignore"):
+            step = np.where(df > 0, f / df, 0.0)
+        tau = np.clip(tau - step, lo, hi)
     return t0[k] + tau, vk + tau * (ak + 0.5 * tau * jk), ak + tau * jk

@@ -31,6 +31,7 @@ from controller.config import MachineConfig
 from controller.cubic import CubicBuilder, PiecewiseCubic
 from controller.errors import ConfigError, PlanningError
 from controller.jerk3 import jerk3, jerk3_points, piece_limits_ok
+from controller.junction_check import feasible_junction_caps
 from controller.lookahead import plan_junction_speeds
 from controller.moves import Move
 from controller.path import MoveGeometry, junctions, move_geometry, vertex_states
@@ -94,6 +95,14 @@ class Plan:
         return Trajectory(t=t, pos=pos, vel=vel, acc=acc, line=line, period_s=period_s)
 
 
+def _calculate(otg: ruckig.Ruckig, inp: ruckig.InputParameter, traj: ruckig.Trajectory):
+    """``otg.calculate``; Ruckig raises RuckigError on some numerically hard inputs: a failure."""
+    try:
+        return otg.calculate(inp, traj)
+    except ruckig.RuckigError as exc:
+        return f"RuckigError: {str(exc).strip().splitlines()[0]}"
+
+
 def _profile_phases(traj: ruckig.Trajectory, dof: int) -> tuple[list, list, list, list, list]:
     """Constant-jerk phases (dur, p, v, a, j) of one DoF of a Ruckig trajectory."""
     prof = traj.profiles[0][dof]
@@ -145,7 +154,7 @@ class _Planner:
         inp.max_velocity = [lim.cap_mm_per_s]
         inp.max_acceleration = [lim.acc_mm_per_s2]
         inp.max_jerk = [lim.jerk_mm_per_s3]
-        res = self.r1.calculate(inp, self.tr1)
+        res = _calculate(self.r1, inp, self.tr1)
         if res not in _OK:
             raise PlanningError(
                 f"Ruckig could not plan the speed profile ({res})", line=g.move.line
@@ -210,8 +219,14 @@ class _Planner:
             )
             total += d
             if check.get(k):
-                q = np.array([self.tr3.at_time(t)[0] for t in np.linspace(0.0, d, 25)])
-                bad[k] = d > mins[k] * 1.001 + 1e-9 or g.deviation(q, u[k]) > self.dev_max
+                pv = [self.tr3.at_time(t) for t in np.linspace(0.0, d, 25)]
+                q = np.array([x[0] for x in pv])
+                speed = np.linalg.norm(np.array([x[1] for x in pv]), axis=1).max()
+                bad[k] = (
+                    d > mins[k] * 1.001 + 1e-9
+                    or g.deviation(q, u[k]) > self.dev_max
+                    or speed > g.feed_mm_per_s
+                )
         return total, bad[0], bad[n - 1]
 
     def ruckig_piece(self, g, p0, v0, a0, p1, v1, a1, min_duration: float) -> float:
@@ -222,11 +237,11 @@ class _Planner:
         inp.target_position, inp.target_velocity = p1.tolist(), v1.tolist()
         inp.target_acceleration = a1.tolist()
         inp.minimum_duration = float(min_duration)
-        res = self.r3.calculate(inp, tr)
+        res = _calculate(self.r3, inp, tr)
         if res not in _OK:
             self.fallbacks += 1
             inp.minimum_duration = None
-            res = self.r3.calculate(inp, tr)
+            res = _calculate(self.r3, inp, tr)
             if res not in _OK:
                 raise PlanningError(
                     f"Ruckig could not join two chord vertices ({res}) even without a "
@@ -272,6 +287,7 @@ def plan(
     geoms = [move_geometry(m, machine, feed_override_pct / 100.0) for m in moves]
     active = [g for g in geoms if g.length_mm > 1e-9]
     caps, states = junctions(active, machine)
+    caps = feasible_junction_caps(active, caps, states, machine)
     for rnd in range(MAX_ROUNDS + 1):
         speeds = plan_junction_speeds([g.limits for g in active], caps)
         pl, bad = _Planner(machine, arc_pieces), set()
