@@ -16,11 +16,14 @@ from typing import Any
 import numpy as np
 
 from controller.config import MachineConfig
+from controller.errors import ConfigError
 from sim.ballbar_program import CircleTestProgram, circle_test_program
 from sim.circular import CircleAnalysis, analyse_circle, ballbar_json, plane_coords
 from sim.outdir import atomic_output_dir
 
 DIRECTIONS = ("ccw", "cw")
+#: fewest traced samples (servo periods) on the measured circle for meaningful figures
+MIN_SAMPLES = 360
 
 
 @dataclass(frozen=True)
@@ -73,7 +76,8 @@ def run_ballbar(
         progress: show the simulation's progress bar.
 
     Raises:
-        ConfigError: invalid plane/radius/feed; PlanningError: the circle leaves the travel;
+        ConfigError: invalid plane/radius/feed, or a circle so short in time that it has fewer
+            than MIN_SAMPLES servo samples; PlanningError: the circle leaves the travel;
         SimulationError: the simulation failed.
     """
     from sim.api import run_program
@@ -81,10 +85,16 @@ def run_ballbar(
     program = circle_test_program(plane, radius_mm, feed_mm_per_min, DIRECTIONS, centre_mm)
     run = run_program(program.text, file="ballbar.ngc", machine=machine, progress=progress)
     centre_ab = plane_coords(np.array([program.centre_mm]), plane)[0]
-    results = {
-        d: analyse_circle(
-            plane_coords(circle_samples(run, program, d), plane), centre_ab, radius_mm, d
+    samples = {d: circle_samples(run, program, d) for d in DIRECTIONS}
+    fewest = min(len(v) for v in samples.values())
+    if fewest < MIN_SAMPLES:
+        raise ConfigError(
+            f"the {radius_mm:g} mm circle takes only {fewest} servo periods at this feed; a "
+            f"ballbar needs at least {MIN_SAMPLES}: use a larger radius or a lower feed",
+            file="--radius",
         )
+    results = {
+        d: analyse_circle(plane_coords(samples[d], plane), centre_ab, radius_mm, d)
         for d in DIRECTIONS
     }
     summary = ballbar_json(plane, radius_mm, feed_mm_per_min, results["cw"], results["ccw"])

@@ -65,6 +65,7 @@ def test_ballbar_prints_the_contract_object_and_writes_its_files(tmp_path, capsy
         (["--radius", "-5"], "--radius: error:"),
         (["--feed", "0"], "--feed: error:"),
         (["--radius", "400"], "error:"),  # leaves the travel
+        (["--radius", "0.05", "--feed", "20000"], "--radius: error:"),  # too few samples
     ],
 )
 def test_ballbar_rejects_bad_input_with_status_2(capsys, args, where):
