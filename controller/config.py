@@ -92,6 +92,7 @@ SCHEMA: dict[str, dict[str, Callable[[Any], Any]]] = {
         "ff_acceleration": _NONNEG3,
         "ff_friction": _NONNEG3,
         "ff_gravity": _non_negative,
+        "max_following_error_mm": _positive,
     },
     "sim": {
         "model": _string,
@@ -136,7 +137,8 @@ class Servo:
 
     ff_velocity / ff_acceleration / ff_friction are fractions (0 off, 1 full model) of the plant's
     viscous damping, moving mass and Coulomb friction per axis; ff_gravity the fraction of gravity
-    on Z that is compensated.
+    on Z that is compensated. max_following_error_mm is the drive's following-error fault
+    limit (LinuxCNC's FERROR): a simulation whose tool tip strays further from the reference fails.
     """
 
     period_s: float
@@ -146,6 +148,7 @@ class Servo:
     ff_acceleration: Vec3
     ff_friction: Vec3
     ff_gravity: float
+    max_following_error_mm: float
 
 
 @dataclass(frozen=True)
@@ -252,6 +255,13 @@ def load_machine_config(defaults: Path, override: Path | None = None) -> Machine
         raise ConfigError(
             "[sim] physics_timestep_s must not exceed [servo] period_s "
             f"({sim['physics_timestep_s']} > {merged['servo']['period_s']})",
+            file=source,
+        )
+    ratio = merged["servo"]["period_s"] / sim["physics_timestep_s"]
+    if abs(ratio - round(ratio)) > 1e-9 * ratio:
+        raise ConfigError(
+            "[servo] period_s must be an integer multiple of [sim] physics_timestep_s "
+            f"({merged['servo']['period_s']} / {sim['physics_timestep_s']} = {ratio:g})",
             file=source,
         )
     return MachineConfig(

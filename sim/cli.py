@@ -18,6 +18,11 @@ from controller.errors import GantryError
 #: ``run(args) -> int``.
 COMMANDS: dict[str, str] = {
     "parse": "sim.commands.parse",
+    "plan": "sim.commands.plan",
+    "run": "sim.commands.run",
+    "ballbar": "sim.commands.ballbar",
+    "tune": "sim.commands.tune",
+    "sweep": "sim.commands.sweep",
 }
 
 

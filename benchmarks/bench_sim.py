@@ -1,0 +1,123 @@
+"""Simulation benchmark: speed against raw MuJoCo, accuracy on the bundled machine, fidelity.
+
+    /work/venv/bin/python benchmarks/bench_sim.py        (or: python benchmarks/bench_sim.py)
+
+Prints, measured in this one run:
+1. speed: the servo loop's simulated seconds per wall second over raw ``mj_step(m, d, 100)``
+   stepping of the same model for the same number of steps (target >= 0.5, aim 0.85);
+2. accuracy: max / RMS contour error of an R 10 mm XY circle block at F3000 and F10000 on the
+   bundled machine, with its default feedforward and PD only (FF1/FF2 off; gravity
+   compensation stays on, it is a static load) -- target <= 6 um max at F3000 with feedforward;
+3. fidelity: without friction and damping (a model variant written to a temp folder), the
+   steady radius change of a PD-only circle against R (|G(e^{jwT})| - 1) of the discrete loop
+   (ZOH mass, one-sample hold, the servo's own PD law) -- target within 5 %.
+"""
+
+from __future__ import annotations
+
+import re
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+import numpy as np
+
+sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
+
+from controller.config import MachineConfig, load_machine_config
+from controller.interpreter import interpret
+from controller.planner import plan
+from controller.servo import DiscretePD
+from models import DEFAULT_MACHINE, GANTRY_XML
+from sim.api import run_program
+from sim.machine import load_gantry
+from sim.runner import simulate
+
+REPEATS = 5
+
+
+def circle(radius: float, feed: float, turns: int = 1) -> str:
+    p = f" P{turns}" if turns > 1 else ""
+    return f"G21 G17 G90 G94\nG1 X{radius:g} F{feed:g}\nG3 I-{radius:g} J0{p}\nG1 X0\nM2\n"
+
+
+def speed(machine: MachineConfig) -> None:
+    import mujoco
+
+    text = "".join(circle(10, 3000, 8).splitlines(keepends=True)[:-1]) + "G1 X100 Y50\nM2\n"
+    moves = tuple(interpret(text, "linuxcnc", "bench"))
+    traj = plan(moves, machine).sample(machine.servo.period_s)
+    gantry = load_gantry(machine)
+    steps = traj.t.size * gantry.substeps
+    loop, raw = [], []
+    for _ in range(REPEATS):
+        loop.append(simulate(gantry, machine, traj).wall_s)
+        d = mujoco.MjData(gantry.model)
+        d.ctrl[gantry.actuator_id[2]] = -gantry.plant[2].gravity_load_N
+        t0 = time.perf_counter()
+        for _ in range(steps // 100):
+            mujoco.mj_step(gantry.model, d, 100)
+        raw.append((time.perf_counter() - t0) * steps / (steps // 100 * 100))
+    sim_s = traj.duration_s
+    print(f"1. speed ({sim_s:.1f} s simulated, {steps} physics steps, best of {REPEATS})")
+    print(f"   servo loop      : {min(loop) * 1e6 / traj.t.size:6.2f} us/tick  "
+          f"{sim_s / min(loop):6.1f}x real time")
+    print(f"   raw mj_step(100): {min(raw) * 1e6 / traj.t.size:6.2f} us/tick  "
+          f"{sim_s / min(raw):6.1f}x real time")
+    print(f"   ratio loop/raw  : {min(raw) / min(loop):.2f}   (target >= 0.5, aim 0.85)")
+
+
+def accuracy(machine: MachineConfig) -> None:
+    pd_only = machine.with_changes("servo", ff_velocity=[0.0] * 3, ff_acceleration=[0.0] * 3)
+    print("2. accuracy: R 10 mm XY circle block, contour error [um]")
+    print("   feed      feedforward (default)    PD only")
+    for feed in (3000, 10000):
+        row = []
+        for m in (machine, pd_only):
+            rep = run_program(circle(10, feed), machine=m).report
+            blk = next(b for b in rep["blocks"] if b["line"] == 3)
+            row.append(f"max {blk['max_error_um']:6.2f} rms {blk['rms_error_um']:6.2f}")
+        print(f"   F{feed:<6}  {row[0]}   {row[1]}")
+    print("   target: <= 6 um max at F3000 with the default feedforward")
+
+
+def fidelity(tmp: Path) -> None:
+    text = re.sub(r'(damping|frictionloss)="[^"]*"', r'\1="0"', GANTRY_XML.read_text())
+    (tmp / "lossless.xml").write_text(text)
+    (tmp / "m.toml").write_text(
+        "[limits]\nmax_acceleration_mm_per_s2 = [20000.0, 20000.0, 20000.0]\n"
+        "max_jerk_mm_per_s3 = [2e6, 2e6, 2e6]\n"
+        "[servo]\nff_velocity = [0.0, 0.0, 0.0]\nff_acceleration = [0.0, 0.0, 0.0]\n"
+        '[sim]\nmodel = "lossless.xml"\n'
+    )
+    machine = load_machine_config(DEFAULT_MACHINE, tmp / "m.toml")
+    servo = DiscretePD(machine.servo, load_gantry(machine).plant)
+    print("3. fidelity: PD-only circle, no friction/damping: radius change [um]")
+    print("   R [mm]  F      w [rad/s]  measured  |G|-1 predicted  ratio")
+    for radius, feed in ((10, 6000), (10, 12000), (5, 9000)):
+        tr = run_program(circle(radius, feed, 2), machine=machine).trace
+        v = np.linalg.norm(np.gradient(tr.ref, tr.t, axis=0), axis=1)
+        on = tr.line == 3
+        steady = on & (v > 0.999 * v[on].max())
+        steady &= tr.t > tr.t[steady][0] + 0.05
+        r_ref = np.hypot(tr.ref[steady, 0], tr.ref[steady, 1]).mean()
+        r_pos = np.hypot(tr.pos[steady, 0], tr.pos[steady, 1]).mean()
+        w = float(v[steady].mean()) / radius
+        pred = (abs(servo.closed_loop_gain(w, 0)) - 1) * r_ref * 1000
+        meas = (r_pos - r_ref) * 1000
+        print(f"   {radius:<6}  {feed:<6} {w:8.2f}  {meas:8.3f}  {pred:15.3f}  {meas / pred:.4f}")
+    print("   target: ratio within 0.95..1.05")
+
+
+def main() -> int:
+    machine = load_machine_config(DEFAULT_MACHINE)
+    speed(machine)
+    accuracy(machine)
+    with tempfile.TemporaryDirectory() as tmp:
+        fidelity(Path(tmp))
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,261 @@
+"""Per-move path geometry for the planner: vertices, end tangents and curvatures, 1-D limits,
+and the junctions between consecutive moves (speed caps and the direction of the state there).
+
+Curvature vectors k = d2p/ds2 [1/mm] (|k| = 1/R, pointing to the centre); tangents are unit.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from controller.arcs import PLANE_AXES, arc_derivatives, arc_frame, arc_points
+from controller.config import MachineConfig
+from controller.lookahead import (
+    COLLINEAR_ANGLE_RAD,
+    CORNER_ANGLE_RAD,
+    BlockLimits,
+    arc_limits,
+    junction_cap,
+    straight_limits,
+)
+from controller.moves import Arc, Move, Rapid
+from controller.segment import segment_arc
+from controller.units import mm_per_min_to_mm_per_s
+
+#: Share of the chord tolerance that the smoothing of a junction's velocity/acceleration jump may
+#: use (see :func:`controller.lookahead.junction_cap`).
+JUNCTION_DEVIATION_SHARE = 0.1
+
+
+#: The closed-form arc pieces (controller.jerk3) overshoot the vertex speed by about
+#: 5e-4 * phi^4 (phi: chord sweep [rad]); the arc's speed cap keeps twice that below the feed.
+FEED_MARGIN_PER_PHI4 = 1e-3
+
+
+@dataclass(frozen=True)
+class MoveGeometry:
+    """What the planner needs to know about one move."""
+
+    move: Move
+    vertices: np.ndarray  # (k, 3) [mm], read-only
+    u: np.ndarray | None  # arcs: sweep fractions of the vertices
+    length_mm: float
+    tangent_in: np.ndarray  # unit tangent at the start
+    tangent_out: np.ndarray  # unit tangent at the end
+    curv_in: np.ndarray  # curvature vector at the start [1/mm]
+    curv_out: np.ndarray  # curvature vector at the end [1/mm]
+    limits: BlockLimits
+    feed_mm_per_s: float  # programmed path speed after override (inf for rapids) [mm/s]
+
+    @property
+    def is_arc(self) -> bool:
+        return isinstance(self.move, Arc)
+
+    @property
+    def start(self) -> np.ndarray:
+        return self.vertices[0]
+
+    def points(self, u: np.ndarray) -> np.ndarray:
+        """Points on the arc at sweep fractions ``u`` (u = 0 and 1: start and end exactly)."""
+        pts = arc_points(self.move, u)
+        pts[u == 0.0] = self.move.start
+        return pts
+
+    def deviation(self, q: np.ndarray, u_hint: float) -> float:
+        """Largest distance [mm] of points ``q`` (k, 3) near sweep fraction ``u_hint`` from the
+        arc: in-plane radius error and normal-axis error at the point's own polar angle (an
+        upper bound on the distance to the curve)."""
+        i1, i2, n, theta0, sigma, r0, r1, h0, h1 = arc_frame(self.move)
+        c = self.move.center
+        th = np.arctan2(q[:, i2] - c[i2], q[:, i1] - c[i1])
+        th_hint = theta0 + sigma * self.move.angle * u_hint
+        th = th - 2.0 * np.pi * np.round((th - th_hint) / (2.0 * np.pi))
+        u = sigma * (th - theta0) / self.move.angle
+        d_r = np.hypot(q[:, i1] - c[i1], q[:, i2] - c[i2]) - (r0 + (r1 - r0) * u)
+        d_n = q[:, n] - (h0 + (h1 - h0) * u)
+        return float(np.max(np.hypot(d_r, d_n)))
+
+    def derivatives(self, u: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        return arc_derivatives(self.move, u)
+
+
+def _frenet(d1: np.ndarray, d2: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    speed = float(np.linalg.norm(d1))
+    t = d1 / speed
+    return t, (d2 - np.dot(d2, t) * t) / speed**2
+
+
+def move_geometry(move: Move, machine: MachineConfig, feed_scale: float) -> MoveGeometry:
+    """Vertices, end tangents/curvatures and 1-D limits of ``move`` (feed times ``feed_scale``)."""
+    lim = machine.limits
+    vmax, amax, jmax = (
+        lim.max_velocity_mm_per_s,
+        lim.max_acceleration_mm_per_s2,
+        lim.max_jerk_mm_per_s3,
+    )
+    zero = np.zeros(3)
+    if not isinstance(move, Arc):
+        verts = np.array([move.start, move.end], dtype=float)
+        verts.setflags(write=False)
+        length = float(np.linalg.norm(verts[1] - verts[0]))
+        t = (verts[1] - verts[0]) / length if length > 0 else np.array([1.0, 0.0, 0.0])
+        feed = (
+            math.inf
+            if isinstance(move, Rapid)
+            else mm_per_min_to_mm_per_s(move.feed_mm_per_min) * feed_scale
+        )
+        limits = straight_limits(t, length, feed, vmax, amax, jmax)
+        return MoveGeometry(move, verts, None, length, t, t, zero, zero, limits, feed)
+    seg = machine.segmentation
+    verts = segment_arc(move, seg.method, seg.chord_tolerance_mm, seg.segment_length_mm)
+    n = len(verts) - 1
+    u = np.arange(n + 1) / n
+    d1, d2 = arc_derivatives(move, np.array([0.0, 1.0]))
+    t_in, k_in = _frenet(d1[0], d2[0])
+    t_out, k_out = _frenet(d1[1], d2[1])
+    _, _, _, _, _, r0, r1, h0, h1 = arc_frame(move)
+    r_max = max(r0, r1)
+    speed_u = float(min(np.linalg.norm(d1[0]), np.linalg.norm(d1[1])))  # |dp/du| [mm]
+    length = float(0.5 * (np.linalg.norm(d1[0]) + np.linalg.norm(d1[1])))
+    ang = move.angle
+    curvature = r_max * ang * ang / speed_u**2
+    dcurv = r_max * ang**3 / speed_u**3
+    sin_pitch = abs(h1 - h0) / speed_u
+    feed = mm_per_min_to_mm_per_s(move.feed_mm_per_min) * feed_scale
+    limits = arc_limits(
+        PLANE_AXES[move.plane],
+        length,
+        min(sin_pitch, 1.0),
+        curvature,
+        dcurv,
+        feed * (1.0 - FEED_MARGIN_PER_PHI4 * (ang / n) ** 4 - 1e-9),
+        vmax,
+        amax,
+        jmax,
+    )
+    return MoveGeometry(move, verts, u, length, t_in, t_out, k_in, k_out, limits, feed)
+
+
+def junctions(geoms: list[MoveGeometry], machine: MachineConfig) -> tuple[np.ndarray, list]:
+    """Speed caps and state directions at the junctions of consecutive moves.
+
+    Returns:
+        caps: (len(geoms) + 1,) [mm/s]; 0 at the program's start and end, at rapids and corners.
+        states: per junction (direction, curvature): the reference there has velocity
+            v * direction and acceleration v^2 * curvature (the tangential part is 0 at
+            junctions). Next to a straight move, its own direction and no curvature (straight
+            moves are followed exactly); between two arcs, the mean of both sides.
+    """
+    n = len(geoms)
+    caps = np.zeros(n + 1)
+    zero = np.zeros(3)
+    states: list = [(g.tangent_in, zero) for g in geoms] + [
+        (geoms[-1].tangent_out if n else zero, zero)
+    ]
+    jerk = float(min(machine.limits.max_jerk_mm_per_s3))
+    dev = JUNCTION_DEVIATION_SHARE * machine.segmentation.chord_tolerance_mm
+    for b in range(1, n):
+        g0, g1 = geoms[b - 1], geoms[b]
+        if isinstance(g0.move, Rapid) or isinstance(g1.move, Rapid):
+            continue
+        cos_k = float(np.clip(np.dot(g0.tangent_out, g1.tangent_in), -1.0, 1.0))
+        kink = math.acos(cos_k)
+        if not (g0.is_arc or g1.is_arc):
+            if kink <= COLLINEAR_ANGLE_RAD:
+                caps[b] = math.inf
+                states[b] = (g1.tangent_in, zero)
+            continue
+        if kink > CORNER_ANGLE_RAD:
+            continue
+        if g0.is_arc and g1.is_arc:
+            d = g0.tangent_out + g1.tangent_in
+            states[b] = (d / np.linalg.norm(d), 0.5 * (g0.curv_out + g1.curv_in))
+        else:
+            straight = g1 if g0.is_arc else g0
+            states[b] = (straight.tangent_in, zero)
+        jump = float(np.linalg.norm(g0.curv_out - g1.curv_in))
+        if g0.is_arc and g1.is_arc:  # the junction state takes the mean: each side smooths half
+            jump *= 0.5
+        chords = [np.linalg.norm(g0.vertices[-1] - g0.vertices[-2])] if g0.is_arc else []
+        chords += [np.linalg.norm(g1.vertices[1] - g1.vertices[0])] if g1.is_arc else []
+        caps[b] = junction_cap(kink, jump, dev, jerk, float(min(chords)))
+    return caps, states
+
+
+#: Extra vertices at 1/2, 1/4, ... of the first (last) chord of an arc that starts (ends) at rest.
+STOP_REFINEMENT = 8
+
+
+def vertex_states(g: MoveGeometry, ph: np.ndarray, state_in, state_out):
+    """Exact arc states where the reference passes through the arc.
+
+    Vertices: the chord vertices, plus the points where the 1-D profile ``ph`` (rows: duration,
+    s, v, a_t, j_t) switches phase (within one phase the motion is smooth), plus, next to a stop,
+    points at 1/2, 1/4, ... of the end chord (there the speed grows like s^(2/3); a piece across
+    the whole chord would start along a straight line).
+
+    Returns:
+        u (k,), positions (k, 3) [mm], velocities (k, 3) [mm/s], accelerations (k, 3) [mm/s^2]
+        (first and last: ``state_in`` / ``state_out``), and the (k - 1,) times between them [s].
+    """
+    # Each knot of the 1-D profile becomes a vertex: the nearest chord vertex moves onto it when
+    # within a quarter chord (a piece much shorter than a chord would let rounding dominate its
+    # jerk), or it is added. The reference only passes through exact arc states, so moving a
+    # vertex along the arc does not move the reference off the arc.
+    m = g.u.size - 1
+    u = g.u.copy()
+    snapped = np.zeros(m + 1, dtype=bool)
+    extra = []
+    for uk in ph[1:, 1] / g.length_mm:
+        if not 0.0 < uk < 1.0:
+            continue
+        i = round(uk * m)
+        if 0 < i < m and abs(uk * m - i) < 0.25 and not snapped[i]:
+            u[i], snapped[i] = uk, True
+        elif abs(uk * m - i) > 1e-3:
+            extra.append(uk)
+    u = np.union1d(u, extra)
+    halves = 0.5 ** np.arange(1, STOP_REFINEMENT + 1)
+    if not np.any(state_in[0]):
+        u = np.union1d(u, u[1] * halves)
+    if not np.any(state_out[0]):
+        u = np.union1d(u, 1.0 - (1.0 - u[-2]) * halves)
+    u = u[np.concatenate(([True], np.diff(u) > 1e-12))]
+    u[-1] = 1.0
+    t_k, v_k, a_k = invert_profile(ph, u[1:-1] * g.length_mm)
+    d1, d2 = g.derivatives(u[1:-1])
+    speed_u = np.linalg.norm(d1, axis=1)
+    ud = (v_k / speed_u)[:, None]
+    udd = (a_k / speed_u)[:, None]
+    vel = np.vstack([state_in[0], d1 * ud, state_out[0]])
+    acc = np.vstack([state_in[1], d2 * ud * ud + d1 * udd, state_out[1]])
+    times = np.concatenate(([0.0], t_k, [float(ph[:, 0].sum())]))
+    verts = g.vertices if np.array_equal(u, g.u) else g.points(u)
+    return u, verts, vel, acc, np.maximum(np.diff(times), 0.0)
+
+
+def invert_profile(ph: np.ndarray, s: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Times [s], speeds [mm/s], tangential accelerations [mm/s^2] where the 1-D profile ``ph``
+    passes the arc lengths ``s`` [mm] (ascending)."""
+    keep = ph[:, 0] > 0
+    dur, p, v, a, j = ph[keep].T
+    t0 = np.concatenate(([0.0], np.cumsum(dur)[:-1]))
+    k = np.clip(np.searchsorted(p, s, side="right") - 1, 0, p.size - 1)
+    lo, hi = np.zeros(s.size), dur[k].copy()
+    pk, vk, ak, jk = p[k], v[k], a[k], j[k]
+    for _ in range(24):  # bisection: s(t) is monotone (v >= 0) ...
+        mid = 0.5 * (lo + hi)
+        below = pk + mid * (vk + mid * (0.5 * ak + mid * jk / 6.0)) < s
+        lo = np.where(below, mid, lo)
+        hi = np.where(below, hi, mid)
+    tau = 0.5 * (lo + hi)
+    for _ in range(3):  # ... then Newton, kept inside the bracket
+        f = pk + tau * (vk + tau * (0.5 * ak + tau * jk / 6.0)) - s
+        df = vk + tau * (ak + 0.5 * tau * jk)
+        with np.errstate(divide="ignore", invalid="ignore"):
+            step = np.where(df > 0, f / df, 0.0)
+        tau = np.clip(tau - step, lo, hi)
+    return t0[k] + tau, vk + tau * (ak + 0.5 * tau * jk), ak + tau * jk

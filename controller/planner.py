@@ -1,0 +1,325 @@
+"""The planner: moves -> a jerk-limited reference, with look-ahead. The only ruckig import.
+
+1. Geometry (:mod:`controller.path`): chord vertices per move, tangents and curvatures at its
+   ends, its 1-D limits (:mod:`controller.lookahead`): the feed is a PATH-speed cap.
+2. Look-ahead: junction speeds (exact stops at corners, rapids and the end; tangent junctions
+   keep their speed), backward and forward passes.
+3. One 1-D Ruckig profile per move along its path s(t), from (0, v_in, 0) to (L, v_out, 0).
+4. Straight moves (G0/G1) are that profile projected on the line: exactly straight, and the feed
+   holds along the diagonal. Arcs: the 1-D profile is sampled at the chord vertices (time, speed,
+   tangential acceleration), each vertex gets the exact arc state (position on the arc, velocity
+   v T, acceleration a_t T + v^2 k), and a 3-DoF Ruckig ``calculate`` joins consecutive vertex
+   states with ``minimum_duration`` = the profile's time between them. Ruckig enforces every axis'
+   velocity, acceleration and jerk limit itself; no ``intermediate_positions`` (the free Ruckig
+   would send them to a cloud service).
+5. All pieces are stored as constant-jerk phases (:mod:`controller.cubic`) and sampled vectorised.
+
+If Ruckig rejects a piece, it is retried without ``minimum_duration`` (plain time-optimal,
+synchronised); those retries are counted in :attr:`Plan.fallback_count`. A piece that still
+fails raises :class:`PlanningError` naming the line: never a reference beyond the limits.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import dataclass, field
+
+import numpy as np
+import ruckig
+
+from controller.config import MachineConfig
+from controller.cubic import CubicBuilder, PiecewiseCubic
+from controller.errors import ConfigError, PlanningError
+from controller.jerk3 import jerk3, jerk3_points, piece_limits_ok
+from controller.junction_check import feasible_junction_caps
+from controller.lookahead import plan_junction_speeds
+from controller.moves import Move
+from controller.path import MoveGeometry, junctions, move_geometry, vertex_states
+from controller.trajectory import Trajectory
+from controller.travel import check_travel
+
+_OK = (ruckig.Result.Working, ruckig.Result.Finished)
+#: Largest distance of a piece next to a moving junction from the arc, in chord tolerances;
+#: beyond it the junction's speed is lowered and the program planned again.
+JUNCTION_DEVIATION_MAX = 0.2
+#: Re-planning rounds (each lowers the offending junction caps by JUNCTION_BACKOFF); the last
+#: round stops at the junctions still offending.
+MAX_ROUNDS = 8
+JUNCTION_BACKOFF = 0.6
+
+
+@dataclass(frozen=True)
+class Plan:
+    """A planned program.
+
+    Attributes:
+        moves: the moves planned, in order.
+        duration_s: time from rest at the first move's start to rest at the last move's end [s].
+        segment_count: chords and straight pieces planned.
+        chord_tolerance_mm: the machine's chord tolerance [mm].
+        vertices: per move, read-only (k, 3) chord vertices [mm] (first = start, last = end).
+        fallback_count: Ruckig pieces that needed the fallback (see the module docstring).
+        stretched_count: arc pieces Ruckig made longer than the speed profile asked for.
+        ruckig_piece_count: arc pieces given to Ruckig because the closed-form piece would have
+            broken a limit (typically next to a junction with a curvature jump).
+    """
+
+    moves: tuple
+    duration_s: float
+    segment_count: int
+    chord_tolerance_mm: float
+    vertices: tuple
+    fallback_count: int = 0
+    stretched_count: int = 0
+    ruckig_piece_count: int = 0
+    curve: PiecewiseCubic = field(default=None, repr=False)  # type: ignore[assignment]
+    move_start_s: np.ndarray = field(default=None, repr=False)  # type: ignore[assignment]
+    move_lines: np.ndarray = field(default=None, repr=False)  # type: ignore[assignment]
+    end_mm: np.ndarray = field(default=None, repr=False)  # type: ignore[assignment]
+
+    def sample(self, period_s: float) -> Trajectory:
+        """The reference every ``period_s`` [s] from 0 to the end; the last sample is at rest at
+        the program's end exactly (time ceil(duration / period) * period)."""
+        if not period_s > 0:
+            raise ConfigError(f"sampling period must be > 0 s, got {period_s}")
+        n = int(np.ceil(self.duration_s / period_s - 1e-9)) + 1
+        t = np.arange(n) * period_s
+        pos, vel, acc = self.curve.evaluate(t)
+        done = t >= self.duration_s
+        pos[done], vel[done], acc[done] = self.end_mm, 0.0, 0.0
+        if self.move_lines.size:
+            k = np.clip(np.searchsorted(self.move_start_s, t, side="right") - 1, 0, None)
+            line = self.move_lines[k]
+        else:
+            line = np.zeros(n, dtype=np.int64)
+        return Trajectory(t=t, pos=pos, vel=vel, acc=acc, line=line, period_s=period_s)
+
+
+def _calculate(otg: ruckig.Ruckig, inp: ruckig.InputParameter, traj: ruckig.Trajectory):
+    """``otg.calculate``; Ruckig raises RuckigError on some numerically hard inputs: a failure."""
+    try:
+        return otg.calculate(inp, traj)
+    except ruckig.RuckigError as exc:
+        return f"RuckigError: {str(exc).strip().splitlines()[0]}"
+
+
+def _profile_phases(traj: ruckig.Trajectory, dof: int) -> tuple[list, list, list, list, list]:
+    """Constant-jerk phases (dur, p, v, a, j) of one DoF of a Ruckig trajectory."""
+    prof = traj.profiles[0][dof]
+    dur, p, v, a, j = list(prof.t), prof.p[:7], prof.v[:7], prof.a[:7], list(prof.j)
+    brake = prof.brake
+    if brake.duration > 0:
+        dur = list(brake.t) + dur
+        p, v, a, j = brake.p[:2] + p, brake.v[:2] + v, brake.a[:2] + a, list(brake.j) + j
+    return dur, p, v, a, j
+
+
+class _Planner:
+    def __init__(self, machine: MachineConfig, pieces: str) -> None:
+        lim = machine.limits
+        self.r1, self.in1, self.tr1 = (
+            ruckig.Ruckig(1),
+            ruckig.InputParameter(1),
+            ruckig.Trajectory(1),
+        )
+        self.r3, self.in3, self.tr3 = (
+            ruckig.Ruckig(3),
+            ruckig.InputParameter(3),
+            ruckig.Trajectory(3),
+        )
+        self.in3.max_velocity = list(lim.max_velocity_mm_per_s)
+        self.in3.max_acceleration = list(lim.max_acceleration_mm_per_s2)
+        self.in3.max_jerk = list(lim.max_jerk_mm_per_s3)
+        self.limits = (
+            lim.max_velocity_mm_per_s,
+            lim.max_acceleration_mm_per_s2,
+            lim.max_jerk_mm_per_s3,
+        )
+        self.pieces = pieces
+        self.dev_max = JUNCTION_DEVIATION_MAX * machine.segmentation.chord_tolerance_mm
+        self.out = CubicBuilder()
+        self.ruckig_pieces = 0
+        self.fallbacks = 0
+        self.stretched = 0
+
+    def path_profile(self, g: MoveGeometry, v_in: float, v_out: float) -> np.ndarray:
+        """1-D profile along the move: array (k, 5) of phases (dur, s, v, a_t, j_t)."""
+        inp, lim = self.in1, g.limits
+        inp.current_position, inp.current_velocity, inp.current_acceleration = [0.0], [v_in], [0.0]
+        inp.target_position, inp.target_velocity, inp.target_acceleration = (
+            [g.length_mm],
+            [v_out],
+            [0.0],
+        )
+        inp.max_velocity = [lim.cap_mm_per_s]
+        inp.max_acceleration = [lim.acc_mm_per_s2]
+        inp.max_jerk = [lim.jerk_mm_per_s3]
+        res = _calculate(self.r1, inp, self.tr1)
+        if res not in _OK:
+            raise PlanningError(
+                f"Ruckig could not plan the speed profile ({res})", line=g.move.line
+            )
+        ph = np.array(_profile_phases(self.tr1, 0), dtype=float).T
+        if ph[:, 2].min() < -1e-9 * max(lim.cap_mm_per_s, 1.0):
+            raise PlanningError("the speed profile would reverse along the path", line=g.move.line)
+        return ph
+
+    def straight(self, g: MoveGeometry, ph: np.ndarray) -> float:
+        for i in range(3):
+            d = g.tangent_in[i]
+            self.out.add(
+                i, ph[:, 0], g.start[i] + d * ph[:, 1], d * ph[:, 2], d * ph[:, 3], d * ph[:, 4]
+            )
+        return float(ph[:, 0].sum())
+
+    def arc(self, g: MoveGeometry, ph: np.ndarray, state_in, state_out) -> tuple[float, bool, bool]:
+        """Pieces between the exact arc states at the vertices.
+
+        Returns:
+            (duration [s], bad_in, bad_out): bad_* when the piece next to a moving junction
+            leaves the arc by more than :data:`JUNCTION_DEVIATION_MAX` of the chord tolerance or
+            needed Ruckig to stretch it (the junction speed must then come down).
+        """
+        u, verts, vel, acc, mins = vertex_states(g, ph, state_in, state_out)
+        n = mins.size
+        check = {0: bool(np.any(state_in[0])), n - 1: bool(np.any(state_out[0]))}
+        if self.pieces == "ruckig":
+            ok = np.zeros(n, dtype=bool)
+        else:
+            ok = mins > 1e-9
+            safe = np.where(ok, mins, 1.0)
+            ps, vs, as_, js = jerk3(verts, vel, acc, safe)
+            ok &= piece_limits_ok(vs, as_, js, safe, acc[1:], *self.limits, g.feed_mm_per_s)
+        bad = {0: False, n - 1: False}
+        if ok.all():
+            dur = np.repeat(mins / 3.0, 3)
+            for i in range(3):
+                cols = (ps[:, :, i], vs[:, :, i], as_[:, :, i], js[:, :, i])
+                self.out.add(i, dur, *(c.ravel() for c in cols))
+            for k in (0, n - 1):
+                if check[k]:
+                    q = jerk3_points(ps[k], vs[k], as_[k], js[k], mins[k])
+                    bad[k] = g.deviation(q, u[k]) > self.dev_max
+            return float(mins.sum()), bad[0], bad[n - 1]
+        total = 0.0
+        for k in range(n):
+            if ok[k]:
+                h3 = [mins[k] / 3.0] * 3
+                for i in range(3):
+                    self.out.add(i, h3, ps[k, :, i], vs[k, :, i], as_[k, :, i], js[k, :, i])
+                total += mins[k]
+                if check.get(k):
+                    q = jerk3_points(ps[k], vs[k], as_[k], js[k], mins[k])
+                    bad[k] = g.deviation(q, u[k]) > self.dev_max
+                continue
+            if self.pieces != "ruckig":
+                self.ruckig_pieces += 1
+            d = self.ruckig_piece(
+                g, verts[k], vel[k], acc[k], verts[k + 1], vel[k + 1], acc[k + 1], mins[k]
+            )
+            total += d
+            if check.get(k):
+                pv = [self.tr3.at_time(t) for t in np.linspace(0.0, d, 25)]
+                q = np.array([x[0] for x in pv])
+                speed = np.linalg.norm(np.array([x[1] for x in pv]), axis=1).max()
+                bad[k] = (
+                    d > mins[k] * 1.001 + 1e-9
+                    or g.deviation(q, u[k]) > self.dev_max
+                    or speed > g.feed_mm_per_s
+                )
+        return total, bad[0], bad[n - 1]
+
+    def ruckig_piece(self, g, p0, v0, a0, p1, v1, a1, min_duration: float) -> float:
+        """One 3-DoF Ruckig state-to-state piece (time synchronised); returns its duration [s]."""
+        inp, tr = self.in3, self.tr3
+        inp.current_position, inp.current_velocity = p0.tolist(), v0.tolist()
+        inp.current_acceleration = a0.tolist()
+        inp.target_position, inp.target_velocity = p1.tolist(), v1.tolist()
+        inp.target_acceleration = a1.tolist()
+        inp.minimum_duration = float(min_duration)
+        res = _calculate(self.r3, inp, tr)
+        if res not in _OK:
+            self.fallbacks += 1
+            inp.minimum_duration = None
+            res = _calculate(self.r3, inp, tr)
+            if res not in _OK:
+                raise PlanningError(
+                    f"Ruckig could not join two chord vertices ({res}) even without a "
+                    "minimum duration; lower the feed or check the machine limits",
+                    line=g.move.line,
+                )
+        dur = tr.duration
+        if dur > min_duration * (1 + 1e-6) + 1e-9:
+            self.stretched += 1
+        for i in range(3):
+            self.out.add(i, *_profile_phases(tr, i))
+        return dur
+
+
+def plan(
+    moves: Sequence[Move],
+    machine: MachineConfig,
+    *,
+    feed_override_pct: float = 100.0,
+    arc_pieces: str = "jerk3",
+) -> Plan:
+    """Plan ``moves`` on ``machine`` (see the module docstring).
+
+    Args:
+        moves: the interpreter's moves; the machine is at rest at ``moves[0].start``.
+        machine: limits, travel, segmentation.
+        feed_override_pct: scales every programmed feed (not rapids) [%], > 0.
+        arc_pieces: "jerk3" (default: closed-form constant-jerk pieces, Ruckig where they would
+            break a limit) or "ruckig" (every arc piece by Ruckig; kept for comparison).
+
+    Raises:
+        ConfigError: a feed override that is not a finite number > 0.
+        PlanningError: a move leaving the travel, an arc needing too many chords, or a piece
+            Ruckig cannot plan (each names the line).
+    """
+    if not (np.isfinite(feed_override_pct) and feed_override_pct > 0):
+        raise ConfigError(f"feed override must be a number > 0 %, got {feed_override_pct}")
+    if arc_pieces not in ("jerk3", "ruckig"):
+        raise ConfigError(f"arc_pieces must be 'jerk3' or 'ruckig', got {arc_pieces!r}")
+    moves = tuple(moves)
+    check_travel(moves, machine.travel)
+    seg = machine.segmentation
+    geoms = [move_geometry(m, machine, feed_override_pct / 100.0) for m in moves]
+    active = [g for g in geoms if g.length_mm > 1e-9]
+    caps, states = junctions(active, machine)
+    caps = feasible_junction_caps(active, caps, states, machine)
+    for rnd in range(MAX_ROUNDS + 1):
+        speeds = plan_junction_speeds([g.limits for g in active], caps)
+        pl, bad = _Planner(machine, arc_pieces), set()
+        clock, starts = 0.0, []
+        for b, g in enumerate(active):
+            starts.append(clock)
+            ph = pl.path_profile(g, speeds[b], speeds[b + 1])
+            if g.is_arc:
+                s_in = (states[b][0] * speeds[b], states[b][1] * speeds[b] ** 2)
+                s_out = (states[b + 1][0] * speeds[b + 1], states[b + 1][1] * speeds[b + 1] ** 2)
+                dur, bad_in, bad_out = pl.arc(g, ph, s_in, s_out)
+                clock += dur
+                bad |= {b} if bad_in else set()
+                bad |= {b + 1} if bad_out else set()
+            else:
+                clock += pl.straight(g, ph)
+        if not bad:
+            break
+        for b in bad:  # lower the offending junctions; in the last round, stop there
+            caps[b] = 0.0 if rnd == MAX_ROUNDS - 1 else JUNCTION_BACKOFF * speeds[b]
+    end = np.asarray(moves[-1].end if moves else (0.0, 0.0, 0.0), dtype=float)
+    return Plan(
+        moves=moves,
+        duration_s=clock,
+        segment_count=sum(len(g.vertices) - 1 for g in geoms),
+        chord_tolerance_mm=seg.chord_tolerance_mm,
+        vertices=tuple(g.vertices for g in geoms),
+        fallback_count=pl.fallbacks,
+        stretched_count=pl.stretched,
+        ruckig_piece_count=pl.ruckig_pieces,
+        curve=pl.out.build(),
+        move_start_s=np.asarray(starts, dtype=float),
+        move_lines=np.asarray([g.move.line for g in active], dtype=np.int64),
+        end_mm=end,
+    )

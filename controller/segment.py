@@ -1,0 +1,95 @@
+"""Arcs -> chords: how many, and where the chord vertices lie.
+
+Two methods (``[segmentation] method`` in the machine file):
+
+* ``"chord"`` (grbl's ``mc_arc``): the fewest chords whose sagitta stays within the chord
+  tolerance ``tol`` [mm]. A chord spanning the angle ``phi`` of a circle of radius ``r`` has the
+  sagitta ``r (1 - cos(phi/2))``; sagitta <= tol gives a chord length
+  ``2 sqrt(tol (2r - tol))``, hence ``n = ceil(theta r / (2 sqrt(tol (2r - tol))))`` for a sweep
+  ``theta``. When ``r <= tol`` the whole arc already lies within the tolerance of any chord through
+  it; the only rule left is the next one.
+* ``"fixed"`` (Marlin's ``plan_arc`` in G2_G3.cpp): ``n = floor(length / segment_length_mm)``
+  (MM_PER_ARC_SEGMENT, Marlin 2.x: MAX_ARC_SEGMENT_MM = 1.0 mm), but never fewer than
+  ``ceil(MIN_CIRCLE_SEGMENTS * theta / 2pi)`` with MIN_CIRCLE_SEGMENTS = 72 (Marlin 2.x
+  Configuration_adv.h: "Minimum number of segments in a complete circle").
+
+Both: every chord spans at most 90 degrees (so a full circle is never one zero-length chord and
+the sagitta formula stays meaningful), the vertices are computed from ``u_i = i/n`` directly on
+the arc/helix/spiral (:func:`controller.arcs.arc_points`, no accumulated rotation), and the last
+vertex is the programmed end exactly. A helix's chord midpoint lies at the helix's mid height, so
+its distance from the helix is at most the in-plane sagitta.
+
+An absurd program (``G2 ... P1000000``) must not exhaust memory: an arc needing more than
+:data:`MAX_SEGMENTS_PER_ARC` chords is refused with a :class:`PlanningError` naming its line.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from controller.arcs import arc_frame, arc_length_mm, arc_points
+from controller.errors import ConfigError, PlanningError
+from controller.moves import Arc
+
+#: Upper bound on chords per arc (about 100 MB of planner state): beyond it the arc is refused.
+MAX_SEGMENTS_PER_ARC = 1_000_000
+#: Marlin 2.x Configuration_adv.h, ARC_SUPPORT: minimum number of segments in a complete circle.
+MIN_CIRCLE_SEGMENTS = 72
+#: Largest sweep of one chord [rad] (both methods).
+MAX_CHORD_SWEEP_RAD = 0.5 * math.pi
+
+METHODS = ("chord", "fixed")
+
+
+def segment_count(
+    arc: Arc, method: str, chord_tolerance_mm: float, segment_length_mm: float
+) -> int:
+    """Number of chords for ``arc`` (see the module docstring for the rules).
+
+    Raises:
+        ConfigError: unknown method or non-positive tolerance / length.
+        PlanningError: more than :data:`MAX_SEGMENTS_PER_ARC` chords (names the arc's line).
+    """
+    if method not in METHODS:
+        raise ConfigError(f"segmentation method {method!r} is unknown; valid: chord, fixed")
+    if not (chord_tolerance_mm > 0 and segment_length_mm > 0):
+        raise ConfigError("chord_tolerance_mm and segment_length_mm must be > 0")
+    theta = arc.angle
+    _, _, _, _, _, r0, r1, _, _ = arc_frame(arc)
+    r = max(r0, r1)
+    n_sweep = math.ceil(theta / MAX_CHORD_SWEEP_RAD - 1e-12)
+    if method == "chord":
+        tol = chord_tolerance_mm
+        n = 1 if r <= tol else math.ceil(theta * r / (2.0 * math.sqrt(tol * (2.0 * r - tol))))
+    else:
+        n_min = math.ceil(MIN_CIRCLE_SEGMENTS * theta / (2.0 * math.pi) - 1e-9)
+        n = max(math.floor(arc_length_mm(arc) / segment_length_mm), n_min)
+    n = max(n, n_sweep, 1)
+    if n > MAX_SEGMENTS_PER_ARC:
+        raise PlanningError(
+            f"arc needs {n} segments ({method} segmentation); at most {MAX_SEGMENTS_PER_ARC} "
+            "per arc are planned: use fewer turns (P), a smaller arc or a coarser tolerance",
+            line=arc.line,
+        )
+    return n
+
+
+def segment_arc(
+    arc: Arc, method: str, chord_tolerance_mm: float, segment_length_mm: float
+) -> np.ndarray:
+    """Chord vertices of ``arc``: read-only array (n + 1, 3) [mm], first = start, last = end.
+
+    Args:
+        arc: the arc or helix.
+        method: "chord" (sagitta <= ``chord_tolerance_mm``) or "fixed" (``segment_length_mm``).
+        chord_tolerance_mm: maximum chord sagitta [mm] (method "chord").
+        segment_length_mm: nominal chord length [mm] (method "fixed").
+    """
+    n = segment_count(arc, method, chord_tolerance_mm, segment_length_mm)
+    verts = arc_points(arc, np.arange(n + 1) / n)
+    verts[0] = arc.start
+    verts[-1] = arc.end
+    verts.setflags(write=False)
+    return verts

@@ -1,0 +1,60 @@
+"""Refuse programs that would leave the machine's travel, before anything is planned.
+
+Straight moves stay within the box of their end points; an arc or helix additionally reaches the
+quadrant points (theta = k * 90 degrees about its centre) its sweep crosses, evaluated exactly on
+the arc (slight spirals included) by :func:`controller.arcs.arc_points`.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+
+import numpy as np
+
+from controller.arcs import arc_frame, arc_points
+from controller.config import Travel
+from controller.errors import PlanningError
+from controller.moves import Arc, Move
+
+AXES = "XYZ"
+#: Rounding allowance at the travel limits [mm].
+SLACK_MM = 1e-9
+
+
+def extent_points(move: Move) -> np.ndarray:
+    """Points (k, 3) [mm] whose bounding box is the move's true extent."""
+    pts = [np.asarray(move.start, dtype=float), np.asarray(move.end, dtype=float)]
+    if isinstance(move, Arc):
+        _, _, _, theta0, sigma, _, _, _, _ = arc_frame(move)
+        sweep = sigma * move.angle
+        lo, hi = sorted((theta0, theta0 + sweep))
+        k0, k1 = math.ceil(lo / (0.5 * math.pi)), math.floor(hi / (0.5 * math.pi))
+        if k1 >= k0:
+            # the radius changes linearly: the first and last turn hold the extremes
+            ks = sorted(set(range(k0, min(k1, k0 + 4) + 1)) | set(range(max(k0, k1 - 4), k1 + 1)))
+            angles = np.asarray(ks, dtype=float) * 0.5 * math.pi
+            u = np.clip((angles - theta0) / sweep, 0.0, 1.0)
+            pts.extend(arc_points(move, u))
+    return np.vstack(pts)
+
+
+def check_travel(moves: Sequence[Move], travel: Travel) -> None:
+    """Raise :class:`PlanningError` (with the line) for the first move leaving ``travel``."""
+    lo = np.asarray(travel.min_mm, dtype=float)
+    hi = np.asarray(travel.max_mm, dtype=float)
+    for move in moves:
+        pts = extent_points(move)
+        mins, maxs = pts.min(axis=0), pts.max(axis=0)
+        for i in range(3):
+            bad = None
+            if mins[i] < lo[i] - SLACK_MM:
+                bad = mins[i]
+            elif maxs[i] > hi[i] + SLACK_MM:
+                bad = maxs[i]
+            if bad is not None:
+                raise PlanningError(
+                    f"{move.kind} move reaches {AXES[i]}{bad:.4f}, outside the machine's travel: "
+                    f"{AXES[i]} must stay within {lo[i]:g}..{hi[i]:g} mm (work coordinates)",
+                    line=move.line,
+                )

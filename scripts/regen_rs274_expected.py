@@ -1,0 +1,274 @@
+"""Regenerate the rs274 differential corpus's expectations from LinuxCNC's own interpreter.
+
+For every ``tests/data/rs274/programs/NAME.ngc`` this runs ``rs274 -g`` (Debian package
+``linuxcnc-uspace``), keeps its raw output in ``tests/data/rs274/raw/NAME.txt`` and writes
+``tests/data/rs274/expected/NAME.json``: the motions in the exact shape of ``gantry parse``'s JSON
+(mm, mm/min; G20 values converted with 25.4) and the error, if rs274 rejected the program.
+
+Source lines: rs274 prints none, so they are derived from rs274 itself. The program's first k lines
+(k = 1..n) are run as a program of their own; the motions that appear when line k is added belong to
+line k, and the error belongs to the first prefix rs274 rejects. A prefix that merely ends without
+``M2``/``M30``/``%`` makes rs274 report "File ended with no percent sign [or program end]" after
+executing every line; for prefixes that message is not an error. For the whole program it is: a
+program without an end is rejected by rs274, and the error is put on the file's last line (line 1
+for an empty file).
+
+rs274 is not safe to run in parallel: programs are run one at a time. Usage::
+
+    python scripts/regen_rs274_expected.py [NAME ...]
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import re
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parent.parent
+DATA = ROOT / "tests" / "data" / "rs274"
+INCH_MM = 25.4
+EOF_MESSAGES = ("File ended with no percent sign", "File ended with no percent sign or program end")
+CANON_RE = re.compile(r"^\s*\d+\s+N\S*\s+([A-Z_0-9]+)\((.*)\)\s*$")
+#: Canonical calls that do not move the tool (everything else that appears is refused loudly).
+QUIET_CALLS = {
+    "USE_LENGTH_UNITS",
+    "SET_G5X_OFFSET",
+    "SET_G92_OFFSET",
+    "SET_XY_ROTATION",
+    "SET_FEED_REFERENCE",
+    "ON_RESET",
+    "SELECT_PLANE",
+    "SET_FEED_RATE",
+    "SET_FEED_MODE",
+    "STOP_SPINDLE_TURNING",
+    "SET_SPINDLE_MODE",
+    "PROGRAM_END",
+    "PROGRAM_STOP",
+    "FINISH",
+    "COMMENT",
+    "MESSAGE",
+    "SET_MOTION_CONTROL_MODE",
+    "SET_NAIVECAM_TOLERANCE",
+    "START_SPINDLE_CLOCKWISE",
+    "START_SPINDLE_COUNTERCLOCKWISE",
+    "SET_SPINDLE_SPEED",
+    "FLOOD_ON",
+    "FLOOD_OFF",
+    "MIST_ON",
+    "MIST_OFF",
+    "DWELL",
+    "CHANGE_TOOL",
+    "SELECT_TOOL",
+    "START_CHANGE",
+    "USE_TOOL_LENGTH_OFFSET",
+    "ENABLE_FEED_OVERRIDE",
+    "ENABLE_SPEED_OVERRIDE",
+    "ENABLE_ADAPTIVE_FEED",
+    "ENABLE_FEED_HOLD",
+    "DISABLE_FEED_OVERRIDE",
+    "DISABLE_SPEED_OVERRIDE",
+    "OPTIONAL_PROGRAM_STOP",
+    "PALLET_SHUTTLE",
+    "SET_TRAVERSE_RATE",
+    "SET_CUTTER_RADIUS_COMPENSATION",
+    "STOP_CUTTER_RADIUS_COMPENSATION",
+}
+LINES_DERIVED = (
+    "rs274 prints no source lines: motions appearing when line k is added to the program's "
+    "first k-1 lines belong to line k; the error belongs to the first prefix rs274 rejects "
+    "(an end-of-file without M2/M30/% is an error only for the whole program, then on its "
+    "last line)"
+)
+PLANES = {"CANON_PLANE_XY": "XY", "CANON_PLANE_XZ": "XZ", "CANON_PLANE_YZ": "YZ"}
+#: ARC_FEED(first_end, second_end, first_centre, second_centre, rotation, normal_end, ...):
+#: indices (first, second, normal) into [x, y, z] per plane (checked against rs274 by the corpus).
+PLANE_AXES = {"XY": (0, 1, 2), "XZ": (2, 0, 1), "YZ": (1, 2, 0)}
+
+
+def rs274_version() -> str:
+    out = subprocess.run(
+        ["dpkg-query", "-W", "-f=${Version}", "linuxcnc-uspace"],
+        capture_output=True,
+        text=True,
+        check=True,
+    )
+    return out.stdout.strip()
+
+
+def run_rs274(text: str) -> tuple[int, str, str]:
+    """Run ``rs274 -g`` on ``text`` -> (exit status, stdout, stderr).
+
+    rs274 occasionally dies from a signal when another rs274 runs at the same time (shared
+    state); such runs are retried, a crash that persists is an error.
+    """
+    for attempt in range(8):
+        with tempfile.TemporaryDirectory() as tmp:
+            path = Path(tmp) / "prog.ngc"
+            path.write_bytes(text.encode("utf-8"))
+            proc = subprocess.run(
+                ["rs274", "-g", str(path)], capture_output=True, text=True, cwd=tmp, timeout=30
+            )
+        if proc.returncode >= 0:
+            return proc.returncode, proc.stdout, proc.stderr
+        time.sleep(0.5 * (attempt + 1))
+    raise RuntimeError(f"rs274 keeps crashing (signal {-proc.returncode})")
+
+
+def error_message(stderr: str) -> str | None:
+    """rs274's error text: the line after ``executing`` on stderr (None when there is none)."""
+    lines = stderr.splitlines()
+    if "executing" in lines:
+        rest = lines[lines.index("executing") + 1 :]
+    else:
+        rest = lines
+    for ln in rest:
+        if ln.strip():
+            return ln.strip()
+    return None
+
+
+def _nums(args: str) -> list[float]:
+    return [float(a) for a in args.split(",")]
+
+
+def _sweep(
+    plane: str, start: list[float], end: list[float], center: list[float], rotation: int
+) -> float:
+    i1, i2, _ = PLANE_AXES[plane]
+    a0 = math.atan2(start[i2] - center[i2], start[i1] - center[i1])
+    a1 = math.atan2(end[i2] - center[i2], end[i1] - center[i1])
+    d = (a1 - a0) if rotation > 0 else (a0 - a1)
+    d %= 2.0 * math.pi
+    if start[i1] == end[i1] and start[i2] == end[i2]:
+        d = 2.0 * math.pi
+    return d + 2.0 * math.pi * (abs(rotation) - 1)
+
+
+def parse_canon(stdout: str) -> tuple[list[dict], float]:
+    """Canonical calls -> motions (without lines) in mm, and the largest print unit used [mm]."""
+    scale, plane, feed = 1.0, "XY", 0.0
+    pos = [0.0, 0.0, 0.0]
+    unit_max = 1.0
+    motions: list[dict] = []
+    for raw in stdout.splitlines():
+        m = CANON_RE.match(raw)
+        if not m:
+            if raw.strip():
+                raise RuntimeError(f"unrecognised rs274 output line: {raw!r}")
+            continue
+        name, args = m.groups()
+        if name == "USE_LENGTH_UNITS":
+            scale = INCH_MM if "INCHES" in args else 1.0
+        elif name == "SELECT_PLANE":
+            plane = PLANES[args.strip()]
+        elif name == "SET_FEED_RATE":
+            feed = _nums(args)[0] * scale
+        elif name in ("STRAIGHT_TRAVERSE", "STRAIGHT_FEED"):
+            v = _nums(args)
+            end = [v[0] * scale, v[1] * scale, v[2] * scale]
+            mo = {
+                "kind": "rapid" if name == "STRAIGHT_TRAVERSE" else "linear",
+                "start": pos,
+                "end": end,
+            }
+            if name == "STRAIGHT_FEED":
+                mo["feed"] = feed
+            motions.append(mo)
+            pos = end
+            unit_max = max(unit_max, scale)
+        elif name == "ARC_FEED":
+            v = _nums(args)
+            i1, i2, n = PLANE_AXES[plane]
+            rotation = int(v[4])
+            end = [0.0, 0.0, 0.0]
+            end[i1], end[i2], end[n] = v[0] * scale, v[1] * scale, v[5] * scale
+            center = [0.0, 0.0, 0.0]
+            center[i1], center[i2], center[n] = v[2] * scale, v[3] * scale, pos[n]
+            motions.append(
+                {
+                    "kind": "arc",
+                    "start": pos,
+                    "end": end,
+                    "feed": feed,
+                    "plane": plane,
+                    "direction": "ccw" if rotation > 0 else "cw",
+                    "center": center,
+                    "radius": math.hypot(pos[i1] - center[i1], pos[i2] - center[i2]),
+                    "turns": abs(rotation),
+                    "angle": _sweep(plane, pos, end, center, rotation),
+                }
+            )
+            pos = end
+            unit_max = max(unit_max, scale)
+        elif name not in QUIET_CALLS:
+            raise RuntimeError(f"unexpected canonical call {name}({args})")
+    return motions, unit_max
+
+
+def derive(text: str) -> tuple[list[dict], dict | None, float, str]:
+    """Run the program and its prefixes -> (motions with lines, error or None, unit [mm], raw)."""
+    rc, out, err = run_rs274(text)
+    raw = f"# rs274 -g exit status {rc}\n# --- stdout\n{out}# --- stderr\n{err}"
+    full, unit = parse_canon(out)
+    full_msg = error_message(err) if rc != 0 else None
+    # physical lines, split on "\n" only, each keeping its own ending ("\r\n" stays intact)
+    lines = re.findall(r"[^\n]*\n|[^\n]+$", text)
+    motions: list[dict] = []
+    error = None
+    for k in range(1, len(lines) + 1):
+        prc, pout, perr = run_rs274("".join(lines[:k]))
+        pm, _ = parse_canon(pout)
+        if pm[: len(motions)] != [
+            {kk: vv for kk, vv in m.items() if kk != "line"} for m in motions
+        ]:
+            raise RuntimeError(f"prefix {k} changed earlier motions")
+        for m in pm[len(motions) :]:
+            motions.append({"line": k, **m})
+        msg = error_message(perr) if prc != 0 else None
+        if prc != 0 and msg not in EOF_MESSAGES:
+            error = {"line": k, "message": msg or f"rs274 exit status {prc}"}
+            break
+    if error is None and rc != 0:
+        error = {"line": max(1, len(lines)), "message": full_msg or f"rs274 exit status {rc}"}
+    if error is not None and (full_msg or "").split(":")[0] != error["message"].split(":")[0]:
+        raise RuntimeError(f"prefix error {error} differs from the whole program's {full_msg!r}")
+    if [{kk: vv for kk, vv in m.items() if kk != "line"} for m in motions] != full:
+        raise RuntimeError("prefix motions differ from the whole program's")
+    return motions, error, unit, raw
+
+
+def main(names: list[str]) -> int:
+    version = rs274_version()
+    programs = sorted((DATA / "programs").glob("*.ngc"))
+    if names:
+        programs = [p for p in programs if p.stem in names]
+    (DATA / "expected").mkdir(parents=True, exist_ok=True)
+    (DATA / "raw").mkdir(parents=True, exist_ok=True)
+    live = {p.stem for p in sorted((DATA / "programs").glob("*.ngc"))}
+    for stale in list((DATA / "expected").glob("*.json")) + list((DATA / "raw").glob("*.txt")):
+        if stale.stem not in live:
+            stale.unlink()
+    for prog in programs:
+        motions, error, unit, raw = derive(prog.read_bytes().decode("utf-8"))
+        doc = {
+            "program": prog.name,
+            "origin": f"rs274 -g, LinuxCNC {version}, generated by scripts/regen_rs274_expected.py",
+            "lines_derived": LINES_DERIVED,
+            "print_unit_mm": unit,
+            "motions": motions,
+            "error": error,
+        }
+        (DATA / "expected" / f"{prog.stem}.json").write_text(json.dumps(doc, indent=1) + "\n")
+        (DATA / "raw" / f"{prog.stem}.txt").write_text(raw)
+        status = f"error line {error['line']}: {error['message']}" if error else "ok"
+        print(f"{prog.stem}: {len(motions)} motions, {status}")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main(sys.argv[1:]))

@@ -1,0 +1,50 @@
+"""``gantry ballbar``: the virtual ballbar (ISO 230-4 circular test), CCW and CW."""
+
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+from pathlib import Path
+
+from sim.commands.common import add_machine, load_machine
+
+HELP = (
+    "circular test (virtual ballbar, ISO 230-4): run a full circle CCW and CW and report the "
+    "circular deviation G, radial deviation F, reversal spikes, centre offset and ellipse"
+)
+
+
+def add_arguments(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument(
+        "--plane", choices=("XY", "XZ", "YZ"), default="XY", help="plane of the circle (default XY)"
+    )
+    parser.add_argument(
+        "--radius", type=float, default=50.0, metavar="MM", help="radius [mm] (default 50)"
+    )
+    parser.add_argument(
+        "--feed",
+        type=float,
+        default=1000.0,
+        metavar="MM_PER_MIN",
+        help="feed along the circle [mm/min] (default 1000)",
+    )
+    add_machine(parser)
+    parser.add_argument(
+        "--out",
+        type=Path,
+        default=None,
+        metavar="DIR",
+        help="write ballbar.json, polar.png, ballbar.ngc, trace_cw.npz, trace_ccw.npz here",
+    )
+
+
+def run(args: argparse.Namespace) -> int:
+    from sim.ballbar import run_ballbar, write_ballbar_outputs
+
+    machine = load_machine(args.machine)
+    result = run_ballbar(machine, args.plane, args.radius, args.feed, progress=sys.stderr.isatty())
+    if args.out is not None:
+        write_ballbar_outputs(result, args.out)
+    sys.stdout.write(json.dumps(result.summary) + "\n")
+    return 0

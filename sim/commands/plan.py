@@ -1,0 +1,75 @@
+"""``gantry plan``: interpret and plan a program; print the plan's summary as one JSON object and
+optionally write the sampled reference (every servo period) as an npz file."""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import sys
+import tempfile
+from pathlib import Path
+
+from sim.commands.common import add_dialect, add_machine, load_machine, read_program
+
+HELP = "plan a G-code program (segmentation, look-ahead, Ruckig) and print its summary as JSON"
+
+
+def add_arguments(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument("program", type=Path, help="G-code program (.ngc)")
+    add_dialect(parser)
+    add_machine(parser)
+    parser.add_argument(
+        "--out",
+        type=Path,
+        default=None,
+        metavar="TRAJ.npz",
+        help="write the reference sampled every servo period: arrays t, pos, vel, acc, line",
+    )
+
+
+def write_npz_atomically(path: Path, arrays: dict) -> None:
+    """Write ``arrays`` to ``path`` via a temporary file in the same folder and os.replace."""
+    import numpy as np
+
+    from controller.errors import ConfigError
+
+    folder = path.parent if str(path.parent) else Path(".")
+    if not folder.is_dir():
+        raise ConfigError("output folder does not exist", file=str(path))
+    fd, tmp = tempfile.mkstemp(prefix=".plan-", suffix=".npz", dir=folder)
+    try:
+        with os.fdopen(fd, "wb") as fh:
+            np.savez(fh, **arrays)
+        os.replace(tmp, path)
+    except BaseException:
+        Path(tmp).unlink(missing_ok=True)
+        raise
+
+
+def run(args: argparse.Namespace) -> int:
+    from controller.errors import GantryError
+    from controller.interpreter import interpret
+    from controller.planner import plan
+
+    machine = load_machine(args.machine)
+    text = read_program(args.program)
+    file = str(args.program)
+    try:
+        moves = list(interpret(text, dialect=args.dialect, file=file))
+        result = plan(moves, machine)
+    except GantryError as exc:
+        raise exc.located(file) from None
+    period = machine.servo.period_s
+    if args.out is not None:
+        write_npz_atomically(args.out, result.sample(period).to_npz_dict())
+    summary = {
+        "duration_s": result.duration_s,
+        "moves": len(result.moves),
+        "segments": result.segment_count,
+        "chord_tolerance_mm": result.chord_tolerance_mm,
+        "servo_period_s": period,
+        "limits": machine.limits.to_json(),
+    }
+    sys.stdout.write(json.dumps(summary) + "\n")
+    return 0

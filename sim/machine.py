@@ -1,0 +1,213 @@
+"""The MuJoCo gantry as the servo sees it: names resolved, plant parameters, units, work origin.
+
+This is the ONE place where SI (MuJoCo: m, kg, N s/m) meets gantry-sim's millimetres:
+:data:`MM_PER_M` and the methods of :class:`Gantry` convert; nothing else in sim/ scales lengths.
+
+Conventions: axis order is always (x, y, z) = (0, 1, 2), whatever order the MJCF declares its
+joints in. Work (program) coordinates [mm] are the tool-tip site's displacement from where it is
+when the joints stand at ``work_origin_joint_mm``; the servo works in joint coordinates [mm].
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+
+from controller.config import MachineConfig
+from controller.errors import ConfigError
+from controller.servo import AxisPlant
+
+AXES = ("x", "y", "z")
+TOOL_SITE = "tool"
+MM_PER_M = 1000.0
+#: damping [N s/m] * this = [N s/mm]
+N_S_PER_MM_PER_N_S_PER_M = 1e-3
+
+
+def _names(model: Any, obj: int, count: int) -> list[str]:
+    import mujoco
+
+    return [mujoco.mj_id2name(model, obj, i) or f"#{i}" for i in range(count)]
+
+
+@dataclass(frozen=True)
+class Gantry:
+    """A compiled model with the indices and plant parameters of axes x, y, z.
+
+    Attributes:
+        model: the ``mujoco.MjModel`` (timestep set from the machine file).
+        qpos_adr: qpos index of joints x, y, z.
+        dof_adr: dof index of joints x, y, z.
+        actuator_id: actuator index driving x, y, z.
+        site_id: index of the ``tool`` site.
+        plant: per-axis :class:`AxisPlant` (mass, damping, friction, gravity, force limits).
+        gear: the actuators' gear (joint force = gear * ctrl).
+        origin_joint_mm: joint positions of the work origin [mm].
+        tool_origin_m: tool-site position at the work origin [m] (world frame).
+        substeps: physics steps per servo period.
+    """
+
+    model: Any
+    qpos_adr: tuple[int, int, int]
+    dof_adr: tuple[int, int, int]
+    actuator_id: tuple[int, int, int]
+    site_id: int
+    plant: tuple[AxisPlant, AxisPlant, AxisPlant]
+    gear: tuple[float, float, float]
+    origin_joint_mm: tuple[float, float, float]
+    tool_origin_m: np.ndarray
+    substeps: int
+
+    def joint_range_mm(self) -> np.ndarray:
+        """(3, 2) joint ranges [mm] of x, y, z (lower, upper)."""
+        import mujoco
+
+        out = np.full((3, 2), np.inf)
+        out[:, 0] = -np.inf
+        for i, name in enumerate(AXES):
+            j = mujoco.mj_name2id(self.model, mujoco.mjtObj.mjOBJ_JOINT, name)
+            if self.model.jnt_limited[j]:
+                out[i] = self.model.jnt_range[j] * MM_PER_M
+        return out
+
+    def joint_qpos_m(self, joint_mm: np.ndarray) -> np.ndarray:
+        """Joint positions [mm] in axis order -> a full qpos vector [m]."""
+        qpos = self.model.qpos0.copy()
+        for i, adr in enumerate(self.qpos_adr):
+            qpos[adr] = joint_mm[i] / MM_PER_M
+        return qpos
+
+    def work_to_joint_mm(self, work_mm: np.ndarray) -> np.ndarray:
+        """Program (work) coordinates (..., 3) [mm] -> joint coordinates (..., 3) [mm]."""
+        return np.asarray(work_mm, dtype=float) + np.asarray(self.origin_joint_mm)
+
+    def tool_to_work_mm(self, tool_m: np.ndarray) -> np.ndarray:
+        """Tool-site world positions (..., 3) [m] -> program (work) coordinates (..., 3) [mm]."""
+        return (np.asarray(tool_m, dtype=float) - self.tool_origin_m) * MM_PER_M
+
+
+def _lookup(model: Any, obj: Any, kind: str, name: str, count: int, file: str) -> int:
+    import mujoco
+
+    idx = mujoco.mj_name2id(model, obj, name)
+    if idx < 0:
+        valid = ", ".join(_names(model, obj, count)) or "none"
+        raise ConfigError(
+            f"the model has no {kind} named '{name}' (gantry-sim needs {kind}s "
+            f"{', '.join(repr(a) for a in AXES) if kind != 'site' else repr(TOOL_SITE)}); "
+            f"its {kind}s: {valid}",
+            file=file,
+        )
+    return idx
+
+
+def load_gantry(machine: MachineConfig) -> Gantry:
+    """Load ``machine.sim.model``, resolve axes, read the plant, set the timestep.
+
+    Raises:
+        ConfigError: the model cannot be loaded, lacks a joint/actuator named x, y, z or the
+            ``tool`` site (the message lists the ones it has), a joint is not a slide along its
+            world axis, or an actuator is not a plain force motor.
+    """
+    import mujoco
+
+    file = machine.sim.model
+    try:
+        model = mujoco.MjModel.from_xml_path(file)
+    except (ValueError, OSError) as exc:
+        raise ConfigError(f"cannot load the MJCF model: {exc}".strip(), file=file) from None
+    model.opt.timestep = machine.sim.physics_timestep_s
+    substeps = round(machine.servo.period_s / machine.sim.physics_timestep_s)
+
+    joints = [_lookup(model, mujoco.mjtObj.mjOBJ_JOINT, "joint", a, model.njnt, file) for a in AXES]
+    acts = [
+        _lookup(model, mujoco.mjtObj.mjOBJ_ACTUATOR, "actuator", a, model.nu, file) for a in AXES
+    ]
+    site = _lookup(model, mujoco.mjtObj.mjOBJ_SITE, "site", TOOL_SITE, model.nsite, file)
+
+    data = mujoco.MjData(model)
+    mujoco.mj_setConst(model, data)
+    gravity = np.asarray(model.opt.gravity, dtype=float)
+    plant = []
+    gear = []
+    for i, (name, j, a) in enumerate(zip(AXES, joints, acts, strict=True)):
+        unit = np.eye(3)[i]
+        if model.jnt_type[j] != mujoco.mjtJoint.mjJNT_SLIDE or not np.allclose(
+            model.jnt_axis[j], unit
+        ):
+            raise ConfigError(
+                f"joint '{name}' must be a slide joint along the world {name.upper()} axis "
+                f"(axis=\"{' '.join(str(int(c)) for c in unit)}\")",
+                file=file,
+            )
+        if (
+            model.actuator_trnid[a, 0] != j
+            or model.actuator_gaintype[a] != mujoco.mjtGain.mjGAIN_FIXED
+            or model.actuator_biastype[a] != mujoco.mjtBias.mjBIAS_NONE
+            or model.actuator_dyntype[a] != mujoco.mjtDyn.mjDYN_NONE
+            or model.actuator_gainprm[a, 0] != 1.0
+        ):
+            raise ConfigError(
+                f"actuator '{name}' must be a <motor> on joint '{name}' (ctrl is a force [N])",
+                file=file,
+            )
+        g = float(model.actuator_gear[a, 0])
+        lo, hi = -np.inf, np.inf
+        if model.actuator_ctrllimited[a]:
+            lo, hi = model.actuator_ctrlrange[a] * g
+        if model.actuator_forcelimited[a]:
+            flo, fhi = model.actuator_forcerange[a] * g
+            lo, hi = max(lo, flo), min(hi, fhi)
+        if not (lo < 0 < hi):
+            raise ConfigError(
+                f"actuator '{name}' needs a force range around 0 (ctrlrange/forcerange)", file=file
+            )
+        dof = model.jnt_dofadr[j]
+        body = model.jnt_bodyid[j]
+        moved_kg = float(model.body_subtreemass[body])
+        plant.append(
+            AxisPlant(
+                mass_kg=moved_kg + float(model.dof_armature[dof]),
+                damping_N_s_per_mm=float(model.dof_damping[dof]) * N_S_PER_MM_PER_N_S_PER_M,
+                friction_N=float(model.dof_frictionloss[dof]),
+                gravity_load_N=moved_kg * float(gravity @ unit),
+                force_min_N=float(lo),
+                force_max_N=float(hi),
+            )
+        )
+        gear.append(g)
+
+    gantry = Gantry(
+        model=model,
+        qpos_adr=tuple(int(model.jnt_qposadr[j]) for j in joints),  # type: ignore[arg-type]
+        dof_adr=tuple(int(model.jnt_dofadr[j]) for j in joints),  # type: ignore[arg-type]
+        actuator_id=tuple(acts),  # type: ignore[arg-type]
+        site_id=site,
+        plant=tuple(plant),  # type: ignore[arg-type]
+        gear=tuple(gear),  # type: ignore[arg-type]
+        origin_joint_mm=machine.sim.work_origin_joint_mm,
+        tool_origin_m=np.zeros(3),
+        substeps=substeps,
+    )
+    data.qpos[:] = gantry.joint_qpos_m(np.asarray(machine.sim.work_origin_joint_mm))
+    mujoco.mj_kinematics(model, data)
+    object.__setattr__(gantry, "tool_origin_m", data.site_xpos[site].copy())
+    _check_travel(gantry, machine, file)
+    return gantry
+
+
+def _check_travel(gantry: Gantry, machine: MachineConfig, file: str) -> None:
+    """The machine file's [travel] (work mm) must lie inside the joints' ranges."""
+    rng = gantry.joint_range_mm()
+    lo = gantry.work_to_joint_mm(np.asarray(machine.travel.min_mm))
+    hi = gantry.work_to_joint_mm(np.asarray(machine.travel.max_mm))
+    for i, name in enumerate(AXES):
+        if lo[i] < rng[i, 0] - 1e-9 or hi[i] > rng[i, 1] + 1e-9:
+            raise ConfigError(
+                f"[travel] {name} {machine.travel.min_mm[i]:g}..{machine.travel.max_mm[i]:g} mm "
+                f"(joint {lo[i]:g}..{hi[i]:g} mm with the work origin) leaves joint '{name}' "
+                f"range {rng[i, 0]:g}..{rng[i, 1]:g} mm in the model",
+                file=machine.source,
+            )

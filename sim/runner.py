@@ -1,0 +1,187 @@
+"""The servo loop around MuJoCo: one discrete PD tick, then ``substeps`` physics steps.
+
+Per servo tick k (time t_k = k T):
+  1. record the tool-tip site (world, m) -- the state at t_k;
+  2. read the joint positions x_k (the encoders) and compute the held force F_k (controller.servo);
+  3. write F_k to the actuators and advance the physics by T: ``mj_step(m, d, substeps)``;
+  4. refresh the kinematics (``mj_kinematics``) so the next record sees the state at t_{k+1}.
+
+The per-tick work is plain float arithmetic on three axes: everything that depends only on the
+reference (DiscretePD.drive_terms) is computed beforehand, vectorised. Every CHUNK ticks the
+trace is checked: non-finite values, MuJoCo's instability warnings, or a following error beyond
+[servo] max_following_error_mm raise :class:`SimulationError` -- a diverged run is not a result.
+"""
+
+from __future__ import annotations
+
+import sys
+import time
+from dataclasses import dataclass
+
+import numpy as np
+
+from controller.config import MachineConfig
+from controller.errors import SimulationError
+from controller.servo import DiscretePD
+from controller.trajectory import Trajectory
+from sim.machine import AXES, MM_PER_M, Gantry
+
+#: servo ticks between divergence checks and progress-bar updates
+CHUNK = 2000
+#: show a progress bar (when asked or on a TTY) only for runs longer than this [s simulated]
+PROGRESS_MIN_S = 5.0
+
+
+@dataclass(frozen=True)
+class SimTrace:
+    """What the simulation recorded at every servo tick (same length as the trajectory).
+
+    Attributes:
+        pos: (N, 3) tool tip in program (work) coordinates [mm], at t_k.
+        force: (N, 3) force held from t_k to t_k+1 per axis x, y, z [N] (after saturation).
+        steps: physics steps taken.
+        wall_s: wall-clock time of the loop [s].
+    """
+
+    pos: np.ndarray
+    force: np.ndarray
+    steps: int
+    wall_s: float
+
+
+def _want_progress(progress: bool | None, duration_s: float) -> bool:
+    if duration_s < PROGRESS_MIN_S:
+        return False
+    return bool(progress) if progress is not None else sys.stderr.isatty()
+
+
+def simulate(
+    gantry: Gantry,
+    machine: MachineConfig,
+    traj: Trajectory,
+    *,
+    progress: bool | None = None,
+) -> SimTrace:
+    """Run the servo against MuJoCo along ``traj`` and trace the tool tip.
+
+    The machine starts at rest at the trajectory's first sample. Raises SimulationError (with
+    the program line being executed) when the run diverges.
+    """
+    import mujoco
+
+    n = traj.t.size
+    m = gantry.model
+    d = mujoco.MjData(m)
+    servo = DiscretePD(machine.servo, gantry.plant)
+    ref_joint = gantry.work_to_joint_mm(traj.pos)
+    b = servo.drive_terms(ref_joint, traj.vel, traj.acc).tolist()
+    d.qpos[:] = gantry.joint_qpos_m(ref_joint[0])
+    d.qvel[:] = 0.0
+    mujoco.mj_kinematics(m, d)
+
+    # per chunk: flat lists of floats (cheapest to append and to turn into arrays), then arrays
+    site_flat: list[float] = []
+    force_flat: list[float] = []
+    record_site, record_force = site_flat.extend, force_flat.extend
+    site_chunks: list[np.ndarray] = []
+    force_chunks: list[np.ndarray] = []
+    qpos, ctrl, site = d.qpos, d.ctrl, d.site_xpos[gantry.site_id]
+    ix, iy, iz = gantry.qpos_adr
+    ux, uy, uz = gantry.actuator_id
+    gx, gy, gz = (1.0 / g for g in gantry.gear)
+    ax, ay, az = servo.a
+    cx, cy, cz = servo.c
+    lox, loy, loz = servo.lo
+    hix, hiy, hiz = servo.hi
+    nsub = gantry.substeps
+    step, kinematics = mujoco.mj_step, mujoco.mj_kinematics
+    mm = MM_PER_M
+    q = qpos.tolist()
+    px, py, pz = q[ix] * mm, q[iy] * mm, q[iz] * mm
+
+    bar = None
+    if _want_progress(progress, traj.duration_s):
+        from tqdm import tqdm
+
+        bar = tqdm(total=n, unit="tick", desc="simulate", file=sys.stderr, leave=False)
+    start = time.perf_counter()
+    try:
+        for lo in range(0, n, CHUNK):
+            hi = min(n, lo + CHUNK)
+            for bx, by, bz in b[lo:hi]:
+                record_site(site.tolist())
+                q = qpos.tolist()
+                x, y, z = q[ix] * mm, q[iy] * mm, q[iz] * mm
+                # controller.servo.DiscretePD.force, unrolled: u = b - a x_k + c x_{k-1}, clamped
+                fx = bx - ax * x + cx * px
+                fx = hix if fx > hix else (lox if fx < lox else fx)
+                fy = by - ay * y + cy * py
+                fy = hiy if fy > hiy else (loy if fy < loy else fy)
+                fz = bz - az * z + cz * pz
+                fz = hiz if fz > hiz else (loz if fz < loz else fz)
+                record_force((fx, fy, fz))
+                ctrl[ux] = fx * gx
+                ctrl[uy] = fy * gy
+                ctrl[uz] = fz * gz
+                step(m, d, nsub)
+                kinematics(m, d)
+                px, py, pz = x, y, z
+            site_chunks.append(np.array(site_flat).reshape(-1, 3))
+            force_chunks.append(np.array(force_flat).reshape(-1, 3))
+            site_flat.clear()
+            force_flat.clear()
+            _check(d, gantry, machine, traj, site_chunks[-1], lo, hi)
+            if bar is not None:
+                bar.update(hi - lo)
+    finally:
+        if bar is not None:
+            bar.close()
+    wall = time.perf_counter() - start
+    pos = gantry.tool_to_work_mm(np.concatenate(site_chunks) if site_chunks else np.empty((0, 3)))
+    force = np.concatenate(force_chunks) if force_chunks else np.empty((0, 3))
+    pos.setflags(write=False)
+    force.setflags(write=False)
+    return SimTrace(pos=pos, force=force, steps=n * nsub, wall_s=wall)
+
+
+def _check(
+    d,
+    gantry: Gantry,
+    machine: MachineConfig,
+    traj: Trajectory,
+    site_m: np.ndarray,
+    lo: int,
+    hi: int,
+) -> None:
+    """Raise SimulationError if ticks lo..hi (tool site ``site_m`` [m]) diverged or lost the
+    reference."""
+    seg = gantry.tool_to_work_mm(site_m)
+    err = np.abs(seg - traj.pos[lo:hi])
+    bad = ~np.isfinite(err).all(axis=1)
+    limit = machine.servo.max_following_error_mm
+    bad |= (err > limit).any(axis=1)
+    if bad.any():
+        k = lo + int(np.argmax(bad))
+        row = err[k - lo]
+        axis = int(np.nanargmax(np.where(np.isfinite(row), row, np.inf)))
+        what = "non-finite" if not np.isfinite(row[axis]) else f"{row[axis]:.4g} mm"
+        raise SimulationError(
+            f"following error on {AXES[axis].upper()} is {what} at t = {traj.t[k]:.4f} s, beyond "
+            f"[servo] max_following_error_mm = {limit:g}: the servo lost the reference (unstable "
+            f"or too weak: check [servo] gains, feedforward and the model's force limits)",
+            line=int(traj.line[k]),
+        )
+    import mujoco
+
+    for w in (
+        mujoco.mjtWarning.mjWARN_BADQACC,
+        mujoco.mjtWarning.mjWARN_BADQVEL,
+        mujoco.mjtWarning.mjWARN_BADQPOS,
+    ):
+        if d.warning[w].number:  # MuJoCo reset the state; the time of the fault is lost
+            raise SimulationError(
+                f"the simulation diverged between t = {traj.t[lo]:.4f} and {traj.t[hi - 1]:.4f} s "
+                f"(MuJoCo: {mujoco.mjtWarning(w).name}); the servo loop is unstable: check "
+                "[servo] gains and period and the model's masses and force limits",
+                line=int(traj.line[lo]),
+            )

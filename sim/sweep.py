@@ -1,0 +1,281 @@
+"""Parameter sweeps: one full simulation per grid point, on local processes or a Dask cluster.
+
+A grid point sets the feed override [%] and, optionally, the max acceleration [mm/s^2] and
+max jerk [mm/s^3] of all three axes (MachineConfig.with_changes on [limits]); a value left out
+of the sweep keeps the machine file's per-axis values (an empty cell in sweep.csv).
+
+Executors. ``local``: a ProcessPoolExecutor over all cores (spawned processes: no fork of a
+process that holds threads). ``dask``: a dask.distributed Client; by default on a LocalCluster
+of one single-threaded worker process per core, or on a running cluster's scheduler when an
+address is given (``DASK_SCHEDULER_ADDRESS`` or ``scheduler=``). Each point is a deterministic
+simulation of the same inputs, so the numbers do not depend on the executor.
+
+Never half-written: each finished point is appended to a journal (DIR/sweep.partial.jsonl)
+tagged with a fingerprint of the program, dialect and machine; a rerun of the same sweep reuses
+the journal's points (resume), and sweep.csv appears, by rename, only when every point is done.
+"""
+
+from __future__ import annotations
+
+import csv
+import hashlib
+import itertools
+import json
+import math
+import os
+from collections.abc import Callable, Iterable, Sequence
+from dataclasses import asdict, dataclass
+from pathlib import Path
+
+from controller.config import MachineConfig
+from controller.errors import SimulationError
+
+COLUMNS = (
+    "feed_override_pct",
+    "max_accel_mm_per_s2",
+    "max_jerk_mm_per_s3",
+    "cycle_time_s",
+    "max_error_um",
+    "rms_error_um",
+    "p95_error_um",
+    "status",
+)
+JOURNAL = "sweep.partial.jsonl"
+
+
+@dataclass(frozen=True)
+class SweepPoint:
+    """One grid point: feed override [%]; accel [mm/s^2] and jerk [mm/s^3] for all axes, or None
+    to keep the machine's per-axis values."""
+
+    feed_override_pct: float
+    max_accel_mm_per_s2: float | None = None
+    max_jerk_mm_per_s3: float | None = None
+
+    def key(self) -> str:
+        return json.dumps(asdict(self), sort_keys=True)
+
+
+def grid(
+    feed_overrides_pct: Sequence[float],
+    max_accels_mm_per_s2: Sequence[float] | None = None,
+    max_jerks_mm_per_s3: Sequence[float] | None = None,
+) -> list[SweepPoint]:
+    """The full grid (feed override x accel x jerk), in that nesting order."""
+    combos = itertools.product(
+        feed_overrides_pct, max_accels_mm_per_s2 or [None], max_jerks_mm_per_s3 or [None]
+    )
+    return [
+        SweepPoint(float(f), None if a is None else float(a), None if j is None else float(j))
+        for f, a, j in combos
+    ]
+
+
+def machine_for(machine: MachineConfig, point: SweepPoint) -> MachineConfig:
+    """``machine`` with the point's accel and jerk on all axes (validated)."""
+    changes = {}
+    if point.max_accel_mm_per_s2 is not None:
+        changes["max_acceleration_mm_per_s2"] = [point.max_accel_mm_per_s2] * 3
+    if point.max_jerk_mm_per_s3 is not None:
+        changes["max_jerk_mm_per_s3"] = [point.max_jerk_mm_per_s3] * 3
+    return machine.with_changes("limits", **changes) if changes else machine
+
+
+def run_point(
+    text: str, file: str, dialect: str, machine: MachineConfig, point: SweepPoint
+) -> dict:
+    """Simulate one grid point -> a sweep.csv row (a dict over COLUMNS).
+
+    A simulation that fails (SimulationError, e.g. a following-error fault at an aggressive
+    setting) is a result, not a crash: its row has status "simulation error: ..." and no figures.
+    Other errors (the program or machine is invalid everywhere) propagate.
+    """
+    from sim.api import run_program
+
+    row = {
+        "feed_override_pct": point.feed_override_pct,
+        "max_accel_mm_per_s2": point.max_accel_mm_per_s2,
+        "max_jerk_mm_per_s3": point.max_jerk_mm_per_s3,
+    }
+    try:
+        result = run_program(
+            text,
+            file=file,
+            dialect=dialect,
+            machine=machine_for(machine, point),
+            feed_override_pct=point.feed_override_pct,
+        )
+    except SimulationError as exc:
+        nan = float("nan")
+        return row | {
+            "cycle_time_s": nan,
+            "max_error_um": nan,
+            "rms_error_um": nan,
+            "p95_error_um": nan,
+            "status": f"simulation error: {exc.message}",
+        }
+    err = result.report["contour_error_um"]
+    return row | {
+        "cycle_time_s": float(result.report["cycle_time_s"]),
+        "max_error_um": float(err["max"]),
+        "rms_error_um": float(err["rms"]),
+        "p95_error_um": float(err["p95"]),
+        "status": "ok",
+    }
+
+
+def fingerprint(text: str, dialect: str, machine: MachineConfig) -> str:
+    """Identifies the sweep's fixed inputs, so a journal is only resumed by the same sweep."""
+    return hashlib.sha256(repr((text, dialect, machine)).encode()).hexdigest()[:16]
+
+
+def _read_journal(path: Path, tag: str) -> dict[str, dict]:
+    done: dict[str, dict] = {}
+    if not path.exists():
+        return done
+    for line in path.read_text().splitlines():
+        try:
+            rec = json.loads(line)
+        except json.JSONDecodeError:
+            continue  # a line cut short by an interruption
+        if rec.get("fingerprint") == tag:
+            done[rec["key"]] = rec["row"]
+    return done
+
+
+def _local_map(fn: Callable, args: list[tuple], workers: int | None) -> Iterable[dict]:
+    import multiprocessing
+    from concurrent.futures import ProcessPoolExecutor, as_completed
+
+    ctx = multiprocessing.get_context("spawn")
+    with ProcessPoolExecutor(max_workers=workers or os.cpu_count() or 1, mp_context=ctx) as ex:
+        futures = [ex.submit(fn, *a) for a in args]
+        for fut in as_completed(futures):
+            yield fut.result()
+
+
+def _dask_map(
+    fn: Callable, args: list[tuple], workers: int | None, scheduler: str | None
+) -> Iterable[dict]:
+    try:
+        from dask.distributed import Client, LocalCluster, as_completed
+    except ImportError:
+        from controller.errors import ConfigError
+
+        raise ConfigError(
+            "the dask executor needs Dask distributed: pip install 'gantry-sim[distributed]'",
+            file="--executor",
+        ) from None
+    address = scheduler or os.environ.get("DASK_SCHEDULER_ADDRESS")
+    if address:
+        client, cluster = Client(address), None
+    else:
+        cluster = LocalCluster(
+            n_workers=workers or os.cpu_count() or 1,
+            threads_per_worker=1,
+            processes=True,
+            dashboard_address=None,
+        )
+        client = Client(cluster)
+    try:
+        futures = [client.submit(fn, *a, pure=False) for a in args]
+        for fut in as_completed(futures):
+            yield fut.result()
+    finally:
+        client.close()
+        if cluster is not None:
+            cluster.close()
+
+
+def run_sweep(
+    text: str,
+    points: Sequence[SweepPoint],
+    machine: MachineConfig,
+    *,
+    file: str = "<program>",
+    dialect: str = "linuxcnc",
+    executor: str = "local",
+    workers: int | None = None,
+    scheduler: str | None = None,
+    out_dir: Path | None = None,
+    progress: bool = False,
+) -> list[dict]:
+    """Simulate every point; return the rows in grid order.
+
+    Args:
+        text: the G-code program.
+        points: the grid (see ``grid``).
+        machine: the base machine.
+        file: the program's name for error messages.
+        dialect: G-code dialect.
+        executor: "local" (processes) or "dask".
+        workers: processes / Dask workers (default: all cores).
+        scheduler: a Dask scheduler address (dask only; default: a LocalCluster).
+        out_dir: where the journal lives (resume); None: no journal.
+        progress: show a tqdm progress bar on stderr.
+    """
+    if executor not in ("local", "dask"):
+        from controller.errors import ConfigError
+
+        raise ConfigError(f"executor {executor!r}: must be 'local' or 'dask'", file="--executor")
+    tag = fingerprint(text, dialect, machine)
+    journal = out_dir / JOURNAL if out_dir is not None else None
+    done = _read_journal(journal, tag) if journal is not None else {}
+    todo = [p for p in points if p.key() not in done]
+    if todo:
+        args = [(text, file, dialect, machine, p) for p in todo]
+        rows = (
+            _local_map(run_point, args, workers)
+            if executor == "local"
+            else _dask_map(run_point, args, workers, scheduler)
+        )
+        from tqdm import tqdm
+
+        if journal is not None:
+            journal.parent.mkdir(parents=True, exist_ok=True)
+            if journal.exists() and not journal.read_bytes().endswith(b"\n"):
+                with open(journal, "a") as fh:
+                    fh.write("\n")  # end a line an interruption cut short
+        bar = tqdm(
+            total=len(points),
+            initial=len(points) - len(todo),
+            disable=not progress,
+            desc="sweep",
+            unit="sim",
+        )
+        with bar:
+            for row in rows:
+                key = SweepPoint(
+                    row["feed_override_pct"], row["max_accel_mm_per_s2"], row["max_jerk_mm_per_s3"]
+                ).key()
+                done[key] = row
+                if journal is not None:
+                    with open(journal, "a") as fh:
+                        fh.write(json.dumps({"fingerprint": tag, "key": key, "row": row}) + "\n")
+                bar.update(1)
+    return [done[p.key()] for p in points]
+
+
+def _cell(v: object) -> str:
+    if v is None:
+        return ""
+    if isinstance(v, float):
+        return "nan" if math.isnan(v) else repr(v)
+    return str(v)
+
+
+def write_csv(rows: Sequence[dict], fh) -> None:
+    """Write the rows as CSV (header COLUMNS) to an open text file."""
+    w = csv.writer(fh, lineterminator="\n")
+    w.writerow(COLUMNS)
+    for row in rows:
+        w.writerow([_cell(row[c]) for c in COLUMNS])
+
+
+def write_csv_atomic(rows: Sequence[dict], path: Path) -> None:
+    """Write sweep.csv atomically: a temporary file in the same folder, then rename."""
+    path.parent.mkdir(parents=True, exist_ok=True)
+    tmp = path.with_name(f".{path.name}.tmp-{os.getpid()}")
+    with open(tmp, "w", newline="") as fh:
+        write_csv(rows, fh)
+    os.replace(tmp, path)

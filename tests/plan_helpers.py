@@ -1,0 +1,94 @@
+"""Helpers for the planning tests: build moves directly and measure sampled references.
+
+Moves are built here (not by the interpreter) so the planner's tests stand alone.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from controller.arcs import PLANE_AXES, arc_points
+from controller.moves import Arc
+
+#: Relative slack on the limits for rounding; jerk is a finite difference of the sampled
+#: acceleration (exact for piecewise-linear acceleration, up to rounding).
+REL = 1e-9
+JERK_REL = 1e-6
+
+
+def arc(line, start, center, angle, plane="XY", direction="ccw", feed=3000.0):
+    """An arc (no helix) from ``start`` about ``center`` sweeping ``angle`` [rad]."""
+    i1, i2, _ = PLANE_AXES[plane]
+    r = math.hypot(start[i1] - center[i1], start[i2] - center[i2])
+    th = math.atan2(start[i2] - center[i2], start[i1] - center[i1])
+    th += angle if direction == "ccw" else -angle
+    end = list(start)
+    end[i1] = center[i1] + r * math.cos(th)
+    end[i2] = center[i2] + r * math.sin(th)
+    if abs(angle - 2 * math.pi) < 1e-12:
+        end = list(start)
+    turns = max(1, math.ceil(angle / (2 * math.pi) - 1e-9))
+    return Arc(
+        line, tuple(start), tuple(end), feed, plane, direction, tuple(center), r, turns, angle
+    )
+
+
+def helix(line, start, center, dz, plane="XY", direction="ccw", turns=1, feed=3000.0):
+    """A helix of ``turns`` full turns rising ``dz`` along the plane's normal."""
+    n = PLANE_AXES[plane][2]
+    i1, i2, _ = PLANE_AXES[plane]
+    r = math.hypot(start[i1] - center[i1], start[i2] - center[i2])
+    end = list(start)
+    end[n] += dz
+    angle = 2 * math.pi * turns
+    return Arc(
+        line, tuple(start), tuple(end), feed, plane, direction, tuple(center), r, turns, angle
+    )
+
+
+def limit_ratios(traj, machine) -> dict[str, float]:
+    """Largest |v|/vmax, |a|/amax and finite-difference |j|/jmax over all axes."""
+    lim = machine.limits
+    jerk = np.diff(traj.acc, axis=0) / traj.period_s
+    return {
+        "vel": float(np.max(np.abs(traj.vel) / lim.max_velocity_mm_per_s)),
+        "acc": float(np.max(np.abs(traj.acc) / lim.max_acceleration_mm_per_s2)),
+        "jerk": float(np.max(np.abs(jerk) / lim.max_jerk_mm_per_s3)) if jerk.size else 0.0,
+    }
+
+
+def assert_within_limits(traj, machine, moves) -> None:
+    """Per-axis velocity/acceleration/jerk limits, and path speed <= each feed move's F."""
+    r = limit_ratios(traj, machine)
+    assert r["vel"] <= 1 + REL, r
+    assert r["acc"] <= 1 + REL, r
+    assert r["jerk"] <= 1 + JERK_REL, r
+    speed = np.linalg.norm(traj.vel, axis=1)
+    for m in moves:
+        feed = getattr(m, "feed_mm_per_min", None)
+        sel = traj.line == m.line
+        if feed is not None and sel.any():
+            assert speed[sel].max() <= feed / 60.0 * (1 + REL), (
+                m.line,
+                speed[sel].max(),
+                feed / 60,
+            )
+
+
+def arc_deviation(traj, a: Arc) -> float:
+    """Largest distance [mm] of the samples of ``a``'s line from the true arc/helix.
+
+    Each sample is compared with the arc point at the sample's own polar angle (unwrapped along
+    time): an upper bound on its distance to the curve.
+    """
+    i1, i2, _n = PLANE_AXES[a.plane]
+    sel = traj.line == a.line
+    p = traj.pos[sel]
+    th = np.unwrap(np.arctan2(p[:, i2] - a.center[i2], p[:, i1] - a.center[i1]))
+    th0 = math.atan2(a.start[i2] - a.center[i2], a.start[i1] - a.center[i1])
+    th = th - 2 * math.pi * np.round((th[0] - th0) / (2 * math.pi))
+    sigma = 1.0 if a.direction == "ccw" else -1.0
+    u = np.clip(sigma * (th - th0) / a.angle, 0.0, 1.0)
+    return float(np.max(np.linalg.norm(p - arc_points(a, u), axis=1)))

@@ -1,0 +1,87 @@
+"""Contour error against the commanded geometry: arcs, helices, multi-turn, junctions, rapids."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from controller.arcs import arc_derivatives, arc_points
+from controller.interpreter import interpret
+from sim.analysis import analyse, distance_to_program
+from sim.geometry import distance_to_polyline_near, nearest_on_arc
+
+
+def _moves(text: str):
+    return tuple(interpret(text + "M2\n", "linuxcnc", "t.ngc"))
+
+
+def test_radial_offsets_from_a_circle_are_measured_exactly():
+    (_, arc) = _moves("G17 G1 X10 F1000\nG3 I-10 J0\n")
+    ang = np.linspace(0, 2 * np.pi, 37)
+    off = np.linspace(-0.01, 0.01, 37)
+    pts = np.column_stack([(10 + off) * np.cos(ang), (10 + off) * np.sin(ang), np.zeros(37)])
+    q = nearest_on_arc(arc, pts)
+    assert np.linalg.norm(q - pts, axis=1) == pytest.approx(np.abs(off), abs=1e-12)
+
+
+def test_points_beyond_the_sweep_go_to_the_nearest_end():
+    (_, arc) = _moves("G17 G1 X10 F1000\nG3 X0 Y10 I-10 J0\n")  # quarter arc, 0..90 degrees
+    pts = np.array([[10 * math.cos(-0.3), 10 * math.sin(-0.3), 0.0], [-10.0, 0.0, 0.0]])
+    q = nearest_on_arc(arc, pts)
+    assert q[0] == pytest.approx([10.0, 0.0, 0.0])
+    assert q[1] == pytest.approx([0.0, 10.0, 0.0], abs=1e-12)
+
+
+@pytest.mark.parametrize("word", ["", " P3"])
+def test_helix_offsets_are_perpendicular_distances(word):
+    (_, helix) = _moves(f"G17 G1 X5 F1000\nG2 X5 Y0 Z-6 I-5 J0{word}\n")
+    u = np.linspace(0.02, 0.98, 25)
+    on = arc_points(helix, u)
+    d1, _ = arc_derivatives(helix, u)
+    # an offset normal to the tangent and to the radial direction is a true perpendicular offset
+    radial = np.column_stack([on[:, 0], on[:, 1], np.zeros(len(u))])
+    radial /= np.linalg.norm(radial, axis=1)[:, None]
+    binormal = np.cross(d1 / np.linalg.norm(d1, axis=1)[:, None], radial)
+    pts = on + 0.004 * binormal + 0.003 * radial
+    q = nearest_on_arc(helix, pts)
+    assert np.linalg.norm(q - pts, axis=1) == pytest.approx(np.full(len(u), 0.005), rel=1e-3)
+    assert q == pytest.approx(on, abs=1e-3)  # on the right turn, not a neighbouring one
+
+
+def test_near_a_junction_the_neighbouring_move_counts():
+    moves = _moves("G1 X10 F1000\nG1 Y10\n")
+    # executing line 2 (the second move) but still 1 um short of the corner, on the first move
+    d, _ = distance_to_program(moves, np.array([2]), np.array([[9.999, 0.0, 0.0]]))
+    assert d[0] == pytest.approx(0.0, abs=1e-12)
+
+
+def test_rapids_do_not_count_and_blocks_are_per_feed_line():
+    moves = _moves("G0 X5\nG1 X10 F1000\n")
+    ref = np.array([[0, 0, 0], [5, 0, 0], [7, 0, 0], [10, 0, 0]], dtype=float)
+    pos = ref + np.array([[0, 0.5, 0], [0, 0.5, 0], [0, 0.002, 0], [0, 0.001, 0]])
+    res = analyse(moves, np.array([1, 1, 2, 2]), ref, pos)
+    assert res.err_um == pytest.approx([500.0, 500.0, 2.0, 1.0])
+    assert res.contour_um["max"] == pytest.approx(2.0)
+    assert res.blocks == [
+        {"line": 2, "kind": "linear", "max_error_um": pytest.approx(2.0),
+         "rms_error_um": pytest.approx(math.sqrt(2.5))}
+    ]
+    assert res.parts_um["reference_max"] == 0.0
+
+
+def test_tracking_distance_to_the_reference_polyline_matches_brute_force():
+    rng = np.random.default_rng(0)
+    path = np.cumsum(rng.normal(size=(120, 3)), axis=0)
+    pts = path + rng.normal(scale=0.3, size=path.shape)
+    window = 4
+    expect = []
+    for k, p in enumerate(pts):
+        best = np.inf
+        for s in range(max(0, k - window), min(len(path) - 2, k + window - 1) + 1):
+            a, d = path[s], path[s + 1] - path[s]
+            u = np.clip((p - a) @ d / (d @ d), 0.0, 1.0)
+            best = min(best, float(np.linalg.norm(a + u * d - p)))
+        expect.append(best)
+    assert distance_to_polyline_near(path, pts, window) == pytest.approx(expect, abs=1e-12)

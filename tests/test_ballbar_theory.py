@@ -1,0 +1,73 @@
+"""The virtual ballbar against servo theory (short MuJoCo simulations, R 10 mm at 50 mm/s).
+
+1. Unequal axis lags make a 45-degree ellipse whose axis flips with direction. With the
+   velocity feedforward off, viscous damping c [N s/mm] needs a following error e = c v / kp
+   along each axis: a first-order lag 1/Kv = c / kp [s] per axis (Kv, the position gain).
+   Tracing x = R cos(wt - w/Kv_x), y = R sin(wt - w/Kv_y), the radius is
+   R (1 - (d/2) sin 2 theta) with d = w (1/Kv_y - 1/Kv_x): an ellipse of magnitude
+   (major - minor) R |d| = v |1/Kv_x - 1/Kv_y| whose major axis is at 45 deg when X lags
+   more (CCW) and at 135 deg when the direction reverses. Equal lags: no ellipse.
+2. Coulomb friction F [N] against a PD loop (no integrator) leaves a following error F / kp
+   opposing the motion; it reverses with the axis, so at each quadrant crossing the radius
+   steps by 2 F / kp (X at 0 and 180 deg, Y at 90 and 270 deg). Without friction: no steps.
+"""
+
+from __future__ import annotations
+
+import pytest
+
+from sim.ballbar import run_ballbar
+from tests.machine_variants import FRICTIONLESS, gantry_variant, joint_attribute
+
+R_MM = 10.0
+FEED = 3000.0  # mm/min = 50 mm/s; v^2/R = 250 mm/s^2, far below the accel limits
+V = FEED / 60.0
+
+
+def lagging_machine(tmp_path, damping_x_N_s_per_m, damping_y_N_s_per_m):
+    joints = {a: dict(FRICTIONLESS[a]) for a in FRICTIONLESS}
+    joints["x"]["damping"] = damping_x_N_s_per_m
+    joints["y"]["damping"] = damping_y_N_s_per_m
+    return gantry_variant(tmp_path, joints, {"ff_velocity": [0.0, 0.0, 1.0]})
+
+
+def test_unequal_lags_give_a_45_degree_ellipse_that_flips_with_direction(tmp_path):
+    machine = lagging_machine(tmp_path, 400.0, 100.0)
+    kp_x, kp_y = machine.servo.kp_N_per_mm[:2]
+    lag_x, lag_y = 0.4 / kp_x, 0.1 / kp_y  # [s]: c [N s/mm] / kp [N/mm]
+    assert lag_x > 3 * lag_y  # X lags more
+    res = run_ballbar(machine, "XY", R_MM, FEED)
+    expected_um = V * abs(lag_x - lag_y) * 1e3
+    for r in (res.ccw, res.cw):
+        assert r.ellipse.magnitude_um == pytest.approx(expected_um, rel=0.05)
+    assert res.ccw.ellipse.axis_deg == pytest.approx(45.0, abs=3.0)
+    assert res.cw.ellipse.axis_deg == pytest.approx(135.0, abs=3.0)
+    e = res.summary["ellipse"]
+    assert e["flips_with_direction"] is True
+    assert e["axis_deg"] == pytest.approx(45.0, abs=3.0)
+    # The ellipse dominates the shape: G is about its magnitude.
+    assert res.ccw.circular_deviation_um == pytest.approx(expected_um, rel=0.1)
+
+
+def test_equal_lags_give_no_ellipse(tmp_path):
+    kp_x, kp_y = gantry_variant(tmp_path).servo.kp_N_per_mm[:2]
+    machine = lagging_machine(tmp_path, 400.0, 400.0 * kp_y / kp_x)
+    res = run_ballbar(machine, "XY", R_MM, FEED)
+    unequal_um = V * abs(0.4 / kp_x - 0.1 / kp_y) * 1e3
+    for r in (res.ccw, res.cw):
+        assert r.ellipse.magnitude_um < 0.02 * unequal_um
+    assert res.summary["ellipse"]["flips_with_direction"] is False
+
+
+def test_friction_steps_at_quadrant_crossings_and_none_without_friction(tmp_path, machine):
+    kp_x, kp_y = machine.servo.kp_N_per_mm[:2]
+    assert machine.servo.ff_friction[:2] == (0.0, 0.0)
+    step_x = 2 * joint_attribute("x", "frictionloss") / kp_x * 1e3  # [um]
+    step_y = 2 * joint_attribute("y", "frictionloss") / kp_y * 1e3
+    assert min(step_x, step_y) > 1.0  # the bundled machine has friction worth measuring
+    with_friction = run_ballbar(machine, "XY", R_MM, FEED)
+    for r in (with_friction.ccw, with_friction.cw):
+        assert r.reversal_spikes_um == pytest.approx((step_x, step_y, step_x, step_y), rel=0.06)
+    without = run_ballbar(gantry_variant(tmp_path, FRICTIONLESS), "XY", R_MM, FEED)
+    for r in (without.ccw, without.cw):
+        assert max(abs(s) for s in r.reversal_spikes_um) < 0.1 * min(step_x, step_y)

@@ -1,0 +1,73 @@
+"""Look-ahead: S-curve reachability, the passes, junction and arc caps."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from controller.lookahead import (
+    BlockLimits,
+    arc_limits,
+    junction_cap,
+    max_reachable_speed,
+    plan_junction_speeds,
+    s_curve_time,
+)
+
+
+def _distance(v0, v1, acc, jerk):
+    """Distance of the fastest zero-acceleration-to-zero-acceleration speed change."""
+    return 0.5 * (v0 + v1) * s_curve_time(v1 - v0, acc, jerk)
+
+
+@pytest.mark.parametrize("v0", [0.0, 5.0, 100.0])
+@pytest.mark.parametrize("length", [0.001, 0.1, 5.0, 500.0])
+def test_reachable_speed_inverts_the_s_curve_distance(v0, length):
+    acc, jerk = 2500.0, 80000.0
+    v1 = max_reachable_speed(v0, length, acc, jerk)
+    assert v1 > v0
+    # rel 1e-6: for a tiny length at high speed, v1 - v0 (~1e-8) loses digits in the check itself
+    assert _distance(v0, v1, acc, jerk) == pytest.approx(length, rel=1e-6)
+
+
+def test_s_curve_time_regimes():
+    acc, jerk = 1000.0, 10000.0  # a^2/j = 100 mm/s
+    assert s_curve_time(400.0, acc, jerk) == pytest.approx(0.4 + 0.1)
+    assert s_curve_time(25.0, acc, jerk) == pytest.approx(2 * math.sqrt(25.0 / 1e4))
+
+
+def test_passes_respect_stops_caps_and_reachability():
+    blocks = [
+        BlockLimits(L, cap, 2000.0, 50000.0)
+        for L, cap in [(1.0, 100.0), (50.0, 200.0), (0.2, 50.0), (30.0, 100.0)]
+    ]
+    caps = np.array([0.0, np.inf, np.inf, 30.0, 0.0])
+    v = plan_junction_speeds(blocks, caps)
+    assert v[0] == 0.0 and v[-1] == 0.0 and v[3] <= 30.0
+    for b, blk in enumerate(blocks):
+        assert max(v[b], v[b + 1]) <= blk.cap_mm_per_s
+        lo, hi = sorted((v[b], v[b + 1]))
+        assert _distance(lo, hi, blk.acc_mm_per_s2, blk.jerk_mm_per_s3) <= blk.length_mm
+    # the long block's exit is limited by the short block after it, not only by its cap
+    assert v[2] <= max_reachable_speed(v[3], 0.2, 2000.0, 50000.0) + 1e-9
+
+
+def test_junction_cap_falls_with_kink_and_curvature_jump():
+    args = dict(deviation_mm=1e-4, jerk_mm_per_s3=80000.0, chord_mm=0.3)
+    assert junction_cap(0.0, 0.0, **args) == math.inf
+    assert junction_cap(1e-3, 0.0, **args) > junction_cap(1e-2, 0.0, **args)
+    assert junction_cap(0.0, 0.01, **args) > junction_cap(0.0, 1.0, **args)
+
+
+@pytest.mark.parametrize("radius", [1.0, 10.0, 100.0])
+def test_arc_limits_keep_axis_acceleration_and_jerk_bounds(radius):
+    vmax, amax, jmax = (500.0, 400.0, 200.0), (3000.0, 2500.0, 3000.0), (1e5, 8e4, 1e5)
+    k, dk = 1 / radius, 1 / radius**2
+    lim = arc_limits((0, 1, 2), 10.0, 0.0, k, dk, 1e9, vmax, amax, jmax)
+    v, a_t, j_t = lim.cap_mm_per_s, lim.acc_mm_per_s2, lim.jerk_mm_per_s3
+    assert v <= math.sqrt(2500.0 * radius) and v <= (8e4 * radius**2) ** (1 / 3) and v <= 400.0
+    assert math.hypot(a_t, v * v * k) <= 2500.0 * (1 + 1e-12)
+    assert math.hypot(j_t + v**3 * dk, 3 * v * a_t * k) <= 8e4 * (1 + 1e-12)
+    assert a_t > 0 and j_t > 0

@@ -1,0 +1,137 @@
+"""Differential test of the ``linuxcnc`` dialect against LinuxCNC's own interpreter (rs274).
+
+Every program in ``tests/data/rs274/programs`` has an expectation in ``tests/data/rs274/expected``,
+recorded from ``rs274 -g`` (LinuxCNC 2.9, Debian ``linuxcnc-uspace``) by
+``scripts/regen_rs274_expected.py``; the raw rs274 output is kept in ``tests/data/rs274/raw``.
+The interpreter must produce the same motions (same lines, kinds, planes, directions, turns;
+coordinates within rs274's print rounding) and reject the same programs on the same line.
+
+Tolerances: rs274 prints 4 decimals in the program's unit, so every printed coordinate and feed is
+within 0.5e-4 unit of the exact value. With ``unit`` = 1 mm (or 25.4 mm where the program used G20):
+- start, end, center (each coordinate) and feed: 1e-4 * unit + 1e-7 mm (twice the rounding, plus a
+  margin for float arithmetic on values up to 1e4 mm);
+- radius (derived from a rounded start and a rounded centre, 2-D): 1.5e-4 * unit + 1e-7 mm;
+- angle (derived from rounded start, end and centre): each end's polar angle is off by at most
+  sqrt(2) * 1e-4 * unit / radius, so 3e-4 * unit / radius + 1e-9 rad for the difference.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+from pathlib import Path
+
+import pytest
+
+DATA = Path(__file__).parent / "data" / "rs274"
+PROGRAMS = sorted((DATA / "programs").glob("*.ngc"))
+MIN_PROGRAMS = 150
+
+
+def _expected(program: Path) -> dict:
+    return json.loads((DATA / "expected" / f"{program.stem}.json").read_text())
+
+
+def _run(text: str, name: str) -> tuple[list, Exception | None]:
+    """Collect the interpreter's moves until it finishes or raises (error returned, not raised)."""
+    from controller.interpreter import interpret
+
+    from controller.errors import GcodeError
+
+    moves: list = []
+    try:
+        for move in interpret(text, dialect="linuxcnc", file=name):
+            moves.append(move)
+    except GcodeError as exc:
+        return moves, exc
+    return moves, None
+
+
+def _close(got: list[float], want: list[float], tol: float) -> bool:
+    return len(got) == len(want) and all(abs(g - w) <= tol for g, w in zip(got, want, strict=True))
+
+
+def _check_motion(i: int, got: dict, want: dict, unit_mm: float) -> list[str]:
+    pos_tol = 1e-4 * unit_mm + 1e-7
+    bad = []
+    for key in ("line", "kind", "plane", "direction", "turns"):
+        if got.get(key) != want.get(key):
+            bad.append(f"motion {i}: {key} {got.get(key)!r} != rs274 {want.get(key)!r}")
+    for key in ("start", "end", "center"):
+        if key in want and not _close(got.get(key, []), want[key], pos_tol):
+            bad.append(
+                f"motion {i}: {key} {got.get(key)} != rs274 {want[key]} (tol {pos_tol:g} mm)"
+            )
+    if "feed" in want and not abs(got.get("feed", math.nan) - want["feed"]) <= pos_tol:
+        bad.append(f"motion {i}: feed {got.get('feed')} != rs274 {want['feed']} mm/min")
+    if want["kind"] == "arc":
+        r_tol = 1.5e-4 * unit_mm + 1e-7
+        if not abs(got.get("radius", math.nan) - want["radius"]) <= r_tol:
+            bad.append(
+                f"motion {i}: radius {got.get('radius')} != rs274 {want['radius']} (tol {r_tol:g})"
+            )
+        a_tol = 3e-4 * unit_mm / want["radius"] + 1e-9
+        if not abs(got.get("angle", math.nan) - want["angle"]) <= a_tol:
+            bad.append(
+                f"motion {i}: angle {got.get('angle')} != rs274 {want['angle']} (tol {a_tol:g} rad)"
+            )
+    return bad
+
+
+@pytest.mark.parametrize("program", PROGRAMS, ids=[p.stem for p in PROGRAMS])
+def test_matches_rs274(program: Path) -> None:
+    want = _expected(program)
+    text = program.read_bytes().decode("utf-8")  # exact bytes (CRLF kept), as `gantry parse`
+    moves, error = _run(text, program.name)
+    got = [m.to_json() for m in moves]
+    unit_mm = want["print_unit_mm"]
+    problems = []
+    if len(got) != len(want["motions"]):
+        problems.append(f"{len(got)} motions, rs274 has {len(want['motions'])}")
+    for i, (g, w) in enumerate(zip(got, want["motions"], strict=False)):
+        problems += _check_motion(i, g, w, unit_mm)
+    if want["error"] is None:
+        if error is not None:
+            problems.append(f"raised {error} but rs274 accepts the program")
+    elif error is None:
+        problems.append(
+            f"no error; rs274 rejects line {want['error']['line']}: {want['error']['message']}"
+        )
+    else:
+        if error.line != want["error"]["line"]:
+            problems.append(
+                f"error on line {error.line}, rs274 on line {want['error']['line']} "
+                f"({want['error']['message']}); ours: {error.message}"
+            )
+        if not str(error.message).strip():
+            problems.append("error message is empty")
+    assert not problems, "\n".join(problems)
+
+
+def test_corpus_is_complete() -> None:
+    """The corpus cannot silently shrink: enough programs, each with expectation and raw output."""
+    assert len(PROGRAMS) >= MIN_PROGRAMS
+    names = {p.stem for p in PROGRAMS}
+    expected = {p.stem for p in (DATA / "expected").glob("*.json")}
+    raw = {p.stem for p in (DATA / "raw").glob("*.txt")}
+    assert names == expected, (
+        f"programs without expectation: {sorted(names - expected)}; "
+        f"expectations without program: {sorted(expected - names)}"
+    )
+    assert names == raw
+    for p in PROGRAMS:
+        want = _expected(p)
+        assert want["program"] == p.name
+        assert want["origin"].startswith("rs274 -g, LinuxCNC ")
+
+
+def test_corpus_has_valid_and_invalid_programs() -> None:
+    """Both sides are exercised: many accepted programs with arcs, many rejected ones."""
+    docs = [_expected(p) for p in PROGRAMS]
+    valid = [d for d in docs if d["error"] is None]
+    assert len(valid) >= 100
+    assert len(docs) - len(valid) >= 50
+    arcs = [m for d in docs for m in d["motions"] if m["kind"] == "arc"]
+    assert {m["plane"] for m in arcs} == {"XY", "XZ", "YZ"}
+    assert {m["direction"] for m in arcs} == {"cw", "ccw"}
+    assert max(m["turns"] for m in arcs) >= 3

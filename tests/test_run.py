@@ -1,0 +1,179 @@
+"""End to end: the real interpreter, planner and MuJoCo; `gantry run` and its exit statuses."""
+
+from __future__ import annotations
+
+import json
+import re
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from controller.config import load_machine_config
+from controller.servo import DiscretePD
+from models import DEFAULT_MACHINE, GANTRY_XML
+from sim.api import run_program
+from sim.cli import main
+from sim.machine import load_gantry
+
+# ~1 s simulated: a lead-in, a full R5 circle at F3000, a lead-out
+CIRCLE = "G21 G17 G90 G94\nG1 X5 F3000\nG3 I-5 J0\nG1 X0\nM2\n"
+REPORT_KEYS = {
+    "program", "dialect", "cycle_time_s", "contour_error_um", "parts_um", "blocks", "limits",
+    "sim", "timing_s",
+}
+
+
+def model_variant(tmp_path: Path, **joint_attrs: str) -> Path:
+    """A copy of the bundled MJCF with joint attributes (damping, frictionloss) or the actuators'
+    force ranges (``forcerange``) replaced on every axis."""
+    text = GANTRY_XML.read_text()
+    for attr, value in joint_attrs.items():
+        if attr == "forcerange":
+            text = re.sub(r'(ctrlrange|forcerange)="[^"]*"', rf'\1="{value}"', text)
+        else:
+            text = re.sub(rf'{attr}="[^"]*"', f'{attr}="{value}"', text)
+    path = tmp_path / "variant.xml"
+    path.write_text(text)
+    return path
+
+
+def machine_file(tmp_path: Path, text: str) -> Path:
+    path = tmp_path / "machine.toml"
+    path.write_text(text)
+    return path
+
+
+def test_short_circle_end_to_end(machine):
+    res = run_program(CIRCLE, file="c.ngc", machine=machine)
+    rep = res.report
+    assert REPORT_KEYS <= rep.keys()
+    assert json.loads(json.dumps(rep)) == rep  # exactly what report.json holds
+    assert rep["contour_error_um"].keys() == {"max", "rms", "p95"}
+    assert rep["parts_um"].keys() == {"chord_max", "reference_max", "tracking_max"}
+    assert [b["line"] for b in rep["blocks"]] == [2, 3, 4]
+    assert rep["timing_s"].keys() == {"parse", "plan", "simulate", "analyse", "total"}
+    assert rep["sim"]["steps"] == res.trace.t.size * 2
+    # the bundled machine keeps a 5 mm circle at F3000 within the 6 um accuracy target
+    assert 0.0 < rep["contour_error_um"]["max"] < 6.0
+    assert rep["parts_um"]["chord_max"] <= machine.segmentation.chord_tolerance_mm * 1000 + 1e-9
+    tr = res.trace
+    assert tr.pos.shape == tr.ref.shape == (tr.t.size, 3)
+    assert float(tr.err_um[tr.feed].max()) == rep["contour_error_um"]["max"]
+    assert np.abs(tr.pos - tr.ref).max() < 0.01  # traced within 10 um of the reference
+
+
+def test_runner_executes_the_servo_law(machine):
+    """The unrolled loop in sim/runner.py applies exactly DiscretePD.force to the encoders."""
+    res = run_program(CIRCLE, machine=machine)
+    g = load_gantry(machine)
+    servo = DiscretePD(machine.servo, g.plant)
+    tr = res.trace
+    joint = g.work_to_joint_mm(tr.pos)
+    from controller.planner import plan
+
+    traj = plan(res.moves, machine).sample(machine.servo.period_s)
+    b = servo.drive_terms(g.work_to_joint_mm(traj.pos), traj.vel, traj.acc)
+    for k in (0, 1, 200, 500, tr.t.size - 1):
+        expect = servo.force(b[k], joint[k], joint[max(k - 1, 0)])
+        assert tr.force_N[k] == pytest.approx(expect, abs=1e-6)
+
+
+def test_cli_writes_outputs_and_gates(write_program, tmp_path, capsys):
+    prog = write_program(CIRCLE)
+    out = tmp_path / "out"
+    assert main(["run", str(prog), "--out", str(out)]) == 0
+    assert "contour error: max" in capsys.readouterr().out
+    rep = json.loads((out / "report.json").read_text())
+    assert REPORT_KEYS <= rep.keys()
+    with np.load(out / "trace.npz") as npz:
+        assert {"t", "ref", "pos", "line", "err_um"} <= set(npz.files)
+        assert npz["err_um"].shape == npz["t"].shape
+    assert (out / "path.png").stat().st_size > 0 and (out / "error.png").stat().st_size > 0
+    (out / "report.json").unlink()
+    assert main(["run", str(prog), "--out", str(out), "--max-error-um", "0.01"]) == 1
+    assert (out / "report.json").exists()
+
+
+def test_bad_machine_key_exits_2(write_program, tmp_path, capsys):
+    mf = machine_file(tmp_path, "[servo]\nkp = 3\n")
+    assert main(["run", str(write_program(CIRCLE)), "--machine", str(mf),
+                 "--out", str(tmp_path / "o")]) == 2
+    err = capsys.readouterr().err
+    assert f"{mf}: error: unknown key 'kp' in [servo]" in err and "Traceback" not in err
+
+
+def test_program_outside_travel_exits_2_and_leaves_no_report(write_program, tmp_path, capsys):
+    out = tmp_path / "out"
+    out.mkdir()
+    (out / "report.json").write_text("{}")  # an earlier run's report must not survive
+    prog = write_program("G1 X100 F3000\nG1 X400\nM2\n")
+    assert main(["run", str(prog), "--out", str(out)]) == 2
+    assert f"{prog}:2: error:" in capsys.readouterr().err
+    assert not (out / "report.json").exists()
+
+
+def test_divergence_is_an_error(write_program, tmp_path, capsys):
+    xml = model_variant(tmp_path, forcerange="-1e9 1e9")
+    mf = machine_file(
+        tmp_path,
+        f'[servo]\nkp_N_per_mm = [1e6, 1e6, 1e6]\nkd_N_s_per_mm = [1e4, 1e4, 1e4]\n'
+        f'[sim]\nmodel = "{xml.name}"\n',
+    )
+    out = tmp_path / "out"
+    prog = write_program("G1 X1 F600\nM2\n")
+    assert main(["run", str(prog), "--machine", str(mf), "--out", str(out)]) == 2
+    err = capsys.readouterr().err
+    assert re.search(rf"{re.escape(str(prog))}:1: error: .*(diverged|following error)", err)
+    assert not (out / "report.json").exists()
+
+
+def test_pd_circle_radius_matches_the_discrete_loop_gain(tmp_path):
+    """Without friction and damping, a PD-only circle settles at |G(e^{jwT})| times its radius."""
+    xml = model_variant(tmp_path, damping="0", frictionloss="0")
+    mf = machine_file(
+        tmp_path,
+        "[limits]\nmax_acceleration_mm_per_s2 = [20000.0, 20000.0, 20000.0]\n"
+        "max_jerk_mm_per_s3 = [2e6, 2e6, 2e6]\n"
+        "[servo]\nff_velocity = [0.0, 0.0, 0.0]\nff_acceleration = [0.0, 0.0, 0.0]\n"
+        f'[sim]\nmodel = "{xml.name}"\n',
+    )
+    machine = load_machine_config(DEFAULT_MACHINE, mf)
+    radius = 10.0
+    prog = f"G17 G1 X{radius} F12000\nG3 I-{radius} J0 P2\nG1 X0\nM2\n"
+    res = run_program(prog, machine=machine)
+    tr = res.trace
+    speed = np.linalg.norm(np.gradient(tr.ref, tr.t, axis=0), axis=1)
+    on_circle = tr.line == 2
+    steady = on_circle & (speed > 0.999 * speed[on_circle].max())
+    steady &= tr.t > tr.t[steady][0] + 0.05  # the loop's transient (~20 ms) has died out
+    assert steady.sum() > 300
+    r_ref = np.hypot(tr.ref[steady, 0], tr.ref[steady, 1])
+    r_pos = np.hypot(tr.pos[steady, 0], tr.pos[steady, 1])
+    omega = float(np.mean(speed[steady])) / radius
+    g = load_gantry(machine)
+    gain = abs(DiscretePD(machine.servo, g.plant).closed_loop_gain(omega, 0))
+    predicted_um = (gain - 1.0) * r_ref.mean() * 1000
+    measured_um = (r_pos.mean() - r_ref.mean()) * 1000
+    assert predicted_um > 20.0  # a clear effect, far above the reference's sub-um error
+    assert measured_um == pytest.approx(predicted_um, rel=0.05)
+
+
+def test_mujoco_instability_warnings_are_a_simulation_error(machine):
+    """MuJoCo resets a state whose accelerations blow up and counts a warning: that is fatal."""
+    import mujoco
+
+    from controller.errors import SimulationError
+    from controller.interpreter import interpret
+    from controller.planner import plan
+    from sim.runner import _check
+
+    g = load_gantry(machine)
+    traj = plan(tuple(interpret("G1 X1 F600\nM2\n")), machine).sample(machine.servo.period_s)
+    d = mujoco.MjData(g.model)
+    site_m = traj.pos / 1000.0 + g.tool_origin_m  # a trace exactly on the reference
+    _check(d, g, machine, traj, site_m, 0, traj.t.size)
+    d.warning[mujoco.mjtWarning.mjWARN_BADQACC].number = 1
+    with pytest.raises(SimulationError, match=r"diverged.*BADQACC") as info:
+        _check(d, g, machine, traj, site_m, 0, traj.t.size)
+    assert info.value.line == 1
