@@ -308,7 +308,11 @@ def plan(
             break
         for b in bad:  # lower the offending junctions; in the last round, stop there
             caps[b] = 0.0 if rnd == MAX_ROUNDS - 1 else JUNCTION_BACKOFF * speeds[b]
-    end = np.asarray(moves[-1].end if moves else (0.0, 0.0, 0.0), dtype=float)
+    end = np.array(moves[-1].end if moves else (0.0, 0.0, 0.0), dtype=float)
+    move_start = np.asarray(starts, dtype=float)
+    lines = np.asarray([g.move.line for g in active], dtype=np.int64)
+    for arr in (end, move_start, lines):
+        arr.setflags(write=False)
     return Plan(
         moves=moves,
         duration_s=clock,
@@ -319,7 +323,7 @@ def plan(
         stretched_count=pl.stretched,
         ruckig_piece_count=pl.ruckig_pieces,
         curve=pl.out.build(),
-        move_start_s=np.asarray(starts, dtype=float),
-        move_lines=np.asarray([g.move.line for g in active], dtype=np.int64),
+        move_start_s=move_start,
+        move_lines=lines,
         end_mm=end,
     )
