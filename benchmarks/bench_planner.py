@@ -314,7 +314,7 @@ def main(argv=None) -> int:
     print()
     print(
         f"(a) limits, samples:  max ratio {worst['lim']:.6f} (<= 1); "
-        f"path speed / F {worst['feed']:.8f} (<= 1)"
+        f"path speed / F {worst['feed']:.12f} (<= 1)"
     )
     print(f"    limits, phases:   max ratio {worst['plim']:.6f} (<= 1)")
     print(

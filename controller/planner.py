@@ -22,21 +22,22 @@ fails raises :class:`PlanningError` naming the line: never a reference beyond th
 from __future__ import annotations
 
 from collections.abc import Sequence
-from dataclasses import dataclass, field
 
 import numpy as np
 import ruckig
 
 from controller.config import MachineConfig
-from controller.cubic import CubicBuilder, PiecewiseCubic
+from controller.cubic import CubicBuilder
 from controller.errors import ConfigError, PlanningError
 from controller.jerk3 import jerk3, jerk3_points, piece_limits_ok
 from controller.junction_check import feasible_junction_caps
 from controller.lookahead import plan_junction_speeds
 from controller.moves import Move
 from controller.path import MoveGeometry, junctions, move_geometry, vertex_states
-from controller.trajectory import Trajectory
+from controller.plan_result import Plan
 from controller.travel import check_travel
+
+__all__ = ["Plan", "plan"]
 
 _OK = (ruckig.Result.Working, ruckig.Result.Finished)
 #: Largest distance of a piece next to a moving junction from the arc, in chord tolerances;
@@ -46,53 +47,6 @@ JUNCTION_DEVIATION_MAX = 0.2
 #: round stops at the junctions still offending.
 MAX_ROUNDS = 8
 JUNCTION_BACKOFF = 0.6
-
-
-@dataclass(frozen=True)
-class Plan:
-    """A planned program.
-
-    Attributes:
-        moves: the moves planned, in order.
-        duration_s: time from rest at the first move's start to rest at the last move's end [s].
-        segment_count: chords and straight pieces planned.
-        chord_tolerance_mm: the machine's chord tolerance [mm].
-        vertices: per move, read-only (k, 3) chord vertices [mm] (first = start, last = end).
-        fallback_count: Ruckig pieces that needed the fallback (see the module docstring).
-        stretched_count: arc pieces Ruckig made longer than the speed profile asked for.
-        ruckig_piece_count: arc pieces given to Ruckig because the closed-form piece would have
-            broken a limit (typically next to a junction with a curvature jump).
-    """
-
-    moves: tuple
-    duration_s: float
-    segment_count: int
-    chord_tolerance_mm: float
-    vertices: tuple
-    fallback_count: int = 0
-    stretched_count: int = 0
-    ruckig_piece_count: int = 0
-    curve: PiecewiseCubic = field(default=None, repr=False)  # type: ignore[assignment]
-    move_start_s: np.ndarray = field(default=None, repr=False)  # type: ignore[assignment]
-    move_lines: np.ndarray = field(default=None, repr=False)  # type: ignore[assignment]
-    end_mm: np.ndarray = field(default=None, repr=False)  # type: ignore[assignment]
-
-    def sample(self, period_s: float) -> Trajectory:
-        """The reference every ``period_s`` [s] from 0 to the end; the last sample is at rest at
-        the program's end exactly (time ceil(duration / period) * period)."""
-        if not period_s > 0:
-            raise ConfigError(f"sampling period must be > 0 s, got {period_s}")
-        n = int(np.ceil(self.duration_s / period_s - 1e-9)) + 1
-        t = np.arange(n) * period_s
-        pos, vel, acc = self.curve.evaluate(t)
-        done = t >= self.duration_s
-        pos[done], vel[done], acc[done] = self.end_mm, 0.0, 0.0
-        if self.move_lines.size:
-            k = np.clip(np.searchsorted(self.move_start_s, t, side="right") - 1, 0, None)
-            line = self.move_lines[k]
-        else:
-            line = np.zeros(n, dtype=np.int64)
-        return Trajectory(t=t, pos=pos, vel=vel, acc=acc, line=line, period_s=period_s)
 
 
 def _calculate(otg: ruckig.Ruckig, inp: ruckig.InputParameter, traj: ruckig.Trajectory):
@@ -308,7 +262,11 @@ def plan(
             break
         for b in bad:  # lower the offending junctions; in the last round, stop there
             caps[b] = 0.0 if rnd == MAX_ROUNDS - 1 else JUNCTION_BACKOFF * speeds[b]
-    end = np.asarray(moves[-1].end if moves else (0.0, 0.0, 0.0), dtype=float)
+    end = np.array(moves[-1].end if moves else (0.0, 0.0, 0.0), dtype=float)
+    move_start = np.asarray(starts, dtype=float)
+    lines = np.asarray([g.move.line for g in active], dtype=np.int64)
+    for arr in (end, move_start, lines):
+        arr.setflags(write=False)
     return Plan(
         moves=moves,
         duration_s=clock,
@@ -319,7 +277,7 @@ def plan(
         stretched_count=pl.stretched,
         ruckig_piece_count=pl.ruckig_pieces,
         curve=pl.out.build(),
-        move_start_s=np.asarray(starts, dtype=float),
-        move_lines=np.asarray([g.move.line for g in active], dtype=np.int64),
+        move_start_s=move_start,
+        move_lines=lines,
         end_mm=end,
     )

@@ -188,3 +188,17 @@ def test_empty_and_zero_length_programs(machine):
     assert p.duration_s == 0.0 and np.array_equal(p.sample(0.001).pos[-1], (1.0, 2.0, 3.0))
     with pytest.raises(ConfigError):
         p.sample(0.0)
+
+
+@pytest.mark.parametrize("changes", [{"method": "fixed"}, {"chord_tolerance_mm": 0.05}])
+def test_other_segmentations_keep_limits_and_the_arc(machine, changes):
+    m = machine.with_changes("segmentation", **changes)
+    a = arc(1, (3.0, 0.0, 0.0), (0.0, 0.0, 0.0), 2 * math.pi, feed=4000.0)
+    lead = Linear(2, (3.0, 0.0, 0.0), (3.0, 10.0, 0.0), 4000.0)  # tangent: a curvature jump
+    p, tr = _sample([a, lead], m)
+    assert_within_limits(tr, m, [a, lead])
+    assert arc_deviation(tr, a) <= 0.25 * m.segmentation.chord_tolerance_mm
+    assert _speed_at(p, tr, p.move_start_s[1]) > 1.0  # tangent: no stop
+    if changes.get("method") == "fixed":
+        # 18.8 mm of circle: Marlin's 72 segments per circle outnumber the 1 mm chords; + the line
+        assert p.segment_count == 1 + max(math.floor(2 * math.pi * 3.0), 72)

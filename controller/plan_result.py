@@ -1,0 +1,59 @@
+"""The planner's result: a frozen :class:`Plan` (re-exported by :mod:`controller.planner`) whose
+reference is stored as constant-jerk phases and sampled vectorised."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from controller.cubic import PiecewiseCubic
+from controller.errors import ConfigError
+from controller.trajectory import Trajectory
+
+
+@dataclass(frozen=True)
+class Plan:
+    """A planned program.
+
+    Attributes:
+        moves: the moves planned, in order.
+        duration_s: time from rest at the first move's start to rest at the last move's end [s].
+        segment_count: chords and straight pieces planned.
+        chord_tolerance_mm: the machine's chord tolerance [mm].
+        vertices: per move, read-only (k, 3) chord vertices [mm] (first = start, last = end).
+        fallback_count: Ruckig pieces that needed the fallback (see the module docstring).
+        stretched_count: arc pieces Ruckig made longer than the speed profile asked for.
+        ruckig_piece_count: arc pieces given to Ruckig because the closed-form piece would have
+            broken a limit (typically next to a junction with a curvature jump).
+    """
+
+    moves: tuple
+    duration_s: float
+    segment_count: int
+    chord_tolerance_mm: float
+    vertices: tuple
+    fallback_count: int = 0
+    stretched_count: int = 0
+    ruckig_piece_count: int = 0
+    curve: PiecewiseCubic = field(default=None, repr=False)  # type: ignore[assignment]
+    move_start_s: np.ndarray = field(default=None, repr=False)  # type: ignore[assignment]
+    move_lines: np.ndarray = field(default=None, repr=False)  # type: ignore[assignment]
+    end_mm: np.ndarray = field(default=None, repr=False)  # type: ignore[assignment]
+
+    def sample(self, period_s: float) -> Trajectory:
+        """The reference every ``period_s`` [s] from 0 to the end; the last sample is at rest at
+        the program's end exactly (time ceil(duration / period) * period)."""
+        if not period_s > 0:
+            raise ConfigError(f"sampling period must be > 0 s, got {period_s}")
+        n = int(np.ceil(self.duration_s / period_s - 1e-9)) + 1
+        t = np.arange(n) * period_s
+        pos, vel, acc = self.curve.evaluate(t)
+        done = t >= self.duration_s
+        pos[done], vel[done], acc[done] = self.end_mm, 0.0, 0.0
+        if self.move_lines.size:
+            k = np.clip(np.searchsorted(self.move_start_s, t, side="right") - 1, 0, None)
+            line = self.move_lines[k]
+        else:
+            line = np.zeros(n, dtype=np.int64)
+        return Trajectory(t=t, pos=pos, vel=vel, acc=acc, line=line, period_s=period_s)
