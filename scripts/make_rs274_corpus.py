@@ -333,6 +333,33 @@ def random_programs(rng: random.Random) -> dict[str, str]:
     return out
 
 
+def sweep_extremes(rng: random.Random) -> dict[str, str]:
+    """Arcs that sweep almost nothing or almost a full turn, and huge-R arcs over short chords."""
+    out = {}
+    for k in range(24):
+        pl = ["xy", "xz", "yz"][k % 3]
+        g, a1, a2, _an, o1, o2 = PLANES[pl]
+        gcode = rng.choice(["G2", "G3"])
+        if k < 12:  # centre format, end a small angle before/after the start (>= 0.001 mm away)
+            r = round(rng.uniform(2, 200), 3)
+            t0 = rng.uniform(-math.pi, math.pi)
+            delta = rng.choice([1, -1]) * max(0.002 / r, rng.choice([1e-3, 1e-2, 0.05]))
+            i, j = round(-r * math.cos(t0), 4), round(-r * math.sin(t0), 4)
+            rr = math.hypot(i, j)
+            t_start = math.atan2(-j, -i)
+            e1 = round(i + rr * math.cos(t_start + delta), 4)
+            e2 = round(j + rr * math.sin(t_start + delta), 4)
+            move = f"{gcode} {a1}{fmt(e1)} {a2}{fmt(e2)} {o1}{fmt(i)} {o2}{fmt(j)}"
+        else:  # R format, |R| much larger than the chord
+            chord = rng.choice([0.01, 0.05, 0.5, 3.0])
+            ang = rng.uniform(-math.pi, math.pi)
+            e1, e2 = round(chord * math.cos(ang), 4), round(chord * math.sin(ang), 4)
+            big_r = rng.choice([100, 1000, 10000, 50000]) * rng.choice([1, -1])
+            move = f"{gcode} {a1}{fmt(e1)} {a2}{fmt(e2)} R{big_r}"
+        out[f"gen_sweep_extreme_{pl}_{k:02d}"] = "\n".join([f"G21 {g} F600", move, "M2"])
+    return out
+
+
 def main() -> int:
     rng = random.Random(SEED)
     progs: dict[str, str] = {}
@@ -346,6 +373,7 @@ def main() -> int:
         mismatch_random,
         r_short_random,
         random_programs,
+        sweep_extremes,
     )
     for family in families:
         fam = family(rng)

@@ -135,3 +135,23 @@ def test_corpus_has_valid_and_invalid_programs() -> None:
     assert {m["plane"] for m in arcs} == {"XY", "XZ", "YZ"}
     assert {m["direction"] for m in arcs} == {"cw", "ccw"}
     assert max(m["turns"] for m in arcs) >= 3
+
+
+def test_expectations_are_self_consistent() -> None:
+    """The recorded data is a connected path from the origin, on real source lines, in order."""
+    for p in PROGRAMS:
+        want = _expected(p)
+        n_lines = max(1, len(p.read_bytes().decode("utf-8").split("\n")))
+        prev_end, prev_line = [0.0, 0.0, 0.0], 1
+        for m in want["motions"]:
+            assert m["start"] == prev_end, p.name
+            assert prev_line <= m["line"] <= n_lines, p.name
+            assert m["kind"] in ("rapid", "linear", "arc"), p.name
+            if m["kind"] == "arc":
+                assert m["plane"] in ("XY", "XZ", "YZ") and m["direction"] in ("cw", "ccw")
+                assert m["radius"] > 0 and m["turns"] >= 1, p.name
+                assert 0 < m["angle"] <= 2 * math.pi * m["turns"] + 1e-12, p.name
+            prev_end, prev_line = m["end"], m["line"]
+        if want["error"] is not None:
+            assert prev_line <= want["error"]["line"] <= n_lines, p.name
+            assert want["error"]["message"].strip(), p.name
