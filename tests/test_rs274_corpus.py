@@ -34,9 +34,8 @@ def _expected(program: Path) -> dict:
 
 def _run(text: str, name: str) -> tuple[list, Exception | None]:
     """Collect the interpreter's moves until it finishes or raises (error returned, not raised)."""
-    from controller.interpreter import interpret
-
     from controller.errors import GcodeError
+    from controller.interpreter import interpret
 
     moves: list = []
     try:
