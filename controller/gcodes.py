@@ -29,7 +29,9 @@ G_GROUPS: dict[int, str] = {
 }
 
 #: codes the interpreter implements itself.
-G_HANDLED = frozenset((0, 10, 20, 30, 800, 170, 180, 190, 900, 910, 901, 911, 200, 210))
+#: G53 is handled as rs274 runs it with zero work offsets: the block's axis words are absolute
+#: work coordinates (gantry-sim has no G54-G59.3/G92 offset tables, so machine = work).
+G_HANDLED = frozenset((0, 10, 20, 30, 800, 170, 180, 190, 900, 910, 901, 911, 200, 210, 530))
 
 #: codes accepted with no effect on the programmed X/Y/Z path in work coordinates.
 G_NO_PATH_EFFECT = frozenset(
@@ -56,7 +58,6 @@ G_REFUSED: dict[int, str] = {
     100: _COORDS,
     **dict.fromkeys((280, 281, 300, 301), "moves to stored home positions are not supported"),
     520: _COORDS,
-    530: "moves in machine coordinates (G53) are not supported",
     920: _COORDS,
     923: _COORDS,
 }

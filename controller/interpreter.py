@@ -110,8 +110,14 @@ class Interpreter:
             )
         # Step 6: the move, validated against the new state.
         moves: list[Move] = []
+        machine_coords = w.g.get("nonmodal") == 530
+        if machine_coords:
+            if motion not in (0, 10):
+                raise GcodeError("G53 (machine coordinates) must be used with G0 or G1")
+            if s.incremental:
+                raise GcodeError("G53 cannot be used in incremental distance mode (G91); use G90")
         if motion is not None:
-            end = self._end_point(w.values, s)
+            end = self._end_point(w.values, replace(s, incremental=False) if machine_coords else s)
             if motion == 0:
                 moves.append(Rapid(w.line, s.position, end))
             elif motion == 10:

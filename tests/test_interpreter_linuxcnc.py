@@ -204,7 +204,8 @@ def test_radius_format_signs_and_semicircle_tolerance() -> None:
         ("G92 X1", 1, "G92 is not supported"),
         ("G28", 1, "G28 is not supported"),
         ("G10 L2 P1 X1", 1, "G10 is not supported"),
-        ("G53 G0 X1", 1, "G53 is not supported"),
+        ("G91 G53 G0 X1", 1, "incremental distance mode (G91)"),
+        ("F1\nG53 G2 X1 I1", 2, "must be used with G0 or G1"),
         ("G41 D1", 1, "cutter radius compensation"),
         ("G81 X1 Y1 Z-1 R1", 1, "canned cycles"),
         ("G4", 1, "G4 (dwell) needs a P"),
@@ -252,3 +253,10 @@ def test_missing_program_end_is_an_error_on_the_last_line() -> None:
     assert info.value.line == 1
     assert parse_program("%\nG0 X1\n%\nthis is never read\n")[0].end == (1.0, 0.0, 0.0)
     assert len(parse_program("G0 X1\nM30\nG0 X5 garbage\n")) == 1
+
+
+def test_g53_axis_words_are_absolute_for_one_block() -> None:
+    """rs274 with zero work offsets: G53 words are absolute (machine = work), the mode stays."""
+    moves = parse_program("G21 F500\nG0 X5\nG53 G1 X10 Y3\nX20\nM2\n")
+    assert [m.end for m in moves] == [(5.0, 0.0, 0.0), (10.0, 3.0, 0.0), (20.0, 3.0, 0.0)]
+    assert [m.kind for m in moves] == ["rapid", "linear", "linear"]
