@@ -114,9 +114,13 @@ def plot_path(result, path: Path) -> None:
 
     fig = Figure(figsize=(7, 7), dpi=110)
     ax = fig.add_subplot()
-    for k, (p, kind) in enumerate(polys):
-        style = dict(color="0.6", ls="--", lw=0.8) if kind == "rapid" else dict(color="k", lw=1.0)
-        ax.plot(p[:, i], p[:, j], **style, label="commanded" if k == 0 else None)
+    labelled: set[str] = set()
+    for p, kind in polys:
+        rapid = kind == "rapid"
+        style = dict(color="0.6", ls="--", lw=0.8) if rapid else dict(color="k", lw=1.0)
+        label = "commanded rapid (G0)" if rapid else "commanded feed move"
+        ax.plot(p[:, i], p[:, j], **style, label=None if label in labelled else label)
+        labelled.add(label)
     ax.plot(traced[:, i], traced[:, j], color="tab:red", lw=0.9, label=f"traced, error x {gain:g}")
     ax.set_aspect("equal", adjustable="datalim")
     ax.set_xlabel(f"{'XYZ'[i]} [mm]")
