@@ -11,11 +11,12 @@ from pathlib import Path
 
 
 @contextmanager
-def atomic_output_dir(out_dir: Path) -> Iterator[Path]:
+def atomic_output_dir(out_dir: Path, last: str | None = None) -> Iterator[Path]:
     """Yield a temporary folder beside ``out_dir``; on success move its files into ``out_dir``.
 
     Each file lands by ``os.replace`` (atomic on one file system), so a reader sees either the
     previous file or the complete new one. If the body raises, nothing in ``out_dir`` changes.
+    ``last`` names the file moved in after all others (a report whose presence means "done").
     """
     out_dir = Path(out_dir)
     out_dir.parent.mkdir(parents=True, exist_ok=True)
@@ -23,7 +24,7 @@ def atomic_output_dir(out_dir: Path) -> Iterator[Path]:
     try:
         yield tmp
         out_dir.mkdir(exist_ok=True)
-        for item in sorted(tmp.iterdir()):
+        for item in sorted(tmp.iterdir(), key=lambda p: (p.name == last, p.name)):
             os.replace(item, out_dir / item.name)
     finally:
         shutil.rmtree(tmp, ignore_errors=True)

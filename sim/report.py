@@ -9,9 +9,6 @@ realtime_factor}, timing_s {parse, plan, simulate, analyse, total}; plus a few e
 from __future__ import annotations
 
 import json
-import os
-import shutil
-import tempfile
 from pathlib import Path
 from typing import Any
 
@@ -55,10 +52,10 @@ def build_report(
 
 
 def write_outputs(result, out_dir: Path) -> None:
-    """Write the run's files into a temporary folder in ``out_dir``, then move them in."""
-    out_dir.mkdir(parents=True, exist_ok=True)
-    tmp = Path(tempfile.mkdtemp(prefix=".gantry-run-", dir=out_dir))
-    try:
+    """Write the run's files into a temporary folder, then move them in, report.json last."""
+    from sim.outdir import atomic_output_dir
+
+    with atomic_output_dir(out_dir, last="report.json") as tmp:
         (tmp / "report.json").write_text(json.dumps(result.report, indent=2) + "\n")
         tr = result.trace
         np.savez_compressed(
@@ -67,12 +64,6 @@ def write_outputs(result, out_dir: Path) -> None:
         )
         plot_path(result, tmp / "path.png")
         plot_error(result, tmp / "error.png")
-        for name in OUTPUT_FILES:  # report.json first in the list, so move it last
-            if name != "report.json":
-                os.replace(tmp / name, out_dir / name)
-        os.replace(tmp / "report.json", out_dir / "report.json")
-    finally:
-        shutil.rmtree(tmp, ignore_errors=True)
 
 
 def _geometry_polyline(move) -> np.ndarray:

@@ -67,13 +67,13 @@ def run(args: argparse.Namespace) -> int:
     from sim.api import run_program, write_run_outputs
     from sim.report import OUTPUT_FILES
 
+    gate = args.max_error_um
+    if gate is not None and not (math.isfinite(gate) and gate >= 0):
+        raise ConfigError(f"--max-error-um must be a number >= 0, got {gate}", file="gantry run")
     if args.out.exists() and not args.out.is_dir():
         raise ConfigError("--out must be a folder, not a file", file=str(args.out))
     for name in OUTPUT_FILES:  # a failing run must not leave an earlier run's report behind
         (args.out / name).unlink(missing_ok=True)
-    gate = args.max_error_um
-    if gate is not None and not (math.isfinite(gate) and gate >= 0):
-        raise ConfigError(f"--max-error-um must be a number >= 0, got {gate}", file="gantry run")
     machine = load_machine(args.machine)
     text = read_program(args.program)
     result = run_program(
