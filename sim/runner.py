@@ -157,9 +157,8 @@ def _check(
     """Raise SimulationError if ticks lo..hi (tool tip ``work_mm`` [mm], work coordinates)
     diverged or lost the reference."""
     err = np.abs(work_mm - traj.pos[lo:hi])
-    bad = ~np.isfinite(err).all(axis=1)
     limit = machine.servo.max_following_error_mm
-    bad |= (err > limit).any(axis=1)
+    bad = ~(err <= limit).all(axis=1)  # beyond the limit, or NaN (no comparison holds)
     if bad.any():
         k = lo + int(np.argmax(bad))
         row = err[k - lo]

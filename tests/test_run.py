@@ -201,3 +201,22 @@ def test_trace_is_the_tool_site_mujoco_reaches_at_every_tick(machine):
         mujoco.mj_step(g.model, d, g.substeps)
     assert np.abs(sim.pos - replay).max() <= 1e-9  # [mm]: rounding only
     assert np.abs(sim.pos - traj.pos).max() > 1e-4  # a real trace, not the reference
+
+
+def test_non_finite_or_far_trace_is_a_simulation_error(machine):
+    import mujoco
+
+    from controller.errors import SimulationError
+    from controller.interpreter import interpret
+    from controller.planner import plan
+    from sim.runner import _check
+
+    g = load_gantry(machine)
+    traj = plan(tuple(interpret("G1 X1 F600\nM2\n")), machine).sample(machine.servo.period_s)
+    d = mujoco.MjData(g.model)
+    for bad, what in ((np.nan, "non-finite"), (np.inf, "non-finite"), (2.5, "2.5 mm")):
+        work_mm = traj.pos.copy()
+        work_mm[7, 1] += bad
+        with pytest.raises(SimulationError, match=f"on Y is {what}") as info:
+            _check(d, machine, traj, work_mm, 0, traj.t.size)
+        assert info.value.line == 1
