@@ -4,7 +4,8 @@
 
 Prints, measured in this one run:
 1. speed: the servo loop's simulated seconds per wall second over raw ``mj_step(m, d, 100)``
-   stepping of the same model for the same number of steps (target >= 0.5, aim 0.85);
+   stepping of the same model for the same number of steps (target >= 0.5, aim 0.85), and for
+   reference MuJoCo alone on the loop's trajectory (its forces replayed open loop in C);
 2. accuracy: max / RMS contour error of an R 10 mm XY circle block at F3000 and F10000 on the
    bundled machine, with its default feedforward and PD only (FF1/FF2 off; gravity
    compensation stays on, it is a static load) -- target <= 6 um max at F3000 with feedforward;
@@ -50,9 +51,11 @@ def speed(machine: MachineConfig) -> None:
     traj = plan(moves, machine).sample(machine.servo.period_s)
     gantry = load_gantry(machine)
     steps = traj.t.size * gantry.substeps
-    loop, raw = [], []
+    loop, raw, physics = [], [], []
     for _ in range(REPEATS):
-        loop.append(simulate(gantry, machine, traj).wall_s)
+        sim = simulate(gantry, machine, traj)
+        loop.append(sim.wall_s)
+        physics.append(_physics_only(gantry, traj, sim.force))
         d = mujoco.MjData(gantry.model)
         d.ctrl[gantry.actuator_id[2]] = -gantry.plant[2].gravity_load_N
         t0 = time.perf_counter()
@@ -66,6 +69,31 @@ def speed(machine: MachineConfig) -> None:
     print(f"   raw mj_step(100): {min(raw) * 1e6 / traj.t.size:6.2f} us/tick  "
           f"{sim_s / min(raw):6.1f}x real time")
     print(f"   ratio loop/raw  : {min(raw) / min(loop):.2f}   (target >= 0.5, aim 0.85)")
+    print(f"   physics only    : {min(physics) * 1e6 / traj.t.size:6.2f} us/tick  "
+          f"(ratio {min(raw) / min(physics):.2f}: the loop's forces replayed open loop in C by "
+          "mujoco.rollout, the same trajectory;")
+    print("                     the ceiling of any servo loop: moving, the constraint solver "
+          "iterates, at rest it does not)")
+
+
+def _physics_only(gantry, traj, force: np.ndarray) -> float:
+    """Wall time [s] of MuJoCo alone on the loop's trajectory: its held forces, one row per
+    physics step, stepped open loop from the same initial state by mujoco.rollout."""
+    import mujoco
+    from mujoco import rollout
+
+    m = gantry.model
+    d = mujoco.MjData(m)
+    d.qpos[:] = gantry.joint_qpos_m(gantry.work_to_joint_mm(traj.pos[0]))
+    spec = mujoco.mjtState.mjSTATE_FULLPHYSICS
+    state = np.empty(mujoco.mj_stateSize(m, spec))
+    mujoco.mj_getState(m, d, state, spec)
+    ctrl = np.zeros((force.shape[0], m.nu))
+    ctrl[:, list(gantry.actuator_id)] = force / np.asarray(gantry.gear)
+    ctrl = np.repeat(ctrl, gantry.substeps, axis=0)[None]
+    t0 = time.perf_counter()
+    rollout.rollout(m, d, state[None], ctrl, nstep=ctrl.shape[1])
+    return time.perf_counter() - t0
 
 
 def accuracy(machine: MachineConfig) -> None:

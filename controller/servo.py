@@ -133,6 +133,18 @@ class DiscretePD:
             out.append(min(self.hi[i], max(self.lo[i], u)))
         return out[0], out[1], out[2]
 
+    def forces(self, b: np.ndarray, x: np.ndarray, x_prev: np.ndarray) -> np.ndarray:
+        """:meth:`force` for many ticks at once -> (N, 3) [N]; the same operations in the same
+        order, so each row equals ``force(b[k], x[k], x_prev[k])`` exactly.
+
+        Args:
+            b: (N, 3) drive terms b_k [N].
+            x: (N, 3) sampled positions x_k [mm].
+            x_prev: (N, 3) positions of the previous tick x_{k-1} [mm].
+        """
+        u = np.asarray(b, dtype=float) - np.asarray(self.a) * x + np.asarray(self.c) * x_prev
+        return np.minimum(np.asarray(self.hi), np.maximum(np.asarray(self.lo), u))
+
     def closed_loop_gain(self, omega_rad_per_s: float, axis: int) -> complex:
         """Closed-loop gain G(e^{jwT}) = x / r of one axis, PD only, on a pure mass (ZOH plant).
 

@@ -24,6 +24,8 @@ TOOL_SITE = "tool"
 MM_PER_M = 1000.0
 #: damping [N s/m] * this = [N s/mm]
 N_S_PER_MM_PER_N_S_PER_M = 1e-3
+#: the closed-form tool site (slides only) must match mj_kinematics to this [m]
+SITE_MAP_TOL_M = 1e-12
 
 
 def _names(model: Any, obj: int, count: int) -> list[str]:
@@ -47,6 +49,11 @@ class Gantry:
         origin_joint_mm: joint positions of the work origin [mm].
         tool_origin_m: tool-site position at the work origin [m] (world frame).
         substeps: physics steps per servo period.
+        site_slides: the tool site's position as an affine function of qpos, when every joint
+            between it and the world is a slide: (site at qpos0 [m] (3,), matrix (nq, 3) whose
+            row i is the world axis moved by qpos[i], zero for other coordinates), so that
+            site = site0 + (qpos - qpos0) @ matrix; None otherwise. Checked against
+            ``mj_kinematics`` at load.
     """
 
     model: Any
@@ -59,6 +66,29 @@ class Gantry:
     origin_joint_mm: tuple[float, float, float]
     tool_origin_m: np.ndarray
     substeps: int
+    site_slides: tuple[np.ndarray, np.ndarray] | None = None
+
+    def tool_site_m(self, qpos: np.ndarray) -> np.ndarray:
+        """Tool-site world positions (N, 3) [m] of joint states ``qpos`` (N, nq) [m, MuJoCo's].
+
+        The site is a pure function of qpos (what ``mj_kinematics`` computes). With only slides
+        between the site and the world (:attr:`site_slides`) it is site(qpos0) plus each joint's
+        displacement along its world axis, evaluated for all rows at once; otherwise MuJoCo's
+        ``mj_kinematics`` runs once per row.
+        """
+        qpos = np.asarray(qpos, dtype=float).reshape(-1, self.model.nq)
+        if self.site_slides is not None:
+            return _along_slides(self.site_slides, self.model.qpos0, qpos)
+        import mujoco
+
+        d = mujoco.MjData(self.model)
+        out = np.empty((qpos.shape[0], 3))
+        site = d.site_xpos[self.site_id]
+        for k, row in enumerate(qpos):
+            d.qpos[:] = row
+            mujoco.mj_kinematics(self.model, d)
+            out[k] = site
+        return out
 
     def joint_range_mm(self) -> np.ndarray:
         """(3, 2) joint ranges [mm] of x, y, z (lower, upper)."""
@@ -194,8 +224,49 @@ def load_gantry(machine: MachineConfig) -> Gantry:
     data.qpos[:] = gantry.joint_qpos_m(np.asarray(machine.sim.work_origin_joint_mm))
     mujoco.mj_kinematics(model, data)
     object.__setattr__(gantry, "tool_origin_m", data.site_xpos[site].copy())
+    object.__setattr__(gantry, "site_slides", _site_slides(model, site))
     _check_travel(gantry, machine, file)
     return gantry
+
+
+def _site_slides(model: Any, site: int) -> tuple[np.ndarray, np.ndarray] | None:
+    """The tool site as site(qpos0) + sum of axis * (q - q0) over the slides carrying it, or
+    None when a joint between the site and the world rotates (or the map misses MuJoCo)."""
+    import mujoco
+
+    joints = []
+    body = int(model.site_bodyid[site])
+    while body > 0:
+        start = int(model.body_jntadr[body])
+        joints[:0] = range(start, start + int(model.body_jntnum[body]))
+        body = int(model.body_parentid[body])
+    if any(model.jnt_type[j] != mujoco.mjtJoint.mjJNT_SLIDE for j in joints):
+        return None
+    d = mujoco.MjData(model)
+    d.qpos[:] = model.qpos0
+    mujoco.mj_kinematics(model, d)  # no rotation moves: xaxis is the same at every qpos
+    matrix = np.zeros((model.nq, 3))
+    for j in joints:
+        matrix[model.jnt_qposadr[j]] = d.xaxis[j]
+    slides = (d.site_xpos[site].copy(), matrix)
+    # proof on this model: the closed form reproduces mj_kinematics at random joint states
+    rng = np.random.default_rng(0)
+    rows = model.qpos0 + rng.uniform(-0.5, 0.5, (8, model.nq))
+    expect = np.empty((rows.shape[0], 3))
+    for k, row in enumerate(rows):
+        d.qpos[:] = row
+        mujoco.mj_kinematics(model, d)
+        expect[k] = d.site_xpos[site]
+    got = _along_slides(slides, model.qpos0, rows)
+    return slides if np.abs(got - expect).max() <= SITE_MAP_TOL_M else None
+
+
+def _along_slides(
+    slides: tuple[np.ndarray, np.ndarray], qpos0: np.ndarray, qpos: np.ndarray
+) -> np.ndarray:
+    """site(qpos0) + (q - q0) @ axes for every row of ``qpos`` (N, nq) -> (N, 3) [m]."""
+    origin, matrix = slides
+    return origin + (qpos - qpos0) @ matrix
 
 
 def _check_travel(gantry: Gantry, machine: MachineConfig, file: str) -> None:

@@ -1,15 +1,19 @@
 """The servo loop around MuJoCo: one discrete PD tick, then ``substeps`` physics steps.
 
 Per servo tick k (time t_k = k T):
-  1. record the tool-tip site (world, m) -- the state at t_k;
-  2. read the joint positions x_k (the encoders) and compute the held force F_k (controller.servo);
-  3. write F_k to the actuators and advance the physics by T: ``mj_step(m, d, substeps)``;
-  4. refresh the kinematics (``mj_kinematics``) so the next record sees the state at t_{k+1}.
+  1. read qpos -- the state at t_k -- and record it;
+  2. take the joint positions x_k (the encoders) and compute the held force F_k (controller.servo);
+  3. write F_k to the actuators and advance the physics by T: ``mj_step(m, d, substeps)``.
 
 The per-tick work is plain float arithmetic on three axes: everything that depends only on the
-reference (DiscretePD.drive_terms) is computed beforehand, vectorised. Every CHUNK ticks the
-trace is checked: non-finite values, MuJoCo's instability warnings, or a following error beyond
-[servo] max_following_error_mm raise :class:`SimulationError` -- a diverged run is not a result.
+reference (DiscretePD.drive_terms) is computed beforehand, vectorised. The tool-tip site is a pure
+function of qpos, so no per-tick ``mj_kinematics`` is needed: every CHUNK ticks the recorded qpos
+rows become tool-site positions in one pass (Gantry.tool_site_m: a closed form checked against
+MuJoCo when only slides carry the site, mj_kinematics per row otherwise), and the held forces are
+recomputed vectorised from the recorded encoders with the same law (DiscretePD.forces, bit for
+bit). Each chunk is then checked: non-finite values, MuJoCo's instability warnings, or a
+following error beyond [servo] max_following_error_mm raise :class:`SimulationError` -- a
+diverged run is not a result.
 """
 
 from __future__ import annotations
@@ -74,18 +78,15 @@ def simulate(
     d = mujoco.MjData(m)
     servo = DiscretePD(machine.servo, gantry.plant)
     ref_joint = gantry.work_to_joint_mm(traj.pos)
-    b = servo.drive_terms(ref_joint, traj.vel, traj.acc).tolist()
+    b_arr = servo.drive_terms(ref_joint, traj.vel, traj.acc)
+    b = b_arr.tolist()
     d.qpos[:] = gantry.joint_qpos_m(ref_joint[0])
     d.qvel[:] = 0.0
-    mujoco.mj_kinematics(m, d)
 
-    # per chunk: flat lists of floats (cheapest to append and to turn into arrays), then arrays
-    site_flat: list[float] = []
-    force_flat: list[float] = []
-    record_site, record_force = site_flat.extend, force_flat.extend
-    site_chunks: list[np.ndarray] = []
-    force_chunks: list[np.ndarray] = []
-    qpos, ctrl, site = d.qpos, d.ctrl, d.site_xpos[gantry.site_id]
+    nq = m.nq
+    qpos_chunks: list[np.ndarray] = []
+    work_chunks: list[np.ndarray] = []
+    qpos, ctrl = d.qpos, d.ctrl
     ix, iy, iz = gantry.qpos_adr
     ux, uy, uz = gantry.actuator_id
     gx, gy, gz = (1.0 / g for g in gantry.gear)
@@ -94,7 +95,7 @@ def simulate(
     lox, loy, loz = servo.lo
     hix, hiy, hiz = servo.hi
     nsub = gantry.substeps
-    step, kinematics = mujoco.mj_step, mujoco.mj_kinematics
+    step = mujoco.mj_step
     mm = MM_PER_M
     q = qpos.tolist()
     px, py, pz = q[ix] * mm, q[iy] * mm, q[iz] * mm
@@ -108,9 +109,11 @@ def simulate(
     try:
         for lo in range(0, n, CHUNK):
             hi = min(n, lo + CHUNK)
+            flat: list[float] = []  # qpos row after row (cheapest to extend and to convert)
+            record = flat.extend
             for bx, by, bz in b[lo:hi]:
-                record_site(site.tolist())
-                q = qpos.tolist()
+                q = qpos.tolist()  # the state at t_k: encoders now, tool site after the chunk
+                record(q)
                 x, y, z = q[ix] * mm, q[iy] * mm, q[iz] * mm
                 # controller.servo.DiscretePD.force, unrolled: u = b - a x_k + c x_{k-1}, clamped
                 fx = bx - ax * x + cx * px
@@ -119,26 +122,25 @@ def simulate(
                 fy = hiy if fy > hiy else (loy if fy < loy else fy)
                 fz = bz - az * z + cz * pz
                 fz = hiz if fz > hiz else (loz if fz < loz else fz)
-                record_force((fx, fy, fz))
                 ctrl[ux] = fx * gx
                 ctrl[uy] = fy * gy
                 ctrl[uz] = fz * gz
                 step(m, d, nsub)
-                kinematics(m, d)
                 px, py, pz = x, y, z
-            site_chunks.append(np.array(site_flat).reshape(-1, 3))
-            force_chunks.append(np.array(force_flat).reshape(-1, 3))
-            site_flat.clear()
-            force_flat.clear()
-            _check(d, gantry, machine, traj, site_chunks[-1], lo, hi)
+            qpos_chunks.append(np.fromiter(flat, float, len(flat)).reshape(-1, nq))
+            work_chunks.append(gantry.tool_to_work_mm(gantry.tool_site_m(qpos_chunks[-1])))
+            _check(d, machine, traj, work_chunks[-1], lo, hi)
             if bar is not None:
                 bar.update(hi - lo)
+        # the held forces again, vectorised from the recorded encoders (the same law, exactly)
+        qpos_all = np.concatenate(qpos_chunks) if qpos_chunks else np.empty((0, nq))
+        joint = qpos_all[:, list(gantry.qpos_adr)] * mm
+        force = servo.forces(b_arr, joint, np.concatenate([joint[:1], joint[:-1]]))
+        pos = np.concatenate(work_chunks) if work_chunks else np.empty((0, 3))
     finally:
         if bar is not None:
             bar.close()
     wall = time.perf_counter() - start
-    pos = gantry.tool_to_work_mm(np.concatenate(site_chunks) if site_chunks else np.empty((0, 3)))
-    force = np.concatenate(force_chunks) if force_chunks else np.empty((0, 3))
     pos.setflags(write=False)
     force.setflags(write=False)
     return SimTrace(pos=pos, force=force, steps=n * nsub, wall_s=wall)
@@ -146,20 +148,17 @@ def simulate(
 
 def _check(
     d,
-    gantry: Gantry,
     machine: MachineConfig,
     traj: Trajectory,
-    site_m: np.ndarray,
+    work_mm: np.ndarray,
     lo: int,
     hi: int,
 ) -> None:
-    """Raise SimulationError if ticks lo..hi (tool site ``site_m`` [m]) diverged or lost the
-    reference."""
-    seg = gantry.tool_to_work_mm(site_m)
-    err = np.abs(seg - traj.pos[lo:hi])
-    bad = ~np.isfinite(err).all(axis=1)
+    """Raise SimulationError if ticks lo..hi (tool tip ``work_mm`` [mm], work coordinates)
+    diverged or lost the reference."""
+    err = np.abs(work_mm - traj.pos[lo:hi])
     limit = machine.servo.max_following_error_mm
-    bad |= (err > limit).any(axis=1)
+    bad = ~(err <= limit).all(axis=1)  # beyond the limit, or NaN (no comparison holds)
     if bad.any():
         k = lo + int(np.argmax(bad))
         row = err[k - lo]

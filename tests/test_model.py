@@ -77,3 +77,54 @@ def test_a_model_without_the_axes_is_refused_listing_what_it_has(tmp_path):
     f.write_text(f'[sim]\nmodel = "{xml.name}"\n')
     with pytest.raises(ConfigError, match=r"no joint named 'x'.*its joints: u"):
         load_gantry(load_machine_config(DEFAULT_MACHINE, f))
+
+
+def _kinematics(model, qpos_rows, site):
+    d = mujoco.MjData(model)
+    out = []
+    for row in qpos_rows:
+        d.qpos[:] = row
+        mujoco.mj_kinematics(model, d)
+        out.append(d.site_xpos[site].copy())
+    return np.array(out)
+
+
+def test_tool_site_of_recorded_joint_states_is_mujocos_kinematics(machine):
+    """The runner maps recorded qpos to the tool site in one pass; on the all-slide gantry that
+    is a closed form, which must be MuJoCo's mj_kinematics to rounding."""
+    g = load_gantry(machine)
+    assert g.site_slides is not None
+    rows = g.model.qpos0 + np.random.default_rng(2).uniform(-0.3, 0.3, (50, g.model.nq))
+    got = g.tool_site_m(rows)
+    assert np.abs(got - _kinematics(g.model, rows, g.site_id)).max() <= 1e-12
+
+
+def test_tool_site_behind_a_rotating_joint_uses_mujocos_kinematics(tmp_path):
+    """A hinge between the world and the tool site (a spindle with an offset tip) makes the
+    site a nonlinear function of qpos: no closed form, mj_kinematics per recorded row."""
+    motors = "".join(
+        f'<motor name="{a}" joint="{a}" ctrlrange="-500 500"/>' for a in ("x", "y", "z")
+    )
+    xml = tmp_path / "hinged.xml"
+    xml.write_text(
+        f"""<mujoco><worldbody>
+        <body name="b"><joint name="y" type="slide" axis="0 1 0" range="-0.3 0.3"/>
+         <geom size="0.05" mass="10"/>
+         <body name="c"><joint name="x" type="slide" axis="1 0 0" range="-0.4 0.4"/>
+          <geom size="0.05" mass="5"/>
+          <body name="r"><joint name="z" type="slide" axis="0 0 1" range="-0.1 0.1"/>
+           <geom size="0.05" mass="2"/>
+           <body name="s"><joint name="spin" type="hinge" axis="0 1 0"/>
+            <geom size="0.02" mass="0.5"/><site name="tool" pos="0.02 0 -0.1"/>
+           </body></body></body></body></worldbody>
+        <actuator>{motors}</actuator></mujoco>"""
+    )
+    f = tmp_path / "m.toml"
+    f.write_text(f'[sim]\nmodel = "{xml.name}"\n')
+    g = load_gantry(load_machine_config(DEFAULT_MACHINE, f))
+    assert g.site_slides is None
+    rows = g.model.qpos0 + np.random.default_rng(3).uniform(-0.3, 0.3, (20, g.model.nq))
+    expect = _kinematics(g.model, rows, g.site_id)
+    assert np.array_equal(g.tool_site_m(rows), expect)
+    # the hinge does move the tip: a slides-only map would be wrong here
+    assert np.ptp(expect[:, 0] - rows[:, g.qpos_adr[0]]) > 1e-3

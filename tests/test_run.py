@@ -171,9 +171,52 @@ def test_mujoco_instability_warnings_are_a_simulation_error(machine):
     g = load_gantry(machine)
     traj = plan(tuple(interpret("G1 X1 F600\nM2\n")), machine).sample(machine.servo.period_s)
     d = mujoco.MjData(g.model)
-    site_m = traj.pos / 1000.0 + g.tool_origin_m  # a trace exactly on the reference
-    _check(d, g, machine, traj, site_m, 0, traj.t.size)
+    work_mm = traj.pos.copy()  # a trace exactly on the reference
+    _check(d, machine, traj, work_mm, 0, traj.t.size)
     d.warning[mujoco.mjtWarning.mjWARN_BADQACC].number = 1
     with pytest.raises(SimulationError, match=r"diverged.*BADQACC") as info:
-        _check(d, g, machine, traj, site_m, 0, traj.t.size)
+        _check(d, machine, traj, work_mm, 0, traj.t.size)
     assert info.value.line == 1
+
+
+def test_trace_is_the_tool_site_mujoco_reaches_at_every_tick(machine):
+    """The runner records qpos per tick and maps it to the tool site after the loop; replaying
+    its held forces through MuJoCo with mj_kinematics at every tick gives the same trace."""
+    import mujoco
+
+    from controller.interpreter import interpret
+    from controller.planner import plan
+    from sim.runner import simulate
+
+    g = load_gantry(machine)
+    traj = plan(tuple(interpret(CIRCLE)), machine).sample(machine.servo.period_s)
+    sim = simulate(g, machine, traj)
+    d = mujoco.MjData(g.model)
+    d.qpos[:] = g.joint_qpos_m(g.work_to_joint_mm(traj.pos[0]))
+    replay = np.empty_like(sim.pos)
+    for k, force in enumerate(sim.force):
+        mujoco.mj_kinematics(g.model, d)
+        replay[k] = g.tool_to_work_mm(d.site_xpos[g.site_id])
+        d.ctrl[list(g.actuator_id)] = force / np.asarray(g.gear)
+        mujoco.mj_step(g.model, d, g.substeps)
+    assert np.abs(sim.pos - replay).max() <= 1e-9  # [mm]: rounding only
+    assert np.abs(sim.pos - traj.pos).max() > 1e-4  # a real trace, not the reference
+
+
+def test_non_finite_or_far_trace_is_a_simulation_error(machine):
+    import mujoco
+
+    from controller.errors import SimulationError
+    from controller.interpreter import interpret
+    from controller.planner import plan
+    from sim.runner import _check
+
+    g = load_gantry(machine)
+    traj = plan(tuple(interpret("G1 X1 F600\nM2\n")), machine).sample(machine.servo.period_s)
+    d = mujoco.MjData(g.model)
+    for bad, what in ((np.nan, "non-finite"), (np.inf, "non-finite"), (2.5, "2.5 mm")):
+        work_mm = traj.pos.copy()
+        work_mm[7, 1] += bad
+        with pytest.raises(SimulationError, match=f"on Y is {what}") as info:
+            _check(d, machine, traj, work_mm, 0, traj.t.size)
+        assert info.value.line == 1

@@ -117,3 +117,17 @@ def test_acceleration_feedforward_removes_most_of_the_tracking_error(machine):
     err_pd = np.abs(pd - ref[:, 0])[late].max()
     err_ff = np.abs(ff - ref[:, 0])[late].max()
     assert err_ff < 0.05 * err_pd
+
+
+def test_vectorised_forces_equal_the_per_tick_law_exactly(machine):
+    """DiscretePD.forces (the runner's trace of held forces) is DiscretePD.force, row by row,
+    to the last bit -- including rows that saturate."""
+    servo = DiscretePD(machine.servo, PLANT)
+    rng = np.random.default_rng(1)
+    b = rng.normal(0.0, 500.0, (200, 3))
+    x = rng.normal(0.0, 1.0, (200, 3))
+    x_prev = x + rng.normal(0.0, 0.01, (200, 3))
+    got = servo.forces(b, x, x_prev)
+    expect = np.array([servo.force(b[k], x[k], x_prev[k]) for k in range(200)])
+    assert np.array_equal(got, expect)
+    assert (np.abs(got) == [400.0, 1000.0, 300.0]).any()  # the clamp was exercised
