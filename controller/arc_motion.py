@@ -1,0 +1,157 @@
+"""One G2/G3 block -> an :class:`~controller.moves.Arc`, validated under a dialect's rules.
+
+Numbered checks, in rs274's order: (1) a centre is given (IJK or R, not both); (2) P is a whole
+number of turns; (3) no offset of the plane's normal axis; (4) R format: a plane axis word is
+given, the end differs from the start, |R| reaches the end; IJK format: the offsets the dialect
+requires are present, neither radius is zero, the end lies on the arc within the dialect's
+tolerance (or, Marlin, is moved onto it). Lengths are compared in the program's units, so the
+inch tolerances apply to G20 programs exactly as rs274 applies them.
+"""
+
+from __future__ import annotations
+
+import math
+from typing import TYPE_CHECKING
+
+from controller.arc_center import (
+    centre_from_offsets,
+    centre_from_radius,
+    radius_mismatch,
+    swept_angle,
+)
+from controller.arcs import PLANE_AXES
+from controller.dialects import Dialect
+from controller.errors import GcodeError
+from controller.moves import Arc, Vec3
+
+if TYPE_CHECKING:
+    from controller.interpreter import ModalState
+
+_AXES = "XYZ"
+_OFFSETS = "IJK"
+P_INTEGER_TOL = 0.001  # rs274: |P - round(P)| above this is "P value not an integer"
+
+
+def _turns(v: dict[str, float], d: Dialect) -> int:
+    """Step 2: the Arc's turns (>= 1) from the P word."""
+    if "P" not in v:
+        return 1
+    p = v["P"]
+    whole = round(p)
+    if abs(p - whole) > P_INTEGER_TOL:
+        raise GcodeError(f"P value {p:g} is not an integer; P is a whole number of turns")
+    if d.max_p is not None and whole > d.max_p:
+        raise GcodeError(f"P value {p:g} too large; the {d.name} dialect allows P0 to P{d.max_p}")
+    if d.p_adds_circles:
+        if whole < 0:
+            raise GcodeError(f"P value {p:g}: P counts extra full circles and must be >= 0")
+        return int(whole) + 1
+    if whole < 1:
+        raise GcodeError(f"P value {p:g}: P is the number of turns and must be 1 or greater")
+    return int(whole)
+
+
+def arc_move(
+    line: int, v: dict[str, float], s: ModalState, end: Vec3, ccw: bool, d: Dialect
+) -> Arc | None:
+    """The arc of one block, or None when the dialect makes it move nothing (g2core).
+
+    Args:
+        line: source line.
+        v: the block's letter values (program units).
+        s: the modal state the block runs under (new plane, units, modes) [mm inside].
+        end: programmed end point [mm].
+        ccw: True for G3.
+        d: the dialect's rules.
+    """
+    i1, i2, n = PLANE_AXES[s.plane]
+    a1, a2 = _AXES[i1], _AXES[i2]
+    o1, o2, on = _OFFSETS[i1], _OFFSETS[i2], _OFFSETS[n]
+    has_r = "R" in v
+    has_ijk = any(o in v for o in _OFFSETS)
+    # Step 1: a centre, in one format.
+    if not has_r and not has_ijk:
+        raise GcodeError(
+            f"arc has no centre; give offsets {o1}/{o2} (centre format) or R (radius format)"
+        )
+    if has_r and has_ijk:
+        raise GcodeError("R mixed with I/J/K on one arc; use either R or the offsets, not both")
+    turns = _turns(v, d)  # Step 2
+    # Step 3: offsets must belong to the plane.
+    if on in v:
+        raise GcodeError(
+            f"{on} word given for an arc in the {s.plane} plane; {s.plane} arcs take "
+            f"{o1} ({a1} offset) and {o2} ({a2} offset)"
+        )
+    unit = s.scale  # mm per program unit: tolerances below are in program units
+    start = s.position
+    ps = (start[i1] / unit, start[i2] / unit)
+    pe = (end[i1] / unit, end[i2] / unit)
+    min_r = d.min_radius_in if s.inch else d.min_radius_mm
+    # Step 4: the centre.
+    if has_r:
+        if a1 not in v and a2 not in v:
+            raise GcodeError(
+                f"radius-format arc with neither {a1} nor {a2}; give the end point in the "
+                f"{s.plane} plane (a full circle needs I/J/K offsets)"
+            )
+        if v["R"] == 0.0 and d.r_short_is_semicircle:
+            raise GcodeError("R0 gives no arc; R is the arc radius, non-zero")
+        centre = centre_from_radius(ps, pe, v["R"], ccw, min_r, d.r_short_is_semicircle)
+    else:
+        need_both = s.arc_absolute or d.both_offsets_required
+        for o in (o1, o2):
+            if need_both and o not in v:
+                why = "absolute-centre (G90.1) arcs" if s.arc_absolute else f"{d.name} arcs"
+                raise GcodeError(
+                    f"{o} word missing: {why} in the {s.plane} plane need both {o1} and {o2}"
+                )
+        centre = centre_from_offsets(ps, (v.get(o1, 0.0), v.get(o2, 0.0)), s.arc_absolute)
+        r0 = math.hypot(ps[0] - centre[0], ps[1] - centre[1])
+        r1 = math.hypot(pe[0] - centre[0], pe[1] - centre[1])
+        if r0 < min_r or r1 < min_r:
+            raise GcodeError(
+                f"zero-radius arc (start radius {r0:.4f}, end radius {r1:.4f}); the centre must "
+                f"be at least {min_r:g} from the start and end points"
+            )
+        if d.project_end_on_arc:
+            k = r0 / r1
+            pe = (centre[0] + (pe[0] - centre[0]) * k, centre[1] + (pe[1] - centre[1]) * k)
+        elif d.radius_check is not None:
+            _check_radius(r0, r1, s.inch, d)
+    if not d.explicit_end_full_circle and pe == ps and (a1 in v or a2 in v):
+        return None  # g2core: an explicit end point equal to the start moves nothing
+    angle = swept_angle(ps, pe, centre, ccw, turns, d.zero_angle_fuzz)
+    end_mm = list(end)
+    end_mm[i1], end_mm[i2] = pe[0] * unit, pe[1] * unit
+    if d.project_end_on_arc:
+        end = (end_mm[0], end_mm[1], end_mm[2])
+    c = list(start)
+    c[i1], c[i2] = centre[0] * unit, centre[1] * unit
+    radius = math.hypot(start[i1] - c[i1], start[i2] - c[i2])
+    return Arc(
+        line=line,
+        start=start,
+        end=end,
+        feed_mm_per_min=s.feed_mm_per_min,
+        plane=s.plane,
+        direction="ccw" if ccw else "cw",
+        center=(c[0], c[1], c[2]),
+        radius=radius,
+        turns=turns,
+        angle=angle,
+    )
+
+
+def _check_radius(r0: float, r1: float, inch: bool, d: Dialect) -> None:
+    rc = d.radius_check
+    assert rc is not None
+    tol, cap = (rc.abs_tol_in, rc.abs_max_in) if inch else (rc.abs_tol_mm, rc.abs_max_mm)
+    abs_err, rel_err = radius_mismatch(r0, r1)
+    if abs_err > cap or (abs_err > tol and rel_err > rc.rel_tol):
+        unit = "in" if inch else "mm"
+        raise GcodeError(
+            f"radius to end of arc ({r1:.4f}) differs from radius to start ({r0:.4f}) by "
+            f"{abs_err:.4g} {unit} ({rel_err * 100:.4f} %); the {d.name} dialect allows at most "
+            f"{tol:g} {unit} (or {rc.rel_tol * 100:g} % of the radius, up to {cap:g} {unit})"
+        )

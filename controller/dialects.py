@@ -1,0 +1,189 @@
+"""The four G-code dialects' rules, as data.
+
+The interpreter reads these fields and never tests a dialect's name. Sources (copied facts):
+
+- ``linuxcnc``: LinuxCNC 2.9's rs274 interpreter, measured with ``rs274 -g`` (Debian
+  linuxcnc-uspace 2.9.0~pre1): centre-format arcs are refused when
+  ``|r_end - r_start| > 100 * tol`` or (``> tol`` and ``> 0.1 %`` of the larger radius), with
+  tol = 0.028284 mm in G21 and 0.0028284 inch in G20 (the inch value is NOT the mm value
+  converted: 0.0028284 in = 0.0718 mm); a radius below 0.00127 mm (0.00005 in) is a zero-radius
+  arc; an R arc may fall short of the end by that same amount (it becomes the exact semicircle);
+  P must be within 0.001 of an integer and >= 1; the program must end with M2/M30 or ``%``.
+- ``g2core``: g2core's G2/G3 page: an explicit end point equal to the start moves nothing (a full
+  circle needs the plane axes omitted); radius mismatch refused above 0.5 mm (0.05 in), or above
+  0.005 mm (0.0005 in) and 0.1 % of the radius.
+- ``marlin``: Marlin's G2/G3 page: the end point is not checked, the arc ends on the start-radius
+  circle at the destination's angle; ``R`` with ``I``/``J`` is an error; F is modal with Marlin's
+  default feed 1500 mm/min (feedrate_mm_s = 25 mm/s); P (ARC_P_CIRCLES) adds P complete circles;
+  E (extrusion) and S (laser power) words are accepted and ignored; an R too short for the chord
+  gives the semicircle (Marlin clamps the centre offset to zero).
+- ``laserdyne``: Prima Power Laserdyne's note: both centre offsets of the plane are required,
+  the end point must lie on the arc (checked here to 0.005 mm, a documented choice: 0.0002 in,
+  twice the rounding of a 4-decimal inch program), G20 means plane rotation and is refused.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+from controller.errors import GcodeError
+
+
+@dataclass(frozen=True)
+class RadiusCheck:
+    """When the end point's radius may differ from the start's (centre-format arcs).
+
+    Refuse when ``abs_err > abs_max`` or (``abs_err > abs_tol`` and ``abs_err / r > rel_tol``),
+    r the larger of the two radii. Lengths are in the program's units at the time: ``*_mm`` in
+    G21, ``*_in`` in G20 [inch].
+    """
+
+    abs_tol_mm: float
+    abs_max_mm: float
+    abs_tol_in: float
+    abs_max_in: float
+    rel_tol: float
+
+
+@dataclass(frozen=True)
+class Dialect:
+    """One controller's reading of G2/G3 and its neighbours.
+
+    Attributes:
+        name: the ``--dialect`` value.
+        explicit_end_full_circle: an arc whose programmed end equals its start is a full circle
+            (False: it moves nothing, g2core).
+        radius_check: centre-format end point tolerance, or None for no check.
+        project_end_on_arc: the arc ends on the start-radius circle at the destination's angle
+            (Marlin); the move's end point is that projection.
+        both_offsets_required: IJK arcs need both in-plane offsets even in G91.1 (Laserdyne).
+        p_adds_circles: P counts extra full circles (Marlin) instead of total turns (LinuxCNC).
+        default_feed_mm_per_min: feed before any F word, or None when F is required.
+        g20_is_inch: G20 selects inches; False: G20 is something else and is refused.
+        g20_refusal: the message for G20 when ``g20_is_inch`` is False.
+        ignored_letters: words accepted and ignored (Marlin's E and S).
+        min_radius_mm / min_radius_in: smaller radii are zero-radius arcs; also how far an R
+            arc may fall short of reaching its end point [mm / inch].
+        r_short_is_semicircle: an R too small to reach the end always gives the semicircle.
+        require_program_end: the text must end with M2/M30 or a closing ``%`` (rs274).
+        r_needs_arc_code_first: R is an arc radius only after G2/G3 on the same line
+            (Laserdyne: otherwise R means "Repeat", which is refused).
+        max_p: the largest P word allowed, or None (Marlin: 100, ``WITHIN(circles_to_do, 0, 100)``).
+        zero_angle_fuzz: a swept angle below this [rad] is a full circle (end == start up to
+            rounding; a 1e-6 rad arc of R10000 is an arc, as rs274 outputs it).
+    """
+
+    name: str
+    explicit_end_full_circle: bool
+    radius_check: RadiusCheck | None
+    project_end_on_arc: bool
+    both_offsets_required: bool
+    p_adds_circles: bool
+    default_feed_mm_per_min: float | None
+    g20_is_inch: bool
+    g20_refusal: str
+    ignored_letters: frozenset[str]
+    min_radius_mm: float
+    min_radius_in: float
+    r_short_is_semicircle: bool
+    require_program_end: bool
+    max_p: int | None = None
+    r_needs_arc_code_first: bool = False
+    zero_angle_fuzz: float = 1e-12
+
+
+_TOL_MM = 2 * 0.01 * math.sqrt(2.0)  # 0.028284 mm, rs274 CENTER_ARC_RADIUS_TOLERANCE_MM
+_TOL_IN = 2 * 0.001 * math.sqrt(2.0)  # 0.0028284 in, rs274 CENTER_ARC_RADIUS_TOLERANCE_INCH
+
+LINUXCNC = Dialect(
+    name="linuxcnc",
+    explicit_end_full_circle=True,
+    radius_check=RadiusCheck(_TOL_MM, 100 * _TOL_MM, _TOL_IN, 100 * _TOL_IN, 0.001),
+    project_end_on_arc=False,
+    both_offsets_required=False,
+    p_adds_circles=False,
+    default_feed_mm_per_min=None,
+    g20_is_inch=True,
+    g20_refusal="",
+    ignored_letters=frozenset(),
+    min_radius_mm=0.00127,
+    min_radius_in=0.00005,
+    r_short_is_semicircle=False,
+    require_program_end=True,
+)
+
+G2CORE = Dialect(
+    name="g2core",
+    explicit_end_full_circle=False,
+    radius_check=RadiusCheck(0.005, 0.5, 0.0005, 0.05, 0.001),
+    project_end_on_arc=False,
+    both_offsets_required=False,
+    p_adds_circles=False,
+    default_feed_mm_per_min=None,
+    g20_is_inch=True,
+    g20_refusal="",
+    ignored_letters=frozenset(),
+    min_radius_mm=0.00127,
+    min_radius_in=0.00005,
+    r_short_is_semicircle=False,
+    require_program_end=False,
+)
+
+MARLIN = Dialect(
+    name="marlin",
+    explicit_end_full_circle=True,
+    radius_check=None,
+    project_end_on_arc=True,
+    both_offsets_required=False,
+    p_adds_circles=True,
+    default_feed_mm_per_min=1500.0,
+    g20_is_inch=True,
+    g20_refusal="",
+    ignored_letters=frozenset("ES"),
+    min_radius_mm=1e-6,
+    min_radius_in=1e-6 / 25.4,
+    r_short_is_semicircle=True,
+    require_program_end=False,
+    max_p=100,
+)
+
+LASERDYNE_ON_ARC_TOL_MM = 0.005
+LASERDYNE = Dialect(
+    name="laserdyne",
+    explicit_end_full_circle=True,
+    radius_check=RadiusCheck(
+        LASERDYNE_ON_ARC_TOL_MM,
+        LASERDYNE_ON_ARC_TOL_MM,
+        LASERDYNE_ON_ARC_TOL_MM / 25.4,
+        LASERDYNE_ON_ARC_TOL_MM / 25.4,
+        0.0,
+    ),
+    project_end_on_arc=False,
+    both_offsets_required=True,
+    p_adds_circles=False,
+    default_feed_mm_per_min=None,
+    g20_is_inch=False,
+    g20_refusal=(
+        "G20 is plane rotation on Laserdyne controls, which is not supported; "
+        "programs are read in mm (G21)"
+    ),
+    ignored_letters=frozenset(),
+    min_radius_mm=0.00127,
+    min_radius_in=0.00005,
+    r_short_is_semicircle=False,
+    require_program_end=False,
+    r_needs_arc_code_first=True,
+)
+
+DIALECTS: dict[str, Dialect] = {d.name: d for d in (LINUXCNC, G2CORE, MARLIN, LASERDYNE)}
+
+
+def get_dialect(name: str) -> Dialect:
+    """The dialect called ``name``; GcodeError listing the valid names otherwise."""
+    try:
+        return DIALECTS[name]
+    except KeyError:
+        raise GcodeError(
+            f"unknown dialect {name!r}; choose one of: {', '.join(DIALECTS)}"
+        ) from None

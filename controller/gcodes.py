@@ -1,0 +1,83 @@
+"""Which G and M codes exist, their modal groups, and what gantry-sim does with each.
+
+Codes are kept in tenths (G90.1 -> 901) so that comparisons are exact. Modal groups follow
+LinuxCNC (two codes of one group on a line is an error). Each code is either handled by the
+interpreter, accepted as having no effect on the X/Y/Z tool-tip path in work coordinates
+(spindle, coolant, tool change, path blending, work offsets, which do not move the work
+coordinates), or refused with the reason.
+"""
+
+from __future__ import annotations
+
+# G code (tenths) -> modal group name ("nonmodal" is LinuxCNC's group 0).
+G_GROUPS: dict[int, str] = {
+    **dict.fromkeys((0, 10, 20, 30, 330, 331, 382, 383, 384, 385, 50, 51, 52, 730, 760), "motion"),
+    **dict.fromkeys((800, 810, 820, 830, 840, 850, 860, 870, 880, 890), "motion"),
+    **dict.fromkeys((170, 180, 190, 171, 181, 191), "plane"),
+    **dict.fromkeys((900, 910), "distance"),
+    **dict.fromkeys((901, 911), "arc_distance"),
+    **dict.fromkeys((930, 940, 950), "feed_mode"),
+    **dict.fromkeys((200, 210), "units"),
+    **dict.fromkeys((400, 410, 411, 420, 421), "cutter_comp"),
+    **dict.fromkeys((430, 431, 432, 490), "tool_length"),
+    **dict.fromkeys((980, 990), "retract"),
+    **dict.fromkeys((540, 550, 560, 570, 580, 590, 591, 592, 593), "coordinate_system"),
+    **dict.fromkeys((610, 611, 640), "path_control"),
+    **dict.fromkeys((960, 970), "spindle_mode"),
+    **dict.fromkeys((70, 80), "lathe_mode"),
+    **dict.fromkeys((40, 100, 280, 281, 300, 301, 520, 530, 920, 921, 922, 923), "nonmodal"),
+}
+
+#: codes the interpreter implements itself.
+G_HANDLED = frozenset((0, 10, 20, 30, 800, 170, 180, 190, 900, 910, 901, 911, 200, 210))
+
+#: codes accepted with no effect on the programmed X/Y/Z path in work coordinates.
+G_NO_PATH_EFFECT = frozenset(
+    (40, 940, 400, 430, 490, 980, 990, 540, 550, 560, 570, 580, 590, 591, 592, 593,
+     610, 611, 640, 960, 970, 80, 921, 922)
+)
+
+_COORDS = "it changes the work coordinate system, which gantry-sim does not model"
+#: refused codes -> why.
+G_REFUSED: dict[int, str] = {
+    **dict.fromkeys((330, 331), "spindle-synchronised motion (threading) is not supported"),
+    **dict.fromkeys((382, 383, 384, 385), "probing moves are not supported"),
+    **dict.fromkeys((50, 51, 52), "splines (G5, G5.1, G5.2) are not supported"),
+    **dict.fromkeys(
+        (730, 760, 810, 820, 830, 840, 850, 860, 870, 880, 890), "canned cycles are not supported"
+    ),
+    **dict.fromkeys((171, 181, 191), "UVW planes are not supported on this XYZ machine"),
+    930: "inverse-time feed (G93) is not supported; use G94 (units per minute)",
+    950: "feed per revolution (G95) is not supported; use G94 (units per minute)",
+    **dict.fromkeys((410, 411, 420, 421), "cutter radius compensation is not supported"),
+    431: "a dynamic tool length offset (G43.1) shifts Z coordinates, which is not supported",
+    432: "G43.2 (additional tool length offset) is not supported",
+    70: "lathe diameter mode (G7) is not supported",
+    100: _COORDS,
+    **dict.fromkeys((280, 281, 300, 301), "moves to stored home positions are not supported"),
+    520: _COORDS,
+    530: "moves in machine coordinates (G53) are not supported",
+    920: _COORDS,
+    923: _COORDS,
+}
+
+# M code -> modal group (LinuxCNC's M groups 4, 6, 7, 8, 9).
+M_GROUPS: dict[int, str] = {
+    **dict.fromkeys((0, 1, 2, 30, 60), "stopping"),
+    6: "tool_change",
+    **dict.fromkeys((3, 4, 5), "spindle"),
+    **dict.fromkeys((7, 8, 9), "coolant"),
+    **dict.fromkeys((48, 49, 50, 51, 52, 53), "override"),
+}
+M_PROGRAM_END = frozenset((2, 30))
+
+
+def g_name(code: int) -> str:
+    """``G90.1`` for 901, ``G1`` for 10."""
+    whole, tenth = divmod(code, 10)
+    return f"G{whole}" if tenth == 0 else f"G{whole}.{tenth}"
+
+
+def m_allowed() -> str:
+    """The M codes gantry-sim accepts, for messages."""
+    return ", ".join(f"M{m}" for m in sorted(M_GROUPS))

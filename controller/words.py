@@ -1,0 +1,120 @@
+"""Step 1 and 2 of a block: evaluate its words and check that each has a code that uses it.
+
+A block's G and M codes are sorted into LinuxCNC's modal groups (two of one group is an error,
+except G80 beside another motion code, which rs274 ignores); every other letter appears at most
+once and must have a code on the line (or the modal motion) that uses it.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+from controller.dialects import Dialect
+from controller.errors import GcodeError
+from controller.expressions import evaluate
+from controller.gcodes import G_GROUPS, M_GROUPS, g_name, m_allowed
+from controller.lexer import Block
+
+_OTHER_AXES = "ABCUVW"
+
+
+@dataclass(frozen=True)
+class Words:
+    """One block's evaluated words: G and M codes by modal group, other letters by letter.
+
+    ``r_before_arc_code``: an R word came before any G2/G3 on the line (or the line has none).
+    """
+
+    line: int
+    g: dict[str, int]
+    m: dict[str, int]
+    values: dict[str, float]
+    settings: tuple[tuple[int, float], ...]
+    r_before_arc_code: bool = False
+
+
+def read_words(block: Block, params: dict[int, float]) -> Words:
+    """Step 1: evaluate the block's values (with parameters as they were before the line)."""
+    g: dict[str, int] = {}
+    m: dict[str, int] = {}
+    values: dict[str, float] = {}
+    r_before_arc_code = False
+    for letter, tree in block.words:
+        value = evaluate(tree, params)
+        if not math.isfinite(value):
+            raise GcodeError(f"{letter} value is not a finite number; values must be finite")
+        if letter == "G":
+            code = round(value * 10)
+            group = G_GROUPS.get(code) if abs(value * 10 - code) < 1e-6 else None
+            if group is None:
+                raise GcodeError(f"unknown G code G{value:g}; see README 'Dialects' for the list")
+            if group == "motion" and 800 in (code, g.get(group)):
+                # rs274: G80 beside another motion code is ignored ("G0 X1 G80" is a G0).
+                g[group] = g.get(group, 800) if code == 800 else code
+                continue
+            if group in g:
+                raise GcodeError(
+                    f"two G codes from one modal group on a line ({g_name(g[group])} and "
+                    f"{g_name(code)}); use one {group.replace('_', ' ')} code per line"
+                )
+            g[group] = code
+        elif letter == "M":
+            code = round(value)
+            group = M_GROUPS.get(code) if abs(value - code) < 1e-6 else None
+            if group is None:
+                raise GcodeError(f"unsupported M code M{value:g}; allowed: {m_allowed()}")
+            if group in m:
+                raise GcodeError(
+                    f"two M codes from one modal group on a line (M{m[group]} and M{code}); "
+                    f"use one {group.replace('_', ' ')} code per line"
+                )
+            m[group] = code
+        elif letter in values:
+            raise GcodeError(f"multiple {letter} words on one line; give each letter once")
+        else:
+            if letter == "R" and g.get("motion") not in (20, 30):
+                r_before_arc_code = True  # no G2/G3 earlier on the line (Laserdyne: "Repeat")
+            values[letter] = value
+    settings = []
+    for index_tree, value_tree in block.settings:
+        index = round(evaluate(index_tree, params))
+        if not 1 <= index <= 5399:
+            raise GcodeError(f"parameter #{index} out of range; allowed: #1..#5399")
+        value = evaluate(value_tree, params)
+        if not math.isfinite(value):
+            raise GcodeError(f"#{index} value is not a finite number")
+        settings.append((index, value))
+    return Words(block.line, g, m, values, tuple(settings), r_before_arc_code)
+
+
+def check_words(w: Words, motion: int | None, dialect: Dialect) -> None:
+    """Step 5b: every word has a code that uses it."""
+    v = w.values
+    for letter in v:
+        if letter in _OTHER_AXES:
+            raise GcodeError(
+                f"{letter} axis word on a 3-axis machine; allowed axes: X, Y, Z"
+            )
+    arc = motion in (20, 30)
+    uses = {
+        "I": arc, "J": arc, "K": arc, "R": arc,
+        "P": arc or w.g.get("nonmodal") == 40 or w.g.get("path_control") == 640,
+        "Q": w.g.get("path_control") == 640,
+        "H": w.g.get("tool_length") == 430,
+    }
+    for letter in v:
+        if letter in dialect.ignored_letters or letter in "XYZFST":
+            continue
+        if not uses.get(letter, False):
+            need = {"P": "G2, G3, G4 or G64", "Q": "G64", "H": "G43"}.get(letter, "G2 or G3")
+            if letter in "DLE":
+                need = {"D": "cutter compensation (not supported)",
+                        "L": "G10 (not supported)", "E": "a code that takes E (none here)"}[letter]
+            raise GcodeError(f"{letter} word with no code that uses it; {letter} needs {need}")
+    if "S" not in dialect.ignored_letters and v.get("S", 0.0) < 0.0:
+        raise GcodeError("negative S word; the spindle speed must be >= 0")
+    if v.get("T", 0.0) < 0.0:
+        raise GcodeError("negative T word; tool numbers are >= 0")
+    if w.g.get("nonmodal") == 40 and v.get("P", -1.0) < 0.0:
+        raise GcodeError("G4 (dwell) needs a P word: the dwell time in seconds, >= 0")

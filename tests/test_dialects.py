@@ -1,0 +1,123 @@
+"""Each dialect's documented rules (seeds 000 g2core, 002/003 Marlin, 004 Laserdyne)."""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+
+import pytest
+
+from controller.dialects import DIALECTS, MARLIN, get_dialect
+from controller.errors import GcodeError
+from controller.interpreter import parse_program
+from controller.moves import Arc
+
+
+def run(text: str, dialect: str):
+    return parse_program(text, dialect=dialect)
+
+
+def error_of(text: str, dialect: str) -> GcodeError:
+    with pytest.raises(GcodeError) as info:
+        parse_program(text, dialect=dialect, file="p.ngc")
+    return info.value
+
+
+def test_dialects_are_frozen_data() -> None:
+    assert set(DIALECTS) == {"linuxcnc", "g2core", "marlin", "laserdyne"}
+    with pytest.raises(dataclasses.FrozenInstanceError):
+        MARLIN.default_feed_mm_per_min = 1.0  # type: ignore[misc]
+    with pytest.raises(GcodeError, match="choose one of: linuxcnc, g2core, marlin, laserdyne"):
+        get_dialect("fanuc")
+
+
+# --- g2core (seed 000) --------------------------------------------------------------------------
+
+
+def test_g2core_explicit_end_equal_to_start_moves_nothing() -> None:
+    moves = run("F10\nG2 X0 Y0 I1\nG2 I1\nG1 X1", "g2core")
+    assert [m.line for m in moves] == [3, 4]  # line 2 moved nothing
+    assert moves[0].angle == pytest.approx(2 * math.pi)  # offsets only: full circle
+    assert moves[1].start == (0.0, 0.0, 0.0)
+
+
+def test_g2core_radius_mismatch_thresholds() -> None:
+    # Seed 000: more than 0.5 mm, or more than 0.005 mm AND 0.1 % of the radius.
+    assert run("F10\nG2 X2.004 I1", "g2core")
+    assert error_of("F10\nG2 X2.006 I1", "g2core").line == 2
+    assert run("F10\nG2 X2000.4 I1000", "g2core")  # 0.04 %, below 0.5 mm
+    assert error_of("F10\nG2 X2000.6 I1000", "g2core").line == 2
+
+
+def test_g2core_needs_feed_and_integer_p() -> None:
+    assert "zero feed rate" in error_of("G2 I1", "g2core").message
+    assert "integer" in error_of("F1\nG2 I1 P1.5", "g2core").message
+
+
+# --- Marlin (seeds 002, 003) --------------------------------------------------------------------
+
+
+def test_marlin_ij_and_r_forms_give_the_same_arc() -> None:
+    # Seed 002: starting at [9, 6], "G3 X2 Y7 I-4 J-3" or "G3 X2 Y7 R5".
+    (_, ij) = run("G0 X9 Y6\nG3 X2 Y7 I-4 J-3", "marlin")
+    (_, r) = run("G0 X9 Y6\nG3 X2 Y7 R5", "marlin")
+    for a, b in ((ij.center, r.center), (ij.end, r.end)):
+        assert a == pytest.approx(b)
+    assert ij.angle == pytest.approx(r.angle) == pytest.approx(math.pi / 2)
+    assert ij.feed_mm_per_min == 1500.0  # Marlin's default feedrate, F not required
+
+
+def test_marlin_does_not_check_the_end_point() -> None:
+    # The arc ends at the destination's angle on the start-radius circle.
+    (_, arc) = run("G0 X9 Y6\nG3 X3 Y7 I-4 J-3", "marlin")
+    c = (5.0, 3.0)
+    assert math.hypot(arc.end[0] - c[0], arc.end[1] - c[1]) == pytest.approx(5.0)
+    assert math.atan2(arc.end[1] - 3, arc.end[0] - 5) == pytest.approx(math.atan2(4, -2))
+    with pytest.raises(GcodeError):
+        run("F1\nG0 X9 Y6\nG3 X3 Y7 I-4 J-3", "linuxcnc")
+
+
+def test_marlin_rules() -> None:
+    assert "R mixed" in error_of("G0 X9 Y6\nG3 X2 Y7 R5 I1", "marlin").message
+    assert "neither X nor Y" in error_of("G2 R5", "marlin").message
+    assert "ends where it starts" in error_of("G2 X0 Y0 R5", "marlin").message
+    (arc,) = run("G2 I20 J20 E3 S100", "marlin")  # seed: complete circle; E and S ignored
+    assert arc.angle == pytest.approx(2 * math.pi)
+    (extra,) = run("G2 X2 I1 P1", "marlin")  # P adds complete circles
+    assert extra.angle == pytest.approx(3 * math.pi) and extra.turns == 2
+    assert "P0 to P100" in error_of("G2 X2 I1 P101", "marlin").message
+    (short,) = run("G2 X10 R2", "marlin")  # R too short: Marlin takes the half circle
+    assert short.center == pytest.approx((5.0, 0.0, 0.0))
+    assert "E word" in error_of("G0 X1 E3\nM2", "linuxcnc").message
+
+
+# --- Laserdyne (seed 004) -----------------------------------------------------------------------
+
+
+def test_laserdyne_seed_examples() -> None:
+    (circle, quarter) = run("F10\nG17 G2 I0 J2\nG17 G2 I0J2 X-2Y2", "laserdyne")
+    assert circle.angle == pytest.approx(2 * math.pi) and circle.radius == 2.0
+    assert quarter.end == (-2.0, 2.0, 0.0) and quarter.angle == pytest.approx(math.pi / 2)
+    assert isinstance(quarter, Arc) and quarter.direction == "cw"
+
+
+def test_laserdyne_rules() -> None:
+    assert "need both I and J" in error_of("F10\nG17 G2 J2", "laserdyne").message
+    assert run("F10\nG17 G2 J2\nM2", "linuxcnc")[0].center == (0.0, 2.0, 0.0)
+    # End point must lie on the arc: 0.005 mm tolerance (documented choice).
+    assert run("F10\nG2 X4.004 I2 J0", "laserdyne")
+    assert error_of("F10\nG2 X4.006 I2 J0", "laserdyne").line == 2
+    # Seed 004: G2/G3 must be on the line of the R word and before it (else R is "Repeat").
+    (r_arc,) = run("F10\nG2 X4 R2", "laserdyne")
+    assert r_arc.center == pytest.approx((2.0, 0.0, 0.0))
+    assert "Repeat" in error_of("F10\nG2 X4 R2\nX8 R2", "laserdyne").message
+    assert "Repeat" in error_of("F10\nR2 G2 X4", "laserdyne").message
+    err = error_of("G20\nG1 X1", "laserdyne")
+    assert err.line == 1 and "plane rotation" in err.message
+
+
+def test_only_linuxcnc_requires_a_program_end() -> None:
+    for name in ("g2core", "marlin", "laserdyne"):
+        assert run("G0 X1", name)[0].end == (1.0, 0.0, 0.0)
+        assert run("", name) == []
+    assert "M2 or M30" in error_of("G0 X1", "linuxcnc").message

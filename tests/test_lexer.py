@@ -1,0 +1,60 @@
+"""Lexer and expression reading: comments, spaces, case, N words, %, parameters, expressions.
+
+Expected values from ``rs274 -g`` (LinuxCNC 2.9) on the same lines.
+"""
+
+from __future__ import annotations
+
+import pytest
+
+from controller.errors import GcodeError
+from controller.interpreter import parse_program
+from controller.lexer import lex, strip_line
+
+
+def ends(text: str) -> list[tuple[float, float, float]]:
+    return [m.end for m in parse_program(text + "\nM2\n")]
+
+
+def test_strip_line_drops_comments_spaces_and_case() -> None:
+    assert strip_line("g0 x 2 . 5 (move) y- 1 ; rest") == "G0X2.5(Y-1"
+    assert [b.line for b in lex("(a)\n\n(b)\r\n")] == [1, 2, 3]
+
+
+def test_words_spaces_case_line_numbers_block_delete() -> None:
+    # rs274: "G0 X 2 . 5 Y- 1" -> (2.5, -1); "n10 g1 x1 f10 ; hi" -> (1, 0); "/G0 X5" runs.
+    assert ends("G0 X 2 . 5 Y- 1\nn10 g1 x1 f10 ; hi\nN10.5 G0 X1. Y.5 Z+1\n/G0 X5") == [
+        (2.5, -1.0, 0.0),
+        (1.0, -1.0, 0.0),
+        (1.0, 0.5, 1.0),
+        (5.0, 0.5, 1.0),
+    ]
+
+
+def test_blank_and_comment_lines_and_percent_delimiters() -> None:
+    assert ends("\n(only a comment)\n; another\n\nG0 X1") == [(1.0, 0.0, 0.0)]
+    assert [m.line for m in parse_program("\n%\nG0 X1\n%\n")] == [3]
+    with pytest.raises(GcodeError) as info:
+        parse_program("G0 X1\n%\nM2\n")
+    assert info.value.line == 2
+
+
+def test_parameters_and_expressions_match_rs274() -> None:
+    # rs274: the #1 read on a line is the value from before that line's #1=...
+    text = (
+        "#1=2\n#1=5 G0 X#1\nG0 X[2+3*4] Y[2**3**2] Z[7 MOD 3]\n"
+        "G0 X[SIN[30]] Y[ATAN[1]/[1]] Z[-2+1]\nG0 X-#1 Y[FIX[-2.5]] Z[ROUND[2.5]]\n"
+        "G0 X[1 LT 2] Y[-7 MOD 3]\n#2=[#1*2]\nG0 X#2"
+    )
+    got = ends(text)
+    want = [(2, 0, 0), (14, 64, 1), (0.5, 45, -1), (-5, -3, 3), (1, 2, 3), (10, 2, 3)]
+    assert got == [pytest.approx(w) for w in want]
+
+
+@pytest.mark.parametrize(
+    "text", ["G0 X##3", "G0 X[1+", "G0 X[1 FOO 2]", "G0 X[SQRT[-1]]", "#1 G0", "G0 X"]
+)
+def test_bad_values_are_gcode_errors(text: str) -> None:
+    with pytest.raises(GcodeError) as info:
+        parse_program(text + "\nM2\n")
+    assert info.value.line == 1 and info.value.message

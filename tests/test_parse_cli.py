@@ -1,0 +1,87 @@
+"""``gantry parse`` end to end through sim.cli.main: JSON Lines, exit status, error format."""
+
+from __future__ import annotations
+
+import json
+import math
+import time
+
+import pytest
+
+from sim.cli import main
+
+
+def test_parse_prints_the_contract_keys(write_program, capsys) -> None:
+    path = write_program("G21 G17 G90\nG0 X0 Y0\nG2 X1 Y1 I1 F10\nG1 X2 F60\nM2\n")
+    assert main(["parse", str(path)]) == 0
+    rows = [json.loads(line) for line in capsys.readouterr().out.splitlines()]
+    assert [r["kind"] for r in rows] == ["rapid", "arc", "linear"]
+    arc = rows[1]
+    assert set(arc) == {
+        "line", "kind", "start", "end", "feed", "plane", "direction", "center", "radius",
+        "turns", "angle",
+    }
+    assert arc["line"] == 3 and arc["center"] == [1.0, 0.0, 0.0]
+    assert arc["angle"] == pytest.approx(math.pi / 2)
+
+
+@pytest.mark.parametrize("dialect", ["linuxcnc", "g2core", "marlin", "laserdyne"])
+def test_parse_accepts_every_dialect(write_program, capsys, dialect: str) -> None:
+    path = write_program("G0 X0 Y0\nG2 X0 Y4 I0 J2 F100\nM2\n")
+    assert main(["parse", str(path), "--dialect", dialect]) == 0
+    assert json.loads(capsys.readouterr().out.splitlines()[1])["radius"] == 2.0
+
+
+def test_parse_error_exits_2_with_file_and_line(write_program, capsys) -> None:
+    path = write_program("G0 X1\nG1 X2\nM2\n")
+    assert main(["parse", str(path)]) == 2
+    out, err = capsys.readouterr()
+    assert json.loads(out)["end"] == [1.0, 0.0, 0.0]  # the move before the bad line
+    assert err.startswith(f"{path}:2: error: cannot make a G1 move with zero feed rate")
+    assert "Traceback" not in err
+
+
+@pytest.mark.parametrize(
+    ("content", "fragment"),
+    [
+        (b"", "no program end"),
+        (b"\x00\x01\x02garbage", "NUL bytes"),
+        (b"\xff\xfe\xfa binary", "invalid UTF-8"),
+        (b"G0 X" + b"1" * 1_000_000 + b"\nM2\n", "not a finite number"),
+        (b"G1 F10 X" + b"1 " * 500_000 + b"\nM2\n", "finite"),
+        (b"(" + b"x" * 1_000_000 + b"\nM2\n", "unclosed comment"),
+        (b"G0 Xnan\nM2\n", "bad value"),
+        (b"G0 X" + b"[" * 1_000_000 + b"\nM2\n", "nested more than"),
+        (b"G0 X" + b"-" * 1_000_000 + b"1\nM2\n", "nested more than"),
+        (b"G0 X1e400\nM2\n", "E word"),
+        (b"\x1b[31m\nM2\n", "bad character"),
+    ],
+)
+def test_bad_input_is_a_clear_error_fast(tmp_path, capsys, content: bytes, fragment: str) -> None:
+    path = tmp_path / "bad.ngc"
+    path.write_bytes(content)
+    t0 = time.perf_counter()
+    assert main(["parse", str(path)]) == 2
+    assert time.perf_counter() - t0 < 5.0
+    err = capsys.readouterr().err
+    assert err.startswith(f"{path}") and ": error: " in err and fragment in err
+    assert "Traceback" not in err
+
+
+def test_huge_p_is_one_move_and_instant(write_program, capsys) -> None:
+    path = write_program("F100\nG2 I5 P1000000\nM2\n")
+    t0 = time.perf_counter()
+    assert main(["parse", str(path)]) == 0
+    assert time.perf_counter() - t0 < 2.0
+    (row,) = [json.loads(line) for line in capsys.readouterr().out.splitlines()]
+    assert row["turns"] == 1_000_000 and row["angle"] == pytest.approx(2e6 * math.pi)
+
+
+def test_bundled_examples_parse(capsys) -> None:
+    from pathlib import Path
+
+    examples = sorted((Path(__file__).resolve().parent.parent / "examples").glob("*.ngc"))
+    assert len(examples) >= 4
+    for path in examples:
+        assert main(["parse", str(path)]) == 0, path
+    assert "arc" in capsys.readouterr().out
