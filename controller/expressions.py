@@ -152,10 +152,17 @@ def evaluate(tree: Tree, params: dict[int, float]) -> float:
     return _binary(tree[1], a, b)
 
 
+#: rs274's parameter table: #1..#5601 can be read; #1..#5399 can be set (#5400+ are read-only).
+MAX_PARAMETER = 5601
+MAX_SETTABLE_PARAMETER = 5399
+
+
 def _parameter_index(value: float) -> int:
     index = round(value)
-    if abs(value - index) > 1e-4 or not 1 <= index <= 5399:
-        raise GcodeError(f"parameter number {value:g} out of range; allowed: integers 1..5399")
+    if abs(value - index) > 1e-4 or not 1 <= index <= MAX_PARAMETER:
+        raise GcodeError(
+            f"parameter number {value:g} out of range; allowed: integers 1..{MAX_PARAMETER}"
+        )
     return index
 
 

@@ -64,6 +64,7 @@ class Interpreter:
 
     def step(self, block: Block) -> tuple[list[Move], bool]:
         """Validate ``block`` on a copy of the state, commit, return (moves, program ended)."""
+        self._refresh_system_parameters()
         w = read_words(block, self.params)
         s, d = self.state, self.dialect
         # Step 2: every code is one gantry-sim supports.
@@ -136,6 +137,14 @@ class Interpreter:
         self.state = s
         self.params.update(w.settings)
         return moves, w.m.get("stopping") in M_PROGRAM_END
+
+    def _refresh_system_parameters(self) -> None:
+        """The read-only parameters rs274 keeps that programs use: #5220 the coordinate system
+        (1 = G54, the only one here) and #5420-#5422 the current X Y Z in program units. Every
+        other parameter up to #5601 reads 0 until set, as in rs274 without a parameter file."""
+        scale = self.state.scale
+        x, y, z = self.state.position
+        self.params.update({5220: 1.0, 5420: x / scale, 5421: y / scale, 5422: z / scale})
 
     @staticmethod
     def _end_point(v: dict[str, float], s: ModalState) -> Vec3:

@@ -12,7 +12,7 @@ from dataclasses import dataclass
 
 from controller.dialects import Dialect
 from controller.errors import GcodeError
-from controller.expressions import evaluate
+from controller.expressions import MAX_PARAMETER, MAX_SETTABLE_PARAMETER, evaluate
 from controller.gcodes import G_GROUPS, M_GROUPS, g_name, m_allowed
 from controller.lexer import Block
 
@@ -79,8 +79,13 @@ def read_words(block: Block, params: dict[int, float]) -> Words:
     settings = []
     for index_tree, value_tree in block.settings:
         index = round(evaluate(index_tree, params))
-        if not 1 <= index <= 5399:
-            raise GcodeError(f"parameter #{index} out of range; allowed: #1..#5399")
+        if not 1 <= index <= MAX_PARAMETER:
+            raise GcodeError(f"parameter #{index} out of range; allowed: #1..#{MAX_SETTABLE_PARAMETER}")
+        if index > MAX_SETTABLE_PARAMETER:
+            raise GcodeError(
+                f"parameter #{index} is read-only (system parameters #{MAX_SETTABLE_PARAMETER + 1}.."
+                f"#{MAX_PARAMETER}); set #1..#{MAX_SETTABLE_PARAMETER}"
+            )
         value = evaluate(value_tree, params)
         if not math.isfinite(value):
             raise GcodeError(f"#{index} value is not a finite number")
@@ -116,5 +121,7 @@ def check_words(w: Words, motion: int | None, dialect: Dialect) -> None:
         raise GcodeError("negative S word; the spindle speed must be >= 0")
     if v.get("T", 0.0) < 0.0:
         raise GcodeError("negative T word; tool numbers are >= 0")
+    if w.g.get("nonmodal") == 40 and arc:
+        raise GcodeError("G4 (dwell) cannot share a line with G2 or G3: both use the P word")
     if w.g.get("nonmodal") == 40 and v.get("P", -1.0) < 0.0:
         raise GcodeError("G4 (dwell) needs a P word: the dwell time in seconds, >= 0")
