@@ -17,6 +17,7 @@ from controller.lookahead import (
     COLLINEAR_ANGLE_RAD,
     CORNER_ANGLE_RAD,
     BlockLimits,
+    FollowGeometry,
     arc_limits,
     junction_cap,
     straight_limits,
@@ -49,6 +50,8 @@ class MoveGeometry:
     curv_out: np.ndarray  # curvature vector at the end [1/mm]
     limits: BlockLimits
     feed_mm_per_s: float  # programmed path speed after override (inf for rapids) [mm/s]
+    #: Arcs: what :func:`controller.lookahead.follow_ok` needs to check a speed profile exactly.
+    follow: FollowGeometry | None = None
 
     @property
     def is_arc(self) -> bool:
@@ -125,18 +128,25 @@ def move_geometry(move: Move, machine: MachineConfig, feed_scale: float) -> Move
     dcurv = r_max * ang**3 / speed_u**3
     sin_pitch = abs(h1 - h0) / speed_u
     feed = mm_per_min_to_mm_per_s(move.feed_mm_per_min) * feed_scale
-    limits = arc_limits(
+    follow = FollowGeometry(
         PLANE_AXES[move.plane],
-        length,
         min(sin_pitch, 1.0),
         curvature,
         dcurv,
         feed * (1.0 - FEED_MARGIN_PER_PHI4 * (ang / n) ** 4 - 1e-9),
+    )
+    limits = arc_limits(
+        follow.plane_axes,
+        length,
+        follow.sin_pitch,
+        curvature,
+        dcurv,
+        follow.feed_cap_mm_per_s,
         vmax,
         amax,
         jmax,
     )
-    return MoveGeometry(move, verts, u, length, t_in, t_out, k_in, k_out, limits, feed)
+    return MoveGeometry(move, verts, u, length, t_in, t_out, k_in, k_out, limits, feed, follow)
 
 
 def junctions(geoms: list[MoveGeometry], machine: MachineConfig) -> tuple[np.ndarray, list]:

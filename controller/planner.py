@@ -31,7 +31,7 @@ from controller.cubic import CubicBuilder
 from controller.errors import ConfigError, PlanningError
 from controller.jerk3 import jerk3, jerk3_points, piece_limits_ok
 from controller.junction_check import feasible_junction_caps
-from controller.lookahead import plan_junction_speeds
+from controller.lookahead import boost_candidates, follow_ok, plan_junction_speeds
 from controller.moves import Move
 from controller.path import MoveGeometry, junctions, move_geometry, vertex_states
 from controller.plan_result import Plan
@@ -47,6 +47,10 @@ JUNCTION_DEVIATION_MAX = 0.2
 #: round stops at the junctions still offending.
 MAX_ROUNDS = 8
 JUNCTION_BACKOFF = 0.6
+#: An arc whose entry or exit speed is below this share of its cap tries a faster profile.
+BOOST_RAMP_SHARE = 0.9
+#: Bisection steps on the tangential acceleration of each boosted candidate.
+BOOST_STEPS = 6
 
 
 def _calculate(otg: ruckig.Ruckig, inp: ruckig.InputParameter, traj: ruckig.Trajectory):
@@ -95,6 +99,8 @@ class _Planner:
         self.ruckig_pieces = 0
         self.fallbacks = 0
         self.stretched = 0
+        self.boost_cache: dict = {}
+        self.boosted = 0
 
     def path_profile(self, g: MoveGeometry, v_in: float, v_out: float) -> np.ndarray:
         """1-D profile along the move: array (k, 5) of phases (dur, s, v, a_t, j_t)."""
@@ -118,6 +124,52 @@ class _Planner:
             raise PlanningError("the speed profile would reverse along the path", line=g.move.line)
         return ph
 
+    def boosted_profile(self, g: MoveGeometry, v_in: float, v_out: float, ph: np.ndarray):
+        """A faster 1-D profile for an arc that ramps (speed-dependent limits), or None.
+
+        The block's limits hold at its worst speed and acceleration at once; a profile whose
+        exact following is checked point by point (:func:`follow_ok`) may use more jerk and
+        acceleration where the speed is low, or cruise a little below the curvature cap to keep
+        jerk for the ramps. Tried only where the block ramps (an end below
+        :data:`BOOST_RAMP_SHARE` of its cap); the fastest checked candidate wins.
+        """
+        fg, lim = g.follow, g.limits
+        if fg is None or min(v_in, v_out) >= BOOST_RAMP_SHARE * lim.cap_mm_per_s:
+            return None
+        key = (g.length_mm, fg, v_in, v_out)
+        if key in self.boost_cache:
+            return self.boost_cache[key]
+        vmax, amax, jmax = self.limits
+        best, best_t = None, float(ph[:, 0].sum()) * (1.0 - 1e-6)
+        base = fg.speed_cap(vmax)
+        for cap, jerk, a_hi in boost_candidates(fg, vmax, amax, jmax):
+            if cap < max(v_in, v_out) or jerk <= 0:
+                continue
+            lo, hi = 0.0, a_hi
+            for _ in range(BOOST_STEPS):
+                acc = 0.5 * (lo + hi)
+                cand = self.profile_1d(g.length_mm, v_in, v_out, cap, acc, jerk)
+                if cand is not None and follow_ok(cand, fg, base, amax, jmax):
+                    lo = acc
+                    if cand[:, 0].sum() < best_t:
+                        best, best_t = cand, float(cand[:, 0].sum())
+                else:
+                    hi = acc
+        self.boost_cache[key] = best
+        return best
+
+    def profile_1d(self, length, v_in, v_out, cap, acc, jerk) -> np.ndarray | None:
+        """Phases (dur, s, v, a, j) of a 1-D rest-acceleration profile, or None on failure."""
+        inp = self.in1
+        inp.current_position, inp.current_velocity, inp.current_acceleration = [0.0], [v_in], [0.0]
+        inp.target_position, inp.target_velocity = [length], [v_out]
+        inp.target_acceleration = [0.0]
+        inp.max_velocity, inp.max_acceleration, inp.max_jerk = [cap], [acc], [jerk]
+        if _calculate(self.r1, inp, self.tr1) not in _OK:
+            return None
+        ph = np.array(_profile_phases(self.tr1, 0), dtype=float).T
+        return ph if ph[:, 2].min() >= -1e-9 * max(cap, 1.0) else None
+
     def straight(self, g: MoveGeometry, ph: np.ndarray) -> float:
         for i in range(3):
             d = g.tangent_in[i]
@@ -126,7 +178,9 @@ class _Planner:
             )
         return float(ph[:, 0].sum())
 
-    def arc(self, g: MoveGeometry, ph: np.ndarray, state_in, state_out) -> tuple[float, bool, bool]:
+    def arc(
+        self, g: MoveGeometry, ph: np.ndarray, state_in, state_out, fast: np.ndarray | None = None
+    ) -> tuple[float, bool, bool]:
         """Pieces between the exact arc states at the vertices.
 
         Returns:
@@ -134,16 +188,23 @@ class _Planner:
             leaves the arc by more than :data:`JUNCTION_DEVIATION_MAX` of the chord tolerance or
             needed Ruckig to stretch it (the junction speed must then come down).
         """
-        u, verts, vel, acc, mins = vertex_states(g, ph, state_in, state_out)
+        if self.pieces == "ruckig":
+            fast = None
+        if fast is not None:  # used only when its closed-form pieces all keep the limits
+            pieces = self.closed_form(g, fast, state_in, state_out)
+            ok = pieces[-1]
+            if (ok[1:-1].all() or ok.size <= 2) and (ok[0] or np.any(state_in[0])) and (
+                ok[-1] or np.any(state_out[0])
+            ):
+                self.boosted += 1
+                ph = fast
+            else:
+                fast = None
+        if fast is None:
+            pieces = self.closed_form(g, ph, state_in, state_out)
+        u, verts, vel, acc, mins, ps, vs, as_, js, ok = pieces
         n = mins.size
         check = {0: bool(np.any(state_in[0])), n - 1: bool(np.any(state_out[0]))}
-        if self.pieces == "ruckig":
-            ok = np.zeros(n, dtype=bool)
-        else:
-            ok = mins > 1e-9
-            safe = np.where(ok, mins, 1.0)
-            ps, vs, as_, js = jerk3(verts, vel, acc, safe)
-            ok &= piece_limits_ok(vs, as_, js, safe, acc[1:], *self.limits, g.feed_mm_per_s)
         bad = {0: False, n - 1: False}
         if ok.all():
             dur = np.repeat(mins / 3.0, 3)
@@ -182,6 +243,17 @@ class _Planner:
                     or speed > g.feed_mm_per_s
                 )
         return total, bad[0], bad[n - 1]
+
+    def closed_form(self, g: MoveGeometry, ph: np.ndarray, state_in, state_out):
+        """Vertex states and closed-form pieces for profile ``ph``, and which keep the limits."""
+        u, verts, vel, acc, mins = vertex_states(g, ph, state_in, state_out)
+        if self.pieces == "ruckig":
+            return u, verts, vel, acc, mins, None, None, None, None, np.zeros(mins.size, bool)
+        ok = mins > 1e-9
+        safe = np.where(ok, mins, 1.0)
+        ps, vs, as_, js = jerk3(verts, vel, acc, safe)
+        ok &= piece_limits_ok(vs, as_, js, safe, acc[1:], *self.limits, g.feed_mm_per_s)
+        return u, verts, vel, acc, mins, ps, vs, as_, js, ok
 
     def ruckig_piece(self, g, p0, v0, a0, p1, v1, a1, min_duration: float) -> float:
         """One 3-DoF Ruckig state-to-state piece (time synchronised); returns its duration [s]."""
@@ -252,7 +324,8 @@ def plan(
             if g.is_arc:
                 s_in = (states[b][0] * speeds[b], states[b][1] * speeds[b] ** 2)
                 s_out = (states[b + 1][0] * speeds[b + 1], states[b + 1][1] * speeds[b + 1] ** 2)
-                dur, bad_in, bad_out = pl.arc(g, ph, s_in, s_out)
+                fast = pl.boosted_profile(g, speeds[b], speeds[b + 1], ph)
+                dur, bad_in, bad_out = pl.arc(g, ph, s_in, s_out, fast)
                 clock += dur
                 bad |= {b} if bad_in else set()
                 bad |= {b + 1} if bad_out else set()
