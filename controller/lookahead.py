@@ -87,6 +87,7 @@ def arc_limits(
     vmax,
     amax,
     jmax,
+    ends_mm_per_s: tuple[float, float] = (0.0, 0.0),
 ) -> BlockLimits:
     """Limits along an arc/helix (conservative, see the module docstring).
 
@@ -98,11 +99,14 @@ def arc_limits(
         dcurv_per_mm2: largest |p'''| along the arc [1/mm^2] (1/R^2 for a circle).
         feed_mm_per_s: programmed feed (after override) [mm/s].
         vmax, amax, jmax: per-axis limits [mm/s], [mm/s^2], [mm/s^3].
+        ends_mm_per_s: the highest speeds the arc may start and end with [mm/s] (its junction
+            caps; 0: at rest).
 
     The speed cap uses a fraction (:data:`CURVATURE_MARGINS`) of the curvature caps v^2/R <= a
     and v^3/R^2 <= j, and what the centripetal terms leave of the acceleration and jerk is split
     between a_t and j_t (:data:`JERK_SHARES`): the pair is chosen that minimises L/cap plus the
-    time to reach the cap from rest (cruise fast on long arcs, keep ramps short on short ones).
+    time lost ramping between the end speeds and the cap (cruise fast on long arcs and inside
+    tangent chains, keep ramps short on short arcs between stops).
     """
     i1, i2, n = plane_axes
     cos_pitch = math.sqrt(max(0.0, 1.0 - sin_pitch * sin_pitch))
@@ -129,7 +133,10 @@ def arc_limits(
                 j_t = min(j_t, jmax[n] / sin_pitch)
             if a_t <= 0 or j_t <= 0:
                 continue
-            cost = length_mm / cap_m + s_curve_time(cap_m, a_t, j_t)
+            cost = length_mm / cap_m
+            for v_end in ends_mm_per_s:  # a ramp from v to the cap loses (cap - v) / (2 cap)
+                dv = max(cap_m - v_end, 0.0)
+                cost += s_curve_time(dv, a_t, j_t) * dv / (2.0 * cap_m)
             if best is None or cost < best[0]:
                 best = (cost, cap_m, a_t, j_t)
             if k == 0:
@@ -172,7 +179,7 @@ class FollowGeometry:
 FOLLOW_MARGIN = 0.97
 #: Fractions of the curvature caps and shares of the jerk they leave (:func:`boost_candidates`).
 BOOST_MARGINS = (0.99, 0.95, 0.9, 0.8, 0.7, 0.6, 0.5, 0.4)
-BOOST_JERK_SHARES = (0.95, 0.8, 0.65, 0.5)
+BOOST_JERK_SHARES = (0.95, 0.8, 0.65, 0.5, 0.35)
 
 
 def follow_ok(ph: np.ndarray, fg: FollowGeometry, cap: float, amax, jmax) -> bool:
@@ -182,20 +189,24 @@ def follow_ok(ph: np.ndarray, fg: FollowGeometry, cap: float, amax, jmax) -> boo
     9 points of every phase instead of at their worst combination (speed-dependent limits)."""
     i1, i2, n = fg.plane_axes
     k, dk, sp = fg.curvature_per_mm, fg.dcurv_per_mm2, fg.sin_pitch
-    f = np.linspace(0.0, 1.0, 9)[None, :]
-    d, _, v, a, j = (x[:, None] for x in ph.T)
-    t = f * d
+    t = ph[:, :1] * _FRACTIONS
+    v, a, j = ph[:, 2:3], ph[:, 3:4], ph[:, 4:5]
     vv = v + t * (a + 0.5 * t * j)
     aa = np.abs(a + t * j)
     if vv.max() > cap:
         return False
     m = FOLLOW_MARGIN
-    if np.max(aa * aa + (vv * vv * k) ** 2) > (m * min(amax[i1], amax[i2])) ** 2:
+    v2k = vv * vv * k
+    if (aa * aa + v2k * v2k).max() > (m * min(amax[i1], amax[i2])) ** 2:
         return False
-    jj = np.abs(j) + vv**3 * dk
-    if np.max(jj * jj + (3.0 * vv * aa * k) ** 2) > (m * min(jmax[i1], jmax[i2])) ** 2:
+    jj = np.abs(j) + vv * v2k * (dk / k) if k > 0 else np.abs(j) + 0.0 * vv
+    ja = 3.0 * vv * aa * k
+    if (jj * jj + ja * ja).max() > (m * min(jmax[i1], jmax[i2])) ** 2:
         return False
     return sp == 0 or (aa.max() * sp <= m * amax[n] and np.abs(j).max() * sp <= m * jmax[n])
+
+
+_FRACTIONS = np.linspace(0.0, 1.0, 9)[None, :]
 
 
 def boost_candidates(fg: FollowGeometry, vmax, amax, jmax) -> list[tuple[float, float, float]]:

@@ -33,7 +33,13 @@ from controller.jerk3 import jerk3, jerk3_points, piece_limits_ok
 from controller.junction_check import feasible_junction_caps
 from controller.lookahead import boost_candidates, follow_ok, plan_junction_speeds
 from controller.moves import Move
-from controller.path import MoveGeometry, junctions, move_geometry, vertex_states
+from controller.path import (
+    MoveGeometry,
+    junctions,
+    limits_for_junctions,
+    move_geometry,
+    vertex_states,
+)
 from controller.plan_result import Plan
 from controller.travel import check_travel
 
@@ -51,6 +57,8 @@ JUNCTION_BACKOFF = 0.6
 BOOST_RAMP_SHARE = 0.9
 #: Bisection steps on the tangential acceleration of each boosted candidate.
 BOOST_STEPS = 6
+#: ... and only when its profile takes longer than this times cruising at the fastest candidate.
+BOOST_MIN_GAIN = 1.005
 
 
 def _calculate(otg: ruckig.Ruckig, inp: ruckig.InputParameter, traj: ruckig.Trajectory):
@@ -136,15 +144,22 @@ class _Planner:
         fg, lim = g.follow, g.limits
         if fg is None or min(v_in, v_out) >= BOOST_RAMP_SHARE * lim.cap_mm_per_s:
             return None
+        vmax, amax, jmax = self.limits
+        candidates = boost_candidates(fg, vmax, amax, jmax)
+        t_now = float(ph[:, 0].sum())
+        if not candidates or t_now <= BOOST_MIN_GAIN * g.length_mm / candidates[0][0]:
+            return None  # even cruising at the highest candidate cap would not gain enough
         key = (g.length_mm, fg, v_in, v_out)
         if key in self.boost_cache:
             return self.boost_cache[key]
-        vmax, amax, jmax = self.limits
-        best, best_t = None, float(ph[:, 0].sum()) * (1.0 - 1e-6)
+        best, best_t = None, t_now * (1.0 - 1e-6)
         base = fg.speed_cap(vmax)
-        for cap, jerk, a_hi in boost_candidates(fg, vmax, amax, jmax):
+        for cap, jerk, a_hi in candidates:
             if cap < max(v_in, v_out) or jerk <= 0:
                 continue
+            fastest = self.profile_1d(g.length_mm, v_in, v_out, cap, a_hi, jerk)
+            if fastest is None or fastest[:, 0].sum() >= best_t:
+                continue  # more acceleration is never slower: nothing to gain here
             lo, hi = 0.0, a_hi
             for _ in range(BOOST_STEPS):
                 acc = 0.5 * (lo + hi)
@@ -313,6 +328,7 @@ def plan(
     geoms = [move_geometry(m, machine, feed_override_pct / 100.0) for m in moves]
     active = [g for g in geoms if g.length_mm > 1e-9]
     caps, states = junctions(active, machine)
+    active = limits_for_junctions(active, caps, machine)
     caps = feasible_junction_caps(active, caps, states, machine)
     for rnd in range(MAX_ROUNDS + 1):
         speeds = plan_junction_speeds([g.limits for g in active], caps)

@@ -97,3 +97,16 @@ def test_follow_ok_checks_the_exact_following_point_by_point(radius):
     # a phase whose end (not its start) breaks the jerk limit is caught
     ramp = np.array([[0.01, 0.0, 0.9 * v_jerk, 0.2 * v_jerk / 0.01, 0.0]])
     assert not follow_ok(ramp, fg, 1e9, amax, jmax)
+
+
+def test_arc_inside_a_tangent_chain_cruises_closer_to_its_curvature_cap():
+    """A short arc between stops keeps jerk for its ramps (lower cap); inside a chain whose
+    junctions keep their speed it has nothing to ramp, so it cruises near the curvature cap."""
+    vmax, amax, jmax = (500.0, 400.0, 200.0), (3000.0, 2500.0, 3000.0), (1e5, 8e4, 1e5)
+    radius = 4.0
+    args = ((0, 1, 2), 0.5 * math.pi * radius, 0.0, 1 / radius, 1 / radius**2, 1e9)
+    v_curv = min(math.sqrt(2500.0 * radius), (8e4 * radius**2) ** (1 / 3))
+    alone = arc_limits(*args, vmax, amax, jmax)
+    chained = arc_limits(*args, vmax, amax, jmax, (math.inf, math.inf))
+    assert alone.cap_mm_per_s < 0.9 * v_curv
+    assert chained.cap_mm_per_s >= 0.98 * v_curv
