@@ -208,7 +208,7 @@ class _Planner:
         if fast is not None:  # used only when its closed-form pieces all keep the limits
             pieces = self.closed_form(g, fast, state_in, state_out)
             ok = pieces[-1]
-            if (ok[1:-1].all() or ok.size <= 2) and (ok[0] or np.any(state_in[0])) and (
+            if ok[1:-1].all() and (ok[0] or np.any(state_in[0])) and (
                 ok[-1] or np.any(state_out[0])
             ):
                 self.boosted += 1
