@@ -185,7 +185,8 @@ BOOST_JERK_SHARES = (0.95, 0.8, 0.65, 0.5, 0.35)
 def follow_ok(ph: np.ndarray, fg: FollowGeometry, cap: float, amax, jmax) -> bool:
     """True when following the arc exactly with the 1-D profile ``ph`` (rows: duration, s, v,
     a_t, j_t) keeps every axis within :data:`FOLLOW_MARGIN` of its acceleration and jerk limits
-    and the path speed within ``cap`` [mm/s]: the bounds of the module docstring, evaluated at
+    and the path speed within ``cap`` [mm/s] (to rounding: the arc caps keep a margin below the
+    feed): the bounds of the module docstring, evaluated at
     9 points of every phase instead of at their worst combination (speed-dependent limits)."""
     i1, i2, n = fg.plane_axes
     k, dk, sp = fg.curvature_per_mm, fg.dcurv_per_mm2, fg.sin_pitch
@@ -193,7 +194,7 @@ def follow_ok(ph: np.ndarray, fg: FollowGeometry, cap: float, amax, jmax) -> boo
     v, a, j = ph[:, 2:3], ph[:, 3:4], ph[:, 4:5]
     vv = v + t * (a + 0.5 * t * j)
     aa = np.abs(a + t * j)
-    if vv.max() > cap:
+    if vv.max() > cap * (1.0 + 1e-12):  # Ruckig reaches its cap to rounding; cap < feed
         return False
     m = FOLLOW_MARGIN
     v2k = vv * vv * k
@@ -212,7 +213,7 @@ _FRACTIONS = np.linspace(0.0, 1.0, 9)[None, :]
 def boost_candidates(fg: FollowGeometry, vmax, amax, jmax) -> list[tuple[float, float, float]]:
     """(cap, jerk, acc_hi) triples to try for a profile checked by :func:`follow_ok`: caps at
     fractions of the curvature caps, shares of the jerk left at that speed, and the largest
-    tangential acceleration worth trying (the caller bisects below it)."""
+    tangential acceleration worth trying (the caller tries shares of it)."""
     i1, i2, n = fg.plane_axes
     a_pl, j_pl = min(amax[i1], amax[i2]), min(jmax[i1], jmax[i2])
     k, dk, sp = fg.curvature_per_mm, fg.dcurv_per_mm2, fg.sin_pitch

@@ -55,8 +55,8 @@ MAX_ROUNDS = 8
 JUNCTION_BACKOFF = 0.6
 #: An arc whose entry or exit speed is below this share of its cap tries a faster profile.
 BOOST_RAMP_SHARE = 0.9
-#: Bisection steps on the tangential acceleration of each boosted candidate.
-BOOST_STEPS = 6
+#: Tangential accelerations tried for each boosted (cap, jerk), as shares of the most useful.
+BOOST_ACC_SHARES = (1.0, 0.85, 0.7, 0.55, 0.42, 0.3, 0.2)
 #: ... and only when its profile takes longer than this times cruising at the fastest candidate.
 BOOST_MIN_GAIN = 1.005
 
@@ -160,16 +160,18 @@ class _Planner:
             fastest = self.profile_1d(g.length_mm, v_in, v_out, cap, a_hi, jerk)
             if fastest is None or fastest[:, 0].sum() >= best_t:
                 continue  # more acceleration is never slower: nothing to gain here
-            lo, hi = 0.0, a_hi
-            for _ in range(BOOST_STEPS):
-                acc = 0.5 * (lo + hi)
-                cand = self.profile_1d(g.length_mm, v_in, v_out, cap, acc, jerk)
-                if cand is not None and follow_ok(cand, fg, base, amax, jmax):
-                    lo = acc
-                    if cand[:, 0].sum() < best_t:
-                        best, best_t = cand, float(cand[:, 0].sum())
-                else:
-                    hi = acc
+            for share in BOOST_ACC_SHARES:  # the first that passes is this pair's fastest
+                cand = fastest if share == 1.0 else None
+                if cand is None:
+                    cand = self.profile_1d(g.length_mm, v_in, v_out, cap, share * a_hi, jerk)
+                if cand is None:
+                    continue
+                t_cand = float(cand[:, 0].sum())
+                if t_cand >= best_t:
+                    break  # less acceleration is never faster
+                if follow_ok(cand, fg, base, amax, jmax):
+                    best, best_t = cand, t_cand
+                    break
         self.boost_cache[key] = best
         return best
 
