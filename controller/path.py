@@ -7,7 +7,7 @@ Curvature vectors k = d2p/ds2 [1/mm] (|k| = 1/R, pointing to the centre); tangen
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 
@@ -17,6 +17,7 @@ from controller.lookahead import (
     COLLINEAR_ANGLE_RAD,
     CORNER_ANGLE_RAD,
     BlockLimits,
+    FollowGeometry,
     arc_limits,
     junction_cap,
     straight_limits,
@@ -49,6 +50,8 @@ class MoveGeometry:
     curv_out: np.ndarray  # curvature vector at the end [1/mm]
     limits: BlockLimits
     feed_mm_per_s: float  # programmed path speed after override (inf for rapids) [mm/s]
+    #: Arcs: what :func:`controller.lookahead.follow_ok` needs to check a speed profile exactly.
+    follow: FollowGeometry | None = None
 
     @property
     def is_arc(self) -> bool:
@@ -125,18 +128,52 @@ def move_geometry(move: Move, machine: MachineConfig, feed_scale: float) -> Move
     dcurv = r_max * ang**3 / speed_u**3
     sin_pitch = abs(h1 - h0) / speed_u
     feed = mm_per_min_to_mm_per_s(move.feed_mm_per_min) * feed_scale
-    limits = arc_limits(
+    follow = FollowGeometry(
         PLANE_AXES[move.plane],
-        length,
         min(sin_pitch, 1.0),
         curvature,
         dcurv,
         feed * (1.0 - FEED_MARGIN_PER_PHI4 * (ang / n) ** 4 - 1e-9),
+    )
+    limits = arc_limits(
+        follow.plane_axes,
+        length,
+        follow.sin_pitch,
+        curvature,
+        dcurv,
+        follow.feed_cap_mm_per_s,
         vmax,
         amax,
         jmax,
     )
-    return MoveGeometry(move, verts, u, length, t_in, t_out, k_in, k_out, limits, feed)
+    return MoveGeometry(move, verts, u, length, t_in, t_out, k_in, k_out, limits, feed, follow)
+
+
+def limits_for_junctions(geoms: list[MoveGeometry], caps: np.ndarray, machine: MachineConfig):
+    """``geoms`` with each arc's limits chosen for its junction caps ``caps`` (see
+    :func:`controller.lookahead.arc_limits`: inside a tangent chain an arc need not ramp from
+    rest, so it may cruise closer to its curvature cap)."""
+    lim = machine.limits
+    out = []
+    for b, g in enumerate(geoms):
+        if g.follow is None or not (caps[b] > 0 or caps[b + 1] > 0):
+            out.append(g)
+            continue
+        fg = g.follow
+        limits = arc_limits(
+            fg.plane_axes,
+            g.length_mm,
+            fg.sin_pitch,
+            fg.curvature_per_mm,
+            fg.dcurv_per_mm2,
+            fg.feed_cap_mm_per_s,
+            lim.max_velocity_mm_per_s,
+            lim.max_acceleration_mm_per_s2,
+            lim.max_jerk_mm_per_s3,
+            (float(min(caps[b], 1e300)), float(min(caps[b + 1], 1e300))),
+        )
+        out.append(replace(g, limits=limits))
+    return out
 
 
 def junctions(geoms: list[MoveGeometry], machine: MachineConfig) -> tuple[np.ndarray, list]:

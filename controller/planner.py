@@ -31,9 +31,15 @@ from controller.cubic import CubicBuilder
 from controller.errors import ConfigError, PlanningError
 from controller.jerk3 import jerk3, jerk3_points, piece_limits_ok
 from controller.junction_check import feasible_junction_caps
-from controller.lookahead import plan_junction_speeds
+from controller.lookahead import boost_candidates, follow_ok, plan_junction_speeds
 from controller.moves import Move
-from controller.path import MoveGeometry, junctions, move_geometry, vertex_states
+from controller.path import (
+    MoveGeometry,
+    junctions,
+    limits_for_junctions,
+    move_geometry,
+    vertex_states,
+)
 from controller.plan_result import Plan
 from controller.travel import check_travel
 
@@ -47,6 +53,12 @@ JUNCTION_DEVIATION_MAX = 0.2
 #: round stops at the junctions still offending.
 MAX_ROUNDS = 8
 JUNCTION_BACKOFF = 0.6
+#: An arc whose entry or exit speed is below this share of its cap tries a faster profile.
+BOOST_RAMP_SHARE = 0.9
+#: Tangential accelerations tried for each boosted (cap, jerk), as shares of the most useful.
+BOOST_ACC_SHARES = (1.0, 0.85, 0.7, 0.55, 0.42, 0.3, 0.2)
+#: ... and only when its profile takes longer than this times cruising at the fastest candidate.
+BOOST_MIN_GAIN = 1.005
 
 
 def _calculate(otg: ruckig.Ruckig, inp: ruckig.InputParameter, traj: ruckig.Trajectory):
@@ -95,6 +107,8 @@ class _Planner:
         self.ruckig_pieces = 0
         self.fallbacks = 0
         self.stretched = 0
+        self.boost_cache: dict = {}
+        self.boosted = 0
 
     def path_profile(self, g: MoveGeometry, v_in: float, v_out: float) -> np.ndarray:
         """1-D profile along the move: array (k, 5) of phases (dur, s, v, a_t, j_t)."""
@@ -118,6 +132,61 @@ class _Planner:
             raise PlanningError("the speed profile would reverse along the path", line=g.move.line)
         return ph
 
+    def boosted_profile(self, g: MoveGeometry, v_in: float, v_out: float, ph: np.ndarray):
+        """A faster 1-D profile for an arc that ramps (speed-dependent limits), or None.
+
+        The block's limits hold at its worst speed and acceleration at once; a profile whose
+        exact following is checked point by point (:func:`follow_ok`) may use more jerk and
+        acceleration where the speed is low, or cruise a little below the curvature cap to keep
+        jerk for the ramps. Tried only where the block ramps (an end below
+        :data:`BOOST_RAMP_SHARE` of its cap); the fastest checked candidate wins.
+        """
+        fg, lim = g.follow, g.limits
+        if fg is None or min(v_in, v_out) >= BOOST_RAMP_SHARE * lim.cap_mm_per_s:
+            return None
+        vmax, amax, jmax = self.limits
+        candidates = boost_candidates(fg, vmax, amax, jmax)
+        t_now = float(ph[:, 0].sum())
+        if not candidates or t_now <= BOOST_MIN_GAIN * g.length_mm / candidates[0][0]:
+            return None  # even cruising at the highest candidate cap would not gain enough
+        key = (g.length_mm, fg, v_in, v_out)
+        if key in self.boost_cache:
+            return self.boost_cache[key]
+        best, best_t = None, t_now * (1.0 - 1e-6)
+        base = fg.speed_cap(vmax)
+        for cap, jerk, a_hi in candidates:
+            if cap < max(v_in, v_out) or jerk <= 0:
+                continue
+            fastest = self.profile_1d(g.length_mm, v_in, v_out, cap, a_hi, jerk)
+            if fastest is None or fastest[:, 0].sum() >= best_t:
+                continue  # more acceleration is never slower: nothing to gain here
+            for share in BOOST_ACC_SHARES:  # the first that passes is this pair's fastest
+                cand = fastest if share == 1.0 else None
+                if cand is None:
+                    cand = self.profile_1d(g.length_mm, v_in, v_out, cap, share * a_hi, jerk)
+                if cand is None:
+                    continue
+                t_cand = float(cand[:, 0].sum())
+                if t_cand >= best_t:
+                    break  # less acceleration is never faster
+                if follow_ok(cand, fg, base, amax, jmax):
+                    best, best_t = cand, t_cand
+                    break
+        self.boost_cache[key] = best
+        return best
+
+    def profile_1d(self, length, v_in, v_out, cap, acc, jerk) -> np.ndarray | None:
+        """Phases (dur, s, v, a, j) of a 1-D rest-acceleration profile, or None on failure."""
+        inp = self.in1
+        inp.current_position, inp.current_velocity, inp.current_acceleration = [0.0], [v_in], [0.0]
+        inp.target_position, inp.target_velocity = [length], [v_out]
+        inp.target_acceleration = [0.0]
+        inp.max_velocity, inp.max_acceleration, inp.max_jerk = [cap], [acc], [jerk]
+        if _calculate(self.r1, inp, self.tr1) not in _OK:
+            return None
+        ph = np.array(_profile_phases(self.tr1, 0), dtype=float).T
+        return ph if ph[:, 2].min() >= -1e-9 * max(cap, 1.0) else None
+
     def straight(self, g: MoveGeometry, ph: np.ndarray) -> float:
         for i in range(3):
             d = g.tangent_in[i]
@@ -126,7 +195,9 @@ class _Planner:
             )
         return float(ph[:, 0].sum())
 
-    def arc(self, g: MoveGeometry, ph: np.ndarray, state_in, state_out) -> tuple[float, bool, bool]:
+    def arc(
+        self, g: MoveGeometry, ph: np.ndarray, state_in, state_out, fast: np.ndarray | None = None
+    ) -> tuple[float, bool, bool]:
         """Pieces between the exact arc states at the vertices.
 
         Returns:
@@ -134,16 +205,23 @@ class _Planner:
             leaves the arc by more than :data:`JUNCTION_DEVIATION_MAX` of the chord tolerance or
             needed Ruckig to stretch it (the junction speed must then come down).
         """
-        u, verts, vel, acc, mins = vertex_states(g, ph, state_in, state_out)
+        if self.pieces == "ruckig":
+            fast = None
+        if fast is not None:  # used only when its closed-form pieces all keep the limits
+            pieces = self.closed_form(g, fast, state_in, state_out)
+            ok = pieces[-1]
+            if ok[1:-1].all() and (ok[0] or np.any(state_in[0])) and (
+                ok[-1] or np.any(state_out[0])
+            ):
+                self.boosted += 1
+                ph = fast
+            else:
+                fast = None
+        if fast is None:
+            pieces = self.closed_form(g, ph, state_in, state_out)
+        u, verts, vel, acc, mins, ps, vs, as_, js, ok = pieces
         n = mins.size
         check = {0: bool(np.any(state_in[0])), n - 1: bool(np.any(state_out[0]))}
-        if self.pieces == "ruckig":
-            ok = np.zeros(n, dtype=bool)
-        else:
-            ok = mins > 1e-9
-            safe = np.where(ok, mins, 1.0)
-            ps, vs, as_, js = jerk3(verts, vel, acc, safe)
-            ok &= piece_limits_ok(vs, as_, js, safe, acc[1:], *self.limits, g.feed_mm_per_s)
         bad = {0: False, n - 1: False}
         if ok.all():
             dur = np.repeat(mins / 3.0, 3)
@@ -182,6 +260,17 @@ class _Planner:
                     or speed > g.feed_mm_per_s
                 )
         return total, bad[0], bad[n - 1]
+
+    def closed_form(self, g: MoveGeometry, ph: np.ndarray, state_in, state_out):
+        """Vertex states and closed-form pieces for profile ``ph``, and which keep the limits."""
+        u, verts, vel, acc, mins = vertex_states(g, ph, state_in, state_out)
+        if self.pieces == "ruckig":
+            return u, verts, vel, acc, mins, None, None, None, None, np.zeros(mins.size, bool)
+        ok = mins > 1e-9
+        safe = np.where(ok, mins, 1.0)
+        ps, vs, as_, js = jerk3(verts, vel, acc, safe)
+        ok &= piece_limits_ok(vs, as_, js, safe, acc[1:], *self.limits, g.feed_mm_per_s)
+        return u, verts, vel, acc, mins, ps, vs, as_, js, ok
 
     def ruckig_piece(self, g, p0, v0, a0, p1, v1, a1, min_duration: float) -> float:
         """One 3-DoF Ruckig state-to-state piece (time synchronised); returns its duration [s]."""
@@ -241,6 +330,7 @@ def plan(
     geoms = [move_geometry(m, machine, feed_override_pct / 100.0) for m in moves]
     active = [g for g in geoms if g.length_mm > 1e-9]
     caps, states = junctions(active, machine)
+    active = limits_for_junctions(active, caps, machine)
     caps = feasible_junction_caps(active, caps, states, machine)
     for rnd in range(MAX_ROUNDS + 1):
         speeds = plan_junction_speeds([g.limits for g in active], caps)
@@ -252,7 +342,8 @@ def plan(
             if g.is_arc:
                 s_in = (states[b][0] * speeds[b], states[b][1] * speeds[b] ** 2)
                 s_out = (states[b + 1][0] * speeds[b + 1], states[b + 1][1] * speeds[b + 1] ** 2)
-                dur, bad_in, bad_out = pl.arc(g, ph, s_in, s_out)
+                fast = pl.boosted_profile(g, speeds[b], speeds[b + 1], ph)
+                dur, bad_in, bad_out = pl.arc(g, ph, s_in, s_out, fast)
                 clock += dur
                 bad |= {b} if bad_in else set()
                 bad |= {b + 1} if bad_out else set()

@@ -8,8 +8,11 @@ import numpy as np
 import pytest
 
 from controller.lookahead import (
+    FOLLOW_MARGIN,
     BlockLimits,
+    FollowGeometry,
     arc_limits,
+    follow_ok,
     junction_cap,
     max_reachable_speed,
     plan_junction_speeds,
@@ -71,3 +74,39 @@ def test_arc_limits_keep_axis_acceleration_and_jerk_bounds(radius):
     assert math.hypot(a_t, v * v * k) <= 2500.0 * (1 + 1e-12)
     assert math.hypot(j_t + v**3 * dk, 3 * v * a_t * k) <= 8e4 * (1 + 1e-12)
     assert a_t > 0 and j_t > 0
+
+
+@pytest.mark.parametrize("radius", [1.0, 5.0])
+def test_follow_ok_checks_the_exact_following_point_by_point(radius):
+    amax, jmax = (3000.0, 2500.0, 3000.0), (1e5, 8e4, 1e5)
+    fg = FollowGeometry((0, 1, 2), 0.0, 1 / radius, 1 / radius**2, 1e9)
+    v_jerk = (FOLLOW_MARGIN * 8e4 * radius**2) ** (1 / 3)  # cruising: v^3 / R^2 is the jerk
+    v_acc = math.sqrt(FOLLOW_MARGIN * 2500.0 * radius)  # v^2 / R is the acceleration
+    v_top = min(v_jerk, v_acc)
+
+    def cruise(v, a=0.0, j=0.0):
+        return np.array([[0.01, 0.0, v, a, j]])
+
+    assert follow_ok(cruise(0.999 * v_top), fg, 1e9, amax, jmax)
+    assert not follow_ok(cruise(1.001 * v_top), fg, 1e9, amax, jmax)
+    assert not follow_ok(cruise(0.5 * v_top), fg, 0.4 * v_top, amax, jmax)  # the speed cap
+    # slow, but the tangential jerk adds to the centripetal one: 3 v a_t / R
+    slow = 0.5 * v_top
+    a_bad = 1.01 * FOLLOW_MARGIN * 8e4 * radius / (3 * slow)
+    assert a_bad < 2400.0 and not follow_ok(cruise(slow, a=a_bad), fg, 1e9, amax, jmax)
+    # a phase whose end (not its start) breaks the jerk limit is caught
+    ramp = np.array([[0.01, 0.0, 0.9 * v_jerk, 0.2 * v_jerk / 0.01, 0.0]])
+    assert not follow_ok(ramp, fg, 1e9, amax, jmax)
+
+
+def test_arc_inside_a_tangent_chain_cruises_closer_to_its_curvature_cap():
+    """A short arc between stops keeps jerk for its ramps (lower cap); inside a chain whose
+    junctions keep their speed it has nothing to ramp, so it cruises near the curvature cap."""
+    vmax, amax, jmax = (500.0, 400.0, 200.0), (3000.0, 2500.0, 3000.0), (1e5, 8e4, 1e5)
+    radius = 4.0
+    args = ((0, 1, 2), 0.5 * math.pi * radius, 0.0, 1 / radius, 1 / radius**2, 1e9)
+    v_curv = min(math.sqrt(2500.0 * radius), (8e4 * radius**2) ** (1 / 3))
+    alone = arc_limits(*args, vmax, amax, jmax)
+    chained = arc_limits(*args, vmax, amax, jmax, (math.inf, math.inf))
+    assert alone.cap_mm_per_s < 0.9 * v_curv
+    assert chained.cap_mm_per_s >= 0.98 * v_curv

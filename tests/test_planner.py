@@ -9,7 +9,9 @@ import numpy as np
 import pytest
 
 from controller.errors import ConfigError, PlanningError
+from controller.lookahead import s_curve_time
 from controller.moves import Linear, Rapid
+from controller.path import move_geometry
 from controller.planner import plan
 from tests.plan_helpers import arc, arc_deviation, assert_within_limits, helix, limit_ratios
 
@@ -83,6 +85,21 @@ def test_circles_within_quarter_tolerance_in_every_plane(machine, plane, radius,
     _, tr = _sample([a], machine)
     assert_within_limits(tr, machine, [a])
     assert arc_deviation(tr, a) <= 0.25 * TOL
+
+
+@pytest.mark.parametrize("radius", [1.0, 2.0, 5.0])
+def test_small_circles_from_rest_ramp_faster_than_their_worst_case_limits(machine, radius):
+    """Curvature-limited circles: the block's limits hold at the cap's speed and acceleration
+    at once; the profile actually used is checked point by point, so it ramps faster."""
+    a = arc(1, (radius, 0.0, 0.0), (0.0, 0.0, 0.0), 2 * math.pi, feed=6000.0)
+    p, tr = _sample([a], machine)
+    assert_within_limits(tr, machine, [a])
+    assert arc_deviation(tr, a) <= 0.25 * TOL
+    lim = move_geometry(a, machine, 1.0).limits
+    worst_case = a.length_mm / lim.cap_mm_per_s + s_curve_time(
+        lim.cap_mm_per_s, lim.acc_mm_per_s2, lim.jerk_mm_per_s3
+    )
+    assert p.duration_s < 0.92 * worst_case
 
 
 def test_p_turn_helix(machine):
