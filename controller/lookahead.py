@@ -35,6 +35,12 @@ from dataclasses import dataclass
 
 import numpy as np
 
+# Re-exported: the boosted-profile checks lived here (controller.boost owns them now).
+from controller.boost import FOLLOW_MARGIN as FOLLOW_MARGIN
+from controller.boost import FollowGeometry as FollowGeometry
+from controller.boost import boost_candidates as boost_candidates
+from controller.boost import follow_ok as follow_ok
+
 #: Tangent-direction change above which a junction involving an arc is a corner [rad] (1 degree).
 CORNER_ANGLE_RAD = math.radians(1.0)
 #: Fractions of the curvature speed caps tried, and shares of the jerk left by the centripetal
@@ -145,94 +151,6 @@ def arc_limits(
             break
     _, cap, a_t, j_t = best
     return BlockLimits(length_mm, cap, a_t, j_t)
-
-
-@dataclass(frozen=True)
-class FollowGeometry:
-    """What bounds the exact following of an arc/helix (see the module docstring).
-
-    Attributes:
-        plane_axes: (first, second, normal) axis indices of the arc's plane.
-        sin_pitch: |T_n|, the tangent's normal-axis component (0 for a plain arc).
-        curvature_per_mm: largest |p''| = 1/R [1/mm].
-        dcurv_per_mm2: largest |p'''| [1/mm^2].
-        feed_cap_mm_per_s: the feed (after override, less the closed-form pieces' margin) [mm/s].
-    """
-
-    plane_axes: tuple[int, int, int]
-    sin_pitch: float
-    curvature_per_mm: float
-    dcurv_per_mm2: float
-    feed_cap_mm_per_s: float
-
-    def speed_cap(self, vmax) -> float:
-        """Path-speed cap from the feed and the axis velocities alone [mm/s]."""
-        i1, i2, n = self.plane_axes
-        sp = self.sin_pitch
-        cp = math.sqrt(max(0.0, 1.0 - sp * sp))
-        cap = min(self.feed_cap_mm_per_s, min(vmax[i1], vmax[i2]) / max(cp, 1e-12))
-        return min(cap, vmax[n] / sp) if sp > 0 else cap
-
-
-#: Share of the axis limits a profile checked by :func:`follow_ok` may use (the closed-form
-#: pieces between vertices are checked again, exactly, by the planner).
-FOLLOW_MARGIN = 0.97
-#: Fractions of the curvature caps and shares of the jerk they leave (:func:`boost_candidates`).
-BOOST_MARGINS = (0.99, 0.95, 0.9, 0.8, 0.7, 0.6, 0.5, 0.4)
-BOOST_JERK_SHARES = (0.95, 0.8, 0.65, 0.5, 0.35)
-
-
-def follow_ok(ph: np.ndarray, fg: FollowGeometry, cap: float, amax, jmax) -> bool:
-    """True when following the arc exactly with the 1-D profile ``ph`` (rows: duration, s, v,
-    a_t, j_t) keeps every axis within :data:`FOLLOW_MARGIN` of its acceleration and jerk limits
-    and the path speed within ``cap`` [mm/s] (to rounding: the arc caps keep a margin below the
-    feed): the bounds of the module docstring, evaluated at
-    9 points of every phase instead of at their worst combination (speed-dependent limits)."""
-    i1, i2, n = fg.plane_axes
-    k, dk, sp = fg.curvature_per_mm, fg.dcurv_per_mm2, fg.sin_pitch
-    t = ph[:, :1] * _FRACTIONS
-    v, a, j = ph[:, 2:3], ph[:, 3:4], ph[:, 4:5]
-    vv = v + t * (a + 0.5 * t * j)
-    aa = np.abs(a + t * j)
-    if vv.max() > cap * (1.0 + 1e-12):  # Ruckig reaches its cap to rounding; cap < feed
-        return False
-    m = FOLLOW_MARGIN
-    v2k = vv * vv * k
-    if (aa * aa + v2k * v2k).max() > (m * min(amax[i1], amax[i2])) ** 2:
-        return False
-    jj = np.abs(j) + vv * v2k * (dk / k) if k > 0 else np.abs(j) + 0.0 * vv
-    ja = 3.0 * vv * aa * k
-    if (jj * jj + ja * ja).max() > (m * min(jmax[i1], jmax[i2])) ** 2:
-        return False
-    return sp == 0 or (aa.max() * sp <= m * amax[n] and np.abs(j).max() * sp <= m * jmax[n])
-
-
-_FRACTIONS = np.linspace(0.0, 1.0, 9)[None, :]
-
-
-def boost_candidates(fg: FollowGeometry, vmax, amax, jmax) -> list[tuple[float, float, float]]:
-    """(cap, jerk, acc_hi) triples to try for a profile checked by :func:`follow_ok`: caps at
-    fractions of the curvature caps, shares of the jerk left at that speed, and the largest
-    tangential acceleration worth trying (the caller tries shares of it)."""
-    i1, i2, n = fg.plane_axes
-    a_pl, j_pl = min(amax[i1], amax[i2]), min(jmax[i1], jmax[i2])
-    k, dk, sp = fg.curvature_per_mm, fg.dcurv_per_mm2, fg.sin_pitch
-    base = fg.speed_cap(vmax)
-    a_hi = a_pl if sp == 0 else min(a_pl, amax[n] / sp)
-    out = []
-    for margin in BOOST_MARGINS:
-        cap = base
-        if k > 0:
-            cap = min(cap, math.sqrt(margin * a_pl / k))
-        if dk > 0:
-            cap = min(cap, (margin * j_pl / dk) ** (1.0 / 3.0))
-        j_left = FOLLOW_MARGIN * j_pl - cap**3 * dk
-        if sp > 0:
-            j_left = min(j_left, FOLLOW_MARGIN * jmax[n] / sp)
-        out.extend((cap, share * j_left, a_hi) for share in BOOST_JERK_SHARES if j_left > 0)
-        if cap >= base:
-            break
-    return out
 
 
 def junction_cap(

@@ -12,12 +12,12 @@ from dataclasses import dataclass, replace
 import numpy as np
 
 from controller.arcs import PLANE_AXES, arc_derivatives, arc_frame, arc_points
+from controller.boost import FollowGeometry
 from controller.config import MachineConfig
 from controller.lookahead import (
     COLLINEAR_ANGLE_RAD,
     CORNER_ANGLE_RAD,
     BlockLimits,
-    FollowGeometry,
     arc_limits,
     junction_cap,
     straight_limits,
@@ -50,7 +50,7 @@ class MoveGeometry:
     curv_out: np.ndarray  # curvature vector at the end [1/mm]
     limits: BlockLimits
     feed_mm_per_s: float  # programmed path speed after override (inf for rapids) [mm/s]
-    #: Arcs: what :func:`controller.lookahead.follow_ok` needs to check a speed profile exactly.
+    #: Arcs: what :func:`controller.boost.follow_ok` needs to check a speed profile exactly.
     follow: FollowGeometry | None = None
 
     @property

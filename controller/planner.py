@@ -26,12 +26,13 @@ from collections.abc import Sequence
 import numpy as np
 import ruckig
 
+from controller.boost import boosted_profile
 from controller.config import MachineConfig
 from controller.cubic import CubicBuilder
 from controller.errors import ConfigError, PlanningError
 from controller.jerk3 import jerk3, jerk3_points, piece_limits_ok
 from controller.junction_check import feasible_junction_caps
-from controller.lookahead import boost_candidates, follow_ok, plan_junction_speeds
+from controller.lookahead import plan_junction_speeds
 from controller.moves import Move
 from controller.path import (
     MoveGeometry,
@@ -53,12 +54,6 @@ JUNCTION_DEVIATION_MAX = 0.2
 #: round stops at the junctions still offending.
 MAX_ROUNDS = 8
 JUNCTION_BACKOFF = 0.6
-#: An arc whose entry or exit speed is below this share of its cap tries a faster profile.
-BOOST_RAMP_SHARE = 0.9
-#: Tangential accelerations tried for each boosted (cap, jerk), as shares of the most useful.
-BOOST_ACC_SHARES = (1.0, 0.85, 0.7, 0.55, 0.42, 0.3, 0.2)
-#: ... and only when its profile takes longer than this times cruising at the fastest candidate.
-BOOST_MIN_GAIN = 1.005
 
 
 def _calculate(otg: ruckig.Ruckig, inp: ruckig.InputParameter, traj: ruckig.Trajectory):
@@ -133,47 +128,8 @@ class _Planner:
         return ph
 
     def boosted_profile(self, g: MoveGeometry, v_in: float, v_out: float, ph: np.ndarray):
-        """A faster 1-D profile for an arc that ramps (speed-dependent limits), or None.
-
-        The block's limits hold at its worst speed and acceleration at once; a profile whose
-        exact following is checked point by point (:func:`follow_ok`) may use more jerk and
-        acceleration where the speed is low, or cruise a little below the curvature cap to keep
-        jerk for the ramps. Tried only where the block ramps (an end below
-        :data:`BOOST_RAMP_SHARE` of its cap); the fastest checked candidate wins.
-        """
-        fg, lim = g.follow, g.limits
-        if fg is None or min(v_in, v_out) >= BOOST_RAMP_SHARE * lim.cap_mm_per_s:
-            return None
-        vmax, amax, jmax = self.limits
-        candidates = boost_candidates(fg, vmax, amax, jmax)
-        t_now = float(ph[:, 0].sum())
-        if not candidates or t_now <= BOOST_MIN_GAIN * g.length_mm / candidates[0][0]:
-            return None  # even cruising at the highest candidate cap would not gain enough
-        key = (g.length_mm, fg, v_in, v_out)
-        if key in self.boost_cache:
-            return self.boost_cache[key]
-        best, best_t = None, t_now * (1.0 - 1e-6)
-        base = fg.speed_cap(vmax)
-        for cap, jerk, a_hi in candidates:
-            if cap < max(v_in, v_out) or jerk <= 0:
-                continue
-            fastest = self.profile_1d(g.length_mm, v_in, v_out, cap, a_hi, jerk)
-            if fastest is None or fastest[:, 0].sum() >= best_t:
-                continue  # more acceleration is never slower: nothing to gain here
-            for share in BOOST_ACC_SHARES:  # the first that passes is this pair's fastest
-                cand = fastest if share == 1.0 else None
-                if cand is None:
-                    cand = self.profile_1d(g.length_mm, v_in, v_out, cap, share * a_hi, jerk)
-                if cand is None:
-                    continue
-                t_cand = float(cand[:, 0].sum())
-                if t_cand >= best_t:
-                    break  # less acceleration is never faster
-                if follow_ok(cand, fg, base, amax, jmax):
-                    best, best_t = cand, t_cand
-                    break
-        self.boost_cache[key] = best
-        return best
+        """A faster 1-D profile for an arc that ramps, or None (see :mod:`controller.boost`)."""
+        return boosted_profile(g, v_in, v_out, ph, self.limits, self.profile_1d, self.boost_cache)
 
     def profile_1d(self, length, v_in, v_out, cap, acc, jerk) -> np.ndarray | None:
         """Phases (dur, s, v, a, j) of a 1-D rest-acceleration profile, or None on failure."""

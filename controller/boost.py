@@ -1,0 +1,181 @@
+"""Boosted 1-D profiles for arcs that ramp: exact following checked point by point.
+
+A block's limits (:func:`controller.lookahead.arc_limits`) hold at its worst speed and
+acceleration at once. Where an arc ramps, a faster profile may use more jerk and acceleration
+where the speed is low: :class:`FollowGeometry` holds what bounds the exact following of the arc
+(curvature [1/mm], its derivative [1/mm^2], pitch, feed cap [mm/s]), :func:`follow_ok` checks a
+profile against the axis limits [mm/s^2], [mm/s^3] point by point, :func:`boost_candidates`
+lists the (cap [mm/s], jerk [mm/s^3], acceleration [mm/s^2]) to try and
+:func:`boosted_profile` searches them, given a 1-D profile solver (Ruckig's, in
+:mod:`controller.planner`).
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable
+from dataclasses import dataclass
+from typing import TYPE_CHECKING
+
+import numpy as np
+
+if TYPE_CHECKING:
+    from controller.path import MoveGeometry
+
+#: An arc whose entry or exit speed is below this share of its cap tries a faster profile.
+BOOST_RAMP_SHARE = 0.9
+#: Tangential accelerations tried for each boosted (cap, jerk), as shares of the most useful.
+BOOST_ACC_SHARES = (1.0, 0.85, 0.7, 0.55, 0.42, 0.3, 0.2)
+#: ... and only when its profile takes longer than this times cruising at the fastest candidate.
+BOOST_MIN_GAIN = 1.005
+
+
+@dataclass(frozen=True)
+class FollowGeometry:
+    """What bounds the exact following of an arc/helix (see :mod:`controller.lookahead`).
+
+    Attributes:
+        plane_axes: (first, second, normal) axis indices of the arc's plane.
+        sin_pitch: |T_n|, the tangent's normal-axis component (0 for a plain arc).
+        curvature_per_mm: largest |p''| = 1/R [1/mm].
+        dcurv_per_mm2: largest |p'''| [1/mm^2].
+        feed_cap_mm_per_s: the feed (after override, less the closed-form pieces' margin) [mm/s].
+    """
+
+    plane_axes: tuple[int, int, int]
+    sin_pitch: float
+    curvature_per_mm: float
+    dcurv_per_mm2: float
+    feed_cap_mm_per_s: float
+
+    def speed_cap(self, vmax) -> float:
+        """Path-speed cap from the feed and the axis velocities alone [mm/s]."""
+        i1, i2, n = self.plane_axes
+        sp = self.sin_pitch
+        cp = math.sqrt(max(0.0, 1.0 - sp * sp))
+        cap = min(self.feed_cap_mm_per_s, min(vmax[i1], vmax[i2]) / max(cp, 1e-12))
+        return min(cap, vmax[n] / sp) if sp > 0 else cap
+
+
+#: Share of the axis limits a profile checked by :func:`follow_ok` may use (the closed-form
+#: pieces between vertices are checked again, exactly, by the planner).
+FOLLOW_MARGIN = 0.97
+#: Fractions of the curvature caps and shares of the jerk they leave (:func:`boost_candidates`).
+BOOST_MARGINS = (0.99, 0.95, 0.9, 0.8, 0.7, 0.6, 0.5, 0.4)
+BOOST_JERK_SHARES = (0.95, 0.8, 0.65, 0.5, 0.35)
+
+
+def follow_ok(ph: np.ndarray, fg: FollowGeometry, cap: float, amax, jmax) -> bool:
+    """True when following the arc exactly with the 1-D profile ``ph`` (rows: duration, s, v,
+    a_t, j_t) keeps every axis within :data:`FOLLOW_MARGIN` of its acceleration and jerk limits
+    and the path speed within ``cap`` [mm/s] (to rounding: the arc caps keep a margin below the
+    feed): the bounds of :mod:`controller.lookahead`, evaluated at
+    9 points of every phase instead of at their worst combination (speed-dependent limits)."""
+    i1, i2, n = fg.plane_axes
+    k, dk, sp = fg.curvature_per_mm, fg.dcurv_per_mm2, fg.sin_pitch
+    t = ph[:, :1] * _FRACTIONS
+    v, a, j = ph[:, 2:3], ph[:, 3:4], ph[:, 4:5]
+    vv = v + t * (a + 0.5 * t * j)
+    aa = np.abs(a + t * j)
+    if vv.max() > cap * (1.0 + 1e-12):  # Ruckig reaches its cap to rounding; cap < feed
+        return False
+    m = FOLLOW_MARGIN
+    v2k = vv * vv * k
+    if (aa * aa + v2k * v2k).max() > (m * min(amax[i1], amax[i2])) ** 2:
+        return False
+    jj = np.abs(j) + vv * v2k * (dk / k) if k > 0 else np.abs(j) + 0.0 * vv
+    ja = 3.0 * vv * aa * k
+    if (jj * jj + ja * ja).max() > (m * min(jmax[i1], jmax[i2])) ** 2:
+        return False
+    return sp == 0 or (aa.max() * sp <= m * amax[n] and np.abs(j).max() * sp <= m * jmax[n])
+
+
+_FRACTIONS = np.linspace(0.0, 1.0, 9)[None, :]
+
+
+def boost_candidates(fg: FollowGeometry, vmax, amax, jmax) -> list[tuple[float, float, float]]:
+    """(cap, jerk, acc_hi) triples to try for a profile checked by :func:`follow_ok`: caps at
+    fractions of the curvature caps, shares of the jerk left at that speed, and the largest
+    tangential acceleration worth trying (the caller tries shares of it)."""
+    i1, i2, n = fg.plane_axes
+    a_pl, j_pl = min(amax[i1], amax[i2]), min(jmax[i1], jmax[i2])
+    k, dk, sp = fg.curvature_per_mm, fg.dcurv_per_mm2, fg.sin_pitch
+    base = fg.speed_cap(vmax)
+    a_hi = a_pl if sp == 0 else min(a_pl, amax[n] / sp)
+    out = []
+    for margin in BOOST_MARGINS:
+        cap = base
+        if k > 0:
+            cap = min(cap, math.sqrt(margin * a_pl / k))
+        if dk > 0:
+            cap = min(cap, (margin * j_pl / dk) ** (1.0 / 3.0))
+        j_left = FOLLOW_MARGIN * j_pl - cap**3 * dk
+        if sp > 0:
+            j_left = min(j_left, FOLLOW_MARGIN * jmax[n] / sp)
+        out.extend((cap, share * j_left, a_hi) for share in BOOST_JERK_SHARES if j_left > 0)
+        if cap >= base:
+            break
+    return out
+
+
+#: A 1-D profile solver: (length [mm], v_in, v_out, cap [mm/s], acc [mm/s^2], jerk [mm/s^3]) ->
+#: phases (dur, s, v, a, j) of a rest-acceleration profile, or None on failure.
+Profile1D = Callable[[float, float, float, float, float, float], "np.ndarray | None"]
+
+
+def boosted_profile(
+    g: MoveGeometry,
+    v_in: float,
+    v_out: float,
+    ph: np.ndarray,
+    limits: tuple,
+    profile_1d: Profile1D,
+    cache: dict,
+) -> np.ndarray | None:
+    """A faster 1-D profile for an arc that ramps (speed-dependent limits), or None.
+
+    The block's limits hold at its worst speed and acceleration at once; a profile whose
+    exact following is checked point by point (:func:`follow_ok`) may use more jerk and
+    acceleration where the speed is low, or cruise a little below the curvature cap to keep
+    jerk for the ramps. Tried only where the block ramps (an end below
+    :data:`BOOST_RAMP_SHARE` of its cap); the fastest checked candidate wins.
+
+    Args:
+        g: the arc's geometry; ``v_in``, ``v_out``: its end speeds [mm/s]; ``ph``: its profile.
+        limits: per-axis (vmax [mm/s], amax [mm/s^2], jmax [mm/s^3]).
+        profile_1d: the 1-D profile solver (:data:`Profile1D`).
+        cache: results by (length, follow geometry, end speeds), filled here.
+    """
+    fg, lim = g.follow, g.limits
+    if fg is None or min(v_in, v_out) >= BOOST_RAMP_SHARE * lim.cap_mm_per_s:
+        return None
+    vmax, amax, jmax = limits
+    candidates = boost_candidates(fg, vmax, amax, jmax)
+    t_now = float(ph[:, 0].sum())
+    if not candidates or t_now <= BOOST_MIN_GAIN * g.length_mm / candidates[0][0]:
+        return None  # even cruising at the highest candidate cap would not gain enough
+    key = (g.length_mm, fg, v_in, v_out)
+    if key in cache:
+        return cache[key]
+    best, best_t = None, t_now * (1.0 - 1e-6)
+    base = fg.speed_cap(vmax)
+    for cap, jerk, a_hi in candidates:
+        if cap < max(v_in, v_out) or jerk <= 0:
+            continue
+        fastest = profile_1d(g.length_mm, v_in, v_out, cap, a_hi, jerk)
+        if fastest is None or fastest[:, 0].sum() >= best_t:
+            continue  # more acceleration is never slower: nothing to gain here
+        for share in BOOST_ACC_SHARES:  # the first that passes is this pair's fastest
+            cand = fastest if share == 1.0 else None
+            if cand is None:
+                cand = profile_1d(g.length_mm, v_in, v_out, cap, share * a_hi, jerk)
+            if cand is None:
+                continue
+            t_cand = float(cand[:, 0].sum())
+            if t_cand >= best_t:
+                break  # less acceleration is never faster
+            if follow_ok(cand, fg, base, amax, jmax):
+                best, best_t = cand, t_cand
+                break
+    cache[key] = best
+    return best
