@@ -5,7 +5,8 @@
 2. Look-ahead: junction speeds (exact stops at corners, rapids and the end; tangent junctions
    keep their speed), backward and forward passes.
 3. One 1-D Ruckig profile per move along its path s(t), from (0, v_in, 0) to (L, v_out, 0).
-4. Straight moves (G0/G1) are that profile projected on the line: exactly straight, and the feed
+4. Pieces (:mod:`controller.move_pieces`): straight moves (G0/G1) are that profile projected on
+   the line: exactly straight, and the feed
    holds along the diagonal. Arcs: the 1-D profile is sampled at the chord vertices (time, speed,
    tangential acceleration), each vertex gets the exact arc state (position on the arc, velocity
    v T, acceleration a_t T + v^2 k), and a 3-DoF Ruckig ``calculate`` joins consecutive vertex
@@ -28,28 +29,18 @@ import ruckig
 
 from controller.boost import boosted_profile
 from controller.config import MachineConfig
-from controller.cubic import CubicBuilder
 from controller.errors import ConfigError, PlanningError
-from controller.jerk3 import jerk3, jerk3_points, piece_limits_ok
 from controller.junction_check import feasible_junction_caps
 from controller.lookahead import plan_junction_speeds
+from controller.move_pieces import MovePieces
 from controller.moves import Move
-from controller.path import (
-    MoveGeometry,
-    junctions,
-    limits_for_junctions,
-    move_geometry,
-    vertex_states,
-)
+from controller.path import MoveGeometry, junctions, limits_for_junctions, move_geometry
 from controller.plan_result import Plan
 from controller.travel import check_travel
 
 __all__ = ["Plan", "plan"]
 
 _OK = (ruckig.Result.Working, ruckig.Result.Finished)
-#: Largest distance of a piece next to a moving junction from the arc, in chord tolerances;
-#: beyond it the junction's speed is lowered and the program planned again.
-JUNCTION_DEVIATION_MAX = 0.2
 #: Re-planning rounds (each lowers the offending junction caps by JUNCTION_BACKOFF); the last
 #: round stops at the junctions still offending.
 MAX_ROUNDS = 8
@@ -75,8 +66,11 @@ def _profile_phases(traj: ruckig.Trajectory, dof: int) -> tuple[list, list, list
     return dur, p, v, a, j
 
 
-class _Planner:
+class _Planner(MovePieces):
+    """:class:`MovePieces` with Ruckig: the 1-D profiles and the pieces the closed form fails."""
+
     def __init__(self, machine: MachineConfig, pieces: str) -> None:
+        super().__init__(machine, pieces)
         lim = machine.limits
         self.r1, self.in1, self.tr1 = (
             ruckig.Ruckig(1),
@@ -91,19 +85,7 @@ class _Planner:
         self.in3.max_velocity = list(lim.max_velocity_mm_per_s)
         self.in3.max_acceleration = list(lim.max_acceleration_mm_per_s2)
         self.in3.max_jerk = list(lim.max_jerk_mm_per_s3)
-        self.limits = (
-            lim.max_velocity_mm_per_s,
-            lim.max_acceleration_mm_per_s2,
-            lim.max_jerk_mm_per_s3,
-        )
-        self.pieces = pieces
-        self.dev_max = JUNCTION_DEVIATION_MAX * machine.segmentation.chord_tolerance_mm
-        self.out = CubicBuilder()
-        self.ruckig_pieces = 0
-        self.fallbacks = 0
-        self.stretched = 0
         self.boost_cache: dict = {}
-        self.boosted = 0
 
     def path_profile(self, g: MoveGeometry, v_in: float, v_out: float) -> np.ndarray:
         """1-D profile along the move: array (k, 5) of phases (dur, s, v, a_t, j_t)."""
@@ -143,91 +125,6 @@ class _Planner:
         ph = np.array(_profile_phases(self.tr1, 0), dtype=float).T
         return ph if ph[:, 2].min() >= -1e-9 * max(cap, 1.0) else None
 
-    def straight(self, g: MoveGeometry, ph: np.ndarray) -> float:
-        for i in range(3):
-            d = g.tangent_in[i]
-            self.out.add(
-                i, ph[:, 0], g.start[i] + d * ph[:, 1], d * ph[:, 2], d * ph[:, 3], d * ph[:, 4]
-            )
-        return float(ph[:, 0].sum())
-
-    def arc(
-        self, g: MoveGeometry, ph: np.ndarray, state_in, state_out, fast: np.ndarray | None = None
-    ) -> tuple[float, bool, bool]:
-        """Pieces between the exact arc states at the vertices.
-
-        Returns:
-            (duration [s], bad_in, bad_out): bad_* when the piece next to a moving junction
-            leaves the arc by more than :data:`JUNCTION_DEVIATION_MAX` of the chord tolerance or
-            needed Ruckig to stretch it (the junction speed must then come down).
-        """
-        if self.pieces == "ruckig":
-            fast = None
-        if fast is not None:  # used only when its closed-form pieces all keep the limits
-            pieces = self.closed_form(g, fast, state_in, state_out)
-            ok = pieces[-1]
-            if ok[1:-1].all() and (ok[0] or np.any(state_in[0])) and (
-                ok[-1] or np.any(state_out[0])
-            ):
-                self.boosted += 1
-                ph = fast
-            else:
-                fast = None
-        if fast is None:
-            pieces = self.closed_form(g, ph, state_in, state_out)
-        u, verts, vel, acc, mins, ps, vs, as_, js, ok = pieces
-        n = mins.size
-        check = {0: bool(np.any(state_in[0])), n - 1: bool(np.any(state_out[0]))}
-        bad = {0: False, n - 1: False}
-        if ok.all():
-            dur = np.repeat(mins / 3.0, 3)
-            for i in range(3):
-                cols = (ps[:, :, i], vs[:, :, i], as_[:, :, i], js[:, :, i])
-                self.out.add(i, dur, *(c.ravel() for c in cols))
-            for k in (0, n - 1):
-                if check[k]:
-                    q = jerk3_points(ps[k], vs[k], as_[k], js[k], mins[k])
-                    bad[k] = g.deviation(q, u[k]) > self.dev_max
-            return float(mins.sum()), bad[0], bad[n - 1]
-        total = 0.0
-        for k in range(n):
-            if ok[k]:
-                h3 = [mins[k] / 3.0] * 3
-                for i in range(3):
-                    self.out.add(i, h3, ps[k, :, i], vs[k, :, i], as_[k, :, i], js[k, :, i])
-                total += mins[k]
-                if check.get(k):
-                    q = jerk3_points(ps[k], vs[k], as_[k], js[k], mins[k])
-                    bad[k] = g.deviation(q, u[k]) > self.dev_max
-                continue
-            if self.pieces != "ruckig":
-                self.ruckig_pieces += 1
-            d = self.ruckig_piece(
-                g, verts[k], vel[k], acc[k], verts[k + 1], vel[k + 1], acc[k + 1], mins[k]
-            )
-            total += d
-            if check.get(k):
-                pv = [self.tr3.at_time(t) for t in np.linspace(0.0, d, 25)]
-                q = np.array([x[0] for x in pv])
-                speed = np.linalg.norm(np.array([x[1] for x in pv]), axis=1).max()
-                bad[k] = (
-                    d > mins[k] * 1.001 + 1e-9
-                    or g.deviation(q, u[k]) > self.dev_max
-                    or speed > g.feed_mm_per_s
-                )
-        return total, bad[0], bad[n - 1]
-
-    def closed_form(self, g: MoveGeometry, ph: np.ndarray, state_in, state_out):
-        """Vertex states and closed-form pieces for profile ``ph``, and which keep the limits."""
-        u, verts, vel, acc, mins = vertex_states(g, ph, state_in, state_out)
-        if self.pieces == "ruckig":
-            return u, verts, vel, acc, mins, None, None, None, None, np.zeros(mins.size, bool)
-        ok = mins > 1e-9
-        safe = np.where(ok, mins, 1.0)
-        ps, vs, as_, js = jerk3(verts, vel, acc, safe)
-        ok &= piece_limits_ok(vs, as_, js, safe, acc[1:], *self.limits, g.feed_mm_per_s)
-        return u, verts, vel, acc, mins, ps, vs, as_, js, ok
-
     def ruckig_piece(self, g, p0, v0, a0, p1, v1, a1, min_duration: float) -> float:
         """One 3-DoF Ruckig state-to-state piece (time synchronised); returns its duration [s]."""
         inp, tr = self.in3, self.tr3
@@ -253,6 +150,12 @@ class _Planner:
         for i in range(3):
             self.out.add(i, *_profile_phases(tr, i))
         return dur
+
+    def piece_samples(self, duration: float) -> tuple[np.ndarray, np.ndarray]:
+        """Positions [mm] and velocities [mm/s] (25, 3) of the last Ruckig piece over its
+        ``duration`` [s]."""
+        pv = [self.tr3.at_time(t) for t in np.linspace(0.0, duration, 25)]
+        return np.array([x[0] for x in pv]), np.array([x[1] for x in pv])
 
 
 def plan(

@@ -1,0 +1,136 @@
+"""One move's 1-D profile -> the reference's constant-jerk phases (:mod:`controller.cubic`).
+
+Straight moves (G0/G1) are the profile projected on the line. Arcs: the profile is sampled at
+the vertices (:func:`controller.path.vertex_states`: exact arc states, positions [mm],
+velocities [mm/s], accelerations [mm/s^2]) and consecutive states are joined by closed-form
+constant-jerk pieces (:mod:`controller.jerk3`); the pieces that would break a limit go to Ruckig
+through :meth:`MovePieces.ruckig_piece`, which :class:`controller.planner._Planner` provides
+(Ruckig is imported there only). Pieces next to a moving junction are checked against the arc.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from controller.config import MachineConfig
+from controller.cubic import CubicBuilder
+from controller.jerk3 import jerk3, jerk3_points, piece_limits_ok
+from controller.path import MoveGeometry, vertex_states
+
+#: Largest distance of a piece next to a moving junction from the arc, in chord tolerances;
+#: beyond it the junction's speed is lowered and the program planned again.
+JUNCTION_DEVIATION_MAX = 0.2
+
+
+class MovePieces:
+    """Collects the reference's phases, move by move, and counts the pieces by kind.
+
+    ``pieces``: "jerk3" (closed-form pieces, Ruckig where they break a limit) or "ruckig".
+    """
+
+    def __init__(self, machine: MachineConfig, pieces: str) -> None:
+        lim = machine.limits
+        self.limits = (
+            lim.max_velocity_mm_per_s,
+            lim.max_acceleration_mm_per_s2,
+            lim.max_jerk_mm_per_s3,
+        )
+        self.pieces = pieces
+        self.dev_max = JUNCTION_DEVIATION_MAX * machine.segmentation.chord_tolerance_mm
+        self.out = CubicBuilder()
+        self.ruckig_pieces = 0
+        self.fallbacks = 0
+        self.stretched = 0
+        self.boosted = 0
+
+    def straight(self, g: MoveGeometry, ph: np.ndarray) -> float:
+        for i in range(3):
+            d = g.tangent_in[i]
+            self.out.add(
+                i, ph[:, 0], g.start[i] + d * ph[:, 1], d * ph[:, 2], d * ph[:, 3], d * ph[:, 4]
+            )
+        return float(ph[:, 0].sum())
+
+    def arc(
+        self, g: MoveGeometry, ph: np.ndarray, state_in, state_out, fast: np.ndarray | None = None
+    ) -> tuple[float, bool, bool]:
+        """Pieces between the exact arc states at the vertices.
+
+        Returns:
+            (duration [s], bad_in, bad_out): bad_* when the piece next to a moving junction
+            leaves the arc by more than :data:`JUNCTION_DEVIATION_MAX` of the chord tolerance or
+            needed Ruckig to stretch it (the junction speed must then come down).
+        """
+        if self.pieces == "ruckig":
+            fast = None
+        if fast is not None:  # used only when its closed-form pieces all keep the limits
+            pieces = self.closed_form(g, fast, state_in, state_out)
+            ok = pieces[-1]
+            if ok[1:-1].all() and (ok[0] or np.any(state_in[0])) and (
+                ok[-1] or np.any(state_out[0])
+            ):
+                self.boosted += 1
+                ph = fast
+            else:
+                fast = None
+        if fast is None:
+            pieces = self.closed_form(g, ph, state_in, state_out)
+        u, verts, vel, acc, mins, ps, vs, as_, js, ok = pieces
+        n = mins.size
+        check = {0: bool(np.any(state_in[0])), n - 1: bool(np.any(state_out[0]))}
+        bad = {0: False, n - 1: False}
+        if ok.all():
+            dur = np.repeat(mins / 3.0, 3)
+            for i in range(3):
+                cols = (ps[:, :, i], vs[:, :, i], as_[:, :, i], js[:, :, i])
+                self.out.add(i, dur, *(c.ravel() for c in cols))
+            for k in (0, n - 1):
+                if check[k]:
+                    q = jerk3_points(ps[k], vs[k], as_[k], js[k], mins[k])
+                    bad[k] = g.deviation(q, u[k]) > self.dev_max
+            return float(mins.sum()), bad[0], bad[n - 1]
+        total = 0.0
+        for k in range(n):
+            if ok[k]:
+                h3 = [mins[k] / 3.0] * 3
+                for i in range(3):
+                    self.out.add(i, h3, ps[k, :, i], vs[k, :, i], as_[k, :, i], js[k, :, i])
+                total += mins[k]
+                if check.get(k):
+                    q = jerk3_points(ps[k], vs[k], as_[k], js[k], mins[k])
+                    bad[k] = g.deviation(q, u[k]) > self.dev_max
+                continue
+            if self.pieces != "ruckig":
+                self.ruckig_pieces += 1
+            d = self.ruckig_piece(
+                g, verts[k], vel[k], acc[k], verts[k + 1], vel[k + 1], acc[k + 1], mins[k]
+            )
+            total += d
+            if check.get(k):
+                q, q_vel = self.piece_samples(d)
+                speed = np.linalg.norm(q_vel, axis=1).max()
+                bad[k] = (
+                    d > mins[k] * 1.001 + 1e-9
+                    or g.deviation(q, u[k]) > self.dev_max
+                    or speed > g.feed_mm_per_s
+                )
+        return total, bad[0], bad[n - 1]
+
+    def closed_form(self, g: MoveGeometry, ph: np.ndarray, state_in, state_out):
+        """Vertex states and closed-form pieces for profile ``ph``, and which keep the limits."""
+        u, verts, vel, acc, mins = vertex_states(g, ph, state_in, state_out)
+        if self.pieces == "ruckig":
+            return u, verts, vel, acc, mins, None, None, None, None, np.zeros(mins.size, bool)
+        ok = mins > 1e-9
+        safe = np.where(ok, mins, 1.0)
+        ps, vs, as_, js = jerk3(verts, vel, acc, safe)
+        ok &= piece_limits_ok(vs, as_, js, safe, acc[1:], *self.limits, g.feed_mm_per_s)
+        return u, verts, vel, acc, mins, ps, vs, as_, js, ok
+
+    def ruckig_piece(self, g, p0, v0, a0, p1, v1, a1, min_duration: float) -> float:
+        """One 3-DoF state-to-state piece by Ruckig, added to :attr:`out`; its duration [s]."""
+        raise NotImplementedError
+
+    def piece_samples(self, duration: float) -> tuple[np.ndarray, np.ndarray]:
+        """Positions [mm] and velocities [mm/s] (25, 3) of the last Ruckig piece."""
+        raise NotImplementedError
