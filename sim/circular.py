@@ -15,8 +15,10 @@ Figures (``analyse_circle``):
         zone about that centre) over the 360-degree data arc.
     radial_deviation_um     F max / min: max and min of (traced radius - nominal radius) about
         the nominal centre (the ballbar's pivot).
-    ellipse: the 2nd harmonic of the deviation about the LSQ centre, see ``harmonic_ellipse``.
-    reversal_spikes_um: one value per quadrant crossing, see ``reversal_spikes``.
+    ellipse: the 2nd harmonic of the deviation about the LSQ centre, see
+        :func:`sim.deviation_signatures.harmonic_ellipse`.
+    reversal_spikes_um: one value per quadrant crossing, see
+        :func:`sim.deviation_signatures.reversal_spikes`.
 """
 
 from __future__ import annotations
@@ -27,14 +29,10 @@ from dataclasses import dataclass
 import numpy as np
 
 from controller.units import UM_PER_MM
+from sim.deviation_signatures import Ellipse, harmonic_ellipse, reversal_spikes
 
 #: (a, b) indices of the plane's 2-D coordinates in (x, y, z), in the order the plane is named.
 PLANE_2D: dict[str, tuple[int, int]] = {"XY": (0, 1), "XZ": (0, 2), "YZ": (1, 2)}
-
-#: Reversal-spike windows [deg of travel about the crossing], see ``reversal_spikes``.
-SPIKE_BASELINE_DEG = 15.0
-SPIKE_GAP_DEG = 3.0
-SPIKE_WINDOW_DEG = 10.0
 
 
 def plane_coords(points: np.ndarray, plane: str) -> np.ndarray:
@@ -77,91 +75,6 @@ def fit_circle(ab: np.ndarray) -> tuple[np.ndarray, float]:
         if np.abs(step).max() < 1e-12 * max(r, 1.0):
             break
     return c, float(r)
-
-
-@dataclass(frozen=True)
-class Ellipse:
-    """The 2nd harmonic of the radial deviation, d(theta) ~ (M/2) cos(2 (theta - axis)).
-
-    Attributes:
-        axis_deg: direction of the major axis (largest radius) [deg] in [0, 180).
-        magnitude_um: major minus minor semi-axis [um] (twice the harmonic's amplitude).
-    """
-
-    axis_deg: float
-    magnitude_um: float
-
-    def to_json(self) -> dict:
-        return {"axis_deg": self.axis_deg, "magnitude_um": self.magnitude_um}
-
-
-def _harmonics(theta_rad: np.ndarray, dev_um: np.ndarray, order: int = 2) -> np.ndarray:
-    """Least-squares coefficients [c0, c1, s1, ..., c_order, s_order] of dev(theta) [um]."""
-    cols = [np.ones_like(theta_rad)]
-    for k in range(1, order + 1):
-        cols += [np.cos(k * theta_rad), np.sin(k * theta_rad)]
-    coef, *_ = np.linalg.lstsq(np.column_stack(cols), dev_um, rcond=None)
-    return coef
-
-
-def _harmonic_model(theta_rad: np.ndarray, coef: np.ndarray) -> np.ndarray:
-    out = np.full_like(theta_rad, coef[0])
-    for k in range(1, (len(coef) - 1) // 2 + 1):
-        out += coef[2 * k - 1] * np.cos(k * theta_rad) + coef[2 * k] * np.sin(k * theta_rad)
-    return out
-
-
-def harmonic_ellipse(theta_rad: np.ndarray, dev_um: np.ndarray) -> Ellipse:
-    """Fit dev = c0 + c1 cos t + s1 sin t + c2 cos 2t + s2 sin 2t; return the 2nd-harmonic ellipse.
-
-    The 1st harmonic (a centre offset) is fitted jointly, so uneven angular sampling does not
-    leak into the ellipse. With A = hypot(c2, s2): magnitude = 2 A, axis = atan2(s2, c2) / 2.
-
-    Args:
-        theta_rad: (N,) angles of the samples about the centre [rad].
-        dev_um: (N,) radial deviation [um].
-    """
-    coef = _harmonics(theta_rad, dev_um, 2)
-    c2, s2 = coef[3], coef[4]
-    axis = math.degrees(0.5 * math.atan2(s2, c2)) % 180.0
-    return Ellipse(axis_deg=float(axis), magnitude_um=float(2.0 * math.hypot(c2, s2)))
-
-
-def reversal_spikes(theta_rad: np.ndarray, dev_um: np.ndarray, sense: float) -> list[float]:
-    """Reversal spike [um] at each quadrant crossing theta_k = 0, 90, 180, 270 deg.
-
-    Definition. Let rho = dev - (harmonics 0..2 of dev), the deviation with the centre offset
-    and the ellipse removed, and psi = the angle travelled since the crossing, wrapped to
-    (-180, 180] deg (positive after the crossing in the direction of motion). The baseline is
-    the straight line (in psi) fitted to rho over the neighbourhood just before the crossing,
-    psi in [-SPIKE_BASELINE_DEG, -SPIKE_GAP_DEG]. The spike is the residual rho - baseline of
-    largest magnitude over psi in [-SPIKE_GAP_DEG, +SPIKE_WINDOW_DEG], signed (positive
-    outward). A friction spike that recovers gives its peak height; a step (a pure PD loop
-    whose friction offset reverses with the axis) gives the step height; a smooth path gives
-    about 0. Angles are positions on the circle, so the windows wrap around the data's ends.
-
-    Args:
-        theta_rad: (N,) angles about the LSQ centre [rad].
-        dev_um: (N,) radial deviation about the LSQ centre [um].
-        sense: +1 if theta increases with time, -1 if it decreases.
-
-    Returns:
-        4 values [um], in the order theta_k = 0, 90, 180, 270 deg (nan where a window is empty).
-    """
-    rho = dev_um - _harmonic_model(theta_rad, _harmonics(theta_rad, dev_um, 2))
-    lo, gap, hi = (math.radians(v) for v in (SPIKE_BASELINE_DEG, SPIKE_GAP_DEG, SPIKE_WINDOW_DEG))
-    spikes = []
-    for k in range(4):
-        psi = np.angle(np.exp(1j * sense * (theta_rad - k * math.pi / 2)))
-        before = (psi >= -lo) & (psi <= -gap)
-        after = (psi >= -gap) & (psi <= hi)
-        if before.sum() < 2 or not after.any():
-            spikes.append(float("nan"))
-            continue
-        slope, offset = np.polyfit(psi[before], rho[before], 1)
-        resid = rho[after] - (offset + slope * psi[after])
-        spikes.append(float(resid[np.argmax(np.abs(resid))]))
-    return spikes
 
 
 @dataclass(frozen=True)
