@@ -1,7 +1,7 @@
 """One move's 1-D profile -> the reference's constant-jerk phases (:mod:`controller.cubic`).
 
 Straight moves (G0/G1) are the profile projected on the line. Arcs: the profile is sampled at
-the vertices (:func:`controller.path.vertex_states`: exact arc states, positions [mm],
+the vertices (:func:`controller.arc_states.vertex_states`: exact arc states, positions [mm],
 velocities [mm/s], accelerations [mm/s^2]) and consecutive states are joined by closed-form
 constant-jerk pieces (:mod:`controller.jerk3`); the pieces that would break a limit go to Ruckig
 through :meth:`MovePieces.ruckig_piece`, which :class:`controller.planner._Planner` provides
@@ -12,10 +12,11 @@ from __future__ import annotations
 
 import numpy as np
 
+from controller.arc_states import vertex_states
 from controller.config import MachineConfig
 from controller.cubic import CubicBuilder
 from controller.jerk3 import jerk3, jerk3_points, piece_limits_ok
-from controller.path import MoveGeometry, vertex_states
+from controller.path import MoveGeometry
 
 #: Largest distance of a piece next to a moving junction from the arc, in chord tolerances;
 #: beyond it the junction's speed is lowered and the program planned again.
