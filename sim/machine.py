@@ -18,14 +18,13 @@ import numpy as np
 from controller.config import MachineConfig
 from controller.errors import ConfigError
 from controller.servo import AxisPlant
+from sim.site_slides import along_slides, site_slides
 
 AXES = ("x", "y", "z")
 TOOL_SITE = "tool"
 MM_PER_M = 1000.0
 #: damping [N s/m] * this = [N s/mm]
 N_S_PER_MM_PER_N_S_PER_M = 1e-3
-#: the closed-form tool site (slides only) must match mj_kinematics to this [m]
-SITE_MAP_TOL_M = 1e-12
 
 
 def _names(model: Any, obj: int, count: int) -> list[str]:
@@ -78,7 +77,7 @@ class Gantry:
         """
         qpos = np.asarray(qpos, dtype=float).reshape(-1, self.model.nq)
         if self.site_slides is not None:
-            return _along_slides(self.site_slides, self.model.qpos0, qpos)
+            return along_slides(self.site_slides, self.model.qpos0, qpos)
         import mujoco
 
         d = mujoco.MjData(self.model)
@@ -224,49 +223,9 @@ def load_gantry(machine: MachineConfig) -> Gantry:
     data.qpos[:] = gantry.joint_qpos_m(np.asarray(machine.sim.work_origin_joint_mm))
     mujoco.mj_kinematics(model, data)
     object.__setattr__(gantry, "tool_origin_m", data.site_xpos[site].copy())
-    object.__setattr__(gantry, "site_slides", _site_slides(model, site))
+    object.__setattr__(gantry, "site_slides", site_slides(model, site))
     _check_travel(gantry, machine, file)
     return gantry
-
-
-def _site_slides(model: Any, site: int) -> tuple[np.ndarray, np.ndarray] | None:
-    """The tool site as site(qpos0) + sum of axis * (q - q0) over the slides carrying it, or
-    None when a joint between the site and the world rotates (or the map misses MuJoCo)."""
-    import mujoco
-
-    joints = []
-    body = int(model.site_bodyid[site])
-    while body > 0:
-        start = int(model.body_jntadr[body])
-        joints[:0] = range(start, start + int(model.body_jntnum[body]))
-        body = int(model.body_parentid[body])
-    if any(model.jnt_type[j] != mujoco.mjtJoint.mjJNT_SLIDE for j in joints):
-        return None
-    d = mujoco.MjData(model)
-    d.qpos[:] = model.qpos0
-    mujoco.mj_kinematics(model, d)  # no rotation moves: xaxis is the same at every qpos
-    matrix = np.zeros((model.nq, 3))
-    for j in joints:
-        matrix[model.jnt_qposadr[j]] = d.xaxis[j]
-    slides = (d.site_xpos[site].copy(), matrix)
-    # proof on this model: the closed form reproduces mj_kinematics at random joint states
-    rng = np.random.default_rng(0)
-    rows = model.qpos0 + rng.uniform(-0.5, 0.5, (8, model.nq))
-    expect = np.empty((rows.shape[0], 3))
-    for k, row in enumerate(rows):
-        d.qpos[:] = row
-        mujoco.mj_kinematics(model, d)
-        expect[k] = d.site_xpos[site]
-    got = _along_slides(slides, model.qpos0, rows)
-    return slides if np.abs(got - expect).max() <= SITE_MAP_TOL_M else None
-
-
-def _along_slides(
-    slides: tuple[np.ndarray, np.ndarray], qpos0: np.ndarray, qpos: np.ndarray
-) -> np.ndarray:
-    """site(qpos0) + (q - q0) @ axes for every row of ``qpos`` (N, nq) -> (N, 3) [m]."""
-    origin, matrix = slides
-    return origin + (qpos - qpos0) @ matrix
 
 
 def _check_travel(gantry: Gantry, machine: MachineConfig, file: str) -> None:
