@@ -4,11 +4,8 @@ A grid point sets the feed override [%] and, optionally, the max acceleration [m
 max jerk [mm/s^3] of all three axes (MachineConfig.with_changes on [limits]); a value left out
 of the sweep keeps the machine file's per-axis values (an empty cell in sweep.csv).
 
-Executors. ``local``: a ProcessPoolExecutor over all cores (spawned processes: no fork of a
-process that holds threads). ``dask``: a dask.distributed Client; by default on a LocalCluster
-of one single-threaded worker process per core, or on a running cluster's scheduler when an
-address is given (``DASK_SCHEDULER_ADDRESS`` or ``scheduler=``). Each point is a deterministic
-simulation of the same inputs, so the numbers do not depend on the executor.
+Executors (:mod:`sim.executors`): ``local`` processes or ``dask``. Each point is a
+deterministic simulation of the same inputs, so the numbers do not depend on the executor.
 
 Never half-written: each finished point is appended to a journal (DIR/sweep.partial.jsonl)
 tagged with a fingerprint of the program, dialect and machine; a rerun of the same sweep reuses
@@ -23,12 +20,13 @@ import itertools
 import json
 import math
 import os
-from collections.abc import Callable, Iterable, Sequence
+from collections.abc import Sequence
 from dataclasses import asdict, dataclass
 from pathlib import Path
 
 from controller.config import MachineConfig
 from controller.errors import SimulationError
+from sim.executors import dask_map, local_map
 
 COLUMNS = (
     "feed_override_pct",
@@ -143,50 +141,6 @@ def _read_journal(path: Path, tag: str) -> dict[str, dict]:
     return done
 
 
-def _local_map(fn: Callable, args: list[tuple], workers: int | None) -> Iterable[dict]:
-    import multiprocessing
-    from concurrent.futures import ProcessPoolExecutor, as_completed
-
-    ctx = multiprocessing.get_context("spawn")
-    with ProcessPoolExecutor(max_workers=workers or os.cpu_count() or 1, mp_context=ctx) as ex:
-        futures = [ex.submit(fn, *a) for a in args]
-        for fut in as_completed(futures):
-            yield fut.result()
-
-
-def _dask_map(
-    fn: Callable, args: list[tuple], workers: int | None, scheduler: str | None
-) -> Iterable[dict]:
-    try:
-        from dask.distributed import Client, LocalCluster, as_completed
-    except ImportError:
-        from controller.errors import ConfigError
-
-        raise ConfigError(
-            "the dask executor needs Dask distributed: pip install 'gantry-sim[distributed]'",
-            file="--executor",
-        ) from None
-    address = scheduler or os.environ.get("DASK_SCHEDULER_ADDRESS")
-    if address:
-        client, cluster = Client(address), None
-    else:
-        cluster = LocalCluster(
-            n_workers=workers or os.cpu_count() or 1,
-            threads_per_worker=1,
-            processes=True,
-            dashboard_address=None,
-        )
-        client = Client(cluster)
-    try:
-        futures = [client.submit(fn, *a, pure=False) for a in args]
-        for fut in as_completed(futures):
-            yield fut.result()
-    finally:
-        client.close()
-        if cluster is not None:
-            cluster.close()
-
-
 def run_sweep(
     text: str,
     points: Sequence[SweepPoint],
@@ -225,9 +179,9 @@ def run_sweep(
     if todo:
         args = [(text, file, dialect, machine, p) for p in todo]
         rows = (
-            _local_map(run_point, args, workers)
+            local_map(run_point, args, workers)
             if executor == "local"
-            else _dask_map(run_point, args, workers, scheduler)
+            else dask_map(run_point, args, workers, scheduler)
         )
         from tqdm import tqdm
 
