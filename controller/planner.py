@@ -6,13 +6,16 @@
    keep their speed), backward and forward passes.
 3. One 1-D Ruckig profile per move along its path s(t), from (0, v_in, 0) to (L, v_out, 0).
 4. Pieces (:mod:`controller.move_pieces`): straight moves (G0/G1) are that profile projected on
-   the line: exactly straight, and the feed
-   holds along the diagonal. Arcs: the 1-D profile is sampled at the chord vertices (time, speed,
-   tangential acceleration), each vertex gets the exact arc state (position on the arc, velocity
-   v T, acceleration a_t T + v^2 k), and a 3-DoF Ruckig ``calculate`` joins consecutive vertex
-   states with ``minimum_duration`` = the profile's time between them. Ruckig enforces every axis'
-   velocity, acceleration and jerk limit itself; no ``intermediate_positions`` (the free Ruckig
-   would send them to a cloud service).
+   the line: exactly straight, and the feed holds along the diagonal. Arcs: the 1-D profile is
+   sampled at the chord vertices (time, speed, tangential acceleration), each vertex gets the exact
+   arc state (position on the arc, velocity v T, acceleration a_t T + v^2 k), and consecutive
+   vertex states are joined by the closed-form constant-jerk piece of :mod:`controller.jerk3`
+   (the default: it stays far closer to the arc than Ruckig's ``minimum_duration`` profile, see
+   README "Planning"). A piece that would break an axis limit or the feed is made instead by a
+   3-DoF Ruckig ``calculate`` between the same states with ``minimum_duration`` = the profile's
+   time (counted in :attr:`Plan.ruckig_piece_count`); ``plan(..., arc_pieces="ruckig")`` makes
+   every arc piece that way. Never ``intermediate_positions`` (the free Ruckig would send them to
+   a cloud service).
 5. All pieces are stored as constant-jerk phases (:mod:`controller.cubic`) and sampled vectorised.
 
 If Ruckig rejects a piece, it is retried without ``minimum_duration`` (plain time-optimal,
