@@ -22,6 +22,19 @@ import numpy as np
 if TYPE_CHECKING:
     from controller.path import MoveGeometry
 
+def curvature_speed_cap(
+    cap: float, curvature_per_mm: float, dcurv_per_mm2: float, a_plane: float, j_plane: float,
+    margin: float,
+) -> float:
+    """``cap`` [mm/s] lowered so that following the curve at that speed uses at most ``margin``
+    of the plane's acceleration (v^2 k <= margin a) and jerk (v^3 dk <= margin j)."""
+    if curvature_per_mm > 0:
+        cap = min(cap, math.sqrt(margin * a_plane / curvature_per_mm))
+    if dcurv_per_mm2 > 0:
+        cap = min(cap, (margin * j_plane / dcurv_per_mm2) ** (1.0 / 3.0))
+    return cap
+
+
 #: An arc whose entry or exit speed is below this share of its cap tries a faster profile.
 BOOST_RAMP_SHARE = 0.9
 #: Tangential accelerations tried for each boosted (cap, jerk), as shares of the most useful.
@@ -104,11 +117,7 @@ def boost_candidates(fg: FollowGeometry, vmax, amax, jmax) -> list[tuple[float, 
     a_hi = a_pl if sp == 0 else min(a_pl, amax[n] / sp)
     out = []
     for margin in BOOST_MARGINS:
-        cap = base
-        if k > 0:
-            cap = min(cap, math.sqrt(margin * a_pl / k))
-        if dk > 0:
-            cap = min(cap, (margin * j_pl / dk) ** (1.0 / 3.0))
+        cap = curvature_speed_cap(base, k, dk, a_pl, j_pl, margin)
         j_left = FOLLOW_MARGIN * j_pl - cap**3 * dk
         if sp > 0:
             j_left = min(j_left, FOLLOW_MARGIN * jmax[n] / sp)

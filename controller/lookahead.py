@@ -39,6 +39,7 @@ import numpy as np
 from controller.boost import FOLLOW_MARGIN as FOLLOW_MARGIN
 from controller.boost import FollowGeometry as FollowGeometry
 from controller.boost import boost_candidates as boost_candidates
+from controller.boost import curvature_speed_cap
 from controller.boost import follow_ok as follow_ok
 
 #: Tangent-direction change above which a junction involving an arc is a corner [rad] (1 degree).
@@ -124,11 +125,7 @@ def arc_limits(
     k, dk = curvature_per_mm, dcurv_per_mm2
     best = None
     for margin in CURVATURE_MARGINS:
-        cap_m = cap
-        if k > 0:
-            cap_m = min(cap_m, math.sqrt(margin * a_pl / k))
-        if dk > 0:
-            cap_m = min(cap_m, (margin * j_pl / dk) ** (1.0 / 3.0))
+        cap_m = curvature_speed_cap(cap, k, dk, a_pl, j_pl, margin)
         a_max = math.sqrt(max(a_pl * a_pl - (cap_m * cap_m * k) ** 2, 0.0))
         j_left = j_pl - cap_m**3 * dk
         for share in JERK_SHARES:
