@@ -115,7 +115,7 @@ def check_words(w: Words, motion: int | None, dialect: Dialect) -> None:
             need = {"P": "G2, G3, G4 or G64", "Q": "G64", "H": "G43"}.get(letter, "G2 or G3")
             if letter in "DLE":
                 need = {"D": "cutter compensation (not supported)",
-                        "L": "G10 (not supported)", "E": "a code that takes E (none here)"}[letter]
+                        "L": "G10 (not supported)", "E": "a code that takes E (none here; G-code numbers have no exponent, so 1e3 reads as 1 then an E word)"}[letter]
             raise GcodeError(f"{letter} word with no code that uses it; {letter} needs {need}")
     if "S" not in dialect.ignored_letters and v.get("S", 0.0) < 0.0:
         raise GcodeError("negative S word; the spindle speed must be >= 0")
