@@ -58,7 +58,9 @@ def _summary(report: dict, out_dir: Path) -> str:
         f"simulated {sim['steps']} steps of {sim['physics_timestep_s'] * 1e3:g} ms at "
         f"{sim['realtime_factor']:.0f}x real time; total {report['timing_s']['total']:.2f} s"
     )
-    lines.append(f"wrote {out_dir}/: report.json, trace.npz, path.png, error.png")
+    from sim.report import OUTPUT_FILES
+
+    lines.append(f"wrote {out_dir}/: {', '.join(OUTPUT_FILES)}")
     return "\n".join(lines)
 
 
