@@ -36,6 +36,7 @@ import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
 
+from benchmarks.junction_floor import junction_floor
 from controller.arcs import PLANE_AXES, arc_derivatives, arc_frame
 from controller.config import load_machine_config
 from controller.errors import PlanningError
@@ -160,19 +161,10 @@ def _r2r(length, v, acc, jerk):
     return 2 * s_curve_time(lo, acc, jerk)
 
 
-def lower_bound(moves, lim):
-    a_s, j_s = max(lim.max_acceleration_mm_per_s2), max(lim.max_jerk_mm_per_s3)
+def stretches(moves):
+    """The stop-to-stop stretches (lists of moves) of the bound."""
     moves = [m for m in moves if m.length_mm > 1e-9]
-    total, stretch = 0.0, []
-
-    def close():
-        if stretch:
-            caps = [_cap(m, lim) for m in stretch]
-            length = sum(m.length_mm for m in stretch)
-            cruise = sum(m.length_mm / c for m, c in zip(stretch, caps, strict=True))
-            return max(cruise, _r2r(length, max(caps), a_s, j_s))
-        return 0.0
-
+    out = []
     for k, m in enumerate(moves):
         stop = k == 0 or isinstance(m, Rapid) or isinstance(moves[k - 1], Rapid)
         if not stop:
@@ -180,10 +172,28 @@ def lower_bound(moves, lim):
             both_straight = not isinstance(m, Arc) and not isinstance(moves[k - 1], Arc)
             stop = kink > (1e-6 if both_straight else math.radians(1.0))
         if stop:
-            total += close()
-            stretch = []
-        stretch.append(m)
-    return total + close()
+            out.append([])
+        out[-1].append(m)
+    return out
+
+
+def lower_bound(moves, lim, deviation_mm=None):
+    """The bound (module docstring). With ``deviation_mm``, also the floor: the bound with the
+    ramps every planner needs at the junction speed ceilings of benchmarks/junction_floor.py
+    added to each stretch's cruise term. Returns the bound, or (bound, floor, junctions)."""
+    a_s, j_s = max(lim.max_acceleration_mm_per_s2), max(lim.max_jerk_mm_per_s3)
+    total, floor, found = 0.0, 0.0, []
+    for stretch in stretches(moves):
+        caps = [_cap(m, lim) for m in stretch]
+        length = sum(m.length_mm for m in stretch)
+        cruise = sum(m.length_mm / c for m, c in zip(stretch, caps, strict=True))
+        r2r = _r2r(length, max(caps), a_s, j_s)
+        total += max(cruise, r2r)
+        if deviation_mm is not None:
+            extra, junc = junction_floor([stretch], [caps], lim, deviation_mm)
+            floor += max(cruise + extra, r2r)
+            found += junc
+    return total if deviation_mm is None else (total, floor, found)
 
 
 # ---------------------------------------------------------------- measures
@@ -247,6 +257,16 @@ def reference_error(p, moves, dt=1e-4):
     return worst
 
 
+def junction_speeds(p, junctions):
+    """Planner's speed [mm/s] at each junction (start of the move on its line), min and max,
+    and the ceilings' min and max."""
+    t = np.array([p.move_start_s[np.flatnonzero(p.move_lines == line)[0]] for line, _ in junctions])
+    _, vel, _ = p.curve.evaluate(t)
+    speed = np.linalg.norm(vel, axis=1)
+    ceil = np.array([c for _, c in junctions])
+    return speed.min(), speed.max(), ceil.min(), ceil.max()
+
+
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument("--quick", action="store_true", help="fewer programs, a 2,000-arc speed test")
@@ -273,7 +293,8 @@ def main(argv=None) -> int:
         f"{'phases v a j /max':>18s} {'rk':>4s}"
     )
     worst = {"cycle": 0.0, "ref": 0.0, "ref_rk": 0.0, "lim": 0.0, "feed": 0.0, "plim": 0.0}
-    ratios_c = []
+    worst["floor"] = 0.0
+    ratios_c, notes = [], []
     for name, moves in progs.items():
         p = plan(moves, machine)
         tr = p.sample(machine.servo.period_s)
@@ -287,8 +308,11 @@ def main(argv=None) -> int:
                 ref_rk = reference_error(plan(moves, machine, arc_pieces="ruckig"), moves) / tol
             except PlanningError:  # Ruckig failed on a piece even without minimum_duration
                 ref_rk = float("inf")
-        bound = lower_bound(moves, lim)
+        bound, floor, junc = lower_bound(moves, lim, 0.25 * tol)
         ratios_c.append(p.duration_s / bound)
+        worst["floor"] = max(worst["floor"], floor / bound)
+        if junc:
+            notes.append((name, floor / bound, *junction_speeds(p, junc)))
         worst["cycle"] = max(worst["cycle"], p.duration_s / bound)
         worst["ref"] = max(worst["ref"], ref)
         worst["ref_rk"] = max(worst["ref_rk"], ref_rk) if small else worst["ref_rk"]
@@ -303,6 +327,11 @@ def main(argv=None) -> int:
             f"{p.ruckig_piece_count:4d}"
         )
 
+    for name, ratio, v_lo, v_hi, c_lo, c_hi in notes:
+        print(
+            f"  {name}: curvature-jump junctions at {v_lo:.1f}..{v_hi:.1f} mm/s, ceilings "
+            f"{c_lo:.1f}..{c_hi:.1f} mm/s; floor / bound {ratio:.4f}"
+        )
     n_arcs = 2000 if args.quick else 10000
     big = spiral_chain(n_arcs, 0.5, 0.002, 6000.0)
     t0 = time.perf_counter()
@@ -324,6 +353,11 @@ def main(argv=None) -> int:
     print(
         f"(c) cycle time / lower bound: max {worst['cycle']:.4f}, "
         f"mean {np.mean(ratios_c):.4f} (<= 1.10, aim 1.02)"
+    )
+    print(
+        f"    floor / bound (the bound plus the ramps to the junction speed ceilings that (b) "
+        f"imposes, idealised: benchmarks/junction_floor.py): "
+        f"max {worst['floor']:.4f}"
     )
     print(
         f"(d) planning: {n_arcs} arcs, {p.segment_count} chords in {t_plan:.2f} s = "
