@@ -19,6 +19,9 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
+from controller.saturated_ramp import SHARE as SATURATED_SHARE
+from controller.saturated_ramp import saturated_profile
+
 if TYPE_CHECKING:
     from controller.path import MoveGeometry
 
@@ -186,5 +189,29 @@ def boosted_profile(
             if follow_ok(cand, fg, base, amax, jmax):
                 best, best_t = cand, t_cand
                 break
+    sat = saturated_candidate(fg, v_in, v_out, g.length_mm, base, amax, jmax)
+    if sat is not None and float(sat[:, 0].sum()) < best_t and follow_ok(sat, fg, base, amax, jmax):
+        best = sat
     cache[key] = best
     return best
+
+
+#: An arc that starts and ends below this share of its cap (near rest: the ramps start from an
+#: exact arc state, not from a junction whose curvature jump the first piece must absorb), and
+#: whose centripetal jerk or acceleration at the cap is at least SATURATED_MIN_USE of the limit,
+#: also tries the saturated ramps (:mod:`controller.saturated_ramp`; a few tenths of a second).
+SATURATED_END_SHARE = 0.1
+SATURATED_MIN_USE = 0.25
+
+
+def saturated_candidate(fg: FollowGeometry, v_in, v_out, length_mm, base, amax, jmax):
+    """The saturated-ramp profile of a plain arc from and to near rest on which the curvature
+    takes much of the jerk or acceleration, or None (see :data:`SATURATED_END_SHARE`)."""
+    i1, i2, _ = fg.plane_axes
+    a_pl, j_pl = min(amax[i1], amax[i2]), min(jmax[i1], jmax[i2])
+    k, dk = fg.curvature_per_mm, fg.dcurv_per_mm2
+    cap = curvature_speed_cap(base, k, dk, a_pl, j_pl, SATURATED_SHARE)
+    use = max(cap**3 * dk / j_pl, cap * cap * k / a_pl)
+    if fg.sin_pitch > 0 or use < SATURATED_MIN_USE or max(v_in, v_out) > SATURATED_END_SHARE * cap:
+        return None
+    return saturated_profile(length_mm, v_in, v_out, cap, k, dk, a_pl, j_pl)
