@@ -19,14 +19,20 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
+from controller.arcs import arc_frame
 from controller.saturated_ramp import SHARE as SATURATED_SHARE
-from controller.saturated_ramp import saturated_profile
+from controller.saturated_ramp import CircleLimits, NormLimits, saturated_profile
 
 if TYPE_CHECKING:
     from controller.path import MoveGeometry
 
+
 def curvature_speed_cap(
-    cap: float, curvature_per_mm: float, dcurv_per_mm2: float, a_plane: float, j_plane: float,
+    cap: float,
+    curvature_per_mm: float,
+    dcurv_per_mm2: float,
+    a_plane: float,
+    j_plane: float,
     margin: float,
 ) -> float:
     """``cap`` [mm/s] lowered so that following the curve at that speed uses at most ``margin``
@@ -143,14 +149,16 @@ def boosted_profile(
     limits: tuple,
     profile_1d: Profile1D,
     cache: dict,
-) -> np.ndarray | None:
-    """A faster 1-D profile for an arc that ramps (speed-dependent limits), or None.
+) -> tuple[np.ndarray, ...]:
+    """Faster 1-D profiles for an arc that ramps (speed-dependent limits), fastest first; the
+    planner uses the first whose closed-form pieces keep every limit.
 
     The block's limits hold at its worst speed and acceleration at once; a profile whose
     exact following is checked point by point (:func:`follow_ok`) may use more jerk and
     acceleration where the speed is low, or cruise a little below the curvature cap to keep
     jerk for the ramps. Tried only where the block ramps (an end below
-    :data:`BOOST_RAMP_SHARE` of its cap); the fastest checked candidate wins.
+    :data:`BOOST_RAMP_SHARE` of its cap); the fastest checked candidate wins, preceded by the
+    saturated ramps (:func:`saturated_candidate`) where they are faster still.
 
     Args:
         g: the arc's geometry; ``v_in``, ``v_out``: its end speeds [mm/s]; ``ph``: its profile.
@@ -160,12 +168,12 @@ def boosted_profile(
     """
     fg, lim = g.follow, g.limits
     if fg is None or min(v_in, v_out) >= BOOST_RAMP_SHARE * lim.cap_mm_per_s:
-        return None
+        return ()
     vmax, amax, jmax = limits
     candidates = boost_candidates(fg, vmax, amax, jmax)
     t_now = float(ph[:, 0].sum())
     if not candidates or t_now <= BOOST_MIN_GAIN * g.length_mm / candidates[0][0]:
-        return None  # even cruising at the highest candidate cap would not gain enough
+        return ()  # even cruising at the highest candidate cap would not gain enough
     key = (g.length_mm, fg, v_in, v_out)
     if key in cache:
         return cache[key]
@@ -189,11 +197,15 @@ def boosted_profile(
             if follow_ok(cand, fg, base, amax, jmax):
                 best, best_t = cand, t_cand
                 break
-    sat = saturated_candidate(fg, v_in, v_out, g.length_mm, base, amax, jmax)
-    if sat is not None and float(sat[:, 0].sum()) < best_t and follow_ok(sat, fg, base, amax, jmax):
-        best = sat
-    cache[key] = best
-    return best
+    found = () if best is None else (best,)
+    sat = saturated_candidate(g, v_in, v_out, base, amax, jmax)
+    if sat is not None and float(sat[:, 0].sum()) < best_t:
+        # Per-axis ramps on a plain circle are exact (the planner checks every closed-form piece
+        # against the limits before using them); orientation-free ones are checked here.
+        if _plain_circle(g) or follow_ok(sat, fg, base, amax, jmax):
+            found = (sat, *found)
+    cache[key] = found
+    return found
 
 
 #: An arc that starts and ends below this share of its cap (near rest: the ramps start from an
@@ -204,9 +216,19 @@ SATURATED_END_SHARE = 0.1
 SATURATED_MIN_USE = 0.25
 
 
-def saturated_candidate(fg: FollowGeometry, v_in, v_out, length_mm, base, amax, jmax):
-    """The saturated-ramp profile of a plain arc from and to near rest on which the curvature
-    takes much of the jerk or acceleration, or None (see :data:`SATURATED_END_SHARE`)."""
+def _plain_circle(g: MoveGeometry) -> bool:
+    """An arc of constant radius in its plane (no helix, no spiral)."""
+    if not g.is_arc:
+        return False
+    _, _, _, _, _, r0, r1, h0, h1 = arc_frame(g.move)
+    return abs(r1 - r0) <= 1e-9 * r0 and h0 == h1
+
+
+def saturated_candidate(g: MoveGeometry, v_in, v_out, base, amax, jmax):
+    """The saturated-ramp profile of an arc from and to near rest on which the curvature takes
+    much of the jerk or acceleration, or None (see :data:`SATURATED_END_SHARE`). On a plain
+    circle the ramps use each plane axis' own limits (:class:`CircleLimits`)."""
+    fg = g.follow
     i1, i2, _ = fg.plane_axes
     a_pl, j_pl = min(amax[i1], amax[i2]), min(jmax[i1], jmax[i2])
     k, dk = fg.curvature_per_mm, fg.dcurv_per_mm2
@@ -214,4 +236,13 @@ def saturated_candidate(fg: FollowGeometry, v_in, v_out, length_mm, base, amax, 
     use = max(cap**3 * dk / j_pl, cap * cap * k / a_pl)
     if fg.sin_pitch > 0 or use < SATURATED_MIN_USE or max(v_in, v_out) > SATURATED_END_SHARE * cap:
         return None
-    return saturated_profile(length_mm, v_in, v_out, cap, k, dk, a_pl, j_pl)
+    sh = SATURATED_SHARE
+    if _plain_circle(g):
+        _, _, _, th0, sg, r, _, _, _ = arc_frame(g.move)
+        acc, jerk = (sh * amax[i1], sh * amax[i2]), (sh * jmax[i1], sh * jmax[i2])
+        lims = tuple(CircleLimits(th0, sg, r, g.length_mm, rev, acc, jerk) for rev in (False, True))
+        # cap stays the orientation-free curvature cap: the cruise (and the bridge between the
+        # ramps' peaks) must hold wherever on the circle it lies
+    else:
+        lims = (NormLimits(k, dk, sh * a_pl, sh * j_pl),) * 2
+    return saturated_profile(g.length_mm, v_in, v_out, cap, lims)

@@ -10,6 +10,8 @@ through :meth:`MovePieces.ruckig_piece`, which :class:`controller.planner._Plann
 
 from __future__ import annotations
 
+from collections.abc import Sequence
+
 import numpy as np
 
 from controller.arc_states import vertex_states
@@ -55,28 +57,30 @@ class MovePieces:
         return float(ph[:, 0].sum())
 
     def arc(
-        self, g: MoveGeometry, ph: np.ndarray, state_in, state_out, fast: np.ndarray | None = None
+        self, g: MoveGeometry, ph: np.ndarray, state_in, state_out, fast: Sequence = ()
     ) -> tuple[float, bool, bool]:
-        """Pieces between the exact arc states at the vertices.
+        """Pieces between the exact arc states at the vertices: of the first profile in ``fast``
+        (faster candidates, fastest first) whose closed-form pieces all keep the limits, else of
+        ``ph``.
 
         Returns:
             (duration [s], bad_in, bad_out): bad_* when the piece next to a moving junction
             leaves the arc by more than :data:`JUNCTION_DEVIATION_MAX` of the chord tolerance or
             needed Ruckig to stretch it (the junction speed must then come down).
         """
-        if self.pieces == "ruckig":
-            fast = None
-        if fast is not None:  # used only when its closed-form pieces all keep the limits
-            pieces = self.closed_form(g, fast, state_in, state_out)
-            ok = pieces[-1]
-            if ok[1:-1].all() and (ok[0] or np.any(state_in[0])) and (
-                ok[-1] or np.any(state_out[0])
+        pieces = None
+        for cand in () if self.pieces == "ruckig" else fast:
+            found = self.closed_form(g, cand, state_in, state_out)
+            ok = found[-1]
+            if (
+                ok[1:-1].all()
+                and (ok[0] or np.any(state_in[0]))
+                and (ok[-1] or np.any(state_out[0]))
             ):
                 self.boosted += 1
-                ph = fast
-            else:
-                fast = None
-        if fast is None:
+                ph, pieces = cand, found
+                break
+        if pieces is None:
             pieces = self.closed_form(g, ph, state_in, state_out)
         u, verts, vel, acc, mins, ps, vs, as_, js, ok = pieces
         n = mins.size

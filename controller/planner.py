@@ -113,7 +113,7 @@ class _Planner(MovePieces):
         return ph
 
     def boosted_profile(self, g: MoveGeometry, v_in: float, v_out: float, ph: np.ndarray):
-        """A faster 1-D profile for an arc that ramps, or None (see :mod:`controller.boost`)."""
+        """Faster 1-D profiles for an arc that ramps, fastest first (see :mod:`controller.boost`)."""
         return boosted_profile(g, v_in, v_out, ph, self.limits, self.profile_1d, self.boost_cache)
 
     def profile_1d(self, length, v_in, v_out, cap, acc, jerk) -> np.ndarray | None:
