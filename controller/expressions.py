@@ -20,38 +20,19 @@ Tree = tuple
 #: binary operators by precedence (higher binds tighter), as in rs274's read_real_expression.
 _BINARY: dict[str, int] = {
     "**": 4,
-    "*": 3,
-    "/": 3,
-    "MOD": 3,
-    "+": 2,
-    "-": 2,
-    "EQ": 1,
-    "NE": 1,
-    "GT": 1,
-    "GE": 1,
-    "LT": 1,
-    "LE": 1,
-    "AND": 0,
-    "OR": 0,
-    "XOR": 0,
+    "*": 3, "/": 3, "MOD": 3,
+    "+": 2, "-": 2,
+    "EQ": 1, "NE": 1, "GT": 1, "GE": 1, "LT": 1, "LE": 1,
+    "AND": 0, "OR": 0, "XOR": 0,
 }
 _FUNCTIONS = (
-    "ABS",
-    "ACOS",
-    "ASIN",
-    "COS",
-    "EXP",
-    "FIX",
-    "FUP",
-    "LN",
-    "ROUND",
-    "SIN",
-    "SQRT",
-    "TAN",
+    "ABS", "ACOS", "ASIN", "COS", "EXP", "FIX", "FUP", "LN", "ROUND", "SIN", "SQRT", "TAN"
 )
 _NUM_CHARS = "0123456789."
 MAX_NESTING = 64  # brackets, signs and # per value: deeper is refused (no recursion blow-up)
-NAMED_PARAMETERS = "named parameters (#<name>) are not supported; use numbered parameters #1..#5399"
+NAMED_PARAMETERS = (
+    "named parameters (#<name>) are not supported; use numbered parameters #1..#5399"
+)
 
 
 class Reader:
@@ -148,7 +129,7 @@ class Reader:
         if not self.peek():
             raise GcodeError("unclosed expression: expected ']'")
         raise GcodeError(
-            f"unknown operator at {self.text[self.pos : self.pos + 6]!r}; allowed: + - * / MOD ** "
+            f"unknown operator at {self.text[self.pos:self.pos + 6]!r}; allowed: + - * / MOD ** "
             "EQ NE GT GE LT LE AND OR XOR"
         )
 
