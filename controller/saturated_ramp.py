@@ -55,6 +55,14 @@ class NormLimits:
         a_hi = np.sqrt(np.maximum(self.acc**2 - (v * v * self.k) ** 2, 0.0))
         return -jm, jm, a_hi
 
+    @property
+    def acc_min(self) -> float:
+        return self.acc
+
+    @property
+    def jerk_min(self) -> float:
+        return self.jerk
+
 
 @dataclass(frozen=True)
 class CircleLimits:
@@ -94,16 +102,30 @@ class CircleLimits:
             a_hi = np.minimum(a_hi, np.maximum(b1, b2))
         return j_lo, j_hi, np.maximum(a_hi, 0.0)
 
+    @property
+    def acc_min(self) -> float:
+        return min(self.acc)
 
-def _ramps(v0: float, tau1: np.ndarray, lim, dt: float):
+    @property
+    def jerk_min(self) -> float:
+        return min(self.jerk)
+
+
+def _advance(h, s, v, a, j):
+    """State (s, v, a) after ``h`` [s] of constant jerk ``j`` from (s, v, a)."""
+    return s + h * (v + h * (0.5 * a + h * j / 6.0)), v + h * (a + 0.5 * h * j), a + h * j
+
+
+def _ramps(v0: float, tau1: np.ndarray, lim, dt: float, rows: list | None = None):
     """Ramps from speed ``v0`` at a = 0, one per switch time in ``tau1`` [s], integrated together
     under the bounds ``lim``. Returns (peak speed, distance, duration) arrays, NaN where the state
-    left no jerk to bring the acceleration back to 0."""
+    left no jerk to bring the acceleration back to 0. ``rows``: when given, the phases
+    (dur, s, v, a, j) of the first ramp are appended to it."""
     n = tau1.size
     v, a, s, t = np.full(n, v0), np.zeros(n), np.zeros(n), np.zeros(n)
     live = np.ones(n, dtype=bool)
     out_v, out_s, out_t = np.full(n, np.nan), np.full(n, np.nan), np.full(n, np.nan)
-    tiny = 1e-9 * _jerk_scale(lim)
+    tiny = 1e-9 * lim.jerk_min
     for _ in range(200000):
         live &= t < MAX_RAMP_S
         if not live.any():
@@ -114,45 +136,26 @@ def _ramps(v0: float, tau1: np.ndarray, lim, dt: float):
         j = np.where(up, np.minimum(j_hi, np.maximum(a_hi - a, 0.0) / h), j_lo)
         last = ~up & (a + j * h <= 0.0)
         h = np.where(last, a / np.maximum(-j, tiny), h)
-        s_new = s + h * (v + h * (0.5 * a + h * j / 6.0))
-        v_new = v + h * (a + 0.5 * h * j)
+        if rows is not None and live[0] and h[0] > 0:
+            rows.append((h[0], s[0], v[0], a[0], j[0]))
+        s_new, v_new, a_new = _advance(h, s, v, a, j)
         bad = live & ((j_lo > j_hi) | (~up & (j >= -tiny)))
         done = live & last & ~bad
         out_v[done], out_s[done], out_t[done] = v_new[done], s_new[done], (t + h)[done]
         live &= ~(done | bad)
-        a_new = np.where(last, 0.0, a + j * h)
+        a_new = np.where(last, 0.0, a_new)
         s, v, a, t = (
             np.where(live, x, y) for x, y in ((s_new, s), (v_new, v), (a_new, a), (t + h, t))
         )
     return out_v, out_s, out_t
 
 
-def _jerk_scale(lim) -> float:
-    return lim.jerk if isinstance(lim, NormLimits) else min(lim.jerk)
-
-
 def _ramp_rows(v0: float, tau1: float, lim, dt: float):
     """The phases (dur, s-offset, v, a, j) of one ramp (see :func:`_ramps`), its peak speed and
-    its distance."""
-    v, a, s, t, rows = v0, 0.0, 0.0, 0.0, []
-    while True:
-        j_lo, j_hi, a_hi = (float(x) for x in lim.bounds(s, v, a))
-        if t < tau1:
-            h = min(dt, tau1 - t)
-            j, last = min(j_hi, max(a_hi - a, 0.0) / h), False
-        else:
-            h, j = dt, j_lo
-            last = a + j * h <= 0.0
-            if last:
-                h = a / -j if j < 0 else 0.0
-        if h > 0:
-            rows.append((h, s, v, a, j))
-        s += h * (v + h * (0.5 * a + h * j / 6.0))
-        v += h * (a + 0.5 * h * j)
-        a = 0.0 if last else a + j * h
-        t += h
-        if last:
-            return rows, v, s
+    its distance (NaN when it fails)."""
+    rows: list = []
+    vp, d, _ = _ramps(v0, np.array([tau1]), lim, dt, rows)
+    return rows, float(vp[0]), float(d[0])
 
 
 def _scan(v0, lim, dt, hi, keep):
@@ -182,8 +185,7 @@ def saturated_profile(
     if length_mm <= 0 or max(v_in, v_out) >= cap:
         return None
     lim_up, lim_dn = limits
-    acc = lim_up.acc if isinstance(lim_up, NormLimits) else min(lim_up.acc)
-    jerk = _jerk_scale(lim_up)
+    acc, jerk = lim_up.acc_min, lim_up.jerk_min
     hi = 2.0 * (cap / jerk) ** 0.5 + 2.0 * cap / acc  # switch times beyond this overshoot cap
     tables = []
     for v0, lim in ((v_in, lim_up), (v_out, lim_dn)):
@@ -240,9 +242,7 @@ def _assemble(rows_up, bridge, v_peak, s_up, rows_dn, cruise):
     # A phase (h, s, v, a, j) of the ramp from the end speed, reversed, starts at its end state
     # with the tangential acceleration and velocity mirrored: v_end, -a_end, jerk j.
     h, s, v, a, j = dn.T
-    v_end = v + h * (a + 0.5 * h * j)
-    a_end = a + h * j
-    s_end = s + h * (v + h * (0.5 * a + h * j / 6.0))
+    s_end, v_end, a_end = _advance(h, s, v, a, j)
     total_dn = s_end[0]
     s0 = s_up + cruise
     rows = [up]
