@@ -200,10 +200,7 @@ def boosted_profile(
     found = () if best is None else (best,)
     sat = saturated_candidate(g, v_in, v_out, base, amax, jmax)
     if sat is not None and float(sat[:, 0].sum()) < best_t:
-        # Per-axis ramps on a plain circle are exact (the planner checks every closed-form piece
-        # against the limits before using them); orientation-free ones are checked here.
-        if _plain_circle(g) or follow_ok(sat, fg, base, amax, jmax):
-            found = (sat, *found)
+        found = (sat, *found)
     cache[key] = found
     return found
 
@@ -227,7 +224,8 @@ def _plain_circle(g: MoveGeometry) -> bool:
 def saturated_candidate(g: MoveGeometry, v_in, v_out, base, amax, jmax):
     """The saturated-ramp profile of an arc from and to near rest on which the curvature takes
     much of the jerk or acceleration, or None (see :data:`SATURATED_END_SHARE`). On a plain
-    circle the ramps use each plane axis' own limits (:class:`CircleLimits`)."""
+    circle the ramps use each plane axis' own limits (:class:`CircleLimits`); elsewhere the
+    orientation-free ones, checked by :func:`follow_ok`."""
     fg = g.follow
     i1, i2, _ = fg.plane_axes
     a_pl, j_pl = min(amax[i1], amax[i2]), min(jmax[i1], jmax[i2])
@@ -238,11 +236,13 @@ def saturated_candidate(g: MoveGeometry, v_in, v_out, base, amax, jmax):
         return None
     sh = SATURATED_SHARE
     if _plain_circle(g):
+        # Exact per-axis bounds: the planner checks every closed-form piece against the limits
+        # before using the profile. The cap stays the orientation-free curvature cap: the cruise
+        # (and the bridge between the ramps' peaks) must hold wherever on the circle it lies.
         _, _, _, th0, sg, r, _, _, _ = arc_frame(g.move)
         acc, jerk = (sh * amax[i1], sh * amax[i2]), (sh * jmax[i1], sh * jmax[i2])
         lims = tuple(CircleLimits(th0, sg, r, g.length_mm, rev, acc, jerk) for rev in (False, True))
-        # cap stays the orientation-free curvature cap: the cruise (and the bridge between the
-        # ramps' peaks) must hold wherever on the circle it lies
-    else:
-        lims = (NormLimits(k, dk, sh * a_pl, sh * j_pl),) * 2
-    return saturated_profile(g.length_mm, v_in, v_out, cap, lims)
+        return saturated_profile(g.length_mm, v_in, v_out, cap, lims)
+    lims = (NormLimits(k, dk, sh * a_pl, sh * j_pl),) * 2
+    prof = saturated_profile(g.length_mm, v_in, v_out, cap, lims)
+    return prof if prof is not None and follow_ok(prof, fg, base, amax, jmax) else None
