@@ -34,7 +34,7 @@ import math
 
 import numpy as np
 
-from controller.arcs import arc_derivatives
+from controller.arcs import arc_derivatives, frenet
 from controller.lookahead import max_reachable_speed, s_curve_time
 from controller.moves import Arc
 
@@ -48,9 +48,7 @@ def _curvature(m, end: bool) -> np.ndarray:
     if not isinstance(m, Arc):
         return np.zeros(3)
     d1, d2 = arc_derivatives(m, np.array([1.0 if end else 0.0]))
-    sp = float(np.linalg.norm(d1[0]))
-    t = d1[0] / sp
-    return (d2[0] - np.dot(d2[0], t) * t) / sp**2
+    return frenet(d1[0], d2[0])[1]
 
 
 def junction_ceiling(m0, m1, lim, deviation_mm: float) -> float:

@@ -75,3 +75,11 @@ def arc_length_mm(arc: Arc) -> float:
     """Path length of the arc, helix or slight spiral [mm] (mean in-plane radius)."""
     _, _, _, _, _, r0, r1, h0, h1 = arc_frame(arc)
     return math.hypot(0.5 * (r0 + r1) * arc.angle, h1 - h0)
+
+
+def frenet(d1: np.ndarray, d2: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Unit tangent and curvature vector [1/mm] from a curve's first and second derivatives
+    (3,) with respect to any parameter (e.g. :func:`arc_derivatives`)."""
+    speed = float(np.linalg.norm(d1))
+    t = d1 / speed
+    return t, (d2 - np.dot(d2, t) * t) / speed**2

@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from controller.arcs import frenet
 from controller.config import MachineConfig
 from controller.jerk3 import jerk3_pairs, piece_limits_ok
 
@@ -41,9 +42,7 @@ def feasible_junction_caps(geoms, caps: np.ndarray, states, machine: MachineConf
                 continue
             u = g.u[1] if side == "after" else g.u[-2]
             d1, d2 = g.derivatives(np.array([u]))
-            sp = float(np.linalg.norm(d1[0]))
-            t = d1[0] / sp
-            k = (d2[0] - np.dot(d2[0], t) * t) / sp**2
+            t, k = frenet(d1[0], d2[0])
             pv = g.vertices[1] if side == "after" else g.vertices[-2]
             s = (u if side == "after" else 1.0 - u) * g.length_mm
             if side == "after":

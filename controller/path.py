@@ -11,7 +11,7 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
-from controller.arcs import PLANE_AXES, arc_derivatives, arc_frame, arc_points
+from controller.arcs import PLANE_AXES, arc_derivatives, arc_frame, arc_points, frenet
 from controller.boost import FollowGeometry
 from controller.config import MachineConfig
 from controller.lookahead import (
@@ -85,12 +85,6 @@ class MoveGeometry:
         return arc_derivatives(self.move, u)
 
 
-def _frenet(d1: np.ndarray, d2: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    speed = float(np.linalg.norm(d1))
-    t = d1 / speed
-    return t, (d2 - np.dot(d2, t) * t) / speed**2
-
-
 def move_geometry(move: Move, machine: MachineConfig, feed_scale: float) -> MoveGeometry:
     """Vertices, end tangents/curvatures and 1-D limits of ``move`` (feed times ``feed_scale``)."""
     lim = machine.limits
@@ -117,8 +111,8 @@ def move_geometry(move: Move, machine: MachineConfig, feed_scale: float) -> Move
     n = len(verts) - 1
     u = np.arange(n + 1) / n
     d1, d2 = arc_derivatives(move, np.array([0.0, 1.0]))
-    t_in, k_in = _frenet(d1[0], d2[0])
-    t_out, k_out = _frenet(d1[1], d2[1])
+    t_in, k_in = frenet(d1[0], d2[0])
+    t_out, k_out = frenet(d1[1], d2[1])
     _, _, _, _, _, r0, r1, h0, h1 = arc_frame(move)
     r_max = max(r0, r1)
     speed_u = float(min(np.linalg.norm(d1[0]), np.linalg.norm(d1[1])))  # |dp/du| [mm]
