@@ -177,10 +177,11 @@ def stretches(moves):
     return out
 
 
-def lower_bound(moves, lim, deviation_mm=None):
-    """The bound (module docstring). With ``deviation_mm``, also the floor: the bound with the
+def lower_bound(moves, lim, deviation_mm):
+    """(bound, floor, junctions): the bound (module docstring); the floor, the bound with the
     ramps every planner needs at the junction speed ceilings of benchmarks/junction_floor.py
-    added to each stretch's cruise term. Returns the bound, or (bound, floor, junctions)."""
+    (deviation ``deviation_mm`` [mm]) added to each stretch's cruise term; and those junctions
+    (line, ceiling [mm/s])."""
     a_s, j_s = max(lim.max_acceleration_mm_per_s2), max(lim.max_jerk_mm_per_s3)
     total, floor, found = 0.0, 0.0, []
     for stretch in stretches(moves):
@@ -189,11 +190,10 @@ def lower_bound(moves, lim, deviation_mm=None):
         cruise = sum(m.length_mm / c for m, c in zip(stretch, caps, strict=True))
         r2r = _r2r(length, max(caps), a_s, j_s)
         total += max(cruise, r2r)
-        if deviation_mm is not None:
-            extra, junc = junction_floor([stretch], [caps], lim, deviation_mm)
-            floor += max(cruise + extra, r2r)
-            found += junc
-    return total if deviation_mm is None else (total, floor, found)
+        extra, junc = junction_floor(stretch, caps, lim, deviation_mm)
+        floor += max(cruise + extra, r2r)
+        found += junc
+    return total, floor, found
 
 
 # ---------------------------------------------------------------- measures

@@ -72,12 +72,12 @@ def _ramp_loss(c: float, cap: float, length_mm: float, acc: float, jerk: float) 
     return t_r - 0.5 * (c + top) * t_r / cap
 
 
-def junction_floor(stretches, caps, lim, deviation_mm: float) -> tuple[float, list[tuple]]:
-    """Extra time [s] over the issue's bound at the junction ceilings, and the junctions.
+def junction_floor(moves, caps, lim, deviation_mm: float) -> tuple[float, list[tuple]]:
+    """Extra time [s] over the issue's bound at the junction ceilings of one stop-to-stop
+    stretch, and its junctions.
 
     Args:
-        stretches: stop-to-stop stretches (lists of moves), as the bound splits them.
-        caps: their blocks' speed caps [mm/s] (same shape).
+        moves: the stretch's moves, as the bound splits them; ``caps``: their speed caps [mm/s].
         lim: machine limits; ``deviation_mm``: the deviation allowed by measure (b) [mm].
 
     Returns:
@@ -86,12 +86,11 @@ def junction_floor(stretches, caps, lim, deviation_mm: float) -> tuple[float, li
     """
     a_s, j_s = max(lim.max_acceleration_mm_per_s2), max(lim.max_jerk_mm_per_s3)
     extra, found = 0.0, []
-    for moves, cap in zip(stretches, caps, strict=True):
-        for k in range(1, len(moves)):
-            c = junction_ceiling(moves[k - 1], moves[k], lim, deviation_mm)
-            if not math.isfinite(c):
-                continue
-            found.append((moves[k].line, c))
-            for b in (k - 1, k):
-                extra += _ramp_loss(c, cap[b], 0.5 * moves[b].length_mm, a_s, j_s)
+    for k in range(1, len(moves)):
+        c = junction_ceiling(moves[k - 1], moves[k], lim, deviation_mm)
+        if not math.isfinite(c):
+            continue
+        found.append((moves[k].line, c))
+        for b in (k - 1, k):
+            extra += _ramp_loss(c, caps[b], 0.5 * moves[b].length_mm, a_s, j_s)
     return extra, found
