@@ -1,4 +1,4 @@
-"""Output folders that are never half-written: write into a temporary sibling, then move in."""
+"""Outputs that are never half-written: write into a temporary sibling, then move it in."""
 
 from __future__ import annotations
 
@@ -28,3 +28,19 @@ def atomic_output_dir(out_dir: Path, last: str | None = None) -> Iterator[Path]:
             os.replace(item, out_dir / item.name)
     finally:
         shutil.rmtree(tmp, ignore_errors=True)
+
+
+@contextmanager
+def atomic_file(path: Path, mode: str = "w", **open_kwargs) -> Iterator:
+    """Open a temporary sibling of ``path`` (whose folder must exist) for writing; when the body
+    succeeds it replaces ``path`` by ``os.replace``, when it raises it is removed and ``path`` is
+    left as it was."""
+    path = Path(path)
+    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.tmp-", dir=path.parent)
+    try:
+        with os.fdopen(fd, mode, **open_kwargs) as fh:
+            yield fh
+        os.replace(tmp, path)
+    except BaseException:
+        Path(tmp).unlink(missing_ok=True)
+        raise

@@ -19,7 +19,6 @@ import hashlib
 import itertools
 import json
 import math
-import os
 from collections.abc import Sequence
 from dataclasses import asdict, dataclass
 from pathlib import Path
@@ -27,6 +26,7 @@ from pathlib import Path
 from controller.config import MachineConfig
 from controller.errors import SimulationError
 from sim.executors import dask_map, local_map
+from sim.outdir import atomic_file
 
 COLUMNS = (
     "feed_override_pct",
@@ -227,9 +227,7 @@ def write_csv(rows: Sequence[dict], fh) -> None:
 
 
 def write_csv_atomic(rows: Sequence[dict], path: Path) -> None:
-    """Write sweep.csv atomically: a temporary file in the same folder, then rename."""
+    """Write sweep.csv atomically (:func:`sim.outdir.atomic_file`), creating its folder."""
     path.parent.mkdir(parents=True, exist_ok=True)
-    tmp = path.with_name(f".{path.name}.tmp-{os.getpid()}")
-    with open(tmp, "w", newline="") as fh:
+    with atomic_file(path, "w", newline="") as fh:
         write_csv(rows, fh)
-    os.replace(tmp, path)

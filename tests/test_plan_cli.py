@@ -44,7 +44,7 @@ def test_plan_prints_the_contract_and_writes_the_trajectory(
     assert data["t"][-1] >= summary["duration_s"] > data["t"][-2]
     assert np.array_equal(data["pos"][-1], [0.0, 30.0, 0.0]) and not data["vel"][-1].any()
     assert list(np.unique(data["line"])) == [2, 3, 4, 5, 6]
-    assert not list(tmp_path.glob(".plan-*"))  # no temporary file left behind
+    assert not list(tmp_path.glob(".*"))  # no temporary file left behind
 
 
 def test_program_outside_travel_exits_2_with_line(write_program, tmp_path, capsys):

@@ -5,9 +5,7 @@ from __future__ import annotations
 
 import argparse
 import json
-import os
 import sys
-import tempfile
 from pathlib import Path
 
 from sim.commands.common import add_dialect, add_machine, load_machine, read_program
@@ -29,22 +27,16 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 
 def write_npz_atomically(path: Path, arrays: dict) -> None:
-    """Write ``arrays`` to ``path`` via a temporary file in the same folder and os.replace."""
+    """Write ``arrays`` to ``path`` atomically (:func:`sim.outdir.atomic_file`)."""
     import numpy as np
 
     from controller.errors import ConfigError
+    from sim.outdir import atomic_file
 
-    folder = path.parent if str(path.parent) else Path(".")
-    if not folder.is_dir():
+    if not path.parent.is_dir():
         raise ConfigError("output folder does not exist", file=str(path))
-    fd, tmp = tempfile.mkstemp(prefix=".plan-", suffix=".npz", dir=folder)
-    try:
-        with os.fdopen(fd, "wb") as fh:
-            np.savez(fh, **arrays)
-        os.replace(tmp, path)
-    except BaseException:
-        Path(tmp).unlink(missing_ok=True)
-        raise
+    with atomic_file(path, "wb") as fh:
+        np.savez(fh, **arrays)
 
 
 def run(args: argparse.Namespace) -> int:
