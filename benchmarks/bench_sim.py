@@ -26,14 +26,14 @@ import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
 
-from controller.config import MachineConfig, load_machine_config
-from controller.interpreter import interpret
-from controller.planner import plan
-from controller.servo import DiscretePD
-from models import DEFAULT_MACHINE, GANTRY_XML
-from sim.api import run_program
-from sim.machine import load_gantry
-from sim.runner import simulate
+from gantry_sim.controller.config import MachineConfig, load_machine_config
+from gantry_sim.controller.gcode.interpreter import interpret
+from gantry_sim.controller.planner.plan import plan
+from gantry_sim.controller.servo import DiscretePD
+from gantry_sim.models import DEFAULT_MACHINE, GANTRY_XML
+from gantry_sim.sim.api import run_program
+from gantry_sim.sim.machine import load_gantry
+from gantry_sim.sim.runner import simulate
 
 REPEATS = 5
 

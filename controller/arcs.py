@@ -19,7 +19,7 @@ import math
 
 import numpy as np
 
-from controller.moves import Arc
+from gantry_sim.controller.moves import Arc
 
 #: (first, second, normal) axis indices per plane: a right-handed triple (G17 XY, G18 ZX, G19 YZ).
 PLANE_AXES: dict[str, tuple[int, int, int]] = {"XY": (0, 1, 2), "XZ": (2, 0, 1), "YZ": (1, 2, 0)}

@@ -15,7 +15,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-from controller.errors import ConfigError
+from gantry_sim.controller.errors import ConfigError
 
 Vec3 = tuple[float, float, float]
 

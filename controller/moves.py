@@ -82,7 +82,7 @@ class Linear:
 class Arc:
     """G2/G3: a circular arc or helix in one of the three principal planes.
 
-    Geometry (see :mod:`controller.arcs`): the in-plane radius goes linearly from ``radius`` (at
+    Geometry (see :mod:`gantry_sim.controller.arcs`): the in-plane radius goes linearly from ``radius`` (at
     ``start``) to the end point's distance from ``center`` (equal for an exact arc; LinuxCNC accepts
     a small mismatch and the path is then a gentle spiral), the polar angle sweeps ``angle``
     radians in ``direction``, and the normal-axis coordinate goes linearly from start to end.
@@ -116,7 +116,7 @@ class Arc:
     @property
     def length_mm(self) -> float:
         """Path length of the arc or helix [mm] (mean radius for a slight spiral)."""
-        from controller.arcs import arc_length_mm
+        from gantry_sim.controller.arcs import arc_length_mm
 
         return arc_length_mm(self)
 

@@ -32,7 +32,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from controller.config import Servo
+from gantry_sim.controller.config import Servo
 
 #: |v| below this counts as standing still for the friction feedforward [mm/s].
 FRICTION_DEADBAND_MM_PER_S = 1e-6

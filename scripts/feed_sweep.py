@@ -13,14 +13,9 @@ import argparse
 import sys
 from pathlib import Path
 
-try:
-    import sim  # noqa: F401  (installed with `pip install .`)
-except ImportError:  # running from a source checkout
-    sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
-
-from controller.config import load_machine_config
-from controller.errors import GantryError
-from models import DEFAULT_MACHINE
+from gantry_sim.controller.config import load_machine_config
+from gantry_sim.controller.errors import GantryError
+from gantry_sim.models import DEFAULT_MACHINE
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -33,7 +28,7 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--out", type=Path, default=None)
     args = parser.parse_args(argv)
 
-    from sim.sweep import grid, run_sweep, write_csv_atomic
+    from gantry_sim.sim.sweep.grid import grid, run_sweep, write_csv_atomic
 
     try:
         overrides = [float(v) for v in args.feed_override.split(",")]

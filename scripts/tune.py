@@ -13,14 +13,9 @@ import argparse
 import sys
 from pathlib import Path
 
-try:
-    import sim  # noqa: F401  (installed with `pip install .`)
-except ImportError:  # running from a source checkout
-    sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
-
-from controller.config import load_machine_config
-from controller.errors import GantryError
-from models import DEFAULT_MACHINE
+from gantry_sim.controller.config import load_machine_config
+from gantry_sim.controller.errors import GantryError
+from gantry_sim.models import DEFAULT_MACHINE
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -31,7 +26,7 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--machine", type=Path, default=None, help="machine file (TOML)")
     args = parser.parse_args(argv)
 
-    from sim.tune import tune
+    from gantry_sim.sim.circular.tune import tune
 
     try:
         radii = [float(v) for v in args.radii.split(",")]

@@ -1,8 +1,8 @@
 """The public Python API of ``gantry run``: program text in, report and trace out.
 
-    from controller.config import load_machine_config
-    from models import DEFAULT_MACHINE
-    from sim.api import run_program, write_run_outputs
+    from gantry_sim.controller.config import load_machine_config
+    from gantry_sim.models import DEFAULT_MACHINE
+    from gantry_sim.sim.api import run_program, write_run_outputs
 
     result = run_program(text, file="part.ngc", machine=load_machine_config(DEFAULT_MACHINE))
     result.report["contour_error_um"]["max"]      # [um]
@@ -21,8 +21,8 @@ from pathlib import Path
 
 import numpy as np
 
-from controller.config import MachineConfig
-from controller.errors import GantryError
+from gantry_sim.controller.config import MachineConfig
+from gantry_sim.controller.errors import GantryError
 
 
 @dataclass(frozen=True)
@@ -87,12 +87,12 @@ def run_program(
     Raises:
         GcodeError, ConfigError, PlanningError, SimulationError: with file and line.
     """
-    from controller.interpreter import interpret
-    from controller.planner import plan
-    from sim.analysis import analyse
-    from sim.machine import load_gantry
-    from sim.report import build_report
-    from sim.runner import simulate
+    from gantry_sim.controller.gcode.interpreter import interpret
+    from gantry_sim.controller.planner.plan import plan
+    from gantry_sim.sim.contour import analyse
+    from gantry_sim.sim.machine import load_gantry
+    from gantry_sim.sim.report import build_report
+    from gantry_sim.sim.runner import simulate
 
     t0 = time.perf_counter()
     try:
@@ -143,6 +143,6 @@ def write_run_outputs(result: RunResult, out_dir: Path) -> None:
     Atomic per file set: everything is written into a temporary folder beside the outputs and
     moved in only when all of it succeeded, report.json last.
     """
-    from sim.report import write_outputs
+    from gantry_sim.sim.report import write_outputs
 
     write_outputs(result, Path(out_dir))

@@ -1,4 +1,4 @@
-"""``gantry``: a thin dispatcher over the subcommands in :mod:`sim.commands`.
+"""``gantry``: a thin dispatcher over the subcommands in :mod:`gantry_sim.sim.commands`.
 
 Exit status: 0 success; 1 a gate set on the command line failed; 2 invalid input, reported as
 ``FILE:LINE: error: MESSAGE`` (or ``FILE: error: MESSAGE``) on stderr, never a traceback.
@@ -12,17 +12,17 @@ import importlib
 import sys
 from collections.abc import Sequence
 
-from controller.errors import GantryError
+from gantry_sim.controller.errors import GantryError
 
 #: subcommand -> module in sim.commands defining ``HELP``, ``add_arguments(parser)`` and
 #: ``run(args) -> int``.
 COMMANDS: dict[str, str] = {
-    "parse": "sim.commands.parse",
-    "plan": "sim.commands.plan",
-    "run": "sim.commands.run",
-    "ballbar": "sim.commands.ballbar",
-    "tune": "sim.commands.tune",
-    "sweep": "sim.commands.sweep",
+    "parse": "gantry_sim.sim.commands.parse",
+    "plan": "gantry_sim.sim.commands.plan",
+    "run": "gantry_sim.sim.commands.run",
+    "ballbar": "gantry_sim.sim.commands.ballbar",
+    "tune": "gantry_sim.sim.commands.tune",
+    "sweep": "gantry_sim.sim.commands.sweep",
 }
 
 

@@ -15,10 +15,10 @@ from typing import Any
 
 import numpy as np
 
-from controller.config import MachineConfig
-from controller.errors import ConfigError
-from controller.servo import AxisPlant
-from sim.site_slides import along_slides, site_slides
+from gantry_sim.controller.config import MachineConfig
+from gantry_sim.controller.errors import ConfigError
+from gantry_sim.controller.servo import AxisPlant
+from gantry_sim.sim.site_slides import along_slides, site_slides
 
 AXES = ("x", "y", "z")
 TOOL_SITE = "tool"

@@ -53,7 +53,7 @@ def build_report(
 
 def write_outputs(result, out_dir: Path) -> None:
     """Write the run's files into a temporary folder, then move them in, report.json last."""
-    from sim.outdir import atomic_output_dir
+    from gantry_sim.sim.outdir import atomic_output_dir
 
     with atomic_output_dir(out_dir, last="report.json") as tmp:
         (tmp / "report.json").write_text(json.dumps(result.report, indent=2) + "\n")
@@ -67,8 +67,8 @@ def write_outputs(result, out_dir: Path) -> None:
 
 
 def _geometry_polyline(move) -> np.ndarray:
-    from controller.arcs import arc_points
-    from controller.moves import Arc
+    from gantry_sim.controller.arcs import arc_points
+    from gantry_sim.controller.moves import Arc
 
     if isinstance(move, Arc):
         n = max(16, int(np.ceil(move.angle / (2 * np.pi) * 360)))

@@ -24,11 +24,11 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from controller.config import MachineConfig
-from controller.errors import SimulationError
-from controller.servo import DiscretePD
-from controller.trajectory import Trajectory
-from sim.machine import AXES, MM_PER_M, Gantry
+from gantry_sim.controller.config import MachineConfig
+from gantry_sim.controller.errors import SimulationError
+from gantry_sim.controller.servo import DiscretePD
+from gantry_sim.controller.trajectory import Trajectory
+from gantry_sim.sim.machine import AXES, MM_PER_M, Gantry
 
 #: servo ticks between divergence checks and progress-bar updates
 CHUNK = 2000

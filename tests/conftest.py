@@ -6,8 +6,8 @@ from pathlib import Path
 
 import pytest
 
-from controller.config import MachineConfig, load_machine_config
-from models import DEFAULT_MACHINE
+from gantry_sim.controller.config import MachineConfig, load_machine_config
+from gantry_sim.models import DEFAULT_MACHINE
 
 ROOT = Path(__file__).resolve().parent.parent
 

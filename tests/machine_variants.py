@@ -10,8 +10,8 @@ import json
 import xml.etree.ElementTree as ET
 from pathlib import Path
 
-from controller.config import MachineConfig, load_machine_config
-from models import DEFAULT_MACHINE, GANTRY_XML
+from gantry_sim.controller.config import MachineConfig, load_machine_config
+from gantry_sim.models import DEFAULT_MACHINE, GANTRY_XML
 
 
 def joint_attribute(name: str, attribute: str) -> float:

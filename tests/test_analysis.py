@@ -7,10 +7,10 @@ import math
 import numpy as np
 import pytest
 
-from controller.arcs import arc_derivatives, arc_points
-from controller.interpreter import interpret
-from sim.analysis import analyse, distance_to_program
-from sim.geometry import distance_to_polyline_near, nearest_on_arc
+from gantry_sim.controller.arcs import arc_derivatives, arc_points
+from gantry_sim.controller.gcode.interpreter import interpret
+from gantry_sim.sim.contour import analyse, distance_to_program
+from gantry_sim.sim.nearest import distance_to_polyline_near, nearest_on_arc
 
 
 def _moves(text: str):

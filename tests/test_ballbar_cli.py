@@ -8,8 +8,8 @@ import math
 import numpy as np
 import pytest
 
-from sim.cli import main
-from sim.tune import circle_error_um
+from gantry_sim.sim.circular.tune import circle_error_um
+from gantry_sim.sim.cli import main
 
 CONTRACT_TOP = {
     "plane",
@@ -103,8 +103,8 @@ def test_tune_without_feedforward_follows_the_square_root_of_the_radius(tmp_path
     ratio = rows[1]["max_feed_mm_per_min"] / rows[0]["max_feed_mm_per_min"]
     assert ratio == pytest.approx(math.sqrt(2.0), rel=0.1)
     # The answer is tight: two resolution steps higher fails.
-    from controller.config import load_machine_config
-    from models import DEFAULT_MACHINE
+    from gantry_sim.controller.config import load_machine_config
+    from gantry_sim.models import DEFAULT_MACHINE
 
     machine = load_machine_config(DEFAULT_MACHINE, machine_file)
     above = rows[0]["max_feed_mm_per_min"] + 2 * printed["feed_resolution_mm_per_min"]

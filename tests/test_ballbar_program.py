@@ -8,8 +8,8 @@ import re
 import numpy as np
 import pytest
 
-from controller.errors import ConfigError
-from sim.ballbar_program import circle_test_program
+from gantry_sim.controller.errors import ConfigError
+from gantry_sim.sim.circular.program import circle_test_program
 
 
 def words(line: str) -> dict[str, float | str]:
@@ -84,8 +84,8 @@ def test_invalid_options_are_config_errors(kwargs, match):
 
 @pytest.mark.parametrize("plane", ["XY", "XZ", "YZ"])
 def test_interpreter_reads_tangent_arcs_of_one_circle(plane):
-    from controller.arcs import arc_derivatives
-    from controller.interpreter import parse_program
+    from gantry_sim.controller.arcs import arc_derivatives
+    from gantry_sim.controller.gcode.interpreter import parse_program
 
     prog = circle_test_program(plane, 20.0, 1500.0, ("ccw", "cw"), (5.0, -5.0, 2.0))
     arcs = {
@@ -111,8 +111,8 @@ def test_interpreter_reads_tangent_arcs_of_one_circle(plane):
 def test_the_measured_circle_runs_at_the_programmed_feed(machine, radius, feed):
     """The run-in brings the planner to full feed before the measured block, and the run-out
     starts its stop after it: the circle's reference moves at the feed all the way round."""
-    from controller.interpreter import parse_program
-    from controller.planner import plan
+    from gantry_sim.controller.gcode.interpreter import parse_program
+    from gantry_sim.controller.planner.plan import plan
 
     prog = circle_test_program("XY", radius, feed, ("ccw",))
     traj = plan(parse_program(prog.text, "linuxcnc", "b.ngc"), machine).sample(0.001)

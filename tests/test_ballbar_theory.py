@@ -16,7 +16,7 @@ from __future__ import annotations
 
 import pytest
 
-from sim.ballbar import run_ballbar
+from gantry_sim.sim.circular.ballbar import run_ballbar
 from tests.machine_variants import FRICTIONLESS, gantry_variant, joint_attribute
 
 R_MM = 10.0

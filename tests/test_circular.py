@@ -1,4 +1,4 @@
-"""sim.circular on synthetic traces with known answers (exact geometry, no simulation)."""
+"""gantry_sim.sim.circular.figures on synthetic traces with known answers (exact geometry, no simulation)."""
 
 from __future__ import annotations
 
@@ -7,7 +7,7 @@ import math
 import numpy as np
 import pytest
 
-from sim.circular import (
+from gantry_sim.sim.circular.figures import (
     analyse_circle,
     ballbar_json,
     bidirectional_deviation_um,

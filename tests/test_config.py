@@ -6,9 +6,9 @@ from pathlib import Path
 
 import pytest
 
-from controller.config import SCHEMA, load_machine_config
-from controller.errors import ConfigError
-from models import DEFAULT_MACHINE, GANTRY_XML
+from gantry_sim.controller.config import SCHEMA, load_machine_config
+from gantry_sim.controller.errors import ConfigError
+from gantry_sim.models import DEFAULT_MACHINE, GANTRY_XML
 
 
 def _write(tmp_path: Path, text: str) -> Path:

@@ -7,10 +7,10 @@ import math
 
 import pytest
 
-from controller.dialects import DIALECTS, MARLIN, get_dialect
-from controller.errors import GcodeError
-from controller.interpreter import parse_program
-from controller.moves import Arc
+from gantry_sim.controller.errors import GcodeError
+from gantry_sim.controller.gcode.dialects import DIALECTS, MARLIN, get_dialect
+from gantry_sim.controller.gcode.interpreter import parse_program
+from gantry_sim.controller.moves import Arc
 
 
 def run(text: str, dialect: str):

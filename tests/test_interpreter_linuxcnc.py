@@ -10,9 +10,9 @@ import math
 
 import pytest
 
-from controller.errors import GcodeError
-from controller.interpreter import interpret, parse_program
-from controller.moves import Arc, Linear, Rapid
+from gantry_sim.controller.errors import GcodeError
+from gantry_sim.controller.gcode.interpreter import interpret, parse_program
+from gantry_sim.controller.moves import Arc, Linear, Rapid
 
 
 def run(text: str, dialect: str = "linuxcnc"):

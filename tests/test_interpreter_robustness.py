@@ -6,9 +6,9 @@ import random
 
 import pytest
 
-from controller.dialects import DIALECTS
-from controller.errors import GcodeError
-from controller.interpreter import parse_program
+from gantry_sim.controller.errors import GcodeError
+from gantry_sim.controller.gcode.dialects import DIALECTS
+from gantry_sim.controller.gcode.interpreter import parse_program
 
 ALPHABET = "GXYZIJKRPFMNST0123456789.-+ #[]=()/;%EQHOabc*\t"
 VALUES = (0, 1, 2, 3, 17, 18, 19, 20, 21, 90, 91, 90.1, 91.1, -1, 0.5, 0.0001, 1e6, 5)

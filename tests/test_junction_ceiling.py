@@ -12,10 +12,10 @@ import numpy as np
 import pytest
 
 from benchmarks.junction_floor import C_ONE_SIDED, junction_ceiling
-from controller.interpreter import parse_program
-from controller.jerk3 import jerk3_pairs, jerk3_points
-from controller.moves import Arc
-from controller.planner import plan
+from gantry_sim.controller.gcode.interpreter import parse_program
+from gantry_sim.controller.moves import Arc
+from gantry_sim.controller.planner.jerk3 import jerk3_pairs, jerk3_points
+from gantry_sim.controller.planner.plan import plan
 from tests.plan_helpers import arc_deviation
 from tests.test_planner_ruckig_pieces import ROUNDED_RECTANGLE
 

@@ -7,9 +7,9 @@ from __future__ import annotations
 
 import pytest
 
-from controller.errors import GcodeError
-from controller.interpreter import parse_program
-from controller.lexer import lex, strip_line
+from gantry_sim.controller.errors import GcodeError
+from gantry_sim.controller.gcode.interpreter import parse_program
+from gantry_sim.controller.gcode.lexer import lex, strip_line
 
 
 def ends(text: str) -> list[tuple[float, float, float]]:

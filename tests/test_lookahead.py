@@ -7,7 +7,7 @@ import math
 import numpy as np
 import pytest
 
-from controller.lookahead import (
+from gantry_sim.controller.planner.lookahead import (
     FOLLOW_MARGIN,
     BlockLimits,
     FollowGeometry,

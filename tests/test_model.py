@@ -6,10 +6,10 @@ import mujoco
 import numpy as np
 import pytest
 
-from controller.config import load_machine_config
-from controller.errors import ConfigError
-from models import DEFAULT_MACHINE, GANTRY_XML, SCENE_XML
-from sim.machine import AXES, load_gantry
+from gantry_sim.controller.config import load_machine_config
+from gantry_sim.controller.errors import ConfigError
+from gantry_sim.models import DEFAULT_MACHINE, GANTRY_XML, SCENE_XML
+from gantry_sim.sim.machine import AXES, load_gantry
 
 
 def test_model_and_scene_compile_with_the_contract_names():

@@ -8,7 +8,7 @@ import time
 
 import pytest
 
-from sim.cli import main
+from gantry_sim.sim.cli import main
 
 
 def test_parse_prints_the_contract_keys(write_program, capsys) -> None:

@@ -6,7 +6,7 @@ import json
 
 import numpy as np
 
-from sim.cli import main
+from gantry_sim.sim.cli import main
 
 PROGRAM = """G21 G90 G17
 G0 X10 Y0

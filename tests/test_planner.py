@@ -8,11 +8,11 @@ import math
 import numpy as np
 import pytest
 
-from controller.errors import ConfigError, PlanningError
-from controller.lookahead import s_curve_time
-from controller.moves import Linear, Rapid
-from controller.path import move_geometry
-from controller.planner import plan
+from gantry_sim.controller.errors import ConfigError, PlanningError
+from gantry_sim.controller.moves import Linear, Rapid
+from gantry_sim.controller.planner.lookahead import s_curve_time
+from gantry_sim.controller.planner.move_geometry import move_geometry
+from gantry_sim.controller.planner.plan import plan
 from tests.plan_helpers import arc, arc_deviation, assert_within_limits, helix, limit_ratios
 
 TOL = 0.001  # the bundled machine's chord tolerance [mm]

@@ -5,9 +5,9 @@ from __future__ import annotations
 
 import numpy as np
 
-from controller.interpreter import parse_program
-from controller.moves import Arc
-from controller.planner import plan
+from gantry_sim.controller.gcode.interpreter import parse_program
+from gantry_sim.controller.moves import Arc
+from gantry_sim.controller.planner.plan import plan
 from tests.plan_helpers import arc_deviation, assert_within_limits
 
 # One loop of a rounded rectangle at F6000: line -> R1 corner arc junctions (curvature jumps).

@@ -54,8 +54,8 @@ def _deviation_expectation(program: Path, text: str) -> tuple[dict, str]:
 
 def _run(text: str, name: str) -> tuple[list, Exception | None]:
     """Collect the interpreter's moves until it finishes or raises (error returned, not raised)."""
-    from controller.errors import GcodeError
-    from controller.interpreter import interpret
+    from gantry_sim.controller.errors import GcodeError
+    from gantry_sim.controller.gcode.interpreter import interpret
 
     moves: list = []
     try:

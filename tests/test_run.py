@@ -9,12 +9,12 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from controller.config import load_machine_config
-from controller.servo import DiscretePD
-from models import DEFAULT_MACHINE, GANTRY_XML
-from sim.api import run_program
-from sim.cli import main
-from sim.machine import load_gantry
+from gantry_sim.controller.config import load_machine_config
+from gantry_sim.controller.servo import DiscretePD
+from gantry_sim.models import DEFAULT_MACHINE, GANTRY_XML
+from gantry_sim.sim.api import run_program
+from gantry_sim.sim.cli import main
+from gantry_sim.sim.machine import load_gantry
 
 # ~1 s simulated: a lead-in, a full R5 circle at F3000, a lead-out
 CIRCLE = "G21 G17 G90 G94\nG1 X5 F3000\nG3 I-5 J0\nG1 X0\nM2\n"
@@ -70,7 +70,7 @@ def test_runner_executes_the_servo_law(machine):
     servo = DiscretePD(machine.servo, g.plant)
     tr = res.trace
     joint = g.work_to_joint_mm(tr.pos)
-    from controller.planner import plan
+    from gantry_sim.controller.planner.plan import plan
 
     traj = plan(res.moves, machine).sample(machine.servo.period_s)
     b = servo.drive_terms(g.work_to_joint_mm(traj.pos), traj.vel, traj.acc)
@@ -163,10 +163,10 @@ def test_mujoco_instability_warnings_are_a_simulation_error(machine):
     """MuJoCo resets a state whose accelerations blow up and counts a warning: that is fatal."""
     import mujoco
 
-    from controller.errors import SimulationError
-    from controller.interpreter import interpret
-    from controller.planner import plan
-    from sim.runner import _check
+    from gantry_sim.controller.errors import SimulationError
+    from gantry_sim.controller.gcode.interpreter import interpret
+    from gantry_sim.controller.planner.plan import plan
+    from gantry_sim.sim.runner import _check
 
     g = load_gantry(machine)
     traj = plan(tuple(interpret("G1 X1 F600\nM2\n")), machine).sample(machine.servo.period_s)
@@ -184,9 +184,9 @@ def test_trace_is_the_tool_site_mujoco_reaches_at_every_tick(machine):
     its held forces through MuJoCo with mj_kinematics at every tick gives the same trace."""
     import mujoco
 
-    from controller.interpreter import interpret
-    from controller.planner import plan
-    from sim.runner import simulate
+    from gantry_sim.controller.gcode.interpreter import interpret
+    from gantry_sim.controller.planner.plan import plan
+    from gantry_sim.sim.runner import simulate
 
     g = load_gantry(machine)
     traj = plan(tuple(interpret(CIRCLE)), machine).sample(machine.servo.period_s)
@@ -206,10 +206,10 @@ def test_trace_is_the_tool_site_mujoco_reaches_at_every_tick(machine):
 def test_non_finite_or_far_trace_is_a_simulation_error(machine):
     import mujoco
 
-    from controller.errors import SimulationError
-    from controller.interpreter import interpret
-    from controller.planner import plan
-    from sim.runner import _check
+    from gantry_sim.controller.errors import SimulationError
+    from gantry_sim.controller.gcode.interpreter import interpret
+    from gantry_sim.controller.planner.plan import plan
+    from gantry_sim.sim.runner import _check
 
     g = load_gantry(machine)
     traj = plan(tuple(interpret("G1 X1 F600\nM2\n")), machine).sample(machine.servo.period_s)

@@ -7,10 +7,15 @@ import math
 import numpy as np
 import pytest
 
-from controller.boost import FollowGeometry, follow_ok
-from controller.lookahead import s_curve_time
-from controller.planner import plan
-from controller.saturated_ramp import SHARE, CircleLimits, NormLimits, saturated_profile
+from gantry_sim.controller.planner.lookahead import s_curve_time
+from gantry_sim.controller.planner.plan import plan
+from gantry_sim.controller.planner.saturated_ramp import (
+    SHARE,
+    CircleLimits,
+    NormLimits,
+    saturated_profile,
+)
+from gantry_sim.controller.planner.speedup import FollowGeometry, follow_ok
 from tests.plan_helpers import arc, arc_deviation, assert_within_limits
 
 AMAX, JMAX = (3000.0, 2500.0, 3000.0), (1e5, 8e4, 1e5)

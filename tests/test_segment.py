@@ -7,9 +7,9 @@ import math
 import numpy as np
 import pytest
 
-from controller.arcs import PLANE_AXES
-from controller.errors import ConfigError, PlanningError
-from controller.segment import MAX_SEGMENTS_PER_ARC, segment_arc, segment_count
+from gantry_sim.controller.arcs import PLANE_AXES
+from gantry_sim.controller.errors import ConfigError, PlanningError
+from gantry_sim.controller.planner.segment import MAX_SEGMENTS_PER_ARC, segment_arc, segment_count
 from tests.plan_helpers import arc, helix
 
 

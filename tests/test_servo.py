@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from controller.servo import AxisPlant, DiscretePD
+from gantry_sim.controller.servo import AxisPlant, DiscretePD
 
 PLANT = (
     AxisPlant(17.0, 0.04, 4.0, 0.0, -400.0, 400.0),

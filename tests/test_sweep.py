@@ -7,8 +7,8 @@ import json
 
 import pytest
 
-from sim.cli import main
-from sim.sweep import (
+from gantry_sim.sim.cli import main
+from gantry_sim.sim.sweep.grid import (
     COLUMNS,
     JOURNAL,
     SweepPoint,
@@ -76,8 +76,8 @@ def test_resume_reuses_the_journal_of_the_same_sweep_only(machine, tmp_path):
 def test_a_simulation_fault_is_a_row_not_a_crash(tmp_path, machine):
     strict = tmp_path / "strict.toml"
     strict.write_text("[servo]\nmax_following_error_mm = 0.0001\n")
-    from controller.config import load_machine_config
-    from models import DEFAULT_MACHINE
+    from gantry_sim.controller.config import load_machine_config
+    from gantry_sim.models import DEFAULT_MACHINE
 
     rows = run_sweep(TINY, grid([100.0]), load_machine_config(DEFAULT_MACHINE, strict), workers=1)
     assert rows[0]["status"].startswith("simulation error")

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import pytest
 
-from sim.tune import max_feed_for_radius
+from gantry_sim.sim.circular.tune import max_feed_for_radius
 
 
 def quadratic(limit: float, tol: float):

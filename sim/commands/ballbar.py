@@ -7,7 +7,7 @@ import json
 import sys
 from pathlib import Path
 
-from sim.commands.common import add_machine, load_machine
+from gantry_sim.sim.commands.common import add_machine, load_machine
 
 HELP = (
     "circular test (virtual ballbar, ISO 230-4): run a full circle CCW and CW and report the "
@@ -40,7 +40,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    from sim.ballbar import run_ballbar, write_ballbar_outputs
+    from gantry_sim.sim.circular.ballbar import run_ballbar, write_ballbar_outputs
 
     machine = load_machine(args.machine)
     result = run_ballbar(machine, args.plane, args.radius, args.feed, progress=sys.stderr.isatty())

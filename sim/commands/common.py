@@ -5,7 +5,7 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
-from controller.errors import GcodeError
+from gantry_sim.controller.errors import GcodeError
 
 DIALECTS = ("linuxcnc", "g2core", "marlin", "laserdyne")
 
@@ -28,8 +28,8 @@ def add_machine(parser: argparse.ArgumentParser) -> None:
 
 def load_machine(path: Path | None):
     """The bundled machine file with ``path`` laid over it (ConfigError on bad input)."""
-    from controller.config import load_machine_config
-    from models import DEFAULT_MACHINE
+    from gantry_sim.controller.config import load_machine_config
+    from gantry_sim.models import DEFAULT_MACHINE
 
     return load_machine_config(DEFAULT_MACHINE, path)
 

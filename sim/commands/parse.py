@@ -7,7 +7,7 @@ import json
 import sys
 from pathlib import Path
 
-from sim.commands.common import add_dialect, read_program
+from gantry_sim.sim.commands.common import add_dialect, read_program
 
 HELP = "interpret a G-code program and print its motions as JSON Lines"
 
@@ -18,8 +18,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    from controller.errors import GantryError
-    from controller.interpreter import interpret
+    from gantry_sim.controller.errors import GantryError
+    from gantry_sim.controller.gcode.interpreter import interpret
 
     text = read_program(args.program)
     out = sys.stdout

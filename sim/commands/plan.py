@@ -8,7 +8,7 @@ import json
 import sys
 from pathlib import Path
 
-from sim.commands.common import add_dialect, add_machine, load_machine, read_program
+from gantry_sim.sim.commands.common import add_dialect, add_machine, load_machine, read_program
 
 HELP = "plan a G-code program (segmentation, look-ahead, Ruckig) and print its summary as JSON"
 
@@ -27,11 +27,11 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 
 def write_npz_atomically(path: Path, arrays: dict) -> None:
-    """Write ``arrays`` to ``path`` atomically (:func:`sim.outdir.atomic_file`)."""
+    """Write ``arrays`` to ``path`` atomically (:func:`gantry_sim.sim.outdir.atomic_file`)."""
     import numpy as np
 
-    from controller.errors import ConfigError
-    from sim.outdir import atomic_file
+    from gantry_sim.controller.errors import ConfigError
+    from gantry_sim.sim.outdir import atomic_file
 
     if not path.parent.is_dir():
         raise ConfigError("output folder does not exist", file=str(path))
@@ -40,9 +40,9 @@ def write_npz_atomically(path: Path, arrays: dict) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    from controller.errors import GantryError
-    from controller.interpreter import interpret
-    from controller.planner import plan
+    from gantry_sim.controller.errors import GantryError
+    from gantry_sim.controller.gcode.interpreter import interpret
+    from gantry_sim.controller.planner.plan import plan
 
     machine = load_machine(args.machine)
     text = read_program(args.program)

@@ -12,7 +12,7 @@ import math
 import sys
 from pathlib import Path
 
-from sim.commands.common import add_dialect, add_machine, load_machine, read_program
+from gantry_sim.sim.commands.common import add_dialect, add_machine, load_machine, read_program
 
 HELP = "plan, simulate and analyse a program; write report.json, trace.npz and plots"
 DEFAULT_OUT = Path("out")
@@ -58,16 +58,16 @@ def _summary(report: dict, out_dir: Path) -> str:
         f"simulated {sim['steps']} steps of {sim['physics_timestep_s'] * 1e3:g} ms at "
         f"{sim['realtime_factor']:.0f}x real time; total {report['timing_s']['total']:.2f} s"
     )
-    from sim.report import OUTPUT_FILES
+    from gantry_sim.sim.report import OUTPUT_FILES
 
     lines.append(f"wrote {out_dir}/: {', '.join(OUTPUT_FILES)}")
     return "\n".join(lines)
 
 
 def run(args: argparse.Namespace) -> int:
-    from controller.errors import ConfigError
-    from sim.api import run_program, write_run_outputs
-    from sim.report import OUTPUT_FILES
+    from gantry_sim.controller.errors import ConfigError
+    from gantry_sim.sim.api import run_program, write_run_outputs
+    from gantry_sim.sim.report import OUTPUT_FILES
 
     gate = args.max_error_um
     if gate is not None and not (math.isfinite(gate) and gate >= 0):

@@ -6,8 +6,8 @@ import argparse
 import sys
 from pathlib import Path
 
-from controller.errors import ConfigError
-from sim.commands.common import add_dialect, add_machine, load_machine, read_program
+from gantry_sim.controller.errors import ConfigError
+from gantry_sim.sim.commands.common import add_dialect, add_machine, load_machine, read_program
 
 HELP = (
     "simulate a program over a grid of feed overrides, max accelerations and max jerks "
@@ -138,8 +138,8 @@ def plot_sweep(rows: list[dict], out_dir: Path) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    from sim.outdir import atomic_output_dir
-    from sim.sweep import JOURNAL, grid, run_sweep, write_csv, write_csv_atomic
+    from gantry_sim.sim.outdir import atomic_output_dir
+    from gantry_sim.sim.sweep.grid import JOURNAL, grid, run_sweep, write_csv, write_csv_atomic
 
     if args.workers is not None and args.workers < 1:
         raise ConfigError(f"{args.workers}: must be an integer >= 1", file="--workers")

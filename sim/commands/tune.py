@@ -7,8 +7,8 @@ import json
 import sys
 from pathlib import Path
 
-from controller.errors import ConfigError
-from sim.commands.common import add_machine, load_machine
+from gantry_sim.controller.errors import ConfigError
+from gantry_sim.sim.commands.common import add_machine, load_machine
 
 HELP = (
     "find, per circle radius, the highest feed [mm/min] whose full circle keeps the max "
@@ -100,8 +100,8 @@ def plot_tune(summary: dict, rows: list, path: Path) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    from sim.outdir import atomic_output_dir
-    from sim.tune import DEFAULT_RESOLUTION_MM_PER_MIN, tune
+    from gantry_sim.sim.circular.tune import DEFAULT_RESOLUTION_MM_PER_MIN, tune
+    from gantry_sim.sim.outdir import atomic_output_dir
 
     machine = load_machine(args.machine)
     resolution = args.feed_resolution or DEFAULT_RESOLUTION_MM_PER_MIN

@@ -16,9 +16,9 @@ Figures (``analyse_circle``):
     radial_deviation_um     F max / min: max and min of (traced radius - nominal radius) about
         the nominal centre (the ballbar's pivot).
     ellipse: the 2nd harmonic of the deviation about the LSQ centre, see
-        :func:`sim.deviation_signatures.harmonic_ellipse`.
+        :func:`gantry_sim.sim.circular.signatures.harmonic_ellipse`.
     reversal_spikes_um: one value per quadrant crossing, see
-        :func:`sim.deviation_signatures.reversal_spikes`.
+        :func:`gantry_sim.sim.circular.signatures.reversal_spikes`.
 """
 
 from __future__ import annotations
@@ -28,8 +28,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from controller.units import UM_PER_MM
-from sim.deviation_signatures import Ellipse, harmonic_ellipse, reversal_spikes
+from gantry_sim.controller.units import UM_PER_MM
+from gantry_sim.sim.circular.signatures import Ellipse, harmonic_ellipse, reversal_spikes
 
 #: (a, b) indices of the plane's 2-D coordinates in (x, y, z), in the order the plane is named.
 PLANE_2D: dict[str, tuple[int, int]] = {"XY": (0, 1), "XZ": (0, 2), "YZ": (1, 2)}

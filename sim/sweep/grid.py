@@ -4,7 +4,7 @@ A grid point sets the feed override [%] and, optionally, the max acceleration [m
 max jerk [mm/s^3] of all three axes (MachineConfig.with_changes on [limits]); a value left out
 of the sweep keeps the machine file's per-axis values (an empty cell in sweep.csv).
 
-Executors (:mod:`sim.executors`): ``local`` processes or ``dask``. Each point is a
+Executors (:mod:`gantry_sim.sim.sweep.executors`): ``local`` processes or ``dask``. Each point is a
 deterministic simulation of the same inputs, so the numbers do not depend on the executor.
 
 Never half-written: each finished point is appended to a journal (DIR/sweep.partial.jsonl)
@@ -23,10 +23,10 @@ from collections.abc import Sequence
 from dataclasses import asdict, dataclass
 from pathlib import Path
 
-from controller.config import MachineConfig
-from controller.errors import SimulationError
-from sim.executors import dask_map, local_map
-from sim.outdir import atomic_file
+from gantry_sim.controller.config import MachineConfig
+from gantry_sim.controller.errors import SimulationError
+from gantry_sim.sim.outdir import atomic_file
+from gantry_sim.sim.sweep.executors import dask_map, local_map
 
 COLUMNS = (
     "feed_override_pct",
@@ -88,7 +88,7 @@ def run_point(
     setting) is a result, not a crash: its row has status "simulation error: ..." and no figures.
     Other errors (the program or machine is invalid everywhere) propagate.
     """
-    from sim.api import run_program
+    from gantry_sim.sim.api import run_program
 
     row = {
         "feed_override_pct": point.feed_override_pct,
@@ -169,7 +169,7 @@ def run_sweep(
         progress: show a tqdm progress bar on stderr.
     """
     if executor not in ("local", "dask"):
-        from controller.errors import ConfigError
+        from gantry_sim.controller.errors import ConfigError
 
         raise ConfigError(f"executor {executor!r}: must be 'local' or 'dask'", file="--executor")
     tag = fingerprint(text, dialect, machine)
@@ -227,7 +227,7 @@ def write_csv(rows: Sequence[dict], fh) -> None:
 
 
 def write_csv_atomic(rows: Sequence[dict], path: Path) -> None:
-    """Write sweep.csv atomically (:func:`sim.outdir.atomic_file`), creating its folder."""
+    """Write sweep.csv atomically (:func:`gantry_sim.sim.outdir.atomic_file`), creating its folder."""
     path.parent.mkdir(parents=True, exist_ok=True)
     with atomic_file(path, "w", newline="") as fh:
         write_csv(rows, fh)

@@ -13,7 +13,7 @@ from __future__ import annotations
 
 import math
 
-from controller.errors import GcodeError
+from gantry_sim.controller.errors import GcodeError
 
 Tree = tuple
 

@@ -4,7 +4,7 @@ Follows rs274's reader: comments ``( ... )`` (no nesting) and ``;`` to end of li
 spaces and tabs outside comments are removed (so ``X 2 . 5`` is ``X2.5``), letters are
 case-insensitive, a leading ``/`` (block delete) is accepted, an ``N`` line number may open the
 line, and a line that is just ``%`` is a program delimiter. Word values are expression trees from
-:mod:`controller.expressions`, evaluated by the interpreter.
+:mod:`gantry_sim.controller.gcode.expressions`, evaluated by the interpreter.
 """
 
 from __future__ import annotations
@@ -12,8 +12,8 @@ from __future__ import annotations
 from collections.abc import Iterator
 from dataclasses import dataclass
 
-from controller.errors import GcodeError
-from controller.expressions import NAMED_PARAMETERS, Reader, Tree
+from gantry_sim.controller.errors import GcodeError
+from gantry_sim.controller.gcode.expressions import NAMED_PARAMETERS, Reader, Tree
 
 #: what a comment leaves in a stripped line: words may not be split by it (rs274: ``X(c)1`` is an
 #: error), but it separates words.

@@ -27,7 +27,7 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
-from controller.errors import GcodeError
+from gantry_sim.controller.errors import GcodeError
 
 
 @dataclass(frozen=True)

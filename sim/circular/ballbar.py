@@ -15,11 +15,16 @@ from typing import Any
 
 import numpy as np
 
-from controller.config import MachineConfig
-from controller.errors import ConfigError
-from sim.ballbar_program import CircleTestProgram, circle_test_program
-from sim.circular import CircleAnalysis, analyse_circle, ballbar_json, plane_coords
-from sim.outdir import atomic_output_dir
+from gantry_sim.controller.config import MachineConfig
+from gantry_sim.controller.errors import ConfigError
+from gantry_sim.sim.circular.figures import (
+    CircleAnalysis,
+    analyse_circle,
+    ballbar_json,
+    plane_coords,
+)
+from gantry_sim.sim.circular.program import CircleTestProgram, circle_test_program
+from gantry_sim.sim.outdir import atomic_output_dir
 
 DIRECTIONS = ("ccw", "cw")
 #: fewest traced samples (servo periods) on the measured circle for meaningful figures
@@ -80,7 +85,7 @@ def run_ballbar(
             than MIN_SAMPLES servo samples; PlanningError: the circle leaves the travel;
         SimulationError: the simulation failed.
     """
-    from sim.api import run_program
+    from gantry_sim.sim.api import run_program
 
     program = circle_test_program(plane, radius_mm, feed_mm_per_min, DIRECTIONS, centre_mm)
     run = run_program(program.text, file="ballbar.ngc", machine=machine, progress=progress)

@@ -1,22 +1,22 @@
 """The planner: moves -> a jerk-limited reference, with look-ahead. The only ruckig import.
 
-1. Geometry (:mod:`controller.path`): chord vertices per move, tangents and curvatures at its
-   ends, its 1-D limits (:mod:`controller.lookahead`): the feed is a PATH-speed cap.
+1. Geometry (:mod:`gantry_sim.controller.planner.move_geometry`): chord vertices per move, tangents and curvatures at its
+   ends, its 1-D limits (:mod:`gantry_sim.controller.planner.lookahead`): the feed is a PATH-speed cap.
 2. Look-ahead: junction speeds (exact stops at corners, rapids and the end; tangent junctions
    keep their speed), backward and forward passes.
 3. One 1-D Ruckig profile per move along its path s(t), from (0, v_in, 0) to (L, v_out, 0).
-4. Pieces (:mod:`controller.move_pieces`): straight moves (G0/G1) are that profile projected on
+4. Pieces (:mod:`gantry_sim.controller.planner.pieces`): straight moves (G0/G1) are that profile projected on
    the line: exactly straight, and the feed holds along the diagonal. Arcs: the 1-D profile is
    sampled at the chord vertices (time, speed, tangential acceleration), each vertex gets the exact
    arc state (position on the arc, velocity v T, acceleration a_t T + v^2 k), and consecutive
-   vertex states are joined by the closed-form constant-jerk piece of :mod:`controller.jerk3`
+   vertex states are joined by the closed-form constant-jerk piece of :mod:`gantry_sim.controller.planner.jerk3`
    (the default: it stays far closer to the arc than Ruckig's ``minimum_duration`` profile, see
    README "Planning"). A piece that would break an axis limit or the feed is made instead by a
    3-DoF Ruckig ``calculate`` between the same states with ``minimum_duration`` = the profile's
    time (counted in :attr:`Plan.ruckig_piece_count`); ``plan(..., arc_pieces="ruckig")`` makes
    every arc piece that way. Never ``intermediate_positions`` (the free Ruckig would send them to
    a cloud service).
-5. All pieces are stored as constant-jerk phases (:mod:`controller.cubic`) and sampled vectorised.
+5. All pieces are stored as constant-jerk phases (:mod:`gantry_sim.controller.planner.cubic`) and sampled vectorised.
 
 If Ruckig rejects a piece, it is retried without ``minimum_duration`` (plain time-optimal,
 synchronised); those retries are counted in :attr:`Plan.fallback_count`. A piece that still
@@ -30,16 +30,21 @@ from collections.abc import Sequence
 import numpy as np
 import ruckig
 
-from controller.boost import boosted_profile
-from controller.config import MachineConfig
-from controller.errors import ConfigError, PlanningError
-from controller.junction_check import feasible_junction_caps
-from controller.lookahead import plan_junction_speeds
-from controller.move_pieces import MovePieces
-from controller.moves import Move
-from controller.path import MoveGeometry, junctions, limits_for_junctions, move_geometry
-from controller.plan_result import Plan
-from controller.travel import check_travel
+from gantry_sim.controller.config import MachineConfig
+from gantry_sim.controller.errors import ConfigError, PlanningError
+from gantry_sim.controller.moves import Move
+from gantry_sim.controller.planner.junctions import feasible_junction_caps
+from gantry_sim.controller.planner.lookahead import plan_junction_speeds
+from gantry_sim.controller.planner.move_geometry import (
+    MoveGeometry,
+    junctions,
+    limits_for_junctions,
+    move_geometry,
+)
+from gantry_sim.controller.planner.pieces import MovePieces
+from gantry_sim.controller.planner.result import Plan
+from gantry_sim.controller.planner.speedup import boosted_profile
+from gantry_sim.controller.planner.travel import check_travel
 
 __all__ = ["Plan", "plan"]
 
@@ -113,7 +118,7 @@ class _Planner(MovePieces):
         return ph
 
     def boosted_profile(self, g: MoveGeometry, v_in: float, v_out: float, ph: np.ndarray):
-        """Faster 1-D profiles for an arc that ramps, fastest first (see :mod:`controller.boost`)."""
+        """Faster 1-D profiles for an arc that ramps, fastest first (see :mod:`gantry_sim.controller.planner.speedup`)."""
         return boosted_profile(g, v_in, v_out, ph, self.limits, self.profile_1d, self.boost_cache)
 
     def profile_1d(self, length, v_in, v_out, cap, acc, jerk) -> np.ndarray | None:

@@ -4,7 +4,7 @@ At a junction with a curvature or direction jump the reference leaves the geomet
 piece from the junction state to the neighbouring arc's first (or last) chord vertex must absorb
 the jump within one chord. :func:`feasible_junction_caps` lowers each moving junction's cap (by
 bisection, all junctions at once) until those two pieces, at constant speed, keep every axis'
-limits and the feed (:func:`controller.jerk3.piece_limits_ok`). The planner still checks the real
+limits and the feed (:func:`gantry_sim.controller.planner.jerk3.piece_limits_ok`). The planner still checks the real
 pieces afterwards and lowers a cap further when needed; this only saves re-planning rounds.
 """
 
@@ -12,9 +12,9 @@ from __future__ import annotations
 
 import numpy as np
 
-from controller.arcs import frenet
-from controller.config import MachineConfig
-from controller.jerk3 import jerk3_pairs, piece_limits_ok
+from gantry_sim.controller.arcs import frenet
+from gantry_sim.controller.config import MachineConfig
+from gantry_sim.controller.planner.jerk3 import jerk3_pairs, piece_limits_ok
 
 #: Bisection steps on the junction speed (the cap is found to within 2^-10 of its start value).
 STEPS = 10

@@ -36,11 +36,11 @@ from dataclasses import dataclass
 import numpy as np
 
 # Re-exported: the boosted-profile checks lived here (controller.boost owns them now).
-from controller.boost import FOLLOW_MARGIN as FOLLOW_MARGIN
-from controller.boost import FollowGeometry as FollowGeometry
-from controller.boost import boost_candidates as boost_candidates
-from controller.boost import curvature_speed_cap
-from controller.boost import follow_ok as follow_ok
+from gantry_sim.controller.planner.speedup import FOLLOW_MARGIN as FOLLOW_MARGIN
+from gantry_sim.controller.planner.speedup import FollowGeometry as FollowGeometry
+from gantry_sim.controller.planner.speedup import boost_candidates as boost_candidates
+from gantry_sim.controller.planner.speedup import curvature_speed_cap
+from gantry_sim.controller.planner.speedup import follow_ok as follow_ok
 
 #: Tangent-direction change above which a junction involving an arc is a corner [rad] (1 degree).
 CORNER_ANGLE_RAD = math.radians(1.0)

@@ -24,8 +24,8 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
-from controller.arcs import PLANE_AXES
-from controller.errors import ConfigError
+from gantry_sim.controller.arcs import PLANE_AXES
+from gantry_sim.controller.errors import ConfigError
 
 Vec3 = tuple[float, float, float]
 

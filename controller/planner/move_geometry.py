@@ -11,10 +11,10 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
-from controller.arcs import PLANE_AXES, arc_derivatives, arc_frame, arc_points, frenet
-from controller.boost import FollowGeometry
-from controller.config import MachineConfig
-from controller.lookahead import (
+from gantry_sim.controller.arcs import PLANE_AXES, arc_derivatives, arc_frame, arc_points, frenet
+from gantry_sim.controller.config import MachineConfig
+from gantry_sim.controller.moves import Arc, Move, Rapid
+from gantry_sim.controller.planner.lookahead import (
     COLLINEAR_ANGLE_RAD,
     CORNER_ANGLE_RAD,
     BlockLimits,
@@ -22,12 +22,12 @@ from controller.lookahead import (
     junction_cap,
     straight_limits,
 )
-from controller.moves import Arc, Move, Rapid
-from controller.segment import segment_arc
-from controller.units import mm_per_min_to_mm_per_s
+from gantry_sim.controller.planner.segment import segment_arc
+from gantry_sim.controller.planner.speedup import FollowGeometry
+from gantry_sim.controller.units import mm_per_min_to_mm_per_s
 
 #: Share of the chord tolerance that the smoothing of a junction's velocity/acceleration jump may
-#: use (see :func:`controller.lookahead.junction_cap`).
+#: use (see :func:`gantry_sim.controller.planner.lookahead.junction_cap`).
 JUNCTION_DEVIATION_SHARE = 0.1
 
 
@@ -50,7 +50,7 @@ class MoveGeometry:
     curv_out: np.ndarray  # curvature vector at the end [1/mm]
     limits: BlockLimits
     feed_mm_per_s: float  # programmed path speed after override (inf for rapids) [mm/s]
-    #: Arcs: what :func:`controller.boost.follow_ok` needs to check a speed profile exactly.
+    #: Arcs: what :func:`gantry_sim.controller.planner.speedup.follow_ok` needs to check a speed profile exactly.
     follow: FollowGeometry | None = None
 
     @property
@@ -145,7 +145,7 @@ def move_geometry(move: Move, machine: MachineConfig, feed_scale: float) -> Move
 
 def limits_for_junctions(geoms: list[MoveGeometry], caps: np.ndarray, machine: MachineConfig):
     """``geoms`` with each arc's limits chosen for its junction caps ``caps`` (see
-    :func:`controller.lookahead.arc_limits`: inside a tangent chain an arc need not ramp from
+    :func:`gantry_sim.controller.planner.lookahead.arc_limits`: inside a tangent chain an arc need not ramp from
     rest, so it may cruise closer to its curvature cap)."""
     lim = machine.limits
     out = []

@@ -23,11 +23,11 @@ from __future__ import annotations
 from collections.abc import Callable
 from dataclasses import dataclass
 
-from controller.arcs import PLANE_AXES
-from controller.config import MachineConfig
-from controller.errors import ConfigError
-from controller.units import mm_per_s_to_mm_per_min
-from sim.ballbar_program import circle_test_program
+from gantry_sim.controller.arcs import PLANE_AXES
+from gantry_sim.controller.config import MachineConfig
+from gantry_sim.controller.errors import ConfigError
+from gantry_sim.controller.units import mm_per_s_to_mm_per_min
+from gantry_sim.sim.circular.program import circle_test_program
 
 DEFAULT_RESOLUTION_MM_PER_MIN = 20.0
 DEFAULT_MIN_FEED_MM_PER_MIN = 100.0
@@ -80,7 +80,7 @@ def circle_error_um(
     """
     import numpy as np
 
-    from sim.api import run_program
+    from gantry_sim.sim.api import run_program
 
     program = circle_test_program(plane, radius_mm, feed_mm_per_min, ("ccw",))
     result = run_program(program.text, file=f"tune_r{radius_mm:g}.ngc", machine=machine)

@@ -1,7 +1,7 @@
 """Signatures in a traced circle's radial deviation dev(theta) [um] against the angle theta
 [rad] about its centre (after ISO 230-4), NumPy only: the 2nd-harmonic ellipse
 (:func:`harmonic_ellipse`, axis [deg], magnitude [um]) and the reversal spikes at the quadrant
-crossings (:func:`reversal_spikes` [um]). Angles and signs as in :mod:`sim.circular`.
+crossings (:func:`reversal_spikes` [um]). Angles and signs as in :mod:`gantry_sim.sim.circular.figures`.
 """
 
 from __future__ import annotations

@@ -10,11 +10,11 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
-from controller.dialects import Dialect
-from controller.errors import GcodeError
-from controller.expressions import MAX_PARAMETER, MAX_SETTABLE_PARAMETER, evaluate
-from controller.gcodes import G_GROUPS, M_GROUPS, g_name, m_allowed
-from controller.lexer import Block
+from gantry_sim.controller.errors import GcodeError
+from gantry_sim.controller.gcode.codes import G_GROUPS, M_GROUPS, g_name, m_allowed
+from gantry_sim.controller.gcode.dialects import Dialect
+from gantry_sim.controller.gcode.expressions import MAX_PARAMETER, MAX_SETTABLE_PARAMETER, evaluate
+from gantry_sim.controller.gcode.lexer import Block
 
 _OTHER_AXES = "ABCUVW"
 

@@ -15,7 +15,7 @@ Two methods (``[segmentation] method`` in the machine file):
 
 Both: every chord spans at most 90 degrees (so a full circle is never one zero-length chord and
 the sagitta formula stays meaningful), the vertices are computed from ``u_i = i/n`` directly on
-the arc/helix/spiral (:func:`controller.arcs.arc_points`, no accumulated rotation), and the last
+the arc/helix/spiral (:func:`gantry_sim.controller.arcs.arc_points`, no accumulated rotation), and the last
 vertex is the programmed end exactly. A helix's chord midpoint lies at the helix's mid height, so
 its distance from the helix is at most the in-plane sagitta.
 
@@ -29,9 +29,9 @@ import math
 
 import numpy as np
 
-from controller.arcs import arc_frame, arc_length_mm, arc_points
-from controller.errors import ConfigError, PlanningError
-from controller.moves import Arc
+from gantry_sim.controller.arcs import arc_frame, arc_length_mm, arc_points
+from gantry_sim.controller.errors import ConfigError, PlanningError
+from gantry_sim.controller.moves import Arc
 
 #: Upper bound on chords per arc (about 100 MB of planner state): beyond it the arc is refused.
 MAX_SEGMENTS_PER_ARC = 1_000_000

@@ -30,7 +30,7 @@ def dask_map(
     try:
         from dask.distributed import Client, LocalCluster, as_completed
     except ImportError:
-        from controller.errors import ConfigError
+        from gantry_sim.controller.errors import ConfigError
 
         raise ConfigError(
             "the dask executor needs Dask distributed: pip install 'gantry-sim[distributed]'",

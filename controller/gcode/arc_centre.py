@@ -17,7 +17,7 @@ from __future__ import annotations
 
 import math
 
-from controller.errors import GcodeError
+from gantry_sim.controller.errors import GcodeError
 
 Point2 = tuple[float, float]
 

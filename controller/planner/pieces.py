@@ -1,10 +1,10 @@
-"""One move's 1-D profile -> the reference's constant-jerk phases (:mod:`controller.cubic`).
+"""One move's 1-D profile -> the reference's constant-jerk phases (:mod:`gantry_sim.controller.planner.cubic`).
 
 Straight moves (G0/G1) are the profile projected on the line. Arcs: the profile is sampled at
-the vertices (:func:`controller.arc_states.vertex_states`: exact arc states, positions [mm],
+the vertices (:func:`gantry_sim.controller.planner.arc_states.vertex_states`: exact arc states, positions [mm],
 velocities [mm/s], accelerations [mm/s^2]) and consecutive states are joined by closed-form
-constant-jerk pieces (:mod:`controller.jerk3`); the pieces that would break a limit go to Ruckig
-through :meth:`MovePieces.ruckig_piece`, which :class:`controller.planner._Planner` provides
+constant-jerk pieces (:mod:`gantry_sim.controller.planner.jerk3`); the pieces that would break a limit go to Ruckig
+through :meth:`MovePieces.ruckig_piece`, which :class:`gantry_sim.controller.planner.plan._Planner` provides
 (Ruckig is imported there only). Pieces next to a moving junction are checked against the arc.
 """
 
@@ -14,11 +14,11 @@ from collections.abc import Sequence
 
 import numpy as np
 
-from controller.arc_states import vertex_states
-from controller.config import MachineConfig
-from controller.cubic import CubicBuilder
-from controller.jerk3 import jerk3, jerk3_points, piece_limits_ok
-from controller.path import MoveGeometry
+from gantry_sim.controller.config import MachineConfig
+from gantry_sim.controller.planner.arc_states import vertex_states
+from gantry_sim.controller.planner.cubic import CubicBuilder
+from gantry_sim.controller.planner.jerk3 import jerk3, jerk3_points, piece_limits_ok
+from gantry_sim.controller.planner.move_geometry import MoveGeometry
 
 #: Largest distance of a piece next to a moving junction from the arc, in chord tolerances;
 #: beyond it the junction's speed is lowered and the program planned again. The check samples 25

@@ -13,19 +13,19 @@ from __future__ import annotations
 import math
 from typing import TYPE_CHECKING
 
-from controller.arc_center import (
+from gantry_sim.controller.arcs import PLANE_AXES
+from gantry_sim.controller.errors import GcodeError
+from gantry_sim.controller.gcode.arc_centre import (
     centre_from_offsets,
     centre_from_radius,
     radius_mismatch,
     swept_angle,
 )
-from controller.arcs import PLANE_AXES
-from controller.dialects import Dialect
-from controller.errors import GcodeError
-from controller.moves import Arc, Vec3
+from gantry_sim.controller.gcode.dialects import Dialect
+from gantry_sim.controller.moves import Arc, Vec3
 
 if TYPE_CHECKING:
-    from controller.interpreter import ModalState
+    from gantry_sim.controller.gcode.interpreter import ModalState
 
 _AXES = "XYZ"
 _OFFSETS = "IJK"

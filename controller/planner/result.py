@@ -1,4 +1,4 @@
-"""The planner's result: a frozen :class:`Plan` (re-exported by :mod:`controller.planner`) whose
+"""The planner's result: a frozen :class:`Plan` (re-exported by :mod:`gantry_sim.controller.planner.plan`) whose
 reference is stored as constant-jerk phases and sampled vectorised."""
 
 from __future__ import annotations
@@ -7,9 +7,9 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from controller.cubic import PiecewiseCubic
-from controller.errors import ConfigError
-from controller.trajectory import Trajectory
+from gantry_sim.controller.errors import ConfigError
+from gantry_sim.controller.planner.cubic import PiecewiseCubic
+from gantry_sim.controller.trajectory import Trajectory
 
 
 @dataclass(frozen=True)

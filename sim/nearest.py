@@ -20,8 +20,8 @@ import math
 
 import numpy as np
 
-from controller.arcs import arc_derivatives, arc_frame, arc_points
-from controller.moves import Arc, Move
+from gantry_sim.controller.arcs import arc_derivatives, arc_frame, arc_points
+from gantry_sim.controller.moves import Arc, Move
 
 NEWTON_STEPS = 6
 

@@ -2,7 +2,7 @@
 
 Straight moves stay within the box of their end points; an arc or helix additionally reaches the
 quadrant points (theta = k * 90 degrees about its centre) its sweep crosses, evaluated exactly on
-the arc (slight spirals included) by :func:`controller.arcs.arc_points`.
+the arc (slight spirals included) by :func:`gantry_sim.controller.arcs.arc_points`.
 """
 
 from __future__ import annotations
@@ -12,10 +12,10 @@ from collections.abc import Sequence
 
 import numpy as np
 
-from controller.arcs import arc_frame, arc_points
-from controller.config import Travel
-from controller.errors import PlanningError
-from controller.moves import Arc, Move
+from gantry_sim.controller.arcs import arc_frame, arc_points
+from gantry_sim.controller.config import Travel
+from gantry_sim.controller.errors import PlanningError
+from gantry_sim.controller.moves import Arc, Move
 
 AXES = "XYZ"
 #: Rounding allowance at the travel limits [mm].

@@ -19,9 +19,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from controller.moves import Arc, Move
-from controller.units import UM_PER_MM
-from sim.geometry import distance_to_polyline_near, nearest_on_move
+from gantry_sim.controller.moves import Arc, Move
+from gantry_sim.controller.units import UM_PER_MM
+from gantry_sim.sim.nearest import distance_to_polyline_near, nearest_on_move
 
 #: reference samples either side searched for the tracking part (50 ms at 1 kHz)
 TRACKING_WINDOW = 50

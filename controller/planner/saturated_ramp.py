@@ -15,7 +15,7 @@ highest peak the arc's length allows (a two-phase bridge absorbs what the switch
 leaves between their peaks). The bounds come from :class:`CircleLimits` (each plane axis against
 its own limits along a plain circle: exact, so the ramps may use the stronger axis where the
 tangent points along it) or :class:`NormLimits` (orientation-free, as
-:func:`controller.boost.follow_ok` checks). On the bundled machine an R 1 circle from rest takes
+:func:`gantry_sim.controller.planner.speedup.follow_ok` checks). On the bundled machine an R 1 circle from rest takes
 0.205 s (constant-limit profiles: 0.245 s; the direct-transcription optimum with per-axis limits:
 0.199 s). Rows (dur, s, v, a, j) are the planner's 1-D profile format; the planner checks the
 pieces built on them against every limit.
@@ -39,7 +39,7 @@ SHARE = 0.94
 
 @dataclass(frozen=True)
 class NormLimits:
-    """Orientation-free bounds (those of :func:`controller.boost.follow_ok`): curvature k
+    """Orientation-free bounds (those of :func:`gantry_sim.controller.planner.speedup.follow_ok`): curvature k
     [1/mm], the third derivative's size dk [1/mm^2], the plane's acceleration [mm/s^2] and jerk
     [mm/s^3]."""
 

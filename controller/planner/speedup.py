@@ -1,13 +1,13 @@
 """Boosted 1-D profiles for arcs that ramp: exact following checked point by point.
 
-A block's limits (:func:`controller.lookahead.arc_limits`) hold at its worst speed and
+A block's limits (:func:`gantry_sim.controller.planner.lookahead.arc_limits`) hold at its worst speed and
 acceleration at once. Where an arc ramps, a faster profile may use more jerk and acceleration
 where the speed is low: :class:`FollowGeometry` holds what bounds the exact following of the arc
 (curvature [1/mm], its derivative [1/mm^2], pitch, feed cap [mm/s]), :func:`follow_ok` checks a
 profile against the axis limits [mm/s^2], [mm/s^3] point by point, :func:`boost_candidates`
 lists the (cap [mm/s], jerk [mm/s^3], acceleration [mm/s^2]) to try and
 :func:`boosted_profile` searches them, given a 1-D profile solver (Ruckig's, in
-:mod:`controller.planner`).
+:mod:`gantry_sim.controller.planner.plan`).
 """
 
 from __future__ import annotations
@@ -19,12 +19,12 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from controller.arcs import arc_frame
-from controller.saturated_ramp import SHARE as SATURATED_SHARE
-from controller.saturated_ramp import CircleLimits, NormLimits, saturated_profile
+from gantry_sim.controller.arcs import arc_frame
+from gantry_sim.controller.planner.saturated_ramp import SHARE as SATURATED_SHARE
+from gantry_sim.controller.planner.saturated_ramp import CircleLimits, NormLimits, saturated_profile
 
 if TYPE_CHECKING:
-    from controller.path import MoveGeometry
+    from gantry_sim.controller.planner.move_geometry import MoveGeometry
 
 
 def curvature_speed_cap(
@@ -54,7 +54,7 @@ BOOST_MIN_GAIN = 1.005
 
 @dataclass(frozen=True)
 class FollowGeometry:
-    """What bounds the exact following of an arc/helix (see :mod:`controller.lookahead`).
+    """What bounds the exact following of an arc/helix (see :mod:`gantry_sim.controller.planner.lookahead`).
 
     Attributes:
         plane_axes: (first, second, normal) axis indices of the arc's plane.
@@ -91,7 +91,7 @@ def follow_ok(ph: np.ndarray, fg: FollowGeometry, cap: float, amax, jmax) -> boo
     """True when following the arc exactly with the 1-D profile ``ph`` (rows: duration, s, v,
     a_t, j_t) keeps every axis within :data:`FOLLOW_MARGIN` of its acceleration and jerk limits
     and the path speed within ``cap`` [mm/s] (to rounding: the arc caps keep a margin below the
-    feed): the bounds of :mod:`controller.lookahead`, evaluated at
+    feed): the bounds of :mod:`gantry_sim.controller.planner.lookahead`, evaluated at
     9 points of every phase instead of at their worst combination (speed-dependent limits)."""
     i1, i2, n = fg.plane_axes
     k, dk, sp = fg.curvature_per_mm, fg.dcurv_per_mm2, fg.sin_pitch
@@ -208,7 +208,7 @@ def boosted_profile(
 #: An arc that starts and ends below this share of its cap (near rest: the ramps start from an
 #: exact arc state, not from a junction whose curvature jump the first piece must absorb), and
 #: whose centripetal jerk or acceleration at the cap is at least SATURATED_MIN_USE of the limit,
-#: also tries the saturated ramps (:mod:`controller.saturated_ramp`; a few tenths of a second).
+#: also tries the saturated ramps (:mod:`gantry_sim.controller.planner.saturated_ramp`; a few tenths of a second).
 SATURATED_END_SHARE = 0.1
 SATURATED_MIN_USE = 0.25
 

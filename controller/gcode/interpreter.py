@@ -14,14 +14,20 @@ from __future__ import annotations
 from collections.abc import Iterator
 from dataclasses import dataclass, replace
 
-from controller.arc_motion import arc_move
-from controller.dialects import Dialect, get_dialect
-from controller.errors import GcodeError
-from controller.gcodes import G_HANDLED, G_NO_PATH_EFFECT, G_REFUSED, M_PROGRAM_END, g_name
-from controller.lexer import Block, lex
-from controller.moves import Linear, Move, Plane, Rapid, Vec3
-from controller.units import MM_PER_INCH
-from controller.words import check_words, read_words
+from gantry_sim.controller.errors import GcodeError
+from gantry_sim.controller.gcode.arc_block import arc_move
+from gantry_sim.controller.gcode.codes import (
+    G_HANDLED,
+    G_NO_PATH_EFFECT,
+    G_REFUSED,
+    M_PROGRAM_END,
+    g_name,
+)
+from gantry_sim.controller.gcode.dialects import Dialect, get_dialect
+from gantry_sim.controller.gcode.lexer import Block, lex
+from gantry_sim.controller.gcode.words import check_words, read_words
+from gantry_sim.controller.moves import Linear, Move, Plane, Rapid, Vec3
+from gantry_sim.controller.units import MM_PER_INCH
 
 _PLANES: dict[int, Plane] = {170: "XY", 180: "XZ", 190: "YZ"}
 
@@ -168,7 +174,7 @@ def interpret(text: str, dialect: str = "linuxcnc", file: str = "<program>") -> 
 
     Args:
         text: the program.
-        dialect: one of ``controller.dialects.DIALECTS``.
+        dialect: one of ``gantry_sim.controller.gcode.dialects.DIALECTS``.
         file: the program's name, for error messages.
     """
     try:
