@@ -37,10 +37,11 @@ import numpy as np
 sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
 
 from benchmarks.junction_floor import junction_floor
-from gantry_sim.controller.arcs import PLANE_AXES, arc_derivatives, arc_frame
+from gantry_sim.controller.arcs import arc_derivatives, arc_frame
 from gantry_sim.controller.config import load_machine_config
 from gantry_sim.controller.errors import PlanningError
 from gantry_sim.controller.moves import Arc, Linear, Rapid
+from gantry_sim.controller.planes import PLANE_AXES
 from gantry_sim.controller.planner.lookahead import s_curve_time
 from gantry_sim.controller.planner.plan import plan
 from gantry_sim.models import DEFAULT_MACHINE

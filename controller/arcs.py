@@ -20,9 +20,7 @@ import math
 import numpy as np
 
 from gantry_sim.controller.moves import Arc
-
-#: (first, second, normal) axis indices per plane: a right-handed triple (G17 XY, G18 ZX, G19 YZ).
-PLANE_AXES: dict[str, tuple[int, int, int]] = {"XY": (0, 1, 2), "XZ": (2, 0, 1), "YZ": (1, 2, 0)}
+from gantry_sim.controller.planes import PLANE_AXES
 
 
 def arc_frame(arc: Arc) -> tuple[int, int, int, float, float, float, float, float, float]:
@@ -73,8 +71,7 @@ def arc_derivatives(arc: Arc, u: np.ndarray | float) -> tuple[np.ndarray, np.nda
 
 def arc_length_mm(arc: Arc) -> float:
     """Path length of the arc, helix or slight spiral [mm] (mean in-plane radius)."""
-    _, _, _, _, _, r0, r1, h0, h1 = arc_frame(arc)
-    return math.hypot(0.5 * (r0 + r1) * arc.angle, h1 - h0)
+    return arc.length_mm
 
 
 def frenet(d1: np.ndarray, d2: np.ndarray) -> tuple[np.ndarray, np.ndarray]:

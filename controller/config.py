@@ -16,8 +16,7 @@ from pathlib import Path
 from typing import Any
 
 from gantry_sim.controller.errors import ConfigError
-
-Vec3 = tuple[float, float, float]
+from gantry_sim.controller.planes import Vec3
 
 # --- value checkers: each returns the cleaned value or raises ValueError(what is allowed) ---------
 

@@ -9,11 +9,10 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
-from typing import Literal
 
-Vec3 = tuple[float, float, float]
-Plane = Literal["XY", "XZ", "YZ"]
-Direction = Literal["cw", "ccw"]
+from gantry_sim.controller.planes import PLANE_AXES, Direction, Plane, Vec3
+
+__all__ = ["Arc", "Direction", "Linear", "Move", "Plane", "Rapid", "Vec3"]
 
 
 def _vec(v: Vec3) -> list[float]:
@@ -115,10 +114,10 @@ class Arc:
 
     @property
     def length_mm(self) -> float:
-        """Path length of the arc or helix [mm] (mean radius for a slight spiral)."""
-        from gantry_sim.controller.arcs import arc_length_mm
-
-        return arc_length_mm(self)
+        """Path length of the arc, helix or slight spiral [mm] (mean in-plane radius)."""
+        i1, i2, n = PLANE_AXES[self.plane]
+        r1 = math.hypot(self.end[i1] - self.center[i1], self.end[i2] - self.center[i2])
+        return math.hypot(0.5 * (self.radius + r1) * self.angle, self.end[n] - self.start[n])
 
     def to_json(self) -> dict:
         return {

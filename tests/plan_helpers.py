@@ -9,8 +9,9 @@ import math
 
 import numpy as np
 
-from gantry_sim.controller.arcs import PLANE_AXES, arc_points
+from gantry_sim.controller.arcs import arc_points
 from gantry_sim.controller.moves import Arc
+from gantry_sim.controller.planes import PLANE_AXES
 
 #: Relative slack on the limits for rounding; jerk is a finite difference of the sampled
 #: acceleration (exact for piecewise-linear acceleration, up to rounding).

@@ -7,8 +7,8 @@ import math
 import numpy as np
 import pytest
 
-from gantry_sim.controller.arcs import PLANE_AXES
 from gantry_sim.controller.errors import ConfigError, PlanningError
+from gantry_sim.controller.planes import PLANE_AXES
 from gantry_sim.controller.planner.segment import MAX_SEGMENTS_PER_ARC, segment_arc, segment_count
 from tests.plan_helpers import arc, helix
 

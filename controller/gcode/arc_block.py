@@ -11,9 +11,7 @@ inch tolerances apply to G20 programs exactly as rs274 applies them.
 from __future__ import annotations
 
 import math
-from typing import TYPE_CHECKING
 
-from gantry_sim.controller.arcs import PLANE_AXES
 from gantry_sim.controller.errors import GcodeError
 from gantry_sim.controller.gcode.arc_centre import (
     centre_from_offsets,
@@ -22,12 +20,10 @@ from gantry_sim.controller.gcode.arc_centre import (
     swept_angle,
 )
 from gantry_sim.controller.gcode.dialects import Dialect
+from gantry_sim.controller.gcode.state import ModalState
 from gantry_sim.controller.moves import Arc, Vec3
+from gantry_sim.controller.planes import AXES, PLANE_AXES
 
-if TYPE_CHECKING:
-    from gantry_sim.controller.gcode.interpreter import ModalState
-
-_AXES = "XYZ"
 _OFFSETS = "IJK"
 P_INTEGER_TOL = 0.001  # rs274: |P - round(P)| above this is "P value not an integer"
 
@@ -65,7 +61,7 @@ def arc_move(
         d: the dialect's rules.
     """
     i1, i2, n = PLANE_AXES[s.plane]
-    a1, a2 = _AXES[i1], _AXES[i2]
+    a1, a2 = AXES[i1], AXES[i2]
     o1, o2, on = _OFFSETS[i1], _OFFSETS[i2], _OFFSETS[n]
     has_r = "R" in v
     has_ijk = any(o in v for o in _OFFSETS)

@@ -12,7 +12,7 @@ then program end), so ``G20 G1 X1`` moves to 1 inch, and ``F10 G20`` keeps 10 mm
 from __future__ import annotations
 
 from collections.abc import Iterator
-from dataclasses import dataclass, replace
+from dataclasses import replace
 
 from gantry_sim.controller.errors import GcodeError
 from gantry_sim.controller.gcode.arc_block import arc_move
@@ -25,39 +25,11 @@ from gantry_sim.controller.gcode.codes import (
 )
 from gantry_sim.controller.gcode.dialects import Dialect, get_dialect
 from gantry_sim.controller.gcode.lexer import Block, lex
+from gantry_sim.controller.gcode.state import ModalState
 from gantry_sim.controller.gcode.words import check_words, read_words
 from gantry_sim.controller.moves import Linear, Move, Plane, Rapid, Vec3
-from gantry_sim.controller.units import MM_PER_INCH
 
 _PLANES: dict[int, Plane] = {170: "XY", 180: "XZ", 190: "YZ"}
-
-
-@dataclass(frozen=True)
-class ModalState:
-    """What persists between blocks.
-
-    Attributes:
-        position: current point, program coordinates [mm].
-        motion: active motion code in tenths (0, 10, 20, 30) or None (G80 / none yet).
-        plane: active arc plane.
-        inch: G20 in effect (words in inches).
-        incremental: G91 in effect.
-        arc_absolute: G90.1 in effect (IJK are absolute centre coordinates).
-        feed_mm_per_min: current feed [mm/min]; 0 when none has been set.
-    """
-
-    position: Vec3 = (0.0, 0.0, 0.0)
-    motion: int | None = None
-    plane: Plane = "XY"
-    inch: bool = False
-    incremental: bool = False
-    arc_absolute: bool = False
-    feed_mm_per_min: float = 0.0
-
-    @property
-    def scale(self) -> float:
-        """mm per program length unit."""
-        return MM_PER_INCH if self.inch else 1.0
 
 
 class Interpreter:

@@ -11,9 +11,10 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
-from gantry_sim.controller.arcs import PLANE_AXES, arc_derivatives, arc_frame, arc_points, frenet
+from gantry_sim.controller.arcs import arc_derivatives, arc_frame, arc_points, frenet
 from gantry_sim.controller.config import MachineConfig
 from gantry_sim.controller.moves import Arc, Move, Rapid
+from gantry_sim.controller.planes import PLANE_AXES
 from gantry_sim.controller.planner.lookahead import (
     COLLINEAR_ANGLE_RAD,
     CORNER_ANGLE_RAD,

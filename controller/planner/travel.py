@@ -16,8 +16,8 @@ from gantry_sim.controller.arcs import arc_frame, arc_points
 from gantry_sim.controller.config import Travel
 from gantry_sim.controller.errors import PlanningError
 from gantry_sim.controller.moves import Arc, Move
+from gantry_sim.controller.planes import AXES
 
-AXES = "XYZ"
 #: Rounding allowance at the travel limits [mm].
 SLACK_MM = 1e-9
 

@@ -28,11 +28,11 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from gantry_sim.controller.planes import PLANE_2D
 from gantry_sim.controller.units import UM_PER_MM
 from gantry_sim.sim.circular.signatures import Ellipse, harmonic_ellipse, reversal_spikes
 
 #: (a, b) indices of the plane's 2-D coordinates in (x, y, z), in the order the plane is named.
-PLANE_2D: dict[str, tuple[int, int]] = {"XY": (0, 1), "XZ": (0, 2), "YZ": (1, 2)}
 
 
 def plane_coords(points: np.ndarray, plane: str) -> np.ndarray:

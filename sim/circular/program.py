@@ -24,15 +24,10 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
-from gantry_sim.controller.arcs import PLANE_AXES
 from gantry_sim.controller.errors import ConfigError
+from gantry_sim.controller.planes import AXES, PLANE_AXES, PLANE_WORDS, Vec3
 
-Vec3 = tuple[float, float, float]
-
-#: Plane -> the G-code word that selects it.
-PLANE_WORDS: dict[str, str] = {"XY": "G17", "XZ": "G18", "YZ": "G19"}
 _OFFSET_LETTER = "IJK"
-_AXIS_LETTER = "XYZ"
 START_DEG = 45.0
 
 
@@ -84,7 +79,7 @@ def _arc_block(
     axes = sorted((i1, i2))
     words = [g]
     if end is not None:
-        words += [f"{_AXIS_LETTER[a]}{_num(end[a])}" for a in axes]
+        words += [f"{AXES[a]}{_num(end[a])}" for a in axes]
     words += [f"{_OFFSET_LETTER[a]}{_num(centre[a] - start[a])}" for a in axes]
     return " ".join(words)
 
@@ -124,8 +119,8 @@ def circle_test_program(
     s = _point(tuple(c), plane, radius_mm, theta_s)
     p = _point(tuple(c), plane, radius_mm, theta_s + math.pi)
     axes = sorted(PLANE_AXES[plane][:2])
-    at_c = " ".join(f"{_AXIS_LETTER[a]}{_num(c[a])}" for a in range(3))
-    at_p = " ".join(f"{_AXIS_LETTER[a]}{_num(p[a])}" for a in axes)
+    at_c = " ".join(f"{AXES[a]}{_num(c[a])}" for a in range(3))
+    at_p = " ".join(f"{AXES[a]}{_num(p[a])}" for a in axes)
     out = [
         "(gantry-sim circular test, ISO 230-4 style: what a ballbar measures)",
         f"(plane {plane}, radius {_num(radius_mm)} mm, feed {_num(feed_mm_per_min)} mm/min,"

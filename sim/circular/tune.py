@@ -23,9 +23,9 @@ from __future__ import annotations
 from collections.abc import Callable
 from dataclasses import dataclass
 
-from gantry_sim.controller.arcs import PLANE_AXES
 from gantry_sim.controller.config import MachineConfig
 from gantry_sim.controller.errors import ConfigError
+from gantry_sim.controller.planes import PLANE_AXES
 from gantry_sim.controller.units import mm_per_s_to_mm_per_min
 from gantry_sim.sim.circular.program import circle_test_program
 

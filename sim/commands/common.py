@@ -6,8 +6,7 @@ import argparse
 from pathlib import Path
 
 from gantry_sim.controller.errors import GcodeError
-
-DIALECTS = ("linuxcnc", "g2core", "marlin", "laserdyne")
+from gantry_sim.controller.gcode.dialects import DIALECTS
 
 
 def add_dialect(parser: argparse.ArgumentParser) -> None:
