@@ -64,16 +64,24 @@ def speed(machine: MachineConfig) -> None:
         raw.append((time.perf_counter() - t0) * steps / (steps // 100 * 100))
     sim_s = traj.duration_s
     print(f"1. speed ({sim_s:.1f} s simulated, {steps} physics steps, best of {REPEATS})")
-    print(f"   servo loop      : {min(loop) * 1e6 / traj.t.size:6.2f} us/tick  "
-          f"{sim_s / min(loop):6.1f}x real time")
-    print(f"   raw mj_step(100): {min(raw) * 1e6 / traj.t.size:6.2f} us/tick  "
-          f"{sim_s / min(raw):6.1f}x real time")
+    print(
+        f"   servo loop      : {min(loop) * 1e6 / traj.t.size:6.2f} us/tick  "
+        f"{sim_s / min(loop):6.1f}x real time"
+    )
+    print(
+        f"   raw mj_step(100): {min(raw) * 1e6 / traj.t.size:6.2f} us/tick  "
+        f"{sim_s / min(raw):6.1f}x real time"
+    )
     print(f"   ratio loop/raw  : {min(raw) / min(loop):.2f}   (target >= 0.5, aim 0.85)")
-    print(f"   physics only    : {min(physics) * 1e6 / traj.t.size:6.2f} us/tick  "
-          f"(ratio {min(raw) / min(physics):.2f}: the loop's forces replayed open loop in C by "
-          "mujoco.rollout, the same trajectory;")
-    print("                     the ceiling of any servo loop: moving, the constraint solver "
-          "iterates, at rest it does not)")
+    print(
+        f"   physics only    : {min(physics) * 1e6 / traj.t.size:6.2f} us/tick  "
+        f"(ratio {min(raw) / min(physics):.2f}: the loop's forces replayed open loop in C by "
+        "mujoco.rollout, the same trajectory;"
+    )
+    print(
+        "                     the ceiling of any servo loop: moving, the constraint solver "
+        "iterates, at rest it does not)"
+    )
 
 
 def _physics_only(gantry, traj, force: np.ndarray) -> float:

@@ -198,7 +198,9 @@ def _read_toml(path: Path) -> dict[str, Any]:
     except FileNotFoundError:
         raise ConfigError("machine file not found", file=str(path)) from None
     except IsADirectoryError:
-        raise ConfigError("machine file is a directory, expected a TOML file", file=str(path)) from None
+        raise ConfigError(
+            "machine file is a directory, expected a TOML file", file=str(path)
+        ) from None
     except tomllib.TOMLDecodeError as exc:
         raise ConfigError(f"not valid TOML: {exc}", file=str(path)) from None
     except UnicodeDecodeError:

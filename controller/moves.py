@@ -41,7 +41,12 @@ class Rapid:
         return math.dist(self.start, self.end)
 
     def to_json(self) -> dict:
-        return {"line": self.line, "kind": self.kind, "start": _vec(self.start), "end": _vec(self.end)}
+        return {
+            "line": self.line,
+            "kind": self.kind,
+            "start": _vec(self.start),
+            "end": _vec(self.end),
+        }
 
 
 @dataclass(frozen=True)

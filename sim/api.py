@@ -110,7 +110,12 @@ def run_program(
         if exc.file is None and exc.line is not None:
             exc.file = file
         raise
-    timing: dict[str, float] = {"parse": t1 - t0, "plan": t2 - t1, "simulate": t3 - t2, "analyse": t4 - t3}
+    timing: dict[str, float] = {
+        "parse": t1 - t0,
+        "plan": t2 - t1,
+        "simulate": t3 - t2,
+        "analyse": t4 - t3,
+    }
     timing["total"] = t4 - t0
     trace = Trace(
         t=traj.t,

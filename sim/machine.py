@@ -168,7 +168,7 @@ def load_gantry(machine: MachineConfig) -> Gantry:
         ):
             raise ConfigError(
                 f"joint '{name}' must be a slide joint along the world {name.upper()} axis "
-                f"(axis=\"{' '.join(str(int(c)) for c in unit)}\")",
+                f'(axis="{" ".join(str(int(c)) for c in unit)}")',
                 file=file,
             )
         if (

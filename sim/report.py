@@ -60,7 +60,12 @@ def write_outputs(result, out_dir: Path) -> None:
         tr = result.trace
         np.savez_compressed(
             tmp / "trace.npz",
-            t=tr.t, ref=tr.ref, pos=tr.pos, line=tr.line, err_um=tr.err_um, force_N=tr.force_N,
+            t=tr.t,
+            ref=tr.ref,
+            pos=tr.pos,
+            line=tr.line,
+            err_um=tr.err_um,
+            force_N=tr.force_N,
         )
         plot_path(result, tmp / "path.png")
         plot_error(result, tmp / "error.png")

@@ -65,8 +65,12 @@ def test_rapids_do_not_count_and_blocks_are_per_feed_line():
     assert res.err_um == pytest.approx([500.0, 500.0, 2.0, 1.0])
     assert res.contour_um["max"] == pytest.approx(2.0)
     assert res.blocks == [
-        {"line": 2, "kind": "linear", "max_error_um": pytest.approx(2.0),
-         "rms_error_um": pytest.approx(math.sqrt(2.5))}
+        {
+            "line": 2,
+            "kind": "linear",
+            "max_error_um": pytest.approx(2.0),
+            "rms_error_um": pytest.approx(math.sqrt(2.5)),
+        }
     ]
     assert res.parts_um["reference_max"] == 0.0
 

@@ -43,16 +43,22 @@ def test_model_path_is_relative_to_the_machine_file(tmp_path):
 @pytest.mark.parametrize(
     ("text", "expected"),
     [
-        ("[limits]\nmax_speed = 3\n", "unknown key 'max_speed' in [limits]; valid keys: max_velocity"),
+        (
+            "[limits]\nmax_speed = 3\n",
+            "unknown key 'max_speed' in [limits]; valid keys: max_velocity",
+        ),
         ("[motor]\nx = 1\n", "unknown section [motor]; valid sections: [limits]"),
         ("[limits]\nmax_jerk_mm_per_s3 = [1, 2]\n", "list of 3 numbers"),
         ("[limits]\nmax_jerk_mm_per_s3 = [1, -2, 3]\n", "each > 0"),
         ("[limits]\nmax_jerk_mm_per_s3 = [1, nan, 3]\n", "each > 0"),
-        ("[segmentation]\nmethod = \"spline\"\n", "one of 'chord', 'fixed'"),
+        ('[segmentation]\nmethod = "spline"\n', "one of 'chord', 'fixed'"),
         ("[segmentation]\nchord_tolerance_mm = 0\n", "a finite number > 0"),
         ("[segmentation]\nchord_tolerance_mm = true\n", "a finite number > 0"),
         ("[servo]\nff_gravity = -1\n", "a finite number >= 0"),
-        ("[travel]\nmin_mm = [0, 0, 0]\nmax_mm = [0, 1, 1]\n", "x: min_mm (0.0) must be below max_mm"),
+        (
+            "[travel]\nmin_mm = [0, 0, 0]\nmax_mm = [0, 1, 1]\n",
+            "x: min_mm (0.0) must be below max_mm",
+        ),
         ("[sim]\nphysics_timestep_s = 0.01\n", "must not exceed [servo] period_s"),
         ("limits = 3\n", "'limits' must be a table"),
         ("[limits\n", "not valid TOML"),

@@ -18,8 +18,17 @@ def test_parse_prints_the_contract_keys(write_program, capsys) -> None:
     assert [r["kind"] for r in rows] == ["rapid", "arc", "linear"]
     arc = rows[1]
     assert set(arc) == {
-        "line", "kind", "start", "end", "feed", "plane", "direction", "center", "radius",
-        "turns", "angle",
+        "line",
+        "kind",
+        "start",
+        "end",
+        "feed",
+        "plane",
+        "direction",
+        "center",
+        "radius",
+        "turns",
+        "angle",
     }
     assert arc["line"] == 3 and arc["center"] == [1.0, 0.0, 0.0]
     assert arc["angle"] == pytest.approx(math.pi / 2)

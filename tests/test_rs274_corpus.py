@@ -45,11 +45,13 @@ def _expected(program: Path) -> dict:
 def _deviation_expectation(program: Path, text: str) -> tuple[dict, str]:
     """rs274's expectation cut at the first line with an A/B/C word, which must be an error."""
     want = _expected(program)
-    line = next(
-        i for i, t in enumerate(text.split("\n"), 1) if any(c in t.upper() for c in "ABC")
-    )
+    line = next(i for i, t in enumerate(text.split("\n"), 1) if any(c in t.upper() for c in "ABC"))
     motions = [m for m in want["motions"] if m["line"] < line]
-    return {**want, "motions": motions, "error": {"line": line, "message": DEVIATIONS[program.stem]}}, "axis word"
+    return {
+        **want,
+        "motions": motions,
+        "error": {"line": line, "message": DEVIATIONS[program.stem]},
+    }, "axis word"
 
 
 def _run(text: str, name: str) -> tuple[list, Exception | None]:
@@ -101,7 +103,9 @@ def _check_motion(i: int, got: dict, want: dict, unit_mm: float) -> list[str]:
 def test_matches_rs274(program: Path) -> None:
     text = program.read_bytes().decode("utf-8")  # exact bytes (CRLF kept), as `gantry parse`
     want, must_mention = (
-        _deviation_expectation(program, text) if program.stem in DEVIATIONS else (_expected(program), "")
+        _deviation_expectation(program, text)
+        if program.stem in DEVIATIONS
+        else (_expected(program), "")
     )
     moves, error = _run(text, program.name)
     got = [m.to_json() for m in moves]

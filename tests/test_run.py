@@ -19,8 +19,15 @@ from gantry_sim.sim.machine import load_gantry
 # ~1 s simulated: a lead-in, a full R5 circle at F3000, a lead-out
 CIRCLE = "G21 G17 G90 G94\nG1 X5 F3000\nG3 I-5 J0\nG1 X0\nM2\n"
 REPORT_KEYS = {
-    "program", "dialect", "cycle_time_s", "contour_error_um", "parts_um", "blocks", "limits",
-    "sim", "timing_s",
+    "program",
+    "dialect",
+    "cycle_time_s",
+    "contour_error_um",
+    "parts_um",
+    "blocks",
+    "limits",
+    "sim",
+    "timing_s",
 }
 
 
@@ -97,8 +104,12 @@ def test_cli_writes_outputs_and_gates(write_program, tmp_path, capsys):
 
 def test_bad_machine_key_exits_2(write_program, tmp_path, capsys):
     mf = machine_file(tmp_path, "[servo]\nkp = 3\n")
-    assert main(["run", str(write_program(CIRCLE)), "--machine", str(mf),
-                 "--out", str(tmp_path / "o")]) == 2
+    assert (
+        main(
+            ["run", str(write_program(CIRCLE)), "--machine", str(mf), "--out", str(tmp_path / "o")]
+        )
+        == 2
+    )
     err = capsys.readouterr().err
     assert f"{mf}: error: unknown key 'kp' in [servo]" in err and "Traceback" not in err
 
@@ -117,7 +128,7 @@ def test_divergence_is_an_error(write_program, tmp_path, capsys):
     xml = model_variant(tmp_path, forcerange="-1e9 1e9")
     mf = machine_file(
         tmp_path,
-        f'[servo]\nkp_N_per_mm = [1e6, 1e6, 1e6]\nkd_N_s_per_mm = [1e4, 1e4, 1e4]\n'
+        f"[servo]\nkp_N_per_mm = [1e6, 1e6, 1e6]\nkd_N_s_per_mm = [1e4, 1e4, 1e4]\n"
         f'[sim]\nmodel = "{xml.name}"\n',
     )
     out = tmp_path / "out"

@@ -16,7 +16,10 @@ PLANT = (
 
 def _pd_only(machine) -> DiscretePD:
     m = machine.with_changes(
-        "servo", ff_velocity=[0.0] * 3, ff_acceleration=[0.0] * 3, ff_friction=[0.0] * 3,
+        "servo",
+        ff_velocity=[0.0] * 3,
+        ff_acceleration=[0.0] * 3,
+        ff_friction=[0.0] * 3,
         ff_gravity=0.0,
     )
     return DiscretePD(m.servo, PLANT)
@@ -41,8 +44,9 @@ def test_derivative_acts_on_the_change_of_error_and_does_not_kick_at_start(machi
     servo = _pd_only(machine)
     kp, kd, t = machine.servo.kp_N_per_mm[0], machine.servo.kd_N_s_per_mm[0], machine.servo.period_s
     # error went from 0 to 0.002 mm in one period: D adds kd * 0.002 / T
-    f = _one_tick(servo, [0.002, 0, 0], [0, 0, 0], [0, 0, 0], [0, 0, 0], x_prev=[0, 0, 0],
-                  ref_prev=[0, 0, 0])
+    f = _one_tick(
+        servo, [0.002, 0, 0], [0, 0, 0], [0, 0, 0], [0, 0, 0], x_prev=[0, 0, 0], ref_prev=[0, 0, 0]
+    )
     assert f[0] == pytest.approx(kp * 0.002 + kd * 0.002 / t)
     # the same error at the first tick (previous error taken equal): no derivative kick
     f0 = _one_tick(servo, [0.002, 0, 0], [0, 0, 0], [0, 0, 0], [0, 0, 0])

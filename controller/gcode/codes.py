@@ -34,10 +34,12 @@ G_GROUPS: dict[int, str] = {
 G_HANDLED = frozenset((0, 10, 20, 30, 800, 170, 180, 190, 900, 910, 901, 911, 200, 210, 530))
 
 #: codes accepted with no effect on the programmed X/Y/Z path in work coordinates.
+# fmt: off
 G_NO_PATH_EFFECT = frozenset(
     (40, 940, 400, 430, 490, 980, 990, 540, 550, 560, 570, 580, 590, 591, 592, 593,
      610, 611, 640, 960, 970, 80, 921, 922)
 )
+# fmt: on
 
 _COORDS = "it changes the work coordinate system, which gantry-sim does not model"
 #: refused codes -> why.

@@ -18,6 +18,7 @@ from gantry_sim.controller.errors import GcodeError
 Tree = tuple
 
 #: binary operators by precedence (higher binds tighter), as in rs274's read_real_expression.
+# fmt: off
 _BINARY: dict[str, int] = {
     "**": 4,
     "*": 3, "/": 3, "MOD": 3,
@@ -28,11 +29,10 @@ _BINARY: dict[str, int] = {
 _FUNCTIONS = (
     "ABS", "ACOS", "ASIN", "COS", "EXP", "FIX", "FUP", "LN", "ROUND", "SIN", "SQRT", "TAN"
 )
+# fmt: on
 _NUM_CHARS = "0123456789."
 MAX_NESTING = 64  # brackets, signs and # per value: deeper is refused (no recursion blow-up)
-NAMED_PARAMETERS = (
-    "named parameters (#<name>) are not supported; use numbered parameters #1..#5399"
-)
+NAMED_PARAMETERS = "named parameters (#<name>) are not supported; use numbered parameters #1..#5399"
 
 
 class Reader:
@@ -129,7 +129,7 @@ class Reader:
         if not self.peek():
             raise GcodeError("unclosed expression: expected ']'")
         raise GcodeError(
-            f"unknown operator at {self.text[self.pos:self.pos + 6]!r}; allowed: + - * / MOD ** "
+            f"unknown operator at {self.text[self.pos : self.pos + 6]!r}; allowed: + - * / MOD ** "
             "EQ NE GT GE LT LE AND OR XOR"
         )
 

@@ -80,7 +80,9 @@ def read_words(block: Block, params: dict[int, float]) -> Words:
     for index_tree, value_tree in block.settings:
         index = round(evaluate(index_tree, params))
         if not 1 <= index <= MAX_PARAMETER:
-            raise GcodeError(f"parameter #{index} out of range; allowed: #1..#{MAX_SETTABLE_PARAMETER}")
+            raise GcodeError(
+                f"parameter #{index} out of range; allowed: #1..#{MAX_SETTABLE_PARAMETER}"
+            )
         if index > MAX_SETTABLE_PARAMETER:
             raise GcodeError(
                 f"parameter #{index} is read-only (system parameters #{MAX_SETTABLE_PARAMETER + 1}.."
@@ -98,12 +100,13 @@ def check_words(w: Words, motion: int | None, dialect: Dialect) -> None:
     v = w.values
     for letter in v:
         if letter in _OTHER_AXES:
-            raise GcodeError(
-                f"{letter} axis word on a 3-axis machine; allowed axes: X, Y, Z"
-            )
+            raise GcodeError(f"{letter} axis word on a 3-axis machine; allowed axes: X, Y, Z")
     arc = motion in (20, 30)
     uses = {
-        "I": arc, "J": arc, "K": arc, "R": arc,
+        "I": arc,
+        "J": arc,
+        "K": arc,
+        "R": arc,
         "P": arc or w.g.get("nonmodal") == 40 or w.g.get("path_control") == 640,
         "Q": w.g.get("path_control") == 640,
         "H": w.g.get("tool_length") == 430,
@@ -114,8 +117,11 @@ def check_words(w: Words, motion: int | None, dialect: Dialect) -> None:
         if not uses.get(letter, False):
             need = {"P": "G2, G3, G4 or G64", "Q": "G64", "H": "G43"}.get(letter, "G2 or G3")
             if letter in "DLE":
-                need = {"D": "cutter compensation (not supported)",
-                        "L": "G10 (not supported)", "E": "a code that takes E (none here; G-code numbers have no exponent, so 1e3 reads as 1 then an E word)"}[letter]
+                need = {
+                    "D": "cutter compensation (not supported)",
+                    "L": "G10 (not supported)",
+                    "E": "a code that takes E (none here; G-code numbers have no exponent, so 1e3 reads as 1 then an E word)",
+                }[letter]
             raise GcodeError(f"{letter} word with no code that uses it; {letter} needs {need}")
     if "S" not in dialect.ignored_letters and v.get("S", 0.0) < 0.0:
         raise GcodeError("negative S word; the spindle speed must be >= 0")

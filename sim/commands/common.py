@@ -40,7 +40,9 @@ def read_program(path: Path) -> str:
     except FileNotFoundError:
         raise GcodeError("program file not found", file=str(path)) from None
     except IsADirectoryError:
-        raise GcodeError("program path is a directory, expected a G-code file", file=str(path)) from None
+        raise GcodeError(
+            "program path is a directory, expected a G-code file", file=str(path)
+        ) from None
     except OSError as exc:
         raise GcodeError(f"cannot read program: {exc.strerror}", file=str(path)) from None
     if b"\x00" in data:
