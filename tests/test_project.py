@@ -1,4 +1,5 @@
-"""Project hygiene: lint clean, and CI runs exactly the README's test command."""
+"""Project hygiene: lint, format and type checks clean, and CI runs exactly the README's test
+command."""
 
 from __future__ import annotations
 
@@ -43,3 +44,15 @@ def test_ruff_format_clean():
         [ruff, "format", "--check", str(ROOT)], capture_output=True, text=True, cwd=ROOT
     )
     assert result.returncode == 0, result.stdout + result.stderr
+
+
+def test_mypy_clean():
+    """mypy on controller/ and sim/ under their installed names (scripts/typecheck.py)."""
+    pytest.importorskip("mypy", reason="mypy is not installed (it is in the [test] extra)")
+    result = subprocess.run(
+        [sys.executable, str(ROOT / "scripts" / "typecheck.py")],
+        capture_output=True,
+        text=True,
+        timeout=600,
+    )
+    assert result.returncode == 0, result.stdout[-4000:] + result.stderr[-2000:]
