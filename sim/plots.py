@@ -23,6 +23,7 @@ from matplotlib.figure import Figure
 from gantry_sim.controller.arcs import arc_points
 from gantry_sim.controller.moves import Arc, Move
 from gantry_sim.sim.circular.figures import CircleAnalysis
+from gantry_sim.sim.contour import ContourStats
 from gantry_sim.sim.trace import Trace
 
 #: resolution of every saved PNG [dots per inch]
@@ -56,7 +57,7 @@ def _nice(x: float) -> float:
 
 
 def save_path_plot(
-    path: Path, moves: Sequence[Move], trace: Trace, program: str, contour_um: Mapping[str, float]
+    path: Path, moves: Sequence[Move], trace: Trace, program: str, contour: ContourStats
 ) -> None:
     """path.png: the commanded geometry, and the traced path with its error magnified, in the
     plane of largest extent.
@@ -66,7 +67,7 @@ def save_path_plot(
         moves: the commanded moves (work coordinates [mm]).
         trace: the run's per-tick arrays.
         program: the program's name (title).
-        contour_um: the contour error statistics "max", "rms" [um] (title).
+        contour: the run's contour error statistics (title).
     """
     tr = trace
     polys = [(_geometry_polyline(mv), mv.kind) for mv in moves]
@@ -97,19 +98,19 @@ def save_path_plot(
     ax.set_aspect("equal", adjustable="datalim")
     ax.set_xlabel(f"{'XYZ'[i]} [mm]")
     ax.set_ylabel(f"{'XYZ'[j]} [mm]")
-    ce = contour_um
-    ax.set_title(f"{program}: max {ce['max']:.2f} um, rms {ce['rms']:.2f} um")
+    ce = contour
+    ax.set_title(f"{program}: max {ce.max_um:.2f} um, rms {ce.rms_um:.2f} um")
     ax.legend(loc="best", fontsize=8)
     fig.savefig(path)
 
 
-def save_error_plot(path: Path, trace: Trace, contour_um: Mapping[str, float]) -> None:
+def save_error_plot(path: Path, trace: Trace, contour: ContourStats) -> None:
     """error.png: contour error along the program (feed moves) and the line being executed.
 
     Args:
         path: the PNG to write.
         trace: the run's per-tick arrays.
-        contour_um: the contour error statistics "max", "p95", "rms" [um] (title, max line).
+        contour: the run's contour error statistics (title, max line).
     """
     tr = trace
     err = np.where(tr.feed, tr.err_um, np.nan)
@@ -117,9 +118,9 @@ def save_error_plot(path: Path, trace: Trace, contour_um: Mapping[str, float]) -
     ax1, ax2 = fig.subplots(2, 1, sharex=True, height_ratios=(3, 1))
     ax1.plot(tr.t, err, color="tab:red", lw=0.8)
     ax1.set_ylabel("contour error [um]")
-    ce = contour_um
-    ax1.axhline(ce["max"], color="0.5", lw=0.6, ls=":")
-    ax1.set_title(f"max {ce['max']:.2f} um, p95 {ce['p95']:.2f} um, rms {ce['rms']:.2f} um")
+    ce = contour
+    ax1.axhline(ce.max_um, color="0.5", lw=0.6, ls=":")
+    ax1.set_title(f"max {ce.max_um:.2f} um, p95 {ce.p95_um:.2f} um, rms {ce.rms_um:.2f} um")
     ax2.step(tr.t, tr.line, where="post", color="k", lw=0.8)
     ax2.set_ylabel("line")
     ax2.set_xlabel("time [s]")

@@ -68,6 +68,15 @@ def test_short_circle_end_to_end(machine):
     assert tr.pos.shape == tr.ref.shape == (tr.t.size, 3)
     assert float(tr.err_um[tr.feed].max()) == rep["contour_error_um"]["max"]
     assert np.abs(tr.pos - tr.ref).max() < 0.01  # traced within 10 um of the reference
+    # the typed report is what report.json holds, field for field
+    typed = res.run_report
+    assert typed.to_json() == rep
+    assert typed.contour_error_um.max_um == rep["contour_error_um"]["max"]
+    assert [b.line for b in typed.blocks] == [2, 3, 4]
+    circle = typed.block(3)
+    assert circle is not None and circle.kind == "arc"
+    assert circle.max_error_um == rep["blocks"][1]["max_error_um"]
+    assert typed.block(1) is None  # no feed block on line 1
 
 
 def test_runner_executes_the_servo_law(machine):

@@ -112,12 +112,12 @@ def run_point(
             "p95_error_um": nan,
             "status": f"simulation error: {exc.message}",
         }
-    err = result.report["contour_error_um"]
+    report = result.run_report
     return row | {
-        "cycle_time_s": float(result.report["cycle_time_s"]),
-        "max_error_um": float(err["max"]),
-        "rms_error_um": float(err["rms"]),
-        "p95_error_um": float(err["p95"]),
+        "cycle_time_s": report.cycle_time_s,
+        "max_error_um": report.contour_error_um.max_um,
+        "rms_error_um": report.contour_error_um.rms_um,
+        "p95_error_um": report.contour_error_um.p95_um,
         "status": "ok",
     }
 
