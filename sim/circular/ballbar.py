@@ -1,9 +1,9 @@
 """The virtual ballbar: run the circular-test program CCW and CW, analyse, write the outputs.
 
-One simulation runs the whole program (sim.ballbar_program: CCW then CW, each a tangent
+One simulation runs the whole program (sim.circular.program: CCW then CW, each a tangent
 lead-in, the measured full circle and a tangent lead-out). The traced tool tip of each
 direction's circle block (the samples whose reference executes that line) is analysed by
-sim.circular in the plane's coordinates; positions are work coordinates [mm].
+sim.circular.figures in the plane's coordinates; positions are work coordinates [mm].
 """
 
 from __future__ import annotations
@@ -38,7 +38,7 @@ class BallbarResult:
     Attributes:
         program: the circular-test program that was run.
         run: the simulation's result (sim.api.RunResult: report, trace, moves).
-        ccw / cw: each direction's figures (sim.circular.CircleAnalysis).
+        ccw / cw: each direction's figures (sim.circular.figures.CircleAnalysis).
         summary: the ``gantry ballbar`` contract object.
     """
 

@@ -1,6 +1,6 @@
 """Feed tuning: per radius, the highest feed whose full circle stays within a contour tolerance.
 
-The test program per radius is sim.ballbar_program's (CCW only): a tangent 180-degree run-in arc,
+The test program per radius is sim.circular.program's (CCW only): a tangent 180-degree run-in arc,
 one full circle, a tangent run-out arc. The error counted is the circle block's own max contour
 error (the run report's block for its line), so lead-in and lead-out transients do not count.
 
