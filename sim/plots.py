@@ -19,6 +19,7 @@ from typing import Any, Protocol
 import numpy as np
 from matplotlib.backends.backend_agg import FigureCanvasAgg
 from matplotlib.figure import Figure
+from matplotlib.projections.polar import PolarAxes
 
 from gantry_sim.controller.arcs import arc_points
 from gantry_sim.controller.moves import Arc, Move
@@ -150,6 +151,7 @@ def save_polar_plot(
     span = max(hi - lo, 1.0)
     fig = _figure((7, 8))
     ax = fig.add_subplot(projection="polar")
+    assert isinstance(ax, PolarAxes)  # for the type checker: the polar projection's class
     for res, colour in ((ccw, "tab:blue"), (cw, "tab:red")):
         order = np.argsort(res.theta_deg)
         th = np.radians(res.theta_deg[order])

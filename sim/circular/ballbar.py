@@ -117,7 +117,6 @@ def write_ballbar_outputs(result: BallbarResult, out_dir: Path) -> None:
         (tmp / "ballbar.json").write_text(json.dumps(result.summary, indent=2) + "\n")
         (tmp / "ballbar.ngc").write_text(result.program.text)
         for d in DIRECTIONS:
-            np.savez_compressed(
-                tmp / f"trace_{d}.npz", **direction_trace(result.run, result.program, d)
-            )
+            tr = direction_trace(result.run, result.program, d)
+            np.savez_compressed(tmp / f"trace_{d}.npz", t=tr["t"], ref=tr["ref"], pos=tr["pos"])
         save_polar_plot(tmp / "polar.png", result.ccw, result.cw, result.summary)
