@@ -111,9 +111,9 @@ def accuracy(machine: MachineConfig) -> None:
     for feed in (3000, 10000):
         row = []
         for m in (machine, pd_only):
-            rep = run_program(circle(10, feed), machine=m).report
-            blk = next(b for b in rep["blocks"] if b["line"] == 3)
-            row.append(f"max {blk['max_error_um']:6.2f} rms {blk['rms_error_um']:6.2f}")
+            blk = run_program(circle(10, feed), machine=m).run_report.block(3)
+            assert blk is not None, "the circle block (line 3) has no contour error"
+            row.append(f"max {blk.max_error_um:6.2f} rms {blk.rms_error_um:6.2f}")
         print(f"   F{feed:<6}  {row[0]}   {row[1]}")
     print("   target: <= 6 um max at F3000 with the default feedforward")
 

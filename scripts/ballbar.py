@@ -5,7 +5,7 @@
 
 Prints the figures per direction (G, F max/min, reversal spikes, centre offset), the
 bidirectional deviation and the ellipse; writes ballbar.json, polar.png, ballbar.ngc and the
-traces with --out. Uses the public API: sim.ballbar.run_ballbar / write_ballbar_outputs.
+traces with --out. Uses the public API: gantry_sim.sim.circular.ballbar.run_ballbar / write_ballbar_outputs.
 """
 
 from __future__ import annotations

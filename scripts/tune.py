@@ -3,8 +3,8 @@
 
     python scripts/tune.py --radii 5,10,25,50 --tolerance-um 10
 
-Bisection on simulations of the tune program (sim.tune); prints one row per radius and what
-limited it. Uses the public API: sim.tune.tune.
+Bisection on simulations of the tune program (gantry_sim.sim.circular.tune); prints one row per radius and what
+limited it. Uses the public API: gantry_sim.sim.circular.tune.tune.
 """
 
 from __future__ import annotations

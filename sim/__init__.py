@@ -1,4 +1,22 @@
-"""gantry-sim simulation side: MuJoCo runner, analysis, reports and the ``gantry`` CLI.
+"""gantry-sim's simulation side: the MuJoCo machine, contour analysis, outputs and the CLI.
 
-Only this package imports mujoco (lazily, inside the commands that need it).
+The stages after planning, in the order a run goes through them (``gantry run``; the Python
+entry point is :mod:`.api`):
+
+    api.py           run_program / write_run_outputs: interpret -> plan -> simulate -> analyse
+    machine.py       MJCF -> Gantry: axis names resolved, plant read, work origin placed (SI <-> mm)
+    site_slides.py   closed-form tool site when only slide joints carry it (fast trace)
+    runner.py        the servo loop around mj_step: one discrete PD tick, then physics substeps
+    trace.py         Trace: the per-tick arrays of a run (trace.npz)
+    nearest.py       nearest points on commanded lines, arcs and helices
+    contour.py       contour error against the commanded geometry; chord/reference/tracking parts
+    report.py        RunReport (typed) -> report.json; write_outputs (report, trace, plots)
+    plots.py         every figure (path, error, polar, tune, sweep): Figure + Agg, no pyplot
+    outdir.py        outputs never half-written (temporary sibling, then rename)
+    circular/        circular tests after ISO 230-4: the virtual ballbar and feed tuning
+    sweep/           one simulation per grid point of feed override x accel x jerk
+    cli.py           ``gantry``: dispatcher over commands/
+    commands/        one module per subcommand: arguments, calls into the above, printing
+
+Only this package imports mujoco and matplotlib, and lazily: ``gantry`` starts without them.
 """

@@ -5,7 +5,8 @@
     from gantry_sim.sim.api import run_program, write_run_outputs
 
     result = run_program(text, file="part.ngc", machine=load_machine_config(DEFAULT_MACHINE))
-    result.report["contour_error_um"]["max"]      # [um]
+    result.report["contour_error_um"]["max"]      # [um], report.json's dict
+    result.run_report.contour_error_um.max_um     # [um], the same, typed (sim.report.RunReport)
     write_run_outputs(result, Path("out"))        # report.json, trace.npz, path.png, error.png
 
 Pipeline: interpret -> plan (Ruckig) -> sample at the servo period -> simulate (discrete PD in
@@ -17,37 +18,13 @@ from __future__ import annotations
 
 import time
 from dataclasses import dataclass
+from functools import cached_property
 from pathlib import Path
-
-import numpy as np
 
 from gantry_sim.controller.config import MachineConfig
 from gantry_sim.controller.errors import GantryError
-
-
-@dataclass(frozen=True)
-class Trace:
-    """Per servo tick, program (work) coordinates.
-
-    Attributes:
-        t: (N,) time [s].
-        ref: (N, 3) commanded reference [mm].
-        pos: (N, 3) traced tool tip from MuJoCo [mm].
-        line: (N,) program line being executed.
-        err_um: (N,) contour error of each traced point against the commanded geometry [um].
-        nearest: (N, 3) nearest commanded point to each traced point [mm].
-        feed: (N,) True on feed moves (G1/G2/G3), False on rapids.
-        force_N: (N, 3) drive force held over each tick per axis [N].
-    """
-
-    t: np.ndarray
-    ref: np.ndarray
-    pos: np.ndarray
-    line: np.ndarray
-    err_um: np.ndarray
-    nearest: np.ndarray
-    feed: np.ndarray
-    force_N: np.ndarray
+from gantry_sim.sim.report import RunReport
+from gantry_sim.sim.trace import Trace
 
 
 @dataclass(frozen=True)
@@ -55,14 +32,19 @@ class RunResult:
     """A finished run.
 
     Attributes:
-        report: exactly the content of report.json (see README, "Running a simulation").
+        run_report: the report, typed (sim.report.RunReport); :attr:`report` is its JSON form.
         trace: the per-tick arrays (trace.npz).
         moves: the interpreter's moves (the commanded geometry).
     """
 
-    report: dict
+    run_report: RunReport
     trace: Trace
     moves: tuple
+
+    @cached_property
+    def report(self) -> dict:
+        """Exactly the content of report.json (see README, "Running a simulation")."""
+        return self.run_report.to_json()
 
 
 def run_program(
@@ -139,7 +121,7 @@ def run_program(
         analysis=result,
         timing=timing,
     )
-    return RunResult(report=report, trace=trace, moves=moves)
+    return RunResult(run_report=report, trace=trace, moves=moves)
 
 
 def write_run_outputs(result: RunResult, out_dir: Path) -> None:
@@ -150,4 +132,4 @@ def write_run_outputs(result: RunResult, out_dir: Path) -> None:
     """
     from gantry_sim.sim.report import write_outputs
 
-    write_outputs(result, Path(out_dir))
+    write_outputs(result.run_report, result.trace, result.moves, Path(out_dir))

@@ -30,6 +30,52 @@ CHORD_FRACTIONS = (0.25, 0.5, 0.75)
 
 
 @dataclass(frozen=True)
+class ContourStats:
+    """Statistics of a set of contour errors [um]: largest, root mean square, 95th percentile."""
+
+    max_um: float
+    rms_um: float
+    p95_um: float
+
+    def to_json(self) -> dict[str, float]:
+        return {"max": self.max_um, "rms": self.rms_um, "p95": self.p95_um}
+
+
+@dataclass(frozen=True)
+class ErrorParts:
+    """The largest of each part of the contour error [um] (see the module docstring)."""
+
+    chord_max_um: float
+    reference_max_um: float
+    tracking_max_um: float
+
+    def to_json(self) -> dict[str, float]:
+        return {
+            "chord_max": self.chord_max_um,
+            "reference_max": self.reference_max_um,
+            "tracking_max": self.tracking_max_um,
+        }
+
+
+@dataclass(frozen=True)
+class BlockError:
+    """The contour error of one feed block (all samples executing its line) [um]."""
+
+    line: int
+    kind: str
+    max_error_um: float
+    rms_error_um: float
+
+    def to_json(self) -> dict[str, int | str | float]:
+        return {
+            "line": self.line,
+            "kind": self.kind,
+            "max_error_um": self.max_error_um,
+            "rms_error_um": self.rms_error_um,
+        }
+
+
+@dataclass(frozen=True)
 class Analysis:
     """Contour error of a trace.
 
@@ -37,17 +83,17 @@ class Analysis:
         err_um: (N,) contour error of each traced point [um].
         nearest: (N, 3) the nearest commanded point to each traced point [mm].
         feed: (N,) True where the sample belongs to a feed move (G1/G2/G3).
-        contour_um: {"max", "rms", "p95"} over the feed samples [um].
-        parts_um: {"chord_max", "reference_max", "tracking_max"} [um].
-        blocks: per feed block in program order: {"line", "kind", "max_error_um", "rms_error_um"}.
+        contour: statistics over the feed samples [um].
+        parts: the largest chord, reference and tracking parts [um].
+        blocks: per feed block in program order.
     """
 
     err_um: np.ndarray
     nearest: np.ndarray
     feed: np.ndarray
-    contour_um: dict
-    parts_um: dict
-    blocks: list
+    contour: ContourStats
+    parts: ErrorParts
+    blocks: tuple[BlockError, ...]
 
 
 def _candidate_ranges(moves: Sequence[Move], lines: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -92,14 +138,14 @@ def distance_to_program(
     return best, nearest
 
 
-def _stats(err_um: np.ndarray) -> dict:
+def _stats(err_um: np.ndarray) -> ContourStats:
     if err_um.size == 0:
-        return {"max": 0.0, "rms": 0.0, "p95": 0.0}
-    return {
-        "max": float(err_um.max()),
-        "rms": float(np.sqrt(np.mean(err_um**2))),
-        "p95": float(np.percentile(err_um, 95)),
-    }
+        return ContourStats(0.0, 0.0, 0.0)
+    return ContourStats(
+        max_um=float(err_um.max()),
+        rms_um=float(np.sqrt(np.mean(err_um**2))),
+        p95_um=float(np.percentile(err_um, 95)),
+    )
 
 
 def chord_max_um(moves: Sequence[Move], vertices: Sequence[np.ndarray] | None) -> float:
@@ -140,7 +186,7 @@ def analyse(
     err_um = dist * UM_PER_MM
     ref_um = distance_to_program(moves, line[feed], ref[feed])[0] * UM_PER_MM
     track_um = distance_to_polyline_near(ref, pos, TRACKING_WINDOW)[feed] * UM_PER_MM
-    blocks = []
+    blocks: list[BlockError] = []
     seen: set[int] = set()
     for mv in moves:
         if mv.kind == "rapid" or mv.line in seen:
@@ -148,19 +194,12 @@ def analyse(
         seen.add(mv.line)
         e = err_um[line == mv.line]
         s = _stats(e)
-        blocks.append(
-            {
-                "line": int(mv.line),
-                "kind": mv.kind,
-                "max_error_um": s["max"],
-                "rms_error_um": s["rms"],
-            }
-        )
-    parts = {
-        "chord_max": chord_max_um(moves, vertices),
-        "reference_max": float(ref_um.max()) if ref_um.size else 0.0,
-        "tracking_max": float(track_um.max()) if track_um.size else 0.0,
-    }
+        blocks.append(BlockError(int(mv.line), mv.kind, s.max_um, s.rms_um))
+    parts = ErrorParts(
+        chord_max_um=chord_max_um(moves, vertices),
+        reference_max_um=float(ref_um.max()) if ref_um.size else 0.0,
+        tracking_max_um=float(track_um.max()) if track_um.size else 0.0,
+    )
     for arr in (err_um, nearest, feed):
         arr.setflags(write=False)
-    return Analysis(err_um, nearest, feed, _stats(err_um[feed]), parts, blocks)
+    return Analysis(err_um, nearest, feed, _stats(err_um[feed]), parts, tuple(blocks))

@@ -10,8 +10,9 @@ when the joints stand at ``work_origin_joint_mm``; the servo works in joint coor
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from dataclasses import dataclass
-from typing import Any
+from typing import Any, TypeVar
 
 import numpy as np
 
@@ -25,6 +26,8 @@ TOOL_SITE = "tool"
 MM_PER_M = 1000.0
 #: damping [N s/m] * this = [N s/mm]
 N_S_PER_MM_PER_N_S_PER_M = 1e-3
+
+T = TypeVar("T")
 
 
 def _names(model: Any, obj: int, count: int) -> list[str]:
@@ -103,10 +106,7 @@ class Gantry:
 
     def joint_qpos_m(self, joint_mm: np.ndarray) -> np.ndarray:
         """Joint positions [mm] in axis order -> a full qpos vector [m]."""
-        qpos = self.model.qpos0.copy()
-        for i, adr in enumerate(self.qpos_adr):
-            qpos[adr] = joint_mm[i] / MM_PER_M
-        return qpos
+        return _qpos_m(self.model, self.qpos_adr, joint_mm)
 
     def work_to_joint_mm(self, work_mm: np.ndarray) -> np.ndarray:
         """Program (work) coordinates (..., 3) [mm] -> joint coordinates (..., 3) [mm]."""
@@ -140,24 +140,71 @@ def load_gantry(machine: MachineConfig) -> Gantry:
             ``tool`` site (the message lists the ones it has), a joint is not a slide along its
             world axis, or an actuator is not a plain force motor.
     """
+    file = machine.sim.model
+    model, data = _load_model(file, machine.sim.physics_timestep_s)
+    joints, acts, site = _resolve_names(model, file)
+    plant, gear = _read_plant(model, joints, acts, file)
+    qpos_adr = _xyz([int(model.jnt_qposadr[j]) for j in joints])
+    origin = machine.sim.work_origin_joint_mm
+    gantry = Gantry(
+        model=model,
+        qpos_adr=qpos_adr,
+        dof_adr=_xyz([int(model.jnt_dofadr[j]) for j in joints]),
+        actuator_id=acts,
+        site_id=site,
+        plant=plant,
+        gear=gear,
+        origin_joint_mm=origin,
+        tool_origin_m=_tool_origin_m(model, data, qpos_adr, site, origin),
+        substeps=round(machine.servo.period_s / machine.sim.physics_timestep_s),
+        site_slides=site_slides(model, site),
+    )
+    _check_travel(gantry, machine, file)
+    return gantry
+
+
+def _xyz(values: Sequence[T]) -> tuple[T, T, T]:
+    """Three per-axis values (x, y, z) as a typed triple."""
+    x, y, z = values
+    return (x, y, z)
+
+
+def _load_model(file: str, timestep_s: float) -> tuple[Any, Any]:
+    """Compile the MJCF at ``file`` with the machine file's physics timestep [s]: (model, data)."""
     import mujoco
 
-    file = machine.sim.model
     try:
         model = mujoco.MjModel.from_xml_path(file)
     except (ValueError, OSError) as exc:
         raise ConfigError(f"cannot load the MJCF model: {exc}".strip(), file=file) from None
-    model.opt.timestep = machine.sim.physics_timestep_s
-    substeps = round(machine.servo.period_s / machine.sim.physics_timestep_s)
-
-    joints = [_lookup(model, mujoco.mjtObj.mjOBJ_JOINT, "joint", a, model.njnt, file) for a in AXES]
-    acts = [
-        _lookup(model, mujoco.mjtObj.mjOBJ_ACTUATOR, "actuator", a, model.nu, file) for a in AXES
-    ]
-    site = _lookup(model, mujoco.mjtObj.mjOBJ_SITE, "site", TOOL_SITE, model.nsite, file)
-
+    model.opt.timestep = timestep_s
     data = mujoco.MjData(model)
     mujoco.mj_setConst(model, data)
+    return model, data
+
+
+def _resolve_names(model: Any, file: str) -> tuple[tuple[int, int, int], tuple[int, int, int], int]:
+    """Step 1, names: the indices of joints x, y, z, of actuators x, y, z and of the tool site."""
+    import mujoco
+
+    joints = _xyz(
+        [_lookup(model, mujoco.mjtObj.mjOBJ_JOINT, "joint", a, model.njnt, file) for a in AXES]
+    )
+    acts = _xyz(
+        [_lookup(model, mujoco.mjtObj.mjOBJ_ACTUATOR, "actuator", a, model.nu, file) for a in AXES]
+    )
+    site = _lookup(model, mujoco.mjtObj.mjOBJ_SITE, "site", TOOL_SITE, model.nsite, file)
+    return joints, acts, site
+
+
+def _read_plant(
+    model: Any, joints: tuple[int, int, int], acts: tuple[int, int, int], file: str
+) -> tuple[tuple[AxisPlant, AxisPlant, AxisPlant], tuple[float, float, float]]:
+    """Step 2, plant: per axis the AxisPlant (moved mass, damping, friction, gravity load,
+    force range [N]) and the actuator's gear, after checking that each joint is a slide along
+    its world axis and each actuator a plain force motor on it."""
+    import mujoco
+
     gravity = np.asarray(model.opt.gravity, dtype=float)
     plant = []
     gear = []
@@ -207,25 +254,31 @@ def load_gantry(machine: MachineConfig) -> Gantry:
             )
         )
         gear.append(g)
+    return _xyz(plant), _xyz(gear)
 
-    gantry = Gantry(
-        model=model,
-        qpos_adr=tuple(int(model.jnt_qposadr[j]) for j in joints),  # type: ignore[arg-type]
-        dof_adr=tuple(int(model.jnt_dofadr[j]) for j in joints),  # type: ignore[arg-type]
-        actuator_id=tuple(acts),  # type: ignore[arg-type]
-        site_id=site,
-        plant=tuple(plant),  # type: ignore[arg-type]
-        gear=tuple(gear),  # type: ignore[arg-type]
-        origin_joint_mm=machine.sim.work_origin_joint_mm,
-        tool_origin_m=np.zeros(3),
-        substeps=substeps,
-    )
-    data.qpos[:] = gantry.joint_qpos_m(np.asarray(machine.sim.work_origin_joint_mm))
+
+def _qpos_m(model: Any, qpos_adr: tuple[int, int, int], joint_mm: np.ndarray) -> np.ndarray:
+    """Joint positions [mm] in axis order -> a full qpos vector [m] (others at qpos0)."""
+    qpos = model.qpos0.copy()
+    for i, adr in enumerate(qpos_adr):
+        qpos[adr] = joint_mm[i] / MM_PER_M
+    return qpos
+
+
+def _tool_origin_m(
+    model: Any,
+    data: Any,
+    qpos_adr: tuple[int, int, int],
+    site: int,
+    origin_joint_mm: tuple[float, float, float],
+) -> np.ndarray:
+    """Step 3, work origin: the tool site's world position [m] with the joints at the work
+    origin ``origin_joint_mm`` [mm] (``mj_kinematics`` on ``data``)."""
+    import mujoco
+
+    data.qpos[:] = _qpos_m(model, qpos_adr, np.asarray(origin_joint_mm))
     mujoco.mj_kinematics(model, data)
-    object.__setattr__(gantry, "tool_origin_m", data.site_xpos[site].copy())
-    object.__setattr__(gantry, "site_slides", site_slides(model, site))
-    _check_travel(gantry, machine, file)
-    return gantry
+    return data.site_xpos[site].copy()
 
 
 def _check_travel(gantry: Gantry, machine: MachineConfig, file: str) -> None:

@@ -19,6 +19,7 @@ from __future__ import annotations
 import math
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 from gantry_sim.controller.arcs import arc_derivatives, arc_frame, arc_points
 from gantry_sim.controller.moves import Arc, Move
@@ -26,7 +27,7 @@ from gantry_sim.controller.moves import Arc, Move
 NEWTON_STEPS = 6
 
 
-def nearest_on_segment(a, b, pts: np.ndarray) -> np.ndarray:
+def nearest_on_segment(a: ArrayLike, b: ArrayLike, pts: np.ndarray) -> np.ndarray:
     """Nearest points (n, 3) on the segment a-b [mm] to ``pts`` (n, 3) [mm]."""
     a = np.asarray(a, dtype=float)
     d = np.asarray(b, dtype=float) - a

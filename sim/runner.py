@@ -21,6 +21,7 @@ from __future__ import annotations
 import sys
 import time
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 
@@ -147,7 +148,7 @@ def simulate(
 
 
 def _check(
-    d,
+    d: Any,
     machine: MachineConfig,
     traj: Trajectory,
     work_mm: np.ndarray,

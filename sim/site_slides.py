@@ -20,7 +20,7 @@ def site_slides(model: Any, site: int) -> tuple[np.ndarray, np.ndarray] | None:
     None when a joint between the site and the world rotates (or the map misses MuJoCo)."""
     import mujoco
 
-    joints = []
+    joints: list[int] = []
     body = int(model.site_bodyid[site])
     while body > 0:
         start = int(model.body_jntadr[body])

@@ -9,7 +9,7 @@ import pytest
 
 from gantry_sim.controller.arcs import arc_derivatives, arc_points
 from gantry_sim.controller.gcode.interpreter import interpret
-from gantry_sim.sim.contour import analyse, distance_to_program
+from gantry_sim.sim.contour import BlockError, analyse, distance_to_program
 from gantry_sim.sim.nearest import distance_to_polyline_near, nearest_on_arc
 
 
@@ -63,16 +63,16 @@ def test_rapids_do_not_count_and_blocks_are_per_feed_line():
     pos = ref + np.array([[0, 0.5, 0], [0, 0.5, 0], [0, 0.002, 0], [0, 0.001, 0]])
     res = analyse(moves, np.array([1, 1, 2, 2]), ref, pos)
     assert res.err_um == pytest.approx([500.0, 500.0, 2.0, 1.0])
-    assert res.contour_um["max"] == pytest.approx(2.0)
-    assert res.blocks == [
-        {
-            "line": 2,
-            "kind": "linear",
-            "max_error_um": pytest.approx(2.0),
-            "rms_error_um": pytest.approx(math.sqrt(2.5)),
-        }
-    ]
-    assert res.parts_um["reference_max"] == 0.0
+    assert res.contour.max_um == pytest.approx(2.0)
+    assert res.blocks == (
+        BlockError(
+            line=2,
+            kind="linear",
+            max_error_um=pytest.approx(2.0),
+            rms_error_um=pytest.approx(math.sqrt(2.5)),
+        ),
+    )
+    assert res.parts.reference_max_um == 0.0
 
 
 def test_tracking_distance_to_the_reference_polyline_matches_brute_force():

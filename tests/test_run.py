@@ -9,12 +9,11 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from gantry_sim.controller.config import load_machine_config
 from gantry_sim.controller.servo import DiscretePD
-from gantry_sim.models import DEFAULT_MACHINE, GANTRY_XML
 from gantry_sim.sim.api import run_program
 from gantry_sim.sim.cli import main
 from gantry_sim.sim.machine import load_gantry
+from tests.machine_variants import AXIS_NAMES, UNLIMITED_FORCE, gantry_variant, write_variant
 
 # ~1 s simulated: a lead-in, a full R5 circle at F3000, a lead-out
 CIRCLE = "G21 G17 G90 G94\nG1 X5 F3000\nG3 I-5 J0\nG1 X0\nM2\n"
@@ -29,20 +28,6 @@ REPORT_KEYS = {
     "sim",
     "timing_s",
 }
-
-
-def model_variant(tmp_path: Path, **joint_attrs: str) -> Path:
-    """A copy of the bundled MJCF with joint attributes (damping, frictionloss) or the actuators'
-    force ranges (``forcerange``) replaced on every axis."""
-    text = GANTRY_XML.read_text()
-    for attr, value in joint_attrs.items():
-        if attr == "forcerange":
-            text = re.sub(r'(ctrlrange|forcerange)="[^"]*"', rf'\1="{value}"', text)
-        else:
-            text = re.sub(rf'{attr}="[^"]*"', f'{attr}="{value}"', text)
-    path = tmp_path / "variant.xml"
-    path.write_text(text)
-    return path
 
 
 def machine_file(tmp_path: Path, text: str) -> Path:
@@ -68,6 +53,15 @@ def test_short_circle_end_to_end(machine):
     assert tr.pos.shape == tr.ref.shape == (tr.t.size, 3)
     assert float(tr.err_um[tr.feed].max()) == rep["contour_error_um"]["max"]
     assert np.abs(tr.pos - tr.ref).max() < 0.01  # traced within 10 um of the reference
+    # the typed report is what report.json holds, field for field
+    typed = res.run_report
+    assert typed.to_json() == rep
+    assert typed.contour_error_um.max_um == rep["contour_error_um"]["max"]
+    assert [b.line for b in typed.blocks] == [2, 3, 4]
+    circle = typed.block(3)
+    assert circle is not None and circle.kind == "arc"
+    assert circle.max_error_um == rep["blocks"][1]["max_error_um"]
+    assert typed.block(1) is None  # no feed block on line 1
 
 
 def test_runner_executes_the_servo_law(machine):
@@ -125,12 +119,8 @@ def test_program_outside_travel_exits_2_and_leaves_no_report(write_program, tmp_
 
 
 def test_divergence_is_an_error(write_program, tmp_path, capsys):
-    xml = model_variant(tmp_path, forcerange="-1e9 1e9")
-    mf = machine_file(
-        tmp_path,
-        f"[servo]\nkp_N_per_mm = [1e6, 1e6, 1e6]\nkd_N_s_per_mm = [1e4, 1e4, 1e4]\n"
-        f'[sim]\nmodel = "{xml.name}"\n',
-    )
+    gains = {"kp_N_per_mm": [1e6, 1e6, 1e6], "kd_N_s_per_mm": [1e4, 1e4, 1e4]}
+    mf = write_variant(tmp_path, motors=UNLIMITED_FORCE, sections={"servo": gains})
     out = tmp_path / "out"
     prog = write_program("G1 X1 F600\nM2\n")
     assert main(["run", str(prog), "--machine", str(mf), "--out", str(out)]) == 2
@@ -141,15 +131,15 @@ def test_divergence_is_an_error(write_program, tmp_path, capsys):
 
 def test_pd_circle_radius_matches_the_discrete_loop_gain(tmp_path):
     """Without friction and damping, a PD-only circle settles at |G(e^{jwT})| times its radius."""
-    xml = model_variant(tmp_path, damping="0", frictionloss="0")
-    mf = machine_file(
+    machine = gantry_variant(
         tmp_path,
-        "[limits]\nmax_acceleration_mm_per_s2 = [20000.0, 20000.0, 20000.0]\n"
-        "max_jerk_mm_per_s3 = [2e6, 2e6, 2e6]\n"
-        "[servo]\nff_velocity = [0.0, 0.0, 0.0]\nff_acceleration = [0.0, 0.0, 0.0]\n"
-        f'[sim]\nmodel = "{xml.name}"\n',
+        joints={a: {"damping": 0.0, "frictionloss": 0.0} for a in AXIS_NAMES},
+        servo={"ff_velocity": [0.0, 0.0, 0.0], "ff_acceleration": [0.0, 0.0, 0.0]},
+        limits={
+            "max_acceleration_mm_per_s2": [20000.0, 20000.0, 20000.0],
+            "max_jerk_mm_per_s3": [2e6, 2e6, 2e6],
+        },
     )
-    machine = load_machine_config(DEFAULT_MACHINE, mf)
     radius = 10.0
     prog = f"G17 G1 X{radius} F12000\nG3 I-{radius} J0 P2\nG1 X0\nM2\n"
     res = run_program(prog, machine=machine)

@@ -42,6 +42,7 @@ def test_machine_for_sets_all_axes_and_keeps_the_rest(machine):
     assert machine_for(machine, SweepPoint(50.0)) is machine
 
 
+@pytest.mark.slow  # starts a Dask LocalCluster: 7-16 s, the slowest test here
 def test_local_and_dask_executors_give_the_same_numbers(machine):
     pytest.importorskip("dask.distributed")
     pts = grid([100.0, 150.0], [2000.0], None)

@@ -1,9 +1,9 @@
 """The virtual ballbar: run the circular-test program CCW and CW, analyse, write the outputs.
 
-One simulation runs the whole program (sim.ballbar_program: CCW then CW, each a tangent
+One simulation runs the whole program (sim.circular.program: CCW then CW, each a tangent
 lead-in, the measured full circle and a tangent lead-out). The traced tool tip of each
 direction's circle block (the samples whose reference executes that line) is analysed by
-sim.circular in the plane's coordinates; positions are work coordinates [mm].
+sim.circular.figures in the plane's coordinates; positions are work coordinates [mm].
 """
 
 from __future__ import annotations
@@ -38,7 +38,7 @@ class BallbarResult:
     Attributes:
         program: the circular-test program that was run.
         run: the simulation's result (sim.api.RunResult: report, trace, moves).
-        ccw / cw: each direction's figures (sim.circular.CircleAnalysis).
+        ccw / cw: each direction's figures (sim.circular.figures.CircleAnalysis).
         summary: the ``gantry ballbar`` contract object.
     """
 
@@ -106,67 +106,17 @@ def run_ballbar(
     return BallbarResult(program, run, results["ccw"], results["cw"], summary)
 
 
-def plot_polar(result: BallbarResult, path: Path) -> None:
-    """Polar plot of the radial deviation about the LSQ centre, magnified, CCW and CW overlaid.
-
-    As ballbar software shows it: angle = position on the circle (0 deg along the plane's
-    first axis, 90 deg along its second), radius = deviation [um] on a scale whose zero is the
-    dashed least-squares circle, so an ellipse, a spike or a step is seen where it happens.
-    """
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
-    s = result.summary
-    devs = np.concatenate([result.ccw.deviation_um, result.cw.deviation_um])
-    lo, hi = float(devs.min()), float(devs.max())
-    span = max(hi - lo, 1.0)
-    fig = plt.figure(figsize=(7, 8))
-    ax = fig.add_subplot(projection="polar")
-    for res, colour in ((result.ccw, "tab:blue"), (result.cw, "tab:red")):
-        order = np.argsort(res.theta_deg)
-        th = np.radians(res.theta_deg[order])
-        label = f"{res.direction.upper()}  G = {res.circular_deviation_um:.2f} um"
-        ax.plot(
-            np.append(th, th[0]),
-            np.append(res.deviation_um[order], res.deviation_um[order][0]),
-            color=colour,
-            lw=0.6,
-            label=label,
-        )
-    ring = np.linspace(0, 2 * np.pi, 361)
-    ax.plot(ring, np.zeros_like(ring), "k--", lw=0.8, label="least-squares circle (0 um)")
-    ax.set_rorigin(lo - 1.2 * span)
-    ax.set_rlim(lo - 0.1 * span, hi + 0.1 * span)
-    a, b = s["plane"][0], s["plane"][1]
-    ax.set_thetagrids([0, 90, 180, 270], [f"+{a}", f"+{b}", f"-{a}", f"-{b}"])
-    ax.set_rlabel_position(67.5)
-    ax.tick_params(axis="y", labelsize=7)
-    fig.legend(loc="lower center", ncol=3, fontsize=8, frameon=False)
-    e = s["ellipse"]
-    fig.suptitle(
-        f"Ballbar {s['plane']}  R {s['radius_mm']:g} mm  F {s['feed_mm_per_min']:g} mm/min\n"
-        f"radial deviation about the LSQ centre [um], magnified; G(b) "
-        f"{s['bidirectional_deviation_um']:.2f} um\nellipse {e['magnitude_um']:.2f} um at "
-        f"{e['axis_deg']:.0f} deg (CCW), flips with direction: {e['flips_with_direction']}",
-        fontsize=9,
-    )
-    fig.tight_layout(rect=(0, 0.04, 1, 0.93))
-    fig.savefig(path, dpi=110)
-    plt.close(fig)
-
-
 def write_ballbar_outputs(result: BallbarResult, out_dir: Path) -> None:
     """Write ballbar.json, polar.png, ballbar.ngc, trace_cw.npz, trace_ccw.npz into ``out_dir``.
 
     The files are written to a temporary folder first and moved in only when all succeeded.
     """
+    from gantry_sim.sim.plots import save_polar_plot
+
     with atomic_output_dir(out_dir) as tmp:
         (tmp / "ballbar.json").write_text(json.dumps(result.summary, indent=2) + "\n")
         (tmp / "ballbar.ngc").write_text(result.program.text)
         for d in DIRECTIONS:
-            np.savez_compressed(
-                tmp / f"trace_{d}.npz", **direction_trace(result.run, result.program, d)
-            )
-        plot_polar(result, tmp / "polar.png")
+            tr = direction_trace(result.run, result.program, d)
+            np.savez_compressed(tmp / f"trace_{d}.npz", t=tr["t"], ref=tr["ref"], pos=tr["pos"])
+        save_polar_plot(tmp / "polar.png", result.ccw, result.cw, result.summary)

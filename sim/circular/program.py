@@ -22,6 +22,7 @@ layout that ballbar software uses (180-degree overshoot arcs around a 360-degree
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 from dataclasses import dataclass
 
 from gantry_sim.controller.errors import ConfigError
@@ -72,7 +73,7 @@ def _point(centre: Vec3, plane: str, radius: float, angle_rad: float) -> list[fl
 
 
 def _arc_block(
-    g: str, plane: str, start: list[float], end: list[float] | None, centre: list[float]
+    g: str, plane: str, start: Sequence[float], end: Sequence[float] | None, centre: Sequence[float]
 ) -> str:
     """An arc block: end axis words (omitted for a full circle) and in-plane centre offsets."""
     i1, i2, _ = PLANE_AXES[plane]
@@ -114,10 +115,11 @@ def circle_test_program(
     bad = [d for d in directions if d not in ("cw", "ccw")]
     if bad or not directions:
         raise ConfigError(f"directions {directions!r}: each must be 'cw' or 'ccw'")
-    c = [round(v, 6) for v in centre_mm]
+    cx, cy, cz = (round(v, 6) for v in centre_mm)
+    c: Vec3 = (cx, cy, cz)
     theta_s = math.radians(START_DEG)
-    s = _point(tuple(c), plane, radius_mm, theta_s)
-    p = _point(tuple(c), plane, radius_mm, theta_s + math.pi)
+    s = _point(c, plane, radius_mm, theta_s)
+    p = _point(c, plane, radius_mm, theta_s + math.pi)
     axes = sorted(PLANE_AXES[plane][:2])
     at_c = " ".join(f"{AXES[a]}{_num(c[a])}" for a in range(3))
     at_p = " ".join(f"{AXES[a]}{_num(p[a])}" for a in axes)

@@ -1,8 +1,8 @@
 """Feed tuning: per radius, the highest feed whose full circle stays within a contour tolerance.
 
-The test program per radius is sim.ballbar_program's (CCW only): a tangent 180-degree run-in arc,
+The test program per radius is sim.circular.program's (CCW only): a tangent 180-degree run-in arc,
 one full circle, a tangent run-out arc. The error counted is the circle block's own max contour
-error (report.json "blocks"), so lead-in and lead-out transients do not count.
+error (the run report's block for its line), so lead-in and lead-out transients do not count.
 
 Search, from the top. The cap is the feed at which the plane's slower axis reaches its max
 velocity; if the circle passes there, that is the answer ("machine_limits": the machine's
@@ -85,14 +85,14 @@ def circle_error_um(
     program = circle_test_program(plane, radius_mm, feed_mm_per_min, ("ccw",))
     result = run_program(program.text, file=f"tune_r{radius_mm:g}.ngc", machine=machine)
     line = program.circle_line("ccw")
-    errors = [b["max_error_um"] for b in result.report["blocks"] if b["line"] == line]
-    if not errors:
+    block = result.run_report.block(line)
+    if block is None:
         raise RuntimeError(f"the report has no block for the circle's line {line}")
     tr = result.trace
     on = np.asarray(tr.line) == line
     ref, t = np.asarray(tr.ref)[on], np.asarray(tr.t)[on]
     speed = np.linalg.norm(np.diff(ref, axis=0), axis=1) / np.diff(t)
-    return float(max(errors)), mm_per_s_to_mm_per_min(float(np.median(speed)))
+    return block.max_error_um, mm_per_s_to_mm_per_min(float(np.median(speed)))
 
 
 def feed_cap_mm_per_min(machine: MachineConfig, plane: str) -> float:

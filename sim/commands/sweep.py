@@ -78,67 +78,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     )
 
 
-def plot_sweep(rows: list[dict], out_dir: Path) -> None:
-    """sweep_error_vs_feed.png and sweep_cycle_vs_error.png."""
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
-    ok = [r for r in rows if r["status"] == "ok"]
-    combos = sorted(
-        {(r["max_accel_mm_per_s2"], r["max_jerk_mm_per_s3"]) for r in ok},
-        key=lambda c: (c[0] or 0.0, c[1] or 0.0),
-    )
-
-    def label(c) -> str:
-        a = "machine file" if c[0] is None else f"{c[0]:g} mm/s^2"
-        j = "machine file" if c[1] is None else f"{c[1]:g} mm/s^3"
-        return f"accel {a}, jerk {j}"
-
-    fig, ax = plt.subplots(figsize=(7, 4.5))
-    for c in combos:
-        pts = sorted(
-            (r["feed_override_pct"], r["max_error_um"])
-            for r in ok
-            if (r["max_accel_mm_per_s2"], r["max_jerk_mm_per_s3"]) == c
-        )
-        ax.plot([p[0] for p in pts], [p[1] for p in pts], "o-", ms=4, label=label(c))
-    ax.set_xlabel("feed override [%]")
-    ax.set_ylabel("max contour error [um]")
-    ax.set_title("contour error against feed")
-    ax.grid(alpha=0.3)
-    ax.legend(fontsize=7)
-    fig.tight_layout()
-    fig.savefig(out_dir / "sweep_error_vs_feed.png", dpi=110)
-    plt.close(fig)
-
-    fig, ax = plt.subplots(figsize=(7, 4.5))
-    for c in combos:
-        sel = [r for r in ok if (r["max_accel_mm_per_s2"], r["max_jerk_mm_per_s3"]) == c]
-        ax.scatter(
-            [r["max_error_um"] for r in sel], [r["cycle_time_s"] for r in sel], s=18, label=label(c)
-        )
-        for r in sel:
-            ax.annotate(
-                f"{r['feed_override_pct']:g}%",
-                (r["max_error_um"], r["cycle_time_s"]),
-                textcoords="offset points",
-                xytext=(3, 3),
-                fontsize=7,
-            )
-    ax.set_xlabel("max contour error [um]")
-    ax.set_ylabel("cycle time [s]")
-    ax.set_title("cycle time against contour error (lower left is better)")
-    ax.grid(alpha=0.3)
-    ax.legend(fontsize=7)
-    fig.tight_layout()
-    fig.savefig(out_dir / "sweep_cycle_vs_error.png", dpi=110)
-    plt.close(fig)
-
-
 def run(args: argparse.Namespace) -> int:
     from gantry_sim.sim.outdir import atomic_output_dir
+    from gantry_sim.sim.plots import save_sweep_plots
     from gantry_sim.sim.sweep.grid import JOURNAL, grid, run_sweep, write_csv, write_csv_atomic
 
     if args.workers is not None and args.workers < 1:
@@ -160,7 +102,7 @@ def run(args: argparse.Namespace) -> int:
     )
     if args.out is not None:
         with atomic_output_dir(args.out) as tmp:
-            plot_sweep(rows, tmp)
+            save_sweep_plots(rows, tmp)
         write_csv_atomic(rows, args.out / "sweep.csv")
         (args.out / JOURNAL).unlink(missing_ok=True)
     write_csv(rows, sys.stdout)

@@ -61,47 +61,10 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     )
 
 
-def plot_tune(summary: dict, rows: list, path: Path) -> None:
-    """tune.png: max feed against radius (left); each simulated (feed, error) per radius (right)."""
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
-    fig, (ax1, ax2) = plt.subplots(1, 2, figsize=(11, 4.5))
-    ok = [r for r in rows if r.max_feed_mm_per_min is not None]
-    ax1.plot([r.radius_mm for r in ok], [r.max_feed_mm_per_min for r in ok], "o-")
-    for r in ok:
-        ax1.annotate(
-            f"{r.max_feed_mm_per_min:.0f}",
-            (r.radius_mm, r.max_feed_mm_per_min),
-            textcoords="offset points",
-            xytext=(4, 4),
-            fontsize=8,
-        )
-    ax1.set_xlabel("circle radius [mm]")
-    ax1.set_ylabel("max feed [mm/min]")
-    ax1.set_title(f"highest feed within {summary['tolerance_um']:g} um ({summary['plane']})")
-    ax1.grid(alpha=0.3)
-    for r in rows:
-        pts = sorted(r.tried)
-        ax2.plot(
-            [p[0] for p in pts], [p[1] for p in pts], "o-", ms=3, label=f"R {r.radius_mm:g} mm"
-        )
-    ax2.axhline(summary["tolerance_um"], color="k", ls="--", lw=0.8, label="tolerance")
-    ax2.set_xlabel("programmed feed [mm/min]")
-    ax2.set_ylabel("circle max contour error [um]")
-    ax2.set_title("every simulation of the search")
-    ax2.grid(alpha=0.3)
-    ax2.legend(fontsize=8)
-    fig.tight_layout()
-    fig.savefig(path, dpi=110)
-    plt.close(fig)
-
-
 def run(args: argparse.Namespace) -> int:
     from gantry_sim.sim.circular.tune import DEFAULT_RESOLUTION_MM_PER_MIN, tune
     from gantry_sim.sim.outdir import atomic_output_dir
+    from gantry_sim.sim.plots import save_tune_plot
 
     machine = load_machine(args.machine)
     resolution = args.feed_resolution or DEFAULT_RESOLUTION_MM_PER_MIN
@@ -121,6 +84,6 @@ def run(args: argparse.Namespace) -> int:
     if args.out is not None:
         with atomic_output_dir(args.out) as tmp:
             (tmp / "tune.json").write_text(json.dumps(summary, indent=2) + "\n")
-            plot_tune(summary, rows, tmp / "tune.png")
+            save_tune_plot(tmp / "tune.png", rows, args.tolerance_um, args.plane)
     sys.stdout.write(json.dumps(summary) + "\n")
     return 0

@@ -22,6 +22,7 @@ import math
 from collections.abc import Sequence
 from dataclasses import asdict, dataclass
 from pathlib import Path
+from typing import TextIO
 
 from gantry_sim.controller.config import MachineConfig
 from gantry_sim.controller.errors import SimulationError
@@ -60,9 +61,9 @@ def grid(
     max_jerks_mm_per_s3: Sequence[float] | None = None,
 ) -> list[SweepPoint]:
     """The full grid (feed override x accel x jerk), in that nesting order."""
-    combos = itertools.product(
-        feed_overrides_pct, max_accels_mm_per_s2 or [None], max_jerks_mm_per_s3 or [None]
-    )
+    accels: Sequence[float | None] = max_accels_mm_per_s2 or [None]
+    jerks: Sequence[float | None] = max_jerks_mm_per_s3 or [None]
+    combos = itertools.product(feed_overrides_pct, accels, jerks)
     return [
         SweepPoint(float(f), None if a is None else float(a), None if j is None else float(j))
         for f, a, j in combos
@@ -112,12 +113,12 @@ def run_point(
             "p95_error_um": nan,
             "status": f"simulation error: {exc.message}",
         }
-    err = result.report["contour_error_um"]
+    report = result.run_report
     return row | {
-        "cycle_time_s": float(result.report["cycle_time_s"]),
-        "max_error_um": float(err["max"]),
-        "rms_error_um": float(err["rms"]),
-        "p95_error_um": float(err["p95"]),
+        "cycle_time_s": report.cycle_time_s,
+        "max_error_um": report.contour_error_um.max_um,
+        "rms_error_um": report.contour_error_um.rms_um,
+        "p95_error_um": report.contour_error_um.p95_um,
         "status": "ok",
     }
 
@@ -218,7 +219,7 @@ def _cell(v: object) -> str:
     return str(v)
 
 
-def write_csv(rows: Sequence[dict], fh) -> None:
+def write_csv(rows: Sequence[dict], fh: TextIO) -> None:
     """Write the rows as CSV (header COLUMNS) to an open text file."""
     w = csv.writer(fh, lineterminator="\n")
     w.writerow(COLUMNS)
