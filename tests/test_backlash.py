@@ -63,3 +63,29 @@ def test_reversal_spike_tracks_the_backlash(machine):
     assert -1.6 * 20 < b20 < -0.8 * 20
     assert -1.6 * 40 < b40 < -0.8 * 40
     assert (b40 - none) / (b20 - none) == pytest.approx(2.0, rel=0.2)
+
+
+def test_stateful_loop_with_zero_state_terms_is_the_pd_loop_bit_for_bit(machine, monkeypatch):
+    """The runner's stateful loop (integral, backlash) with ki = 0 and no backlash computes the
+    same trace and forces as its unrolled PD loop, to the last bit."""
+    from gantry_sim.controller.servo import DiscretePD
+    from gantry_sim.sim import runner
+
+    plain = run_program(CIRCLE, machine=machine).trace
+
+    ticks = []
+
+    class Forced(DiscretePD):
+        def __init__(self, *args, **kwargs) -> None:
+            super().__init__(*args, **kwargs)
+            self.has_integral = True  # take the stateful path with ki = 0
+
+        def step(self, *args, **kwargs):
+            ticks.append(1)
+            return super().step(*args, **kwargs)
+
+    monkeypatch.setattr(runner, "DiscretePD", Forced)
+    stateful = run_program(CIRCLE, machine=machine).trace
+    assert len(ticks) == plain.t.size
+    assert np.array_equal(stateful.pos, plain.pos)
+    assert np.array_equal(stateful.force_N, plain.force_N)
