@@ -17,8 +17,8 @@ diverged run is not a result.
 
 With an integral term ([servo] ki_N_per_mm_s) or backlash ([sim] backlash_mm) the loop carries
 state per axis (the error integral, the drive's saturation, the motor-side encoder position):
-:class:`_StatefulTicks` runs those ticks with the law of DiscretePD.step and the transmission of
-controller.transmission, and records the held forces as it goes.
+sim.stateful_ticks runs those ticks (the law of DiscretePD.step and the transmission of
+controller.transmission, unrolled) and records the held forces as it goes.
 """
 
 from __future__ import annotations
@@ -33,8 +33,8 @@ from gantry_sim.controller.config import MachineConfig
 from gantry_sim.controller.errors import SimulationError
 from gantry_sim.controller.servo import DiscretePD
 from gantry_sim.controller.trajectory import Trajectory
-from gantry_sim.controller.transmission import motor_side_mm
 from gantry_sim.sim.machine import AXES, MM_PER_M, Gantry
+from gantry_sim.sim.stateful_ticks import StatefulTicks
 
 #: servo ticks between divergence checks and progress-bar updates
 CHUNK = 2000
@@ -90,7 +90,7 @@ def simulate(
     d.qvel[:] = 0.0
     stateful = None
     if servo.has_integral or any(machine.sim.backlash_mm):
-        stateful = _StatefulTicks(gantry, servo, machine.sim.backlash_mm, d, b, ref_joint)
+        stateful = StatefulTicks(gantry, servo, machine.sim.backlash_mm, d, b, ref_joint.tolist())
 
     nq = m.nq
     qpos_chunks: list[np.ndarray] = []
@@ -158,48 +158,6 @@ def simulate(
     pos.setflags(write=False)
     force.setflags(write=False)
     return SimTrace(pos=pos, force=force, steps=n * nsub, wall_s=wall)
-
-
-class _StatefulTicks:
-    """Servo ticks with an integral term and/or backlash: per tick, the motor-side encoders
-    from the axes' positions (controller.transmission), then DiscretePD.step, then the physics.
-
-    Starts with the error integral at 0, no saturation, and each encoder at its axis' position
-    (the axis in the middle of its gap)."""
-
-    def __init__(self, gantry: Gantry, servo: DiscretePD, backlash_mm, d, b, ref_joint) -> None:
-        import mujoco
-
-        self.gantry, self.servo, self.d, self.b = gantry, servo, d, b
-        self.backlash = tuple(float(v) for v in backlash_mm)
-        self.ref = np.asarray(ref_joint, dtype=float).tolist()
-        self.step_physics = mujoco.mj_step
-        q = d.qpos.tolist()
-        self.enc = [q[i] * MM_PER_M for i in gantry.qpos_adr]
-        self.integral: tuple[float, ...] = (0.0, 0.0, 0.0)
-        self.saturated: tuple[int, ...] = (0, 0, 0)
-        self.force: list[float] = []
-
-    def run(self, lo: int, hi: int, record) -> None:
-        """Ticks lo..hi-1; ``record`` receives each tick's qpos (the state at t_k)."""
-        g, servo, d, m = self.gantry, self.servo, self.d, self.gantry.model
-        inv_gear = [1.0 / v for v in g.gear]
-        for k in range(lo, hi):
-            q = d.qpos.tolist()
-            record(q)
-            prev = self.enc
-            enc = [
-                motor_side_mm(q[adr] * MM_PER_M, prev[i], self.backlash[i])
-                for i, adr in enumerate(g.qpos_adr)
-            ]
-            f, self.integral, self.saturated = servo.step(
-                self.b[k], self.ref[k], enc, prev, self.integral, self.saturated
-            )
-            for i, u in enumerate(g.actuator_id):
-                d.ctrl[u] = f[i] * inv_gear[i]
-            self.force.extend(f)
-            self.enc = enc
-            self.step_physics(m, d, g.substeps)
 
 
 def _check(
