@@ -172,3 +172,33 @@ def test_unreadable_inputs_exit_2(tmp_path, capsys):
     assert "binary" in capsys.readouterr().err
     with pytest.raises(ConfigError, match="is a directory"):
         import_grbl(tmp_path, TARGET)
+
+
+def test_an_input_that_maps_to_an_invalid_machine_file_is_an_error_about_the_input(
+    tmp_path, capsys
+):
+    ini = tmp_path / "m.ini"
+    ini.write_text(
+        "[TRAJ]\nLINEAR_UNITS = mm\n" + "".join(f"[JOINT_{j}]\nFERROR = 0\n" for j in range(3))
+    )
+    out = tmp_path / "out.toml"
+    assert main(["machine", "import", "linuxcnc", str(ini), "--out", str(out)]) == 2
+    err = capsys.readouterr().err
+    assert (
+        f"{ini}: error: it maps to an invalid machine file: [servo] max_following_error_mm" in err
+    )
+    assert not out.exists()
+    assert (
+        main(
+            [
+                "machine",
+                "import",
+                "linuxcnc",
+                str(DATA / "sim_axis_mm.ini"),
+                "--out",
+                str(tmp_path / "no" / "x.toml"),
+            ]
+        )
+        == 2
+    )
+    assert "--out must be a file in an existing folder" in capsys.readouterr().err

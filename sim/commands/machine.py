@@ -8,7 +8,7 @@
 limits, the servo gains (force-loop PID and the equivalent Kv), and the sampled loop's figures
 (sim.machine_info). ``import`` writes a machine file (TOML) with the keys that map, to FILE or to
 stdout, and lists what it assumed and what it could not map (on stdout with --out, else on
-stderr); the written file is loaded back and must run on the bundled model.
+stderr); the file is loaded on the bundled model before it is written (atomically).
 Exit status: 0 done; 2 an unreadable or malformed input (``FILE:LINE: error: ...``).
 """
 
@@ -75,23 +75,25 @@ def _import(args: argparse.Namespace) -> int:
     reader = import_linuxcnc if args.format == "linuxcnc" else import_grbl
     imported = reader(args.file, target)
     text = to_toml(imported)
-    if args.out is not None:
-        if args.out.is_dir():
-            raise ConfigError("--out must be a file, not a folder", file=str(args.out))
-        args.out.write_text(text)
-        check = args.out
-    else:
-        import tempfile
+    if args.out is not None and (args.out.is_dir() or not args.out.parent.is_dir()):
+        raise ConfigError("--out must be a file in an existing folder", file=str(args.out))
+    import tempfile
 
-        with tempfile.NamedTemporaryFile("w", suffix=".toml", delete=False) as fh:
+    with tempfile.TemporaryDirectory() as tmp:  # the file must load and run on the bundled model
+        check = Path(tmp) / "imported.toml"
+        check.write_text(text)
+        try:
+            machine = load_machine_config(DEFAULT_MACHINE, check)
+            info = effective_machine(machine, load_gantry(machine))
+        except ConfigError as exc:
+            raise ConfigError(
+                f"it maps to an invalid machine file: {exc.message}", file=str(args.file)
+            ) from None
+    if args.out is not None:
+        from gantry_sim.sim.outdir import atomic_file
+
+        with atomic_file(args.out) as fh:
             fh.write(text)
-        check = Path(fh.name)
-    try:  # the file must load and run on the bundled model
-        machine = load_machine_config(DEFAULT_MACHINE, check)
-        info = effective_machine(machine, load_gantry(machine))
-    finally:
-        if args.out is None:
-            check.unlink()
     notes = sys.stdout if args.out is not None else sys.stderr
     if args.out is None:
         sys.stdout.write(text)
