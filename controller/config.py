@@ -92,11 +92,14 @@ SCHEMA: dict[str, dict[str, Callable[[Any], Any]]] = {
         "ff_friction": _NONNEG3,
         "ff_gravity": _non_negative,
         "max_following_error_mm": _positive,
+        "ki_N_per_mm_s": _NONNEG3,
+        "max_error_integral_mm_s": _NONNEG3,
     },
     "sim": {
         "model": _string,
         "physics_timestep_s": _positive,
         "work_origin_joint_mm": _FIN3,
+        "backlash_mm": _NONNEG3,
     },
 }
 
@@ -138,6 +141,8 @@ class Servo:
     viscous damping, moving mass and Coulomb friction per axis; ff_gravity the fraction of gravity
     on Z that is compensated. max_following_error_mm is the drive's following-error fault
     limit (LinuxCNC's FERROR): a simulation whose tool tip strays further from the reference fails.
+    ki_N_per_mm_s is the integral gain [N/(mm s)] and max_error_integral_mm_s the clamp on the
+    error integral [mm s] (LinuxCNC's maxerror-i; 0 = no clamp).
     """
 
     period_s: float
@@ -148,16 +153,20 @@ class Servo:
     ff_friction: Vec3
     ff_gravity: float
     max_following_error_mm: float
+    ki_N_per_mm_s: Vec3
+    max_error_integral_mm_s: Vec3
 
 
 @dataclass(frozen=True)
 class SimSettings:
-    """MuJoCo settings: the MJCF (absolute path), the physics timestep [s], and the joint
-    positions [mm] at which the work origin lies."""
+    """MuJoCo settings: the MJCF (absolute path), the physics timestep [s], the joint
+    positions [mm] at which the work origin lies, and the transmission's backlash per axis [mm]
+    (lost motion between the motor with its encoder and the axis; see controller.transmission)."""
 
     model: str
     physics_timestep_s: float
     work_origin_joint_mm: Vec3
+    backlash_mm: Vec3
 
 
 @dataclass(frozen=True)

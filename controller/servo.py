@@ -1,4 +1,4 @@
-"""Discrete-time PD position servo per axis with LinuxCNC-style feedforward; numbers only.
+"""Discrete-time PID position servo per axis with LinuxCNC-style feedforward; numbers only.
 
 The servo runs at the period T [s]. At tick k it samples the axis position x_k [mm] (the encoder,
 in joint coordinates), computes a force and holds it until tick k+1 (zero-order hold):
@@ -9,7 +9,14 @@ in joint coordinates), computes a force and holds it until tick k+1 (zero-order 
         + ff_acceleration * m   * a_k * 1e-3                   FF2: moving mass [N] (a in mm/s^2)
         + ff_friction     * F_c * sign(v_k)                    Coulomb friction [N]
         - ff_gravity      * g_load                             gravity (the load along the axis) [N]
+        + ki * I_k                                             integral [N]
     F_k = clamp(u_k, force_min, force_max)                     the drive's force limit [N]
+
+The integral I_k [mm s] follows LinuxCNC's pid component, anti-windup included: I_k = I_{k-1} +
+e_k T, except that it does not integrate while the previous tick's force sat at the drive's limit
+in the direction of e_k (conditional integration), and then is clamped to +-I_max
+(``max_error_integral_mm_s``, LinuxCNC's maxerror-i; 0 = no clamp). I_{-1} = 0. With ki = 0
+(the default) the law is the PD above and the integral is never computed.
 
 with the reference r_k [mm], v_k [mm/s], a_k [mm/s^2] sampled at t_k = k T. Signs: error is
 reference minus measurement, a positive force pushes the axis towards +; ``gravity_load_N`` is the
@@ -22,7 +29,8 @@ Everything that does not depend on the measurement is computed for the whole tra
     u_k = b_k - (kp + kd/T) x_k + (kd/T) x_{k-1}
 
 remains (:meth:`DiscretePD.force`): a few float operations per axis, which is what the simulation
-loop in sim/runner.py executes inline.
+loop in sim/runner.py executes inline. With an integral term, :meth:`DiscretePD.step` is the law
+of one tick (it carries I and the saturation state).
 """
 
 from __future__ import annotations
@@ -82,6 +90,13 @@ class DiscretePD:
         self.lo = tuple(p.force_min_N for p in self.plant)
         self.hi = tuple(p.force_max_N for p in self.plant)
         self._ff = (servo.ff_velocity, servo.ff_acceleration, servo.ff_friction, servo.ff_gravity)
+        self.ki = tuple(float(k) for k in servo.ki_N_per_mm_s)
+        #: clamp of the error integral [mm s]; inf where the machine file says 0 (no clamp)
+        self.i_max = tuple(
+            float(v) if v > 0 else float("inf") for v in servo.max_error_integral_mm_s
+        )
+        #: True when any axis has an integral term (the loop then carries state: :meth:`step`)
+        self.has_integral = any(k != 0.0 for k in self.ki)
 
     def feedforward_N(self, vel: np.ndarray, acc: np.ndarray) -> np.ndarray:
         """Feedforward force per sample and axis -> (N, 3) [N].
@@ -132,6 +147,41 @@ class DiscretePD:
             u = b[i] - self.a[i] * x[i] + self.c[i] * x_prev[i]
             out.append(min(self.hi[i], max(self.lo[i], u)))
         return out[0], out[1], out[2]
+
+    def step(
+        self,
+        b: Sequence[float],
+        r: Sequence[float],
+        x: Sequence[float],
+        x_prev: Sequence[float],
+        integral: Sequence[float],
+        saturated: Sequence[int],
+    ) -> tuple[tuple[float, ...], tuple[float, ...], tuple[int, ...]]:
+        """One tick of the full PID law -> (force [N], integral I_k [mm s], saturation) per axis.
+
+        Args:
+            b: drive terms b_k [N] (:meth:`drive_terms`).
+            r: reference r_k in joint coordinates [mm] (the integral's error is r_k - x_k).
+            x: sampled positions x_k [mm]; x_prev: those of tick k-1 (x at the first tick).
+            integral: I_{k-1} [mm s] (zeros at the first tick).
+            saturated: the previous tick's saturation per axis: +1 force at force_max, -1 at
+                force_min, 0 inside (zeros at the first tick).
+        """
+        t = self.period_s
+        force, integ, sat = [], [], []
+        for i in range(3):
+            e = r[i] - x[i]
+            acc = integral[i]
+            winding_up = (saturated[i] > 0 and e > 0) or (saturated[i] < 0 and e < 0)
+            if not winding_up:
+                acc = acc + e * t
+            acc = min(self.i_max[i], max(-self.i_max[i], acc))
+            u = b[i] - self.a[i] * x[i] + self.c[i] * x_prev[i] + self.ki[i] * acc
+            f = min(self.hi[i], max(self.lo[i], u))
+            force.append(f)
+            integ.append(acc)
+            sat.append(1 if f >= self.hi[i] else (-1 if f <= self.lo[i] else 0))
+        return tuple(force), tuple(integ), tuple(sat)
 
     def forces(self, b: np.ndarray, x: np.ndarray, x_prev: np.ndarray) -> np.ndarray:
         """:meth:`force` for many ticks at once -> (N, 3) [N]; the same operations in the same

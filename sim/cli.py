@@ -23,6 +23,7 @@ COMMANDS: dict[str, str] = {
     "ballbar": "gantry_sim.sim.commands.ballbar",
     "tune": "gantry_sim.sim.commands.tune",
     "sweep": "gantry_sim.sim.commands.sweep",
+    "machine": "gantry_sim.sim.commands.machine",
 }
 
 

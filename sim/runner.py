@@ -14,6 +14,11 @@ recomputed vectorised from the recorded encoders with the same law (DiscretePD.f
 bit). Each chunk is then checked: non-finite values, MuJoCo's instability warnings, or a
 following error beyond [servo] max_following_error_mm raise :class:`SimulationError` -- a
 diverged run is not a result.
+
+With an integral term ([servo] ki_N_per_mm_s) or backlash ([sim] backlash_mm) the loop carries
+state per axis (the error integral, the drive's saturation, the motor-side encoder position):
+sim.stateful_ticks runs those ticks (the law of DiscretePD.step and the transmission of
+controller.transmission, unrolled) and records the held forces as it goes.
 """
 
 from __future__ import annotations
@@ -30,6 +35,7 @@ from gantry_sim.controller.errors import SimulationError
 from gantry_sim.controller.servo import DiscretePD
 from gantry_sim.controller.trajectory import Trajectory
 from gantry_sim.sim.machine import AXES, MM_PER_M, Gantry
+from gantry_sim.sim.stateful_ticks import StatefulTicks
 
 #: servo ticks between divergence checks and progress-bar updates
 CHUNK = 2000
@@ -83,6 +89,9 @@ def simulate(
     b = b_arr.tolist()
     d.qpos[:] = gantry.joint_qpos_m(ref_joint[0])
     d.qvel[:] = 0.0
+    stateful = None
+    if servo.has_integral or any(machine.sim.backlash_mm):
+        stateful = StatefulTicks(gantry, servo, machine.sim.backlash_mm, d, b, ref_joint.tolist())
 
     nq = m.nq
     qpos_chunks: list[np.ndarray] = []
@@ -112,7 +121,9 @@ def simulate(
             hi = min(n, lo + CHUNK)
             flat: list[float] = []  # qpos row after row (cheapest to extend and to convert)
             record = flat.extend
-            for bx, by, bz in b[lo:hi]:
+            if stateful is not None:
+                stateful.run(lo, hi, record)
+            for bx, by, bz in b[lo:hi] if stateful is None else ():
                 q = qpos.tolist()  # the state at t_k: encoders now, tool site after the chunk
                 record(q)
                 x, y, z = q[ix] * mm, q[iy] * mm, q[iz] * mm
@@ -136,7 +147,10 @@ def simulate(
         # the held forces again, vectorised from the recorded encoders (the same law, exactly)
         qpos_all = np.concatenate(qpos_chunks) if qpos_chunks else np.empty((0, nq))
         joint = qpos_all[:, list(gantry.qpos_adr)] * mm
-        force = servo.forces(b_arr, joint, np.concatenate([joint[:1], joint[:-1]]))
+        if stateful is not None:
+            force = np.asarray(stateful.force, dtype=float).reshape(-1, 3)
+        else:
+            force = servo.forces(b_arr, joint, np.concatenate([joint[:1], joint[:-1]]))
         pos = np.concatenate(work_chunks) if work_chunks else np.empty((0, 3))
     finally:
         if bar is not None:
