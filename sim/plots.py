@@ -12,6 +12,7 @@ matplotlib, which ``gantry`` must not load at start-up).
 
 from __future__ import annotations
 
+import math
 from collections.abc import Mapping, Sequence
 from pathlib import Path
 from typing import Any, Protocol
@@ -134,54 +135,120 @@ def save_error_plot(path: Path, trace: Trace, contour: ContourStats) -> None:
 def save_polar_plot(
     path: Path, ccw: CircleAnalysis, cw: CircleAnalysis, summary: Mapping[str, Any]
 ) -> None:
-    """polar.png: radial deviation about the LSQ centre, magnified, CCW and CW overlaid.
+    """polar.png: the radial deviation of the CCW and CW traces, magnified, on a stated scale.
 
     As ballbar software shows it: angle = position on the circle (0 deg along the plane's
-    first axis, 90 deg along its second), radius = deviation [um] on a scale whose zero is the
-    dashed least-squares circle, so an ellipse, a spike or a step is seen where it happens.
+    first axis, 90 deg along its second), radius = the traced radius minus the nominal radius
+    about the nominal centre (the ballbar's pivot) [um], on rings :func:`polar_scale` um apart
+    (the scale is printed as um/div), so an ellipse, a spike or a step is seen where it
+    happens. The dashed circle is the nominal circle (0 um). A box states the test conditions
+    (no date, so the same test gives the same PNG). See :func:`polar_figure`.
 
     Args:
         path: the PNG to write.
         ccw, cw: each direction's figures.
-        summary: the ``gantry ballbar`` contract object (plane, radius, feed, G(b), ellipse).
+        summary: the ``gantry ballbar`` object (plane, radius, feed, G(b), ellipse, conditions).
     """
+    polar_figure(ccw, cw, summary).savefig(path, dpi=DPI, metadata={"Software": None})
+
+
+def polar_scale(lo_um: float, hi_um: float, divisions: int = 4) -> tuple[float, float, float]:
+    """A ballbar plot's radial scale for deviations in [lo_um, hi_um]: (um per division,
+    innermost ring, outermost ring) [um]; the division is 1, 2 or 5 x 10^k um, the smallest
+    that spans the data in at most ``divisions`` divisions, the rings multiples of it."""
+    span = max(hi_um - lo_um, 1e-3)
+    e = 10.0 ** math.floor(math.log10(span / divisions))
+    for m in (1.0, 2.0, 5.0, 10.0, 20.0):
+        div = m * e
+        lo, hi = math.floor(lo_um / div) * div, math.ceil(hi_um / div) * div
+        if (hi - lo) / div <= divisions + 1e-9:
+            return div, lo, hi
+    raise AssertionError("unreachable: 20 e spans the data")  # pragma: no cover
+
+
+def polar_conditions_text(summary: Mapping[str, Any]) -> str:
+    """The test-conditions box: machine, plane, radius, feed, directions, centre, servo period,
+    data arc and lead-in/out (from the summary's "conditions"), and no date."""
     s = summary
-    devs = np.concatenate([ccw.deviation_um, cw.deviation_um])
-    lo, hi = float(devs.min()), float(devs.max())
-    span = max(hi - lo, 1.0)
-    fig = _figure((7, 8))
-    ax = fig.add_subplot(projection="polar")
+    c = s.get("conditions") or {}
+    lines = [
+        "Test conditions",
+        f"machine: {c.get('machine', 'n/a')}",
+        f"plane {s['plane']}, radius {s['radius_mm']:g} mm, feed {s['feed_mm_per_min']:g} mm/min",
+    ]
+    if c:
+        centre = ", ".join(f"{v:g}" for v in c["centre_mm"])
+        lines += [
+            f"directions: {' then '.join(c['directions'])}; centre ({centre}) mm",
+            f"servo period {c['servo_period_s'] * 1e3:g} ms",
+            f"data arc {c['data_arc_deg']:g} deg from {c['start_deg']:g} deg; "
+            f"lead-in {c['lead_in_deg']:g} deg, lead-out {c['lead_out_deg']:g} deg",
+        ]
+    return "\n".join(lines)
+
+
+def polar_figure(ccw: CircleAnalysis, cw: CircleAnalysis, summary: Mapping[str, Any]) -> Figure:
+    """The polar.png figure (see :func:`save_polar_plot`)."""
+    s = summary
+    traces = [(r, r.nominal.dev_um, np.degrees(r.nominal.theta_rad) % 360.0) for r in (ccw, cw)]
+    devs = np.concatenate([d for _, d, _ in traces] + [np.zeros(1)])
+    div, lo, hi = polar_scale(float(devs.min()), float(devs.max()))
+    fig = _figure((8, 8.6))
+    ax = fig.add_axes((0.14, 0.3, 0.72, 0.58), projection="polar")
     assert isinstance(ax, PolarAxes)  # for the type checker: the polar projection's class
-    for res, colour in ((ccw, "tab:blue"), (cw, "tab:red")):
-        order = np.argsort(res.theta_deg)
-        th = np.radians(res.theta_deg[order])
+    ring = np.linspace(0, 2 * np.pi, 721)
+    nominal = f"nominal circle R {s['radius_mm']:g} mm (0 um)"
+    ax.plot(ring, np.zeros_like(ring), "k--", lw=0.9, label=nominal)
+    for (res, dev, deg), colour in zip(traces, ("tab:blue", "tab:red"), strict=True):
+        order = np.argsort(deg)
+        th, dv = np.radians(deg[order]), dev[order]
         label = f"{res.direction.upper()}  G = {res.circular_deviation_um:.2f} um"
-        ax.plot(
-            np.append(th, th[0]),
-            np.append(res.deviation_um[order], res.deviation_um[order][0]),
-            color=colour,
-            lw=0.6,
-            label=label,
-        )
-    ring = np.linspace(0, 2 * np.pi, 361)
-    ax.plot(ring, np.zeros_like(ring), "k--", lw=0.8, label="least-squares circle (0 um)")
-    ax.set_rorigin(lo - 1.2 * span)
-    ax.set_rlim(lo - 0.1 * span, hi + 0.1 * span)
+        ax.plot(np.append(th, th[0]), np.append(dv, dv[0]), color=colour, lw=0.7, label=label)
+    ax.set_rorigin(lo - 2 * div)
+    ax.set_rlim(lo, hi)
+    ax.set_rticks(np.arange(lo, hi + 0.5 * div, div))
+    ax.yaxis.set_major_formatter(lambda v, _pos: f"{v:+g}" if abs(v) > 1e-12 else "0")
     a, b = s["plane"][0], s["plane"][1]
     ax.set_thetagrids([0, 90, 180, 270], [f"+{a}", f"+{b}", f"-{a}", f"-{b}"])
     ax.set_rlabel_position(67.5)
     ax.tick_params(axis="y", labelsize=7)
-    fig.legend(loc="lower center", ncol=3, fontsize=8, frameon=False)
-    e = s["ellipse"]
-    fig.suptitle(
-        f"Ballbar {s['plane']}  R {s['radius_mm']:g} mm  F {s['feed_mm_per_min']:g} mm/min\n"
-        f"radial deviation about the LSQ centre [um], magnified; G(b) "
-        f"{s['bidirectional_deviation_um']:.2f} um\nellipse {e['magnitude_um']:.2f} um at "
-        f"{e['axis_deg']:.0f} deg (CCW), flips with direction: {e['flips_with_direction']}",
+    fig.legend(loc="upper center", bbox_to_anchor=(0.5, 0.275), ncol=3, fontsize=8, frameon=False)
+    title = f"Ballbar {s['plane']}  R {s['radius_mm']:g} mm  F {s['feed_mm_per_min']:g} mm/min"
+    fig.text(0.5, 0.962, title, ha="center", fontsize=12)
+    fig.text(
+        0.5,
+        0.935,
+        f"scale {div:g} um/div; traced radius minus nominal radius about the nominal centre",
+        ha="center",
         fontsize=9,
     )
-    fig.tight_layout(rect=(0, 0.04, 1, 0.93))
-    fig.savefig(path, dpi=DPI)
+    box: dict[str, Any] = {"boxstyle": "round", "facecolor": "white", "edgecolor": "0.6"}
+    text: dict[str, Any] = {"va": "top", "fontsize": 8, "family": "monospace"}
+    fig.text(0.05, 0.215, polar_conditions_text(s), bbox=box, **text)
+    fig.text(0.58, 0.215, _polar_figures_text(s), **text)
+    return fig
+
+
+def _polar_figures_text(summary: Mapping[str, Any]) -> str:
+    """The figures printed beside the plot: G(b), ellipse and the diagnostics."""
+    s = summary
+    e = s["ellipse"]
+    lines = [
+        f"G(b) {s['bidirectional_deviation_um']:.2f} um",
+        f"ellipse {e['magnitude_um']:.2f} um at {e['axis_deg']:.0f} deg",
+        f"  flips with direction: {'yes' if e['flips_with_direction'] else 'no'}",
+    ]
+    d = s.get("diagnostics")
+    if d:
+        a, b = s["plane"][0], s["plane"][1]
+        lines += [
+            f"servo mismatch {d['servo_mismatch_ms']:+.3f} ms",
+            f"squareness {d['squareness_um_per_m']:+.1f} um/m",
+            f"scaling {d['scaling_mismatch_ppm']:+.1f} ppm",
+            f"backlash {a} {d['backlash_um'][a]:.2f}, {b} {d['backlash_um'][b]:.2f} um",
+            f"lateral play {a} {d['lateral_play_um'][a]:.2f}, {b} {d['lateral_play_um'][b]:.2f} um",
+        ]
+    return "\n".join(lines)
 
 
 # ---- gantry tune -----------------------------------------------------------------------------

@@ -154,19 +154,20 @@ def test_ellipse_flip_rule():
     assert not ellipse_flips(e45, tiny)
 
 
-def test_ballbar_json_has_exactly_the_contract_keys():
+def test_ballbar_json_has_the_contract_keys_then_the_added_ones():
     ccw = analyse_circle(
         circle_points(lambda th: 3 * np.cos(2 * (th - np.pi / 4))), np.zeros(2), R, "ccw"
     )
     cw = analyse_circle(
         circle_points(lambda th: 3 * np.cos(2 * (th + np.pi / 4)), sense=-1), np.zeros(2), R, "cw"
     )
-    out = ballbar_json("XY", R, 1000.0, cw, ccw)
+    out = ballbar_json("XY", R, 1000.0, cw, ccw, {"added": 1})
     top = {"plane", "radius_mm", "feed_mm_per_min", "cw", "ccw", "bidirectional_deviation_um"}
-    assert set(out) == top | {"ellipse"}
+    assert set(out) == top | {"ellipse", "added"}
+    assert list(out)[-1] == "added"  # added keys come after the contract's
     per_direction = {"circular_deviation_um", "radial_deviation_um", "reversal_spikes_um"}
     for d in ("cw", "ccw"):
-        assert set(out[d]) == per_direction | {"centre_offset_um"}
+        assert set(out[d]) == per_direction | {"centre_offset_um", "reversal_steps_um"}
         assert set(out[d]["radial_deviation_um"]) == {"max", "min"}
         assert len(out[d]["reversal_spikes_um"]) == 4 and len(out[d]["centre_offset_um"]) == 2
     assert set(out["ellipse"]) == {"axis_deg", "magnitude_um", "flips_with_direction"}

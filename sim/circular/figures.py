@@ -30,7 +30,13 @@ import numpy as np
 
 from gantry_sim.controller.planes import PLANE_2D
 from gantry_sim.controller.units import UM_PER_MM
-from gantry_sim.sim.circular.signatures import Ellipse, harmonic_ellipse, reversal_spikes
+from gantry_sim.sim.circular.diagnostics import DirectionData
+from gantry_sim.sim.circular.signatures import (
+    Ellipse,
+    harmonic_ellipse,
+    reversal_spikes,
+    reversal_steps,
+)
 
 #: (a, b) indices of the plane's 2-D coordinates in (x, y, z), in the order the plane is named.
 
@@ -92,6 +98,9 @@ class CircleAnalysis:
         reversal_spikes_um: 4 values at theta 0, 90, 180, 270 deg [um].
         ellipse: the 2nd harmonic of deviation_um.
         ab_mm: (N, 2) the analysed points [mm] (for the bidirectional deviation).
+        reversal_steps_um: 4 persistent steps at theta 0, 90, 180, 270 deg [um] (added).
+        nominal: angle about the nominal centre [rad], traced radius minus nominal radius
+            about it [um] and sense (+1 CCW, -1 CW): the diagnostics' input.
     """
 
     direction: str
@@ -105,9 +114,11 @@ class CircleAnalysis:
     reversal_spikes_um: tuple[float, ...]
     ellipse: Ellipse
     ab_mm: np.ndarray
+    reversal_steps_um: tuple[float, ...]
+    nominal: DirectionData
 
     def to_json(self) -> dict:
-        """The contract's per-direction object (exactly its keys)."""
+        """The contract's per-direction object (its keys, then the added reversal steps)."""
         return {
             "circular_deviation_um": self.circular_deviation_um,
             "radial_deviation_um": {
@@ -116,6 +127,7 @@ class CircleAnalysis:
             },
             "reversal_spikes_um": [None if math.isnan(v) else v for v in self.reversal_spikes_um],
             "centre_offset_um": list(self.centre_offset_um),
+            "reversal_steps_um": [None if math.isnan(v) else v for v in self.reversal_steps_um],
         }
 
 
@@ -163,6 +175,8 @@ def analyse_circle(
         reversal_spikes_um=tuple(reversal_spikes(theta, dev_um, sense)),
         ellipse=harmonic_ellipse(theta, dev_um),
         ab_mm=ab,
+        reversal_steps_um=tuple(reversal_steps(theta, dev_um, sense)),
+        nominal=DirectionData(np.arctan2(nom[:, 1], nom[:, 0]), radial_um, sense),
     )
 
 
@@ -192,14 +206,19 @@ def ellipse_flips(cw: Ellipse, ccw: Ellipse, min_magnitude_um: float = 0.1) -> b
 
 
 def ballbar_json(
-    plane: str, radius_mm: float, feed_mm_per_min: float, cw: CircleAnalysis, ccw: CircleAnalysis
+    plane: str,
+    radius_mm: float,
+    feed_mm_per_min: float,
+    cw: CircleAnalysis,
+    ccw: CircleAnalysis,
+    extra: dict | None = None,
 ) -> dict:
-    """The ``gantry ballbar`` contract object.
+    """The ``gantry ballbar`` contract object, then the keys of ``extra`` (added ones).
 
     The "ellipse" gives the CCW run's axis and magnitude (the mathematically positive
     direction); when it flips with direction, the CW run's axis is about 90 deg away.
     """
-    return {
+    out = {
         "plane": plane,
         "radius_mm": float(radius_mm),
         "feed_mm_per_min": float(feed_mm_per_min),
@@ -212,3 +231,5 @@ def ballbar_json(
             "flips_with_direction": ellipse_flips(cw.ellipse, ccw.ellipse),
         },
     }
+    out.update(extra or {})
+    return out

@@ -100,3 +100,36 @@ def reversal_spikes(theta_rad: np.ndarray, dev_um: np.ndarray, sense: float) -> 
         resid = rho[after] - (offset + slope * psi[after])
         spikes.append(float(resid[np.argmax(np.abs(resid))]))
     return spikes
+
+
+#: where the level after a crossing is read [deg of travel after it], see ``reversal_steps``
+STEP_AFTER_DEG = (SPIKE_WINDOW_DEG, SPIKE_WINDOW_DEG + SPIKE_BASELINE_DEG - SPIKE_GAP_DEG)
+
+
+def reversal_steps(theta_rad: np.ndarray, dev_um: np.ndarray, sense: float) -> list[float]:
+    """The step that persists at each quadrant crossing theta_k = 0, 90, 180, 270 deg [um].
+
+    With rho and psi as in :func:`reversal_spikes`, a straight line (in psi) is fitted to rho
+    before the crossing (psi in [-SPIKE_BASELINE_DEG, -SPIKE_GAP_DEG]) and one after it, once a
+    spike has died away (psi in STEP_AFTER_DEG); the step is the after-line minus the
+    before-line at psi = 0, signed (positive: the trace moves outward). A spike that recovers
+    gives about 0, backlash or a PD loop's friction lag its full step, a smooth path about 0.
+
+    Returns:
+        4 values [um] in the order theta_k = 0, 90, 180, 270 deg (nan where a window is empty).
+    """
+    rho = dev_um - _harmonic_model(theta_rad, _harmonics(theta_rad, dev_um, 2))
+    lo, gap = math.radians(SPIKE_BASELINE_DEG), math.radians(SPIKE_GAP_DEG)
+    a0, a1 = (math.radians(v) for v in STEP_AFTER_DEG)
+    steps = []
+    for k in range(4):
+        psi = np.angle(np.exp(1j * sense * (theta_rad - k * math.pi / 2)))
+        before = (psi >= -lo) & (psi <= -gap)
+        after = (psi >= a0) & (psi <= a1)
+        if before.sum() < 2 or after.sum() < 2:
+            steps.append(float("nan"))
+            continue
+        level_before = np.polyfit(psi[before], rho[before], 1)[1]
+        level_after = np.polyfit(psi[after], rho[after], 1)[1]
+        steps.append(float(level_after - level_before))
+    return steps

@@ -1,0 +1,99 @@
+"""What ``gantry ballbar`` tells a person, and its G gate, from the ballbar object (plain dicts).
+
+``format_summary`` renders the object as the few lines ballbar software shows (G per direction,
+the diagnostics in their units, the test conditions); ``g_gate`` judges G against a limit.
+No simulation, NumPy or matplotlib here.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping
+from typing import Any
+
+
+def g_gate(summary: Mapping[str, Any], max_g_um: float) -> dict:
+    """The "gate" object: G of each direction against ``max_g_um`` [um].
+
+    Returns:
+        {"max_g_um", "passed", "reasons"}; a reason per direction whose circular deviation G
+        exceeds the limit (a G equal to the limit passes).
+    """
+    reasons = [
+        f"{d.upper()} circular deviation G {summary[d]['circular_deviation_um']:.2f} um "
+        f"> {max_g_um:g} um"
+        for d in ("ccw", "cw")
+        if summary[d]["circular_deviation_um"] > max_g_um
+    ]
+    return {"max_g_um": float(max_g_um), "passed": not reasons, "reasons": reasons}
+
+
+def _num(v: float | None, fmt: str = ".2f") -> str:
+    """``v`` formatted, "n/a" for None or nan, and no "-0.00" (a rounded zero has no sign)."""
+    if v is None or math.isnan(v):
+        return "n/a"
+    text = format(v, fmt)
+    return format(0.0, fmt) if float(text) == 0.0 else text
+
+
+#: below this servo mismatch [ms] the summary calls the axes matched
+MATCHED_MS = 0.005
+
+
+def _lag_words(ms: float, a: str, b: str) -> str:
+    if abs(ms) < MATCHED_MS:
+        return f"matched within {MATCHED_MS:g} ms"
+    return f"{a} lags {b}" if ms > 0 else f"{b} lags {a}"
+
+
+def format_summary(summary: Mapping[str, Any]) -> str:
+    """The human summary of a ballbar object (ends with a newline)."""
+    s = summary
+    a, b = s["plane"][0], s["plane"][1]
+    out = [
+        f"ballbar {s['plane']}  R {s['radius_mm']:g} mm  F {s['feed_mm_per_min']:g} mm/min",
+    ]
+    cond = s.get("conditions")
+    if cond:
+        c = ", ".join(f"{v:g}" for v in cond["centre_mm"])
+        out.append(
+            f"  machine {cond['machine']}, centre ({c}) mm, servo period "
+            f"{cond['servo_period_s'] * 1e3:g} ms, data arc {cond['data_arc_deg']:g} deg from "
+            f"{cond['start_deg']:g} deg, lead-in/out {cond['lead_in_deg']:g}/"
+            f"{cond['lead_out_deg']:g} deg"
+        )
+    out.append(
+        f"  {'':4} {'G um':>7} {'F max':>7} {'F min':>7}   reversal spikes um at 0/90/180/270 deg"
+    )
+    for d in ("ccw", "cw"):
+        r = s[d]
+        spikes = " ".join(f"{_num(v):>6}" for v in r["reversal_spikes_um"])
+        out.append(
+            f"  {d.upper():4} {r['circular_deviation_um']:7.2f} "
+            f"{r['radial_deviation_um']['max']:7.2f} {r['radial_deviation_um']['min']:7.2f}   "
+            f"{spikes}"
+        )
+    out.append(f"  bidirectional G(b) {s['bidirectional_deviation_um']:.2f} um")
+    diag = s.get("diagnostics")
+    if diag:
+        ms = diag["servo_mismatch_ms"]
+        bl, lp = diag["backlash_um"], diag["lateral_play_um"]
+        off = [
+            0.5 * (s["ccw"]["centre_offset_um"][i] + s["cw"]["centre_offset_um"][i]) for i in (0, 1)
+        ]
+        out += [
+            "diagnostics",
+            f"  servo mismatch     {_num(ms, '+.3f')} ms ({_lag_words(ms, a, b)})",
+            f"  squareness         {_num(diag['squareness_um_per_m'], '+.1f')} um/m",
+            f"  scaling mismatch   {_num(diag['scaling_mismatch_ppm'], '+.1f')} ppm ({a} vs {b})",
+            f"  backlash           {a} {_num(bl[a], '+.2f')} um  {b} {_num(bl[b], '+.2f')} um",
+            f"  lateral play       {a} {_num(lp[a], '+.2f')} um  {b} {_num(lp[b], '+.2f')} um",
+            f"  centre offset      {a} {_num(off[0], '+.2f')} um  {b} {_num(off[1], '+.2f')} um",
+            f"  model residual     {diag['model_residual_rms_um']:.2f} um RMS at "
+            f"{diag['path_speed_mm_per_min']:.0f} mm/min",
+        ]
+    gate = s.get("gate")
+    if gate:
+        verdict = "PASS" if gate["passed"] else "FAIL: " + "; ".join(gate["reasons"])
+        out.append(f"gate G <= {gate['max_g_um']:g} um: {verdict}")
+    return "\n".join(out) + "\n"
