@@ -76,7 +76,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 def parse_centre(text: str | None, plane: str) -> tuple[float, float, float]:
     """``--centre`` -> (x, y, z) [mm]: two values in the plane's order, or three X,Y,Z."""
-    from gantry_sim.controller.planes import PLANE_AXES
+    from gantry_sim.controller.planes import PLANE_2D
 
     if text is None:
         return (0.0, 0.0, 0.0)
@@ -92,7 +92,7 @@ def parse_centre(text: str | None, plane: str) -> tuple[float, float, float]:
     if len(values) == 3:
         return (values[0], values[1], values[2])
     centre = [0.0, 0.0, 0.0]
-    i1, i2, _ = PLANE_AXES[plane]
+    i1, i2 = PLANE_2D[plane]  # the plane's axes in the order it is named
     centre[i1], centre[i2] = values
     return (centre[0], centre[1], centre[2])
 
