@@ -37,7 +37,7 @@ def _num(v: float | None, fmt: str = ".2f") -> str:
 
 
 #: below this servo mismatch [ms] the summary calls the axes matched
-MATCHED_MS = 0.005
+MATCHED_MS = 0.01
 
 
 def _lag_words(ms: float, a: str, b: str) -> str:
