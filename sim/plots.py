@@ -12,7 +12,6 @@ matplotlib, which ``gantry`` must not load at start-up).
 
 from __future__ import annotations
 
-import math
 from collections.abc import Mapping, Sequence
 from pathlib import Path
 from typing import Any, Protocol
@@ -25,6 +24,7 @@ from matplotlib.projections.polar import PolarAxes
 from gantry_sim.controller.arcs import arc_points
 from gantry_sim.controller.moves import Arc, Move
 from gantry_sim.sim.circular.figures import CircleAnalysis
+from gantry_sim.sim.circular.summary import polar_conditions_text, polar_figures_text, polar_scale
 from gantry_sim.sim.contour import ContourStats
 from gantry_sim.sim.trace import Trace
 
@@ -139,7 +139,7 @@ def save_polar_plot(
 
     As ballbar software shows it: angle = position on the circle (0 deg along the plane's
     first axis, 90 deg along its second), radius = the traced radius minus the nominal radius
-    about the nominal centre (the ballbar's pivot) [um], on rings :func:`polar_scale` um apart
+    about the nominal centre (the ballbar's pivot) [um], on rings :func:`gantry_sim.sim.circular.summary.polar_scale` um apart
     (the scale is printed as um/div), so an ellipse, a spike or a step is seen where it
     happens. The dashed circle is the nominal circle (0 um). A box states the test conditions
     (no date, so the same test gives the same PNG). See :func:`polar_figure`.
@@ -150,41 +150,6 @@ def save_polar_plot(
         summary: the ``gantry ballbar`` object (plane, radius, feed, G(b), ellipse, conditions).
     """
     polar_figure(ccw, cw, summary).savefig(path, dpi=DPI, metadata={"Software": None})
-
-
-def polar_scale(lo_um: float, hi_um: float, divisions: int = 4) -> tuple[float, float, float]:
-    """A ballbar plot's radial scale for deviations in [lo_um, hi_um]: (um per division,
-    innermost ring, outermost ring) [um]; the division is 1, 2 or 5 x 10^k um, the smallest
-    that spans the data in at most ``divisions`` divisions, the rings multiples of it."""
-    span = max(hi_um - lo_um, 1e-3)
-    e = 10.0 ** math.floor(math.log10(span / divisions))
-    for m in (1.0, 2.0, 5.0, 10.0, 20.0):
-        div = m * e
-        lo, hi = math.floor(lo_um / div) * div, math.ceil(hi_um / div) * div
-        if (hi - lo) / div <= divisions + 1e-9:
-            return div, lo, hi
-    raise AssertionError("unreachable: 20 e spans the data")  # pragma: no cover
-
-
-def polar_conditions_text(summary: Mapping[str, Any]) -> str:
-    """The test-conditions box: machine, plane, radius, feed, directions, centre, servo period,
-    data arc and lead-in/out (from the summary's "conditions"), and no date."""
-    s = summary
-    c = s.get("conditions") or {}
-    lines = [
-        "Test conditions",
-        f"machine: {c.get('machine', 'n/a')}",
-        f"plane {s['plane']}, radius {s['radius_mm']:g} mm, feed {s['feed_mm_per_min']:g} mm/min",
-    ]
-    if c:
-        centre = ", ".join(f"{v:g}" for v in c["centre_mm"])
-        lines += [
-            f"directions: {' then '.join(c['directions'])}; centre ({centre}) mm",
-            f"servo period {c['servo_period_s'] * 1e3:g} ms",
-            f"data arc {c['data_arc_deg']:g} deg from {c['start_deg']:g} deg; "
-            f"lead-in {c['lead_in_deg']:g} deg, lead-out {c['lead_out_deg']:g} deg",
-        ]
-    return "\n".join(lines)
 
 
 def polar_figure(ccw: CircleAnalysis, cw: CircleAnalysis, summary: Mapping[str, Any]) -> Figure:
@@ -225,30 +190,8 @@ def polar_figure(ccw: CircleAnalysis, cw: CircleAnalysis, summary: Mapping[str, 
     box: dict[str, Any] = {"boxstyle": "round", "facecolor": "white", "edgecolor": "0.6"}
     text: dict[str, Any] = {"va": "top", "fontsize": 8, "family": "monospace"}
     fig.text(0.05, 0.215, polar_conditions_text(s), bbox=box, **text)
-    fig.text(0.58, 0.215, _polar_figures_text(s), **text)
+    fig.text(0.58, 0.215, polar_figures_text(s), **text)
     return fig
-
-
-def _polar_figures_text(summary: Mapping[str, Any]) -> str:
-    """The figures printed beside the plot: G(b), ellipse and the diagnostics."""
-    s = summary
-    e = s["ellipse"]
-    lines = [
-        f"G(b) {s['bidirectional_deviation_um']:.2f} um",
-        f"ellipse {e['magnitude_um']:.2f} um at {e['axis_deg']:.0f} deg",
-        f"  flips with direction: {'yes' if e['flips_with_direction'] else 'no'}",
-    ]
-    d = s.get("diagnostics")
-    if d:
-        a, b = s["plane"][0], s["plane"][1]
-        lines += [
-            f"servo mismatch {d['servo_mismatch_ms']:+.3f} ms",
-            f"squareness {d['squareness_um_per_m']:+.1f} um/m",
-            f"scaling {d['scaling_mismatch_ppm']:+.1f} ppm",
-            f"backlash {a} {d['backlash_um'][a]:.2f}, {b} {d['backlash_um'][b]:.2f} um",
-            f"lateral play {a} {d['lateral_play_um'][a]:.2f}, {b} {d['lateral_play_um'][b]:.2f} um",
-        ]
-    return "\n".join(lines)
 
 
 # ---- gantry tune -----------------------------------------------------------------------------

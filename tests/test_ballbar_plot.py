@@ -11,8 +11,8 @@ from hypothesis import strategies as st
 
 from gantry_sim.sim.circular.diagnostics import diagnostics_json, fit_diagnostics
 from gantry_sim.sim.circular.figures import analyse_circle, ballbar_json
-from gantry_sim.sim.circular.summary import format_summary, g_gate
-from gantry_sim.sim.plots import polar_figure, polar_scale, save_polar_plot
+from gantry_sim.sim.circular.summary import format_summary, g_gate, polar_scale
+from gantry_sim.sim.plots import polar_figure, save_polar_plot
 
 R = 10.0  # mm
 V = 50.0  # mm/s

@@ -1,7 +1,9 @@
 """What ``gantry ballbar`` tells a person, and its G gate, from the ballbar object (plain dicts).
 
 ``format_summary`` renders the object as the few lines ballbar software shows (G per direction,
-the diagnostics in their units, the test conditions); ``g_gate`` judges G against a limit.
+the diagnostics in their units, the test conditions); ``g_gate`` judges G against a limit;
+``polar_scale``, ``polar_conditions_text`` and ``polar_figures_text`` are polar.png's scale
+and text (the drawing is :func:`gantry_sim.sim.plots.save_polar_plot`).
 No simulation, NumPy or matplotlib here.
 """
 
@@ -97,3 +99,63 @@ def format_summary(summary: Mapping[str, Any]) -> str:
         verdict = "PASS" if gate["passed"] else "FAIL: " + "; ".join(gate["reasons"])
         out.append(f"gate G <= {gate['max_g_um']:g} um: {verdict}")
     return "\n".join(out) + "\n"
+
+
+# ---- polar.png: its scale and its text (drawn by gantry_sim.sim.plots.save_polar_plot) ----
+
+
+def polar_scale(lo_um: float, hi_um: float, divisions: int = 4) -> tuple[float, float, float]:
+    """A ballbar plot's radial scale for deviations in [lo_um, hi_um]: (um per division,
+    innermost ring, outermost ring) [um]; the division is 1, 2 or 5 x 10^k um, the smallest
+    that spans the data in at most ``divisions`` divisions, the rings multiples of it."""
+    span = max(hi_um - lo_um, 1e-3)
+    e = 10.0 ** math.floor(math.log10(span / divisions))
+    for m in (1.0, 2.0, 5.0, 10.0, 20.0):
+        div = m * e
+        lo, hi = math.floor(lo_um / div) * div, math.ceil(hi_um / div) * div
+        if (hi - lo) / div <= divisions + 1e-9:
+            return div, lo, hi
+    raise AssertionError("unreachable: 20 e spans the data")  # pragma: no cover
+
+
+def polar_conditions_text(summary: Mapping[str, Any]) -> str:
+    """The test-conditions box: machine, plane, radius, feed, directions, centre, servo period,
+    data arc and lead-in/out (from the summary's "conditions"), and no date."""
+    s = summary
+    c = s.get("conditions") or {}
+    lines = [
+        "Test conditions",
+        f"machine: {c.get('machine', 'n/a')}",
+        f"plane {s['plane']}, radius {s['radius_mm']:g} mm, feed {s['feed_mm_per_min']:g} mm/min",
+    ]
+    if c:
+        centre = ", ".join(f"{v:g}" for v in c["centre_mm"])
+        lines += [
+            f"directions: {' then '.join(c['directions'])}; centre ({centre}) mm",
+            f"servo period {c['servo_period_s'] * 1e3:g} ms",
+            f"data arc {c['data_arc_deg']:g} deg from {c['start_deg']:g} deg; "
+            f"lead-in {c['lead_in_deg']:g} deg, lead-out {c['lead_out_deg']:g} deg",
+        ]
+    return "\n".join(lines)
+
+
+def polar_figures_text(summary: Mapping[str, Any]) -> str:
+    """The figures printed beside the plot: G(b), ellipse and the diagnostics."""
+    s = summary
+    e = s["ellipse"]
+    lines = [
+        f"G(b) {s['bidirectional_deviation_um']:.2f} um",
+        f"ellipse {e['magnitude_um']:.2f} um at {e['axis_deg']:.0f} deg",
+        f"  flips with direction: {'yes' if e['flips_with_direction'] else 'no'}",
+    ]
+    d = s.get("diagnostics")
+    if d:
+        a, b = s["plane"][0], s["plane"][1]
+        lines += [
+            f"servo mismatch {d['servo_mismatch_ms']:+.3f} ms",
+            f"squareness {d['squareness_um_per_m']:+.1f} um/m",
+            f"scaling {d['scaling_mismatch_ppm']:+.1f} ppm",
+            f"backlash {a} {d['backlash_um'][a]:.2f}, {b} {d['backlash_um'][b]:.2f} um",
+            f"lateral play {a} {d['lateral_play_um'][a]:.2f}, {b} {d['lateral_play_um'][b]:.2f} um",
+        ]
+    return "\n".join(lines)
