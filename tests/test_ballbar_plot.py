@@ -60,7 +60,7 @@ def test_polar_scale_examples(lo, hi, expected):
 
 @given(
     st.floats(-500, 500, allow_nan=False),
-    st.floats(0.01, 1000, allow_nan=False),
+    st.floats(0.1, 1000, allow_nan=False),
 )
 def test_polar_scale_is_the_finest_nice_division_that_spans_the_data(lo, span):
     hi = lo + span
@@ -123,3 +123,16 @@ def test_gate_passes_at_the_limit(bb):
     g = max(summary[d]["circular_deviation_um"] for d in ("ccw", "cw"))
     assert g_gate(summary, g)["passed"] is True
     assert g_gate(summary, g * 0.999)["passed"] is False
+
+
+def test_a_perfect_circle_still_gets_a_readable_scale(tmp_path, recwarn):
+    """No deviation at all: one 0.1 um division (no finer rings, no empty radial range)."""
+    assert polar_scale(0.0, 0.0) == pytest.approx((0.1, 0.0, 0.1))
+    assert polar_scale(-0.01, 0.02) == pytest.approx((0.1, -0.1, 0.1))
+    phi = math.radians(45.0) + np.linspace(0.0, 2 * math.pi, 720, endpoint=False)
+    pts = np.column_stack((R * np.cos(phi), R * np.sin(phi)))
+    ccw = analyse_circle(pts, np.zeros(2), R, "ccw")
+    cw = analyse_circle(pts[::-1], np.zeros(2), R, "cw")
+    save_polar_plot(tmp_path / "p.png", ccw, cw, ballbar_json("XY", R, 3000.0, cw, ccw))
+    assert (tmp_path / "p.png").stat().st_size > 0
+    assert [str(w.message) for w in recwarn] == []

@@ -104,17 +104,24 @@ def format_summary(summary: Mapping[str, Any]) -> str:
 # ---- polar.png: its scale and its text (drawn by gantry_sim.sim.plots.save_polar_plot) ----
 
 
+#: the finest polar.png division [um]: below a ballbar's resolution finer rings say nothing
+MIN_UM_PER_DIV = 0.1
+
+
 def polar_scale(lo_um: float, hi_um: float, divisions: int = 4) -> tuple[float, float, float]:
     """A ballbar plot's radial scale for deviations in [lo_um, hi_um]: (um per division,
-    innermost ring, outermost ring) [um]; the division is 1, 2 or 5 x 10^k um, the smallest
-    that spans the data in at most ``divisions`` divisions, the rings multiples of it."""
-    span = max(hi_um - lo_um, 1e-3)
+    innermost ring, outermost ring) [um]. The division is 1, 2 or 5 x 10^k um, at least
+    MIN_UM_PER_DIV, the finest that spans the data in at most ``divisions`` divisions; the
+    rings are multiples of it, at least one division apart."""
+    span = max(hi_um - lo_um, MIN_UM_PER_DIV)
     e = 10.0 ** math.floor(math.log10(span / divisions))
     for m in (1.0, 2.0, 5.0, 10.0, 20.0):
         div = m * e
+        if div < MIN_UM_PER_DIV * (1 - 1e-9):
+            continue
         lo, hi = math.floor(lo_um / div) * div, math.ceil(hi_um / div) * div
         if (hi - lo) / div <= divisions + 1e-9:
-            return div, lo, hi
+            return div, lo, max(hi, lo + div)
     raise AssertionError("unreachable: 20 e spans the data")  # pragma: no cover
 
 
