@@ -17,14 +17,14 @@ SHORT = ["ballbar", "--radius", "5", "--feed", "3000"]
 @pytest.mark.parametrize(
     "plane,centre,expected",
     [
-        ("XY", "20,-10", (20.0, -10.0, 0.0)),
+        ("XY", "-20,-10", (-20.0, -10.0, 0.0)),
         ("XZ", "15,5", (15.0, 0.0, 5.0)),
         ("YZ", "1,2,3", (1.0, 2.0, 3.0)),
     ],
 )
 def test_centre_places_the_circle(tmp_path, capsys, plane, centre, expected):
     out = tmp_path / "bb"
-    argv = [*SHORT, "--plane", plane, "--centre", centre, "--out", str(out)]
+    argv = [*SHORT, "--plane", plane, f"--centre={centre}", "--out", str(out)]
     assert main(argv) == 0
     printed = json.loads(capsys.readouterr().out)
     assert printed["centre_mm"] == list(expected)

@@ -58,12 +58,12 @@ def format_summary(summary: Mapping[str, Any]) -> str:
     cond = s.get("conditions")
     if cond:
         c = ", ".join(f"{v:g}" for v in cond["centre_mm"])
-        out.append(
-            f"  machine {cond['machine']}, centre ({c}) mm, servo period "
-            f"{cond['servo_period_s'] * 1e3:g} ms, data arc {cond['data_arc_deg']:g} deg from "
-            f"{cond['start_deg']:g} deg, lead-in/out {cond['lead_in_deg']:g}/"
-            f"{cond['lead_out_deg']:g} deg"
-        )
+        out += [
+            f"  machine {cond['machine']}, servo period {cond['servo_period_s'] * 1e3:g} ms",
+            f"  centre ({c}) mm, {' then '.join(cond['directions'])}, data arc "
+            f"{cond['data_arc_deg']:g} deg from {cond['start_deg']:g} deg, lead-in "
+            f"{cond['lead_in_deg']:g} deg, lead-out {cond['lead_out_deg']:g} deg",
+        ]
     out.append(
         f"  {'':4} {'G um':>7} {'F max':>7} {'F min':>7}   reversal spikes um at 0/90/180/270 deg"
     )

@@ -41,9 +41,10 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument(
         "--centre",
         default=None,
-        metavar="A,B[,N]",
+        metavar="A,B|X,Y,Z",
         help="circle centre in work coordinates [mm]: the plane's two coordinates in its order "
-        "(XY: X,Y; XZ: X,Z; YZ: Y,Z), the normal axis at 0, or all three X,Y,Z (default 0,0,0)",
+        "(XY: X,Y; XZ: X,Z; YZ: Y,Z), the normal axis at 0, or all three X,Y,Z (default 0,0,0); "
+        "write a negative first value as --centre=-20,10",
     )
     parser.add_argument(
         "--max-g-um",
