@@ -27,7 +27,7 @@ CONTRACT_DIRECTION = {
     "centre_offset_um",
 }
 #: keys added after the contract (issue 14): every contract key stays, these come on top
-ADDED_TOP = {"centre_mm", "diagnostics", "conditions"}
+ADDED_TOP = {"centre_mm", "diagnostics", "conditions", "circular_hysteresis_um"}
 ADDED_DIRECTION = {"reversal_steps_um"}
 DIAGNOSTICS = {
     "servo_mismatch_ms",

@@ -192,6 +192,22 @@ def bidirectional_deviation_um(cw: CircleAnalysis, ccw: CircleAnalysis) -> float
     return float((r.max() - r.min()) * UM_PER_MM)
 
 
+def circular_hysteresis_um(cw: CircleAnalysis, ccw: CircleAnalysis) -> float:
+    """ISO 230-4 circular hysteresis H [um]: the largest radial difference between the CW and
+    CCW traces at the same angle, both about the least-squares circle fitted to both together
+    (the CW radius is interpolated, periodically, at the CCW samples' angles)."""
+    both = np.vstack((cw.ab_mm, ccw.ab_mm))
+    c, _ = fit_circle(both)
+    radius_angle = []
+    for res in (cw, ccw):
+        d = res.ab_mm - c
+        radius_angle.append((np.hypot(d[:, 0], d[:, 1]), np.arctan2(d[:, 1], d[:, 0])))
+    (r_cw, t_cw), (r_ccw, t_ccw) = radius_angle
+    order = np.argsort(t_cw)
+    r_at = np.interp(t_ccw, t_cw[order], r_cw[order], period=2.0 * math.pi)
+    return float(np.abs(r_ccw - r_at).max() * UM_PER_MM)
+
+
 def ellipse_flips(cw: Ellipse, ccw: Ellipse, min_magnitude_um: float = 0.1) -> bool:
     """Whether the ellipse's axis flips with direction.
 
@@ -231,5 +247,6 @@ def ballbar_json(
             "flips_with_direction": ellipse_flips(cw.ellipse, ccw.ellipse),
         },
     }
+    out["circular_hysteresis_um"] = circular_hysteresis_um(cw, ccw)
     out.update(extra or {})
     return out

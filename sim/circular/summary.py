@@ -75,7 +75,10 @@ def format_summary(summary: Mapping[str, Any]) -> str:
             f"{r['radial_deviation_um']['max']:7.2f} {r['radial_deviation_um']['min']:7.2f}   "
             f"{spikes}"
         )
-    out.append(f"  bidirectional G(b) {s['bidirectional_deviation_um']:.2f} um")
+    bidir = f"  bidirectional G(b) {s['bidirectional_deviation_um']:.2f} um"
+    if "circular_hysteresis_um" in s:
+        bidir += f", circular hysteresis H {s['circular_hysteresis_um']:.2f} um"
+    out.append(bidir)
     diag = s.get("diagnostics")
     if diag:
         ms = diag["servo_mismatch_ms"]
