@@ -154,7 +154,8 @@ def polar_figures_text(summary: Mapping[str, Any]) -> str:
     s = summary
     e = s["ellipse"]
     lines = [
-        f"G(b) {s['bidirectional_deviation_um']:.2f} um",
+        f"G(b) {s['bidirectional_deviation_um']:.2f} um"
+        + (f", H {s['circular_hysteresis_um']:.2f} um" if "circular_hysteresis_um" in s else ""),
         f"ellipse {e['magnitude_um']:.2f} um at {e['axis_deg']:.0f} deg",
         f"  flips with direction: {'yes' if e['flips_with_direction'] else 'no'}",
     ]
