@@ -3,14 +3,17 @@
 
     python scripts/ballbar.py --plane XY --radius 50 --feed 1000 --out ballbar_out/
 
-Prints the figures per direction (G, F max/min, reversal spikes, centre offset), the
-bidirectional deviation and the ellipse; writes ballbar.json, polar.png, ballbar.ngc and the
-traces with --out. Uses the public API: gantry_sim.sim.circular.ballbar.run_ballbar / write_ballbar_outputs.
+Prints the human summary (G, F max/min and reversal spikes per direction, G(b), the
+diagnostics: servo mismatch, squareness, scaling mismatch, backlash, lateral play, centre
+offset); writes ballbar.json, polar.png, ballbar.ngc and the traces with --out; exits 1 when
+--max-g-um fails. Uses the public API: gantry_sim.sim.circular.ballbar.run_ballbar /
+write_ballbar_outputs and gantry_sim.sim.circular.summary.
 """
 
 from __future__ import annotations
 
 import argparse
+import dataclasses
 import sys
 from pathlib import Path
 
@@ -24,42 +27,30 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--plane", choices=("XY", "XZ", "YZ"), default="XY")
     parser.add_argument("--radius", type=float, default=50.0, help="[mm]")
     parser.add_argument("--feed", type=float, default=1000.0, help="[mm/min]")
+    parser.add_argument("--centre", type=float, nargs=3, default=(0.0, 0.0, 0.0), help="X Y Z [mm]")
+    parser.add_argument("--max-g-um", type=float, default=None, help="gate on G [um]")
     parser.add_argument("--machine", type=Path, default=None, help="machine file (TOML)")
     parser.add_argument("--out", type=Path, default=None)
     args = parser.parse_args(argv)
 
     from gantry_sim.sim.circular.ballbar import run_ballbar, write_ballbar_outputs
+    from gantry_sim.sim.circular.summary import format_summary, g_gate
 
     try:
         machine = load_machine_config(DEFAULT_MACHINE, args.machine)
-        res = run_ballbar(machine, args.plane, args.radius, args.feed)
+        res = run_ballbar(machine, args.plane, args.radius, args.feed, tuple(args.centre))
     except GantryError as exc:
         print(exc, file=sys.stderr)
         return 2
+    status = 0
+    if args.max_g_um is not None:
+        gate = g_gate(res.summary, args.max_g_um)
+        res = dataclasses.replace(res, summary={**res.summary, "gate": gate})
+        status = 0 if gate["passed"] else 1
     if args.out is not None:
         write_ballbar_outputs(res, args.out)
-    s = res.summary
-    print(f"ballbar {s['plane']}  R {s['radius_mm']:g} mm  F {s['feed_mm_per_min']:g} mm/min")
-    print(
-        f"{'':4} {'G um':>7} {'F max':>7} {'F min':>7}  {'spikes um (0/90/180/270 deg)':<30}"
-        f" {'centre um':>16}"
-    )
-    for d in ("ccw", "cw"):
-        r = s[d]
-        spikes = " ".join(f"{v:6.2f}" for v in r["reversal_spikes_um"])
-        a, b = r["centre_offset_um"]
-        print(
-            f"{d.upper():4} {r['circular_deviation_um']:7.2f} "
-            f"{r['radial_deviation_um']['max']:7.2f} {r['radial_deviation_um']['min']:7.2f}  "
-            f"{spikes:<30} {a:7.2f} {b:7.2f}"
-        )
-    e = s["ellipse"]
-    print(
-        f"bidirectional deviation G(b) {s['bidirectional_deviation_um']:.2f} um; ellipse "
-        f"{e['magnitude_um']:.2f} um at {e['axis_deg']:.1f} deg (CCW), "
-        f"flips with direction: {e['flips_with_direction']}"
-    )
-    return 0
+    sys.stdout.write(format_summary(res.summary))
+    return status
 
 
 if __name__ == "__main__":

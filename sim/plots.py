@@ -24,6 +24,7 @@ from matplotlib.projections.polar import PolarAxes
 from gantry_sim.controller.arcs import arc_points
 from gantry_sim.controller.moves import Arc, Move
 from gantry_sim.sim.circular.figures import CircleAnalysis
+from gantry_sim.sim.circular.summary import polar_conditions_text, polar_figures_text, polar_scale
 from gantry_sim.sim.contour import ContourStats
 from gantry_sim.sim.trace import Trace
 
@@ -134,54 +135,63 @@ def save_error_plot(path: Path, trace: Trace, contour: ContourStats) -> None:
 def save_polar_plot(
     path: Path, ccw: CircleAnalysis, cw: CircleAnalysis, summary: Mapping[str, Any]
 ) -> None:
-    """polar.png: radial deviation about the LSQ centre, magnified, CCW and CW overlaid.
+    """polar.png: the radial deviation of the CCW and CW traces, magnified, on a stated scale.
 
     As ballbar software shows it: angle = position on the circle (0 deg along the plane's
-    first axis, 90 deg along its second), radius = deviation [um] on a scale whose zero is the
-    dashed least-squares circle, so an ellipse, a spike or a step is seen where it happens.
+    first axis, 90 deg along its second), radius = the traced radius minus the nominal radius
+    about the nominal centre (the ballbar's pivot) [um], on rings :func:`gantry_sim.sim.circular.summary.polar_scale` um apart
+    (the scale is printed as um/div), so an ellipse, a spike or a step is seen where it
+    happens. The dashed circle is the nominal circle (0 um). A box states the test conditions
+    (no date, so the same test gives the same PNG). See :func:`polar_figure`.
 
     Args:
         path: the PNG to write.
         ccw, cw: each direction's figures.
-        summary: the ``gantry ballbar`` contract object (plane, radius, feed, G(b), ellipse).
+        summary: the ``gantry ballbar`` object (plane, radius, feed, G(b), ellipse, conditions).
     """
+    polar_figure(ccw, cw, summary).savefig(path, dpi=DPI, metadata={"Software": None})
+
+
+def polar_figure(ccw: CircleAnalysis, cw: CircleAnalysis, summary: Mapping[str, Any]) -> Figure:
+    """The polar.png figure (see :func:`save_polar_plot`)."""
     s = summary
-    devs = np.concatenate([ccw.deviation_um, cw.deviation_um])
-    lo, hi = float(devs.min()), float(devs.max())
-    span = max(hi - lo, 1.0)
-    fig = _figure((7, 8))
-    ax = fig.add_subplot(projection="polar")
+    traces = [(r, r.nominal.dev_um, np.degrees(r.nominal.theta_rad) % 360.0) for r in (ccw, cw)]
+    devs = np.concatenate([d for _, d, _ in traces] + [np.zeros(1)])
+    div, lo, hi = polar_scale(float(devs.min()), float(devs.max()))
+    fig = _figure((8, 8.6))
+    ax = fig.add_axes((0.14, 0.3, 0.72, 0.58), projection="polar")
     assert isinstance(ax, PolarAxes)  # for the type checker: the polar projection's class
-    for res, colour in ((ccw, "tab:blue"), (cw, "tab:red")):
-        order = np.argsort(res.theta_deg)
-        th = np.radians(res.theta_deg[order])
+    ring = np.linspace(0, 2 * np.pi, 721)
+    nominal = f"nominal circle R {s['radius_mm']:g} mm (0 um)"
+    ax.plot(ring, np.zeros_like(ring), "k--", lw=0.9, label=nominal)
+    for (res, dev, deg), colour in zip(traces, ("tab:blue", "tab:red"), strict=True):
+        order = np.argsort(deg)
+        th, dv = np.radians(deg[order]), dev[order]
         label = f"{res.direction.upper()}  G = {res.circular_deviation_um:.2f} um"
-        ax.plot(
-            np.append(th, th[0]),
-            np.append(res.deviation_um[order], res.deviation_um[order][0]),
-            color=colour,
-            lw=0.6,
-            label=label,
-        )
-    ring = np.linspace(0, 2 * np.pi, 361)
-    ax.plot(ring, np.zeros_like(ring), "k--", lw=0.8, label="least-squares circle (0 um)")
-    ax.set_rorigin(lo - 1.2 * span)
-    ax.set_rlim(lo - 0.1 * span, hi + 0.1 * span)
+        ax.plot(np.append(th, th[0]), np.append(dv, dv[0]), color=colour, lw=0.7, label=label)
+    ax.set_rorigin(lo - 2 * div)
+    ax.set_rlim(lo, hi)
+    ax.set_rticks(np.arange(lo, hi + 0.5 * div, div))
+    ax.yaxis.set_major_formatter(lambda v, _pos: f"{v:+g}" if abs(v) > 1e-12 else "0")
     a, b = s["plane"][0], s["plane"][1]
     ax.set_thetagrids([0, 90, 180, 270], [f"+{a}", f"+{b}", f"-{a}", f"-{b}"])
     ax.set_rlabel_position(67.5)
     ax.tick_params(axis="y", labelsize=7)
-    fig.legend(loc="lower center", ncol=3, fontsize=8, frameon=False)
-    e = s["ellipse"]
-    fig.suptitle(
-        f"Ballbar {s['plane']}  R {s['radius_mm']:g} mm  F {s['feed_mm_per_min']:g} mm/min\n"
-        f"radial deviation about the LSQ centre [um], magnified; G(b) "
-        f"{s['bidirectional_deviation_um']:.2f} um\nellipse {e['magnitude_um']:.2f} um at "
-        f"{e['axis_deg']:.0f} deg (CCW), flips with direction: {e['flips_with_direction']}",
+    fig.legend(loc="upper center", bbox_to_anchor=(0.5, 0.275), ncol=3, fontsize=8, frameon=False)
+    title = f"Ballbar {s['plane']}  R {s['radius_mm']:g} mm  F {s['feed_mm_per_min']:g} mm/min"
+    fig.text(0.5, 0.962, title, ha="center", fontsize=12)
+    fig.text(
+        0.5,
+        0.935,
+        f"scale {div:g} um/div; traced radius minus nominal radius about the nominal centre",
+        ha="center",
         fontsize=9,
     )
-    fig.tight_layout(rect=(0, 0.04, 1, 0.93))
-    fig.savefig(path, dpi=DPI)
+    box: dict[str, Any] = {"boxstyle": "round", "facecolor": "white", "edgecolor": "0.6"}
+    text: dict[str, Any] = {"va": "top", "fontsize": 8, "family": "monospace"}
+    fig.text(0.05, 0.215, polar_conditions_text(s), bbox=box, **text)
+    fig.text(0.58, 0.215, polar_figures_text(s), **text)
+    return fig
 
 
 # ---- gantry tune -----------------------------------------------------------------------------

@@ -26,6 +26,18 @@ CONTRACT_DIRECTION = {
     "reversal_spikes_um",
     "centre_offset_um",
 }
+#: keys added after the contract (issue 14): every contract key stays, these come on top
+ADDED_TOP = {"centre_mm", "diagnostics", "conditions", "circular_hysteresis_um"}
+ADDED_DIRECTION = {"reversal_steps_um"}
+DIAGNOSTICS = {
+    "servo_mismatch_ms",
+    "squareness_um_per_m",
+    "scaling_mismatch_ppm",
+    "backlash_um",
+    "lateral_play_um",
+    "path_speed_mm_per_min",
+    "model_residual_rms_um",
+}
 
 
 @pytest.mark.parametrize("plane,axes", [("XY", (0, 1, 2)), ("XZ", (0, 2, 1)), ("YZ", (1, 2, 0))])
@@ -34,9 +46,14 @@ def test_ballbar_prints_the_contract_object_and_writes_its_files(tmp_path, capsy
     rc = main(["ballbar", "--plane", plane, "--radius", "5", "--feed", "3000", "--out", str(out)])
     assert rc == 0
     printed = json.loads(capsys.readouterr().out)
-    assert set(printed) == CONTRACT_TOP
+    assert set(printed) == CONTRACT_TOP | ADDED_TOP
+    assert set(printed["diagnostics"]) == DIAGNOSTICS
+    assert set(printed["diagnostics"]["backlash_um"]) == set(plane)
+    assert set(printed["diagnostics"]["lateral_play_um"]) == set(plane)
+    assert printed["centre_mm"] == [0.0, 0.0, 0.0]
     for d in ("cw", "ccw"):
-        assert set(printed[d]) == CONTRACT_DIRECTION
+        assert set(printed[d]) == CONTRACT_DIRECTION | ADDED_DIRECTION
+        assert len(printed[d]["reversal_steps_um"]) == 4
         assert set(printed[d]["radial_deviation_um"]) == {"max", "min"}
         assert len(printed[d]["reversal_spikes_um"]) == 4
         assert len(printed[d]["centre_offset_um"]) == 2

@@ -71,3 +71,37 @@ def test_friction_steps_at_quadrant_crossings_and_none_without_friction(tmp_path
     without = run_ballbar(gantry_variant(tmp_path, FRICTIONLESS), "XY", R_MM, FEED)
     for r in (without.ccw, without.cw):
         assert max(abs(s) for s in r.reversal_spikes_um) < 0.1 * min(step_x, step_y)
+
+
+def test_unequal_axis_gains_give_the_servo_mismatch_in_ms(tmp_path):
+    """The machine file halves X's kp and turns the velocity feedforward off: each axis lags
+    by c / kp (its MJCF damping c over its gain), X now more than Y. The diagnostics give the
+    lag difference in ms, and X's friction step doubles (2 F / kp), read as backlash."""
+    kp = [537.0, 3790.0, 568.5]
+    machine = gantry_variant(tmp_path, servo={"kp_N_per_mm": kp, "ff_velocity": [0.0, 0.0, 1.0]})
+    lag_x_ms = joint_attribute("x", "damping") * 1e-3 / kp[0] * 1e3  # c [N s/mm] / kp [N/mm]
+    lag_y_ms = joint_attribute("y", "damping") * 1e-3 / kp[1] * 1e3
+    assert lag_x_ms - lag_y_ms > 0.04
+    d = run_ballbar(machine, "XY", R_MM, FEED).summary["diagnostics"]
+    assert d["servo_mismatch_ms"] == pytest.approx(lag_x_ms - lag_y_ms, rel=0.05)
+    assert d["path_speed_mm_per_min"] == pytest.approx(FEED, rel=1e-3)
+    step_x = 2 * joint_attribute("x", "frictionloss") / kp[0] * 1e3
+    assert d["backlash_um"]["X"] == pytest.approx(step_x, rel=0.05)
+
+
+def test_the_bundled_machine_reads_as_friction_steps_only(machine):
+    """Equal bandwidths and an exactly square, true-scaled model: the 2nd harmonic that flips
+    with direction is the friction steps' (the plain ellipse), not a servo mismatch. The steps
+    (2 F / kp per axis, a PD loop's friction lag) come out as backlash and persistent steps."""
+    kp_x, kp_y = machine.servo.kp_N_per_mm[:2]
+    step_x = 2 * joint_attribute("x", "frictionloss") / kp_x * 1e3  # [um]
+    step_y = 2 * joint_attribute("y", "frictionloss") / kp_y * 1e3
+    res = run_ballbar(machine, "XY", R_MM, FEED)
+    assert res.summary["ellipse"]["flips_with_direction"] is True
+    d = res.summary["diagnostics"]
+    assert abs(d["servo_mismatch_ms"]) < 0.005
+    assert abs(d["squareness_um_per_m"]) < 5.0 and abs(d["scaling_mismatch_ppm"]) < 5.0
+    assert d["backlash_um"] == pytest.approx({"X": step_x, "Y": step_y}, rel=0.05)
+    assert max(abs(v) for v in d["lateral_play_um"].values()) < 0.05 * step_y
+    for r in (res.ccw, res.cw):
+        assert r.reversal_steps_um == pytest.approx((step_x, step_y, step_x, step_y), rel=0.03)

@@ -11,6 +11,7 @@ from gantry_sim.sim.circular.figures import (
     analyse_circle,
     ballbar_json,
     bidirectional_deviation_um,
+    circular_hysteresis_um,
     ellipse_flips,
     fit_circle,
     harmonic_ellipse,
@@ -154,21 +155,43 @@ def test_ellipse_flip_rule():
     assert not ellipse_flips(e45, tiny)
 
 
-def test_ballbar_json_has_exactly_the_contract_keys():
+def test_ballbar_json_has_the_contract_keys_then_the_added_ones():
     ccw = analyse_circle(
         circle_points(lambda th: 3 * np.cos(2 * (th - np.pi / 4))), np.zeros(2), R, "ccw"
     )
     cw = analyse_circle(
         circle_points(lambda th: 3 * np.cos(2 * (th + np.pi / 4)), sense=-1), np.zeros(2), R, "cw"
     )
-    out = ballbar_json("XY", R, 1000.0, cw, ccw)
+    out = ballbar_json("XY", R, 1000.0, cw, ccw, {"added": 1})
     top = {"plane", "radius_mm", "feed_mm_per_min", "cw", "ccw", "bidirectional_deviation_um"}
-    assert set(out) == top | {"ellipse"}
+    assert set(out) == top | {"ellipse", "circular_hysteresis_um", "added"}
+    assert list(out)[-1] == "added"  # added keys come after the contract's
     per_direction = {"circular_deviation_um", "radial_deviation_um", "reversal_spikes_um"}
     for d in ("cw", "ccw"):
-        assert set(out[d]) == per_direction | {"centre_offset_um"}
+        assert set(out[d]) == per_direction | {"centre_offset_um", "reversal_steps_um"}
         assert set(out[d]["radial_deviation_um"]) == {"max", "min"}
         assert len(out[d]["reversal_spikes_um"]) == 4 and len(out[d]["centre_offset_um"]) == 2
     assert set(out["ellipse"]) == {"axis_deg", "magnitude_um", "flips_with_direction"}
     assert out["ellipse"]["flips_with_direction"] is True
     assert out["ellipse"]["axis_deg"] == pytest.approx(45.0, abs=0.01)
+
+
+@pytest.mark.parametrize("shift_deg", [0.0, 37.0])
+def test_circular_hysteresis_is_the_largest_radial_gap_between_the_directions(shift_deg):
+    """CCW traces R + A cos 2(t - 45 deg), CW the flipped ellipse R - A cos 2(t - 45 deg): at
+    the same angle their radii differ by up to 2 A, wherever the samples fall."""
+    a_um = 1.5
+
+    def ell(sign):
+        return lambda th: sign * a_um * np.cos(2 * (th - np.pi / 4))
+
+    ccw = analyse_circle(circle_points(ell(1.0)), np.zeros(2), R, "ccw")
+    cw = analyse_circle(
+        circle_points(ell(-1.0), start_deg=45.0 + shift_deg, sense=-1, n=N - 7),
+        np.zeros(2),
+        R,
+        "cw",
+    )
+    assert circular_hysteresis_um(cw, ccw) == pytest.approx(2 * a_um, rel=1e-3)
+    same = analyse_circle(circle_points(ell(1.0), sense=-1), np.zeros(2), R, "cw")
+    assert circular_hysteresis_um(same, ccw) == pytest.approx(0.0, abs=1e-3)

@@ -17,13 +17,19 @@ import numpy as np
 
 from gantry_sim.controller.config import MachineConfig
 from gantry_sim.controller.errors import ConfigError
+from gantry_sim.sim.circular.diagnostics import diagnostics_json, fit_diagnostics
 from gantry_sim.sim.circular.figures import (
     CircleAnalysis,
     analyse_circle,
     ballbar_json,
     plane_coords,
 )
-from gantry_sim.sim.circular.program import CircleTestProgram, circle_test_program
+from gantry_sim.sim.circular.program import (
+    LEAD_DEG,
+    START_DEG,
+    CircleTestProgram,
+    circle_test_program,
+)
 from gantry_sim.sim.outdir import atomic_output_dir
 
 DIRECTIONS = ("ccw", "cw")
@@ -62,6 +68,30 @@ def circle_samples(run: Any, program: CircleTestProgram, direction: str) -> np.n
     return np.asarray(run.trace.pos)[keep]
 
 
+def circle_speed_mm_per_s(run: Any, program: CircleTestProgram, direction: str) -> float:
+    """Median speed of the reference along one direction's measured circle [mm/s]: the feed
+    actually run (below the programmed one where the planner's acceleration caps bind)."""
+    keep = np.asarray(run.trace.line) == program.circle_line(direction)
+    ref, t = np.asarray(run.trace.ref)[keep], np.asarray(run.trace.t)[keep]
+    return float(np.median(np.linalg.norm(np.diff(ref, axis=0), axis=1) / np.diff(t)))
+
+
+def conditions_json(
+    program: CircleTestProgram, machine: MachineConfig, machine_label: str | None
+) -> dict:
+    """The "conditions" object: what was run, where and how (no date: outputs are reproducible)."""
+    return {
+        "machine": machine_label or Path(machine.source).name,
+        "centre_mm": list(program.centre_mm),
+        "directions": [d.upper() for d in program.directions],
+        "servo_period_s": machine.servo.period_s,
+        "data_arc_deg": 360.0,
+        "start_deg": START_DEG,
+        "lead_in_deg": LEAD_DEG,
+        "lead_out_deg": LEAD_DEG,
+    }
+
+
 def run_ballbar(
     machine: MachineConfig,
     plane: str = "XY",
@@ -69,6 +99,7 @@ def run_ballbar(
     feed_mm_per_min: float = 1000.0,
     centre_mm: tuple[float, float, float] = (0.0, 0.0, 0.0),
     progress: bool = False,
+    machine_label: str | None = None,
 ) -> BallbarResult:
     """Simulate the ballbar program on ``machine`` and analyse both directions.
 
@@ -79,6 +110,8 @@ def run_ballbar(
         feed_mm_per_min: programmed feed [mm/min].
         centre_mm: circle centre, work coordinates [mm].
         progress: show the simulation's progress bar.
+        machine_label: how the test-conditions box names the machine (default: the name of
+            the machine file it was read from).
 
     Raises:
         ConfigError: invalid plane/radius/feed, or a circle so short in time that it has fewer
@@ -102,7 +135,14 @@ def run_ballbar(
         d: analyse_circle(plane_coords(samples[d], plane), centre_ab, radius_mm, d)
         for d in DIRECTIONS
     }
-    summary = ballbar_json(plane, radius_mm, feed_mm_per_min, results["cw"], results["ccw"])
+    speed = float(np.mean([circle_speed_mm_per_s(run, program, d) for d in DIRECTIONS]))
+    diag = fit_diagnostics([results[d].nominal for d in DIRECTIONS], radius_mm, speed)
+    extra = {
+        "centre_mm": list(program.centre_mm),
+        "diagnostics": diagnostics_json(diag, plane),
+        "conditions": conditions_json(program, machine, machine_label),
+    }
+    summary = ballbar_json(plane, radius_mm, feed_mm_per_min, results["cw"], results["ccw"], extra)
     return BallbarResult(program, run, results["ccw"], results["cw"], summary)
 
 

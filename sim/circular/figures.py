@@ -30,7 +30,13 @@ import numpy as np
 
 from gantry_sim.controller.planes import PLANE_2D
 from gantry_sim.controller.units import UM_PER_MM
-from gantry_sim.sim.circular.signatures import Ellipse, harmonic_ellipse, reversal_spikes
+from gantry_sim.sim.circular.diagnostics import DirectionData
+from gantry_sim.sim.circular.signatures import (
+    Ellipse,
+    harmonic_ellipse,
+    reversal_spikes,
+    reversal_steps,
+)
 
 #: (a, b) indices of the plane's 2-D coordinates in (x, y, z), in the order the plane is named.
 
@@ -92,6 +98,9 @@ class CircleAnalysis:
         reversal_spikes_um: 4 values at theta 0, 90, 180, 270 deg [um].
         ellipse: the 2nd harmonic of deviation_um.
         ab_mm: (N, 2) the analysed points [mm] (for the bidirectional deviation).
+        reversal_steps_um: 4 persistent steps at theta 0, 90, 180, 270 deg [um] (added).
+        nominal: angle about the nominal centre [rad], traced radius minus nominal radius
+            about it [um] and sense (+1 CCW, -1 CW): the diagnostics' input.
     """
 
     direction: str
@@ -105,9 +114,11 @@ class CircleAnalysis:
     reversal_spikes_um: tuple[float, ...]
     ellipse: Ellipse
     ab_mm: np.ndarray
+    reversal_steps_um: tuple[float, ...]
+    nominal: DirectionData
 
     def to_json(self) -> dict:
-        """The contract's per-direction object (exactly its keys)."""
+        """The contract's per-direction object (its keys, then the added reversal steps)."""
         return {
             "circular_deviation_um": self.circular_deviation_um,
             "radial_deviation_um": {
@@ -116,6 +127,7 @@ class CircleAnalysis:
             },
             "reversal_spikes_um": [None if math.isnan(v) else v for v in self.reversal_spikes_um],
             "centre_offset_um": list(self.centre_offset_um),
+            "reversal_steps_um": [None if math.isnan(v) else v for v in self.reversal_steps_um],
         }
 
 
@@ -163,6 +175,8 @@ def analyse_circle(
         reversal_spikes_um=tuple(reversal_spikes(theta, dev_um, sense)),
         ellipse=harmonic_ellipse(theta, dev_um),
         ab_mm=ab,
+        reversal_steps_um=tuple(reversal_steps(theta, dev_um, sense)),
+        nominal=DirectionData(np.arctan2(nom[:, 1], nom[:, 0]), radial_um, sense),
     )
 
 
@@ -176,6 +190,22 @@ def bidirectional_deviation_um(cw: CircleAnalysis, ccw: CircleAnalysis) -> float
     c, _ = fit_circle(both)
     r = np.hypot(both[:, 0] - c[0], both[:, 1] - c[1])
     return float((r.max() - r.min()) * UM_PER_MM)
+
+
+def circular_hysteresis_um(cw: CircleAnalysis, ccw: CircleAnalysis) -> float:
+    """ISO 230-4 circular hysteresis H [um]: the largest radial difference between the CW and
+    CCW traces at the same angle, both about the least-squares circle fitted to both together
+    (the CW radius is interpolated, periodically, at the CCW samples' angles)."""
+    both = np.vstack((cw.ab_mm, ccw.ab_mm))
+    c, _ = fit_circle(both)
+    radius_angle = []
+    for res in (cw, ccw):
+        d = res.ab_mm - c
+        radius_angle.append((np.hypot(d[:, 0], d[:, 1]), np.arctan2(d[:, 1], d[:, 0])))
+    (r_cw, t_cw), (r_ccw, t_ccw) = radius_angle
+    order = np.argsort(t_cw)
+    r_at = np.interp(t_ccw, t_cw[order], r_cw[order], period=2.0 * math.pi)
+    return float(np.abs(r_ccw - r_at).max() * UM_PER_MM)
 
 
 def ellipse_flips(cw: Ellipse, ccw: Ellipse, min_magnitude_um: float = 0.1) -> bool:
@@ -192,14 +222,19 @@ def ellipse_flips(cw: Ellipse, ccw: Ellipse, min_magnitude_um: float = 0.1) -> b
 
 
 def ballbar_json(
-    plane: str, radius_mm: float, feed_mm_per_min: float, cw: CircleAnalysis, ccw: CircleAnalysis
+    plane: str,
+    radius_mm: float,
+    feed_mm_per_min: float,
+    cw: CircleAnalysis,
+    ccw: CircleAnalysis,
+    extra: dict | None = None,
 ) -> dict:
-    """The ``gantry ballbar`` contract object.
+    """The ``gantry ballbar`` contract object, then the keys of ``extra`` (added ones).
 
     The "ellipse" gives the CCW run's axis and magnitude (the mathematically positive
     direction); when it flips with direction, the CW run's axis is about 90 deg away.
     """
-    return {
+    out = {
         "plane": plane,
         "radius_mm": float(radius_mm),
         "feed_mm_per_min": float(feed_mm_per_min),
@@ -212,3 +247,6 @@ def ballbar_json(
             "flips_with_direction": ellipse_flips(cw.ellipse, ccw.ellipse),
         },
     }
+    out["circular_hysteresis_um"] = circular_hysteresis_um(cw, ccw)
+    out.update(extra or {})
+    return out

@@ -29,7 +29,10 @@ from gantry_sim.controller.errors import ConfigError
 from gantry_sim.controller.planes import AXES, PLANE_AXES, PLANE_WORDS, Vec3
 
 _OFFSET_LETTER = "IJK"
+#: angle of the measured circle's start S about the centre [deg]
 START_DEG = 45.0
+#: travel of the run-in and of the run-out arc [deg]
+LEAD_DEG = 180.0
 
 
 @dataclass(frozen=True)

@@ -100,3 +100,49 @@ def reversal_spikes(theta_rad: np.ndarray, dev_um: np.ndarray, sense: float) -> 
         resid = rho[after] - (offset + slope * psi[after])
         spikes.append(float(resid[np.argmax(np.abs(resid))]))
     return spikes
+
+
+#: where the level after a crossing is read [deg of travel after it], see ``reversal_steps``
+STEP_AFTER_DEG = (SPIKE_WINDOW_DEG, SPIKE_WINDOW_DEG + SPIKE_BASELINE_DEG - SPIKE_GAP_DEG)
+
+
+def reversal_steps(theta_rad: np.ndarray, dev_um: np.ndarray, sense: float) -> list[float]:
+    """The step that persists at each quadrant crossing theta_k = 0, 90, 180, 270 deg [um].
+
+    psi as in :func:`reversal_spikes`; rho = dev minus its harmonics 0..2, fitted jointly with
+    the two step patterns sign(v_a) cos theta and sign(v_b) sin theta (so that the steps do not
+    bend the harmonics; the steps stay in rho). A straight line (in psi) is fitted to rho
+    before the crossing (psi in [-SPIKE_BASELINE_DEG, -SPIKE_GAP_DEG]) and one after it, once a
+    spike has died away (psi in STEP_AFTER_DEG); the step is the after-line minus the
+    before-line at psi = 0, signed (positive: the trace moves outward). The lines are fitted to
+    rho / cos(psi), since lost motion along the reversing axis moves the radius by its step
+    times cos(psi) on either side. A spike that recovers
+    gives about 0, backlash or a PD loop's friction lag its full step, a smooth path about 0.
+
+    Returns:
+        4 values [um] in the order theta_k = 0, 90, 180, 270 deg (nan where a window is empty).
+    """
+    harmonics = [np.ones_like(theta_rad)]
+    for k in (1, 2):
+        harmonics += [np.cos(k * theta_rad), np.sin(k * theta_rad)]
+    c, sn = np.cos(theta_rad), np.sin(theta_rad)
+    step_patterns = [np.sign(-sense * sn) * c, np.sign(sense * c) * sn]
+    design = np.column_stack(harmonics + step_patterns)
+    coef, *_ = np.linalg.lstsq(design, dev_um, rcond=None)
+    rho = dev_um - design[:, :5] @ coef[:5]
+    lo, gap = math.radians(SPIKE_BASELINE_DEG), math.radians(SPIKE_GAP_DEG)
+    a0, a1 = (math.radians(v) for v in STEP_AFTER_DEG)
+    steps = []
+    for k in range(4):
+        psi = np.angle(np.exp(1j * sense * (theta_rad - k * math.pi / 2)))
+        before = (psi >= -lo) & (psi <= -gap)
+        after = (psi >= a0) & (psi <= a1)
+        if before.sum() < 2 or after.sum() < 2:
+            steps.append(float("nan"))
+            continue
+        # A step of lost motion along the reversing axis scales as cos(psi) about it.
+        level = rho / np.cos(psi)
+        level_before = np.polyfit(psi[before], level[before], 1)[1]
+        level_after = np.polyfit(psi[after], level[after], 1)[1]
+        steps.append(float(level_after - level_before))
+    return steps
