@@ -1,0 +1,278 @@
+"""``gantry run``'s figures: path.png (the path, error magnified) and error.png (error along the
+program). Drawn for 100,000-block programs too: the commanded geometry is two LineCollections,
+the traced path is decimated and the error is drawn as a per-bin envelope.
+
+Import only where a plot is drawn (matplotlib).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from pathlib import Path
+from typing import TYPE_CHECKING
+
+import numpy as np
+
+from gantry_sim.controller.arcs import arc_points
+from gantry_sim.controller.moves import Arc, Move
+from gantry_sim.sim.contour import ContourStats
+from gantry_sim.sim.gates import Gates
+from gantry_sim.sim.plots import DPI, _figure, quiet
+from gantry_sim.sim.trace import Trace
+
+if TYPE_CHECKING:  # matplotlib is imported through sim.plots first (it quiets its logging)
+    from matplotlib.axes import Axes
+    from matplotlib.figure import Figure
+
+#: path.png draws the traced path's deviation from the commanded path x this, for every run:
+#: 1 um of contour error is drawn as 1 mm, so the plot's mm grid reads as um of error.
+ERROR_MAGNIFICATION = 1000.0
+#: a single view only when the feed moves leave the arcs' plane by less than this fraction of
+#: their in-plane extent; otherwise the three-view sheet (XY top, XZ front, YZ side)
+OUT_OF_PLANE_FRACTION = 0.25
+#: most traced points drawn on path.png (decimated beyond; the worst point is always kept)
+MAX_TRACE_POINTS = 40_000
+#: time bins of error.png's envelope
+ENVELOPE_BINS = 1500
+#: worst blocks labelled on error.png
+WORST_LABELLED = 5
+_AXES = "XYZ"
+_VIEWS = {"XY": (0, 1), "XZ": (0, 2), "YZ": (1, 2)}
+
+
+def _polylines(moves: Sequence[Move]) -> tuple[list[np.ndarray], list[np.ndarray]]:
+    """(feed, rapid) polylines (k, 3) [mm]: straight moves as one segment each, arcs at about
+    one point per degree."""
+    feed: list[np.ndarray] = []
+    rapid: list[np.ndarray] = []
+    for mv in moves:
+        if isinstance(mv, Arc):
+            n = max(16, int(np.ceil(np.degrees(mv.angle))))
+            feed.append(arc_points(mv, np.linspace(0.0, 1.0, n + 1)))
+        else:
+            (rapid if mv.kind == "rapid" else feed).append(np.array([mv.start, mv.end], float))
+    return feed, rapid
+
+
+def choose_views(moves: Sequence[Move]) -> list[str]:
+    """The plane(s) path.png draws: the arcs' plane when all arcs share one and the feed moves
+    stay near it; else, without arcs, the plane of the two largest extents when the third is
+    small; otherwise the three views ["XY", "XZ", "YZ"]."""
+    feed = [mv for mv in moves if mv.kind != "rapid"] or list(moves)
+    if not feed:
+        return ["XY"]
+    pts = np.vstack([np.array([mv.start, mv.end], float) for mv in feed])
+    span = pts.max(axis=0) - pts.min(axis=0)
+    planes = {mv.plane for mv in feed if isinstance(mv, Arc)}
+    if len(planes) > 1:
+        return list(_VIEWS)
+    plane: str
+    if planes:
+        plane = planes.pop()
+    else:  # the two axes of largest extent; XY unless Z clearly matters more
+        i, j = sorted(np.argsort(span - np.array([0.0, 0.0, 1e-9]), kind="stable")[-2:])
+        plane = _AXES[i] + _AXES[j]
+    i, j = _VIEWS[plane]
+    normal = 3 - i - j
+    in_plane = max(span[i], span[j], 1e-9)
+    return [plane] if span[normal] <= OUT_OF_PLANE_FRACTION * in_plane else list(_VIEWS)
+
+
+def _decimate(n: int, keep: int, limit: int = MAX_TRACE_POINTS) -> np.ndarray:
+    idx = np.arange(0, n, max(1, -(-n // limit)))
+    return np.union1d(idx, [keep, n - 1]) if n else idx
+
+
+def _draw_view(
+    ax: Axes,
+    plane: str,
+    feed: list[np.ndarray],
+    rapid: list[np.ndarray],
+    traced: np.ndarray,
+    worst: tuple[np.ndarray, np.ndarray, int, float] | None,
+) -> None:
+    from matplotlib.collections import LineCollection
+
+    i, j = _VIEWS[plane]
+    ax.add_collection(
+        LineCollection([p[:, [i, j]] for p in rapid], colors="0.6", linestyles="--", lw=0.8)
+    )
+    ax.add_collection(LineCollection([p[:, [i, j]] for p in feed], colors="k", lw=1.0))
+    ax.plot(traced[:, i], traced[:, j], color="tab:red", lw=0.9)
+    if worst is not None:
+        drawn, _, line, err = worst
+        ax.plot(drawn[i], drawn[j], "o", mfc="none", mec="tab:blue", ms=10, mew=1.5)
+        ax.annotate(
+            f"max {err:.2f} um\nline {line}",
+            (drawn[i], drawn[j]),
+            textcoords="offset points",
+            xytext=(16, 16),
+            fontsize=8,
+            color="tab:blue",
+            bbox={"facecolor": "white", "alpha": 0.85, "edgecolor": "tab:blue", "lw": 0.6},
+            arrowprops={"arrowstyle": "-", "color": "tab:blue", "lw": 0.8},
+        )
+    ax.autoscale_view()
+    ax.set_aspect("equal", adjustable="datalim")
+    ax.set_xlabel(f"{_AXES[i]} [mm]")
+    ax.set_ylabel(f"{_AXES[j]} [mm]")
+    ax.grid(alpha=0.25)
+
+
+@quiet
+def save_path_plot(
+    path: Path, moves: Sequence[Move], trace: Trace, program: str, contour: ContourStats
+) -> None:
+    """Write :func:`path_figure` to ``path`` (path.png)."""
+    path_figure(moves, trace, program, contour).savefig(path)
+
+
+def path_figure(moves: Sequence[Move], trace: Trace, program: str, contour: ContourStats) -> Figure:
+    """path.png: the commanded geometry (black feed moves, grey dashed rapids) and the traced
+    path (red) whose deviation from the nearest commanded point is magnified
+    :data:`ERROR_MAGNIFICATION` times, in the arcs' plane or as a three-view sheet
+    (:func:`choose_views`); the worst feed point is circled and labelled with its line."""
+    tr = trace
+    feed, rapid = _polylines(moves)
+    views = choose_views(moves)
+    drawn = tr.nearest + ERROR_MAGNIFICATION * (tr.pos - tr.nearest)
+    drawn = np.where(tr.feed[:, None], drawn, np.nan)
+    worst = None
+    k = 0
+    if tr.feed.any():
+        k = int(np.flatnonzero(tr.feed)[np.argmax(tr.err_um[tr.feed])])
+        worst = (drawn[k], tr.pos[k], int(tr.line[k]), float(tr.err_um[k]))
+    traced = drawn[_decimate(len(drawn), k)]
+    gain = f"traced path, error x {ERROR_MAGNIFICATION:g} (1 um drawn as 1 mm)"
+    title = f"{program}: max {contour.max_um:.2f} um, rms {contour.rms_um:.2f} um"
+    if len(views) == 1:
+        fig = _figure((7, 7), dpi=DPI)
+        ax = fig.add_subplot()
+        _draw_view(ax, views[0], feed, rapid, traced, worst)
+        ax.set_title(f"{title}\n{views[0]} plane; red: {gain}", fontsize=10)
+    else:
+        fig = _figure((11, 10), dpi=DPI)
+        grid = fig.subplots(2, 2)
+        for ax, plane in zip((grid[0, 0], grid[1, 0], grid[1, 1]), views, strict=True):
+            _draw_view(ax, plane, feed, rapid, traced, worst)
+            ax.set_title(f"{plane}", fontsize=10)
+        info = grid[0, 1]
+        info.axis("off")
+        info.text(
+            0.02,
+            0.95,
+            f"{title}\n\nthree views (third angle): XY top, XZ front, YZ side\n\n"
+            f"black: commanded feed moves\ngrey dashed: rapids (G0)\nred: {gain}\n"
+            "blue circle: the worst point",
+            va="top",
+            fontsize=10,
+        )
+    return fig
+
+
+def _envelope(t: np.ndarray, v: np.ndarray, bins: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Per time bin: (bin centre [s], min, max) of ``v``, NaN where the bin holds no value."""
+    edges = np.linspace(t[0], t[-1] if t[-1] > t[0] else t[0] + 1.0, bins + 1)
+    idx = np.clip(np.searchsorted(edges, t, side="right") - 1, 0, bins - 1)
+    lo = np.full(bins, np.inf)
+    hi = np.full(bins, -np.inf)
+    ok = np.isfinite(v)
+    np.minimum.at(lo, idx[ok], v[ok])
+    np.maximum.at(hi, idx[ok], v[ok])
+    empty = ~np.isfinite(lo)
+    lo[empty] = np.nan
+    hi[empty] = np.nan
+    return 0.5 * (edges[:-1] + edges[1:]), lo, hi
+
+
+def _draw_gates(ax: Axes, gates: Gates, tr: Trace, moves: Sequence[Move]) -> None:
+    kinds = {mv.line: mv.kind for mv in moves}
+    for lim in gates.errors:
+        if lim.lines is None and lim.kind is None:
+            ax.axhline(lim.limit_um, color="tab:red", ls="--", lw=1.0, label=lim.label())
+            continue
+        on = tr.feed.copy()
+        if lim.lines is not None:
+            on &= (tr.line >= lim.lines[0]) & (tr.line <= lim.lines[1])
+        if lim.kind is not None:
+            on &= np.array([kinds.get(int(v)) == lim.kind for v in tr.line], dtype=bool)
+        tc, _, hi = _envelope(tr.t, np.where(on, lim.limit_um, np.nan), ENVELOPE_BINS)
+        ax.plot(tc, hi, ls="--", lw=1.2, label=lim.label())
+
+
+@quiet
+def save_error_plot(
+    path: Path,
+    trace: Trace,
+    contour: ContourStats,
+    gates: Gates | None = None,
+    moves: Sequence[Move] = (),
+) -> None:
+    """Write :func:`error_figure` to ``path`` (error.png)."""
+    error_figure(trace, contour, gates, moves).savefig(path)
+
+
+def error_figure(
+    trace: Trace,
+    contour: ContourStats,
+    gates: Gates | None = None,
+    moves: Sequence[Move] = (),
+) -> Figure:
+    """error.png: the contour error along the program as a per-bin min..max envelope (feed
+    moves), the worst blocks labelled with their line, every error gate drawn; below, the
+    program line executed (its envelope)."""
+    tr = trace
+    err = np.where(tr.feed, tr.err_um, np.nan)
+    fig = _figure((12, 5.5), dpi=DPI)
+    ax1, ax2 = fig.subplots(2, 1, sharex=True, height_ratios=(3, 1))
+    fig.subplots_adjust(left=0.07, right=0.76)
+    if tr.t.size:
+        tc, lo, hi = _envelope(tr.t, err, ENVELOPE_BINS)
+        ax1.fill_between(tc, lo, hi, color="tab:red", lw=0.6, step="mid", label="contour error")
+        _label_worst(ax1, tr)
+        tc, lo, hi = _envelope(tr.t, tr.line.astype(float), ENVELOPE_BINS)
+        ax2.fill_between(tc, lo, hi, color="k", step="mid", lw=0.8)
+    if gates is not None:
+        _draw_gates(ax1, gates, tr, moves)
+    ax1.set_ylim(0, max(ax1.get_ylim()[1], 1e-3) * 1.12)  # room for the labels
+    ax1.set_ylabel("contour error [um]")
+    ax1.grid(alpha=0.25)
+    ax1.legend(fontsize=8, loc="upper left", bbox_to_anchor=(1.01, 1.0))
+    ce = contour
+    ax1.set_title(
+        f"max {ce.max_um:.2f} um, p95 {ce.p95_um:.2f} um, rms {ce.rms_um:.2f} um "
+        f"(feed moves; per-bin min..max over {ENVELOPE_BINS} time bins)",
+        fontsize=10,
+    )
+    from matplotlib.ticker import MaxNLocator
+
+    ax2.yaxis.set_major_locator(MaxNLocator(integer=True))
+    ax2.set_ylabel("line")
+    ax2.set_xlabel("time [s]")
+    return fig
+
+
+def _label_worst(ax: Axes, tr: Trace) -> None:
+    """Label the :data:`WORST_LABELLED` blocks with the largest max error at their peaks."""
+    feed = np.flatnonzero(tr.feed)
+    if feed.size == 0:
+        return
+    lines = tr.line[feed]
+    err = tr.err_um[feed]
+    order = np.lexsort((-err, lines))  # by line, worst first within each line
+    first = np.ones(order.size, dtype=bool)
+    first[1:] = lines[order][1:] != lines[order][:-1]
+    peaks = order[first]  # one sample per line: its worst
+    top = peaks[np.argsort(-err[peaks], kind="stable")[:WORST_LABELLED]]
+    for rank, k in enumerate(top):
+        x, y = float(tr.t[feed[k]]), float(err[k])
+        ax.plot(x, y, "v", color="tab:blue", ms=5)
+        ax.annotate(
+            f"line {int(lines[k])}",
+            (x, y),
+            textcoords="offset points",
+            xytext=(0, 6 + 9 * (rank % 2)),
+            ha="center",
+            fontsize=7,
+            color="tab:blue",
+        )
