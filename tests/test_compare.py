@@ -61,8 +61,9 @@ def runs(write_program, tmp_path):
 
 
 def test_compare_fails_when_the_error_grows_and_prints_the_table(runs, tmp_path, capsys):
-    prog, base, soft = runs
-    grown = [s["max_error_um"] - b["max_error_um"] for b, s in zip(base["blocks"], soft["blocks"])]
+    _prog, base, soft = runs
+    pairs = zip(base["blocks"], soft["blocks"], strict=True)
+    grown = [s["max_error_um"] - b["max_error_um"] for b, s in pairs]
     assert min(grown) > 1.0
     capsys.readouterr()
     assert main(["compare", str(tmp_path / "base"), str(tmp_path / "soft")]) == 1
@@ -84,7 +85,7 @@ def test_compare_fails_when_the_error_grows_and_prints_the_table(runs, tmp_path,
 
 
 def test_run_baseline_gates_and_records_it(runs, tmp_path, capsys):
-    prog, base, soft = runs
+    prog, _base, _soft = runs
     # the baseline is the report in the output folder itself: read before it is replaced
     rep = _run(prog, tmp_path / "base", "--feed-override", "50", "--baseline",
                str(tmp_path / "base"))  # fmt: skip
