@@ -140,3 +140,15 @@ def test_no_matplotlib_noise_on_stderr(write_program, tmp_path):
     assert proc.returncode == 0, proc.stderr
     assert (tmp_path / "out" / "path.png").exists()
     assert proc.stderr == ""
+
+
+def test_one_default_out_folder_for_every_command(write_program, tmp_path, monkeypatch, capsys):
+    from gantry_sim.sim.cli import build_parser
+
+    prog = str(write_program(CIRCLE))
+    parser = build_parser()
+    for argv in (["run", prog], ["ballbar"], ["tune"], ["sweep", prog]):
+        assert parser.parse_args(argv).out == Path("out"), argv
+    monkeypatch.chdir(tmp_path)
+    assert main(["ballbar", "--radius", "5", "--feed", "3000"]) == 0
+    assert (tmp_path / "out" / "ballbar.json").exists()

@@ -14,10 +14,15 @@ import sys
 import time
 from pathlib import Path
 
-from gantry_sim.sim.commands.common import add_dialect, add_machine, load_machine, read_program
+from gantry_sim.sim.commands.common import (
+    DEFAULT_OUT,
+    add_dialect,
+    add_machine,
+    load_machine,
+    read_program,
+)
 
 HELP = "plan, simulate and analyse a program; write report.json, trace.npz and plots"
-DEFAULT_OUT = Path("out")
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:

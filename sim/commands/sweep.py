@@ -11,7 +11,13 @@ import sys
 from pathlib import Path
 
 from gantry_sim.controller.errors import ConfigError
-from gantry_sim.sim.commands.common import add_dialect, add_machine, load_machine, read_program
+from gantry_sim.sim.commands.common import (
+    DEFAULT_OUT,
+    add_dialect,
+    add_machine,
+    load_machine,
+    read_program,
+)
 
 HELP = (
     "simulate a program over a grid of feed overrides, max accelerations and max jerks "
@@ -76,9 +82,10 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument(
         "--out",
         type=Path,
-        default=None,
+        default=DEFAULT_OUT,
         metavar="DIR",
-        help="write sweep.csv and the plots here (a rerun resumes an interrupted sweep)",
+        help=f"write sweep.csv and the plots here (default: ./{DEFAULT_OUT}; a rerun resumes "
+        "an interrupted sweep)",
     )
 
 

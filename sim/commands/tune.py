@@ -12,7 +12,7 @@ import sys
 from pathlib import Path
 
 from gantry_sim.controller.errors import ConfigError
-from gantry_sim.sim.commands.common import add_machine, load_machine
+from gantry_sim.sim.commands.common import DEFAULT_OUT, add_machine, load_machine
 
 HELP = (
     "find, per circle radius, the highest feed [mm/min] whose full circle keeps the max "
@@ -61,7 +61,11 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     )
     add_machine(parser)
     parser.add_argument(
-        "--out", type=Path, default=None, metavar="DIR", help="write tune.json and tune.png here"
+        "--out",
+        type=Path,
+        default=DEFAULT_OUT,
+        metavar="DIR",
+        help=f"write tune.json and tune.png here (default: ./{DEFAULT_OUT})",
     )
 
 
