@@ -15,7 +15,6 @@ from typing import TYPE_CHECKING, Any, Protocol
 from gantry_sim.sim.plots import DPI, _figure, quiet
 
 if TYPE_CHECKING:  # matplotlib is imported through sim.plots first (it quiets its logging)
-    from matplotlib.axes import Axes
     from matplotlib.figure import Figure
 
 
@@ -107,8 +106,8 @@ def tune_figure(rows: Sequence[TunedRadius], tolerance_um: float, plane: str) ->
         ax2.plot([p[0] for p in failed], [p[1] for p in failed], "o", mfc="none", color=c, ms=5)
         ln.set_label(f"R {r.radius_mm:g} mm")
     ax2.axhline(tolerance_um, color="k", ls="--", lw=0.8, label="tolerance")
-    ax2.set_xlim(left=0)
-    ax2.set_ylim(bottom=0)
+    ax2.set_xlim(left=0, right=1.1 * max([f for r in rows for f in r.run_feeds] or [1.0]))
+    _from_zero(ax2.set_ylim, [*errors, tolerance_um])
     ax2.set_xlabel("feed the circle ran at [mm/min]")
     ax2.set_ylabel("circle max contour error [um]")
     ax2.set_title(
@@ -121,6 +120,12 @@ def tune_figure(rows: Sequence[TunedRadius], tolerance_um: float, plane: str) ->
     return fig
 
 
+def _from_zero(set_lim: Any, values: Sequence[float]) -> None:
+    """An axis from 0 to 10 % above the largest value (so no point sits on the frame)."""
+    vals = [v for v in values if math.isfinite(v)]
+    set_lim(0, 1.1 * max(vals) if vals and max(vals) > 0 else 1.0)
+
+
 def _combo(r: Mapping[str, Any]) -> tuple[float | None, float | None]:
     return (r["max_accel_mm_per_s2"], r["max_jerk_mm_per_s3"])
 
@@ -131,27 +136,21 @@ def _label(c: tuple[float | None, float | None]) -> str:
     return f"accel {a}, jerk {j}"
 
 
-def _faulted_note(ax: Axes, faulted: Sequence[Mapping[str, Any]]) -> None:
+def _faulted_note(fig: Figure, faulted: Sequence[Mapping[str, Any]]) -> float:
+    """List the faulted points under the plot; returns the figure fraction it takes."""
     if not faulted:
-        return
+        return 0.0
     lines = [
-        f"{r['feed_override_pct']:g}%, {_label(_combo(r))}: {r['status']}"[:90] for r in faulted[:6]
+        f"{r['feed_override_pct']:g}%, {_label(_combo(r))}: {r['status']}"[:110]
+        for r in faulted[:4]
     ]
-    if len(faulted) > 6:
-        lines.append(f"... {len(faulted) - 6} more")
-    ax.text(
-        0.01,
-        0.99,
-        f"faulted ({len(faulted)}), marked x:\n" + "\n".join(lines),
-        transform=ax.transAxes,
-        va="top",
-        fontsize=7,
-        color="tab:red",
-        bbox={"facecolor": "white", "alpha": 0.85, "edgecolor": "tab:red"},
-    )
+    if len(faulted) > 4:
+        lines.append(f"... {len(faulted) - 4} more (sweep.csv's status column)")
+    text = f"faulted ({len(faulted)}), no result: " + "\n".join(lines)
+    fig.text(0.01, 0.01, text, va="bottom", fontsize=7, color="tab:red")
+    return 0.035 * (len(lines) + 1) + 0.01
 
 
-@quiet
 def save_sweep_plots(rows: Sequence[Mapping[str, Any]], out_dir: Path) -> None:
     """Write :func:`sweep_figures` as sweep_error_vs_feed.png and sweep_cycle_vs_error.png."""
     by_feed, by_error = sweep_figures(rows)
@@ -186,8 +185,8 @@ def sweep_figures(rows: Sequence[Mapping[str, Any]]) -> tuple[Figure, Figure]:
             clip_on=False,
             label="faulted (no result)",
         )
-    _faulted_note(ax, faulted)
-    ax.set_ylim(bottom=0)
+    bottom = _faulted_note(fig, faulted)
+    _from_zero(ax.set_ylim, errors)
     ax.set_xlabel("feed override [%]")
     ax.set_ylabel("max contour error [um]")
     ax.set_title(
@@ -198,7 +197,7 @@ def sweep_figures(rows: Sequence[Mapping[str, Any]]) -> tuple[Figure, Figure]:
     ax.grid(alpha=0.3)
     if ax.get_legend_handles_labels()[0]:
         ax.legend(fontsize=7, loc="lower right")
-    fig.tight_layout()
+    fig.tight_layout(rect=(0, bottom, 1, 1))
     by_feed = fig
 
     fig = _figure((7.5, 4.8))
@@ -221,9 +220,9 @@ def sweep_figures(rows: Sequence[Mapping[str, Any]]) -> tuple[Figure, Figure]:
                 xytext=(3, 3),
                 fontsize=7,
             )
-    _faulted_note(ax, faulted)
-    ax.set_xlim(left=0)
-    ax.set_ylim(bottom=0)
+    bottom = _faulted_note(fig, faulted)
+    _from_zero(ax.set_xlim, errors)
+    _from_zero(ax.set_ylim, cycles)
     ax.set_xlabel("max contour error [um]")
     ax.set_ylabel("cycle time [s]")
     ax.set_title(
@@ -234,5 +233,5 @@ def sweep_figures(rows: Sequence[Mapping[str, Any]]) -> tuple[Figure, Figure]:
     ax.grid(alpha=0.3)
     if ax.get_legend_handles_labels()[0]:
         ax.legend(fontsize=7, loc="lower right")
-    fig.tight_layout()
+    fig.tight_layout(rect=(0, bottom, 1, 1))
     return by_feed, fig

@@ -129,7 +129,7 @@ def test_sweep_plots_mark_faulted_points_on_honest_axes():
     assert "spread 0.17 um" in ax.get_title()
     faulted = [ln for ln in ax.lines if ln.get_label() == "faulted (no result)"]
     assert faulted and list(faulted[0].get_xdata()) == [200]
-    assert any("faulted (1)" in t.get_text() for t in ax.texts)
+    assert any("faulted (1)" in t.get_text() for t in by_feed.texts)
     ax2 = by_error.axes[0]
     assert ax2.get_xlim()[0] == 0 and ax2.get_ylim()[0] == 0
-    assert any("faulted (1)" in t.get_text() for t in ax2.texts)
+    assert any("faulted (1)" in t.get_text() for t in by_error.texts)
