@@ -1,5 +1,5 @@
 """``gantry run``'s figures: path.png (the path, error magnified) and error.png (error along the
-program). Drawn for 100,000-block programs too: the commanded geometry is two LineCollections,
+program). Drawn for 100,000-block programs too: the commanded geometry is two Line2D (NaN-separated),
 the traced path is decimated and the error is drawn as a per-bin envelope.
 
 Import only where a plot is drawn (matplotlib).
@@ -40,18 +40,33 @@ _AXES = "XYZ"
 _VIEWS = {"XY": (0, 1), "XZ": (0, 2), "YZ": (1, 2)}
 
 
-def _polylines(moves: Sequence[Move]) -> tuple[list[np.ndarray], list[np.ndarray]]:
-    """(feed, rapid) polylines (k, 3) [mm]: straight moves as one segment each, arcs at about
-    one point per degree."""
+def _polylines(moves: Sequence[Move]) -> tuple[np.ndarray, np.ndarray]:
+    """(feed, rapid) geometry as one (k, 3) [mm] array each, moves separated by NaN rows (one
+    Line2D draws them all). Arcs get about one point per degree, fewer where the figure cannot
+    show more: enough that the chord's sagitta stays under 1/4000 of the drawing's extent (a
+    quarter pixel); an arc below that is drawn as its chord."""
+    if not moves:
+        empty = np.empty((0, 3))
+        return empty, empty
+    ends = np.array([[mv.start, mv.end] for mv in moves], dtype=float).reshape(-1, 3)
+    pixel_mm = max(float((ends.max(axis=0) - ends.min(axis=0)).max()), 1e-6) / 4000.0
+    gap = np.full((1, 3), np.nan)
     feed: list[np.ndarray] = []
     rapid: list[np.ndarray] = []
-    for mv in moves:
+    for k, mv in enumerate(moves):
+        pts = ends[2 * k : 2 * k + 2]
         if isinstance(mv, Arc):
-            n = max(16, int(np.ceil(np.degrees(mv.angle))))
-            feed.append(arc_points(mv, np.linspace(0.0, 1.0, n + 1)))
-        else:
-            (rapid if mv.kind == "rapid" else feed).append(np.array([mv.start, mv.end], float))
-    return feed, rapid
+            # sagitta of n chords over the angle: R (1 - cos(angle / 2n)) ~ R angle^2 / (8 n^2)
+            n_fine = np.ceil(np.degrees(mv.angle))
+            n = int(min(n_fine, np.ceil(mv.angle * np.sqrt(mv.radius / (8.0 * pixel_mm)))))
+            if n > 1:
+                pts = arc_points(mv, np.linspace(0.0, 1.0, max(n, 8) + 1))
+        (rapid if mv.kind == "rapid" else feed).extend((pts, gap))
+    return _stack(feed), _stack(rapid)
+
+
+def _stack(parts: list[np.ndarray]) -> np.ndarray:
+    return np.vstack(parts) if parts else np.empty((0, 3))
 
 
 def choose_views(moves: Sequence[Move]) -> list[str]:
@@ -86,18 +101,14 @@ def _decimate(n: int, keep: int, limit: int = MAX_TRACE_POINTS) -> np.ndarray:
 def _draw_view(
     ax: Axes,
     plane: str,
-    feed: list[np.ndarray],
-    rapid: list[np.ndarray],
+    feed: np.ndarray,
+    rapid: np.ndarray,
     traced: np.ndarray,
     worst: tuple[np.ndarray, np.ndarray, int, float] | None,
 ) -> None:
-    from matplotlib.collections import LineCollection
-
     i, j = _VIEWS[plane]
-    ax.add_collection(
-        LineCollection([p[:, [i, j]] for p in rapid], colors="0.6", linestyles="--", lw=0.8)
-    )
-    ax.add_collection(LineCollection([p[:, [i, j]] for p in feed], colors="k", lw=1.0))
+    ax.plot(rapid[:, i], rapid[:, j], color="0.6", ls="--", lw=0.8)
+    ax.plot(feed[:, i], feed[:, j], color="k", lw=1.0)
     ax.plot(traced[:, i], traced[:, j], color="tab:red", lw=0.9)
     if worst is not None:
         drawn, _, line, err = worst
