@@ -275,6 +275,7 @@ def _label_worst(ax: Axes, tr: Trace) -> None:
     first[1:] = lines[order][1:] != lines[order][:-1]
     peaks = order[first]  # one sample per line: its worst
     top = peaks[np.argsort(-err[peaks], kind="stable")[:WORST_LABELLED]]
+    top = top[np.argsort(tr.t[feed[top]], kind="stable")]  # in time order: neighbours stagger
     for rank, k in enumerate(top):
         x, y = float(tr.t[feed[k]]), float(err[k])
         ax.plot(x, y, "v", color="tab:blue", ms=5)
@@ -282,8 +283,8 @@ def _label_worst(ax: Axes, tr: Trace) -> None:
             f"line {int(lines[k])}",
             (x, y),
             textcoords="offset points",
-            xytext=(0, 6 + 9 * (rank % 2)),
-            ha="center",
+            xytext=(-3 if rank % 2 else 3, 6 + 10 * (rank % 3)),
+            ha="right" if rank % 2 else "left",
             fontsize=7,
             color="tab:blue",
         )
