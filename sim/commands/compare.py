@@ -11,6 +11,7 @@ import argparse
 import json
 import math
 import sys
+from dataclasses import asdict
 from pathlib import Path
 
 from gantry_sim.controller.errors import ConfigError
@@ -59,7 +60,7 @@ def run(args: argparse.Namespace) -> int:
     )
     cmp = compare(load_report(args.baseline), load_report(args.run), margins)
     if args.json:
-        rows = [r.__dict__ for r in cmp.rows if r.status != "ok"]
+        rows = [asdict(r) for r in cmp.rows if r.status != "ok"]
         obj = {"passed": cmp.passed, "failures": list(cmp.failures), "changed": rows}
         sys.stdout.write(json.dumps(obj) + "\n")
     else:
