@@ -69,6 +69,7 @@ def test_compare_fails_when_the_error_grows_and_prints_the_table(runs, tmp_path,
     assert main(["compare", str(tmp_path / "base"), str(tmp_path / "soft")]) == 1
     out = capsys.readouterr().out
     assert out.count("FAIL error") == 3 and "block error" in out and "(3 block(s) over)" in out
+    assert "note: machine differs" in out
     assert out.rstrip().endswith("FAIL")
     # slower: every block's time and the cycle time grew
     assert main(["compare", str(tmp_path / "base"), str(tmp_path / "slow" / "report.json")]) == 1

@@ -84,6 +84,7 @@ def test_run_gates_write_the_verdict(write_program, tmp_path, capsys):
     assert fail["line"] == 3 and fail["gate"].startswith("--max-error-um arc=")
     assert "FAIL: line 3 (arc)" in capsys.readouterr().out
     status, rep = _run(prog, out, "--max-error-um-lines", f"3={arc * 1.01}")
+    assert "PASS: --max-error-um-lines 3=" in capsys.readouterr().out
     assert status == 0 and rep["verdict"]["gates"] == [f"--max-error-um-lines 3={arc * 1.01:g}"]
     status, rep = _run(prog, out, "--max-error-um-lines", f"2-4={arc * 0.5}")
     assert status == 1 and rep["verdict"]["failures"][0]["line"] == 3

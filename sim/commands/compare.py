@@ -58,12 +58,16 @@ def run(args: argparse.Namespace) -> int:
     margins = Margins(
         args.error_margin_um, args.error_margin_pct, args.time_margin_s, args.time_margin_pct
     )
-    cmp = compare(load_report(args.baseline), load_report(args.run), margins)
+    base, new = load_report(args.baseline), load_report(args.run)
+    cmp = compare(base, new, margins)
     if args.json:
         rows = [asdict(r) for r in cmp.rows if r.status != "ok"]
         obj = {"passed": cmp.passed, "failures": list(cmp.failures), "changed": rows}
         sys.stdout.write(json.dumps(obj) + "\n")
     else:
         print(f"{args.run} against {args.baseline}")
+        for key in ("program", "dialect", "machine", "feed_override_pct"):
+            if base.get(key) != new.get(key):  # blocks are matched by line: say what differs
+                print(f"note: {key} differs: {base.get(key)} -> {new.get(key)}")
         print(format_table(cmp, margins))
     return 0 if cmp.passed else 1

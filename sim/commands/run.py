@@ -171,4 +171,6 @@ def run(args: argparse.Namespace) -> int:
     for failure in verdict.failures:
         if not failure["gate"].startswith("baseline"):  # those are in the table above
             print(f"FAIL: {failure['message']}", file=msg)
+    if verdict.passed and verdict.gates:
+        print(f"PASS: {', '.join(verdict.gates)}", file=msg)
     return 0 if verdict.passed else 1
