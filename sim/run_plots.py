@@ -206,7 +206,8 @@ def _draw_gates(ax: Axes, gates: Gates, tr: Trace, moves: Sequence[Move]) -> Non
         if lim.lines is not None:
             on &= (tr.line >= lim.lines[0]) & (tr.line <= lim.lines[1])
         if lim.kind is not None:
-            on &= np.array([kinds.get(int(v)) == lim.kind for v in tr.line], dtype=bool)
+            uniq, inv = np.unique(tr.line, return_inverse=True)
+            on &= np.array([kinds.get(int(v)) == lim.kind for v in uniq], dtype=bool)[inv]
         tc, _, hi = _envelope(tr.t, np.where(on, lim.limit_um, np.nan), ENVELOPE_BINS)
         ax.plot(tc, hi, ls="--", lw=1.2, label=lim.label())
 
