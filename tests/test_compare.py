@@ -103,3 +103,16 @@ def test_run_baseline_gates_and_records_it(runs, tmp_path, capsys):
 def test_compare_missing_report_exits_2(tmp_path, capsys):
     assert main(["compare", str(tmp_path), str(tmp_path)]) == 2
     assert "report.json: error: no report.json here" in capsys.readouterr().err
+
+
+def test_cli_margin_defaults_are_the_library_defaults():
+    from gantry_sim.sim.commands.compare import MARGINS
+
+    defaults = Margins()
+    cli = {option: default for option, default, _, _ in MARGINS}
+    assert cli == {
+        "--error-margin-um": defaults.error_um,
+        "--error-margin-pct": defaults.error_pct,
+        "--time-margin-s": defaults.time_s,
+        "--time-margin-pct": defaults.time_pct,
+    }
