@@ -116,3 +116,11 @@ def test_cli_margin_defaults_are_the_library_defaults():
         "--time-margin-s": defaults.time_s,
         "--time-margin-pct": defaults.time_pct,
     }
+
+
+def test_a_baseline_without_block_times_compares_errors_and_cycle_time():
+    old = {"cycle_time_s": 10.0, "blocks": [{"line": 3, "kind": "arc", "max_error_um": 4.0}]}
+    run = {"cycle_time_s": 10.5, "blocks": [block(3, "arc", 4.0, 9.0)]}
+    cmp = compare(old, run, Margins())
+    assert [r.status for r in cmp.rows] == ["ok"]  # no time to compare per block
+    assert [f["gate"] for f in cmp.failures] == ["baseline cycle time"]

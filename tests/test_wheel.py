@@ -3,6 +3,7 @@ package: gantry_sim is a namespace package, so each package declares its own).""
 
 from __future__ import annotations
 
+import shutil
 import subprocess
 import sys
 import tomllib
@@ -15,8 +16,12 @@ from tests.conftest import ROOT
 
 @pytest.mark.slow
 def test_wheel_has_license_and_py_typed(tmp_path):
+    # build from a clean copy: setuptools would leave build/ in the checkout, and reuse it
+    src = tmp_path / "src"
+    junk = (".git", ".venv", "venv", "build", "*.egg-info", "__pycache__", ".*cache", "out")
+    shutil.copytree(ROOT, src, ignore=shutil.ignore_patterns(*junk))
     proc = subprocess.run(
-        [sys.executable, "-m", "pip", "wheel", "--no-deps", "-q", str(ROOT), "-w", str(tmp_path)],
+        [sys.executable, "-m", "pip", "wheel", "--no-deps", "-q", str(src), "-w", str(tmp_path)],
         capture_output=True,
         text=True,
         check=False,
