@@ -181,8 +181,11 @@ def path_figure(moves: Sequence[Move], trace: Trace, program: str, contour: Cont
     return fig
 
 
-def _envelope(t: np.ndarray, v: np.ndarray, bins: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Per time bin: (bin centre [s], min, max) of ``v``, NaN where the bin holds no value."""
+def _envelope(
+    t: np.ndarray, v: np.ndarray, bins: int
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """Per time bin: (bin centre [s], min, max, root mean square) of ``v``, NaN where the bin
+    holds no value."""
     edges = np.linspace(t[0], t[-1] if t[-1] > t[0] else t[0] + 1.0, bins + 1)
     idx = np.clip(np.searchsorted(edges, t, side="right") - 1, 0, bins - 1)
     lo = np.full(bins, np.inf)
@@ -190,10 +193,14 @@ def _envelope(t: np.ndarray, v: np.ndarray, bins: int) -> tuple[np.ndarray, np.n
     ok = np.isfinite(v)
     np.minimum.at(lo, idx[ok], v[ok])
     np.maximum.at(hi, idx[ok], v[ok])
-    empty = ~np.isfinite(lo)
+    count = np.bincount(idx[ok], minlength=bins)
+    sq = np.bincount(idx[ok], weights=v[ok] ** 2, minlength=bins)
+    empty = count == 0
     lo[empty] = np.nan
     hi[empty] = np.nan
-    return 0.5 * (edges[:-1] + edges[1:]), lo, hi
+    rms = np.sqrt(sq / np.maximum(count, 1))
+    rms[empty] = np.nan
+    return 0.5 * (edges[:-1] + edges[1:]), lo, hi, rms
 
 
 def _draw_gates(ax: Axes, gates: Gates, tr: Trace, moves: Sequence[Move]) -> None:
@@ -208,7 +215,7 @@ def _draw_gates(ax: Axes, gates: Gates, tr: Trace, moves: Sequence[Move]) -> Non
         if lim.kind is not None:
             uniq, inv = np.unique(tr.line, return_inverse=True)
             on &= np.array([kinds.get(int(v)) == lim.kind for v in uniq], dtype=bool)[inv]
-        tc, _, hi = _envelope(tr.t, np.where(on, lim.limit_um, np.nan), ENVELOPE_BINS)
+        tc, _, hi, _ = _envelope(tr.t, np.where(on, lim.limit_um, np.nan), ENVELOPE_BINS)
         ax.plot(tc, hi, ls="--", lw=1.2, label=lim.label())
 
 
@@ -230,8 +237,8 @@ def error_figure(
     gates: Gates | None = None,
     moves: Sequence[Move] = (),
 ) -> Figure:
-    """error.png: the contour error along the program as a per-bin min..max envelope (feed
-    moves), the worst blocks labelled with their line, every error gate drawn; below, the
+    """error.png: the contour error along the program as a per-bin min..max band and the RMS
+    per bin (feed moves), the worst blocks labelled with their line, every error gate drawn; below, the
     program line executed (its envelope)."""
     tr = trace
     err = np.where(tr.feed, tr.err_um, np.nan)
@@ -239,10 +246,21 @@ def error_figure(
     ax1, ax2 = fig.subplots(2, 1, sharex=True, height_ratios=(3, 1))
     fig.subplots_adjust(left=0.07, right=0.76)
     if tr.t.size:
-        tc, lo, hi = _envelope(tr.t, err, ENVELOPE_BINS)
-        ax1.fill_between(tc, lo, hi, color="tab:red", lw=0.6, step="mid", label="contour error")
+        tc, lo, hi, rms = _envelope(tr.t, err, ENVELOPE_BINS)
+        ax1.fill_between(
+            tc,
+            lo,
+            hi,
+            color="tab:red",
+            alpha=0.35,
+            lw=0,
+            step="mid",
+            label="contour error, min..max",
+        )
+        ax1.step(tc, hi, where="mid", color="tab:red", lw=0.7)
+        ax1.step(tc, rms, where="mid", color="darkred", lw=0.8, label="rms per bin")
         _label_worst(ax1, tr)
-        tc, lo, hi = _envelope(tr.t, tr.line.astype(float), ENVELOPE_BINS)
+        tc, lo, hi, _ = _envelope(tr.t, tr.line.astype(float), ENVELOPE_BINS)
         ax2.fill_between(tc, lo, hi, color="k", step="mid", lw=0.8)
     if gates is not None:
         _draw_gates(ax1, gates, tr, moves)
