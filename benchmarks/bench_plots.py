@@ -21,8 +21,9 @@ from gantry_sim.controller.arcs import arc_points
 from gantry_sim.controller.gcode.interpreter import interpret
 from gantry_sim.controller.moves import Arc
 from gantry_sim.sim.contour import ContourStats
+from gantry_sim.sim.error_plot import save_error_plot
 from gantry_sim.sim.gates import ErrorLimit, Gates
-from gantry_sim.sim.run_plots import save_error_plot, save_path_plot
+from gantry_sim.sim.path_plot import save_path_plot
 from gantry_sim.sim.trace import Trace
 
 SAMPLES_PER_BLOCK = 10

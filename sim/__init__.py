@@ -14,7 +14,8 @@ entry point is :mod:`.api`):
     gates.py         error limits per kind / line range, cycle-time limit, the verdict
     compare.py       a run against a baseline report.json, block by block
     plots.py         the figure idiom (Figure + Agg, no pyplot, quiet) and the ballbar polar plot
-    run_plots.py     path.png (arcs' plane or three views) and error.png (envelope, gates)
+    path_plot.py     path.png: the arcs' plane or three views, error x 1000, worst point
+    error_plot.py    error.png: per-bin band along the program, worst blocks, the gates
     search_plots.py  tune.png and the sweep plots (every point, faults marked, axes from 0)
     outdir.py        outputs never half-written (temporary sibling, then rename)
     circular/        circular tests after ISO 230-4: the virtual ballbar and feed tuning

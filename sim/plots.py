@@ -4,7 +4,7 @@ No pyplot, so no global figure registry and no backend switch: each function bui
 figure, saves the PNG and lets it go. Import this module only where a plot is drawn (it imports
 matplotlib, which ``gantry`` must not load at start-up).
 
-* ``gantry run``: sim.run_plots (path.png, error.png);
+* ``gantry run``: sim.path_plot (path.png), sim.error_plot (error.png);
 * ``gantry ballbar``: :func:`save_polar_plot` (polar.png);
 * ``gantry tune`` and ``gantry sweep``: sim.search_plots (tune.png, the sweep plots).
 """
@@ -63,7 +63,7 @@ def _figure(figsize: tuple[float, float], dpi: float | None = None) -> Figure:
 # ---- gantry run ------------------------------------------------------------------------------
 
 
-# path.png and error.png: sim.run_plots.
+# path.png and error.png: sim.path_plot, sim.error_plot.
 
 
 # ---- gantry ballbar --------------------------------------------------------------------------

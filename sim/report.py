@@ -256,7 +256,8 @@ def write_outputs(
             force_N=trace.force_N,
         )
         if plots:
-            from gantry_sim.sim.run_plots import save_error_plot, save_path_plot
+            from gantry_sim.sim.error_plot import save_error_plot
+            from gantry_sim.sim.path_plot import save_path_plot
 
             save_path_plot(tmp / "path.png", moves, trace, report.program, report.contour_error_um)
             save_error_plot(tmp / "error.png", trace, report.contour_error_um, gates, moves)

@@ -13,8 +13,9 @@ import pytest
 from gantry_sim.controller.gcode.interpreter import interpret
 from gantry_sim.sim.api import run_program
 from gantry_sim.sim.circular.tune import TuneRow
+from gantry_sim.sim.error_plot import ENVELOPE_BINS, error_figure
 from gantry_sim.sim.gates import ErrorLimit, Gates
-from gantry_sim.sim.run_plots import ENVELOPE_BINS, choose_views, error_figure, path_figure
+from gantry_sim.sim.path_plot import choose_views, path_figure
 from gantry_sim.sim.search_plots import sweep_figures, tune_figure
 from gantry_sim.sim.trace import Trace
 from tests.conftest import ROOT
