@@ -10,8 +10,13 @@ entry point is :mod:`.api`):
     trace.py         Trace: the per-tick arrays of a run (trace.npz)
     nearest.py       nearest points on commanded lines, arcs and helices
     contour.py       contour error against the commanded geometry; chord/reference/tracking parts
-    report.py        RunReport (typed) -> report.json; write_outputs (report, trace, plots)
-    plots.py         every figure (path, error, polar, tune, sweep): Figure + Agg, no pyplot
+    report.py        RunReport (typed) -> report.json, timing.json; write_outputs (+ trace, plots)
+    gates.py         error limits per kind / line range, cycle-time limit, the verdict
+    compare.py       a run against a baseline report.json, block by block
+    plots.py         the figure idiom (Figure + Agg, no pyplot, quiet) and the ballbar polar plot
+    path_plot.py     path.png: the arcs' plane or three views, error x 1000, worst point
+    error_plot.py    error.png: per-bin band along the program, worst blocks, the gates
+    search_plots.py  tune.png and the sweep plots (every point, faults marked, axes from 0)
     outdir.py        outputs never half-written (temporary sibling, then rename)
     circular/        circular tests after ISO 230-4: the virtual ballbar and feed tuning
     sweep/           one simulation per grid point of feed override x accel x jerk

@@ -1,13 +1,16 @@
-"""The public Python API of ``gantry run``: program text in, report and trace out.
+"""The public Python API of ``gantry run``: a program (file or text) in, report and trace out.
 
+    from pathlib import Path
     from gantry_sim.controller.config import load_machine_config
     from gantry_sim.models import DEFAULT_MACHINE
     from gantry_sim.sim.api import run_program, write_run_outputs
 
-    result = run_program(text, file="part.ngc", machine=load_machine_config(DEFAULT_MACHINE))
+    machine = load_machine_config(DEFAULT_MACHINE)
+    result = run_program(Path("part.ngc"), machine=machine)   # a Path: the file is read
+    result = run_program(text, file="part.ngc", machine=machine)  # a str: the program text
     result.report["contour_error_um"]["max"]      # [um], report.json's dict
     result.run_report.contour_error_um.max_um     # [um], the same, typed (sim.report.RunReport)
-    write_run_outputs(result, Path("out"))        # report.json, trace.npz, path.png, error.png
+    result = write_run_outputs(result, Path("out"))  # report.json, timing.json, trace.npz, plots
 
 Pipeline: interpret -> plan (Ruckig) -> sample at the servo period -> simulate (discrete PD in
 MuJoCo) -> analyse against the commanded geometry. Errors a user can cause raise GantryError
@@ -16,13 +19,15 @@ subclasses (GcodeError, ConfigError, PlanningError, SimulationError) carrying fi
 
 from __future__ import annotations
 
+import os
 import time
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from functools import cached_property
 from pathlib import Path
 
 from gantry_sim.controller.config import MachineConfig
-from gantry_sim.controller.errors import GantryError
+from gantry_sim.controller.errors import GantryError, GcodeError
+from gantry_sim.sim.gates import Gates, Verdict
 from gantry_sim.sim.report import RunReport
 from gantry_sim.sim.trace import Trace
 
@@ -48,9 +53,9 @@ class RunResult:
 
 
 def run_program(
-    text: str,
+    program: str | os.PathLike[str],
     *,
-    file: str = "<program>",
+    file: str | None = None,
     dialect: str = "linuxcnc",
     machine: MachineConfig,
     feed_override_pct: float = 100.0,
@@ -59,8 +64,12 @@ def run_program(
     """Interpret, plan, simulate and analyse one program on ``machine``.
 
     Args:
-        text: the G-code program.
-        file: the program's name for error messages and the report.
+        program: a ``pathlib.Path`` (any ``os.PathLike``): the G-code file, read as UTF-8 text
+            (an unreadable file is a GcodeError naming it); a ``str``: the program TEXT itself.
+            A one-line str naming an existing file is refused (a GcodeError that says to pass
+            ``Path(...)``), since running a file name as G-code would fail obscurely.
+        file: the program's name for error messages and the report (default: the path, or
+            "<program>" for text).
         dialect: "linuxcnc", "g2core", "marlin" or "laserdyne".
         machine: the machine file (limits, travel, servo, sim).
         feed_override_pct: scales every programmed feed [%].
@@ -77,6 +86,7 @@ def run_program(
     from gantry_sim.sim.runner import simulate
 
     t0 = time.perf_counter()
+    text, file = _program_text(program, file)
     try:
         moves = tuple(interpret(text, dialect, file))
         t1 = time.perf_counter()
@@ -124,12 +134,63 @@ def run_program(
     return RunResult(run_report=report, trace=trace, moves=moves)
 
 
-def write_run_outputs(result: RunResult, out_dir: Path) -> None:
-    """Write report.json, trace.npz, path.png and error.png into ``out_dir`` (created if needed).
+def _program_text(program: str | os.PathLike[str], file: str | None) -> tuple[str, str]:
+    """(text, name) of ``program``: a path is read, a str is the text (see run_program)."""
+    if isinstance(program, os.PathLike):
+        from gantry_sim.sim.commands.common import read_program
+
+        path = Path(program)
+        return read_program(path), file if file is not None else str(path)
+    if not isinstance(program, str):
+        raise TypeError(f"program must be a str (G-code text) or a Path, not {type(program)}")
+    name = file if file is not None else "<program>"
+    one_line = program.strip()
+    if one_line and "\n" not in one_line and len(one_line) < 4096:
+        try:
+            is_file = Path(one_line).is_file()
+        except OSError:
+            is_file = False
+        if is_file:
+            raise GcodeError(
+                f"run_program got the str '{one_line}', which names a file: pass "
+                f"Path('{one_line}') to run that file (a str is the program text)",
+                file=name,
+            )
+    return program, name
+
+
+def with_verdict(result: RunResult, verdict: Verdict) -> RunResult:
+    """``result`` with the gates' verdict in its report (report.json "verdict")."""
+    return replace(result, run_report=replace(result.run_report, verdict=verdict))
+
+
+def write_run_outputs(
+    result: RunResult,
+    out_dir: Path,
+    *,
+    plots: bool = True,
+    deterministic: bool = False,
+    gates: Gates | None = None,
+    started: float | None = None,
+) -> RunResult:
+    """Write report.json, timing.json, trace.npz and (``plots``) path.png and error.png into
+    ``out_dir`` (created if needed); return ``result`` with timing_s "write" and "total".
 
     Atomic per file set: everything is written into a temporary folder beside the outputs and
-    moved in only when all of it succeeded, report.json last.
+    moved in only when all of it succeeded, report.json last. ``deterministic``: report.json's
+    wall-clock fields are null (timing.json has them); ``gates`` are drawn on error.png;
+    ``started``: ``time.perf_counter()`` at the start, so "total" counts everything.
     """
     from gantry_sim.sim.report import write_outputs
 
-    write_outputs(result.run_report, result.trace, result.moves, Path(out_dir))
+    report = write_outputs(
+        result.run_report,
+        result.trace,
+        result.moves,
+        Path(out_dir),
+        plots=plots,
+        deterministic=deterministic,
+        gates=gates,
+        started=started,
+    )
+    return replace(result, run_report=report)

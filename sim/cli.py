@@ -24,13 +24,44 @@ COMMANDS: dict[str, str] = {
     "tune": "gantry_sim.sim.commands.tune",
     "sweep": "gantry_sim.sim.commands.sweep",
     "machine": "gantry_sim.sim.commands.machine",
+    "compare": "gantry_sim.sim.commands.compare",
 }
+
+
+def _version() -> str:
+    """The installed gantry-sim's version (its distribution metadata)."""
+    from importlib.metadata import PackageNotFoundError, version
+
+    try:
+        return version("gantry-sim")
+    except PackageNotFoundError:  # run from a source tree that is not installed
+        return "unknown (not installed)"
+
+
+class _VersionAction(argparse.Action):
+    """``--version``, reading the metadata only when asked (importlib.metadata costs ~20 ms)."""
+
+    def __init__(self, option_strings: Sequence[str], dest: str, help: str | None = None) -> None:
+        super().__init__(option_strings, dest, nargs=0, default=argparse.SUPPRESS, help=help)
+
+    def __call__(
+        self,
+        parser: argparse.ArgumentParser,
+        namespace: argparse.Namespace,
+        values: object,
+        option_string: str | None = None,
+    ) -> None:
+        print(f"gantry {_version()}")
+        parser.exit()
 
 
 def build_parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(
         prog="gantry",
         description="Simulate a 3-axis gantry through G-code arcs and measure how closely it follows them.",
+    )
+    parser.add_argument(
+        "--version", action=_VersionAction, help="print gantry-sim's version and exit"
     )
     sub = parser.add_subparsers(dest="command", required=True, metavar="COMMAND")
     for name, module_name in COMMANDS.items():

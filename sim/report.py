@@ -3,16 +3,24 @@
 report.json keys (contract, see README "Running a simulation"): program, dialect, cycle_time_s,
 contour_error_um {max, rms, p95}, parts_um {chord_max, reference_max, tracking_max}, blocks
 [{line, kind, max_error_um, rms_error_um}], limits, sim {physics_timestep_s, servo_period_s, steps,
-realtime_factor}, timing_s {parse, plan, simulate, analyse, total}; plus a few extra keys.
-:meth:`RunReport.to_json` is the only place that spells them; :func:`write_outputs` writes
-report.json, trace.npz and the plots (sim.plots, imported only there).
+realtime_factor}, timing_s {parse, plan, simulate, analyse, total}; plus a few extra keys
+(blocks[].time_s, timing_s.write, verdict). :meth:`RunReport.to_json` is the only place that
+spells them; :func:`write_outputs` writes report.json, timing.json, trace.npz and the plots
+(sim.plots, imported only there).
+
+Deterministic reports: everything in report.json follows from the inputs except the wall-clock
+fields timing_s.* and sim.realtime_factor. They stay in report.json (the contract) and are also
+written to timing.json on every run; ``deterministic=True`` (``gantry run --deterministic``)
+writes them as null in report.json, so two runs of the same input give byte-identical reports
+while timing.json keeps the measurements.
 """
 
 from __future__ import annotations
 
 import json
-from collections.abc import Sequence
-from dataclasses import dataclass
+import time
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
@@ -21,6 +29,7 @@ import numpy as np
 from gantry_sim.controller.config import Limits, MachineConfig
 from gantry_sim.controller.servo import AxisPlant
 from gantry_sim.sim.contour import Analysis, BlockError, ContourStats, ErrorParts
+from gantry_sim.sim.gates import Gates, Verdict
 from gantry_sim.sim.trace import Trace
 
 if TYPE_CHECKING:
@@ -30,7 +39,9 @@ if TYPE_CHECKING:
     from gantry_sim.sim.runner import SimTrace
 
 #: files a run writes into its output folder (removed first by `gantry run`: no stale report)
-OUTPUT_FILES = ("report.json", "trace.npz", "path.png", "error.png")
+OUTPUT_FILES = ("report.json", "timing.json", "trace.npz", "path.png", "error.png")
+#: the plots among them (not written with ``plots=False``)
+PLOT_FILES = ("path.png", "error.png")
 
 
 @dataclass(frozen=True)
@@ -55,12 +66,12 @@ class SimStats:
     max_force_N: tuple[float, float, float]
     saturated_fraction: tuple[float, float, float]
 
-    def to_json(self) -> dict[str, Any]:
+    def to_json(self, deterministic: bool = False) -> dict[str, Any]:
         return {
             "physics_timestep_s": self.physics_timestep_s,
             "servo_period_s": self.servo_period_s,
             "steps": self.steps,
-            "realtime_factor": self.realtime_factor,
+            "realtime_factor": None if deterministic else self.realtime_factor,
             "model": self.model,
             "max_force_N": list(self.max_force_N),
             "saturated_fraction": list(self.saturated_fraction),
@@ -85,7 +96,12 @@ class RunReport:
         segments: chords and straight pieces planned.
         chord_tolerance_mm: the machine's chord tolerance [mm].
         sim: how the simulation ran.
-        timing_s: wall-clock time per stage ("parse", "plan", "simulate", "analyse", "total") [s].
+        timing_s: wall-clock time per stage ("parse", "plan", "simulate", "analyse", "write"
+            once written, "total": from the start to the outputs written) [s].
+        block_time_s: per feed block's line, the time spent executing it [s] (servo ticks on
+            the line x servo period).
+        verdict: the gates' verdict (passed, no gates, until :func:`gantry_sim.sim.gates`'s
+            evaluation is applied).
     """
 
     program: str
@@ -102,13 +118,21 @@ class RunReport:
     chord_tolerance_mm: float
     sim: SimStats
     timing_s: dict[str, float]
+    block_time_s: Mapping[int, float] = field(default_factory=dict)
+    verdict: Verdict = field(default_factory=Verdict)
 
     def block(self, line: int) -> BlockError | None:
         """The block executing program line ``line``, or None when it is no feed block."""
         return next((b for b in self.blocks if b.line == line), None)
 
-    def to_json(self) -> dict[str, Any]:
-        """The report.json object (key order as written)."""
+    def to_json(self, deterministic: bool = False) -> dict[str, Any]:
+        """The report.json object (key order as written); ``deterministic``: the wall-clock
+        fields (timing_s.*, sim.realtime_factor) as null (see the module docstring)."""
+        blocks = []
+        for b in self.blocks:
+            item: dict[str, Any] = b.to_json()
+            item["time_s"] = self.block_time_s.get(b.line)
+            blocks.append(item)
         return {
             "program": self.program,
             "dialect": self.dialect,
@@ -117,13 +141,22 @@ class RunReport:
             "cycle_time_s": self.cycle_time_s,
             "contour_error_um": self.contour_error_um.to_json(),
             "parts_um": self.parts_um.to_json(),
-            "blocks": [b.to_json() for b in self.blocks],
+            "blocks": blocks,
             "limits": self.limits.to_json(),
             "moves": self.moves,
             "segments": self.segments,
             "chord_tolerance_mm": self.chord_tolerance_mm,
-            "sim": self.sim.to_json(),
+            "sim": self.sim.to_json(deterministic),
+            "timing_s": {k: None if deterministic else v for k, v in self.timing_s.items()},
+            "verdict": self.verdict.to_json(),
+        }
+
+    def timing_json(self) -> dict[str, Any]:
+        """timing.json: the wall-clock fields of report.json, always measured."""
+        return {
+            "program": self.program,
             "timing_s": dict(self.timing_s),
+            "realtime_factor": self.sim.realtime_factor,
         }
 
 
@@ -168,7 +201,17 @@ def build_report(
             saturated_fraction=_vec3(saturated),
         ),
         timing_s={k: float(v) for k, v in timing.items()},
+        block_time_s=_block_times(traj.line, machine.servo.period_s, analysis.blocks),
     )
+
+
+def _block_times(
+    line: np.ndarray, period_s: float, blocks: Sequence[BlockError]
+) -> dict[int, float]:
+    """Per feed block's line, servo ticks executing it x the servo period [s]."""
+    uniq, counts = np.unique(np.asarray(line), return_counts=True)
+    ticks = dict(zip(uniq.tolist(), counts.tolist(), strict=True))
+    return {b.line: ticks.get(b.line, 0) * period_s for b in blocks}
 
 
 def _vec3(values: np.ndarray) -> tuple[float, float, float]:
@@ -176,13 +219,33 @@ def _vec3(values: np.ndarray) -> tuple[float, float, float]:
     return (x, y, z)
 
 
-def write_outputs(report: RunReport, trace: Trace, moves: Sequence[Move], out_dir: Path) -> None:
-    """Write the run's files into a temporary folder, then move them in, report.json last."""
-    from gantry_sim.sim.outdir import atomic_output_dir
-    from gantry_sim.sim.plots import save_error_plot, save_path_plot
+def write_outputs(
+    report: RunReport,
+    trace: Trace,
+    moves: Sequence[Move],
+    out_dir: Path,
+    *,
+    plots: bool = True,
+    deterministic: bool = False,
+    gates: Gates | None = None,
+    started: float | None = None,
+) -> RunReport:
+    """Write the run's files into a temporary folder, then move them in, report.json last.
 
+    Args:
+        plots: draw path.png and error.png.
+        deterministic: wall-clock fields null in report.json (timing.json has them).
+        gates: drawn on error.png.
+        started: ``time.perf_counter()`` when the run started (the command's start); "total"
+            counts from there to the outputs written. None: the stages' sum.
+
+    Returns:
+        ``report`` with timing_s "write" (trace, plots, files) and "total" filled in.
+    """
+    from gantry_sim.sim.outdir import atomic_output_dir
+
+    t0 = time.perf_counter()
     with atomic_output_dir(out_dir, last="report.json") as tmp:
-        (tmp / "report.json").write_text(json.dumps(report.to_json(), indent=2) + "\n")
         np.savez_compressed(
             tmp / "trace.npz",
             t=trace.t,
@@ -192,5 +255,19 @@ def write_outputs(report: RunReport, trace: Trace, moves: Sequence[Move], out_di
             err_um=trace.err_um,
             force_N=trace.force_N,
         )
-        save_path_plot(tmp / "path.png", moves, trace, report.program, report.contour_error_um)
-        save_error_plot(tmp / "error.png", trace, report.contour_error_um)
+        if plots:
+            from gantry_sim.sim.error_plot import save_error_plot
+            from gantry_sim.sim.path_plot import save_path_plot
+
+            save_path_plot(tmp / "path.png", moves, trace, report.program, report.contour_error_um)
+            save_error_plot(tmp / "error.png", trace, report.contour_error_um, gates, moves)
+        t1 = time.perf_counter()
+        timing = {k: v for k, v in report.timing_s.items() if k not in ("write", "total")}
+        timing["write"] = t1 - t0
+        stages = sum(timing.values())
+        timing["total"] = (t1 - started) if started is not None else stages
+        report = replace(report, timing_s=timing)
+        text = json.dumps(report.to_json(deterministic), indent=2) + "\n"
+        (tmp / "timing.json").write_text(json.dumps(report.timing_json(), indent=2) + "\n")
+        (tmp / "report.json").write_text(text)
+    return report

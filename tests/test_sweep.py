@@ -136,8 +136,8 @@ def test_cli_rejects_bad_options_with_status_2(write_program, args):
     assert exc.value.code == 2
 
 
-def test_cli_reports_a_bad_program_as_file_line(write_program, capsys):
+def test_cli_reports_a_bad_program_as_file_line(write_program, tmp_path, capsys):
     prog = write_program("G21\nG3 X1 Y1 F100\nM2\n")
-    assert main(["sweep", str(prog), "--workers", "1"]) == 2
+    assert main(["sweep", str(prog), "--workers", "1", "--out", str(tmp_path / "out")]) == 2
     err = capsys.readouterr().err
     assert f"{prog}:2: error:" in err

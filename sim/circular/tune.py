@@ -48,6 +48,8 @@ class TuneRow:
         limited_by: "tolerance" (the bisection's answer), "machine_limits" (the cap passes) or
             "unreachable" (the minimum feed fails).
         tried: every (feed [mm/min], max error [um]) simulated, in the order tried.
+        run_feeds: for each of ``tried``, the path speed the circle actually ran at [mm/min]
+            (what tune.png plots).
     """
 
     radius_mm: float
@@ -56,6 +58,7 @@ class TuneRow:
     circle_feed_mm_per_min: float
     limited_by: str
     tried: tuple[tuple[float, float], ...]
+    run_feeds: tuple[float, ...] = ()
 
     def to_json(self) -> dict:
         return {
@@ -130,8 +133,9 @@ def max_feed_for_radius(
 
     def row(feed: float | None, at: float, why: str) -> TuneRow:
         tried = tuple((float(f), float(e)) for f, (e, _) in seen.items())
+        run_feeds = tuple(float(rf) for _, rf in seen.values())
         err, run_feed = seen[at]
-        return TuneRow(float(radius_mm), feed, float(err), float(run_feed), why, tried)
+        return TuneRow(float(radius_mm), feed, float(err), float(run_feed), why, tried, run_feeds)
 
     hi = cap_mm_per_min
     if passes(hi):

@@ -15,7 +15,7 @@ import sys
 from pathlib import Path
 
 from gantry_sim.controller.errors import ConfigError
-from gantry_sim.sim.commands.common import add_machine, load_machine
+from gantry_sim.sim.commands.common import DEFAULT_OUT, add_machine, load_machine
 
 HELP = (
     "circular test (virtual ballbar, ISO 230-4): run a full circle CCW and CW and report the "
@@ -58,9 +58,10 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument(
         "--out",
         type=Path,
-        default=None,
+        default=DEFAULT_OUT,
         metavar="DIR",
-        help="write ballbar.json, polar.png, ballbar.ngc, trace_cw.npz, trace_ccw.npz here",
+        help="write ballbar.json, polar.png, ballbar.ngc, trace_cw.npz, trace_ccw.npz here "
+        f"(default: ./{DEFAULT_OUT})",
     )
     shown = parser.add_mutually_exclusive_group()
     shown.add_argument(

@@ -8,6 +8,10 @@ from pathlib import Path
 from gantry_sim.controller.errors import GcodeError
 from gantry_sim.controller.gcode.dialects import DIALECTS
 
+#: the one default output folder of every command that writes files (run, ballbar, tune, sweep);
+#: their file names differ, so they can share it
+DEFAULT_OUT = Path("out")
+
 
 def add_dialect(parser: argparse.ArgumentParser) -> None:
     parser.add_argument(

@@ -1,21 +1,28 @@
 """``gantry run``: plan, simulate in MuJoCo, analyse; write report.json, trace.npz and plots.
 
-Exit status: 0 done; 1 ``--max-error-um X`` was set and the max contour error exceeds X (the
-outputs are still written); 2 invalid program, machine file or option, or a diverged simulation
-(no report is written, and stale outputs of an earlier run in DIR are removed first).
+Exit status: 0 done; 1 a gate failed (``--max-error-um``, ``--max-error-um-lines``,
+``--max-cycle-time-s``, ``--baseline``; the outputs are still written, with the verdict in
+report.json); 2 invalid program, machine file or option, or a diverged simulation (no report is
+written, and stale outputs of an earlier run in DIR are removed first).
 """
 
 from __future__ import annotations
 
 import argparse
-import math
+import json
 import sys
+import time
 from pathlib import Path
 
-from gantry_sim.sim.commands.common import add_dialect, add_machine, load_machine, read_program
+from gantry_sim.sim.commands.common import (
+    DEFAULT_OUT,
+    add_dialect,
+    add_machine,
+    load_machine,
+    read_program,
+)
 
 HELP = "plan, simulate and analyse a program; write report.json, trace.npz and plots"
-DEFAULT_OUT = Path("out")
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
@@ -30,15 +37,59 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         help=f"output folder (default: ./{DEFAULT_OUT}); created if needed",
     )
     parser.add_argument(
+        "--feed-override",
+        type=float,
+        default=100.0,
+        metavar="PCT",
+        help="scale every programmed feed by PCT %% (default 100), as the machine's knob",
+    )
+    parser.add_argument(
         "--max-error-um",
+        action="append",
+        default=[],
+        metavar="UM|KIND=UM,...",
+        help="gate: exit 1 when a feed block's max contour error exceeds UM; 'arc=5,linear=8' "
+        "sets a limit per motion kind (arc: G2/G3, linear: G1); repeatable",
+    )
+    parser.add_argument(
+        "--max-error-um-lines",
+        action="append",
+        default=[],
+        metavar="FIRST-LAST=UM,...",
+        help="gate: limit for the blocks on program lines FIRST..LAST (or LINE=UM); repeatable",
+    )
+    parser.add_argument(
+        "--max-cycle-time-s",
         type=float,
         default=None,
-        metavar="X",
-        help="exit 1 when the max contour error exceeds X micrometres (report still written)",
+        metavar="S",
+        help="gate: exit 1 when the planned cycle time exceeds S seconds",
+    )
+    parser.add_argument(
+        "--baseline",
+        type=Path,
+        default=None,
+        metavar="REPORT",
+        help="gate: compare with an earlier report.json (or its folder) block by block, as "
+        "`gantry compare` does with its default margins; exit 1 when error or time grew",
+    )
+    parser.add_argument(
+        "--json",
+        action="store_true",
+        help="print the report.json object on stdout instead of the summary",
+    )
+    parser.add_argument(
+        "--no-plots", action="store_true", help="skip path.png and error.png (faster)"
+    )
+    parser.add_argument(
+        "--deterministic",
+        action="store_true",
+        help="write the wall-clock fields of report.json (timing_s.*, sim.realtime_factor) as "
+        "null, so the same input gives a byte-identical report.json; timing.json has them",
     )
 
 
-def _summary(report: dict, out_dir: Path) -> str:
+def _summary(report: dict, timing: dict, out_dir: Path, files: list[str]) -> str:
     ce, parts, sim = report["contour_error_um"], report["parts_um"], report["sim"]
     lines = [
         f"{report['program']} ({report['dialect']}): {report['moves']} moves, "
@@ -56,22 +107,25 @@ def _summary(report: dict, out_dir: Path) -> str:
         )
     lines.append(
         f"simulated {sim['steps']} steps of {sim['physics_timestep_s'] * 1e3:g} ms at "
-        f"{sim['realtime_factor']:.0f}x real time; total {report['timing_s']['total']:.2f} s"
+        f"{timing['realtime_factor']:.0f}x real time; total {timing['timing_s']['total']:.2f} s "
+        "(reading, simulating, analysing, plotting and writing)"
     )
-    from gantry_sim.sim.report import OUTPUT_FILES
-
-    lines.append(f"wrote {out_dir}/: {', '.join(OUTPUT_FILES)}")
+    lines.append(f"wrote {out_dir}/: {', '.join(files)}")
     return "\n".join(lines)
 
 
 def run(args: argparse.Namespace) -> int:
+    started = time.perf_counter()
     from gantry_sim.controller.errors import ConfigError
-    from gantry_sim.sim.api import run_program, write_run_outputs
-    from gantry_sim.sim.report import OUTPUT_FILES
+    from gantry_sim.sim.api import run_program, with_verdict, write_run_outputs
+    from gantry_sim.sim.compare import Margins, compare, format_table, load_report
+    from gantry_sim.sim.gates import gates_from_options, verdict_for
+    from gantry_sim.sim.report import OUTPUT_FILES, PLOT_FILES
 
-    gate = args.max_error_um
-    if gate is not None and not (math.isfinite(gate) and gate >= 0):
-        raise ConfigError(f"--max-error-um must be a number >= 0, got {gate}", file="gantry run")
+    gates = gates_from_options(args.max_error_um, args.max_error_um_lines, args.max_cycle_time_s)
+    if not (0 < args.feed_override < float("inf")):
+        raise ConfigError(f"{args.feed_override}: must be a number > 0 [%]", file="--feed-override")
+    baseline = load_report(args.baseline) if args.baseline is not None else None  # before unlink
     if args.out.exists() and not args.out.is_dir():
         raise ConfigError("--out must be a folder, not a file", file=str(args.out))
     for name in OUTPUT_FILES:  # a failing run must not leave an earlier run's report behind
@@ -83,12 +137,40 @@ def run(args: argparse.Namespace) -> int:
         file=str(args.program),
         dialect=args.dialect,
         machine=machine,
+        feed_override_pct=args.feed_override,
         progress=sys.stderr.isatty(),
     )
-    write_run_outputs(result, args.out)
-    print(_summary(result.report, args.out))
-    worst = result.report["contour_error_um"]["max"]
-    if gate is not None and worst > gate:
-        print(f"FAIL: max contour error {worst:.3f} um > --max-error-um {gate:g}")
-        return 1
-    return 0
+    comparison = None
+    if baseline is not None:
+        comparison = compare(baseline, result.report, Margins())
+    verdict = verdict_for(
+        result.report,
+        gates,
+        comparison.failures if comparison is not None else (),
+        str(args.baseline) if args.baseline is not None else None,
+    )
+    result = with_verdict(result, verdict)
+    result = write_run_outputs(
+        result,
+        args.out,
+        plots=not args.no_plots,
+        deterministic=args.deterministic,
+        gates=gates,
+        started=started,
+    )
+    report = result.run_report
+    files = [f for f in OUTPUT_FILES if not (args.no_plots and f in PLOT_FILES)]
+    if args.json:
+        sys.stdout.write(json.dumps(report.to_json(args.deterministic)) + "\n")
+    else:
+        print(_summary(report.to_json(), report.timing_json(), args.out, files))
+    msg = sys.stderr if args.json else sys.stdout
+    if comparison is not None:
+        print(f"against {args.baseline}:", file=msg)
+        print(format_table(comparison, Margins()), file=msg)
+    for failure in verdict.failures:
+        if not failure["gate"].startswith("baseline"):  # those are in the table above
+            print(f"FAIL: {failure['message']}", file=msg)
+    if verdict.passed and verdict.gates:
+        print(f"PASS: {', '.join(verdict.gates)}", file=msg)
+    return 0 if verdict.passed else 1

@@ -1,4 +1,8 @@
-"""``gantry sweep``: one full simulation per grid point of feed override x accel x jerk."""
+"""``gantry sweep``: one full simulation per grid point of feed override x accel x jerk.
+
+Exit status: 0 at least one grid point ran; 1 every point faulted (e.g. a following-error fault
+at every setting; sweep.csv and the plots are still written); 2 invalid input.
+"""
 
 from __future__ import annotations
 
@@ -7,7 +11,13 @@ import sys
 from pathlib import Path
 
 from gantry_sim.controller.errors import ConfigError
-from gantry_sim.sim.commands.common import add_dialect, add_machine, load_machine, read_program
+from gantry_sim.sim.commands.common import (
+    DEFAULT_OUT,
+    add_dialect,
+    add_machine,
+    load_machine,
+    read_program,
+)
 
 HELP = (
     "simulate a program over a grid of feed overrides, max accelerations and max jerks "
@@ -72,15 +82,16 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument(
         "--out",
         type=Path,
-        default=None,
+        default=DEFAULT_OUT,
         metavar="DIR",
-        help="write sweep.csv and the plots here (a rerun resumes an interrupted sweep)",
+        help=f"write sweep.csv and the plots here (default: ./{DEFAULT_OUT}; a rerun resumes "
+        "an interrupted sweep)",
     )
 
 
 def run(args: argparse.Namespace) -> int:
     from gantry_sim.sim.outdir import atomic_output_dir
-    from gantry_sim.sim.plots import save_sweep_plots
+    from gantry_sim.sim.search_plots import save_sweep_plots
     from gantry_sim.sim.sweep.grid import JOURNAL, grid, run_sweep, write_csv, write_csv_atomic
 
     if args.workers is not None and args.workers < 1:
@@ -106,4 +117,9 @@ def run(args: argparse.Namespace) -> int:
         write_csv_atomic(rows, args.out / "sweep.csv")
         (args.out / JOURNAL).unlink(missing_ok=True)
     write_csv(rows, sys.stdout)
+    if rows and not any(r["status"] == "ok" for r in rows):  # nothing to choose from: a failure
+        print(
+            f"FAIL: all {len(rows)} grid point(s) faulted (see the status column)", file=sys.stderr
+        )
+        return 1
     return 0

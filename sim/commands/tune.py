@@ -1,4 +1,8 @@
-"""``gantry tune``: per radius, the highest feed whose full circle stays within a tolerance."""
+"""``gantry tune``: per radius, the highest feed whose full circle stays within a tolerance.
+
+Exit status: 0 every radius has a passing feed; 1 some radius is unreachable (even the minimum
+feed exceeds the tolerance; tune.json and tune.png are still written); 2 invalid input.
+"""
 
 from __future__ import annotations
 
@@ -8,7 +12,7 @@ import sys
 from pathlib import Path
 
 from gantry_sim.controller.errors import ConfigError
-from gantry_sim.sim.commands.common import add_machine, load_machine
+from gantry_sim.sim.commands.common import DEFAULT_OUT, add_machine, load_machine
 
 HELP = (
     "find, per circle radius, the highest feed [mm/min] whose full circle keeps the max "
@@ -57,14 +61,18 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     )
     add_machine(parser)
     parser.add_argument(
-        "--out", type=Path, default=None, metavar="DIR", help="write tune.json and tune.png here"
+        "--out",
+        type=Path,
+        default=DEFAULT_OUT,
+        metavar="DIR",
+        help=f"write tune.json and tune.png here (default: ./{DEFAULT_OUT})",
     )
 
 
 def run(args: argparse.Namespace) -> int:
     from gantry_sim.sim.circular.tune import DEFAULT_RESOLUTION_MM_PER_MIN, tune
     from gantry_sim.sim.outdir import atomic_output_dir
-    from gantry_sim.sim.plots import save_tune_plot
+    from gantry_sim.sim.search_plots import save_tune_plot
 
     machine = load_machine(args.machine)
     resolution = args.feed_resolution or DEFAULT_RESOLUTION_MM_PER_MIN
@@ -86,4 +94,12 @@ def run(args: argparse.Namespace) -> int:
             (tmp / "tune.json").write_text(json.dumps(summary, indent=2) + "\n")
             save_tune_plot(tmp / "tune.png", rows, args.tolerance_um, args.plane)
     sys.stdout.write(json.dumps(summary) + "\n")
+    unreachable = [r.radius_mm for r in rows if r.max_feed_mm_per_min is None]
+    if unreachable:  # no feed down to the minimum passes: that radius has no answer
+        radii = ", ".join(f"{r:g}" for r in unreachable)
+        print(
+            f"FAIL: no feed passes {args.tolerance_um:g} um for radius {radii} mm (unreachable)",
+            file=sys.stderr,
+        )
+        return 1
     return 0

@@ -1,0 +1,217 @@
+"""Gates on one run's report: contour-error limits (all feed moves, per motion kind, per line
+range) and a cycle-time limit. The verdict lands in report.json ("verdict"); exit 1 when failed.
+
+Limits are written as on the command line (``gantry run --help``)::
+
+    --max-error-um 8                 every feed block (the max over all feed moves) <= 8 um
+    --max-error-um arc=5,linear=8    arcs (G2/G3) <= 5 um, straight feeds (G1) <= 8 um
+    --max-error-um-lines 10-40=3     blocks on program lines 10..40 (inclusive) <= 3 um
+    --max-cycle-time-s 20            the planned cycle time <= 20 s
+
+Every limit applies to each block in its scope (a block = the samples executing one program
+line); a run passes when no block exceeds any limit that covers it. Baseline comparison (a run
+against an earlier report.json) is :mod:`gantry_sim.sim.compare`.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Iterable, Sequence
+from dataclasses import dataclass
+from typing import Any
+
+from gantry_sim.controller.errors import ConfigError
+
+#: the motion kinds a limit may name (controller.moves' feed moves)
+KINDS = ("linear", "arc")
+#: lines listed per failure at most (a 100,000-block program must not flood report.json)
+MAX_LINES_LISTED = 20
+
+
+@dataclass(frozen=True)
+class ErrorLimit:
+    """A max contour error [um] for the feed blocks in a scope.
+
+    Attributes:
+        limit_um: the largest block max error allowed [um].
+        kind: "linear" or "arc" only; None: every feed block.
+        lines: (first, last) program lines, inclusive; None: every line.
+    """
+
+    limit_um: float
+    kind: str | None = None
+    lines: tuple[int, int] | None = None
+
+    def covers(self, block: dict[str, Any]) -> bool:
+        if self.kind is not None and block["kind"] != self.kind:
+            return False
+        return self.lines is None or self.lines[0] <= block["line"] <= self.lines[1]
+
+    def label(self) -> str:
+        """The limit as the option that sets it, e.g. ``--max-error-um arc=5``."""
+        if self.lines is not None:
+            a, b = self.lines
+            span = f"{a}" if a == b else f"{a}-{b}"
+            return f"--max-error-um-lines {span}={self.limit_um:g}"
+        if self.kind is not None:
+            return f"--max-error-um {self.kind}={self.limit_um:g}"
+        return f"--max-error-um {self.limit_um:g}"
+
+
+@dataclass(frozen=True)
+class Gates:
+    """Every limit set for a run (empty: the run always passes)."""
+
+    errors: tuple[ErrorLimit, ...] = ()
+    max_cycle_time_s: float | None = None
+
+    def labels(self) -> list[str]:
+        out = [e.label() for e in self.errors]
+        if self.max_cycle_time_s is not None:
+            out.append(f"--max-cycle-time-s {self.max_cycle_time_s:g}")
+        return out
+
+
+def _limit(text: str, option: str) -> float:
+    try:
+        value = float(text)
+    except ValueError:
+        value = math.nan
+    if not (math.isfinite(value) and value >= 0):
+        raise ConfigError(f"'{text}' must be a number >= 0", file=option)
+    return value
+
+
+def parse_error_limits(text: str) -> list[ErrorLimit]:
+    """``8`` or ``arc=5,linear=8`` (``--max-error-um``) -> limits [um] (ConfigError if bad)."""
+    option = "--max-error-um"
+    out: list[ErrorLimit] = []
+    for item in (p.strip() for p in text.split(",")):
+        if "=" not in item:
+            out.append(ErrorLimit(_limit(item, option)))
+            continue
+        kind, value = (s.strip() for s in item.split("=", 1))
+        if kind not in KINDS:
+            raise ConfigError(
+                f"'{item}': the kind must be one of {', '.join(KINDS)} (e.g. arc=5)", file=option
+            )
+        out.append(ErrorLimit(_limit(value, option), kind=kind))
+    return out
+
+
+def parse_line_limits(text: str) -> list[ErrorLimit]:
+    """``10-40=3`` or ``12=2.5,50-60=4`` (``--max-error-um-lines``) -> limits [um]."""
+    option = "--max-error-um-lines"
+    out: list[ErrorLimit] = []
+    for item in (p.strip() for p in text.split(",")):
+        span, sep, value = item.partition("=")
+        first, _, last = span.partition("-")
+        try:
+            a = int(first)
+            b = int(last) if last.strip() else a
+        except ValueError:
+            a = b = -1
+        if not sep or a < 1 or b < a:
+            raise ConfigError(
+                f"'{item}' is not FIRST-LAST=UM or LINE=UM (program lines, e.g. 10-40=3)",
+                file=option,
+            )
+        out.append(ErrorLimit(_limit(value, option), lines=(a, b)))
+    return out
+
+
+def gates_from_options(
+    max_error_um: Iterable[str] = (),
+    max_error_um_lines: Iterable[str] = (),
+    max_cycle_time_s: float | None = None,
+) -> Gates:
+    """The gates of ``gantry run``'s options (each error option may be given several times)."""
+    errors = [lim for t in max_error_um for lim in parse_error_limits(t)]
+    errors += [lim for t in max_error_um_lines for lim in parse_line_limits(t)]
+    if max_cycle_time_s is not None:
+        _limit(str(max_cycle_time_s), "--max-cycle-time-s")
+    return Gates(tuple(errors), max_cycle_time_s)
+
+
+def _lines(blocks: Sequence[dict[str, Any]]) -> list[int]:
+    return [int(b["line"]) for b in blocks[:MAX_LINES_LISTED]]
+
+
+def evaluate(report: dict[str, Any], gates: Gates) -> list[dict[str, Any]]:
+    """The failures of ``report`` (report.json's object) against ``gates``, one per limit
+    exceeded: {"gate", "value", "limit", "unit", "line" (the worst block), "blocks_over",
+    "lines" (the first 20 over), "message"}."""
+    failures: list[dict[str, Any]] = []
+    for lim in gates.errors:
+        over = [b for b in report["blocks"] if lim.covers(b) and b["max_error_um"] > lim.limit_um]
+        if not over:
+            continue
+        worst = max(over, key=lambda b: b["max_error_um"])
+        failures.append(
+            {
+                "gate": lim.label(),
+                "value": worst["max_error_um"],
+                "limit": lim.limit_um,
+                "unit": "um",
+                "line": worst["line"],
+                "blocks_over": len(over),
+                "lines": _lines(over),
+                "message": f"line {worst['line']} ({worst['kind']}): max contour error "
+                f"{worst['max_error_um']:.3f} um > {lim.limit_um:g} um ({lim.label()}; "
+                f"{len(over)} block(s) over)",
+            }
+        )
+    cap = gates.max_cycle_time_s
+    if cap is not None and report["cycle_time_s"] > cap:
+        failures.append(
+            {
+                "gate": f"--max-cycle-time-s {cap:g}",
+                "value": report["cycle_time_s"],
+                "limit": cap,
+                "unit": "s",
+                "line": None,
+                "blocks_over": 0,
+                "lines": [],
+                "message": f"cycle time {report['cycle_time_s']:.3f} s > {cap:g} s "
+                "(--max-cycle-time-s)",
+            }
+        )
+    return failures
+
+
+@dataclass(frozen=True)
+class Verdict:
+    """report.json "verdict": passed, the gates set (as their options), and why it failed.
+
+    Attributes:
+        passed: no gate failed (True when no gate was set).
+        gates: every gate set, as the option that set it (``--max-error-um arc=5``, ...).
+        failures: one object per limit exceeded (see :func:`evaluate`).
+        baseline: the baseline report compared with, or None.
+    """
+
+    passed: bool = True
+    gates: tuple[str, ...] = ()
+    failures: tuple[dict[str, Any], ...] = ()
+    baseline: str | None = None
+
+    def to_json(self) -> dict[str, Any]:
+        return {
+            "passed": self.passed,
+            "gates": list(self.gates),
+            "failures": [dict(f) for f in self.failures],
+            "baseline": self.baseline,
+        }
+
+
+def verdict_for(
+    report: dict[str, Any],
+    gates: Gates,
+    baseline_failures: Sequence[dict[str, Any]] = (),
+    baseline: str | None = None,
+) -> Verdict:
+    """The verdict of ``report`` (report.json's object) on ``gates`` and, when compared with a
+    baseline, that comparison's failures (:func:`gantry_sim.sim.compare.compare`)."""
+    failures = evaluate(report, gates) + list(baseline_failures)
+    labels = gates.labels() + ([f"--baseline {baseline}"] if baseline is not None else [])
+    return Verdict(not failures, tuple(labels), tuple(failures), baseline)

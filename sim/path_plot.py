@@ -1,0 +1,177 @@
+"""``gantry run``'s path.png: the commanded path and the traced one, its error magnified a fixed
+1000 times, in the arcs' plane or as a three-view sheet; the worst point labelled with its line.
+Drawn for 100,000-block programs too: the commanded geometry is two Line2D (NaN-separated) and
+the traced path is decimated.
+
+Import only where a plot is drawn (matplotlib).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from pathlib import Path
+from typing import TYPE_CHECKING
+
+import numpy as np
+
+from gantry_sim.controller.arcs import arc_points
+from gantry_sim.controller.moves import Arc, Move
+from gantry_sim.sim.contour import ContourStats
+from gantry_sim.sim.plots import DPI, _figure, quiet
+from gantry_sim.sim.trace import Trace
+
+if TYPE_CHECKING:  # matplotlib is imported through sim.plots first (it quiets its logging)
+    from matplotlib.axes import Axes
+    from matplotlib.figure import Figure
+
+#: path.png draws the traced path's deviation from the commanded path x this, for every run:
+#: 1 um of contour error is drawn as 1 mm, so the plot's mm grid reads as um of error.
+ERROR_MAGNIFICATION = 1000.0
+#: a single view only when the feed moves leave the arcs' plane by less than this fraction of
+#: their in-plane extent; otherwise the three-view sheet (XY top, XZ front, YZ side)
+OUT_OF_PLANE_FRACTION = 0.25
+#: most traced points drawn on path.png (decimated beyond; the worst point is always kept)
+MAX_TRACE_POINTS = 40_000
+_AXES = "XYZ"
+_VIEWS = {"XY": (0, 1), "XZ": (0, 2), "YZ": (1, 2)}
+
+
+def _polylines(moves: Sequence[Move]) -> tuple[np.ndarray, np.ndarray]:
+    """(feed, rapid) geometry as one (k, 3) [mm] array each, moves separated by NaN rows (one
+    Line2D draws them all). Arcs get about one point per degree, fewer where the figure cannot
+    show more: enough that the chord's sagitta stays under 1/4000 of the drawing's extent (a
+    quarter pixel); an arc below that is drawn as its chord."""
+    if not moves:
+        empty = np.empty((0, 3))
+        return empty, empty
+    ends = np.array([[mv.start, mv.end] for mv in moves], dtype=float).reshape(-1, 3)
+    pixel_mm = max(float((ends.max(axis=0) - ends.min(axis=0)).max()), 1e-6) / 4000.0
+    gap = np.full((1, 3), np.nan)
+    feed: list[np.ndarray] = []
+    rapid: list[np.ndarray] = []
+    for k, mv in enumerate(moves):
+        pts = ends[2 * k : 2 * k + 2]
+        if isinstance(mv, Arc):
+            # sagitta of n chords over the angle: R (1 - cos(angle / 2n)) ~ R angle^2 / (8 n^2)
+            n_fine = np.ceil(np.degrees(mv.angle))
+            n = int(min(n_fine, np.ceil(mv.angle * np.sqrt(mv.radius / (8.0 * pixel_mm)))))
+            if n > 1:
+                pts = arc_points(mv, np.linspace(0.0, 1.0, max(n, 8) + 1))
+        (rapid if mv.kind == "rapid" else feed).extend((pts, gap))
+    return _stack(feed), _stack(rapid)
+
+
+def _stack(parts: list[np.ndarray]) -> np.ndarray:
+    return np.vstack(parts) if parts else np.empty((0, 3))
+
+
+def choose_views(moves: Sequence[Move]) -> list[str]:
+    """The plane(s) path.png draws: the arcs' plane when all arcs share one and the feed moves
+    stay near it; else, without arcs, the plane of the two largest extents when the third is
+    small; otherwise the three views ["XY", "XZ", "YZ"]."""
+    feed = [mv for mv in moves if mv.kind != "rapid"] or list(moves)
+    if not feed:
+        return ["XY"]
+    pts = np.vstack([np.array([mv.start, mv.end], float) for mv in feed])
+    span = pts.max(axis=0) - pts.min(axis=0)
+    planes = {mv.plane for mv in feed if isinstance(mv, Arc)}
+    if len(planes) > 1:
+        return list(_VIEWS)
+    plane: str
+    if planes:
+        plane = planes.pop()
+    else:  # the two axes of largest extent; XY unless Z clearly matters more
+        i, j = sorted(np.argsort(span - np.array([0.0, 0.0, 1e-9]), kind="stable")[-2:])
+        plane = _AXES[i] + _AXES[j]
+    i, j = _VIEWS[plane]
+    normal = 3 - i - j
+    in_plane = max(span[i], span[j], 1e-9)
+    return [plane] if span[normal] <= OUT_OF_PLANE_FRACTION * in_plane else list(_VIEWS)
+
+
+def _decimate(n: int, keep: int, limit: int = MAX_TRACE_POINTS) -> np.ndarray:
+    idx = np.arange(0, n, max(1, -(-n // limit)))
+    return np.union1d(idx, [keep, n - 1]) if n else idx
+
+
+def _draw_view(
+    ax: Axes,
+    plane: str,
+    feed: np.ndarray,
+    rapid: np.ndarray,
+    traced: np.ndarray,
+    worst: tuple[np.ndarray, np.ndarray, int, float] | None,
+) -> None:
+    i, j = _VIEWS[plane]
+    ax.plot(rapid[:, i], rapid[:, j], color="0.6", ls="--", lw=0.8)
+    ax.plot(feed[:, i], feed[:, j], color="k", lw=1.0)
+    ax.plot(traced[:, i], traced[:, j], color="tab:red", lw=0.9)
+    if worst is not None:
+        drawn, _, line, err = worst
+        ax.plot(drawn[i], drawn[j], "o", mfc="none", mec="tab:blue", ms=10, mew=1.5)
+        ax.annotate(
+            f"max {err:.2f} um\nline {line}",
+            (drawn[i], drawn[j]),
+            textcoords="offset points",
+            xytext=(16, 16),
+            fontsize=8,
+            color="tab:blue",
+            bbox={"facecolor": "white", "alpha": 0.85, "edgecolor": "tab:blue", "lw": 0.6},
+            arrowprops={"arrowstyle": "-", "color": "tab:blue", "lw": 0.8},
+        )
+    ax.autoscale_view()
+    ax.set_aspect("equal", adjustable="datalim")
+    ax.set_xlabel(f"{_AXES[i]} [mm]")
+    ax.set_ylabel(f"{_AXES[j]} [mm]")
+    ax.grid(alpha=0.25)
+
+
+@quiet
+def save_path_plot(
+    path: Path, moves: Sequence[Move], trace: Trace, program: str, contour: ContourStats
+) -> None:
+    """Write :func:`path_figure` to ``path`` (path.png)."""
+    path_figure(moves, trace, program, contour).savefig(path)
+
+
+def path_figure(moves: Sequence[Move], trace: Trace, program: str, contour: ContourStats) -> Figure:
+    """path.png: the commanded geometry (black feed moves, grey dashed rapids) and the traced
+    path (red) whose deviation from the nearest commanded point is magnified
+    :data:`ERROR_MAGNIFICATION` times, in the arcs' plane or as a three-view sheet
+    (:func:`choose_views`); the worst feed point is circled and labelled with its line."""
+    tr = trace
+    feed, rapid = _polylines(moves)
+    views = choose_views(moves)
+    drawn = tr.nearest + ERROR_MAGNIFICATION * (tr.pos - tr.nearest)
+    drawn = np.where(tr.feed[:, None], drawn, np.nan)
+    worst = None
+    k = 0
+    if tr.feed.any():
+        k = int(np.flatnonzero(tr.feed)[np.argmax(tr.err_um[tr.feed])])
+        worst = (drawn[k], tr.pos[k], int(tr.line[k]), float(tr.err_um[k]))
+    traced = drawn[_decimate(len(drawn), k)]
+    gain = f"traced path, error x {ERROR_MAGNIFICATION:g} (1 um drawn as 1 mm)"
+    title = f"{program}: max {contour.max_um:.2f} um, rms {contour.rms_um:.2f} um"
+    if len(views) == 1:
+        fig = _figure((7, 7), dpi=DPI)
+        ax = fig.add_subplot()
+        _draw_view(ax, views[0], feed, rapid, traced, worst)
+        ax.set_title(f"{title}\n{views[0]} plane; red: {gain}", fontsize=10)
+    else:
+        fig = _figure((11, 10), dpi=DPI)
+        grid = fig.subplots(2, 2)
+        for ax, plane in zip((grid[0, 0], grid[1, 0], grid[1, 1]), views, strict=True):
+            _draw_view(ax, plane, feed, rapid, traced, worst)
+            ax.set_title(f"{plane}", fontsize=10)
+        info = grid[0, 1]
+        info.axis("off")
+        info.text(
+            0.02,
+            0.95,
+            f"{title}\n\nthree views (third angle): XY top, XZ front, YZ side\n\n"
+            f"black: commanded feed moves\ngrey dashed: rapids (G0)\nred: {gain}\n"
+            "blue circle: the worst point",
+            va="top",
+            fontsize=10,
+        )
+    return fig

@@ -1,0 +1,136 @@
+"""The figures tell the truth: path.png in the arcs' plane (three views otherwise), the worst
+point labelled, a fixed magnification; error.png an envelope with the gates drawn, cheap at
+100,000 blocks; tune and sweep plots with every point, faults marked, axes from 0."""
+
+from __future__ import annotations
+
+import math
+import time
+
+import numpy as np
+import pytest
+
+from gantry_sim.controller.gcode.interpreter import interpret
+from gantry_sim.sim.api import run_program
+from gantry_sim.sim.circular.tune import TuneRow
+from gantry_sim.sim.error_plot import ENVELOPE_BINS, error_figure
+from gantry_sim.sim.gates import ErrorLimit, Gates
+from gantry_sim.sim.path_plot import choose_views, path_figure
+from gantry_sim.sim.search_plots import sweep_figures, tune_figure
+from gantry_sim.sim.trace import Trace
+from tests.conftest import ROOT
+
+
+def moves_of(text):
+    return tuple(interpret(text, "linuxcnc", "t.ngc"))
+
+
+def test_views_follow_the_arcs_plane():
+    side = (ROOT / "examples" / "side_planes.ngc").read_text()
+    assert choose_views(moves_of(side)) == ["XY", "XZ", "YZ"]  # arcs in XZ and YZ
+    xz = "G21 G18 G90\nG0 X0 Y0 Z0\nG1 X10 F500\nG2 X20 Z0 I5 K0\nG1 Y5\nM2\n"
+    assert choose_views(moves_of(xz)) == ["XZ"]  # larger in Y than Z, drawn in the arcs' plane
+    pocket = (ROOT / "examples" / "pocket_tangent_arcs.ngc").read_text()
+    assert choose_views(moves_of(pocket)) == ["XY"]  # a shallow plunge stays one view
+    helix = (ROOT / "examples" / "helix_bore.ngc").read_text()
+    assert choose_views(moves_of(helix)) == ["XY", "XZ", "YZ"]  # 4.5 mm down a 14 mm bore
+
+
+CIRCLE = "G21 G17 G90 G94\nG1 X5 F3000\nG3 I-5 J0\nG1 X0\nM2\n"
+
+
+@pytest.fixture(scope="module")
+def circle(machine):
+    return run_program(CIRCLE, file="c.ngc", machine=machine)
+
+
+def _texts(fig):
+    return [t.get_text() for ax in fig.axes for t in ax.texts] + [ax.get_title() for ax in fig.axes]
+
+
+def test_path_marks_the_worst_point_at_a_fixed_magnification(circle):
+    rep = circle.run_report
+    fig = path_figure(circle.moves, circle.trace, "c.ngc", rep.contour_error_um)
+    worst = max(rep.blocks, key=lambda b: b.max_error_um)
+    texts = " ".join(_texts(fig))
+    assert f"line {worst.line}" in texts and f"max {worst.max_error_um:.2f} um" in texts
+    assert "error x 1000 (1 um drawn as 1 mm)" in texts
+    # the drawn deviation of the worst point is 1000 x its error, whatever the run
+    tr = circle.trace
+    k = int(np.flatnonzero(tr.feed)[np.argmax(tr.err_um[tr.feed])])
+    ax = fig.axes[0]
+    marker = next(ln for ln in ax.lines if ln.get_marker() == "o")
+    x, y = marker.get_xdata()[0], marker.get_ydata()[0]
+    drawn_mm = math.hypot(x - tr.nearest[k, 0], y - tr.nearest[k, 1])
+    assert drawn_mm == pytest.approx(tr.err_um[k], rel=0.02)  # um of error = mm on the plot
+
+
+def _big_trace(blocks: int, per_block: int = 20) -> Trace:
+    n = blocks * per_block
+    t = np.arange(n) * 1e-3
+    line = np.repeat(np.arange(1, blocks + 1), per_block)
+    rng = np.random.default_rng(1)
+    err = rng.random(n) * 3.0
+    err[n // 3] = 9.0
+    ref = np.column_stack([t, np.zeros(n), np.zeros(n)])
+    return Trace(t, ref, ref, line, err, ref, np.ones(n, bool), np.zeros((n, 3)))
+
+
+def test_error_plot_is_an_envelope_with_gates_at_100k_blocks(circle):
+    tr = _big_trace(100_000)
+    gates = Gates((ErrorLimit(8.0), ErrorLimit(2.5, lines=(10, 5000))))
+    t0 = time.perf_counter()
+    fig = error_figure(tr, circle.run_report.contour_error_um, gates)
+    fig.canvas.draw()
+    elapsed = time.perf_counter() - t0
+    ax = fig.axes[0]
+    # drawn as few artists with bounded vertices, not one point per sample
+    [poly] = ax.collections
+    assert sum(len(p.vertices) for p in poly.get_paths()) < 8 * ENVELOPE_BINS
+    labels = [ln.get_label() for ln in ax.lines]
+    assert "--max-error-um 8" in labels and "--max-error-um-lines 10-5000=2.5" in labels
+    worst_line = int(tr.line[np.argmax(tr.err_um)])
+    assert f"line {worst_line}" in [t.get_text() for t in ax.texts]
+    assert ax.get_ylim()[0] == 0
+    assert elapsed < 30  # generous: a correctness guard, the speed target is in benchmarks/
+
+
+def test_tune_plot_uses_the_feed_actually_run():
+    row = TuneRow(5.0, 24000.0, 3.0, 6538.0, "machine_limits", ((24000.0, 3.0),), (6538.0,))
+    bad = TuneRow(1.0, None, 12.0, 100.0, "unreachable", ((24000.0, 20.0), (100.0, 12.0)),
+                  (2900.0, 100.0))  # fmt: skip
+    fig = tune_figure([row, bad], 10.0, "XY")
+    left, right = fig.axes[:2]
+    xs = {float(x) for ln in right.lines for x in ln.get_xdata()}
+    assert 6538.0 in xs and 24000.0 not in xs
+    assert left.get_ylim()[0] == 0 and right.get_ylim()[0] == 0
+    assert "unreachable" in [t.get_text() for t in left.texts]
+
+
+def test_sweep_plots_mark_faulted_points_on_honest_axes():
+    def row(f, err, status="ok"):
+        return {
+            "feed_override_pct": f,
+            "max_accel_mm_per_s2": None,
+            "max_jerk_mm_per_s3": None,
+            "cycle_time_s": 10.0 / f if status == "ok" else math.nan,
+            "max_error_um": err,
+            "status": status,
+        }
+
+    rows = [
+        row(50, 4.00),
+        row(100, 4.10),
+        row(150, 4.17),
+        row(200, math.nan, "simulation error: x"),
+    ]
+    by_feed, by_error = sweep_figures(rows)
+    ax = by_feed.axes[0]
+    assert ax.get_ylim()[0] == 0  # a 0.17 um spread is not blown up to fill the plot
+    assert "spread 0.17 um" in ax.get_title()
+    faulted = [ln for ln in ax.lines if ln.get_label() == "faulted (no result)"]
+    assert faulted and list(faulted[0].get_xdata()) == [200]
+    assert any("faulted (1)" in t.get_text() for t in by_feed.texts)
+    ax2 = by_error.axes[0]
+    assert ax2.get_xlim()[0] == 0 and ax2.get_ylim()[0] == 0
+    assert any("faulted (1)" in t.get_text() for t in by_error.texts)
