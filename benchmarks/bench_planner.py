@@ -42,7 +42,7 @@ from gantry_sim.controller.config import load_machine_config
 from gantry_sim.controller.errors import PlanningError
 from gantry_sim.controller.moves import Arc, Linear, Rapid
 from gantry_sim.controller.planes import PLANE_AXES
-from gantry_sim.controller.planner.lookahead import s_curve_time
+from gantry_sim.controller.planner.limits import s_curve_time
 from gantry_sim.controller.planner.plan import plan
 from gantry_sim.models import DEFAULT_MACHINE
 

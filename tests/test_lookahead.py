@@ -7,17 +7,18 @@ import math
 import numpy as np
 import pytest
 
-from gantry_sim.controller.planner.lookahead import (
-    FOLLOW_MARGIN,
+from gantry_sim.controller.planner.limits import (
     BlockLimits,
     FollowGeometry,
     arc_limits,
-    follow_ok,
+    s_curve_time,
+)
+from gantry_sim.controller.planner.lookahead import (
     junction_cap,
     max_reachable_speed,
     plan_junction_speeds,
-    s_curve_time,
 )
+from gantry_sim.controller.planner.speedup import FOLLOW_MARGIN, follow_ok
 
 
 def _distance(v0, v1, acc, jerk):

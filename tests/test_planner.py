@@ -10,7 +10,7 @@ import pytest
 
 from gantry_sim.controller.errors import ConfigError, PlanningError
 from gantry_sim.controller.moves import Linear, Rapid
-from gantry_sim.controller.planner.lookahead import s_curve_time
+from gantry_sim.controller.planner.limits import s_curve_time
 from gantry_sim.controller.planner.move_geometry import move_geometry
 from gantry_sim.controller.planner.plan import plan
 from tests.plan_helpers import arc, arc_deviation, assert_within_limits, helix, limit_ratios

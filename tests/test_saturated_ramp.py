@@ -7,7 +7,7 @@ import math
 import numpy as np
 import pytest
 
-from gantry_sim.controller.planner.lookahead import s_curve_time
+from gantry_sim.controller.planner.limits import FollowGeometry, s_curve_time
 from gantry_sim.controller.planner.plan import plan
 from gantry_sim.controller.planner.saturated_ramp import (
     SHARE,
@@ -15,7 +15,7 @@ from gantry_sim.controller.planner.saturated_ramp import (
     NormLimits,
     saturated_profile,
 )
-from gantry_sim.controller.planner.speedup import FollowGeometry, follow_ok
+from gantry_sim.controller.planner.speedup import follow_ok
 from tests.plan_helpers import arc, arc_deviation, assert_within_limits
 
 AMAX, JMAX = (3000.0, 2500.0, 3000.0), (1e5, 8e4, 1e5)

@@ -7,13 +7,9 @@ exact state (position [mm], velocity [mm/s], acceleration [mm/s^2]; :func:`verte
 
 from __future__ import annotations
 
-from typing import TYPE_CHECKING
-
 import numpy as np
 
-if TYPE_CHECKING:
-    from gantry_sim.controller.planner.move_geometry import MoveGeometry
-
+from gantry_sim.controller.planner.move_geometry import MoveGeometry
 
 #: Extra vertices at 1/2, 1/4, ... of the first (last) chord of an arc that starts (ends) at rest.
 STOP_REFINEMENT = 8

@@ -78,7 +78,7 @@ def piece_limits_ok(
     Jerk: per phase. Acceleration: linear per phase, so at the phase ends. Velocity per axis:
     quadratic per phase, so at its ends and its stationary point. Path speed: at 5 points per
     phase (including the ends; the arc's speed cap keeps a margin below the feed for what lies
-    between, see path.py). ``speed_cap`` [mm/s]: a number or one per piece.
+    between, see move_geometry.FEED_MARGIN_PER_PHI4). ``speed_cap`` [mm/s]: a number or one per piece.
     """
     vmax, amax, jmax = (np.asarray(x, dtype=float) for x in (vmax, amax, jmax))
     ok = np.all(np.abs(js) <= jmax, axis=(1, 2))

@@ -15,16 +15,18 @@ from gantry_sim.controller.arcs import arc_derivatives, arc_frame, arc_points, f
 from gantry_sim.controller.config import MachineConfig
 from gantry_sim.controller.moves import Arc, Move, Rapid
 from gantry_sim.controller.planes import PLANE_AXES
+from gantry_sim.controller.planner.limits import (
+    BlockLimits,
+    FollowGeometry,
+    arc_limits,
+    straight_limits,
+)
 from gantry_sim.controller.planner.lookahead import (
     COLLINEAR_ANGLE_RAD,
     CORNER_ANGLE_RAD,
-    BlockLimits,
-    arc_limits,
     junction_cap,
-    straight_limits,
 )
 from gantry_sim.controller.planner.segment import segment_arc
-from gantry_sim.controller.planner.speedup import FollowGeometry
 from gantry_sim.controller.units import mm_per_min_to_mm_per_s
 
 #: Share of the chord tolerance that the smoothing of a junction's velocity/acceleration jump may
@@ -32,7 +34,7 @@ from gantry_sim.controller.units import mm_per_min_to_mm_per_s
 JUNCTION_DEVIATION_SHARE = 0.1
 
 
-#: The closed-form arc pieces (controller.jerk3) overshoot the vertex speed by about
+#: The closed-form arc pieces (:mod:`gantry_sim.controller.planner.jerk3`) overshoot the vertex speed by about
 #: 5e-4 * phi^4 (phi: chord sweep [rad]); the arc's speed cap keeps twice that below the feed.
 FEED_MARGIN_PER_PHI4 = 1e-3
 
@@ -146,7 +148,7 @@ def move_geometry(move: Move, machine: MachineConfig, feed_scale: float) -> Move
 
 def limits_for_junctions(geoms: list[MoveGeometry], caps: np.ndarray, machine: MachineConfig):
     """``geoms`` with each arc's limits chosen for its junction caps ``caps`` (see
-    :func:`gantry_sim.controller.planner.lookahead.arc_limits`: inside a tangent chain an arc need not ramp from
+    :func:`gantry_sim.controller.planner.limits.arc_limits`: inside a tangent chain an arc need not ramp from
     rest, so it may cruise closer to its curvature cap)."""
     lim = machine.limits
     out = []

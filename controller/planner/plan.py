@@ -1,7 +1,7 @@
 """The planner: moves -> a jerk-limited reference, with look-ahead. The only ruckig import.
 
 1. Geometry (:mod:`gantry_sim.controller.planner.move_geometry`): chord vertices per move, tangents and curvatures at its
-   ends, its 1-D limits (:mod:`gantry_sim.controller.planner.lookahead`): the feed is a PATH-speed cap.
+   ends, its 1-D limits (:mod:`gantry_sim.controller.planner.limits`): the feed is a PATH-speed cap.
 2. Look-ahead: junction speeds (exact stops at corners, rapids and the end; tangent junctions
    keep their speed), backward and forward passes.
 3. One 1-D Ruckig profile per move along its path s(t), from (0, v_in, 0) to (L, v_out, 0).

@@ -1,6 +1,6 @@
 """Boosted 1-D profiles for arcs that ramp: exact following checked point by point.
 
-A block's limits (:func:`gantry_sim.controller.planner.lookahead.arc_limits`) hold at its worst speed and
+A block's limits (:func:`gantry_sim.controller.planner.limits.arc_limits`) hold at its worst speed and
 acceleration at once. Where an arc ramps, a faster profile may use more jerk and acceleration
 where the speed is low: :class:`FollowGeometry` holds what bounds the exact following of the arc
 (curvature [1/mm], its derivative [1/mm^2], pitch, feed cap [mm/s]), :func:`follow_ok` checks a
@@ -12,37 +12,15 @@ lists the (cap [mm/s], jerk [mm/s^3], acceleration [mm/s^2]) to try and
 
 from __future__ import annotations
 
-import math
 from collections.abc import Callable
-from dataclasses import dataclass
-from typing import TYPE_CHECKING
 
 import numpy as np
 
 from gantry_sim.controller.arcs import arc_frame
+from gantry_sim.controller.planner.limits import FollowGeometry, curvature_speed_cap
+from gantry_sim.controller.planner.move_geometry import MoveGeometry
 from gantry_sim.controller.planner.saturated_ramp import SHARE as SATURATED_SHARE
 from gantry_sim.controller.planner.saturated_ramp import CircleLimits, NormLimits, saturated_profile
-
-if TYPE_CHECKING:
-    from gantry_sim.controller.planner.move_geometry import MoveGeometry
-
-
-def curvature_speed_cap(
-    cap: float,
-    curvature_per_mm: float,
-    dcurv_per_mm2: float,
-    a_plane: float,
-    j_plane: float,
-    margin: float,
-) -> float:
-    """``cap`` [mm/s] lowered so that following the curve at that speed uses at most ``margin``
-    of the plane's acceleration (v^2 k <= margin a) and jerk (v^3 dk <= margin j)."""
-    if curvature_per_mm > 0:
-        cap = min(cap, math.sqrt(margin * a_plane / curvature_per_mm))
-    if dcurv_per_mm2 > 0:
-        cap = min(cap, (margin * j_plane / dcurv_per_mm2) ** (1.0 / 3.0))
-    return cap
-
 
 #: An arc whose entry or exit speed is below this share of its cap tries a faster profile.
 BOOST_RAMP_SHARE = 0.9
@@ -50,33 +28,6 @@ BOOST_RAMP_SHARE = 0.9
 BOOST_ACC_SHARES = (1.0, 0.85, 0.7, 0.55, 0.42, 0.3, 0.2)
 #: ... and only when its profile takes longer than this times cruising at the fastest candidate.
 BOOST_MIN_GAIN = 1.005
-
-
-@dataclass(frozen=True)
-class FollowGeometry:
-    """What bounds the exact following of an arc/helix (see :mod:`gantry_sim.controller.planner.lookahead`).
-
-    Attributes:
-        plane_axes: (first, second, normal) axis indices of the arc's plane.
-        sin_pitch: |T_n|, the tangent's normal-axis component (0 for a plain arc).
-        curvature_per_mm: largest |p''| = 1/R [1/mm].
-        dcurv_per_mm2: largest |p'''| [1/mm^2].
-        feed_cap_mm_per_s: the feed (after override, less the closed-form pieces' margin) [mm/s].
-    """
-
-    plane_axes: tuple[int, int, int]
-    sin_pitch: float
-    curvature_per_mm: float
-    dcurv_per_mm2: float
-    feed_cap_mm_per_s: float
-
-    def speed_cap(self, vmax) -> float:
-        """Path-speed cap from the feed and the axis velocities alone [mm/s]."""
-        i1, i2, n = self.plane_axes
-        sp = self.sin_pitch
-        cp = math.sqrt(max(0.0, 1.0 - sp * sp))
-        cap = min(self.feed_cap_mm_per_s, min(vmax[i1], vmax[i2]) / max(cp, 1e-12))
-        return min(cap, vmax[n] / sp) if sp > 0 else cap
 
 
 #: Share of the axis limits a profile checked by :func:`follow_ok` may use (the closed-form
@@ -91,7 +42,7 @@ def follow_ok(ph: np.ndarray, fg: FollowGeometry, cap: float, amax, jmax) -> boo
     """True when following the arc exactly with the 1-D profile ``ph`` (rows: duration, s, v,
     a_t, j_t) keeps every axis within :data:`FOLLOW_MARGIN` of its acceleration and jerk limits
     and the path speed within ``cap`` [mm/s] (to rounding: the arc caps keep a margin below the
-    feed): the bounds of :mod:`gantry_sim.controller.planner.lookahead`, evaluated at
+    feed): the bounds of :mod:`gantry_sim.controller.planner.limits`, evaluated at
     9 points of every phase instead of at their worst combination (speed-dependent limits)."""
     i1, i2, n = fg.plane_axes
     k, dk, sp = fg.curvature_per_mm, fg.dcurv_per_mm2, fg.sin_pitch
