@@ -7,17 +7,15 @@ import math
 import numpy as np
 import pytest
 
+from gantry_sim.controller.planner.junctions import junction_cap
 from gantry_sim.controller.planner.limits import (
     BlockLimits,
     FollowGeometry,
     arc_limits,
     s_curve_time,
 )
-from gantry_sim.controller.planner.lookahead import (
-    junction_cap,
-    max_reachable_speed,
-    plan_junction_speeds,
-)
+from gantry_sim.controller.planner.lookahead import max_reachable_speed, plan_junction_speeds
+from gantry_sim.controller.planner.profile import Profile1D
 from gantry_sim.controller.planner.speedup import FOLLOW_MARGIN, follow_ok
 
 
@@ -86,7 +84,7 @@ def test_follow_ok_checks_the_exact_following_point_by_point(radius):
     v_top = min(v_jerk, v_acc)
 
     def cruise(v, a=0.0, j=0.0):
-        return np.array([[0.01, 0.0, v, a, j]])
+        return Profile1D(np.array([[0.01, 0.0, v, a, j]]))
 
     assert follow_ok(cruise(0.999 * v_top), fg, 1e9, amax, jmax)
     assert not follow_ok(cruise(1.001 * v_top), fg, 1e9, amax, jmax)
@@ -96,7 +94,7 @@ def test_follow_ok_checks_the_exact_following_point_by_point(radius):
     a_bad = 1.01 * FOLLOW_MARGIN * 8e4 * radius / (3 * slow)
     assert a_bad < 2400.0 and not follow_ok(cruise(slow, a=a_bad), fg, 1e9, amax, jmax)
     # a phase whose end (not its start) breaks the jerk limit is caught
-    ramp = np.array([[0.01, 0.0, 0.9 * v_jerk, 0.2 * v_jerk / 0.01, 0.0]])
+    ramp = Profile1D(np.array([[0.01, 0.0, 0.9 * v_jerk, 0.2 * v_jerk / 0.01, 0.0]]))
     assert not follow_ok(ramp, fg, 1e9, amax, jmax)
 
 

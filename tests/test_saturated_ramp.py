@@ -40,7 +40,7 @@ def test_orientation_free_ramps_are_continuous_end_exactly_and_follow_the_arc(ra
     lim = NormLimits(1 / radius, 1 / radius**2, SHARE * 2500.0, SHARE * 8e4)
     ph = saturated_profile(length, v_in, v_out, 100.0, (lim, lim))
     assert ph is not None
-    _check_phases(ph, length, v_in, v_out)
+    _check_phases(ph.rows, length, v_in, v_out)
     fg = FollowGeometry((0, 1, 2), 0.0, 1 / radius, 1 / radius**2, 100.0)
     assert follow_ok(ph, fg, 100.0, AMAX, JMAX)
 
@@ -55,9 +55,9 @@ def test_per_axis_ramps_keep_each_axis_limit_along_the_circle():
     cap = (SHARE * 8e4 * r * r) ** (1 / 3)
     ph = saturated_profile(length, 0.0, 0.0, cap, lims)
     assert ph is not None
-    _check_phases(ph, length, 0.0, 0.0)
-    tt = ph[:, :1] * np.linspace(0.0, 1.0, 9)[None, :]
-    s, v, a, j = (ph[:, i : i + 1] for i in range(1, 5))
+    _check_phases(ph.rows, length, 0.0, 0.0)
+    tt = ph.dur[:, None] * np.linspace(0.0, 1.0, 9)[None, :]
+    s, v, a, j = (col[:, None] for col in (ph.s, ph.v, ph.a, ph.j))
     ss, vv, aa = (
         s + tt * (v + tt * (0.5 * a + tt * j / 6.0)),
         v + tt * (a + 0.5 * tt * j),

@@ -1,18 +1,9 @@
-"""Look-ahead: junction speed caps, and the backward/forward passes that set the junction speeds.
+"""Look-ahead: the backward and forward passes that set the junction speeds.
 
 Every move is one *block* of the 1-D speed profile along the path, with its own limits
 (:class:`gantry_sim.controller.planner.limits.BlockLimits`); each block starts and ends with
-a_t = 0, at the junction speeds found here.
-
-Junctions (between consecutive feed moves):
-* a corner (tangent direction turns by more than :data:`CORNER_ANGLE_RAD`, or by more than
-  :data:`COLLINEAR_ANGLE_RAD` between two straight moves, which are followed exactly) is an exact
-  stop, as is every rapid's start and end and the program's end;
-* a tangent junction keeps its speed, except that a jump of the velocity direction (a kink of
-  angle d: velocity jump v d) or of the curvature (acceleration jump v^2 |k1 - k2|, e.g. line ->
-  arc, arc -> arc of another radius) cannot be followed exactly with finite jerk: Ruckig smooths
-  it within the neighbouring chord, and the junction speed is capped so that the smoothing stays
-  within a deviation budget e [mm] (see :func:`junction_cap`).
+a_t = 0, at the junction speeds found here, below the junctions' caps
+(:mod:`gantry_sim.controller.planner.junctions`: 0 at stops).
 
 Passes: v_out[b] <= reach(v_in[b]) forward and v_in[b] <= reach(v_out[b]) backward, with
 ``reach`` the highest speed reachable over the block's length by a jerk-limited S-curve starting
@@ -27,49 +18,6 @@ import math
 import numpy as np
 
 from gantry_sim.controller.planner.limits import BlockLimits
-
-#: Tangent-direction change above which a junction involving an arc is a corner [rad] (1 degree).
-CORNER_ANGLE_RAD = math.radians(1.0)
-#: The smoothing of a junction's jump must take at most 1/CHORD_FIT of the adjacent chord's time
-#: (a first guess; the planner then checks the pieces themselves).
-CHORD_FIT = 4.0
-#: Two straight moves are followed exactly: they keep speed only when collinear within this [rad].
-COLLINEAR_ANGLE_RAD = 1e-6
-
-
-def junction_cap(
-    kink_rad: float,
-    curvature_jump_per_mm: float,
-    deviation_mm: float,
-    jerk_mm_per_s3: float,
-    chord_mm: float,
-) -> float:
-    """Highest speed [mm/s] through a tangent junction so that the jerk-limited smoothing of its
-    velocity and acceleration jumps stays within ``deviation_mm`` and fits in the adjacent chord.
-
-    A velocity jump dv, smoothed with jerk J, takes 2 sqrt(dv/J) and deviates by about
-    dv^1.5 / (2 sqrt J): dv <= (2 e sqrt J)^(2/3). An acceleration jump da takes da/J and deviates
-    by about da^3 / (6 J^2): da <= (6 e J^2)^(1/3). With dv = v * kink and da = v^2 * |k1 - k2|.
-    The smoothing must also be done well within the chord's time T = chord / v, since the piece
-    ends on the arc's exact state: da / J <= T / CHORD_FIT and 2 sqrt(dv / J) <= T / CHORD_FIT.
-    The planner checks the pieces next to every moving junction and lowers the cap further where
-    needed.
-    """
-    cap = math.inf
-    j, e = jerk_mm_per_s3, deviation_mm
-    if kink_rad > 0:
-        cap = min(
-            (2.0 * e * math.sqrt(j)) ** (2.0 / 3.0) / kink_rad,
-            (j * chord_mm**2 / (4.0 * CHORD_FIT**2 * kink_rad)) ** (1.0 / 3.0),
-        )
-    if curvature_jump_per_mm > 0:
-        da = (6.0 * e * j**2) ** (1.0 / 3.0)
-        cap = min(
-            cap,
-            math.sqrt(da / curvature_jump_per_mm),
-            (j * chord_mm / (CHORD_FIT * curvature_jump_per_mm)) ** (1.0 / 3.0),
-        )
-    return cap
 
 
 def max_reachable_speed(v_from: float, length_mm: float, acc: float, jerk: float) -> float:

@@ -21,18 +21,8 @@ from gantry_sim.controller.planner.limits import (
     arc_limits,
     straight_limits,
 )
-from gantry_sim.controller.planner.lookahead import (
-    COLLINEAR_ANGLE_RAD,
-    CORNER_ANGLE_RAD,
-    junction_cap,
-)
 from gantry_sim.controller.planner.segment import segment_arc
 from gantry_sim.controller.units import mm_per_min_to_mm_per_s
-
-#: Share of the chord tolerance that the smoothing of a junction's velocity/acceleration jump may
-#: use (see :func:`gantry_sim.controller.planner.lookahead.junction_cap`).
-JUNCTION_DEVIATION_SHARE = 0.1
-
 
 #: The closed-form arc pieces (:mod:`gantry_sim.controller.planner.jerk3`) overshoot the vertex speed by about
 #: 5e-4 * phi^4 (phi: chord sweep [rad]); the arc's speed cap keeps twice that below the feed.
@@ -116,14 +106,14 @@ def move_geometry(move: Move, machine: MachineConfig, feed_scale: float) -> Move
     d1, d2 = arc_derivatives(move, np.array([0.0, 1.0]))
     t_in, k_in = frenet(d1[0], d2[0])
     t_out, k_out = frenet(d1[1], d2[1])
-    _, _, _, _, _, r0, r1, h0, h1 = arc_frame(move)
-    r_max = max(r0, r1)
+    frame = arc_frame(move)
+    r_max = max(frame.r0_mm, frame.r1_mm)
     speed_u = float(min(np.linalg.norm(d1[0]), np.linalg.norm(d1[1])))  # |dp/du| [mm]
     length = float(0.5 * (np.linalg.norm(d1[0]) + np.linalg.norm(d1[1])))
     ang = move.angle
     curvature = r_max * ang * ang / speed_u**2
     dcurv = r_max * ang**3 / speed_u**3
-    sin_pitch = abs(h1 - h0) / speed_u
+    sin_pitch = abs(frame.h1_mm - frame.h0_mm) / speed_u
     feed = mm_per_min_to_mm_per_s(move.feed_mm_per_min) * feed_scale
     follow = FollowGeometry(
         PLANE_AXES[move.plane],
@@ -171,49 +161,3 @@ def limits_for_junctions(geoms: list[MoveGeometry], caps: np.ndarray, machine: M
         )
         out.append(replace(g, limits=limits))
     return out
-
-
-def junctions(geoms: list[MoveGeometry], machine: MachineConfig) -> tuple[np.ndarray, list]:
-    """Speed caps and state directions at the junctions of consecutive moves.
-
-    Returns:
-        caps: (len(geoms) + 1,) [mm/s]; 0 at the program's start and end, at rapids and corners.
-        states: per junction (direction, curvature): the reference there has velocity
-            v * direction and acceleration v^2 * curvature (the tangential part is 0 at
-            junctions). Next to a straight move, its own direction and no curvature (straight
-            moves are followed exactly); between two arcs, the mean of both sides.
-    """
-    n = len(geoms)
-    caps = np.zeros(n + 1)
-    zero = np.zeros(3)
-    states: list = [(g.tangent_in, zero) for g in geoms] + [
-        (geoms[-1].tangent_out if n else zero, zero)
-    ]
-    jerk = float(min(machine.limits.max_jerk_mm_per_s3))
-    dev = JUNCTION_DEVIATION_SHARE * machine.segmentation.chord_tolerance_mm
-    for b in range(1, n):
-        g0, g1 = geoms[b - 1], geoms[b]
-        if isinstance(g0.move, Rapid) or isinstance(g1.move, Rapid):
-            continue
-        cos_k = float(np.clip(np.dot(g0.tangent_out, g1.tangent_in), -1.0, 1.0))
-        kink = math.acos(cos_k)
-        if not (g0.is_arc or g1.is_arc):
-            if kink <= COLLINEAR_ANGLE_RAD:
-                caps[b] = math.inf
-                states[b] = (g1.tangent_in, zero)
-            continue
-        if kink > CORNER_ANGLE_RAD:
-            continue
-        if g0.is_arc and g1.is_arc:
-            d = g0.tangent_out + g1.tangent_in
-            states[b] = (d / np.linalg.norm(d), 0.5 * (g0.curv_out + g1.curv_in))
-        else:
-            straight = g1 if g0.is_arc else g0
-            states[b] = (straight.tangent_in, zero)
-        jump = float(np.linalg.norm(g0.curv_out - g1.curv_in))
-        if g0.is_arc and g1.is_arc:  # the junction state takes the mean: each side smooths half
-            jump *= 0.5
-        chords = [np.linalg.norm(g0.vertices[-1] - g0.vertices[-2])] if g0.is_arc else []
-        chords += [np.linalg.norm(g1.vertices[1] - g1.vertices[0])] if g1.is_arc else []
-        caps[b] = junction_cap(kink, jump, dev, jerk, float(min(chords)))
-    return caps, states

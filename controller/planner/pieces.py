@@ -11,20 +11,38 @@ through :meth:`MovePieces.ruckig_piece`, which :class:`gantry_sim.controller.pla
 from __future__ import annotations
 
 from collections.abc import Sequence
+from dataclasses import dataclass
 
 import numpy as np
 
 from gantry_sim.controller.config import MachineConfig
-from gantry_sim.controller.planner.arc_states import vertex_states
+from gantry_sim.controller.planner.arc_states import VertexStates, vertex_states
 from gantry_sim.controller.planner.cubic import CubicBuilder
-from gantry_sim.controller.planner.jerk3 import jerk3, jerk3_points, piece_limits_ok
+from gantry_sim.controller.planner.jerk3 import PiecePhases, jerk3, jerk3_points, piece_limits_ok
+from gantry_sim.controller.planner.junctions import EndState
 from gantry_sim.controller.planner.move_geometry import MoveGeometry
+from gantry_sim.controller.planner.profile import Profile1D
 
 #: Largest distance of a piece next to a moving junction from the arc, in chord tolerances;
 #: beyond it the junction's speed is lowered and the program planned again. The check samples 25
 #: points per piece; 0.23 leaves 0.02 below the 0.25 the benchmark allows (measured on 0.1 ms
 #: samples: 0.201 worst), and lets S-bends keep 26 mm/s instead of backing off to 16.
 JUNCTION_DEVIATION_MAX = 0.23
+
+
+@dataclass(frozen=True, eq=False)
+class Pieces:
+    """An arc's vertex states and the closed-form pieces between them.
+
+    Attributes:
+        states: the exact arc states the pieces join.
+        phases: the closed-form pieces (None when every piece goes to Ruckig).
+        ok: (k - 1,) True where the closed-form piece keeps every limit.
+    """
+
+    states: VertexStates
+    phases: PiecePhases | None
+    ok: np.ndarray
 
 
 class MovePieces:
@@ -48,20 +66,31 @@ class MovePieces:
         self.stretched = 0
         self.boosted = 0
 
-    def straight(self, g: MoveGeometry, ph: np.ndarray) -> float:
+    def straight(self, g: MoveGeometry, profile: Profile1D) -> float:
+        """The profile projected on the straight move; its duration [s]."""
         for i in range(3):
             d = g.tangent_in[i]
             self.out.add(
-                i, ph[:, 0], g.start[i] + d * ph[:, 1], d * ph[:, 2], d * ph[:, 3], d * ph[:, 4]
+                i,
+                profile.dur,
+                g.start[i] + d * profile.s,
+                d * profile.v,
+                d * profile.a,
+                d * profile.j,
             )
-        return float(ph[:, 0].sum())
+        return profile.duration_s
 
     def arc(
-        self, g: MoveGeometry, ph: np.ndarray, state_in, state_out, fast: Sequence = ()
+        self,
+        g: MoveGeometry,
+        profile: Profile1D,
+        state_in: EndState,
+        state_out: EndState,
+        fast: Sequence[Profile1D] = (),
     ) -> tuple[float, bool, bool]:
         """Pieces between the exact arc states at the vertices: of the first profile in ``fast``
         (faster candidates, fastest first) whose closed-form pieces all keep the limits, else of
-        ``ph``.
+        ``profile``.
 
         Returns:
             (duration [s], bad_in, bad_out): bad_* when the piece next to a moving junction
@@ -71,22 +100,27 @@ class MovePieces:
         pieces = None
         for cand in () if self.pieces == "ruckig" else fast:
             found = self.closed_form(g, cand, state_in, state_out)
-            ok = found[-1]
-            if (
-                ok[1:-1].all()
-                and (ok[0] or np.any(state_in[0]))
-                and (ok[-1] or np.any(state_out[0]))
-            ):
+            ok = found.ok
+            if ok[1:-1].all() and (ok[0] or state_in.moving) and (ok[-1] or state_out.moving):
                 self.boosted += 1
-                ph, pieces = cand, found
+                pieces = found
                 break
         if pieces is None:
-            pieces = self.closed_form(g, ph, state_in, state_out)
-        u, verts, vel, acc, mins, ps, vs, as_, js, ok = pieces
+            pieces = self.closed_form(g, profile, state_in, state_out)
+        st, ok = pieces.states, pieces.ok
+        u, verts, vel, acc, mins = (
+            st.u,
+            st.positions,
+            st.velocities,
+            st.accelerations,
+            st.durations,
+        )
         n = mins.size
-        check = {0: bool(np.any(state_in[0])), n - 1: bool(np.any(state_out[0]))}
+        check = {0: state_in.moving, n - 1: state_out.moving}
         bad = {0: False, n - 1: False}
-        if ok.all():
+        phases = pieces.phases  # None only in "ruckig" mode, where no piece is ok
+        if ok.all() and phases is not None:
+            ps, vs, as_, js = phases
             dur = np.repeat(mins / 3.0, 3)
             for i in range(3):
                 cols = (ps[:, :, i], vs[:, :, i], as_[:, :, i], js[:, :, i])
@@ -98,7 +132,8 @@ class MovePieces:
             return float(mins.sum()), bad[0], bad[n - 1]
         total = 0.0
         for k in range(n):
-            if ok[k]:
+            if ok[k] and phases is not None:
+                ps, vs, as_, js = phases
                 h3 = [mins[k] / 3.0] * 3
                 for i in range(3):
                     self.out.add(i, h3, ps[k, :, i], vs[k, :, i], as_[k, :, i], js[k, :, i])
@@ -123,16 +158,21 @@ class MovePieces:
                 )
         return total, bad[0], bad[n - 1]
 
-    def closed_form(self, g: MoveGeometry, ph: np.ndarray, state_in, state_out):
-        """Vertex states and closed-form pieces for profile ``ph``, and which keep the limits."""
-        u, verts, vel, acc, mins = vertex_states(g, ph, state_in, state_out)
+    def closed_form(
+        self, g: MoveGeometry, profile: Profile1D, state_in: EndState, state_out: EndState
+    ) -> Pieces:
+        """Vertex states and closed-form pieces for ``profile``, and which keep the limits."""
+        st = vertex_states(g, profile, state_in, state_out)
+        mins = st.durations
         if self.pieces == "ruckig":
-            return u, verts, vel, acc, mins, None, None, None, None, np.zeros(mins.size, bool)
+            return Pieces(st, None, np.zeros(mins.size, bool))
         ok = mins > 1e-9
         safe = np.where(ok, mins, 1.0)
-        ps, vs, as_, js = jerk3(verts, vel, acc, safe)
-        ok &= piece_limits_ok(vs, as_, js, safe, acc[1:], *self.limits, g.feed_mm_per_s)
-        return u, verts, vel, acc, mins, ps, vs, as_, js, ok
+        phases = jerk3(st.positions, st.velocities, st.accelerations, safe)
+        ok &= piece_limits_ok(
+            phases.v, phases.a, phases.j, safe, st.accelerations[1:], *self.limits, g.feed_mm_per_s
+        )
+        return Pieces(st, phases, ok)
 
     def ruckig_piece(self, g, p0, v0, a0, p1, v1, a1, min_duration: float) -> float:
         """One 3-DoF state-to-state piece by Ruckig, added to :attr:`out`; its duration [s]."""

@@ -33,15 +33,15 @@ import ruckig
 from gantry_sim.controller.config import MachineConfig
 from gantry_sim.controller.errors import ConfigError, PlanningError
 from gantry_sim.controller.moves import Move
-from gantry_sim.controller.planner.junctions import feasible_junction_caps
+from gantry_sim.controller.planner.junctions import feasible_junction_caps, junction_caps
 from gantry_sim.controller.planner.lookahead import plan_junction_speeds
 from gantry_sim.controller.planner.move_geometry import (
     MoveGeometry,
-    junctions,
     limits_for_junctions,
     move_geometry,
 )
 from gantry_sim.controller.planner.pieces import MovePieces
+from gantry_sim.controller.planner.profile import Profile1D
 from gantry_sim.controller.planner.result import Plan
 from gantry_sim.controller.planner.speedup import boosted_profile
 from gantry_sim.controller.planner.travel import check_travel
@@ -95,8 +95,8 @@ class _Planner(MovePieces):
         self.in3.max_jerk = list(lim.max_jerk_mm_per_s3)
         self.boost_cache: dict = {}
 
-    def path_profile(self, g: MoveGeometry, v_in: float, v_out: float) -> np.ndarray:
-        """1-D profile along the move: array (k, 5) of phases (dur, s, v, a_t, j_t)."""
+    def path_profile(self, g: MoveGeometry, v_in: float, v_out: float) -> Profile1D:
+        """1-D profile along the move."""
         inp, lim = self.in1, g.limits
         inp.current_position, inp.current_velocity, inp.current_acceleration = [0.0], [v_in], [0.0]
         inp.target_position, inp.target_velocity, inp.target_acceleration = (
@@ -115,14 +115,14 @@ class _Planner(MovePieces):
         ph = np.array(_profile_phases(self.tr1, 0), dtype=float).T
         if ph[:, 2].min() < -1e-9 * max(lim.cap_mm_per_s, 1.0):
             raise PlanningError("the speed profile would reverse along the path", line=g.move.line)
-        return ph
+        return Profile1D(ph)
 
-    def boosted_profile(self, g: MoveGeometry, v_in: float, v_out: float, ph: np.ndarray):
+    def boosted_profile(self, g: MoveGeometry, v_in: float, v_out: float, ph: Profile1D):
         """Faster 1-D profiles for an arc that ramps, fastest first (see :mod:`gantry_sim.controller.planner.speedup`)."""
         return boosted_profile(g, v_in, v_out, ph, self.limits, self.profile_1d, self.boost_cache)
 
-    def profile_1d(self, length, v_in, v_out, cap, acc, jerk) -> np.ndarray | None:
-        """Phases (dur, s, v, a, j) of a 1-D rest-acceleration profile, or None on failure."""
+    def profile_1d(self, length, v_in, v_out, cap, acc, jerk) -> Profile1D | None:
+        """A 1-D profile from and to zero acceleration, or None on failure."""
         inp = self.in1
         inp.current_position, inp.current_velocity, inp.current_acceleration = [0.0], [v_in], [0.0]
         inp.target_position, inp.target_velocity = [length], [v_out]
@@ -131,7 +131,7 @@ class _Planner(MovePieces):
         if _calculate(self.r1, inp, self.tr1) not in _OK:
             return None
         ph = np.array(_profile_phases(self.tr1, 0), dtype=float).T
-        return ph if ph[:, 2].min() >= -1e-9 * max(cap, 1.0) else None
+        return Profile1D(ph) if ph[:, 2].min() >= -1e-9 * max(cap, 1.0) else None
 
     def ruckig_piece(self, g, p0, v0, a0, p1, v1, a1, min_duration: float) -> float:
         """One 3-DoF Ruckig state-to-state piece (time synchronised); returns its duration [s]."""
@@ -196,7 +196,7 @@ def plan(
     seg = machine.segmentation
     geoms = [move_geometry(m, machine, feed_override_pct / 100.0) for m in moves]
     active = [g for g in geoms if g.length_mm > 1e-9]
-    caps, states = junctions(active, machine)
+    caps, states = junction_caps(active, machine)
     active = limits_for_junctions(active, caps, machine)
     caps = feasible_junction_caps(active, caps, states, machine)
     for rnd in range(MAX_ROUNDS + 1):
@@ -207,8 +207,7 @@ def plan(
             starts.append(clock)
             ph = pl.path_profile(g, speeds[b], speeds[b + 1])
             if g.is_arc:
-                s_in = (states[b][0] * speeds[b], states[b][1] * speeds[b] ** 2)
-                s_out = (states[b + 1][0] * speeds[b + 1], states[b + 1][1] * speeds[b + 1] ** 2)
+                s_in, s_out = states[b].at(speeds[b]), states[b + 1].at(speeds[b + 1])
                 fast = pl.boosted_profile(g, speeds[b], speeds[b + 1], ph)
                 dur, bad_in, bad_out = pl.arc(g, ph, s_in, s_out, fast)
                 clock += dur

@@ -17,8 +17,8 @@ its own limits along a plain circle: exact, so the ramps may use the stronger ax
 tangent points along it) or :class:`NormLimits` (orientation-free, as
 :func:`gantry_sim.controller.planner.speedup.follow_ok` checks). On the bundled machine an R 1 circle from rest takes
 0.205 s (constant-limit profiles: 0.245 s; the direct-transcription optimum with per-axis limits:
-0.199 s). Rows (dur, s, v, a, j) are the planner's 1-D profile format; the planner checks the
-pieces built on them against every limit.
+0.199 s). The result is a :class:`~gantry_sim.controller.planner.profile.Profile1D`; the planner
+checks the pieces built on it against every limit.
 """
 
 from __future__ import annotations
@@ -27,6 +27,8 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
+
+from gantry_sim.controller.planner.profile import Profile1D
 
 #: Step [s] of the ramps' constant-jerk phases (the jerk follows the state at this rate).
 STEP_S = 2.5e-4
@@ -174,9 +176,8 @@ def _scan(v0, lim, dt, hi, keep):
 
 def saturated_profile(
     length_mm: float, v_in: float, v_out: float, cap: float, limits: tuple, dt: float = STEP_S
-) -> np.ndarray | None:
-    """1-D profile (rows: dur [s], s [mm], v [mm/s], a [mm/s^2], j [mm/s^3]) along an arc of
-    ``length_mm`` from ``v_in`` to ``v_out`` (a = 0 at both ends), path speed <= ``cap``, with
+) -> Profile1D | None:
+    """1-D profile along an arc of ``length_mm`` from ``v_in`` to ``v_out`` (a = 0 at both ends), path speed <= ``cap``, with
     ramps that ride the jerk the state leaves; None when it cannot be built.
 
     ``limits``: the bounds of the ramp from the start and of the ramp back from the end
@@ -211,7 +212,7 @@ def saturated_profile(
         bridge = _bridge(up[1], dn[1], up[2], jerk)
         cruise = length_mm - up[2] - dn[2] - bridge[1]
         if cruise >= 0.0 and max(up[1], dn[1]) <= cap:
-            return _assemble(up[0], bridge[0], dn[1], up[2] + bridge[1], dn[0], cruise)
+            return Profile1D(_assemble(up[0], bridge[0], dn[1], up[2] + bridge[1], dn[0], cruise))
     return None
 
 

@@ -19,6 +19,7 @@ import numpy as np
 from gantry_sim.controller.arcs import arc_frame
 from gantry_sim.controller.planner.limits import FollowGeometry, curvature_speed_cap
 from gantry_sim.controller.planner.move_geometry import MoveGeometry
+from gantry_sim.controller.planner.profile import Profile1D
 from gantry_sim.controller.planner.saturated_ramp import SHARE as SATURATED_SHARE
 from gantry_sim.controller.planner.saturated_ramp import CircleLimits, NormLimits, saturated_profile
 
@@ -38,14 +39,14 @@ BOOST_MARGINS = (0.99, 0.95, 0.9, 0.8, 0.7, 0.6, 0.5, 0.4)
 BOOST_JERK_SHARES = (0.95, 0.8, 0.65, 0.5, 0.35)
 
 
-def follow_ok(ph: np.ndarray, fg: FollowGeometry, cap: float, amax, jmax) -> bool:
-    """True when following the arc exactly with the 1-D profile ``ph`` (rows: duration, s, v,
-    a_t, j_t) keeps every axis within :data:`FOLLOW_MARGIN` of its acceleration and jerk limits
+def follow_ok(profile: Profile1D, fg: FollowGeometry, cap: float, amax, jmax) -> bool:
+    """True when following the arc exactly with ``profile`` keeps every axis within :data:`FOLLOW_MARGIN` of its acceleration and jerk limits
     and the path speed within ``cap`` [mm/s] (to rounding: the arc caps keep a margin below the
     feed): the bounds of :mod:`gantry_sim.controller.planner.limits`, evaluated at
     9 points of every phase instead of at their worst combination (speed-dependent limits)."""
     i1, i2, n = fg.plane_axes
     k, dk, sp = fg.curvature_per_mm, fg.dcurv_per_mm2, fg.sin_pitch
+    ph = profile.rows
     t = ph[:, :1] * _FRACTIONS
     v, a, j = ph[:, 2:3], ph[:, 3:4], ph[:, 4:5]
     vv = v + t * (a + 0.5 * t * j)
@@ -88,19 +89,19 @@ def boost_candidates(fg: FollowGeometry, vmax, amax, jmax) -> list[tuple[float, 
 
 
 #: A 1-D profile solver: (length [mm], v_in, v_out, cap [mm/s], acc [mm/s^2], jerk [mm/s^3]) ->
-#: phases (dur, s, v, a, j) of a rest-acceleration profile, or None on failure.
-Profile1D = Callable[[float, float, float, float, float, float], "np.ndarray | None"]
+#: a profile from and to zero acceleration, or None on failure.
+ProfileSolver = Callable[[float, float, float, float, float, float], "Profile1D | None"]
 
 
 def boosted_profile(
     g: MoveGeometry,
     v_in: float,
     v_out: float,
-    ph: np.ndarray,
+    profile: Profile1D,
     limits: tuple,
-    profile_1d: Profile1D,
+    profile_1d: ProfileSolver,
     cache: dict,
-) -> tuple[np.ndarray, ...]:
+) -> tuple[Profile1D, ...]:
     """Faster 1-D profiles for an arc that ramps (speed-dependent limits), fastest first; the
     planner uses the first whose closed-form pieces keep every limit.
 
@@ -112,9 +113,10 @@ def boosted_profile(
     saturated ramps (:func:`saturated_candidate`) where they are faster still.
 
     Args:
-        g: the arc's geometry; ``v_in``, ``v_out``: its end speeds [mm/s]; ``ph``: its profile.
+        g: the arc's geometry; ``v_in``, ``v_out``: its end speeds [mm/s]; ``profile``: its
+            profile.
         limits: per-axis (vmax [mm/s], amax [mm/s^2], jmax [mm/s^3]).
-        profile_1d: the 1-D profile solver (:data:`Profile1D`).
+        profile_1d: the 1-D profile solver (:data:`ProfileSolver`).
         cache: results by (length, follow geometry, end speeds), filled here.
     """
     fg, lim = g.follow, g.limits
@@ -122,7 +124,7 @@ def boosted_profile(
         return ()
     vmax, amax, jmax = limits
     candidates = boost_candidates(fg, vmax, amax, jmax)
-    t_now = float(ph[:, 0].sum())
+    t_now = profile.duration_s
     if not candidates or t_now <= BOOST_MIN_GAIN * g.length_mm / candidates[0][0]:
         return ()  # even cruising at the highest candidate cap would not gain enough
     key = (g.length_mm, fg, v_in, v_out)
@@ -134,7 +136,7 @@ def boosted_profile(
         if cap < max(v_in, v_out) or jerk <= 0:
             continue
         fastest = profile_1d(g.length_mm, v_in, v_out, cap, a_hi, jerk)
-        if fastest is None or fastest[:, 0].sum() >= best_t:
+        if fastest is None or fastest.duration_s >= best_t:
             continue  # more acceleration is never slower: nothing to gain here
         for share in BOOST_ACC_SHARES:  # the first that passes is this pair's fastest
             cand = fastest if share == 1.0 else None
@@ -142,7 +144,7 @@ def boosted_profile(
                 cand = profile_1d(g.length_mm, v_in, v_out, cap, share * a_hi, jerk)
             if cand is None:
                 continue
-            t_cand = float(cand[:, 0].sum())
+            t_cand = cand.duration_s
             if t_cand >= best_t:
                 break  # less acceleration is never faster
             if follow_ok(cand, fg, base, amax, jmax):
@@ -150,7 +152,7 @@ def boosted_profile(
                 break
     found = () if best is None else (best,)
     sat = saturated_candidate(g, v_in, v_out, base, amax, jmax)
-    if sat is not None and float(sat[:, 0].sum()) < best_t:
+    if sat is not None and sat.duration_s < best_t:
         found = (sat, *found)
     cache[key] = found
     return found
@@ -168,8 +170,8 @@ def _plain_circle(g: MoveGeometry) -> bool:
     """An arc of constant radius in its plane (no helix, no spiral)."""
     if not g.is_arc:
         return False
-    _, _, _, _, _, r0, r1, h0, h1 = arc_frame(g.move)
-    return abs(r1 - r0) <= 1e-9 * r0 and h0 == h1
+    f = arc_frame(g.move)
+    return abs(f.r1_mm - f.r0_mm) <= 1e-9 * f.r0_mm and f.h0_mm == f.h1_mm
 
 
 def saturated_candidate(g: MoveGeometry, v_in, v_out, base, amax, jmax):
@@ -190,9 +192,12 @@ def saturated_candidate(g: MoveGeometry, v_in, v_out, base, amax, jmax):
         # Exact per-axis bounds: the planner checks every closed-form piece against the limits
         # before using the profile. The cap stays the orientation-free curvature cap: the cruise
         # (and the bridge between the ramps' peaks) must hold wherever on the circle it lies.
-        _, _, _, th0, sg, r, _, _, _ = arc_frame(g.move)
+        f = arc_frame(g.move)
         acc, jerk = (sh * amax[i1], sh * amax[i2]), (sh * jmax[i1], sh * jmax[i2])
-        lims = tuple(CircleLimits(th0, sg, r, g.length_mm, rev, acc, jerk) for rev in (False, True))
+        lims = tuple(
+            CircleLimits(f.theta0_rad, f.sigma, f.r0_mm, g.length_mm, rev, acc, jerk)
+            for rev in (False, True)
+        )
         return saturated_profile(g.length_mm, v_in, v_out, cap, lims)
     lims = (NormLimits(k, dk, sh * a_pl, sh * j_pl),) * 2
     prof = saturated_profile(g.length_mm, v_in, v_out, cap, lims)
