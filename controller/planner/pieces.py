@@ -1,11 +1,13 @@
-"""One move's 1-D profile -> the reference's constant-jerk phases (:mod:`gantry_sim.controller.planner.cubic`).
+"""One move's 1-D profile -> the reference's constant-jerk phases
+(:mod:`gantry_sim.controller.planner.cubic`).
 
 Straight moves (G0/G1) are the profile projected on the line. Arcs: the profile is sampled at
-the vertices (:func:`gantry_sim.controller.planner.arc_states.vertex_states`: exact arc states, positions [mm],
-velocities [mm/s], accelerations [mm/s^2]) and consecutive states are joined by closed-form
-constant-jerk pieces (:mod:`gantry_sim.controller.planner.jerk3`); the pieces that would break a limit go to Ruckig
-through :meth:`MovePieces.ruckig_piece`, which :class:`gantry_sim.controller.planner.plan._Planner` provides
-(Ruckig is imported there only). Pieces next to a moving junction are checked against the arc.
+the vertices (:func:`gantry_sim.controller.planner.arc_states.vertex_states`: exact arc states,
+positions [mm], velocities [mm/s], accelerations [mm/s^2]) and consecutive states are joined by
+closed-form constant-jerk pieces (:mod:`gantry_sim.controller.planner.jerk3`); the pieces that
+would break a limit are made by the
+:class:`~gantry_sim.controller.planner.ruckig_solver.RuckigSolver` passed in. Pieces next to a
+moving junction are checked against the arc.
 """
 
 from __future__ import annotations
@@ -16,18 +18,22 @@ from dataclasses import dataclass
 import numpy as np
 
 from gantry_sim.controller.config import MachineConfig
+from gantry_sim.controller.errors import PlanningError
 from gantry_sim.controller.planner.arc_states import VertexStates, vertex_states
 from gantry_sim.controller.planner.cubic import CubicBuilder
 from gantry_sim.controller.planner.jerk3 import PiecePhases, jerk3, jerk3_points, piece_limits_ok
 from gantry_sim.controller.planner.junctions import EndState
 from gantry_sim.controller.planner.move_geometry import MoveGeometry
 from gantry_sim.controller.planner.profile import Profile1D
+from gantry_sim.controller.planner.ruckig_solver import RuckigPiece, RuckigRejected, RuckigSolver
 
 #: Largest distance of a piece next to a moving junction from the arc, in chord tolerances;
 #: beyond it the junction's speed is lowered and the program planned again. The check samples 25
 #: points per piece; 0.23 leaves 0.02 below the 0.25 the benchmark allows (measured on 0.1 ms
 #: samples: 0.201 worst), and lets S-bends keep 26 mm/s instead of backing off to 16.
 JUNCTION_DEVIATION_MAX = 0.23
+#: Samples of a Ruckig piece next to a moving junction checked against the arc and the feed.
+PIECE_SAMPLES = 25
 
 
 @dataclass(frozen=True, eq=False)
@@ -48,10 +54,11 @@ class Pieces:
 class MovePieces:
     """Collects the reference's phases, move by move, and counts the pieces by kind.
 
-    ``pieces``: "jerk3" (closed-form pieces, Ruckig where they break a limit) or "ruckig".
+    ``pieces``: "jerk3" (closed-form pieces, Ruckig where they break a limit) or "ruckig";
+    ``solver`` makes the Ruckig pieces.
     """
 
-    def __init__(self, machine: MachineConfig, pieces: str) -> None:
+    def __init__(self, machine: MachineConfig, pieces: str, solver: RuckigSolver) -> None:
         lim = machine.limits
         self.limits = (
             lim.max_velocity_mm_per_s,
@@ -59,11 +66,10 @@ class MovePieces:
             lim.max_jerk_mm_per_s3,
         )
         self.pieces = pieces
+        self.solver = solver
         self.dev_max = JUNCTION_DEVIATION_MAX * machine.segmentation.chord_tolerance_mm
         self.out = CubicBuilder()
         self.ruckig_pieces = 0
-        self.fallbacks = 0
-        self.stretched = 0
         self.boosted = 0
 
     def straight(self, g: MoveGeometry, profile: Profile1D) -> float:
@@ -144,13 +150,13 @@ class MovePieces:
                 continue
             if self.pieces != "ruckig":
                 self.ruckig_pieces += 1
-            d = self.ruckig_piece(
-                g, verts[k], vel[k], acc[k], verts[k + 1], vel[k + 1], acc[k + 1], mins[k]
-            )
+            start, end = (verts[k], vel[k], acc[k]), (verts[k + 1], vel[k + 1], acc[k + 1])
+            piece = self.ruckig_piece(g, start, end, mins[k], bool(check.get(k)))
+            d = piece.duration_s
             total += d
-            if check.get(k):
-                q, q_vel = self.piece_samples(d)
-                speed = np.linalg.norm(q_vel, axis=1).max()
+            if piece.positions is not None and piece.velocities is not None:
+                q = piece.positions
+                speed = np.linalg.norm(piece.velocities, axis=1).max()
                 bad[k] = (
                     d > mins[k] * 1.001 + 1e-9
                     or g.deviation(q, u[k]) > self.dev_max
@@ -174,10 +180,25 @@ class MovePieces:
         )
         return Pieces(st, phases, ok)
 
-    def ruckig_piece(self, g, p0, v0, a0, p1, v1, a1, min_duration: float) -> float:
-        """One 3-DoF state-to-state piece by Ruckig, added to :attr:`out`; its duration [s]."""
-        raise NotImplementedError
-
-    def piece_samples(self, duration: float) -> tuple[np.ndarray, np.ndarray]:
-        """Positions [mm] and velocities [mm/s] (25, 3) of the last Ruckig piece."""
-        raise NotImplementedError
+    def ruckig_piece(
+        self,
+        g: MoveGeometry,
+        start: tuple[np.ndarray, np.ndarray, np.ndarray],
+        end: tuple[np.ndarray, np.ndarray, np.ndarray],
+        min_duration_s: float,
+        sampled: bool,
+    ) -> RuckigPiece:
+        """One 3-DoF state-to-state piece by Ruckig (see
+        :meth:`~gantry_sim.controller.planner.ruckig_solver.RuckigSolver.piece`), added to
+        :attr:`out`; ``sampled``: with :data:`PIECE_SAMPLES` samples to check it."""
+        try:
+            piece = self.solver.piece(start, end, min_duration_s, PIECE_SAMPLES if sampled else 0)
+        except RuckigRejected as exc:
+            raise PlanningError(
+                f"Ruckig could not join two chord vertices ({exc.reason}) even without a "
+                "minimum duration; lower the feed or check the machine limits",
+                line=g.move.line,
+            ) from None
+        for i in range(3):
+            self.out.add(i, *piece.phases[i])
+        return piece

@@ -22,8 +22,6 @@ class Plan:
         segment_count: chords and straight pieces planned.
         chord_tolerance_mm: the machine's chord tolerance [mm].
         vertices: per move, read-only (k, 3) chord vertices [mm] (first = start, last = end).
-        fallback_count: Ruckig pieces that needed the fallback (see the module docstring).
-        stretched_count: arc pieces Ruckig made longer than the speed profile asked for.
         ruckig_piece_count: arc pieces given to Ruckig because the closed-form piece would have
             broken a limit (typically next to a junction with a curvature jump).
     """
@@ -33,8 +31,6 @@ class Plan:
     segment_count: int
     chord_tolerance_mm: float
     vertices: tuple
-    fallback_count: int = 0
-    stretched_count: int = 0
     ruckig_piece_count: int = 0
     curve: PiecewiseCubic = field(default=None, repr=False)  # type: ignore[assignment]
     move_start_s: np.ndarray = field(default=None, repr=False)  # type: ignore[assignment]

@@ -1,18 +1,18 @@
-"""Boosted 1-D profiles for arcs that ramp: exact following checked point by point.
+"""Faster ("boosted") 1-D profiles for arcs that ramp: exact following checked point by point.
 
-A block's limits (:func:`gantry_sim.controller.planner.limits.arc_limits`) hold at its worst speed and
-acceleration at once. Where an arc ramps, a faster profile may use more jerk and acceleration
-where the speed is low: :class:`FollowGeometry` holds what bounds the exact following of the arc
+A block's limits (:func:`gantry_sim.controller.planner.limits.arc_limits`) hold at its worst
+speed and acceleration at once. Where an arc ramps, a faster profile may use more jerk and
+acceleration where the speed is low: the arc's
+:class:`~gantry_sim.controller.planner.limits.FollowGeometry` bounds its exact following
 (curvature [1/mm], its derivative [1/mm^2], pitch, feed cap [mm/s]), :func:`follow_ok` checks a
 profile against the axis limits [mm/s^2], [mm/s^3] point by point, :func:`boost_candidates`
-lists the (cap [mm/s], jerk [mm/s^3], acceleration [mm/s^2]) to try and
-:func:`boosted_profile` searches them, given a 1-D profile solver (Ruckig's, in
-:mod:`gantry_sim.controller.planner.plan`).
+lists the (cap [mm/s], jerk [mm/s^3], acceleration [mm/s^2]) to try and :func:`boosted_profile`
+searches them with the 1-D solver
+(:meth:`~gantry_sim.controller.planner.ruckig_solver.RuckigSolver.profile`), and the saturated
+ramps (:mod:`~gantry_sim.controller.planner.saturated_ramp`) where they are faster still.
 """
 
 from __future__ import annotations
-
-from collections.abc import Callable
 
 import numpy as np
 
@@ -20,6 +20,7 @@ from gantry_sim.controller.arcs import arc_frame
 from gantry_sim.controller.planner.limits import FollowGeometry, curvature_speed_cap
 from gantry_sim.controller.planner.move_geometry import MoveGeometry
 from gantry_sim.controller.planner.profile import Profile1D
+from gantry_sim.controller.planner.ruckig_solver import RuckigSolver, SolverFailure
 from gantry_sim.controller.planner.saturated_ramp import SHARE as SATURATED_SHARE
 from gantry_sim.controller.planner.saturated_ramp import CircleLimits, NormLimits, saturated_profile
 
@@ -88,9 +89,12 @@ def boost_candidates(fg: FollowGeometry, vmax, amax, jmax) -> list[tuple[float, 
     return out
 
 
-#: A 1-D profile solver: (length [mm], v_in, v_out, cap [mm/s], acc [mm/s^2], jerk [mm/s^3]) ->
-#: a profile from and to zero acceleration, or None on failure.
-ProfileSolver = Callable[[float, float, float, float, float, float], "Profile1D | None"]
+def _solve(solver: RuckigSolver, *args: float) -> Profile1D | None:
+    """``solver.profile(*args)``, or None where the solver fails (the candidate is skipped)."""
+    try:
+        return solver.profile(*args)
+    except SolverFailure:
+        return None
 
 
 def boosted_profile(
@@ -99,7 +103,7 @@ def boosted_profile(
     v_out: float,
     profile: Profile1D,
     limits: tuple,
-    profile_1d: ProfileSolver,
+    solver: RuckigSolver,
     cache: dict,
 ) -> tuple[Profile1D, ...]:
     """Faster 1-D profiles for an arc that ramps (speed-dependent limits), fastest first; the
@@ -116,7 +120,7 @@ def boosted_profile(
         g: the arc's geometry; ``v_in``, ``v_out``: its end speeds [mm/s]; ``profile``: its
             profile.
         limits: per-axis (vmax [mm/s], amax [mm/s^2], jmax [mm/s^3]).
-        profile_1d: the 1-D profile solver (:data:`ProfileSolver`).
+        solver: makes the 1-D profiles (:meth:`RuckigSolver.profile`).
         cache: results by (length, follow geometry, end speeds), filled here.
     """
     fg, lim = g.follow, g.limits
@@ -135,13 +139,13 @@ def boosted_profile(
     for cap, jerk, a_hi in candidates:
         if cap < max(v_in, v_out) or jerk <= 0:
             continue
-        fastest = profile_1d(g.length_mm, v_in, v_out, cap, a_hi, jerk)
+        fastest = _solve(solver, g.length_mm, v_in, v_out, cap, a_hi, jerk)
         if fastest is None or fastest.duration_s >= best_t:
             continue  # more acceleration is never slower: nothing to gain here
         for share in BOOST_ACC_SHARES:  # the first that passes is this pair's fastest
             cand = fastest if share == 1.0 else None
             if cand is None:
-                cand = profile_1d(g.length_mm, v_in, v_out, cap, share * a_hi, jerk)
+                cand = _solve(solver, g.length_mm, v_in, v_out, cap, share * a_hi, jerk)
             if cand is None:
                 continue
             t_cand = cand.duration_s
