@@ -25,7 +25,7 @@ from typing import NamedTuple
 import numpy as np
 
 from gantry_sim.controller.arcs import frenet
-from gantry_sim.controller.config import MachineConfig
+from gantry_sim.controller.config import Limits
 from gantry_sim.controller.moves import Rapid
 from gantry_sim.controller.planner.jerk3 import jerk3_pairs, piece_limits_ok
 from gantry_sim.controller.planner.move_geometry import MoveGeometry
@@ -111,9 +111,10 @@ def junction_cap(
 
 
 def junction_caps(
-    geoms: list[MoveGeometry], machine: MachineConfig
+    geoms: list[MoveGeometry], limits: Limits, chord_tolerance_mm: float
 ) -> tuple[np.ndarray, list[JunctionState]]:
-    """Speed caps and states at the junctions of consecutive moves.
+    """Speed caps and states at the junctions of consecutive moves (the smoothing of a jump may
+    use :data:`JUNCTION_DEVIATION_SHARE` of ``chord_tolerance_mm``).
 
     Returns:
         caps: (len(geoms) + 1,) [mm/s]; 0 at the program's start and end, at rapids and corners.
@@ -127,8 +128,8 @@ def junction_caps(
     states = [JunctionState(g.tangent_in, zero) for g in geoms] + [
         JunctionState(geoms[-1].tangent_out if n else zero, zero)
     ]
-    jerk = float(min(machine.limits.max_jerk_mm_per_s3))
-    dev = JUNCTION_DEVIATION_SHARE * machine.segmentation.chord_tolerance_mm
+    jerk = float(min(limits.max_jerk_mm_per_s3))
+    dev = JUNCTION_DEVIATION_SHARE * chord_tolerance_mm
     for b in range(1, n):
         g0, g1 = geoms[b - 1], geoms[b]
         if isinstance(g0.move, Rapid) or isinstance(g1.move, Rapid):
@@ -167,11 +168,11 @@ def feasible_junction_caps(
     geoms: list[MoveGeometry],
     caps: np.ndarray,
     states: list[JunctionState],
-    machine: MachineConfig,
+    limits: Limits,
 ) -> np.ndarray:
-    """Return ``caps`` lowered where the pieces next to a junction could not keep the limits."""
-    lim = machine.limits
-    limits = (lim.max_velocity_mm_per_s, lim.max_acceleration_mm_per_s2, lim.max_jerk_mm_per_s3)
+    """Return ``caps`` lowered where the pieces next to a junction could not keep the
+    per-axis ``limits`` or the feed."""
+    per_axis = limits.per_axis()
     rows = []  # (junction, p0, t0, k0, p1, t1, k1, chord length along the path, feed, side)
     caps = caps.copy()
     for b in range(1, len(geoms)):
@@ -203,7 +204,7 @@ def feasible_junction_caps(
     def ok_at(v):
         vv = v[:, None]
         return _piece_ok(
-            p0, vv * t0, vv * vv * k0, p1, vv * t1, vv * vv * k1, length / v, limits, feed
+            p0, vv * t0, vv * vv * k0, p1, vv * t1, vv * vv * k1, length / v, per_axis, feed
         )
 
     good = ok_at(hi)
@@ -222,7 +223,7 @@ def feasible_junction_caps(
             mid[:, None] * sub[4],
             (mid * mid)[:, None] * sub[5],
             sub[6] / mid,
-            limits,
+            per_axis,
             sub[7],
         )
         lo_i = np.where(okm, mid, lo_i)

@@ -24,6 +24,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from gantry_sim.controller.config import Limits
+
 #: Fractions of the curvature speed caps tried, and shares of the jerk left by the centripetal
 #: term given to the tangential acceleration's 3 v a_t / R term (see :func:`arc_limits`).
 CURVATURE_MARGINS = (0.99, 0.97, 0.94, 0.9, 0.85, 0.8, 0.7, 0.6, 0.5)
@@ -48,9 +50,10 @@ class BlockLimits:
 
 
 def straight_limits(
-    direction: np.ndarray, length_mm: float, feed_mm_per_s: float, vmax, amax, jmax
+    direction: np.ndarray, length_mm: float, feed_mm_per_s: float, limits: Limits
 ) -> BlockLimits:
     """Limits along a straight move of unit ``direction`` (each axis gets |T_i| of the path)."""
+    vmax, amax, jmax = limits.per_axis()
     t = np.abs(direction)
     with np.errstate(divide="ignore"):
         v = float(np.min(np.asarray(vmax) / t))
@@ -60,27 +63,17 @@ def straight_limits(
 
 
 def arc_limits(
-    plane_axes: tuple[int, int, int],
+    follow: FollowGeometry,
     length_mm: float,
-    sin_pitch: float,
-    curvature_per_mm: float,
-    dcurv_per_mm2: float,
-    feed_mm_per_s: float,
-    vmax,
-    amax,
-    jmax,
+    limits: Limits,
     ends_mm_per_s: tuple[float, float] = (0.0, 0.0),
 ) -> BlockLimits:
     """Limits along an arc/helix (conservative, see the module docstring).
 
     Args:
-        plane_axes: (first, second, normal) axis indices of the arc's plane.
+        follow: the arc's curvature, its derivative, pitch and feed cap.
         length_mm: path length [mm].
-        sin_pitch: |T_n|, the tangent's normal-axis component (0 for a plain arc).
-        curvature_per_mm: largest |p''| = 1/R along the arc [1/mm].
-        dcurv_per_mm2: largest |p'''| along the arc [1/mm^2] (1/R^2 for a circle).
-        feed_mm_per_s: programmed feed (after override) [mm/s].
-        vmax, amax, jmax: per-axis limits [mm/s], [mm/s^2], [mm/s^3].
+        limits: the machine's per-axis limits.
         ends_mm_per_s: the highest speeds the arc may start and end with [mm/s] (its junction
             caps; 0: at rest).
 
@@ -90,14 +83,16 @@ def arc_limits(
     time lost ramping between the end speeds and the cap (cruise fast on long arcs and inside
     tangent chains, keep ramps short on short arcs between stops).
     """
-    i1, i2, n = plane_axes
+    i1, i2, n = follow.plane_axes
+    vmax, amax, jmax = limits.per_axis()
+    sin_pitch, feed_mm_per_s = follow.sin_pitch, follow.feed_cap_mm_per_s
     cos_pitch = math.sqrt(max(0.0, 1.0 - sin_pitch * sin_pitch))
     a_pl = min(amax[i1], amax[i2])
     j_pl = min(jmax[i1], jmax[i2])
     cap = min(feed_mm_per_s, min(vmax[i1], vmax[i2]) / max(cos_pitch, 1e-12))
     if sin_pitch > 0:
         cap = min(cap, vmax[n] / sin_pitch)
-    k, dk = curvature_per_mm, dcurv_per_mm2
+    k, dk = follow.curvature_per_mm, follow.dcurv_per_mm2
     best = None
     for margin in CURVATURE_MARGINS:
         cap_m = curvature_speed_cap(cap, k, dk, a_pl, j_pl, margin)

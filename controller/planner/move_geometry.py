@@ -12,7 +12,7 @@ from dataclasses import dataclass, replace
 import numpy as np
 
 from gantry_sim.controller.arcs import arc_derivatives, arc_frame, arc_points, frenet
-from gantry_sim.controller.config import MachineConfig
+from gantry_sim.controller.config import Limits, Segmentation
 from gantry_sim.controller.moves import Arc, Move, Rapid
 from gantry_sim.controller.planes import PLANE_AXES
 from gantry_sim.controller.planner.limits import (
@@ -78,14 +78,9 @@ class MoveGeometry:
         return arc_derivatives(self.move, u)
 
 
-def move_geometry(move: Move, machine: MachineConfig, feed_scale: float) -> MoveGeometry:
-    """Vertices, end tangents/curvatures and 1-D limits of ``move`` (feed times ``feed_scale``)."""
-    lim = machine.limits
-    vmax, amax, jmax = (
-        lim.max_velocity_mm_per_s,
-        lim.max_acceleration_mm_per_s2,
-        lim.max_jerk_mm_per_s3,
-    )
+def move_geometry(move: Move, limits: Limits, seg: Segmentation, feed_scale: float) -> MoveGeometry:
+    """Vertices (arcs: chords by ``seg``), end tangents/curvatures and 1-D limits of ``move``
+    (feed times ``feed_scale``) on a machine of per-axis ``limits``."""
     zero = np.zeros(3)
     if not isinstance(move, Arc):
         verts = np.array([move.start, move.end], dtype=float)
@@ -97,9 +92,8 @@ def move_geometry(move: Move, machine: MachineConfig, feed_scale: float) -> Move
             if isinstance(move, Rapid)
             else mm_per_min_to_mm_per_s(move.feed_mm_per_min) * feed_scale
         )
-        limits = straight_limits(t, length, feed, vmax, amax, jmax)
-        return MoveGeometry(move, verts, None, length, t, t, zero, zero, limits, feed)
-    seg = machine.segmentation
+        block = straight_limits(t, length, feed, limits)
+        return MoveGeometry(move, verts, None, length, t, t, zero, zero, block, feed)
     verts = segment_arc(move, seg.method, seg.chord_tolerance_mm, seg.segment_length_mm)
     n = len(verts) - 1
     u = np.arange(n + 1) / n
@@ -122,42 +116,21 @@ def move_geometry(move: Move, machine: MachineConfig, feed_scale: float) -> Move
         dcurv,
         feed * (1.0 - FEED_MARGIN_PER_PHI4 * (ang / n) ** 4 - 1e-9),
     )
-    limits = arc_limits(
-        follow.plane_axes,
-        length,
-        follow.sin_pitch,
-        curvature,
-        dcurv,
-        follow.feed_cap_mm_per_s,
-        vmax,
-        amax,
-        jmax,
-    )
-    return MoveGeometry(move, verts, u, length, t_in, t_out, k_in, k_out, limits, feed, follow)
+    block = arc_limits(follow, length, limits)
+    return MoveGeometry(move, verts, u, length, t_in, t_out, k_in, k_out, block, feed, follow)
 
 
-def limits_for_junctions(geoms: list[MoveGeometry], caps: np.ndarray, machine: MachineConfig):
-    """``geoms`` with each arc's limits chosen for its junction caps ``caps`` (see
-    :func:`gantry_sim.controller.planner.limits.arc_limits`: inside a tangent chain an arc need not ramp from
-    rest, so it may cruise closer to its curvature cap)."""
-    lim = machine.limits
+def limits_for_junctions(
+    geoms: list[MoveGeometry], caps: np.ndarray, limits: Limits
+) -> list[MoveGeometry]:
+    """``geoms`` with each arc's limits chosen for its junction caps ``caps`` [mm/s] (see
+    :func:`gantry_sim.controller.planner.limits.arc_limits`: inside a tangent chain an arc need
+    not ramp from rest, so it may cruise closer to its curvature cap)."""
     out = []
     for b, g in enumerate(geoms):
         if g.follow is None or not (caps[b] > 0 or caps[b + 1] > 0):
             out.append(g)
             continue
-        fg = g.follow
-        limits = arc_limits(
-            fg.plane_axes,
-            g.length_mm,
-            fg.sin_pitch,
-            fg.curvature_per_mm,
-            fg.dcurv_per_mm2,
-            fg.feed_cap_mm_per_s,
-            lim.max_velocity_mm_per_s,
-            lim.max_acceleration_mm_per_s2,
-            lim.max_jerk_mm_per_s3,
-            (float(min(caps[b], 1e300)), float(min(caps[b + 1], 1e300))),
-        )
-        out.append(replace(g, limits=limits))
+        ends = (float(min(caps[b], 1e300)), float(min(caps[b + 1], 1e300)))
+        out.append(replace(g, limits=arc_limits(g.follow, g.length_mm, limits, ends)))
     return out

@@ -17,7 +17,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from gantry_sim.controller.config import MachineConfig
+from gantry_sim.controller.config import Limits
 from gantry_sim.controller.errors import PlanningError
 from gantry_sim.controller.planner.arc_states import VertexStates, vertex_states
 from gantry_sim.controller.planner.cubic import CubicBuilder
@@ -54,20 +54,18 @@ class Pieces:
 class MovePieces:
     """Collects the reference's phases, move by move, and counts the pieces by kind.
 
-    ``pieces``: "jerk3" (closed-form pieces, Ruckig where they break a limit) or "ruckig";
-    ``solver`` makes the Ruckig pieces.
+    ``limits``: the machine's per-axis limits; ``chord_tolerance_mm``: scales the deviation
+    allowed next to junctions; ``pieces``: "jerk3" (closed-form pieces, Ruckig where they break
+    a limit) or "ruckig"; ``solver`` makes the Ruckig pieces.
     """
 
-    def __init__(self, machine: MachineConfig, pieces: str, solver: RuckigSolver) -> None:
-        lim = machine.limits
-        self.limits = (
-            lim.max_velocity_mm_per_s,
-            lim.max_acceleration_mm_per_s2,
-            lim.max_jerk_mm_per_s3,
-        )
+    def __init__(
+        self, limits: Limits, chord_tolerance_mm: float, pieces: str, solver: RuckigSolver
+    ) -> None:
+        self.limits = limits
         self.pieces = pieces
         self.solver = solver
-        self.dev_max = JUNCTION_DEVIATION_MAX * machine.segmentation.chord_tolerance_mm
+        self.dev_max = JUNCTION_DEVIATION_MAX * chord_tolerance_mm
         self.out = CubicBuilder()
         self.ruckig_pieces = 0
         self.boosted = 0
@@ -176,7 +174,13 @@ class MovePieces:
         safe = np.where(ok, mins, 1.0)
         phases = jerk3(st.positions, st.velocities, st.accelerations, safe)
         ok &= piece_limits_ok(
-            phases.v, phases.a, phases.j, safe, st.accelerations[1:], *self.limits, g.feed_mm_per_s
+            phases.v,
+            phases.a,
+            phases.j,
+            safe,
+            st.accelerations[1:],
+            *self.limits.per_axis(),
+            g.feed_mm_per_s,
         )
         return Pieces(st, phases, ok)
 

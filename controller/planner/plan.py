@@ -95,11 +95,12 @@ def plan(
         raise ConfigError(f"arc_pieces must be 'jerk3' or 'ruckig', got {arc_pieces!r}")
     moves = tuple(moves)
     check_travel(moves, machine.travel)
-    geoms = [move_geometry(m, machine, feed_override_pct / 100.0) for m in moves]
+    lim, seg = machine.limits, machine.segmentation
+    geoms = [move_geometry(m, lim, seg, feed_override_pct / 100.0) for m in moves]
     active = [g for g in geoms if g.length_mm > 1e-9]
-    caps, states = junction_caps(active, machine)
-    active = limits_for_junctions(active, caps, machine)
-    caps = feasible_junction_caps(active, caps, states, machine)
+    caps, states = junction_caps(active, lim, seg.chord_tolerance_mm)
+    active = limits_for_junctions(active, caps, lim)
+    caps = feasible_junction_caps(active, caps, states, lim)
     solver = RuckigSolver(machine.limits)
     done = _replan_until_junctions_hold(active, caps, states, machine, solver, arc_pieces)
     end = np.array(moves[-1].end if moves else (0.0, 0.0, 0.0), dtype=float)
@@ -162,7 +163,8 @@ def _plan_round(
     arc_pieces: str,
 ) -> _Round:
     """Every move's profile and pieces for the junction speeds ``speeds`` [mm/s]."""
-    pieces, bad = MovePieces(machine, arc_pieces, solver), set()
+    tol = machine.segmentation.chord_tolerance_mm
+    pieces, bad = MovePieces(machine.limits, tol, arc_pieces, solver), set()
     boost_cache: dict = {}
     clock, starts = 0.0, []
     for b, g in enumerate(active):
@@ -170,7 +172,7 @@ def _plan_round(
         prof = _path_profile(solver, g, speeds[b], speeds[b + 1])
         if g.is_arc:
             fast = boosted_profile(
-                g, speeds[b], speeds[b + 1], prof, pieces.limits, solver, boost_cache
+                g, speeds[b], speeds[b + 1], prof, machine.limits, solver, boost_cache
             )
             s_in, s_out = states[b].at(speeds[b]), states[b + 1].at(speeds[b + 1])
             dur, bad_in, bad_out = pieces.arc(g, prof, s_in, s_out, fast)

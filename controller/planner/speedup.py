@@ -17,6 +17,7 @@ from __future__ import annotations
 import numpy as np
 
 from gantry_sim.controller.arcs import arc_frame
+from gantry_sim.controller.config import Limits
 from gantry_sim.controller.planner.limits import FollowGeometry, curvature_speed_cap
 from gantry_sim.controller.planner.move_geometry import MoveGeometry
 from gantry_sim.controller.planner.profile import Profile1D
@@ -102,7 +103,7 @@ def boosted_profile(
     v_in: float,
     v_out: float,
     profile: Profile1D,
-    limits: tuple,
+    limits: Limits,
     solver: RuckigSolver,
     cache: dict,
 ) -> tuple[Profile1D, ...]:
@@ -119,14 +120,14 @@ def boosted_profile(
     Args:
         g: the arc's geometry; ``v_in``, ``v_out``: its end speeds [mm/s]; ``profile``: its
             profile.
-        limits: per-axis (vmax [mm/s], amax [mm/s^2], jmax [mm/s^3]).
+        limits: the machine's per-axis limits.
         solver: makes the 1-D profiles (:meth:`RuckigSolver.profile`).
         cache: results by (length, follow geometry, end speeds), filled here.
     """
     fg, lim = g.follow, g.limits
     if fg is None or min(v_in, v_out) >= BOOST_RAMP_SHARE * lim.cap_mm_per_s:
         return ()
-    vmax, amax, jmax = limits
+    vmax, amax, jmax = limits.per_axis()
     candidates = boost_candidates(fg, vmax, amax, jmax)
     t_now = profile.duration_s
     if not candidates or t_now <= BOOST_MIN_GAIN * g.length_mm / candidates[0][0]:
