@@ -68,7 +68,6 @@ class MovePieces:
         self.dev_max = JUNCTION_DEVIATION_MAX * chord_tolerance_mm
         self.out = CubicBuilder()
         self.ruckig_pieces = 0
-        self.boosted = 0
 
     def straight(self, g: MoveGeometry, profile: Profile1D) -> float:
         """The profile projected on the straight move; its duration [s]."""
@@ -106,7 +105,6 @@ class MovePieces:
             found = self.closed_form(g, cand, state_in, state_out)
             ok = found.ok
             if ok[1:-1].all() and (ok[0] or state_in.moving) and (ok[-1] or state_out.moving):
-                self.boosted += 1
                 pieces = found
                 break
         if pieces is None:
