@@ -12,7 +12,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from gantry_sim.controller.planner.junctions import EndState
-from gantry_sim.controller.planner.move_geometry import MoveGeometry
+from gantry_sim.controller.planner.move_geometry import ArcGeometry
 from gantry_sim.controller.planner.profile import Profile1D
 
 #: Extra vertices at 1/2, 1/4, ... of the first (last) chord of an arc that starts (ends) at rest.
@@ -39,7 +39,7 @@ class VertexStates:
 
 
 def vertex_states(
-    g: MoveGeometry, profile: Profile1D, state_in: EndState, state_out: EndState
+    g: ArcGeometry, profile: Profile1D, state_in: EndState, state_out: EndState
 ) -> VertexStates:
     """Exact arc states where the reference passes through the arc.
 

@@ -27,8 +27,9 @@ import numpy as np
 from gantry_sim.controller.arcs import frenet
 from gantry_sim.controller.config import Limits
 from gantry_sim.controller.moves import Rapid
+from gantry_sim.controller.planes import Vec3
 from gantry_sim.controller.planner.jerk3 import jerk3_pairs, piece_limits_ok
-from gantry_sim.controller.planner.move_geometry import MoveGeometry
+from gantry_sim.controller.planner.move_geometry import ArcGeometry, MoveGeometry
 
 #: Tangent-direction change above which a junction involving an arc is a corner [rad] (1 degree).
 CORNER_ANGLE_RAD = math.radians(1.0)
@@ -158,8 +159,19 @@ def junction_caps(
     return caps, states
 
 
-def _piece_ok(p0, v0, a0, p1, v1, a1, dur, lim, feed) -> np.ndarray:
-    """Vectorised: each row one piece (states (m, 3), dur (m,)); True where it keeps the limits."""
+def _piece_ok(
+    p0: np.ndarray,
+    v0: np.ndarray,
+    a0: np.ndarray,
+    p1: np.ndarray,
+    v1: np.ndarray,
+    a1: np.ndarray,
+    dur: np.ndarray,
+    lim: tuple[Vec3, Vec3, Vec3],
+    feed: np.ndarray,
+) -> np.ndarray:
+    """Vectorised: each row one piece (states (m, 3), dur (m,)); True where it keeps the
+    per-axis limits ``lim`` and the path speeds ``feed`` [mm/s]."""
     _ps, vs, as_, js = jerk3_pairs(p0, v0, a0, p1, v1, a1, dur)
     return piece_limits_ok(vs, as_, js, dur, a1, *lim, feed)
 
@@ -181,7 +193,7 @@ def feasible_junction_caps(
             continue
         d, kv = states[b].direction, states[b].curvature_per_mm
         for g, side in ((geoms[b], "after"), (geoms[b - 1], "before")):
-            if not g.is_arc:
+            if not isinstance(g, ArcGeometry):
                 continue
             u = g.u[1] if side == "after" else g.u[-2]
             d1, d2 = g.derivatives(np.array([u]))

@@ -116,6 +116,8 @@ def arc_limits(
                 break
         if k == 0 and dk == 0:
             break
+    # margin < 1 leaves acceleration and jerk to the tangential terms: some pair always fits
+    assert best is not None, "arc_limits found no (cap, a_t, j_t): limits must be > 0"
     _, cap, a_t, j_t = best
     return BlockLimits(length_mm, cap, a_t, j_t)
 

@@ -31,11 +31,11 @@ FEED_MARGIN_PER_PHI4 = 1e-3
 
 @dataclass(frozen=True)
 class MoveGeometry:
-    """What the planner needs to know about one move."""
+    """What the planner needs to know about one move (a straight one; arcs:
+    :class:`ArcGeometry`)."""
 
     move: Move
     vertices: np.ndarray  # (k, 3) [mm], read-only
-    u: np.ndarray | None  # arcs: sweep fractions of the vertices
     length_mm: float
     tangent_in: np.ndarray  # unit tangent at the start
     tangent_out: np.ndarray  # unit tangent at the end
@@ -43,16 +43,24 @@ class MoveGeometry:
     curv_out: np.ndarray  # curvature vector at the end [1/mm]
     limits: BlockLimits
     feed_mm_per_s: float  # programmed path speed after override (inf for rapids) [mm/s]
-    #: Arcs: what :func:`gantry_sim.controller.planner.speedup.follow_ok` needs to check a speed profile exactly.
-    follow: FollowGeometry | None = None
 
     @property
     def is_arc(self) -> bool:
-        return isinstance(self.move, Arc)
+        return isinstance(self, ArcGeometry)
 
     @property
     def start(self) -> np.ndarray:
         return self.vertices[0]
+
+
+@dataclass(frozen=True)
+class ArcGeometry(MoveGeometry):
+    """An arc's or helix's :class:`MoveGeometry`, with its exact geometry."""
+
+    move: Arc
+    u: np.ndarray  # sweep fractions of the vertices
+    #: What bounds following it exactly (its limits, :func:`~gantry_sim.controller.planner.speedup.follow_ok`).
+    follow: FollowGeometry
 
     def points(self, u: np.ndarray) -> np.ndarray:
         """Points on the arc at sweep fractions ``u`` (u = 0 and 1: start and end exactly)."""
@@ -93,7 +101,7 @@ def move_geometry(move: Move, limits: Limits, seg: Segmentation, feed_scale: flo
             else mm_per_min_to_mm_per_s(move.feed_mm_per_min) * feed_scale
         )
         block = straight_limits(t, length, feed, limits)
-        return MoveGeometry(move, verts, None, length, t, t, zero, zero, block, feed)
+        return MoveGeometry(move, verts, length, t, t, zero, zero, block, feed)
     verts = segment_arc(move, seg.method, seg.chord_tolerance_mm, seg.segment_length_mm)
     n = len(verts) - 1
     u = np.arange(n + 1) / n
@@ -117,7 +125,7 @@ def move_geometry(move: Move, limits: Limits, seg: Segmentation, feed_scale: flo
         feed * (1.0 - FEED_MARGIN_PER_PHI4 * (ang / n) ** 4 - 1e-9),
     )
     block = arc_limits(follow, length, limits)
-    return MoveGeometry(move, verts, u, length, t_in, t_out, k_in, k_out, block, feed, follow)
+    return ArcGeometry(move, verts, length, t_in, t_out, k_in, k_out, block, feed, u, follow)
 
 
 def limits_for_junctions(
@@ -128,7 +136,7 @@ def limits_for_junctions(
     not ramp from rest, so it may cruise closer to its curvature cap)."""
     out = []
     for b, g in enumerate(geoms):
-        if g.follow is None or not (caps[b] > 0 or caps[b + 1] > 0):
+        if not isinstance(g, ArcGeometry) or not (caps[b] > 0 or caps[b + 1] > 0):
             out.append(g)
             continue
         ends = (float(min(caps[b], 1e300)), float(min(caps[b + 1], 1e300)))

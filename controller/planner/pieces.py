@@ -23,7 +23,7 @@ from gantry_sim.controller.planner.arc_states import VertexStates, vertex_states
 from gantry_sim.controller.planner.cubic import CubicBuilder
 from gantry_sim.controller.planner.jerk3 import PiecePhases, jerk3, jerk3_points, piece_limits_ok
 from gantry_sim.controller.planner.junctions import EndState
-from gantry_sim.controller.planner.move_geometry import MoveGeometry
+from gantry_sim.controller.planner.move_geometry import ArcGeometry, MoveGeometry
 from gantry_sim.controller.planner.profile import Profile1D
 from gantry_sim.controller.planner.ruckig_solver import RuckigPiece, RuckigRejected, RuckigSolver
 
@@ -85,7 +85,7 @@ class MovePieces:
 
     def arc(
         self,
-        g: MoveGeometry,
+        g: ArcGeometry,
         profile: Profile1D,
         state_in: EndState,
         state_out: EndState,
@@ -161,7 +161,7 @@ class MovePieces:
         return total, bad[0], bad[n - 1]
 
     def closed_form(
-        self, g: MoveGeometry, profile: Profile1D, state_in: EndState, state_out: EndState
+        self, g: ArcGeometry, profile: Profile1D, state_in: EndState, state_out: EndState
     ) -> Pieces:
         """Vertex states and closed-form pieces for ``profile``, and which keep the limits."""
         st = vertex_states(g, profile, state_in, state_out)

@@ -45,6 +45,7 @@ from gantry_sim.controller.planner.junctions import (
 )
 from gantry_sim.controller.planner.lookahead import plan_junction_speeds
 from gantry_sim.controller.planner.move_geometry import (
+    ArcGeometry,
     MoveGeometry,
     limits_for_junctions,
     move_geometry,
@@ -170,7 +171,7 @@ def _plan_round(
     for b, g in enumerate(active):
         starts.append(clock)
         prof = _path_profile(solver, g, speeds[b], speeds[b + 1])
-        if g.is_arc:
+        if isinstance(g, ArcGeometry):
             fast = boosted_profile(
                 g, speeds[b], speeds[b + 1], prof, machine.limits, solver, boost_cache
             )

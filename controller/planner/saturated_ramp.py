@@ -24,7 +24,9 @@ checks the pieces built on it against every limit.
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 from dataclasses import dataclass
+from typing import Protocol
 
 import numpy as np
 
@@ -39,6 +41,23 @@ MAX_RAMP_S = 2.0
 SHARE = 0.94
 
 
+class RampLimits(Protocol):
+    """The bounds a ramp rides: :class:`NormLimits` or :class:`CircleLimits`."""
+
+    def bounds(
+        self, dist: np.ndarray, v: np.ndarray, a: np.ndarray
+    ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """(lowest, highest) tangential jerk [mm/s^3] and highest tangential acceleration
+        [mm/s^2] at ``dist`` [mm] along the ramp, speed ``v`` [mm/s], acceleration ``a``."""
+        ...
+
+    @property
+    def acc_min(self) -> float: ...
+
+    @property
+    def jerk_min(self) -> float: ...
+
+
 @dataclass(frozen=True)
 class NormLimits:
     """Orientation-free bounds (those of :func:`gantry_sim.controller.planner.speedup.follow_ok`): curvature k
@@ -50,9 +69,10 @@ class NormLimits:
     acc: float
     jerk: float
 
-    def bounds(self, dist, v, a):
-        """(lowest, highest) tangential jerk [mm/s^3] and highest tangential acceleration
-        [mm/s^2] at ``dist`` [mm] along the ramp, speed ``v``, acceleration ``a``."""
+    def bounds(
+        self, dist: np.ndarray, v: np.ndarray, a: np.ndarray
+    ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """As :meth:`RampLimits.bounds` (``dist`` unused: the bounds hold anywhere)."""
         jm = np.sqrt(np.maximum(self.jerk**2 - (3.0 * v * a * self.k) ** 2, 0.0)) - v**3 * self.dk
         a_hi = np.sqrt(np.maximum(self.acc**2 - (v * v * self.k) ** 2, 0.0))
         return -jm, jm, a_hi
@@ -85,8 +105,10 @@ class CircleLimits:
     acc: tuple[float, float]
     jerk: tuple[float, float]
 
-    def bounds(self, dist, v, a):
-        """As :meth:`NormLimits.bounds`."""
+    def bounds(
+        self, dist: np.ndarray, v: np.ndarray, a: np.ndarray
+    ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """As :meth:`RampLimits.bounds`."""
         s_pos = self.length_mm - dist if self.reverse else dist
         th = self.theta0 + self.sigma * s_pos / self.radius_mm
         sign = -self.sigma if self.reverse else self.sigma
@@ -94,7 +116,7 @@ class CircleLimits:
         norm = (-np.cos(th), -np.sin(th))
         r = self.radius_mm
         c, n, an = v**3 / r**2, 3.0 * v * a / r, v * v / r
-        j_lo, j_hi, a_hi = -np.inf, np.inf, np.inf
+        j_lo, j_hi, a_hi = (np.full(np.shape(v), x) for x in (-np.inf, np.inf, np.inf))
         for t_i, n_i, jl, al in zip(tang, norm, self.jerk, self.acc, strict=True):
             t_safe = np.where(np.abs(t_i) > 1e-12, t_i, 1e-12)
             e1, e2 = (-jl - n_i * n) / t_safe, (jl - n_i * n) / t_safe
@@ -118,7 +140,9 @@ def _advance(h, s, v, a, j):
     return s + h * (v + h * (0.5 * a + h * j / 6.0)), v + h * (a + 0.5 * h * j), a + h * j
 
 
-def _ramps(v0: float, tau1: np.ndarray, lim, dt: float, rows: list | None = None):
+def _ramps(
+    v0: float, tau1: np.ndarray, lim: RampLimits, dt: float, rows: list | None = None
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Ramps from speed ``v0`` at a = 0, one per switch time in ``tau1`` [s], integrated together
     under the bounds ``lim``. Returns (peak speed, distance, duration) arrays, NaN where the state
     left no jerk to bring the acceleration back to 0. ``rows``: when given, the phases
@@ -152,7 +176,7 @@ def _ramps(v0: float, tau1: np.ndarray, lim, dt: float, rows: list | None = None
     return out_v, out_s, out_t
 
 
-def _ramp_rows(v0: float, tau1: float, lim, dt: float):
+def _ramp_rows(v0: float, tau1: float, lim: RampLimits, dt: float) -> tuple[list, float, float]:
     """The phases (dur, s-offset, v, a, j) of one ramp (see :func:`_ramps`), its peak speed and
     its distance (NaN when it fails)."""
     rows: list = []
@@ -160,7 +184,13 @@ def _ramp_rows(v0: float, tau1: float, lim, dt: float):
     return rows, float(vp[0]), float(d[0])
 
 
-def _scan(v0, lim, dt, hi, keep):
+def _scan(
+    v0: float,
+    lim: RampLimits,
+    dt: float,
+    hi: float,
+    keep: Callable[[np.ndarray], np.ndarray],
+) -> float:
     """Largest switch time [s] in [0, hi] whose ramp's peak satisfies ``keep`` (4 scans of 33)."""
     lo = 0.0
     for _ in range(4):
@@ -175,7 +205,12 @@ def _scan(v0, lim, dt, hi, keep):
 
 
 def saturated_profile(
-    length_mm: float, v_in: float, v_out: float, cap: float, limits: tuple, dt: float = STEP_S
+    length_mm: float,
+    v_in: float,
+    v_out: float,
+    cap: float,
+    limits: tuple[RampLimits, RampLimits],
+    dt: float = STEP_S,
 ) -> Profile1D | None:
     """1-D profile along an arc of ``length_mm`` from ``v_in`` to ``v_out`` (a = 0 at both ends), path speed <= ``cap``, with
     ramps that ride the jerk the state leaves; None when it cannot be built.
@@ -206,14 +241,23 @@ def saturated_profile(
         peak = grid[idx]
         ramps = []
         for v0, lim in ((v_in, lim_up), (v_out, lim_dn)):
-            tau = _scan(v0, lim, dt, hi, lambda vp, p=peak: np.nan_to_num(vp, nan=np.inf) <= p)
-            ramps.append(_ramp_rows(v0, tau, lim, dt))
+            switch = _scan(v0, lim, dt, hi, _peak_at_most(peak))
+            ramps.append(_ramp_rows(v0, switch, lim, dt))
         up, dn = ramps
         bridge = _bridge(up[1], dn[1], up[2], jerk)
         cruise = length_mm - up[2] - dn[2] - bridge[1]
         if cruise >= 0.0 and max(up[1], dn[1]) <= cap:
             return Profile1D(_assemble(up[0], bridge[0], dn[1], up[2] + bridge[1], dn[0], cruise))
     return None
+
+
+def _peak_at_most(peak: float) -> Callable[[np.ndarray], np.ndarray]:
+    """For :func:`_scan`: True where a ramp's peak speed is at most ``peak`` (False: failed)."""
+
+    def keep(vp: np.ndarray) -> np.ndarray:
+        return np.nan_to_num(vp, nan=np.inf) <= peak
+
+    return keep
 
 
 #: Shortest duration [s] of each half of the S-curve that joins the two ramps' peaks, and the

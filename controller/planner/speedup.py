@@ -18,8 +18,9 @@ import numpy as np
 
 from gantry_sim.controller.arcs import arc_frame
 from gantry_sim.controller.config import Limits
+from gantry_sim.controller.planes import Vec3
 from gantry_sim.controller.planner.limits import FollowGeometry, curvature_speed_cap
-from gantry_sim.controller.planner.move_geometry import MoveGeometry
+from gantry_sim.controller.planner.move_geometry import ArcGeometry
 from gantry_sim.controller.planner.profile import Profile1D
 from gantry_sim.controller.planner.ruckig_solver import RuckigSolver, SolverFailure
 from gantry_sim.controller.planner.saturated_ramp import SHARE as SATURATED_SHARE
@@ -78,7 +79,7 @@ def boost_candidates(fg: FollowGeometry, vmax, amax, jmax) -> list[tuple[float, 
     k, dk, sp = fg.curvature_per_mm, fg.dcurv_per_mm2, fg.sin_pitch
     base = fg.speed_cap(vmax)
     a_hi = a_pl if sp == 0 else min(a_pl, amax[n] / sp)
-    out = []
+    out: list[tuple[float, float, float]] = []
     for margin in BOOST_MARGINS:
         cap = curvature_speed_cap(base, k, dk, a_pl, j_pl, margin)
         j_left = FOLLOW_MARGIN * j_pl - cap**3 * dk
@@ -99,7 +100,7 @@ def _solve(solver: RuckigSolver, *args: float) -> Profile1D | None:
 
 
 def boosted_profile(
-    g: MoveGeometry,
+    g: ArcGeometry,
     v_in: float,
     v_out: float,
     profile: Profile1D,
@@ -125,7 +126,7 @@ def boosted_profile(
         cache: results by (length, follow geometry, end speeds), filled here.
     """
     fg, lim = g.follow, g.limits
-    if fg is None or min(v_in, v_out) >= BOOST_RAMP_SHARE * lim.cap_mm_per_s:
+    if min(v_in, v_out) >= BOOST_RAMP_SHARE * lim.cap_mm_per_s:
         return ()
     vmax, amax, jmax = limits.per_axis()
     candidates = boost_candidates(fg, vmax, amax, jmax)
@@ -171,15 +172,15 @@ SATURATED_END_SHARE = 0.1
 SATURATED_MIN_USE = 0.25
 
 
-def _plain_circle(g: MoveGeometry) -> bool:
+def _plain_circle(g: ArcGeometry) -> bool:
     """An arc of constant radius in its plane (no helix, no spiral)."""
-    if not g.is_arc:
-        return False
     f = arc_frame(g.move)
     return abs(f.r1_mm - f.r0_mm) <= 1e-9 * f.r0_mm and f.h0_mm == f.h1_mm
 
 
-def saturated_candidate(g: MoveGeometry, v_in, v_out, base, amax, jmax):
+def saturated_candidate(
+    g: ArcGeometry, v_in: float, v_out: float, base: float, amax: Vec3, jmax: Vec3
+) -> Profile1D | None:
     """The saturated-ramp profile of an arc from and to near rest on which the curvature takes
     much of the jerk or acceleration, or None (see :data:`SATURATED_END_SHARE`). On a plain
     circle the ramps use each plane axis' own limits (:class:`CircleLimits`); elsewhere the
@@ -199,11 +200,11 @@ def saturated_candidate(g: MoveGeometry, v_in, v_out, base, amax, jmax):
         # (and the bridge between the ramps' peaks) must hold wherever on the circle it lies.
         f = arc_frame(g.move)
         acc, jerk = (sh * amax[i1], sh * amax[i2]), (sh * jmax[i1], sh * jmax[i2])
-        lims = tuple(
+        up, down = (
             CircleLimits(f.theta0_rad, f.sigma, f.r0_mm, g.length_mm, rev, acc, jerk)
             for rev in (False, True)
         )
-        return saturated_profile(g.length_mm, v_in, v_out, cap, lims)
-    lims = (NormLimits(k, dk, sh * a_pl, sh * j_pl),) * 2
-    prof = saturated_profile(g.length_mm, v_in, v_out, cap, lims)
+        return saturated_profile(g.length_mm, v_in, v_out, cap, (up, down))
+    norm = NormLimits(k, dk, sh * a_pl, sh * j_pl)
+    prof = saturated_profile(g.length_mm, v_in, v_out, cap, (norm, norm))
     return prof if prof is not None and follow_ok(prof, fg, base, amax, jmax) else None
