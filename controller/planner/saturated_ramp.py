@@ -213,7 +213,8 @@ def saturated_profile(
     dt: float = STEP_S,
 ) -> Profile1D | None:
     """1-D profile along an arc of ``length_mm`` from ``v_in`` to ``v_out`` (a = 0 at both ends), path speed <= ``cap``, with
-    ramps that ride the jerk the state leaves; None when it cannot be built.
+    ramps that ride the jerk the state leaves; None when it cannot be built (among others, on
+    an arc too short for the ramps: the planner then uses its other candidates).
 
     ``limits``: the bounds of the ramp from the start and of the ramp back from the end
     (:class:`NormLimits` or :class:`CircleLimits`), already scaled by :data:`SHARE`.
@@ -244,6 +245,8 @@ def saturated_profile(
             switch = _scan(v0, lim, dt, hi, _peak_at_most(peak))
             ramps.append(_ramp_rows(v0, switch, lim, dt))
         up, dn = ramps
+        if not (up[0] and dn[0]):
+            continue  # no ramp reaches this peak (too short an arc, or an end already there)
         bridge = _bridge(up[1], dn[1], up[2], jerk)
         cruise = length_mm - up[2] - dn[2] - bridge[1]
         if cruise >= 0.0 and max(up[1], dn[1]) <= cap:
