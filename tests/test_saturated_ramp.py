@@ -1,4 +1,5 @@
-"""Saturated ramps on small arcs from rest (controller/saturated_ramp.py) and their use."""
+"""Saturated ramps on small arcs from rest (controller/planner/saturated_ramp.py, its bounds in
+ramp_bounds.py) and their use."""
 
 from __future__ import annotations
 
@@ -10,12 +11,8 @@ import pytest
 from gantry_sim.controller.gcode.interpreter import parse_program
 from gantry_sim.controller.planner.limits import FollowGeometry, s_curve_time
 from gantry_sim.controller.planner.plan import plan
-from gantry_sim.controller.planner.saturated_ramp import (
-    SHARE,
-    CircleLimits,
-    NormLimits,
-    saturated_profile,
-)
+from gantry_sim.controller.planner.ramp_bounds import CircleLimits, NormLimits
+from gantry_sim.controller.planner.saturated_ramp import SHARE, saturated_profile
 from gantry_sim.controller.planner.speedup import follow_ok
 from tests.plan_helpers import arc, arc_deviation, assert_within_limits
 

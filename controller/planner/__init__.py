@@ -15,6 +15,7 @@ The steps, in the order :func:`plan` runs them (module: its one job):
    ``profile``        Profile1D, the 1-D profile (dur, s, v, a, j per phase) every step hands on
    ``speedup``        faster 1-D candidates for arcs that ramp, checked point by point
    ``saturated_ramp`` time-optimal-like ramps on small arcs from rest (a speedup candidate)
+   ``ramp_bounds``    the jerk and acceleration those ramps may use, per state
 7. ``arc_states``     exact arc states where the profile passes the vertices
    ``jerk3``          closed-form constant-jerk pieces between those states, and their limit check
    ``pieces``         profile -> the reference's phases: straight moves projected, arc pieces

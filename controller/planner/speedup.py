@@ -22,9 +22,10 @@ from gantry_sim.controller.planes import Vec3
 from gantry_sim.controller.planner.limits import FollowGeometry, curvature_speed_cap
 from gantry_sim.controller.planner.move_geometry import ArcGeometry
 from gantry_sim.controller.planner.profile import Profile1D
+from gantry_sim.controller.planner.ramp_bounds import CircleLimits, NormLimits
 from gantry_sim.controller.planner.ruckig_solver import RuckigSolver, SolverFailure
 from gantry_sim.controller.planner.saturated_ramp import SHARE as SATURATED_SHARE
-from gantry_sim.controller.planner.saturated_ramp import CircleLimits, NormLimits, saturated_profile
+from gantry_sim.controller.planner.saturated_ramp import saturated_profile
 
 #: An arc whose entry or exit speed is below this share of its cap tries a faster profile.
 BOOST_RAMP_SHARE = 0.9
