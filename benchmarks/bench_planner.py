@@ -42,7 +42,7 @@ from gantry_sim.controller.config import load_machine_config
 from gantry_sim.controller.errors import PlanningError
 from gantry_sim.controller.moves import Arc, Linear, Rapid
 from gantry_sim.controller.planes import PLANE_AXES
-from gantry_sim.controller.planner.lookahead import s_curve_time
+from gantry_sim.controller.planner.limits import s_curve_time
 from gantry_sim.controller.planner.plan import plan
 from gantry_sim.models import DEFAULT_MACHINE
 
@@ -145,8 +145,8 @@ def _cap(m, lim):
     if isinstance(m, Linear):
         return min(cap, float(np.min(vmax / np.maximum(np.abs(t_in), 1e-300))))
     i1, i2, _ = PLANE_AXES[m.plane]
-    _, _, _, _, _, r0, r1, _, _ = arc_frame(m)
-    r = min(r0, r1)
+    frame = arc_frame(m)
+    r = min(frame.r0_mm, frame.r1_mm)
     a_p = min(lim.max_acceleration_mm_per_s2[i1], lim.max_acceleration_mm_per_s2[i2])
     j_p = min(lim.max_jerk_mm_per_s3[i1], lim.max_jerk_mm_per_s3[i2])
     return min(cap, min(vmax[i1], vmax[i2]), math.sqrt(a_p * r), (j_p * r * r) ** (1 / 3))

@@ -36,7 +36,8 @@ import numpy as np
 
 from gantry_sim.controller.arcs import arc_derivatives, frenet
 from gantry_sim.controller.moves import Arc
-from gantry_sim.controller.planner.lookahead import max_reachable_speed, s_curve_time
+from gantry_sim.controller.planner.limits import s_curve_time
+from gantry_sim.controller.planner.lookahead import max_reachable_speed
 
 #: Largest acceleration jump per (e J^2)^(1/3) absorbed on one side / on both sides.
 C_ONE_SIDED = 1.1447

@@ -16,6 +16,7 @@ r1 == r0; LinuxCNC accepts a small mismatch, which makes the path a gentle spira
 from __future__ import annotations
 
 import math
+from typing import NamedTuple
 
 import numpy as np
 
@@ -23,14 +24,28 @@ from gantry_sim.controller.moves import Arc
 from gantry_sim.controller.planes import PLANE_AXES
 
 
-def arc_frame(arc: Arc) -> tuple[int, int, int, float, float, float, float, float, float]:
-    """Return (i1, i2, n, theta0 [rad], sigma, r0 [mm], r1 [mm], h0 [mm], h1 [mm]) for ``arc``."""
+class ArcFrame(NamedTuple):
+    """An arc's parametrisation (the module docstring's symbols)."""
+
+    i1: int  #: index of the plane's first axis (e1)
+    i2: int  #: index of the plane's second axis (e2)
+    n: int  #: index of the plane's normal axis (en)
+    theta0_rad: float  #: polar angle of the start about the centre [rad]
+    sigma: float  #: +1 counter-clockwise seen from +en (G3), -1 clockwise (G2)
+    r0_mm: float  #: in-plane radius at the start [mm] (the programmed radius)
+    r1_mm: float  #: in-plane radius at the end [mm]
+    h0_mm: float  #: normal-axis coordinate at the start [mm]
+    h1_mm: float  #: normal-axis coordinate at the end [mm]
+
+
+def arc_frame(arc: Arc) -> ArcFrame:
+    """The :class:`ArcFrame` of ``arc``."""
     i1, i2, n = PLANE_AXES[arc.plane]
     c, s, e = arc.center, arc.start, arc.end
     theta0 = math.atan2(s[i2] - c[i2], s[i1] - c[i1])
     sigma = 1.0 if arc.direction == "ccw" else -1.0
     r1 = math.hypot(e[i1] - c[i1], e[i2] - c[i2])
-    return i1, i2, n, theta0, sigma, arc.radius, r1, s[n], e[n]
+    return ArcFrame(i1, i2, n, theta0, sigma, arc.radius, r1, s[n], e[n])
 
 
 def arc_points(arc: Arc, u: np.ndarray | float) -> np.ndarray:

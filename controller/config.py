@@ -112,6 +112,10 @@ class Limits:
     max_acceleration_mm_per_s2: Vec3
     max_jerk_mm_per_s3: Vec3
 
+    def per_axis(self) -> tuple[Vec3, Vec3, Vec3]:
+        """(velocity [mm/s], acceleration [mm/s^2], jerk [mm/s^3]) limits, each [x, y, z]."""
+        return self.max_velocity_mm_per_s, self.max_acceleration_mm_per_s2, self.max_jerk_mm_per_s3
+
     def to_json(self) -> dict:
         return {k: list(getattr(self, k)) for k in SCHEMA["limits"]}
 

@@ -9,7 +9,6 @@ from __future__ import annotations
 MM_PER_INCH = 25.4
 S_PER_MIN = 60.0
 UM_PER_MM = 1000.0
-M_PER_MM = 1e-3
 
 
 def mm_per_min_to_mm_per_s(feed_mm_per_min: float) -> float:

@@ -1,6 +1,7 @@
 """Helpers for the planning tests: build moves directly and measure sampled references.
 
-Moves are built here (not by the interpreter) so the planner's tests stand alone.
+Moves are built here (not by the interpreter) so the planner's tests stand alone; G-code
+programs several planner tests share are kept here too.
 """
 
 from __future__ import annotations
@@ -17,6 +18,20 @@ from gantry_sim.controller.planes import PLANE_AXES
 #: acceleration (exact for piecewise-linear acceleration, up to rounding).
 REL = 1e-9
 JERK_REL = 1e-6
+
+# One loop of a rounded rectangle at F6000: line -> R1 corner arc junctions (curvature jumps).
+ROUNDED_RECTANGLE = """G21 G17 G90 F6000
+G0 X-4 Y-3
+G1 X4
+G3 X5 Y-2 R1
+G1 Y2
+G3 X4 Y3 R1
+G1 X-4
+G3 X-5 Y2 R1
+G1 Y-2
+G3 X-4 Y-3 R1
+M2
+"""
 
 
 def arc(line, start, center, angle, plane="XY", direction="ccw", feed=3000.0):

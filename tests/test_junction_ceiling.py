@@ -16,8 +16,7 @@ from gantry_sim.controller.gcode.interpreter import parse_program
 from gantry_sim.controller.moves import Arc
 from gantry_sim.controller.planner.jerk3 import jerk3_pairs, jerk3_points
 from gantry_sim.controller.planner.plan import plan
-from tests.plan_helpers import arc_deviation
-from tests.test_planner_ruckig_pieces import ROUNDED_RECTANGLE
+from tests.plan_helpers import ROUNDED_RECTANGLE, arc_deviation
 
 # Three reversing R5 semicircles at F6000: an S-bend (curvature -1/5 -> +1/5) at each junction.
 S_BEND = """G21 G17 G90 F6000

@@ -7,17 +7,17 @@ import math
 import numpy as np
 import pytest
 
-from gantry_sim.controller.planner.lookahead import (
-    FOLLOW_MARGIN,
+from gantry_sim.controller.config import Limits
+from gantry_sim.controller.planner.junctions import junction_cap
+from gantry_sim.controller.planner.limits import (
     BlockLimits,
     FollowGeometry,
     arc_limits,
-    follow_ok,
-    junction_cap,
-    max_reachable_speed,
-    plan_junction_speeds,
     s_curve_time,
 )
+from gantry_sim.controller.planner.lookahead import max_reachable_speed, plan_junction_speeds
+from gantry_sim.controller.planner.profile import Profile1D
+from gantry_sim.controller.planner.speedup import FOLLOW_MARGIN, follow_ok
 
 
 def _distance(v0, v1, acc, jerk):
@@ -68,7 +68,7 @@ def test_junction_cap_falls_with_kink_and_curvature_jump():
 def test_arc_limits_keep_axis_acceleration_and_jerk_bounds(radius):
     vmax, amax, jmax = (500.0, 400.0, 200.0), (3000.0, 2500.0, 3000.0), (1e5, 8e4, 1e5)
     k, dk = 1 / radius, 1 / radius**2
-    lim = arc_limits((0, 1, 2), 10.0, 0.0, k, dk, 1e9, vmax, amax, jmax)
+    lim = arc_limits(FollowGeometry((0, 1, 2), 0.0, k, dk, 1e9), 10.0, Limits(vmax, amax, jmax))
     v, a_t, j_t = lim.cap_mm_per_s, lim.acc_mm_per_s2, lim.jerk_mm_per_s3
     assert v <= math.sqrt(2500.0 * radius) and v <= (8e4 * radius**2) ** (1 / 3) and v <= 400.0
     assert math.hypot(a_t, v * v * k) <= 2500.0 * (1 + 1e-12)
@@ -85,7 +85,7 @@ def test_follow_ok_checks_the_exact_following_point_by_point(radius):
     v_top = min(v_jerk, v_acc)
 
     def cruise(v, a=0.0, j=0.0):
-        return np.array([[0.01, 0.0, v, a, j]])
+        return Profile1D(np.array([[0.01, 0.0, v, a, j]]))
 
     assert follow_ok(cruise(0.999 * v_top), fg, 1e9, amax, jmax)
     assert not follow_ok(cruise(1.001 * v_top), fg, 1e9, amax, jmax)
@@ -95,7 +95,7 @@ def test_follow_ok_checks_the_exact_following_point_by_point(radius):
     a_bad = 1.01 * FOLLOW_MARGIN * 8e4 * radius / (3 * slow)
     assert a_bad < 2400.0 and not follow_ok(cruise(slow, a=a_bad), fg, 1e9, amax, jmax)
     # a phase whose end (not its start) breaks the jerk limit is caught
-    ramp = np.array([[0.01, 0.0, 0.9 * v_jerk, 0.2 * v_jerk / 0.01, 0.0]])
+    ramp = Profile1D(np.array([[0.01, 0.0, 0.9 * v_jerk, 0.2 * v_jerk / 0.01, 0.0]]))
     assert not follow_ok(ramp, fg, 1e9, amax, jmax)
 
 
@@ -104,9 +104,10 @@ def test_arc_inside_a_tangent_chain_cruises_closer_to_its_curvature_cap():
     junctions keep their speed it has nothing to ramp, so it cruises near the curvature cap."""
     vmax, amax, jmax = (500.0, 400.0, 200.0), (3000.0, 2500.0, 3000.0), (1e5, 8e4, 1e5)
     radius = 4.0
-    args = ((0, 1, 2), 0.5 * math.pi * radius, 0.0, 1 / radius, 1 / radius**2, 1e9)
+    follow = FollowGeometry((0, 1, 2), 0.0, 1 / radius, 1 / radius**2, 1e9)
+    length, limits = 0.5 * math.pi * radius, Limits(vmax, amax, jmax)
     v_curv = min(math.sqrt(2500.0 * radius), (8e4 * radius**2) ** (1 / 3))
-    alone = arc_limits(*args, vmax, amax, jmax)
-    chained = arc_limits(*args, vmax, amax, jmax, (math.inf, math.inf))
+    alone = arc_limits(follow, length, limits)
+    chained = arc_limits(follow, length, limits, (math.inf, math.inf))
     assert alone.cap_mm_per_s < 0.9 * v_curv
     assert chained.cap_mm_per_s >= 0.98 * v_curv

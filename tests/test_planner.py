@@ -10,7 +10,7 @@ import pytest
 
 from gantry_sim.controller.errors import ConfigError, PlanningError
 from gantry_sim.controller.moves import Linear, Rapid
-from gantry_sim.controller.planner.lookahead import s_curve_time
+from gantry_sim.controller.planner.limits import s_curve_time
 from gantry_sim.controller.planner.move_geometry import move_geometry
 from gantry_sim.controller.planner.plan import plan
 from tests.plan_helpers import arc, arc_deviation, assert_within_limits, helix, limit_ratios
@@ -95,7 +95,7 @@ def test_small_circles_from_rest_ramp_faster_than_their_worst_case_limits(machin
     p, tr = _sample([a], machine)
     assert_within_limits(tr, machine, [a])
     assert arc_deviation(tr, a) <= 0.25 * TOL
-    lim = move_geometry(a, machine, 1.0).limits
+    lim = move_geometry(a, machine.limits, machine.segmentation, 1.0).limits
     worst_case = a.length_mm / lim.cap_mm_per_s + s_curve_time(
         lim.cap_mm_per_s, lim.acc_mm_per_s2, lim.jerk_mm_per_s3
     )

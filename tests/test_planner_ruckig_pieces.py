@@ -8,21 +8,7 @@ import numpy as np
 from gantry_sim.controller.gcode.interpreter import parse_program
 from gantry_sim.controller.moves import Arc
 from gantry_sim.controller.planner.plan import plan
-from tests.plan_helpers import arc_deviation, assert_within_limits
-
-# One loop of a rounded rectangle at F6000: line -> R1 corner arc junctions (curvature jumps).
-ROUNDED_RECTANGLE = """G21 G17 G90 F6000
-G0 X-4 Y-3
-G1 X4
-G3 X5 Y-2 R1
-G1 Y2
-G3 X4 Y3 R1
-G1 X-4
-G3 X-5 Y2 R1
-G1 Y-2
-G3 X-4 Y-3 R1
-M2
-"""
+from tests.plan_helpers import ROUNDED_RECTANGLE, arc_deviation, assert_within_limits
 
 
 def test_ruckig_pieces_beside_junctions_keep_limits_and_tolerance(machine):

@@ -1,4 +1,5 @@
-"""Saturated ramps on small arcs from rest (controller/saturated_ramp.py) and their use."""
+"""Saturated ramps on small arcs from rest (controller/planner/saturated_ramp.py, its bounds in
+ramp_bounds.py) and their use."""
 
 from __future__ import annotations
 
@@ -7,15 +8,12 @@ import math
 import numpy as np
 import pytest
 
-from gantry_sim.controller.planner.lookahead import s_curve_time
+from gantry_sim.controller.gcode.interpreter import parse_program
+from gantry_sim.controller.planner.limits import FollowGeometry, s_curve_time
 from gantry_sim.controller.planner.plan import plan
-from gantry_sim.controller.planner.saturated_ramp import (
-    SHARE,
-    CircleLimits,
-    NormLimits,
-    saturated_profile,
-)
-from gantry_sim.controller.planner.speedup import FollowGeometry, follow_ok
+from gantry_sim.controller.planner.ramp_bounds import CircleLimits, NormLimits
+from gantry_sim.controller.planner.saturated_ramp import SHARE, saturated_profile
+from gantry_sim.controller.planner.speedup import follow_ok
 from tests.plan_helpers import arc, arc_deviation, assert_within_limits
 
 AMAX, JMAX = (3000.0, 2500.0, 3000.0), (1e5, 8e4, 1e5)
@@ -40,7 +38,7 @@ def test_orientation_free_ramps_are_continuous_end_exactly_and_follow_the_arc(ra
     lim = NormLimits(1 / radius, 1 / radius**2, SHARE * 2500.0, SHARE * 8e4)
     ph = saturated_profile(length, v_in, v_out, 100.0, (lim, lim))
     assert ph is not None
-    _check_phases(ph, length, v_in, v_out)
+    _check_phases(ph.rows, length, v_in, v_out)
     fg = FollowGeometry((0, 1, 2), 0.0, 1 / radius, 1 / radius**2, 100.0)
     assert follow_ok(ph, fg, 100.0, AMAX, JMAX)
 
@@ -55,9 +53,9 @@ def test_per_axis_ramps_keep_each_axis_limit_along_the_circle():
     cap = (SHARE * 8e4 * r * r) ** (1 / 3)
     ph = saturated_profile(length, 0.0, 0.0, cap, lims)
     assert ph is not None
-    _check_phases(ph, length, 0.0, 0.0)
-    tt = ph[:, :1] * np.linspace(0.0, 1.0, 9)[None, :]
-    s, v, a, j = (ph[:, i : i + 1] for i in range(1, 5))
+    _check_phases(ph.rows, length, 0.0, 0.0)
+    tt = ph.dur[:, None] * np.linspace(0.0, 1.0, 9)[None, :]
+    s, v, a, j = (col[:, None] for col in (ph.s, ph.v, ph.a, ph.j))
     ss, vv, aa = (
         s + tt * (v + tt * (0.5 * a + tt * j / 6.0)),
         v + tt * (a + 0.5 * tt * j),
@@ -87,3 +85,64 @@ def test_small_circle_from_rest_meets_the_cycle_time_target(machine):
     assert_within_limits(tr, machine, moves)
     assert arc_deviation(tr, moves[0]) <= 0.25 * machine.segmentation.chord_tolerance_mm
     np.testing.assert_allclose(tr.pos[-1], moves[0].end, atol=1e-9)
+
+
+# --- Tiny arcs from rest: the saturated ramps cannot be assembled; the planner must fall back ---
+
+#: A 0.2 um arc on R 5 at F6000 (issue 15, defect 1): both ramps would be empty.
+TINY_ARC = "G21 G90 G17\nG0 X0 Y-5\nG2 X-0.0002 Y-5 I0 J5 F6000\nM2\n"
+#: Two short tangent G2 arcs at F10048 in/min in inches: the first one's ramp back from its moving
+#: end would be empty.
+TWO_SHORT_ARCS_INCH = (
+    "G20 G90 G17\nG0 X0 Y-0.05\nG2 X-0.0001 Y-0.05 I0 J0.05 F10048\n"
+    "G2 X-0.0002 Y-0.05 I0.0001 J0.05\nM2\n"
+)
+
+
+def _short_arc_programs(count: int, rng: np.random.Generator) -> list[str]:
+    """Single arcs from rest on R <= 5 mm at 3000-6000 mm/min, written to 4 decimals as a CAM
+    post would: mostly short ones (0.1 um to 3 um, where the ramps have no room), some
+    near-full circles (a gap of up to 1 mm)."""
+    out = []
+    for k in range(count):
+        r = float(rng.uniform(0.5, 5.0))
+        feed = float(rng.uniform(3000.0, 6000.0))
+        word = "G2" if rng.random() < 0.5 else "G3"
+        if k % 4 == 3:
+            sweep = 2 * math.pi - float(rng.uniform(1e-4, 1.0)) / r
+        else:
+            sweep = float(rng.uniform(1e-4, 3e-3)) / r
+        th = -0.5 * math.pi + (-sweep if word == "G2" else sweep)
+        x, y = r * math.cos(th), r * math.sin(th)
+        out.append(
+            f"G21 G90 G17\nG0 X0 Y{-r:.4f}\n{word} X{x:.4f} Y{y:.4f} I0 J{r:.4f} F{feed:.0f}\nM2\n"
+        )
+    return out
+
+
+def _plans_within_limits(text: str, machine) -> None:
+    moves = parse_program(text)
+    p = plan(moves, machine)
+    assert np.isfinite(p.duration_s) and p.duration_s > 0
+    tr = p.sample(machine.servo.period_s)
+    assert_within_limits(tr, machine, moves)
+    np.testing.assert_allclose(tr.pos[-1], moves[-1].end, atol=1e-9)
+    assert not tr.vel[-1].any()
+
+
+def test_saturated_profile_without_room_for_its_ramps_is_none_not_an_error():
+    """0.2 um from rest: no ramp fits, so there is no saturated profile (the caller falls back)."""
+    r, length = 5.0, 2e-4
+    acc, jerk = (SHARE * 3000.0, SHARE * 2500.0), (SHARE * 1e5, SHARE * 8e4)
+    lims = tuple(CircleLimits(-0.5 * math.pi, -1.0, r, length, rev, acc, jerk) for rev in (0, 1))
+    assert saturated_profile(length, 0.0, 0.0, 30.0, lims) is None
+
+
+@pytest.mark.parametrize("text", [TINY_ARC, TWO_SHORT_ARCS_INCH], ids=["tiny-arc", "two-inch-arcs"])
+def test_tiny_arcs_plan_within_limits(machine, text):
+    _plans_within_limits(text, machine)
+
+
+def test_generated_short_and_near_full_arcs_plan_within_limits(machine):
+    for text in _short_arc_programs(8, np.random.default_rng(15)):
+        _plans_within_limits(text, machine)

@@ -1,35 +1,52 @@
 """Exact arc states along a move's 1-D profile: where the reference passes through the arc.
 
-The profile ``ph`` (rows: duration [s], s [mm], v [mm/s], a_t [mm/s^2], j_t [mm/s^3]) is
-inverted at the vertices' arc lengths (:func:`invert_profile`), and each vertex gets the arc's
-exact state (position [mm], velocity [mm/s], acceleration [mm/s^2]; :func:`vertex_states`).
+The :class:`~gantry_sim.controller.planner.profile.Profile1D` is inverted at the vertices' arc
+lengths, and each vertex gets the arc's exact state (position [mm], velocity [mm/s],
+acceleration [mm/s^2]; :func:`vertex_states`).
 """
 
 from __future__ import annotations
 
-from typing import TYPE_CHECKING
+from dataclasses import dataclass
 
 import numpy as np
 
-if TYPE_CHECKING:
-    from gantry_sim.controller.planner.move_geometry import MoveGeometry
-
+from gantry_sim.controller.planner.junctions import EndState
+from gantry_sim.controller.planner.move_geometry import ArcGeometry
+from gantry_sim.controller.planner.profile import Profile1D
 
 #: Extra vertices at 1/2, 1/4, ... of the first (last) chord of an arc that starts (ends) at rest.
 STOP_REFINEMENT = 8
 
 
-def vertex_states(g: MoveGeometry, ph: np.ndarray, state_in, state_out):
+@dataclass(frozen=True, eq=False)
+class VertexStates:
+    """The reference's states at k vertices along an arc.
+
+    Attributes:
+        u: sweep fractions (k,), 0 first and 1 last.
+        positions: (k, 3) [mm], on the arc.
+        velocities: (k, 3) [mm/s]; first and last: the move's end states.
+        accelerations: (k, 3) [mm/s^2]; likewise.
+        durations: (k - 1,) times between consecutive vertices [s].
+    """
+
+    u: np.ndarray
+    positions: np.ndarray
+    velocities: np.ndarray
+    accelerations: np.ndarray
+    durations: np.ndarray
+
+
+def vertex_states(
+    g: ArcGeometry, profile: Profile1D, state_in: EndState, state_out: EndState
+) -> VertexStates:
     """Exact arc states where the reference passes through the arc.
 
-    Vertices: the chord vertices, plus the points where the 1-D profile ``ph`` (rows: duration,
-    s, v, a_t, j_t) switches phase (within one phase the motion is smooth), plus, next to a stop,
-    points at 1/2, 1/4, ... of the end chord (there the speed grows like s^(2/3); a piece across
-    the whole chord would start along a straight line).
-
-    Returns:
-        u (k,), positions (k, 3) [mm], velocities (k, 3) [mm/s], accelerations (k, 3) [mm/s^2]
-        (first and last: ``state_in`` / ``state_out``), and the (k - 1,) times between them [s].
+    Vertices: the chord vertices, plus the points where ``profile`` switches phase (within one
+    phase the motion is smooth), plus, next to a stop, points at 1/2, 1/4, ... of the end chord
+    (there the speed grows like s^(2/3); a piece across the whole chord would start along a
+    straight line).
     """
     # Each knot of the 1-D profile becomes a vertex: the nearest chord vertex moves onto it when
     # within a quarter chord (a piece much shorter than a chord would let rounding dominate its
@@ -39,7 +56,7 @@ def vertex_states(g: MoveGeometry, ph: np.ndarray, state_in, state_out):
     u = g.u.copy()
     snapped = np.zeros(m + 1, dtype=bool)
     extra = []
-    for uk in ph[1:, 1] / g.length_mm:
+    for uk in profile.s[1:] / g.length_mm:
         if not 0.0 < uk < 1.0:
             continue
         i = round(uk * m)
@@ -49,43 +66,19 @@ def vertex_states(g: MoveGeometry, ph: np.ndarray, state_in, state_out):
             extra.append(uk)
     u = np.union1d(u, extra)
     halves = 0.5 ** np.arange(1, STOP_REFINEMENT + 1)
-    if not np.any(state_in[0]):
+    if not state_in.moving:
         u = np.union1d(u, u[1] * halves)
-    if not np.any(state_out[0]):
+    if not state_out.moving:
         u = np.union1d(u, 1.0 - (1.0 - u[-2]) * halves)
     u = u[np.concatenate(([True], np.diff(u) > 1e-12))]
     u[-1] = 1.0
-    t_k, v_k, a_k = invert_profile(ph, u[1:-1] * g.length_mm)
+    t_k, v_k, a_k = profile.invert(u[1:-1] * g.length_mm)
     d1, d2 = g.derivatives(u[1:-1])
     speed_u = np.linalg.norm(d1, axis=1)
     ud = (v_k / speed_u)[:, None]
     udd = (a_k / speed_u)[:, None]
-    vel = np.vstack([state_in[0], d1 * ud, state_out[0]])
-    acc = np.vstack([state_in[1], d2 * ud * ud + d1 * udd, state_out[1]])
-    times = np.concatenate(([0.0], t_k, [float(ph[:, 0].sum())]))
+    vel = np.vstack([state_in.vel_mm_per_s, d1 * ud, state_out.vel_mm_per_s])
+    acc = np.vstack([state_in.acc_mm_per_s2, d2 * ud * ud + d1 * udd, state_out.acc_mm_per_s2])
+    times = np.concatenate(([0.0], t_k, [profile.duration_s]))
     verts = g.vertices if np.array_equal(u, g.u) else g.points(u)
-    return u, verts, vel, acc, np.maximum(np.diff(times), 0.0)
-
-
-def invert_profile(ph: np.ndarray, s: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Times [s], speeds [mm/s], tangential accelerations [mm/s^2] where the 1-D profile ``ph``
-    passes the arc lengths ``s`` [mm] (ascending)."""
-    keep = ph[:, 0] > 0
-    dur, p, v, a, j = ph[keep].T
-    t0 = np.concatenate(([0.0], np.cumsum(dur)[:-1]))
-    k = np.clip(np.searchsorted(p, s, side="right") - 1, 0, p.size - 1)
-    lo, hi = np.zeros(s.size), dur[k].copy()
-    pk, vk, ak, jk = p[k], v[k], a[k], j[k]
-    for _ in range(24):  # bisection: s(t) is monotone (v >= 0) ...
-        mid = 0.5 * (lo + hi)
-        below = pk + mid * (vk + mid * (0.5 * ak + mid * jk / 6.0)) < s
-        lo = np.where(below, mid, lo)
-        hi = np.where(below, hi, mid)
-    tau = 0.5 * (lo + hi)
-    for _ in range(3):  # ... then Newton, kept inside the bracket
-        f = pk + tau * (vk + tau * (0.5 * ak + tau * jk / 6.0)) - s
-        df = vk + tau * (ak + 0.5 * tau * jk)
-        with np.errstate(divide="ignore", invalid="ignore"):
-            step = np.where(df > 0, f / df, 0.0)
-        tau = np.clip(tau - step, lo, hi)
-    return t0[k] + tau, vk + tau * (ak + 0.5 * tau * jk), ak + tau * jk
+    return VertexStates(u, verts, vel, acc, np.maximum(np.diff(times), 0.0))

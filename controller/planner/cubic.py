@@ -47,10 +47,6 @@ class PiecewiseCubic:
 
     axes: tuple[tuple[np.ndarray, ...], ...]
 
-    @property
-    def phase_count(self) -> int:
-        return sum(ax[0].size for ax in self.axes)
-
     def evaluate(self, t: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """Position, velocity, acceleration (N, 3) at times ``t`` (N,) [s] (inside the motion)."""
         pos = np.empty((t.size, 3))

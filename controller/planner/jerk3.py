@@ -23,27 +23,42 @@ planner gives the pieces that fail to Ruckig.
 
 from __future__ import annotations
 
+from typing import NamedTuple
+
 import numpy as np
 
 _M_INV = np.linalg.inv(np.array([[1.0, 1.0, 1.0], [2.5, 1.5, 0.5], [19 / 6, 7 / 6, 1 / 6]]))
 
 
-def jerk3(
-    p: np.ndarray, v: np.ndarray, a: np.ndarray, dur: np.ndarray
-) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+class PiecePhases(NamedTuple):
+    """The three phases of n pieces, each array (n, 3 phases, 3 axes): every phase's start
+    position [mm], velocity [mm/s], acceleration [mm/s^2], and its jerk [mm/s^3]."""
+
+    p: np.ndarray
+    v: np.ndarray
+    a: np.ndarray
+    j: np.ndarray
+
+
+def jerk3(p: np.ndarray, v: np.ndarray, a: np.ndarray, dur: np.ndarray) -> PiecePhases:
     """Phases joining consecutive states.
 
     Args:
         p, v, a: (n + 1, 3) states at the vertices [mm], [mm/s], [mm/s^2].
         dur: (n,) piece durations [s], > 0.
-
-    Returns:
-        (ps, vs, as_, js), each (n, 3 phases, 3 axes): start state and jerk of each phase.
     """
     return jerk3_pairs(p[:-1], v[:-1], a[:-1], p[1:], v[1:], a[1:], dur)
 
 
-def jerk3_pairs(p0, v0, a0, p1, v1, a1, dur):
+def jerk3_pairs(
+    p0: np.ndarray,
+    v0: np.ndarray,
+    a0: np.ndarray,
+    p1: np.ndarray,
+    v1: np.ndarray,
+    a1: np.ndarray,
+    dur: np.ndarray,
+) -> PiecePhases:
     """Like :func:`jerk3` for independent pieces: states (n, 3) at their starts and ends."""
     h = (dur / 3.0)[:, None]
     r0 = (a1 - a0) / h
@@ -59,7 +74,7 @@ def jerk3_pairs(p0, v0, a0, p1, v1, a1, dur):
         cp = cp + h * (cv + h * (0.5 * ca + h * jk / 6.0))
         cv = cv + h * (ca + 0.5 * h * jk)
         ca = ca + h * jk
-    return ps, vs, as_, js
+    return PiecePhases(ps, vs, as_, js)
 
 
 def piece_limits_ok(
@@ -78,7 +93,7 @@ def piece_limits_ok(
     Jerk: per phase. Acceleration: linear per phase, so at the phase ends. Velocity per axis:
     quadratic per phase, so at its ends and its stationary point. Path speed: at 5 points per
     phase (including the ends; the arc's speed cap keeps a margin below the feed for what lies
-    between, see path.py). ``speed_cap`` [mm/s]: a number or one per piece.
+    between, see move_geometry.FEED_MARGIN_PER_PHI4). ``speed_cap`` [mm/s]: a number or one per piece.
     """
     vmax, amax, jmax = (np.asarray(x, dtype=float) for x in (vmax, amax, jmax))
     ok = np.all(np.abs(js) <= jmax, axis=(1, 2))

@@ -1,44 +1,199 @@
-"""Junction speeds the closed-form pieces can take: a vectorised check before planning.
+"""Junctions between consecutive moves: their speed caps and the reference's state there.
 
-At a junction with a curvature or direction jump the reference leaves the geometry briefly: the
-piece from the junction state to the neighbouring arc's first (or last) chord vertex must absorb
-the jump within one chord. :func:`feasible_junction_caps` lowers each moving junction's cap (by
-bisection, all junctions at once) until those two pieces, at constant speed, keep every axis'
-limits and the feed (:func:`gantry_sim.controller.planner.jerk3.piece_limits_ok`). The planner still checks the real
-pieces afterwards and lowers a cap further when needed; this only saves re-planning rounds.
+* A corner (tangent direction turns by more than :data:`CORNER_ANGLE_RAD`, or by more than
+  :data:`COLLINEAR_ANGLE_RAD` between two straight moves, which are followed exactly) is an exact
+  stop, as is every rapid's start and end and the program's start and end.
+* A tangent junction keeps its speed, except that a jump of the velocity direction (a kink of
+  angle d: velocity jump v d) or of the curvature (acceleration jump v^2 |k1 - k2|, e.g. line ->
+  arc, arc -> arc of another radius) cannot be followed exactly with finite jerk: the pieces
+  smooth it within the neighbouring chord, and the junction speed is capped so that the
+  smoothing stays within a deviation budget e [mm] (:func:`junction_cap`, :func:`junction_caps`).
+* The piece from the junction state to the neighbouring arc's first (or last) chord vertex must
+  absorb the jump within one chord: :func:`feasible_junction_caps` lowers each moving junction's
+  cap (by bisection, all junctions at once) until those two pieces, at constant speed, keep every
+  axis' limits and the feed (:func:`gantry_sim.controller.planner.jerk3.piece_limits_ok`). The
+  planner still checks the real pieces afterwards and lowers a cap further when needed; this only
+  saves re-planning rounds.
 """
 
 from __future__ import annotations
 
+import math
+from dataclasses import dataclass
+from typing import NamedTuple
+
 import numpy as np
 
 from gantry_sim.controller.arcs import frenet
-from gantry_sim.controller.config import MachineConfig
+from gantry_sim.controller.config import Limits
+from gantry_sim.controller.moves import Rapid
+from gantry_sim.controller.planes import Vec3
 from gantry_sim.controller.planner.jerk3 import jerk3_pairs, piece_limits_ok
+from gantry_sim.controller.planner.move_geometry import ArcGeometry, MoveGeometry
 
+#: Tangent-direction change above which a junction involving an arc is a corner [rad] (1 degree).
+CORNER_ANGLE_RAD = math.radians(1.0)
+#: Two straight moves are followed exactly: they keep speed only when collinear within this [rad].
+COLLINEAR_ANGLE_RAD = 1e-6
+#: The smoothing of a junction's jump must take at most 1/CHORD_FIT of the adjacent chord's time
+#: (a first guess; the planner then checks the pieces themselves).
+CHORD_FIT = 4.0
+#: Share of the chord tolerance that the smoothing of a junction's velocity/acceleration jump may
+#: use (see :func:`junction_cap`).
+JUNCTION_DEVIATION_SHARE = 0.1
 #: Bisection steps on the junction speed (the cap is found to within 2^-10 of its start value).
 STEPS = 10
 
 
-def _piece_ok(p0, v0, a0, p1, v1, a1, dur, lim, feed) -> np.ndarray:
-    """Vectorised: each row one piece (states (m, 3), dur (m,)); True where it keeps the limits."""
+class EndState(NamedTuple):
+    """The reference's velocity [mm/s] and acceleration [mm/s^2] (3,) where a move starts or
+    ends."""
+
+    vel_mm_per_s: np.ndarray
+    acc_mm_per_s2: np.ndarray
+
+    @property
+    def moving(self) -> bool:
+        return bool(np.any(self.vel_mm_per_s))
+
+
+@dataclass(frozen=True, eq=False)
+class JunctionState:
+    """The reference's state at a junction per unit speed: passing at speed v it has velocity
+    v * ``direction`` and acceleration v^2 * ``curvature_per_mm`` (the tangential part is 0 at
+    junctions).
+
+    Attributes:
+        direction: unit velocity direction (3,) (zeros at the start of an empty program).
+        curvature_per_mm: curvature vector (3,) [1/mm].
+    """
+
+    direction: np.ndarray
+    curvature_per_mm: np.ndarray
+
+    def at(self, speed_mm_per_s: float) -> EndState:
+        """The state when passed at ``speed_mm_per_s``."""
+        return EndState(self.direction * speed_mm_per_s, self.curvature_per_mm * speed_mm_per_s**2)
+
+
+def junction_cap(
+    kink_rad: float,
+    curvature_jump_per_mm: float,
+    deviation_mm: float,
+    jerk_mm_per_s3: float,
+    chord_mm: float,
+) -> float:
+    """Highest speed [mm/s] through a tangent junction so that the jerk-limited smoothing of its
+    velocity and acceleration jumps stays within ``deviation_mm`` and fits in the adjacent chord.
+
+    A velocity jump dv, smoothed with jerk J, takes 2 sqrt(dv/J) and deviates by about
+    dv^1.5 / (2 sqrt J): dv <= (2 e sqrt J)^(2/3). An acceleration jump da takes da/J and deviates
+    by about da^3 / (6 J^2): da <= (6 e J^2)^(1/3). With dv = v * kink and da = v^2 * |k1 - k2|.
+    The smoothing must also be done well within the chord's time T = chord / v, since the piece
+    ends on the arc's exact state: da / J <= T / CHORD_FIT and 2 sqrt(dv / J) <= T / CHORD_FIT.
+    The planner checks the pieces next to every moving junction and lowers the cap further where
+    needed.
+    """
+    cap = math.inf
+    j, e = jerk_mm_per_s3, deviation_mm
+    if kink_rad > 0:
+        cap = min(
+            (2.0 * e * math.sqrt(j)) ** (2.0 / 3.0) / kink_rad,
+            (j * chord_mm**2 / (4.0 * CHORD_FIT**2 * kink_rad)) ** (1.0 / 3.0),
+        )
+    if curvature_jump_per_mm > 0:
+        da = (6.0 * e * j**2) ** (1.0 / 3.0)
+        cap = min(
+            cap,
+            math.sqrt(da / curvature_jump_per_mm),
+            (j * chord_mm / (CHORD_FIT * curvature_jump_per_mm)) ** (1.0 / 3.0),
+        )
+    return cap
+
+
+def junction_caps(
+    geoms: list[MoveGeometry], limits: Limits, chord_tolerance_mm: float
+) -> tuple[np.ndarray, list[JunctionState]]:
+    """Speed caps and states at the junctions of consecutive moves (the smoothing of a jump may
+    use :data:`JUNCTION_DEVIATION_SHARE` of ``chord_tolerance_mm``).
+
+    Returns:
+        caps: (len(geoms) + 1,) [mm/s]; 0 at the program's start and end, at rapids and corners.
+        states: per junction, the :class:`JunctionState`. Next to a straight move, its own
+            direction and no curvature (straight moves are followed exactly); between two arcs,
+            the mean of both sides.
+    """
+    n = len(geoms)
+    caps = np.zeros(n + 1)
+    zero = np.zeros(3)
+    states = [JunctionState(g.tangent_in, zero) for g in geoms] + [
+        JunctionState(geoms[-1].tangent_out if n else zero, zero)
+    ]
+    jerk = float(min(limits.max_jerk_mm_per_s3))
+    dev = JUNCTION_DEVIATION_SHARE * chord_tolerance_mm
+    for b in range(1, n):
+        g0, g1 = geoms[b - 1], geoms[b]
+        if isinstance(g0.move, Rapid) or isinstance(g1.move, Rapid):
+            continue
+        cos_k = float(np.clip(np.dot(g0.tangent_out, g1.tangent_in), -1.0, 1.0))
+        kink = math.acos(cos_k)
+        if not (g0.is_arc or g1.is_arc):
+            if kink <= COLLINEAR_ANGLE_RAD:
+                caps[b] = math.inf
+                states[b] = JunctionState(g1.tangent_in, zero)
+            continue
+        if kink > CORNER_ANGLE_RAD:
+            continue
+        if g0.is_arc and g1.is_arc:
+            d = g0.tangent_out + g1.tangent_in
+            states[b] = JunctionState(d / np.linalg.norm(d), 0.5 * (g0.curv_out + g1.curv_in))
+        else:
+            straight = g1 if g0.is_arc else g0
+            states[b] = JunctionState(straight.tangent_in, zero)
+        jump = float(np.linalg.norm(g0.curv_out - g1.curv_in))
+        if g0.is_arc and g1.is_arc:  # the junction state takes the mean: each side smooths half
+            jump *= 0.5
+        chords = [np.linalg.norm(g0.vertices[-1] - g0.vertices[-2])] if g0.is_arc else []
+        chords += [np.linalg.norm(g1.vertices[1] - g1.vertices[0])] if g1.is_arc else []
+        caps[b] = junction_cap(kink, jump, dev, jerk, float(min(chords)))
+    return caps, states
+
+
+def _piece_ok(
+    p0: np.ndarray,
+    v0: np.ndarray,
+    a0: np.ndarray,
+    p1: np.ndarray,
+    v1: np.ndarray,
+    a1: np.ndarray,
+    dur: np.ndarray,
+    lim: tuple[Vec3, Vec3, Vec3],
+    feed: np.ndarray,
+) -> np.ndarray:
+    """Vectorised: each row one piece (states (m, 3), dur (m,)); True where it keeps the
+    per-axis limits ``lim`` and the path speeds ``feed`` [mm/s]."""
     _ps, vs, as_, js = jerk3_pairs(p0, v0, a0, p1, v1, a1, dur)
     return piece_limits_ok(vs, as_, js, dur, a1, *lim, feed)
 
 
-def feasible_junction_caps(geoms, caps: np.ndarray, states, machine: MachineConfig) -> np.ndarray:
-    """Return ``caps`` lowered where the pieces next to a junction could not keep the limits."""
-    lim = machine.limits
-    limits = (lim.max_velocity_mm_per_s, lim.max_acceleration_mm_per_s2, lim.max_jerk_mm_per_s3)
+def feasible_junction_caps(
+    geoms: list[MoveGeometry],
+    caps: np.ndarray,
+    states: list[JunctionState],
+    limits: Limits,
+) -> np.ndarray:
+    """Return ``caps`` lowered where the pieces next to a junction could not keep the
+    per-axis ``limits`` or the feed."""
+    per_axis = limits.per_axis()
     rows = []  # (junction, p0, t0, k0, p1, t1, k1, chord length along the path, feed, side)
     caps = caps.copy()
     for b in range(1, len(geoms)):
         caps[b] = min(caps[b], geoms[b - 1].limits.cap_mm_per_s, geoms[b].limits.cap_mm_per_s)
         if not caps[b] > 0.0:
             continue
-        d, kv = states[b]
+        d, kv = states[b].direction, states[b].curvature_per_mm
         for g, side in ((geoms[b], "after"), (geoms[b - 1], "before")):
-            if not g.is_arc:
+            if not isinstance(g, ArcGeometry):
                 continue
             u = g.u[1] if side == "after" else g.u[-2]
             d1, d2 = g.derivatives(np.array([u]))
@@ -61,7 +216,7 @@ def feasible_junction_caps(geoms, caps: np.ndarray, states, machine: MachineConf
     def ok_at(v):
         vv = v[:, None]
         return _piece_ok(
-            p0, vv * t0, vv * vv * k0, p1, vv * t1, vv * vv * k1, length / v, limits, feed
+            p0, vv * t0, vv * vv * k0, p1, vv * t1, vv * vv * k1, length / v, per_axis, feed
         )
 
     good = ok_at(hi)
@@ -80,7 +235,7 @@ def feasible_junction_caps(geoms, caps: np.ndarray, states, machine: MachineConf
             mid[:, None] * sub[4],
             (mid * mid)[:, None] * sub[5],
             sub[6] / mid,
-            limits,
+            per_axis,
             sub[7],
         )
         lo_i = np.where(okm, mid, lo_i)

@@ -12,38 +12,30 @@ from dataclasses import dataclass, replace
 import numpy as np
 
 from gantry_sim.controller.arcs import arc_derivatives, arc_frame, arc_points, frenet
-from gantry_sim.controller.config import MachineConfig
+from gantry_sim.controller.config import Limits, Segmentation
 from gantry_sim.controller.moves import Arc, Move, Rapid
 from gantry_sim.controller.planes import PLANE_AXES
-from gantry_sim.controller.planner.lookahead import (
-    COLLINEAR_ANGLE_RAD,
-    CORNER_ANGLE_RAD,
+from gantry_sim.controller.planner.limits import (
     BlockLimits,
+    FollowGeometry,
     arc_limits,
-    junction_cap,
     straight_limits,
 )
 from gantry_sim.controller.planner.segment import segment_arc
-from gantry_sim.controller.planner.speedup import FollowGeometry
 from gantry_sim.controller.units import mm_per_min_to_mm_per_s
 
-#: Share of the chord tolerance that the smoothing of a junction's velocity/acceleration jump may
-#: use (see :func:`gantry_sim.controller.planner.lookahead.junction_cap`).
-JUNCTION_DEVIATION_SHARE = 0.1
-
-
-#: The closed-form arc pieces (controller.jerk3) overshoot the vertex speed by about
+#: The closed-form arc pieces (:mod:`gantry_sim.controller.planner.jerk3`) overshoot the vertex speed by about
 #: 5e-4 * phi^4 (phi: chord sweep [rad]); the arc's speed cap keeps twice that below the feed.
 FEED_MARGIN_PER_PHI4 = 1e-3
 
 
 @dataclass(frozen=True)
 class MoveGeometry:
-    """What the planner needs to know about one move."""
+    """What the planner needs to know about one move (a straight one; arcs:
+    :class:`ArcGeometry`)."""
 
     move: Move
     vertices: np.ndarray  # (k, 3) [mm], read-only
-    u: np.ndarray | None  # arcs: sweep fractions of the vertices
     length_mm: float
     tangent_in: np.ndarray  # unit tangent at the start
     tangent_out: np.ndarray  # unit tangent at the end
@@ -51,16 +43,24 @@ class MoveGeometry:
     curv_out: np.ndarray  # curvature vector at the end [1/mm]
     limits: BlockLimits
     feed_mm_per_s: float  # programmed path speed after override (inf for rapids) [mm/s]
-    #: Arcs: what :func:`gantry_sim.controller.planner.speedup.follow_ok` needs to check a speed profile exactly.
-    follow: FollowGeometry | None = None
 
     @property
     def is_arc(self) -> bool:
-        return isinstance(self.move, Arc)
+        return isinstance(self, ArcGeometry)
 
     @property
     def start(self) -> np.ndarray:
         return self.vertices[0]
+
+
+@dataclass(frozen=True)
+class ArcGeometry(MoveGeometry):
+    """An arc's or helix's :class:`MoveGeometry`, with its exact geometry."""
+
+    move: Arc
+    u: np.ndarray  # sweep fractions of the vertices
+    #: What bounds following it exactly (its limits, :func:`~gantry_sim.controller.planner.speedup.follow_ok`).
+    follow: FollowGeometry
 
     def points(self, u: np.ndarray) -> np.ndarray:
         """Points on the arc at sweep fractions ``u`` (u = 0 and 1: start and end exactly)."""
@@ -86,14 +86,9 @@ class MoveGeometry:
         return arc_derivatives(self.move, u)
 
 
-def move_geometry(move: Move, machine: MachineConfig, feed_scale: float) -> MoveGeometry:
-    """Vertices, end tangents/curvatures and 1-D limits of ``move`` (feed times ``feed_scale``)."""
-    lim = machine.limits
-    vmax, amax, jmax = (
-        lim.max_velocity_mm_per_s,
-        lim.max_acceleration_mm_per_s2,
-        lim.max_jerk_mm_per_s3,
-    )
+def move_geometry(move: Move, limits: Limits, seg: Segmentation, feed_scale: float) -> MoveGeometry:
+    """Vertices (arcs: chords by ``seg``), end tangents/curvatures and 1-D limits of ``move``
+    (feed times ``feed_scale``) on a machine of per-axis ``limits``."""
     zero = np.zeros(3)
     if not isinstance(move, Arc):
         verts = np.array([move.start, move.end], dtype=float)
@@ -105,23 +100,22 @@ def move_geometry(move: Move, machine: MachineConfig, feed_scale: float) -> Move
             if isinstance(move, Rapid)
             else mm_per_min_to_mm_per_s(move.feed_mm_per_min) * feed_scale
         )
-        limits = straight_limits(t, length, feed, vmax, amax, jmax)
-        return MoveGeometry(move, verts, None, length, t, t, zero, zero, limits, feed)
-    seg = machine.segmentation
+        block = straight_limits(t, length, feed, limits)
+        return MoveGeometry(move, verts, length, t, t, zero, zero, block, feed)
     verts = segment_arc(move, seg.method, seg.chord_tolerance_mm, seg.segment_length_mm)
     n = len(verts) - 1
     u = np.arange(n + 1) / n
     d1, d2 = arc_derivatives(move, np.array([0.0, 1.0]))
     t_in, k_in = frenet(d1[0], d2[0])
     t_out, k_out = frenet(d1[1], d2[1])
-    _, _, _, _, _, r0, r1, h0, h1 = arc_frame(move)
-    r_max = max(r0, r1)
+    frame = arc_frame(move)
+    r_max = max(frame.r0_mm, frame.r1_mm)
     speed_u = float(min(np.linalg.norm(d1[0]), np.linalg.norm(d1[1])))  # |dp/du| [mm]
     length = float(0.5 * (np.linalg.norm(d1[0]) + np.linalg.norm(d1[1])))
     ang = move.angle
     curvature = r_max * ang * ang / speed_u**2
     dcurv = r_max * ang**3 / speed_u**3
-    sin_pitch = abs(h1 - h0) / speed_u
+    sin_pitch = abs(frame.h1_mm - frame.h0_mm) / speed_u
     feed = mm_per_min_to_mm_per_s(move.feed_mm_per_min) * feed_scale
     follow = FollowGeometry(
         PLANE_AXES[move.plane],
@@ -130,88 +124,21 @@ def move_geometry(move: Move, machine: MachineConfig, feed_scale: float) -> Move
         dcurv,
         feed * (1.0 - FEED_MARGIN_PER_PHI4 * (ang / n) ** 4 - 1e-9),
     )
-    limits = arc_limits(
-        follow.plane_axes,
-        length,
-        follow.sin_pitch,
-        curvature,
-        dcurv,
-        follow.feed_cap_mm_per_s,
-        vmax,
-        amax,
-        jmax,
-    )
-    return MoveGeometry(move, verts, u, length, t_in, t_out, k_in, k_out, limits, feed, follow)
+    block = arc_limits(follow, length, limits)
+    return ArcGeometry(move, verts, length, t_in, t_out, k_in, k_out, block, feed, u, follow)
 
 
-def limits_for_junctions(geoms: list[MoveGeometry], caps: np.ndarray, machine: MachineConfig):
-    """``geoms`` with each arc's limits chosen for its junction caps ``caps`` (see
-    :func:`gantry_sim.controller.planner.lookahead.arc_limits`: inside a tangent chain an arc need not ramp from
-    rest, so it may cruise closer to its curvature cap)."""
-    lim = machine.limits
+def limits_for_junctions(
+    geoms: list[MoveGeometry], caps: np.ndarray, limits: Limits
+) -> list[MoveGeometry]:
+    """``geoms`` with each arc's limits chosen for its junction caps ``caps`` [mm/s] (see
+    :func:`gantry_sim.controller.planner.limits.arc_limits`: inside a tangent chain an arc need
+    not ramp from rest, so it may cruise closer to its curvature cap)."""
     out = []
     for b, g in enumerate(geoms):
-        if g.follow is None or not (caps[b] > 0 or caps[b + 1] > 0):
+        if not isinstance(g, ArcGeometry) or not (caps[b] > 0 or caps[b + 1] > 0):
             out.append(g)
             continue
-        fg = g.follow
-        limits = arc_limits(
-            fg.plane_axes,
-            g.length_mm,
-            fg.sin_pitch,
-            fg.curvature_per_mm,
-            fg.dcurv_per_mm2,
-            fg.feed_cap_mm_per_s,
-            lim.max_velocity_mm_per_s,
-            lim.max_acceleration_mm_per_s2,
-            lim.max_jerk_mm_per_s3,
-            (float(min(caps[b], 1e300)), float(min(caps[b + 1], 1e300))),
-        )
-        out.append(replace(g, limits=limits))
+        ends = (float(min(caps[b], 1e300)), float(min(caps[b + 1], 1e300)))
+        out.append(replace(g, limits=arc_limits(g.follow, g.length_mm, limits, ends)))
     return out
-
-
-def junctions(geoms: list[MoveGeometry], machine: MachineConfig) -> tuple[np.ndarray, list]:
-    """Speed caps and state directions at the junctions of consecutive moves.
-
-    Returns:
-        caps: (len(geoms) + 1,) [mm/s]; 0 at the program's start and end, at rapids and corners.
-        states: per junction (direction, curvature): the reference there has velocity
-            v * direction and acceleration v^2 * curvature (the tangential part is 0 at
-            junctions). Next to a straight move, its own direction and no curvature (straight
-            moves are followed exactly); between two arcs, the mean of both sides.
-    """
-    n = len(geoms)
-    caps = np.zeros(n + 1)
-    zero = np.zeros(3)
-    states: list = [(g.tangent_in, zero) for g in geoms] + [
-        (geoms[-1].tangent_out if n else zero, zero)
-    ]
-    jerk = float(min(machine.limits.max_jerk_mm_per_s3))
-    dev = JUNCTION_DEVIATION_SHARE * machine.segmentation.chord_tolerance_mm
-    for b in range(1, n):
-        g0, g1 = geoms[b - 1], geoms[b]
-        if isinstance(g0.move, Rapid) or isinstance(g1.move, Rapid):
-            continue
-        cos_k = float(np.clip(np.dot(g0.tangent_out, g1.tangent_in), -1.0, 1.0))
-        kink = math.acos(cos_k)
-        if not (g0.is_arc or g1.is_arc):
-            if kink <= COLLINEAR_ANGLE_RAD:
-                caps[b] = math.inf
-                states[b] = (g1.tangent_in, zero)
-            continue
-        if kink > CORNER_ANGLE_RAD:
-            continue
-        if g0.is_arc and g1.is_arc:
-            d = g0.tangent_out + g1.tangent_in
-            states[b] = (d / np.linalg.norm(d), 0.5 * (g0.curv_out + g1.curv_in))
-        else:
-            straight = g1 if g0.is_arc else g0
-            states[b] = (straight.tangent_in, zero)
-        jump = float(np.linalg.norm(g0.curv_out - g1.curv_in))
-        if g0.is_arc and g1.is_arc:  # the junction state takes the mean: each side smooths half
-            jump *= 0.5
-        chords = [np.linalg.norm(g0.vertices[-1] - g0.vertices[-2])] if g0.is_arc else []
-        chords += [np.linalg.norm(g1.vertices[1] - g1.vertices[0])] if g1.is_arc else []
-        caps[b] = junction_cap(kink, jump, dev, jerk, float(min(chords)))
-    return caps, states

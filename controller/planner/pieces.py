@@ -1,67 +1,99 @@
-"""One move's 1-D profile -> the reference's constant-jerk phases (:mod:`gantry_sim.controller.planner.cubic`).
+"""One move's 1-D profile -> the reference's constant-jerk phases
+(:mod:`gantry_sim.controller.planner.cubic`).
 
 Straight moves (G0/G1) are the profile projected on the line. Arcs: the profile is sampled at
-the vertices (:func:`gantry_sim.controller.planner.arc_states.vertex_states`: exact arc states, positions [mm],
-velocities [mm/s], accelerations [mm/s^2]) and consecutive states are joined by closed-form
-constant-jerk pieces (:mod:`gantry_sim.controller.planner.jerk3`); the pieces that would break a limit go to Ruckig
-through :meth:`MovePieces.ruckig_piece`, which :class:`gantry_sim.controller.planner.plan._Planner` provides
-(Ruckig is imported there only). Pieces next to a moving junction are checked against the arc.
+the vertices (:func:`gantry_sim.controller.planner.arc_states.vertex_states`: exact arc states,
+positions [mm], velocities [mm/s], accelerations [mm/s^2]) and consecutive states are joined by
+closed-form constant-jerk pieces (:mod:`gantry_sim.controller.planner.jerk3`); the pieces that
+would break a limit are made by the
+:class:`~gantry_sim.controller.planner.ruckig_solver.RuckigSolver` passed in. Pieces next to a
+moving junction are checked against the arc.
 """
 
 from __future__ import annotations
 
 from collections.abc import Sequence
+from dataclasses import dataclass
 
 import numpy as np
 
-from gantry_sim.controller.config import MachineConfig
-from gantry_sim.controller.planner.arc_states import vertex_states
+from gantry_sim.controller.config import Limits
+from gantry_sim.controller.errors import PlanningError
+from gantry_sim.controller.planner.arc_states import VertexStates, vertex_states
 from gantry_sim.controller.planner.cubic import CubicBuilder
-from gantry_sim.controller.planner.jerk3 import jerk3, jerk3_points, piece_limits_ok
-from gantry_sim.controller.planner.move_geometry import MoveGeometry
+from gantry_sim.controller.planner.jerk3 import PiecePhases, jerk3, jerk3_points, piece_limits_ok
+from gantry_sim.controller.planner.junctions import EndState
+from gantry_sim.controller.planner.move_geometry import ArcGeometry, MoveGeometry
+from gantry_sim.controller.planner.profile import Profile1D
+from gantry_sim.controller.planner.ruckig_solver import RuckigPiece, RuckigRejected, RuckigSolver
 
 #: Largest distance of a piece next to a moving junction from the arc, in chord tolerances;
 #: beyond it the junction's speed is lowered and the program planned again. The check samples 25
 #: points per piece; 0.23 leaves 0.02 below the 0.25 the benchmark allows (measured on 0.1 ms
 #: samples: 0.201 worst), and lets S-bends keep 26 mm/s instead of backing off to 16.
 JUNCTION_DEVIATION_MAX = 0.23
+#: Samples of a Ruckig piece next to a moving junction checked against the arc and the feed.
+PIECE_SAMPLES = 25
+
+
+@dataclass(frozen=True, eq=False)
+class Pieces:
+    """An arc's vertex states and the closed-form pieces between them.
+
+    Attributes:
+        states: the exact arc states the pieces join.
+        phases: the closed-form pieces (None when every piece goes to Ruckig).
+        ok: (k - 1,) True where the closed-form piece keeps every limit.
+    """
+
+    states: VertexStates
+    phases: PiecePhases | None
+    ok: np.ndarray
 
 
 class MovePieces:
     """Collects the reference's phases, move by move, and counts the pieces by kind.
 
-    ``pieces``: "jerk3" (closed-form pieces, Ruckig where they break a limit) or "ruckig".
+    ``limits``: the machine's per-axis limits; ``chord_tolerance_mm``: scales the deviation
+    allowed next to junctions; ``pieces``: "jerk3" (closed-form pieces, Ruckig where they break
+    a limit) or "ruckig"; ``solver`` makes the Ruckig pieces.
     """
 
-    def __init__(self, machine: MachineConfig, pieces: str) -> None:
-        lim = machine.limits
-        self.limits = (
-            lim.max_velocity_mm_per_s,
-            lim.max_acceleration_mm_per_s2,
-            lim.max_jerk_mm_per_s3,
-        )
+    def __init__(
+        self, limits: Limits, chord_tolerance_mm: float, pieces: str, solver: RuckigSolver
+    ) -> None:
+        self.limits = limits
         self.pieces = pieces
-        self.dev_max = JUNCTION_DEVIATION_MAX * machine.segmentation.chord_tolerance_mm
+        self.solver = solver
+        self.dev_max = JUNCTION_DEVIATION_MAX * chord_tolerance_mm
         self.out = CubicBuilder()
         self.ruckig_pieces = 0
-        self.fallbacks = 0
-        self.stretched = 0
-        self.boosted = 0
 
-    def straight(self, g: MoveGeometry, ph: np.ndarray) -> float:
+    def straight(self, g: MoveGeometry, profile: Profile1D) -> float:
+        """The profile projected on the straight move; its duration [s]."""
         for i in range(3):
             d = g.tangent_in[i]
             self.out.add(
-                i, ph[:, 0], g.start[i] + d * ph[:, 1], d * ph[:, 2], d * ph[:, 3], d * ph[:, 4]
+                i,
+                profile.dur,
+                g.start[i] + d * profile.s,
+                d * profile.v,
+                d * profile.a,
+                d * profile.j,
             )
-        return float(ph[:, 0].sum())
+        return profile.duration_s
 
     def arc(
-        self, g: MoveGeometry, ph: np.ndarray, state_in, state_out, fast: Sequence = ()
+        self,
+        g: ArcGeometry,
+        profile: Profile1D,
+        state_in: EndState,
+        state_out: EndState,
+        fast: Sequence[Profile1D] = (),
     ) -> tuple[float, bool, bool]:
         """Pieces between the exact arc states at the vertices: of the first profile in ``fast``
         (faster candidates, fastest first) whose closed-form pieces all keep the limits, else of
-        ``ph``.
+        ``profile``.
 
         Returns:
             (duration [s], bad_in, bad_out): bad_* when the piece next to a moving junction
@@ -71,22 +103,26 @@ class MovePieces:
         pieces = None
         for cand in () if self.pieces == "ruckig" else fast:
             found = self.closed_form(g, cand, state_in, state_out)
-            ok = found[-1]
-            if (
-                ok[1:-1].all()
-                and (ok[0] or np.any(state_in[0]))
-                and (ok[-1] or np.any(state_out[0]))
-            ):
-                self.boosted += 1
-                ph, pieces = cand, found
+            ok = found.ok
+            if ok[1:-1].all() and (ok[0] or state_in.moving) and (ok[-1] or state_out.moving):
+                pieces = found
                 break
         if pieces is None:
-            pieces = self.closed_form(g, ph, state_in, state_out)
-        u, verts, vel, acc, mins, ps, vs, as_, js, ok = pieces
+            pieces = self.closed_form(g, profile, state_in, state_out)
+        st, ok = pieces.states, pieces.ok
+        u, verts, vel, acc, mins = (
+            st.u,
+            st.positions,
+            st.velocities,
+            st.accelerations,
+            st.durations,
+        )
         n = mins.size
-        check = {0: bool(np.any(state_in[0])), n - 1: bool(np.any(state_out[0]))}
+        check = {0: state_in.moving, n - 1: state_out.moving}
         bad = {0: False, n - 1: False}
-        if ok.all():
+        phases = pieces.phases  # None only in "ruckig" mode, where no piece is ok
+        if ok.all() and phases is not None:
+            ps, vs, as_, js = phases
             dur = np.repeat(mins / 3.0, 3)
             for i in range(3):
                 cols = (ps[:, :, i], vs[:, :, i], as_[:, :, i], js[:, :, i])
@@ -98,7 +134,8 @@ class MovePieces:
             return float(mins.sum()), bad[0], bad[n - 1]
         total = 0.0
         for k in range(n):
-            if ok[k]:
+            if ok[k] and phases is not None:
+                ps, vs, as_, js = phases
                 h3 = [mins[k] / 3.0] * 3
                 for i in range(3):
                     self.out.add(i, h3, ps[k, :, i], vs[k, :, i], as_[k, :, i], js[k, :, i])
@@ -109,13 +146,13 @@ class MovePieces:
                 continue
             if self.pieces != "ruckig":
                 self.ruckig_pieces += 1
-            d = self.ruckig_piece(
-                g, verts[k], vel[k], acc[k], verts[k + 1], vel[k + 1], acc[k + 1], mins[k]
-            )
+            start, end = (verts[k], vel[k], acc[k]), (verts[k + 1], vel[k + 1], acc[k + 1])
+            piece = self.ruckig_piece(g, start, end, mins[k], bool(check.get(k)))
+            d = piece.duration_s
             total += d
-            if check.get(k):
-                q, q_vel = self.piece_samples(d)
-                speed = np.linalg.norm(q_vel, axis=1).max()
+            if piece.positions is not None and piece.velocities is not None:
+                q = piece.positions
+                speed = np.linalg.norm(piece.velocities, axis=1).max()
                 bad[k] = (
                     d > mins[k] * 1.001 + 1e-9
                     or g.deviation(q, u[k]) > self.dev_max
@@ -123,21 +160,47 @@ class MovePieces:
                 )
         return total, bad[0], bad[n - 1]
 
-    def closed_form(self, g: MoveGeometry, ph: np.ndarray, state_in, state_out):
-        """Vertex states and closed-form pieces for profile ``ph``, and which keep the limits."""
-        u, verts, vel, acc, mins = vertex_states(g, ph, state_in, state_out)
+    def closed_form(
+        self, g: ArcGeometry, profile: Profile1D, state_in: EndState, state_out: EndState
+    ) -> Pieces:
+        """Vertex states and closed-form pieces for ``profile``, and which keep the limits."""
+        st = vertex_states(g, profile, state_in, state_out)
+        mins = st.durations
         if self.pieces == "ruckig":
-            return u, verts, vel, acc, mins, None, None, None, None, np.zeros(mins.size, bool)
+            return Pieces(st, None, np.zeros(mins.size, bool))
         ok = mins > 1e-9
         safe = np.where(ok, mins, 1.0)
-        ps, vs, as_, js = jerk3(verts, vel, acc, safe)
-        ok &= piece_limits_ok(vs, as_, js, safe, acc[1:], *self.limits, g.feed_mm_per_s)
-        return u, verts, vel, acc, mins, ps, vs, as_, js, ok
+        phases = jerk3(st.positions, st.velocities, st.accelerations, safe)
+        ok &= piece_limits_ok(
+            phases.v,
+            phases.a,
+            phases.j,
+            safe,
+            st.accelerations[1:],
+            *self.limits.per_axis(),
+            g.feed_mm_per_s,
+        )
+        return Pieces(st, phases, ok)
 
-    def ruckig_piece(self, g, p0, v0, a0, p1, v1, a1, min_duration: float) -> float:
-        """One 3-DoF state-to-state piece by Ruckig, added to :attr:`out`; its duration [s]."""
-        raise NotImplementedError
-
-    def piece_samples(self, duration: float) -> tuple[np.ndarray, np.ndarray]:
-        """Positions [mm] and velocities [mm/s] (25, 3) of the last Ruckig piece."""
-        raise NotImplementedError
+    def ruckig_piece(
+        self,
+        g: MoveGeometry,
+        start: tuple[np.ndarray, np.ndarray, np.ndarray],
+        end: tuple[np.ndarray, np.ndarray, np.ndarray],
+        min_duration_s: float,
+        sampled: bool,
+    ) -> RuckigPiece:
+        """One 3-DoF state-to-state piece by Ruckig (see
+        :meth:`~gantry_sim.controller.planner.ruckig_solver.RuckigSolver.piece`), added to
+        :attr:`out`; ``sampled``: with :data:`PIECE_SAMPLES` samples to check it."""
+        try:
+            piece = self.solver.piece(start, end, min_duration_s, PIECE_SAMPLES if sampled else 0)
+        except RuckigRejected as exc:
+            raise PlanningError(
+                f"Ruckig could not join two chord vertices ({exc.reason}) even without a "
+                "minimum duration; lower the feed or check the machine limits",
+                line=g.move.line,
+            ) from None
+        for i in range(3):
+            self.out.add(i, *piece.phases[i])
+        return piece

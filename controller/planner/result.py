@@ -8,6 +8,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from gantry_sim.controller.errors import ConfigError
+from gantry_sim.controller.moves import Move
 from gantry_sim.controller.planner.cubic import PiecewiseCubic
 from gantry_sim.controller.trajectory import Trajectory
 
@@ -22,24 +23,24 @@ class Plan:
         segment_count: chords and straight pieces planned.
         chord_tolerance_mm: the machine's chord tolerance [mm].
         vertices: per move, read-only (k, 3) chord vertices [mm] (first = start, last = end).
-        fallback_count: Ruckig pieces that needed the fallback (see the module docstring).
-        stretched_count: arc pieces Ruckig made longer than the speed profile asked for.
         ruckig_piece_count: arc pieces given to Ruckig because the closed-form piece would have
             broken a limit (typically next to a junction with a curvature jump).
+        curve: the reference, as constant-jerk phases per axis.
+        move_start_s: read-only (m,) start time [s] of each move of non-zero length.
+        move_lines: read-only (m,) their program lines.
+        end_mm: read-only (3,) the program's end point [mm].
     """
 
-    moves: tuple
+    moves: tuple[Move, ...]
     duration_s: float
     segment_count: int
     chord_tolerance_mm: float
-    vertices: tuple
-    fallback_count: int = 0
-    stretched_count: int = 0
-    ruckig_piece_count: int = 0
-    curve: PiecewiseCubic = field(default=None, repr=False)  # type: ignore[assignment]
-    move_start_s: np.ndarray = field(default=None, repr=False)  # type: ignore[assignment]
-    move_lines: np.ndarray = field(default=None, repr=False)  # type: ignore[assignment]
-    end_mm: np.ndarray = field(default=None, repr=False)  # type: ignore[assignment]
+    vertices: tuple[np.ndarray, ...]
+    ruckig_piece_count: int
+    curve: PiecewiseCubic = field(repr=False)
+    move_start_s: np.ndarray = field(repr=False)
+    move_lines: np.ndarray = field(repr=False)
+    end_mm: np.ndarray = field(repr=False)
 
     def sample(self, period_s: float) -> Trajectory:
         """The reference every ``period_s`` [s] from 0 to the end; the last sample is at rest at

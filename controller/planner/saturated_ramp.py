@@ -12,21 +12,24 @@ jerk until a switch time, then down at the lowest until a = 0, approaching the c
 the ramp from the start, a cruise where the arc is long enough, and the ramp back from the end
 (built forwards, reversed in time), with switch times chosen so that both ramps meet at the
 highest peak the arc's length allows (a two-phase bridge absorbs what the switch-time search
-leaves between their peaks). The bounds come from :class:`CircleLimits` (each plane axis against
+leaves between their peaks). The bounds come from :mod:`~gantry_sim.controller.planner.ramp_bounds`: ``CircleLimits`` (each plane axis against
 its own limits along a plain circle: exact, so the ramps may use the stronger axis where the
-tangent points along it) or :class:`NormLimits` (orientation-free, as
+tangent points along it) or ``NormLimits`` (orientation-free, as
 :func:`gantry_sim.controller.planner.speedup.follow_ok` checks). On the bundled machine an R 1 circle from rest takes
 0.205 s (constant-limit profiles: 0.245 s; the direct-transcription optimum with per-axis limits:
-0.199 s). Rows (dur, s, v, a, j) are the planner's 1-D profile format; the planner checks the
-pieces built on them against every limit.
+0.199 s). The result is a :class:`~gantry_sim.controller.planner.profile.Profile1D`; the planner
+checks the pieces built on it against every limit.
 """
 
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from collections.abc import Callable
 
 import numpy as np
+
+from gantry_sim.controller.planner.profile import Profile1D
+from gantry_sim.controller.planner.ramp_bounds import RampLimits
 
 #: Step [s] of the ramps' constant-jerk phases (the jerk follows the state at this rate).
 STEP_S = 2.5e-4
@@ -37,86 +40,14 @@ MAX_RAMP_S = 2.0
 SHARE = 0.94
 
 
-@dataclass(frozen=True)
-class NormLimits:
-    """Orientation-free bounds (those of :func:`gantry_sim.controller.planner.speedup.follow_ok`): curvature k
-    [1/mm], the third derivative's size dk [1/mm^2], the plane's acceleration [mm/s^2] and jerk
-    [mm/s^3]."""
-
-    k: float
-    dk: float
-    acc: float
-    jerk: float
-
-    def bounds(self, dist, v, a):
-        """(lowest, highest) tangential jerk [mm/s^3] and highest tangential acceleration
-        [mm/s^2] at ``dist`` [mm] along the ramp, speed ``v``, acceleration ``a``."""
-        jm = np.sqrt(np.maximum(self.jerk**2 - (3.0 * v * a * self.k) ** 2, 0.0)) - v**3 * self.dk
-        a_hi = np.sqrt(np.maximum(self.acc**2 - (v * v * self.k) ** 2, 0.0))
-        return -jm, jm, a_hi
-
-    @property
-    def acc_min(self) -> float:
-        return self.acc
-
-    @property
-    def jerk_min(self) -> float:
-        return self.jerk
-
-
-@dataclass(frozen=True)
-class CircleLimits:
-    """Per-axis bounds on a plain circular arc (exact: each plane axis against its own limit).
-
-    The ramp runs from the arc's start (``reverse`` False) or, reversed in time, back from its
-    end: angle theta(s) = theta0 + sigma s / R at arc length s; forward tangent
-    sigma (-sin, cos), inward normal (-cos, -sin) in the plane's axes. Following exactly needs
-    acceleration a T + (v^2/R) N and jerk (j - v^3/R^2) T + (3 v a / R) N (T reversed for the
-    reversed ramp, whose jerk keeps its sign). ``acc``, ``jerk``: the plane axes' limits.
-    """
-
-    theta0: float
-    sigma: float
-    radius_mm: float
-    length_mm: float
-    reverse: bool
-    acc: tuple[float, float]
-    jerk: tuple[float, float]
-
-    def bounds(self, dist, v, a):
-        """As :meth:`NormLimits.bounds`."""
-        s_pos = self.length_mm - dist if self.reverse else dist
-        th = self.theta0 + self.sigma * s_pos / self.radius_mm
-        sign = -self.sigma if self.reverse else self.sigma
-        tang = (-sign * np.sin(th), sign * np.cos(th))
-        norm = (-np.cos(th), -np.sin(th))
-        r = self.radius_mm
-        c, n, an = v**3 / r**2, 3.0 * v * a / r, v * v / r
-        j_lo, j_hi, a_hi = -np.inf, np.inf, np.inf
-        for t_i, n_i, jl, al in zip(tang, norm, self.jerk, self.acc, strict=True):
-            t_safe = np.where(np.abs(t_i) > 1e-12, t_i, 1e-12)
-            e1, e2 = (-jl - n_i * n) / t_safe, (jl - n_i * n) / t_safe
-            j_lo = np.maximum(j_lo, c + np.minimum(e1, e2))
-            j_hi = np.minimum(j_hi, c + np.maximum(e1, e2))
-            b1, b2 = (-al - n_i * an) / t_safe, (al - n_i * an) / t_safe
-            a_hi = np.minimum(a_hi, np.maximum(b1, b2))
-        return j_lo, j_hi, np.maximum(a_hi, 0.0)
-
-    @property
-    def acc_min(self) -> float:
-        return min(self.acc)
-
-    @property
-    def jerk_min(self) -> float:
-        return min(self.jerk)
-
-
 def _advance(h, s, v, a, j):
     """State (s, v, a) after ``h`` [s] of constant jerk ``j`` from (s, v, a)."""
     return s + h * (v + h * (0.5 * a + h * j / 6.0)), v + h * (a + 0.5 * h * j), a + h * j
 
 
-def _ramps(v0: float, tau1: np.ndarray, lim, dt: float, rows: list | None = None):
+def _ramps(
+    v0: float, tau1: np.ndarray, lim: RampLimits, dt: float, rows: list | None = None
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Ramps from speed ``v0`` at a = 0, one per switch time in ``tau1`` [s], integrated together
     under the bounds ``lim``. Returns (peak speed, distance, duration) arrays, NaN where the state
     left no jerk to bring the acceleration back to 0. ``rows``: when given, the phases
@@ -150,7 +81,7 @@ def _ramps(v0: float, tau1: np.ndarray, lim, dt: float, rows: list | None = None
     return out_v, out_s, out_t
 
 
-def _ramp_rows(v0: float, tau1: float, lim, dt: float):
+def _ramp_rows(v0: float, tau1: float, lim: RampLimits, dt: float) -> tuple[list, float, float]:
     """The phases (dur, s-offset, v, a, j) of one ramp (see :func:`_ramps`), its peak speed and
     its distance (NaN when it fails)."""
     rows: list = []
@@ -158,7 +89,13 @@ def _ramp_rows(v0: float, tau1: float, lim, dt: float):
     return rows, float(vp[0]), float(d[0])
 
 
-def _scan(v0, lim, dt, hi, keep):
+def _scan(
+    v0: float,
+    lim: RampLimits,
+    dt: float,
+    hi: float,
+    keep: Callable[[np.ndarray], np.ndarray],
+) -> float:
     """Largest switch time [s] in [0, hi] whose ramp's peak satisfies ``keep`` (4 scans of 33)."""
     lo = 0.0
     for _ in range(4):
@@ -173,14 +110,20 @@ def _scan(v0, lim, dt, hi, keep):
 
 
 def saturated_profile(
-    length_mm: float, v_in: float, v_out: float, cap: float, limits: tuple, dt: float = STEP_S
-) -> np.ndarray | None:
-    """1-D profile (rows: dur [s], s [mm], v [mm/s], a [mm/s^2], j [mm/s^3]) along an arc of
-    ``length_mm`` from ``v_in`` to ``v_out`` (a = 0 at both ends), path speed <= ``cap``, with
-    ramps that ride the jerk the state leaves; None when it cannot be built.
+    length_mm: float,
+    v_in: float,
+    v_out: float,
+    cap: float,
+    limits: tuple[RampLimits, RampLimits],
+    dt: float = STEP_S,
+) -> Profile1D | None:
+    """1-D profile along an arc of ``length_mm`` from ``v_in`` to ``v_out`` (a = 0 at both ends), path speed <= ``cap``, with
+    ramps that ride the jerk the state leaves; None when it cannot be built (among others, on
+    an arc too short for the ramps: the planner then uses its other candidates).
 
     ``limits``: the bounds of the ramp from the start and of the ramp back from the end
-    (:class:`NormLimits` or :class:`CircleLimits`), already scaled by :data:`SHARE`.
+    (:class:`~gantry_sim.controller.planner.ramp_bounds.NormLimits` or
+    :class:`~gantry_sim.controller.planner.ramp_bounds.CircleLimits`), already scaled by :data:`SHARE`.
     """
     if length_mm <= 0 or max(v_in, v_out) >= cap:
         return None
@@ -205,14 +148,25 @@ def saturated_profile(
         peak = grid[idx]
         ramps = []
         for v0, lim in ((v_in, lim_up), (v_out, lim_dn)):
-            tau = _scan(v0, lim, dt, hi, lambda vp, p=peak: np.nan_to_num(vp, nan=np.inf) <= p)
-            ramps.append(_ramp_rows(v0, tau, lim, dt))
+            switch = _scan(v0, lim, dt, hi, _peak_at_most(peak))
+            ramps.append(_ramp_rows(v0, switch, lim, dt))
         up, dn = ramps
+        if not (up[0] and dn[0]):
+            continue  # no ramp reaches this peak (too short an arc, or an end already there)
         bridge = _bridge(up[1], dn[1], up[2], jerk)
         cruise = length_mm - up[2] - dn[2] - bridge[1]
         if cruise >= 0.0 and max(up[1], dn[1]) <= cap:
-            return _assemble(up[0], bridge[0], dn[1], up[2] + bridge[1], dn[0], cruise)
+            return Profile1D(_assemble(up[0], bridge[0], dn[1], up[2] + bridge[1], dn[0], cruise))
     return None
+
+
+def _peak_at_most(peak: float) -> Callable[[np.ndarray], np.ndarray]:
+    """For :func:`_scan`: True where a ramp's peak speed is at most ``peak`` (False: failed)."""
+
+    def keep(vp: np.ndarray) -> np.ndarray:
+        return np.nan_to_num(vp, nan=np.inf) <= peak
+
+    return keep
 
 
 #: Shortest duration [s] of each half of the S-curve that joins the two ramps' peaks, and the

@@ -57,8 +57,8 @@ def segment_count(
     if not (chord_tolerance_mm > 0 and segment_length_mm > 0):
         raise ConfigError("chord_tolerance_mm and segment_length_mm must be > 0")
     theta = arc.angle
-    _, _, _, _, _, r0, r1, _, _ = arc_frame(arc)
-    r = max(r0, r1)
+    frame = arc_frame(arc)
+    r = max(frame.r0_mm, frame.r1_mm)
     n_sweep = math.ceil(theta / MAX_CHORD_SWEEP_RAD - 1e-12)
     if method == "chord":
         tol = chord_tolerance_mm

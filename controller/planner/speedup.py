@@ -1,48 +1,31 @@
-"""Boosted 1-D profiles for arcs that ramp: exact following checked point by point.
+"""Faster ("boosted") 1-D profiles for arcs that ramp: exact following checked point by point.
 
-A block's limits (:func:`gantry_sim.controller.planner.lookahead.arc_limits`) hold at its worst speed and
-acceleration at once. Where an arc ramps, a faster profile may use more jerk and acceleration
-where the speed is low: :class:`FollowGeometry` holds what bounds the exact following of the arc
+A block's limits (:func:`gantry_sim.controller.planner.limits.arc_limits`) hold at its worst
+speed and acceleration at once. Where an arc ramps, a faster profile may use more jerk and
+acceleration where the speed is low: the arc's
+:class:`~gantry_sim.controller.planner.limits.FollowGeometry` bounds its exact following
 (curvature [1/mm], its derivative [1/mm^2], pitch, feed cap [mm/s]), :func:`follow_ok` checks a
 profile against the axis limits [mm/s^2], [mm/s^3] point by point, :func:`boost_candidates`
-lists the (cap [mm/s], jerk [mm/s^3], acceleration [mm/s^2]) to try and
-:func:`boosted_profile` searches them, given a 1-D profile solver (Ruckig's, in
-:mod:`gantry_sim.controller.planner.plan`).
+lists the (cap [mm/s], jerk [mm/s^3], acceleration [mm/s^2]) to try and :func:`boosted_profile`
+searches them with the 1-D solver
+(:meth:`~gantry_sim.controller.planner.ruckig_solver.RuckigSolver.profile`), and the saturated
+ramps (:mod:`~gantry_sim.controller.planner.saturated_ramp`) where they are faster still.
 """
 
 from __future__ import annotations
 
-import math
-from collections.abc import Callable
-from dataclasses import dataclass
-from typing import TYPE_CHECKING
-
 import numpy as np
 
 from gantry_sim.controller.arcs import arc_frame
+from gantry_sim.controller.config import Limits
+from gantry_sim.controller.planes import Vec3
+from gantry_sim.controller.planner.limits import FollowGeometry, curvature_speed_cap
+from gantry_sim.controller.planner.move_geometry import ArcGeometry
+from gantry_sim.controller.planner.profile import Profile1D
+from gantry_sim.controller.planner.ramp_bounds import CircleLimits, NormLimits
+from gantry_sim.controller.planner.ruckig_solver import RuckigSolver, SolverFailure
 from gantry_sim.controller.planner.saturated_ramp import SHARE as SATURATED_SHARE
-from gantry_sim.controller.planner.saturated_ramp import CircleLimits, NormLimits, saturated_profile
-
-if TYPE_CHECKING:
-    from gantry_sim.controller.planner.move_geometry import MoveGeometry
-
-
-def curvature_speed_cap(
-    cap: float,
-    curvature_per_mm: float,
-    dcurv_per_mm2: float,
-    a_plane: float,
-    j_plane: float,
-    margin: float,
-) -> float:
-    """``cap`` [mm/s] lowered so that following the curve at that speed uses at most ``margin``
-    of the plane's acceleration (v^2 k <= margin a) and jerk (v^3 dk <= margin j)."""
-    if curvature_per_mm > 0:
-        cap = min(cap, math.sqrt(margin * a_plane / curvature_per_mm))
-    if dcurv_per_mm2 > 0:
-        cap = min(cap, (margin * j_plane / dcurv_per_mm2) ** (1.0 / 3.0))
-    return cap
-
+from gantry_sim.controller.planner.saturated_ramp import saturated_profile
 
 #: An arc whose entry or exit speed is below this share of its cap tries a faster profile.
 BOOST_RAMP_SHARE = 0.9
@@ -50,33 +33,6 @@ BOOST_RAMP_SHARE = 0.9
 BOOST_ACC_SHARES = (1.0, 0.85, 0.7, 0.55, 0.42, 0.3, 0.2)
 #: ... and only when its profile takes longer than this times cruising at the fastest candidate.
 BOOST_MIN_GAIN = 1.005
-
-
-@dataclass(frozen=True)
-class FollowGeometry:
-    """What bounds the exact following of an arc/helix (see :mod:`gantry_sim.controller.planner.lookahead`).
-
-    Attributes:
-        plane_axes: (first, second, normal) axis indices of the arc's plane.
-        sin_pitch: |T_n|, the tangent's normal-axis component (0 for a plain arc).
-        curvature_per_mm: largest |p''| = 1/R [1/mm].
-        dcurv_per_mm2: largest |p'''| [1/mm^2].
-        feed_cap_mm_per_s: the feed (after override, less the closed-form pieces' margin) [mm/s].
-    """
-
-    plane_axes: tuple[int, int, int]
-    sin_pitch: float
-    curvature_per_mm: float
-    dcurv_per_mm2: float
-    feed_cap_mm_per_s: float
-
-    def speed_cap(self, vmax) -> float:
-        """Path-speed cap from the feed and the axis velocities alone [mm/s]."""
-        i1, i2, n = self.plane_axes
-        sp = self.sin_pitch
-        cp = math.sqrt(max(0.0, 1.0 - sp * sp))
-        cap = min(self.feed_cap_mm_per_s, min(vmax[i1], vmax[i2]) / max(cp, 1e-12))
-        return min(cap, vmax[n] / sp) if sp > 0 else cap
 
 
 #: Share of the axis limits a profile checked by :func:`follow_ok` may use (the closed-form
@@ -87,14 +43,14 @@ BOOST_MARGINS = (0.99, 0.95, 0.9, 0.8, 0.7, 0.6, 0.5, 0.4)
 BOOST_JERK_SHARES = (0.95, 0.8, 0.65, 0.5, 0.35)
 
 
-def follow_ok(ph: np.ndarray, fg: FollowGeometry, cap: float, amax, jmax) -> bool:
-    """True when following the arc exactly with the 1-D profile ``ph`` (rows: duration, s, v,
-    a_t, j_t) keeps every axis within :data:`FOLLOW_MARGIN` of its acceleration and jerk limits
+def follow_ok(profile: Profile1D, fg: FollowGeometry, cap: float, amax, jmax) -> bool:
+    """True when following the arc exactly with ``profile`` keeps every axis within :data:`FOLLOW_MARGIN` of its acceleration and jerk limits
     and the path speed within ``cap`` [mm/s] (to rounding: the arc caps keep a margin below the
-    feed): the bounds of :mod:`gantry_sim.controller.planner.lookahead`, evaluated at
+    feed): the bounds of :mod:`gantry_sim.controller.planner.limits`, evaluated at
     9 points of every phase instead of at their worst combination (speed-dependent limits)."""
     i1, i2, n = fg.plane_axes
     k, dk, sp = fg.curvature_per_mm, fg.dcurv_per_mm2, fg.sin_pitch
+    ph = profile.rows
     t = ph[:, :1] * _FRACTIONS
     v, a, j = ph[:, 2:3], ph[:, 3:4], ph[:, 4:5]
     vv = v + t * (a + 0.5 * t * j)
@@ -124,7 +80,7 @@ def boost_candidates(fg: FollowGeometry, vmax, amax, jmax) -> list[tuple[float, 
     k, dk, sp = fg.curvature_per_mm, fg.dcurv_per_mm2, fg.sin_pitch
     base = fg.speed_cap(vmax)
     a_hi = a_pl if sp == 0 else min(a_pl, amax[n] / sp)
-    out = []
+    out: list[tuple[float, float, float]] = []
     for margin in BOOST_MARGINS:
         cap = curvature_speed_cap(base, k, dk, a_pl, j_pl, margin)
         j_left = FOLLOW_MARGIN * j_pl - cap**3 * dk
@@ -136,20 +92,23 @@ def boost_candidates(fg: FollowGeometry, vmax, amax, jmax) -> list[tuple[float, 
     return out
 
 
-#: A 1-D profile solver: (length [mm], v_in, v_out, cap [mm/s], acc [mm/s^2], jerk [mm/s^3]) ->
-#: phases (dur, s, v, a, j) of a rest-acceleration profile, or None on failure.
-Profile1D = Callable[[float, float, float, float, float, float], "np.ndarray | None"]
+def _solve(solver: RuckigSolver, *args: float) -> Profile1D | None:
+    """``solver.profile(*args)``, or None where the solver fails (the candidate is skipped)."""
+    try:
+        return solver.profile(*args)
+    except SolverFailure:
+        return None
 
 
 def boosted_profile(
-    g: MoveGeometry,
+    g: ArcGeometry,
     v_in: float,
     v_out: float,
-    ph: np.ndarray,
-    limits: tuple,
-    profile_1d: Profile1D,
+    profile: Profile1D,
+    limits: Limits,
+    solver: RuckigSolver,
     cache: dict,
-) -> tuple[np.ndarray, ...]:
+) -> tuple[Profile1D, ...]:
     """Faster 1-D profiles for an arc that ramps (speed-dependent limits), fastest first; the
     planner uses the first whose closed-form pieces keep every limit.
 
@@ -161,17 +120,18 @@ def boosted_profile(
     saturated ramps (:func:`saturated_candidate`) where they are faster still.
 
     Args:
-        g: the arc's geometry; ``v_in``, ``v_out``: its end speeds [mm/s]; ``ph``: its profile.
-        limits: per-axis (vmax [mm/s], amax [mm/s^2], jmax [mm/s^3]).
-        profile_1d: the 1-D profile solver (:data:`Profile1D`).
+        g: the arc's geometry; ``v_in``, ``v_out``: its end speeds [mm/s]; ``profile``: its
+            profile.
+        limits: the machine's per-axis limits.
+        solver: makes the 1-D profiles (:meth:`RuckigSolver.profile`).
         cache: results by (length, follow geometry, end speeds), filled here.
     """
     fg, lim = g.follow, g.limits
-    if fg is None or min(v_in, v_out) >= BOOST_RAMP_SHARE * lim.cap_mm_per_s:
+    if min(v_in, v_out) >= BOOST_RAMP_SHARE * lim.cap_mm_per_s:
         return ()
-    vmax, amax, jmax = limits
+    vmax, amax, jmax = limits.per_axis()
     candidates = boost_candidates(fg, vmax, amax, jmax)
-    t_now = float(ph[:, 0].sum())
+    t_now = profile.duration_s
     if not candidates or t_now <= BOOST_MIN_GAIN * g.length_mm / candidates[0][0]:
         return ()  # even cruising at the highest candidate cap would not gain enough
     key = (g.length_mm, fg, v_in, v_out)
@@ -182,16 +142,16 @@ def boosted_profile(
     for cap, jerk, a_hi in candidates:
         if cap < max(v_in, v_out) or jerk <= 0:
             continue
-        fastest = profile_1d(g.length_mm, v_in, v_out, cap, a_hi, jerk)
-        if fastest is None or fastest[:, 0].sum() >= best_t:
+        fastest = _solve(solver, g.length_mm, v_in, v_out, cap, a_hi, jerk)
+        if fastest is None or fastest.duration_s >= best_t:
             continue  # more acceleration is never slower: nothing to gain here
         for share in BOOST_ACC_SHARES:  # the first that passes is this pair's fastest
             cand = fastest if share == 1.0 else None
             if cand is None:
-                cand = profile_1d(g.length_mm, v_in, v_out, cap, share * a_hi, jerk)
+                cand = _solve(solver, g.length_mm, v_in, v_out, cap, share * a_hi, jerk)
             if cand is None:
                 continue
-            t_cand = float(cand[:, 0].sum())
+            t_cand = cand.duration_s
             if t_cand >= best_t:
                 break  # less acceleration is never faster
             if follow_ok(cand, fg, base, amax, jmax):
@@ -199,7 +159,7 @@ def boosted_profile(
                 break
     found = () if best is None else (best,)
     sat = saturated_candidate(g, v_in, v_out, base, amax, jmax)
-    if sat is not None and float(sat[:, 0].sum()) < best_t:
+    if sat is not None and sat.duration_s < best_t:
         found = (sat, *found)
     cache[key] = found
     return found
@@ -213,15 +173,15 @@ SATURATED_END_SHARE = 0.1
 SATURATED_MIN_USE = 0.25
 
 
-def _plain_circle(g: MoveGeometry) -> bool:
+def _plain_circle(g: ArcGeometry) -> bool:
     """An arc of constant radius in its plane (no helix, no spiral)."""
-    if not g.is_arc:
-        return False
-    _, _, _, _, _, r0, r1, h0, h1 = arc_frame(g.move)
-    return abs(r1 - r0) <= 1e-9 * r0 and h0 == h1
+    f = arc_frame(g.move)
+    return abs(f.r1_mm - f.r0_mm) <= 1e-9 * f.r0_mm and f.h0_mm == f.h1_mm
 
 
-def saturated_candidate(g: MoveGeometry, v_in, v_out, base, amax, jmax):
+def saturated_candidate(
+    g: ArcGeometry, v_in: float, v_out: float, base: float, amax: Vec3, jmax: Vec3
+) -> Profile1D | None:
     """The saturated-ramp profile of an arc from and to near rest on which the curvature takes
     much of the jerk or acceleration, or None (see :data:`SATURATED_END_SHARE`). On a plain
     circle the ramps use each plane axis' own limits (:class:`CircleLimits`); elsewhere the
@@ -239,10 +199,13 @@ def saturated_candidate(g: MoveGeometry, v_in, v_out, base, amax, jmax):
         # Exact per-axis bounds: the planner checks every closed-form piece against the limits
         # before using the profile. The cap stays the orientation-free curvature cap: the cruise
         # (and the bridge between the ramps' peaks) must hold wherever on the circle it lies.
-        _, _, _, th0, sg, r, _, _, _ = arc_frame(g.move)
+        f = arc_frame(g.move)
         acc, jerk = (sh * amax[i1], sh * amax[i2]), (sh * jmax[i1], sh * jmax[i2])
-        lims = tuple(CircleLimits(th0, sg, r, g.length_mm, rev, acc, jerk) for rev in (False, True))
-        return saturated_profile(g.length_mm, v_in, v_out, cap, lims)
-    lims = (NormLimits(k, dk, sh * a_pl, sh * j_pl),) * 2
-    prof = saturated_profile(g.length_mm, v_in, v_out, cap, lims)
+        up, down = (
+            CircleLimits(f.theta0_rad, f.sigma, f.r0_mm, g.length_mm, rev, acc, jerk)
+            for rev in (False, True)
+        )
+        return saturated_profile(g.length_mm, v_in, v_out, cap, (up, down))
+    norm = NormLimits(k, dk, sh * a_pl, sh * j_pl)
+    prof = saturated_profile(g.length_mm, v_in, v_out, cap, (norm, norm))
     return prof if prof is not None and follow_ok(prof, fg, base, amax, jmax) else None

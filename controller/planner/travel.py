@@ -26,8 +26,9 @@ def extent_points(move: Move) -> np.ndarray:
     """Points (k, 3) [mm] whose bounding box is the move's true extent."""
     pts = [np.asarray(move.start, dtype=float), np.asarray(move.end, dtype=float)]
     if isinstance(move, Arc):
-        _, _, _, theta0, sigma, _, _, _, _ = arc_frame(move)
-        sweep = sigma * move.angle
+        frame = arc_frame(move)
+        theta0 = frame.theta0_rad
+        sweep = frame.sigma * move.angle
         lo, hi = sorted((theta0, theta0 + sweep))
         k0, k1 = math.ceil(lo / (0.5 * math.pi)), math.floor(hi / (0.5 * math.pi))
         if k1 >= k0:

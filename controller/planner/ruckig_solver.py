@@ -1,0 +1,163 @@
+"""Ruckig behind one small object: the only module of the project that imports ``ruckig``.
+
+:class:`RuckigSolver` is built once per :func:`gantry_sim.controller.planner.plan.plan` from the
+machine's per-axis limits and passed to the steps that need it. It does two things:
+
+* :meth:`RuckigSolver.profile`: the time-optimal 1-D profile along a move's path, from
+  (0, v_in, 0) to (L, v_out, 0) under a speed cap, tangential acceleration and jerk limits;
+* :meth:`RuckigSolver.piece`: a 3-DoF state-to-state piece under the axis limits, time
+  synchronised, lasting at least a given time; where Ruckig rejects that, it is retried without
+  the minimum duration (plain time-optimal).
+
+Failures are typed (:class:`RuckigRejected`, :class:`ProfileReverses`); the callers turn them
+into a :class:`~gantry_sim.controller.errors.PlanningError` naming the line, or try something
+else. Never ``intermediate_positions`` (the free Ruckig would send them to a cloud service).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+import ruckig
+
+from gantry_sim.controller.config import Limits
+from gantry_sim.controller.planner.profile import Profile1D
+
+_OK = (ruckig.Result.Working, ruckig.Result.Finished)
+
+#: Constant-jerk phases of one axis: durations [s] and each phase's start position [mm],
+#: velocity [mm/s], acceleration [mm/s^2], and its jerk [mm/s^3].
+AxisPhases = tuple[list[float], list[float], list[float], list[float], list[float]]
+
+
+class SolverFailure(Exception):
+    """The solver could not make the profile or piece asked for."""
+
+
+class RuckigRejected(SolverFailure):
+    """Ruckig returned an error result, or raised; ``reason`` says which (for messages)."""
+
+    def __init__(self, reason: str) -> None:
+        super().__init__(reason)
+        self.reason = reason
+
+
+class ProfileReverses(SolverFailure):
+    """The 1-D profile Ruckig found would move backwards along the path somewhere."""
+
+
+@dataclass(frozen=True, eq=False)
+class RuckigPiece:
+    """A 3-DoF piece.
+
+    Attributes:
+        duration_s: its duration [s] (longer than asked for where Ruckig needed more time).
+        phases: per axis, its constant-jerk phases (:data:`AxisPhases`).
+        positions, velocities: (n, 3) samples at n evenly spaced times from 0 to the duration
+            [mm], [mm/s], when asked for (else None).
+    """
+
+    duration_s: float
+    phases: tuple[AxisPhases, AxisPhases, AxisPhases]
+    positions: np.ndarray | None = None
+    velocities: np.ndarray | None = None
+
+
+def _calculate(otg: ruckig.Ruckig, inp: ruckig.InputParameter, traj: ruckig.Trajectory) -> None:
+    """``otg.calculate`` into ``traj``. Raises :class:`RuckigRejected` on an error result, and
+    for the RuckigError Ruckig raises on some numerically hard inputs."""
+    try:
+        res = otg.calculate(inp, traj)
+    except ruckig.RuckigError as exc:
+        raise RuckigRejected(f"RuckigError: {str(exc).strip().splitlines()[0]}") from None
+    if res not in _OK:
+        raise RuckigRejected(f"{res}")
+
+
+def _phases(traj: ruckig.Trajectory, dof: int) -> AxisPhases:
+    """Constant-jerk phases of one DoF of a Ruckig trajectory (its brake phases first)."""
+    prof = traj.profiles[0][dof]
+    dur, p, v, a, j = list(prof.t), prof.p[:7], prof.v[:7], prof.a[:7], list(prof.j)
+    brake = prof.brake
+    if brake.duration > 0:
+        dur = list(brake.t) + dur
+        p, v, a, j = brake.p[:2] + p, brake.v[:2] + v, brake.a[:2] + a, list(brake.j) + j
+    return dur, p, v, a, j
+
+
+class RuckigSolver:
+    """One 1-D and one 3-DoF Ruckig instance, reused for every profile and piece of a plan."""
+
+    def __init__(self, limits: Limits) -> None:
+        self._otg1 = ruckig.Ruckig(1)
+        self._in1 = ruckig.InputParameter(1)
+        self._tr1 = ruckig.Trajectory(1)
+        self._otg3 = ruckig.Ruckig(3)
+        self._in3 = ruckig.InputParameter(3)
+        self._tr3 = ruckig.Trajectory(3)
+        self._in3.max_velocity = list(limits.max_velocity_mm_per_s)
+        self._in3.max_acceleration = list(limits.max_acceleration_mm_per_s2)
+        self._in3.max_jerk = list(limits.max_jerk_mm_per_s3)
+
+    def profile(
+        self,
+        length_mm: float,
+        v_in: float,
+        v_out: float,
+        cap_mm_per_s: float,
+        acc_mm_per_s2: float,
+        jerk_mm_per_s3: float,
+    ) -> Profile1D:
+        """The time-optimal 1-D profile over ``length_mm`` from speed ``v_in`` to ``v_out``
+        [mm/s], zero acceleration at both ends, under the cap and the tangential limits.
+
+        Raises:
+            RuckigRejected: Ruckig found no profile.
+            ProfileReverses: the profile would move backwards somewhere.
+        """
+        inp = self._in1
+        inp.current_position, inp.current_velocity, inp.current_acceleration = [0.0], [v_in], [0.0]
+        inp.target_position, inp.target_velocity = [length_mm], [v_out]
+        inp.target_acceleration = [0.0]
+        inp.max_velocity = [cap_mm_per_s]
+        inp.max_acceleration = [acc_mm_per_s2]
+        inp.max_jerk = [jerk_mm_per_s3]
+        _calculate(self._otg1, inp, self._tr1)
+        rows = np.array(_phases(self._tr1, 0), dtype=float).T
+        if rows[:, 2].min() < -1e-9 * max(cap_mm_per_s, 1.0):
+            raise ProfileReverses()
+        return Profile1D(rows)
+
+    def piece(
+        self,
+        start: tuple[np.ndarray, np.ndarray, np.ndarray],
+        end: tuple[np.ndarray, np.ndarray, np.ndarray],
+        min_duration_s: float,
+        samples: int = 0,
+    ) -> RuckigPiece:
+        """The time-synchronised piece from state ``start`` to ``end`` (position [mm], velocity
+        [mm/s], acceleration [mm/s^2], each (3,)) lasting at least ``min_duration_s``; where
+        Ruckig rejects that, the time-optimal piece. ``samples``: how many evenly spaced
+        positions and velocities to return with it (0: none).
+
+        Raises:
+            RuckigRejected: Ruckig found no piece even without the minimum duration.
+        """
+        inp, tr = self._in3, self._tr3
+        inp.current_position, inp.current_velocity = start[0].tolist(), start[1].tolist()
+        inp.current_acceleration = start[2].tolist()
+        inp.target_position, inp.target_velocity = end[0].tolist(), end[1].tolist()
+        inp.target_acceleration = end[2].tolist()
+        inp.minimum_duration = float(min_duration_s)
+        try:
+            _calculate(self._otg3, inp, tr)
+        except RuckigRejected:
+            inp.minimum_duration = None
+            _calculate(self._otg3, inp, tr)
+        dur = tr.duration
+        phases = (_phases(tr, 0), _phases(tr, 1), _phases(tr, 2))
+        if not samples:
+            return RuckigPiece(dur, phases)
+        pv = [tr.at_time(t) for t in np.linspace(0.0, dur, samples)]
+        return RuckigPiece(dur, phases, np.array([x[0] for x in pv]), np.array([x[1] for x in pv]))
