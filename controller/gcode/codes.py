@@ -28,20 +28,18 @@ G_GROUPS: dict[int, str] = {
     **dict.fromkeys((40, 100, 280, 281, 300, 301, 520, 530, 920, 921, 922, 923), "nonmodal"),
 }
 
-#: codes the interpreter implements itself.
-#: G53 is handled as rs274 runs it with zero work offsets: the block's axis words are absolute
-#: work coordinates (gantry-sim has no G54-G59.3/G92 offset tables, so machine = work).
-G_HANDLED = frozenset((0, 10, 20, 30, 800, 170, 180, 190, 900, 910, 901, 911, 200, 210, 530))
-
-#: codes accepted with no effect on the programmed X/Y/Z path in work coordinates.
+#: codes the interpreter implements itself (coordinate systems: controller/gcode/coords.py).
 # fmt: off
+G_HANDLED = frozenset(
+    (0, 10, 20, 30, 800, 170, 180, 190, 900, 910, 901, 911, 200, 210, 530,
+     540, 550, 560, 570, 580, 590, 591, 592, 593, 100, 280, 281, 300, 301, 920, 921, 922, 923)
+)
+
+#: codes accepted with no effect on the programmed X/Y/Z tool-tip path in work coordinates.
 G_NO_PATH_EFFECT = frozenset(
-    (40, 940, 400, 430, 490, 980, 990, 540, 550, 560, 570, 580, 590, 591, 592, 593,
-     610, 611, 640, 960, 970, 80, 921, 922)
+    (40, 940, 400, 430, 490, 980, 990, 610, 611, 640, 960, 970, 80)
 )
 # fmt: on
-
-_COORDS = "it changes the work coordinate system, which gantry-sim does not model"
 #: refused codes -> why.
 G_REFUSED: dict[int, str] = {
     **dict.fromkeys((330, 331), "spindle-synchronised motion (threading) is not supported"),
@@ -57,11 +55,7 @@ G_REFUSED: dict[int, str] = {
     431: "a dynamic tool length offset (G43.1) shifts Z coordinates, which is not supported",
     432: "G43.2 (additional tool length offset) is not supported",
     70: "lathe diameter mode (G7) is not supported",
-    100: _COORDS,
-    **dict.fromkeys((280, 281, 300, 301), "moves to stored home positions are not supported"),
-    520: _COORDS,
-    920: _COORDS,
-    923: _COORDS,
+    520: "G52 (local coordinate offset) is not supported; use G92 or G10 L2",
 }
 
 # M code -> modal group (LinuxCNC's M groups 4, 6, 7, 8, 9).

@@ -13,6 +13,7 @@ from __future__ import annotations
 
 from collections.abc import Iterator
 from dataclasses import replace
+from pathlib import Path
 
 from gantry_sim.controller.errors import GcodeError
 from gantry_sim.controller.gcode.arc_block import arc_move
@@ -23,13 +24,27 @@ from gantry_sim.controller.gcode.codes import (
     M_PROGRAM_END,
     g_name,
 )
+from gantry_sim.controller.gcode.control import DEFAULT_MAX_ITERATIONS, Runner
+from gantry_sim.controller.gcode.coords import (
+    SYSTEMS,
+    g10,
+    g92,
+    home_point,
+    select_system,
+    store_home,
+)
 from gantry_sim.controller.gcode.dialects import Dialect, get_dialect
-from gantry_sim.controller.gcode.lexer import Block, lex
+from gantry_sim.controller.gcode.frames import to_work
+from gantry_sim.controller.gcode.lexer import Block
+from gantry_sim.controller.gcode.parameters import COORD_INDEX, POSITION, Parameters
+from gantry_sim.controller.gcode.predefined import predefined
 from gantry_sim.controller.gcode.state import ModalState
 from gantry_sim.controller.gcode.words import check_words, read_words
-from gantry_sim.controller.moves import Linear, Move, Plane, Rapid, Vec3
+from gantry_sim.controller.moves import Arc, Linear, Move, Plane, Rapid, Vec3
 
 _PLANES: dict[int, Plane] = {170: "XY", 180: "XZ", 190: "YZ"}
+#: non-modal codes whose axis words are theirs, not a motion's: G10, G28, G30, G92.
+AXIS_NONMODAL = frozenset((100, 280, 300, 920))
 
 
 class Interpreter:
@@ -38,10 +53,13 @@ class Interpreter:
     def __init__(self, dialect: Dialect) -> None:
         self.dialect = dialect
         self.state = ModalState(feed_mm_per_min=dialect.default_feed_mm_per_min or 0.0)
-        self.params: dict[int, float] = {}
+        self.params = Parameters(self._predefined, lambda: self.state.scale)
+        self.params.numbered[COORD_INDEX] = 1.0
+        self.line = 0
 
     def step(self, block: Block) -> tuple[list[Move], bool]:
         """Validate ``block`` on a copy of the state, commit, return (moves, program ended)."""
+        self.line = block.line
         self._refresh_system_parameters()
         w = read_words(block, self.params)
         s, d = self.state, self.dialect
@@ -55,26 +73,37 @@ class Interpreter:
             if w.values["F"] < 0.0:
                 raise GcodeError("negative F word; the feed must be >= 0 (units per minute)")
             s = replace(s, feed_mm_per_min=w.values["F"] * s.scale)
-        # Step 4: plane, units, distance modes.
+        # Step 4: plane, units, coordinate system, distance modes.
         if "plane" in w.g:
             s = replace(s, plane=_PLANES[w.g["plane"]])
         if w.g.get("units") == 200 and not d.g20_is_inch:
             raise GcodeError(d.g20_refusal)
         if "units" in w.g:
             s = replace(s, inch=w.g["units"] == 200)
+        if "coordinate_system" in w.g:
+            s = select_system(s, self.params, SYSTEMS[w.g["coordinate_system"]])
         if "distance" in w.g:
             s = replace(s, incremental=w.g["distance"] == 910)
         if "arc_distance" in w.g:
             s = replace(s, arc_absolute=w.g["arc_distance"] == 901)
         # Step 5: which motion this block makes, if any.
+        nonmodal = w.g.get("nonmodal")
+        axis_code = nonmodal in AXIS_NONMODAL
         has_axes = any(a in w.values for a in "XYZ")
         motion = w.g.get("motion")
         if motion == 800:
-            if has_axes:
+            if has_axes and not axis_code:
                 raise GcodeError("axis words with G80 (motion off); use G0, G1, G2 or G3")
             s, motion = replace(s, motion=None), None
         elif motion is not None:
+            if axis_code and has_axes:
+                raise GcodeError(
+                    f"{g_name(nonmodal)} and {g_name(motion)} both use the axis words; put them "
+                    "on separate lines"
+                )
             s = replace(s, motion=motion)
+        elif axis_code:
+            pass  # the axis words belong to G10/G28/G30/G92
         elif s.motion in (20, 30) and any(c in w.values for c in "IJKR"):
             motion = s.motion  # rs274: a centre word alone continues a modal G2/G3
         elif has_axes:
@@ -87,42 +116,91 @@ class Interpreter:
                 f"on {d.name} controls R means an arc radius only after G2 or G3 on the same "
                 "line (otherwise it is 'Repeat', not supported); write G2 ... R or G3 ... R"
             )
-        # Step 6: the move, validated against the new state.
+        # Step 6: the non-modal codes, then the move, validated against the new state.
         moves: list[Move] = []
-        machine_coords = w.g.get("nonmodal") == 530
+        if nonmodal == 100:
+            s = g10(s, self.params, w.values)
+        elif nonmodal in (920, 921, 922, 923):
+            s = g92(s, self.params, nonmodal, w.values)
+        elif nonmodal in (281, 301):
+            store_home(s, self.params, nonmodal)
+        elif nonmodal in (280, 300):
+            s = self._home(w.line, w.values, s, nonmodal, moves)
+        machine_coords = nonmodal == 530
         if machine_coords:
             if motion not in (0, 10):
                 raise GcodeError("G53 (machine coordinates) must be used with G0 or G1")
             if s.incremental:
                 raise GcodeError("G53 cannot be used in incremental distance mode (G91); use G90")
         if motion is not None:
-            end = self._end_point(w.values, replace(s, incremental=False) if machine_coords else s)
+            if machine_coords:
+                end = self._machine_end_point(w.values, s)
+            else:
+                end = self._end_point(w.values, s)
             if motion == 0:
-                moves.append(Rapid(w.line, s.position, end))
+                s = self._emit(moves, s, Rapid(w.line, s.work, to_work(end, s.frame)), end)
             elif motion == 10:
                 self._require_feed(s, "a G1 move")
-                moves.append(Linear(w.line, s.position, end, s.feed_mm_per_min))
+                move = Linear(w.line, s.work, to_work(end, s.frame), s.feed_mm_per_min)
+                s = self._emit(moves, s, move, end)
             else:
                 self._require_feed(s, "an arc")
                 arc = arc_move(w.line, w.values, s, end, motion == 30, d)
                 if arc is not None:
-                    moves.append(arc)
-                    end = arc.end
-                else:
-                    end = s.position
-            s = replace(s, position=end)
+                    s = self._emit(moves, s, self._arc_to_work(arc, s), arc.end)
         # Step 7: commit.
         self.state = s
-        self.params.update(w.settings)
+        for target, value in w.settings:
+            if isinstance(target, str):
+                self.params.set_named(target, value)
+            else:
+                self.params.set_number(target, value)
         return moves, w.m.get("stopping") in M_PROGRAM_END
 
+    @staticmethod
+    def _emit(moves: list[Move], s: ModalState, move: Move, end: Vec3) -> ModalState:
+        moves.append(move)
+        return replace(s, position=end, work=move.end)
+
+    def _arc_to_work(self, arc: Arc, s: ModalState) -> Arc:
+        """The arc (program coordinates) placed in the work frame."""
+        f = s.frame
+        if f.identity:
+            return arc
+        if f.rotation_deg != 0.0 and arc.plane != "XY":
+            raise GcodeError(
+                f"a {arc.plane} arc under an XY rotation of {f.rotation_deg:g} degrees lies in a "
+                "tilted plane, which is not supported; arcs under a rotation must be G17 (XY)"
+            )
+        return replace(arc, start=s.work, end=to_work(arc.end, f), center=to_work(arc.center, f))
+
+    def _home(
+        self, line: int, v: dict[str, float], s: ModalState, code: int, moves: list[Move]
+    ) -> ModalState:
+        """G28 / G30: rapid through the axis words' point (if any) to the stored point."""
+        axes = {a for a in "XYZ" if a in v}
+        if axes:
+            mid = self._end_point(v, s)
+            s = self._emit(moves, s, Rapid(line, s.work, to_work(mid, s.frame)), mid)
+        home = home_point(s, self.params, code, axes)
+        return self._emit(moves, s, Rapid(line, s.work, to_work(home, s.frame)), home)
+
+    def _machine_end_point(self, v: dict[str, float], s: ModalState) -> Vec3:
+        """G53: axis words are absolute coordinates without the G5x and G92 offsets."""
+        f = s.frame
+        end = list(s.position)
+        for i, letter in enumerate("XYZ"):
+            if letter in v:
+                end[i] = v[letter] * s.scale - f.g5x[i] - f.g92[i]
+        return (end[0], end[1], end[2])
+
+    def _predefined(self, name: str) -> float | None:
+        return predefined(name, self.state, self.params, self.line)
+
     def _refresh_system_parameters(self) -> None:
-        """The read-only parameters rs274 keeps that programs use: #5220 the coordinate system
-        (1 = G54, the only one here) and #5420-#5422 the current X Y Z in program units. Every
-        other parameter up to #5601 reads 0 until set, as in rs274 without a parameter file."""
-        scale = self.state.scale
+        """#5420-#5422: the current X Y Z in program units (stored in mm)."""
         x, y, z = self.state.position
-        self.params.update({5220: 1.0, 5420: x / scale, 5421: y / scale, 5422: z / scale})
+        self.params.numbered.update({POSITION: x, POSITION + 1: y, POSITION + 2: z})
 
     @staticmethod
     def _end_point(v: dict[str, float], s: ModalState) -> Vec3:
@@ -141,50 +219,34 @@ class Interpreter:
             )
 
 
-def interpret(text: str, dialect: str = "linuxcnc", file: str = "<program>") -> Iterator[Move]:
+def interpret(
+    text: str,
+    dialect: str = "linuxcnc",
+    file: str = "<program>",
+    search_path: tuple[Path, ...] = (),
+    max_iterations: int = DEFAULT_MAX_ITERATIONS,
+) -> Iterator[Move]:
     """Yield the program's moves in order; GcodeError(file, line) at the first bad line.
 
     Args:
         text: the program.
         dialect: one of ``gantry_sim.controller.gcode.dialects.DIALECTS``.
         file: the program's name, for error messages.
+        search_path: folders searched for ``NAME.ngc`` subroutine files, in order.
+        max_iterations: bound on loop repetitions and subroutine calls (see control.py).
     """
     try:
         rules = get_dialect(dialect)
         interp = Interpreter(rules)
-        percent_open = False
-        seen = False
-        last = 0
-        for block in lex(text):
-            last = block.line
-            if block.percent:
-                if not seen:
-                    percent_open = seen = True
-                    continue
-                if percent_open:
-                    return
-                raise GcodeError(
-                    "'%' ends a program only when the program also starts with a '%' line",
-                    line=block.line,
-                )
-            if block.empty:
-                continue
-            seen = True
-            try:
-                moves, ended = interp.step(block)
-            except GcodeError as exc:
-                if exc.line is None:
-                    exc.line = block.line
-                raise
-            yield from moves
-            if ended:
-                return
-        if rules.require_program_end:
-            raise GcodeError(
-                "file ended with no program end; finish the program with M2 or M30 (or wrap it "
-                "in '%' lines)",
-                line=max(last, 1),
-            )
+        runner = Runner(text, file, interp.step, interp.params, search_path, max_iterations)
+        yield from runner.run()
+        if runner.ended or not rules.require_program_end:
+            return
+        raise GcodeError(
+            "file ended with no program end; finish the program with M2 or M30 (or wrap it "
+            "in '%' lines)",
+            line=max(len(runner.main.lines), 1),
+        )
     except GcodeError as exc:
         raise exc.located(file) from None
 

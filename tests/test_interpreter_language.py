@@ -1,0 +1,151 @@
+"""The wider LinuxCNC language: named parameters, O-words, coordinate systems, and the input
+defects of issue 15 (#5 huge expressions and numbers, #12 bare CR line ends, #15 a UTF-8 BOM).
+
+Expected values come from ``rs274 -g`` (LinuxCNC 2.9) on the same programs where rs274 defines
+them; the differential corpus (tests/test_rs274_corpus.py) covers many more.
+"""
+
+from __future__ import annotations
+
+import pytest
+
+from gantry_sim.controller.errors import GcodeError
+from gantry_sim.controller.gcode.interpreter import interpret, parse_program
+
+
+def ends(text: str) -> list[tuple[float, ...]]:
+    return [tuple(round(c, 9) for c in m.end) for m in parse_program(text)]
+
+
+def error_of(text: str, **kw) -> GcodeError:
+    with pytest.raises(GcodeError) as info:
+        list(interpret(text, file="p.ngc", **kw))
+    return info.value
+
+
+# issue 15 #5: no RecursionError, OverflowError or ValueError from any value -----------------
+def test_an_expression_of_thousands_of_terms_evaluates() -> None:
+    terms = "+".join(["1"] * 5000)
+    assert ends(f"G0 X[{terms}]\nM2\n") == [(5000.0, 0.0, 0.0)]
+    mixed = "-".join(["2"] * 3001)  # left to right: 2 - 2 - ... = 2 - 3000 * 2
+    assert ends(f"G0 Y[{mixed}]\nM2\n") == [(0.0, -5998.0, 0.0)]
+
+
+@pytest.mark.parametrize(
+    "text",
+    [
+        "G" + "1" * 308 + " X1",
+        "M" + "9" * 400,
+        "G0 X#[10**300*10**300]",
+        "G0 X#[[10**300*10**300]-[10**300*10**300]]",
+        "#[10**300*10**300]=1",
+        "G0 X[" + "9" * 400 + " MOD 2]",
+        "G0 X[[10**300*10**300] MOD 2]",
+        "G0 X[[10**300*10**300]]",
+        "G0 X[-8**0.5]",
+        "#1=[10**300*10**300]",
+    ],
+)
+def test_huge_and_undefined_values_are_clean_errors(text: str) -> None:
+    err = error_of(text + "\nM2\n")
+    assert err.line == 1 and str(err).startswith("p.ngc:1: error: ")
+
+
+def test_deep_nesting_is_refused_not_a_recursion_error() -> None:
+    err = error_of("G0 X" + "[" * 2000 + "1" + "]" * 2000 + "\nM2\n")
+    assert "nested" in err.message
+
+
+# issue 15 #12: a bare CR ends a line (never merges two lines) -------------------------------
+def test_bare_cr_is_a_line_end() -> None:
+    moves = parse_program("G0 X10\rY10\rM2\r")
+    assert [(m.line, m.end) for m in moves] == [(1, (10.0, 0.0, 0.0)), (2, (10.0, 10.0, 0.0))]
+    assert [m.line for m in parse_program("G0 X1\r\nG0 X2\rG0 X3\nM2\n")] == [1, 2, 3]
+    assert error_of("G0 X1\rG0 G1 X2\rM2").line == 2
+
+
+# issue 15 #15: a UTF-8 byte order mark opens the file ---------------------------------------
+def test_utf8_bom_is_accepted(tmp_path) -> None:
+    from gantry_sim.sim.cli import main
+
+    path = tmp_path / "bom.ngc"
+    path.write_bytes(b"\xef\xbb\xbfG0 X1\nM2\n")
+    assert main(["parse", str(path)]) == 0
+    assert ends("\ufeffG0 X1\nM2\n") == [(1.0, 0.0, 0.0)]
+
+
+# named parameters ---------------------------------------------------------------------------
+def test_named_parameters_local_global_and_predefined() -> None:
+    text = (
+        "#<depth>=2 #<_safe>=5\nG0 X#<depth> Y#<_safe>\nG20\nG0 Z[#<_x>*25.4 + #<_metric>]\n"
+        "G21\nG0 X[EXISTS[#<depth>] + EXISTS[#<nope>]*10]\nM2\n"
+    )
+    assert ends(text) == [(2.0, 5.0, 0.0), (2.0, 5.0, 50.8), (1.0, 5.0, 50.8)]
+    assert "not defined" in error_of("G0 X#<a>\nM2\n").message
+
+
+# O-words ------------------------------------------------------------------------------------
+def test_subroutines_with_arguments_return_values_and_loops() -> None:
+    text = """o<sq> sub
+  G0 X[#1*#1]
+  o<sq> return [#1*2]
+o<sq> endsub
+#1=7
+o<sq> call [3]
+G0 Y#<_value> Z#1
+#<i>=0
+o10 while [#<i> LT 3]
+  #<i>=[#<i>+1]
+  o11 if [#<i> EQ 2]
+    o10 continue
+  o11 elseif [#<i> EQ 3]
+    G0 Y30
+  o11 else
+    G0 Y10
+  o11 endif
+o10 endwhile
+o20 repeat [2]
+  G91 G0 Z1
+o20 endrepeat
+G90
+o30 do
+  o30 break
+  G0 X99
+o30 while [1]
+M2
+"""
+    assert ends(text) == [
+        (9.0, 0.0, 0.0),
+        (9.0, 6.0, 7.0),
+        (9.0, 10.0, 7.0),
+        (9.0, 30.0, 7.0),
+        (9.0, 30.0, 8.0),
+        (9.0, 30.0, 9.0),
+    ]
+
+
+def test_runaway_loops_and_recursion_stop_with_their_line() -> None:
+    err = error_of("o1 while [1]\no1 endwhile\nM2\n", max_iterations=1000)
+    assert err.line == 1 and "more than 1000" in err.message
+    err = error_of("o1 sub\no1 call\no1 endsub\no1 call\nM2\n")
+    assert err.line == 2 and "too many subroutine levels" in err.message
+
+
+def test_subroutine_files_on_the_search_path(tmp_path) -> None:
+    (tmp_path / "peck.ngc").write_text("o<peck> sub\nG0 Z[-#1]\no<peck> endsub\nM2\n")
+    moves = list(interpret("o<peck> call [2]\nM2\n", search_path=(tmp_path,)))
+    assert [m.end for m in moves] == [(0.0, 0.0, -2.0)]
+    assert "not found" in error_of("o<peck> call\nM2\n").message
+    (tmp_path / "bad.ngc").write_text("o<bad> sub\nG0 G1 X1\no<bad> endsub\n")
+    err = error_of("o<bad> call\nM2\n", search_path=(tmp_path,))
+    assert err.file == str(tmp_path / "bad.ngc") and err.line == 2
+
+
+# coordinate systems -------------------------------------------------------------------------
+def test_offsets_place_moves_in_the_work_frame() -> None:
+    # rs274 prints G0 X2 at program (2, 0) with G92 offset (1, 1): the tool goes to (3, 1).
+    text = "G0 X1 Y1\nG92 X0 Y0\nG0 X2\nG92.1\nG0 X0 Y0\nG10 L2 P2 X10 Y20\nG55 G0 X1 Y1\nM2\n"
+    assert ends(text) == [(1.0, 1.0, 0.0), (3.0, 1.0, 0.0), (0.0, 0.0, 0.0), (11.0, 21.0, 0.0)]
+    # G28.1 stores the absolute point, G28 returns to it through the given axes' point.
+    moves = parse_program("G0 X5 Y5\nG28.1\nG0 X0 Y0\nG28 X1\nM2\n")
+    assert [m.end for m in moves][-2:] == [(1.0, 0.0, 0.0), (5.0, 0.0, 0.0)]
