@@ -149,3 +149,20 @@ def test_offsets_place_moves_in_the_work_frame() -> None:
     # G28.1 stores the absolute point, G28 returns to it through the given axes' point.
     moves = parse_program("G0 X5 Y5\nG28.1\nG0 X0 Y0\nG28 X1\nM2\n")
     assert [m.end for m in moves][-2:] == [(1.0, 0.0, 0.0), (5.0, 0.0, 0.0)]
+
+
+def test_parse_cli_subroutine_path_and_iteration_bound(tmp_path, capsys) -> None:
+    from gantry_sim.sim.cli import main
+
+    lib = tmp_path / "lib"
+    lib.mkdir()
+    (lib / "hop.ngc").write_text("o<hop> sub\nG0 Z#1\no<hop> endsub\n")
+    prog = tmp_path / "p.ngc"
+    prog.write_text("o<hop> call [3]\nM2\n")
+    assert main(["parse", str(prog)]) == 2
+    assert "not found" in capsys.readouterr().err
+    assert main(["parse", str(prog), "--subroutine-path", str(lib)]) == 0
+    assert '"end": [0.0, 0.0, 3.0]' in capsys.readouterr().out
+    prog.write_text("o1 repeat [50]\nG91 G0 X1\no1 endrepeat\nM2\n")
+    assert main(["parse", str(prog), "--max-iterations", "10"]) == 2
+    assert f"{prog}:3: error: more than 10" in capsys.readouterr().err

@@ -54,14 +54,47 @@ class Source:
         except GcodeError:
             return None
 
-    def find(self, start: int, name: str, keywords: tuple[str, ...], step: int = 1) -> int | None:
+    def find(
+        self, start: int, name: str, keywords: tuple[str, ...], labels: Labels | None = None
+    ) -> int | None:
+        """The first line from ``start`` on with O-word ``name`` and one of ``keywords``;
+        ``labels``: check the labels of the lines passed (rs274 reads skipped lines too)."""
         i = start
-        while 0 <= i < len(self.lines):
+        while i < len(self.lines):
             o = self.oword(i)
             if o is not None and o.name == name and o.keyword in keywords:
                 return i
-            i += step
+            if o is not None and labels is not None:
+                labels.note(self, i, o)
+            i += 1
         return None
+
+
+OPENERS = ("if", "while", "do", "repeat")
+
+
+@dataclass
+class Labels:
+    """Control labels of one call level: each may open a construct on one line only (rs274:
+    "duplicate O-word label"); a ``while`` with the label of a ``do`` closes it."""
+
+    lines: dict[str, tuple[Source, int, str]] = field(default_factory=dict)
+
+    def note(self, src: Source, i: int, o: OWord) -> None:
+        if o.keyword not in OPENERS:
+            return
+        known = self.lines.get(o.name)
+        if known is None:
+            self.lines[o.name] = (src, i, o.keyword)
+            return
+        k_src, k_i, k_kw = known
+        if (k_src, k_i) == (src, i) or (o.keyword == "while" and k_kw == "do"):
+            return
+        raise GcodeError(
+            f"duplicate O-word label o{_show(o.name)}: already opens a construct on line "
+            f"{k_i + 1}; give each if/while/do/repeat its own label",
+            line=i + 1,
+        )
 
 
 @dataclass
@@ -78,6 +111,7 @@ class Frame:
     index: int
     loops: list[Loop] = field(default_factory=list)
     sub: str | None = None
+    labels: Labels = field(default_factory=Labels)
 
 
 class Runner:
@@ -173,6 +207,7 @@ class Runner:
     def _oword(self, f: Frame, o: OWord) -> None:
         src, i = f.source, f.index
         name, kw = o.name, o.keyword
+        f.labels.note(src, i, o)
         if kw == "sub":
             end = src.find(i + 1, name, ("endsub",))
             if end is None:
@@ -220,9 +255,8 @@ class Runner:
             f.index = loop.start
         elif kw == "repeat":
             count = round(self._value(o))
-            end = self._end_of(src, i, name, "endrepeat")
             if count <= 0:
-                f.index = end + 1
+                f.index = self._end_of(src, i, name, "endrepeat", True) + 1
             else:
                 f.loops.append(Loop(name, "repeat", i, count))
                 f.index = i + 1
@@ -242,7 +276,7 @@ class Runner:
         """After a false condition at line ``i``: the line to run next."""
         j = i
         while True:
-            j2 = src.find(j + 1, name, ("elseif", "else", "endif"))
+            j2 = src.find(j + 1, name, ("elseif", "else", "endif"), self.frames[-1].labels)
             if j2 is None:
                 raise GcodeError(f"o{_show(name)} if without o{_show(name)} endif")
             o = src.oword(j2)
@@ -258,8 +292,9 @@ class Runner:
                 continue
             return j2 + 1
 
-    def _end_of(self, src: Source, i: int, name: str, keyword: str) -> int:
-        end = src.find(i + 1, name, (keyword,))
+    def _end_of(self, src: Source, i: int, name: str, keyword: str, skip: bool) -> int:
+        """The closing line; ``skip``: the body is skipped, its labels are read on the way."""
+        end = src.find(i + 1, name, (keyword,), self.frames[-1].labels if skip else None)
         if end is None:
             raise GcodeError(f"o{_show(name)} without o{_show(name)} {keyword}")
         return end
@@ -280,13 +315,12 @@ class Runner:
                 f.loops.pop()
                 f.index = i + 1
             return
-        end = self._end_of(f.source, i, o.name, "endwhile")
         if self._value(o) != 0.0:
             self._tick(o)
             f.loops.append(Loop(o.name, "while", i))
             f.index = i + 1
         else:
-            f.index = end + 1
+            f.index = self._end_of(f.source, i, o.name, "endwhile", True) + 1
 
     def _break_continue(self, f: Frame, o: OWord) -> None:
         while f.loops and f.loops[-1].name != o.name:

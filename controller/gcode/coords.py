@@ -12,7 +12,7 @@ from __future__ import annotations
 from dataclasses import replace
 
 from gantry_sim.controller.errors import GcodeError
-from gantry_sim.controller.gcode.frames import Frame, from_interp_machine, interp_machine
+from gantry_sim.controller.gcode.frames import Frame, from_interp_machine, from_work, interp_machine
 from gantry_sim.controller.gcode.parameters import (
     COORD_INDEX,
     G28_HOME,
@@ -119,15 +119,12 @@ def g92(s: ModalState, p: Parameters, code: int, v: dict[str, float]) -> ModalSt
 def store_home(s: ModalState, p: Parameters, code: int) -> None:
     """G28.1 / G30.1: store the current absolute point."""
     base = G28_HOME if code == 281 else G30_HOME
-    m = interp_machine(s.position, s.frame)
     for i in range(3):
-        p.numbered[base + i] = m[i]
+        p.numbered[base + i] = s.work[i]
 
 
 def home_point(s: ModalState, p: Parameters, code: int, axes: set[str]) -> Vec3:
     """G28 / G30: the stored point in program coordinates, for ``axes`` (all when empty)."""
     base = G28_HOME if code == 280 else G30_HOME
-    stored = from_interp_machine(_vec([p.mm(base + i) for i in range(3)]), s.frame)
-    return _vec(
-        [stored[i] if not axes or a in axes else s.position[i] for i, a in enumerate(_AXES)]
-    )
+    target = [p.mm(base + i) if not axes or a in axes else s.work[i] for i, a in enumerate(_AXES)]
+    return from_work(_vec(target), s.frame)

@@ -62,6 +62,13 @@ def to_work(p: Vec3, f: Frame) -> Vec3:
     return add(rotate(add(p, f.g92), f.rotation_deg), f.g5x)
 
 
+def from_work(w: Vec3, f: Frame) -> Vec3:
+    """Work frame point [mm] -> program point (emccanon.cc's unoffset_and_unrotate_pos)."""
+    if f.identity:
+        return w
+    return sub(rotate(sub(w, f.g5x), -f.rotation_deg), f.g92)
+
+
 def interp_machine(p: Vec3, f: Frame) -> Vec3:
     """Program point -> the interpreter's absolute point (rs274's bookkeeping)."""
     return add(add(rotate(p, f.rotation_deg), f.g92), f.g5x)

@@ -34,7 +34,7 @@ from gantry_sim.controller.gcode.coords import (
     store_home,
 )
 from gantry_sim.controller.gcode.dialects import Dialect, get_dialect
-from gantry_sim.controller.gcode.frames import to_work
+from gantry_sim.controller.gcode.frames import from_work, to_work
 from gantry_sim.controller.gcode.lexer import Block
 from gantry_sim.controller.gcode.parameters import COORD_INDEX, POSITION, Parameters
 from gantry_sim.controller.gcode.predefined import predefined
@@ -179,20 +179,18 @@ class Interpreter:
     ) -> ModalState:
         """G28 / G30: rapid through the axis words' point (if any) to the stored point."""
         axes = {a for a in "XYZ" if a in v}
-        if axes:
-            mid = self._end_point(v, s)
-            s = self._emit(moves, s, Rapid(line, s.work, to_work(mid, s.frame)), mid)
+        mid = self._end_point(v, s)  # rs274 always makes the first move, even of length 0
+        s = self._emit(moves, s, Rapid(line, s.work, to_work(mid, s.frame)), mid)
         home = home_point(s, self.params, code, axes)
         return self._emit(moves, s, Rapid(line, s.work, to_work(home, s.frame)), home)
 
     def _machine_end_point(self, v: dict[str, float], s: ModalState) -> Vec3:
-        """G53: axis words are absolute coordinates without the G5x and G92 offsets."""
-        f = s.frame
-        end = list(s.position)
+        """G53: axis words are work-frame coordinates without offsets or rotation."""
+        end = list(s.work)
         for i, letter in enumerate("XYZ"):
             if letter in v:
-                end[i] = v[letter] * s.scale - f.g5x[i] - f.g92[i]
-        return (end[0], end[1], end[2])
+                end[i] = v[letter] * s.scale
+        return from_work((end[0], end[1], end[2]), s.frame)
 
     def _predefined(self, name: str) -> float | None:
         return predefined(name, self.state, self.params, self.line)

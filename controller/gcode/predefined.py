@@ -32,9 +32,9 @@ def predefined(name: str, s: ModalState, p: Parameters, line: int) -> float | No
     scale = s.scale
     match name:
         case "_vmajor":
-            return 2.0
+            return 2.9  # measured: rs274 -g of LinuxCNC 2.9 reads 2.9 and _vminor 0
         case "_vminor":
-            return 9.0
+            return 0.0
         case "_line":
             return float(line)
         case "_motion_mode":

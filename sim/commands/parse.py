@@ -15,16 +15,42 @@ HELP = "interpret a G-code program and print its motions as JSON Lines"
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("program", type=Path, help="G-code program (.ngc)")
     add_dialect(parser)
+    parser.add_argument(
+        "--subroutine-path",
+        type=Path,
+        action="append",
+        default=[],
+        metavar="DIR",
+        help="folder searched for NAME.ngc subroutine files after the program's own (repeatable)",
+    )
+    parser.add_argument(
+        "--max-iterations",
+        type=int,
+        default=None,
+        metavar="N",
+        help="bound on O-word loop repetitions and calls (default 1000000)",
+    )
 
 
 def run(args: argparse.Namespace) -> int:
-    from gantry_sim.controller.errors import GantryError
+    from gantry_sim.controller.errors import ConfigError, GantryError
+    from gantry_sim.controller.gcode.control import DEFAULT_MAX_ITERATIONS
     from gantry_sim.controller.gcode.interpreter import interpret
 
     text = read_program(args.program)
+    limit = DEFAULT_MAX_ITERATIONS if args.max_iterations is None else args.max_iterations
+    if limit < 1:
+        raise ConfigError(f"--max-iterations {limit}: must be 1 or more")
+    search = (args.program.resolve().parent, *args.subroutine_path)
     out = sys.stdout
     try:
-        for move in interpret(text, dialect=args.dialect, file=str(args.program)):
+        for move in interpret(
+            text,
+            dialect=args.dialect,
+            file=str(args.program),
+            search_path=search,
+            max_iterations=limit,
+        ):
             out.write(json.dumps(move.to_json()) + "\n")
     except GantryError:
         out.flush()
