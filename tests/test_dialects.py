@@ -24,10 +24,12 @@ def error_of(text: str, dialect: str) -> GcodeError:
 
 
 def test_dialects_are_frozen_data() -> None:
-    assert set(DIALECTS) == {"linuxcnc", "g2core", "marlin", "laserdyne"}
+    assert set(DIALECTS) == {"linuxcnc", "g2core", "marlin", "laserdyne", "grbl"}
     with pytest.raises(dataclasses.FrozenInstanceError):
         MARLIN.default_feed_mm_per_min = 1.0  # type: ignore[misc]
-    with pytest.raises(GcodeError, match="choose one of: linuxcnc, g2core, marlin, laserdyne"):
+    with pytest.raises(
+        GcodeError, match="choose one of: linuxcnc, g2core, marlin, laserdyne, grbl"
+    ):
         get_dialect("fanuc")
 
 
@@ -121,3 +123,57 @@ def test_only_linuxcnc_requires_a_program_end() -> None:
         assert run("G0 X1", name)[0].end == (1.0, 0.0, 0.0)
         assert run("", name) == []
     assert "M2 or M30" in error_of("G0 X1", "linuxcnc").message
+
+
+# --- grbl 1.1 (gnea/grbl gcode.c) ---------------------------------------------------------------
+
+
+def test_grbl_needs_no_program_end_and_reads_system_lines_and_jogs() -> None:
+    text = "$H\n$$\n$X\n$110=5000\nG21 G90\nG0 X10 Y10\n$J=G91 X5 F500\nG1 X20 F300\n"
+    moves = run(text, "grbl")
+    assert [(m.line, m.kind, m.end) for m in moves] == [
+        (6, "rapid", (10.0, 10.0, 0.0)),
+        (7, "linear", (15.0, 10.0, 0.0)),  # the jog: G91 for itself only
+        (8, "linear", (20.0, 10.0, 0.0)),  # back in G90
+    ]
+    assert moves[1].feed_mm_per_min == 500.0
+    assert error_of("$J=X5\n", "grbl").message.endswith("(grbl error 22)")
+    assert "bad character" in error_of("$H\n", "linuxcnc").message
+
+
+@pytest.mark.parametrize(
+    ("text", "code"),
+    [
+        ("G0 X#1", 1),
+        ("G0 X[1+2]", 1),
+        ("G1 X1", 22),
+        ("G59.1", 20),
+        ("G90.1", 20),
+        ("o100 sub", 20),
+        ("G0 A1", 20),
+        ("M100", 20),
+        ("G0 G1 X1", 21),
+        ("G0 X1 X2", 25),
+        ("G2 X1 I1 P2 F10", 36),
+        ("G10 L2 P1 R30", 36),
+        ("G10 L2 P7 X1", 29),
+        ("G10 P1 X1", 28),
+        ("G2 X2.1 I1 F10", 33),
+        ("G2 X3 R1 F10", 34),
+    ],
+)
+def test_grbl_refuses_what_grbl_refuses_with_its_error_number(text: str, code: int) -> None:
+    err = error_of(text + "\n", "grbl")
+    assert err.line == 1 and err.message.endswith(f"(grbl error {code})"), err.message
+
+
+def test_grbl_arcs_homing_and_offsets() -> None:
+    # a K word on a G17 arc is consumed and ignored; 0.004 mm radius mismatch is within 0.005 mm
+    arc = run("G2 X2.004 Y0 I1 K5 F100\n", "grbl")[0]
+    assert isinstance(arc, Arc) and arc.end == (2.004, 0.0, 0.0)
+    # G28 with axis words: the intermediate point, then every axis to the stored point
+    moves = run("G0 X5 Y5 Z5\nG28.1\nG0 X1 Y1 Z1\nG28 X2\nG28\n", "grbl")
+    assert [m.end for m in moves[2:]] == [(2.0, 1.0, 1.0), (5.0, 5.0, 5.0), (5.0, 5.0, 5.0)]
+    assert [m.line for m in moves[2:]] == [4, 4, 5]  # no intermediate move without axis words
+    assert run("G10 L20 P1 X0\nG0 X1\n", "grbl")[0].end == (1.0, 0.0, 0.0)
+    assert get_dialect("grbl").arc_tolerance_mm == 0.002

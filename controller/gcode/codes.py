@@ -64,7 +64,7 @@ M_GROUPS: dict[int, str] = {
     6: "tool_change",
     **dict.fromkeys((3, 4, 5), "spindle"),
     **dict.fromkeys((7, 8, 9), "coolant"),
-    **dict.fromkeys((48, 49, 50, 51, 52, 53), "override"),
+    **dict.fromkeys((48, 49, 50, 51, 52, 53, 56), "override"),  # M56: grbl's parking override
 }
 M_PROGRAM_END = frozenset((2, 30))
 
@@ -77,4 +77,4 @@ def g_name(code: int) -> str:
 
 def m_allowed() -> str:
     """The M codes gantry-sim accepts, for messages."""
-    return ", ".join(f"M{m}" for m in sorted(M_GROUPS))
+    return ", ".join(f"M{m}" for m in sorted(M_GROUPS) if m != 56)

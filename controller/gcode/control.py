@@ -34,13 +34,14 @@ class Source:
 
     name: str
     lines: list[str]
+    system_lines: bool = False
     blocks: dict[int, Block | GcodeError] = field(default_factory=dict)
 
     def block(self, i: int) -> Block:
         got = self.blocks.get(i)
         if got is None:
             try:
-                got = lex_line(self.lines[i], i + 1)
+                got = lex_line(self.lines[i], i + 1, self.system_lines)
             except GcodeError as exc:
                 got = exc
             self.blocks[i] = got
@@ -125,8 +126,11 @@ class Runner:
         params,  # Parameters
         search_path: tuple[Path, ...] = (),
         max_iterations: int = DEFAULT_MAX_ITERATIONS,
+        system_lines: bool = False,
+        owords: bool = True,
     ) -> None:
-        self.main = Source(file, split_lines(text))
+        self.main = Source(file, split_lines(text), system_lines)
+        self.owords = owords
         self.step = step
         self.params = params
         self.search_path = search_path
@@ -156,6 +160,8 @@ class Runner:
             try:
                 block = f.source.block(i)
                 if block.oword is not None:
+                    if not self.owords:
+                        raise GcodeError("O-words are not grbl features; grbl has no subroutines")
                     self.seen = True
                     self._oword(f, block.oword)
                     continue

@@ -51,7 +51,7 @@ def select_system(s: ModalState, p: Parameters, index: int) -> ModalState:
     return replace(reframe(s, system_frame(p, index, s.frame.g92)), coord_index=index)
 
 
-def g10(s: ModalState, p: Parameters, v: dict[str, float]) -> ModalState:
+def g10(s: ModalState, p: Parameters, v: dict[str, float], systems: int = 9) -> ModalState:
     """G10 L2 (set a system's origin, R its XY rotation) and L20 (origin so the point reads v)."""
     if "L" not in v:
         raise GcodeError("G10 needs an L word: L2 or L20 (coordinate systems)")
@@ -65,8 +65,11 @@ def g10(s: ModalState, p: Parameters, v: dict[str, float]) -> ModalState:
         raise GcodeError(
             f"G10 L{v['L']:g} is not supported{'; ' + why if why else ''}; use L2 or L20"
         )
-    if abs(v["P"] - number) > 1e-4 or not 0 <= number <= 9:
-        raise GcodeError(f"G10 P{v['P']:g}: P must be a coordinate system 0..9 (0: the current)")
+    if abs(v["P"] - number) > 1e-4 or not 0 <= number <= systems:
+        raise GcodeError(
+            f"G10 P{v['P']:g}: P must be one of the {systems} coordinate systems 1..{systems} "
+            "or 0 (the current)"
+        )
     index = number or s.coord_index
     base = g5x_base(index)
     scale = s.scale

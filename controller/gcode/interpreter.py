@@ -33,7 +33,8 @@ from gantry_sim.controller.gcode.coords import (
     select_system,
     store_home,
 )
-from gantry_sim.controller.gcode.dialects import Dialect, get_dialect
+from gantry_sim.controller.gcode.dialect_checks import check_codes, check_jog, check_plain
+from gantry_sim.controller.gcode.dialects import Dialect, coded, get_dialect
 from gantry_sim.controller.gcode.frames import from_work, to_work
 from gantry_sim.controller.gcode.lexer import Block
 from gantry_sim.controller.gcode.parameters import COORD_INDEX, POSITION, Parameters
@@ -61,9 +62,15 @@ class Interpreter:
         """Validate ``block`` on a copy of the state, commit, return (moves, program ended)."""
         self.line = block.line
         self._refresh_system_parameters()
+        d = self.dialect
+        if not d.language:
+            check_plain(block, d)
+        if block.jog:
+            return self._jog(block)
         w = read_words(block, self.params)
-        s, d = self.state, self.dialect
+        s = self.state
         # Step 2: every code is one gantry-sim supports.
+        check_codes(w, d)
         for code in w.g.values():
             if code in G_REFUSED:
                 raise GcodeError(f"{g_name(code)} is not supported: {G_REFUSED[code]}")
@@ -119,7 +126,7 @@ class Interpreter:
         # Step 6: the non-modal codes, then the move, validated against the new state.
         moves: list[Move] = []
         if nonmodal == 100:
-            s = g10(s, self.params, w.values)
+            s = g10(s, self.params, w.values, d.coordinate_systems)
         elif nonmodal in (920, 921, 922, 923):
             s = g92(s, self.params, nonmodal, w.values)
         elif nonmodal in (281, 301):
@@ -179,8 +186,11 @@ class Interpreter:
     ) -> ModalState:
         """G28 / G30: rapid through the axis words' point (if any) to the stored point."""
         axes = {a for a in "XYZ" if a in v}
-        mid = self._end_point(v, s)  # rs274 always makes the first move, even of length 0
-        s = self._emit(moves, s, Rapid(line, s.work, to_work(mid, s.frame)), mid)
+        if axes or not self.dialect.home_all_axes:
+            mid = self._end_point(v, s)  # rs274 always makes the first move, even of length 0
+            s = self._emit(moves, s, Rapid(line, s.work, to_work(mid, s.frame)), mid)
+        if self.dialect.home_all_axes:
+            axes = set()
         home = home_point(s, self.params, code, axes)
         return self._emit(moves, s, Rapid(line, s.work, to_work(home, s.frame)), home)
 
@@ -191,6 +201,19 @@ class Interpreter:
             if letter in v:
                 end[i] = v[letter] * s.scale
         return from_work((end[0], end[1], end[2]), s.frame)
+
+    def _jog(self, block: Block) -> tuple[list[Move], bool]:
+        """grbl ``$J=``: a G1 in the jog's own modes and feed; the modal state is kept."""
+        saved = self.state
+        w = read_words(block, self.params)
+        check_jog(w)
+        g1 = Block(block.line, (("G", ("num", 1.0)), *block.words), (), False, block.text)
+        try:
+            moves, _ = self.step(g1)
+        finally:
+            done = self.state
+            self.state = replace(saved, position=done.position, work=done.work)
+        return moves, False
 
     def _predefined(self, name: str) -> float | None:
         return predefined(name, self.state, self.params, self.line)
@@ -233,10 +256,20 @@ def interpret(
         search_path: folders searched for ``NAME.ngc`` subroutine files, in order.
         max_iterations: bound on loop repetitions and subroutine calls (see control.py).
     """
+    rules: Dialect | None = None
     try:
         rules = get_dialect(dialect)
         interp = Interpreter(rules)
-        runner = Runner(text, file, interp.step, interp.params, search_path, max_iterations)
+        runner = Runner(
+            text,
+            file,
+            interp.step,
+            interp.params,
+            search_path,
+            max_iterations,
+            system_lines=rules.system_lines,
+            owords=rules.language,
+        )
         yield from runner.run()
         if runner.ended or not rules.require_program_end:
             return
@@ -246,6 +279,8 @@ def interpret(
             line=max(len(runner.main.lines), 1),
         )
     except GcodeError as exc:
+        if rules is not None and rules.error_codes:
+            exc.message = coded(exc.message, rules)
         raise exc.located(file) from None
 
 

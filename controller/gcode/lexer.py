@@ -66,6 +66,7 @@ class Block:
         percent: the line is a ``%`` program delimiter.
         text: the source line, for messages.
         oword: the line's O-word, if it is one.
+        jog: a grbl ``$J=`` jog: its words move as G1 without changing the modal state.
     """
 
     line: int
@@ -74,6 +75,7 @@ class Block:
     percent: bool
     text: str
     oword: OWord | None = None
+    jog: bool = False
 
     @property
     def empty(self) -> bool:
@@ -108,9 +110,19 @@ def strip_line(raw: str) -> str:
     return "".join(out).upper()
 
 
-def lex_line(raw: str, line: int) -> Block:
-    """Lex one source line into a :class:`Block` (GcodeError carries ``line``)."""
+def lex_line(raw: str, line: int, system_lines: bool = False) -> Block:
+    """Lex one source line into a :class:`Block` (GcodeError carries ``line``).
+
+    ``system_lines``: a line opening with ``$`` is a system command (grbl): no words, except a
+    ``$J=`` jog, whose words are lexed as a block with ``jog`` set.
+    """
     try:
+        if system_lines and raw.lstrip().startswith("$"):
+            text = strip_line(raw)
+            if text.startswith("$J="):
+                block = _lex(raw[raw.index("=") + 1 :], line)
+                return Block(line, block.words, block.settings, False, raw, None, True)
+            return Block(line, (), (), False, raw)
         return _lex(raw, line)
     except GcodeError as exc:
         if exc.line is None:

@@ -114,9 +114,12 @@ def check_words(w: Words, motion: int | None, dialect: Dialect) -> None:
         "I": arc,
         "J": arc,
         "K": arc,
-        "R": arc or g10,
+        "R": arc or (g10 and dialect.g10_rotation),
         "L": g10,
-        "P": arc or g10 or w.g.get("nonmodal") == 40 or w.g.get("path_control") == 640,
+        "P": (arc and dialect.arc_p_allowed)
+        or g10
+        or w.g.get("nonmodal") == 40
+        or w.g.get("path_control") == 640,
         "Q": w.g.get("path_control") == 640,
         "H": w.g.get("tool_length") == 430,
     }
