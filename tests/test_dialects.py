@@ -177,3 +177,36 @@ def test_grbl_arcs_homing_and_offsets() -> None:
     assert [m.line for m in moves[2:]] == [4, 4, 5]  # no intermediate move without axis words
     assert run("G10 L20 P1 X0\nG0 X1\n", "grbl")[0].end == (1.0, 0.0, 0.0)
     assert get_dialect("grbl").arc_tolerance_mm == 0.002
+
+
+# --- Marlin printer lines and g2core's own lines -----------------------------------------------
+
+
+def test_marlin_printer_codes_are_accepted_without_motion() -> None:
+    text = (
+        "M82\nM104 S200 T0\nM140 S60\nM190 S60\nM109 S200\nM106 S255\nM107\nM84\nM400\n"
+        "M117 Layer 1: X10 (text\nM118 E1 done\nM73 P10 R20\nM201 X500 Y500 Z100 E5000\n"
+        "M203 X300 Y300\nM204 P500 R1000 T500\nM205 X8 Y8 Z0.4 E5\nT1\nG29\nG10\nG11\n"
+        "G4 S1\nG4 P500\nG92 E0\nM9999\nG1 X10 Y10 F1500 E1.2\n"
+    )
+    moves = run(text, "marlin")
+    assert [(m.line, m.end) for m in moves] == [(25, (10.0, 10.0, 0.0))]
+
+
+def test_marlin_g28_homes_named_axes_and_g92_sets_the_position() -> None:
+    moves = run("G1 X3 Y4 Z5 F100\nG28 X\nG28\nG1 X5\nG92 X0\nG1 X1\n", "marlin")
+    assert [(m.line, m.kind, m.end) for m in moves] == [
+        (1, "linear", (3.0, 4.0, 5.0)),
+        (2, "rapid", (0.0, 4.0, 5.0)),
+        (3, "rapid", (0.0, 0.0, 0.0)),
+        (4, "linear", (5.0, 0.0, 0.0)),
+        (6, "linear", (6.0, 0.0, 0.0)),  # G92 X0 at X5: X1 is 6 in the work frame
+    ]
+    for code in ("G12", "G27", "G5 I1 J1 P1 Q1 X1 Y1", "G61"):
+        assert "not" in error_of(code + "\n", "marlin").message
+
+
+def test_g2core_json_lines_and_homing_codes_move_nothing() -> None:
+    text = '{"xvm":1000}\n{sr:n}\nG28.2 X0 Y0\nG28.3 X0\nG0 X1\n'
+    assert [(m.line, m.end) for m in run(text, "g2core")] == [(5, (1.0, 0.0, 0.0))]
+    assert "bad character" in error_of('{"xvm":1000}\n', "linuxcnc").message

@@ -21,7 +21,14 @@ from pathlib import Path
 
 from gantry_sim.controller.errors import GcodeError
 from gantry_sim.controller.gcode.expressions import evaluate
-from gantry_sim.controller.gcode.lexer import Block, OWord, lex_line, split_lines
+from gantry_sim.controller.gcode.lexer import (
+    COMMENT,
+    Block,
+    OWord,
+    lex_line,
+    split_lines,
+    strip_line,
+)
 from gantry_sim.controller.moves import Move
 
 MAX_CALL_LEVELS = 9
@@ -35,19 +42,33 @@ class Source:
     name: str
     lines: list[str]
     system_lines: bool = False
+    own_lines: Callable[[str], str | None] | None = None
     blocks: dict[int, Block | GcodeError] = field(default_factory=dict)
 
     def block(self, i: int) -> Block:
         got = self.blocks.get(i)
         if got is None:
             try:
-                got = lex_line(self.lines[i], i + 1, self.system_lines)
+                got = self._lex(i)
             except GcodeError as exc:
+                if exc.line is None:
+                    exc.line = i + 1
                 got = exc
             self.blocks[i] = got
         if isinstance(got, GcodeError):
             raise got
         return got
+
+    def _lex(self, i: int) -> Block:
+        raw = self.lines[i]
+        kind = self.own_lines(raw) if self.own_lines is not None else None
+        if kind == "quiet":
+            return Block(i + 1, (), (), False, raw)
+        if kind == "home":  # Marlin G28 [X] [Y] [Z]: bare axis letters name the axes to home
+            text = strip_line(raw).split(COMMENT, 1)[0]
+            axes = tuple((a, ("num", 0.0)) for a in "XYZ" if a in text[text.find("28") :])
+            return Block(i + 1, axes, (), False, raw, home=True)
+        return lex_line(raw, i + 1, self.system_lines)
 
     def oword(self, i: int) -> OWord | None:
         try:
@@ -128,8 +149,9 @@ class Runner:
         max_iterations: int = DEFAULT_MAX_ITERATIONS,
         system_lines: bool = False,
         owords: bool = True,
+        own_lines: Callable[[str], str | None] | None = None,
     ) -> None:
-        self.main = Source(file, split_lines(text), system_lines)
+        self.main = Source(file, split_lines(text), system_lines, own_lines)
         self.owords = owords
         self.step = step
         self.params = params

@@ -92,6 +92,8 @@ class Dialect:
         error_codes: (message fragment, firmware error number) pairs; the first match is
             appended to a message as ``(grbl error N)``.
         arc_tolerance_mm: the controller's default arc segmentation tolerance [mm], or None.
+        own_lines: the controller's own line rules in controller/gcode/printer_codes.py
+            ("marlin": M/T lines and printer G codes; "g2core": JSON lines, G28.2/G28.3), or "".
     """
 
     name: str
@@ -123,6 +125,7 @@ class Dialect:
     coordinate_systems: int = 9
     error_codes: tuple[tuple[str, int], ...] = ()
     arc_tolerance_mm: float | None = None
+    own_lines: str = ""
 
 
 _TOL_MM = 2 * 0.01 * math.sqrt(2.0)  # 0.028284 mm, rs274 CENTER_ARC_RADIUS_TOLERANCE_MM
@@ -160,6 +163,7 @@ G2CORE = Dialect(
     min_radius_in=0.00005,
     r_short_is_semicircle=False,
     require_program_end=False,
+    own_lines="g2core",
 )
 
 MARLIN = Dialect(
@@ -178,6 +182,7 @@ MARLIN = Dialect(
     r_short_is_semicircle=True,
     require_program_end=False,
     max_p=100,
+    own_lines="marlin",
 )
 
 LASERDYNE_ON_ARC_TOL_MM = 0.005

@@ -39,6 +39,7 @@ from gantry_sim.controller.gcode.frames import from_work, to_work
 from gantry_sim.controller.gcode.lexer import Block
 from gantry_sim.controller.gcode.parameters import COORD_INDEX, POSITION, Parameters
 from gantry_sim.controller.gcode.predefined import predefined
+from gantry_sim.controller.gcode.printer_codes import OWN_LINES
 from gantry_sim.controller.gcode.state import ModalState
 from gantry_sim.controller.gcode.words import check_words, read_words
 from gantry_sim.controller.moves import Arc, Linear, Move, Plane, Rapid, Vec3
@@ -67,6 +68,8 @@ class Interpreter:
             check_plain(block, d)
         if block.jog:
             return self._jog(block)
+        if block.home:
+            return self._printer_home(block), False
         w = read_words(block, self.params)
         s = self.state
         # Step 2: every code is one gantry-sim supports.
@@ -202,6 +205,16 @@ class Interpreter:
                 end[i] = v[letter] * s.scale
         return from_work((end[0], end[1], end[2]), s.frame)
 
+    def _printer_home(self, block: Block) -> list[Move]:
+        """Marlin G28: the named axes (all when none) rapid to the work origin."""
+        s = self.state
+        named = [a for a, _ in block.words] or list("XYZ")
+        target = tuple(0.0 if a in named else s.work[i] for i, a in enumerate("XYZ"))
+        end = from_work((target[0], target[1], target[2]), s.frame)
+        moves: list[Move] = []
+        self.state = self._emit(moves, s, Rapid(block.line, s.work, to_work(end, s.frame)), end)
+        return moves
+
     def _jog(self, block: Block) -> tuple[list[Move], bool]:
         """grbl ``$J=``: a G1 in the jog's own modes and feed; the modal state is kept."""
         saved = self.state
@@ -269,6 +282,7 @@ def interpret(
             max_iterations,
             system_lines=rules.system_lines,
             owords=rules.language,
+            own_lines=OWN_LINES.get(rules.own_lines),
         )
         yield from runner.run()
         if runner.ended or not rules.require_program_end:

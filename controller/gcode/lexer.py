@@ -67,6 +67,7 @@ class Block:
         text: the source line, for messages.
         oword: the line's O-word, if it is one.
         jog: a grbl ``$J=`` jog: its words move as G1 without changing the modal state.
+        home: a Marlin G28: the named axes (all when none) go to the work origin.
     """
 
     line: int
@@ -76,11 +77,18 @@ class Block:
     text: str
     oword: OWord | None = None
     jog: bool = False
+    home: bool = False
 
     @property
     def empty(self) -> bool:
         """True when the line carries nothing to execute (blank or comment only)."""
-        return not self.words and not self.settings and not self.percent and self.oword is None
+        return (
+            not self.words
+            and not self.settings
+            and not self.percent
+            and self.oword is None
+            and not self.home
+        )
 
 
 def strip_line(raw: str) -> str:
