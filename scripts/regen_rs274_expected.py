@@ -87,7 +87,41 @@ QUIET_CALLS = {
     "SET_TRAVERSE_RATE",
     "SET_CUTTER_RADIUS_COMPENSATION",
     "STOP_CUTTER_RADIUS_COMPENSATION",
+    "TURN_PROBE_ON",
+    "TURN_PROBE_OFF",
+    "ORIENT_SPINDLE",
+    "WAIT_SPINDLE_ORIENT_COMPLETE",
+    "USE_NO_SPINDLE_FORCE",
+    "USE_SPINDLE_FORCE",
+    "SET_TOOL_TABLE_ENTRY",
+    "SPINDLE_RETRACT",
+    "SPINDLE_RETRACT_TRAVERSE",
+    "SET_MOTION_OUTPUT_BIT",
+    "CLEAR_MOTION_OUTPUT_BIT",
+    "SET_AUX_OUTPUT_BIT",
+    "CLEAR_AUX_OUTPUT_BIT",
+    "SET_MOTION_OUTPUT_VALUE",
+    "SET_AUX_OUTPUT_VALUE",
+    "WAIT",
+    "START_SPEED_FEED_SYNCH",
+    "START_SPEED_FEED_SYNC",
+    "STOP_SPEED_FEED_SYNC",
+    "STOP_SPEED_FEED_SYNCH",
+    "DISABLE_ADAPTIVE_FEED",
+    "DISABLE_FEED_HOLD",
+    "UPDATE_TAG",
+    "SELECT_POCKET",
+    "CHANGE_TOOL_NUMBER",
+    "LOGOPEN",
+    "LOGAPPEND",
+    "LOGCLOSE",
+    "LOG",
+    "PLUGIN_CALL",
+    "IO_PLUGIN_CALL",
 }
+#: canonical motions gantry-sim does not make (probing, tapping, splines): recorded as kind
+#: "other" with their end point, so that a refusal of that line can be checked against them.
+OTHER_MOTIONS = {"STRAIGHT_PROBE", "RIGID_TAP", "NURBS_FEED", "SPLINE_FEED"}
 LINES_DERIVED = (
     "rs274 prints no source lines: motions appearing when line k is added to the program's "
     "first k-1 lines belong to line k; the error belongs to the first prefix rs274 rejects "
@@ -252,6 +286,11 @@ def parse_canon(stdout: str) -> tuple[list[dict], float]:
             )
             pos = motions[-1]["end"]
             unit_max = max(unit_max, scale)
+        elif name in OTHER_MOTIONS:
+            v = _nums(args) if name != "NURBS_FEED" else [*pos]
+            end = [v[0] * scale, v[1] * scale, v[2] * scale]
+            motions.append({"n": n, "kind": "other", "start": pos, "end": end, "call": name})
+            pos = end
         elif name not in QUIET_CALLS:
             raise RuntimeError(f"unexpected canonical call {name}({args})")
     return motions, unit_max

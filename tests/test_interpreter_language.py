@@ -166,3 +166,51 @@ def test_parse_cli_subroutine_path_and_iteration_bound(tmp_path, capsys) -> None
     prog.write_text("o1 repeat [50]\nG91 G0 X1\no1 endrepeat\nM2\n")
     assert main(["parse", str(prog), "--max-iterations", "10"]) == 2
     assert f"{prog}:3: error: more than 10" in capsys.readouterr().err
+
+
+def test_all_errors_lists_every_refused_line(tmp_path, capsys) -> None:
+    from gantry_sim.sim.cli import main
+
+    prog = tmp_path / "p.ngc"
+    prog.write_text("G0 X1\nG0 G1 X2\nG81 X1 Z-1 R1\nG0 X3\nG1 X4\nM2\n")
+    assert main(["parse", str(prog), "--all-errors"]) == 2
+    captured = capsys.readouterr()
+    assert [ln.split(": error")[0] for ln in captured.err.splitlines()[:3]] == [
+        f"{prog}:2",
+        f"{prog}:3",
+        f"{prog}:5",
+    ]
+    assert "3 refused line(s)" in captured.err
+    assert captured.out.count('"kind"') == 2  # the accepted lines' motions: X1 and X3
+    assert main(["parse", str(prog)]) == 2  # without the option: the first error only
+    assert capsys.readouterr().err.count("error:") == 1
+
+
+def test_linuxcnc_io_m_codes_are_accepted() -> None:
+    # rs274: M61 Q1, M62-M65 P, M66 P L, M67/M68 E Q move nothing; #5599 may be set.
+    text = "#5599=1\nM61 Q1\nM62 P0\nM63 P0\nM64 P0\nM65 P0\nM66 P0 L0\nM67 E0 Q1\nM68 E0 Q1\nG0 X1\nM2\n"
+    assert ends(text) == [(1.0, 0.0, 0.0)]
+    assert "Q word" in error_of("M61\nM2\n").message
+
+
+def test_tool_table_and_length_offsets(tmp_path, capsys) -> None:
+    from gantry_sim.controller.gcode.tools import parse_tool_table
+    from gantry_sim.sim.cli import main
+
+    tools = parse_tool_table("T1 P1 Z10 D6 ;end mill\n\nT2 P2 Z25.5\n")
+    assert tools[1].z_mm == 10.0 and tools[1].diameter_mm == 6.0 and tools[2].z_mm == 25.5
+    # rs274: G43 on a later line re-expresses Z (the tip stays, Z reads -length); G49 undoes it
+    text = "T1 M6\nG43 H1\nG0 X1\nG49\nG0 X2\nG53 G0 Z0\nT3\nM2\n"
+    err = error_of(text, tools=tools)
+    assert err.line == 7 and "tool 3 not found" in err.message
+    moves = list(interpret(text.replace("T3\n", ""), tools=tools))
+    assert [m.end for m in moves] == [(1.0, 0.0, -10.0), (2.0, 0.0, 0.0), (2.0, 0.0, 0.0)]
+    with pytest.raises(GcodeError) as info:
+        parse_tool_table("T1 Z1\nhello\n", "t.tbl")
+    assert (info.value.file, info.value.line) == ("t.tbl", 2)
+    table = tmp_path / "tool.tbl"
+    table.write_text("T1 P1 Z10\n")
+    prog = tmp_path / "p.ngc"
+    prog.write_text("T1 M6\nG43\nG0 X1\nM2\n")
+    assert main(["parse", str(prog), "--tool-table", str(table)]) == 0
+    assert '"end": [1.0, 0.0, -10.0]' in capsys.readouterr().out

@@ -32,12 +32,13 @@ G_GROUPS: dict[int, str] = {
 # fmt: off
 G_HANDLED = frozenset(
     (0, 10, 20, 30, 800, 170, 180, 190, 900, 910, 901, 911, 200, 210, 530,
-     540, 550, 560, 570, 580, 590, 591, 592, 593, 100, 280, 281, 300, 301, 920, 921, 922, 923)
+     540, 550, 560, 570, 580, 590, 591, 592, 593, 100, 280, 281, 300, 301, 920, 921, 922, 923,
+     430, 490)
 )
 
 #: codes accepted with no effect on the programmed X/Y/Z tool-tip path in work coordinates.
 G_NO_PATH_EFFECT = frozenset(
-    (40, 940, 400, 430, 490, 980, 990, 610, 611, 640, 960, 970, 80)
+    (40, 940, 400, 980, 990, 610, 611, 640, 960, 970, 80)
 )
 # fmt: on
 #: refused codes -> why.
@@ -61,7 +62,8 @@ G_REFUSED: dict[int, str] = {
 # M code -> modal group (LinuxCNC's M groups 4, 6, 7, 8, 9).
 M_GROUPS: dict[int, str] = {
     **dict.fromkeys((0, 1, 2, 30, 60), "stopping"),
-    6: "tool_change",
+    **dict.fromkeys((6, 61), "tool_change"),
+    **dict.fromkeys((62, 63, 64, 65, 66, 67, 68), "io"),  # digital/analog outputs, wait input
     **dict.fromkeys((3, 4, 5), "spindle"),
     **dict.fromkeys((7, 8, 9), "coolant"),
     **dict.fromkeys((48, 49, 50, 51, 52, 53, 56), "override"),  # M56: grbl's parking override

@@ -32,6 +32,7 @@ from gantry_sim.controller.gcode.lexer import (
 from gantry_sim.controller.moves import Move
 
 MAX_CALL_LEVELS = 9
+MAX_ERRORS = 1000  # --all-errors stops collecting (and raises) after this many
 DEFAULT_MAX_ITERATIONS = 1_000_000
 
 
@@ -162,6 +163,7 @@ class Runner:
         self.searched: set[tuple[Source, int]] = set()  # definitions found by a forward search
         self.frames: list[Frame] = [Frame(self.main, 0)]
         self.ended = False
+        self.errors: list[GcodeError] | None = None  # collect instead of raising (--all-errors)
         self.seen = False  # a line with content has been run
         self.percent_open = False
 
@@ -179,6 +181,7 @@ class Runner:
                     )
                 return
             i = f.index
+            depth = len(self.frames)
             try:
                 block = f.source.block(i)
                 if block.oword is not None:
@@ -201,7 +204,12 @@ class Runner:
                     exc.line = i + 1
                 if exc.file is None and f.source is not self.main:
                     exc.file = f.source.name
-                raise
+                if self.errors is None or len(self.errors) >= MAX_ERRORS:
+                    raise
+                self.errors.append(exc)  # --all-errors: note it, skip the line, go on
+                if len(self.frames) == depth and f.index == i:
+                    f.index = i + 1
+                continue
             yield from moves
             self.ended = ended
 

@@ -123,11 +123,13 @@ def store_home(s: ModalState, p: Parameters, code: int) -> None:
     """G28.1 / G30.1: store the current absolute point."""
     base = G28_HOME if code == 281 else G30_HOME
     for i in range(3):
-        p.numbered[base + i] = s.work[i]
+        p.numbered[base + i] = s.work[i] + (s.tool_offset_z_mm if i == 2 else 0.0)
 
 
 def home_point(s: ModalState, p: Parameters, code: int, axes: set[str]) -> Vec3:
     """G28 / G30: the stored point in program coordinates, for ``axes`` (all when empty)."""
     base = G28_HOME if code == 280 else G30_HOME
     target = [p.mm(base + i) if not axes or a in axes else s.work[i] for i, a in enumerate(_AXES)]
+    if not axes or "Z" in axes:
+        target[2] -= s.tool_offset_z_mm  # stored points are the spindle's, as G53
     return from_work(_vec(target), s.frame)

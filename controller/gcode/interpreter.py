@@ -24,7 +24,7 @@ from gantry_sim.controller.gcode.codes import (
     M_PROGRAM_END,
     g_name,
 )
-from gantry_sim.controller.gcode.control import DEFAULT_MAX_ITERATIONS, Runner
+from gantry_sim.controller.gcode.control import DEFAULT_MAX_ITERATIONS, MAX_ERRORS, Runner
 from gantry_sim.controller.gcode.coords import (
     SYSTEMS,
     g10,
@@ -38,10 +38,12 @@ from gantry_sim.controller.gcode.dialects import Dialect, coded, get_dialect
 from gantry_sim.controller.gcode.frames import from_work, to_work
 from gantry_sim.controller.gcode.lexer import Block
 from gantry_sim.controller.gcode.parameters import COORD_INDEX, POSITION, Parameters
+from gantry_sim.controller.gcode.polar import polar_end_point
 from gantry_sim.controller.gcode.predefined import predefined
 from gantry_sim.controller.gcode.printer_codes import OWN_LINES
 from gantry_sim.controller.gcode.state import ModalState
-from gantry_sim.controller.gcode.words import check_words, read_words
+from gantry_sim.controller.gcode.tools import Tool
+from gantry_sim.controller.gcode.words import Words, check_words, read_words
 from gantry_sim.controller.moves import Arc, Linear, Move, Plane, Rapid, Vec3
 
 _PLANES: dict[int, Plane] = {170: "XY", 180: "XZ", 190: "YZ"}
@@ -52,8 +54,9 @@ AXIS_NONMODAL = frozenset((100, 280, 300, 920))
 class Interpreter:
     """Runs blocks against a modal state for one dialect (see :func:`interpret`)."""
 
-    def __init__(self, dialect: Dialect) -> None:
+    def __init__(self, dialect: Dialect, tools: dict[int, Tool] | None = None) -> None:
         self.dialect = dialect
+        self.tools = tools
         self.state = ModalState(feed_mm_per_min=dialect.default_feed_mm_per_min or 0.0)
         self.params = Parameters(self._predefined, lambda: self.state.scale)
         self.params.numbered[COORD_INDEX] = 1.0
@@ -83,6 +86,7 @@ class Interpreter:
             if w.values["F"] < 0.0:
                 raise GcodeError("negative F word; the feed must be >= 0 (units per minute)")
             s = replace(s, feed_mm_per_min=w.values["F"] * s.scale)
+        s = self._tools(w, s)
         # Step 4: plane, units, coordinate system, distance modes.
         if "plane" in w.g:
             s = replace(s, plane=_PLANES[w.g["plane"]])
@@ -99,7 +103,7 @@ class Interpreter:
         # Step 5: which motion this block makes, if any.
         nonmodal = w.g.get("nonmodal")
         axis_code = nonmodal in AXIS_NONMODAL
-        has_axes = any(a in w.values for a in "XYZ")
+        has_axes = any(a in w.values for a in "XYZ@^")
         motion = w.g.get("motion")
         if motion == 800:
             if has_axes and not axis_code:
@@ -198,12 +202,51 @@ class Interpreter:
         return self._emit(moves, s, Rapid(line, s.work, to_work(home, s.frame)), home)
 
     def _machine_end_point(self, v: dict[str, float], s: ModalState) -> Vec3:
-        """G53: axis words are work-frame coordinates without offsets or rotation."""
+        """G53: axis words are machine coordinates: the work frame without offsets, rotation
+        or tool length offset."""
         end = list(s.work)
         for i, letter in enumerate("XYZ"):
             if letter in v:
                 end[i] = v[letter] * s.scale
+        if "Z" in v:
+            end[2] -= s.tool_offset_z_mm  # machine Z is the spindle's; the tip is below it
         return from_work((end[0], end[1], end[2]), s.frame)
+
+    def _tool(self, number: int) -> Tool | None:
+        if self.tools is None or number == 0:
+            return None  # no table: every tool has zero length
+        if number not in self.tools:
+            raise GcodeError(f"requested tool {number} not found in the tool table")
+        return self.tools[number]
+
+    def _tools(self, w: Words, s: ModalState) -> ModalState:
+        """T (select), M6/M61 (change), G43 H / G49 (tool length offset), in rs274's order."""
+        if "T" in w.values:
+            number = round(w.values["T"])
+            self._tool(number)
+            s = replace(s, selected_tool=number)
+        if w.m.get("tool_change") == 6:
+            s = replace(s, tool=s.selected_tool)
+        elif w.m.get("tool_change") == 61:
+            if w.values.get("Q", -1.0) < 0.0:
+                raise GcodeError("M61 needs a Q word >= 0: the tool number now in the spindle")
+            number = round(w.values["Q"])
+            self._tool(number)
+            s = replace(s, tool=number)
+        code = w.g.get("tool_length")
+        if code in (430, 490):
+            new = 0.0
+            if code == 430:
+                h = round(w.values.get("H", s.tool))
+                tool = self._tool(h)
+                new = tool.z_mm if tool is not None else 0.0
+            x, y, z = s.position
+            # rs274: the current point is re-expressed so the tool tip does not move, except on
+            # an M6 line, after which rs274 takes the position back unchanged (measured)
+            if w.m.get("tool_change") != 6:
+                z = z + s.tool_offset_z_mm - new
+            s = replace(s, tool_offset_z_mm=new, position=(x, y, z))
+        return s
 
     def _printer_home(self, block: Block) -> list[Move]:
         """Marlin G28: the named axes (all when none) rapid to the work origin."""
@@ -238,6 +281,8 @@ class Interpreter:
 
     @staticmethod
     def _end_point(v: dict[str, float], s: ModalState) -> Vec3:
+        if "@" in v or "^" in v:
+            return polar_end_point(v, s)
         end = list(s.position)
         for i, letter in enumerate("XYZ"):
             if letter in v:
@@ -259,6 +304,8 @@ def interpret(
     file: str = "<program>",
     search_path: tuple[Path, ...] = (),
     max_iterations: int = DEFAULT_MAX_ITERATIONS,
+    errors: list[GcodeError] | None = None,
+    tools: dict[int, Tool] | None = None,
 ) -> Iterator[Move]:
     """Yield the program's moves in order; GcodeError(file, line) at the first bad line.
 
@@ -272,7 +319,7 @@ def interpret(
     rules: Dialect | None = None
     try:
         rules = get_dialect(dialect)
-        interp = Interpreter(rules)
+        interp = Interpreter(rules, tools)
         runner = Runner(
             text,
             file,
@@ -284,6 +331,7 @@ def interpret(
             owords=rules.language,
             own_lines=OWN_LINES.get(rules.own_lines),
         )
+        runner.errors = errors
         yield from runner.run()
         if runner.ended or not rules.require_program_end:
             return
@@ -293,9 +341,23 @@ def interpret(
             line=max(len(runner.main.lines), 1),
         )
     except GcodeError as exc:
+        if errors is not None and len(errors) < MAX_ERRORS:
+            errors.append(exc)
+            return
         if rules is not None and rules.error_codes:
             exc.message = coded(exc.message, rules)
         raise exc.located(file) from None
+    finally:
+        if errors is not None:
+            _finish(errors, rules, file)
+
+
+def _finish(errors: list[GcodeError], rules: Dialect | None, file: str) -> None:
+    """Give each collected error its file and the dialect's error number."""
+    for exc in errors:
+        if rules is not None and rules.error_codes and not exc.message.endswith(")"):
+            exc.message = coded(exc.message, rules)
+        exc.located(file)
 
 
 def parse_program(text: str, dialect: str = "linuxcnc", file: str = "<program>") -> list[Move]:

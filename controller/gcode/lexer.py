@@ -26,7 +26,7 @@ from gantry_sim.controller.gcode.expressions import Reader, Tree
 COMMENT = "("
 
 #: letters rs274 reads as words (O-words are read separately, N only opens a line).
-WORD_LETTERS = frozenset("ABCDEFGHIJKLMPQRSTUVWXYZ")
+WORD_LETTERS = frozenset("ABCDEFGHIJKLMPQRSTUVWXYZ@^")  # @ ^: polar radius and angle
 
 #: O-word keywords, longest first so that ENDSUB is not read as END... or ELSEIF as ELSE.
 # fmt: off

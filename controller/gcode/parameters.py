@@ -17,6 +17,8 @@ from gantry_sim.controller.errors import GcodeError
 #: rs274's parameter table: #1..#5601 can be read; #1..#5399 can be set (#5400+ are read-only).
 MAX_PARAMETER = 5601
 MAX_SETTABLE_PARAMETER = 5399
+#: read-only range exceptions rs274 lets a program set (#5599: the (DEBUG,) output flag)
+SETTABLE_SYSTEM = frozenset((5599,))
 #: subroutine arguments #1..#30 are local to each call.
 ARGUMENTS = 30
 

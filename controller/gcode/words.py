@@ -17,6 +17,7 @@ from gantry_sim.controller.gcode.lexer import Block
 from gantry_sim.controller.gcode.parameters import (
     MAX_PARAMETER,
     MAX_SETTABLE_PARAMETER,
+    SETTABLE_SYSTEM,
     parameter_index,
 )
 
@@ -93,7 +94,7 @@ def read_words(block: Block, params: ParameterReader) -> Words:
             settings.append((target, evaluate(value_tree, params)))
             continue
         index = parameter_index(evaluate(target, params))
-        if index > MAX_SETTABLE_PARAMETER:
+        if index > MAX_SETTABLE_PARAMETER and index not in SETTABLE_SYSTEM:
             raise GcodeError(
                 f"parameter #{index} is read-only (system parameters #{MAX_SETTABLE_PARAMETER + 1}.."
                 f"#{MAX_PARAMETER}); set #1..#{MAX_SETTABLE_PARAMETER}"
@@ -115,16 +116,20 @@ def check_words(w: Words, motion: int | None, dialect: Dialect) -> None:
         "J": arc,
         "K": arc,
         "R": arc or (g10 and dialect.g10_rotation),
-        "L": g10,
+        "L": g10 or w.m.get("io") == 66,
         "P": (arc and dialect.arc_p_allowed)
         or g10
         or w.g.get("nonmodal") == 40
-        or w.g.get("path_control") == 640,
-        "Q": w.g.get("path_control") == 640,
+        or w.g.get("path_control") == 640
+        or w.m.get("io") in (62, 63, 64, 65, 66),
+        "Q": w.g.get("path_control") == 640
+        or w.m.get("tool_change") == 61
+        or w.m.get("io") in (66, 67, 68),
+        "E": w.m.get("io") in (66, 67, 68),
         "H": w.g.get("tool_length") == 430,
     }
     for letter in v:
-        if letter in dialect.ignored_letters or letter in "XYZFST":
+        if letter in dialect.ignored_letters or letter in "XYZFST@^":
             continue
         if not uses.get(letter, False):
             need = {"P": "G2, G3, G4, G10 or G64", "Q": "G64", "H": "G43"}.get(letter, "G2 or G3")
@@ -139,6 +144,12 @@ def check_words(w: Words, motion: int | None, dialect: Dialect) -> None:
         raise GcodeError("negative S word; the spindle speed must be >= 0")
     if v.get("T", 0.0) < 0.0:
         raise GcodeError("negative T word; tool numbers are >= 0")
+    if w.m.get("tool_change") == 61 and v.get("Q", -1.0) < 0.0:
+        raise GcodeError("M61 needs a Q word >= 0: the tool number now in the spindle")
+    if w.m.get("io") in (62, 63, 64, 65) and "P" not in v:
+        raise GcodeError(f"M{w.m['io']} needs a P word: the digital output number")
+    if w.m.get("io") in (67, 68) and ("E" not in v or "Q" not in v):
+        raise GcodeError(f"M{w.m['io']} needs E (the analog output) and Q (its value)")
     if w.g.get("nonmodal") == 40 and arc:
         raise GcodeError("G4 (dwell) cannot share a line with G2 or G3: both use the P word")
     if w.g.get("nonmodal") == 40 and v.get("P", -1.0) < 0.0:

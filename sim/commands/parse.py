@@ -24,6 +24,19 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         help="folder searched for NAME.ngc subroutine files after the program's own (repeatable)",
     )
     parser.add_argument(
+        "--tool-table",
+        type=Path,
+        default=None,
+        metavar="FILE",
+        help="LinuxCNC tool.tbl (lengths in mm); without it every tool has zero length",
+    )
+    parser.add_argument(
+        "--all-errors",
+        action="store_true",
+        help="interpret the whole program, skipping refused lines, and list every one of them "
+        "(FILE:LINE: error: ...) on stderr; exit 2 when there is any",
+    )
+    parser.add_argument(
         "--max-iterations",
         type=int,
         default=None,
@@ -42,7 +55,13 @@ def run(args: argparse.Namespace) -> int:
     if limit < 1:
         raise ConfigError(f"--max-iterations {limit}: must be 1 or more")
     search = (args.program.resolve().parent, *args.subroutine_path)
+    tools = None
+    if args.tool_table is not None:
+        from gantry_sim.controller.gcode.tools import read_tool_table
+
+        tools = read_tool_table(args.tool_table)
     out = sys.stdout
+    errors: list | None = [] if args.all_errors else None
     try:
         for move in interpret(
             text,
@@ -50,10 +69,17 @@ def run(args: argparse.Namespace) -> int:
             file=str(args.program),
             search_path=search,
             max_iterations=limit,
+            errors=errors,
+            tools=tools,
         ):
             out.write(json.dumps(move.to_json()) + "\n")
     except GantryError:
         out.flush()
         raise
     out.flush()
+    if errors:
+        for exc in errors:
+            sys.stderr.write(f"{exc}\n")
+        sys.stderr.write(f"{args.program}: {len(errors)} refused line(s)\n")
+        return 2
     return 0
