@@ -214,3 +214,16 @@ def test_tool_table_and_length_offsets(tmp_path, capsys) -> None:
     prog.write_text("T1 M6\nG43\nG0 X1\nM2\n")
     assert main(["parse", str(prog), "--tool-table", str(table)]) == 0
     assert '"end": [1.0, 0.0, -10.0]' in capsys.readouterr().out
+
+
+def test_inverse_time_and_feed_per_revolution_become_path_speed() -> None:
+    # rs274: G93 F2 on a 10 mm line is SET_FEED_RATE(20); G95 F0.5 at S100 is 50 mm/min.
+    moves = parse_program("G93 G1 X10 F2\nG2 X0 I-5 F1\nG94 G1 X1 F100\nM2\n")
+    assert [round(m.feed_mm_per_min, 9) for m in moves] == [
+        20.0,
+        round(5 * 3.141592653589793, 9),
+        100.0,
+    ]
+    assert parse_program("G95 S100 G1 X10 F0.5\nM2\n")[0].feed_mm_per_min == 50.0
+    assert error_of("G93 G1 X10 F2\nG1 X20\nM2\n").line == 2
+    assert "zero spindle speed" in error_of("G95 G1 X10 F0.5\nM2\n").message

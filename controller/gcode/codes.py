@@ -33,7 +33,7 @@ G_GROUPS: dict[int, str] = {
 G_HANDLED = frozenset(
     (0, 10, 20, 30, 800, 170, 180, 190, 900, 910, 901, 911, 200, 210, 530,
      540, 550, 560, 570, 580, 590, 591, 592, 593, 100, 280, 281, 300, 301, 920, 921, 922, 923,
-     430, 490)
+     430, 490, 930, 950)
 )
 
 #: codes accepted with no effect on the programmed X/Y/Z tool-tip path in work coordinates.
@@ -50,8 +50,6 @@ G_REFUSED: dict[int, str] = {
         (730, 760, 810, 820, 830, 840, 850, 860, 870, 880, 890), "canned cycles are not supported"
     ),
     **dict.fromkeys((171, 181, 191), "UVW planes are not supported on this XYZ machine"),
-    930: "inverse-time feed (G93) is not supported; use G94 (units per minute)",
-    950: "feed per revolution (G95) is not supported; use G94 (units per minute)",
     **dict.fromkeys((410, 411, 420, 421), "cutter radius compensation is not supported"),
     431: "a dynamic tool length offset (G43.1) shifts Z coordinates, which is not supported",
     432: "G43.2 (additional tool length offset) is not supported",

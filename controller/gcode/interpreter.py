@@ -35,6 +35,7 @@ from gantry_sim.controller.gcode.coords import (
 )
 from gantry_sim.controller.gcode.dialect_checks import check_codes, check_jog, check_plain
 from gantry_sim.controller.gcode.dialects import Dialect, coded, get_dialect
+from gantry_sim.controller.gcode.feed_modes import check_feed_mode, path_feed
 from gantry_sim.controller.gcode.frames import from_work, to_work
 from gantry_sim.controller.gcode.lexer import Block
 from gantry_sim.controller.gcode.parameters import COORD_INDEX, POSITION, Parameters
@@ -87,6 +88,10 @@ class Interpreter:
                 raise GcodeError("negative F word; the feed must be >= 0 (units per minute)")
             s = replace(s, feed_mm_per_min=w.values["F"] * s.scale)
         s = self._tools(w, s)
+        if "feed_mode" in w.g:
+            s = replace(s, feed_mode=w.g["feed_mode"])
+        if "S" in w.values and "S" not in d.ignored_letters:
+            s = replace(s, rpm=w.values["S"])
         # Step 4: plane, units, coordinate system, distance modes.
         if "plane" in w.g:
             s = replace(s, plane=_PLANES[w.g["plane"]])
@@ -154,14 +159,15 @@ class Interpreter:
             if motion == 0:
                 s = self._emit(moves, s, Rapid(w.line, s.work, to_work(end, s.frame)), end)
             elif motion == 10:
-                self._require_feed(s, "a G1 move")
+                self._require_feed(s, "a G1 move", w)
                 move = Linear(w.line, s.work, to_work(end, s.frame), s.feed_mm_per_min)
-                s = self._emit(moves, s, move, end)
+                s = self._emit(moves, s, path_feed(move, s, w.values), end)
             else:
-                self._require_feed(s, "an arc")
+                self._require_feed(s, "an arc", w)
                 arc = arc_move(w.line, w.values, s, end, motion == 30, d)
                 if arc is not None:
-                    s = self._emit(moves, s, self._arc_to_work(arc, s), arc.end)
+                    placed = path_feed(self._arc_to_work(arc, s), s, w.values)
+                    s = self._emit(moves, s, placed, arc.end)  # arc.end: program frame
         # Step 7: commit.
         self.state = s
         for target, value in w.settings:
@@ -290,7 +296,8 @@ class Interpreter:
                 end[i] = s.position[i] + value if s.incremental else value
         return (end[0], end[1], end[2])
 
-    def _require_feed(self, s: ModalState, what: str) -> None:
+    def _require_feed(self, s: ModalState, what: str, w: Words) -> None:
+        check_feed_mode(s, what, w.values)
         if s.feed_mm_per_min <= 0.0:
             raise GcodeError(
                 f"cannot make {what} with zero feed rate; set F (units per minute, > 0) on this "
