@@ -227,3 +227,52 @@ def test_inverse_time_and_feed_per_revolution_become_path_speed() -> None:
     assert parse_program("G95 S100 G1 X10 F0.5\nM2\n")[0].feed_mm_per_min == 50.0
     assert error_of("G93 G1 X10 F2\nG1 X20\nM2\n").line == 2
     assert "zero spindle speed" in error_of("G95 G1 X10 F0.5\nM2\n").message
+
+
+def test_dwell_and_stops_are_events_when_asked(tmp_path, capsys) -> None:
+    from gantry_sim.sim.cli import main
+
+    text = "G1 X1 F100\nG4 P0.5 G1 X2\nM0\nM1\nG0 X3\nM60\nM2\n"
+    plain = parse_program(text)
+    assert [m.kind for m in plain] == ["linear", "linear", "rapid"]  # motions only by default
+    got = [(m.line, m.kind) for m in interpret(text, events=True)]
+    assert got == [
+        (1, "linear"),
+        (2, "dwell"),  # rs274 dwells before the line's motion
+        (2, "linear"),
+        (3, "stop"),
+        (4, "stop"),
+        (5, "rapid"),
+        (6, "stop"),
+    ]
+    dwell = list(interpret(text, events=True))[1]
+    assert dwell.to_json() == {
+        "line": 2,
+        "kind": "dwell",
+        "position": [1.0, 0.0, 0.0],
+        "seconds": 0.5,
+    }
+    prog = tmp_path / "p.ngc"
+    prog.write_text(text)
+    assert main(["parse", str(prog), "--events"]) == 0
+    assert '"kind": "stop", "position": [2.0, 0.0, 0.0], "code": "M0"' in capsys.readouterr().out
+
+
+def test_work_offset_places_the_program(tmp_path, capsys) -> None:
+    from gantry_sim.sim.cli import main
+
+    moves = list(
+        interpret("G0 X0 Y0\nG1 X10 F100\nG0 Z[#5223]\nM2\n", work_offset=(100.0, 50.0, -5.0))
+    )
+    assert [m.end for m in moves] == [
+        (100.0, 50.0, 0.0),
+        (110.0, 50.0, 0.0),
+        (100.0 + 10, 50.0, -10.0),
+    ]
+    assert moves[0].start == (0.0, 0.0, 0.0)  # the tool starts at the work frame's origin
+    prog = tmp_path / "p.ngc"
+    prog.write_text("G0 X1 Y0 Z0\nM2\n")  # unnamed axes would stay where the tool is
+    assert main(["parse", str(prog), "--work-offset", "10,20,30"]) == 0
+    assert '"end": [11.0, 20.0, 30.0]' in capsys.readouterr().out
+    with pytest.raises(SystemExit):
+        main(["parse", str(prog), "--work-offset", "10,20"])

@@ -38,14 +38,14 @@ from gantry_sim.controller.gcode.dialects import Dialect, coded, get_dialect
 from gantry_sim.controller.gcode.feed_modes import check_feed_mode, path_feed
 from gantry_sim.controller.gcode.frames import from_work, to_work
 from gantry_sim.controller.gcode.lexer import Block
-from gantry_sim.controller.gcode.parameters import COORD_INDEX, POSITION, Parameters
+from gantry_sim.controller.gcode.parameters import COORD_INDEX, POSITION, Parameters, g5x_base
 from gantry_sim.controller.gcode.polar import polar_end_point
 from gantry_sim.controller.gcode.predefined import predefined
 from gantry_sim.controller.gcode.printer_codes import OWN_LINES
 from gantry_sim.controller.gcode.state import ModalState
 from gantry_sim.controller.gcode.tools import Tool
 from gantry_sim.controller.gcode.words import Words, check_words, read_words
-from gantry_sim.controller.moves import Arc, Linear, Move, Plane, Rapid, Vec3
+from gantry_sim.controller.moves import Arc, Dwell, Linear, Move, Plane, Rapid, Stop, Vec3
 
 _PLANES: dict[int, Plane] = {170: "XY", 180: "XZ", 190: "YZ"}
 #: non-modal codes whose axis words are theirs, not a motion's: G10, G28, G30, G92.
@@ -55,9 +55,12 @@ AXIS_NONMODAL = frozenset((100, 280, 300, 920))
 class Interpreter:
     """Runs blocks against a modal state for one dialect (see :func:`interpret`)."""
 
-    def __init__(self, dialect: Dialect, tools: dict[int, Tool] | None = None) -> None:
+    def __init__(
+        self, dialect: Dialect, tools: dict[int, Tool] | None = None, events: bool = False
+    ) -> None:
         self.dialect = dialect
         self.tools = tools
+        self.events = events
         self.state = ModalState(feed_mm_per_min=dialect.default_feed_mm_per_min or 0.0)
         self.params = Parameters(self._predefined, lambda: self.state.scale)
         self.params.numbered[COORD_INDEX] = 1.0
@@ -168,7 +171,14 @@ class Interpreter:
                 if arc is not None:
                     placed = path_feed(self._arc_to_work(arc, s), s, w.values)
                     s = self._emit(moves, s, placed, arc.end)  # arc.end: program frame
-        # Step 7: commit.
+        # Step 7: commit; events after the block's motion (rs274 runs G4 before motion, so a
+        # dwell on a motion line waits before it moves).
+        if self.events:
+            if nonmodal == 40 and "P" in w.values:
+                moves.insert(0, Dwell(w.line, self.state.work, w.values["P"]))
+            stop = w.m.get("stopping")
+            if stop in (0, 1, 60):
+                moves.append(Stop(w.line, s.work, f"M{stop}"))
         self.state = s
         for target, value in w.settings:
             if isinstance(target, str):
@@ -217,6 +227,12 @@ class Interpreter:
         if "Z" in v:
             end[2] -= s.tool_offset_z_mm  # machine Z is the spindle's; the tip is below it
         return from_work((end[0], end[1], end[2]), s.frame)
+
+    def place(self, offset: Vec3) -> None:
+        """Set G54's origin to ``offset`` [mm] and make it the frame in effect."""
+        for i in range(3):
+            self.params.numbered[g5x_base(1) + i] = offset[i]
+        self.state = select_system(self.state, self.params, 1)
 
     def _tool(self, number: int) -> Tool | None:
         if self.tools is None or number == 0:
@@ -313,6 +329,8 @@ def interpret(
     max_iterations: int = DEFAULT_MAX_ITERATIONS,
     errors: list[GcodeError] | None = None,
     tools: dict[int, Tool] | None = None,
+    events: bool = False,
+    work_offset: Vec3 | None = None,
 ) -> Iterator[Move]:
     """Yield the program's moves in order; GcodeError(file, line) at the first bad line.
 
@@ -326,7 +344,9 @@ def interpret(
     rules: Dialect | None = None
     try:
         rules = get_dialect(dialect)
-        interp = Interpreter(rules, tools)
+        interp = Interpreter(rules, tools, events)
+        if work_offset is not None:
+            interp.place(work_offset)
         runner = Runner(
             text,
             file,

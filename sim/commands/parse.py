@@ -7,7 +7,7 @@ import json
 import sys
 from pathlib import Path
 
-from gantry_sim.sim.commands.common import add_dialect, read_program
+from gantry_sim.sim.commands.common import add_dialect, add_work_offset, read_program
 
 HELP = "interpret a G-code program and print its motions as JSON Lines"
 
@@ -15,6 +15,7 @@ HELP = "interpret a G-code program and print its motions as JSON Lines"
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("program", type=Path, help="G-code program (.ngc)")
     add_dialect(parser)
+    add_work_offset(parser)
     parser.add_argument(
         "--subroutine-path",
         type=Path,
@@ -29,6 +30,12 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         default=None,
         metavar="FILE",
         help="LinuxCNC tool.tbl (lengths in mm); without it every tool has zero length",
+    )
+    parser.add_argument(
+        "--events",
+        action="store_true",
+        help='also print G4 dwells ("kind": "dwell", "seconds") and M0/M1/M60 stops '
+        '("kind": "stop", "code") as JSON lines, in program order',
     )
     parser.add_argument(
         "--all-errors",
@@ -71,6 +78,8 @@ def run(args: argparse.Namespace) -> int:
             max_iterations=limit,
             errors=errors,
             tools=tools,
+            events=args.events,
+            work_offset=args.work_offset,
         ):
             out.write(json.dumps(move.to_json()) + "\n")
     except GantryError:
