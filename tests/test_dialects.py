@@ -210,3 +210,31 @@ def test_g2core_json_lines_and_homing_codes_move_nothing() -> None:
     text = '{"xvm":1000}\n{sr:n}\nG28.2 X0 Y0\nG28.3 X0\nG0 X1\n'
     assert [(m.line, m.end) for m in run(text, "g2core")] == [(5, (1.0, 0.0, 0.0))]
     assert "bad character" in error_of('{"xvm":1000}\n', "linuxcnc").message
+
+
+def test_marlin_g4_dwells_in_milliseconds_or_seconds() -> None:
+    from gantry_sim.controller.gcode.interpreter import interpret
+
+    got = list(interpret("G1 X1\nG4 P500\nG4 S2\nG4\n", "marlin", events=True))
+    assert [(m.kind, getattr(m, "seconds", None)) for m in got] == [
+        ("linear", None),
+        ("dwell", 0.5),
+        ("dwell", 2.0),
+        ("dwell", 0.0),
+    ]
+
+
+def test_g2core_m100_and_text_mode_lines_move_nothing() -> None:
+    text = "$xvm=1000\nM100 ({xvm:1000})\nM100.1 ({zvm:100})\nM101 ({in1:1})\nG0 X1\n"
+    assert [(m.line, m.end) for m in run(text, "g2core")] == [(5, (1.0, 0.0, 0.0))]
+
+
+def test_unsupported_codes_say_why() -> None:
+    for code, why in (
+        ("G33 X1 K1", "simulates no spindle"),
+        ("G38.2 Z-1 F10", "probe"),
+        ("G7", "diameter"),
+        ("G81 X1 Z-1 R1", "canned cycles"),
+    ):
+        assert why in error_of(code + "\nM2\n", "linuxcnc").message
+    assert run("G8 G0 X1\nM2\n", "linuxcnc")[0].end == (1.0, 0.0, 0.0)

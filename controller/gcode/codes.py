@@ -43,17 +43,26 @@ G_NO_PATH_EFFECT = frozenset(
 # fmt: on
 #: refused codes -> why.
 G_REFUSED: dict[int, str] = {
-    **dict.fromkeys((330, 331), "spindle-synchronised motion (threading) is not supported"),
-    **dict.fromkeys((382, 383, 384, 385), "probing moves are not supported"),
-    **dict.fromkeys((50, 51, 52), "splines (G5, G5.1, G5.2) are not supported"),
     **dict.fromkeys(
-        (730, 760, 810, 820, 830, 840, 850, 860, 870, 880, 890), "canned cycles are not supported"
+        (330, 331, 760),
+        "spindle-synchronised motion (threading, rigid tapping) follows the spindle's measured "
+        "angle, and gantry-sim simulates no spindle",
+    ),
+    **dict.fromkeys(
+        (382, 383, 384, 385),
+        "a probing move ends where a probe input trips, and the simulation has no probe or "
+        "workpiece to touch",
+    ),
+    **dict.fromkeys((50, 51, 52), "splines (G5, G5.1, G5.2) are not supported yet"),
+    **dict.fromkeys(
+        (730, 810, 820, 830, 840, 850, 860, 870, 880, 890), "canned cycles are not supported yet"
     ),
     **dict.fromkeys((171, 181, 191), "UVW planes are not supported on this XYZ machine"),
-    **dict.fromkeys((410, 411, 420, 421), "cutter radius compensation is not supported"),
-    431: "a dynamic tool length offset (G43.1) shifts Z coordinates, which is not supported",
+    **dict.fromkeys((410, 411, 420, 421), "cutter radius compensation is not supported yet"),
+    431: "a dynamic tool length offset (G43.1) is not supported; use a tool table and G43 H",
     432: "G43.2 (additional tool length offset) is not supported",
-    70: "lathe diameter mode (G7) is not supported",
+    70: "lathe diameter mode (G7) reads X as a diameter, and this is a mill (G8, radius mode, is "
+    "the default and accepted)",
     520: "G52 (local coordinate offset) is not supported; use G92 or G10 L2",
 }
 

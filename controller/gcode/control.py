@@ -29,6 +29,7 @@ from gantry_sim.controller.gcode.lexer import (
     split_lines,
     strip_line,
 )
+from gantry_sim.controller.gcode.printer_codes import marlin_dwell_seconds
 from gantry_sim.controller.moves import Move
 
 MAX_CALL_LEVELS = 9
@@ -65,6 +66,9 @@ class Source:
         kind = self.own_lines(raw) if self.own_lines is not None else None
         if kind == "quiet":
             return Block(i + 1, (), (), False, raw)
+        if kind == "dwell":  # Marlin G4: the shared G4 with P in seconds
+            seconds = marlin_dwell_seconds(raw)
+            return Block(i + 1, (("G", ("num", 4.0)), ("P", ("num", seconds))), (), False, raw)
         if kind == "home":  # Marlin G28 [X] [Y] [Z]: bare axis letters name the axes to home
             text = strip_line(raw).split(COMMENT, 1)[0]
             axes = tuple((a, ("num", 0.0)) for a in "XYZ" if a in text[text.find("28") :])

@@ -163,6 +163,7 @@ G2CORE = Dialect(
     min_radius_in=0.00005,
     r_short_is_semicircle=False,
     require_program_end=False,
+    system_lines=True,
     own_lines="g2core",
 )
 

@@ -9,8 +9,9 @@ G28 homes the named axes (all when none) to the machine file's work origin; the 
 in ways this machine does not model are refused with a reason (G5 Bezier, G6 direct stepper,
 G12 nozzle clean, G26 mesh print, G27 park, G42 mesh point, G61 restore position, G38 probe).
 
-g2core: a line opening with ``{`` is a JSON configuration or status request (no motion);
-G28.2/G28.3 (homing / set position) and G28.4 are accepted without motion (G28.3 sets no offset
+g2core: a line opening with ``{`` is a JSON configuration or status request (no motion), and so
+are M100 (JSON in a G-code line), M100.1 and M101 (wait for inputs); G28.2/G28.3 (homing / set
+position) and G28.4 are accepted without motion (G28.3 sets no offset
 here: the work frame starts at the machine file's origin).
 """
 
@@ -44,8 +45,8 @@ MARLIN_REFUSED_G: dict[int, str] = {
 
 
 def marlin_line(raw: str) -> str | None:
-    """What a Marlin line is before the shared step: "quiet" (accepted, no motion), "home" (G28)
-    or None (a shared G-code line). GcodeError for a refused G code."""
+    """What a Marlin line is before the shared step: "quiet" (accepted, no motion), "home" (G28),
+    "dwell" (G4 P<ms> or S<s>) or None (a shared G-code line). GcodeError for a refused G code."""
     if _TEXT.match(raw):
         return "quiet"
     head = _HEAD.match(raw.split(";", 1)[0])
@@ -57,6 +58,8 @@ def marlin_line(raw: str) -> str | None:
     tenths = round(float(number) * 10)
     if tenths == 280:
         return "home"
+    if tenths == 40:
+        return "dwell"
     if tenths in MARLIN_REFUSED_G:
         raise GcodeError(f"{MARLIN_REFUSED_G[tenths]} (Marlin G{number})")
     if tenths in MARLIN_QUIET_G or (tenths == 920 and _E_ONLY.match(raw)):
@@ -64,7 +67,10 @@ def marlin_line(raw: str) -> str | None:
     return None
 
 
-_G2CORE_QUIET = re.compile(r"^\s*(?:N\d+\s*)?G\s*0*28\s*\.\s*[234](?!\d)", re.IGNORECASE)
+_G2CORE_QUIET = re.compile(
+    r"^\s*(?:N\d+\s*)?(?:G\s*0*28\s*\.\s*[234](?!\d)|M\s*0*10[01](?:\.\d)?(?!\d))",
+    re.IGNORECASE,
+)
 
 
 def g2core_line(raw: str) -> str | None:
@@ -76,3 +82,16 @@ def g2core_line(raw: str) -> str | None:
 
 #: the dialects' ``own_lines`` rule sets
 OWN_LINES = {"marlin": marlin_line, "g2core": g2core_line}
+
+
+_DWELL_WORD = re.compile(r"([PS])\s*([0-9]*\.?[0-9]+)", re.IGNORECASE)
+
+
+def marlin_dwell_seconds(raw: str) -> float:
+    """Marlin G4: P in milliseconds, S in seconds (S wins when both are given), else 0."""
+    body = raw.split(";", 1)[0]
+    body = body[body.upper().find("G") :]
+    words = {k.upper(): float(v) for k, v in _DWELL_WORD.findall(body[2:])}
+    if "S" in words:
+        return words["S"]
+    return words.get("P", 0.0) / 1000.0
