@@ -12,7 +12,19 @@ from dataclasses import dataclass
 
 from gantry_sim.controller.planes import PLANE_AXES, Direction, Plane, Vec3
 
-__all__ = ["Arc", "Direction", "Dwell", "Event", "Linear", "Move", "Plane", "Rapid", "Stop", "Vec3"]
+__all__ = [
+    "Arc",
+    "Direction",
+    "Dwell",
+    "Event",
+    "Limits",
+    "Linear",
+    "Move",
+    "Plane",
+    "Rapid",
+    "Stop",
+    "Vec3",
+]
 
 
 def _vec(v: Vec3) -> list[float]:
@@ -194,4 +206,28 @@ class Stop:
         }
 
 
-Event = Dwell | Stop
+@dataclass(frozen=True)
+class Limits:
+    """Marlin M201/M203/M204/M205: the planner's limits change from this line on, as Marlin
+    applies them. ``values`` are the line's words as given (M201: max acceleration per axis
+    [mm/s^2]; M203: max feedrate per axis [mm/s]; M204: P print, R retract, T travel
+    acceleration [mm/s^2]; M205: X/Y/Z jerk [mm/s], J junction deviation [mm], S/T minimum
+    feedrates [mm/s], B minimum segment time [us]).
+    """
+
+    line: int
+    code: str
+    values: tuple[tuple[str, float], ...]
+
+    kind = "limits"
+
+    def to_json(self) -> dict:
+        return {
+            "line": self.line,
+            "kind": self.kind,
+            "code": self.code,
+            "values": {k: float(v) for k, v in self.values},
+        }
+
+
+Event = Dwell | Stop | Limits

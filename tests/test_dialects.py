@@ -238,3 +238,19 @@ def test_unsupported_codes_say_why() -> None:
     ):
         assert why in error_of(code + "\nM2\n", "linuxcnc").message
     assert run("G8 G0 X1\nM2\n", "linuxcnc")[0].end == (1.0, 0.0, 0.0)
+
+
+def test_marlin_limit_changes_are_events_from_their_line_on() -> None:
+    from gantry_sim.controller.gcode.interpreter import interpret
+
+    text = "G1 X1\nM201 X500 Y500 Z100 E5000\nM204 P500 T800\nM205 J0.02\nM203 X\nG1 X2\n"
+    got = [m.to_json() for m in interpret(text, "marlin", events=True)]
+    assert [g["kind"] for g in got] == ["linear", "limits", "limits", "limits", "linear"]
+    assert got[1] == {
+        "line": 2,
+        "kind": "limits",
+        "code": "M201",
+        "values": {"E": 5000.0, "X": 500.0, "Y": 500.0, "Z": 100.0},
+    }
+    assert got[3]["values"] == {"J": 0.02}
+    assert [m.kind for m in run(text, "marlin")] == ["linear", "linear"]  # motions only

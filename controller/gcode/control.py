@@ -16,7 +16,7 @@ error on the line that went too far.
 from __future__ import annotations
 
 from collections.abc import Callable, Iterator
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 
 from gantry_sim.controller.errors import GcodeError
@@ -69,6 +69,11 @@ class Source:
         if kind == "dwell":  # Marlin G4: the shared G4 with P in seconds
             seconds = marlin_dwell_seconds(raw)
             return Block(i + 1, (("G", ("num", 4.0)), ("P", ("num", seconds))), (), False, raw)
+        if kind == "limits":
+            try:
+                return replace(lex_line(raw, i + 1), limits=True)
+            except GcodeError:  # Marlin reads what it can and ignores the rest
+                return Block(i + 1, (), (), False, raw)
         if kind == "home":  # Marlin G28 [X] [Y] [Z]: bare axis letters name the axes to home
             text = strip_line(raw).split(COMMENT, 1)[0]
             axes = tuple((a, ("num", 0.0)) for a in "XYZ" if a in text[text.find("28") :])

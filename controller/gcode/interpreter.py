@@ -35,6 +35,7 @@ from gantry_sim.controller.gcode.coords import (
 )
 from gantry_sim.controller.gcode.dialect_checks import check_codes, check_jog, check_plain
 from gantry_sim.controller.gcode.dialects import Dialect, coded, get_dialect
+from gantry_sim.controller.gcode.expressions import evaluate
 from gantry_sim.controller.gcode.feed_modes import check_feed_mode, path_feed
 from gantry_sim.controller.gcode.frames import from_work, to_work
 from gantry_sim.controller.gcode.lexer import Block
@@ -45,7 +46,7 @@ from gantry_sim.controller.gcode.printer_codes import OWN_LINES
 from gantry_sim.controller.gcode.state import ModalState
 from gantry_sim.controller.gcode.tools import Tool
 from gantry_sim.controller.gcode.words import Words, check_words, read_words
-from gantry_sim.controller.moves import Arc, Dwell, Linear, Move, Plane, Rapid, Stop, Vec3
+from gantry_sim.controller.moves import Arc, Dwell, Limits, Linear, Move, Plane, Rapid, Stop, Vec3
 
 _PLANES: dict[int, Plane] = {170: "XY", 180: "XZ", 190: "YZ"}
 #: non-modal codes whose axis words are theirs, not a motion's: G10, G28, G30, G92.
@@ -77,6 +78,8 @@ class Interpreter:
             return self._jog(block)
         if block.home:
             return self._printer_home(block), False
+        if block.limits:
+            return self._limits(block), False
         w = read_words(block, self.params)
         s = self.state
         # Step 2: every code is one gantry-sim supports.
@@ -270,6 +273,13 @@ class Interpreter:
             s = replace(s, tool_offset_z_mm=new, position=(x, y, z))
         return s
 
+    def _limits(self, block: Block) -> list:
+        """Marlin M201/M203/M204/M205: a Limits event (when events are asked for)."""
+        values = {k: evaluate(t, self.params) for k, t in block.words if k != "M"}
+        if not self.events:
+            return []
+        return [Limits(block.line, block_code(block), tuple(sorted(values.items())))]
+
     def _printer_home(self, block: Block) -> list[Move]:
         """Marlin G28: the named axes (all when none) rapid to the work origin."""
         s = self.state
@@ -390,3 +400,11 @@ def _finish(errors: list[GcodeError], rules: Dialect | None, file: str) -> None:
 def parse_program(text: str, dialect: str = "linuxcnc", file: str = "<program>") -> list[Move]:
     """All moves of a valid program, as a list (GcodeError on the first bad line)."""
     return list(interpret(text, dialect=dialect, file=file))
+
+
+def block_code(block: Block) -> str:
+    """The M code a Marlin limits line opens with (``M201``...)."""
+    for letter, tree in block.words:
+        if letter == "M" and tree[0] == "num":
+            return f"M{tree[1]:g}"
+    return "M?"

@@ -68,6 +68,7 @@ class Block:
         oword: the line's O-word, if it is one.
         jog: a grbl ``$J=`` jog: its words move as G1 without changing the modal state.
         home: a Marlin G28: the named axes (all when none) go to the work origin.
+        limits: a Marlin M201/M203/M204/M205 line (a :class:`~gantry_sim.controller.moves.Limits`).
     """
 
     line: int
@@ -78,6 +79,7 @@ class Block:
     oword: OWord | None = None
     jog: bool = False
     home: bool = False
+    limits: bool = False
 
     @property
     def empty(self) -> bool:
@@ -88,6 +90,7 @@ class Block:
             and not self.percent
             and self.oword is None
             and not self.home
+            and not self.limits
         )
 
 

@@ -46,13 +46,15 @@ MARLIN_REFUSED_G: dict[int, str] = {
 
 def marlin_line(raw: str) -> str | None:
     """What a Marlin line is before the shared step: "quiet" (accepted, no motion), "home" (G28),
-    "dwell" (G4 P<ms> or S<s>) or None (a shared G-code line). GcodeError for a refused G code."""
+    "dwell" (G4 P<ms> or S<s>), "limits" (M201/M203/M204/M205) or None (a shared G-code line). GcodeError for a refused G code."""
     if _TEXT.match(raw):
         return "quiet"
     head = _HEAD.match(raw.split(";", 1)[0])
     if head is None:
         return None
     letter, number = head.group(1).upper(), head.group(2)
+    if letter == "M" and number.lstrip("0") in ("201", "203", "204", "205"):
+        return "limits"
     if letter in "MT":
         return "quiet"
     tenths = round(float(number) * 10)
