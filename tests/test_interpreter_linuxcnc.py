@@ -202,7 +202,7 @@ def test_radius_format_signs_and_semicircle_tolerance() -> None:
         ("G1 X1 A1 F10", 1, "A axis word on a 3-axis machine"),
         ("W1", 1, "W axis word"),
         ("G92", 1, "G92 needs at least one axis word"),
-        ("G10 L1 P1 Z1", 1, "G10 L1 is not supported"),
+        ("G10 L11 P1 Z1", 1, "G10 L11 is not supported"),
         ("G10 L2 X1", 1, "G10 needs a P word"),
         ("G52 X1", 1, "G52"),
         ("G91 G53 G0 X1", 1, "incremental distance mode (G91)"),

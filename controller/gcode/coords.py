@@ -61,7 +61,7 @@ def g10(s: ModalState, p: Parameters, v: dict[str, float], systems: int = 9) -> 
         )
     level, number = round(v["L"]), round(v["P"])
     if level not in (2, 20):
-        why = "tool table entries (L1, L10, L11) are not supported" if level in (1, 10, 11) else ""
+        why = "L11 (tool entry in G59.3) is not supported" if level == 11 else ""
         raise GcodeError(
             f"G10 L{v['L']:g} is not supported{'; ' + why if why else ''}; use L2 or L20"
         )

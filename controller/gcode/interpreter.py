@@ -61,6 +61,7 @@ class Interpreter:
     ) -> None:
         self.dialect = dialect
         self.tools = tools
+        self.table_less = tools is None
         self.events = events
         self.state = ModalState(feed_mm_per_min=dialect.default_feed_mm_per_min or 0.0)
         self.params = Parameters(self._predefined, lambda: self.state.scale)
@@ -143,7 +144,9 @@ class Interpreter:
             )
         # Step 6: the non-modal codes, then the move, validated against the new state.
         moves: list[Move] = []
-        if nonmodal == 100:
+        if nonmodal == 100 and round(w.values.get("L", 0)) in (1, 10) and d.g10_rotation:
+            self._g10_tool(w.values, s)
+        elif nonmodal == 100:
             s = g10(s, self.params, w.values, d.coordinate_systems)
         elif nonmodal in (920, 921, 922, 923):
             s = g92(s, self.params, nonmodal, w.values)
@@ -237,9 +240,29 @@ class Interpreter:
             self.params.numbered[g5x_base(1) + i] = offset[i]
         self.state = select_system(self.state, self.params, 1)
 
+    def _g10_tool(self, v: dict[str, float], s: ModalState) -> None:
+        """G10 L1 (set tool P's length to Z) and L10 (so that the current Z would read Z under
+        G43 with tool P), as rs274 does; the offset in effect changes only at the next G43."""
+        if "P" not in v:
+            raise GcodeError("G10 L1/L10 needs a P word: the tool number")
+        number = round(v["P"])
+        old = self._tool(number)
+        if number == 0 or "Z" not in v:
+            return
+        if round(v["L"]) == 1:
+            length = v["Z"] * s.scale
+        else:
+            length = s.position[2] + s.tool_offset_z_mm - v["Z"] * s.scale
+        if self.tools is None:
+            self.tools = {}
+        diameter = old.diameter_mm if old is not None else 0.0
+        self.tools = {**self.tools, number: Tool(number, length, diameter)}
+
     def _tool(self, number: int) -> Tool | None:
-        if self.tools is None or number == 0:
-            return None  # no table: every tool has zero length
+        if number == 0:
+            return None
+        if self.tools is None or (self.table_less and number not in self.tools):
+            return None  # no table: every tool has zero length (until G10 L1/L10 sets one)
         if number not in self.tools:
             raise GcodeError(f"requested tool {number} not found in the tool table")
         return self.tools[number]
