@@ -276,3 +276,25 @@ def test_work_offset_places_the_program(tmp_path, capsys) -> None:
     assert '"end": [11.0, 20.0, 30.0]' in capsys.readouterr().out
     with pytest.raises(SystemExit):
         main(["parse", str(prog), "--work-offset", "10,20"])
+
+
+def test_m70_m72_m73_save_and_restore_modal_state() -> None:
+    text = """o<inch> sub
+M73
+G20 G91 F5
+G0 X1
+o<inch> endsub
+G21 G90 F200 M3 M8
+M70
+G20 G91
+M72
+G0 X1 Y[#<_metric>*10 + #<_spindle_on> + #<_flood>]
+o<inch> call
+G0 X[#<_feed>] Y[#<_absolute>]
+M2
+"""
+    got = ends(text)
+    # M72 restored G21 G90 (X1 absolute, Y = 10 + 1 + 1); the sub's G20 G91 moved 1 inch;
+    # M73 restored mm, absolute and F200 at its return.
+    assert got == [(1.0, 12.0, 0.0), (26.4, 12.0, 0.0), (200.0, 1.0, 0.0)]
+    assert "M72 with no state saved" in error_of("M72\nM2\n").message

@@ -71,6 +71,7 @@ M_GROUPS: dict[int, str] = {
     **dict.fromkeys((0, 1, 2, 30, 60), "stopping"),
     **dict.fromkeys((6, 61), "tool_change"),
     **dict.fromkeys((62, 63, 64, 65, 66, 67, 68), "io"),  # digital/analog outputs, wait input
+    **dict.fromkeys((70, 71, 72, 73), "modal_state"),  # save/invalidate/restore/auto-restore
     **dict.fromkeys((3, 4, 5), "spindle"),
     **dict.fromkeys((7, 8, 9), "coolant"),
     **dict.fromkeys((48, 49, 50, 51, 52, 53, 56), "override"),  # M56: grbl's parking override

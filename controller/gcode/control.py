@@ -172,6 +172,7 @@ class Runner:
         self.searched: set[tuple[Source, int]] = set()  # definitions found by a forward search
         self.frames: list[Frame] = [Frame(self.main, 0)]
         self.ended = False
+        self.on_return: Callable[[int], None] | None = None  # M73's restore
         self.errors: list[GcodeError] | None = None  # collect instead of raising (--all-errors)
         self.seen = False  # a line with content has been run
         self.percent_open = False
@@ -275,8 +276,11 @@ class Runner:
                 self.params.globals["_value_returned"] = 1.0
             else:
                 self.params.globals["_value"] = 0.0
+            level = self.params.level
             self.params.leave()
             self.frames.pop()
+            if self.on_return is not None:
+                self.on_return(level)
         elif kw == "call":
             self._call(f, o)
         elif kw == "if":

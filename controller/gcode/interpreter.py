@@ -39,6 +39,7 @@ from gantry_sim.controller.gcode.expressions import evaluate
 from gantry_sim.controller.gcode.feed_modes import check_feed_mode, path_feed
 from gantry_sim.controller.gcode.frames import from_work, to_work
 from gantry_sim.controller.gcode.lexer import Block
+from gantry_sim.controller.gcode.modal_save import restore
 from gantry_sim.controller.gcode.parameters import COORD_INDEX, POSITION, Parameters, g5x_base
 from gantry_sim.controller.gcode.polar import polar_end_point
 from gantry_sim.controller.gcode.predefined import predefined
@@ -62,6 +63,7 @@ class Interpreter:
         self.dialect = dialect
         self.tools = tools
         self.table_less = tools is None
+        self.saved: dict[int, tuple[ModalState, bool]] = {}
         self.events = events
         self.state = ModalState(feed_mm_per_min=dialect.default_feed_mm_per_min or 0.0)
         self.params = Parameters(self._predefined, lambda: self.state.scale)
@@ -99,6 +101,11 @@ class Interpreter:
             s = replace(s, feed_mode=w.g["feed_mode"])
         if "S" in w.values and "S" not in d.ignored_letters:
             s = replace(s, rpm=w.values["S"])
+        if "spindle" in w.m:
+            s = replace(s, spindle={3: 1, 4: -1, 5: 0}[w.m["spindle"]])
+        if "coolant" in w.m:
+            c = w.m["coolant"]
+            s = replace(s, mist=c == 7 or (s.mist and c == 8), flood=c == 8 or (s.flood and c == 7))
         # Step 4: plane, units, coordinate system, distance modes.
         if "plane" in w.g:
             s = replace(s, plane=_PLANES[w.g["plane"]])
@@ -177,6 +184,7 @@ class Interpreter:
                 if arc is not None:
                     placed = path_feed(self._arc_to_work(arc, s), s, w.values)
                     s = self._emit(moves, s, placed, arc.end)  # arc.end: program frame
+        s = self._modal_state(w.m.get("modal_state"), s)
         # Step 7: commit; events after the block's motion (rs274 runs G4 before motion, so a
         # dwell on a motion line waits before it moves).
         if self.events:
@@ -239,6 +247,26 @@ class Interpreter:
         for i in range(3):
             self.params.numbered[g5x_base(1) + i] = offset[i]
         self.state = select_system(self.state, self.params, 1)
+
+    def _modal_state(self, code: int | None, s: ModalState) -> ModalState:
+        """M70 save, M71 invalidate, M72 restore, M73 save and restore at the subroutine's
+        return (controller/gcode/modal_save.py), per subroutine level."""
+        level = self.params.level
+        if code in (70, 73):
+            self.saved[level] = (s, code == 73)
+        elif code == 71:
+            self.saved.pop(level, None)
+        elif code == 72:
+            if level not in self.saved:
+                raise GcodeError("M72 with no state saved by M70 or M73 at this level")
+            s = restore(self.saved[level][0], s, self.params)
+        return s
+
+    def sub_returned(self, level: int) -> None:
+        """A subroutine at ``level`` returned: an M73 there restores its saved state."""
+        saved = self.saved.pop(level, None)
+        if saved is not None and saved[1]:
+            self.state = restore(saved[0], self.state, self.params)
 
     def _g10_tool(self, v: dict[str, float], s: ModalState) -> None:
         """G10 L1 (set tool P's length to Z) and L10 (so that the current Z would read Z under
@@ -392,6 +420,7 @@ def interpret(
             own_lines=OWN_LINES.get(rules.own_lines),
         )
         runner.errors = errors
+        runner.on_return = interp.sub_returned
         yield from runner.run()
         if runner.ended or not rules.require_program_end:
             return
