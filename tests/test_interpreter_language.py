@@ -298,3 +298,11 @@ M2
     # M73 restored mm, absolute and F200 at its return.
     assert got == [(1.0, 12.0, 0.0), (26.4, 12.0, 0.0), (200.0, 1.0, 0.0)]
     assert "M72 with no state saved" in error_of("M72\nM2\n").message
+
+
+def test_user_m_codes_need_their_program_file(tmp_path) -> None:
+    # rs274 without the file: "Unknown m code used: M100"; LinuxCNC runs USER_M_PATH/M100.
+    assert "M101" in error_of("M101 P1 Q2\nM2\n").message
+    (tmp_path / "M101").write_text("#!/bin/sh\n")
+    moves = list(interpret("M101 P1 Q2\nG0 X1\nM2\n", search_path=(tmp_path,)))
+    assert [m.end for m in moves] == [(1.0, 0.0, 0.0)]

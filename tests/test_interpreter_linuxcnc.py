@@ -212,7 +212,7 @@ def test_radius_format_signs_and_semicircle_tolerance() -> None:
         ("G4", 1, "G4 (dwell) needs a P"),
         ("G0 X1 S-1", 1, "negative S"),
         ("T-1", 1, "negative T"),
-        ("M100", 1, "unsupported M code"),
+        ("M100", 1, "user M-code needs its program file M100"),
         ("G12", 1, "unknown G code"),
         ("G0 X1 (a (b) c)", 1, "nested comment"),
         ("G0 X1 (abc", 1, "unclosed comment"),

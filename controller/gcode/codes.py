@@ -72,6 +72,7 @@ M_GROUPS: dict[int, str] = {
     **dict.fromkeys((6, 61), "tool_change"),
     **dict.fromkeys((62, 63, 64, 65, 66, 67, 68), "io"),  # digital/analog outputs, wait input
     **dict.fromkeys((70, 71, 72, 73), "modal_state"),  # save/invalidate/restore/auto-restore
+    **dict.fromkeys(range(100, 200), "user"),  # user M-codes: programs M100..M199 (if present)
     **dict.fromkeys((3, 4, 5), "spindle"),
     **dict.fromkeys((7, 8, 9), "coolant"),
     **dict.fromkeys((48, 49, 50, 51, 52, 53, 56), "override"),  # M56: grbl's parking override
@@ -87,4 +88,6 @@ def g_name(code: int) -> str:
 
 def m_allowed() -> str:
     """The M codes gantry-sim accepts, for messages."""
-    return ", ".join(f"M{m}" for m in sorted(M_GROUPS) if m != 56)
+    return ", ".join(f"M{m}" for m in sorted(M_GROUPS) if m != 56 and m < 100) + (
+        ", M100-M199 (when a program file of that name is on the subroutine path)"
+    )

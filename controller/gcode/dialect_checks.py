@@ -13,7 +13,8 @@ from gantry_sim.controller.gcode.dialects import Dialect
 from gantry_sim.controller.gcode.lexer import Block
 from gantry_sim.controller.gcode.words import Words
 
-#: M codes of LinuxCNC (every dialect without its own list); M56 is grbl's alone.
+#: M codes of LinuxCNC (every dialect without its own list); M56 is grbl's alone; user M-codes
+#: M100-M199 are checked for their program file by the interpreter.
 LINUXCNC_M = frozenset(M_GROUPS) - {56}
 #: what a grbl jog may carry besides X/Y/Z and F
 _JOG_G = frozenset((200, 210, 900, 910, 530))

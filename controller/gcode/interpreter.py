@@ -63,6 +63,7 @@ class Interpreter:
         self.dialect = dialect
         self.tools = tools
         self.table_less = tools is None
+        self.search_path: tuple[Path, ...] = ()
         self.saved: dict[int, tuple[ModalState, bool]] = {}
         self.events = events
         self.state = ModalState(feed_mm_per_min=dialect.default_feed_mm_per_min or 0.0)
@@ -87,6 +88,12 @@ class Interpreter:
         s = self.state
         # Step 2: every code is one gantry-sim supports.
         check_codes(w, d)
+        user = w.m.get("user")
+        if user is not None and not any((f / f"M{user}").is_file() for f in self.search_path):
+            raise GcodeError(
+                f"unknown M code M{user}: a user M-code needs its program file M{user} in the "
+                "program's folder or a --subroutine-path folder (LinuxCNC: USER_M_PATH)"
+            )
         for code in w.g.values():
             if code in G_REFUSED:
                 raise GcodeError(f"{g_name(code)} is not supported: {G_REFUSED[code]}")
@@ -406,6 +413,7 @@ def interpret(
     try:
         rules = get_dialect(dialect)
         interp = Interpreter(rules, tools, events)
+        interp.search_path = search_path
         if work_offset is not None:
             interp.place(work_offset)
         runner = Runner(

@@ -121,8 +121,10 @@ def check_words(w: Words, motion: int | None, dialect: Dialect) -> None:
         or g10
         or w.g.get("nonmodal") == 40
         or w.g.get("path_control") == 640
-        or w.m.get("io") in (62, 63, 64, 65, 66),
+        or w.m.get("io") in (62, 63, 64, 65, 66)
+        or "user" in w.m,
         "Q": w.g.get("path_control") == 640
+        or "user" in w.m
         or w.m.get("tool_change") == 61
         or w.m.get("io") in (66, 67, 68),
         "E": w.m.get("io") in (66, 67, 68),
