@@ -26,6 +26,7 @@ G_GROUPS: dict[int, str] = {
     **dict.fromkeys((960, 970), "spindle_mode"),
     **dict.fromkeys((70, 80), "lathe_mode"),
     **dict.fromkeys((40, 100, 280, 281, 300, 301, 520, 530, 920, 921, 922, 923), "nonmodal"),
+    **dict.fromkeys((700, 710, 711, 720, 721), "nonmodal"),  # lathe finishing/roughing cycles
 }
 
 #: codes the interpreter implements itself (coordinate systems: controller/gcode/coords.py).
@@ -64,6 +65,9 @@ G_REFUSED: dict[int, str] = {
     70: "lathe diameter mode (G7) reads X as a diameter, and this is a mill (G8, radius mode, is "
     "the default and accepted)",
     520: "G52 (local coordinate offset) is not supported; use G92 or G10 L2",
+    **dict.fromkeys(
+        (700, 710, 711, 720, 721), "lathe roughing/finishing cycles (G70-G72) need a lathe"
+    ),
 }
 
 # M code -> modal group (LinuxCNC's M groups 4, 6, 7, 8, 9).
