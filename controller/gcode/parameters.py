@@ -73,7 +73,10 @@ class Parameters:
     ) -> None:
         self.numbered: dict[int, float] = {}  # lengths in LENGTH_PARAMETERS are in mm
         self.scale = scale
-        self.globals: dict[str, float] = {"_value": 0.0, "_value_returned": 0.0}  # rs274: 0 at start
+        self.globals: dict[str, float] = {
+            "_value": 0.0,
+            "_value_returned": 0.0,
+        }  # rs274: 0 at start
         self.scopes: list[dict[str, float]] = [{}]
         self.saved_args: list[dict[int, float]] = []
         self.predefined: Predefined = predefined or (lambda name: None)
