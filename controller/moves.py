@@ -12,7 +12,19 @@ from dataclasses import dataclass
 
 from gantry_sim.controller.planes import PLANE_AXES, Direction, Plane, Vec3
 
-__all__ = ["Arc", "Direction", "Linear", "Move", "Plane", "Rapid", "Vec3"]
+__all__ = [
+    "Arc",
+    "Direction",
+    "Dwell",
+    "Event",
+    "Limits",
+    "Linear",
+    "Move",
+    "Plane",
+    "Rapid",
+    "Stop",
+    "Vec3",
+]
 
 
 def _vec(v: Vec3) -> list[float]:
@@ -141,3 +153,81 @@ class Arc:
 
 
 Move = Rapid | Linear | Arc
+
+
+@dataclass(frozen=True)
+class Dwell:
+    """G4: the machine stops exactly at ``position`` and waits ``seconds`` (not a motion).
+
+    Attributes:
+        line: 1-based source line.
+        position: where the tool waits [mm], work frame.
+        seconds: dwell time [s] (LinuxCNC's P; Marlin's P [ms] and S [s] converted).
+    """
+
+    line: int
+    position: Vec3
+    seconds: float
+
+    kind = "dwell"
+
+    def to_json(self) -> dict:
+        return {
+            "line": self.line,
+            "kind": self.kind,
+            "position": _vec(self.position),
+            "seconds": float(self.seconds),
+        }
+
+
+@dataclass(frozen=True)
+class Stop:
+    """M0 (program stop), M1 (optional stop) or M60 (pallet shuttle and stop): an exact stop
+    at ``position`` that waits for the operator (no time is modelled for the wait).
+
+    Attributes:
+        line: 1-based source line.
+        position: where the tool stops [mm], work frame.
+        code: "M0", "M1" or "M60".
+    """
+
+    line: int
+    position: Vec3
+    code: str
+
+    kind = "stop"
+
+    def to_json(self) -> dict:
+        return {
+            "line": self.line,
+            "kind": self.kind,
+            "position": _vec(self.position),
+            "code": self.code,
+        }
+
+
+@dataclass(frozen=True)
+class Limits:
+    """Marlin M201/M203/M204/M205: the planner's limits change from this line on, as Marlin
+    applies them. ``values`` are the line's words as given (M201: max acceleration per axis
+    [mm/s^2]; M203: max feedrate per axis [mm/s]; M204: P print, R retract, T travel
+    acceleration [mm/s^2]; M205: X/Y/Z jerk [mm/s], J junction deviation [mm], S/T minimum
+    feedrates [mm/s], B minimum segment time [us]).
+    """
+
+    line: int
+    code: str
+    values: tuple[tuple[str, float], ...]
+
+    kind = "limits"
+
+    def to_json(self) -> dict:
+        return {
+            "line": self.line,
+            "kind": self.kind,
+            "code": self.code,
+            "values": {k: float(v) for k, v in self.values},
+        }
+
+
+Event = Dwell | Stop | Limits

@@ -13,6 +13,8 @@ import math
 import random
 from pathlib import Path
 
+from rs274_language_programs import language_programs
+
 ROOT = Path(__file__).resolve().parent.parent
 PROGRAMS = ROOT / "tests" / "data" / "rs274" / "programs"
 SEED = 20261122
@@ -379,6 +381,9 @@ def main() -> int:
         fam = family(rng)
         assert not set(fam) & set(progs), "duplicate program names"
         progs.update(fam)
+    lang = language_programs(SEED + 10)  # its own stream: the families above stay as they were
+    assert not set(lang) & set(progs), "duplicate program names"
+    progs.update(lang)
     PROGRAMS.mkdir(parents=True, exist_ok=True)
     for old in PROGRAMS.glob("gen_*.ngc"):
         if old.stem not in progs:

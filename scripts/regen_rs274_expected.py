@@ -13,6 +13,15 @@ executing every line; for prefixes that message is not an error. For the whole p
 program without an end is rejected by rs274, and the error is put on the file's last line (line 1
 for an empty file).
 
+Programs whose every non-blank line opens with ``N<its line number>`` (all O-word programs: a
+prefix would cut a loop or subroutine) are run once: rs274 prints each motion's N word and the
+failing block's text, which give the lines directly.
+
+Frame: rs274 prints program-frame positions plus SET_G5X_OFFSET, SET_G92_OFFSET and
+SET_XY_ROTATION; motions are recorded in the machine's work frame as LinuxCNC's canonical layer
+places them, ``R(rotation) (p + g92) + g5x`` (emccanon.cc), each motion starting where the last
+one ended.
+
 rs274 is not safe to run in parallel: programs are run one at a time. Usage::
 
     python scripts/regen_rs274_expected.py [NAME ...]
@@ -33,7 +42,8 @@ ROOT = Path(__file__).resolve().parent.parent
 DATA = ROOT / "tests" / "data" / "rs274"
 INCH_MM = 25.4
 EOF_MESSAGES = ("File ended with no percent sign", "File ended with no percent sign or program end")
-CANON_RE = re.compile(r"^\s*\d+\s+N\S*\s+([A-Z_0-9]+)\((.*)\)\s*$")
+CANON_RE = re.compile(r"^\s*\d+\s+N(\S*)\s+([A-Z_0-9]+)\((.*)\)\s*$")
+N_LINE_RE = re.compile(r"^\s*N(\d+)", re.IGNORECASE)
 #: Canonical calls that do not move the tool (everything else that appears is refused loudly).
 QUIET_CALLS = {
     "USE_LENGTH_UNITS",
@@ -77,7 +87,41 @@ QUIET_CALLS = {
     "SET_TRAVERSE_RATE",
     "SET_CUTTER_RADIUS_COMPENSATION",
     "STOP_CUTTER_RADIUS_COMPENSATION",
+    "TURN_PROBE_ON",
+    "TURN_PROBE_OFF",
+    "ORIENT_SPINDLE",
+    "WAIT_SPINDLE_ORIENT_COMPLETE",
+    "USE_NO_SPINDLE_FORCE",
+    "USE_SPINDLE_FORCE",
+    "SET_TOOL_TABLE_ENTRY",
+    "SPINDLE_RETRACT",
+    "SPINDLE_RETRACT_TRAVERSE",
+    "SET_MOTION_OUTPUT_BIT",
+    "CLEAR_MOTION_OUTPUT_BIT",
+    "SET_AUX_OUTPUT_BIT",
+    "CLEAR_AUX_OUTPUT_BIT",
+    "SET_MOTION_OUTPUT_VALUE",
+    "SET_AUX_OUTPUT_VALUE",
+    "WAIT",
+    "START_SPEED_FEED_SYNCH",
+    "START_SPEED_FEED_SYNC",
+    "STOP_SPEED_FEED_SYNC",
+    "STOP_SPEED_FEED_SYNCH",
+    "DISABLE_ADAPTIVE_FEED",
+    "DISABLE_FEED_HOLD",
+    "UPDATE_TAG",
+    "SELECT_POCKET",
+    "CHANGE_TOOL_NUMBER",
+    "LOGOPEN",
+    "LOGAPPEND",
+    "LOGCLOSE",
+    "LOG",
+    "PLUGIN_CALL",
+    "IO_PLUGIN_CALL",
 }
+#: canonical motions gantry-sim does not make (probing, tapping, splines): recorded as kind
+#: "other" with their end point, so that a refusal of that line can be checked against them.
+OTHER_MOTIONS = {"STRAIGHT_PROBE", "RIGID_TAP", "NURBS_FEED", "SPLINE_FEED"}
 LINES_DERIVED = (
     "rs274 prints no source lines: motions appearing when line k is added to the program's "
     "first k-1 lines belong to line k; the error belongs to the first prefix rs274 rejects "
@@ -144,15 +188,41 @@ def _sweep(
     a1 = math.atan2(end[i2] - center[i2], end[i1] - center[i1])
     d = (a1 - a0) if rotation > 0 else (a0 - a1)
     d %= 2.0 * math.pi
-    if start[i1] == end[i1] and start[i2] == end[i2]:
+    # equal ends (to well below rs274's 4-decimal print; the start may come back through the
+    # offsets' inverse with rounding) make a full circle
+    if abs(start[i1] - end[i1]) < 1e-9 and abs(start[i2] - end[i2]) < 1e-9:
         d = 2.0 * math.pi
     return d + 2.0 * math.pi * (abs(rotation) - 1)
 
 
+def _to_work(p: list[float], g5x: list[float], g92: list[float], rot_deg: float) -> list[float]:
+    """Program point [mm] -> work frame [mm], as emccanon.cc's rotate_and_offset_pos."""
+    if not any(g5x) and not any(g92) and rot_deg == 0.0:
+        return p
+    x, y, z = p[0] + g92[0], p[1] + g92[1], p[2] + g92[2]
+    if rot_deg != 0.0:
+        t = math.radians(rot_deg)
+        x, y = x * math.cos(t) - y * math.sin(t), x * math.sin(t) + y * math.cos(t)
+    return [x + g5x[0], y + g5x[1], z + g5x[2]]
+
+
+def _from_work(w: list[float], g5x: list[float], g92: list[float], rot_deg: float) -> list[float]:
+    """Work frame point [mm] -> program point (emccanon.cc's unoffset_and_unrotate_pos)."""
+    if not any(g5x) and not any(g92) and rot_deg == 0.0:
+        return w
+    x, y, z = w[0] - g5x[0], w[1] - g5x[1], w[2] - g5x[2]
+    if rot_deg != 0.0:
+        t = -math.radians(rot_deg)
+        x, y = x * math.cos(t) - y * math.sin(t), x * math.sin(t) + y * math.cos(t)
+    return [x - g92[0], y - g92[1], z - g92[2]]
+
+
 def parse_canon(stdout: str) -> tuple[list[dict], float]:
-    """Canonical calls -> motions (without lines) in mm, and the largest print unit used [mm]."""
+    """Canonical calls -> motions (without lines; ``n``: the block's N word or None) in the work
+    frame [mm], and the largest print unit used [mm]."""
     scale, plane, feed = 1.0, "XY", 0.0
-    pos = [0.0, 0.0, 0.0]
+    pos = [0.0, 0.0, 0.0]  # work frame
+    g5x, g92, rot = [0.0, 0.0, 0.0], [0.0, 0.0, 0.0], 0.0
     unit_max = 1.0
     motions: list[dict] = []
     for raw in stdout.splitlines():
@@ -161,8 +231,15 @@ def parse_canon(stdout: str) -> tuple[list[dict], float]:
             if raw.strip():
                 raise RuntimeError(f"unrecognised rs274 output line: {raw!r}")
             continue
-        name, args = m.groups()
-        if name == "USE_LENGTH_UNITS":
+        nword, name, args = m.groups()
+        n = int(nword) if nword.isdigit() else None
+        if name == "SET_G5X_OFFSET":
+            g5x = [v * scale for v in _nums(args)[1:4]]
+        elif name == "SET_G92_OFFSET":
+            g92 = [v * scale for v in _nums(args)[0:3]]
+        elif name == "SET_XY_ROTATION":
+            rot = _nums(args)[0]
+        elif name == "USE_LENGTH_UNITS":
             scale = INCH_MM if "INCHES" in args else 1.0
         elif name == "SELECT_PLANE":
             plane = PLANES[args.strip()]
@@ -170,8 +247,10 @@ def parse_canon(stdout: str) -> tuple[list[dict], float]:
             feed = _nums(args)[0] * scale
         elif name in ("STRAIGHT_TRAVERSE", "STRAIGHT_FEED"):
             v = _nums(args)
-            end = [v[0] * scale, v[1] * scale, v[2] * scale]
+            prog = [v[0] * scale, v[1] * scale, v[2] * scale]
+            end = _to_work(prog, g5x, g92, rot)
             mo = {
+                "n": n,
                 "kind": "rapid" if name == "STRAIGHT_TRAVERSE" else "linear",
                 "start": pos,
                 "end": end,
@@ -183,38 +262,90 @@ def parse_canon(stdout: str) -> tuple[list[dict], float]:
             unit_max = max(unit_max, scale)
         elif name == "ARC_FEED":
             v = _nums(args)
-            i1, i2, n = PLANE_AXES[plane]
+            prog = _from_work(pos, g5x, g92, rot)  # offsets may have changed since the last move
+            i1, i2, k = PLANE_AXES[plane]
             rotation = int(v[4])
             end = [0.0, 0.0, 0.0]
-            end[i1], end[i2], end[n] = v[0] * scale, v[1] * scale, v[5] * scale
+            end[i1], end[i2], end[k] = v[0] * scale, v[1] * scale, v[5] * scale
             center = [0.0, 0.0, 0.0]
-            center[i1], center[i2], center[n] = v[2] * scale, v[3] * scale, pos[n]
+            center[i1], center[i2], center[k] = v[2] * scale, v[3] * scale, prog[k]
             motions.append(
                 {
+                    "n": n,
                     "kind": "arc",
                     "start": pos,
-                    "end": end,
+                    "end": _to_work(end, g5x, g92, rot),
                     "feed": feed,
                     "plane": plane,
                     "direction": "ccw" if rotation > 0 else "cw",
-                    "center": center,
-                    "radius": math.hypot(pos[i1] - center[i1], pos[i2] - center[i2]),
+                    "center": _to_work(center, g5x, g92, rot),
+                    "radius": math.hypot(prog[i1] - center[i1], prog[i2] - center[i2]),
                     "turns": abs(rotation),
-                    "angle": _sweep(plane, pos, end, center, rotation),
+                    "angle": _sweep(plane, prog, end, center, rotation),
                 }
             )
-            pos = end
+            pos = motions[-1]["end"]
             unit_max = max(unit_max, scale)
+        elif name in OTHER_MOTIONS:
+            v = _nums(args) if name != "NURBS_FEED" else [*pos]
+            end = [v[0] * scale, v[1] * scale, v[2] * scale]
+            motions.append({"n": n, "kind": "other", "start": pos, "end": end, "call": name})
+            pos = end
         elif name not in QUIET_CALLS:
             raise RuntimeError(f"unexpected canonical call {name}({args})")
     return motions, unit_max
 
 
-def derive(text: str) -> tuple[list[dict], dict | None, float, str]:
-    """Run the program and its prefixes -> (motions with lines, error or None, unit [mm], raw)."""
+def _strip_n(m: dict) -> dict:
+    return {kk: vv for kk, vv in m.items() if kk not in ("line", "n")}
+
+
+def numbered(text: str) -> bool:
+    """Every non-blank line opens with N<its line number>."""
+    lines = text.split("\n")
+    if lines and lines[-1] == "":
+        lines.pop()
+    for k, ln in enumerate(lines, 1):
+        if ln.strip() in ("", "%"):
+            continue
+        m = N_LINE_RE.match(ln)
+        if not m or int(m.group(1)) != k:
+            return False
+    return True
+
+
+def derive_numbered(text: str) -> tuple[list[dict], dict | None, float, str]:
+    """One run; lines from the N words of the motions and of the failing block."""
     rc, out, err = run_rs274(text)
     raw = f"# rs274 -g exit status {rc}\n# --- stdout\n{out}# --- stderr\n{err}"
     full, unit = parse_canon(out)
+    motions = []
+    for m in full:
+        if m["n"] is None:
+            raise RuntimeError("a motion without an N word in a numbered program")
+        motions.append({"line": m["n"], **_strip_n(m)})
+    error = None
+    if rc != 0:
+        msg = error_message(err)
+        n_lines = max(1, len(text.split("\n")) - (1 if text.endswith("\n") else 0))
+        tail = [ln for ln in err.splitlines() if ln.strip()]
+        found = N_LINE_RE.match(tail[-1]) if tail else None
+        if msg in EOF_MESSAGES or found is None:
+            line = n_lines
+        else:
+            line = int(found.group(1))
+        error = {"line": line, "message": msg or f"rs274 exit status {rc}"}
+    return motions, error, unit, raw
+
+
+def derive(text: str) -> tuple[list[dict], dict | None, float, str]:
+    """Run the program and its prefixes -> (motions with lines, error or None, unit [mm], raw)."""
+    if numbered(text):
+        return derive_numbered(text)
+    rc, out, err = run_rs274(text)
+    raw = f"# rs274 -g exit status {rc}\n# --- stdout\n{out}# --- stderr\n{err}"
+    full, unit = parse_canon(out)
+    full = [_strip_n(m) for m in full]
     full_msg = error_message(err) if rc != 0 else None
     # physical lines, split on "\n" only, each keeping its own ending ("\r\n" stays intact)
     lines = re.findall(r"[^\n]*\n|[^\n]+$", text)
@@ -223,9 +354,8 @@ def derive(text: str) -> tuple[list[dict], dict | None, float, str]:
     for k in range(1, len(lines) + 1):
         prc, pout, perr = run_rs274("".join(lines[:k]))
         pm, _ = parse_canon(pout)
-        if pm[: len(motions)] != [
-            {kk: vv for kk, vv in m.items() if kk != "line"} for m in motions
-        ]:
+        pm = [_strip_n(m) for m in pm]
+        if pm[: len(motions)] != [_strip_n(m) for m in motions]:
             raise RuntimeError(f"prefix {k} changed earlier motions")
         for m in pm[len(motions) :]:
             motions.append({"line": k, **m})
@@ -237,7 +367,7 @@ def derive(text: str) -> tuple[list[dict], dict | None, float, str]:
         error = {"line": max(1, len(lines)), "message": full_msg or f"rs274 exit status {rc}"}
     if error is not None and (full_msg or "").split(":")[0] != error["message"].split(":")[0]:
         raise RuntimeError(f"prefix error {error} differs from the whole program's {full_msg!r}")
-    if [{kk: vv for kk, vv in m.items() if kk != "line"} for m in motions] != full:
+    if [_strip_n(m) for m in motions] != full:
         raise RuntimeError("prefix motions differ from the whole program's")
     return motions, error, unit, raw
 

@@ -24,10 +24,12 @@ def error_of(text: str, dialect: str) -> GcodeError:
 
 
 def test_dialects_are_frozen_data() -> None:
-    assert set(DIALECTS) == {"linuxcnc", "g2core", "marlin", "laserdyne"}
+    assert set(DIALECTS) == {"linuxcnc", "g2core", "marlin", "laserdyne", "grbl"}
     with pytest.raises(dataclasses.FrozenInstanceError):
         MARLIN.default_feed_mm_per_min = 1.0  # type: ignore[misc]
-    with pytest.raises(GcodeError, match="choose one of: linuxcnc, g2core, marlin, laserdyne"):
+    with pytest.raises(
+        GcodeError, match="choose one of: linuxcnc, g2core, marlin, laserdyne, grbl"
+    ):
         get_dialect("fanuc")
 
 
@@ -121,3 +123,134 @@ def test_only_linuxcnc_requires_a_program_end() -> None:
         assert run("G0 X1", name)[0].end == (1.0, 0.0, 0.0)
         assert run("", name) == []
     assert "M2 or M30" in error_of("G0 X1", "linuxcnc").message
+
+
+# --- grbl 1.1 (gnea/grbl gcode.c) ---------------------------------------------------------------
+
+
+def test_grbl_needs_no_program_end_and_reads_system_lines_and_jogs() -> None:
+    text = "$H\n$$\n$X\n$110=5000\nG21 G90\nG0 X10 Y10\n$J=G91 X5 F500\nG1 X20 F300\n"
+    moves = run(text, "grbl")
+    assert [(m.line, m.kind, m.end) for m in moves] == [
+        (6, "rapid", (10.0, 10.0, 0.0)),
+        (7, "linear", (15.0, 10.0, 0.0)),  # the jog: G91 for itself only
+        (8, "linear", (20.0, 10.0, 0.0)),  # back in G90
+    ]
+    assert moves[1].feed_mm_per_min == 500.0
+    assert error_of("$J=X5\n", "grbl").message.endswith("(grbl error 22)")
+    assert "bad character" in error_of("$H\n", "linuxcnc").message
+
+
+@pytest.mark.parametrize(
+    ("text", "code"),
+    [
+        ("G0 X#1", 1),
+        ("G0 X[1+2]", 1),
+        ("G1 X1", 22),
+        ("G59.1", 20),
+        ("G90.1", 20),
+        ("o100 sub", 20),
+        ("G0 A1", 20),
+        ("M100", 20),
+        ("G0 G1 X1", 21),
+        ("G0 X1 X2", 25),
+        ("G2 X1 I1 P2 F10", 36),
+        ("G10 L2 P1 R30", 36),
+        ("G10 L2 P7 X1", 29),
+        ("G10 P1 X1", 28),
+        ("G2 X2.1 I1 F10", 33),
+        ("G2 X3 R1 F10", 34),
+    ],
+)
+def test_grbl_refuses_what_grbl_refuses_with_its_error_number(text: str, code: int) -> None:
+    err = error_of(text + "\n", "grbl")
+    assert err.line == 1 and err.message.endswith(f"(grbl error {code})"), err.message
+
+
+def test_grbl_arcs_homing_and_offsets() -> None:
+    # a K word on a G17 arc is consumed and ignored; 0.004 mm radius mismatch is within 0.005 mm
+    arc = run("G2 X2.004 Y0 I1 K5 F100\n", "grbl")[0]
+    assert isinstance(arc, Arc) and arc.end == (2.004, 0.0, 0.0)
+    # G28 with axis words: the intermediate point, then every axis to the stored point
+    moves = run("G0 X5 Y5 Z5\nG28.1\nG0 X1 Y1 Z1\nG28 X2\nG28\n", "grbl")
+    assert [m.end for m in moves[2:]] == [(2.0, 1.0, 1.0), (5.0, 5.0, 5.0), (5.0, 5.0, 5.0)]
+    assert [m.line for m in moves[2:]] == [4, 4, 5]  # no intermediate move without axis words
+    assert run("G10 L20 P1 X0\nG0 X1\n", "grbl")[0].end == (1.0, 0.0, 0.0)
+    assert get_dialect("grbl").arc_tolerance_mm == 0.002
+
+
+# --- Marlin printer lines and g2core's own lines -----------------------------------------------
+
+
+def test_marlin_printer_codes_are_accepted_without_motion() -> None:
+    text = (
+        "M82\nM104 S200 T0\nM140 S60\nM190 S60\nM109 S200\nM106 S255\nM107\nM84\nM400\n"
+        "M117 Layer 1: X10 (text\nM118 E1 done\nM73 P10 R20\nM201 X500 Y500 Z100 E5000\n"
+        "M203 X300 Y300\nM204 P500 R1000 T500\nM205 X8 Y8 Z0.4 E5\nT1\nG29\nG10\nG11\n"
+        "G4 S1\nG4 P500\nG92 E0\nM9999\nG1 X10 Y10 F1500 E1.2\n"
+    )
+    moves = run(text, "marlin")
+    assert [(m.line, m.end) for m in moves] == [(25, (10.0, 10.0, 0.0))]
+
+
+def test_marlin_g28_homes_named_axes_and_g92_sets_the_position() -> None:
+    moves = run("G1 X3 Y4 Z5 F100\nG28 X\nG28\nG1 X5\nG92 X0\nG1 X1\n", "marlin")
+    assert [(m.line, m.kind, m.end) for m in moves] == [
+        (1, "linear", (3.0, 4.0, 5.0)),
+        (2, "rapid", (0.0, 4.0, 5.0)),
+        (3, "rapid", (0.0, 0.0, 0.0)),
+        (4, "linear", (5.0, 0.0, 0.0)),
+        (6, "linear", (6.0, 0.0, 0.0)),  # G92 X0 at X5: X1 is 6 in the work frame
+    ]
+    for code in ("G12", "G27", "G5 I1 J1 P1 Q1 X1 Y1", "G61"):
+        assert "not" in error_of(code + "\n", "marlin").message
+
+
+def test_g2core_json_lines_and_homing_codes_move_nothing() -> None:
+    text = '{"xvm":1000}\n{sr:n}\nG28.2 X0 Y0\nG28.3 X0\nG0 X1\n'
+    assert [(m.line, m.end) for m in run(text, "g2core")] == [(5, (1.0, 0.0, 0.0))]
+    assert "bad character" in error_of('{"xvm":1000}\n', "linuxcnc").message
+
+
+def test_marlin_g4_dwells_in_milliseconds_or_seconds() -> None:
+    from gantry_sim.controller.gcode.interpreter import interpret
+
+    got = list(interpret("G1 X1\nG4 P500\nG4 S2\nG4\n", "marlin", events=True))
+    assert [(m.kind, getattr(m, "seconds", None)) for m in got] == [
+        ("linear", None),
+        ("dwell", 0.5),
+        ("dwell", 2.0),
+        ("dwell", 0.0),
+    ]
+
+
+def test_g2core_m100_and_text_mode_lines_move_nothing() -> None:
+    text = "$xvm=1000\nM100 ({xvm:1000})\nM100.1 ({zvm:100})\nM101 ({in1:1})\nG0 X1\n"
+    assert [(m.line, m.end) for m in run(text, "g2core")] == [(5, (1.0, 0.0, 0.0))]
+
+
+def test_unsupported_codes_say_why() -> None:
+    for code, why in (
+        ("G33 X1 K1", "simulates no spindle"),
+        ("G38.2 Z-1 F10", "probe"),
+        ("G7", "diameter"),
+        ("G81 X1 Z-1 R1", "canned cycles"),
+    ):
+        assert why in error_of(code + "\nM2\n", "linuxcnc").message
+    assert run("G8 G0 X1\nM2\n", "linuxcnc")[0].end == (1.0, 0.0, 0.0)
+
+
+def test_marlin_limit_changes_are_events_from_their_line_on() -> None:
+    from gantry_sim.controller.gcode.interpreter import interpret
+
+    text = "G1 X1\nM201 X500 Y500 Z100 E5000\nM204 P500 T800\nM205 J0.02\nM203 X\nG1 X2\n"
+    got = [m.to_json() for m in interpret(text, "marlin", events=True)]
+    assert [g["kind"] for g in got] == ["linear", "limits", "limits", "limits", "linear"]
+    assert got[1] == {
+        "line": 2,
+        "kind": "limits",
+        "code": "M201",
+        "values": {"E": 5000.0, "X": 500.0, "Y": 500.0, "Z": 100.0},
+    }
+    assert got[3]["values"] == {"J": 0.02}
+    assert [m.kind for m in run(text, "marlin")] == ["linear", "linear"]  # motions only

@@ -64,7 +64,9 @@ def arc_move(
     a1, a2 = AXES[i1], AXES[i2]
     o1, o2, on = _OFFSETS[i1], _OFFSETS[i2], _OFFSETS[n]
     has_r = "R" in v
-    has_ijk = any(o in v for o in _OFFSETS)
+    has_ijk = any(o in v for o in (o1, o2) if d.off_plane_offset_ignored) or (
+        not d.off_plane_offset_ignored and any(o in v for o in _OFFSETS)
+    )
     # Step 1: a centre, in one format.
     if not has_r and not has_ijk:
         raise GcodeError(
@@ -73,8 +75,8 @@ def arc_move(
     if has_r and has_ijk:
         raise GcodeError("R mixed with I/J/K on one arc; use either R or the offsets, not both")
     turns = _turns(v, d)  # Step 2
-    # Step 3: offsets must belong to the plane.
-    if on in v:
+    # Step 3: offsets must belong to the plane (grbl consumes and ignores the other one).
+    if on in v and not d.off_plane_offset_ignored:
         raise GcodeError(
             f"{on} word given for an arc in the {s.plane} plane; {s.plane} arcs take "
             f"{o1} ({a1} offset) and {o2} ({a2} offset)"

@@ -26,51 +26,60 @@ G_GROUPS: dict[int, str] = {
     **dict.fromkeys((960, 970), "spindle_mode"),
     **dict.fromkeys((70, 80), "lathe_mode"),
     **dict.fromkeys((40, 100, 280, 281, 300, 301, 520, 530, 920, 921, 922, 923), "nonmodal"),
+    **dict.fromkeys((700, 710, 711, 720, 721), "nonmodal"),  # lathe finishing/roughing cycles
 }
 
-#: codes the interpreter implements itself.
-#: G53 is handled as rs274 runs it with zero work offsets: the block's axis words are absolute
-#: work coordinates (gantry-sim has no G54-G59.3/G92 offset tables, so machine = work).
-G_HANDLED = frozenset((0, 10, 20, 30, 800, 170, 180, 190, 900, 910, 901, 911, 200, 210, 530))
-
-#: codes accepted with no effect on the programmed X/Y/Z path in work coordinates.
+#: codes the interpreter implements itself (coordinate systems: controller/gcode/coords.py).
 # fmt: off
+G_HANDLED = frozenset(
+    (0, 10, 20, 30, 800, 170, 180, 190, 900, 910, 901, 911, 200, 210, 530,
+     540, 550, 560, 570, 580, 590, 591, 592, 593, 100, 280, 281, 300, 301, 920, 921, 922, 923,
+     430, 490, 930, 950)
+)
+
+#: codes accepted with no effect on the programmed X/Y/Z tool-tip path in work coordinates.
 G_NO_PATH_EFFECT = frozenset(
-    (40, 940, 400, 430, 490, 980, 990, 540, 550, 560, 570, 580, 590, 591, 592, 593,
-     610, 611, 640, 960, 970, 80, 921, 922)
+    (40, 940, 400, 980, 990, 610, 611, 640, 960, 970, 80)
 )
 # fmt: on
-
-_COORDS = "it changes the work coordinate system, which gantry-sim does not model"
 #: refused codes -> why.
 G_REFUSED: dict[int, str] = {
-    **dict.fromkeys((330, 331), "spindle-synchronised motion (threading) is not supported"),
-    **dict.fromkeys((382, 383, 384, 385), "probing moves are not supported"),
-    **dict.fromkeys((50, 51, 52), "splines (G5, G5.1, G5.2) are not supported"),
     **dict.fromkeys(
-        (730, 760, 810, 820, 830, 840, 850, 860, 870, 880, 890), "canned cycles are not supported"
+        (330, 331, 760),
+        "spindle-synchronised motion (threading, rigid tapping) follows the spindle's measured "
+        "angle, and gantry-sim simulates no spindle",
+    ),
+    **dict.fromkeys(
+        (382, 383, 384, 385),
+        "a probing move ends where a probe input trips, and the simulation has no probe or "
+        "workpiece to touch",
+    ),
+    **dict.fromkeys((50, 51, 52), "splines (G5, G5.1, G5.2) are not supported yet"),
+    **dict.fromkeys(
+        (730, 810, 820, 830, 840, 850, 860, 870, 880, 890), "canned cycles are not supported yet"
     ),
     **dict.fromkeys((171, 181, 191), "UVW planes are not supported on this XYZ machine"),
-    930: "inverse-time feed (G93) is not supported; use G94 (units per minute)",
-    950: "feed per revolution (G95) is not supported; use G94 (units per minute)",
-    **dict.fromkeys((410, 411, 420, 421), "cutter radius compensation is not supported"),
-    431: "a dynamic tool length offset (G43.1) shifts Z coordinates, which is not supported",
+    **dict.fromkeys((410, 411, 420, 421), "cutter radius compensation is not supported yet"),
+    431: "a dynamic tool length offset (G43.1) is not supported; use a tool table and G43 H",
     432: "G43.2 (additional tool length offset) is not supported",
-    70: "lathe diameter mode (G7) is not supported",
-    100: _COORDS,
-    **dict.fromkeys((280, 281, 300, 301), "moves to stored home positions are not supported"),
-    520: _COORDS,
-    920: _COORDS,
-    923: _COORDS,
+    70: "lathe diameter mode (G7) reads X as a diameter, and this is a mill (G8, radius mode, is "
+    "the default and accepted)",
+    520: "G52 (local coordinate offset) is not supported; use G92 or G10 L2",
+    **dict.fromkeys(
+        (700, 710, 711, 720, 721), "lathe roughing/finishing cycles (G70-G72) need a lathe"
+    ),
 }
 
 # M code -> modal group (LinuxCNC's M groups 4, 6, 7, 8, 9).
 M_GROUPS: dict[int, str] = {
     **dict.fromkeys((0, 1, 2, 30, 60), "stopping"),
-    6: "tool_change",
+    **dict.fromkeys((6, 61), "tool_change"),
+    **dict.fromkeys((62, 63, 64, 65, 66, 67, 68), "io"),  # digital/analog outputs, wait input
+    **dict.fromkeys((70, 71, 72, 73), "modal_state"),  # save/invalidate/restore/auto-restore
+    **dict.fromkeys(range(100, 200), "user"),  # user M-codes: programs M100..M199 (if present)
     **dict.fromkeys((3, 4, 5), "spindle"),
     **dict.fromkeys((7, 8, 9), "coolant"),
-    **dict.fromkeys((48, 49, 50, 51, 52, 53), "override"),
+    **dict.fromkeys((48, 49, 50, 51, 52, 53, 56), "override"),  # M56: grbl's parking override
 }
 M_PROGRAM_END = frozenset((2, 30))
 
@@ -83,4 +92,6 @@ def g_name(code: int) -> str:
 
 def m_allowed() -> str:
     """The M codes gantry-sim accepts, for messages."""
-    return ", ".join(f"M{m}" for m in sorted(M_GROUPS))
+    return ", ".join(f"M{m}" for m in sorted(M_GROUPS) if m != 56 and m < 100) + (
+        ", M100-M199 (when a program file of that name is on the subroutine path)"
+    )

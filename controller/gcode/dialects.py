@@ -17,6 +17,13 @@ The interpreter reads these fields and never tests a dialect's name. Sources (co
   default feed 1500 mm/min (feedrate_mm_s = 25 mm/s); P (ARC_P_CIRCLES) adds P complete circles;
   E (extrusion) and S (laser power) words are accepted and ignored; an R too short for the chord
   gives the semicircle (Marlin clamps the centre offset to zero).
+- ``grbl``: grbl 1.1's gcode.c (gnea/grbl): its G and M codes only (G38.x probing and G43.1 are
+  refused here), no parameters, expressions or O-words, ``$`` system lines (``$J=`` jogs move as
+  G1 in their own modes), six coordinate systems, G10 L2/L20 without R, G28/G30 send every axis
+  home, no program end needed; an offset arc is refused when its radii differ by more than
+  0.005 mm and (more than 0.5 mm or 0.1 % of the radius), always in mm; an R arc must reach its
+  end exactly; a K word on a G17 arc (any offset off the plane) is consumed and ignored; P is
+  not an arc word; default arc tolerance $12 = 0.002 mm. Errors carry grbl's numbered codes.
 - ``laserdyne``: Prima Power Laserdyne's note: both centre offsets of the plane are required,
   the end point must lie on the arc (checked here to 0.005 mm, a documented choice: 0.0002 in,
   twice the rounding of a 4-decimal inch program), G20 means plane rotation and is refused.
@@ -72,6 +79,21 @@ class Dialect:
         max_p: the largest P word allowed, or None (Marlin: 100, ``WITHIN(circles_to_do, 0, 100)``).
         zero_angle_fuzz: a swept angle below this [rad] is a full circle (end == start up to
             rounding; a 1e-6 rad arc of R10000 is an arc, as rs274 outputs it).
+        language: numbered/named parameters, [expressions] and O-words are part of the dialect.
+        g_codes / m_codes: the codes (G in tenths) the controller knows; None: LinuxCNC's.
+        letters: the word letters the controller knows; None: LinuxCNC's.
+        system_lines: ``$`` lines are system commands (grbl); ``$J=`` is a jog.
+        home_all_axes: G28/G30 send every axis home, axis words only add a first move (grbl).
+        arc_p_allowed: P (turns) is an arc word.
+        off_plane_offset_ignored: an offset word of the plane's normal axis on an arc is
+            consumed and ignored (grbl) instead of an error.
+        g10_rotation: G10 L2 takes R (the XY rotation).
+        coordinate_systems: how many of G54..G59.3 exist (grbl: 6).
+        error_codes: (message fragment, firmware error number) pairs; the first match is
+            appended to a message as ``(grbl error N)``.
+        arc_tolerance_mm: the controller's default arc segmentation tolerance [mm], or None.
+        own_lines: the controller's own line rules in controller/gcode/printer_codes.py
+            ("marlin": M/T lines and printer G codes; "g2core": JSON lines, G28.2/G28.3), or "".
     """
 
     name: str
@@ -91,6 +113,19 @@ class Dialect:
     max_p: int | None = None
     r_needs_arc_code_first: bool = False
     zero_angle_fuzz: float = 1e-12
+    language: bool = True
+    g_codes: frozenset[int] | None = None
+    m_codes: frozenset[int] | None = None
+    letters: frozenset[str] | None = None
+    system_lines: bool = False
+    home_all_axes: bool = False
+    arc_p_allowed: bool = True
+    off_plane_offset_ignored: bool = False
+    g10_rotation: bool = True
+    coordinate_systems: int = 9
+    error_codes: tuple[tuple[str, int], ...] = ()
+    arc_tolerance_mm: float | None = None
+    own_lines: str = ""
 
 
 _TOL_MM = 2 * 0.01 * math.sqrt(2.0)  # 0.028284 mm, rs274 CENTER_ARC_RADIUS_TOLERANCE_MM
@@ -128,6 +163,8 @@ G2CORE = Dialect(
     min_radius_in=0.00005,
     r_short_is_semicircle=False,
     require_program_end=False,
+    system_lines=True,
+    own_lines="g2core",
 )
 
 MARLIN = Dialect(
@@ -146,6 +183,7 @@ MARLIN = Dialect(
     r_short_is_semicircle=True,
     require_program_end=False,
     max_p=100,
+    own_lines="marlin",
 )
 
 LASERDYNE_ON_ARC_TOL_MM = 0.005
@@ -176,7 +214,66 @@ LASERDYNE = Dialect(
     r_needs_arc_code_first=True,
 )
 
-DIALECTS: dict[str, Dialect] = {d.name: d for d in (LINUXCNC, G2CORE, MARLIN, LASERDYNE)}
+# fmt: off
+#: grbl 1.1's codes (gcode.c) that gantry-sim runs; G38.2-G38.5 and G43.1 are grbl's too but are
+#: refused here (probing, dynamic tool length), G93 is refused in every dialect.
+_GRBL_G = frozenset((
+    0, 10, 20, 30, 40, 100, 170, 180, 190, 200, 210, 280, 281, 300, 301, 382, 383, 384, 385,
+    400, 431, 490, 530, 540, 550, 560, 570, 580, 590, 610, 800, 900, 910, 911, 920, 921, 930, 940,
+))
+#: grbl's status codes (report.c / the grbl 1.1 wiki "Error codes"), matched on our messages.
+_GRBL_ERRORS = (
+    ("expects a command letter", 1), ("not grbl features", 20),
+    ("bad number format", 2), ("bad character", 1), ("bad value", 1), ("negative", 4),
+    ("unknown g code", 20), ("unsupported m code", 20), ("is not supported", 20),
+    ("two g codes from one modal group", 21),
+    ("two m codes from one modal group", 21), ("zero feed rate", 22),
+    ("both use the axis words", 24), ("multiple", 25), ("g10 needs", 28),
+    ("dwell) needs a p", 28), ("coordinate systems", 29), ("g53", 30), ("g80", 31),
+    ("neither", 32), ("ends where it starts", 33), ("radius to end of arc", 33),
+    ("too small to reach", 34), ("has no centre", 35), ("missing", 35),
+    ("with no code that uses it", 36), ("axis word on a 3-axis machine", 20),
+)
+# fmt: on
+GRBL = Dialect(
+    name="grbl",
+    explicit_end_full_circle=True,
+    radius_check=RadiusCheck(0.005, 0.5, 0.005 / 25.4, 0.5 / 25.4, 0.001),
+    project_end_on_arc=False,
+    both_offsets_required=False,
+    p_adds_circles=False,
+    default_feed_mm_per_min=None,
+    g20_is_inch=True,
+    g20_refusal="",
+    ignored_letters=frozenset(),
+    min_radius_mm=1e-6,
+    min_radius_in=1e-6 / 25.4,
+    r_short_is_semicircle=False,
+    require_program_end=False,
+    language=False,
+    g_codes=_GRBL_G,
+    m_codes=frozenset((0, 1, 2, 30, 3, 4, 5, 7, 8, 9, 56)),
+    letters=frozenset("FGIJKLMNPRSTXYZ"),
+    system_lines=True,
+    home_all_axes=True,
+    arc_p_allowed=False,
+    off_plane_offset_ignored=True,
+    g10_rotation=False,
+    coordinate_systems=6,
+    error_codes=_GRBL_ERRORS,
+    arc_tolerance_mm=0.002,
+)
+
+DIALECTS: dict[str, Dialect] = {d.name: d for d in (LINUXCNC, G2CORE, MARLIN, LASERDYNE, GRBL)}
+
+
+def coded(message: str, d: Dialect) -> str:
+    """``message`` with the dialect's firmware error number appended, when one matches."""
+    low = message.lower()
+    for fragment, code in d.error_codes:
+        if fragment in low:
+            return f"{message} ({d.name} error {code})"
+    return message
 
 
 def get_dialect(name: str) -> Dialect:

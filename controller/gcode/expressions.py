@@ -1,17 +1,21 @@
-"""LinuxCNC-style real values: numbers, ``#n`` parameters and ``[expressions]``.
+"""LinuxCNC-style real values: numbers, parameters and ``[expressions]``.
 
 A value is read from a line (spaces already removed, letters upper-cased) into a small tree that
-the interpreter evaluates later against its parameter table, because every ``#n`` read on a line
-sees the values from *before* that line's ``#n=...`` settings (rs274 semantics).
+the interpreter evaluates later against its parameters, because every parameter read on a line
+sees the values from *before* that line's settings (rs274 semantics).
 
-Trees are nested tuples: ``("num", 1.5)``, ``("par", tree)``, ``("neg", tree)``,
-``("fn", "SIN", tree)``, ``("atan", a, b)``, ``("bin", "+", a, b)``. Trig functions work in
-degrees, as in rs274. Named parameters (``#<name>``) and O-word subroutines are not supported.
+Trees are nested tuples: ``("num", 1.5)``, ``("par", tree)`` (numbered ``#n``), ``("name", "x")``
+(named ``#<x>``, lower case), ``("exists", "x")``, ``("neg", tree)``, ``("fn", "SIN", tree)``,
+``("atan", a, b)`` and ``("chain", values, ops)`` for ``[a op b op c ...]``, reduced by rs274's
+operator precedence when evaluated. Chains are evaluated without recursion, so an expression of
+any number of terms is fine; brackets, signs and ``#`` may nest at most :data:`MAX_NESTING` deep.
+Trig functions work in degrees, as in rs274.
 """
 
 from __future__ import annotations
 
 import math
+from typing import Protocol
 
 from gantry_sim.controller.errors import GcodeError
 
@@ -26,13 +30,25 @@ _BINARY: dict[str, int] = {
     "EQ": 1, "NE": 1, "GT": 1, "GE": 1, "LT": 1, "LE": 1,
     "AND": 0, "OR": 0, "XOR": 0,
 }
+_OPERATORS = sorted(_BINARY, key=len, reverse=True)
 _FUNCTIONS = (
     "ABS", "ACOS", "ASIN", "COS", "EXP", "FIX", "FUP", "LN", "ROUND", "SIN", "SQRT", "TAN"
 )
 # fmt: on
 _NUM_CHARS = "0123456789."
 MAX_NESTING = 64  # brackets, signs and # per value: deeper is refused (no recursion blow-up)
-NAMED_PARAMETERS = "named parameters (#<name>) are not supported; use numbered parameters #1..#5399"
+#: the largest magnitude a number or result may have; beyond it values are refused as not finite
+MAX_MAGNITUDE = 1e300
+
+
+class ParameterReader(Protocol):
+    """What evaluation needs: numbered and named parameter values."""
+
+    def number(self, index: float) -> float: ...
+
+    def named(self, name: str) -> float: ...
+
+    def exists(self, name: str) -> bool: ...
 
 
 class Reader:
@@ -56,6 +72,17 @@ class Reader:
         finally:
             self.depth -= 1
 
+    def name(self) -> str:
+        """``<name>`` at ``pos`` (the ``<`` included) -> the name, lower case."""
+        end = self.text.find(">", self.pos)
+        if end < 0:
+            raise GcodeError("named parameter not terminated; write #<name>")
+        name = self.text[self.pos + 1 : end].lower()
+        if not name or "(" in name:
+            raise GcodeError("named parameter #<> has no name")
+        self.pos = end + 1
+        return name
+
     def _real_value(self) -> Tree:
         c = self.peek()
         if c == "[":
@@ -63,7 +90,7 @@ class Reader:
         if c == "#":
             self.pos += 1
             if self.peek() == "<":
-                raise GcodeError(NAMED_PARAMETERS)
+                return ("name", self.name())
             return ("par", self.real_value())
         if c in "+-" and c:
             self.pos += 1
@@ -77,12 +104,22 @@ class Reader:
                 if self.peek() != "[":
                     raise GcodeError(f"function {name} must be followed by [expression]")
                 if name == "EXISTS":
-                    raise GcodeError("EXISTS[] needs named parameters, which are not supported")
+                    self.pos += 1
+                    if not self.text.startswith("#<", self.pos):
+                        raise GcodeError("EXISTS takes a named parameter: EXISTS[#<name>]")
+                    self.pos += 1
+                    found = self.name()
+                    if self.peek() != "]":
+                        raise GcodeError("EXISTS takes one named parameter: EXISTS[#<name>]")
+                    self.pos += 1
+                    return ("exists", found)
                 arg = self.expression()
                 if name == "ATAN":
                     if self.peek() != "/":
                         raise GcodeError("ATAN needs two arguments: ATAN[y]/[x]")
                     self.pos += 1
+                    if self.peek() != "[":
+                        raise GcodeError("ATAN needs two arguments: ATAN[y]/[x]")
                     return ("atan", arg, self.expression())
                 return ("fn", name, arg)
         if not c:
@@ -98,10 +135,16 @@ class Reader:
             raise GcodeError(f"bad number format {raw!r}; expected digits with at most one '.'")
         if raw == ".":
             raise GcodeError("bad number format '.'; expected at least one digit")
-        return ("num", float(raw))
+        value = float(raw)
+        if value > MAX_MAGNITUDE:
+            raise GcodeError(
+                f"number {raw[:12]}... ({len(raw)} characters) is not a finite number below "
+                f"{MAX_MAGNITUDE:g}"
+            )
+        return ("num", value)
 
     def expression(self) -> Tree:
-        """``[ value (op value)* ]`` with rs274's operator precedence."""
+        """``[ value (op value)* ]``; precedence is applied when evaluated (no deep trees)."""
         assert self.peek() == "["
         self.pos += 1
         values = [self.real_value()]
@@ -110,19 +153,14 @@ class Reader:
             if self.peek() == "]":
                 self.pos += 1
                 break
-            op = self._operator()
-            while ops and _BINARY[ops[-1]] >= _BINARY[op]:
-                b, a = values.pop(), values.pop()
-                values.append(("bin", ops.pop(), a, b))
-            ops.append(op)
+            ops.append(self._operator())
             values.append(self.real_value())
-        while ops:
-            b, a = values.pop(), values.pop()
-            values.append(("bin", ops.pop(), a, b))
-        return values[0]
+        if not ops:
+            return values[0]
+        return ("chain", tuple(values), tuple(ops))
 
     def _operator(self) -> str:
-        for op in sorted(_BINARY, key=len, reverse=True):
+        for op in _OPERATORS:
             if self.text.startswith(op, self.pos):
                 self.pos += len(op)
                 return op
@@ -134,36 +172,47 @@ class Reader:
         )
 
 
-def evaluate(tree: Tree, params: dict[int, float]) -> float:
-    """Evaluate ``tree`` with numbered parameters ``params`` (unset ones read 0, as in rs274)."""
+def evaluate(tree: Tree, params: ParameterReader) -> float:
+    """Evaluate ``tree`` against ``params``; GcodeError for any value that is not finite."""
+    value = _evaluate(tree, params)
+    if not -MAX_MAGNITUDE <= value <= MAX_MAGNITUDE:
+        raise GcodeError(f"value {value:g} is not a finite number within +-{MAX_MAGNITUDE:g}")
+    return value
+
+
+def _evaluate(tree: Tree, params: ParameterReader) -> float:
     kind = tree[0]
     if kind == "num":
         return tree[1]
     if kind == "neg":
-        return -evaluate(tree[1], params)
+        return -_evaluate(tree[1], params)
     if kind == "par":
-        index = evaluate(tree[1], params)
-        return params.get(_parameter_index(index), 0.0)
+        return params.number(evaluate(tree[1], params))
+    if kind == "name":
+        return params.named(tree[1])
+    if kind == "exists":
+        return float(params.exists(tree[1]))
     if kind == "atan":
-        return math.degrees(math.atan2(evaluate(tree[1], params), evaluate(tree[2], params)))
+        return math.degrees(math.atan2(_evaluate(tree[1], params), _evaluate(tree[2], params)))
     if kind == "fn":
-        return _function(tree[1], evaluate(tree[2], params))
-    a, b = evaluate(tree[2], params), evaluate(tree[3], params)
-    return _binary(tree[1], a, b)
+        return _function(tree[1], _evaluate(tree[2], params))
+    return _chain([_evaluate(v, params) for v in tree[1]], tree[2])
 
 
-#: rs274's parameter table: #1..#5601 can be read; #1..#5399 can be set (#5400+ are read-only).
-MAX_PARAMETER = 5601
-MAX_SETTABLE_PARAMETER = 5399
-
-
-def _parameter_index(value: float) -> int:
-    index = round(value)
-    if abs(value - index) > 1e-4 or not 1 <= index <= MAX_PARAMETER:
-        raise GcodeError(
-            f"parameter number {value:g} out of range; allowed: integers 1..{MAX_PARAMETER}"
-        )
-    return index
+def _chain(values: list[float], ops: tuple[str, ...]) -> float:
+    """Reduce ``v0 op0 v1 op1 v2 ...`` by precedence, left to right within one level."""
+    out: list[float] = [values[0]]
+    pending: list[str] = []
+    for op, value in zip(ops, values[1:], strict=True):
+        while pending and _BINARY[pending[-1]] >= _BINARY[op]:
+            b, a = out.pop(), out.pop()
+            out.append(_binary(pending.pop(), a, b))
+        pending.append(op)
+        out.append(value)
+    while pending:
+        b, a = out.pop(), out.pop()
+        out.append(_binary(pending.pop(), a, b))
+    return out[0]
 
 
 def _function(name: str, x: float) -> float:
@@ -213,9 +262,13 @@ def _binary(op: str, a: float, b: float) -> float:
             case "MOD":
                 if b == 0.0:
                     raise GcodeError("attempt to take MOD by zero")
-                return math.fmod(a, b) if math.fmod(a, b) >= 0 else math.fmod(a, b) + abs(b)
+                r = math.fmod(a, b)
+                return r if r >= 0 else r + abs(b)
             case "**":
-                return float(a**b)
+                result = a**b
+                if isinstance(result, complex):
+                    raise GcodeError(f"{a:g} ** {b:g} has no real value")
+                return float(result)
             case "EQ":
                 return float(a == b)
             case "NE":
@@ -234,5 +287,5 @@ def _binary(op: str, a: float, b: float) -> float:
                 return float(a != 0.0 or b != 0.0)
             case _:
                 return float((a != 0.0) != (b != 0.0))
-    except (OverflowError, ZeroDivisionError, TypeError):
+    except (OverflowError, ZeroDivisionError, TypeError, ValueError):
         raise GcodeError(f"{a:g} {op} {b:g} has no finite real value") from None

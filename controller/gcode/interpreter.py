@@ -13,6 +13,7 @@ from __future__ import annotations
 
 from collections.abc import Iterator
 from dataclasses import replace
+from pathlib import Path
 
 from gantry_sim.controller.errors import GcodeError
 from gantry_sim.controller.gcode.arc_block import arc_move
@@ -23,29 +24,76 @@ from gantry_sim.controller.gcode.codes import (
     M_PROGRAM_END,
     g_name,
 )
-from gantry_sim.controller.gcode.dialects import Dialect, get_dialect
-from gantry_sim.controller.gcode.lexer import Block, lex
+from gantry_sim.controller.gcode.control import DEFAULT_MAX_ITERATIONS, MAX_ERRORS, Runner
+from gantry_sim.controller.gcode.coords import (
+    SYSTEMS,
+    g10,
+    g92,
+    home_point,
+    select_system,
+    store_home,
+)
+from gantry_sim.controller.gcode.dialect_checks import check_codes, check_jog, check_plain
+from gantry_sim.controller.gcode.dialects import Dialect, coded, get_dialect
+from gantry_sim.controller.gcode.expressions import evaluate
+from gantry_sim.controller.gcode.feed_modes import check_feed_mode, path_feed
+from gantry_sim.controller.gcode.frames import from_work, to_work
+from gantry_sim.controller.gcode.lexer import Block
+from gantry_sim.controller.gcode.modal_save import restore
+from gantry_sim.controller.gcode.parameters import COORD_INDEX, POSITION, Parameters, g5x_base
+from gantry_sim.controller.gcode.polar import polar_end_point
+from gantry_sim.controller.gcode.predefined import predefined
+from gantry_sim.controller.gcode.printer_codes import OWN_LINES
 from gantry_sim.controller.gcode.state import ModalState
-from gantry_sim.controller.gcode.words import check_words, read_words
-from gantry_sim.controller.moves import Linear, Move, Plane, Rapid, Vec3
+from gantry_sim.controller.gcode.tools import Tool
+from gantry_sim.controller.gcode.words import Words, check_words, read_words
+from gantry_sim.controller.moves import Arc, Dwell, Limits, Linear, Move, Plane, Rapid, Stop, Vec3
 
 _PLANES: dict[int, Plane] = {170: "XY", 180: "XZ", 190: "YZ"}
+#: non-modal codes whose axis words are theirs, not a motion's: G10, G28, G30, G92.
+AXIS_NONMODAL = frozenset((100, 280, 300, 920))
 
 
 class Interpreter:
     """Runs blocks against a modal state for one dialect (see :func:`interpret`)."""
 
-    def __init__(self, dialect: Dialect) -> None:
+    def __init__(
+        self, dialect: Dialect, tools: dict[int, Tool] | None = None, events: bool = False
+    ) -> None:
         self.dialect = dialect
+        self.tools = tools
+        self.table_less = tools is None
+        self.search_path: tuple[Path, ...] = ()
+        self.saved: dict[int, tuple[ModalState, bool]] = {}
+        self.events = events
         self.state = ModalState(feed_mm_per_min=dialect.default_feed_mm_per_min or 0.0)
-        self.params: dict[int, float] = {}
+        self.params = Parameters(self._predefined, lambda: self.state.scale)
+        self.params.numbered[COORD_INDEX] = 1.0
+        self.line = 0
 
     def step(self, block: Block) -> tuple[list[Move], bool]:
         """Validate ``block`` on a copy of the state, commit, return (moves, program ended)."""
+        self.line = block.line
         self._refresh_system_parameters()
+        d = self.dialect
+        if not d.language:
+            check_plain(block, d)
+        if block.jog:
+            return self._jog(block)
+        if block.home:
+            return self._printer_home(block), False
+        if block.limits:
+            return self._limits(block), False
         w = read_words(block, self.params)
-        s, d = self.state, self.dialect
+        s = self.state
         # Step 2: every code is one gantry-sim supports.
+        check_codes(w, d)
+        user = w.m.get("user")
+        if user is not None and not any((f / f"M{user}").is_file() for f in self.search_path):
+            raise GcodeError(
+                f"unknown M code M{user}: a user M-code needs its program file M{user} in the "
+                "program's folder or a --subroutine-path folder (LinuxCNC: USER_M_PATH)"
+            )
         for code in w.g.values():
             if code in G_REFUSED:
                 raise GcodeError(f"{g_name(code)} is not supported: {G_REFUSED[code]}")
@@ -55,26 +103,47 @@ class Interpreter:
             if w.values["F"] < 0.0:
                 raise GcodeError("negative F word; the feed must be >= 0 (units per minute)")
             s = replace(s, feed_mm_per_min=w.values["F"] * s.scale)
-        # Step 4: plane, units, distance modes.
+        s = self._tools(w, s)
+        if "feed_mode" in w.g:
+            s = replace(s, feed_mode=w.g["feed_mode"])
+        if "S" in w.values and "S" not in d.ignored_letters:
+            s = replace(s, rpm=w.values["S"])
+        if "spindle" in w.m:
+            s = replace(s, spindle={3: 1, 4: -1, 5: 0}[w.m["spindle"]])
+        if "coolant" in w.m:
+            c = w.m["coolant"]
+            s = replace(s, mist=c == 7 or (s.mist and c == 8), flood=c == 8 or (s.flood and c == 7))
+        # Step 4: plane, units, coordinate system, distance modes.
         if "plane" in w.g:
             s = replace(s, plane=_PLANES[w.g["plane"]])
         if w.g.get("units") == 200 and not d.g20_is_inch:
             raise GcodeError(d.g20_refusal)
         if "units" in w.g:
             s = replace(s, inch=w.g["units"] == 200)
+        if "coordinate_system" in w.g:
+            s = select_system(s, self.params, SYSTEMS[w.g["coordinate_system"]])
         if "distance" in w.g:
             s = replace(s, incremental=w.g["distance"] == 910)
         if "arc_distance" in w.g:
             s = replace(s, arc_absolute=w.g["arc_distance"] == 901)
         # Step 5: which motion this block makes, if any.
-        has_axes = any(a in w.values for a in "XYZ")
+        nonmodal = w.g.get("nonmodal")
+        axis_code = nonmodal in AXIS_NONMODAL
+        has_axes = any(a in w.values for a in "XYZ@^")
         motion = w.g.get("motion")
         if motion == 800:
-            if has_axes:
+            if has_axes and not axis_code:
                 raise GcodeError("axis words with G80 (motion off); use G0, G1, G2 or G3")
             s, motion = replace(s, motion=None), None
         elif motion is not None:
+            if axis_code and has_axes:
+                raise GcodeError(
+                    f"{g_name(nonmodal)} and {g_name(motion)} both use the axis words; put them "
+                    "on separate lines"
+                )
             s = replace(s, motion=motion)
+        elif axis_code:
+            pass  # the axis words belong to G10/G28/G30/G92
         elif s.motion in (20, 30) and any(c in w.values for c in "IJKR"):
             motion = s.motion  # rs274: a centre word alone continues a modal G2/G3
         elif has_axes:
@@ -87,45 +156,223 @@ class Interpreter:
                 f"on {d.name} controls R means an arc radius only after G2 or G3 on the same "
                 "line (otherwise it is 'Repeat', not supported); write G2 ... R or G3 ... R"
             )
-        # Step 6: the move, validated against the new state.
+        # Step 6: the non-modal codes, then the move, validated against the new state.
         moves: list[Move] = []
-        machine_coords = w.g.get("nonmodal") == 530
+        if nonmodal == 100 and round(w.values.get("L", 0)) in (1, 10) and d.g10_rotation:
+            self._g10_tool(w.values, s)
+        elif nonmodal == 100:
+            s = g10(s, self.params, w.values, d.coordinate_systems)
+        elif nonmodal in (920, 921, 922, 923):
+            s = g92(s, self.params, nonmodal, w.values)
+        elif nonmodal in (281, 301):
+            store_home(s, self.params, nonmodal)
+        elif nonmodal in (280, 300):
+            s = self._home(w.line, w.values, s, nonmodal, moves)
+        machine_coords = nonmodal == 530
         if machine_coords:
             if motion not in (0, 10):
                 raise GcodeError("G53 (machine coordinates) must be used with G0 or G1")
             if s.incremental:
                 raise GcodeError("G53 cannot be used in incremental distance mode (G91); use G90")
         if motion is not None:
-            end = self._end_point(w.values, replace(s, incremental=False) if machine_coords else s)
-            if motion == 0:
-                moves.append(Rapid(w.line, s.position, end))
-            elif motion == 10:
-                self._require_feed(s, "a G1 move")
-                moves.append(Linear(w.line, s.position, end, s.feed_mm_per_min))
+            if machine_coords:
+                end = self._machine_end_point(w.values, s)
             else:
-                self._require_feed(s, "an arc")
+                end = self._end_point(w.values, s)
+            if motion == 0:
+                s = self._emit(moves, s, Rapid(w.line, s.work, to_work(end, s.frame)), end)
+            elif motion == 10:
+                self._require_feed(s, "a G1 move", w)
+                move = Linear(w.line, s.work, to_work(end, s.frame), s.feed_mm_per_min)
+                s = self._emit(moves, s, path_feed(move, s, w.values), end)
+            else:
+                self._require_feed(s, "an arc", w)
                 arc = arc_move(w.line, w.values, s, end, motion == 30, d)
                 if arc is not None:
-                    moves.append(arc)
-                    end = arc.end
-                else:
-                    end = s.position
-            s = replace(s, position=end)
-        # Step 7: commit.
+                    placed = path_feed(self._arc_to_work(arc, s), s, w.values)
+                    s = self._emit(moves, s, placed, arc.end)  # arc.end: program frame
+        s = self._modal_state(w.m.get("modal_state"), s)
+        # Step 7: commit; events after the block's motion (rs274 runs G4 before motion, so a
+        # dwell on a motion line waits before it moves).
+        if self.events:
+            if nonmodal == 40 and "P" in w.values:
+                moves.insert(0, Dwell(w.line, self.state.work, w.values["P"]))
+            stop = w.m.get("stopping")
+            if stop in (0, 1, 60):
+                moves.append(Stop(w.line, s.work, f"M{stop}"))
         self.state = s
-        self.params.update(w.settings)
+        for target, value in w.settings:
+            if isinstance(target, str):
+                self.params.set_named(target, value)
+            else:
+                self.params.set_number(target, value)
         return moves, w.m.get("stopping") in M_PROGRAM_END
 
+    @staticmethod
+    def _emit(moves: list[Move], s: ModalState, move: Move, end: Vec3) -> ModalState:
+        moves.append(move)
+        return replace(s, position=end, work=move.end)
+
+    def _arc_to_work(self, arc: Arc, s: ModalState) -> Arc:
+        """The arc (program coordinates) placed in the work frame."""
+        f = s.frame
+        if f.identity:
+            return arc
+        if f.rotation_deg != 0.0 and arc.plane != "XY":
+            raise GcodeError(
+                f"a {arc.plane} arc under an XY rotation of {f.rotation_deg:g} degrees lies in a "
+                "tilted plane, which is not supported; arcs under a rotation must be G17 (XY)"
+            )
+        return replace(arc, start=s.work, end=to_work(arc.end, f), center=to_work(arc.center, f))
+
+    def _home(
+        self, line: int, v: dict[str, float], s: ModalState, code: int, moves: list[Move]
+    ) -> ModalState:
+        """G28 / G30: rapid through the axis words' point (if any) to the stored point."""
+        axes = {a for a in "XYZ" if a in v}
+        if axes or not self.dialect.home_all_axes:
+            mid = self._end_point(v, s)  # rs274 always makes the first move, even of length 0
+            s = self._emit(moves, s, Rapid(line, s.work, to_work(mid, s.frame)), mid)
+        if self.dialect.home_all_axes:
+            axes = set()
+        home = home_point(s, self.params, code, axes)
+        return self._emit(moves, s, Rapid(line, s.work, to_work(home, s.frame)), home)
+
+    def _machine_end_point(self, v: dict[str, float], s: ModalState) -> Vec3:
+        """G53: axis words are machine coordinates: the work frame without offsets, rotation
+        or tool length offset."""
+        end = list(s.work)
+        for i, letter in enumerate("XYZ"):
+            if letter in v:
+                end[i] = v[letter] * s.scale
+        if "Z" in v:
+            end[2] -= s.tool_offset_z_mm  # machine Z is the spindle's; the tip is below it
+        return from_work((end[0], end[1], end[2]), s.frame)
+
+    def place(self, offset: Vec3) -> None:
+        """Set G54's origin to ``offset`` [mm] and make it the frame in effect."""
+        for i in range(3):
+            self.params.numbered[g5x_base(1) + i] = offset[i]
+        self.state = select_system(self.state, self.params, 1)
+
+    def _modal_state(self, code: int | None, s: ModalState) -> ModalState:
+        """M70 save, M71 invalidate, M72 restore, M73 save and restore at the subroutine's
+        return (controller/gcode/modal_save.py), per subroutine level."""
+        level = self.params.level
+        if code in (70, 73):
+            self.saved[level] = (s, code == 73)
+        elif code == 71:
+            self.saved.pop(level, None)
+        elif code == 72:
+            if level not in self.saved:
+                raise GcodeError("M72 with no state saved by M70 or M73 at this level")
+            s = restore(self.saved[level][0], s, self.params)
+        return s
+
+    def sub_returned(self, level: int) -> None:
+        """A subroutine at ``level`` returned: an M73 there restores its saved state."""
+        saved = self.saved.pop(level, None)
+        if saved is not None and saved[1]:
+            self.state = restore(saved[0], self.state, self.params)
+
+    def _g10_tool(self, v: dict[str, float], s: ModalState) -> None:
+        """G10 L1 (set tool P's length to Z) and L10 (so that the current Z would read Z under
+        G43 with tool P), as rs274 does; the offset in effect changes only at the next G43."""
+        if "P" not in v:
+            raise GcodeError("G10 L1/L10 needs a P word: the tool number")
+        number = round(v["P"])
+        old = self._tool(number)
+        if number == 0 or "Z" not in v:
+            return
+        if round(v["L"]) == 1:
+            length = v["Z"] * s.scale
+        else:
+            length = s.position[2] + s.tool_offset_z_mm - v["Z"] * s.scale
+        if self.tools is None:
+            self.tools = {}
+        diameter = old.diameter_mm if old is not None else 0.0
+        self.tools = {**self.tools, number: Tool(number, length, diameter)}
+
+    def _tool(self, number: int) -> Tool | None:
+        if number == 0:
+            return None
+        if self.tools is None or (self.table_less and number not in self.tools):
+            return None  # no table: every tool has zero length (until G10 L1/L10 sets one)
+        if number not in self.tools:
+            raise GcodeError(f"requested tool {number} not found in the tool table")
+        return self.tools[number]
+
+    def _tools(self, w: Words, s: ModalState) -> ModalState:
+        """T (select), M6/M61 (change), G43 H / G49 (tool length offset), in rs274's order."""
+        if "T" in w.values:
+            number = round(w.values["T"])
+            self._tool(number)
+            s = replace(s, selected_tool=number)
+        if w.m.get("tool_change") == 6:
+            s = replace(s, tool=s.selected_tool)
+        elif w.m.get("tool_change") == 61:
+            if w.values.get("Q", -1.0) < 0.0:
+                raise GcodeError("M61 needs a Q word >= 0: the tool number now in the spindle")
+            number = round(w.values["Q"])
+            self._tool(number)
+            s = replace(s, tool=number)
+        code = w.g.get("tool_length")
+        if code in (430, 490):
+            new = 0.0
+            if code == 430:
+                h = round(w.values.get("H", s.tool))
+                tool = self._tool(h)
+                new = tool.z_mm if tool is not None else 0.0
+            x, y, z = s.position
+            # rs274: the current point is re-expressed so the tool tip does not move, except on
+            # an M6 line, after which rs274 takes the position back unchanged (measured)
+            if w.m.get("tool_change") != 6:
+                z = z + s.tool_offset_z_mm - new
+            s = replace(s, tool_offset_z_mm=new, position=(x, y, z))
+        return s
+
+    def _limits(self, block: Block) -> list:
+        """Marlin M201/M203/M204/M205: a Limits event (when events are asked for)."""
+        values = {k: evaluate(t, self.params) for k, t in block.words if k != "M"}
+        if not self.events:
+            return []
+        return [Limits(block.line, block_code(block), tuple(sorted(values.items())))]
+
+    def _printer_home(self, block: Block) -> list[Move]:
+        """Marlin G28: the named axes (all when none) rapid to the work origin."""
+        s = self.state
+        named = [a for a, _ in block.words] or list("XYZ")
+        target = tuple(0.0 if a in named else s.work[i] for i, a in enumerate("XYZ"))
+        end = from_work((target[0], target[1], target[2]), s.frame)
+        moves: list[Move] = []
+        self.state = self._emit(moves, s, Rapid(block.line, s.work, to_work(end, s.frame)), end)
+        return moves
+
+    def _jog(self, block: Block) -> tuple[list[Move], bool]:
+        """grbl ``$J=``: a G1 in the jog's own modes and feed; the modal state is kept."""
+        saved = self.state
+        w = read_words(block, self.params)
+        check_jog(w)
+        g1 = Block(block.line, (("G", ("num", 1.0)), *block.words), (), False, block.text)
+        try:
+            moves, _ = self.step(g1)
+        finally:
+            done = self.state
+            self.state = replace(saved, position=done.position, work=done.work)
+        return moves, False
+
+    def _predefined(self, name: str) -> float | None:
+        return predefined(name, self.state, self.params, self.line)
+
     def _refresh_system_parameters(self) -> None:
-        """The read-only parameters rs274 keeps that programs use: #5220 the coordinate system
-        (1 = G54, the only one here) and #5420-#5422 the current X Y Z in program units. Every
-        other parameter up to #5601 reads 0 until set, as in rs274 without a parameter file."""
-        scale = self.state.scale
+        """#5420-#5422: the current X Y Z in program units (stored in mm)."""
         x, y, z = self.state.position
-        self.params.update({5220: 1.0, 5420: x / scale, 5421: y / scale, 5422: z / scale})
+        self.params.numbered.update({POSITION: x, POSITION + 1: y, POSITION + 2: z})
 
     @staticmethod
     def _end_point(v: dict[str, float], s: ModalState) -> Vec3:
+        if "@" in v or "^" in v:
+            return polar_end_point(v, s)
         end = list(s.position)
         for i, letter in enumerate("XYZ"):
             if letter in v:
@@ -133,7 +380,8 @@ class Interpreter:
                 end[i] = s.position[i] + value if s.incremental else value
         return (end[0], end[1], end[2])
 
-    def _require_feed(self, s: ModalState, what: str) -> None:
+    def _require_feed(self, s: ModalState, what: str, w: Words) -> None:
+        check_feed_mode(s, what, w.values)
         if s.feed_mm_per_min <= 0.0:
             raise GcodeError(
                 f"cannot make {what} with zero feed rate; set F (units per minute, > 0) on this "
@@ -141,54 +389,82 @@ class Interpreter:
             )
 
 
-def interpret(text: str, dialect: str = "linuxcnc", file: str = "<program>") -> Iterator[Move]:
+def interpret(
+    text: str,
+    dialect: str = "linuxcnc",
+    file: str = "<program>",
+    search_path: tuple[Path, ...] = (),
+    max_iterations: int = DEFAULT_MAX_ITERATIONS,
+    errors: list[GcodeError] | None = None,
+    tools: dict[int, Tool] | None = None,
+    events: bool = False,
+    work_offset: Vec3 | None = None,
+) -> Iterator[Move]:
     """Yield the program's moves in order; GcodeError(file, line) at the first bad line.
 
     Args:
         text: the program.
         dialect: one of ``gantry_sim.controller.gcode.dialects.DIALECTS``.
         file: the program's name, for error messages.
+        search_path: folders searched for ``NAME.ngc`` subroutine files, in order.
+        max_iterations: bound on loop repetitions and subroutine calls (see control.py).
     """
+    rules: Dialect | None = None
     try:
         rules = get_dialect(dialect)
-        interp = Interpreter(rules)
-        percent_open = False
-        seen = False
-        last = 0
-        for block in lex(text):
-            last = block.line
-            if block.percent:
-                if not seen:
-                    percent_open = seen = True
-                    continue
-                if percent_open:
-                    return
-                raise GcodeError(
-                    "'%' ends a program only when the program also starts with a '%' line",
-                    line=block.line,
-                )
-            if block.empty:
-                continue
-            seen = True
-            try:
-                moves, ended = interp.step(block)
-            except GcodeError as exc:
-                if exc.line is None:
-                    exc.line = block.line
-                raise
-            yield from moves
-            if ended:
-                return
-        if rules.require_program_end:
-            raise GcodeError(
-                "file ended with no program end; finish the program with M2 or M30 (or wrap it "
-                "in '%' lines)",
-                line=max(last, 1),
-            )
+        interp = Interpreter(rules, tools, events)
+        interp.search_path = search_path
+        if work_offset is not None:
+            interp.place(work_offset)
+        runner = Runner(
+            text,
+            file,
+            interp.step,
+            interp.params,
+            search_path,
+            max_iterations,
+            system_lines=rules.system_lines,
+            owords=rules.language,
+            own_lines=OWN_LINES.get(rules.own_lines),
+        )
+        runner.errors = errors
+        runner.on_return = interp.sub_returned
+        yield from runner.run()
+        if runner.ended or not rules.require_program_end:
+            return
+        raise GcodeError(
+            "file ended with no program end; finish the program with M2 or M30 (or wrap it "
+            "in '%' lines)",
+            line=max(len(runner.main.lines), 1),
+        )
     except GcodeError as exc:
+        if errors is not None and len(errors) < MAX_ERRORS:
+            errors.append(exc)
+            return
+        if rules is not None and rules.error_codes:
+            exc.message = coded(exc.message, rules)
         raise exc.located(file) from None
+    finally:
+        if errors is not None:
+            _finish(errors, rules, file)
+
+
+def _finish(errors: list[GcodeError], rules: Dialect | None, file: str) -> None:
+    """Give each collected error its file and the dialect's error number."""
+    for exc in errors:
+        if rules is not None and rules.error_codes and not exc.message.endswith(")"):
+            exc.message = coded(exc.message, rules)
+        exc.located(file)
 
 
 def parse_program(text: str, dialect: str = "linuxcnc", file: str = "<program>") -> list[Move]:
     """All moves of a valid program, as a list (GcodeError on the first bad line)."""
     return list(interpret(text, dialect=dialect, file=file))
+
+
+def block_code(block: Block) -> str:
+    """The M code a Marlin limits line opens with (``M201``...)."""
+    for letter, tree in block.words:
+        if letter == "M" and tree[0] == "num":
+            return f"M{tree[1]:g}"
+    return "M?"

@@ -5,22 +5,53 @@ spaces and tabs outside comments are removed (so ``X 2 . 5`` is ``X2.5``), lette
 case-insensitive, a leading ``/`` (block delete) is accepted, an ``N`` line number may open the
 line, and a line that is just ``%`` is a program delimiter. Word values are expression trees from
 :mod:`gantry_sim.controller.gcode.expressions`, evaluated by the interpreter.
+
+Line ends are ``\n``, ``\r\n`` and a bare ``\r`` (old Mac files; never merged into one line, a
+documented difference from ``rs274 -g``, which reads a bare CR as a space). A UTF-8 byte order
+mark at the start of the text is dropped. An O-word line (``o100 sub``, ``o<name> call [1]``)
+carries its :class:`OWord` and nothing else.
 """
 
 from __future__ import annotations
 
+import re
 from collections.abc import Iterator
 from dataclasses import dataclass
 
 from gantry_sim.controller.errors import GcodeError
-from gantry_sim.controller.gcode.expressions import NAMED_PARAMETERS, Reader, Tree
+from gantry_sim.controller.gcode.expressions import Reader, Tree
 
 #: what a comment leaves in a stripped line: words may not be split by it (rs274: ``X(c)1`` is an
 #: error), but it separates words.
 COMMENT = "("
 
-#: letters rs274 reads as words (O-words are refused separately, N only opens a line).
-WORD_LETTERS = frozenset("ABCDEFGHIJKLMPQRSTUVWXYZ")
+#: letters rs274 reads as words (O-words are read separately, N only opens a line).
+WORD_LETTERS = frozenset("ABCDEFGHIJKLMPQRSTUVWXYZ@^")  # @ ^: polar radius and angle
+
+#: O-word keywords, longest first so that ENDSUB is not read as END... or ELSEIF as ELSE.
+# fmt: off
+O_KEYWORDS = (
+    "ENDREPEAT", "ENDWHILE", "CONTINUE", "ENDSUB", "ELSEIF", "REPEAT", "RETURN", "ENDIF",
+    "WHILE", "BREAK", "ELSE", "CALL", "SUB", "DO", "IF",
+)
+# fmt: on
+_LINE_END = re.compile(r"\r\n|\r|\n")
+
+
+@dataclass(frozen=True)
+class OWord:
+    """An O-word: ``o<name> keyword [arguments]``.
+
+    Attributes:
+        name: the O number as digits without leading zeros (``"100"``) or the name, lower case.
+        keyword: one of :data:`O_KEYWORDS`, lower case (``"sub"``, ``"call"``, ...).
+        args: the bracketed values after the keyword (call arguments, a condition, a repeat
+            count, a return value).
+    """
+
+    name: str
+    keyword: str
+    args: tuple[Tree, ...]
 
 
 @dataclass(frozen=True)
@@ -30,9 +61,14 @@ class Block:
     Attributes:
         line: 1-based source line.
         words: (letter, value tree) in source order; letters upper case.
-        settings: ``#index=value`` parameter settings, in source order.
+        settings: ``#index=value`` and ``#<name>=value`` settings in source order; the target
+            is ``("par", index tree)`` or ``("name", name)``.
         percent: the line is a ``%`` program delimiter.
         text: the source line, for messages.
+        oword: the line's O-word, if it is one.
+        jog: a grbl ``$J=`` jog: its words move as G1 without changing the modal state.
+        home: a Marlin G28: the named axes (all when none) go to the work origin.
+        limits: a Marlin M201/M203/M204/M205 line (a :class:`~gantry_sim.controller.moves.Limits`).
     """
 
     line: int
@@ -40,11 +76,22 @@ class Block:
     settings: tuple[tuple[Tree, Tree], ...]
     percent: bool
     text: str
+    oword: OWord | None = None
+    jog: bool = False
+    home: bool = False
+    limits: bool = False
 
     @property
     def empty(self) -> bool:
         """True when the line carries nothing to execute (blank or comment only)."""
-        return not self.words and not self.settings and not self.percent
+        return (
+            not self.words
+            and not self.settings
+            and not self.percent
+            and self.oword is None
+            and not self.home
+            and not self.limits
+        )
 
 
 def strip_line(raw: str) -> str:
@@ -74,9 +121,19 @@ def strip_line(raw: str) -> str:
     return "".join(out).upper()
 
 
-def lex_line(raw: str, line: int) -> Block:
-    """Lex one source line into a :class:`Block` (GcodeError carries ``line``)."""
+def lex_line(raw: str, line: int, system_lines: bool = False) -> Block:
+    """Lex one source line into a :class:`Block` (GcodeError carries ``line``).
+
+    ``system_lines``: a line opening with ``$`` is a system command (grbl): no words, except a
+    ``$J=`` jog, whose words are lexed as a block with ``jog`` set.
+    """
     try:
+        if system_lines and raw.lstrip().startswith("$"):
+            text = strip_line(raw)
+            if text.startswith("$J="):
+                block = _lex(raw[raw.index("=") + 1 :], line)
+                return Block(line, block.words, block.settings, False, raw, None, True)
+            return Block(line, (), (), False, raw)
         return _lex(raw, line)
     except GcodeError as exc:
         if exc.line is None:
@@ -107,16 +164,18 @@ def _lex(raw: str, line: int) -> Block:
             continue
         if ch == "#":
             reader.pos += 1
-            if reader.peek() == "<":
-                raise GcodeError(NAMED_PARAMETERS)
-            index = reader.real_value()
+            target = (
+                ("name", reader.name()) if reader.peek() == "<" else ("par", reader.real_value())
+            )
             if reader.peek() != "=":
                 raise GcodeError("expected '=' after #n at the start of a parameter setting")
             reader.pos += 1
-            settings.append((index, reader.real_value()))
+            settings.append((target, reader.real_value()))
             continue
         if ch == "O":
-            raise GcodeError("O-words (subroutines, loops, conditionals) are not supported")
+            if words or settings:
+                raise GcodeError("an O-word must open its line (after an optional N number)")
+            return Block(line, (), (), False, raw, _oword(reader))
         if ch == "%":
             raise GcodeError("'%' is only allowed alone on a line, opening and closing a program")
         if ch not in WORD_LETTERS:
@@ -129,10 +188,50 @@ def _lex(raw: str, line: int) -> Block:
     return Block(line, tuple(words), tuple(settings), False, raw)
 
 
-def lex(text: str) -> Iterator[Block]:
-    """Yield one :class:`Block` per source line, lazily, in order."""
-    lines = text.split("\n")
+def _oword(reader: Reader) -> OWord | None:
+    """``O`` at ``reader.pos``: the O number or name, the keyword, its bracketed arguments."""
+    reader.pos += 1
+    if reader.peek() == "<":
+        name = reader.name()
+    else:
+        start = reader.pos
+        while reader.peek().isdigit():
+            reader.pos += 1
+        if reader.pos == start:
+            raise GcodeError("O must be followed by a number or a <name>, then a keyword")
+        name = str(int(reader.text[start : reader.pos]))
+    keyword = next((k for k in O_KEYWORDS if reader.text.startswith(k, reader.pos)), None)
+    if keyword is None and reader.text[reader.pos :].strip(COMMENT) == "":
+        return None  # a program number alone ("O1000"): rs274 ignores the line
+    if keyword is None:
+        raise GcodeError(
+            f"unknown O-word keyword after o{name}; expected one of: "
+            + ", ".join(k.lower() for k in sorted(O_KEYWORDS))
+        )
+    reader.pos += len(keyword)
+    args: list[Tree] = []
+    while reader.pos < len(reader.text):
+        if reader.peek() == COMMENT:
+            reader.pos += 1
+        elif reader.peek() == "[":
+            args.append(reader.expression())
+        else:
+            raise GcodeError(
+                f"unexpected {reader.peek()!r} after o{name} {keyword.lower()}; an O-word line "
+                "holds only its keyword and [bracketed] values"
+            )
+    return OWord(name, keyword.lower(), tuple(args))
+
+
+def split_lines(text: str) -> list[str]:
+    """The source lines: a leading BOM dropped, split at LF, CR LF or a bare CR."""
+    lines = _LINE_END.split(text.removeprefix("\ufeff"))
     if lines and lines[-1] == "":
         lines.pop()
-    for number, raw in enumerate(lines, start=1):
+    return lines
+
+
+def lex(text: str) -> Iterator[Block]:
+    """Yield one :class:`Block` per source line, lazily, in order."""
+    for number, raw in enumerate(split_lines(text), start=1):
         yield lex_line(raw, number)

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
+from gantry_sim.controller.gcode.frames import NO_OFFSETS, Frame
 from gantry_sim.controller.planes import Plane, Vec3
 from gantry_sim.controller.units import MM_PER_INCH
 
@@ -13,13 +14,22 @@ class ModalState:
     """What persists between blocks.
 
     Attributes:
-        position: current point, program coordinates [mm].
+        position: current point, program coordinates [mm] (before offsets and rotation).
         motion: active motion code in tenths (0, 10, 20, 30) or None (G80 / none yet).
         plane: active arc plane.
         inch: G20 in effect (words in inches).
         incremental: G91 in effect.
         arc_absolute: G90.1 in effect (IJK are absolute centre coordinates).
         feed_mm_per_min: current feed [mm/min]; 0 when none has been set.
+        frame: the offsets and rotation in effect (program -> work frame).
+        coord_index: active coordinate system, 1 (G54) .. 9 (G59.3).
+        work: where the tool is, in the work frame [mm] (the last move's end).
+        feed_mode: 940 (G94 units/min), 930 (G93 inverse time) or 950 (G95 per revolution).
+        spindle: 0 off, 1 clockwise (M3), -1 counter-clockwise (M4).
+        rpm: the S word [rev/min].
+        mist / flood: M7 / M8 on.
+        tool / selected_tool: tool in the spindle (M6) / selected by T.
+        tool_offset_z_mm: tool length offset in effect (G43) [mm].
     """
 
     position: Vec3 = (0.0, 0.0, 0.0)
@@ -29,6 +39,17 @@ class ModalState:
     incremental: bool = False
     arc_absolute: bool = False
     feed_mm_per_min: float = 0.0
+    frame: Frame = NO_OFFSETS
+    coord_index: int = 1
+    work: Vec3 = (0.0, 0.0, 0.0)
+    feed_mode: int = 940
+    spindle: int = 0
+    rpm: float = 0.0
+    mist: bool = False
+    flood: bool = False
+    tool: int = 0
+    selected_tool: int = 0
+    tool_offset_z_mm: float = 0.0
 
     @property
     def scale(self) -> float:

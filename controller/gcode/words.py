@@ -7,14 +7,19 @@ once and must have a code on the line (or the modal motion) that uses it.
 
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass
 
 from gantry_sim.controller.errors import GcodeError
 from gantry_sim.controller.gcode.codes import G_GROUPS, M_GROUPS, g_name, m_allowed
 from gantry_sim.controller.gcode.dialects import Dialect
-from gantry_sim.controller.gcode.expressions import MAX_PARAMETER, MAX_SETTABLE_PARAMETER, evaluate
+from gantry_sim.controller.gcode.expressions import ParameterReader, evaluate
 from gantry_sim.controller.gcode.lexer import Block
+from gantry_sim.controller.gcode.parameters import (
+    MAX_PARAMETER,
+    MAX_SETTABLE_PARAMETER,
+    SETTABLE_SYSTEM,
+    parameter_index,
+)
 
 _OTHER_AXES = "ABCUVW"
 
@@ -30,11 +35,20 @@ class Words:
     g: dict[str, int]
     m: dict[str, int]
     values: dict[str, float]
-    settings: tuple[tuple[int, float], ...]
+    settings: tuple[tuple[int | str, float], ...]
     r_before_arc_code: bool = False
 
 
-def read_words(block: Block, params: dict[int, float]) -> Words:
+def _code(value: float, tenths: bool) -> int | None:
+    """The whole (or, ``tenths``, tenths) code of a G/M value; None when it is not one."""
+    scaled = value * 10 if tenths else value
+    if not -1e6 < scaled < 1e6:
+        return None
+    code = round(scaled)
+    return code if abs(scaled - code) < 1e-6 else None
+
+
+def read_words(block: Block, params: ParameterReader) -> Words:
     """Step 1: evaluate the block's values (with parameters as they were before the line)."""
     g: dict[str, int] = {}
     m: dict[str, int] = {}
@@ -42,12 +56,10 @@ def read_words(block: Block, params: dict[int, float]) -> Words:
     r_before_arc_code = False
     for letter, tree in block.words:
         value = evaluate(tree, params)
-        if not math.isfinite(value):
-            raise GcodeError(f"{letter} value is not a finite number; values must be finite")
         if letter == "G":
-            code = round(value * 10)
-            group = G_GROUPS.get(code) if abs(value * 10 - code) < 1e-6 else None
-            if group is None:
+            code = _code(value, True)
+            group = None if code is None else G_GROUPS.get(code)
+            if code is None or group is None:
                 raise GcodeError(f"unknown G code G{value:g}; see README 'Dialects' for the list")
             if group == "motion" and 800 in (code, g.get(group)):
                 # rs274: G80 beside another motion code is ignored ("G0 X1 G80" is a G0).
@@ -60,9 +72,9 @@ def read_words(block: Block, params: dict[int, float]) -> Words:
                 )
             g[group] = code
         elif letter == "M":
-            code = round(value)
-            group = M_GROUPS.get(code) if abs(value - code) < 1e-6 else None
-            if group is None:
+            code = _code(value, False)
+            group = None if code is None else M_GROUPS.get(code)
+            if code is None or group is None:
                 raise GcodeError(f"unsupported M code M{value:g}; allowed: {m_allowed()}")
             if group in m:
                 raise GcodeError(
@@ -76,22 +88,18 @@ def read_words(block: Block, params: dict[int, float]) -> Words:
             if letter == "R" and g.get("motion") not in (20, 30):
                 r_before_arc_code = True  # no G2/G3 earlier on the line (Laserdyne: "Repeat")
             values[letter] = value
-    settings = []
-    for index_tree, value_tree in block.settings:
-        index = round(evaluate(index_tree, params))
-        if not 1 <= index <= MAX_PARAMETER:
-            raise GcodeError(
-                f"parameter #{index} out of range; allowed: #1..#{MAX_SETTABLE_PARAMETER}"
-            )
-        if index > MAX_SETTABLE_PARAMETER:
+    settings: list[tuple[int | str, float]] = []
+    for (kind, target), value_tree in block.settings:
+        if kind == "name":
+            settings.append((target, evaluate(value_tree, params)))
+            continue
+        index = parameter_index(evaluate(target, params))
+        if index > MAX_SETTABLE_PARAMETER and index not in SETTABLE_SYSTEM:
             raise GcodeError(
                 f"parameter #{index} is read-only (system parameters #{MAX_SETTABLE_PARAMETER + 1}.."
                 f"#{MAX_PARAMETER}); set #1..#{MAX_SETTABLE_PARAMETER}"
             )
-        value = evaluate(value_tree, params)
-        if not math.isfinite(value):
-            raise GcodeError(f"#{index} value is not a finite number")
-        settings.append((index, value))
+        settings.append((index, evaluate(value_tree, params)))
     return Words(block.line, g, m, values, tuple(settings), r_before_arc_code)
 
 
@@ -102,24 +110,35 @@ def check_words(w: Words, motion: int | None, dialect: Dialect) -> None:
         if letter in _OTHER_AXES:
             raise GcodeError(f"{letter} axis word on a 3-axis machine; allowed axes: X, Y, Z")
     arc = motion in (20, 30)
+    g10 = w.g.get("nonmodal") == 100
     uses = {
         "I": arc,
         "J": arc,
         "K": arc,
-        "R": arc,
-        "P": arc or w.g.get("nonmodal") == 40 or w.g.get("path_control") == 640,
-        "Q": w.g.get("path_control") == 640,
+        "R": arc or (g10 and dialect.g10_rotation),
+        "L": g10 or w.m.get("io") == 66,
+        "P": (arc and dialect.arc_p_allowed)
+        or g10
+        or w.g.get("nonmodal") == 40
+        or w.g.get("path_control") == 640
+        or w.m.get("io") in (62, 63, 64, 65, 66)
+        or "user" in w.m,
+        "Q": w.g.get("path_control") == 640
+        or "user" in w.m
+        or w.m.get("tool_change") == 61
+        or w.m.get("io") in (66, 67, 68),
+        "E": w.m.get("io") in (66, 67, 68),
         "H": w.g.get("tool_length") == 430,
     }
     for letter in v:
-        if letter in dialect.ignored_letters or letter in "XYZFST":
+        if letter in dialect.ignored_letters or letter in "XYZFST@^":
             continue
         if not uses.get(letter, False):
-            need = {"P": "G2, G3, G4 or G64", "Q": "G64", "H": "G43"}.get(letter, "G2 or G3")
+            need = {"P": "G2, G3, G4, G10 or G64", "Q": "G64", "H": "G43"}.get(letter, "G2 or G3")
             if letter in "DLE":
                 need = {
                     "D": "cutter compensation (not supported)",
-                    "L": "G10 (not supported)",
+                    "L": "G10",
                     "E": "a code that takes E (none here; G-code numbers have no exponent, so 1e3 reads as 1 then an E word)",
                 }[letter]
             raise GcodeError(f"{letter} word with no code that uses it; {letter} needs {need}")
@@ -127,6 +146,12 @@ def check_words(w: Words, motion: int | None, dialect: Dialect) -> None:
         raise GcodeError("negative S word; the spindle speed must be >= 0")
     if v.get("T", 0.0) < 0.0:
         raise GcodeError("negative T word; tool numbers are >= 0")
+    if w.m.get("tool_change") == 61 and v.get("Q", -1.0) < 0.0:
+        raise GcodeError("M61 needs a Q word >= 0: the tool number now in the spindle")
+    if w.m.get("io") in (62, 63, 64, 65) and "P" not in v:
+        raise GcodeError(f"M{w.m['io']} needs a P word: the digital output number")
+    if w.m.get("io") in (67, 68) and ("E" not in v or "Q" not in v):
+        raise GcodeError(f"M{w.m['io']} needs E (the analog output) and Q (its value)")
     if w.g.get("nonmodal") == 40 and arc:
         raise GcodeError("G4 (dwell) cannot share a line with G2 or G3: both use the P word")
     if w.g.get("nonmodal") == 40 and v.get("P", -1.0) < 0.0:

@@ -60,3 +60,29 @@ def read_program(path: Path) -> str:
             file=str(path),
             line=line,
         ) from None
+
+
+def work_offset(text: str) -> tuple[float, float, float]:
+    """``X,Y,Z`` [mm] for ``--work-offset`` (argparse type: ArgumentTypeError on bad input)."""
+    import math
+
+    parts = text.split(",")
+    try:
+        values = [float(v) for v in parts]
+    except ValueError:
+        values = []
+    if len(values) != 3 or not all(math.isfinite(v) and abs(v) < 1e6 for v in values):
+        raise argparse.ArgumentTypeError(
+            f"expected X,Y,Z in mm (three finite numbers, |v| < 1e6), got {text!r}"
+        )
+    return (values[0], values[1], values[2])
+
+
+def add_work_offset(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument(
+        "--work-offset",
+        type=work_offset,
+        default=None,
+        metavar="X,Y,Z",
+        help="place the program: its G54 origin sits at X,Y,Z [mm] of the machine's work frame",
+    )

@@ -1,0 +1,440 @@
+"""Running a program: lines in order, with O-word subroutines, loops and conditionals.
+
+LinuxCNC 2.9's O-words (``o100`` or ``o<name>``): ``sub``/``endsub``/``call``/``return`` with
+arguments #1..#30 (local to the call) and a return value in ``#<_value>``
+(``#<_value_returned>`` says whether one was given); ``while``/``endwhile``, ``do``/``while``,
+``if``/``elseif``/``else``/``endif``, ``repeat``/``endrepeat``, ``break``, ``continue``. A
+subroutine may be defined before or after its call (rs274 searches forward for it) or in a file
+``NAME.ngc`` on the subroutine search path (the program's folder, then ``--subroutine-path``).
+
+Bounds, so that no program hangs: at most :data:`MAX_CALL_LEVELS` nested calls (rs274: "Too
+many subroutine levels" on the 10th) and ``max_iterations`` loop repetitions and calls in all
+(default :data:`DEFAULT_MAX_ITERATIONS`, ``--max-iterations``); past either the run stops with an
+error on the line that went too far.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Iterator
+from dataclasses import dataclass, field, replace
+from pathlib import Path
+
+from gantry_sim.controller.errors import GcodeError
+from gantry_sim.controller.gcode.expressions import evaluate
+from gantry_sim.controller.gcode.lexer import (
+    COMMENT,
+    Block,
+    OWord,
+    lex_line,
+    split_lines,
+    strip_line,
+)
+from gantry_sim.controller.gcode.printer_codes import marlin_dwell_seconds
+from gantry_sim.controller.moves import Move
+
+MAX_CALL_LEVELS = 9
+MAX_ERRORS = 1000  # --all-errors stops collecting (and raises) after this many
+DEFAULT_MAX_ITERATIONS = 1_000_000
+
+
+@dataclass(eq=False)
+class Source:
+    """One file's lines, lexed on first use (a lexing error is raised only when the line runs)."""
+
+    name: str
+    lines: list[str]
+    system_lines: bool = False
+    own_lines: Callable[[str], str | None] | None = None
+    blocks: dict[int, Block | GcodeError] = field(default_factory=dict)
+
+    def block(self, i: int) -> Block:
+        got = self.blocks.get(i)
+        if got is None:
+            try:
+                got = self._lex(i)
+            except GcodeError as exc:
+                if exc.line is None:
+                    exc.line = i + 1
+                got = exc
+            self.blocks[i] = got
+        if isinstance(got, GcodeError):
+            raise got
+        return got
+
+    def _lex(self, i: int) -> Block:
+        raw = self.lines[i]
+        kind = self.own_lines(raw) if self.own_lines is not None else None
+        if kind == "quiet":
+            return Block(i + 1, (), (), False, raw)
+        if kind == "dwell":  # Marlin G4: the shared G4 with P in seconds
+            seconds = marlin_dwell_seconds(raw)
+            return Block(i + 1, (("G", ("num", 4.0)), ("P", ("num", seconds))), (), False, raw)
+        if kind == "limits":
+            try:
+                return replace(lex_line(raw, i + 1), limits=True)
+            except GcodeError:  # Marlin reads what it can and ignores the rest
+                return Block(i + 1, (), (), False, raw)
+        if kind == "home":  # Marlin G28 [X] [Y] [Z]: bare axis letters name the axes to home
+            text = strip_line(raw).split(COMMENT, 1)[0]
+            axes = tuple((a, ("num", 0.0)) for a in "XYZ" if a in text[text.find("28") :])
+            return Block(i + 1, axes, (), False, raw, home=True)
+        return lex_line(raw, i + 1, self.system_lines)
+
+    def oword(self, i: int) -> OWord | None:
+        try:
+            return self.block(i).oword
+        except GcodeError:
+            return None
+
+    def find(
+        self, start: int, name: str, keywords: tuple[str, ...], labels: Labels | None = None
+    ) -> int | None:
+        """The first line from ``start`` on with O-word ``name`` and one of ``keywords``;
+        ``labels``: check the labels of the lines passed (rs274 reads skipped lines too)."""
+        i = start
+        while i < len(self.lines):
+            o = self.oword(i)
+            if o is not None and o.name == name and o.keyword in keywords:
+                return i
+            if o is not None and labels is not None:
+                labels.note(self, i, o)
+            i += 1
+        return None
+
+
+OPENERS = ("if", "while", "do", "repeat")
+
+
+@dataclass
+class Labels:
+    """Control labels of one call level: each may open a construct on one line only (rs274:
+    "duplicate O-word label"); a ``while`` with the label of a ``do`` closes it."""
+
+    lines: dict[str, tuple[Source, int, str]] = field(default_factory=dict)
+
+    def note(self, src: Source, i: int, o: OWord) -> None:
+        if o.keyword not in OPENERS:
+            return
+        known = self.lines.get(o.name)
+        if known is None:
+            self.lines[o.name] = (src, i, o.keyword)
+            return
+        k_src, k_i, k_kw = known
+        if (k_src, k_i) == (src, i) or (o.keyword == "while" and k_kw == "do"):
+            return
+        raise GcodeError(
+            f"duplicate O-word label o{_show(o.name)}: already opens a construct on line "
+            f"{k_i + 1}; give each if/while/do/repeat its own label",
+            line=i + 1,
+        )
+
+
+@dataclass
+class Loop:
+    name: str
+    kind: str  # "while", "do" or "repeat"
+    start: int  # index of the opening line
+    remaining: int = 0
+
+
+@dataclass
+class Frame:
+    source: Source
+    index: int
+    loops: list[Loop] = field(default_factory=list)
+    sub: str | None = None
+    labels: Labels = field(default_factory=Labels)
+
+
+class Runner:
+    """Executes one program's lines through ``step`` (the interpreter's block step)."""
+
+    def __init__(
+        self,
+        text: str,
+        file: str,
+        step: Callable[[Block], tuple[list[Move], bool]],
+        params,  # Parameters
+        search_path: tuple[Path, ...] = (),
+        max_iterations: int = DEFAULT_MAX_ITERATIONS,
+        system_lines: bool = False,
+        owords: bool = True,
+        own_lines: Callable[[str], str | None] | None = None,
+    ) -> None:
+        self.main = Source(file, split_lines(text), system_lines, own_lines)
+        self.owords = owords
+        self.step = step
+        self.params = params
+        self.search_path = search_path
+        self.max_iterations = max_iterations
+        self.iterations = 0
+        self.subs: dict[str, tuple[Source, int]] = {}
+        self.searched: set[tuple[Source, int]] = set()  # definitions found by a forward search
+        self.frames: list[Frame] = [Frame(self.main, 0)]
+        self.ended = False
+        self.on_return: Callable[[int], None] | None = None  # M73's restore
+        self.errors: list[GcodeError] | None = None  # collect instead of raising (--all-errors)
+        self.seen = False  # a line with content has been run
+        self.percent_open = False
+
+    def run(self) -> Iterator[Move]:
+        """Yield moves until the program ends; GcodeError (with file and line) on a bad line."""
+        while not self.ended:
+            f = self.frames[-1]
+            if f.index >= len(f.source.lines):
+                if f.sub is not None:
+                    raise GcodeError(
+                        f"file ended inside subroutine o{_show(f.sub)}; close it with "
+                        f"o{_show(f.sub)} endsub",
+                        file=f.source.name,
+                        line=len(f.source.lines),
+                    )
+                return
+            i = f.index
+            depth = len(self.frames)
+            try:
+                block = f.source.block(i)
+                if block.oword is not None:
+                    if not self.owords:
+                        raise GcodeError("O-words are not grbl features; grbl has no subroutines")
+                    self.seen = True
+                    self._oword(f, block.oword)
+                    continue
+                f.index += 1
+                if block.percent:
+                    if f.source is self.main:
+                        self.on_percent(block)
+                    continue
+                if block.empty:
+                    continue
+                self.on_block(block)
+                moves, ended = self.step(block)
+            except GcodeError as exc:
+                if exc.line is None:
+                    exc.line = i + 1
+                if exc.file is None and f.source is not self.main:
+                    exc.file = f.source.name
+                if self.errors is None or len(self.errors) >= MAX_ERRORS:
+                    raise
+                self.errors.append(exc)  # --all-errors: note it, skip the line, go on
+                if len(self.frames) == depth and f.index == i:
+                    f.index = i + 1
+                continue
+            yield from moves
+            self.ended = ended
+
+    def on_percent(self, block: Block) -> None:
+        """A ``%`` line of the main program: opens it (first line) or ends it."""
+        if not self.seen:
+            self.percent_open = self.seen = True
+        elif self.percent_open:
+            self.ended = True
+        else:
+            raise GcodeError("'%' ends a program only when the program also starts with a '%' line")
+
+    def on_block(self, block: Block) -> None:
+        self.seen = True
+
+    # O-words ---------------------------------------------------------------------------------
+    def _value(self, o: OWord, k: int = 0) -> float:
+        if len(o.args) <= k:
+            raise GcodeError(f"o{_show(o.name)} {o.keyword} needs a [value]")
+        return evaluate(o.args[k], self.params)
+
+    def _tick(self, o: OWord) -> None:
+        self.iterations += 1
+        if self.iterations > self.max_iterations:
+            raise GcodeError(
+                f"more than {self.max_iterations} loop repetitions and calls (at o{_show(o.name)} "
+                f"{o.keyword}); a runaway loop or recursion? Raise the bound with "
+                "--max-iterations if the program is right"
+            )
+
+    def _oword(self, f: Frame, o: OWord) -> None:
+        src, i = f.source, f.index
+        name, kw = o.name, o.keyword
+        f.labels.note(src, i, o)
+        if kw == "sub":
+            end = src.find(i + 1, name, ("endsub",))
+            if end is None:
+                raise GcodeError(f"o{_show(name)} sub without o{_show(name)} endsub")
+            known = self.subs.get(name)
+            if known is not None and known != (src, i):
+                raise GcodeError(f"o{_show(name)} sub redefines a subroutine already defined")
+            if known is not None and (src, i) in self.searched:
+                raise GcodeError(
+                    f"o{_show(name)} sub reached after it was called from above; rs274 calls this "
+                    "an illegal location: define subroutines before their call or after M2"
+                )
+            self.subs[name] = (src, i)
+            f.index = end + 1
+        elif kw in ("endsub", "return"):
+            if f.sub is None:
+                raise GcodeError(f"o{_show(name)} {kw} outside a subroutine")
+            if o.args:
+                self.params.globals["_value"] = self._value(o)
+                self.params.globals["_value_returned"] = 1.0
+            else:
+                self.params.globals["_value"] = 0.0
+            level = self.params.level
+            self.params.leave()
+            self.frames.pop()
+            if self.on_return is not None:
+                self.on_return(level)
+        elif kw == "call":
+            self._call(f, o)
+        elif kw == "if":
+            f.index = i + 1 if self._value(o) != 0.0 else self._next_branch(src, i, name)
+        elif kw in ("elseif", "else"):
+            end = src.find(i + 1, name, ("endif",))
+            if end is None:
+                raise GcodeError(f"o{_show(name)} {kw} without o{_show(name)} endif")
+            f.index = end + 1  # a branch was taken: skip the rest
+        elif kw == "endif":
+            f.index = i + 1
+        elif kw == "do":
+            self._tick(o)
+            f.loops.append(Loop(name, "do", i))
+            f.index = i + 1
+        elif kw == "while":
+            self._while(f, o)
+        elif kw == "endwhile":
+            loop = self._loop(f, o, ("while",))
+            f.loops.pop()
+            f.index = loop.start
+        elif kw == "repeat":
+            count = round(self._value(o))
+            if count <= 0:
+                f.index = self._end_of(src, i, name, "endrepeat", True) + 1
+            else:
+                f.loops.append(Loop(name, "repeat", i, count))
+                f.index = i + 1
+        elif kw == "endrepeat":
+            loop = self._loop(f, o, ("repeat",))
+            loop.remaining -= 1
+            if loop.remaining > 0:
+                self._tick(o)
+                f.index = loop.start + 1
+            else:
+                f.loops.pop()
+                f.index = i + 1
+        elif kw in ("break", "continue"):
+            self._break_continue(f, o)
+
+    def _next_branch(self, src: Source, i: int, name: str) -> int:
+        """After a false condition at line ``i``: the line to run next."""
+        j = i
+        while True:
+            j2 = src.find(j + 1, name, ("elseif", "else", "endif"), self.frames[-1].labels)
+            if j2 is None:
+                raise GcodeError(f"o{_show(name)} if without o{_show(name)} endif")
+            o = src.oword(j2)
+            assert o is not None
+            if o.keyword == "elseif":
+                try:
+                    if self._value(o) != 0.0:
+                        return j2 + 1
+                except GcodeError as exc:
+                    exc.line = j2 + 1
+                    raise
+                j = j2
+                continue
+            return j2 + 1
+
+    def _end_of(self, src: Source, i: int, name: str, keyword: str, skip: bool) -> int:
+        """The closing line; ``skip``: the body is skipped, its labels are read on the way."""
+        end = src.find(i + 1, name, (keyword,), self.frames[-1].labels if skip else None)
+        if end is None:
+            raise GcodeError(f"o{_show(name)} without o{_show(name)} {keyword}")
+        return end
+
+    def _loop(self, f: Frame, o: OWord, kinds: tuple[str, ...]) -> Loop:
+        if not f.loops or f.loops[-1].name != o.name or f.loops[-1].kind not in kinds:
+            raise GcodeError(f"o{_show(o.name)} {o.keyword} without its opening line")
+        return f.loops[-1]
+
+    def _while(self, f: Frame, o: OWord) -> None:
+        i = f.index
+        top = f.loops[-1] if f.loops else None
+        if top is not None and top.name == o.name and top.kind == "do":
+            if self._value(o) != 0.0:
+                self._tick(o)
+                f.index = top.start + 1
+            else:
+                f.loops.pop()
+                f.index = i + 1
+            return
+        if self._value(o) != 0.0:
+            self._tick(o)
+            f.loops.append(Loop(o.name, "while", i))
+            f.index = i + 1
+        else:
+            f.index = self._end_of(f.source, i, o.name, "endwhile", True) + 1
+
+    def _break_continue(self, f: Frame, o: OWord) -> None:
+        while f.loops and f.loops[-1].name != o.name:
+            f.loops.pop()
+        if not f.loops:
+            raise GcodeError(f"o{_show(o.name)} {o.keyword} outside a loop named o{_show(o.name)}")
+        loop = f.loops[-1]
+        src, start = f.source, loop.start
+        closing = {"while": "endwhile", "do": "while", "repeat": "endrepeat"}[loop.kind]
+        end = src.find(start + 1, o.name, (closing,))
+        if end is None:
+            raise GcodeError(f"o{_show(o.name)} loop without o{_show(o.name)} {closing}")
+        if o.keyword == "break":
+            f.loops.pop()
+            f.index = end + 1
+        elif loop.kind == "while":
+            f.loops.pop()
+            f.index = start
+        else:
+            f.index = end  # do: test the condition; repeat: count this pass
+
+    def _call(self, f: Frame, o: OWord) -> None:
+        args = [evaluate(a, self.params) for a in o.args]
+        if len(args) > 30:
+            raise GcodeError(f"o{_show(o.name)} call with {len(args)} arguments; at most 30")
+        found = self.subs.get(o.name)
+        if found is None:
+            found = self._find_sub(f.source, f.index, o.name)
+        if len(self.frames) > MAX_CALL_LEVELS:
+            raise GcodeError(
+                f"too many subroutine levels (more than {MAX_CALL_LEVELS} nested calls, as in "
+                "LinuxCNC); a runaway recursion?"
+            )
+        self._tick(o)
+        src, at = found
+        f.index += 1
+        self.params.globals["_value_returned"] = 0.0
+        self.params.enter(args)
+        self.frames.append(Frame(src, at + 1, sub=o.name))
+
+    def _find_sub(self, src: Source, i: int, name: str) -> tuple[Source, int]:
+        at = src.find(i + 1, name, ("sub",))
+        if at is not None:
+            self.subs[name] = (src, at)
+            self.searched.add((src, at))
+            return src, at
+        for folder in self.search_path:
+            path = folder / f"{name}.ngc"
+            if path.is_file():
+                try:
+                    text = path.read_bytes().decode("utf-8")
+                except (OSError, UnicodeDecodeError) as exc:
+                    raise GcodeError(f"cannot read subroutine file {path}: {exc}") from None
+                sub_src = Source(str(path), split_lines(text))
+                at = sub_src.find(0, name, ("sub",))
+                if at is None:
+                    raise GcodeError(f"subroutine file {path} has no o<{name}> sub line")
+                self.subs[name] = (sub_src, at)
+                return sub_src, at
+        where = ", ".join(str(p) for p in self.search_path) or "no search path"
+        raise GcodeError(
+            f"subroutine o{_show(name)} not found: not defined in the program and no {name}.ngc "
+            f"in the subroutine path ({where}); add --subroutine-path DIR"
+        )
+
+
+def _show(name: str) -> str:
+    return name if name.isdigit() else f"<{name}>"

@@ -1,0 +1,135 @@
+"""Coordinate-system codes: G54..G59.3, G10 L2/L20, the G92 family, G28/G30 and their storage.
+
+Offsets live where rs274 keeps them, in the numbered parameters (G54 at #5221.., rotation at
+#5230, G92 at #5211.., G28 at #5161.., G30 at #5181..; stored in mm here, read in program units).
+The offsets in effect are the state's :class:`~gantry_sim.controller.gcode.frames.Frame`. When an
+offset in effect changes, the current point is re-expressed so that the tool does not move, the
+way rs274 does it (see :mod:`gantry_sim.controller.gcode.frames`).
+"""
+
+from __future__ import annotations
+
+from dataclasses import replace
+
+from gantry_sim.controller.errors import GcodeError
+from gantry_sim.controller.gcode.frames import Frame, from_interp_machine, from_work, interp_machine
+from gantry_sim.controller.gcode.parameters import (
+    COORD_INDEX,
+    G28_HOME,
+    G30_HOME,
+    G92_ENABLED,
+    G92_OFFSET,
+    Parameters,
+    g5x_base,
+)
+from gantry_sim.controller.gcode.state import ModalState
+from gantry_sim.controller.planes import Vec3
+
+#: coordinate-system codes (tenths) -> index 1..9
+SYSTEMS: dict[int, int] = {540: 1, 550: 2, 560: 3, 570: 4, 580: 5, 590: 6, 591: 7, 592: 8, 593: 9}
+_AXES = "XYZ"
+
+
+def _vec(values: list[float]) -> Vec3:
+    return (values[0], values[1], values[2])
+
+
+def reframe(s: ModalState, frame: Frame) -> ModalState:
+    """Switch to ``frame`` keeping the tool where it is (rs274's bookkeeping)."""
+    m = interp_machine(s.position, s.frame)
+    return replace(s, frame=frame, position=from_interp_machine(m, frame))
+
+
+def system_frame(p: Parameters, index: int, g92: Vec3) -> Frame:
+    base = g5x_base(index)
+    return Frame(_vec([p.mm(base + i) for i in range(3)]), p.mm(base + 9), g92)
+
+
+def select_system(s: ModalState, p: Parameters, index: int) -> ModalState:
+    """G54..G59.3: make system ``index`` the one in effect."""
+    p.numbered[COORD_INDEX] = float(index)
+    return replace(reframe(s, system_frame(p, index, s.frame.g92)), coord_index=index)
+
+
+def g10(s: ModalState, p: Parameters, v: dict[str, float], systems: int = 9) -> ModalState:
+    """G10 L2 (set a system's origin, R its XY rotation) and L20 (origin so the point reads v)."""
+    if "L" not in v:
+        raise GcodeError("G10 needs an L word: L2 or L20 (coordinate systems)")
+    if "P" not in v:
+        raise GcodeError(
+            "G10 needs a P word: the coordinate system, 1 (G54) .. 9 (G59.3), 0 current"
+        )
+    level, number = round(v["L"]), round(v["P"])
+    if level not in (2, 20):
+        why = "L11 (tool entry in G59.3) is not supported" if level == 11 else ""
+        raise GcodeError(
+            f"G10 L{v['L']:g} is not supported{'; ' + why if why else ''}; use L2 or L20"
+        )
+    if abs(v["P"] - number) > 1e-4 or not 0 <= number <= systems:
+        raise GcodeError(
+            f"G10 P{v['P']:g}: P must be one of the {systems} coordinate systems 1..{systems} "
+            "or 0 (the current)"
+        )
+    index = number or s.coord_index
+    base = g5x_base(index)
+    scale = s.scale
+    if level == 2:
+        for i, a in enumerate(_AXES):
+            if a in v:
+                p.numbered[base + i] = v[a] * scale
+        if "R" in v:
+            p.numbered[base + 9] = v["R"]
+    else:
+        if "R" in v:
+            raise GcodeError("G10 L20 takes no R word; set the rotation with G10 L2 R")
+        m = interp_machine(s.position, s.frame)
+        for i, a in enumerate(_AXES):
+            if a in v:
+                p.numbered[base + i] = m[i] - s.frame.g92[i] - v[a] * scale
+    if index != s.coord_index:
+        return s
+    return reframe(s, system_frame(p, index, s.frame.g92))
+
+
+def g92(s: ModalState, p: Parameters, code: int, v: dict[str, float]) -> ModalState:
+    """G92 (offset so the point reads v), G92.1 (clear and zero), G92.2 (clear), G92.3 (restore)."""
+    offset = list(s.frame.g92)
+    if code == 920:
+        if not any(a in v for a in _AXES):
+            raise GcodeError("G92 needs at least one axis word: the value the current point gets")
+        for i, a in enumerate(_AXES):
+            if a in v:
+                offset[i] = s.position[i] + s.frame.g92[i] - v[a] * s.scale
+                p.numbered[G92_OFFSET + i] = offset[i]
+        p.numbered[G92_ENABLED] = 1.0
+    elif code == 921:
+        offset = [0.0, 0.0, 0.0]
+        for i in range(3):
+            p.numbered[G92_OFFSET + i] = 0.0
+        p.numbered[G92_ENABLED] = 0.0
+    elif code == 922:
+        offset = [0.0, 0.0, 0.0]
+        p.numbered[G92_ENABLED] = 0.0
+    else:
+        offset = [p.mm(G92_OFFSET + i) for i in range(3)]
+        p.numbered[G92_ENABLED] = 1.0
+    frame = replace(s.frame, g92=_vec(offset))
+    # rs274 shifts the current point by the change of offset alone (no rotation involved).
+    pos = _vec([s.position[i] + s.frame.g92[i] - offset[i] for i in range(3)])
+    return replace(s, frame=frame, position=pos)
+
+
+def store_home(s: ModalState, p: Parameters, code: int) -> None:
+    """G28.1 / G30.1: store the current absolute point."""
+    base = G28_HOME if code == 281 else G30_HOME
+    for i in range(3):
+        p.numbered[base + i] = s.work[i] + (s.tool_offset_z_mm if i == 2 else 0.0)
+
+
+def home_point(s: ModalState, p: Parameters, code: int, axes: set[str]) -> Vec3:
+    """G28 / G30: the stored point in program coordinates, for ``axes`` (all when empty)."""
+    base = G28_HOME if code == 280 else G30_HOME
+    target = [p.mm(base + i) if not axes or a in axes else s.work[i] for i, a in enumerate(_AXES)]
+    if not axes or "Z" in axes:
+        target[2] -= s.tool_offset_z_mm  # stored points are the spindle's, as G53
+    return from_work(_vec(target), s.frame)

@@ -1,0 +1,40 @@
+"""G93 inverse-time and G95 feed-per-revolution feeds, turned into path speed [mm/min].
+
+rs274 (measured): in G93 every G1/G2/G3 needs its own F (its inverse time, 1/min: "F word
+missing with inverse time g1 move") and the move's speed is its length times F; in G95 the
+speed is F (units per revolution) times the spindle speed S, and a feed move with S0 is refused
+("Cannot feed with zero spindle speed in feed per rev mode"). G0 is unaffected.
+"""
+
+from __future__ import annotations
+
+from dataclasses import replace
+
+from gantry_sim.controller.errors import GcodeError
+from gantry_sim.controller.gcode.state import ModalState
+from gantry_sim.controller.moves import Arc, Linear
+
+INVERSE_TIME = 930
+PER_REVOLUTION = 950
+
+
+def check_feed_mode(s: ModalState, what: str, v: dict[str, float]) -> None:
+    """The feed words a feed move needs in the current feed mode."""
+    if s.feed_mode == INVERSE_TIME and "F" not in v:
+        raise GcodeError(
+            f"F word missing with inverse time (G93) on {what}: every feed move in G93 needs its "
+            "own F (1/minute)"
+        )
+    if s.feed_mode == PER_REVOLUTION and s.rpm <= 0.0:
+        raise GcodeError(
+            f"cannot make {what} with zero spindle speed in feed per revolution (G95); set S"
+        )
+
+
+def path_feed(move: Linear | Arc, s: ModalState, v: dict[str, float]) -> Linear | Arc:
+    """``move`` with its path speed [mm/min] for the feed mode in effect."""
+    if s.feed_mode == INVERSE_TIME:
+        return replace(move, feed_mm_per_min=move.length_mm * v["F"])
+    if s.feed_mode == PER_REVOLUTION:
+        return replace(move, feed_mm_per_min=s.feed_mm_per_min * s.rpm)
+    return move

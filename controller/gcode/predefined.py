@@ -1,0 +1,92 @@
+"""LinuxCNC 2.9's predefined read-only named parameters (manual: "Predefined Named Parameters").
+
+Each is computed from the interpreter's state when read, so it always shows the current value;
+lengths are in the program's units. Names not listed here are ordinary globals.
+"""
+
+from __future__ import annotations
+
+from gantry_sim.controller.gcode.parameters import COORD_INDEX, G92_ENABLED, Parameters
+from gantry_sim.controller.gcode.state import ModalState
+
+_PLANES = {"XY": 170.0, "XZ": 180.0, "YZ": 190.0}
+_SYSTEMS = (540.0, 550.0, 560.0, 570.0, 580.0, 590.0, 591.0, 592.0, 593.0)
+#: names that read 0 in a 3-axis, non-lathe, override-free simulation
+_ZERO = (
+    "_a", "_b", "_c", "_u", "_v", "_w", "_abs_a", "_abs_b", "_abs_c", "_abs_u", "_abs_v",
+    "_abs_w", "_ccomp", "_spindle_css_mode", "_lathe_diameter_mode", "_adaptive_feed",
+    "_current_pocket", "_selected_pocket", "_remap_level", "_task", "_retract_old_z",
+    "_retract_r_plane",
+)  # fmt: skip
+_ONE = (
+    "_lathe_radius_mode",
+    "_spindle_rpm_mode",
+    "_speed_override",
+    "_feed_override",
+    "_feed_hold",
+)
+
+
+def predefined(name: str, s: ModalState, p: Parameters, line: int) -> float | None:
+    """The value of predefined parameter ``name`` (lower case), or None when it is not one."""
+    scale = s.scale
+    match name:
+        case "_vmajor":
+            return 2.9  # measured: rs274 -g of LinuxCNC 2.9 reads 2.9 and _vminor 0
+        case "_vminor":
+            return 0.0
+        case "_line":
+            return float(line)
+        case "_motion_mode":
+            return 800.0 if s.motion is None else float(s.motion)
+        case "_plane":
+            return _PLANES[s.plane]
+        case "_metric":
+            return float(not s.inch)
+        case "_imperial":
+            return float(s.inch)
+        case "_absolute":
+            return float(not s.incremental)
+        case "_incremental":
+            return float(s.incremental)
+        case "_inverse_time":
+            return float(s.feed_mode == 930)
+        case "_units_per_minute":
+            return float(s.feed_mode == 940)
+        case "_units_per_rev":
+            return float(s.feed_mode == 950)
+        case "_coord_system":
+            return _SYSTEMS[int(p.mm(COORD_INDEX) or 1) - 1]
+        case "_tool_offset":
+            return float(s.tool_offset_z_mm != 0.0)
+        case "_ijk_absolute_mode":
+            return float(s.arc_absolute)
+        case "_spindle_on":
+            return float(s.spindle != 0)
+        case "_spindle_cw":
+            return float(s.spindle >= 0)
+        case "_mist":
+            return float(s.mist)
+        case "_flood":
+            return float(s.flood)
+        case "_feed":
+            return s.feed_mm_per_min / scale
+        case "_rpm":
+            return s.rpm
+        case "_x" | "_y" | "_z":
+            return s.position["xyz".index(name[1])] / scale
+        case "_abs_x" | "_abs_y" | "_abs_z":
+            return s.work["xyz".index(name[-1])] / scale
+        case "_current_tool":
+            return float(s.tool)
+        case "_selected_tool":
+            return float(s.selected_tool)
+        case "_call_level":
+            return float(p.level)
+        case "_g92_enabled":
+            return p.mm(G92_ENABLED)
+    if name in _ZERO:
+        return 0.0
+    if name in _ONE:
+        return 1.0
+    return None

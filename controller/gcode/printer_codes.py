@@ -1,0 +1,99 @@
+"""Marlin's and g2core's own lines, sorted before the shared block step.
+
+Marlin (marlinfw.org "G-code index"): an M or T line carries that command's parameters (``M104
+S200``, ``M201 X500 Y500``, ``M117 text``), never a motion, and Marlin answers an M code it does not
+know with "Unknown command" and goes on: every M and T line is accepted without motion. G-codes
+of Marlin's own that do not move the tool are accepted (G4 dwell in P ms or S s, G10/G11 firmware
+retract, G29-G35 and G76 probing and calibration, G60 save position, G80, G92 with E alone);
+G28 homes the named axes (all when none) to the machine file's work origin; the ones that move
+in ways this machine does not model are refused with a reason (G5 Bezier, G6 direct stepper,
+G12 nozzle clean, G26 mesh print, G27 park, G42 mesh point, G61 restore position, G38 probe).
+
+g2core: a line opening with ``{`` is a JSON configuration or status request (no motion), and so
+are M100 (JSON in a G-code line), M100.1 and M101 (wait for inputs); G28.2/G28.3 (homing / set
+position) and G28.4 are accepted without motion (G28.3 sets no offset
+here: the work frame starts at the machine file's origin).
+"""
+
+from __future__ import annotations
+
+import re
+
+from gantry_sim.controller.errors import GcodeError
+
+#: M codes with free text after them (M117 message, M118 serial echo, SD file names).
+_TEXT = re.compile(r"^\s*(?:N\d+\s*)?M\s*0*(117|118|23|28|30|32|33|928)(?!\d)", re.IGNORECASE)
+_HEAD = re.compile(r"^\s*(?:N\d+\s*)?([GMT])\s*([0-9]+(?:\.[0-9]+)?)", re.IGNORECASE)
+_E_ONLY = re.compile(r"^\s*(?:N\d+\s*)?G\s*0*92\s*(?:E[-+0-9.]*\s*)*(?:[;(].*)?$", re.IGNORECASE)
+
+#: Marlin G codes (tenths) accepted with no tool motion here.
+MARLIN_QUIET_G = frozenset(
+    (40, 100, 110, 290, 291, 292, 293, 300, 310, 320, 330, 340, 350, 600, 760)
+)
+#: Marlin G codes refused, with why.
+MARLIN_REFUSED_G: dict[int, str] = {
+    50: "G5 (cubic Bezier) is not supported",
+    60: "G6 (direct stepper moves) is not supported",
+    120: "G12 (nozzle clean) moves in a pattern gantry-sim does not model",
+    260: "G26 (mesh validation print) is not supported",
+    270: "G27 (park the nozzle) moves to a firmware-configured point gantry-sim does not know",
+    420: "G42 (move to a mesh point) needs the printer's mesh, which gantry-sim does not have",
+    610: "G61 (return to a saved position) is not supported",
+    **dict.fromkeys((382, 383, 384, 385), "probing moves (G38.x) are not supported"),
+    4250: "G425 (backlash calibration) is not supported",
+}
+
+
+def marlin_line(raw: str) -> str | None:
+    """What a Marlin line is before the shared step: "quiet" (accepted, no motion), "home" (G28),
+    "dwell" (G4 P<ms> or S<s>), "limits" (M201/M203/M204/M205) or None (a shared G-code line). GcodeError for a refused G code."""
+    if _TEXT.match(raw):
+        return "quiet"
+    head = _HEAD.match(raw.split(";", 1)[0])
+    if head is None:
+        return None
+    letter, number = head.group(1).upper(), head.group(2)
+    if letter == "M" and number.lstrip("0") in ("201", "203", "204", "205"):
+        return "limits"
+    if letter in "MT":
+        return "quiet"
+    tenths = round(float(number) * 10)
+    if tenths == 280:
+        return "home"
+    if tenths == 40:
+        return "dwell"
+    if tenths in MARLIN_REFUSED_G:
+        raise GcodeError(f"{MARLIN_REFUSED_G[tenths]} (Marlin G{number})")
+    if tenths in MARLIN_QUIET_G or (tenths == 920 and _E_ONLY.match(raw)):
+        return "quiet"
+    return None
+
+
+_G2CORE_QUIET = re.compile(
+    r"^\s*(?:N\d+\s*)?(?:G\s*0*28\s*\.\s*[234](?!\d)|M\s*0*10[01](?:\.\d)?(?!\d))",
+    re.IGNORECASE,
+)
+
+
+def g2core_line(raw: str) -> str | None:
+    """ "quiet" for a g2core JSON line or G28.2/G28.3/G28.4; None otherwise."""
+    if raw.lstrip().startswith("{") or _G2CORE_QUIET.match(raw):
+        return "quiet"
+    return None
+
+
+#: the dialects' ``own_lines`` rule sets
+OWN_LINES = {"marlin": marlin_line, "g2core": g2core_line}
+
+
+_DWELL_WORD = re.compile(r"([PS])\s*([0-9]*\.?[0-9]+)", re.IGNORECASE)
+
+
+def marlin_dwell_seconds(raw: str) -> float:
+    """Marlin G4: P in milliseconds, S in seconds (S wins when both are given), else 0."""
+    body = raw.split(";", 1)[0]
+    body = body[body.upper().find("G") :]
+    words = {k.upper(): float(v) for k, v in _DWELL_WORD.findall(body[2:])}
+    if "S" in words:
+        return words["S"]
+    return words.get("P", 0.0) / 1000.0

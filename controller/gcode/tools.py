@@ -1,0 +1,63 @@
+"""Tool tables: LinuxCNC's ``tool.tbl`` format, read into tool length offsets [mm].
+
+A line is ``T<n> P<pocket> Z<length> D<diameter> ;comment`` (other axis offsets are read and
+ignored on this 3-axis machine, where only Z matters for the tool tip). Lengths are in the
+table's units, which LinuxCNC takes from the machine (mm here by default; ``rs274 -g`` run
+without an INI file reads them in inches: pass ``units_mm=25.4`` for such a table).
+
+How the offset enters the simulation: G43 shifts the program's Z by the tool length, exactly as
+rs274 does, and gantry-sim outputs the programmed tool-tip path; the spindle nose (the machine's
+controlled point) is that path plus the length, which the simulation does not need.
+"""
+
+from __future__ import annotations
+
+import re
+from dataclasses import dataclass
+from pathlib import Path
+
+from gantry_sim.controller.errors import GcodeError
+
+_WORD = re.compile(r"([A-Z])\s*([-+]?(?:\d+\.?\d*|\.\d+))")
+
+
+@dataclass(frozen=True)
+class Tool:
+    """One tool: number, length offset along Z [mm], diameter [mm]."""
+
+    number: int
+    z_mm: float
+    diameter_mm: float = 0.0
+
+
+def parse_tool_table(
+    text: str, name: str = "<tool table>", units_mm: float = 1.0
+) -> dict[int, Tool]:
+    """``tool.tbl`` text -> tools by number; GcodeError (file, line) on a bad line."""
+    tools: dict[int, Tool] = {}
+    for k, raw in enumerate(text.splitlines(), 1):
+        body = raw.split(";", 1)[0].strip().upper()
+        if not body:
+            continue
+        words = dict(_WORD.findall(body))
+        rest = _WORD.sub("", body).strip()
+        if "T" not in words or rest:
+            raise GcodeError(
+                "bad tool table line; expected 'T<n> P<pocket> Z<length> D<diameter> ;comment'",
+                file=name,
+                line=k,
+            )
+        number = int(float(words["T"]))
+        tools[number] = Tool(
+            number, float(words.get("Z", 0.0)) * units_mm, float(words.get("D", 0.0)) * units_mm
+        )
+    return tools
+
+
+def read_tool_table(path: Path, units_mm: float = 1.0) -> dict[int, Tool]:
+    """Read a ``tool.tbl`` file (GcodeError naming the file when it cannot be read)."""
+    try:
+        text = path.read_text(encoding="utf-8")
+    except (OSError, UnicodeDecodeError) as exc:
+        raise GcodeError(f"cannot read tool table: {exc}", file=str(path)) from None
+    return parse_tool_table(text, str(path), units_mm)

@@ -1,0 +1,308 @@
+"""The wider LinuxCNC language: named parameters, O-words, coordinate systems, and the input
+defects of issue 15 (#5 huge expressions and numbers, #12 bare CR line ends, #15 a UTF-8 BOM).
+
+Expected values come from ``rs274 -g`` (LinuxCNC 2.9) on the same programs where rs274 defines
+them; the differential corpus (tests/test_rs274_corpus.py) covers many more.
+"""
+
+from __future__ import annotations
+
+import pytest
+
+from gantry_sim.controller.errors import GcodeError
+from gantry_sim.controller.gcode.interpreter import interpret, parse_program
+
+
+def ends(text: str) -> list[tuple[float, ...]]:
+    return [tuple(round(c, 9) for c in m.end) for m in parse_program(text)]
+
+
+def error_of(text: str, **kw) -> GcodeError:
+    with pytest.raises(GcodeError) as info:
+        list(interpret(text, file="p.ngc", **kw))
+    return info.value
+
+
+# issue 15 #5: no RecursionError, OverflowError or ValueError from any value -----------------
+def test_an_expression_of_thousands_of_terms_evaluates() -> None:
+    terms = "+".join(["1"] * 5000)
+    assert ends(f"G0 X[{terms}]\nM2\n") == [(5000.0, 0.0, 0.0)]
+    mixed = "-".join(["2"] * 3001)  # left to right: 2 - 2 - ... = 2 - 3000 * 2
+    assert ends(f"G0 Y[{mixed}]\nM2\n") == [(0.0, -5998.0, 0.0)]
+
+
+@pytest.mark.parametrize(
+    "text",
+    [
+        "G" + "1" * 308 + " X1",
+        "M" + "9" * 400,
+        "G0 X#[10**300*10**300]",
+        "G0 X#[[10**300*10**300]-[10**300*10**300]]",
+        "#[10**300*10**300]=1",
+        "G0 X[" + "9" * 400 + " MOD 2]",
+        "G0 X[[10**300*10**300] MOD 2]",
+        "G0 X[[10**300*10**300]]",
+        "G0 X[-8**0.5]",
+        "#1=[10**300*10**300]",
+    ],
+)
+def test_huge_and_undefined_values_are_clean_errors(text: str) -> None:
+    err = error_of(text + "\nM2\n")
+    assert err.line == 1 and str(err).startswith("p.ngc:1: error: ")
+
+
+def test_deep_nesting_is_refused_not_a_recursion_error() -> None:
+    err = error_of("G0 X" + "[" * 2000 + "1" + "]" * 2000 + "\nM2\n")
+    assert "nested" in err.message
+
+
+# issue 15 #12: a bare CR ends a line (never merges two lines) -------------------------------
+def test_bare_cr_is_a_line_end() -> None:
+    moves = parse_program("G0 X10\rY10\rM2\r")
+    assert [(m.line, m.end) for m in moves] == [(1, (10.0, 0.0, 0.0)), (2, (10.0, 10.0, 0.0))]
+    assert [m.line for m in parse_program("G0 X1\r\nG0 X2\rG0 X3\nM2\n")] == [1, 2, 3]
+    assert error_of("G0 X1\rG0 G1 X2\rM2").line == 2
+
+
+# issue 15 #15: a UTF-8 byte order mark opens the file ---------------------------------------
+def test_utf8_bom_is_accepted(tmp_path) -> None:
+    from gantry_sim.sim.cli import main
+
+    path = tmp_path / "bom.ngc"
+    path.write_bytes(b"\xef\xbb\xbfG0 X1\nM2\n")
+    assert main(["parse", str(path)]) == 0
+    assert ends("\ufeffG0 X1\nM2\n") == [(1.0, 0.0, 0.0)]
+
+
+# named parameters ---------------------------------------------------------------------------
+def test_named_parameters_local_global_and_predefined() -> None:
+    text = (
+        "#<depth>=2 #<_safe>=5\nG0 X#<depth> Y#<_safe>\nG20\nG0 Z[#<_x>*25.4 + #<_metric>]\n"
+        "G21\nG0 X[EXISTS[#<depth>] + EXISTS[#<nope>]*10]\nM2\n"
+    )
+    assert ends(text) == [(2.0, 5.0, 0.0), (2.0, 5.0, 50.8), (1.0, 5.0, 50.8)]
+    assert "not defined" in error_of("G0 X#<a>\nM2\n").message
+
+
+# O-words ------------------------------------------------------------------------------------
+def test_subroutines_with_arguments_return_values_and_loops() -> None:
+    text = """o<sq> sub
+  G0 X[#1*#1]
+  o<sq> return [#1*2]
+o<sq> endsub
+#1=7
+o<sq> call [3]
+G0 Y#<_value> Z#1
+#<i>=0
+o10 while [#<i> LT 3]
+  #<i>=[#<i>+1]
+  o11 if [#<i> EQ 2]
+    o10 continue
+  o11 elseif [#<i> EQ 3]
+    G0 Y30
+  o11 else
+    G0 Y10
+  o11 endif
+o10 endwhile
+o20 repeat [2]
+  G91 G0 Z1
+o20 endrepeat
+G90
+o30 do
+  o30 break
+  G0 X99
+o30 while [1]
+M2
+"""
+    assert ends(text) == [
+        (9.0, 0.0, 0.0),
+        (9.0, 6.0, 7.0),
+        (9.0, 10.0, 7.0),
+        (9.0, 30.0, 7.0),
+        (9.0, 30.0, 8.0),
+        (9.0, 30.0, 9.0),
+    ]
+
+
+def test_runaway_loops_and_recursion_stop_with_their_line() -> None:
+    err = error_of("o1 while [1]\no1 endwhile\nM2\n", max_iterations=1000)
+    assert err.line == 1 and "more than 1000" in err.message
+    err = error_of("o1 sub\no1 call\no1 endsub\no1 call\nM2\n")
+    assert err.line == 2 and "too many subroutine levels" in err.message
+
+
+def test_subroutine_files_on_the_search_path(tmp_path) -> None:
+    (tmp_path / "peck.ngc").write_text("o<peck> sub\nG0 Z[-#1]\no<peck> endsub\nM2\n")
+    moves = list(interpret("o<peck> call [2]\nM2\n", search_path=(tmp_path,)))
+    assert [m.end for m in moves] == [(0.0, 0.0, -2.0)]
+    assert "not found" in error_of("o<peck> call\nM2\n").message
+    (tmp_path / "bad.ngc").write_text("o<bad> sub\nG0 G1 X1\no<bad> endsub\n")
+    err = error_of("o<bad> call\nM2\n", search_path=(tmp_path,))
+    assert err.file == str(tmp_path / "bad.ngc") and err.line == 2
+
+
+# coordinate systems -------------------------------------------------------------------------
+def test_offsets_place_moves_in_the_work_frame() -> None:
+    # rs274 prints G0 X2 at program (2, 0) with G92 offset (1, 1): the tool goes to (3, 1).
+    text = "G0 X1 Y1\nG92 X0 Y0\nG0 X2\nG92.1\nG0 X0 Y0\nG10 L2 P2 X10 Y20\nG55 G0 X1 Y1\nM2\n"
+    assert ends(text) == [(1.0, 1.0, 0.0), (3.0, 1.0, 0.0), (0.0, 0.0, 0.0), (11.0, 21.0, 0.0)]
+    # G28.1 stores the absolute point, G28 returns to it through the given axes' point.
+    moves = parse_program("G0 X5 Y5\nG28.1\nG0 X0 Y0\nG28 X1\nM2\n")
+    assert [m.end for m in moves][-2:] == [(1.0, 0.0, 0.0), (5.0, 0.0, 0.0)]
+
+
+def test_parse_cli_subroutine_path_and_iteration_bound(tmp_path, capsys) -> None:
+    from gantry_sim.sim.cli import main
+
+    lib = tmp_path / "lib"
+    lib.mkdir()
+    (lib / "hop.ngc").write_text("o<hop> sub\nG0 Z#1\no<hop> endsub\n")
+    prog = tmp_path / "p.ngc"
+    prog.write_text("o<hop> call [3]\nM2\n")
+    assert main(["parse", str(prog)]) == 2
+    assert "not found" in capsys.readouterr().err
+    assert main(["parse", str(prog), "--subroutine-path", str(lib)]) == 0
+    assert '"end": [0.0, 0.0, 3.0]' in capsys.readouterr().out
+    prog.write_text("o1 repeat [50]\nG91 G0 X1\no1 endrepeat\nM2\n")
+    assert main(["parse", str(prog), "--max-iterations", "10"]) == 2
+    assert f"{prog}:3: error: more than 10" in capsys.readouterr().err
+
+
+def test_all_errors_lists_every_refused_line(tmp_path, capsys) -> None:
+    from gantry_sim.sim.cli import main
+
+    prog = tmp_path / "p.ngc"
+    prog.write_text("G0 X1\nG0 G1 X2\nG81 X1 Z-1 R1\nG0 X3\nG1 X4\nM2\n")
+    assert main(["parse", str(prog), "--all-errors"]) == 2
+    captured = capsys.readouterr()
+    assert [ln.split(": error")[0] for ln in captured.err.splitlines()[:3]] == [
+        f"{prog}:2",
+        f"{prog}:3",
+        f"{prog}:5",
+    ]
+    assert "3 refused line(s)" in captured.err
+    assert captured.out.count('"kind"') == 2  # the accepted lines' motions: X1 and X3
+    assert main(["parse", str(prog)]) == 2  # without the option: the first error only
+    assert capsys.readouterr().err.count("error:") == 1
+
+
+def test_linuxcnc_io_m_codes_are_accepted() -> None:
+    # rs274: M61 Q1, M62-M65 P, M66 P L, M67/M68 E Q move nothing; #5599 may be set.
+    text = "#5599=1\nM61 Q1\nM62 P0\nM63 P0\nM64 P0\nM65 P0\nM66 P0 L0\nM67 E0 Q1\nM68 E0 Q1\nG0 X1\nM2\n"
+    assert ends(text) == [(1.0, 0.0, 0.0)]
+    assert "Q word" in error_of("M61\nM2\n").message
+
+
+def test_tool_table_and_length_offsets(tmp_path, capsys) -> None:
+    from gantry_sim.controller.gcode.tools import parse_tool_table
+    from gantry_sim.sim.cli import main
+
+    tools = parse_tool_table("T1 P1 Z10 D6 ;end mill\n\nT2 P2 Z25.5\n")
+    assert tools[1].z_mm == 10.0 and tools[1].diameter_mm == 6.0 and tools[2].z_mm == 25.5
+    # rs274: G43 on a later line re-expresses Z (the tip stays, Z reads -length); G49 undoes it
+    text = "T1 M6\nG43 H1\nG0 X1\nG49\nG0 X2\nG53 G0 Z0\nT3\nM2\n"
+    err = error_of(text, tools=tools)
+    assert err.line == 7 and "tool 3 not found" in err.message
+    moves = list(interpret(text.replace("T3\n", ""), tools=tools))
+    assert [m.end for m in moves] == [(1.0, 0.0, -10.0), (2.0, 0.0, 0.0), (2.0, 0.0, 0.0)]
+    with pytest.raises(GcodeError) as info:
+        parse_tool_table("T1 Z1\nhello\n", "t.tbl")
+    assert (info.value.file, info.value.line) == ("t.tbl", 2)
+    table = tmp_path / "tool.tbl"
+    table.write_text("T1 P1 Z10\n")
+    prog = tmp_path / "p.ngc"
+    prog.write_text("T1 M6\nG43\nG0 X1\nM2\n")
+    assert main(["parse", str(prog), "--tool-table", str(table)]) == 0
+    assert '"end": [1.0, 0.0, -10.0]' in capsys.readouterr().out
+
+
+def test_inverse_time_and_feed_per_revolution_become_path_speed() -> None:
+    # rs274: G93 F2 on a 10 mm line is SET_FEED_RATE(20); G95 F0.5 at S100 is 50 mm/min.
+    moves = parse_program("G93 G1 X10 F2\nG2 X0 I-5 F1\nG94 G1 X1 F100\nM2\n")
+    assert [round(m.feed_mm_per_min, 9) for m in moves] == [
+        20.0,
+        round(5 * 3.141592653589793, 9),
+        100.0,
+    ]
+    assert parse_program("G95 S100 G1 X10 F0.5\nM2\n")[0].feed_mm_per_min == 50.0
+    assert error_of("G93 G1 X10 F2\nG1 X20\nM2\n").line == 2
+    assert "zero spindle speed" in error_of("G95 G1 X10 F0.5\nM2\n").message
+
+
+def test_dwell_and_stops_are_events_when_asked(tmp_path, capsys) -> None:
+    from gantry_sim.sim.cli import main
+
+    text = "G1 X1 F100\nG4 P0.5 G1 X2\nM0\nM1\nG0 X3\nM60\nM2\n"
+    plain = parse_program(text)
+    assert [m.kind for m in plain] == ["linear", "linear", "rapid"]  # motions only by default
+    got = [(m.line, m.kind) for m in interpret(text, events=True)]
+    assert got == [
+        (1, "linear"),
+        (2, "dwell"),  # rs274 dwells before the line's motion
+        (2, "linear"),
+        (3, "stop"),
+        (4, "stop"),
+        (5, "rapid"),
+        (6, "stop"),
+    ]
+    dwell = list(interpret(text, events=True))[1]
+    assert dwell.to_json() == {
+        "line": 2,
+        "kind": "dwell",
+        "position": [1.0, 0.0, 0.0],
+        "seconds": 0.5,
+    }
+    prog = tmp_path / "p.ngc"
+    prog.write_text(text)
+    assert main(["parse", str(prog), "--events"]) == 0
+    assert '"kind": "stop", "position": [2.0, 0.0, 0.0], "code": "M0"' in capsys.readouterr().out
+
+
+def test_work_offset_places_the_program(tmp_path, capsys) -> None:
+    from gantry_sim.sim.cli import main
+
+    moves = list(
+        interpret("G0 X0 Y0\nG1 X10 F100\nG0 Z[#5223]\nM2\n", work_offset=(100.0, 50.0, -5.0))
+    )
+    assert [m.end for m in moves] == [
+        (100.0, 50.0, 0.0),
+        (110.0, 50.0, 0.0),
+        (100.0 + 10, 50.0, -10.0),
+    ]
+    assert moves[0].start == (0.0, 0.0, 0.0)  # the tool starts at the work frame's origin
+    prog = tmp_path / "p.ngc"
+    prog.write_text("G0 X1 Y0 Z0\nM2\n")  # unnamed axes would stay where the tool is
+    assert main(["parse", str(prog), "--work-offset", "10,20,30"]) == 0
+    assert '"end": [11.0, 20.0, 30.0]' in capsys.readouterr().out
+    with pytest.raises(SystemExit):
+        main(["parse", str(prog), "--work-offset", "10,20"])
+
+
+def test_m70_m72_m73_save_and_restore_modal_state() -> None:
+    text = """o<inch> sub
+M73
+G20 G91 F5
+G0 X1
+o<inch> endsub
+G21 G90 F200 M3 M8
+M70
+G20 G91
+M72
+G0 X1 Y[#<_metric>*10 + #<_spindle_on> + #<_flood>]
+o<inch> call
+G0 X[#<_feed>] Y[#<_absolute>]
+M2
+"""
+    got = ends(text)
+    # M72 restored G21 G90 (X1 absolute, Y = 10 + 1 + 1); the sub's G20 G91 moved 1 inch;
+    # M73 restored mm, absolute and F200 at its return.
+    assert got == [(1.0, 12.0, 0.0), (26.4, 12.0, 0.0), (200.0, 1.0, 0.0)]
+    assert "M72 with no state saved" in error_of("M72\nM2\n").message
+
+
+def test_user_m_codes_need_their_program_file(tmp_path) -> None:
+    # rs274 without the file: "Unknown m code used: M100"; LinuxCNC runs USER_M_PATH/M100.
+    assert "M101" in error_of("M101 P1 Q2\nM2\n").message
+    (tmp_path / "M101").write_text("#!/bin/sh\n")
+    moves = list(interpret("M101 P1 Q2\nG0 X1\nM2\n", search_path=(tmp_path,)))
+    assert [m.end for m in moves] == [(1.0, 0.0, 0.0)]
