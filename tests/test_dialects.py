@@ -213,9 +213,9 @@ def test_g2core_json_lines_and_homing_codes_move_nothing() -> None:
 
 
 def test_marlin_g4_dwells_in_milliseconds_or_seconds() -> None:
-    from gantry_sim.controller.gcode.interpreter import interpret
+    from gantry_sim.controller.gcode.interpreter import interpret_events
 
-    got = list(interpret("G1 X1\nG4 P500\nG4 S2\nG4\n", "marlin", events=True))
+    got = list(interpret_events("G1 X1\nG4 P500\nG4 S2\nG4\n", "marlin"))
     assert [(m.kind, getattr(m, "seconds", None)) for m in got] == [
         ("linear", None),
         ("dwell", 0.5),
@@ -241,10 +241,10 @@ def test_unsupported_codes_say_why() -> None:
 
 
 def test_marlin_limit_changes_are_events_from_their_line_on() -> None:
-    from gantry_sim.controller.gcode.interpreter import interpret
+    from gantry_sim.controller.gcode.interpreter import interpret_events
 
     text = "G1 X1\nM201 X500 Y500 Z100 E5000\nM204 P500 T800\nM205 J0.02\nM203 X\nG1 X2\n"
-    got = [m.to_json() for m in interpret(text, "marlin", events=True)]
+    got = [m.to_json() for m in interpret_events(text, "marlin")]
     assert [g["kind"] for g in got] == ["linear", "limits", "limits", "limits", "linear"]
     assert got[1] == {
         "line": 2,

@@ -10,7 +10,7 @@ from __future__ import annotations
 import pytest
 
 from gantry_sim.controller.errors import GcodeError
-from gantry_sim.controller.gcode.interpreter import interpret, parse_program
+from gantry_sim.controller.gcode.interpreter import interpret, interpret_events, parse_program
 
 
 def ends(text: str) -> list[tuple[float, ...]]:
@@ -235,7 +235,7 @@ def test_dwell_and_stops_are_events_when_asked(tmp_path, capsys) -> None:
     text = "G1 X1 F100\nG4 P0.5 G1 X2\nM0\nM1\nG0 X3\nM60\nM2\n"
     plain = parse_program(text)
     assert [m.kind for m in plain] == ["linear", "linear", "rapid"]  # motions only by default
-    got = [(m.line, m.kind) for m in interpret(text, events=True)]
+    got = [(m.line, m.kind) for m in interpret_events(text)]
     assert got == [
         (1, "linear"),
         (2, "dwell"),  # rs274 dwells before the line's motion
@@ -245,7 +245,7 @@ def test_dwell_and_stops_are_events_when_asked(tmp_path, capsys) -> None:
         (5, "rapid"),
         (6, "stop"),
     ]
-    dwell = list(interpret(text, events=True))[1]
+    dwell = list(interpret_events(text))[1]
     assert dwell.to_json() == {
         "line": 2,
         "kind": "dwell",

@@ -30,7 +30,7 @@ from gantry_sim.controller.gcode.lexer import (
     strip_line,
 )
 from gantry_sim.controller.gcode.printer_codes import marlin_dwell_seconds
-from gantry_sim.controller.moves import Move
+from gantry_sim.controller.moves import Event, Move
 
 MAX_CALL_LEVELS = 9
 MAX_ERRORS = 1000  # --all-errors stops collecting (and raises) after this many
@@ -153,7 +153,7 @@ class Runner:
         self,
         text: str,
         file: str,
-        step: Callable[[Block], tuple[list[Move], bool]],
+        step: Callable[[Block], tuple[list[Move | Event], bool]],
         params,  # Parameters
         search_path: tuple[Path, ...] = (),
         max_iterations: int = DEFAULT_MAX_ITERATIONS,
@@ -177,7 +177,7 @@ class Runner:
         self.seen = False  # a line with content has been run
         self.percent_open = False
 
-    def run(self) -> Iterator[Move]:
+    def run(self) -> Iterator[Move | Event]:
         """Yield moves until the program ends; GcodeError (with file and line) on a bad line."""
         while not self.ended:
             f = self.frames[-1]

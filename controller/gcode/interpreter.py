@@ -47,7 +47,18 @@ from gantry_sim.controller.gcode.printer_codes import OWN_LINES
 from gantry_sim.controller.gcode.state import ModalState
 from gantry_sim.controller.gcode.tools import Tool
 from gantry_sim.controller.gcode.words import Words, check_words, read_words
-from gantry_sim.controller.moves import Arc, Dwell, Limits, Linear, Move, Plane, Rapid, Stop, Vec3
+from gantry_sim.controller.moves import (
+    Arc,
+    Dwell,
+    Event,
+    Limits,
+    Linear,
+    Move,
+    Plane,
+    Rapid,
+    Stop,
+    Vec3,
+)
 
 _PLANES: dict[int, Plane] = {170: "XY", 180: "XZ", 190: "YZ"}
 #: non-modal codes whose axis words are theirs, not a motion's: G10, G28, G30, G92.
@@ -71,7 +82,7 @@ class Interpreter:
         self.params.numbered[COORD_INDEX] = 1.0
         self.line = 0
 
-    def step(self, block: Block) -> tuple[list[Move], bool]:
+    def step(self, block: Block) -> tuple[list[Move | Event], bool]:
         """Validate ``block`` on a copy of the state, commit, return (moves, program ended)."""
         self.line = block.line
         self._refresh_system_parameters()
@@ -136,7 +147,7 @@ class Interpreter:
                 raise GcodeError("axis words with G80 (motion off); use G0, G1, G2 or G3")
             s, motion = replace(s, motion=None), None
         elif motion is not None:
-            if axis_code and has_axes:
+            if nonmodal is not None and axis_code and has_axes:
                 raise GcodeError(
                     f"{g_name(nonmodal)} and {g_name(motion)} both use the axis words; put them "
                     "on separate lines"
@@ -157,7 +168,7 @@ class Interpreter:
                 "line (otherwise it is 'Repeat', not supported); write G2 ... R or G3 ... R"
             )
         # Step 6: the non-modal codes, then the move, validated against the new state.
-        moves: list[Move] = []
+        moves: list[Move | Event] = []
         if nonmodal == 100 and round(w.values.get("L", 0)) in (1, 10) and d.g10_rotation:
             self._g10_tool(w.values, s)
         elif nonmodal == 100:
@@ -209,7 +220,7 @@ class Interpreter:
         return moves, w.m.get("stopping") in M_PROGRAM_END
 
     @staticmethod
-    def _emit(moves: list[Move], s: ModalState, move: Move, end: Vec3) -> ModalState:
+    def _emit(moves: list[Move | Event], s: ModalState, move: Move, end: Vec3) -> ModalState:
         moves.append(move)
         return replace(s, position=end, work=move.end)
 
@@ -226,7 +237,7 @@ class Interpreter:
         return replace(arc, start=s.work, end=to_work(arc.end, f), center=to_work(arc.center, f))
 
     def _home(
-        self, line: int, v: dict[str, float], s: ModalState, code: int, moves: list[Move]
+        self, line: int, v: dict[str, float], s: ModalState, code: int, moves: list[Move | Event]
     ) -> ModalState:
         """G28 / G30: rapid through the axis words' point (if any) to the stored point."""
         axes = {a for a in "XYZ" if a in v}
@@ -338,17 +349,17 @@ class Interpreter:
             return []
         return [Limits(block.line, block_code(block), tuple(sorted(values.items())))]
 
-    def _printer_home(self, block: Block) -> list[Move]:
+    def _printer_home(self, block: Block) -> list[Move | Event]:
         """Marlin G28: the named axes (all when none) rapid to the work origin."""
         s = self.state
         named = [a for a, _ in block.words] or list("XYZ")
         target = tuple(0.0 if a in named else s.work[i] for i, a in enumerate("XYZ"))
         end = from_work((target[0], target[1], target[2]), s.frame)
-        moves: list[Move] = []
+        moves: list[Move | Event] = []
         self.state = self._emit(moves, s, Rapid(block.line, s.work, to_work(end, s.frame)), end)
         return moves
 
-    def _jog(self, block: Block) -> tuple[list[Move], bool]:
+    def _jog(self, block: Block) -> tuple[list[Move | Event], bool]:
         """grbl ``$J=``: a G1 in the jog's own modes and feed; the modal state is kept."""
         saved = self.state
         w = read_words(block, self.params)
@@ -397,7 +408,6 @@ def interpret(
     max_iterations: int = DEFAULT_MAX_ITERATIONS,
     errors: list[GcodeError] | None = None,
     tools: dict[int, Tool] | None = None,
-    events: bool = False,
     work_offset: Vec3 | None = None,
 ) -> Iterator[Move]:
     """Yield the program's moves in order; GcodeError(file, line) at the first bad line.
@@ -408,7 +418,31 @@ def interpret(
         file: the program's name, for error messages.
         search_path: folders searched for ``NAME.ngc`` subroutine files, in order.
         max_iterations: bound on loop repetitions and subroutine calls (see control.py).
+        errors: when given, refused lines are collected here (up to MAX_ERRORS) instead of
+            raising at the first one (``gantry parse --all-errors``).
+        tools: the tool table (tool number -> Tool) for T, M6, G43 H.
+        work_offset: where program zero lies in the machine's work frame [mm].
     """
+    for item in interpret_events(
+        text, dialect, file, search_path, max_iterations, errors, tools, work_offset, False
+    ):
+        if isinstance(item, Rapid | Linear | Arc):  # no events are made when not asked for
+            yield item
+
+
+def interpret_events(
+    text: str,
+    dialect: str = "linuxcnc",
+    file: str = "<program>",
+    search_path: tuple[Path, ...] = (),
+    max_iterations: int = DEFAULT_MAX_ITERATIONS,
+    errors: list[GcodeError] | None = None,
+    tools: dict[int, Tool] | None = None,
+    work_offset: Vec3 | None = None,
+    events: bool = True,
+) -> Iterator[Move | Event]:
+    """:func:`interpret`, plus the program's events in their place among the moves: dwells
+    (G4), program stops (M0/M1/M60) and Marlin's limit changes (M201-M205)."""
     rules: Dialect | None = None
     try:
         rules = get_dialect(dialect)

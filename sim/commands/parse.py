@@ -55,7 +55,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 def run(args: argparse.Namespace) -> int:
     from gantry_sim.controller.errors import ConfigError, GantryError
     from gantry_sim.controller.gcode.control import DEFAULT_MAX_ITERATIONS
-    from gantry_sim.controller.gcode.interpreter import interpret
+    from gantry_sim.controller.gcode.interpreter import interpret_events
 
     text = read_program(args.program)
     limit = DEFAULT_MAX_ITERATIONS if args.max_iterations is None else args.max_iterations
@@ -70,7 +70,7 @@ def run(args: argparse.Namespace) -> int:
     out = sys.stdout
     errors: list | None = [] if args.all_errors else None
     try:
-        for move in interpret(
+        for move in interpret_events(
             text,
             dialect=args.dialect,
             file=str(args.program),
@@ -78,8 +78,8 @@ def run(args: argparse.Namespace) -> int:
             max_iterations=limit,
             errors=errors,
             tools=tools,
-            events=args.events,
             work_offset=args.work_offset,
+            events=args.events,
         ):
             out.write(json.dumps(move.to_json()) + "\n")
     except GantryError:
