@@ -41,6 +41,8 @@ class MoveTable:
         turns: ceil(A / 2 pi), the angle-projection candidates past the first.
         newton: True where the radius or height changes (helix or spiral: Newton refinement).
         box_lo, box_hi: (M, 3) an axis-aligned box holding the move (with BOX_SLACK_MM).
+        arc_start: (M, 3) an arc's point at u = 0 as controller.arcs.arc_points computes it
+        (the start on segment rows).
         cum_len: (M + 1,) path length [mm] before each move (cum_len[M]: the whole program).
     """
 
@@ -67,6 +69,7 @@ class MoveTable:
     newton: np.ndarray
     box_lo: np.ndarray
     box_hi: np.ndarray
+    arc_start: np.ndarray
     cum_len: np.ndarray
 
     def __len__(self) -> int:
@@ -103,6 +106,18 @@ def move_table(moves: Sequence[Move]) -> MoveTable:
         lo_j, hi_j = _arc_box(mv, i1, i2, theta0, sigma, r0, r1)
         box_lo[j] = np.minimum(box_lo[j], lo_j)
         box_hi[j] = np.maximum(box_hi[j], hi_j)
+    arc_start = start.copy()
+    arcs = np.flatnonzero([isinstance(mv, Arc) for mv in moves])
+    if arcs.size:  # arc_points at u = 0, the same operations vectorised
+        u0 = np.zeros(arcs.size)
+        theta = cols["theta0"][arcs] + cols["s_angle"][arcs] * u0
+        r = cols["r0"][arcs] + cols["dr"][arcs] * u0
+        rows = np.arange(arcs.size)
+        at = arc_start[arcs]
+        at[rows, axes[arcs, 0]] = cols["c1"][arcs] + r * np.cos(theta)
+        at[rows, axes[arcs, 1]] = cols["c2"][arcs] + r * np.sin(theta)
+        at[rows, axes[arcs, 2]] = cols["h0"][arcs] + cols["dh"][arcs] * u0
+        arc_start[arcs] = at
     return MoveTable(
         line=np.array([mv.line for mv in moves], dtype=np.int64),
         feed=np.array([mv.kind != "rapid" for mv in moves], dtype=bool),
@@ -116,6 +131,7 @@ def move_table(moves: Sequence[Move]) -> MoveTable:
         newton=newton,
         box_lo=box_lo - BOX_SLACK_MM,
         box_hi=box_hi + BOX_SLACK_MM,
+        arc_start=arc_start,
         cum_len=np.concatenate([[0.0], np.cumsum([mv.length_mm for mv in moves])]),
         **cols,
     )

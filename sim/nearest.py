@@ -136,56 +136,52 @@ class _Arcs:
         self._place(d2, -self.k2 * sin_t - ra2 * cos_t, self.k2 * cos_t - ra2 * sin_t, 0.0)
         return d1, d2
 
-    def sq_dist(self, u: np.ndarray, pts: np.ndarray) -> np.ndarray:
-        diff = self.points(u) - pts
-        return _dot_rows(diff, diff)
-
 
 def _nearest_on_arcs(tab: MoveTable, idx: np.ndarray, pts: np.ndarray) -> np.ndarray:
+    """Nearest points on arcs ``idx`` (see the module docstring). A candidate clamped to u = 0
+    or 1 is the start or end point again (never strictly nearer), so it is not evaluated; the
+    best candidate's point is kept rather than evaluated again."""
     arcs = _Arcs(tab, idx)
-    rows = arcs.rows
+    rows, n = arcs.rows, len(idx)
     p1 = pts[rows, arcs.axes[:, 0]] - arcs.c1
     p2 = pts[rows, arcs.axes[:, 1]] - arcs.c2
-    sigma = tab.sigma[idx]
-    base = np.mod(sigma * (np.arctan2(p2, p1) - arcs.theta0), TWO_PI)
-    n = len(idx)
+    base = np.mod(tab.sigma[idx] * (np.arctan2(p2, p1) - arcs.theta0), TWO_PI)
     best_u = np.zeros(n)
-    best_f = arcs.sq_dist(best_u, pts)
+    best_p = tab.arc_start[idx]
+    best_f = _dot_rows(best_p - pts, best_p - pts)
+    f = _dot_rows(arcs.end - pts, arcs.end - pts)
+    better = f < best_f
+    best_u[better], best_p[better], best_f[better] = 1.0, arcs.end[better], f[better]
     turns = tab.turns[idx]
-    for k in range(-1, int(turns.max(initial=0)) + 1):  # k = -1: the end u = 1
-        if k < 1 or (turns >= k).all():  # every arc has k >= -1, 0, 1
-            on, sub, q, b = slice(None), arcs, pts, base
-        else:
-            on = np.flatnonzero(turns >= k)
-            sub, q, b = arcs.subset(on), pts[on], base[on]
-        u = np.ones(len(q)) if k < 0 else np.clip((b + TWO_PI * k) / sub.angle, 0.0, 1.0)
-        f = sub.sq_dist(u, q)
+    for k in range(int(turns.max(initial=0)) + 1):
+        u = np.clip((base + TWO_PI * k) / arcs.angle, 0.0, 1.0)
+        on = np.flatnonzero((turns >= k) & (u > 0.0) & (u < 1.0))
+        sub = arcs if on.size == n else arcs.subset(on)
+        pt = sub.points(u[on])
+        f = _dot_rows(pt - pts[on], pt - pts[on])
         better = f < best_f[on]
-        if isinstance(on, slice):
-            best_u = np.where(better, u, best_u)
-            best_f = np.where(better, f, best_f)
-        else:
-            best_u[on[better]] = u[better]
-            best_f[on[better]] = f[better]
+        on = on[better]
+        best_u[on], best_p[on], best_f[on] = u[on], pt[better], f[better]
     # Newton on helices and spirals; a rejected step leaves u as it was, so every later step
     # would repeat it: a row leaves the iteration at its first rejected step
     live = np.flatnonzero(tab.newton[idx])
     for _ in range(NEWTON_STEPS):
         if not live.size:
             break
-        sub, q, u0 = arcs.subset(live), pts[live], best_u[live]
-        p = sub.points(u0) - q
+        sub = arcs if live.size == n else arcs.subset(live)
+        q, u0 = pts[live], best_u[live]
+        p = best_p[live] - q
         d1, d2 = sub.derivatives(u0)
         g = _dot_rows(p, d1)
         h = _dot_rows(d1, d1) + _dot_rows(p, d2)
         step = np.where(h > 0, g / np.where(h > 0, h, 1.0), 0.0)
         u = np.clip(u0 - step, 0.0, 1.0)
-        f = sub.sq_dist(u, q)
+        pt = sub.points(u)
+        f = _dot_rows(pt - q, pt - q)
         better = f < best_f[live]
         live = live[better]
-        best_u[live] = u[better]
-        best_f[live] = f[better]
-    return arcs.points(best_u)
+        best_u[live], best_p[live], best_f[live] = u[better], pt[better], f[better]
+    return best_p
 
 
 def nearest_on_moves(tab: MoveTable, idx: np.ndarray, pts: np.ndarray) -> np.ndarray:
@@ -213,12 +209,19 @@ def nearest_on_arc(arc, pts: np.ndarray) -> np.ndarray:
     return nearest_on_move(arc, pts)
 
 
+#: ticks per block of the polyline search (its ~12 working arrays stay in the CPU cache)
+POLYLINE_BLOCK = 8192
+
+
 def distance_to_polyline_near(path: np.ndarray, pts: np.ndarray, window: int) -> np.ndarray:
     """Distance [mm] from pts[k] to the polyline ``path`` near its k-th vertex.
 
     Both are (n, 3) sampled at the same instants (the reference and the trace); the segments
     path[s] - path[s + 1] for s = k - window .. k + window - 1 (clipped to the path) are searched,
-    one vectorised pass per offset, on contiguous slices of edge-padded component arrays.
+    one vectorised pass per offset, on contiguous slices of edge-padded component arrays, a
+    block of POLYLINE_BLOCK points at a time, in place:
+
+        u = clip(((p - a) . d) / |d|^2, 0, 1),   dist^2 = |a + u d - p|^2
     """
     n = len(pts)
     if n < 2:
@@ -233,11 +236,30 @@ def distance_to_polyline_near(path: np.ndarray, pts: np.ndarray, window: int) ->
     dx, dy, dz = (np.ascontiguousarray(d[:, i]) for i in range(3))
     px, py, pz = (np.ascontiguousarray(pts[:, i]) for i in range(3))
     best = np.full(n, np.inf)
-    for j in range(-w, w):
-        sl = slice(w + j, w + j + n)
-        sx, sy, sz, ex, ey, ez = ax[sl], ay[sl], az[sl], dx[sl], dy[sl], dz[sl]
-        u = ((px - sx) * ex + (py - sy) * ey + (pz - sz) * ez) * inv[sl]
-        np.clip(u, 0.0, 1.0, out=u)
-        dist2 = (sx + u * ex - px) ** 2 + (sy + u * ey - py) ** 2 + (sz + u * ez - pz) ** 2
-        np.minimum(best, dist2, out=best)
+    bufs = np.empty((3, min(n, POLYLINE_BLOCK)))
+    for k0 in range(0, n, POLYLINE_BLOCK):
+        m = min(n, k0 + POLYLINE_BLOCK) - k0
+        qx, qy, qz, b = px[k0 : k0 + m], py[k0 : k0 + m], pz[k0 : k0 + m], best[k0 : k0 + m]
+        u, t, s = bufs[0, :m], bufs[1, :m], bufs[2, :m]
+        for j in range(-w, w):
+            sl = slice(w + j + k0, w + j + k0 + m)
+            sx, sy, sz, ex, ey, ez = ax[sl], ay[sl], az[sl], dx[sl], dy[sl], dz[sl]
+            np.subtract(qx, sx, out=u)
+            u *= ex
+            np.subtract(qy, sy, out=t)
+            t *= ey
+            u += t
+            np.subtract(qz, sz, out=t)
+            t *= ez
+            u += t
+            u *= inv[sl]
+            np.clip(u, 0.0, 1.0, out=u)
+            for c, e, q, out in ((sx, ex, qx, s), (sy, ey, qy, t), (sz, ez, qz, t)):
+                np.multiply(u, e, out=out)
+                out += c
+                out -= q
+                np.square(out, out=out)
+                if out is t:
+                    s += t
+            np.minimum(b, s, out=b)
     return np.sqrt(best)
