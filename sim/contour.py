@@ -22,7 +22,8 @@ import numpy as np
 from gantry_sim.controller.moves import Move
 from gantry_sim.controller.units import UM_PER_MM
 from gantry_sim.sim.move_table import MoveTable, box_distance, move_table
-from gantry_sim.sim.nearest import distance_to_polyline_near, nearest_on_moves
+from gantry_sim.sim.nearest import nearest_on_moves
+from gantry_sim.sim.tracking import max_distance_to_polyline_near
 
 #: reference samples either side searched for the tracking part (50 ms at 1 kHz)
 TRACKING_WINDOW = 50
@@ -268,11 +269,10 @@ def analyse(
     dist, nearest = distance_to_moves(tab, line, pos, lag_mm)
     err_um = dist * UM_PER_MM
     ref_um = distance_to_moves(tab, line[feed], np.asarray(ref, dtype=float)[feed])[0] * UM_PER_MM
-    track_um = distance_to_polyline_near(ref, pos, TRACKING_WINDOW)[feed] * UM_PER_MM
     parts = {
         "chord_max": chord_max_um(moves, vertices, tab),
         "reference_max": float(ref_um.max()) if ref_um.size else 0.0,
-        "tracking_max": float(track_um.max()) if track_um.size else 0.0,
+        "tracking_max": max_distance_to_polyline_near(ref, pos, TRACKING_WINDOW, feed) * UM_PER_MM,
     }
     blocks = block_stats(tab, line, err_um)
     for arr in (err_um, nearest, feed):

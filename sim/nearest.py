@@ -24,6 +24,8 @@ the call), so a trace may be cut anywhere and analysed piece by piece with ident
 from __future__ import annotations
 
 import math
+from dataclasses import dataclass, fields
+from functools import cached_property
 
 import numpy as np
 
@@ -31,7 +33,6 @@ from gantry_sim.sim.move_table import MoveTable, move_table
 
 __all__ = [
     "MoveTable",
-    "distance_to_polyline_near",
     "move_table",
     "nearest_on_arc",
     "nearest_on_move",
@@ -76,29 +77,40 @@ def _nearest_on_segments(tab: MoveTable, idx: np.ndarray, pts: np.ndarray) -> np
     return tab.start[idx] + u[:, None] * tab.seg_d[idx]
 
 
+@dataclass(frozen=True)
 class _Arcs:
-    """The arc rows of a MoveTable gathered for a set of points (one arc per point)."""
+    """The arc fields of a MoveTable gathered for a set of points (one arc per point; see
+    MoveTable for each field)."""
 
-    FIELDS = ("axes", "c1", "c2", "theta0", "s_angle", "angle", "r0", "dr", "h0", "dh", "k2", "end")
+    axes: np.ndarray
+    c1: np.ndarray
+    c2: np.ndarray
+    theta0: np.ndarray
+    s_angle: np.ndarray
+    angle: np.ndarray
+    r0: np.ndarray
+    dr: np.ndarray
+    h0: np.ndarray
+    dh: np.ndarray
+    k2: np.ndarray
+    end: np.ndarray
 
-    def __init__(self, tab: MoveTable | None, idx: np.ndarray) -> None:
-        if tab is not None:
-            for name in self.FIELDS:
-                setattr(self, name, getattr(tab, name)[idx])
-            self._planes()
-
-    def _planes(self) -> None:
-        self.rows = np.arange(len(self.c1))
-        axes = self.axes
-        #: the (first, second, normal) columns when every row shares one plane, else None
-        self.cols = tuple(axes[0].tolist()) if len(axes) and (axes == axes[0]).all() else None
+    @classmethod
+    def gather(cls, source: MoveTable | _Arcs, idx: np.ndarray) -> _Arcs:
+        return cls(**{f.name: getattr(source, f.name)[idx] for f in fields(cls)})
 
     def subset(self, keep: np.ndarray) -> _Arcs:
-        sub = _Arcs(None, keep)
-        for name in self.FIELDS:
-            setattr(sub, name, getattr(self, name)[keep])
-        sub._planes()
-        return sub
+        return _Arcs.gather(self, keep)
+
+    @cached_property
+    def rows(self) -> np.ndarray:
+        return np.arange(len(self.c1))
+
+    @cached_property
+    def cols(self) -> tuple[int, ...] | None:
+        """The (first, second, normal) columns when every row shares one plane, else None."""
+        axes = self.axes
+        return tuple(axes[0].tolist()) if len(axes) and (axes == axes[0]).all() else None
 
     def _place(self, out: np.ndarray, first, second, normal) -> None:
         if self.cols is not None:
@@ -141,7 +153,7 @@ def _nearest_on_arcs(tab: MoveTable, idx: np.ndarray, pts: np.ndarray) -> np.nda
     """Nearest points on arcs ``idx`` (see the module docstring). A candidate clamped to u = 0
     or 1 is the start or end point again (never strictly nearer), so it is not evaluated; the
     best candidate's point is kept rather than evaluated again."""
-    arcs = _Arcs(tab, idx)
+    arcs = _Arcs.gather(tab, idx)
     rows, n = arcs.rows, len(idx)
     p1 = pts[rows, arcs.axes[:, 0]] - arcs.c1
     p2 = pts[rows, arcs.axes[:, 1]] - arcs.c2
@@ -207,59 +219,3 @@ def nearest_on_move(move, pts: np.ndarray) -> np.ndarray:
 def nearest_on_arc(arc, pts: np.ndarray) -> np.ndarray:
     """Nearest points (n, 3) on the arc or helix ``arc`` [mm] to ``pts`` (n, 3) [mm]."""
     return nearest_on_move(arc, pts)
-
-
-#: ticks per block of the polyline search (its ~12 working arrays stay in the CPU cache)
-POLYLINE_BLOCK = 8192
-
-
-def distance_to_polyline_near(path: np.ndarray, pts: np.ndarray, window: int) -> np.ndarray:
-    """Distance [mm] from pts[k] to the polyline ``path`` near its k-th vertex.
-
-    Both are (n, 3) sampled at the same instants (the reference and the trace); the segments
-    path[s] - path[s + 1] for s = k - window .. k + window - 1 (clipped to the path) are searched,
-    one vectorised pass per offset, on contiguous slices of edge-padded component arrays, a
-    block of POLYLINE_BLOCK points at a time, in place:
-
-        u = clip(((p - a) . d) / |d|^2, 0, 1),   dist^2 = |a + u d - p|^2
-    """
-    n = len(pts)
-    if n < 2:
-        return np.linalg.norm(pts - path, axis=1)
-    w = int(window)
-    seg_a, seg_d = path[:-1], np.diff(path, axis=0)  # segment s: seg_a[s] + u seg_d[s]
-    a = np.concatenate([np.repeat(seg_a[:1], w, 0), seg_a, np.repeat(seg_a[-1:], w + 1, 0)])
-    d = np.concatenate([np.repeat(seg_d[:1], w, 0), seg_d, np.repeat(seg_d[-1:], w + 1, 0)])
-    length2 = np.einsum("ij,ij->i", d, d)
-    inv = np.divide(1.0, length2, out=np.zeros_like(length2), where=length2 > 0)
-    ax, ay, az = (np.ascontiguousarray(a[:, i]) for i in range(3))
-    dx, dy, dz = (np.ascontiguousarray(d[:, i]) for i in range(3))
-    px, py, pz = (np.ascontiguousarray(pts[:, i]) for i in range(3))
-    best = np.full(n, np.inf)
-    bufs = np.empty((3, min(n, POLYLINE_BLOCK)))
-    for k0 in range(0, n, POLYLINE_BLOCK):
-        m = min(n, k0 + POLYLINE_BLOCK) - k0
-        qx, qy, qz, b = px[k0 : k0 + m], py[k0 : k0 + m], pz[k0 : k0 + m], best[k0 : k0 + m]
-        u, t, s = bufs[0, :m], bufs[1, :m], bufs[2, :m]
-        for j in range(-w, w):
-            sl = slice(w + j + k0, w + j + k0 + m)
-            sx, sy, sz, ex, ey, ez = ax[sl], ay[sl], az[sl], dx[sl], dy[sl], dz[sl]
-            np.subtract(qx, sx, out=u)
-            u *= ex
-            np.subtract(qy, sy, out=t)
-            t *= ey
-            u += t
-            np.subtract(qz, sz, out=t)
-            t *= ez
-            u += t
-            u *= inv[sl]
-            np.clip(u, 0.0, 1.0, out=u)
-            for c, e, q, out in ((sx, ex, qx, s), (sy, ey, qy, t), (sz, ez, qz, t)):
-                np.multiply(u, e, out=out)
-                out += c
-                out -= q
-                np.square(out, out=out)
-                if out is t:
-                    s += t
-            np.minimum(b, s, out=b)
-    return np.sqrt(best)
