@@ -2,7 +2,9 @@
 
 Every sample k carries the program line being executed (the trajectory's ``line``). Its contour
 error is the distance to the nearest point of that line's move(s) and their neighbours in program
-order (near a block junction the tool may be just before or after it). Parts (all [um]):
+order (near a block junction the tool may be just before or after it), and of the moves within
+LAG_REACH x |pos - ref| of path beyond them (a tool lagging several short moves): see
+sim/program_distance.py. Parts (all [um]):
 
 * chord: how far the chords (the planner's vertices) leave the true arcs -- segmentation;
 * reference: how far the reference samples leave the geometry -- planning;
@@ -10,6 +12,12 @@ order (near a block junction the tool may be just before or after it). Parts (al
   samples, searched near the same instant) -- the servo and the machine.
 
 Statistics cover the feed moves only (G1/G2/G3): rapids are not cutting.
+
+In pieces: :func:`analyse_chunk` analyses any run of consecutive samples given the reference
+TRACKING_WINDOW samples either side of it (:func:`reference_context`); :func:`combine` joins the
+pieces into exactly the :class:`Analysis` of the whole trace. What a streaming run carries from
+piece to piece is only the move table, the running maxima of the reference and tracking parts,
+and each sample's err_um and line (for the rms, p95 and per-block figures at the end).
 """
 
 from __future__ import annotations
@@ -21,8 +29,23 @@ import numpy as np
 
 from gantry_sim.controller.moves import Move
 from gantry_sim.controller.units import UM_PER_MM
-from gantry_sim.sim.move_table import MoveTable, box_distance, move_table
+from gantry_sim.sim.move_table import MoveTable, move_table
 from gantry_sim.sim.nearest import nearest_on_moves
+from gantry_sim.sim.program_distance import distance_to_moves, distance_to_program, line_ranges
+
+__all__ = [
+    "Analysis",
+    "ChunkAnalysis",
+    "analyse",
+    "analyse_chunk",
+    "block_stats",
+    "chord_max_um",
+    "combine",
+    "distance_to_moves",
+    "distance_to_program",
+    "feed_samples",
+    "reference_context",
+]
 from gantry_sim.sim.tracking import max_distance_to_polyline_near
 
 #: reference samples either side searched for the tracking part (50 ms at 1 kHz)
@@ -52,124 +75,6 @@ class Analysis:
     contour_um: dict
     parts_um: dict
     blocks: list
-
-
-#: servo ticks analysed at once (bounds the temporary arrays of the search, ~50 MB)
-TICKS_PER_PASS = 1 << 16
-
-
-def _line_ranges(tab: MoveTable, lines: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Per sample: the first and last index of its line's moves, and whether the line has any."""
-    order = np.argsort(tab.line, kind="stable")
-    sorted_lines = tab.line[order]
-    uniq, first_at = np.unique(sorted_lines, return_index=True)
-    last_at = np.concatenate([first_at[1:], [len(sorted_lines)]]) - 1
-    pos = np.minimum(np.searchsorted(uniq, lines), max(len(uniq) - 1, 0))
-    found = uniq[pos] == lines if len(uniq) else np.zeros(len(lines), dtype=bool)
-    return order[first_at][pos], order[last_at][pos], found
-
-
-def _closest_in_window(
-    tab: MoveTable, lo: np.ndarray, hi: np.ndarray, first: np.ndarray, pts: np.ndarray
-) -> tuple[np.ndarray, np.ndarray]:
-    """Per point, the distance [mm] and nearest point on moves lo..hi (the first one on a tie;
-    inf and the point itself when no distance is finite).
-
-    The move ``first`` (one of the window's) is measured first; another move of the window is
-    measured only where its box is not farther than that: a move it skips is strictly farther
-    than the best, so the result is that of measuring every move of the window.
-    """
-    counts = hi - lo + 1
-    starts = np.concatenate([[0], np.cumsum(counts)[:-1]])
-    owner = np.repeat(np.arange(len(pts)), counts)
-    move = lo[owner] + np.arange(int(counts.sum())) - starts[owner]
-    dist = np.full(len(move), np.inf)
-    near = np.empty((len(move), 3))
-    primary = starts + (first - lo)
-    rest = np.flatnonzero(move != first[owner])
-    for sel in (primary, None):
-        if sel is None:
-            bound = dist[primary][owner[rest]]
-            sel = rest[box_distance(tab, move[rest], pts[owner[rest]]) <= bound]
-        q = nearest_on_moves(tab, move[sel], pts[owner[sel]])
-        d = np.linalg.norm(q - pts[owner[sel]], axis=1)
-        dist[sel] = np.where(np.isnan(d), np.inf, d)
-        near[sel] = q
-    best = np.minimum.reduceat(dist, starts)
-    hit = np.flatnonzero((dist == best[owner]) & (dist < np.inf))
-    winner = hit[np.concatenate([[True], owner[hit][1:] != owner[hit][:-1]])]
-    nearest = np.array(pts, dtype=float, copy=True)
-    nearest[owner[winner]] = near[winner]
-    return best, nearest
-
-
-def _walk_out(tab, own, step, reach, pts, best, nearest) -> None:
-    """Search the moves past a window, one move further per pass in direction ``step`` (-1 or
-    +1) from the window's edge, while the path between the point's own moves (``own``: its
-    line's first move for -1, last for +1) and the next move is shorter than ``reach`` [mm]. A
-    move is measured only where its box is nearer than the best so far, and counts only where
-    it is strictly nearer. Updates ``best`` and ``nearest`` in place."""
-    m = len(tab)
-    k = own + 2 * step
-    live = np.flatnonzero((k >= 0) & (k < m) & (reach > 0))
-    while live.size:
-        kl, ol = k[live], own[live]
-        gap = (
-            tab.cum_len[ol] - tab.cum_len[kl + 1]
-            if step < 0
-            else tab.cum_len[kl] - tab.cum_len[ol + 1]
-        )
-        live = live[gap < reach[live]]
-        if not live.size:
-            break
-        measure = live[box_distance(tab, k[live], pts[live]) < best[live]]
-        if measure.size:
-            near = nearest_on_moves(tab, k[measure], pts[measure])
-            dist = np.linalg.norm(near - pts[measure], axis=1)
-            better = dist < best[measure]
-            best[measure[better]] = dist[better]
-            nearest[measure[better]] = near[better]
-        k[live] += step
-        live = live[(k[live] >= 0) & (k[live] < m)]
-
-
-def distance_to_moves(
-    tab: MoveTable, lines: np.ndarray, pts: np.ndarray, reach_mm: np.ndarray | None = None
-) -> tuple[np.ndarray, np.ndarray]:
-    """Distance [mm] and nearest commanded point (n, 3) [mm] for points executing ``lines``.
-
-    Searched per point: the moves of its line and one move either side (near a block junction
-    the tool may be just before or after it); then, where ``reach_mm`` (n,) is given, every
-    further move less than reach_mm of path away from its line's moves (a tool lagging or
-    leading by several short moves), counted where strictly nearer. A line no move has is
-    compared with every move. Linear in the points; done TICKS_PER_PASS points at a time.
-    """
-    n, m = len(pts), len(tab)
-    if m == 0 or n == 0:
-        return np.zeros(n), np.array(pts, dtype=float, copy=True)
-    first, last, found = _line_ranges(tab, np.asarray(lines))
-    lo = np.where(found, np.maximum(first - 1, 0), 0)
-    hi = np.where(found, np.minimum(last + 1, m - 1), m - 1)
-    best = np.empty(n)
-    nearest = np.empty((n, 3))
-    for a in range(0, n, TICKS_PER_PASS):
-        sl = slice(a, min(n, a + TICKS_PER_PASS))
-        p = np.asarray(pts[sl], dtype=float)
-        b, q = _closest_in_window(tab, lo[sl], hi[sl], np.where(found[sl], first[sl], lo[sl]), p)
-        if reach_mm is not None:
-            reach = np.where(found[sl], reach_mm[sl], 0.0)
-            _walk_out(tab, first[sl], -1, reach, p, b, q)
-            _walk_out(tab, last[sl], +1, reach, p, b, q)
-        best[sl], nearest[sl] = b, q
-    return best, nearest
-
-
-def distance_to_program(
-    moves: Sequence[Move], lines: np.ndarray, pts: np.ndarray
-) -> tuple[np.ndarray, np.ndarray]:
-    """Distance [mm] and nearest commanded point (n, 3) [mm] for points executing ``lines``
-    (see :func:`distance_to_moves`)."""
-    return distance_to_moves(move_table(moves), lines, np.asarray(pts, dtype=float))
 
 
 def _stats(err_um: np.ndarray) -> dict:
@@ -205,7 +110,7 @@ def chord_max_um(
 
 def feed_samples(tab: MoveTable, line: np.ndarray) -> np.ndarray:
     """(N,) True where the sample's line is a feed move's (its last move, if it has several)."""
-    _, last, found = _line_ranges(tab, line)
+    _, last, found = line_ranges(tab, line)
     return found & tab.feed[last]
 
 
@@ -245,6 +150,72 @@ def block_stats(tab: MoveTable, line: np.ndarray, err_um: np.ndarray) -> list[di
     return blocks
 
 
+@dataclass(frozen=True)
+class ChunkAnalysis:
+    """The analysis of consecutive samples of a run.
+
+    Attributes:
+        err_um: (n,) contour error [um]; nearest: (n, 3) nearest commanded point [mm];
+        feed: (n,) feed samples; reference_max_um, tracking_max_um: the parts' maxima over
+        the chunk's feed samples [um] (0 when none).
+    """
+
+    err_um: np.ndarray
+    nearest: np.ndarray
+    feed: np.ndarray
+    reference_max_um: float
+    tracking_max_um: float
+
+
+def reference_context(lo: int, hi: int, total: int) -> tuple[int, int]:
+    """The reference samples [start, stop) that :func:`analyse_chunk` needs for samples
+    lo..hi-1 of a run of ``total``: TRACKING_WINDOW before and TRACKING_WINDOW + 1 after."""
+    return max(0, lo - TRACKING_WINDOW), min(total, hi + TRACKING_WINDOW + 1)
+
+
+def analyse_chunk(
+    tab: MoveTable, line: np.ndarray, pos: np.ndarray, ref_context: np.ndarray, offset: int
+) -> ChunkAnalysis:
+    """Analyse n consecutive samples: ``line`` (n,), ``pos`` (n, 3) [mm]; the reference of
+    sample k is ref_context[offset + k] [mm], the context as :func:`reference_context` gives it.
+    Every figure is that of :func:`analyse` on the whole trace, for these samples."""
+    line = np.asarray(line)
+    pos = np.asarray(pos, dtype=float)
+    ref_context = np.asarray(ref_context, dtype=float)
+    ref = ref_context[offset : offset + len(pos)]
+    feed = feed_samples(tab, line)
+    lag_mm = LAG_REACH * np.linalg.norm(pos - ref, axis=1)
+    dist, nearest = distance_to_moves(tab, line, pos, lag_mm)
+    ref_um = distance_to_moves(tab, line[feed], ref[feed])[0] * UM_PER_MM
+    track_mm = max_distance_to_polyline_near(ref_context, pos, TRACKING_WINDOW, feed, shift=offset)
+    return ChunkAnalysis(
+        err_um=dist * UM_PER_MM,
+        nearest=nearest,
+        feed=feed,
+        reference_max_um=float(ref_um.max()) if ref_um.size else 0.0,
+        tracking_max_um=track_mm * UM_PER_MM,
+    )
+
+
+def combine(
+    tab: MoveTable, line: np.ndarray, chunks: Sequence[ChunkAnalysis], chord_max: float
+) -> Analysis:
+    """The :class:`Analysis` of a whole trace from its chunks in order (``line``: (N,) all
+    samples' lines; ``chord_max``: :func:`chord_max_um` [um])."""
+    err_um = np.concatenate([c.err_um for c in chunks]) if chunks else np.zeros(0)
+    nearest = np.concatenate([c.nearest for c in chunks]) if chunks else np.zeros((0, 3))
+    feed = np.concatenate([c.feed for c in chunks]) if chunks else np.zeros(0, dtype=bool)
+    parts = {
+        "chord_max": chord_max,
+        "reference_max": max((c.reference_max_um for c in chunks), default=0.0),
+        "tracking_max": max((c.tracking_max_um for c in chunks), default=0.0),
+    }
+    blocks = block_stats(tab, np.asarray(line), err_um)
+    for arr in (err_um, nearest, feed):
+        arr.setflags(write=False)
+    return Analysis(err_um, nearest, feed, _stats(err_um[feed]), parts, blocks)
+
+
 def analyse(
     moves: Sequence[Move],
     line: np.ndarray,
@@ -261,20 +232,6 @@ def analyse(
         pos: (N, 3) traced tool tip [mm] (program coordinates).
         vertices: per move, the planner's chord vertices (k, 3) [mm], for the chord part.
     """
-    line = np.asarray(line)
     tab = move_table(moves)
-    feed = feed_samples(tab, line)
-    pos = np.asarray(pos, dtype=float)
-    lag_mm = LAG_REACH * np.linalg.norm(pos - ref, axis=1)
-    dist, nearest = distance_to_moves(tab, line, pos, lag_mm)
-    err_um = dist * UM_PER_MM
-    ref_um = distance_to_moves(tab, line[feed], np.asarray(ref, dtype=float)[feed])[0] * UM_PER_MM
-    parts = {
-        "chord_max": chord_max_um(moves, vertices, tab),
-        "reference_max": float(ref_um.max()) if ref_um.size else 0.0,
-        "tracking_max": max_distance_to_polyline_near(ref, pos, TRACKING_WINDOW, feed) * UM_PER_MM,
-    }
-    blocks = block_stats(tab, line, err_um)
-    for arr in (err_um, nearest, feed):
-        arr.setflags(write=False)
-    return Analysis(err_um, nearest, feed, _stats(err_um[feed]), parts, blocks)
+    whole = analyse_chunk(tab, line, pos, ref, 0)
+    return combine(tab, line, [whole], chord_max_um(moves, vertices, tab))

@@ -83,10 +83,14 @@ def distance_to_polyline_near(path: np.ndarray, pts: np.ndarray, window: int) ->
 
 
 def max_distance_to_polyline_near(
-    path: np.ndarray, pts: np.ndarray, window: int, select: np.ndarray
+    path: np.ndarray, pts: np.ndarray, window: int, select: np.ndarray, shift: int = 0
 ) -> float:
     """max over the samples ``select`` (bool (n,)) of :func:`distance_to_polyline_near` [mm]
     (0 when none), without searching every sample in full.
+
+    ``shift``: pts[k] is the sample at path vertex k + shift -- ``path`` may be a piece of a
+    longer path, holding ``window`` vertices before pts' first sample and window + 1 after its
+    last (fewer only where the whole path ends), which gives the whole path's figures.
 
     A sample's distance is at most that to the two segments meeting at its own vertex (j = -1,
     0); samples are searched in full in decreasing order of that bound, MAX_BATCH at a time,
@@ -95,14 +99,15 @@ def max_distance_to_polyline_near(
     ks = np.flatnonzero(select)
     if ks.size == 0:
         return 0.0
-    if len(pts) < 2:
-        return float(np.linalg.norm(pts - path, axis=1)[ks].max())
+    if len(path) < 2:
+        return float(np.linalg.norm(pts - path[shift : shift + len(pts)], axis=1)[ks].max())
     seg, w = _Padded(path, int(window)), int(window)
 
     def search(ks: np.ndarray, offsets) -> np.ndarray:
         best = np.full(ks.size, np.inf)
         p = [np.ascontiguousarray(pts[ks, i]) for i in range(3)]
-        _min_dist2(seg, p, lambda j: ks + (w + j), offsets, best, np.empty((3, ks.size)))
+        at = lambda j: ks + (w + shift + j)  # noqa: E731
+        _min_dist2(seg, p, at, offsets, best, np.empty((3, ks.size)))
         return best
 
     bound = search(ks, (-1, 0))

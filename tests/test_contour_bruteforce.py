@@ -18,7 +18,7 @@ import pytest
 from gantry_sim.controller.arcs import arc_points
 from gantry_sim.controller.gcode.interpreter import interpret
 from gantry_sim.controller.moves import Arc
-from gantry_sim.sim import contour
+from gantry_sim.sim import contour, program_distance
 from gantry_sim.sim.contour import analyse, distance_to_moves, distance_to_program
 from gantry_sim.sim.move_table import move_table
 
@@ -147,7 +147,7 @@ def test_results_do_not_depend_on_how_the_trace_is_cut(program, monkeypatch):
     tab = move_table(moves)
     reach = np.full(len(pts), 0.05)
     whole = distance_to_moves(tab, lines, pts, reach)
-    monkeypatch.setattr(contour, "TICKS_PER_PASS", 7)
+    monkeypatch.setattr(program_distance, "TICKS_PER_PASS", 7)
     cut = distance_to_moves(tab, lines, pts, reach)
     assert np.array_equal(whole[0], cut[0]) and np.array_equal(whole[1], cut[1])
     order = np.random.default_rng(6).permutation(len(pts))  # and not on the order of the points
