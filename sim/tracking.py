@@ -25,13 +25,16 @@ class _Padded:
     after, so segment s of sample k + j lives at index w + k + j."""
 
     def __init__(self, path: np.ndarray, w: int) -> None:
-        seg_a, seg_d = path[:-1], np.diff(path, axis=0)  # segment s: seg_a[s] + u seg_d[s]
-        a = np.concatenate([np.repeat(seg_a[:1], w, 0), seg_a, np.repeat(seg_a[-1:], w + 1, 0)])
-        d = np.concatenate([np.repeat(seg_d[:1], w, 0), seg_d, np.repeat(seg_d[-1:], w + 1, 0)])
-        length2 = np.einsum("ij,ij->i", d, d)
-        self.inv = np.divide(1.0, length2, out=np.zeros_like(length2), where=length2 > 0)
-        self.a = [np.ascontiguousarray(a[:, i]) for i in range(3)]
-        self.d = [np.ascontiguousarray(d[:, i]) for i in range(3)]
+        seg_d = np.diff(path, axis=0)  # segment s: path[s] + u seg_d[s]
+        length2 = np.einsum("ij,ij->i", seg_d, seg_d)
+        inv = np.divide(1.0, length2, out=np.zeros_like(length2), where=length2 > 0)
+
+        def pad(v: np.ndarray) -> np.ndarray:
+            return np.concatenate([np.full(w, v[0]), v, np.full(w + 1, v[-1])])
+
+        self.inv = pad(inv)
+        self.a = [pad(path[:-1, i]) for i in range(3)]
+        self.d = [pad(seg_d[:, i]) for i in range(3)]
         self.w = w
 
 
@@ -63,23 +66,30 @@ def _min_dist2(seg: _Padded, p, at, offsets, best, scratch) -> None:
         np.minimum(best, s, out=best)
 
 
-def distance_to_polyline_near(path: np.ndarray, pts: np.ndarray, window: int) -> np.ndarray:
-    """Distance [mm] from pts[k] to the polyline ``path`` near its k-th vertex (see the module
-    docstring); both (n, 3) sampled at the same instants (the reference and the trace). One
-    vectorised pass per offset over blocks of POLYLINE_BLOCK samples, in place."""
-    n = len(pts)
-    if n < 2:
-        return np.linalg.norm(pts - path, axis=1)
-    seg, w = _Padded(path, int(window)), int(window)
+def _blocked(seg: _Padded, pts: np.ndarray, shift: int, offsets) -> np.ndarray:
+    """min over ``offsets`` of dist^2 [mm^2] for every point of pts (n, 3), pts[k] at path
+    vertex k + shift: contiguous slices, POLYLINE_BLOCK points at a time, in place."""
+    n, w = len(pts), seg.w
     comps = [np.ascontiguousarray(pts[:, i]) for i in range(3)]
     best = np.full(n, np.inf)
     scratch = np.empty((3, min(n, POLYLINE_BLOCK)))
     for k0 in range(0, n, POLYLINE_BLOCK):
         m = min(n, k0 + POLYLINE_BLOCK) - k0
         p = [c[k0 : k0 + m] for c in comps]
-        at = lambda j, k0=k0, m=m: slice(w + j + k0, w + j + k0 + m)  # noqa: E731
-        _min_dist2(seg, p, at, range(-w, w), best[k0 : k0 + m], scratch[:, :m])
-    return np.sqrt(best)
+        first = w + shift + k0
+        at = lambda j, first=first, m=m: slice(first + j, first + j + m)  # noqa: E731
+        _min_dist2(seg, p, at, offsets, best[k0 : k0 + m], scratch[:, :m])
+    return best
+
+
+def distance_to_polyline_near(path: np.ndarray, pts: np.ndarray, window: int) -> np.ndarray:
+    """Distance [mm] from pts[k] to the polyline ``path`` near its k-th vertex (see the module
+    docstring); both (n, 3) sampled at the same instants (the reference and the trace). One
+    vectorised pass per offset over blocks of POLYLINE_BLOCK samples, in place."""
+    if len(pts) < 2:
+        return np.linalg.norm(pts - path, axis=1)
+    w = int(window)
+    return np.sqrt(_blocked(_Padded(path, w), pts, 0, range(-w, w)))
 
 
 def max_distance_to_polyline_near(
@@ -110,7 +120,7 @@ def max_distance_to_polyline_near(
         _min_dist2(seg, p, at, offsets, best, np.empty((3, ks.size)))
         return best
 
-    bound = search(ks, (-1, 0))
+    bound = _blocked(seg, pts, shift, (-1, 0))[ks]
     found = -np.inf
     while ks.size:
         if ks.size > MAX_BATCH:
