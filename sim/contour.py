@@ -2,7 +2,9 @@
 
 Every sample k carries the program line being executed (the trajectory's ``line``). Its contour
 error is the distance to the nearest point of that line's move(s) and their neighbours in program
-order (near a block junction the tool may be just before or after it). Parts (all [um]):
+order (near a block junction the tool may be just before or after it), and of the moves within
+LAG_REACH x |pos - ref| of path beyond them (a tool lagging several short moves): see
+sim/program_distance.py. Parts (all [um]):
 
 * chord: how far the chords (the planner's vertices) leave the true arcs -- segmentation;
 * reference: how far the reference samples leave the geometry -- planning;
@@ -10,6 +12,12 @@ order (near a block junction the tool may be just before or after it). Parts (al
   samples, searched near the same instant) -- the servo and the machine.
 
 Statistics cover the feed moves only (G1/G2/G3): rapids are not cutting.
+
+In pieces: :func:`analyse_chunk` analyses any run of consecutive samples given the reference
+TRACKING_WINDOW samples either side of it (:func:`reference_context`); :func:`combine` joins the
+pieces into exactly the :class:`Analysis` of the whole trace. What a streaming run carries from
+piece to piece is only the move table, the running maxima of the reference and tracking parts,
+and each sample's err_um and line (for the rms, p95 and per-block figures at the end).
 """
 
 from __future__ import annotations
@@ -19,12 +27,34 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from gantry_sim.controller.moves import Arc, Move
+from gantry_sim.controller.moves import Move
 from gantry_sim.controller.units import UM_PER_MM
-from gantry_sim.sim.nearest import distance_to_polyline_near, nearest_on_move
+from gantry_sim.sim.move_table import MoveTable, move_table
+from gantry_sim.sim.nearest import nearest_on_moves
+from gantry_sim.sim.program_distance import distance_to_moves, distance_to_program, line_ranges
+
+__all__ = [
+    "Analysis",
+    "BlockError",
+    "ChunkAnalysis",
+    "ContourStats",
+    "ErrorParts",
+    "analyse",
+    "analyse_chunk",
+    "block_stats",
+    "chord_max_um",
+    "combine",
+    "distance_to_moves",
+    "distance_to_program",
+    "feed_samples",
+    "reference_context",
+]
+from gantry_sim.sim.tracking import max_distance_to_polyline_near
 
 #: reference samples either side searched for the tracking part (50 ms at 1 kHz)
 TRACKING_WINDOW = 50
+#: path searched beyond a sample's own moves, per mm the tool is from the reference
+LAG_REACH = 2.0
 #: points along each chord checked for the chord part (fractions of the chord)
 CHORD_FRACTIONS = (0.25, 0.5, 0.75)
 
@@ -96,48 +126,6 @@ class Analysis:
     blocks: tuple[BlockError, ...]
 
 
-def _candidate_ranges(moves: Sequence[Move], lines: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Per sample, the first and last move index to compare with (its own moves +- 1)."""
-    first: dict[int, int] = {}
-    last: dict[int, int] = {}
-    for j, mv in enumerate(moves):
-        first.setdefault(mv.line, j)
-        last[mv.line] = j
-    uniq, inv = np.unique(lines, return_inverse=True)
-    m = len(moves)
-    lo_u = np.array([max(0, first[int(v)] - 1) if int(v) in first else 0 for v in uniq])
-    hi_u = np.array([min(m - 1, last[int(v)] + 1) if int(v) in last else m - 1 for v in uniq])
-    return lo_u[inv], hi_u[inv]
-
-
-def distance_to_program(
-    moves: Sequence[Move], lines: np.ndarray, pts: np.ndarray
-) -> tuple[np.ndarray, np.ndarray]:
-    """Distance [mm] and nearest commanded point (n, 3) [mm] for points executing ``lines``."""
-    n = len(pts)
-    best = np.full(n, np.inf)
-    nearest = np.array(pts, dtype=float, copy=True)
-    if not moves or n == 0:
-        return np.zeros(n), nearest
-    lo, hi = _candidate_ranges(moves, np.asarray(lines))
-    monotone = bool(np.all(np.diff(lo) >= 0) and np.all(np.diff(hi) >= 0))
-    for j, mv in enumerate(moves):
-        if monotone:  # samples comparing with move j form one contiguous run
-            a, b = np.searchsorted(hi, j, "left"), np.searchsorted(lo, j, "right")
-            idx = np.arange(a, max(a, b))
-            idx = idx[lo[idx] <= j]
-        else:
-            idx = np.flatnonzero((lo <= j) & (j <= hi))
-        if idx.size == 0:
-            continue
-        q = nearest_on_move(mv, pts[idx])
-        dist = np.linalg.norm(q - pts[idx], axis=1)
-        better = dist < best[idx]
-        best[idx[better]] = dist[better]
-        nearest[idx[better]] = q[better]
-    return best, nearest
-
-
 def _stats(err_um: np.ndarray) -> ContourStats:
     if err_um.size == 0:
         return ContourStats(0.0, 0.0, 0.0)
@@ -148,19 +136,126 @@ def _stats(err_um: np.ndarray) -> ContourStats:
     )
 
 
-def chord_max_um(moves: Sequence[Move], vertices: Sequence[np.ndarray] | None) -> float:
+def chord_max_um(
+    moves: Sequence[Move], vertices: Sequence[np.ndarray] | None, tab: MoveTable | None = None
+) -> float:
     """Largest distance of the chords between each arc's vertices from the arc [um]."""
-    worst = 0.0
     if vertices is None:
-        return worst
-    for mv, verts in zip(moves, vertices, strict=True):
+        return 0.0
+    tab = move_table(moves) if tab is None else tab
+    pts, owner = [], []
+    for j, verts in enumerate(vertices):
         verts = np.asarray(verts, dtype=float).reshape(-1, 3)
-        if not isinstance(mv, Arc) or len(verts) < 2:
+        if not tab.arc[j] or len(verts) < 2:
             continue
-        pts = np.concatenate([verts[:-1] + f * (verts[1:] - verts[:-1]) for f in CHORD_FRACTIONS])
-        dist = np.linalg.norm(nearest_on_move(mv, pts) - pts, axis=1)
-        worst = max(worst, float(dist.max()) * UM_PER_MM)
-    return worst
+        pts += [verts[:-1] + f * (verts[1:] - verts[:-1]) for f in CHORD_FRACTIONS]
+        owner.append(np.full(len(CHORD_FRACTIONS) * (len(verts) - 1), j))
+    if not pts:
+        return 0.0
+    p = np.concatenate(pts)
+    dist = np.linalg.norm(nearest_on_moves(tab, np.concatenate(owner), p) - p, axis=1)
+    return float(dist.max()) * UM_PER_MM
+
+
+def feed_samples(tab: MoveTable, line: np.ndarray) -> np.ndarray:
+    """(N,) True where the sample's line is a feed move's (its last move, if it has several)."""
+    _, last, found = line_ranges(tab, line)
+    return found & tab.feed[last]
+
+
+def block_stats(tab: MoveTable, line: np.ndarray, err_um: np.ndarray) -> tuple[BlockError, ...]:
+    """Per feed line in program order: its largest and rms error over the samples executing it
+    (0 when none do).
+
+    One stable sort of the samples by line, then one slice per block: linear in the samples.
+    The sum of squares is numpy's pairwise sum of each block's samples in time order, so the
+    figures are those of a direct ``np.mean`` over the block's samples.
+    """
+    feed_moves = np.flatnonzero(tab.feed)
+    block_lines, first = np.unique(tab.line[feed_moves], return_index=True)
+    in_order = np.argsort(first, kind="stable")
+    block_lines, kinds = block_lines[in_order], tab.arc[feed_moves[first[in_order]]]
+    by_line = np.argsort(line, kind="stable")
+    sorted_lines = line[by_line]
+    err = err_um[by_line]
+    sq = err**2
+    lo = np.searchsorted(sorted_lines, block_lines, "left").tolist()
+    hi = np.searchsorted(sorted_lines, block_lines, "right").tolist()
+    add, biggest = np.add.reduce, np.maximum.reduce
+    blocks: list[BlockError] = []
+    for ln, is_arc, a, b in zip(block_lines.tolist(), kinds.tolist(), lo, hi, strict=True):
+        if b > a:
+            peak, rms = float(biggest(err[a:b])), float(np.sqrt(add(sq[a:b]) / (b - a)))
+        else:
+            peak = rms = 0.0
+        blocks.append(BlockError(ln, "arc" if is_arc else "linear", peak, rms))
+    return tuple(blocks)
+
+
+@dataclass(frozen=True)
+class ChunkAnalysis:
+    """The analysis of consecutive samples of a run.
+
+    Attributes:
+        err_um: (n,) contour error [um]; nearest: (n, 3) nearest commanded point [mm];
+        feed: (n,) feed samples; reference_max_um, tracking_max_um: the parts' maxima over
+        the chunk's feed samples [um] (0 when none).
+    """
+
+    err_um: np.ndarray
+    nearest: np.ndarray
+    feed: np.ndarray
+    reference_max_um: float
+    tracking_max_um: float
+
+
+def reference_context(lo: int, hi: int, total: int) -> tuple[int, int]:
+    """The reference samples [start, stop) that :func:`analyse_chunk` needs for samples
+    lo..hi-1 of a run of ``total``: TRACKING_WINDOW before and TRACKING_WINDOW + 1 after."""
+    return max(0, lo - TRACKING_WINDOW), min(total, hi + TRACKING_WINDOW + 1)
+
+
+def analyse_chunk(
+    tab: MoveTable, line: np.ndarray, pos: np.ndarray, ref_context: np.ndarray, offset: int
+) -> ChunkAnalysis:
+    """Analyse n consecutive samples: ``line`` (n,), ``pos`` (n, 3) [mm]; the reference of
+    sample k is ref_context[offset + k] [mm], the context as :func:`reference_context` gives it.
+    Every figure is that of :func:`analyse` on the whole trace, for these samples."""
+    line = np.asarray(line)
+    pos = np.asarray(pos, dtype=float)
+    ref_context = np.asarray(ref_context, dtype=float)
+    ref = ref_context[offset : offset + len(pos)]
+    feed = feed_samples(tab, line)
+    lag_mm = LAG_REACH * np.linalg.norm(pos - ref, axis=1)
+    dist, nearest = distance_to_moves(tab, line, pos, lag_mm)
+    ref_um = distance_to_moves(tab, line[feed], ref[feed])[0] * UM_PER_MM
+    track_mm = max_distance_to_polyline_near(ref_context, pos, TRACKING_WINDOW, feed, shift=offset)
+    return ChunkAnalysis(
+        err_um=dist * UM_PER_MM,
+        nearest=nearest,
+        feed=feed,
+        reference_max_um=float(ref_um.max()) if ref_um.size else 0.0,
+        tracking_max_um=track_mm * UM_PER_MM,
+    )
+
+
+def combine(
+    tab: MoveTable, line: np.ndarray, chunks: Sequence[ChunkAnalysis], chord_max: float
+) -> Analysis:
+    """The :class:`Analysis` of a whole trace from its chunks in order (``line``: (N,) all
+    samples' lines; ``chord_max``: :func:`chord_max_um` [um])."""
+    err_um = np.concatenate([c.err_um for c in chunks]) if chunks else np.zeros(0)
+    nearest = np.concatenate([c.nearest for c in chunks]) if chunks else np.zeros((0, 3))
+    feed = np.concatenate([c.feed for c in chunks]) if chunks else np.zeros(0, dtype=bool)
+    parts = ErrorParts(
+        chord_max_um=chord_max,
+        reference_max_um=max((c.reference_max_um for c in chunks), default=0.0),
+        tracking_max_um=max((c.tracking_max_um for c in chunks), default=0.0),
+    )
+    blocks = block_stats(tab, np.asarray(line), err_um)
+    for arr in (err_um, nearest, feed):
+        arr.setflags(write=False)
+    return Analysis(err_um, nearest, feed, _stats(err_um[feed]), parts, blocks)
 
 
 def analyse(
@@ -179,27 +274,6 @@ def analyse(
         pos: (N, 3) traced tool tip [mm] (program coordinates).
         vertices: per move, the planner's chord vertices (k, 3) [mm], for the chord part.
     """
-    line = np.asarray(line)
-    kind_of = {mv.line: mv.kind for mv in moves}
-    feed = np.array([kind_of.get(int(v), "rapid") != "rapid" for v in line], dtype=bool)
-    dist, nearest = distance_to_program(moves, line, pos)
-    err_um = dist * UM_PER_MM
-    ref_um = distance_to_program(moves, line[feed], ref[feed])[0] * UM_PER_MM
-    track_um = distance_to_polyline_near(ref, pos, TRACKING_WINDOW)[feed] * UM_PER_MM
-    blocks: list[BlockError] = []
-    seen: set[int] = set()
-    for mv in moves:
-        if mv.kind == "rapid" or mv.line in seen:
-            continue
-        seen.add(mv.line)
-        e = err_um[line == mv.line]
-        s = _stats(e)
-        blocks.append(BlockError(int(mv.line), mv.kind, s.max_um, s.rms_um))
-    parts = ErrorParts(
-        chord_max_um=chord_max_um(moves, vertices),
-        reference_max_um=float(ref_um.max()) if ref_um.size else 0.0,
-        tracking_max_um=float(track_um.max()) if track_um.size else 0.0,
-    )
-    for arr in (err_um, nearest, feed):
-        arr.setflags(write=False)
-    return Analysis(err_um, nearest, feed, _stats(err_um[feed]), parts, tuple(blocks))
+    tab = move_table(moves)
+    whole = analyse_chunk(tab, line, pos, ref, 0)
+    return combine(tab, line, [whole], chord_max_um(moves, vertices, tab))

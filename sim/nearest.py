@@ -1,113 +1,221 @@
-"""Nearest points on the COMMANDED geometry: line segments, arcs, helices (vectorised).
+"""Nearest points on the COMMANDED geometry: line segments, arcs, helices, vectorised over points
+that may each belong to a different move.
 
 Used by the analysis to measure contour error against what the program asked for (true arcs from
-controller/arcs.py, not the chords). All coordinates are program (work) coordinates [mm].
+controller/arcs.py, not the chords). All coordinates are program (work) coordinates [mm]. The
+moves are first laid out as arrays (:class:`MoveTable`, one row per move); every function then
+takes, per point, the index of the move to project it on, so one call covers any mix of moves.
 
+Segment a-b: u = clip((q - a).d / d.d, 0, 1) with d = b - a, nearest point a + u d.
 Arc / helix (parametrised by the sweep fraction u in [0, 1], see controller.arcs):
   1. angle projection: the point's polar angle phi about the centre gives the sweep fractions
      u_k = (sigma (phi - theta0) mod 2 pi + 2 pi k) / A, one per turn k = 0..ceil(A / 2 pi);
      with the ends u = 0 and u = 1 they are the candidates (clamped to [0, 1]); the closest
-     wins. For a planar arc of constant radius this is exact: the distance grows with the angle
-     off phi.
+     wins (the first one on a tie). For a planar arc of constant radius this is exact: the
+     distance grows with the angle off phi.
   2. helix or spiral (height or radius changing with u): a few guarded Newton steps on
      f(u) = |p(u) - q|^2 from the best candidate (f' = 2 (p - q).p', f'' = 2 (p'.p' + (p - q).p'')),
      clamped to [0, 1], each accepted only when it lowers f.
+
+Every point's result depends on that point and its move only (not on which other points share
+the call), so a trace may be cut anywhere and analysed piece by piece with identical numbers.
 """
 
 from __future__ import annotations
 
 import math
+from dataclasses import dataclass, fields
+from functools import cached_property
 
 import numpy as np
-from numpy.typing import ArrayLike
 
-from gantry_sim.controller.arcs import arc_derivatives, arc_frame, arc_points
-from gantry_sim.controller.moves import Arc, Move
+from gantry_sim.sim.move_table import MoveTable, move_table
+
+__all__ = [
+    "MoveTable",
+    "move_table",
+    "nearest_on_arc",
+    "nearest_on_move",
+    "nearest_on_moves",
+]
 
 NEWTON_STEPS = 6
+TWO_PI = 2.0 * math.pi
 
 
-def nearest_on_segment(a: ArrayLike, b: ArrayLike, pts: np.ndarray) -> np.ndarray:
-    """Nearest points (n, 3) on the segment a-b [mm] to ``pts`` (n, 3) [mm]."""
-    a = np.asarray(a, dtype=float)
-    d = np.asarray(b, dtype=float) - a
-    length2 = float(d @ d)
-    if length2 == 0.0:
-        return np.broadcast_to(a, pts.shape).copy()
-    u = np.clip(((pts - a) @ d) / length2, 0.0, 1.0)
-    return a + u[:, None] * d
+def _dot_rows(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    return np.einsum("ij,ij->i", a, b)
 
 
-def _arc_eval(arc: Arc, u: np.ndarray, pts: np.ndarray) -> np.ndarray:
-    """Squared distance [mm^2] from pts (n, 3) to the arc points at u (n,)."""
-    diff = arc_points(arc, u) - pts
-    return np.einsum("ij,ij->i", diff, diff)
+def _segment_projection(tab: MoveTable, idx: np.ndarray, pts: np.ndarray) -> np.ndarray:
+    """(q - a).d for points ``pts`` (n, 3) on segments ``idx`` (n,), one matrix-vector product
+    per segment over its points (in point order; a lone point is doubled, so that every point
+    takes the same BLAS kernel whatever else shares the call)."""
+    order = np.argsort(idx, kind="stable")
+    sorted_idx = idx[order]
+    cuts = np.flatnonzero(np.diff(sorted_idx)) + 1
+    starts = np.concatenate([[0], cuts]).tolist()
+    ends = np.concatenate([cuts, [len(idx)]]).tolist()
+    rel = pts[order]
+    out = np.empty(len(idx))
+    start, seg_d = tab.start, tab.seg_d
+    for s, e, j in zip(starts, ends, sorted_idx[starts].tolist(), strict=True):
+        if e - s == 1:
+            out[s] = ((np.repeat(rel[s : s + 1], 2, axis=0) - start[j]) @ seg_d[j])[0]
+        else:
+            out[s:e] = (rel[s:e] - start[j]) @ seg_d[j]
+    proj = np.empty(len(idx))
+    proj[order] = out
+    return proj
 
 
-def nearest_on_arc(arc: Arc, pts: np.ndarray) -> np.ndarray:
-    """Nearest points (n, 3) on the arc or helix ``arc`` [mm] to ``pts`` (n, 3) [mm]."""
-    i1, i2, _, theta0, sigma, r0, r1, h0, h1 = arc_frame(arc)
-    c = arc.center
-    phi = np.arctan2(pts[:, i2] - c[i2], pts[:, i1] - c[i1])
-    base = np.mod(sigma * (phi - theta0), 2.0 * math.pi)
-    turns = math.ceil(arc.angle / (2.0 * math.pi))
-    cands = [np.zeros(len(pts)), np.ones(len(pts))]
-    cands += [np.clip((base + 2.0 * math.pi * k) / arc.angle, 0.0, 1.0) for k in range(turns + 1)]
-    best_u = cands[0]
-    best_f = _arc_eval(arc, best_u, pts)
-    for u in cands[1:]:
-        f = _arc_eval(arc, u, pts)
-        better = f < best_f
-        best_u = np.where(better, u, best_u)
-        best_f = np.where(better, f, best_f)
-    if h1 != h0 or r1 != r0:
-        for _ in range(NEWTON_STEPS):
-            p = arc_points(arc, best_u) - pts
-            d1, d2 = arc_derivatives(arc, best_u)
-            g = np.einsum("ij,ij->i", p, d1)
-            h = np.einsum("ij,ij->i", d1, d1) + np.einsum("ij,ij->i", p, d2)
-            step = np.where(h > 0, g / np.where(h > 0, h, 1.0), 0.0)
-            u = np.clip(best_u - step, 0.0, 1.0)
-            f = _arc_eval(arc, u, pts)
-            better = f < best_f
-            best_u = np.where(better, u, best_u)
-            best_f = np.where(better, f, best_f)
-    return arc_points(arc, best_u)
+def _nearest_on_segments(tab: MoveTable, idx: np.ndarray, pts: np.ndarray) -> np.ndarray:
+    length2 = tab.length2[idx]
+    zero = length2 == 0.0
+    u = _segment_projection(tab, idx, pts) / np.where(zero, 1.0, length2)
+    u = np.where(zero, 0.0, np.clip(u, 0.0, 1.0))
+    return tab.start[idx] + u[:, None] * tab.seg_d[idx]
 
 
-def nearest_on_move(move: Move, pts: np.ndarray) -> np.ndarray:
+@dataclass(frozen=True)
+class _Arcs:
+    """The arc fields of a MoveTable gathered for a set of points (one arc per point; see
+    MoveTable for each field)."""
+
+    axes: np.ndarray
+    c1: np.ndarray
+    c2: np.ndarray
+    theta0: np.ndarray
+    s_angle: np.ndarray
+    angle: np.ndarray
+    r0: np.ndarray
+    dr: np.ndarray
+    h0: np.ndarray
+    dh: np.ndarray
+    k2: np.ndarray
+    end: np.ndarray
+
+    @classmethod
+    def gather(cls, source: MoveTable | _Arcs, idx: np.ndarray) -> _Arcs:
+        return cls(**{f.name: getattr(source, f.name)[idx] for f in fields(cls)})
+
+    def subset(self, keep: np.ndarray) -> _Arcs:
+        return _Arcs.gather(self, keep)
+
+    @cached_property
+    def rows(self) -> np.ndarray:
+        return np.arange(len(self.c1))
+
+    @cached_property
+    def cols(self) -> tuple[int, ...] | None:
+        """The (first, second, normal) columns when every row shares one plane, else None."""
+        axes = self.axes
+        return tuple(axes[0].tolist()) if len(axes) and (axes == axes[0]).all() else None
+
+    def _place(self, out: np.ndarray, first, second, normal) -> None:
+        if self.cols is not None:
+            i1, i2, n = self.cols
+            out[:, i1], out[:, i2], out[:, n] = first, second, normal
+        else:
+            axes = self.axes
+            out[self.rows, axes[:, 0]] = first
+            out[self.rows, axes[:, 1]] = second
+            out[self.rows, axes[:, 2]] = normal
+
+    def points(self, u: np.ndarray) -> np.ndarray:
+        """Points (n, 3) at sweep fractions u (n,), as controller.arcs.arc_points."""
+        theta = self.theta0 + self.s_angle * u
+        r = self.r0 + self.dr * u
+        out = np.empty((u.size, 3))
+        self._place(
+            out, self.c1 + r * np.cos(theta), self.c2 + r * np.sin(theta), self.h0 + self.dh * u
+        )
+        at_end = u == 1.0
+        if at_end.any():
+            out[at_end] = self.end[at_end]
+        return out
+
+    def derivatives(self, u: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """dp/du and d2p/du2 (n, 3) [mm], as controller.arcs.arc_derivatives."""
+        a = self.s_angle
+        theta = self.theta0 + a * u
+        r = self.r0 + self.dr * u
+        cos_t, sin_t = np.cos(theta), np.sin(theta)
+        d1 = np.empty((u.size, 3))
+        d2 = np.empty((u.size, 3))
+        self._place(d1, self.dr * cos_t - r * a * sin_t, self.dr * sin_t + r * a * cos_t, self.dh)
+        ra2 = r * a * a
+        self._place(d2, -self.k2 * sin_t - ra2 * cos_t, self.k2 * cos_t - ra2 * sin_t, 0.0)
+        return d1, d2
+
+
+def _nearest_on_arcs(tab: MoveTable, idx: np.ndarray, pts: np.ndarray) -> np.ndarray:
+    """Nearest points on arcs ``idx`` (see the module docstring). A candidate clamped to u = 0
+    or 1 is the start or end point again (never strictly nearer), so it is not evaluated; the
+    best candidate's point is kept rather than evaluated again."""
+    arcs = _Arcs.gather(tab, idx)
+    rows, n = arcs.rows, len(idx)
+    p1 = pts[rows, arcs.axes[:, 0]] - arcs.c1
+    p2 = pts[rows, arcs.axes[:, 1]] - arcs.c2
+    base = np.mod(tab.sigma[idx] * (np.arctan2(p2, p1) - arcs.theta0), TWO_PI)
+    best_u = np.zeros(n)
+    best_p = tab.arc_start[idx]
+    best_f = _dot_rows(best_p - pts, best_p - pts)
+    f = _dot_rows(arcs.end - pts, arcs.end - pts)
+    better = f < best_f
+    best_u[better], best_p[better], best_f[better] = 1.0, arcs.end[better], f[better]
+    turns = tab.turns[idx]
+    for k in range(int(turns.max(initial=0)) + 1):
+        u = np.clip((base + TWO_PI * k) / arcs.angle, 0.0, 1.0)
+        on = np.flatnonzero((turns >= k) & (u > 0.0) & (u < 1.0))
+        sub = arcs if on.size == n else arcs.subset(on)
+        pt = sub.points(u[on])
+        f = _dot_rows(pt - pts[on], pt - pts[on])
+        better = f < best_f[on]
+        on = on[better]
+        best_u[on], best_p[on], best_f[on] = u[on], pt[better], f[better]
+    # Newton on helices and spirals; a rejected step leaves u as it was, so every later step
+    # would repeat it: a row leaves the iteration at its first rejected step
+    live = np.flatnonzero(tab.newton[idx])
+    for _ in range(NEWTON_STEPS):
+        if not live.size:
+            break
+        sub = arcs if live.size == n else arcs.subset(live)
+        q, u0 = pts[live], best_u[live]
+        p = best_p[live] - q
+        d1, d2 = sub.derivatives(u0)
+        g = _dot_rows(p, d1)
+        h = _dot_rows(d1, d1) + _dot_rows(p, d2)
+        step = np.where(h > 0, g / np.where(h > 0, h, 1.0), 0.0)
+        u = np.clip(u0 - step, 0.0, 1.0)
+        pt = sub.points(u)
+        f = _dot_rows(pt - q, pt - q)
+        better = f < best_f[live]
+        live = live[better]
+        best_u[live], best_p[live], best_f[live] = u[better], pt[better], f[better]
+    return best_p
+
+
+def nearest_on_moves(tab: MoveTable, idx: np.ndarray, pts: np.ndarray) -> np.ndarray:
+    """Nearest points (n, 3) [mm] to ``pts`` (n, 3) [mm], point i on move ``idx[i]`` of ``tab``."""
+    idx = np.asarray(idx, dtype=np.intp)
+    pts = np.asarray(pts, dtype=float).reshape(-1, 3)
+    out = np.empty_like(pts)
+    is_arc = tab.arc[idx]
+    seg, arc = np.flatnonzero(~is_arc), np.flatnonzero(is_arc)
+    if seg.size:
+        out[seg] = _nearest_on_segments(tab, idx[seg], pts[seg])
+    if arc.size:
+        out[arc] = _nearest_on_arcs(tab, idx[arc], pts[arc])
+    return out
+
+
+def nearest_on_move(move, pts: np.ndarray) -> np.ndarray:
     """Nearest points (n, 3) on one commanded move (line or arc) [mm]."""
     pts = np.asarray(pts, dtype=float).reshape(-1, 3)
-    if isinstance(move, Arc):
-        return nearest_on_arc(move, pts)
-    return nearest_on_segment(move.start, move.end, pts)
+    return nearest_on_moves(move_table((move,)), np.zeros(len(pts), dtype=np.intp), pts)
 
 
-def distance_to_polyline_near(path: np.ndarray, pts: np.ndarray, window: int) -> np.ndarray:
-    """Distance [mm] from pts[k] to the polyline ``path`` near its k-th vertex.
-
-    Both are (n, 3) sampled at the same instants (the reference and the trace); the segments
-    path[s] - path[s + 1] for s = k - window .. k + window - 1 (clipped to the path) are searched,
-    one vectorised pass per offset, on contiguous slices of edge-padded component arrays.
-    """
-    n = len(pts)
-    if n < 2:
-        return np.linalg.norm(pts - path, axis=1)
-    w = int(window)
-    seg_a, seg_d = path[:-1], np.diff(path, axis=0)  # segment s: seg_a[s] + u seg_d[s]
-    a = np.concatenate([np.repeat(seg_a[:1], w, 0), seg_a, np.repeat(seg_a[-1:], w + 1, 0)])
-    d = np.concatenate([np.repeat(seg_d[:1], w, 0), seg_d, np.repeat(seg_d[-1:], w + 1, 0)])
-    length2 = np.einsum("ij,ij->i", d, d)
-    inv = np.divide(1.0, length2, out=np.zeros_like(length2), where=length2 > 0)
-    ax, ay, az = (np.ascontiguousarray(a[:, i]) for i in range(3))
-    dx, dy, dz = (np.ascontiguousarray(d[:, i]) for i in range(3))
-    px, py, pz = (np.ascontiguousarray(pts[:, i]) for i in range(3))
-    best = np.full(n, np.inf)
-    for j in range(-w, w):
-        sl = slice(w + j, w + j + n)
-        sx, sy, sz, ex, ey, ez = ax[sl], ay[sl], az[sl], dx[sl], dy[sl], dz[sl]
-        u = ((px - sx) * ex + (py - sy) * ey + (pz - sz) * ez) * inv[sl]
-        np.clip(u, 0.0, 1.0, out=u)
-        dist2 = (sx + u * ex - px) ** 2 + (sy + u * ey - py) ** 2 + (sz + u * ez - pz) ** 2
-        np.minimum(best, dist2, out=best)
-    return np.sqrt(best)
+def nearest_on_arc(arc, pts: np.ndarray) -> np.ndarray:
+    """Nearest points (n, 3) on the arc or helix ``arc`` [mm] to ``pts`` (n, 3) [mm]."""
+    return nearest_on_move(arc, pts)

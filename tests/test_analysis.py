@@ -10,7 +10,8 @@ import pytest
 from gantry_sim.controller.arcs import arc_derivatives, arc_points
 from gantry_sim.controller.gcode.interpreter import interpret
 from gantry_sim.sim.contour import BlockError, analyse, distance_to_program
-from gantry_sim.sim.nearest import distance_to_polyline_near, nearest_on_arc
+from gantry_sim.sim.nearest import nearest_on_arc
+from gantry_sim.sim.tracking import distance_to_polyline_near
 
 
 def _moves(text: str):
@@ -89,3 +90,21 @@ def test_tracking_distance_to_the_reference_polyline_matches_brute_force():
             best = min(best, float(np.linalg.norm(a + u * d - p)))
         expect.append(best)
     assert distance_to_polyline_near(path, pts, window) == pytest.approx(expect, abs=1e-12)
+
+
+@pytest.mark.parametrize("batch", [3, 4096])
+def test_the_largest_tracking_distance_equals_the_full_search(monkeypatch, batch):
+    from gantry_sim.sim import tracking
+
+    monkeypatch.setattr(tracking, "MAX_BATCH", batch)  # 3: many passes of the pruned search
+    rng = np.random.default_rng(1)
+    t = np.linspace(0, 6 * np.pi, 3000)
+    path = np.column_stack([np.cos(t), np.sin(3 * t), 0.1 * t])  # turns back on itself
+    path[1000:1010] = path[1000]  # a stop: zero-length segments
+    pts = path + rng.normal(scale=0.01, size=path.shape)
+    pts[2000] += 0.5  # one far outlier, and a selection that leaves it out
+    full = distance_to_polyline_near(path, pts, 50)
+    select = rng.random(len(t)) < 0.7
+    for sel in (select, np.ones(len(t), dtype=bool), select & (np.arange(len(t)) != 2000)):
+        assert tracking.max_distance_to_polyline_near(path, pts, 50, sel) == full[sel].max()
+    assert tracking.max_distance_to_polyline_near(path, pts, 50, np.zeros(len(t), bool)) == 0.0

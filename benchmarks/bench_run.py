@@ -1,0 +1,243 @@
+"""End-to-end benchmark of ``gantry run`` on CAM-like programs: stage times, peak memory, and the
+wall time over MuJoCo alone stepping the same motion.
+
+    python benchmarks/bench_run.py                  1k and 10k blocks of each kind (~20 min)
+    python benchmarks/bench_run.py --big            and 100k blocks (about an hour more)
+    python benchmarks/bench_run.py --sizes 1000 --kinds arcs --no-baseline     (quick)
+
+Programs: benchmarks/programs.py (tangent arcs with S-bends, 0.05-0.5 mm G1 polylines, mixed
+G0/G1/G2/G3 contours with corners), seeded. Each program runs in a fresh subprocess, through the
+public API as ``gantry run`` does (run_program, then write_run_outputs into a temporary folder);
+the subprocess reports:
+
+* stage times [s]: parse, plan, simulate, analyse (report.json's timing_s) and plots+npz (the
+  writing of report.json, trace.npz and the PNGs);
+* peak memory: the subprocess' maximum resident set (getrusage ru_maxrss) right after the run,
+  before anything else is measured;
+* MuJoCo alone: the same model stepped open loop through the same motion -- the run's held
+  forces replayed from the same initial state by ``mujoco.rollout`` (as bench_sim.py does), in
+  pieces of REPLAY_STEPS physics steps; the ratio end-to-end / MuJoCo alone is printed with and
+  without the planning stage (the planner's own benchmark owns planning);
+* before/after analysis: the analysis of THIS tree and that of git revision BASELINE_REV (the
+  last one before the vectorised search: its sim/contour.py and sim/nearest.py are read with
+  ``git show`` and imported from a temporary folder), timed on the very arguments the run passed
+  to ``analyse``, and their results compared (err_um bit for bit, the report figures exactly).
+
+The growth law printed at the end is the exponent b of time ~ ticks^b (and of the peak memory
+above the 1k run's) between the smallest and the largest size of each kind.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import math
+import resource
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parent.parent
+sys.path.insert(0, str(ROOT))
+
+#: the revision whose analysis is the "before" (the parent of the vectorised search)
+BASELINE_REV = "1834131"
+#: physics steps per mujoco.rollout call when replaying (bounds the replay's state output)
+REPLAY_STEPS = 200_000
+KINDS = ("arcs", "poly", "mixed")
+STAGES = ("parse", "plan", "simulate", "analyse", "write")
+
+
+def _load_baseline(rev: str, folder: Path):
+    """The analyse() of git revision ``rev``, imported from ``folder`` (None without git)."""
+    import importlib.util
+
+    sources = {}
+    for name in ("nearest", "contour"):
+        res = subprocess.run(
+            ["git", "show", f"{rev}:sim/{name}.py"], cwd=ROOT, capture_output=True, text=True
+        )
+        if res.returncode != 0:
+            return None
+        sources[name] = res.stdout
+    sources["contour"] = sources["contour"].replace(
+        "from gantry_sim.sim.nearest import", "from baseline_nearest import"
+    )
+    sys.path.insert(0, str(folder))
+    for name, text in sources.items():
+        (folder / f"baseline_{name}.py").write_text(text)
+    spec = importlib.util.spec_from_file_location(
+        "baseline_contour", folder / "baseline_contour.py"
+    )
+    module = importlib.util.module_from_spec(spec)
+    sys.modules["baseline_contour"] = module  # dataclasses look their module up
+    spec.loader.exec_module(module)
+    return module.analyse
+
+
+def _replay_s(gantry, start_mm, force) -> float:
+    """Wall time [s] of MuJoCo alone: the held forces (N, 3) [N], one row per servo tick,
+    stepped open loop from rest at ``start_mm`` (work coordinates)."""
+    import mujoco
+    import numpy as np
+    from mujoco import rollout
+
+    m = gantry.model
+    d = mujoco.MjData(m)
+    d.qpos[:] = gantry.joint_qpos_m(gantry.work_to_joint_mm(np.asarray(start_mm)[None])[0])
+    spec = mujoco.mjtState.mjSTATE_FULLPHYSICS
+    state = np.empty(mujoco.mj_stateSize(m, spec))
+    mujoco.mj_getState(m, d, state, spec)
+    ticks = max(1, REPLAY_STEPS // gantry.substeps)
+    wall = 0.0
+    for lo in range(0, len(force), ticks):
+        ctrl = np.zeros((min(ticks, len(force) - lo), m.nu))
+        ctrl[:, list(gantry.actuator_id)] = force[lo : lo + ticks] / np.asarray(gantry.gear)
+        ctrl = np.repeat(ctrl, gantry.substeps, axis=0)[None]
+        t0 = time.perf_counter()
+        states, _ = rollout.rollout(m, d, state[None], ctrl, nstep=ctrl.shape[1])
+        wall += time.perf_counter() - t0
+        state = states[0, -1]
+    return wall
+
+
+def child(kind: str, blocks: int, baseline_rev: str | None) -> dict:
+    """Run one program; return the measurements (see the module docstring)."""
+    import numpy as np
+
+    from benchmarks.programs import program
+    from gantry_sim.controller.config import load_machine_config
+    from gantry_sim.models import DEFAULT_MACHINE
+    from gantry_sim.sim import contour
+
+    captured: dict = {}
+    real_analyse = contour.analyse
+
+    def analyse(*args, **kwargs):  # the arguments the run passes, kept for the before/after
+        captured["args"], captured["kwargs"] = args, kwargs
+        return real_analyse(*args, **kwargs)
+
+    contour.analyse = analyse
+    from gantry_sim.sim.api import run_program, write_run_outputs
+    from gantry_sim.sim.machine import load_gantry
+
+    machine = load_machine_config(DEFAULT_MACHINE)
+    text = program(kind, blocks)
+    t0 = time.perf_counter()
+    result = run_program(text, file=f"{kind}_{blocks}.ngc", machine=machine)
+    t1 = time.perf_counter()
+    with tempfile.TemporaryDirectory() as tmp:
+        write_run_outputs(result, Path(tmp) / "out")
+        t2 = time.perf_counter()
+        peak = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss * 1024
+    contour.analyse = real_analyse
+    timing = result.report["timing_s"]
+    out = {
+        "kind": kind,
+        "blocks": blocks,
+        "ticks": int(result.trace.t.size),
+        "cycle_s": result.report["cycle_time_s"],
+        **{k: float(timing[k]) for k in ("parse", "plan", "simulate", "analyse")},
+        "write": t2 - t1,
+        "wall": t2 - t0,
+        "peak_bytes": peak,
+    }
+    out["mujoco"] = _replay_s(load_gantry(machine), result.trace.ref[0], result.trace.force_N)
+    args, kwargs = captured["args"], captured["kwargs"]
+    t3 = time.perf_counter()
+    new = real_analyse(*args, **kwargs)
+    out["analyse_after"] = time.perf_counter() - t3
+    if baseline_rev:
+        with tempfile.TemporaryDirectory() as tmp:
+            old_analyse = _load_baseline(baseline_rev, Path(tmp))
+            if old_analyse is not None:
+                t4 = time.perf_counter()
+                old = old_analyse(*args, **kwargs)
+                out["analyse_before"] = time.perf_counter() - t4
+                out["same"] = bool(
+                    np.array_equal(old.err_um, new.err_um)
+                    and old.blocks == new.blocks
+                    and old.contour_um == new.contour_um
+                    and old.parts_um == new.parts_um
+                )
+    return out
+
+
+def _run_child(kind: str, blocks: int, baseline: str | None) -> dict:
+    cmd = [sys.executable, __file__, "--child", kind, str(blocks)]
+    cmd += ["--baseline-rev", baseline] if baseline else ["--no-baseline"]
+    res = subprocess.run(cmd, capture_output=True, text=True, cwd=ROOT)
+    if res.returncode != 0:
+        raise SystemExit(f"{kind} {blocks}: failed\n{res.stderr[-3000:]}")
+    return json.loads(res.stdout.strip().splitlines()[-1])
+
+
+def _print_table(rows: list[dict]) -> None:
+    print(
+        f"{'program':<13}{'ticks':>9}{'cycle':>8} |{'parse':>7}{'plan':>8}{'sim':>8}"
+        f"{'analyse':>8}{'write':>7}{'wall':>8} |{'mujoco':>7}{'ratio':>7}{'-plan':>7} |"
+        f"{'peak MB':>8} | analyse before -> after"
+    )
+    for r in rows:
+        before = r.get("analyse_before")
+        ba = (
+            f"{before:7.2f} -> {r['analyse_after']:.2f} s"
+            if before
+            else f"{r['analyse_after']:.2f} s"
+        )
+        if "same" in r:
+            ba += "  identical" if r["same"] else "  DIFFERENT"
+        print(
+            f"{r['kind'] + ' ' + str(r['blocks']):<13}{r['ticks']:>9}{r['cycle_s'] / 60:>7.1f}m |"
+            + "".join(f"{r[k]:>{w}.2f}" for k, w in zip(STAGES, (7, 8, 8, 8, 7), strict=True))
+            + f"{r['wall']:>8.1f} |{r['mujoco']:>7.2f}{r['wall'] / r['mujoco']:>7.1f}"
+            + f"{(r['wall'] - r['plan']) / r['mujoco']:>7.1f} |{r['peak_bytes'] / 2**20:>8.0f} | {ba}"
+        )
+
+
+def _print_growth(rows: list[dict]) -> None:
+    print("\ngrowth law, time ~ ticks^b (smallest -> largest size of each kind):")
+    for kind in KINDS:
+        runs = sorted((r for r in rows if r["kind"] == kind), key=lambda r: r["ticks"])
+        if len(runs) < 2:
+            continue
+        a, b = runs[0], runs[-1]
+        x = math.log(b["ticks"] / a["ticks"])
+        exps = {k: math.log(max(b[k], 1e-9) / max(a[k], 1e-9)) / x for k in (*STAGES, "wall")}
+        mem = (b["peak_bytes"] - a["peak_bytes"]) / max(1, b["ticks"] - a["ticks"])
+        print(
+            f"  {kind:<6}"
+            + " ".join(f"{k} {v:.2f}" for k, v in exps.items())
+            + f" | peak memory +{mem:.0f} bytes per tick"
+        )
+
+
+def main() -> int:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--sizes", default="1000,10000", help="blocks per program, comma separated")
+    ap.add_argument("--big", action="store_true", help="add 100,000-block programs")
+    ap.add_argument("--kinds", default=",".join(KINDS))
+    ap.add_argument("--baseline-rev", default=BASELINE_REV, help="git revision of the 'before'")
+    ap.add_argument("--no-baseline", action="store_true", help="skip the before analysis")
+    ap.add_argument("--child", nargs=2, metavar=("KIND", "BLOCKS"), help=argparse.SUPPRESS)
+    args = ap.parse_args()
+    baseline = None if args.no_baseline else args.baseline_rev
+    if args.child:
+        print(json.dumps(child(args.child[0], int(args.child[1]), baseline)))
+        return 0
+    sizes = [int(s) for s in args.sizes.split(",")] + ([100_000] if args.big else [])
+    rows = []
+    for kind in args.kinds.split(","):
+        for n in sizes:
+            print(f"running {kind} {n} ...", file=sys.stderr, flush=True)
+            rows.append(_run_child(kind, n, baseline))
+    print("times [s]; ratio: end-to-end wall / MuJoCo alone (-plan: without planning)")
+    _print_table(rows)
+    _print_growth(rows)
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

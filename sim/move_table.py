@@ -1,0 +1,165 @@
+"""The commanded moves laid out as arrays, one row per move in program order, for the vectorised
+nearest-point search (sim/nearest.py) and the analysis (sim/contour.py).
+
+Every derived number is computed here exactly as controller.arcs computes it for one move (the
+same Python float operations in the same order), so the vectorised search gives, point for point,
+the numbers the one-move functions give. Coordinates [mm], angles [rad].
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+from dataclasses import dataclass
+
+import numpy as np
+
+from gantry_sim.controller.arcs import arc_frame
+from gantry_sim.controller.moves import Arc, Move
+
+#: slack added to every move's bounding box [mm] (rounding in the box, not geometry)
+BOX_SLACK_MM = 1e-9
+
+
+@dataclass(frozen=True)
+class MoveTable:
+    """Per move (M rows). Segments (G0/G1) use start, seg_d, length2; arcs the rest (zeros on
+    segment rows).
+
+    Attributes:
+        line: (M,) source line.
+        feed: (M,) True for G1/G2/G3, False for G0.
+        arc: (M,) True for G2/G3.
+        start, end: (M, 3) programmed start and end points.
+        seg_d: (M, 3) end - start; length2: (M,) its squared length [mm^2].
+        axes: (M, 3) the plane's (first, second, normal) axis indices.
+        c1, c2: centre coordinates on the first and second plane axes.
+        theta0: polar angle of the start about the centre; sigma: +1 ccw, -1 cw; angle: sweep A
+        (> 0); s_angle: sigma * A.
+        r0, dr: in-plane radius at the start and its change to the end; h0, dh: normal-axis
+        coordinate at the start and its change; k2: 2 dr s_angle (in d2p/du2).
+        turns: ceil(A / 2 pi), the angle-projection candidates past the first.
+        newton: True where the radius or height changes (helix or spiral: Newton refinement).
+        box_lo, box_hi: (M, 3) an axis-aligned box holding the move (with BOX_SLACK_MM).
+        arc_start: (M, 3) an arc's point at u = 0 as controller.arcs.arc_points computes it
+        (the start on segment rows).
+        cum_len: (M + 1,) path length [mm] before each move (cum_len[M]: the whole program).
+    """
+
+    line: np.ndarray
+    feed: np.ndarray
+    arc: np.ndarray
+    start: np.ndarray
+    end: np.ndarray
+    seg_d: np.ndarray
+    length2: np.ndarray
+    axes: np.ndarray
+    c1: np.ndarray
+    c2: np.ndarray
+    theta0: np.ndarray
+    sigma: np.ndarray
+    angle: np.ndarray
+    s_angle: np.ndarray
+    r0: np.ndarray
+    dr: np.ndarray
+    h0: np.ndarray
+    dh: np.ndarray
+    k2: np.ndarray
+    turns: np.ndarray
+    newton: np.ndarray
+    box_lo: np.ndarray
+    box_hi: np.ndarray
+    arc_start: np.ndarray
+    cum_len: np.ndarray
+
+    def __len__(self) -> int:
+        return len(self.line)
+
+
+_ARC_FIELDS = ("c1", "c2", "theta0", "sigma", "angle", "s_angle", "r0", "dr", "h0", "dh", "k2")
+
+
+def move_table(moves: Sequence[Move]) -> MoveTable:
+    """Lay out ``moves`` (the interpreter's, in program order) as a :class:`MoveTable`."""
+    m = len(moves)
+    start = np.array([mv.start for mv in moves], dtype=float).reshape(m, 3)
+    end = np.array([mv.end for mv in moves], dtype=float).reshape(m, 3)
+    seg_d = end - start
+    length2 = np.array([float(d @ d) for d in seg_d])
+    axes = np.zeros((m, 3), dtype=np.intp)
+    cols = {name: np.zeros(m) for name in _ARC_FIELDS}
+    turns = np.zeros(m, dtype=np.intp)
+    newton = np.zeros(m, dtype=bool)
+    box_lo, box_hi = np.minimum(start, end), np.maximum(start, end)
+    for j, mv in enumerate(moves):
+        if not isinstance(mv, Arc):
+            continue
+        i1, i2, n, theta0, sigma, r0, r1, h0, h1 = arc_frame(mv)
+        axes[j] = (i1, i2, n)
+        s_angle = sigma * mv.angle
+        dr = r1 - r0
+        row = (mv.center[i1], mv.center[i2], theta0, sigma, mv.angle, s_angle, r0, dr, h0)
+        for name, v in zip(_ARC_FIELDS, (*row, h1 - h0, 2.0 * dr * s_angle), strict=True):
+            cols[name][j] = v
+        turns[j] = math.ceil(mv.angle / (2.0 * math.pi))
+        newton[j] = h1 != h0 or r1 != r0
+        lo_j, hi_j = _arc_box(mv, i1, i2, theta0, sigma, r0, r1)
+        box_lo[j] = np.minimum(box_lo[j], lo_j)
+        box_hi[j] = np.maximum(box_hi[j], hi_j)
+    arc_start = start.copy()
+    arcs = np.flatnonzero([isinstance(mv, Arc) for mv in moves])
+    if arcs.size:  # arc_points at u = 0, the same operations vectorised
+        u0 = np.zeros(arcs.size)
+        theta = cols["theta0"][arcs] + cols["s_angle"][arcs] * u0
+        r = cols["r0"][arcs] + cols["dr"][arcs] * u0
+        rows = np.arange(arcs.size)
+        at = arc_start[arcs]
+        at[rows, axes[arcs, 0]] = cols["c1"][arcs] + r * np.cos(theta)
+        at[rows, axes[arcs, 1]] = cols["c2"][arcs] + r * np.sin(theta)
+        at[rows, axes[arcs, 2]] = cols["h0"][arcs] + cols["dh"][arcs] * u0
+        arc_start[arcs] = at
+    return MoveTable(
+        line=np.array([mv.line for mv in moves], dtype=np.int64),
+        feed=np.array([mv.kind != "rapid" for mv in moves], dtype=bool),
+        arc=np.array([isinstance(mv, Arc) for mv in moves], dtype=bool),
+        start=start,
+        end=end,
+        seg_d=seg_d,
+        length2=length2,
+        axes=axes,
+        turns=turns,
+        newton=newton,
+        box_lo=box_lo - BOX_SLACK_MM,
+        box_hi=box_hi + BOX_SLACK_MM,
+        arc_start=arc_start,
+        cum_len=np.concatenate([[0.0], np.cumsum([mv.length_mm for mv in moves])]),
+        **cols,
+    )
+
+
+def _arc_box(
+    arc: Arc, i1: int, i2: int, theta0: float, sigma: float, r0: float, r1: float
+) -> tuple[np.ndarray, np.ndarray]:
+    """A box [mm] holding the arc (with the start and end already in the caller's box): every
+    quadrant point (theta = k pi / 2) the sweep passes at the larger radius, widened in the
+    plane by |r1 - r0| (a spiral's radius between its ends)."""
+    reach, slack = max(r0, r1), abs(r1 - r0)
+    lo = np.array(arc.start, dtype=float)
+    hi = lo.copy()
+    for k in range(4):
+        phi = k * math.pi / 2
+        if arc.angle >= 2 * math.pi or (sigma * (phi - theta0)) % (2 * math.pi) <= arc.angle:
+            p = np.array(arc.start, dtype=float)
+            p[i1] = arc.center[i1] + reach * round(math.cos(phi))
+            p[i2] = arc.center[i2] + reach * round(math.sin(phi))
+            lo, hi = np.minimum(lo, p), np.maximum(hi, p)
+    lo[[i1, i2]] -= slack
+    hi[[i1, i2]] += slack
+    return lo, hi
+
+
+def box_distance(tab: MoveTable, idx: np.ndarray, pts: np.ndarray) -> np.ndarray:
+    """A lower bound [mm] on the distance from pts (n, 3) to moves ``idx`` (n,): the distance
+    to their boxes."""
+    gap = np.maximum(np.maximum(tab.box_lo[idx] - pts, pts - tab.box_hi[idx]), 0.0)
+    return np.sqrt(np.einsum("ij,ij->i", gap, gap))

@@ -1,0 +1,136 @@
+"""Distance from points to the COMMANDED program near the move each point is executing: the
+search behind the contour error (sim/contour.py), linear in the points.
+
+Per point: the moves of its line and one move either side (near a block junction the tool may
+be just before or after it), then -- where a reach is given -- every further move less than that
+reach of path away from its line's moves (a tool lagging or leading by several short moves),
+counted where strictly nearer. Each point's result depends on that point, its line and its reach
+only: a trace may be cut anywhere, in any order, with identical numbers.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+
+import numpy as np
+
+from gantry_sim.controller.moves import Move
+from gantry_sim.sim.move_table import MoveTable, box_distance, move_table
+from gantry_sim.sim.nearest import nearest_on_moves
+
+#: servo ticks analysed at once (bounds the temporary arrays of the search, ~50 MB)
+TICKS_PER_PASS = 1 << 16
+
+
+def line_ranges(tab: MoveTable, lines: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Per sample: the first and last index of its line's moves, and whether the line has any."""
+    order = np.argsort(tab.line, kind="stable")
+    sorted_lines = tab.line[order]
+    uniq, first_at = np.unique(sorted_lines, return_index=True)
+    last_at = np.concatenate([first_at[1:], [len(sorted_lines)]]) - 1
+    pos = np.minimum(np.searchsorted(uniq, lines), max(len(uniq) - 1, 0))
+    found = uniq[pos] == lines if len(uniq) else np.zeros(len(lines), dtype=bool)
+    return order[first_at][pos], order[last_at][pos], found
+
+
+def _closest_in_window(
+    tab: MoveTable, lo: np.ndarray, hi: np.ndarray, first: np.ndarray, pts: np.ndarray
+) -> tuple[np.ndarray, np.ndarray]:
+    """Per point, the distance [mm] and nearest point on moves lo..hi (the first one on a tie;
+    inf and the point itself when no distance is finite).
+
+    The move ``first`` (one of the window's) is measured first; another move of the window is
+    measured only where its box is not farther than that: a move it skips is strictly farther
+    than the best, so the result is that of measuring every move of the window.
+    """
+    counts = hi - lo + 1
+    starts = np.concatenate([[0], np.cumsum(counts)[:-1]])
+    owner = np.repeat(np.arange(len(pts)), counts)
+    move = lo[owner] + np.arange(int(counts.sum())) - starts[owner]
+    dist = np.full(len(move), np.inf)
+    near = np.empty((len(move), 3))
+    primary = starts + (first - lo)
+    rest = np.flatnonzero(move != first[owner])
+    for sel in (primary, None):
+        if sel is None:
+            bound = dist[primary][owner[rest]]
+            sel = rest[box_distance(tab, move[rest], pts[owner[rest]]) <= bound]
+        q = nearest_on_moves(tab, move[sel], pts[owner[sel]])
+        d = np.linalg.norm(q - pts[owner[sel]], axis=1)
+        dist[sel] = np.where(np.isnan(d), np.inf, d)
+        near[sel] = q
+    best = np.minimum.reduceat(dist, starts)
+    hit = np.flatnonzero((dist == best[owner]) & (dist < np.inf))
+    winner = hit[np.concatenate([[True], owner[hit][1:] != owner[hit][:-1]])]
+    nearest = np.array(pts, dtype=float, copy=True)
+    nearest[owner[winner]] = near[winner]
+    return best, nearest
+
+
+def _walk_out(tab, own, step, reach, pts, best, nearest) -> None:
+    """Search the moves past a window, one move further per pass in direction ``step`` (-1 or
+    +1) from the window's edge, while the path between the point's own moves (``own``: its
+    line's first move for -1, last for +1) and the next move is shorter than ``reach`` [mm]. A
+    move is measured only where its box is nearer than the best so far, and counts only where
+    it is strictly nearer. Updates ``best`` and ``nearest`` in place."""
+    m = len(tab)
+    k = own + 2 * step
+    live = np.flatnonzero((k >= 0) & (k < m) & (reach > 0))
+    while live.size:
+        kl, ol = k[live], own[live]
+        gap = (
+            tab.cum_len[ol] - tab.cum_len[kl + 1]
+            if step < 0
+            else tab.cum_len[kl] - tab.cum_len[ol + 1]
+        )
+        live = live[gap < reach[live]]
+        if not live.size:
+            break
+        measure = live[box_distance(tab, k[live], pts[live]) < best[live]]
+        if measure.size:
+            near = nearest_on_moves(tab, k[measure], pts[measure])
+            dist = np.linalg.norm(near - pts[measure], axis=1)
+            better = dist < best[measure]
+            best[measure[better]] = dist[better]
+            nearest[measure[better]] = near[better]
+        k[live] += step
+        live = live[(k[live] >= 0) & (k[live] < m)]
+
+
+def distance_to_moves(
+    tab: MoveTable, lines: np.ndarray, pts: np.ndarray, reach_mm: np.ndarray | None = None
+) -> tuple[np.ndarray, np.ndarray]:
+    """Distance [mm] and nearest commanded point (n, 3) [mm] for points executing ``lines``.
+
+    Searched per point: the moves of its line and one move either side (near a block junction
+    the tool may be just before or after it); then, where ``reach_mm`` (n,) is given, every
+    further move less than reach_mm of path away from its line's moves (a tool lagging or
+    leading by several short moves), counted where strictly nearer. A line no move has is
+    compared with every move. Linear in the points; done TICKS_PER_PASS points at a time.
+    """
+    n, m = len(pts), len(tab)
+    if m == 0 or n == 0:
+        return np.zeros(n), np.array(pts, dtype=float, copy=True)
+    first, last, found = line_ranges(tab, np.asarray(lines))
+    lo = np.where(found, np.maximum(first - 1, 0), 0)
+    hi = np.where(found, np.minimum(last + 1, m - 1), m - 1)
+    best = np.empty(n)
+    nearest = np.empty((n, 3))
+    for a in range(0, n, TICKS_PER_PASS):
+        sl = slice(a, min(n, a + TICKS_PER_PASS))
+        p = np.asarray(pts[sl], dtype=float)
+        b, q = _closest_in_window(tab, lo[sl], hi[sl], np.where(found[sl], first[sl], lo[sl]), p)
+        if reach_mm is not None:
+            reach = np.where(found[sl], reach_mm[sl], 0.0)
+            _walk_out(tab, first[sl], -1, reach, p, b, q)
+            _walk_out(tab, last[sl], +1, reach, p, b, q)
+        best[sl], nearest[sl] = b, q
+    return best, nearest
+
+
+def distance_to_program(
+    moves: Sequence[Move], lines: np.ndarray, pts: np.ndarray
+) -> tuple[np.ndarray, np.ndarray]:
+    """Distance [mm] and nearest commanded point (n, 3) [mm] for points executing ``lines``
+    (see :func:`distance_to_moves`)."""
+    return distance_to_moves(move_table(moves), lines, np.asarray(pts, dtype=float))

@@ -1,0 +1,74 @@
+"""The analysis in pieces (what a streaming run does) gives the whole trace's numbers exactly."""
+
+from __future__ import annotations
+
+import itertools
+
+import numpy as np
+import pytest
+
+from gantry_sim.sim.api import run_program
+from gantry_sim.sim.contour import (
+    TRACKING_WINDOW,
+    analyse,
+    analyse_chunk,
+    combine,
+    reference_context,
+)
+from gantry_sim.sim.move_table import move_table
+
+# rapids, a plunge, lines with a corner, a helix and a sub-millimetre zig-zag: ~1.6 s simulated
+PROGRAM = """G21 G17 G90 G94
+G0 X2 Y0 Z1
+G1 Z0 F600
+G1 X6 F3000
+G1 Y3
+G3 X2 Y3 Z-0.5 I-2 J0
+G1 X2.2 Y3.1
+G1 X2.4 Y3
+G1 X2.6 Y3.1
+G0 Z2
+M2
+"""
+
+
+@pytest.fixture(scope="module")
+def run(machine):
+    return run_program(PROGRAM, machine=machine)
+
+
+@pytest.mark.parametrize("seed", [0, 1])
+def test_chunks_of_any_size_combine_to_the_whole_analysis(run, seed):
+    tr, moves = run.trace, run.moves
+    n = len(tr.t)
+    whole = analyse(moves, tr.line, tr.ref, tr.pos)
+    rng = np.random.default_rng(seed)
+    # cuts anywhere: single samples, chunks shorter than the tracking window, long ones
+    sizes = rng.choice([1, 7, TRACKING_WINDOW - 1, 2 * TRACKING_WINDOW + 3], size=n)
+    sizes[rng.integers(0, 4)] = 400
+    cuts = np.concatenate([[0], np.cumsum(sizes)])
+    cuts = np.unique(np.minimum(cuts, n))
+    tab = move_table(moves)
+    chunks = []
+    for lo, hi in itertools.pairwise(cuts.tolist()):
+        start, stop = reference_context(lo, hi, n)
+        chunks.append(
+            analyse_chunk(tab, tr.line[lo:hi], tr.pos[lo:hi], tr.ref[start:stop], lo - start)
+        )
+    assert len(chunks) > 10
+    pieces = combine(tab, tr.line, chunks, whole.parts.chord_max_um)
+    assert np.array_equal(pieces.err_um, whole.err_um)
+    assert np.array_equal(pieces.nearest, whole.nearest)
+    assert np.array_equal(pieces.feed, whole.feed)
+    assert pieces.contour == whole.contour
+    assert pieces.parts == whole.parts
+    assert pieces.blocks == whole.blocks
+    assert whole.parts.tracking_max_um > 0 and whole.parts.reference_max_um > 0
+
+
+def test_the_run_reports_the_whole_analysis(run):
+    tr = run.trace
+    whole = analyse(run.moves, tr.line, tr.ref, tr.pos)
+    assert np.array_equal(tr.err_um, whole.err_um)
+    assert run.run_report.blocks == whole.blocks
+    assert run.report["contour_error_um"] == whole.contour.to_json()
