@@ -155,7 +155,26 @@ def _check(
     hi: int,
 ) -> None:
     """Raise SimulationError if ticks lo..hi (tool tip ``work_mm`` [mm], work coordinates)
-    diverged or lost the reference."""
+    diverged or lost the reference. MuJoCo's own instability warnings come first: a huge or
+    non-finite actuator control (mjWARN_BADCTRL, which MuJoCo answers by zeroing the control
+    and carrying on) or a bad state (BADQACC/QVEL/QPOS, answered by a reset) make the rest of
+    the run meaningless even when the following error stays within its limit."""
+    import mujoco
+
+    where = f"the machine file {machine.source}" if machine.source else "the machine file"
+    for w in (
+        mujoco.mjtWarning.mjWARN_BADCTRL,
+        mujoco.mjtWarning.mjWARN_BADQACC,
+        mujoco.mjtWarning.mjWARN_BADQVEL,
+        mujoco.mjtWarning.mjWARN_BADQPOS,
+    ):
+        if d.warning[w].number:  # the time of the fault is lost: say the chunk
+            raise SimulationError(
+                f"the simulation diverged between t = {traj.t[lo]:.4f} and {traj.t[hi - 1]:.4f} s "
+                f"(MuJoCo: {mujoco.mjtWarning(w).name}); the servo loop is unstable: check "
+                f"[servo] gains and period in {where} and the model's masses and force limits",
+                line=int(traj.line[lo]),
+            )
     err = np.abs(work_mm - traj.pos[lo:hi])
     limit = machine.servo.max_following_error_mm
     bad = ~(err <= limit).all(axis=1)  # beyond the limit, or NaN (no comparison holds)
@@ -167,20 +186,7 @@ def _check(
         raise SimulationError(
             f"following error on {AXES[axis].upper()} is {what} at t = {traj.t[k]:.4f} s, beyond "
             f"[servo] max_following_error_mm = {limit:g}: the servo lost the reference (unstable "
-            f"or too weak: check [servo] gains, feedforward and the model's force limits)",
+            f"or too weak: check [servo] gains and feedforward in {where} and the model's force "
+            "limits)",
             line=int(traj.line[k]),
         )
-    import mujoco
-
-    for w in (
-        mujoco.mjtWarning.mjWARN_BADQACC,
-        mujoco.mjtWarning.mjWARN_BADQVEL,
-        mujoco.mjtWarning.mjWARN_BADQPOS,
-    ):
-        if d.warning[w].number:  # MuJoCo reset the state; the time of the fault is lost
-            raise SimulationError(
-                f"the simulation diverged between t = {traj.t[lo]:.4f} and {traj.t[hi - 1]:.4f} s "
-                f"(MuJoCo: {mujoco.mjtWarning(w).name}); the servo loop is unstable: check "
-                "[servo] gains and period and the model's masses and force limits",
-                line=int(traj.line[lo]),
-            )

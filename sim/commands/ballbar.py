@@ -7,7 +7,7 @@ import json
 import sys
 from pathlib import Path
 
-from gantry_sim.sim.commands.common import add_machine, load_machine
+from gantry_sim.sim.commands.common import add_budget, add_machine, budget_from, load_machine
 
 HELP = (
     "circular test (virtual ballbar, ISO 230-4): run a full circle CCW and CW and report the "
@@ -37,13 +37,20 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         metavar="DIR",
         help="write ballbar.json, polar.png, ballbar.ngc, trace_cw.npz, trace_ccw.npz here",
     )
+    add_budget(parser)
 
 
 def run(args: argparse.Namespace) -> int:
     from gantry_sim.sim.circular.ballbar import run_ballbar, write_ballbar_outputs
+    from gantry_sim.sim.outdir import prepare_output_dir
 
     machine = load_machine(args.machine)
-    result = run_ballbar(machine, args.plane, args.radius, args.feed, progress=sys.stderr.isatty())
+    budget = budget_from(args)
+    if args.out is not None:
+        prepare_output_dir(args.out)  # fails now, not after the simulation
+    result = run_ballbar(
+        machine, args.plane, args.radius, args.feed, progress=sys.stderr.isatty(), budget=budget
+    )
     if args.out is not None:
         write_ballbar_outputs(result, args.out)
     sys.stdout.write(json.dumps(result.summary) + "\n")

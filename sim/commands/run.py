@@ -12,7 +12,14 @@ import math
 import sys
 from pathlib import Path
 
-from gantry_sim.sim.commands.common import add_dialect, add_machine, load_machine, read_program
+from gantry_sim.sim.commands.common import (
+    add_budget,
+    add_dialect,
+    add_machine,
+    budget_from,
+    load_machine,
+    read_program,
+)
 
 HELP = "plan, simulate and analyse a program; write report.json, trace.npz and plots"
 DEFAULT_OUT = Path("out")
@@ -36,6 +43,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         metavar="X",
         help="exit 1 when the max contour error exceeds X micrometres (report still written)",
     )
+    add_budget(parser)
 
 
 def _summary(report: dict, out_dir: Path) -> str:
@@ -67,23 +75,25 @@ def _summary(report: dict, out_dir: Path) -> str:
 def run(args: argparse.Namespace) -> int:
     from gantry_sim.controller.errors import ConfigError
     from gantry_sim.sim.api import run_program, write_run_outputs
+    from gantry_sim.sim.outdir import prepare_output_dir
     from gantry_sim.sim.report import OUTPUT_FILES
 
     gate = args.max_error_um
     if gate is not None and not (math.isfinite(gate) and gate >= 0):
-        raise ConfigError(f"--max-error-um must be a number >= 0, got {gate}", file="gantry run")
-    if args.out.exists() and not args.out.is_dir():
-        raise ConfigError("--out must be a folder, not a file", file=str(args.out))
-    for name in OUTPUT_FILES:  # a failing run must not leave an earlier run's report behind
-        (args.out / name).unlink(missing_ok=True)
+        raise ConfigError(f"{gate}: must be a number >= 0 [um]", file="--max-error-um")
+    budget = budget_from(args)
     machine = load_machine(args.machine)
     text = read_program(args.program)
+    # before the simulation: a folder that cannot take the outputs fails now, not after it;
+    # a failing run must not leave an earlier run's report behind
+    prepare_output_dir(args.out, clear=OUTPUT_FILES)
     result = run_program(
         text,
         file=str(args.program),
         dialect=args.dialect,
         machine=machine,
         progress=sys.stderr.isatty(),
+        budget=budget,
     )
     write_run_outputs(result, args.out)
     print(_summary(result.report, args.out))
