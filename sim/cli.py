@@ -13,7 +13,9 @@ import argparse
 import errno
 import importlib
 import os
+import signal
 import sys
+import threading
 from collections.abc import Sequence
 
 from gantry_sim.controller.errors import GantryError
@@ -50,6 +52,14 @@ def build_parser() -> argparse.ArgumentParser:
         p.add_argument("--debug", action="store_true", default=argparse.SUPPRESS, help=DEBUG_HELP)
         p.set_defaults(_run=module.run)
     return parser
+
+
+class Terminated(BaseException):
+    """SIGTERM arrived: unwind (staging folders removed, sweep workers stopped), exit 143."""
+
+
+def _on_sigterm(signum, frame) -> None:
+    raise Terminated
 
 
 def _silence_stdout() -> None:
@@ -101,10 +111,15 @@ def main(argv: Sequence[str] | None = None) -> int:
         return EXIT_INPUT
     real_stdout = sys.stdout
     sys.stdout = _GuardedStdout(real_stdout)  # type: ignore[assignment]
+    previous = None
+    if threading.current_thread() is threading.main_thread():
+        previous = signal.signal(signal.SIGTERM, _on_sigterm)
     try:
         return _dispatch(args, debug)
     finally:
         sys.stdout = real_stdout
+        if previous is not None:
+            signal.signal(signal.SIGTERM, previous)
 
 
 def _dispatch(args: argparse.Namespace, debug: bool) -> int:
@@ -125,7 +140,10 @@ def _dispatch(args: argparse.Namespace, debug: bool) -> int:
         return _internal_error(exc, debug)
     except KeyboardInterrupt:
         print("gantry: interrupted", file=sys.stderr)
-        return 130
+        return 128 + signal.SIGINT
+    except Terminated:
+        print("gantry: terminated", file=sys.stderr)
+        return 128 + signal.SIGTERM
     except Exception as exc:  # a bug: one line, exit 3 (README, "Exit status")
         return _internal_error(exc, debug)
 

@@ -3,7 +3,8 @@
 An output folder (``gantry run/ballbar/tune/sweep --out DIR``) always holds one whole run, old
 or new. The files are written into a hidden staging folder *inside* DIR (so on DIR's own file
 system: a mount point, a container volume or a symlink to another disk works, and the final
-moves are ``rename``s), then committed under an exclusive lock on DIR:
+moves are ``rename``s), under an exclusive lock on DIR held from staging to commit (two runs
+into one folder take turns), then committed:
 
 1. a ``.complete`` manifest is added to the staging folder by rename: from here on the run is
    committed and the next writer finishes an interrupted commit instead of discarding it;
@@ -159,25 +160,23 @@ def atomic_output_dir(
     """
     out_dir = Path(out_dir)
     ensure_dir(out_dir)
-    try:
-        stage = Path(tempfile.mkdtemp(prefix=STAGE_PREFIX, dir=out_dir))
-    except OSError as exc:
-        raise os_error(exc, out_dir) from None
-    try:
+    with locked(out_dir):  # held from staging to commit: no other writer removes our stage
         try:
-            yield stage
-            manifest = stage / (MANIFEST + ".tmp")
-            manifest.write_text(json.dumps({"last": last, "replaces": list(replaces)}))
-            os.replace(manifest, stage / MANIFEST)
+            recover(out_dir)  # stale folders of killed writers
+            stage = Path(tempfile.mkdtemp(prefix=STAGE_PREFIX, dir=out_dir))
         except OSError as exc:
             raise os_error(exc, out_dir) from None
-        with locked(out_dir):
+        try:
             try:
-                recover(out_dir)  # stale folders of killed writers, and ours
+                yield stage
+                manifest = stage / (MANIFEST + ".tmp")
+                manifest.write_text(json.dumps({"last": last, "replaces": list(replaces)}))
+                os.replace(manifest, stage / MANIFEST)
+                _commit(stage, out_dir)
             except OSError as exc:
                 raise os_error(exc, out_dir) from None
-    finally:
-        shutil.rmtree(stage, ignore_errors=True)
+        finally:
+            shutil.rmtree(stage, ignore_errors=True)
 
 
 def check_output_file(path: Path) -> None:
