@@ -166,10 +166,12 @@ def test_tune_feed_resolution_1e_300_is_refused_and_the_search_is_bounded(capsys
 # --- defect 13: MuJoCo's warnings ---------------------------------------------------------------
 
 
-def test_mujoco_bad_ctrl_warning_is_a_simulation_error(tmp_path):
+def test_mujoco_bad_ctrl_warning_is_a_simulation_error(tmp_path, monkeypatch):
     """An unstable loop with a following-error limit too large to trip: MuJoCo warns of a huge
     control (and zeroes it); the run used to end with exit 0 and a report."""
     from gantry_sim.sim.api import run_program
+
+    monkeypatch.chdir(tmp_path)  # MuJoCo logs its warnings to ./MUJOCO_LOG.TXT
 
     xml = tmp_path / "variant.xml"
     xml.write_text(

@@ -36,6 +36,11 @@ FUZZ = settings(
 )
 
 
+@pytest.fixture(autouse=True)
+def _in_tmp(tmp_path, monkeypatch):
+    monkeypatch.chdir(tmp_path)  # MuJoCo logs warnings to ./MUJOCO_LOG.TXT; ./out defaults
+
+
 def _check(argv: list[str]) -> None:
     outcome = call(argv)
     problem = outcome.violation(LIMIT_S)
