@@ -144,18 +144,16 @@ def test_two_concurrent_runs_into_one_folder_leave_one_whole_run(tmp_path):
 # --- other file systems, read-only, full ---------------------------------------------------------
 
 
-def test_out_on_another_file_system_for_run_tune_and_sweep(tmp_path):
+def test_out_on_another_file_system_for_run_tune_and_sweep(tmp_path, capsys):
     """Defect 2: the outputs were staged in the folder's parent, then renamed across devices."""
     with tmpfs(tmp_path / "mnt", "8m") as mnt:
         assert os.stat(mnt).st_dev != os.stat(tmp_path).st_dev
         prog = _program(tmp_path, LINE, "p.ngc")
-        assert gantry("run", prog, "--out", str(mnt)).returncode == 0
+        assert main(["run", prog, "--out", str(mnt)]) == 0
         assert assert_whole_run(mnt) == "p.ngc"
-        tune = gantry("tune", "--radii", "5", "--out", str(mnt / "tune"))
-        assert tune.returncode == 0, tune.stderr
-        sweep = gantry("sweep", prog, "--workers", "1", "--out", str(mnt))
-        assert sweep.returncode == 0, sweep.stderr
-        assert (mnt / "sweep.csv").exists()
+        assert main(["tune", "--radii", "5", "--out", str(mnt / "tune")]) == 0
+        assert main(["sweep", prog, "--workers", "1", "--out", str(mnt)]) == 0
+        assert (mnt / "sweep.csv").exists() and (mnt / "tune" / "tune.json").exists()
         assert staging_left(mnt) == []
 
 
@@ -265,19 +263,16 @@ def test_plan_out_never_replaces_a_device_or_fifo(tmp_path):
     assert link.is_symlink() and np.load(real)["t"].size > 0
 
 
-def test_outputs_follow_the_umask(tmp_path):
+def test_outputs_follow_the_umask(tmp_path, capsys):
     """Defect 14: plan --out and sweep.csv were 0600 (mkstemp), run outputs 0644."""
     prog = _program(tmp_path, LINE, "p.ngc")
-
-    def umask_002() -> None:
-        os.umask(0o002)
-
-    kw = {"preexec_fn": umask_002}
-    assert gantry("plan", prog, "--out", str(tmp_path / "t.npz"), **kw).returncode == 0
-    assert (
-        gantry("sweep", prog, "--workers", "1", "--out", str(tmp_path / "s"), **kw).returncode == 0
-    )
-    assert gantry("run", prog, "--out", str(tmp_path / "r"), **kw).returncode == 0
+    previous = os.umask(0o002)
+    try:
+        assert main(["plan", prog, "--out", str(tmp_path / "t.npz")]) == 0
+        assert main(["sweep", prog, "--workers", "1", "--out", str(tmp_path / "s")]) == 0
+        assert main(["run", prog, "--out", str(tmp_path / "r")]) == 0
+    finally:
+        os.umask(previous)
     for f in [tmp_path / "t.npz", tmp_path / "s" / "sweep.csv", tmp_path / "r" / "report.json"]:
         assert stat.S_IMODE(f.stat().st_mode) == 0o664, f
 

@@ -13,7 +13,7 @@ import time
 from pathlib import Path
 
 import pytest
-from fault_helpers import TRACEBACK, assert_clean_error, gantry
+from fault_helpers import TRACEBACK
 
 from gantry_sim.sim.cli import main
 
@@ -122,16 +122,12 @@ def test_a_damaged_journal_is_skipped_and_reported(tmp_path, capsys):
         b'\xff\xfe{"not": "utf-8"}\n[1, 2]\n"text"\n{"fingerprint": 3}\n'
         b'{"fingerprint": "x", "key": "k", "row": {}}\nnull\n{"cut short'
     )
-    for _ in range(2):  # never blocks, also on the rerun
-        assert main(["sweep", str(prog), "--workers", "1", "--out", str(out)]) == 0
-        cap = capsys.readouterr()
-        assert "ok" in cap.out
-    assert (out / "sweep.csv").exists() and not (out / "sweep.partial.jsonl").exists()
-    # reported on the first run (6 damaged lines; the unterminated last one is a cut-short write)
-    (out / "sweep.partial.jsonl").write_bytes(b"\xff\n[]\n")
     assert main(["sweep", str(prog), "--workers", "1", "--out", str(out)]) == 0
-    err = capsys.readouterr().err
-    assert f"{out / 'sweep.partial.jsonl'}: warning: skipped 2 damaged line(s)" in err
+    cap = capsys.readouterr()
+    assert cap.out.splitlines()[1].endswith(",ok")
+    # 6 damaged lines reported; the unterminated last one is a cut-short write, not damage
+    assert f"{out / 'sweep.partial.jsonl'}: warning: skipped 6 damaged line(s)" in cap.err
+    assert (out / "sweep.csv").exists() and not (out / "sweep.partial.jsonl").exists()
 
 
 def test_a_journal_that_cannot_be_read_is_a_clean_error(tmp_path, capsys):
@@ -146,13 +142,13 @@ def test_a_journal_that_cannot_be_read_is_a_clean_error(tmp_path, capsys):
 @pytest.mark.parametrize(
     "address", ["bogus", "tcp://", "tcp://host:99999", "http://x:1", "tcp://127.0.0.1:1"]
 )
-def test_malformed_or_unreachable_scheduler_is_a_quick_clean_error(tmp_path, address):
+def test_malformed_or_unreachable_scheduler_is_a_quick_clean_error(tmp_path, capsys, address):
     pytest.importorskip("dask.distributed")
     prog = tmp_path / "p.ngc"
     prog.write_text(TINY)
     t0 = time.monotonic()
-    r = gantry("sweep", str(prog), "--executor", "dask", "--scheduler", address)
-    assert time.monotonic() - t0 < 20  # the import, plus at most the 5 s connect timeout
-    err = assert_clean_error(r)
-    assert err.startswith("--scheduler: error: ")
+    assert main(["sweep", str(prog), "--executor", "dask", "--scheduler", address]) == 2
+    assert time.monotonic() - t0 < 15  # at most the 5 s connect timeout, not 30 s
+    err = capsys.readouterr().err
+    assert err.startswith("--scheduler: error: ") and TRACEBACK not in err
     assert json.dumps(address)[1:-1] in err
