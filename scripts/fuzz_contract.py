@@ -2,7 +2,8 @@
 
     python scripts/fuzz_contract.py --examples 200 --seed 1 [--json fuzz.json]
 
-Runs each input family through its commands in-process, never stops at a violation, and prints
+Runs each input family through its commands in-process, never stops at a violation (memory capped, see
+--memory-gb), and prints
 per family and command the counts of outcomes: exit 0, 1, 2, and the violations (exit 3 or
 another status, a traceback, an exit 2 without ``FILE[:LINE]: error:``, over the time bound),
 with the first few violating inputs. ``--examples`` is per family (hostile options: per
@@ -42,7 +43,18 @@ def main() -> int:
     ap.add_argument("--seed", type=int, default=1)
     ap.add_argument("--json", type=Path, default=None, help="also write the counts here")
     ap.add_argument("--only", default=None, help="run only the families containing this text")
+    ap.add_argument(
+        "--memory-gb",
+        type=float,
+        default=4.0,
+        help="address-space limit of this process (default 4): an input that needs more is a "
+        "MemoryError, counted as a violation (exit 3)",
+    )
     args = ap.parse_args()
+    import resource
+
+    limit = int(args.memory_gb * 2**30)
+    resource.setrlimit(resource.RLIMIT_AS, (limit, limit))
 
     counts: dict[str, collections.Counter] = collections.defaultdict(collections.Counter)
     examples: dict[str, list[str]] = collections.defaultdict(list)

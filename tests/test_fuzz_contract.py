@@ -113,3 +113,22 @@ def test_hostile_options(tmp_path, command, examples):
         _check(argv)
 
     check()
+
+
+def test_the_long_fuzz_script_runs_and_tallies(tmp_path):
+    """scripts/fuzz_contract.py, at its smallest: it runs, counts, and passes on our inputs."""
+    import json
+    import subprocess
+    import sys
+
+    root = Path(__file__).resolve().parent.parent
+    counts = tmp_path / "counts.json"
+    r = subprocess.run(
+        [sys.executable, str(root / "scripts" / "fuzz_contract.py"), "--examples", "3",
+         "--only", "options (plan)", "--json", str(counts)],
+        capture_output=True, text=True, timeout=120, cwd=tmp_path,
+    )  # fmt: skip
+    assert r.returncode == 0, r.stdout + r.stderr
+    tally = json.loads(counts.read_text())
+    assert sum(tally["hostile options [plan]"].values()) == 3
+    assert "inputs: 3 calls" in r.stdout
