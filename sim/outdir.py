@@ -98,11 +98,29 @@ def locked(out_dir: Path) -> Iterator[None]:
         os.close(fd)
 
 
+def _manifest(stage: Path) -> dict | None:
+    """The staging folder's manifest {"last": name or None, "replaces": [names]}, or None."""
+    try:
+        meta = json.loads((stage / MANIFEST).read_text())
+    except (OSError, ValueError):
+        return None
+    ok = (
+        isinstance(meta, dict)
+        and (meta.get("last") is None or isinstance(meta.get("last"), str))
+        and isinstance(meta.get("replaces"), list)
+        and all(isinstance(n, str) and "/" not in n for n in meta["replaces"])
+    )
+    return meta if ok else None
+
+
 def _commit(stage: Path, out_dir: Path) -> None:
     """Steps 2-3 of the module docstring for a staging folder holding a manifest; idempotent,
     so it also completes a commit a killed writer left half done."""
-    meta = json.loads((stage / MANIFEST).read_text())
-    last, replaces = meta.get("last"), meta.get("replaces", [])
+    meta = _manifest(stage)
+    if meta is None:  # unreadable: treat as never committed
+        shutil.rmtree(stage, ignore_errors=True)
+        return
+    last, replaces = meta["last"], meta["replaces"]
     pending = sorted(p.name for p in stage.iterdir() if p.name != MANIFEST)
     if last in pending:
         (out_dir / last).unlink(missing_ok=True)

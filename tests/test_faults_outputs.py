@@ -299,3 +299,14 @@ def test_stdout_full_or_closed_is_a_clean_error(tmp_path):
             preexec_fn=lambda: os.close(1),
         )
         assert r.returncode == 2 and "standard output is closed" in r.stderr, r.stderr
+
+
+def test_a_damaged_staging_manifest_is_discarded_not_a_crash(tmp_path, capsys):
+    out = tmp_path / "out"
+    stage = out / ".gantry-staging-dead"
+    stage.mkdir(parents=True)
+    (stage / "report.json").write_text("{}")
+    (stage / ".complete").write_text("not json")
+    prog = _program(tmp_path, LINE, "p.ngc")
+    assert main(["run", prog, "--out", str(out)]) == 0
+    assert assert_whole_run(out) == "p.ngc" and staging_left(out) == []
