@@ -166,7 +166,7 @@ def test_tune_feed_resolution_1e_300_is_refused_and_the_search_is_bounded(capsys
 # --- defect 13: MuJoCo's warnings ---------------------------------------------------------------
 
 
-def test_mujoco_bad_ctrl_warning_is_a_simulation_error(tmp_path, monkeypatch):
+def test_mujoco_bad_ctrl_warning_is_a_simulation_error(tmp_path, monkeypatch, capfd):
     """An unstable loop with a following-error limit too large to trip: MuJoCo warns of a huge
     control (and zeroes it); the run used to end with exit 0 and a report."""
     from gantry_sim.sim.api import run_program
@@ -185,6 +185,10 @@ def test_mujoco_bad_ctrl_warning_is_a_simulation_error(tmp_path, monkeypatch):
     with pytest.raises(SimulationError, match="mjWARN_BADCTRL") as info:
         run_program(LINE, file="p.ngc", machine=m)
     assert str(mf) in info.value.message  # the machine file, not the program, is to blame
+    assert "huge value in CTRL" in info.value.message  # MuJoCo's own words, in the error
+    # ... and nowhere else: not on stdout, not in a MUJOCO_LOG.TXT left in the working folder
+    assert "WARNING" not in capfd.readouterr().out
+    assert not (tmp_path / "MUJOCO_LOG.TXT").exists()
 
 
 # --- defect 15: messages a user can act on -------------------------------------------------------
