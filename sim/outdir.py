@@ -37,6 +37,8 @@ STAGE_PREFIX = ".gantry-staging-"
 MANIFEST = ".complete"
 #: how long a writer waits for another gantry process writing into the same folder [s]
 LOCK_WAIT_S = 120.0
+#: earlier versions staged in DIR's parent as .DIR.tmp-*; one older than this is debris [s]
+LEGACY_STAGE_AGE_S = 3600.0
 
 
 class OutputError(GantryError):
@@ -147,12 +149,26 @@ def recover(out_dir: Path) -> None:
             shutil.rmtree(stage, ignore_errors=True)
 
 
+def clean_legacy_stages(out_dir: Path) -> None:
+    """Remove ``.DIR.tmp-*`` folders that earlier versions left beside DIR when killed (only
+    those older than LEGACY_STAGE_AGE_S: no live writer takes that long to write)."""
+    now = time.time()
+    try:
+        for stage in out_dir.parent.glob(f".{out_dir.name}.tmp-*"):
+            if stage.is_dir() and not stage.is_symlink():
+                if now - stage.stat().st_mtime > LEGACY_STAGE_AGE_S:
+                    shutil.rmtree(stage, ignore_errors=True)
+    except OSError:
+        pass  # best effort: never a reason to fail a run
+
+
 def prepare_output_dir(out_dir: Path, clear: Sequence[str] = ()) -> None:
     """Check early (before a long simulation) that ``out_dir`` can take outputs: create it,
     clean stale staging folders, probe that a file can be created in it, and remove the files
     named in ``clear`` (an earlier run's outputs a failing run must not leave behind)."""
     out_dir = Path(out_dir)
     ensure_dir(out_dir)
+    clean_legacy_stages(out_dir)
     with locked(out_dir):
         try:
             recover(out_dir)

@@ -12,6 +12,7 @@ import os
 import stat
 import subprocess
 import sys
+import time
 from pathlib import Path
 
 import numpy as np
@@ -310,3 +311,16 @@ def test_a_damaged_staging_manifest_is_discarded_not_a_crash(tmp_path, capsys):
     prog = _program(tmp_path, LINE, "p.ngc")
     assert main(["run", prog, "--out", str(out)]) == 0
     assert assert_whole_run(out) == "p.ngc" and staging_left(out) == []
+
+
+def test_debris_of_earlier_versions_beside_the_folder_is_cleaned(tmp_path, capsys):
+    """Defect 8: kill -9 used to leave hidden .out.tmp-* folders beside the output for ever."""
+    out = tmp_path / "out"
+    old = tmp_path / ".out.tmp-abc123"
+    old.mkdir()
+    (old / "report.json").write_text("{}")
+    os.utime(old, (time.time() - 7200, time.time() - 7200))
+    young = tmp_path / ".out.tmp-live99"  # could be a writer at work: left alone
+    young.mkdir()
+    assert main(["run", _program(tmp_path, LINE, "p.ngc"), "--out", str(out)]) == 0
+    assert not old.exists() and young.exists()
