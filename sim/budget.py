@@ -12,11 +12,12 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
-import numpy as np
-
-from gantry_sim.controller.config import MachineConfig
 from gantry_sim.controller.errors import ConfigError, PlanningError
+
+if TYPE_CHECKING:  # no numpy or config import when the CLI only builds its parser
+    from gantry_sim.controller.config import MachineConfig
 
 DEFAULT_MAX_SIM_S = 600.0
 DEFAULT_MAX_PHYSICS_STEPS = 20_000_000
@@ -53,6 +54,8 @@ class Budget:
 
 def _longest_move(plan) -> tuple[int | None, float]:
     """(line, duration [s]) of the plan's longest move (None when it has no moves)."""
+    import numpy as np
+
     starts = np.asarray(plan.move_start_s, dtype=float)
     lines = np.asarray(plan.move_lines)
     if starts.size == 0:
