@@ -10,7 +10,7 @@ import re
 import time
 
 import pytest
-from fault_helpers import TRACEBACK, gantry
+from fault_helpers import TRACEBACK
 
 from gantry_sim.controller.config import load_machine_config
 from gantry_sim.controller.errors import ConfigError, SimulationError
@@ -62,10 +62,24 @@ def test_the_traceback_only_on_request(monkeypatch, capsys, prog, how):
     assert err.strip().splitlines()[-1].startswith("gantry: internal error")
 
 
-def test_a_bug_in_a_real_process_exits_3_not_1(tmp_path):
-    """As a process: the status a CI job sees (1 is "a gate failed")."""
-    r = gantry("parse", str(tmp_path), "--debug")  # a folder: a clean error, not a bug
-    assert r.returncode == 2 and TRACEBACK not in r.stderr
+def test_a_bug_in_a_real_process_exits_3_not_1(tmp_path, prog):
+    """As a process, with a bug injected: the status a CI job sees (1 is "a gate failed")."""
+    import subprocess
+    import sys
+
+    inject = (
+        "import sys, gantry_sim.sim.commands.parse as p\n"
+        "p.run = lambda args: {}['missing']\n"
+        "from gantry_sim.sim.cli import main\n"
+        "sys.exit(main(sys.argv[1:]))\n"
+    )
+    r = subprocess.run(
+        [sys.executable, "-c", inject, "parse", str(prog)],
+        capture_output=True, text=True, timeout=60, cwd=tmp_path,
+    )  # fmt: skip
+    assert r.returncode == 3 and TRACEBACK not in r.stderr
+    assert r.stderr.startswith("gantry: internal error (KeyError: 'missing' at ")
+    assert len(r.stderr.splitlines()) == 1
 
 
 # --- defect 6: machine-file numbers -------------------------------------------------------------
