@@ -17,8 +17,8 @@ from fault_helpers import TRACEBACK
 
 from gantry_sim.sim.cli import main
 
-# 30 s simulated per point (about 0.2 s of computing): the workers are busy when the kill comes
-SLOW = "G21 G90\nG1 X50 F100\nM2\n"
+# 90 s simulated per point (about 0.6 s of computing): the workers are busy when the kill comes
+SLOW = "G21 G90\nG1 X150 F100\nM2\n"
 TINY = "G21 G90 G17\nG0 X3 Y0\nG3 I-3 J0 F2400\nM2\n"
 
 
@@ -90,6 +90,7 @@ def _gone(pids: set[int], within_s: float) -> set[int]:
 @pytest.mark.skipif(not sys.platform.startswith("linux"), reason="/proc and PR_SET_PDEATHSIG")
 def test_kill_9_of_a_local_sweep_leaves_no_orphans(tmp_path):
     proc, kids = _start_sweep(tmp_path)
+    assert proc.poll() is None, "the sweep ended before the kill"
     proc.kill()
     proc.wait(timeout=10)
     left = _gone(kids, 10.0)
@@ -101,6 +102,7 @@ def test_kill_9_of_a_local_sweep_leaves_no_orphans(tmp_path):
 @pytest.mark.skipif(not sys.platform.startswith("linux"), reason="/proc")
 def test_sigterm_of_a_local_sweep_stops_it_cleanly(tmp_path):
     proc, kids = _start_sweep(tmp_path)
+    assert proc.poll() is None, "the sweep ended before the signal"
     proc.send_signal(signal.SIGTERM)
     _, err = proc.communicate(timeout=30)
     left = _gone(kids, 10.0)
