@@ -36,11 +36,15 @@ def _as_float(v: Any) -> float | None:
     return f if math.isfinite(f) else None
 
 
-def _number(sign: str, lo: float, hi: float, unit: str) -> Callable[[Any], float]:
-    """A checker for a number in [lo, hi] (``sign``: "> 0", ">= 0" or "" says the basic rule)."""
+def _number(
+    sign: str, lo: float = -math.inf, hi: float = math.inf, unit: str = ""
+) -> Callable[[Any], float]:
+    """A checker for a number in [lo, hi] (``sign``: "> 0", ">= 0" or "" says the basic rule;
+    no range given: any finite number keeping the sign)."""
     basic = f"a finite number {sign}".strip()
     unit_text = f" {unit}" if unit else ""
-    what = f"{basic} within {lo:g}..{hi:g}{unit_text}"
+    bounded = math.isfinite(lo) or math.isfinite(hi)
+    what = f"{basic} within {lo:g}..{hi:g}{unit_text}" if bounded else basic
 
     def check(v: Any) -> float:
         f = _as_float(v)
@@ -53,8 +57,9 @@ def _number(sign: str, lo: float, hi: float, unit: str) -> Callable[[Any], float
     return check
 
 
-def _vec3(item: Callable[[Any], float]) -> Callable[[Any], Vec3]:
-    what = getattr(item, "what", "a finite number").removeprefix("a finite number ")
+def _vec3(item: Callable[[Any], float], what: str | None = None) -> Callable[[Any], Vec3]:
+    if what is None:
+        what = getattr(item, "what", "a finite number").removeprefix("a finite number ")
     text = f"a list of 3 numbers [x, y, z], each {what}"
 
     def check(v: Any) -> Vec3:
@@ -82,6 +87,15 @@ def _string(v: Any) -> str:
         raise ValueError("a non-empty string")
     return v
 
+
+# Unbounded checkers, kept for keys that have no range yet; a new number should get one
+# (``_number``), so that a value such as 1e308 is refused with the range, not crashed on.
+_positive = _number("> 0")
+_non_negative = _number(">= 0")
+_finite = _number("")
+_POS3 = _vec3(_positive, "> 0")
+_NONNEG3 = _vec3(_non_negative, ">= 0")
+_FIN3 = _vec3(_finite, "finite")
 
 #: coordinates and lengths of travel: up to 100 m either way [mm]
 _COORD = _number("", -1e5, 1e5, "mm")
