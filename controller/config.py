@@ -19,34 +19,56 @@ from gantry_sim.controller.errors import ConfigError
 from gantry_sim.controller.planes import Vec3
 
 # --- value checkers: each returns the cleaned value or raises ValueError(what is allowed) ---------
+# Every number also has a range that makes physical sense for a machine tool (and keeps the
+# planner's and MuJoCo's arithmetic in range): a value outside it is refused with the range in
+# the message, instead of overflowing or stalling later.
 
 
-def _positive(v: Any) -> float:
-    if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v) or v <= 0:
-        raise ValueError("a finite number > 0")
-    return float(v)
+def _as_float(v: Any) -> float | None:
+    """``v`` as a finite float, or None (bool, non-number, NaN, inf, or an integer beyond the
+    float range such as a 400-digit TOML integer)."""
+    if isinstance(v, bool) or not isinstance(v, (int, float)):
+        return None
+    try:
+        f = float(v)
+    except OverflowError:
+        return None
+    return f if math.isfinite(f) else None
 
 
-def _non_negative(v: Any) -> float:
-    if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v) or v < 0:
-        raise ValueError("a finite number >= 0")
-    return float(v)
+def _number(
+    sign: str, lo: float = -math.inf, hi: float = math.inf, unit: str = ""
+) -> Callable[[Any], float]:
+    """A checker for a number in [lo, hi] (``sign``: "> 0", ">= 0" or "" says the basic rule;
+    no range given: any finite number keeping the sign)."""
+    basic = f"a finite number {sign}".strip()
+    unit_text = f" {unit}" if unit else ""
+    bounded = math.isfinite(lo) or math.isfinite(hi)
+    what = f"{basic} within {lo:g}..{hi:g}{unit_text}" if bounded else basic
+
+    def check(v: Any) -> float:
+        f = _as_float(v)
+        ok_sign = f is not None and (f > 0 if sign == "> 0" else f >= 0 if sign == ">= 0" else True)
+        if f is None or not ok_sign or not lo <= f <= hi:
+            raise ValueError(what)
+        return f
+
+    check.what = what  # type: ignore[attr-defined]
+    return check
 
 
-def _finite(v: Any) -> float:
-    if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v):
-        raise ValueError("a finite number")
-    return float(v)
+def _vec3(item: Callable[[Any], float], what: str | None = None) -> Callable[[Any], Vec3]:
+    if what is None:
+        what = getattr(item, "what", "a finite number").removeprefix("a finite number ")
+    text = f"a list of 3 numbers [x, y, z], each {what}"
 
-
-def _vec3(item: Callable[[Any], float], what: str) -> Callable[[Any], Vec3]:
     def check(v: Any) -> Vec3:
         if not isinstance(v, list) or len(v) != 3:
-            raise ValueError(f"a list of 3 numbers [x, y, z], each {what}")
+            raise ValueError(text)
         try:
             return tuple(item(c) for c in v)  # type: ignore[return-value]
         except ValueError:
-            raise ValueError(f"a list of 3 numbers [x, y, z], each {what}") from None
+            raise ValueError(text) from None
 
     return check
 
@@ -66,40 +88,53 @@ def _string(v: Any) -> str:
     return v
 
 
+# Unbounded checkers, kept for keys that have no range yet; a new number should get one
+# (``_number``), so that a value such as 1e308 is refused with the range, not crashed on.
+_positive = _number("> 0")
+_non_negative = _number(">= 0")
+_finite = _number("")
 _POS3 = _vec3(_positive, "> 0")
 _NONNEG3 = _vec3(_non_negative, ">= 0")
 _FIN3 = _vec3(_finite, "finite")
 
+#: coordinates and lengths of travel: up to 100 m either way [mm]
+_COORD = _number("", -1e5, 1e5, "mm")
+#: feedforward fractions of the plant model (0 off, 1 the model, up to 2 over-compensation)
+_FRACTION = _number(">= 0", 0.0, 2.0, "")
+
 #: section -> key -> checker. The bundled models/gantry.toml sets every key.
 SCHEMA: dict[str, dict[str, Callable[[Any], Any]]] = {
     "limits": {
-        "max_velocity_mm_per_s": _POS3,
-        "max_acceleration_mm_per_s2": _POS3,
-        "max_jerk_mm_per_s3": _POS3,
+        # 0.6 mm/min .. 6000 m/min; 0.001 .. 1000 m/s^2 (about 100 g); up to 1e6 m/s^3
+        "max_velocity_mm_per_s": _vec3(_number("> 0", 0.01, 1e5, "mm/s")),
+        "max_acceleration_mm_per_s2": _vec3(_number("> 0", 1.0, 1e6, "mm/s^2")),
+        "max_jerk_mm_per_s3": _vec3(_number("> 0", 1.0, 1e9, "mm/s^3")),
     },
-    "travel": {"min_mm": _FIN3, "max_mm": _FIN3},
+    "travel": {"min_mm": _vec3(_COORD), "max_mm": _vec3(_COORD)},
     "segmentation": {
         "method": _choice("chord", "fixed"),
-        "chord_tolerance_mm": _positive,
-        "segment_length_mm": _positive,
+        "chord_tolerance_mm": _number("> 0", 1e-6, 10.0, "mm"),
+        "segment_length_mm": _number("> 0", 1e-3, 1e3, "mm"),
     },
     "servo": {
-        "period_s": _positive,
-        "kp_N_per_mm": _POS3,
-        "kd_N_s_per_mm": _NONNEG3,
-        "ff_velocity": _NONNEG3,
-        "ff_acceleration": _NONNEG3,
-        "ff_friction": _NONNEG3,
-        "ff_gravity": _non_negative,
-        "max_following_error_mm": _positive,
-        "ki_N_per_mm_s": _NONNEG3,
-        "max_error_integral_mm_s": _NONNEG3,
+        # 10 us .. 100 ms (a drive's current loop .. a slow PLC)
+        "period_s": _number("> 0", 1e-5, 0.1, "s"),
+        "kp_N_per_mm": _vec3(_number("> 0", 1e-3, 1e7, "N/mm")),
+        "kd_N_s_per_mm": _vec3(_number(">= 0", 0.0, 1e6, "N s/mm")),
+        "ff_velocity": _vec3(_FRACTION),
+        "ff_acceleration": _vec3(_FRACTION),
+        "ff_friction": _vec3(_FRACTION),
+        "ff_gravity": _FRACTION,
+        "max_following_error_mm": _number("> 0", 1e-4, 1e3, "mm"),
+        "ki_N_per_mm_s": _vec3(_number(">= 0", 0.0, 1e9, "N/(mm s)")),
+        "max_error_integral_mm_s": _vec3(_number(">= 0 (0: no clamp)", 0.0, 1e6, "mm s")),
     },
     "sim": {
         "model": _string,
-        "physics_timestep_s": _positive,
-        "work_origin_joint_mm": _FIN3,
-        "backlash_mm": _NONNEG3,
+        # 1 us .. 10 ms
+        "physics_timestep_s": _number("> 0", 1e-6, 1e-2, "s"),
+        "work_origin_joint_mm": _vec3(_COORD),
+        "backlash_mm": _vec3(_number(">= 0", 0.0, 10.0, "mm")),
     },
 }
 
@@ -201,7 +236,9 @@ def _check(section: str, key: str, value: Any, file: str) -> Any:
     try:
         return keys[key](value)
     except ValueError as exc:
-        raise ConfigError(f"[{section}] {key} = {value!r}: must be {exc}", file=file) from None
+        shown = repr(value)
+        shown = shown if len(shown) <= 40 else shown[:37] + "..."
+        raise ConfigError(f"[{section}] {key} = {shown}: must be {exc}", file=file) from None
 
 
 def _read_toml(path: Path) -> dict[str, Any]:
@@ -218,6 +255,8 @@ def _read_toml(path: Path) -> dict[str, Any]:
         raise ConfigError(f"not valid TOML: {exc}", file=str(path)) from None
     except UnicodeDecodeError:
         raise ConfigError("not valid TOML: the file is not UTF-8 text", file=str(path)) from None
+    except OSError as exc:
+        raise ConfigError(f"cannot read the machine file: {exc.strerror}", file=str(path)) from None
 
 
 def _overlay(merged: dict[str, dict[str, Any]], data: dict[str, Any], path: Path) -> None:

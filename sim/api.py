@@ -27,6 +27,7 @@ from pathlib import Path
 
 from gantry_sim.controller.config import MachineConfig
 from gantry_sim.controller.errors import GantryError, GcodeError
+from gantry_sim.sim.budget import Budget, check_budget
 from gantry_sim.sim.gates import Gates, Verdict
 from gantry_sim.sim.report import RunReport
 from gantry_sim.sim.trace import Trace
@@ -60,6 +61,7 @@ def run_program(
     machine: MachineConfig,
     feed_override_pct: float = 100.0,
     progress: bool = False,
+    budget: Budget | None = None,
 ) -> RunResult:
     """Interpret, plan, simulate and analyse one program on ``machine``.
 
@@ -74,9 +76,11 @@ def run_program(
         machine: the machine file (limits, travel, servo, sim).
         feed_override_pct: scales every programmed feed [%].
         progress: show a progress bar on stderr during long simulations.
+        budget: the largest simulation run without asking (default: sim.budget.Budget()).
 
     Raises:
-        GcodeError, ConfigError, PlanningError, SimulationError: with file and line.
+        GcodeError, ConfigError, PlanningError, SimulationError: with file and line;
+        PlanningError also when the simulation would exceed ``budget``.
     """
     from gantry_sim.controller.gcode.interpreter import interpret
     from gantry_sim.controller.planner.plan import plan
@@ -91,6 +95,7 @@ def run_program(
         moves = tuple(interpret(text, dialect, file))
         t1 = time.perf_counter()
         planned = plan(moves, machine, feed_override_pct=feed_override_pct)
+        check_budget(planned, machine, budget or Budget(), file)
         traj = planned.sample(machine.servo.period_s)
         t2 = time.perf_counter()
         gantry = load_gantry(machine)

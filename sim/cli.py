@@ -1,15 +1,21 @@
 """``gantry``: a thin dispatcher over the subcommands in :mod:`gantry_sim.sim.commands`.
 
-Exit status: 0 success; 1 a gate set on the command line failed; 2 invalid input, reported as
-``FILE:LINE: error: MESSAGE`` (or ``FILE: error: MESSAGE``) on stderr, never a traceback.
+Exit status: 0 success; 1 a gate set on the command line failed; 2 invalid input or an output
+that cannot be written, reported as ``FILE:LINE: error: MESSAGE`` (or ``FILE: error: MESSAGE``)
+on stderr, never a traceback; 3 an internal error (a bug in gantry-sim): one line on stderr,
+the traceback only with ``--debug`` or ``GANTRY_DEBUG=1``.
 Start-up stays quick: each command module imports mujoco / matplotlib only inside ``run``.
 """
 
 from __future__ import annotations
 
 import argparse
+import errno
 import importlib
+import os
+import signal
 import sys
+import threading
 from collections.abc import Sequence
 
 from gantry_sim.controller.errors import GantryError
@@ -26,6 +32,11 @@ COMMANDS: dict[str, str] = {
     "machine": "gantry_sim.sim.commands.machine",
     "compare": "gantry_sim.sim.commands.compare",
 }
+#: exit statuses (README, "Exit status")
+EXIT_OK, EXIT_GATE, EXIT_INPUT, EXIT_INTERNAL = 0, 1, 2, 3
+#: environment variable that shows the traceback of an internal error (like --debug)
+DEBUG_ENV = "GANTRY_DEBUG"
+DEBUG_HELP = f"show the traceback of an internal error (also: {DEBUG_ENV}=1)"
 
 
 def _version() -> str:
@@ -63,30 +74,143 @@ def build_parser() -> argparse.ArgumentParser:
     parser.add_argument(
         "--version", action=_VersionAction, help="print gantry-sim's version and exit"
     )
+    parser.add_argument("--debug", action="store_true", help=DEBUG_HELP)
     sub = parser.add_subparsers(dest="command", required=True, metavar="COMMAND")
     for name, module_name in COMMANDS.items():
         module = importlib.import_module(module_name)
         p = sub.add_parser(name, help=module.HELP, description=module.HELP)
         module.add_arguments(p)
+        p.add_argument("--debug", action="store_true", default=argparse.SUPPRESS, help=DEBUG_HELP)
         p.set_defaults(_run=module.run)
     return parser
 
 
+class Terminated(BaseException):
+    """SIGTERM arrived: unwind (staging folders removed, sweep workers stopped), exit 143."""
+
+
+def _on_sigterm(signum, frame) -> None:
+    raise Terminated
+
+
+def _silence_stdout() -> None:
+    """Point fd 1 at /dev/null so the interpreter's final flush cannot fail again."""
+    try:
+        devnull = os.open(os.devnull, os.O_WRONLY)
+        os.dup2(devnull, 1)
+        os.close(devnull)
+    except OSError:
+        pass
+
+
+def _stdout_error(exc: OSError) -> int:
+    _silence_stdout()
+    if exc.errno == errno.EPIPE:
+        return EXIT_OK  # the reader went away (e.g. `gantry parse ... | head`): not our error
+    print(f"<stdout>: error: cannot write the output: {exc.strerror}", file=sys.stderr)
+    return EXIT_INPUT
+
+
+def _internal_error(exc: BaseException, debug: bool) -> int:
+    if debug:
+        import traceback
+
+        traceback.print_exception(exc, file=sys.stderr)
+    where = ""
+    tb = exc.__traceback__
+    while tb is not None and tb.tb_next is not None:
+        tb = tb.tb_next
+    if tb is not None:
+        where = f" at {os.path.basename(tb.tb_frame.f_code.co_filename)}:{tb.tb_lineno}"
+    detail = f"{type(exc).__name__}: {exc}".splitlines()[0][:300]
+    hint = "" if debug else f"; rerun with --debug (or {DEBUG_ENV}=1) for the traceback"
+    print(
+        f"gantry: internal error ({detail}{where}), please report it with the command and its input files{hint}",
+        file=sys.stderr,
+    )
+    return EXIT_INTERNAL
+
+
 def main(argv: Sequence[str] | None = None) -> int:
     """Run ``gantry`` with ``argv`` (default: sys.argv[1:]) and return the exit status."""
+    if sys.stderr is None:  # started with stderr closed: messages go nowhere, but no crash
+        sys.stderr = open(os.devnull, "w")  # lives as long as the process
     args = build_parser().parse_args(argv)
+    debug = bool(args.debug) or os.environ.get(DEBUG_ENV, "") not in ("", "0")
+    if sys.stdout is None:
+        print("<stdout>: error: standard output is closed", file=sys.stderr)
+        return EXIT_INPUT
+    real_stdout = sys.stdout
+    sys.stdout = _GuardedStdout(real_stdout)
+    previous = None
+    if threading.current_thread() is threading.main_thread():
+        previous = signal.signal(signal.SIGTERM, _on_sigterm)
     try:
-        return int(args._run(args))
+        return _dispatch(args, debug)
+    finally:
+        sys.stdout = real_stdout
+        if previous is not None:
+            signal.signal(signal.SIGTERM, previous)
+
+
+def _dispatch(args: argparse.Namespace, debug: bool) -> int:
+    try:
+        status = int(args._run(args))
+        sys.stdout.flush()
+        return status
     except GantryError as exc:
+        _flush_quietly()
         print(str(exc), file=sys.stderr)
-        return 2
-    except BrokenPipeError:
-        # The reader went away (e.g. `gantry parse ... | head`): not an error of ours.
-        sys.stderr.close()
-        return 0
+        return EXIT_INPUT
+    except StdoutError as exc:
+        return _stdout_error(exc)
+    except OSError as exc:
+        if exc.filename is not None:  # a file-system error on a path we were given
+            print(f"{exc.filename}: error: {exc.strerror}", file=sys.stderr)
+            return EXIT_INPUT
+        return _internal_error(exc, debug)
     except KeyboardInterrupt:
         print("gantry: interrupted", file=sys.stderr)
-        return 130
+        return 128 + signal.SIGINT
+    except Terminated:
+        print("gantry: terminated", file=sys.stderr)
+        return 128 + signal.SIGTERM
+    except Exception as exc:  # a bug: one line, exit 3 (README, "Exit status")
+        return _internal_error(exc, debug)
+
+
+def _flush_quietly() -> None:
+    try:
+        sys.stdout.flush()
+    except OSError:
+        _silence_stdout()
+
+
+class StdoutError(OSError):
+    """Writing to standard output failed (closed pipe, full device, I/O error)."""
+
+
+class _GuardedStdout:
+    """sys.stdout whose write/flush errors are :class:`StdoutError`, so they are told apart
+    from errors on files (which carry their path)."""
+
+    def __init__(self, stream) -> None:
+        self._stream = stream
+
+    def write(self, text: str) -> int:
+        try:
+            return self._stream.write(text)
+        except OSError as exc:
+            raise StdoutError(exc.errno, exc.strerror) from None
+
+    def flush(self) -> None:
+        try:
+            self._stream.flush()
+        except OSError as exc:
+            raise StdoutError(exc.errno, exc.strerror) from None
+
+    def __getattr__(self, name: str):
+        return getattr(self._stream, name)
 
 
 if __name__ == "__main__":

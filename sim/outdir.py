@@ -1,46 +1,265 @@
-"""Outputs that are never half-written: write into a temporary sibling, then move it in."""
+"""Outputs that are never half-written, never mixed, on any file system.
+
+An output folder (``gantry run/ballbar/tune/sweep --out DIR``) always holds one whole run, old
+or new. The files are written into a hidden staging folder *inside* DIR (so on DIR's own file
+system: a mount point, a container volume or a symlink to another disk works, and the final
+moves are ``rename``s), under an exclusive lock on DIR held from staging to commit (two runs
+into one folder take turns), then committed:
+
+1. a ``.complete`` manifest is added to the staging folder by rename: from here on the run is
+   committed and the next writer finishes an interrupted commit instead of discarding it;
+2. the old marker (``last``: report.json, ballbar.json, ...) is removed first, then the old
+   files the new run replaces;
+3. the new files are moved in, the marker last; the staging folder is removed.
+
+So the marker's presence means "one whole run is here". A writer killed at any moment leaves a
+staging folder that the next writer into DIR (holding the lock, so it is stale) either removes
+(not committed) or completes (committed). File modes follow the user's umask. Any OSError is
+raised as :class:`OutputError` naming the path: exit 2, never a traceback.
+"""
 
 from __future__ import annotations
 
+import errno
+import json
 import os
 import shutil
+import stat
 import tempfile
-from collections.abc import Iterator
+import time
+from collections.abc import Iterator, Sequence
 from contextlib import contextmanager
 from pathlib import Path
 
+from gantry_sim.controller.errors import GantryError
+
+STAGE_PREFIX = ".gantry-staging-"
+MANIFEST = ".complete"
+#: how long a writer waits for another gantry process writing into the same folder [s]
+LOCK_WAIT_S = 120.0
+#: earlier versions staged in DIR's parent as .DIR.tmp-*; one older than this is debris [s]
+LEGACY_STAGE_AGE_S = 3600.0
+
+
+class OutputError(GantryError):
+    """An output path cannot be written (permissions, read-only or full file system, ...)."""
+
+
+def os_error(exc: OSError, path: Path | str, doing: str = "cannot write") -> OutputError:
+    """``exc`` as an OutputError on ``exc.filename`` (or ``path``), with what was attempted."""
+    where = exc.filename if isinstance(exc.filename, str) else str(path)
+    reason = exc.strerror or type(exc).__name__
+    if exc.errno == errno.ENOSPC:
+        reason += " (the file system is full)"
+    return OutputError(f"{doing}: {reason}", file=where)
+
+
+def umask() -> int:
+    """The process's file-creation mask (read without changing it for longer than a call)."""
+    mask = os.umask(0o022)
+    os.umask(mask)
+    return mask
+
+
+def ensure_dir(out_dir: Path) -> None:
+    """Create ``out_dir`` (and its parents) or raise OutputError saying why it cannot be."""
+    try:
+        if out_dir.exists() and not out_dir.is_dir():
+            raise OutputError("--out must be a folder, but this is a file", file=str(out_dir))
+        out_dir.mkdir(parents=True, exist_ok=True)
+    except OSError as exc:
+        raise os_error(exc, out_dir, "cannot create the output folder") from None
+
 
 @contextmanager
-def atomic_output_dir(out_dir: Path, last: str | None = None) -> Iterator[Path]:
-    """Yield a temporary folder beside ``out_dir``; on success move its files into ``out_dir``.
+def locked(out_dir: Path) -> Iterator[None]:
+    """Hold an exclusive flock on the folder itself (no lock file left behind)."""
+    import fcntl
 
-    Each file lands by ``os.replace`` (atomic on one file system), so a reader sees either the
-    previous file or the complete new one. If the body raises, nothing in ``out_dir`` changes.
-    ``last`` names the file moved in after all others (a report whose presence means "done").
+    try:
+        fd = os.open(out_dir, os.O_RDONLY | os.O_DIRECTORY)
+    except OSError as exc:
+        raise os_error(exc, out_dir, "cannot open the output folder") from None
+    try:
+        deadline = time.monotonic() + LOCK_WAIT_S
+        while True:
+            try:
+                fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
+                break
+            except BlockingIOError:
+                if time.monotonic() > deadline:
+                    raise OutputError(
+                        f"another gantry process has been writing here for {LOCK_WAIT_S:g} s",
+                        file=str(out_dir),
+                    ) from None
+                time.sleep(0.05)
+            except OSError:
+                break  # a file system without flock (some network mounts): write unlocked
+        yield
+    finally:
+        os.close(fd)
+
+
+def _manifest(stage: Path) -> dict | None:
+    """The staging folder's manifest {"last": name or None, "replaces": [names]}, or None."""
+    try:
+        meta = json.loads((stage / MANIFEST).read_text())
+    except (OSError, ValueError):
+        return None
+    ok = (
+        isinstance(meta, dict)
+        and (meta.get("last") is None or isinstance(meta.get("last"), str))
+        and isinstance(meta.get("replaces"), list)
+        and all(isinstance(n, str) and "/" not in n for n in meta["replaces"])
+    )
+    return meta if ok else None
+
+
+def _commit(stage: Path, out_dir: Path) -> None:
+    """Steps 2-3 of the module docstring for a staging folder holding a manifest; idempotent,
+    so it also completes a commit a killed writer left half done."""
+    meta = _manifest(stage)
+    if meta is None:  # unreadable: treat as never committed
+        shutil.rmtree(stage, ignore_errors=True)
+        return
+    last, replaces = meta["last"], meta["replaces"]
+    pending = sorted(p.name for p in stage.iterdir() if p.name != MANIFEST)
+    if last in pending:
+        (out_dir / last).unlink(missing_ok=True)
+    for name in [*pending, *replaces]:
+        target = out_dir / name
+        if target.is_dir() and not target.is_symlink():
+            raise OutputError(f"'{name}' in the output folder is a folder", file=str(target))
+        target.unlink(missing_ok=True)
+    for name in sorted(pending, key=lambda n: (n == last, n)):
+        os.replace(stage / name, out_dir / name)
+    shutil.rmtree(stage)
+
+
+def recover(out_dir: Path) -> None:
+    """Complete committed staging folders left by killed writers; remove the others.
+
+    Call with the folder's lock held: then no live writer owns any staging folder."""
+    for stage in sorted(out_dir.glob(STAGE_PREFIX + "*")):
+        if not stage.is_dir() or stage.is_symlink():
+            continue
+        if (stage / MANIFEST).is_file():
+            _commit(stage, out_dir)
+        else:
+            shutil.rmtree(stage, ignore_errors=True)
+
+
+def clean_legacy_stages(out_dir: Path) -> None:
+    """Remove ``.DIR.tmp-*`` folders that earlier versions left beside DIR when killed (only
+    those older than LEGACY_STAGE_AGE_S: no live writer takes that long to write)."""
+    now = time.time()
+    try:
+        for stage in out_dir.parent.glob(f".{out_dir.name}.tmp-*"):
+            if stage.is_dir() and not stage.is_symlink():
+                if now - stage.stat().st_mtime > LEGACY_STAGE_AGE_S:
+                    shutil.rmtree(stage, ignore_errors=True)
+    except OSError:
+        pass  # best effort: never a reason to fail a run
+
+
+def prepare_output_dir(out_dir: Path, clear: Sequence[str] = ()) -> None:
+    """Check early (before a long simulation) that ``out_dir`` can take outputs: create it,
+    clean stale staging folders, probe that a file can be created in it, and remove the files
+    named in ``clear`` (an earlier run's outputs a failing run must not leave behind)."""
+    out_dir = Path(out_dir)
+    ensure_dir(out_dir)
+    clean_legacy_stages(out_dir)
+    with locked(out_dir):
+        try:
+            recover(out_dir)
+            Path(tempfile.mkdtemp(prefix=STAGE_PREFIX, dir=out_dir)).rmdir()
+            for name in clear:
+                (out_dir / name).unlink(missing_ok=True)
+        except OSError as exc:
+            raise os_error(exc, out_dir) from None
+
+
+@contextmanager
+def atomic_output_dir(
+    out_dir: Path, last: str | None = None, replaces: Sequence[str] = ()
+) -> Iterator[Path]:
+    """Yield a staging folder inside ``out_dir``; when the body succeeds, commit its files.
+
+    Args:
+        out_dir: the output folder (created if needed; other files in it are left alone).
+        last: the marker file, removed first and moved in last (its presence = a whole run).
+        replaces: more names to remove from ``out_dir`` at the commit (e.g. a journal).
+
+    If the body raises, ``out_dir`` is unchanged. OSErrors become :class:`OutputError`.
     """
     out_dir = Path(out_dir)
-    out_dir.parent.mkdir(parents=True, exist_ok=True)
-    tmp = Path(tempfile.mkdtemp(prefix=f".{out_dir.name}.tmp-", dir=out_dir.parent))
+    ensure_dir(out_dir)
+    with locked(out_dir):  # held from staging to commit: no other writer removes our stage
+        try:
+            recover(out_dir)  # stale folders of killed writers
+            stage = Path(tempfile.mkdtemp(prefix=STAGE_PREFIX, dir=out_dir))
+        except OSError as exc:
+            raise os_error(exc, out_dir) from None
+        try:
+            try:
+                yield stage
+                manifest = stage / (MANIFEST + ".tmp")
+                manifest.write_text(json.dumps({"last": last, "replaces": list(replaces)}))
+                os.replace(manifest, stage / MANIFEST)
+                _commit(stage, out_dir)
+            except OSError as exc:
+                raise os_error(exc, out_dir) from None
+        finally:
+            shutil.rmtree(stage, ignore_errors=True)
+
+
+def check_output_file(path: Path) -> None:
+    """Raise OutputError now if ``path`` cannot be an output file (see ``_writable_target``)."""
+    _writable_target(Path(path))
+
+
+def _writable_target(path: Path) -> Path:
+    """The file to replace for ``--out path``: a new path or an existing regular file (through
+    symlinks); anything else (a device such as /dev/null, a folder, a FIFO) is refused."""
     try:
-        yield tmp
-        out_dir.mkdir(exist_ok=True)
-        for item in sorted(tmp.iterdir(), key=lambda p: (p.name == last, p.name)):
-            os.replace(item, out_dir / item.name)
-    finally:
-        shutil.rmtree(tmp, ignore_errors=True)
+        st = os.stat(path)
+    except FileNotFoundError:
+        if path.is_symlink():
+            raise OutputError("is a dangling symbolic link", file=str(path)) from None
+        if not path.parent.is_dir():
+            raise OutputError("output folder does not exist", file=str(path)) from None
+        return path
+    except OSError as exc:
+        raise os_error(exc, path) from None
+    if stat.S_ISDIR(st.st_mode):
+        raise OutputError("is a folder; give a file name", file=str(path))
+    if not stat.S_ISREG(st.st_mode):
+        raise OutputError(
+            "is not a regular file (a device, FIFO or socket); gantry only replaces regular "
+            "files or creates new ones",
+            file=str(path),
+        )
+    return Path(os.path.realpath(path))
 
 
 @contextmanager
 def atomic_file(path: Path, mode: str = "w", **open_kwargs) -> Iterator:
-    """Open a temporary sibling of ``path`` (whose folder must exist) for writing; when the body
-    succeeds it replaces ``path`` by ``os.replace``, when it raises it is removed and ``path`` is
-    left as it was."""
-    path = Path(path)
-    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.tmp-", dir=path.parent)
+    """Open a temporary sibling of ``path`` for writing; when the body succeeds it replaces
+    ``path`` (a new path or a regular file, see ``_writable_target``) by ``os.replace`` with
+    the umask's permissions; when it raises, it is removed and ``path`` is left as it was."""
+    target = _writable_target(Path(path))
     try:
+        fd, tmp = tempfile.mkstemp(prefix=f".{target.name}.tmp-", dir=target.parent)
+    except OSError as exc:
+        raise os_error(exc, target) from None
+    try:
+        os.fchmod(fd, 0o666 & ~umask())
         with os.fdopen(fd, mode, **open_kwargs) as fh:
             yield fh
-        os.replace(tmp, path)
+        os.replace(tmp, target)
+    except OSError as exc:
+        Path(tmp).unlink(missing_ok=True)
+        raise os_error(exc, target) from None
     except BaseException:
         Path(tmp).unlink(missing_ok=True)
         raise

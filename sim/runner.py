@@ -116,6 +116,11 @@ def simulate(
 
         bar = tqdm(total=n, unit="tick", desc="simulate", file=sys.stderr, leave=False)
     start = time.perf_counter()
+    # MuJoCo's warnings (e.g. "Nan, Inf or huge value in CTRL") would go to stdout and to
+    # ./MUJOCO_LOG.TXT; collect them instead: each chunk's check turns them into an error
+    warnings: list[str] = []
+    previous_handler = mujoco.get_mju_user_warning()
+    mujoco.set_mju_user_warning(warnings.append)
     try:
         for lo in range(0, n, CHUNK):
             hi = min(n, lo + CHUNK)
@@ -141,7 +146,7 @@ def simulate(
                 px, py, pz = x, y, z
             qpos_chunks.append(np.fromiter(flat, float, len(flat)).reshape(-1, nq))
             work_chunks.append(gantry.tool_to_work_mm(gantry.tool_site_m(qpos_chunks[-1])))
-            _check(d, machine, traj, work_chunks[-1], lo, hi)
+            _check(d, machine, traj, work_chunks[-1], lo, hi, warnings)
             if bar is not None:
                 bar.update(hi - lo)
         # the held forces again, vectorised from the recorded encoders (the same law, exactly)
@@ -153,6 +158,7 @@ def simulate(
             force = servo.forces(b_arr, joint, np.concatenate([joint[:1], joint[:-1]]))
         pos = np.concatenate(work_chunks) if work_chunks else np.empty((0, 3))
     finally:
+        mujoco.set_mju_user_warning(previous_handler)
         if bar is not None:
             bar.close()
     wall = time.perf_counter() - start
@@ -168,9 +174,30 @@ def _check(
     work_mm: np.ndarray,
     lo: int,
     hi: int,
+    warnings: list[str] | None = None,
 ) -> None:
     """Raise SimulationError if ticks lo..hi (tool tip ``work_mm`` [mm], work coordinates)
-    diverged or lost the reference."""
+    diverged or lost the reference. MuJoCo's own instability warnings come first: a huge or
+    non-finite actuator control (mjWARN_BADCTRL, which MuJoCo answers by zeroing the control
+    and carrying on) or a bad state (BADQACC/QVEL/QPOS, answered by a reset) make the rest of
+    the run meaningless even when the following error stays within its limit."""
+    import mujoco
+
+    where = f"the machine file {machine.source}" if machine.source else "the machine file"
+    for w in (
+        mujoco.mjtWarning.mjWARN_BADCTRL,
+        mujoco.mjtWarning.mjWARN_BADQACC,
+        mujoco.mjtWarning.mjWARN_BADQVEL,
+        mujoco.mjtWarning.mjWARN_BADQPOS,
+    ):
+        if d.warning[w].number:  # the time of the fault is lost: say the chunk
+            said = f": {warnings[0].strip()}" if warnings else ""
+            raise SimulationError(
+                f"the simulation diverged between t = {traj.t[lo]:.4f} and {traj.t[hi - 1]:.4f} s "
+                f"(MuJoCo: {mujoco.mjtWarning(w).name}{said}); the servo loop is unstable: check "
+                f"[servo] gains and period in {where} and the model's masses and force limits",
+                line=int(traj.line[lo]),
+            )
     err = np.abs(work_mm - traj.pos[lo:hi])
     limit = machine.servo.max_following_error_mm
     bad = ~(err <= limit).all(axis=1)  # beyond the limit, or NaN (no comparison holds)
@@ -182,20 +209,7 @@ def _check(
         raise SimulationError(
             f"following error on {AXES[axis].upper()} is {what} at t = {traj.t[k]:.4f} s, beyond "
             f"[servo] max_following_error_mm = {limit:g}: the servo lost the reference (unstable "
-            f"or too weak: check [servo] gains, feedforward and the model's force limits)",
+            f"or too weak: check [servo] gains and feedforward in {where} and the model's force "
+            "limits)",
             line=int(traj.line[k]),
         )
-    import mujoco
-
-    for w in (
-        mujoco.mjtWarning.mjWARN_BADQACC,
-        mujoco.mjtWarning.mjWARN_BADQVEL,
-        mujoco.mjtWarning.mjWARN_BADQPOS,
-    ):
-        if d.warning[w].number:  # MuJoCo reset the state; the time of the fault is lost
-            raise SimulationError(
-                f"the simulation diverged between t = {traj.t[lo]:.4f} and {traj.t[hi - 1]:.4f} s "
-                f"(MuJoCo: {mujoco.mjtWarning(w).name}); the servo loop is unstable: check "
-                "[servo] gains and period and the model's masses and force limits",
-                line=int(traj.line[lo]),
-            )

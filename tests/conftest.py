@@ -28,3 +28,10 @@ def write_program(tmp_path: Path):
         return path
 
     return _write
+
+
+@pytest.fixture(autouse=True)
+def _work_in_tmp(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    """Every test runs in its own temporary folder, so a command's default output folder
+    (./out) never lands in the checkout; tests name repository files through ROOT."""
+    monkeypatch.chdir(tmp_path)

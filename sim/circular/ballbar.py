@@ -16,7 +16,7 @@ from typing import Any
 import numpy as np
 
 from gantry_sim.controller.config import MachineConfig
-from gantry_sim.controller.errors import ConfigError
+from gantry_sim.controller.errors import ConfigError, GantryError, SimulationError
 from gantry_sim.sim.circular.diagnostics import diagnostics_json, fit_diagnostics
 from gantry_sim.sim.circular.figures import (
     CircleAnalysis,
@@ -92,6 +92,29 @@ def conditions_json(
     }
 
 
+def option_error(
+    exc: GantryError,
+    program_file: str,
+    what: str,
+    radius_option: str,
+    feed_option: str | None,
+    machine_file: str,
+) -> GantryError:
+    """An error about a generated test program, re-addressed to the option a user can change
+    (never a line of a program the user has not seen)."""
+    from gantry_sim.sim.budget import BudgetError
+
+    if exc.file == "--radius":  # circle_test_program's own checks
+        return ConfigError(exc.message, file=radius_option)
+    if exc.file != program_file:
+        return exc
+    if isinstance(exc, BudgetError):
+        return ConfigError(f"{what}: {exc.summary}", file=feed_option or "--max-sim-s")
+    if isinstance(exc, SimulationError):
+        return SimulationError(f"{what}: {exc.message}", file=machine_file)
+    return ConfigError(f"{what} cannot be run on this machine: {exc.message}", file=radius_option)
+
+
 def run_ballbar(
     machine: MachineConfig,
     plane: str = "XY",
@@ -100,6 +123,7 @@ def run_ballbar(
     centre_mm: tuple[float, float, float] = (0.0, 0.0, 0.0),
     progress: bool = False,
     machine_label: str | None = None,
+    budget: Any = None,
 ) -> BallbarResult:
     """Simulate the ballbar program on ``machine`` and analyse both directions.
 
@@ -112,6 +136,7 @@ def run_ballbar(
         progress: show the simulation's progress bar.
         machine_label: how the test-conditions box names the machine (default: the name of
             the machine file it was read from).
+        budget: the simulation's bounds (sim.budget.Budget; default Budget()).
 
     Raises:
         ConfigError: invalid plane/radius/feed, or a circle so short in time that it has fewer
@@ -120,8 +145,14 @@ def run_ballbar(
     """
     from gantry_sim.sim.api import run_program
 
-    program = circle_test_program(plane, radius_mm, feed_mm_per_min, DIRECTIONS, centre_mm)
-    run = run_program(program.text, file="ballbar.ngc", machine=machine, progress=progress)
+    what = f"the ballbar circle (R {radius_mm:g} mm, F {feed_mm_per_min:g} mm/min, {plane})"
+    try:
+        program = circle_test_program(plane, radius_mm, feed_mm_per_min, DIRECTIONS, centre_mm)
+        run = run_program(
+            program.text, file="ballbar.ngc", machine=machine, progress=progress, budget=budget
+        )
+    except GantryError as exc:
+        raise option_error(exc, "ballbar.ngc", what, "--radius", "--feed", machine.source) from None
     centre_ab = plane_coords(np.array([program.centre_mm]), plane)[0]
     samples = {d: circle_samples(run, program, d) for d in DIRECTIONS}
     fewest = min(len(v) for v in samples.values())
@@ -149,11 +180,12 @@ def run_ballbar(
 def write_ballbar_outputs(result: BallbarResult, out_dir: Path) -> None:
     """Write ballbar.json, polar.png, ballbar.ngc, trace_cw.npz, trace_ccw.npz into ``out_dir``.
 
-    The files are written to a temporary folder first and moved in only when all succeeded.
+    The files are written to a staging folder first and committed only when all succeeded,
+    ballbar.json removed first and moved in last (sim.outdir: old or new, never mixed).
     """
     from gantry_sim.sim.plots import save_polar_plot
 
-    with atomic_output_dir(out_dir) as tmp:
+    with atomic_output_dir(out_dir, last="ballbar.json") as tmp:
         (tmp / "ballbar.json").write_text(json.dumps(result.summary, indent=2) + "\n")
         (tmp / "ballbar.ngc").write_text(result.program.text)
         for d in DIRECTIONS:

@@ -22,15 +22,23 @@ from __future__ import annotations
 
 from collections.abc import Callable
 from dataclasses import dataclass
+from typing import Any
 
 from gantry_sim.controller.config import MachineConfig
-from gantry_sim.controller.errors import ConfigError
+from gantry_sim.controller.errors import ConfigError, GantryError
 from gantry_sim.controller.planes import PLANE_AXES
 from gantry_sim.controller.units import mm_per_s_to_mm_per_min
 from gantry_sim.sim.circular.program import circle_test_program
 
 DEFAULT_RESOLUTION_MM_PER_MIN = 20.0
 DEFAULT_MIN_FEED_MM_PER_MIN = 100.0
+#: the finest feed resolution accepted [mm/min]: each halving of the bracket is a simulation
+MIN_RESOLUTION_MM_PER_MIN = 0.01
+#: most radii per tune (each costs about 10-20 simulations)
+MAX_RADII = 100
+#: hard bound on the simulations of one radius's search (the loops below never exceed it)
+MAX_HALVINGS = 64
+MAX_BISECTIONS = 64
 
 
 @dataclass(frozen=True)
@@ -72,7 +80,11 @@ class TuneRow:
 
 
 def circle_error_um(
-    machine: MachineConfig, plane: str, radius_mm: float, feed_mm_per_min: float
+    machine: MachineConfig,
+    plane: str,
+    radius_mm: float,
+    feed_mm_per_min: float,
+    budget: Any = None,
 ) -> tuple[float, float]:
     """Simulate the tune program at this feed.
 
@@ -84,9 +96,15 @@ def circle_error_um(
     import numpy as np
 
     from gantry_sim.sim.api import run_program
+    from gantry_sim.sim.circular.ballbar import option_error
 
-    program = circle_test_program(plane, radius_mm, feed_mm_per_min, ("ccw",))
-    result = run_program(program.text, file=f"tune_r{radius_mm:g}.ngc", machine=machine)
+    file = f"tune_r{radius_mm:g}.ngc"
+    what = f"the R {radius_mm:g} mm circle at F {feed_mm_per_min:.6g} mm/min ({plane})"
+    try:
+        program = circle_test_program(plane, radius_mm, feed_mm_per_min, ("ccw",))
+        result = run_program(program.text, file=file, machine=machine, budget=budget)
+    except GantryError as exc:
+        raise option_error(exc, file, what, "--radii", None, machine.source) from None
     line = program.circle_line("ccw")
     block = result.run_report.block(line)
     if block is None:
@@ -140,7 +158,7 @@ def max_feed_for_radius(
     hi = cap_mm_per_min
     if passes(hi):
         return row(hi, hi, "machine_limits")
-    while True:
+    for _ in range(MAX_HALVINGS):
         down = max(hi / 2.0, min_feed_mm_per_min)
         if down >= hi:
             return row(None, hi, "unreachable")
@@ -148,8 +166,12 @@ def max_feed_for_radius(
             lo = down
             break
         hi = down
-    while hi - lo > resolution_mm_per_min:
+    else:
+        return row(None, hi, "unreachable")
+    for _ in range(MAX_BISECTIONS):
         mid = 0.5 * (lo + hi)
+        if hi - lo <= resolution_mm_per_min or not lo < mid < hi:
+            break  # narrow enough, or no float between the bracket's ends
         if passes(mid):
             lo = mid
         else:
@@ -164,21 +186,33 @@ def tune(
     plane: str = "XY",
     resolution_mm_per_min: float = DEFAULT_RESOLUTION_MM_PER_MIN,
     progress: Callable[[str], None] | None = None,
+    budget: Any = None,
 ) -> list[TuneRow]:
     """The highest feed per radius whose full circle keeps its max contour error within
     ``tolerance_um`` [um] on ``machine`` (see the module docstring for the search)."""
-    if not radii_mm or any(not (r > 0) for r in radii_mm):
-        raise ConfigError(f"radii {radii_mm} must be numbers > 0 [mm]", file="--radii")
+    if not radii_mm or any(not (0 < r < float("inf")) for r in radii_mm):
+        raise ConfigError(f"radii {radii_mm} must be finite numbers > 0 [mm]", file="--radii")
+    if len(radii_mm) > MAX_RADII:
+        raise ConfigError(
+            f"{len(radii_mm)} radii: at most {MAX_RADII} per tune (each costs 10-20 "
+            "simulations); split the list",
+            file="--radii",
+        )
     if not tolerance_um > 0:
         raise ConfigError(f"tolerance {tolerance_um} um must be > 0", file="--tolerance-um")
-    if not resolution_mm_per_min > 0:
-        raise ConfigError("feed resolution must be > 0 mm/min", file="--feed-resolution")
+    if not MIN_RESOLUTION_MM_PER_MIN <= resolution_mm_per_min < float("inf"):
+        raise ConfigError(
+            f"{resolution_mm_per_min:g} mm/min: must be a finite number >= "
+            f"{MIN_RESOLUTION_MM_PER_MIN:g} mm/min (each halving of the feed bracket costs "
+            "one simulation)",
+            file="--feed-resolution",
+        )
     cap = feed_cap_mm_per_min(machine, plane)
     rows = []
     for radius in radii_mm:
 
         def evaluate(feed: float, radius: float = radius) -> tuple[float, float]:
-            err, run_feed = circle_error_um(machine, plane, radius, feed)
+            err, run_feed = circle_error_um(machine, plane, radius, feed, budget)
             if progress is not None:
                 progress(
                     f"R {radius:g} mm  F {feed:.0f} mm/min (runs at {run_feed:.0f})  "

@@ -15,7 +15,13 @@ import sys
 from pathlib import Path
 
 from gantry_sim.controller.errors import ConfigError
-from gantry_sim.sim.commands.common import DEFAULT_OUT, add_machine, load_machine
+from gantry_sim.sim.commands.common import (
+    DEFAULT_OUT,
+    add_budget,
+    add_machine,
+    budget_from,
+    load_machine,
+)
 
 HELP = (
     "circular test (virtual ballbar, ISO 230-4): run a full circle CCW and CW and report the "
@@ -63,6 +69,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         help="write ballbar.json, polar.png, ballbar.ngc, trace_cw.npz, trace_ccw.npz here "
         f"(default: ./{DEFAULT_OUT})",
     )
+    add_budget(parser)
     shown = parser.add_mutually_exclusive_group()
     shown.add_argument(
         "--json",
@@ -102,12 +109,16 @@ def parse_centre(text: str | None, plane: str) -> tuple[float, float, float]:
 def run(args: argparse.Namespace) -> int:
     from gantry_sim.sim.circular.ballbar import run_ballbar, write_ballbar_outputs
     from gantry_sim.sim.circular.summary import format_summary, g_gate
+    from gantry_sim.sim.outdir import prepare_output_dir
 
     if args.max_g_um is not None and not (math.isfinite(args.max_g_um) and args.max_g_um >= 0):
         raise ConfigError(f"{args.max_g_um} must be a finite number >= 0 [um]", file="--max-g-um")
     centre = parse_centre(args.centre, args.plane)
     machine = load_machine(args.machine)
     label = str(args.machine) if args.machine is not None else "bundled (models/gantry.toml)"
+    budget = budget_from(args)
+    if args.out is not None:
+        prepare_output_dir(args.out)  # fails now, not after the simulation
     result = run_ballbar(
         machine,
         args.plane,
@@ -116,6 +127,7 @@ def run(args: argparse.Namespace) -> int:
         centre,
         progress=sys.stderr.isatty(),
         machine_label=label,
+        budget=budget,
     )
     status = 0
     if args.max_g_um is not None:

@@ -86,3 +86,33 @@ def add_work_offset(parser: argparse.ArgumentParser) -> None:
         metavar="X,Y,Z",
         help="place the program: its G54 origin sits at X,Y,Z [mm] of the machine's work frame",
     )
+
+
+def add_budget(parser: argparse.ArgumentParser, steps: bool = True) -> None:
+    """--max-sim-s (and --max-physics-steps): the bounds of sim.budget, raised on request."""
+    from gantry_sim.sim.budget import DEFAULT_MAX_PHYSICS_STEPS, DEFAULT_MAX_SIM_S
+
+    parser.add_argument(
+        "--max-sim-s",
+        type=float,
+        default=DEFAULT_MAX_SIM_S,
+        metavar="S",
+        help=f"refuse a program taking more than S seconds of simulated time (default "
+        f"{DEFAULT_MAX_SIM_S:g}; memory grows by about 0.6 MB per simulated second)",
+    )
+    if steps:
+        parser.add_argument(
+            "--max-physics-steps",
+            type=float,
+            default=DEFAULT_MAX_PHYSICS_STEPS,
+            metavar="N",
+            help=f"refuse a simulation of more than N MuJoCo steps (default "
+            f"{DEFAULT_MAX_PHYSICS_STEPS:.3g}, about a minute)",
+        )
+
+
+def budget_from(args: argparse.Namespace):
+    """The sim.budget.Budget the options ask for (ConfigError naming the option if invalid)."""
+    from gantry_sim.sim.budget import DEFAULT_MAX_PHYSICS_STEPS, Budget
+
+    return Budget(args.max_sim_s, getattr(args, "max_physics_steps", DEFAULT_MAX_PHYSICS_STEPS))

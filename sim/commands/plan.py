@@ -8,7 +8,14 @@ import json
 import sys
 from pathlib import Path
 
-from gantry_sim.sim.commands.common import add_dialect, add_machine, load_machine, read_program
+from gantry_sim.sim.commands.common import (
+    add_budget,
+    add_dialect,
+    add_machine,
+    budget_from,
+    load_machine,
+    read_program,
+)
 
 HELP = "plan a G-code program (segmentation, look-ahead, Ruckig) and print its summary as JSON"
 
@@ -22,19 +29,19 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         type=Path,
         default=None,
         metavar="TRAJ.npz",
-        help="write the reference sampled every servo period: arrays t, pos, vel, acc, line",
+        help="write the reference sampled every servo period: arrays t, pos, vel, acc, line "
+        "(a new file, or a regular file that is replaced atomically)",
     )
+    add_budget(parser, steps=False)
 
 
 def write_npz_atomically(path: Path, arrays: dict) -> None:
-    """Write ``arrays`` to ``path`` atomically (:func:`gantry_sim.sim.outdir.atomic_file`)."""
+    """Write ``arrays`` to ``path`` atomically (:func:`gantry_sim.sim.outdir.atomic_file`:
+    a new path or a regular file only, never a device such as /dev/null; the umask's mode)."""
     import numpy as np
 
-    from gantry_sim.controller.errors import ConfigError
     from gantry_sim.sim.outdir import atomic_file
 
-    if not path.parent.is_dir():
-        raise ConfigError("output folder does not exist", file=str(path))
     with atomic_file(path, "wb") as fh:
         np.savez(fh, **arrays)
 
@@ -43,17 +50,23 @@ def run(args: argparse.Namespace) -> int:
     from gantry_sim.controller.errors import GantryError
     from gantry_sim.controller.gcode.interpreter import interpret
     from gantry_sim.controller.planner.plan import plan
+    from gantry_sim.sim.budget import Budget, check_budget
+    from gantry_sim.sim.outdir import check_output_file
 
+    budget = budget_from(args)
     machine = load_machine(args.machine)
     text = read_program(args.program)
     file = str(args.program)
+    if args.out is not None:
+        check_output_file(args.out)  # before planning: a device or folder is refused now
     try:
         moves = list(interpret(text, dialect=args.dialect, file=file))
         result = plan(moves, machine)
     except GantryError as exc:
         raise exc.located(file) from None
     period = machine.servo.period_s
-    if args.out is not None:
+    if args.out is not None:  # the samples' memory: the same bound as a simulation's
+        check_budget(result, machine, Budget(budget.max_sim_s, float("inf")), file)
         write_npz_atomically(args.out, result.sample(period).to_npz_dict())
     summary = {
         "duration_s": result.duration_s,

@@ -16,8 +16,10 @@ from pathlib import Path
 
 from gantry_sim.sim.commands.common import (
     DEFAULT_OUT,
+    add_budget,
     add_dialect,
     add_machine,
+    budget_from,
     load_machine,
     read_program,
 )
@@ -87,6 +89,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         help="write the wall-clock fields of report.json (timing_s.*, sim.realtime_factor) as "
         "null, so the same input gives a byte-identical report.json; timing.json has them",
     )
+    add_budget(parser)
 
 
 def _summary(report: dict, timing: dict, out_dir: Path, files: list[str]) -> str:
@@ -120,18 +123,21 @@ def run(args: argparse.Namespace) -> int:
     from gantry_sim.sim.api import run_program, with_verdict, write_run_outputs
     from gantry_sim.sim.compare import Margins, compare, format_table, load_report
     from gantry_sim.sim.gates import gates_from_options, verdict_for
+    from gantry_sim.sim.outdir import prepare_output_dir
     from gantry_sim.sim.report import OUTPUT_FILES, PLOT_FILES
 
     gates = gates_from_options(args.max_error_um, args.max_error_um_lines, args.max_cycle_time_s)
     if not (0 < args.feed_override < float("inf")):
         raise ConfigError(f"{args.feed_override}: must be a number > 0 [%]", file="--feed-override")
-    baseline = load_report(args.baseline) if args.baseline is not None else None  # before unlink
+    budget = budget_from(args)
+    baseline = load_report(args.baseline) if args.baseline is not None else None  # before clearing
     if args.out.exists() and not args.out.is_dir():
         raise ConfigError("--out must be a folder, not a file", file=str(args.out))
-    for name in OUTPUT_FILES:  # a failing run must not leave an earlier run's report behind
-        (args.out / name).unlink(missing_ok=True)
     machine = load_machine(args.machine)
     text = read_program(args.program)
+    # before the simulation: a folder that cannot take the outputs fails now, not after it;
+    # a failing run must not leave an earlier run's report behind
+    prepare_output_dir(args.out, clear=OUTPUT_FILES)
     result = run_program(
         text,
         file=str(args.program),
@@ -139,6 +145,7 @@ def run(args: argparse.Namespace) -> int:
         machine=machine,
         feed_override_pct=args.feed_override,
         progress=sys.stderr.isatty(),
+        budget=budget,
     )
     comparison = None
     if baseline is not None:

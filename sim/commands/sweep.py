@@ -13,8 +13,10 @@ from pathlib import Path
 from gantry_sim.controller.errors import ConfigError
 from gantry_sim.sim.commands.common import (
     DEFAULT_OUT,
+    add_budget,
     add_dialect,
     add_machine,
+    budget_from,
     load_machine,
     read_program,
 )
@@ -87,18 +89,23 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         help=f"write sweep.csv and the plots here (default: ./{DEFAULT_OUT}; a rerun resumes "
         "an interrupted sweep)",
     )
+    add_budget(parser)
 
 
 def run(args: argparse.Namespace) -> int:
-    from gantry_sim.sim.outdir import atomic_output_dir
+    from gantry_sim.sim.outdir import atomic_output_dir, prepare_output_dir
     from gantry_sim.sim.search_plots import save_sweep_plots
-    from gantry_sim.sim.sweep.grid import JOURNAL, grid, run_sweep, write_csv, write_csv_atomic
+    from gantry_sim.sim.sweep.grid import JOURNAL, check_points, grid, run_sweep, write_csv
 
-    if args.workers is not None and args.workers < 1:
-        raise ConfigError(f"{args.workers}: must be an integer >= 1", file="--workers")
+    if args.workers is not None and not 1 <= args.workers <= 1024:
+        raise ConfigError(f"{args.workers}: must be an integer from 1 to 1024", file="--workers")
+    budget = budget_from(args)
     text = read_program(args.program)
     machine = load_machine(args.machine)
     points = grid(args.feed_override, args.max_accel, args.max_jerk)
+    check_points(machine, points)
+    if args.out is not None:
+        prepare_output_dir(args.out)  # fails now, not after the simulations
     rows = run_sweep(
         text,
         points,
@@ -110,12 +117,13 @@ def run(args: argparse.Namespace) -> int:
         scheduler=args.scheduler,
         out_dir=args.out,
         progress=sys.stderr.isatty(),
+        budget=budget,
     )
-    if args.out is not None:
-        with atomic_output_dir(args.out) as tmp:
+    if args.out is not None:  # one commit: the CSV (last), the plots, the journal removed
+        with atomic_output_dir(args.out, last="sweep.csv", replaces=(JOURNAL,)) as tmp:
+            with open(tmp / "sweep.csv", "w", newline="") as fh:
+                write_csv(rows, fh)
             save_sweep_plots(rows, tmp)
-        write_csv_atomic(rows, args.out / "sweep.csv")
-        (args.out / JOURNAL).unlink(missing_ok=True)
     write_csv(rows, sys.stdout)
     if rows and not any(r["status"] == "ok" for r in rows):  # nothing to choose from: a failure
         print(

@@ -12,7 +12,13 @@ import sys
 from pathlib import Path
 
 from gantry_sim.controller.errors import ConfigError
-from gantry_sim.sim.commands.common import DEFAULT_OUT, add_machine, load_machine
+from gantry_sim.sim.commands.common import (
+    DEFAULT_OUT,
+    add_budget,
+    add_machine,
+    budget_from,
+    load_machine,
+)
 
 HELP = (
     "find, per circle radius, the highest feed [mm/min] whose full circle keeps the max "
@@ -67,22 +73,28 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         metavar="DIR",
         help=f"write tune.json and tune.png here (default: ./{DEFAULT_OUT})",
     )
+    add_budget(parser)
 
 
 def run(args: argparse.Namespace) -> int:
     from gantry_sim.sim.circular.tune import DEFAULT_RESOLUTION_MM_PER_MIN, tune
-    from gantry_sim.sim.outdir import atomic_output_dir
+    from gantry_sim.sim.outdir import atomic_output_dir, prepare_output_dir
     from gantry_sim.sim.search_plots import save_tune_plot
 
     machine = load_machine(args.machine)
-    resolution = args.feed_resolution or DEFAULT_RESOLUTION_MM_PER_MIN
-    if args.feed_resolution is not None and not args.feed_resolution > 0:
-        raise ConfigError("must be > 0 [mm/min]", file="--feed-resolution")
+    budget = budget_from(args)
+    resolution = (
+        DEFAULT_RESOLUTION_MM_PER_MIN if args.feed_resolution is None else args.feed_resolution
+    )
+    if args.out is not None:
+        prepare_output_dir(args.out)  # fails now, not after the simulations
 
     def progress(msg: str) -> None:
         print(f"tune: {msg}", file=sys.stderr, flush=True)
 
-    rows = tune(machine, _radii(args.radii), args.tolerance_um, args.plane, resolution, progress)
+    rows = tune(
+        machine, _radii(args.radii), args.tolerance_um, args.plane, resolution, progress, budget
+    )
     summary = {
         "tolerance_um": args.tolerance_um,
         "plane": args.plane,
@@ -90,7 +102,7 @@ def run(args: argparse.Namespace) -> int:
         "rows": [r.to_json() for r in rows],
     }
     if args.out is not None:
-        with atomic_output_dir(args.out) as tmp:
+        with atomic_output_dir(args.out, last="tune.json") as tmp:
             (tmp / "tune.json").write_text(json.dumps(summary, indent=2) + "\n")
             save_tune_plot(tmp / "tune.png", rows, args.tolerance_um, args.plane)
     sys.stdout.write(json.dumps(summary) + "\n")

@@ -19,6 +19,7 @@ import hashlib
 import itertools
 import json
 import math
+import sys
 from collections.abc import Sequence
 from dataclasses import asdict, dataclass
 from pathlib import Path
@@ -26,6 +27,7 @@ from typing import TextIO
 
 from gantry_sim.controller.config import MachineConfig
 from gantry_sim.controller.errors import SimulationError
+from gantry_sim.sim.budget import Budget, BudgetError
 from gantry_sim.sim.outdir import atomic_file
 from gantry_sim.sim.sweep.executors import dask_map, local_map
 
@@ -81,13 +83,19 @@ def machine_for(machine: MachineConfig, point: SweepPoint) -> MachineConfig:
 
 
 def run_point(
-    text: str, file: str, dialect: str, machine: MachineConfig, point: SweepPoint
+    text: str,
+    file: str,
+    dialect: str,
+    machine: MachineConfig,
+    point: SweepPoint,
+    budget: Budget | None = None,
 ) -> dict:
     """Simulate one grid point -> a sweep.csv row (a dict over COLUMNS).
 
     A simulation that fails (SimulationError, e.g. a following-error fault at an aggressive
-    setting) is a result, not a crash: its row has status "simulation error: ..." and no figures.
-    Other errors (the program or machine is invalid everywhere) propagate.
+    setting) is a result, not a crash: its row has status "simulation error: ..." and no figures;
+    so is a point whose simulation would exceed ``budget`` (a low feed override): "over the
+    budget: ...". Other errors (the program or machine is invalid everywhere) propagate.
     """
     from gantry_sim.sim.api import run_program
 
@@ -103,15 +111,17 @@ def run_point(
             dialect=dialect,
             machine=machine_for(machine, point),
             feed_override_pct=point.feed_override_pct,
+            budget=budget,
         )
-    except SimulationError as exc:
+    except (SimulationError, BudgetError) as exc:
         nan = float("nan")
+        what = "over the budget" if isinstance(exc, BudgetError) else "simulation error"
         return row | {
             "cycle_time_s": nan,
             "max_error_um": nan,
             "rms_error_um": nan,
             "p95_error_um": nan,
-            "status": f"simulation error: {exc.message}",
+            "status": f"{what}: {exc.message}",
         }
     report = result.run_report
     return row | {
@@ -128,18 +138,50 @@ def fingerprint(text: str, dialect: str, machine: MachineConfig) -> str:
     return hashlib.sha256(repr((text, dialect, machine)).encode()).hexdigest()[:16]
 
 
-def _read_journal(path: Path, tag: str) -> dict[str, dict]:
+def _journal_record(raw: bytes) -> dict | None:
+    """One journal line as {"fingerprint", "key", "row"}, or None when it is damaged (cut
+    short by an interruption, not UTF-8, not JSON, or not a record of this shape)."""
+    try:
+        rec = json.loads(raw.decode("utf-8"))
+    except (UnicodeDecodeError, ValueError, RecursionError):
+        return None
+    if not (
+        isinstance(rec, dict)
+        and isinstance(rec.get("fingerprint"), str)
+        and isinstance(rec.get("key"), str)
+        and isinstance(rec.get("row"), dict)
+        and all(c in rec["row"] for c in COLUMNS)
+    ):
+        return None
+    return rec
+
+
+def read_journal(path: Path, tag: str) -> tuple[dict[str, dict], int]:
+    """The rows of ``path`` recorded by the sweep ``tag`` (key -> row), and how many damaged
+    lines were skipped. A damaged journal never blocks a sweep: a bad line (not UTF-8, not
+    JSON, not a record) is skipped and counted; a last line without its newline is an
+    interrupted write, skipped without being counted."""
     done: dict[str, dict] = {}
-    if not path.exists():
-        return done
-    for line in path.read_text().splitlines():
-        try:
-            rec = json.loads(line)
-        except json.JSONDecodeError:
-            continue  # a line cut short by an interruption
-        if rec.get("fingerprint") == tag:
+    try:
+        data = path.read_bytes()
+    except FileNotFoundError:
+        return done, 0
+    except OSError as exc:
+        from gantry_sim.sim.outdir import os_error
+
+        raise os_error(exc, path, "cannot read the sweep journal") from None
+    lines = data.split(b"\n")
+    bad = 0
+    for i, raw in enumerate(lines):
+        if not raw.strip():
+            continue
+        rec = _journal_record(raw)
+        if rec is None:
+            bad += i < len(lines) - 1  # the unterminated last line: cut short, not damage
+            continue
+        if rec["fingerprint"] == tag:
             done[rec["key"]] = rec["row"]
-    return done
+    return done, bad
 
 
 def run_sweep(
@@ -154,6 +196,7 @@ def run_sweep(
     scheduler: str | None = None,
     out_dir: Path | None = None,
     progress: bool = False,
+    budget: Budget | None = None,
 ) -> list[dict]:
     """Simulate every point; return the rows in grid order.
 
@@ -168,6 +211,7 @@ def run_sweep(
         scheduler: a Dask scheduler address (dask only; default: a LocalCluster).
         out_dir: where the journal lives (resume); None: no journal.
         progress: show a tqdm progress bar on stderr.
+        budget: each simulation's bounds (sim.budget.Budget; default Budget()).
     """
     if executor not in ("local", "dask"):
         from gantry_sim.controller.errors import ConfigError
@@ -175,10 +219,18 @@ def run_sweep(
         raise ConfigError(f"executor {executor!r}: must be 'local' or 'dask'", file="--executor")
     tag = fingerprint(text, dialect, machine)
     journal = out_dir / JOURNAL if out_dir is not None else None
-    done = _read_journal(journal, tag) if journal is not None else {}
+    done: dict[str, dict] = {}
+    if journal is not None:
+        done, bad = read_journal(journal, tag)
+        if bad:
+            print(
+                f"{journal}: warning: skipped {bad} damaged line(s) of the sweep journal "
+                "(their points are simulated again)",
+                file=sys.stderr,
+            )
     todo = [p for p in points if p.key() not in done]
     if todo:
-        args = [(text, file, dialect, machine, p) for p in todo]
+        args = [(text, file, dialect, machine, p, budget) for p in todo]
         rows = (
             local_map(run_point, args, workers)
             if executor == "local"
@@ -187,10 +239,7 @@ def run_sweep(
         from tqdm import tqdm
 
         if journal is not None:
-            journal.parent.mkdir(parents=True, exist_ok=True)
-            if journal.exists() and not journal.read_bytes().endswith(b"\n"):
-                with open(journal, "a") as fh:
-                    fh.write("\n")  # end a line an interruption cut short
+            _end_last_line(journal)
         bar = tqdm(
             total=len(points),
             initial=len(points) - len(todo),
@@ -205,10 +254,32 @@ def run_sweep(
                 ).key()
                 done[key] = row
                 if journal is not None:
-                    with open(journal, "a") as fh:
-                        fh.write(json.dumps({"fingerprint": tag, "key": key, "row": row}) + "\n")
+                    _append(journal, {"fingerprint": tag, "key": key, "row": row})
                 bar.update(1)
     return [done[p.key()] for p in points]
+
+
+def _end_last_line(journal: Path) -> None:
+    """End a line an interruption cut short, so the next record starts on its own line."""
+    try:
+        journal.parent.mkdir(parents=True, exist_ok=True)
+        if journal.exists() and not journal.read_bytes().endswith(b"\n"):
+            with open(journal, "a") as fh:
+                fh.write("\n")
+    except OSError as exc:
+        from gantry_sim.sim.outdir import os_error
+
+        raise os_error(exc, journal, "cannot write the sweep journal") from None
+
+
+def _append(journal: Path, record: dict) -> None:
+    try:
+        with open(journal, "a") as fh:
+            fh.write(json.dumps(record) + "\n")
+    except OSError as exc:
+        from gantry_sim.sim.outdir import os_error
+
+        raise os_error(exc, journal, "cannot write the sweep journal") from None
 
 
 def _cell(v: object) -> str:
@@ -232,3 +303,26 @@ def write_csv_atomic(rows: Sequence[dict], path: Path) -> None:
     path.parent.mkdir(parents=True, exist_ok=True)
     with atomic_file(path, "w", newline="") as fh:
         write_csv(rows, fh)
+
+
+#: most grid points one sweep runs (each is a full simulation)
+MAX_POINTS = 10_000
+
+
+def check_points(machine: MachineConfig, points: Sequence[SweepPoint]) -> None:
+    """Refuse, before any simulation, a grid too large or a value the machine file's ranges
+    refuse (the error names the option: --max-accel, --max-jerk or --feed-override)."""
+    from gantry_sim.controller.errors import ConfigError
+
+    if len(points) > MAX_POINTS:
+        raise ConfigError(
+            f"the grid has {len(points)} points, beyond the bound of {MAX_POINTS} simulations "
+            "per sweep; split it into several sweeps",
+            file="--feed-override",
+        )
+    for p in points:
+        try:
+            machine_for(machine, p)
+        except ConfigError as exc:
+            option = "--max-accel" if "acceleration" in exc.message else "--max-jerk"
+            raise ConfigError(exc.message, file=option) from None

@@ -1,0 +1,106 @@
+"""Bounds on the cost of a simulation, checked after planning and before anything is sampled.
+
+A simulation's memory grows with its servo ticks (about 0.6 MB per simulated second at the
+bundled 1 kHz servo: the reference, the trace and the analysis per tick) and its wall time with
+its MuJoCo physics steps (about 300,000 per second on one core for the bundled model). A program
+such as ``G1 X1 F0.0001`` (600,000 s) or a machine file with a tiny physics timestep would run
+for hours and end in the out-of-memory killer; it is refused up front instead, with the figures
+and the option that raises the bound (``--max-sim-s``, ``--max-physics-steps``).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from typing import TYPE_CHECKING
+
+from gantry_sim.controller.errors import ConfigError, PlanningError
+
+if TYPE_CHECKING:  # no numpy or config import when the CLI only builds its parser
+    from gantry_sim.controller.config import MachineConfig
+
+DEFAULT_MAX_SIM_S = 7200.0
+DEFAULT_MAX_PHYSICS_STEPS = 20_000_000
+#: servo ticks allowed per second of --max-sim-s: the memory bound is stated at 1 kHz
+TICKS_PER_BUDGET_S = 1000.0
+
+
+class BudgetError(PlanningError):
+    """The simulation would exceed its :class:`Budget`. ``summary``: the message without
+    reference to a program line (for programs gantry writes itself, e.g. the ballbar's)."""
+
+    def __init__(
+        self, message: str, summary: str = "", file: str | None = None, line: int | None = None
+    ) -> None:
+        super().__init__(message, file=file, line=line)
+        self.summary = summary or message
+
+
+@dataclass(frozen=True)
+class Budget:
+    """The largest simulation run without asking: simulated time [s] and MuJoCo steps."""
+
+    max_sim_s: float = DEFAULT_MAX_SIM_S
+    max_physics_steps: float = DEFAULT_MAX_PHYSICS_STEPS
+
+    def __post_init__(self) -> None:
+        for name, value in (
+            ("--max-sim-s", self.max_sim_s),
+            ("--max-physics-steps", self.max_physics_steps),
+        ):
+            if not (isinstance(value, (int, float)) and value > 0) or math.isnan(value):
+                raise ConfigError(f"{value}: must be a number > 0", file=name)
+
+
+def _longest_move(plan) -> tuple[int | None, float]:
+    """(line, duration [s]) of the plan's longest move (None when it has no moves)."""
+    import numpy as np
+
+    starts = np.asarray(plan.move_start_s, dtype=float)
+    lines = np.asarray(plan.move_lines)
+    if starts.size == 0:
+        return None, 0.0
+    ends = np.append(starts[1:], plan.duration_s)
+    k = int(np.argmax(ends - starts))
+    return int(lines[k]), float(ends[k] - starts[k])
+
+
+def check_budget(plan, machine: MachineConfig, budget: Budget, file: str) -> None:
+    """Raise PlanningError (on the longest move's line) if simulating ``plan`` would exceed
+    ``budget``; the message gives the estimate, the bound and the option to raise it."""
+    duration = float(plan.duration_s)
+    ticks = duration / machine.servo.period_s
+    substeps = max(1, round(machine.servo.period_s / machine.sim.physics_timestep_s))
+    steps = ticks * substeps
+    line, longest = _longest_move(plan)
+    on_line = f" (the move on this line alone takes {longest:.6g} s)" if line is not None else ""
+    if duration > budget.max_sim_s:
+        bound = (
+            f", beyond the bound of {budget.max_sim_s:g} s (memory grows by about 0.6 MB per "
+            f"simulated second); check the feeds (F is in mm/min), or pass --max-sim-s "
+            f"{math.ceil(duration)} to simulate it anyway"
+        )
+        raise BudgetError(
+            f"the program takes {duration:.6g} s of simulated time{on_line}{bound}",
+            f"it takes {duration:.6g} s of simulated time{bound}",
+            file=file,
+            line=line,
+        )
+    if ticks > budget.max_sim_s * TICKS_PER_BUDGET_S:
+        need = math.ceil(ticks / TICKS_PER_BUDGET_S)
+        message = (
+            f"simulating it takes {ticks:.3g} servo ticks ({duration:.6g} s at [servo] "
+            f"period_s = {machine.servo.period_s:g}), beyond the bound of "
+            f"{budget.max_sim_s * TICKS_PER_BUDGET_S:.3g} (--max-sim-s counts 1000 ticks, about "
+            f"0.6 MB of memory, per second); pass --max-sim-s {need} to simulate it anyway"
+        )
+        raise BudgetError(message, message, file=file)
+    if steps > budget.max_physics_steps:
+        message = (
+            f"simulating it takes {steps:.3g} MuJoCo physics steps ({duration:.6g} s at [sim] "
+            f"physics_timestep_s = {machine.sim.physics_timestep_s:g}), beyond the bound of "
+            f"{budget.max_physics_steps:.3g} (about a minute of computing); use a larger "
+            f"physics timestep, or pass --max-physics-steps {math.ceil(steps)} to simulate it "
+            "anyway"
+        )
+        raise BudgetError(message, message, file=file)

@@ -1,0 +1,255 @@
+"""The exit-status contract under hostile input (issue 15, defects 4, 6, 7, 13, 15 and the
+internal-error status): 3 and one line for a bug, a clean exit 2 that says what is allowed
+for numbers out of physical range, costs refused before they are paid, MuJoCo's instability
+warnings checked, and messages that name what the user typed."""
+
+from __future__ import annotations
+
+import dataclasses
+import re
+import time
+
+import pytest
+from fault_helpers import TRACEBACK
+
+from gantry_sim.controller.config import load_machine_config
+from gantry_sim.controller.errors import ConfigError, SimulationError
+from gantry_sim.models import DEFAULT_MACHINE, GANTRY_XML
+from gantry_sim.sim import cli
+from gantry_sim.sim.circular.tune import max_feed_for_radius
+from gantry_sim.sim.cli import main
+
+LINE = "G21 G90\nG1 X2 F1200\nM2\n"
+
+
+@pytest.fixture
+def prog(tmp_path):
+    path = tmp_path / "p.ngc"
+    path.write_text(LINE)
+    return path
+
+
+def _bug(args):
+    raise ZeroDivisionError("float division by zero")
+
+
+# --- exit 3: internal errors ---------------------------------------------------------------------
+
+
+def test_an_internal_error_exits_3_with_one_line(monkeypatch, capsys, prog):
+    monkeypatch.setattr("gantry_sim.sim.commands.parse.run", _bug)
+    monkeypatch.delenv(cli.DEBUG_ENV, raising=False)
+    assert main(["parse", str(prog)]) == 3
+    err = capsys.readouterr().err
+    assert TRACEBACK not in err and len(err.strip().splitlines()) == 1
+    assert err.startswith("gantry: internal error (ZeroDivisionError: float division by zero")
+    assert "please report" in err and "--debug" in err
+
+
+@pytest.mark.parametrize("how", ["option before", "option after", "environment"])
+def test_the_traceback_only_on_request(monkeypatch, capsys, prog, how):
+    monkeypatch.setattr("gantry_sim.sim.commands.parse.run", _bug)
+    argv = ["parse", str(prog)]
+    if how == "option before":
+        argv = ["--debug", *argv]
+    elif how == "option after":
+        argv = [*argv, "--debug"]
+    else:
+        monkeypatch.setenv(cli.DEBUG_ENV, "1")
+    assert main(argv) == 3
+    err = capsys.readouterr().err
+    assert TRACEBACK in err and "ZeroDivisionError" in err
+    assert err.strip().splitlines()[-1].startswith("gantry: internal error")
+
+
+def test_a_bug_in_a_real_process_exits_3_not_1(tmp_path, prog):
+    """As a process, with a bug injected: the status a CI job sees (1 is "a gate failed")."""
+    import subprocess
+    import sys
+
+    inject = (
+        "import sys, gantry_sim.sim.commands.parse as p\n"
+        "p.run = lambda args: {}['missing']\n"
+        "from gantry_sim.sim.cli import main\n"
+        "sys.exit(main(sys.argv[1:]))\n"
+    )
+    r = subprocess.run(
+        [sys.executable, "-c", inject, "parse", str(prog)],
+        capture_output=True, text=True, timeout=60, cwd=tmp_path,
+    )  # fmt: skip
+    assert r.returncode == 3 and TRACEBACK not in r.stderr
+    assert r.stderr.startswith("gantry: internal error (KeyError: 'missing' at ")
+    assert len(r.stderr.splitlines()) == 1
+
+
+# --- defect 6: machine-file numbers -------------------------------------------------------------
+
+HUGE_INT = "1" + "0" * 400
+
+
+@pytest.mark.parametrize(
+    ("text", "allowed"),
+    [
+        (f"[servo]\nperiod_s = {HUGE_INT}\n", "within 1e-05..0.1 s"),
+        (f"[limits]\nmax_velocity_mm_per_s = [{HUGE_INT}, 1, 1]\n", "within 0.01..100000 mm/s"),
+        (f"[servo]\nff_gravity = {HUGE_INT}\n", "within 0..2"),
+        (f"[travel]\nmax_mm = [{HUGE_INT}, 1, 1]\n", "within -100000..100000 mm"),
+        ("[servo]\nperiod_s = 1e308\n", "within 1e-05..0.1 s"),
+        ("[limits]\nmax_acceleration_mm_per_s2 = [1e-20, 1e-20, 1e-20]\n", "1..1e+06 mm/s^2"),
+        ("[limits]\nmax_jerk_mm_per_s3 = [1e-300, 1, 1]\n", "1..1e+09 mm/s^3"),
+        ("[sim]\nphysics_timestep_s = 1e-300\n", "within 1e-06..0.01 s"),
+        ("[sim]\nphysics_timestep_s = 1e-9\n", "within 1e-06..0.01 s"),
+        ("[servo]\nmax_following_error_mm = 1e300\n", "within 0.0001..1000 mm"),
+    ],
+)
+def test_out_of_range_machine_numbers_say_the_range(tmp_path, capsys, prog, text, allowed):
+    mf = tmp_path / "m.toml"
+    mf.write_text(text)
+    for cmd in (["plan", str(prog)], ["run", str(prog), "--out", str(tmp_path / "o")]):
+        assert main([*cmd, "--machine", str(mf)]) == 2
+        err = capsys.readouterr().err
+        assert err.startswith(f"{mf}: error: [") and allowed in err, err
+        assert len(err) < 400  # a 400-digit value is not echoed whole
+
+
+def test_sweep_max_accel_out_of_range_names_the_option(capsys, prog):
+    assert main(["sweep", str(prog), "--max-accel", "1e-20"]) == 2
+    err = capsys.readouterr().err
+    assert err.startswith("--max-accel: error: ") and "1..1e+06 mm/s^2" in err
+    assert main(["sweep", str(prog), "--max-jerk", "1e30"]) == 2
+    assert capsys.readouterr().err.startswith("--max-jerk: error: ")
+
+
+# --- defect 7: bounds on cost --------------------------------------------------------------------
+
+
+def test_a_program_of_600000_simulated_seconds_is_refused_at_once(tmp_path, capsys):
+    slow = tmp_path / "slow.ngc"
+    slow.write_text("G1 X1 F0.0001\nM2\n")
+    for cmd in (
+        ["run", str(slow), "--out", str(tmp_path / "o")],
+        ["plan", str(slow), "--out", str(tmp_path / "t.npz")],
+        ["sweep", str(slow), "--workers", "1", "--out", str(tmp_path / "s")],
+    ):
+        t0 = time.monotonic()
+        status = main(cmd)
+        assert time.monotonic() - t0 < 30
+        cap = capsys.readouterr()
+        if cmd[0] == "sweep":  # per grid point: a row, not a crash; no point ran: exit 1
+            assert status == 1 and "over the budget" in cap.out
+            continue
+        assert status == 2
+        assert cap.err.startswith(f"{slow}:1: error: the program takes 600000 s of simulated")
+        assert "--max-sim-s 600001" in cap.err
+
+
+def test_the_bounds_can_be_raised_explicitly(tmp_path, capsys, prog):
+    assert main(["run", str(prog), "--out", str(tmp_path / "o"), "--max-sim-s", "0.05"]) == 2
+    assert "--max-sim-s 1" in capsys.readouterr().err
+    assert main(["run", str(prog), "--out", str(tmp_path / "o"), "--max-sim-s", "1"]) == 0
+    mf = tmp_path / "m.toml"
+    mf.write_text("[sim]\nphysics_timestep_s = 1e-6\n")
+    assert main(["run", str(prog), "--machine", str(mf), "--max-physics-steps", "1e5"]) == 2
+    err = capsys.readouterr().err
+    assert "MuJoCo physics steps" in err and re.search(r"--max-physics-steps \d+ to", err)
+    assert main(["run", str(prog), "--max-sim-s", "nan"]) == 2
+    assert capsys.readouterr().err.startswith("--max-sim-s: error:")
+
+
+def test_servo_ticks_are_bounded_too(tmp_path, capsys):
+    mf = tmp_path / "m.toml"
+    mf.write_text("[servo]\nperiod_s = 1e-5\n[sim]\nphysics_timestep_s = 1e-5\n")
+    long = tmp_path / "long.ngc"
+    long.write_text("G1 X300 F60\nM2\n")  # 300 s at 100 kHz: 3e7 ticks, about 18 GB
+    assert main(["run", str(long), "--machine", str(mf), "--out", str(tmp_path / "o")]) == 2
+    assert "servo ticks" in capsys.readouterr().err
+
+
+def test_tune_feed_resolution_1e_300_is_refused_and_the_search_is_bounded(capsys):
+    assert main(["tune", "--radii", "5", "--feed-resolution", "1e-300"]) == 2
+    err = capsys.readouterr().err
+    assert err.startswith("--feed-resolution: error: 1e-300 mm/min: must be a finite number >=")
+    # the search itself ends whatever the resolution (it used to loop for ever)
+    row = max_feed_for_radius(
+        5.0, 5.0, lambda f: (5.0 * (f / 1234.5) ** 2, f), 24000.0, resolution_mm_per_min=1e-300
+    )
+    assert row.limited_by == "tolerance" and len(row.tried) < 140
+    assert abs(row.max_feed_mm_per_min - 1234.5) < 1e-6
+
+
+# --- defect 13: MuJoCo's warnings ---------------------------------------------------------------
+
+
+def test_mujoco_bad_ctrl_warning_is_a_simulation_error(tmp_path, monkeypatch, capfd):
+    """An unstable loop with a following-error limit too large to trip: MuJoCo warns of a huge
+    control (and zeroes it); the run used to end with exit 0 and a report."""
+    from gantry_sim.sim.api import run_program
+
+    monkeypatch.chdir(tmp_path)  # MuJoCo logs its warnings to ./MUJOCO_LOG.TXT
+
+    xml = tmp_path / "variant.xml"
+    xml.write_text(
+        re.sub(r'(ctrlrange|forcerange)="[^"]*"', r'\1="-1e12 1e12"', GANTRY_XML.read_text())
+    )
+    mf = tmp_path / "m.toml"
+    mf.write_text(f'[sim]\nmodel = "{xml.name}"\n[servo]\nkp_N_per_mm = [1e7, 1e7, 1e7]\n')
+    m = load_machine_config(DEFAULT_MACHINE, mf)
+    # beyond the machine file's range on purpose (the Python API takes any MachineConfig)
+    m = dataclasses.replace(m, servo=dataclasses.replace(m.servo, max_following_error_mm=1e300))
+    with pytest.raises(SimulationError, match="mjWARN_BADCTRL") as info:
+        run_program(LINE, file="p.ngc", machine=m)
+    assert str(mf) in info.value.message  # the machine file, not the program, is to blame
+    assert "huge value in CTRL" in info.value.message  # MuJoCo's own words, in the error
+    # ... and nowhere else: not on stdout, not in a MUJOCO_LOG.TXT left in the working folder
+    assert "WARNING" not in capfd.readouterr().out
+    assert not (tmp_path / "MUJOCO_LOG.TXT").exists()
+
+
+# --- defect 15: messages a user can act on -------------------------------------------------------
+
+
+def test_ballbar_errors_name_the_option_not_a_generated_program(capsys):
+    assert main(["ballbar", "--radius", "1000"]) == 2
+    err = capsys.readouterr().err
+    assert err.startswith("--radius: error: the ballbar circle (R 1000 mm")
+    assert "travel" in err and "ballbar.ngc" not in err
+    assert main(["ballbar", "--feed", "0.5"]) == 2
+    err = capsys.readouterr().err
+    assert err.startswith("--feed: error: ") and "ballbar.ngc" not in err and ":10:" not in err
+
+
+def test_tune_errors_name_radii_not_radius(capsys):
+    for radius in ("1000", "0.0001"):
+        assert main(["tune", "--radii", radius]) == 2
+        err = capsys.readouterr().err
+        assert err.startswith("--radii: error: ") and "tune_r" not in err, err
+    assert main(["tune", "--radii", "5,nan"]) == 2
+    assert capsys.readouterr().err.startswith("--radii: error: ")
+
+
+def test_following_error_points_at_the_machine_file(tmp_path, capsys, prog):
+    mf = tmp_path / "weak.toml"
+    mf.write_text(
+        "[servo]\nkp_N_per_mm = [0.001, 0.001, 0.001]\nkd_N_s_per_mm = [0, 0, 0]\nmax_following_error_mm = 0.5\n"
+        "ff_velocity = [0, 0, 0]\nff_acceleration = [0, 0, 0]\n"
+    )
+    assert main(["run", str(prog), "--machine", str(mf), "--out", str(tmp_path / "o")]) == 2
+    err = capsys.readouterr().err
+    assert f"{prog}:2: error:" in err and str(mf) in err
+
+
+def test_invalid_options_are_exit_2_with_the_option_named(capsys, prog):
+    for argv, option in (
+        (["run", str(prog), "--max-error-um", "-1"], "--max-error-um"),
+        (["sweep", str(prog), "--workers", "0"], "--workers"),
+        (["tune", "--radii", ",".join(["5"] * 101)], "--radii"),
+    ):
+        assert main(argv) == 2
+        assert capsys.readouterr().err.startswith(f"{option}: error: ")
+
+
+def test_config_error_keeps_its_type(tmp_path):
+    mf = tmp_path / "m.toml"
+    mf.write_text("[servo]\nperiod_s = -1\n")
+    with pytest.raises(ConfigError):
+        load_machine_config(DEFAULT_MACHINE, mf)
