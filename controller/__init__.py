@@ -1,5 +1,19 @@
-"""gantry-sim controller: G-code interpreter, arc segmentation, Ruckig planning, discrete servo.
+"""gantry-sim's controller: everything a CNC controller computes, as numbers only.
 
-Units throughout this package: millimetres [mm], seconds [s], newtons [N]. Feed words arrive in
-mm/min or inch/min and are converted once, in the interpreter. This package never imports mujoco.
+Units throughout: millimetres [mm], seconds [s], newtons [N]; feed words arrive in mm/min or
+inch/min and are converted once, in the interpreter. This package never imports mujoco or
+matplotlib, nor anything of ``gantry_sim.sim``.
+
+The stages (each package's docstring is its own map):
+
+* ``gcode/``    text + dialect -> moves (the interpreter)
+* ``planner/``  moves + machine -> Plan, a jerk-limited reference (segmentation, look-ahead,
+  Ruckig behind ``planner/ruckig_solver.py``, the only ruckig import)
+* ``servo``     the discrete-time PID law with feedforward, per axis (a leaf)
+
+Shared value types, used by several stages: ``errors`` (GantryError and its kinds, FILE:LINE),
+``units``, ``planes`` (the one plane/axis table), ``moves`` (Rapid, Linear, Arc and the events),
+``arcs`` (exact arc and helix geometry), ``config`` (the machine file), ``trajectory`` (the
+sampled reference), ``transmission`` (backlash), ``loop_figures`` (a position loop's figures)
+and ``machine_import/`` (machine files from LinuxCNC INI files and grbl settings).
 """
