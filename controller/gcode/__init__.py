@@ -28,6 +28,18 @@ The steps, in the order a line goes through them (module: its one job):
    ``arc_centre``      the centre from IJK or R, and the swept angle, in plane coordinates
 """
 
-from gantry_sim.controller.gcode.interpreter import interpret, interpret_events, parse_program
+from __future__ import annotations
+
+from typing import Any
 
 __all__ = ["interpret", "interpret_events", "parse_program"]
+
+
+def __getattr__(name: str) -> Any:
+    """The entry points, imported on first use: ``gantry`` reads the dialect table at start-up
+    and must not pay for the interpreter (and numpy) until a command interprets a program."""
+    if name in __all__:
+        from gantry_sim.controller.gcode import interpreter
+
+        return getattr(interpreter, name)
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
