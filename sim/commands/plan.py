@@ -8,7 +8,15 @@ import json
 import sys
 from pathlib import Path
 
-from gantry_sim.sim.commands.common import add_dialect, add_machine, load_machine, read_program
+from gantry_sim.sim.commands.common import (
+    add_dialect,
+    add_machine,
+    add_program_setup,
+    max_iterations,
+    program_machine,
+    read_program,
+    search_path,
+)
 
 HELP = "plan a G-code program (segmentation, look-ahead, Ruckig) and print its summary as JSON"
 
@@ -17,6 +25,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("program", type=Path, help="G-code program (.ngc)")
     add_dialect(parser)
     add_machine(parser)
+    add_program_setup(parser)
     parser.add_argument(
         "--out",
         type=Path,
@@ -41,14 +50,21 @@ def write_npz_atomically(path: Path, arrays: dict) -> None:
 
 def run(args: argparse.Namespace) -> int:
     from gantry_sim.controller.errors import GantryError
-    from gantry_sim.controller.gcode.interpreter import interpret
     from gantry_sim.controller.planner.plan import plan
+    from gantry_sim.sim.program import interpret_program
 
-    machine = load_machine(args.machine)
+    machine = program_machine(args)
     text = read_program(args.program)
     file = str(args.program)
     try:
-        moves = list(interpret(text, dialect=args.dialect, file=file))
+        moves = interpret_program(
+            text,
+            dialect=args.dialect,
+            file=file,
+            machine=machine,
+            search_path=search_path(args),
+            max_iterations=max_iterations(args),
+        )
         result = plan(moves, machine)
     except GantryError as exc:
         raise exc.located(file) from None

@@ -18,8 +18,11 @@ from gantry_sim.sim.commands.common import (
     DEFAULT_OUT,
     add_dialect,
     add_machine,
-    load_machine,
+    add_program_setup,
+    max_iterations,
+    program_machine,
     read_program,
+    search_path,
 )
 
 HELP = "plan, simulate and analyse a program; write report.json, trace.npz and plots"
@@ -29,6 +32,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("program", type=Path, help="G-code program (.ngc)")
     add_dialect(parser)
     add_machine(parser)
+    add_program_setup(parser)
     parser.add_argument(
         "--out",
         type=Path,
@@ -130,7 +134,7 @@ def run(args: argparse.Namespace) -> int:
         raise ConfigError("--out must be a folder, not a file", file=str(args.out))
     for name in OUTPUT_FILES:  # a failing run must not leave an earlier run's report behind
         (args.out / name).unlink(missing_ok=True)
-    machine = load_machine(args.machine)
+    machine = program_machine(args)
     text = read_program(args.program)
     result = run_program(
         text,
@@ -139,6 +143,8 @@ def run(args: argparse.Namespace) -> int:
         machine=machine,
         feed_override_pct=args.feed_override,
         progress=sys.stderr.isatty(),
+        search_path=search_path(args),
+        max_iterations=max_iterations(args),
     )
     comparison = None
     if baseline is not None:

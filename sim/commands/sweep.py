@@ -15,8 +15,11 @@ from gantry_sim.sim.commands.common import (
     DEFAULT_OUT,
     add_dialect,
     add_machine,
-    load_machine,
+    add_program_setup,
+    max_iterations,
+    program_machine,
     read_program,
+    search_path,
 )
 
 HELP = (
@@ -79,6 +82,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     )
     add_dialect(parser)
     add_machine(parser)
+    add_program_setup(parser)
     parser.add_argument(
         "--out",
         type=Path,
@@ -97,7 +101,7 @@ def run(args: argparse.Namespace) -> int:
     if args.workers is not None and args.workers < 1:
         raise ConfigError(f"{args.workers}: must be an integer >= 1", file="--workers")
     text = read_program(args.program)
-    machine = load_machine(args.machine)
+    machine = program_machine(args)
     points = grid(args.feed_override, args.max_accel, args.max_jerk)
     rows = run_sweep(
         text,
@@ -110,6 +114,8 @@ def run(args: argparse.Namespace) -> int:
         scheduler=args.scheduler,
         out_dir=args.out,
         progress=sys.stderr.isatty(),
+        search_path=search_path(args),
+        max_iterations=max_iterations(args),
     )
     if args.out is not None:
         with atomic_output_dir(args.out) as tmp:

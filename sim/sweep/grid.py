@@ -26,6 +26,7 @@ from typing import TextIO
 
 from gantry_sim.controller.config import MachineConfig
 from gantry_sim.controller.errors import SimulationError
+from gantry_sim.controller.gcode.control import DEFAULT_MAX_ITERATIONS
 from gantry_sim.sim.outdir import atomic_file
 from gantry_sim.sim.sweep.executors import dask_map, local_map
 
@@ -40,6 +41,8 @@ COLUMNS = (
     "status",
 )
 JOURNAL = "sweep.partial.jsonl"
+#: (subroutine search path, max iterations) of a sweep, or () for the interpreter's defaults
+ProgramSetup = tuple[tuple[Path, ...], int] | tuple[()]
 
 
 @dataclass(frozen=True)
@@ -81,9 +84,15 @@ def machine_for(machine: MachineConfig, point: SweepPoint) -> MachineConfig:
 
 
 def run_point(
-    text: str, file: str, dialect: str, machine: MachineConfig, point: SweepPoint
+    text: str,
+    file: str,
+    dialect: str,
+    machine: MachineConfig,
+    point: SweepPoint,
+    setup: ProgramSetup = (),
 ) -> dict:
-    """Simulate one grid point -> a sweep.csv row (a dict over COLUMNS).
+    """Simulate one grid point -> a sweep.csv row (a dict over COLUMNS); ``setup`` is
+    (search path, max iterations) for the interpreter, or () for the defaults.
 
     A simulation that fails (SimulationError, e.g. a following-error fault at an aggressive
     setting) is a result, not a crash: its row has status "simulation error: ..." and no figures.
@@ -103,6 +112,7 @@ def run_point(
             dialect=dialect,
             machine=machine_for(machine, point),
             feed_override_pct=point.feed_override_pct,
+            **_setup_kwargs(setup),
         )
     except SimulationError as exc:
         nan = float("nan")
@@ -123,9 +133,17 @@ def run_point(
     }
 
 
-def fingerprint(text: str, dialect: str, machine: MachineConfig) -> str:
-    """Identifies the sweep's fixed inputs, so a journal is only resumed by the same sweep."""
-    return hashlib.sha256(repr((text, dialect, machine)).encode()).hexdigest()[:16]
+def _setup_kwargs(setup: ProgramSetup) -> dict:
+    if not setup:
+        return {}
+    return {"search_path": setup[0], "max_iterations": setup[1]}
+
+
+def fingerprint(text: str, dialect: str, machine: MachineConfig, setup: ProgramSetup = ()) -> str:
+    """Identifies the sweep's fixed inputs, so a journal is only resumed by the same sweep
+    (the machine includes its tools and offsets; ``setup`` the subroutine folders and bound)."""
+    inputs = (text, dialect, machine) + ((setup,) if setup else ())
+    return hashlib.sha256(repr(inputs).encode()).hexdigest()[:16]
 
 
 def _read_journal(path: Path, tag: str) -> dict[str, dict]:
@@ -154,6 +172,8 @@ def run_sweep(
     scheduler: str | None = None,
     out_dir: Path | None = None,
     progress: bool = False,
+    search_path: Sequence[Path] = (),
+    max_iterations: int = DEFAULT_MAX_ITERATIONS,
 ) -> list[dict]:
     """Simulate every point; return the rows in grid order.
 
@@ -168,17 +188,23 @@ def run_sweep(
         scheduler: a Dask scheduler address (dask only; default: a LocalCluster).
         out_dir: where the journal lives (resume); None: no journal.
         progress: show a tqdm progress bar on stderr.
+        search_path: folders searched for subroutine files (the program's own first).
+        max_iterations: bound on O-word loop repetitions and subroutine calls.
     """
     if executor not in ("local", "dask"):
         from gantry_sim.controller.errors import ConfigError
 
         raise ConfigError(f"executor {executor!r}: must be 'local' or 'dask'", file="--executor")
-    tag = fingerprint(text, dialect, machine)
+    folders = tuple(Path(p) for p in search_path)
+    setup: ProgramSetup = ()
+    if folders or max_iterations != DEFAULT_MAX_ITERATIONS:
+        setup = (folders, max_iterations)
+    tag = fingerprint(text, dialect, machine, setup)
     journal = out_dir / JOURNAL if out_dir is not None else None
     done = _read_journal(journal, tag) if journal is not None else {}
     todo = [p for p in points if p.key() not in done]
     if todo:
-        args = [(text, file, dialect, machine, p) for p in todo]
+        args = [(text, file, dialect, machine, p, setup) for p in todo]
         rows = (
             local_map(run_point, args, workers)
             if executor == "local"
