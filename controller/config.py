@@ -188,7 +188,7 @@ class MachineConfig:
     sim: SimSettings
     source: str = field(default="")
     work: WorkSetup = field(default=NO_WORK)
-    user_sections: frozenset[str] = field(default=frozenset())
+    user_sections: tuple[str, ...] = ()
 
     def with_changes(self, section: str, **values: Any) -> MachineConfig:
         """A copy with some keys of one section replaced (values are validated)."""
@@ -198,7 +198,7 @@ class MachineConfig:
         return replace(
             self,
             **{section: replace(getattr(self, section), **checked)},
-            user_sections=self.user_sections | {section},
+            user_sections=tuple(sorted({*self.user_sections, section})),
         )
 
 
@@ -266,10 +266,10 @@ def load_machine_config(defaults: Path, override: Path | None = None) -> Machine
         for key in keys:
             if key not in merged[section]:
                 raise ConfigError(f"missing key '{key}' in [{section}]", file=str(defaults))
-    source, user_sections = str(defaults), frozenset[str]()
+    source, user_sections = str(defaults), tuple[str, ...]()
     if override is not None:
         data = _read_toml(override)
-        user_sections = frozenset(data)
+        user_sections = tuple(sorted(data))  # sorted: repr() is stable (sweep fingerprints)
         work = take_work_sections(data, str(override), work)
         _overlay(merged, data, override)
         source = str(override)

@@ -125,3 +125,31 @@ def test_plan_and_run_use_the_machine_files_placement_and_tools(write_program, t
         (10.0, 5.0, 35.0),
     ]
     assert result.trace.ref[-1] == pytest.approx([10.0, 5.0, 35.0])
+
+
+def test_sweep_fingerprint_of_a_machine_file_is_stable_across_processes(tmp_path):
+    """A resumed sweep runs in a new process (another hash seed): the machine's repr, and so the
+    journal's fingerprint, must not depend on set order."""
+    import subprocess
+    import sys
+
+    path = _machine_file(tmp_path, WORK + "[segmentation]\nchord_tolerance_mm = 0.002\n")
+    code = (
+        "import sys; from pathlib import Path; "
+        "from gantry_sim.controller.config import load_machine_config; "
+        "from gantry_sim.models import DEFAULT_MACHINE; "
+        "from gantry_sim.sim.sweep.grid import fingerprint; "
+        "print(fingerprint('G0 X1', 'linuxcnc', "
+        "load_machine_config(DEFAULT_MACHINE, Path(sys.argv[1])), ((Path('lib'),), 10)))"
+    )
+    tags = {
+        subprocess.run(
+            [sys.executable, "-c", code, str(path)],
+            env={"PYTHONHASHSEED": str(seed), "PATH": ""},
+            capture_output=True,
+            text=True,
+            check=True,
+        ).stdout
+        for seed in range(6)
+    }
+    assert len(tags) == 1 and len(tags.pop().strip()) == 16
