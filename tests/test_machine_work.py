@@ -153,3 +153,17 @@ def test_sweep_fingerprint_of_a_machine_file_is_stable_across_processes(tmp_path
         for seed in range(6)
     }
     assert len(tags) == 1 and len(tags.pop().strip()) == 16
+
+
+def test_ballbar_ignores_the_machine_files_offsets(tmp_path, machine):
+    """The ballbar program is written in the work frame around --centre; [work] offsets must
+    not move the circle away from the centre its analysis uses."""
+    from gantry_sim.sim.circular.ballbar import run_ballbar
+
+    shifted = load_machine_config(
+        DEFAULT_MACHINE, _machine_file(tmp_path, "[work]\ng54_mm = [40.0, 0.0, 0.0]\n")
+    )
+    plain = run_ballbar(machine, "XY", 10.0, 2000.0)
+    moved = run_ballbar(shifted, "XY", 10.0, 2000.0)
+    assert moved.ccw.circular_deviation_um == pytest.approx(plain.ccw.circular_deviation_um)
+    assert plain.ccw.circular_deviation_um < 50.0

@@ -9,7 +9,7 @@ sim.circular.figures in the plane's coordinates; positions are work coordinates 
 from __future__ import annotations
 
 import json
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import Any
 
@@ -17,6 +17,7 @@ import numpy as np
 
 from gantry_sim.controller.config import MachineConfig
 from gantry_sim.controller.errors import ConfigError
+from gantry_sim.controller.machine_work import NO_WORK
 from gantry_sim.sim.circular.diagnostics import diagnostics_json, fit_diagnostics
 from gantry_sim.sim.circular.figures import (
     CircleAnalysis,
@@ -121,7 +122,10 @@ def run_ballbar(
     from gantry_sim.sim.api import run_program
 
     program = circle_test_program(plane, radius_mm, feed_mm_per_min, DIRECTIONS, centre_mm)
-    run = run_program(program.text, file="ballbar.ngc", machine=machine, progress=progress)
+    # the program is written in the work frame (--centre): the machine file's [work] offsets
+    # must not move it away from the centre the analysis uses
+    bare = replace(machine, work=NO_WORK)
+    run = run_program(program.text, file="ballbar.ngc", machine=bare, progress=progress)
     centre_ab = plane_coords(np.array([program.centre_mm]), plane)[0]
     samples = {d: circle_samples(run, program, d) for d in DIRECTIONS}
     fewest = min(len(v) for v in samples.values())

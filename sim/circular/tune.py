@@ -21,10 +21,11 @@ cheap simulations.
 from __future__ import annotations
 
 from collections.abc import Callable
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 from gantry_sim.controller.config import MachineConfig
 from gantry_sim.controller.errors import ConfigError
+from gantry_sim.controller.machine_work import NO_WORK
 from gantry_sim.controller.planes import PLANE_AXES
 from gantry_sim.controller.units import mm_per_s_to_mm_per_min
 from gantry_sim.sim.circular.program import circle_test_program
@@ -86,7 +87,8 @@ def circle_error_um(
     from gantry_sim.sim.api import run_program
 
     program = circle_test_program(plane, radius_mm, feed_mm_per_min, ("ccw",))
-    result = run_program(program.text, file=f"tune_r{radius_mm:g}.ngc", machine=machine)
+    bare = replace(machine, work=NO_WORK)  # the circle is written in the work frame
+    result = run_program(program.text, file=f"tune_r{radius_mm:g}.ngc", machine=bare)
     line = program.circle_line("ccw")
     block = result.run_report.block(line)
     if block is None:
