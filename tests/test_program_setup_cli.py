@@ -98,3 +98,24 @@ def test_refused_program_says_how_to_list_every_refused_line(write_program, tmp_
     assert main(["plan", str(one)]) == 2
     err = capsys.readouterr().err
     assert err.startswith(f"{one}:2: error: ") and "--all-errors" not in err
+
+
+def test_run_program_searches_the_programs_folder_then_search_path(setup_files, machine):
+    from dataclasses import replace
+
+    from gantry_sim.controller.errors import GcodeError
+    from gantry_sim.controller.gcode.tools import read_tool_table
+    from gantry_sim.sim.api import run_program
+
+    prog, lib, table = setup_files
+    with pytest.raises(GcodeError, match="subroutine o<square> not found"):
+        run_program(prog, machine=machine)
+    placed = replace(
+        machine, work=machine.work.placed((5.0, 6.0, 7.0)).with_tools(read_tool_table(table))
+    )
+    result = run_program(prog, machine=placed, search_path=[lib])
+    assert result.moves[-1].end == (5.0, 6.0, 7.0)
+    assert min(m.end[2] for m in result.moves) == -10.0
+    (prog.parent / "square.ngc").write_text(SQUARE.replace("#1", "[#1 * 2]"))
+    result = run_program(prog, machine=placed, search_path=[lib])  # its own folder first
+    assert max(m.end[0] for m in result.moves) == 5.0 + 8.0
