@@ -85,6 +85,8 @@ def interpret_program(
             return list(interpret_events(text, dialect, file, **kwargs))
         return list(interpret(text, dialect, file, **kwargs))
     except GcodeError as exc:
+        if "--max-iterations" in exc.message:
+            raise  # the loop bound: a second pass would repeat the runaway loop's work
         others = _other_refused_lines(text, dialect, file, kwargs)
         if others:
             at_least = "at least " if others >= MAX_ERRORS - 1 else ""

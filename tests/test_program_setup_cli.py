@@ -119,3 +119,10 @@ def test_run_program_searches_the_programs_folder_then_search_path(setup_files, 
     (prog.parent / "square.ngc").write_text(SQUARE.replace("#1", "[#1 * 2]"))
     result = run_program(prog, machine=placed, search_path=[lib])  # its own folder first
     assert max(m.end[0] for m in result.moves) == 5.0 + 8.0
+
+
+def test_a_runaway_loop_is_reported_without_a_second_pass(write_program, capsys):
+    prog = write_program("o1 while [1]\nG91 G0 X1\no1 endwhile\nM2\n")
+    assert main(["plan", str(prog), "--max-iterations", "100"]) == 2
+    err = capsys.readouterr().err
+    assert "more than 100 loop repetitions" in err and "--all-errors" not in err
