@@ -16,6 +16,7 @@ from pathlib import Path
 from typing import Any
 
 from gantry_sim.controller.errors import ConfigError
+from gantry_sim.controller.machine_work import NO_WORK, WORK_SECTIONS, WorkSetup, take_work_sections
 from gantry_sim.controller.planes import Vec3
 
 # --- value checkers: each returns the cleaned value or raises ValueError(what is allowed) ---------
@@ -210,7 +211,10 @@ class SimSettings:
 
 @dataclass(frozen=True)
 class MachineConfig:
-    """A whole machine file, validated. ``source`` names the file(s) it was read from."""
+    """A whole machine file, validated. ``source`` names the file(s) it was read from; ``work``
+    holds its [tools] and [work] sections (controller/machine_work.py); ``user_sections`` the
+    sections the user's file (or :meth:`with_changes`) set, so defaults that depend on the
+    dialect apply only where the user chose nothing."""
 
     limits: Limits
     travel: Travel
@@ -218,13 +222,19 @@ class MachineConfig:
     servo: Servo
     sim: SimSettings
     source: str = field(default="")
+    work: WorkSetup = field(default=NO_WORK)
+    user_sections: tuple[str, ...] = ()
 
     def with_changes(self, section: str, **values: Any) -> MachineConfig:
         """A copy with some keys of one section replaced (values are validated)."""
         from dataclasses import replace
 
         checked = {k: _check(section, k, v, self.source) for k, v in values.items()}
-        return replace(self, **{section: replace(getattr(self, section), **checked)})
+        return replace(
+            self,
+            **{section: replace(getattr(self, section), **checked)},
+            user_sections=tuple(sorted({*self.user_sections, section})),
+        )
 
 
 def _check(section: str, key: str, value: Any, file: str) -> Any:
@@ -264,7 +274,7 @@ def _overlay(merged: dict[str, dict[str, Any]], data: dict[str, Any], path: Path
         if section not in SCHEMA:
             raise ConfigError(
                 f"unknown section [{section}]; valid sections: "
-                + ", ".join(f"[{s}]" for s in SCHEMA),
+                + ", ".join(f"[{s}]" for s in (*SCHEMA, *WORK_SECTIONS)),
                 file=str(path),
             )
         if not isinstance(table, dict):
@@ -288,14 +298,19 @@ def load_machine_config(defaults: Path, override: Path | None = None) -> Machine
             in ``defaults``; the message names the key and what is allowed.
     """
     merged: dict[str, dict[str, Any]] = {s: {} for s in SCHEMA}
-    _overlay(merged, _read_toml(defaults), defaults)
+    data = _read_toml(defaults)
+    work = take_work_sections(data, str(defaults))
+    _overlay(merged, data, defaults)
     for section, keys in SCHEMA.items():
         for key in keys:
             if key not in merged[section]:
                 raise ConfigError(f"missing key '{key}' in [{section}]", file=str(defaults))
-    source = str(defaults)
+    source, user_sections = str(defaults), tuple[str, ...]()
     if override is not None:
-        _overlay(merged, _read_toml(override), override)
+        data = _read_toml(override)
+        user_sections = tuple(sorted(data))  # sorted: repr() is stable (sweep fingerprints)
+        work = take_work_sections(data, str(override), work)
+        _overlay(merged, data, override)
         source = str(override)
     travel = merged["travel"]
     for axis, lo, hi in zip("xyz", travel["min_mm"], travel["max_mm"], strict=True):
@@ -324,4 +339,6 @@ def load_machine_config(defaults: Path, override: Path | None = None) -> Machine
         servo=Servo(**merged["servo"]),
         sim=SimSettings(**merged["sim"]),
         source=source,
+        work=work,
+        user_sections=user_sections,
     )

@@ -4,6 +4,7 @@ The stages after planning, in the order a run goes through them (``gantry run``;
 entry point is :mod:`.api`):
 
     api.py           run_program / write_run_outputs: interpret -> plan -> simulate -> analyse
+    program.py       the program on the machine: tools, offsets, subroutine folders, refusals
     machine.py       MJCF -> Gantry: axis names resolved, plant read, work origin placed (SI <-> mm)
     site_slides.py   closed-form tool site when only slide joints carry it (fast trace)
     runner.py        the servo loop around mj_step: one discrete PD tick, then physics substeps

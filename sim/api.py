@@ -8,6 +8,7 @@
     machine = load_machine_config(DEFAULT_MACHINE)
     result = run_program(Path("part.ngc"), machine=machine)   # a Path: the file is read
     result = run_program(text, file="part.ngc", machine=machine)  # a str: the program text
+    result = run_program(Path("part.ngc"), machine=machine, search_path=[Path("lib")])
     result.report["contour_error_um"]["max"]      # [um], report.json's dict
     result.run_report.contour_error_um.max_um     # [um], the same, typed (sim.report.RunReport)
     result = write_run_outputs(result, Path("out"))  # report.json, timing.json, trace.npz, plots
@@ -21,6 +22,7 @@ from __future__ import annotations
 
 import os
 import time
+from collections.abc import Sequence
 from dataclasses import dataclass, replace
 from functools import cached_property
 from pathlib import Path
@@ -28,6 +30,7 @@ from pathlib import Path
 from gantry_sim.controller.config import MachineConfig
 from gantry_sim.controller.errors import GantryError, GcodeError
 from gantry_sim.sim.budget import Budget, check_budget
+from gantry_sim.controller.gcode.control import DEFAULT_MAX_ITERATIONS
 from gantry_sim.sim.gates import Gates, Verdict
 from gantry_sim.sim.report import RunReport
 from gantry_sim.sim.trace import Trace
@@ -62,6 +65,8 @@ def run_program(
     feed_override_pct: float = 100.0,
     progress: bool = False,
     budget: Budget | None = None,
+    search_path: Sequence[os.PathLike[str]] = (),
+    max_iterations: int = DEFAULT_MAX_ITERATIONS,
 ) -> RunResult:
     """Interpret, plan, simulate and analyse one program on ``machine``.
 
@@ -72,27 +77,47 @@ def run_program(
             ``Path(...)``), since running a file name as G-code would fail obscurely.
         file: the program's name for error messages and the report (default: the path, or
             "<program>" for text).
-        dialect: "linuxcnc", "g2core", "marlin" or "laserdyne".
-        machine: the machine file (limits, travel, servo, sim).
+        dialect: "linuxcnc", "g2core", "marlin", "laserdyne" or "grbl".
+        machine: the machine file (limits, travel, servo, sim; its ``work`` holds the tool
+            table and the offsets the program starts from, e.g. ``work.placed((x, y, z))``).
+            Unless the machine file set a [segmentation], the dialect's own applies (grbl:
+            chords within 0.002 mm; marlin: 1 mm segments).
         feed_override_pct: scales every programmed feed [%].
         progress: show a progress bar on stderr during long simulations.
         budget: the largest simulation run without asking (default: sim.budget.Budget()).
+        search_path: folders searched for ``NAME.ngc`` subroutine files, after the program's
+            own folder when ``program`` is a path.
+        max_iterations: bound on O-word loop repetitions and subroutine calls.
 
     Raises:
         GcodeError, ConfigError, PlanningError, SimulationError: with file and line;
         PlanningError also when the simulation would exceed ``budget``.
     """
-    from gantry_sim.controller.gcode.interpreter import interpret
+    from gantry_sim.controller.gcode.dialects import with_segmentation_default
     from gantry_sim.controller.planner.plan import plan
     from gantry_sim.sim.contour import analyse
     from gantry_sim.sim.machine import load_gantry
+    from gantry_sim.sim.program import interpret_program
     from gantry_sim.sim.report import build_report
     from gantry_sim.sim.runner import simulate
 
     t0 = time.perf_counter()
     text, file = _program_text(program, file)
+    folders = [Path(p) for p in search_path]
+    if isinstance(program, os.PathLike):
+        folders.insert(0, Path(program).resolve().parent)
     try:
-        moves = tuple(interpret(text, dialect, file))
+        machine = with_segmentation_default(machine, dialect)
+        moves = tuple(
+            interpret_program(
+                text,
+                dialect=dialect,
+                file=file,
+                machine=machine,
+                search_path=folders,
+                max_iterations=max_iterations,
+            )
+        )
         t1 = time.perf_counter()
         planned = plan(moves, machine, feed_override_pct=feed_override_pct)
         check_budget(planned, machine, budget or Budget(), file)

@@ -9,6 +9,7 @@ import pytest
 
 from gantry_sim.controller.config import SCHEMA, load_machine_config
 from gantry_sim.controller.errors import ConfigError
+from gantry_sim.controller.machine_work import WORK_KEYS
 from gantry_sim.models import DEFAULT_MACHINE, GANTRY_XML
 
 
@@ -23,8 +24,11 @@ def test_bundled_defaults_set_every_key(machine):
     assert machine.segmentation.chord_tolerance_mm == pytest.approx(0.001)
     assert machine.servo.period_s == pytest.approx(0.001)
     assert Path(machine.sim.model) == GANTRY_XML
-    # the bundled file itself names every key of every section of the schema, and no other
+    # the bundled file itself names every key of every section of the schema, and no other;
+    # [tools] (empty: no table) and [work] (controller/machine_work.py) have their own checks
     bundled = tomllib.loads(Path(DEFAULT_MACHINE).read_text())
+    assert bundled.pop("tools") == {}
+    assert set(bundled.pop("work")) <= set(WORK_KEYS)
     assert {s: set(keys) for s, keys in bundled.items()} == {
         s: set(keys) for s, keys in SCHEMA.items()
     }

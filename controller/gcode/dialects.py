@@ -12,7 +12,8 @@ The interpreter reads these fields and never tests a dialect's name. Sources (co
 - ``g2core``: g2core's G2/G3 page: an explicit end point equal to the start moves nothing (a full
   circle needs the plane axes omitted); radius mismatch refused above 0.5 mm (0.05 in), or above
   0.005 mm (0.0005 in) and 0.1 % of the radius.
-- ``marlin``: Marlin's G2/G3 page: the end point is not checked, the arc ends on the start-radius
+- ``marlin``: Marlin's G2/G3 page (segments of MM_PER_ARC_SEGMENT = 1 mm, the dialect's
+  segmentation default): the end point is not checked, the arc ends on the start-radius
   circle at the destination's angle; ``R`` with ``I``/``J`` is an error; F is modal with Marlin's
   default feed 1500 mm/min (feedrate_mm_s = 25 mm/s); P (ARC_P_CIRCLES) adds P complete circles;
   E (extrusion) and S (laser power) words are accepted and ignored; an R too short for the chord
@@ -34,6 +35,7 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
+from gantry_sim.controller.config import MachineConfig
 from gantry_sim.controller.errors import GcodeError
 
 
@@ -92,6 +94,7 @@ class Dialect:
         error_codes: (message fragment, firmware error number) pairs; the first match is
             appended to a message as ``(grbl error N)``.
         arc_tolerance_mm: the controller's default arc segmentation tolerance [mm], or None.
+        arc_segment_mm: the controller's fixed arc segment length [mm], or None.
         own_lines: the controller's own line rules in controller/gcode/printer_codes.py
             ("marlin": M/T lines and printer G codes; "g2core": JSON lines, G28.2/G28.3), or "".
     """
@@ -125,6 +128,7 @@ class Dialect:
     coordinate_systems: int = 9
     error_codes: tuple[tuple[str, int], ...] = ()
     arc_tolerance_mm: float | None = None
+    arc_segment_mm: float | None = None
     own_lines: str = ""
 
 
@@ -183,6 +187,7 @@ MARLIN = Dialect(
     r_short_is_semicircle=True,
     require_program_end=False,
     max_p=100,
+    arc_segment_mm=1.0,  # Marlin 2.x MAX_ARC_SEGMENT_MM (formerly MM_PER_ARC_SEGMENT)
     own_lines="marlin",
 )
 
@@ -274,6 +279,24 @@ def coded(message: str, d: Dialect) -> str:
         if fragment in low:
             return f"{message} ({d.name} error {code})"
     return message
+
+
+def with_segmentation_default(machine: MachineConfig, dialect: str) -> MachineConfig:
+    """``machine`` segmenting arcs as the dialect's controller does by default -- grbl: chords
+    within its arc tolerance ($12, 0.002 mm); marlin: fixed segments of 1 mm -- unless the
+    user's machine file (or ``with_changes``) set a [segmentation] of its own."""
+    d = get_dialect(dialect)
+    if "segmentation" in machine.user_sections:
+        return machine
+    if d.arc_segment_mm is not None:
+        return machine.with_changes(
+            "segmentation", method="fixed", segment_length_mm=d.arc_segment_mm
+        )
+    if d.arc_tolerance_mm is not None:
+        return machine.with_changes(
+            "segmentation", method="chord", chord_tolerance_mm=d.arc_tolerance_mm
+        )
+    return machine
 
 
 def get_dialect(name: str) -> Dialect:

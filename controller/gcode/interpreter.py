@@ -11,7 +11,7 @@ then program end), so ``G20 G1 X1`` moves to 1 inch, and ``F10 G20`` keeps 10 mm
 
 from __future__ import annotations
 
-from collections.abc import Iterator
+from collections.abc import Iterator, Mapping
 from dataclasses import replace
 from pathlib import Path
 
@@ -30,8 +30,10 @@ from gantry_sim.controller.gcode.coords import (
     g10,
     g92,
     home_point,
+    reframe,
     select_system,
     store_home,
+    system_frame,
 )
 from gantry_sim.controller.gcode.dialect_checks import check_codes, check_jog, check_plain
 from gantry_sim.controller.gcode.dialects import Dialect, coded, get_dialect
@@ -40,7 +42,14 @@ from gantry_sim.controller.gcode.feed_modes import check_feed_mode, path_feed
 from gantry_sim.controller.gcode.frames import from_work, to_work
 from gantry_sim.controller.gcode.lexer import Block
 from gantry_sim.controller.gcode.modal_save import restore
-from gantry_sim.controller.gcode.parameters import COORD_INDEX, POSITION, Parameters, g5x_base
+from gantry_sim.controller.gcode.parameters import (
+    COORD_INDEX,
+    G92_ENABLED,
+    G92_OFFSET,
+    POSITION,
+    Parameters,
+    g5x_base,
+)
 from gantry_sim.controller.gcode.polar import polar_end_point
 from gantry_sim.controller.gcode.predefined import predefined
 from gantry_sim.controller.gcode.printer_codes import OWN_LINES
@@ -260,6 +269,17 @@ class Interpreter:
             end[2] -= s.tool_offset_z_mm  # machine Z is the spindle's; the tip is below it
         return from_work((end[0], end[1], end[2]), s.frame)
 
+    def preset(self, values: Mapping[int, float]) -> None:
+        """Start from these numbered parameters (LinuxCNC's parameter file, lengths in mm): G54
+        in effect with its origin from them, and their G92 offset when #5210 is 1; the tool
+        stays at the work frame's origin."""
+        self.params.numbered.update(values)
+        p = self.params
+        on = p.numbered.get(G92_ENABLED) == 1.0
+        g92 = (p.mm(G92_OFFSET), p.mm(G92_OFFSET + 1), p.mm(G92_OFFSET + 2)) if on else (0.0,) * 3
+        p.numbered[COORD_INDEX] = 1.0
+        self.state = replace(reframe(self.state, system_frame(p, 1, g92)), coord_index=1)
+
     def place(self, offset: Vec3) -> None:
         """Set G54's origin to ``offset`` [mm] and make it the frame in effect."""
         for i in range(3):
@@ -409,6 +429,7 @@ def interpret(
     errors: list[GcodeError] | None = None,
     tools: dict[int, Tool] | None = None,
     work_offset: Vec3 | None = None,
+    parameters: Mapping[int, float] | None = None,
 ) -> Iterator[Move]:
     """Yield the program's moves in order; GcodeError(file, line) at the first bad line.
 
@@ -422,10 +443,11 @@ def interpret(
             raising at the first one (``gantry parse --all-errors``).
         tools: the tool table (tool number -> Tool) for T, M6, G43 H.
         work_offset: where program zero lies in the machine's work frame [mm].
+        parameters: numbered parameters the program starts with (the machine file's [work]:
+            stored offsets and positions, lengths in mm); ``work_offset`` then sets G54.
     """
-    for item in interpret_events(
-        text, dialect, file, search_path, max_iterations, errors, tools, work_offset, False
-    ):
+    args = (text, dialect, file, search_path, max_iterations, errors, tools, work_offset)
+    for item in interpret_events(*args, events=False, parameters=parameters):
         if isinstance(item, Rapid | Linear | Arc):  # no events are made when not asked for
             yield item
 
@@ -440,6 +462,7 @@ def interpret_events(
     tools: dict[int, Tool] | None = None,
     work_offset: Vec3 | None = None,
     events: bool = True,
+    parameters: Mapping[int, float] | None = None,
 ) -> Iterator[Move | Event]:
     """:func:`interpret`, plus the program's events in their place among the moves: dwells
     (G4), program stops (M0/M1/M60) and Marlin's limit changes (M201-M205)."""
@@ -448,6 +471,8 @@ def interpret_events(
         rules = get_dialect(dialect)
         interp = Interpreter(rules, tools, events)
         interp.search_path = search_path
+        if parameters:
+            interp.preset(parameters)
         if work_offset is not None:
             interp.place(work_offset)
         runner = Runner(

@@ -56,6 +56,33 @@ def check_travel(moves: Sequence[Move], travel: Travel) -> None:
             if bad is not None:
                 raise PlanningError(
                     f"{move.kind} move reaches {AXES[i]}{bad:.4f}, outside the machine's travel: "
-                    f"{AXES[i]} must stay within {lo[i]:g}..{hi[i]:g} mm (work coordinates)",
+                    f"{AXES[i]} must stay within {lo[i]:g}..{hi[i]:g} mm (work coordinates); "
+                    + placement_hint(moves, lo, hi),
                     line=move.line,
                 )
+
+
+def placement_hint(moves: Sequence[Move], lo: np.ndarray, hi: np.ndarray) -> str:
+    """The program's extent [mm, work frame] and the shift that would fit it in ``lo``..``hi``.
+
+    The first move's start is where the machine rests before the program, which a work offset
+    does not move, so it is left out of the extent.
+    """
+    pts = np.vstack([extent_points(m)[1 if k == 0 else 0 :] for k, m in enumerate(moves)])
+    mins, maxs = pts.min(axis=0), pts.max(axis=0)
+    extent = ", ".join(f"{AXES[i]} {mins[i]:.4g}..{maxs[i]:.4g}" for i in range(3))
+    shift, too_long = [], []
+    for i in range(3):
+        if maxs[i] - mins[i] > hi[i] - lo[i] + SLACK_MM:
+            too_long.append(f"{maxs[i] - mins[i]:.4g} mm in {AXES[i]} (travel {hi[i] - lo[i]:g})")
+        d = lo[i] - mins[i] if mins[i] < lo[i] else hi[i] - maxs[i] if maxs[i] > hi[i] else 0.0
+        # rounded to um away from the limit it was moved off, so the shifted program fits
+        shift.append(math.ceil(d * 1e3) / 1e3 if d > 0 else math.floor(d * 1e3) / 1e3)
+    text = f"the program spans {extent} mm (work frame)"
+    if too_long:
+        return f"{text}; it cannot be placed within the travel: it is {', '.join(too_long)}"
+    offset = ",".join(f"{d:g}" for d in shift)
+    return (
+        f"{text}; moved by {offset} mm it fits: place it with --work-offset {offset} (or the "
+        "machine file's [work] g54_mm), added to any work offset already in effect"
+    )

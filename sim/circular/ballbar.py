@@ -9,7 +9,7 @@ sim.circular.figures in the plane's coordinates; positions are work coordinates 
 from __future__ import annotations
 
 import json
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import Any
 
@@ -17,6 +17,7 @@ import numpy as np
 
 from gantry_sim.controller.config import MachineConfig
 from gantry_sim.controller.errors import ConfigError, GantryError, SimulationError
+from gantry_sim.controller.machine_work import NO_WORK
 from gantry_sim.sim.circular.diagnostics import diagnostics_json, fit_diagnostics
 from gantry_sim.sim.circular.figures import (
     CircleAnalysis,
@@ -148,8 +149,11 @@ def run_ballbar(
     what = f"the ballbar circle (R {radius_mm:g} mm, F {feed_mm_per_min:g} mm/min, {plane})"
     try:
         program = circle_test_program(plane, radius_mm, feed_mm_per_min, DIRECTIONS, centre_mm)
+        # the program is written in the work frame (--centre): the machine file's [work] offsets
+        # must not move it away from the centre the analysis uses
+        bare = replace(machine, work=NO_WORK)
         run = run_program(
-            program.text, file="ballbar.ngc", machine=machine, progress=progress, budget=budget
+            program.text, file="ballbar.ngc", machine=bare, progress=progress, budget=budget
         )
     except GantryError as exc:
         raise option_error(exc, "ballbar.ngc", what, "--radius", "--feed", machine.source) from None

@@ -21,11 +21,12 @@ cheap simulations.
 from __future__ import annotations
 
 from collections.abc import Callable
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from typing import Any
 
 from gantry_sim.controller.config import MachineConfig
 from gantry_sim.controller.errors import ConfigError, GantryError
+from gantry_sim.controller.machine_work import NO_WORK
 from gantry_sim.controller.planes import PLANE_AXES
 from gantry_sim.controller.units import mm_per_s_to_mm_per_min
 from gantry_sim.sim.circular.program import circle_test_program
@@ -102,7 +103,8 @@ def circle_error_um(
     what = f"the R {radius_mm:g} mm circle at F {feed_mm_per_min:.6g} mm/min ({plane})"
     try:
         program = circle_test_program(plane, radius_mm, feed_mm_per_min, ("ccw",))
-        result = run_program(program.text, file=file, machine=machine, budget=budget)
+        bare = replace(machine, work=NO_WORK)  # the circle is written in the work frame
+        result = run_program(program.text, file=file, machine=bare, budget=budget)
     except GantryError as exc:
         raise option_error(exc, file, what, "--radii", None, machine.source) from None
     line = program.circle_line("ccw")

@@ -1,4 +1,5 @@
-"""Argument helpers shared by the subcommands: dialect, machine file, program reading."""
+"""Argument helpers shared by the subcommands: dialect, machine file, program reading, and the
+options that set up a program on the machine (placement, tools, subroutine files, loop bound)."""
 
 from __future__ import annotations
 
@@ -84,7 +85,8 @@ def add_work_offset(parser: argparse.ArgumentParser) -> None:
         type=work_offset,
         default=None,
         metavar="X,Y,Z",
-        help="place the program: its G54 origin sits at X,Y,Z [mm] of the machine's work frame",
+        help="place the program: its G54 origin sits at X,Y,Z [mm] of the machine's work frame "
+        "(overrides the machine file's [work] g54_mm)",
     )
 
 
@@ -116,3 +118,71 @@ def budget_from(args: argparse.Namespace):
     from gantry_sim.sim.budget import DEFAULT_MAX_PHYSICS_STEPS, Budget
 
     return Budget(args.max_sim_s, getattr(args, "max_physics_steps", DEFAULT_MAX_PHYSICS_STEPS))
+
+
+def positive_int(text: str) -> int:
+    """An integer >= 1 (argparse type)."""
+    try:
+        value = int(text)
+    except ValueError:
+        value = 0
+    if value < 1:
+        raise argparse.ArgumentTypeError(f"expected an integer >= 1, got {text!r}")
+    return value
+
+
+def add_program_setup(parser: argparse.ArgumentParser) -> None:
+    """--work-offset, --tool-table, --subroutine-path, --max-iterations (parse, plan, run, sweep)."""
+    add_work_offset(parser)
+    parser.add_argument(
+        "--tool-table",
+        type=Path,
+        default=None,
+        metavar="FILE",
+        help="LinuxCNC tool.tbl, lengths in mm (replaces the machine file's [tools]); without "
+        "either every tool has zero length",
+    )
+    parser.add_argument(
+        "--subroutine-path",
+        type=Path,
+        action="append",
+        default=[],
+        metavar="DIR",
+        help="folder searched for NAME.ngc subroutine files after the program's own (repeatable)",
+    )
+    parser.add_argument(
+        "--max-iterations",
+        type=positive_int,
+        default=None,
+        metavar="N",
+        help="bound on O-word loop repetitions and calls (default 1000000)",
+    )
+
+
+def search_path(args: argparse.Namespace) -> tuple[Path, ...]:
+    """Folders searched for subroutine files: the program's own, then --subroutine-path."""
+    return (args.program.resolve().parent, *args.subroutine_path)
+
+
+def max_iterations(args: argparse.Namespace) -> int:
+    from gantry_sim.controller.gcode.control import DEFAULT_MAX_ITERATIONS
+
+    return DEFAULT_MAX_ITERATIONS if args.max_iterations is None else args.max_iterations
+
+
+def program_machine(args: argparse.Namespace):
+    """The machine (--machine) set up for this program: --work-offset and --tool-table laid
+    over its [work] and [tools], and the dialect's arc segmentation unless the file sets one."""
+    from dataclasses import replace
+
+    from gantry_sim.controller.gcode.dialects import with_segmentation_default
+
+    machine = load_machine(args.machine)
+    work = machine.work
+    if args.work_offset is not None:
+        work = work.placed(args.work_offset)
+    if args.tool_table is not None:
+        from gantry_sim.controller.gcode.tools import read_tool_table
+
+        work = work.with_tools(read_tool_table(args.tool_table))
+    return with_segmentation_default(replace(machine, work=work), args.dialect)

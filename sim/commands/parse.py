@@ -7,7 +7,15 @@ import json
 import sys
 from pathlib import Path
 
-from gantry_sim.sim.commands.common import add_dialect, add_work_offset, read_program
+from gantry_sim.sim.commands.common import (
+    add_dialect,
+    add_machine,
+    add_program_setup,
+    max_iterations,
+    program_machine,
+    read_program,
+    search_path,
+)
 
 HELP = "interpret a G-code program and print its motions as JSON Lines"
 
@@ -15,22 +23,8 @@ HELP = "interpret a G-code program and print its motions as JSON Lines"
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("program", type=Path, help="G-code program (.ngc)")
     add_dialect(parser)
-    add_work_offset(parser)
-    parser.add_argument(
-        "--subroutine-path",
-        type=Path,
-        action="append",
-        default=[],
-        metavar="DIR",
-        help="folder searched for NAME.ngc subroutine files after the program's own (repeatable)",
-    )
-    parser.add_argument(
-        "--tool-table",
-        type=Path,
-        default=None,
-        metavar="FILE",
-        help="LinuxCNC tool.tbl (lengths in mm); without it every tool has zero length",
-    )
+    add_machine(parser)
+    add_program_setup(parser)
     parser.add_argument(
         "--events",
         action="store_true",
@@ -43,30 +37,14 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         help="interpret the whole program, skipping refused lines, and list every one of them "
         "(FILE:LINE: error: ...) on stderr; exit 2 when there is any",
     )
-    parser.add_argument(
-        "--max-iterations",
-        type=int,
-        default=None,
-        metavar="N",
-        help="bound on O-word loop repetitions and calls (default 1000000)",
-    )
 
 
 def run(args: argparse.Namespace) -> int:
-    from gantry_sim.controller.errors import ConfigError, GantryError
-    from gantry_sim.controller.gcode.control import DEFAULT_MAX_ITERATIONS
+    from gantry_sim.controller.errors import GantryError
     from gantry_sim.controller.gcode.interpreter import interpret_events
 
+    machine = program_machine(args)
     text = read_program(args.program)
-    limit = DEFAULT_MAX_ITERATIONS if args.max_iterations is None else args.max_iterations
-    if limit < 1:
-        raise ConfigError(f"--max-iterations {limit}: must be 1 or more")
-    search = (args.program.resolve().parent, *args.subroutine_path)
-    tools = None
-    if args.tool_table is not None:
-        from gantry_sim.controller.gcode.tools import read_tool_table
-
-        tools = read_tool_table(args.tool_table)
     out = sys.stdout
     errors: list | None = [] if args.all_errors else None
     try:
@@ -74,12 +52,12 @@ def run(args: argparse.Namespace) -> int:
             text,
             dialect=args.dialect,
             file=str(args.program),
-            search_path=search,
-            max_iterations=limit,
+            search_path=search_path(args),
+            max_iterations=max_iterations(args),
             errors=errors,
-            tools=tools,
-            work_offset=args.work_offset,
+            tools=machine.work.tool_table(),
             events=args.events,
+            parameters=machine.work.parameters(),
         ):
             out.write(json.dumps(move.to_json()) + "\n")
     except GantryError:

@@ -12,9 +12,12 @@ from gantry_sim.sim.commands.common import (
     add_budget,
     add_dialect,
     add_machine,
+    add_program_setup,
     budget_from,
-    load_machine,
+    max_iterations,
+    program_machine,
     read_program,
+    search_path,
 )
 
 HELP = "plan a G-code program (segmentation, look-ahead, Ruckig) and print its summary as JSON"
@@ -24,6 +27,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("program", type=Path, help="G-code program (.ngc)")
     add_dialect(parser)
     add_machine(parser)
+    add_program_setup(parser)
     parser.add_argument(
         "--out",
         type=Path,
@@ -48,19 +52,26 @@ def write_npz_atomically(path: Path, arrays: dict) -> None:
 
 def run(args: argparse.Namespace) -> int:
     from gantry_sim.controller.errors import GantryError
-    from gantry_sim.controller.gcode.interpreter import interpret
     from gantry_sim.controller.planner.plan import plan
     from gantry_sim.sim.budget import Budget, check_budget
     from gantry_sim.sim.outdir import check_output_file
+    from gantry_sim.sim.program import interpret_program
 
     budget = budget_from(args)
-    machine = load_machine(args.machine)
+    machine = program_machine(args)
     text = read_program(args.program)
     file = str(args.program)
     if args.out is not None:
         check_output_file(args.out)  # before planning: a device or folder is refused now
     try:
-        moves = list(interpret(text, dialect=args.dialect, file=file))
+        moves = interpret_program(
+            text,
+            dialect=args.dialect,
+            file=file,
+            machine=machine,
+            search_path=search_path(args),
+            max_iterations=max_iterations(args),
+        )
         result = plan(moves, machine)
     except GantryError as exc:
         raise exc.located(file) from None

@@ -19,9 +19,12 @@ from gantry_sim.sim.commands.common import (
     add_budget,
     add_dialect,
     add_machine,
+    add_program_setup,
     budget_from,
-    load_machine,
+    max_iterations,
+    program_machine,
     read_program,
+    search_path,
 )
 
 HELP = "plan, simulate and analyse a program; write report.json, trace.npz and plots"
@@ -31,6 +34,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("program", type=Path, help="G-code program (.ngc)")
     add_dialect(parser)
     add_machine(parser)
+    add_program_setup(parser)
     parser.add_argument(
         "--out",
         type=Path,
@@ -133,7 +137,7 @@ def run(args: argparse.Namespace) -> int:
     baseline = load_report(args.baseline) if args.baseline is not None else None  # before clearing
     if args.out.exists() and not args.out.is_dir():
         raise ConfigError("--out must be a folder, not a file", file=str(args.out))
-    machine = load_machine(args.machine)
+    machine = program_machine(args)
     text = read_program(args.program)
     # before the simulation: a folder that cannot take the outputs fails now, not after it;
     # a failing run must not leave an earlier run's report behind
@@ -146,6 +150,8 @@ def run(args: argparse.Namespace) -> int:
         feed_override_pct=args.feed_override,
         progress=sys.stderr.isatty(),
         budget=budget,
+        search_path=search_path(args),
+        max_iterations=max_iterations(args),
     )
     comparison = None
     if baseline is not None:

@@ -16,9 +16,12 @@ from gantry_sim.sim.commands.common import (
     add_budget,
     add_dialect,
     add_machine,
+    add_program_setup,
     budget_from,
-    load_machine,
+    max_iterations,
+    program_machine,
     read_program,
+    search_path,
 )
 
 HELP = (
@@ -81,6 +84,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     )
     add_dialect(parser)
     add_machine(parser)
+    add_program_setup(parser)
     parser.add_argument(
         "--out",
         type=Path,
@@ -101,7 +105,7 @@ def run(args: argparse.Namespace) -> int:
         raise ConfigError(f"{args.workers}: must be an integer from 1 to 1024", file="--workers")
     budget = budget_from(args)
     text = read_program(args.program)
-    machine = load_machine(args.machine)
+    machine = program_machine(args)
     points = grid(args.feed_override, args.max_accel, args.max_jerk)
     check_points(machine, points)
     if args.out is not None:
@@ -118,6 +122,8 @@ def run(args: argparse.Namespace) -> int:
         out_dir=args.out,
         progress=sys.stderr.isatty(),
         budget=budget,
+        search_path=search_path(args),
+        max_iterations=max_iterations(args),
     )
     if args.out is not None:  # one commit: the CSV (last), the plots, the journal removed
         with atomic_output_dir(args.out, last="sweep.csv", replaces=(JOURNAL,)) as tmp:

@@ -28,6 +28,7 @@ from typing import TextIO
 from gantry_sim.controller.config import MachineConfig
 from gantry_sim.controller.errors import SimulationError
 from gantry_sim.sim.budget import Budget, BudgetError
+from gantry_sim.controller.gcode.control import DEFAULT_MAX_ITERATIONS
 from gantry_sim.sim.outdir import atomic_file
 from gantry_sim.sim.sweep.executors import dask_map, local_map
 
@@ -42,6 +43,8 @@ COLUMNS = (
     "status",
 )
 JOURNAL = "sweep.partial.jsonl"
+#: (subroutine search path, max iterations) of a sweep, or () for the interpreter's defaults
+ProgramSetup = tuple[tuple[Path, ...], int] | tuple[()]
 
 
 @dataclass(frozen=True)
@@ -89,8 +92,10 @@ def run_point(
     machine: MachineConfig,
     point: SweepPoint,
     budget: Budget | None = None,
+    setup: ProgramSetup = (),
 ) -> dict:
-    """Simulate one grid point -> a sweep.csv row (a dict over COLUMNS).
+    """Simulate one grid point -> a sweep.csv row (a dict over COLUMNS); ``setup`` is
+    (search path, max iterations) for the interpreter, or () for the defaults.
 
     A simulation that fails (SimulationError, e.g. a following-error fault at an aggressive
     setting) is a result, not a crash: its row has status "simulation error: ..." and no figures;
@@ -112,6 +117,7 @@ def run_point(
             machine=machine_for(machine, point),
             feed_override_pct=point.feed_override_pct,
             budget=budget,
+            **_setup_kwargs(setup),
         )
     except (SimulationError, BudgetError) as exc:
         nan = float("nan")
@@ -133,9 +139,17 @@ def run_point(
     }
 
 
-def fingerprint(text: str, dialect: str, machine: MachineConfig) -> str:
-    """Identifies the sweep's fixed inputs, so a journal is only resumed by the same sweep."""
-    return hashlib.sha256(repr((text, dialect, machine)).encode()).hexdigest()[:16]
+def _setup_kwargs(setup: ProgramSetup) -> dict:
+    if not setup:
+        return {}
+    return {"search_path": setup[0], "max_iterations": setup[1]}
+
+
+def fingerprint(text: str, dialect: str, machine: MachineConfig, setup: ProgramSetup = ()) -> str:
+    """Identifies the sweep's fixed inputs, so a journal is only resumed by the same sweep
+    (the machine includes its tools and offsets; ``setup`` the subroutine folders and bound)."""
+    inputs = (text, dialect, machine) + ((setup,) if setup else ())
+    return hashlib.sha256(repr(inputs).encode()).hexdigest()[:16]
 
 
 def _journal_record(raw: bytes) -> dict | None:
@@ -197,6 +211,8 @@ def run_sweep(
     out_dir: Path | None = None,
     progress: bool = False,
     budget: Budget | None = None,
+    search_path: Sequence[Path] = (),
+    max_iterations: int = DEFAULT_MAX_ITERATIONS,
 ) -> list[dict]:
     """Simulate every point; return the rows in grid order.
 
@@ -212,12 +228,18 @@ def run_sweep(
         out_dir: where the journal lives (resume); None: no journal.
         progress: show a tqdm progress bar on stderr.
         budget: each simulation's bounds (sim.budget.Budget; default Budget()).
+        search_path: folders searched for subroutine files (the program's own first).
+        max_iterations: bound on O-word loop repetitions and subroutine calls.
     """
     if executor not in ("local", "dask"):
         from gantry_sim.controller.errors import ConfigError
 
         raise ConfigError(f"executor {executor!r}: must be 'local' or 'dask'", file="--executor")
-    tag = fingerprint(text, dialect, machine)
+    folders = tuple(Path(p) for p in search_path)
+    setup: ProgramSetup = ()
+    if folders or max_iterations != DEFAULT_MAX_ITERATIONS:
+        setup = (folders, max_iterations)
+    tag = fingerprint(text, dialect, machine, setup)
     journal = out_dir / JOURNAL if out_dir is not None else None
     done: dict[str, dict] = {}
     if journal is not None:
@@ -230,7 +252,7 @@ def run_sweep(
             )
     todo = [p for p in points if p.key() not in done]
     if todo:
-        args = [(text, file, dialect, machine, p, budget) for p in todo]
+        args = [(text, file, dialect, machine, p, budget, setup) for p in todo]
         rows = (
             local_map(run_point, args, workers)
             if executor == "local"

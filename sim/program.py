@@ -1,0 +1,110 @@
+"""A program's moves on a machine, as ``gantry plan``, ``run`` and ``sweep`` interpret it.
+
+The interpreter gets the machine file's tool table and initial offsets (``[tools]``, ``[work]``;
+``--tool-table`` and ``--work-offset`` are laid over them by
+:func:`gantry_sim.sim.commands.common.program_machine`), the folders searched for subroutine
+files (the program's own first, then ``--subroutine-path``), and the bound on loops and calls.
+A refused program stops at its first refused line, as before; when other lines are refused too,
+the error says how many and that ``gantry parse --all-errors`` lists them all, so a user fixes a
+program in one pass.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from pathlib import Path
+from typing import Any, Literal, overload
+
+from gantry_sim.controller.config import MachineConfig
+from gantry_sim.controller.errors import GantryError, GcodeError
+from gantry_sim.controller.gcode.control import DEFAULT_MAX_ITERATIONS, MAX_ERRORS
+from gantry_sim.controller.moves import Event, Move
+
+
+@overload
+def interpret_program(
+    text: str,
+    *,
+    dialect: str,
+    file: str,
+    machine: MachineConfig,
+    search_path: Sequence[Path] = ...,
+    max_iterations: int = ...,
+    events: Literal[False] = ...,
+) -> list[Move]: ...
+
+
+@overload
+def interpret_program(
+    text: str,
+    *,
+    dialect: str,
+    file: str,
+    machine: MachineConfig,
+    search_path: Sequence[Path] = ...,
+    max_iterations: int = ...,
+    events: Literal[True],
+) -> list[Move | Event]: ...
+
+
+def interpret_program(
+    text: str,
+    *,
+    dialect: str,
+    file: str,
+    machine: MachineConfig,
+    search_path: Sequence[Path] = (),
+    max_iterations: int = DEFAULT_MAX_ITERATIONS,
+    events: bool = False,
+) -> list[Move] | list[Move | Event]:
+    """The program's moves (and, with ``events``, its dwells, stops and limit changes).
+
+    Args:
+        text: the program.
+        dialect: the G-code dialect.
+        file: the program's name for error messages.
+        machine: its ``work`` gives the tool table and the starting offsets [mm].
+        search_path: folders searched for ``NAME.ngc`` subroutine files, in order.
+        max_iterations: bound on O-word loop repetitions and subroutine calls.
+        events: include the program's events among the moves.
+
+    Raises:
+        GcodeError: the first refused line (file, line), its message ending with the count of
+            the other refused lines when there are any.
+    """
+    from gantry_sim.controller.gcode.interpreter import interpret, interpret_events
+
+    kwargs: dict[str, Any] = {
+        "search_path": tuple(search_path),
+        "max_iterations": max_iterations,
+        "tools": machine.work.tool_table(),
+        "parameters": machine.work.parameters(),
+    }
+    try:
+        if events:
+            return list(interpret_events(text, dialect, file, **kwargs))
+        return list(interpret(text, dialect, file, **kwargs))
+    except GcodeError as exc:
+        if "--max-iterations" in exc.message:
+            raise  # the loop bound: a second pass would repeat the runaway loop's work
+        others = _other_refused_lines(text, dialect, file, kwargs)
+        if others:
+            at_least = "at least " if others >= MAX_ERRORS - 1 else ""
+            exc.message += (
+                f" ({at_least}{others} more line(s) refused; `gantry parse --all-errors` with "
+                "the same options lists them all)"
+            )
+        raise
+
+
+def _other_refused_lines(text: str, dialect: str, file: str, kwargs: dict[str, Any]) -> int:
+    """How many lines besides the first are refused (the whole program, refused lines skipped)."""
+    from gantry_sim.controller.gcode.interpreter import interpret
+
+    errors: list[GcodeError] = []
+    try:
+        for _ in interpret(text, dialect, file, errors=errors, **kwargs):
+            pass
+    except GantryError:
+        pass  # more than MAX_ERRORS: the count so far
+    return max(len(errors) - 1, 0)

@@ -1,0 +1,63 @@
+"""Each dialect segments arcs as its controller does by default (grbl: $12 arc tolerance
+0.002 mm; marlin: 1 mm segments) unless the machine file sets a [segmentation]."""
+
+from __future__ import annotations
+
+import json
+import math
+
+import pytest
+
+from gantry_sim.controller.config import load_machine_config
+from gantry_sim.controller.gcode.dialects import with_segmentation_default
+from gantry_sim.models import DEFAULT_MACHINE
+from gantry_sim.sim.api import run_program
+from gantry_sim.sim.cli import main
+
+#: one full circle of radius 20 mm (length 125.66 mm)
+CIRCLE = "G21 G90 G17\nG0 X20 Y0\nG3 X20 Y0 I-20 J0 F3000\nM2\n"
+
+
+def _plan(write_program, capsys, *options: str) -> dict:
+    assert main(["plan", str(write_program(CIRCLE)), *options]) == 0
+    return json.loads(capsys.readouterr().out)
+
+
+def test_grbl_uses_its_arc_tolerance(write_program, capsys, machine):
+    linuxcnc = _plan(write_program, capsys)
+    grbl = _plan(write_program, capsys, "--dialect", "grbl")
+    assert linuxcnc["chord_tolerance_mm"] == machine.segmentation.chord_tolerance_mm == 0.001
+    assert grbl["chord_tolerance_mm"] == 0.002
+    # fewest chords with sagitta <= tol: n = ceil(theta r / (2 sqrt(tol (2r - tol)))), plus the
+    # rapid's one segment
+    chords = math.ceil(2 * math.pi * 20.0 / (2 * math.sqrt(0.002 * (40.0 - 0.002))))
+    assert grbl["segments"] == chords + 1 < linuxcnc["segments"]
+
+
+def test_marlin_uses_fixed_1mm_segments(write_program, capsys):
+    marlin = _plan(write_program, capsys, "--dialect", "marlin")
+    # Marlin: floor(length / 1 mm) segments (and at least 72 per circle), plus the rapid's one
+    assert marlin["segments"] == math.floor(2 * math.pi * 20.0 / 1.0) + 1
+
+
+def test_a_machine_file_segmentation_wins(write_program, tmp_path, capsys):
+    machine = tmp_path / "m.toml"
+    machine.write_text("[segmentation]\nchord_tolerance_mm = 0.001\n")
+    for dialect in ("grbl", "marlin"):
+        got = _plan(write_program, capsys, "--dialect", dialect, "--machine", str(machine))
+        linuxcnc = _plan(write_program, capsys, "--machine", str(machine))
+        assert got["chord_tolerance_mm"] == 0.001 and got["segments"] == linuxcnc["segments"]
+
+
+def test_the_python_api_applies_the_dialect_default(tmp_path):
+    cfg = load_machine_config(DEFAULT_MACHINE)
+    grbl = with_segmentation_default(cfg, "grbl")
+    assert (grbl.segmentation.method, grbl.segmentation.chord_tolerance_mm) == ("chord", 0.002)
+    marlin = with_segmentation_default(cfg, "marlin")
+    assert (marlin.segmentation.method, marlin.segmentation.segment_length_mm) == ("fixed", 1.0)
+    assert with_segmentation_default(cfg, "linuxcnc") == cfg
+    chosen = cfg.with_changes("segmentation", chord_tolerance_mm=0.0005)
+    assert with_segmentation_default(chosen, "grbl") == chosen
+    short = "G0 X2\nG3 X2 Y0 I-2 J0 F1200\n"
+    report = run_program(short, dialect="grbl", machine=cfg).report
+    assert report["parts_um"]["chord_max"] == pytest.approx(2.0, rel=0.05)

@@ -1,0 +1,60 @@
+"""A program leaving the travel is told its extent and the work offset that fits it, and that
+offset (option or machine file) places it without editing it."""
+
+from __future__ import annotations
+
+import json
+import re
+
+import pytest
+
+from gantry_sim.controller.errors import PlanningError
+from gantry_sim.controller.gcode.interpreter import parse_program
+from gantry_sim.controller.planner.travel import check_travel
+from gantry_sim.sim.cli import main
+
+#: written around its own origin: a Z100 clearance plane and a part up to Y235 (real examples)
+CLEARANCE = "G21 G90\nG0 Z100\nG0 X10 Y235\nG1 Z-5 F3000\nG1 X50\nG0 Z100\nM2\n"
+
+
+def test_error_names_the_extent_and_the_offset_that_fits(machine):
+    with pytest.raises(PlanningError) as info:
+        check_travel(parse_program(CLEARANCE), machine.travel)
+    msg = info.value.message
+    assert info.value.line == 2 and "reaches Z100.0000, outside the machine's travel" in msg
+    assert "the program spans X 0..50, Y 0..235, Z -5..100 mm (work frame)" in msg
+    # the smallest shift per axis: Y down by 35 (235 -> 200), Z down by 25 (100 -> 75)
+    assert "moved by 0,-35,-25 mm it fits: place it with --work-offset 0,-35,-25" in msg
+
+
+def test_error_says_when_no_offset_can_fit(machine):
+    # the machine rests at the work origin before the program: not part of the program's extent
+    moves = parse_program("G0 X100 Y-250\nG0 X50 Y-220\nM2\n")
+    with pytest.raises(PlanningError) as info:
+        check_travel(moves, machine.travel)
+    assert "spans X 50..100, Y -250..-220, Z 0..0 mm" in info.value.message
+    assert "--work-offset 0,50,0 " in info.value.message
+    with pytest.raises(PlanningError) as info:
+        check_travel(parse_program("G0 X-350\nG0 X350\nM2\n"), machine.travel)
+    msg = info.value.message
+    assert "cannot be placed within the travel: it is 700 mm in X (travel 600)" in msg
+    assert "--work-offset" not in msg
+
+
+def test_the_suggested_offset_places_the_program(write_program, tmp_path, capsys):
+    prog = write_program(CLEARANCE)
+    assert main(["plan", str(prog)]) == 2
+    err = capsys.readouterr().err
+    offset = re.search(r"--work-offset (\S+)", err)
+    assert offset is not None
+    assert main(["plan", str(prog), "--work-offset", offset.group(1)]) == 0
+    assert json.loads(capsys.readouterr().out)["moves"] == 5
+    machine = tmp_path / "placed.toml"
+    machine.write_text("[work]\ng54_mm = [0.0, -35.0, -25.0]\n")
+    assert main(["plan", str(prog), "--machine", str(machine)]) == 0
+    capsys.readouterr()
+    out = tmp_path / "run"
+    args = ["run", str(prog), "--machine", str(machine), "--out", str(out), "--no-plots"]
+    assert main(args) == 0
+    report = json.loads((out / "report.json").read_text())
+    assert report["moves"] == 5
