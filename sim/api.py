@@ -29,8 +29,8 @@ from pathlib import Path
 
 from gantry_sim.controller.config import MachineConfig
 from gantry_sim.controller.errors import GantryError, GcodeError
-from gantry_sim.sim.budget import Budget, check_budget
 from gantry_sim.controller.gcode.control import DEFAULT_MAX_ITERATIONS
+from gantry_sim.sim.budget import Budget, check_budget
 from gantry_sim.sim.gates import Gates, Verdict
 from gantry_sim.sim.report import RunReport
 from gantry_sim.sim.trace import Trace

@@ -27,8 +27,8 @@ from typing import TextIO
 
 from gantry_sim.controller.config import MachineConfig
 from gantry_sim.controller.errors import SimulationError
-from gantry_sim.sim.budget import Budget, BudgetError
 from gantry_sim.controller.gcode.control import DEFAULT_MAX_ITERATIONS
+from gantry_sim.sim.budget import Budget, BudgetError
 from gantry_sim.sim.outdir import atomic_file
 from gantry_sim.sim.sweep.executors import dask_map, local_map
 
