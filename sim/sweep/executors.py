@@ -18,7 +18,7 @@ import os
 import re
 import signal
 import sys
-from collections.abc import Callable, Iterable
+from collections.abc import Callable, Generator
 
 from gantry_sim.controller.errors import ConfigError
 
@@ -43,7 +43,7 @@ def _die_with_parent(parent_pid: int) -> None:
         os._exit(1)
 
 
-def local_map(fn: Callable, args: list[tuple], workers: int | None) -> Iterable[dict]:
+def local_map(fn: Callable, args: list[tuple], workers: int | None) -> Generator[dict, None, None]:
     import multiprocessing
     from concurrent.futures import ProcessPoolExecutor, as_completed
 
@@ -91,7 +91,7 @@ def _first_line(exc: BaseException) -> str:
 
 def dask_map(
     fn: Callable, args: list[tuple], workers: int | None, scheduler: str | None
-) -> Iterable[dict]:
+) -> Generator[dict, None, None]:
     try:
         from dask.distributed import Client, LocalCluster, as_completed
     except ImportError:

@@ -20,7 +20,7 @@ import itertools
 import json
 import math
 import sys
-from collections.abc import Sequence
+from collections.abc import Generator, Sequence
 from dataclasses import asdict, dataclass
 from pathlib import Path
 from typing import TextIO
@@ -42,6 +42,18 @@ COLUMNS = (
     "status",
 )
 JOURNAL = "sweep.partial.jsonl"
+
+
+class SweepInterrupted(KeyboardInterrupt):
+    """Ctrl-C stopped a sweep: queued points cancelled, running ones terminated, the finished
+    ones journaled. ``done`` of ``total`` grid points have a row; ``journal`` holds them (None
+    without an output folder: nothing kept)."""
+
+    def __init__(self, done: int, total: int, journal: Path | None) -> None:
+        super().__init__(f"{done} of {total} grid point(s) done")
+        self.done = done
+        self.total = total
+        self.journal = journal
 
 
 @dataclass(frozen=True)
@@ -212,6 +224,10 @@ def run_sweep(
         out_dir: where the journal lives (resume); None: no journal.
         progress: show a tqdm progress bar on stderr.
         budget: each simulation's bounds (sim.budget.Budget; default Budget()).
+
+    Raises:
+        SweepInterrupted: Ctrl-C; it comes within a second (queued points cancelled, running
+            simulations terminated), the finished points are in the journal.
     """
     if executor not in ("local", "dask"):
         from gantry_sim.controller.errors import ConfigError
@@ -229,9 +245,15 @@ def run_sweep(
                 file=sys.stderr,
             )
     todo = [p for p in points if p.key() not in done]
+    if journal is not None and len(todo) < len(points):
+        print(
+            f"{journal}: resuming: {len(points) - len(todo)} of {len(points)} grid point(s) "
+            "already done",
+            file=sys.stderr,
+        )
     if todo:
         args = [(text, file, dialect, machine, p, budget) for p in todo]
-        rows = (
+        rows: Generator[dict, None, None] = (
             local_map(run_point, args, workers)
             if executor == "local"
             else dask_map(run_point, args, workers, scheduler)
@@ -247,15 +269,22 @@ def run_sweep(
             desc="sweep",
             unit="sim",
         )
-        with bar:
-            for row in rows:
-                key = SweepPoint(
-                    row["feed_override_pct"], row["max_accel_mm_per_s2"], row["max_jerk_mm_per_s3"]
-                ).key()
-                done[key] = row
-                if journal is not None:
-                    _append(journal, {"fingerprint": tag, "key": key, "row": row})
-                bar.update(1)
+        try:
+            with bar:
+                for row in rows:
+                    key = SweepPoint(
+                        row["feed_override_pct"],
+                        row["max_accel_mm_per_s2"],
+                        row["max_jerk_mm_per_s3"],
+                    ).key()
+                    done[key] = row
+                    if journal is not None:
+                        _append(journal, {"fingerprint": tag, "key": key, "row": row})
+                    bar.update(1)
+        except KeyboardInterrupt:
+            rows.close()  # stop the executor now: queued points cancelled, workers terminated
+            wanted = {p.key() for p in points}
+            raise SweepInterrupted(len(wanted & done.keys()), len(wanted), journal) from None
     return [done[p.key()] for p in points]
 
 
