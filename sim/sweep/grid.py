@@ -21,15 +21,16 @@ import json
 import math
 import sys
 from collections.abc import Generator, Sequence
-from dataclasses import asdict, dataclass
 from pathlib import Path
 from typing import TextIO
 
 from gantry_sim.controller.config import MachineConfig
-from gantry_sim.controller.errors import SimulationError
-from gantry_sim.sim.budget import Budget, BudgetError
+from gantry_sim.sim.budget import Budget
 from gantry_sim.sim.outdir import atomic_file
 from gantry_sim.sim.sweep.executors import dask_map, local_map
+from gantry_sim.sim.sweep.point import SweepPoint, machine_for, run_point
+
+__all__ = ["SweepPoint", "machine_for", "run_point"]  # re-exported: where they were
 
 COLUMNS = (
     "feed_override_pct",
@@ -56,19 +57,6 @@ class SweepInterrupted(KeyboardInterrupt):
         self.journal = journal
 
 
-@dataclass(frozen=True)
-class SweepPoint:
-    """One grid point: feed override [%]; accel [mm/s^2] and jerk [mm/s^3] for all axes, or None
-    to keep the machine's per-axis values."""
-
-    feed_override_pct: float
-    max_accel_mm_per_s2: float | None = None
-    max_jerk_mm_per_s3: float | None = None
-
-    def key(self) -> str:
-        return json.dumps(asdict(self), sort_keys=True)
-
-
 def grid(
     feed_overrides_pct: Sequence[float],
     max_accels_mm_per_s2: Sequence[float] | None = None,
@@ -82,67 +70,6 @@ def grid(
         SweepPoint(float(f), None if a is None else float(a), None if j is None else float(j))
         for f, a, j in combos
     ]
-
-
-def machine_for(machine: MachineConfig, point: SweepPoint) -> MachineConfig:
-    """``machine`` with the point's accel and jerk on all axes (validated)."""
-    changes = {}
-    if point.max_accel_mm_per_s2 is not None:
-        changes["max_acceleration_mm_per_s2"] = [point.max_accel_mm_per_s2] * 3
-    if point.max_jerk_mm_per_s3 is not None:
-        changes["max_jerk_mm_per_s3"] = [point.max_jerk_mm_per_s3] * 3
-    return machine.with_changes("limits", **changes) if changes else machine
-
-
-def run_point(
-    text: str,
-    file: str,
-    dialect: str,
-    machine: MachineConfig,
-    point: SweepPoint,
-    budget: Budget | None = None,
-) -> dict:
-    """Simulate one grid point -> a sweep.csv row (a dict over COLUMNS).
-
-    A simulation that fails (SimulationError, e.g. a following-error fault at an aggressive
-    setting) is a result, not a crash: its row has status "simulation error: ..." and no figures;
-    so is a point whose simulation would exceed ``budget`` (a low feed override): "over the
-    budget: ...". Other errors (the program or machine is invalid everywhere) propagate.
-    """
-    from gantry_sim.sim.api import run_program
-
-    row = {
-        "feed_override_pct": point.feed_override_pct,
-        "max_accel_mm_per_s2": point.max_accel_mm_per_s2,
-        "max_jerk_mm_per_s3": point.max_jerk_mm_per_s3,
-    }
-    try:
-        result = run_program(
-            text,
-            file=file,
-            dialect=dialect,
-            machine=machine_for(machine, point),
-            feed_override_pct=point.feed_override_pct,
-            budget=budget,
-        )
-    except (SimulationError, BudgetError) as exc:
-        nan = float("nan")
-        what = "over the budget" if isinstance(exc, BudgetError) else "simulation error"
-        return row | {
-            "cycle_time_s": nan,
-            "max_error_um": nan,
-            "rms_error_um": nan,
-            "p95_error_um": nan,
-            "status": f"{what}: {exc.message}",
-        }
-    report = result.run_report
-    return row | {
-        "cycle_time_s": report.cycle_time_s,
-        "max_error_um": report.contour_error_um.max_um,
-        "rms_error_um": report.contour_error_um.rms_um,
-        "p95_error_um": report.contour_error_um.p95_um,
-        "status": "ok",
-    }
 
 
 def fingerprint(text: str, dialect: str, machine: MachineConfig) -> str:
@@ -252,12 +179,16 @@ def run_sweep(
             file=sys.stderr,
         )
     if todo:
-        args = [(text, file, dialect, machine, p, budget) for p in todo]
-        rows: Generator[dict, None, None] = (
-            local_map(run_point, args, workers)
-            if executor == "local"
-            else dask_map(run_point, args, workers, scheduler)
-        )
+        rows: Generator[dict, None, None]
+        if executor == "local":
+            args = [(text, file, dialect, machine, p, budget) for p in todo]
+            rows = local_map(run_point, args, workers)
+        else:  # no path of this host's on a worker: the model's files go as data
+            from gantry_sim.sim.sweep.model_bundle import bundle_model
+            from gantry_sim.sim.sweep.remote import run_shipped_point
+
+            shared = (text, file, dialect, machine, budget, bundle_model(machine.sim.model))
+            rows = dask_map(run_shipped_point, shared, todo, workers, scheduler)
         from tqdm import tqdm
 
         if journal is not None:
