@@ -128,10 +128,12 @@ def check_workers(client, where: str, option: str) -> list[str]:
     missing = sorted(a for a, v in answers.items() if isinstance(v, BaseException))
     other = sorted(a for a, v in answers.items() if not isinstance(v, BaseException) and v != want)
     if missing:
-        why = _first_line(answers[missing[0]])
+        exc = answers[missing[0]]
+        why = _first_line(exc)  # a failed unpickling arrives as Exception('Error(...)')
+        why = why if type(exc) is Exception else f"{type(exc).__name__}: {why}"
         raise ConfigError(
             f"Dask worker(s) {_workers_text(missing)} of {where} cannot run gantry-sim "
-            f"({type(answers[missing[0]]).__name__}: {why}); install gantry-sim {want} "
+            f"({why}); install gantry-sim {want} "
             "in the workers' Python environment",
             file=option,
         )
