@@ -115,7 +115,7 @@ def check_workers(client, where: str, option: str) -> list[str]:
             "(dask worker ADDRESS) where gantry-sim is installed",
             file=option,
         ) from None
-    try:
+    try:  # Client.run has no timeout of its own; its coroutine under one
         answers = client.sync(
             client._run, installed_version, on_error="return", callback_timeout=WORKER_TIMEOUT_S
         )
