@@ -1,12 +1,15 @@
 """``gantry sweep``: one full simulation per grid point of feed override x accel x jerk.
 
 Exit status: 0 at least one grid point ran; 1 every point faulted (e.g. a following-error fault
-at every setting; sweep.csv and the plots are still written); 2 invalid input.
+at every setting; sweep.csv and the plots are still written); 2 invalid input; 130 Ctrl-C (the
+finished points stay in the journal: the same command resumes from them).
 """
 
 from __future__ import annotations
 
 import argparse
+import shlex
+import signal
 import sys
 from pathlib import Path
 
@@ -99,7 +102,14 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 def run(args: argparse.Namespace) -> int:
     from gantry_sim.sim.outdir import atomic_output_dir, prepare_output_dir
     from gantry_sim.sim.search_plots import save_sweep_plots
-    from gantry_sim.sim.sweep.grid import JOURNAL, check_points, grid, run_sweep, write_csv
+    from gantry_sim.sim.sweep.grid import (
+        JOURNAL,
+        SweepInterrupted,
+        check_points,
+        grid,
+        run_sweep,
+        write_csv,
+    )
 
     if args.workers is not None and not 1 <= args.workers <= 1024:
         raise ConfigError(f"{args.workers}: must be an integer from 1 to 1024", file="--workers")
@@ -110,21 +120,25 @@ def run(args: argparse.Namespace) -> int:
     check_points(machine, points)
     if args.out is not None:
         prepare_output_dir(args.out)  # fails now, not after the simulations
-    rows = run_sweep(
-        text,
-        points,
-        machine,
-        file=str(args.program),
-        dialect=args.dialect,
-        executor=args.executor,
-        workers=args.workers,
-        scheduler=args.scheduler,
-        out_dir=args.out,
-        progress=sys.stderr.isatty(),
-        budget=budget,
-        search_path=search_path(args),
-        max_iterations=max_iterations(args),
-    )
+    try:
+        rows = run_sweep(
+            text,
+            points,
+            machine,
+            file=str(args.program),
+            dialect=args.dialect,
+            executor=args.executor,
+            workers=args.workers,
+            scheduler=args.scheduler,
+            out_dir=args.out,
+            progress=sys.stderr.isatty(),
+            budget=budget,
+            search_path=search_path(args),
+            max_iterations=max_iterations(args),
+        )
+    except SweepInterrupted as stop:
+        print(_where_it_stopped(stop), file=sys.stderr)
+        return 128 + signal.SIGINT
     if args.out is not None:  # one commit: the CSV (last), the plots, the journal removed
         with atomic_output_dir(args.out, last="sweep.csv", replaces=(JOURNAL,)) as tmp:
             with open(tmp / "sweep.csv", "w", newline="") as fh:
@@ -137,3 +151,13 @@ def run(args: argparse.Namespace) -> int:
         )
         return 1
     return 0
+
+
+def _where_it_stopped(stop) -> str:
+    """The Ctrl-C message: how far the sweep got and how to go on."""
+    head = f"gantry: interrupted: {stop.done} of {stop.total} grid point(s) done"
+    if stop.journal is None or not stop.done:
+        return head + " (nothing kept)" if stop.journal is None else head
+    again = shlex.join(["gantry", *sys.argv[1:]]) if sys.argv[1:2] == ["sweep"] else ""
+    how = f": {again}" if again else " (same program, grid, machine and --out)"
+    return f"{head}, kept in {stop.journal}; rerun the same sweep to resume{how}"

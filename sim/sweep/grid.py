@@ -20,17 +20,18 @@ import itertools
 import json
 import math
 import sys
-from collections.abc import Sequence
-from dataclasses import asdict, dataclass
+from collections.abc import Generator, Sequence
 from pathlib import Path
 from typing import TextIO
 
 from gantry_sim.controller.config import MachineConfig
-from gantry_sim.controller.errors import SimulationError
 from gantry_sim.controller.gcode.control import DEFAULT_MAX_ITERATIONS
-from gantry_sim.sim.budget import Budget, BudgetError
+from gantry_sim.sim.budget import Budget
 from gantry_sim.sim.outdir import atomic_file
 from gantry_sim.sim.sweep.executors import dask_map, local_map
+from gantry_sim.sim.sweep.point import ProgramSetup, SweepPoint, machine_for, run_point
+
+__all__ = ["SweepPoint", "machine_for", "run_point"]  # re-exported: where they were
 
 COLUMNS = (
     "feed_override_pct",
@@ -43,21 +44,18 @@ COLUMNS = (
     "status",
 )
 JOURNAL = "sweep.partial.jsonl"
-#: (subroutine search path, max iterations) of a sweep, or () for the interpreter's defaults
-ProgramSetup = tuple[tuple[Path, ...], int] | tuple[()]
 
 
-@dataclass(frozen=True)
-class SweepPoint:
-    """One grid point: feed override [%]; accel [mm/s^2] and jerk [mm/s^3] for all axes, or None
-    to keep the machine's per-axis values."""
+class SweepInterrupted(KeyboardInterrupt):
+    """Ctrl-C stopped a sweep: queued points cancelled, running ones terminated, the finished
+    ones journaled. ``done`` of ``total`` grid points have a row; ``journal`` holds them (None
+    without an output folder: nothing kept)."""
 
-    feed_override_pct: float
-    max_accel_mm_per_s2: float | None = None
-    max_jerk_mm_per_s3: float | None = None
-
-    def key(self) -> str:
-        return json.dumps(asdict(self), sort_keys=True)
+    def __init__(self, done: int, total: int, journal: Path | None) -> None:
+        super().__init__(f"{done} of {total} grid point(s) done")
+        self.done = done
+        self.total = total
+        self.journal = journal
 
 
 def grid(
@@ -73,76 +71,6 @@ def grid(
         SweepPoint(float(f), None if a is None else float(a), None if j is None else float(j))
         for f, a, j in combos
     ]
-
-
-def machine_for(machine: MachineConfig, point: SweepPoint) -> MachineConfig:
-    """``machine`` with the point's accel and jerk on all axes (validated)."""
-    changes = {}
-    if point.max_accel_mm_per_s2 is not None:
-        changes["max_acceleration_mm_per_s2"] = [point.max_accel_mm_per_s2] * 3
-    if point.max_jerk_mm_per_s3 is not None:
-        changes["max_jerk_mm_per_s3"] = [point.max_jerk_mm_per_s3] * 3
-    return machine.with_changes("limits", **changes) if changes else machine
-
-
-def run_point(
-    text: str,
-    file: str,
-    dialect: str,
-    machine: MachineConfig,
-    point: SweepPoint,
-    budget: Budget | None = None,
-    setup: ProgramSetup = (),
-) -> dict:
-    """Simulate one grid point -> a sweep.csv row (a dict over COLUMNS); ``setup`` is
-    (search path, max iterations) for the interpreter, or () for the defaults.
-
-    A simulation that fails (SimulationError, e.g. a following-error fault at an aggressive
-    setting) is a result, not a crash: its row has status "simulation error: ..." and no figures;
-    so is a point whose simulation would exceed ``budget`` (a low feed override): "over the
-    budget: ...". Other errors (the program or machine is invalid everywhere) propagate.
-    """
-    from gantry_sim.sim.api import run_program
-
-    row = {
-        "feed_override_pct": point.feed_override_pct,
-        "max_accel_mm_per_s2": point.max_accel_mm_per_s2,
-        "max_jerk_mm_per_s3": point.max_jerk_mm_per_s3,
-    }
-    try:
-        result = run_program(
-            text,
-            file=file,
-            dialect=dialect,
-            machine=machine_for(machine, point),
-            feed_override_pct=point.feed_override_pct,
-            budget=budget,
-            **_setup_kwargs(setup),
-        )
-    except (SimulationError, BudgetError) as exc:
-        nan = float("nan")
-        what = "over the budget" if isinstance(exc, BudgetError) else "simulation error"
-        return row | {
-            "cycle_time_s": nan,
-            "max_error_um": nan,
-            "rms_error_um": nan,
-            "p95_error_um": nan,
-            "status": f"{what}: {exc.message}",
-        }
-    report = result.run_report
-    return row | {
-        "cycle_time_s": report.cycle_time_s,
-        "max_error_um": report.contour_error_um.max_um,
-        "rms_error_um": report.contour_error_um.rms_um,
-        "p95_error_um": report.contour_error_um.p95_um,
-        "status": "ok",
-    }
-
-
-def _setup_kwargs(setup: ProgramSetup) -> dict:
-    if not setup:
-        return {}
-    return {"search_path": setup[0], "max_iterations": setup[1]}
 
 
 def fingerprint(text: str, dialect: str, machine: MachineConfig, setup: ProgramSetup = ()) -> str:
@@ -230,6 +158,10 @@ def run_sweep(
         budget: each simulation's bounds (sim.budget.Budget; default Budget()).
         search_path: folders searched for subroutine files (the program's own first).
         max_iterations: bound on O-word loop repetitions and subroutine calls.
+
+    Raises:
+        SweepInterrupted: Ctrl-C; it comes within a second (queued points cancelled, running
+            simulations terminated), the finished points are in the journal.
     """
     if executor not in ("local", "dask"):
         from gantry_sim.controller.errors import ConfigError
@@ -251,13 +183,24 @@ def run_sweep(
                 file=sys.stderr,
             )
     todo = [p for p in points if p.key() not in done]
-    if todo:
-        args = [(text, file, dialect, machine, p, budget, setup) for p in todo]
-        rows = (
-            local_map(run_point, args, workers)
-            if executor == "local"
-            else dask_map(run_point, args, workers, scheduler)
+    if journal is not None and len(todo) < len(points):
+        print(
+            f"{journal}: resuming: {len(points) - len(todo)} of {len(points)} grid point(s) "
+            "already done",
+            file=sys.stderr,
         )
+    if todo:
+        rows: Generator[dict, None, None]
+        if executor == "local":
+            args = [(text, file, dialect, machine, p, budget, setup) for p in todo]
+            rows = local_map(run_point, args, workers)
+        else:  # no path of this host's on a worker: the model's files go as data
+            from gantry_sim.sim.sweep.model_bundle import bundle_model
+            from gantry_sim.sim.sweep.remote import run_shipped_point
+
+            model = bundle_model(machine.sim.model)
+            shared = (text, file, dialect, machine, budget, model, setup)
+            rows = dask_map(run_shipped_point, shared, todo, workers, scheduler)
         from tqdm import tqdm
 
         if journal is not None:
@@ -269,15 +212,22 @@ def run_sweep(
             desc="sweep",
             unit="sim",
         )
-        with bar:
-            for row in rows:
-                key = SweepPoint(
-                    row["feed_override_pct"], row["max_accel_mm_per_s2"], row["max_jerk_mm_per_s3"]
-                ).key()
-                done[key] = row
-                if journal is not None:
-                    _append(journal, {"fingerprint": tag, "key": key, "row": row})
-                bar.update(1)
+        try:
+            with bar:
+                for row in rows:
+                    key = SweepPoint(
+                        row["feed_override_pct"],
+                        row["max_accel_mm_per_s2"],
+                        row["max_jerk_mm_per_s3"],
+                    ).key()
+                    done[key] = row
+                    if journal is not None:
+                        _append(journal, {"fingerprint": tag, "key": key, "row": row})
+                    bar.update(1)
+        except KeyboardInterrupt:
+            rows.close()  # stop the executor now: queued points cancelled, workers terminated
+            wanted = {p.key() for p in points}
+            raise SweepInterrupted(len(wanted & done.keys()), len(wanted), journal) from None
     return [done[p.key()] for p in points]
 
 
