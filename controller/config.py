@@ -83,6 +83,11 @@ SCHEMA: dict[str, dict[str, Callable[[Any], Any]]] = {
         "chord_tolerance_mm": _positive,
         "segment_length_mm": _positive,
     },
+    "path": {
+        "mode": _choice("G64", "G61", "G61.1"),
+        "tolerance_mm": _positive,
+        "naive_cam_tolerance_mm": _non_negative,
+    },
     "servo": {
         "period_s": _positive,
         "kp_N_per_mm": _POS3,
@@ -138,6 +143,24 @@ class Segmentation:
 
 
 @dataclass(frozen=True)
+class PathSettings:
+    """Path control at program start (the program's G61/G61.1/G64 change it).
+
+    mode: "G64" (blend corners within tolerance_mm), "G61" (exact stops at corners) or "G61.1"
+    (exact stop at every junction). tolerance_mm: how far the reference may leave the programmed
+    path at a blended junction [mm], also G64 without P. naive_cam_tolerance_mm: G64 without Q
+    merges consecutive straight moves within this distance of one line [mm] (0: never).
+
+    The default, G64 with 0.01 mm: LinuxCNC starts in G64, and grbl's default junction deviation
+    ($11) is 0.01 mm, which is the same corner-to-circle distance as a 0.01 mm blend tolerance.
+    """
+
+    mode: str = "G64"
+    tolerance_mm: float = 0.01
+    naive_cam_tolerance_mm: float = 0.0
+
+
+@dataclass(frozen=True)
 class Servo:
     """Discrete PD per axis with feedforward (see controller.servo for the law and units).
 
@@ -183,6 +206,7 @@ class MachineConfig:
     servo: Servo
     sim: SimSettings
     source: str = field(default="")
+    path: PathSettings = field(default_factory=PathSettings)
 
     def with_changes(self, section: str, **values: Any) -> MachineConfig:
         """A copy with some keys of one section replaced (values are validated)."""
@@ -252,6 +276,8 @@ def load_machine_config(defaults: Path, override: Path | None = None) -> Machine
     _overlay(merged, _read_toml(defaults), defaults)
     for section, keys in SCHEMA.items():
         for key in keys:
+            if section == "path":  # optional: PathSettings' defaults
+                merged[section].setdefault(key, getattr(PathSettings(), key))
             if key not in merged[section]:
                 raise ConfigError(f"missing key '{key}' in [{section}]", file=str(defaults))
     source = str(defaults)
@@ -285,4 +311,5 @@ def load_machine_config(defaults: Path, override: Path | None = None) -> Machine
         servo=Servo(**merged["servo"]),
         sim=SimSettings(**merged["sim"]),
         source=source,
+        path=PathSettings(**merged["path"]),
     )

@@ -148,6 +148,7 @@ def test_corner_is_an_exact_stop_and_collinear_lines_are_not(machine):
         Linear(2, (10.0, 0.0, 0.0), (20.0, 0.0, 0.0), 3000.0),
         Linear(3, (20.0, 0.0, 0.0), (20.0, 10.0, 0.0), 3000.0),
     ]
+    machine = machine.with_changes("path", mode="G61")  # G61: exact path, exact stops
     p, tr = _sample(moves, machine)
     assert _speed_at(p, tr, p.move_start_s[1]) == pytest.approx(50.0, rel=1e-9)
     assert _speed_at(p, tr, p.move_start_s[2]) < 1e-6
