@@ -78,7 +78,8 @@ def run_program(
     Raises:
         GcodeError, ConfigError, PlanningError, SimulationError: with file and line.
     """
-    from gantry_sim.controller.gcode.interpreter import interpret
+    from gantry_sim.controller.gcode.interpreter import interpret_events
+    from gantry_sim.controller.moves import Arc, Linear, Rapid
     from gantry_sim.controller.planner.plan import plan
     from gantry_sim.sim.contour import analyse
     from gantry_sim.sim.machine import load_gantry
@@ -88,9 +89,10 @@ def run_program(
     t0 = time.perf_counter()
     text, file = _program_text(program, file)
     try:
-        moves = tuple(interpret(text, dialect, file))
+        items = tuple(interpret_events(text, dialect, file))
+        moves = tuple(m for m in items if isinstance(m, Rapid | Linear | Arc))
         t1 = time.perf_counter()
-        planned = plan(moves, machine, feed_override_pct=feed_override_pct)
+        planned = plan(items, machine, feed_override_pct=feed_override_pct)
         traj = planned.sample(machine.servo.period_s)
         t2 = time.perf_counter()
         gantry = load_gantry(machine)

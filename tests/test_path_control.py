@@ -4,13 +4,14 @@ and the tolerance."""
 
 from __future__ import annotations
 
+import json
 import math
 
 import numpy as np
 import pytest
 
-from gantry_sim.controller.gcode.interpreter import parse_program
-from gantry_sim.controller.moves import Linear, PathControl
+from gantry_sim.controller.gcode.interpreter import interpret_events, parse_program
+from gantry_sim.controller.moves import Dwell, Linear, PathControl, Stop
 from gantry_sim.controller.planner.plan import plan
 from tests.plan_helpers import assert_within_limits
 
@@ -129,3 +130,41 @@ def test_a_corner_outside_the_principal_planes_stays_an_exact_stop(machine):
     p = plan(moves, machine)
     assert not p.blends
     assert _speed_at(p, p.move_start_s[1]) < 1e-6
+
+
+def test_a_dwell_is_an_exact_stop_that_holds_still_for_its_time(machine):
+    text = "G21 G61 F3000\nG1 X10\nG4 P0.5\nG1 X20\nM0\nG1 X30\nM2"
+    items = list(interpret_events(text))
+    assert any(isinstance(i, Dwell) for i in items)
+    p, tr = _sample(items, machine)
+    moves_only = plan([i for i in items if not isinstance(i, Dwell | Stop)], machine)
+    # the dwell stops at X10 (else a free collinear junction) and waits 0.5 s there; M0 stops
+    assert p.duration_s > moves_only.duration_s + 0.5
+    held = tr.line == 3
+    assert held.sum() >= 499
+    assert np.allclose(tr.pos[held], [10.0, 0.0, 0.0]) and not tr.vel[held].any()
+    stop_t = p.move_start_s[list(p.move_lines).index(6)]
+    assert _speed_at(p, stop_t) < 1e-6
+    assert _speed_at(moves_only, moves_only.move_start_s[1]) > 49.0
+    assert_within_limits(tr, machine, [i for i in items if isinstance(i, Linear)])
+
+
+def test_a_dwell_at_the_program_start_and_end_adds_its_time(machine):
+    items = list(interpret_events("G21 F600\nG4 P0.2\nG1 X5\nG4 P0.3\nM2"))
+    p, tr = _sample(items, machine)
+    bare = plan([i for i in items if isinstance(i, Linear)], machine)
+    assert p.duration_s == pytest.approx(bare.duration_s + 0.5, abs=1e-9)
+    assert (tr.line == 2).sum() >= 199 and np.array_equal(tr.pos[-1], [5.0, 0.0, 0.0])
+
+
+def test_gantry_plan_reports_blends_and_plans_dwells(write_program, tmp_path, capsys):
+    from gantry_sim.sim.cli import main
+
+    text = "G21 G64 P0.01 F3000\nG1 X20\nG1 X40 Y0.7\nG4 P0.25\nG1 X60 Y0\nM2\n"
+    out = tmp_path / "traj.npz"
+    assert main(["plan", str(write_program(text)), "--out", str(out)]) == 0
+    summary = json.loads(capsys.readouterr().out)
+    assert summary["blends"]["count"] == 1 and summary["blends"]["max_deviation_line"] == 2
+    assert 0 < summary["blends"]["max_deviation_mm"] <= 0.01
+    line = np.load(out)["line"]
+    assert (line == 4).sum() >= 249  # the reference holds still during the dwell
