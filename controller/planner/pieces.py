@@ -150,17 +150,17 @@ class MovePieces:
             if self.pieces != "ruckig":
                 self.ruckig_pieces += 1
             start, end = (verts[k], vel[k], acc[k]), (verts[k + 1], vel[k + 1], acc[k + 1])
-            piece = self.ruckig_piece(g, start, end, mins[k], bool(check.get(k)))
+            piece = self.ruckig_piece(g, start, end, mins[k], True)
             d = piece.duration_s
             total += d
             if piece.positions is not None and piece.velocities is not None:
                 q = piece.positions
                 speed = np.linalg.norm(piece.velocities, axis=1).max()
-                bad[k] = (
-                    d > mins[k] * 1.001 + 1e-9
-                    or g.deviation(q, u[k]) > dev_max
-                    or speed > g.feed_mm_per_s
-                )
+                off = g.deviation(q, u[k]) > dev_max or speed > g.feed_mm_per_s
+                if k in check:
+                    bad[k] = off or d > mins[k] * 1.001 + 1e-9
+                elif off:  # inside the arc: its moving junctions must come down
+                    bad[0], bad[n - 1] = bad[0] or check[0], bad[n - 1] or check[n - 1]
         return total, bad[0], bad[n - 1]
 
     def closed_form(
