@@ -81,6 +81,7 @@ def run_program(
     from gantry_sim.controller.gcode.interpreter import interpret_events
     from gantry_sim.controller.moves import Arc, Linear, Rapid
     from gantry_sim.controller.planner.plan import plan
+    from gantry_sim.sim.blend_parts import split_reference
     from gantry_sim.sim.contour import analyse
     from gantry_sim.sim.machine import load_gantry
     from gantry_sim.sim.report import build_report
@@ -99,6 +100,7 @@ def run_program(
         sim = simulate(gantry, machine, traj, progress=progress)
         t3 = time.perf_counter()
         result = analyse(moves, traj.line, traj.pos, sim.pos, planned.vertices)
+        result = split_reference(result, planned, traj)
         t4 = time.perf_counter()
     except GantryError as exc:
         if exc.file is None and exc.line is not None:

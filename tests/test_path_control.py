@@ -168,3 +168,15 @@ def test_gantry_plan_reports_blends_and_plans_dwells(write_program, tmp_path, ca
     assert 0 < summary["blends"]["max_deviation_mm"] <= 0.01
     line = np.load(out)["line"]
     assert (line == 4).sum() >= 249  # the reference holds still during the dwell
+
+
+def test_gantry_run_splits_the_reference_part_into_blend_and_planning(write_program, tmp_path):
+    from gantry_sim.sim.cli import main
+
+    text = "G21 G64 P0.01 F3000\nG1 X10\nG1 X20 Y0.35\nG1 X30 Y0\nM2\n"
+    assert main(["run", str(write_program(text)), "--out", str(tmp_path / "o")]) == 0
+    parts = json.loads((tmp_path / "o" / "report.json").read_text())["parts_um"]
+    assert {"chord_max", "reference_max", "tracking_max"} <= set(parts)
+    assert 0 < parts["reference_blend_max"] <= 10.0
+    assert parts["reference_planning_max"] < 0.25  # 0.25 x the 1 um chord tolerance
+    assert parts["reference_max"] <= parts["reference_blend_max"] + parts["reference_planning_max"]

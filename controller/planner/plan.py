@@ -136,6 +136,7 @@ def plan(
         move_lines=lines,
         end_mm=end,
         blends=tuple(path.blends),
+        path_moves=tuple(path.moves),
     )
 
 

@@ -31,6 +31,7 @@ class Plan:
         move_lines: read-only (m,) their program lines.
         end_mm: read-only (3,) the program's end point [mm].
         blends: every corner blended in G64 (line, deviation from the corner, tolerance).
+        path_moves: the moves the reference follows (blend arcs inserted, G64 Q merged).
     """
 
     moves: tuple[Move, ...]
@@ -44,6 +45,7 @@ class Plan:
     move_lines: np.ndarray = field(repr=False)
     end_mm: np.ndarray = field(repr=False)
     blends: tuple[Blend, ...] = ()
+    path_moves: tuple[Move, ...] = ()
 
     def sample(self, period_s: float) -> Trajectory:
         """The reference every ``period_s`` [s] from 0 to the end; the last sample is at rest at
