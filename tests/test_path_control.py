@@ -180,3 +180,22 @@ def test_gantry_run_splits_the_reference_part_into_blend_and_planning(write_prog
     assert 0 < parts["reference_blend_max"] <= 10.0
     assert parts["reference_planning_max"] < 0.25  # 0.25 x the 1 um chord tolerance
     assert parts["reference_max"] <= parts["reference_blend_max"] + parts["reference_planning_max"]
+
+
+def test_marlin_limit_codes_apply_from_their_line_on(machine):
+    text = (
+        "G21\nG1 X50 F6000\nM201 X200 Y200\nM203 X20\nG1 X100\n"
+        "M205 J0.05\nG1 X110 Y0.5\nG1 X120 Y0\nM2"
+    )
+    items = list(interpret_events(text, dialect="marlin"))
+    p = plan(items, machine)
+    tr = p.sample(machine.servo.period_s)
+    before, after = tr.line == 2, np.isin(tr.line, [5, 7, 8])
+    assert np.abs(tr.vel[before, 0]).max() == pytest.approx(100.0)  # F6000 before M203
+    assert np.abs(tr.vel[after, 0]).max() <= 20.0 * (1 + 1e-9)  # M203 X20
+    assert np.abs(tr.acc[after, :2]).max() <= 200.0 * (1 + 1e-9)  # M201 X200 Y200
+    assert np.abs(tr.acc[before, 0]).max() > 2000.0
+    assert [b.tolerance_mm for b in p.blends] == [0.05]  # M205 J: the junction deviation
+    assert 0.01 < p.blends[0].deviation_mm <= 0.05
+    assert np.array_equal(tr.pos[-1], [120.0, 0.0, 0.0])
+    assert p.moves == tuple(i for i in items if isinstance(i, Linear))

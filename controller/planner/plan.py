@@ -38,12 +38,14 @@ import numpy as np
 from gantry_sim.controller.config import MachineConfig
 from gantry_sim.controller.errors import ConfigError, PlanningError
 from gantry_sim.controller.moves import Arc, Dwell, Event, Linear, Move, Rapid
+from gantry_sim.controller.moves import Limits as LimitsEvent
 from gantry_sim.controller.planner.blend import PathPlan, path_plan
 from gantry_sim.controller.planner.junctions import (
     JunctionState,
     feasible_junction_caps,
     junction_caps,
 )
+from gantry_sim.controller.planner.limit_events import concatenate, split_at_limits
 from gantry_sim.controller.planner.lookahead import plan_junction_speeds
 from gantry_sim.controller.planner.move_geometry import (
     ArcGeometry,
@@ -86,7 +88,8 @@ def plan(
     Args:
         moves: the interpreter's moves, and optionally its events among them
             (:func:`~gantry_sim.controller.gcode.interpreter.interpret_events`): a dwell is an
-            exact stop plus its time, a program stop an exact stop. The machine is at rest at
+            exact stop plus its time, a program stop an exact stop, Marlin's limit changes
+            apply from their line on (:mod:`~gantry_sim.controller.planner.limit_events`). The machine is at rest at
             the first move's start.
         machine: limits, travel, segmentation, path control at program start.
         feed_override_pct: scales every programmed feed (not rapids) [%], > 0.
@@ -103,6 +106,19 @@ def plan(
     if arc_pieces not in ("jerk3", "ruckig"):
         raise ConfigError(f"arc_pieces must be 'jerk3' or 'ruckig', got {arc_pieces!r}")
     items = tuple(moves)
+    if any(isinstance(i, LimitsEvent) for i in items):  # Marlin M201-M205: plan part by part
+        parts = split_at_limits(items, machine)
+        return concatenate(
+            [
+                plan(
+                    [i for i in c if not isinstance(i, LimitsEvent)],
+                    m,
+                    feed_override_pct=feed_override_pct,
+                    arc_pieces=arc_pieces,
+                )
+                for c, m in parts
+            ]
+        )
     program = tuple(m for m in items if isinstance(m, Rapid | Linear | Arc))
     check_travel(program, machine.travel)
     seg = machine.segmentation
