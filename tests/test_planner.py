@@ -211,7 +211,8 @@ def test_empty_and_zero_length_programs(machine):
 
 @pytest.mark.parametrize("changes", [{"method": "fixed"}, {"chord_tolerance_mm": 0.05}])
 def test_other_segmentations_keep_limits_and_the_arc(machine, changes):
-    m = machine.with_changes("segmentation", **changes)
+    # G61: the exact-path promise (0.25 x chord tolerance; G64 may use its P instead)
+    m = machine.with_changes("segmentation", **changes).with_changes("path", mode="G61")
     a = arc(1, (3.0, 0.0, 0.0), (0.0, 0.0, 0.0), 2 * math.pi, feed=4000.0)
     lead = Linear(2, (3.0, 0.0, 0.0), (3.0, 10.0, 0.0), 4000.0)  # tangent: a curvature jump
     p, tr = _sample([a, lead], m)

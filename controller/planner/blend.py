@@ -125,9 +125,18 @@ def path_plan(
         out.moves.append(item)
         out.stop_after.append(control(item, settings).mode == "G61.1")
     _merge_naive_cam(out, settings)
-    out.smoothing_mm = [0.0] * len(out.moves)
+    out.smoothing_mm = [_smoothing(m, settings, chord_tolerance_mm) for m in out.moves]
     _blend_corners(out, settings, chord_tolerance_mm, skip)
     return out
+
+
+def _smoothing(m: Move, settings: PathSettings, chord_tolerance_mm: float) -> float:
+    """The deviation a G64 move's junction smoothing may use: P less the reference's share
+    (0 in G61/G61.1 and for rapids: the planner's own budget)."""
+    c = control(m, settings)
+    if isinstance(m, Rapid) or c.mode != "G64":
+        return 0.0
+    return max(c.tolerance_mm - REFERENCE_SHARE * chord_tolerance_mm, 0.0)
 
 
 def _merge_naive_cam(out: PathPlan, settings: PathSettings) -> None:

@@ -163,8 +163,8 @@ def junction_caps(
             jump *= 0.5
         chords = [np.linalg.norm(g0.vertices[-1] - g0.vertices[-2])] if g0.is_arc else []
         chords += [np.linalg.norm(g1.vertices[1] - g1.vertices[0])] if g1.is_arc else []
-        own = [smoothing_mm[i] for i in (b - 1, b) if smoothing_mm and smoothing_mm[i] > 0]
-        if own and min(own) > dev:
+        own = [smoothing_mm[i] for i in (b - 1, b)] if smoothing_mm else []
+        if own and min(own) > dev:  # both sides in G64: its tolerance is the budget
             caps[b] = junction_cap(kink, jump, min(own), jerk, float(min(chords)), CHORD_FIT_BLEND)
         else:
             caps[b] = junction_cap(kink, jump, dev, jerk, float(min(chords)))
