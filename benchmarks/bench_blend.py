@@ -34,12 +34,15 @@ def polygon(n: int, r: float = 10.0, feed: float = 3000.0) -> str:
     return f"G21 G90 G17 {{mode}}\nG0 X{pts[0][0]:.4f} Y{pts[0][1]:.4f}\nF{feed:g}\n{body}M2\n"
 
 
-def surface(n: int, step: float = 0.2, feed: float = 2000.0) -> str:
-    """A polyline surface pass: z = 2 sin(x / 5) in XZ (G18 finishing), ``n`` moves."""
-    body = "".join(
-        f"G1 X{k * step:.4f} Z{2 * math.sin(k * step / 5):.4f}\n" for k in range(1, n + 1)
-    )
-    return f"G21 G90 G18 {{mode}}\nG0 X0 Y0 Z0\nF{feed:g}\n{body}M2\n"
+def surface(n: int, step: float = 0.2, feed: float = 2000.0, row: int = 500) -> str:
+    """A polyline surface raster in XZ (G18 finishing): z = 2 sin(x / 5), rows of ``row`` moves
+    of ``step`` mm along X, alternating direction, 0.5 mm apart in Y; ``n`` moves in all."""
+    out = []
+    for k in range(1, n + 1):
+        r, i = divmod(k, row)
+        x = (i if r % 2 == 0 else row - i) * step
+        out.append(f"G1 X{x:.4f} Y{0.5 * r:.4f} Z{2 * math.sin(x / 5):.4f}\n")
+    return f"G21 G90 G18 {{mode}}\nG0 X0 Y0 Z0\nF{feed:g}\n{''.join(out)}M2\n"
 
 
 def zigzag(n: int, feed: float = 3000.0) -> str:
