@@ -117,6 +117,11 @@ SCHEMA: dict[str, dict[str, Callable[[Any], Any]]] = {
         "chord_tolerance_mm": _number("> 0", 1e-6, 10.0, "mm"),
         "segment_length_mm": _number("> 0", 1e-3, 1e3, "mm"),
     },
+    "path": {
+        "mode": _choice("G64", "G61", "G61.1"),
+        "tolerance_mm": _number("> 0", 1e-6, 10.0, "mm"),
+        "naive_cam_tolerance_mm": _number(">= 0", 0.0, 10.0, "mm"),
+    },
     "servo": {
         # 10 us .. 100 ms (a drive's current loop .. a slow PLC)
         "period_s": _number("> 0", 1e-5, 0.1, "s"),
@@ -174,6 +179,24 @@ class Segmentation:
 
 
 @dataclass(frozen=True)
+class PathSettings:
+    """Path control at program start (the program's G61/G61.1/G64 change it).
+
+    mode: "G64" (blend corners within tolerance_mm), "G61" (exact stops at corners) or "G61.1"
+    (exact stop at every junction). tolerance_mm: how far the reference may leave the programmed
+    path at a blended junction [mm], also G64 without P. naive_cam_tolerance_mm: G64 without Q
+    merges consecutive straight moves within this distance of one line [mm] (0: never).
+
+    The default, G64 with 0.01 mm: LinuxCNC starts in G64, and grbl's default junction deviation
+    ($11) is 0.01 mm, which is the same corner-to-circle distance as a 0.01 mm blend tolerance.
+    """
+
+    mode: str = "G64"
+    tolerance_mm: float = 0.01
+    naive_cam_tolerance_mm: float = 0.0
+
+
+@dataclass(frozen=True)
 class Servo:
     """Discrete PD per axis with feedforward (see controller.servo for the law and units).
 
@@ -224,6 +247,7 @@ class MachineConfig:
     source: str = field(default="")
     work: WorkSetup = field(default=NO_WORK)
     user_sections: tuple[str, ...] = ()
+    path: PathSettings = field(default_factory=PathSettings)
 
     def with_changes(self, section: str, **values: Any) -> MachineConfig:
         """A copy with some keys of one section replaced (values are validated)."""
@@ -303,6 +327,8 @@ def load_machine_config(defaults: Path, override: Path | None = None) -> Machine
     _overlay(merged, data, defaults)
     for section, keys in SCHEMA.items():
         for key in keys:
+            if section == "path":  # optional: PathSettings' defaults
+                merged[section].setdefault(key, getattr(PathSettings(), key))
             if key not in merged[section]:
                 raise ConfigError(f"missing key '{key}' in [{section}]", file=str(defaults))
     source, user_sections = str(defaults), tuple[str, ...]()
@@ -341,4 +367,5 @@ def load_machine_config(defaults: Path, override: Path | None = None) -> Machine
         source=source,
         work=work,
         user_sections=user_sections,
+        path=PathSettings(**merged["path"]),
     )

@@ -20,11 +20,31 @@ __all__ = [
     "Limits",
     "Linear",
     "Move",
+    "PathControl",
     "Plane",
     "Rapid",
     "Stop",
     "Vec3",
 ]
+
+
+@dataclass(frozen=True)
+class PathControl:
+    """The path control mode in effect for a move (LinuxCNC's G61, G61.1, G64 P Q). It governs
+    the junction at the END of the move (as LinuxCNC's termination condition does).
+
+    Attributes:
+        mode: "G61" (exact path: exact stops at corners, tangent junctions keep their speed),
+            "G61.1" (exact stop at every junction) or "G64" (blend corners).
+        tolerance_mm: G64 P: how far the reference may leave the programmed path at a junction
+            [mm]; None: the machine file's ``[path] tolerance_mm``.
+        naive_cam_mm: G64 Q: consecutive straight feed moves within this distance of one line
+            are merged into one [mm]; None or 0: no merging.
+    """
+
+    mode: str
+    tolerance_mm: float | None = None
+    naive_cam_mm: float | None = None
 
 
 def _vec(v: Vec3) -> list[float]:
@@ -70,12 +90,15 @@ class Linear:
         start: start point [mm].
         end: end point [mm].
         feed_mm_per_min: programmed speed along the path [mm/min].
+        path: the path control mode set by the program (None: none set, the machine file's
+            default applies).
     """
 
     line: int
     start: Vec3
     end: Vec3
     feed_mm_per_min: float
+    path: PathControl | None = None
 
     kind = "linear"
 
@@ -114,6 +137,7 @@ class Arc:
         radius: distance from ``center`` to ``start`` in the plane [mm], > 0.
         turns: the P word (1 when absent).
         angle: total swept angle [rad], > 0 (a full circle is 2*pi; P2 on a half circle is 3*pi).
+        path: the path control mode set by the program (None: the machine file's default).
     """
 
     line: int
@@ -126,6 +150,7 @@ class Arc:
     radius: float
     turns: int
     angle: float
+    path: PathControl | None = None
 
     kind = "arc"
 

@@ -94,7 +94,9 @@ def run_program(
         PlanningError also when the simulation would exceed ``budget``.
     """
     from gantry_sim.controller.gcode.dialects import with_segmentation_default
+    from gantry_sim.controller.moves import Arc, Linear, Rapid
     from gantry_sim.controller.planner.plan import plan
+    from gantry_sim.sim.blend_parts import split_reference
     from gantry_sim.sim.contour import analyse
     from gantry_sim.sim.machine import load_gantry
     from gantry_sim.sim.program import interpret_program
@@ -108,7 +110,7 @@ def run_program(
         folders.insert(0, Path(program).resolve().parent)
     try:
         machine = with_segmentation_default(machine, dialect)
-        moves = tuple(
+        items = tuple(
             interpret_program(
                 text,
                 dialect=dialect,
@@ -116,10 +118,12 @@ def run_program(
                 machine=machine,
                 search_path=folders,
                 max_iterations=max_iterations,
+                events=True,
             )
         )
+        moves = tuple(m for m in items if isinstance(m, Rapid | Linear | Arc))
         t1 = time.perf_counter()
-        planned = plan(moves, machine, feed_override_pct=feed_override_pct)
+        planned = plan(items, machine, feed_override_pct=feed_override_pct)
         check_budget(planned, machine, budget or Budget(), file)
         traj = planned.sample(machine.servo.period_s)
         t2 = time.perf_counter()
@@ -127,6 +131,7 @@ def run_program(
         sim = simulate(gantry, machine, traj, progress=progress)
         t3 = time.perf_counter()
         result = analyse(moves, traj.line, traj.pos, sim.pos, planned.vertices)
+        result = split_reference(result, planned, traj)
         t4 = time.perf_counter()
     except GantryError as exc:
         if exc.file is None and exc.line is not None:

@@ -73,7 +73,7 @@ def test_tools_and_work_are_read_and_laid_over_the_bundled_file(tmp_path):
         ("work = 3\n", "'work' must be a table [work]"),
         (
             "[offsets]\n",
-            "valid sections: [limits], [travel], [segmentation], [servo], [sim], [tools], [work]",
+            "valid sections: [limits], [travel], [segmentation], [path], [servo], [sim], [tools], [work]",
         ),
     ],
 )

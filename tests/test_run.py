@@ -42,7 +42,13 @@ def test_short_circle_end_to_end(machine):
     assert REPORT_KEYS <= rep.keys()
     assert json.loads(json.dumps(rep)) == rep  # exactly what report.json holds
     assert rep["contour_error_um"].keys() == {"max", "rms", "p95"}
-    assert rep["parts_um"].keys() == {"chord_max", "reference_max", "tracking_max"}
+    assert rep["parts_um"].keys() == {
+        "chord_max",
+        "reference_max",
+        "tracking_max",
+        "reference_blend_max",
+        "reference_planning_max",
+    }
     assert [b["line"] for b in rep["blocks"]] == [2, 3, 4]
     assert rep["timing_s"].keys() == {"parse", "plan", "simulate", "analyse", "total"}
     assert rep["sim"]["steps"] == res.trace.t.size * 2

@@ -63,6 +63,7 @@ from gantry_sim.controller.moves import (
     Limits,
     Linear,
     Move,
+    PathControl,
     Plane,
     Rapid,
     Stop,
@@ -146,6 +147,8 @@ class Interpreter:
             s = replace(s, incremental=w.g["distance"] == 910)
         if "arc_distance" in w.g:
             s = replace(s, arc_absolute=w.g["arc_distance"] == 901)
+        if "path_control" in w.g:
+            s = replace(s, path=path_control(w.g["path_control"], w.values, s.scale))
         # Step 5: which motion this block makes, if any.
         nonmodal = w.g.get("nonmodal")
         axis_code = nonmodal in AXIS_NONMODAL
@@ -230,6 +233,8 @@ class Interpreter:
 
     @staticmethod
     def _emit(moves: list[Move | Event], s: ModalState, move: Move, end: Vec3) -> ModalState:
+        if s.path is not None and not isinstance(move, Rapid):
+            move = replace(move, path=s.path)
         moves.append(move)
         return replace(s, position=end, work=move.end)
 
@@ -418,6 +423,18 @@ class Interpreter:
                 f"cannot make {what} with zero feed rate; set F (units per minute, > 0) on this "
                 "or an earlier line"
             )
+
+
+def path_control(code: int, v: dict[str, float], scale: float) -> PathControl:
+    """G61 (610), G61.1 (611) or G64 (640) with its P (tolerance) and Q (naive-CAM) words in
+    program units times ``scale`` [mm per unit]."""
+    if code != 640:
+        return PathControl("G61" if code == 610 else "G61.1")
+    p, q = v.get("P"), v.get("Q")
+    for letter, value in (("P", p), ("Q", q)):
+        if value is not None and value < 0:
+            raise GcodeError(f"G64 {letter} must be >= 0, got {value:g}")
+    return PathControl("G64", None if p is None else p * scale, None if q is None else q * scale)
 
 
 def interpret(

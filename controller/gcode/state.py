@@ -5,6 +5,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 from gantry_sim.controller.gcode.frames import NO_OFFSETS, Frame
+from gantry_sim.controller.moves import PathControl
 from gantry_sim.controller.planes import Plane, Vec3
 from gantry_sim.controller.units import MM_PER_INCH
 
@@ -30,6 +31,7 @@ class ModalState:
         mist / flood: M7 / M8 on.
         tool / selected_tool: tool in the spindle (M6) / selected by T.
         tool_offset_z_mm: tool length offset in effect (G43) [mm].
+        path: path control mode set by G61/G61.1/G64 (None until the program sets one).
     """
 
     position: Vec3 = (0.0, 0.0, 0.0)
@@ -50,6 +52,7 @@ class ModalState:
     tool: int = 0
     selected_tool: int = 0
     tool_offset_z_mm: float = 0.0
+    path: PathControl | None = None
 
     @property
     def scale(self) -> float:

@@ -38,6 +38,9 @@ COLLINEAR_ANGLE_RAD = 1e-6
 #: The smoothing of a junction's jump must take at most 1/CHORD_FIT of the adjacent chord's time
 #: (a first guess; the planner then checks the pieces themselves).
 CHORD_FIT = 4.0
+#: CHORD_FIT next to a G64 blend arc, whose budget comes from the blend tolerance: a looser
+#: first guess (the pieces next to the junction are checked against that budget anyway).
+CHORD_FIT_BLEND = 1.5
 #: Share of the chord tolerance that the smoothing of a junction's velocity/acceleration jump may
 #: use (see :func:`junction_cap`).
 JUNCTION_DEVIATION_SHARE = 0.1
@@ -82,6 +85,7 @@ def junction_cap(
     deviation_mm: float,
     jerk_mm_per_s3: float,
     chord_mm: float,
+    chord_fit: float = CHORD_FIT,
 ) -> float:
     """Highest speed [mm/s] through a tangent junction so that the jerk-limited smoothing of its
     velocity and acceleration jumps stays within ``deviation_mm`` and fits in the adjacent chord.
@@ -99,23 +103,27 @@ def junction_cap(
     if kink_rad > 0:
         cap = min(
             (2.0 * e * math.sqrt(j)) ** (2.0 / 3.0) / kink_rad,
-            (j * chord_mm**2 / (4.0 * CHORD_FIT**2 * kink_rad)) ** (1.0 / 3.0),
+            (j * chord_mm**2 / (4.0 * chord_fit**2 * kink_rad)) ** (1.0 / 3.0),
         )
     if curvature_jump_per_mm > 0:
         da = (6.0 * e * j**2) ** (1.0 / 3.0)
         cap = min(
             cap,
             math.sqrt(da / curvature_jump_per_mm),
-            (j * chord_mm / (CHORD_FIT * curvature_jump_per_mm)) ** (1.0 / 3.0),
+            (j * chord_mm / (chord_fit * curvature_jump_per_mm)) ** (1.0 / 3.0),
         )
     return cap
 
 
 def junction_caps(
-    geoms: list[MoveGeometry], limits: Limits, chord_tolerance_mm: float
+    geoms: list[MoveGeometry],
+    limits: Limits,
+    chord_tolerance_mm: float,
+    smoothing_mm: list[float] | None = None,
 ) -> tuple[np.ndarray, list[JunctionState]]:
     """Speed caps and states at the junctions of consecutive moves (the smoothing of a jump may
-    use :data:`JUNCTION_DEVIATION_SHARE` of ``chord_tolerance_mm``).
+    use :data:`JUNCTION_DEVIATION_SHARE` of ``chord_tolerance_mm``, or next to a G64 blend arc
+    its ``smoothing_mm`` [mm] per move, when larger).
 
     Returns:
         caps: (len(geoms) + 1,) [mm/s]; 0 at the program's start and end, at rapids and corners.
@@ -155,7 +163,11 @@ def junction_caps(
             jump *= 0.5
         chords = [np.linalg.norm(g0.vertices[-1] - g0.vertices[-2])] if g0.is_arc else []
         chords += [np.linalg.norm(g1.vertices[1] - g1.vertices[0])] if g1.is_arc else []
-        caps[b] = junction_cap(kink, jump, dev, jerk, float(min(chords)))
+        own = [smoothing_mm[i] for i in (b - 1, b)] if smoothing_mm else []
+        if own and min(own) > dev:  # both sides in G64: its tolerance is the budget
+            caps[b] = junction_cap(kink, jump, min(own), jerk, float(min(chords)), CHORD_FIT_BLEND)
+        else:
+            caps[b] = junction_cap(kink, jump, dev, jerk, float(min(chords)))
     return caps, states
 
 

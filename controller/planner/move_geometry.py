@@ -27,6 +27,10 @@ from gantry_sim.controller.units import mm_per_min_to_mm_per_s
 #: The closed-form arc pieces (:mod:`gantry_sim.controller.planner.jerk3`) overshoot the vertex speed by about
 #: 5e-4 * phi^4 (phi: chord sweep [rad]); the arc's speed cap keeps twice that below the feed.
 FEED_MARGIN_PER_PHI4 = 1e-3
+#: And a relative margin for what the pieces between exact helix states overshoot besides
+#: (measured up to 1.4e-6 on helices and S-chains; at 1e-9 those pieces broke the feed, went to Ruckig, and
+#: Ruckig's minimum-duration pieces left the path by up to 0.93 mm).
+FEED_MARGIN_REL = 1e-5
 
 
 @dataclass(frozen=True)
@@ -122,7 +126,7 @@ def move_geometry(move: Move, limits: Limits, seg: Segmentation, feed_scale: flo
         min(sin_pitch, 1.0),
         curvature,
         dcurv,
-        feed * (1.0 - FEED_MARGIN_PER_PHI4 * (ang / n) ** 4 - 1e-9),
+        feed * (1.0 - FEED_MARGIN_PER_PHI4 * (ang / n) ** 4 - FEED_MARGIN_REL),
     )
     block = arc_limits(follow, length, limits)
     return ArcGeometry(move, verts, length, t_in, t_out, k_in, k_out, block, feed, u, follow)

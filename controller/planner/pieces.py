@@ -90,16 +90,19 @@ class MovePieces:
         state_in: EndState,
         state_out: EndState,
         fast: Sequence[Profile1D] = (),
+        dev_max_mm: float = 0.0,
     ) -> tuple[float, bool, bool]:
         """Pieces between the exact arc states at the vertices: of the first profile in ``fast``
         (faster candidates, fastest first) whose closed-form pieces all keep the limits, else of
-        ``profile``.
+        ``profile``. ``dev_max_mm``: the deviation allowed next to its junctions when larger than
+        the default (a G64 blend arc's smoothing budget) [mm].
 
         Returns:
             (duration [s], bad_in, bad_out): bad_* when the piece next to a moving junction
             leaves the arc by more than :data:`JUNCTION_DEVIATION_MAX` of the chord tolerance or
             needed Ruckig to stretch it (the junction speed must then come down).
         """
+        dev_max = max(self.dev_max, dev_max_mm)
         pieces = None
         for cand in () if self.pieces == "ruckig" else fast:
             found = self.closed_form(g, cand, state_in, state_out)
@@ -130,7 +133,7 @@ class MovePieces:
             for k in (0, n - 1):
                 if check[k]:
                     q = jerk3_points(ps[k], vs[k], as_[k], js[k], mins[k])
-                    bad[k] = g.deviation(q, u[k]) > self.dev_max
+                    bad[k] = g.deviation(q, u[k]) > dev_max
             return float(mins.sum()), bad[0], bad[n - 1]
         total = 0.0
         for k in range(n):
@@ -142,22 +145,22 @@ class MovePieces:
                 total += mins[k]
                 if check.get(k):
                     q = jerk3_points(ps[k], vs[k], as_[k], js[k], mins[k])
-                    bad[k] = g.deviation(q, u[k]) > self.dev_max
+                    bad[k] = g.deviation(q, u[k]) > dev_max
                 continue
             if self.pieces != "ruckig":
                 self.ruckig_pieces += 1
             start, end = (verts[k], vel[k], acc[k]), (verts[k + 1], vel[k + 1], acc[k + 1])
-            piece = self.ruckig_piece(g, start, end, mins[k], bool(check.get(k)))
+            piece = self.ruckig_piece(g, start, end, mins[k], True)
             d = piece.duration_s
             total += d
             if piece.positions is not None and piece.velocities is not None:
                 q = piece.positions
                 speed = np.linalg.norm(piece.velocities, axis=1).max()
-                bad[k] = (
-                    d > mins[k] * 1.001 + 1e-9
-                    or g.deviation(q, u[k]) > self.dev_max
-                    or speed > g.feed_mm_per_s
-                )
+                off = g.deviation(q, u[k]) > dev_max or speed > g.feed_mm_per_s
+                if k in check:
+                    bad[k] = off or d > mins[k] * 1.001 + 1e-9
+                elif off:  # inside the arc: its moving junctions must come down
+                    bad[0], bad[n - 1] = bad[0] or check[0], bad[n - 1] or check[n - 1]
         return total, bad[0], bad[n - 1]
 
     def closed_form(

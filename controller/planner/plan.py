@@ -37,12 +37,15 @@ import numpy as np
 
 from gantry_sim.controller.config import MachineConfig
 from gantry_sim.controller.errors import ConfigError, PlanningError
-from gantry_sim.controller.moves import Move
+from gantry_sim.controller.moves import Arc, Dwell, Event, Linear, Move, Rapid
+from gantry_sim.controller.moves import Limits as LimitsEvent
+from gantry_sim.controller.planner.blend import PathPlan, path_plan
 from gantry_sim.controller.planner.junctions import (
     JunctionState,
     feasible_junction_caps,
     junction_caps,
 )
+from gantry_sim.controller.planner.limit_events import concatenate, split_at_limits
 from gantry_sim.controller.planner.lookahead import plan_junction_speeds
 from gantry_sim.controller.planner.move_geometry import (
     ArcGeometry,
@@ -58,6 +61,7 @@ from gantry_sim.controller.planner.ruckig_solver import (
     RuckigRejected,
     RuckigSolver,
 )
+from gantry_sim.controller.planner.segment import segment_arc
 from gantry_sim.controller.planner.speedup import boosted_profile
 from gantry_sim.controller.planner.travel import check_travel
 
@@ -67,10 +71,13 @@ __all__ = ["Plan", "plan"]
 #: round stops at the junctions still offending.
 MAX_ROUNDS = 8
 JUNCTION_BACKOFF = 0.6
+#: A G64 blend is kept only where it can be entered at this share of its neighbours' speed caps
+#: (see :func:`_slow_blends`).
+BLEND_MIN_SPEED_SHARE = 0.5
 
 
 def plan(
-    moves: Sequence[Move],
+    moves: Sequence[Move | Event],
     machine: MachineConfig,
     *,
     feed_override_pct: float = 100.0,
@@ -79,8 +86,12 @@ def plan(
     """Plan ``moves`` on ``machine`` (see the module docstring).
 
     Args:
-        moves: the interpreter's moves; the machine is at rest at ``moves[0].start``.
-        machine: limits, travel, segmentation.
+        moves: the interpreter's moves, and optionally its events among them
+            (:func:`~gantry_sim.controller.gcode.interpreter.interpret_events`): a dwell is an
+            exact stop plus its time, a program stop an exact stop, Marlin's limit changes
+            apply from their line on (:mod:`~gantry_sim.controller.planner.limit_events`). The machine is at rest at
+            the first move's start.
+        machine: limits, travel, segmentation, path control at program start.
         feed_override_pct: scales every programmed feed (not rapids) [%], > 0.
         arc_pieces: "jerk3" (default: closed-form constant-jerk pieces, Ruckig where they would
             break a limit) or "ruckig" (every arc piece by Ruckig; kept for comparison).
@@ -94,44 +105,129 @@ def plan(
         raise ConfigError(f"feed override must be a number > 0 %, got {feed_override_pct}")
     if arc_pieces not in ("jerk3", "ruckig"):
         raise ConfigError(f"arc_pieces must be 'jerk3' or 'ruckig', got {arc_pieces!r}")
-    moves = tuple(moves)
-    check_travel(moves, machine.travel)
-    lim, seg = machine.limits, machine.segmentation
-    geoms = [move_geometry(m, lim, seg, feed_override_pct / 100.0) for m in moves]
-    active = [g for g in geoms if g.length_mm > 1e-9]
-    caps, states = junction_caps(active, lim, seg.chord_tolerance_mm)
-    active = limits_for_junctions(active, caps, lim)
-    caps = feasible_junction_caps(active, caps, states, lim)
+    items = tuple(moves)
+    if any(isinstance(i, LimitsEvent) for i in items):  # Marlin M201-M205: plan part by part
+        parts = split_at_limits(items, machine)
+        return concatenate(
+            [
+                plan(
+                    [i for i in c if not isinstance(i, LimitsEvent)],
+                    m,
+                    feed_override_pct=feed_override_pct,
+                    arc_pieces=arc_pieces,
+                )
+                for c, m in parts
+            ]
+        )
+    program = tuple(m for m in items if isinstance(m, Rapid | Linear | Arc))
+    check_travel(program, machine.travel)
+    seg = machine.segmentation
+    path = path_plan(items, machine.path, seg.chord_tolerance_mm)
+    prepared = _prepare(path, machine, feed_override_pct)
+    slow = _slow_blends(path, prepared)
+    if slow:  # those corners are faster as exact stops: plan them so
+        path = path_plan(items, machine.path, seg.chord_tolerance_mm, slow)
+        prepared = _prepare(path, machine, feed_override_pct)
+    geoms, active, caps, states, holds, smoothing = prepared
     solver = RuckigSolver(machine.limits)
-    done = _replan_until_junctions_hold(active, caps, states, machine, solver, arc_pieces)
-    end = np.array(moves[-1].end if moves else (0.0, 0.0, 0.0), dtype=float)
+    done = _replan_until_junctions_hold(
+        active, caps, states, machine, solver, arc_pieces, holds, smoothing
+    )
+    end = np.array(program[-1].end if program else (0.0, 0.0, 0.0), dtype=float)
     move_start = np.asarray(done.move_start_s, dtype=float)
-    lines = np.asarray([g.move.line for g in active], dtype=np.int64)
+    lines = np.asarray(done.lines, dtype=np.int64)
     for arr in (end, move_start, lines):
         arr.setflags(write=False)
+    planned = {id(g.move): g.vertices for g in geoms}
+    vertices = tuple(planned[id(m)] if id(m) in planned else _vertices(m, machine) for m in program)
     return Plan(
-        moves=moves,
+        moves=program,
         duration_s=done.duration_s,
-        segment_count=sum(len(g.vertices) - 1 for g in geoms),
+        segment_count=sum(len(v) - 1 for v in vertices),
         chord_tolerance_mm=machine.segmentation.chord_tolerance_mm,
-        vertices=tuple(g.vertices for g in geoms),
+        vertices=vertices,
         ruckig_piece_count=done.pieces.ruckig_pieces,
         curve=done.pieces.out.build(),
         move_start_s=move_start,
         move_lines=lines,
         end_mm=end,
+        blends=tuple(path.blends),
+        path_moves=tuple(path.moves),
     )
+
+
+_Prepared = tuple[
+    list[MoveGeometry],
+    list[MoveGeometry],
+    np.ndarray,
+    list[JunctionState],
+    dict[int, list[Dwell]],
+    list[float],
+]
+
+
+def _prepare(path: PathPlan, machine: MachineConfig, feed_override_pct: float) -> _Prepared:
+    """Geometry, junction caps and states, dwells and smoothing budgets per junction of the
+    moves of ``path`` (zero-length moves dropped)."""
+    lim, seg = machine.limits, machine.segmentation
+    geoms = [move_geometry(m, lim, seg, feed_override_pct / 100.0) for m in path.moves]
+    keep = [g.length_mm > 1e-9 for g in geoms]
+    active = [g for g, k in zip(geoms, keep, strict=True) if k]
+    at = np.concatenate(([0], np.cumsum(keep))).astype(int)  # planned junction -> active
+    stops = {int(at[i + 1]) for i, stop in enumerate(path.stop_after) if stop}
+    holds: dict[int, list[Dwell]] = {}
+    for j, dwells in path.holds.items():
+        holds.setdefault(int(at[j]), []).extend(dwells)
+    smoothing = [e for e, k in zip(path.smoothing_mm, keep, strict=True) if k]
+    caps, states = junction_caps(active, lim, seg.chord_tolerance_mm, smoothing)
+    for b in stops | set(holds):
+        caps[b] = 0.0
+    active = limits_for_junctions(active, caps, lim)
+    caps = feasible_junction_caps(active, caps, states, lim)
+    return geoms, active, caps, states, holds, smoothing
+
+
+def _slow_blends(path: PathPlan, prepared: _Prepared) -> frozenset[int]:
+    """Junctions whose blend would be passed below :data:`BLEND_MIN_SPEED_SHARE` of the
+    neighbouring moves' speed caps: there a jerk-limited pass of the blend arc (whose curvature
+    jumps from 0 to 1/R where it meets the straight moves) is not faster than an exact stop
+    (measured: a 90 degree corner at P0.01 passes at 1.4 of 50 mm/s and a 14 degree one at 11,
+    both slower overall than stopping), so those corners stay exact stops."""
+    geoms, active, caps, *_ = prepared
+    index = {id(g.move): b for b, g in enumerate(active)}
+    slow = set()
+    for k, junction in path.blend_junction.items():
+        b = index.get(id(geoms[k].move))
+        if b is None or b == 0 or b + 1 >= len(active):
+            continue
+        v = min(float(caps[b]), float(caps[b + 1]), active[b].limits.cap_mm_per_s)
+        cruise = min(active[b - 1].limits.cap_mm_per_s, active[b + 1].limits.cap_mm_per_s)
+        if not v >= BLEND_MIN_SPEED_SHARE * cruise:
+            slow.add(junction)
+    return frozenset(slow)
+
+
+def _vertices(m: Move, machine: MachineConfig) -> np.ndarray:
+    """A programmed move's chord vertices (a blended straight move: its programmed ends)."""
+    seg = machine.segmentation
+    if isinstance(m, Arc):
+        return segment_arc(m, seg.method, seg.chord_tolerance_mm, seg.segment_length_mm)
+    verts = np.array([m.start, m.end], dtype=float)
+    verts.setflags(write=False)
+    return verts
 
 
 @dataclass
 class _Round:
-    """One planning round: the pieces, the duration [s], each move's start time [s], and the
-    junctions whose neighbouring pieces left the arc (their speed must come down)."""
+    """One planning round: the pieces, the duration [s], each move's (and dwell's) start time
+    [s], the junctions whose neighbouring pieces left the arc (their speed must come down), and
+    the program line of each entry of ``move_start_s``."""
 
     pieces: MovePieces
     duration_s: float
     move_start_s: list[float]
     bad_junctions: set[int]
+    lines: list[int]
 
 
 def _replan_until_junctions_hold(
@@ -141,13 +237,15 @@ def _replan_until_junctions_hold(
     machine: MachineConfig,
     solver: RuckigSolver,
     arc_pieces: str,
+    holds: dict[int, list[Dwell]],
+    smoothing: list[float],
 ) -> _Round:
     """Plan the moves; while pieces next to moving junctions leave the arc, lower those
     junctions' caps (``caps`` is changed) by :data:`JUNCTION_BACKOFF` and plan again, at most
     :data:`MAX_ROUNDS` times; in the last round the junctions still offending become stops."""
     for rnd in range(MAX_ROUNDS + 1):
         speeds = plan_junction_speeds([g.limits for g in active], caps)
-        done = _plan_round(active, speeds, states, machine, solver, arc_pieces)
+        done = _plan_round(active, speeds, states, machine, solver, arc_pieces, holds, smoothing)
         if not done.bad_junctions:
             break
         for b in done.bad_junctions:
@@ -162,27 +260,42 @@ def _plan_round(
     machine: MachineConfig,
     solver: RuckigSolver,
     arc_pieces: str,
+    holds: dict[int, list[Dwell]],
+    smoothing: list[float],
 ) -> _Round:
-    """Every move's profile and pieces for the junction speeds ``speeds`` [mm/s]."""
+    """Every move's profile and pieces for the junction speeds ``speeds`` [mm/s]; the dwells
+    ``holds`` (per junction) hold the reference still for their time."""
     tol = machine.segmentation.chord_tolerance_mm
     pieces, bad = MovePieces(machine.limits, tol, arc_pieces, solver), set()
     boost_cache: dict = {}
-    clock, starts = 0.0, []
+    clock, starts, lines = 0.0, [], []
+
+    def hold(b: int) -> float:
+        for dw in holds.get(b, ()):
+            starts.append(clock)
+            lines.append(dw.line)
+            for i in range(3):
+                pieces.out.add(i, [dw.seconds], [dw.position[i]], [0.0], [0.0], [0.0])
+        return sum(dw.seconds for dw in holds.get(b, ()))
+
     for b, g in enumerate(active):
+        clock += hold(b)
         starts.append(clock)
+        lines.append(g.move.line)
         prof = _path_profile(solver, g, speeds[b], speeds[b + 1])
         if isinstance(g, ArcGeometry):
             fast = boosted_profile(
                 g, speeds[b], speeds[b + 1], prof, machine.limits, solver, boost_cache
             )
             s_in, s_out = states[b].at(speeds[b]), states[b + 1].at(speeds[b + 1])
-            dur, bad_in, bad_out = pieces.arc(g, prof, s_in, s_out, fast)
+            dur, bad_in, bad_out = pieces.arc(g, prof, s_in, s_out, fast, smoothing[b])
             clock += dur
             bad |= {b} if bad_in else set()
             bad |= {b + 1} if bad_out else set()
         else:
             clock += pieces.straight(g, prof)
-    return _Round(pieces, clock, starts, bad)
+    clock += hold(len(active))
+    return _Round(pieces, clock, starts, bad, lines)
 
 
 def _path_profile(solver: RuckigSolver, g: MoveGeometry, v_in: float, v_out: float) -> Profile1D:

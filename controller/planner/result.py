@@ -9,6 +9,7 @@ import numpy as np
 
 from gantry_sim.controller.errors import ConfigError
 from gantry_sim.controller.moves import Move
+from gantry_sim.controller.planner.blend import Blend
 from gantry_sim.controller.planner.cubic import PiecewiseCubic
 from gantry_sim.controller.trajectory import Trajectory
 
@@ -29,6 +30,8 @@ class Plan:
         move_start_s: read-only (m,) start time [s] of each move of non-zero length.
         move_lines: read-only (m,) their program lines.
         end_mm: read-only (3,) the program's end point [mm].
+        blends: every corner blended in G64 (line, deviation from the corner, tolerance).
+        path_moves: the moves the reference follows (blend arcs inserted, G64 Q merged).
     """
 
     moves: tuple[Move, ...]
@@ -41,6 +44,8 @@ class Plan:
     move_start_s: np.ndarray = field(repr=False)
     move_lines: np.ndarray = field(repr=False)
     end_mm: np.ndarray = field(repr=False)
+    blends: tuple[Blend, ...] = ()
+    path_moves: tuple[Move, ...] = ()
 
     def sample(self, period_s: float) -> Trajectory:
         """The reference every ``period_s`` [s] from 0 to the end; the last sample is at rest at

@@ -50,6 +50,17 @@ def write_npz_atomically(path: Path, arrays: dict) -> None:
         np.savez(fh, **arrays)
 
 
+def blend_summary(blends: tuple) -> dict:
+    """The G64 blends: how many, the largest deviation from the programmed corner [mm] and its
+    line (null when none)."""
+    worst = max(blends, key=lambda b: b.deviation_mm, default=None)
+    return {
+        "count": len(blends),
+        "max_deviation_mm": worst.deviation_mm if worst else 0.0,
+        "max_deviation_line": worst.line if worst else None,
+    }
+
+
 def run(args: argparse.Namespace) -> int:
     from gantry_sim.controller.errors import GantryError
     from gantry_sim.controller.planner.plan import plan
@@ -71,6 +82,7 @@ def run(args: argparse.Namespace) -> int:
             machine=machine,
             search_path=search_path(args),
             max_iterations=max_iterations(args),
+            events=True,
         )
         result = plan(moves, machine)
     except GantryError as exc:
@@ -86,6 +98,7 @@ def run(args: argparse.Namespace) -> int:
         "chord_tolerance_mm": result.chord_tolerance_mm,
         "servo_period_s": period,
         "limits": machine.limits.to_json(),
+        "blends": blend_summary(result.blends),
     }
     sys.stdout.write(json.dumps(summary) + "\n")
     return 0

@@ -1,0 +1,321 @@
+"""Path control (G61, G61.1, G64 P Q): the moves the planner follows, and where it must stop.
+
+The mode in effect for a move (its ``path``, else the machine file's ``[path]``) governs the
+junction at the move's END, as LinuxCNC's termination condition does:
+
+* G61.1: an exact stop at that junction, even a tangent one.
+* G61: today's rule of :mod:`~gantry_sim.controller.planner.junctions` (exact stops at corners,
+  tangent junctions keep their speed).
+* G64 P: a corner between two straight feed moves is replaced by an arc tangent to both (the
+  "tangent arc blend" of LinuxCNC 2.7+; grbl's junction deviation uses the same circle). For a
+  turn of angle phi, a blend of radius R leaves the corner by d = R (1/cos(phi/2) - 1) and uses
+  L = R tan(phi/2) of each move; R is the largest with d <= P - the planner's own deviation from
+  an arc (0.25 x chord tolerance, the G61 promise), and L at most half of each move, so the
+  reference stays within P of the programmed corner. Blends need both moves in one principal
+  plane (XY, XZ or YZ; the planner's arcs live there); other corners stay exact stops.
+* G64 Q: consecutive straight feed moves at one feed whose end points lie within Q of one line
+  are merged into that line first (LinuxCNC's naive-CAM detector).
+
+Events: a dwell (G4) is an exact stop plus its time; a program stop (M0/M1/M60) an exact stop.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+from dataclasses import dataclass, field, replace
+
+import numpy as np
+
+from gantry_sim.controller.config import PathSettings
+from gantry_sim.controller.moves import Arc, Dwell, Event, Linear, Move, Rapid, Stop
+from gantry_sim.controller.planes import PLANE_AXES, Plane, Vec3
+
+#: Share of the chord tolerance the planner's reference may leave an arc by (the G61 promise);
+#: a blend keeps this much of the tolerance for it.
+REFERENCE_SHARE = 0.25
+#: Share of a blend's budget (P - the reference's share) its geometry may use; the rest is for
+#: smoothing the curvature jumps where the blend meets its straight moves.
+GEOMETRY_SHARE = 0.8
+#: Turns (rad) below which two straight moves count as collinear (no blend needed) and above
+#: which the blend would be a near-reversal (an exact stop instead).
+MIN_TURN_RAD = 1e-6
+MAX_TURN_RAD = math.radians(179.0)
+#: Longest run of straight moves the naive-CAM merge considers at once (bounds its cost).
+MAX_MERGE_RUN = 256
+EPS_MM = 1e-9
+#: A straight move left between two blends shorter than this times the smaller blend radius is
+#: absorbed: both blends run on to its midpoint (a spiral by rest^2 / (8 R), a kink by rest / R,
+#: both negligible), so a polygon of nearly equal short moves becomes one chain of arcs without
+#: the curvature jumps the rounding of its points would otherwise leave.
+ABSORB_PER_MM = 2e-4
+
+
+@dataclass(frozen=True)
+class Blend:
+    """One blended corner: the program line of the move ending there, the blend's largest
+    distance from the programmed corner [mm], and the tolerance it was given [mm]."""
+
+    line: int
+    deviation_mm: float
+    tolerance_mm: float
+
+
+@dataclass
+class PathPlan:
+    """What the planner follows.
+
+    Attributes:
+        moves: the moves, blends inserted, zero-length moves dropped.
+        stop_after: per move, True where the junction after it must be an exact stop.
+        holds: junction index (0: before the first move, k: after move k-1) -> dwells there.
+        blends: every blended corner.
+        blend_junction: index in ``moves`` of each blend arc -> its junction (for ``skip``).
+        smoothing_mm: per move, how far the smoothing of a curvature jump at its ends may take
+            the reference from it [mm] (blend arcs: what their tolerance leaves; 0 elsewhere:
+            the planner's own budget).
+    """
+
+    moves: list[Move] = field(default_factory=list)
+    stop_after: list[bool] = field(default_factory=list)
+    holds: dict[int, list[Dwell]] = field(default_factory=dict)
+    blends: list[Blend] = field(default_factory=list)
+    smoothing_mm: list[float] = field(default_factory=list)
+    blend_junction: dict[int, int] = field(default_factory=dict)
+
+
+@dataclass(frozen=True)
+class Control:
+    """The path control of one move, resolved against the machine file."""
+
+    mode: str
+    tolerance_mm: float
+    naive_cam_mm: float
+
+
+def control(move: Move, settings: PathSettings) -> Control:
+    """``move``'s path control (its own, else the machine file's ``settings``)."""
+    pc = getattr(move, "path", None)
+    if pc is None:
+        return Control(settings.mode, settings.tolerance_mm, settings.naive_cam_tolerance_mm)
+    tol = settings.tolerance_mm if pc.tolerance_mm is None else pc.tolerance_mm
+    q = settings.naive_cam_tolerance_mm if pc.naive_cam_mm is None else pc.naive_cam_mm
+    return Control(pc.mode, tol, q)
+
+
+def path_plan(
+    items: Sequence[Move | Event],
+    settings: PathSettings,
+    chord_tolerance_mm: float,
+    skip: frozenset[int] = frozenset(),
+) -> PathPlan:
+    """The moves and stops the planner follows for ``items`` (moves and events in order);
+    junctions in ``skip`` (values of a previous result's ``blend_junction``) are not blended
+    (the planner found the exact stop faster there)."""
+    out = PathPlan()
+    for item in items:
+        if isinstance(item, Dwell | Stop):
+            if out.stop_after:
+                out.stop_after[-1] = True
+            if isinstance(item, Dwell) and item.seconds > 0:
+                out.holds.setdefault(len(out.moves), []).append(item)
+            continue
+        if not isinstance(item, Rapid | Linear | Arc) or item.length_mm <= EPS_MM:
+            continue
+        out.moves.append(item)
+        out.stop_after.append(control(item, settings).mode == "G61.1")
+    _merge_naive_cam(out, settings)
+    out.smoothing_mm = [_smoothing(m, settings, chord_tolerance_mm) for m in out.moves]
+    _blend_corners(out, settings, chord_tolerance_mm, skip)
+    return out
+
+
+def _smoothing(m: Move, settings: PathSettings, chord_tolerance_mm: float) -> float:
+    """The deviation a G64 move's junction smoothing may use: P less the reference's share
+    (0 in G61/G61.1 and for rapids: the planner's own budget)."""
+    c = control(m, settings)
+    if isinstance(m, Rapid) or c.mode != "G64":
+        return 0.0
+    return max(c.tolerance_mm - REFERENCE_SHARE * chord_tolerance_mm, 0.0)
+
+
+def _merge_naive_cam(out: PathPlan, settings: PathSettings) -> None:
+    """G64 Q: merge runs of straight moves whose end points lie within Q of one line."""
+    moves, stops = out.moves, out.stop_after
+    new_moves: list[Move] = []
+    new_stops: list[bool] = []
+    new_holds: dict[int, list[Dwell]] = {}
+    i = 0
+    while i < len(moves):
+        if i in out.holds:
+            new_holds[len(new_moves)] = out.holds[i]
+        m = moves[i]
+        c = control(m, settings)
+        j = i
+        if isinstance(m, Linear) and c.mode == "G64" and c.naive_cam_mm > 0:
+            while (
+                j + 1 < len(moves)
+                and j + 1 - i < MAX_MERGE_RUN
+                and not stops[j]
+                and (j + 1) not in out.holds
+                and _mergeable(m, moves[j + 1], settings)
+                and _within(moves[i : j + 2], c.naive_cam_mm)
+            ):
+                j += 1
+        if j > i and isinstance(m, Linear):
+            last = moves[j]
+            new_moves.append(replace(m, end=last.end, path=getattr(last, "path", None)))
+        else:
+            new_moves.append(m)
+        new_stops.append(stops[j])
+        i = j + 1
+    if len(moves) in out.holds:
+        new_holds[len(new_moves)] = out.holds[len(moves)]
+    out.moves, out.stop_after, out.holds = new_moves, new_stops, new_holds
+
+
+def _mergeable(first: Linear, nxt: Move, settings: PathSettings) -> bool:
+    return (
+        isinstance(nxt, Linear)
+        and nxt.feed_mm_per_min == first.feed_mm_per_min
+        and control(nxt, settings).mode == "G64"
+    )
+
+
+def _within(run: Sequence[Move], q_mm: float) -> bool:
+    """True when every end point of ``run`` lies within ``q_mm`` of the run's chord."""
+    a, b = np.asarray(run[0].start, float), np.asarray(run[-1].end, float)
+    d = b - a
+    n = float(np.linalg.norm(d))
+    if n <= EPS_MM:
+        return False
+    pts = np.array([m.end for m in run[:-1]], dtype=float) - a
+    t = np.clip(pts @ d / (n * n), 0.0, 1.0)
+    off = np.linalg.norm(pts - t[:, None] * d, axis=1)
+    return bool(np.all(off <= q_mm))
+
+
+def _direction(m: Move) -> np.ndarray:
+    d = np.asarray(m.end, float) - np.asarray(m.start, float)
+    return d / np.linalg.norm(d)
+
+
+def _plane_of(d0: np.ndarray, d1: np.ndarray) -> Plane | None:
+    """The principal plane holding both directions, if any."""
+    for plane, (_i1, _i2, n) in PLANE_AXES.items():
+        if abs(d0[n]) <= 1e-12 and abs(d1[n]) <= 1e-12:
+            return plane  # type: ignore[return-value]
+    return None
+
+
+def _blend_corners(
+    out: PathPlan, settings: PathSettings, chord_tolerance_mm: float, skip: frozenset[int]
+) -> None:
+    """Replace G64 corners between straight feed moves by tangent arcs (see module docstring)."""
+    moves = out.moves
+    n = len(moves)
+    use = [0.0] * (n + 1)  # length each junction takes from its neighbours [mm]
+    turn: list[tuple[float, Plane] | None] = [None] * (n + 1)
+    for b in range(1, n):
+        m0, m1 = moves[b - 1], moves[b]
+        c = control(m0, settings)
+        if out.stop_after[b - 1] or b in out.holds or c.mode != "G64" or b in skip:
+            continue
+        if not (isinstance(m0, Linear) and isinstance(m1, Linear)):
+            continue
+        d0, d1 = _direction(m0), _direction(m1)
+        phi = math.acos(float(np.clip(d0 @ d1, -1.0, 1.0)))
+        plane = _plane_of(d0, d1)
+        budget = c.tolerance_mm - REFERENCE_SHARE * chord_tolerance_mm
+        if not (MIN_TURN_RAD < phi < MAX_TURN_RAD) or plane is None or budget <= 0:
+            continue
+        half = 0.5 * phi
+        r_tol = GEOMETRY_SHARE * budget / (1.0 / math.cos(half) - 1.0)
+        use[b] = min(r_tol * math.tan(half), 0.5 * m0.length_mm, 0.5 * m1.length_mm)
+        turn[b] = (phi, plane)
+    if not any(use):
+        return
+    # Trimmed straight moves: their new end points (a vanishing move: its midpoint, shared).
+    starts, ends, keep = [], [], []
+    for i, m in enumerate(moves):
+        a, e = np.asarray(m.start, float), np.asarray(m.end, float)
+        if isinstance(m, Linear) and (use[i] or use[i + 1]):
+            d = _direction(m)
+            a, e = a + d * use[i], e - d * use[i + 1]
+            rest = m.length_mm - use[i] - use[i + 1]
+            radii = [use[k] / math.tan(0.5 * t[0]) for k in (i, i + 1) if (t := turn[k])]
+            if rest <= EPS_MM or (len(radii) == 2 and rest <= ABSORB_PER_MM * min(radii)):
+                a = e = 0.5 * (a + e)  # the blends meet: they absorb what is left
+        starts.append(a)
+        ends.append(e)
+        keep.append(float(np.linalg.norm(e - a)) > EPS_MM)
+    new_moves: list[Move] = []
+    new_stops: list[bool] = []
+    new_holds: dict[int, list[Dwell]] = {}
+    smoothing: list[float] = []
+    for i, m in enumerate(moves):
+        if i in out.holds:
+            new_holds[len(new_moves)] = out.holds[i]
+        if keep[i]:
+            new_moves.append(_trimmed(m, starts[i], ends[i]))
+            new_stops.append(out.stop_after[i])
+            smoothing.append(out.smoothing_mm[i])
+        t = turn[i + 1]
+        if t is not None:
+            nxt = moves[i + 1]
+            arc, dev = _blend_arc(m, nxt, ends[i], starts[i + 1], t[0], t[1])  # type: ignore[arg-type]
+            tol = control(m, settings).tolerance_mm
+            out.blend_junction[len(new_moves)] = i + 1
+            new_moves.append(arc)
+            new_stops.append(False)
+            smoothing.append(max(tol - REFERENCE_SHARE * chord_tolerance_mm - dev, 0.0))
+            out.blends.append(Blend(m.line, dev, tol))
+    if n in out.holds:
+        new_holds[len(new_moves)] = out.holds[n]
+    out.moves, out.stop_after, out.holds = new_moves, new_stops, new_holds
+    out.smoothing_mm = smoothing
+
+
+def _v3(a: np.ndarray) -> Vec3:
+    return (float(a[0]), float(a[1]), float(a[2]))
+
+
+def _trimmed(m: Move, start: np.ndarray, end: np.ndarray) -> Move:
+    if not isinstance(m, Linear):
+        return m
+    return replace(m, start=_v3(start), end=_v3(end))
+
+
+def _blend_arc(
+    m0: Linear, m1: Linear, p0: np.ndarray, p1: np.ndarray, phi: float, plane: Plane
+) -> tuple[Arc, float]:
+    """The arc tangent to ``m0`` at ``p0`` and to ``m1`` at ``p1`` (its corner: m0.end), and its
+    largest distance from the corner [mm]."""
+    d0, d1 = _direction(m0), _direction(m1)
+    corner = np.asarray(m0.end, float)
+    half = 0.5 * phi
+    length = 0.5 * (float(np.linalg.norm(corner - p0)) + float(np.linalg.norm(p1 - corner)))
+    radius = length / math.tan(half)
+    bis = (d1 - d0) / np.linalg.norm(d1 - d0)
+    center = corner + bis * (radius / math.cos(half))
+    i1, i2, n = PLANE_AXES[plane]
+    center[n] = p0[n]
+    r0 = math.hypot(p0[i1] - center[i1], p0[i2] - center[i2])
+    ccw = d0[i1] * d1[i2] - d0[i2] * d1[i1] > 0
+    e0 = (p0[i1] - center[i1], p0[i2] - center[i2])
+    e1 = (p1[i1] - center[i1], p1[i2] - center[i2])
+    sweep = abs(math.atan2(e0[0] * e1[1] - e0[1] * e1[0], e0[0] * e1[0] + e0[1] * e1[1]))
+    arc = Arc(
+        line=m0.line,
+        start=_v3(p0),
+        end=_v3(p1),
+        feed_mm_per_min=min(m0.feed_mm_per_min, m1.feed_mm_per_min),
+        plane=plane,
+        direction="ccw" if ccw else "cw",
+        center=_v3(center),
+        radius=r0,
+        turns=1,
+        angle=sweep,
+        path=m0.path,
+    )
+    return arc, radius * (1.0 / math.cos(half) - 1.0)

@@ -1,0 +1,51 @@
+"""The reference part of the contour error, split into the G64 blends and the planning.
+
+``reference_max`` (:mod:`gantry_sim.sim.contour`) is how far the reference leaves the
+programmed geometry. In G64 part of that is intended: the blends replace corners by arcs. The
+split (both [um], added to ``parts_um`` of report.json beside the existing keys):
+
+* ``reference_blend_max``: how far the blended path leaves the programmed corners (the largest
+  blend deviation of the plan; 0 with no blend);
+* ``reference_planning_max``: how far the reference samples of the feed moves leave the path
+  the planner followed (the blended one): chords, junction smoothing, pieces.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, fields, replace
+
+from gantry_sim.controller.planner.result import Plan
+from gantry_sim.controller.trajectory import Trajectory
+from gantry_sim.controller.units import UM_PER_MM
+from gantry_sim.sim.contour import Analysis, ErrorParts, distance_to_program
+
+
+@dataclass(frozen=True)
+class BlendedParts(ErrorParts):
+    """:class:`ErrorParts` with the reference part split (see the module docstring) [um]."""
+
+    reference_blend_max_um: float = 0.0
+    reference_planning_max_um: float = 0.0
+
+    def to_json(self) -> dict[str, float]:
+        out = super().to_json()
+        out["reference_blend_max"] = self.reference_blend_max_um
+        out["reference_planning_max"] = self.reference_planning_max_um
+        return out
+
+
+def split_reference(analysis: Analysis, planned: Plan, traj: Trajectory) -> Analysis:
+    """``analysis`` with its parts split into blend and planning (see the module docstring)."""
+    feed = analysis.feed
+    path = planned.path_moves or planned.moves
+    dist = distance_to_program(path, traj.line[feed], traj.pos[feed])[0]
+    planning_um = float(dist.max()) * UM_PER_MM if dist.size else 0.0
+    blend_um = max((b.deviation_mm for b in planned.blends), default=0.0) * UM_PER_MM
+    base = {f.name: getattr(analysis.parts, f.name) for f in fields(ErrorParts)}
+    parts = BlendedParts(
+        **base, reference_blend_max_um=blend_um, reference_planning_max_um=planning_um
+    )
+    return replace(analysis, parts=parts)
+
+
+__all__ = ["BlendedParts", "split_reference"]

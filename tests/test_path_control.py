@@ -1,0 +1,201 @@
+"""Path control (G61, G61.1, G64 P Q): the interpreter carries the mode on each move, the
+planner stops or blends at each junction accordingly, and a blend keeps the limits, the feed
+and the tolerance."""
+
+from __future__ import annotations
+
+import json
+import math
+
+import numpy as np
+import pytest
+
+from gantry_sim.controller.gcode.interpreter import interpret_events, parse_program
+from gantry_sim.controller.moves import Dwell, Linear, PathControl, Stop
+from gantry_sim.controller.planner.plan import plan
+from tests.plan_helpers import assert_within_limits
+
+
+def _sample(moves, machine):
+    p = plan(moves, machine)
+    return p, p.sample(machine.servo.period_s)
+
+
+def _speed_at(p, t):
+    return float(np.linalg.norm(p.curve.evaluate(np.array([t]))[1]))
+
+
+def polyline_distance(points: np.ndarray, moves) -> np.ndarray:
+    """Distance [mm] of each point (k, 3) from the nearest programmed straight move."""
+    a = np.array([m.start for m in moves], float)
+    b = np.array([m.end for m in moves], float)
+    d = b - a
+    out = np.full(len(points), np.inf)
+    for i in range(len(a)):
+        t = np.clip((points - a[i]) @ d[i] / (d[i] @ d[i]), 0.0, 1.0)
+        out = np.minimum(out, np.linalg.norm(points - (a[i] + t[:, None] * d[i]), axis=1))
+    return out
+
+
+def _corner_program(mode: str) -> str:
+    return f"G21 G90 G17 {mode}\nG1 X20 F3000\nG1 X40 Y0.7\nG1 X60 Y0\nM2"
+
+
+def test_interpreter_carries_g61_g611_and_g64_p_q_in_program_units():
+    moves = parse_program(
+        "G20 G64 P0.001 Q0.002 F10\nG1 X1\nG61.1\nG1 Y1\nG61 G1 X0\nG64\nG1 Y0\nM2"
+    )
+    assert moves[0].path == PathControl("G64", 0.0254, 0.0508)
+    assert moves[1].path == PathControl("G61.1")
+    assert moves[2].path == PathControl("G61")
+    assert moves[3].path == PathControl("G64", None, None)
+    assert parse_program("G1 X1 F100\nM2")[0].path is None
+
+
+def test_g64_blends_a_corner_within_p_and_keeps_every_limit(machine):
+    moves = parse_program(_corner_program("G64 P0.01"))
+    p, tr = _sample(moves, machine)
+    assert len(p.blends) == 2
+    assert all(0 < b.deviation_mm <= 0.01 for b in p.blends)
+    assert_within_limits(tr, machine, moves)
+    dev = polyline_distance(tr.pos, moves)
+    assert dev.max() <= 0.01
+    speed = np.linalg.norm(tr.vel, axis=1)
+    near = np.linalg.norm(tr.pos - np.array([20.0, 0.0, 0.0]), axis=1) < 0.05
+    assert speed[near].min() > 30.0  # the corner is passed moving, not at rest
+    g61 = plan(parse_program(_corner_program("G61")), machine)
+    assert p.duration_s < g61.duration_s
+    assert np.array_equal(tr.pos[-1], moves[-1].end)
+
+
+def test_a_sharp_corner_stays_an_exact_stop_where_a_blend_would_crawl(machine):
+    # 90 degrees within 0.01 mm: a jerk-limited blend passes at ~1.4 mm/s, slower than stopping
+    p = plan(parse_program("G21 G64 P0.01\nG1 X20 F3000\nG1 Y20\nM2"), machine)
+    assert not p.blends
+    assert _speed_at(p, p.move_start_s[1]) < 1e-6
+
+
+def test_g61_stops_at_corners_and_g611_at_every_junction(machine):
+    p61 = plan(parse_program(_corner_program("G61")), machine)
+    assert not p61.blends
+    assert _speed_at(p61, p61.move_start_s[1]) < 1e-6
+    collinear = "G1 X10 F3000\nG1 X20\nM2"
+    free = plan(parse_program("G61\n" + collinear), machine)
+    assert _speed_at(free, free.move_start_s[1]) == pytest.approx(50.0, rel=1e-9)
+    stop = plan(parse_program("G61.1\n" + collinear), machine)
+    assert _speed_at(stop, stop.move_start_s[1]) < 1e-6
+
+
+def test_the_machine_file_sets_the_mode_when_the_program_sets_none(machine):
+    moves = parse_program(_corner_program(""))
+    assert plan(moves, machine).blends  # bundled default: G64
+    exact = plan(moves, machine.with_changes("path", mode="G61"))
+    assert not exact.blends
+    wide = plan(moves, machine.with_changes("path", tolerance_mm=0.05))
+    assert max(b.deviation_mm for b in wide.blends) > 0.02
+    assert all(b.deviation_mm <= 0.05 for b in wide.blends)
+
+
+def test_polygon_circle_blends_within_p_faster_than_exact_stops(machine):
+    pts = [
+        (10 * math.cos(2 * math.pi * k / 72), 10 * math.sin(2 * math.pi * k / 72))
+        for k in range(73)
+    ]
+    body = "".join(f"G1 X{x:.4f} Y{y:.4f}\n" for x, y in pts[1:])
+    head = f"G21 G90 G17\nG0 X{pts[0][0]:.4f} Y{pts[0][1]:.4f}\nF3000\n"
+    blended = parse_program(head.replace("G17", "G17 G64 P0.01") + body + "M2")
+    exact = parse_program(head.replace("G17", "G17 G61") + body + "M2")
+    pb, tr = _sample(blended, machine)
+    pe = plan(exact, machine)
+    assert pb.duration_s < 0.7 * pe.duration_s
+    assert_within_limits(tr, machine, blended)
+    feed = tr.line > 3
+    assert polyline_distance(tr.pos[feed], blended[1:]).max() <= 0.01
+
+
+def test_g64_q_merges_straight_moves_within_q(machine):
+    zig = "".join(f"G1 X{k} Y{0.001 * (k % 2):.3f}\n" for k in range(1, 11))
+    merged = plan(parse_program("G21 G64 P0.01 Q0.002 F3000\n" + zig + "M2"), machine)
+    plain = plan(parse_program("G21 G64 P0.01 F3000\n" + zig + "M2"), machine)
+    assert not merged.blends and len(plain.blends) == 9
+    assert merged.move_lines.tolist() == [2]
+    assert merged.duration_s < plain.duration_s
+
+
+def test_a_corner_outside_the_principal_planes_stays_an_exact_stop(machine):
+    moves = [
+        Linear(1, (0.0, 0.0, 0.0), (10.0, 0.0, 1.0), 3000.0, PathControl("G64", 0.01)),
+        Linear(2, (10.0, 0.0, 1.0), (10.0, 10.0, 2.0), 3000.0, PathControl("G64", 0.01)),
+    ]
+    p = plan(moves, machine)
+    assert not p.blends
+    assert _speed_at(p, p.move_start_s[1]) < 1e-6
+
+
+def test_a_dwell_is_an_exact_stop_that_holds_still_for_its_time(machine):
+    text = "G21 G61 F3000\nG1 X10\nG4 P0.5\nG1 X20\nM0\nG1 X30\nM2"
+    items = list(interpret_events(text))
+    assert any(isinstance(i, Dwell) for i in items)
+    p, tr = _sample(items, machine)
+    moves_only = plan([i for i in items if not isinstance(i, Dwell | Stop)], machine)
+    # the dwell stops at X10 (else a free collinear junction) and waits 0.5 s there; M0 stops
+    assert p.duration_s > moves_only.duration_s + 0.5
+    held = tr.line == 3
+    assert held.sum() >= 499
+    assert np.allclose(tr.pos[held], [10.0, 0.0, 0.0]) and not tr.vel[held].any()
+    stop_t = p.move_start_s[list(p.move_lines).index(6)]
+    assert _speed_at(p, stop_t) < 1e-6
+    assert _speed_at(moves_only, moves_only.move_start_s[1]) > 49.0
+    assert_within_limits(tr, machine, [i for i in items if isinstance(i, Linear)])
+
+
+def test_a_dwell_at_the_program_start_and_end_adds_its_time(machine):
+    items = list(interpret_events("G21 F600\nG4 P0.2\nG1 X5\nG4 P0.3\nM2"))
+    p, tr = _sample(items, machine)
+    bare = plan([i for i in items if isinstance(i, Linear)], machine)
+    assert p.duration_s == pytest.approx(bare.duration_s + 0.5, abs=1e-9)
+    assert (tr.line == 2).sum() >= 199 and np.array_equal(tr.pos[-1], [5.0, 0.0, 0.0])
+
+
+def test_gantry_plan_reports_blends_and_plans_dwells(write_program, tmp_path, capsys):
+    from gantry_sim.sim.cli import main
+
+    text = "G21 G64 P0.01 F3000\nG1 X20\nG1 X40 Y0.7\nG4 P0.25\nG1 X60 Y0\nM2\n"
+    out = tmp_path / "traj.npz"
+    assert main(["plan", str(write_program(text)), "--out", str(out)]) == 0
+    summary = json.loads(capsys.readouterr().out)
+    assert summary["blends"]["count"] == 1 and summary["blends"]["max_deviation_line"] == 2
+    assert 0 < summary["blends"]["max_deviation_mm"] <= 0.01
+    line = np.load(out)["line"]
+    assert (line == 4).sum() >= 249  # the reference holds still during the dwell
+
+
+def test_gantry_run_splits_the_reference_part_into_blend_and_planning(write_program, tmp_path):
+    from gantry_sim.sim.cli import main
+
+    text = "G21 G64 P0.01 F3000\nG1 X10\nG1 X20 Y0.35\nG1 X30 Y0\nM2\n"
+    assert main(["run", str(write_program(text)), "--out", str(tmp_path / "o")]) == 0
+    parts = json.loads((tmp_path / "o" / "report.json").read_text())["parts_um"]
+    assert {"chord_max", "reference_max", "tracking_max"} <= set(parts)
+    assert 0 < parts["reference_blend_max"] <= 10.0
+    assert parts["reference_planning_max"] < 0.25  # 0.25 x the 1 um chord tolerance
+    assert parts["reference_max"] <= parts["reference_blend_max"] + parts["reference_planning_max"]
+
+
+def test_marlin_limit_codes_apply_from_their_line_on(machine):
+    text = (
+        "G21\nG1 X50 F6000\nM201 X200 Y200\nM203 X20\nG1 X100\n"
+        "M205 J0.05\nG1 X110 Y0.5\nG1 X120 Y0\nM2"
+    )
+    items = list(interpret_events(text, dialect="marlin"))
+    p = plan(items, machine)
+    tr = p.sample(machine.servo.period_s)
+    before, after = tr.line == 2, np.isin(tr.line, [5, 7, 8])
+    assert np.abs(tr.vel[before, 0]).max() == pytest.approx(100.0)  # F6000 before M203
+    assert np.abs(tr.vel[after, 0]).max() <= 20.0 * (1 + 1e-9)  # M203 X20
+    assert np.abs(tr.acc[after, :2]).max() <= 200.0 * (1 + 1e-9)  # M201 X200 Y200
+    assert np.abs(tr.acc[before, 0]).max() > 2000.0
+    assert [b.tolerance_mm for b in p.blends] == [0.05]  # M205 J: the junction deviation
+    assert 0.01 < p.blends[0].deviation_mm <= 0.05
+    assert np.array_equal(tr.pos[-1], [120.0, 0.0, 0.0])
+    assert p.moves == tuple(i for i in items if isinstance(i, Linear))
