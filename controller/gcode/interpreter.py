@@ -17,6 +17,7 @@ from pathlib import Path
 
 from gantry_sim.controller.errors import GcodeError
 from gantry_sim.controller.gcode.arc_block import arc_move
+from gantry_sim.controller.gcode.canned_cycles import CYCLES, CycleMemory, run_cycle
 from gantry_sim.controller.gcode.codes import (
     G_HANDLED,
     G_NO_PATH_EFFECT,
@@ -81,6 +82,7 @@ class Interpreter:
         self.params = Parameters(self._predefined, lambda: self.state.scale)
         self.params.numbered[COORD_INDEX] = 1.0
         self.line = 0
+        self.cycle = CycleMemory()
 
     def step(self, block: Block) -> tuple[list[Move | Event], bool]:
         """Validate ``block`` on a copy of the state, commit, return (moves, program ended)."""
@@ -109,6 +111,8 @@ class Interpreter:
             if code in G_REFUSED:
                 raise GcodeError(f"{g_name(code)} is not supported: {G_REFUSED[code]}")
             assert code in G_HANDLED or code in G_NO_PATH_EFFECT
+            if code in CYCLES and not d.canned_cycles:
+                raise GcodeError(f"{g_name(code)} is not supported: {d.name} has no canned cycles")
         # Step 3: feed (in the units in effect BEFORE this block's G20/G21, as rs274 does).
         if "F" in w.values:
             if w.values["F"] < 0.0:
@@ -137,6 +141,9 @@ class Interpreter:
             s = replace(s, incremental=w.g["distance"] == 910)
         if "arc_distance" in w.g:
             s = replace(s, arc_absolute=w.g["arc_distance"] == 901)
+        cycle = self.cycle
+        if "retract" in w.g:
+            cycle = replace(cycle, retract_to_r=w.g["retract"] == 990)
         # Step 5: which motion this block makes, if any.
         nonmodal = w.g.get("nonmodal")
         axis_code = nonmodal in AXIS_NONMODAL
@@ -146,6 +153,7 @@ class Interpreter:
             if has_axes and not axis_code:
                 raise GcodeError("axis words with G80 (motion off); use G0, G1, G2 or G3")
             s, motion = replace(s, motion=None), None
+            cycle = replace(cycle, initial=None)
         elif motion is not None:
             if nonmodal is not None and axis_code and has_axes:
                 raise GcodeError(
@@ -185,7 +193,13 @@ class Interpreter:
                 raise GcodeError("G53 (machine coordinates) must be used with G0 or G1")
             if s.incremental:
                 raise GcodeError("G53 cannot be used in incremental distance mode (G91); use G90")
-        if motion is not None:
+        if motion is not None and motion not in CYCLES:
+            cycle = replace(cycle, initial=None)  # a series of cycles ends with another motion
+        if motion in CYCLES:
+            if machine_coords:
+                raise GcodeError("G53 (machine coordinates) must be used with G0 or G1")
+            s, cycle = self._cycle(w, s, motion, cycle, moves)
+        elif motion is not None:
             if machine_coords:
                 end = self._machine_end_point(w.values, s)
             else:
@@ -212,12 +226,38 @@ class Interpreter:
             if stop in (0, 1, 60):
                 moves.append(Stop(w.line, s.work, f"M{stop}"))
         self.state = s
+        self.cycle = cycle
         for target, value in w.settings:
             if isinstance(target, str):
                 self.params.set_named(target, value)
             else:
                 self.params.set_number(target, value)
         return moves, w.m.get("stopping") in M_PROGRAM_END
+
+    def _cycle(
+        self, w: Words, s: ModalState, motion: int, cycle: CycleMemory, moves: list[Move | Event]
+    ) -> tuple[ModalState, CycleMemory]:
+        """A canned cycle's moves (and, when asked for, its dwell and stop events)."""
+        if self.state.motion != motion:
+            cycle = replace(cycle, motion=None)  # rs274: R, Z, P, Q... are needed again
+        items, end, cycle = run_cycle(
+            w.line,
+            motion,
+            w.values,
+            position=s.position,
+            work=s.work,
+            plane=s.plane,
+            scale=s.scale,
+            incremental=s.incremental,
+            frame=s.frame,
+            feed_mm_per_min=s.feed_mm_per_min,
+            inverse_time=s.feed_mode == 930,
+            spindle=s.spindle,
+            memory=cycle,
+        )
+        moves.extend(m for m in items if self.events or isinstance(m, Rapid | Linear))
+        work = next((m.end for m in reversed(items) if isinstance(m, Rapid | Linear)), s.work)
+        return replace(s, position=end, work=work), cycle
 
     @staticmethod
     def _emit(moves: list[Move | Event], s: ModalState, move: Move, end: Vec3) -> ModalState:
