@@ -38,6 +38,8 @@ G_HANDLED = frozenset(
 )
 #: canned cycles (controller/gcode/canned_cycles.py).
 G_HANDLED = G_HANDLED | frozenset((730, 740, 810, 820, 830, 840, 850, 860, 870, 880, 890))
+#: cutter radius compensation (controller/gcode/cutter_comp.py).
+G_HANDLED = G_HANDLED | frozenset((410, 411, 420, 421))
 
 #: codes accepted with no effect on the programmed X/Y/Z tool-tip path in work coordinates.
 G_NO_PATH_EFFECT = frozenset(
@@ -58,7 +60,6 @@ G_REFUSED: dict[int, str] = {
     ),
     **dict.fromkeys((50, 51, 52), "splines (G5, G5.1, G5.2) are not supported yet"),
     **dict.fromkeys((171, 181, 191), "UVW planes are not supported on this XYZ machine"),
-    **dict.fromkeys((410, 411, 420, 421), "cutter radius compensation is not supported yet"),
     431: "a dynamic tool length offset (G43.1) is not supported; use a tool table and G43 H",
     432: "G43.2 (additional tool length offset) is not supported",
     70: "lathe diameter mode (G7) reads X as a diameter, and this is a mill (G8, radius mode, is "

@@ -119,7 +119,10 @@ def check_words(w: Words, motion: int | None, dialect: Dialect) -> None:
         "J": arc or motion == 870,
         "K": arc or motion == 870,
         "R": arc or (g10 and dialect.g10_rotation) or cycle,
-        "L": g10 or w.m.get("io") == 66 or (cycle and motion != 740),  # rs274: not G74
+        "L": g10
+        or w.m.get("io") == 66
+        or (cycle and motion != 740)  # rs274: not with G74
+        or w.g.get("cutter_comp") in (411, 421),
         "P": (arc and dialect.arc_p_allowed)
         or g10
         or motion in (740, 820, 840, 860, 880, 890)
@@ -134,6 +137,7 @@ def check_words(w: Words, motion: int | None, dialect: Dialect) -> None:
         or w.m.get("io") in (66, 67, 68),
         "E": w.m.get("io") in (66, 67, 68),
         "H": w.g.get("tool_length") == 430,
+        "D": dialect.cutter_comp and w.g.get("cutter_comp") in (410, 411, 420, 421),
     }
     for letter in v:
         if letter in dialect.ignored_letters or letter in "XYZFST@^":
@@ -147,7 +151,7 @@ def check_words(w: Words, motion: int | None, dialect: Dialect) -> None:
             }.get(letter, "G2, G3 or G87")
             if letter in "DLE":
                 need = {
-                    "D": "cutter compensation (not supported)",
+                    "D": "G41, G41.1, G42 or G42.1",
                     "L": "G10 or a canned cycle",
                     "E": "a code that takes E (none here; G-code numbers have no exponent, so 1e3 reads as 1 then an E word)",
                 }[letter]
