@@ -29,8 +29,8 @@ from gantry_sim.controller.errors import GcodeError
 from gantry_sim.controller.gcode.frames import Frame, to_work
 from gantry_sim.controller.moves import Arc, Linear, Move, Rapid, Vec3
 
-_SMALL = 0.01  # rs274 TOLERANCE_CONCAVE_CORNER [rad]
-_EQUAL = 0.0001  # rs274 TOLERANCE_EQUAL
+_SMALL = 0.05  # rs274 TOLERANCE_CONCAVE_CORNER [rad]
+_EQUAL = 1e-6  # rs274 TOLERANCE_EQUAL
 _GOUGE = "cannot be reached by the tool without gouging"
 
 
