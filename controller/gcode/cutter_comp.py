@@ -164,7 +164,10 @@ class CutterComp:
                     raise GcodeError("cutter compensation made an arc with mismatched radii")
             elif self.endpoint is not None:
                 dx, dy = q.direction
-                if dx * (x - self.endpoint[0]) + dy * (y - self.endpoint[1]) < 0.0:
+                # a move cut back to exactly its start (a corner of exactly the tool radius) is
+                # accepted by rs274; 1e-9 mm absorbs the float noise of that boundary
+                dot = dx * (x - self.endpoint[0]) + dy * (y - self.endpoint[1])
+                if dot < -1e-9 * math.hypot(dx, dy):
                     what = "traverse" if q.kind == "rapid" else "feed"
                     raise GcodeError(f"straight {what} in concave corner {_GOUGE}")
             q.end[0], q.end[1] = x, y
