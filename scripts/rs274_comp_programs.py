@@ -125,4 +125,48 @@ def comp_programs(seed: int) -> dict[str, str]:
         out[f"gen_comp_{k:03d}"] = numbered(comp_program(rng))
     for k, lines in enumerate(ERRORS):
         out[f"gen_comp_err_{k:03d}"] = numbered([*lines, "M2"])
+    for k in range(40):  # the same contours written in G91 (and G0 entries / exits)
+        lines = comp_program(rng)
+        out[f"gen_comp_inc_{k:03d}"] = numbered(_incremental(lines, rng))
+    return out
+
+
+def _incremental(lines: list[str], rng: random.Random) -> list[str]:
+    """The contour part of a program in G91: X/Y words become steps from the last point."""
+    out: list[str] = []
+    x = y = 0.0
+    inc = False
+    for ln in lines:
+        words = ln.split()
+        if words[0].startswith("G4") and not inc and words[0] != "G40":
+            inc = True
+            out.append("G91 " + ln)
+            continue
+        if words[0] == "G40":
+            inc = False
+            out.append("G90 " + ln)
+            continue
+        if inc and words[0] in ("G0", "G1", "G2", "G3"):
+            new = [words[0]]
+            for w in words[1:]:
+                if w[0] == "X":
+                    v = float(w[1:])
+                    new.append(f"X{_n(v - x)}")
+                    x = v
+                elif w[0] == "Y":
+                    v = float(w[1:])
+                    new.append(f"Y{_n(v - y)}")
+                    y = v
+                else:
+                    new.append(w)
+            if new[0] == "G1" and rng.random() < 0.1:
+                new[0] = "G0"
+            out.append(" ".join(new))
+            continue
+        for w in words:
+            if w[0] == "X":
+                x = float(w[1:])
+            elif w[0] == "Y":
+                y = float(w[1:])
+        out.append(ln)
     return out
