@@ -38,7 +38,7 @@ def straight(
     px, py, pz = p
     out: list[Move] = []
     if c.first:
-        if math.hypot(px - cx, py - cy) < r:  # rs274 2.9 accepts an entry of exactly r
+        if math.hypot(px - cx, py - cy) <= r:
             raise GcodeError(
                 "length of cutter compensation entry move is not greater than the tool radius"
             )
@@ -195,7 +195,7 @@ def arc(
         beta += 2 * math.pi
     if tool_inside:
         gamma = math.atan2(center[1] - ey, center[0] - ex)
-        if arc_r < r:  # rs274 2.9 accepts an arc of exactly the tool radius (measured)
+        if arc_r <= r:
             raise GcodeError("tool radius not less than arc radius with cutter compensation")
     else:
         gamma = math.atan2(ey - center[1], ex - center[0])
