@@ -130,3 +130,16 @@ def test_a_drilled_and_compensated_part_runs_end_to_end(machine) -> None:
     assert {14, 15, 16} <= lines.keys()  # the cycles' feeds
     assert 0.0 < rep["contour_error_um"]["max"] < 50.0
     assert rep["cycle_time_s"] > 5.0
+
+
+def test_a_dwell_waits_where_the_held_move_ends_as_rs274_orders_it() -> None:
+    from gantry_sim.controller.gcode.interpreter import interpret_events
+    from gantry_sim.controller.moves import Dwell
+
+    text = "G21 F100\nG41.1 D2\nG1 X10\nG4 P0.5\nG1 Y10\nG40 G1 X0\nM2\n"
+    items = list(interpret_events(text))
+    # rs274 -g: STRAIGHT_FEED(9, 1), DWELL(0.5), STRAIGHT_FEED(9, 10), STRAIGHT_FEED(0, 10)
+    assert [i.kind for i in items] == ["linear", "dwell", "linear", "linear"]
+    dwell = items[1]
+    assert isinstance(dwell, Dwell) and dwell.seconds == 0.5
+    assert dwell.position == pytest.approx((9.0, 1.0, 0.0))

@@ -17,7 +17,7 @@ from gantry_sim.controller.gcode.cutter_comp import CutterComp
 from gantry_sim.controller.gcode.state import ModalState
 from gantry_sim.controller.gcode.tools import Tool
 from gantry_sim.controller.gcode.words import Words
-from gantry_sim.controller.moves import Arc, Move, Vec3
+from gantry_sim.controller.moves import Arc, Dwell, Move, Vec3
 
 _SIDES = {410: "left", 411: "left", 420: "right", 421: "right"}
 
@@ -44,7 +44,7 @@ def check_while_on(comp: CutterComp, w: Words, old: ModalState) -> None:
 
 def switch(
     comp: CutterComp, w: Words, s: ModalState, tool: Callable[[int], Tool | None]
-) -> list[Move]:
+) -> list[Move | Dwell]:
     """G40 / G41 / G42 / G41.1 / G42.1 on this line; returns the moves G40 releases."""
     code = w.g.get("cutter_comp")
     if code is None:
@@ -88,7 +88,7 @@ def comp_move(
     s: ModalState,
     programmed_arc: Arc | None,
     r_format: bool,
-) -> list[Move]:
+) -> list[Move | Dwell]:
     """A G0/G1/G2/G3 under active compensation; returns the moves it releases."""
     if motion in (0, 10):
         return straight(comp, motion == 0, line, end, s.feed_mm_per_min, s.frame)

@@ -18,7 +18,7 @@ from gantry_sim.controller.gcode.cutter_comp import (
     find_turn,
 )
 from gantry_sim.controller.gcode.frames import Frame
-from gantry_sim.controller.moves import Move, Vec3
+from gantry_sim.controller.moves import Dwell, Move, Vec3
 
 _HALF = math.pi / 2
 
@@ -30,13 +30,13 @@ def _inside(side: str, turn: int) -> bool:
 
 def straight(
     c: CutterComp, rapid: bool, line: int, p: Vec3, feed: float, frame: Frame
-) -> list[Move]:
+) -> list[Move | Dwell]:
     """A compensated G0/G1 to the programmed point ``p``; returns the moves it releases."""
     kind = "rapid" if rapid else "linear"
     r, side = c.radius, c.side or "left"
     cx, cy, _ = c.current
     px, py, pz = p
-    out: list[Move] = []
+    out: list[Move | Dwell] = []
     if c.first:
         if math.hypot(px - cx, py - cy) <= r:
             raise GcodeError(
@@ -144,13 +144,13 @@ def arc(
     r_format: bool,
     feed: float,
     frame: Frame,
-) -> list[Move]:
+) -> list[Move | Dwell]:
     """A compensated G2/G3 (programmed ``center`` and signed ``turn``) to ``end_p``."""
     r, side = c.radius, c.side or "left"
     cx, cy, cz = c.current
     ex, ey, ez = end_p
     ccw = turn > 0
-    out: list[Move] = []
+    out: list[Move | Dwell] = []
     arc_r = math.hypot(center[0] - ex, center[1] - ey)
     tool_inside = (side == "left" and ccw) or (side == "right" and not ccw)
     if c.first:

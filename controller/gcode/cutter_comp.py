@@ -26,8 +26,8 @@ import math
 from dataclasses import dataclass, field
 
 from gantry_sim.controller.errors import GcodeError
-from gantry_sim.controller.gcode.frames import Frame, to_work
-from gantry_sim.controller.moves import Arc, Linear, Move, Rapid, Vec3
+from gantry_sim.controller.gcode.frames import NO_OFFSETS, Frame, to_work
+from gantry_sim.controller.moves import Arc, Dwell, Linear, Move, Rapid, Vec3
 
 _SMALL = 0.05  # rs274 TOLERANCE_CONCAVE_CORNER [rad]
 _EQUAL = 1e-6  # rs274 TOLERANCE_EQUAL
@@ -82,6 +82,15 @@ class CutterComp:
     line: int = 0  # the block being run: a released move carries it, as rs274 -g prints
 
     @property
+    def holding(self) -> bool:
+        """A move is held back (compensation on, past its entry move)."""
+        return bool(self.queue)
+
+    def hold_dwell(self, line: int, seconds: float) -> None:
+        """G4 while a move is held: the dwell follows it (released with it)."""
+        self.queue.append(_Held("dwell", line, [0.0, 0.0, 0.0], seconds, NO_OFFSETS))
+
+    @property
     def active(self) -> bool:
         return self.side is not None and self.radius > 0.0
 
@@ -98,8 +107,8 @@ class CutterComp:
             radius, side = -radius, "right" if side == "left" else "left"
         self.side, self.radius = side, radius
 
-    def turn_off(self) -> list[Move]:
-        out: list[Move] = []
+    def turn_off(self) -> list[Move | Dwell]:
+        out: list[Move | Dwell] = []
         if self.active and not self.first:
             out = self.flush_at(self.current[0], self.current[1])
             self.arc_not_allowed = True
@@ -111,11 +120,14 @@ class CutterComp:
     def _hold(self, item: _Held) -> None:
         self.queue.append(item)
 
-    def release(self) -> list[Move]:
+    def release(self) -> list[Move | Dwell]:
         """rs274 dequeue_canons: every held move, in order, as moves in the work frame."""
-        out: list[Move] = []
+        out: list[Move | Dwell] = []
         for q in self.queue:
             start = self.released_end
+            if q.kind == "dwell":  # feed holds the seconds
+                out.append(Dwell(self.line, start, q.feed))
+                continue
             end = to_work((q.end[0], q.end[1], q.end[2]), q.frame)
             if q.kind == "rapid":
                 out.append(Rapid(self.line, start, end))
@@ -146,10 +158,12 @@ class CutterComp:
             abs(sweep),
         )
 
-    def flush_at(self, x: float, y: float) -> list[Move]:
+    def flush_at(self, x: float, y: float) -> list[Move | Dwell]:
         """rs274 move_endpoint_and_flush: end every held move at (x, y), then release them."""
         unit = 25.4 if self.inch else 1.0
         for q in self.queue:
+            if q.kind == "dwell":
+                continue
             if q.kind == "arc":
                 cx, cy = q.center
                 r1 = math.hypot(q.end[0] - cx, q.end[1] - cy)

@@ -153,6 +153,9 @@ class Interpreter:
             s = replace(s, incremental=w.g["distance"] == 910)
         if "arc_distance" in w.g:
             s = replace(s, arc_absolute=w.g["arc_distance"] == 901)
+        dwell_held = w.g.get("nonmodal") == 40 and "P" in w.values and self.comp.holding
+        if dwell_held:  # rs274 queues the dwell behind the held move: it waits where that ends
+            self.comp.hold_dwell(w.line, w.values["P"])
         released = switch(self.comp, w, s, self._tool)  # G40/G41/G42, before the motion
         cycle = self.cycle
         if "retract" in w.g:
@@ -258,7 +261,7 @@ class Interpreter:
         # Step 7: commit; events after the block's motion (rs274 runs G4 before motion, so a
         # dwell on a motion line waits before it moves).
         if self.events:
-            if nonmodal == 40 and "P" in w.values:
+            if nonmodal == 40 and "P" in w.values and not dwell_held:
                 moves.insert(0, Dwell(w.line, self.state.work, w.values["P"]))
             stop = w.m.get("stopping")
             if stop in (0, 1, 60):
