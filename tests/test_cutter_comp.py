@@ -143,3 +143,20 @@ def test_a_dwell_waits_where_the_held_move_ends_as_rs274_orders_it() -> None:
     dwell = items[1]
     assert isinstance(dwell, Dwell) and dwell.seconds == 0.5
     assert dwell.position == pytest.approx((9.0, 1.0, 0.0))
+
+
+@pytest.mark.parametrize(
+    ("code", "message"),
+    [
+        ("T2 M6", "cannot change tools"),
+        ("G43 H1", "cannot change tool offset"),
+        ("G64 P0.1", "cannot change control mode"),
+        ("G10 L2 P1 X2", "cannot change the active coordinate system"),
+    ],
+)
+def test_codes_rs274_refuses_while_compensation_is_on(code: str, message: str) -> None:
+    with pytest.raises(GcodeError) as info:
+        moves(f"G21 F100\nG42.1 D3\nG1 X10\n{code}\nG1 Y10\nG40\nM2\n")
+    assert info.value.line == 4 and message in info.value.message
+    # G10 L2 of another system is allowed
+    assert len(moves("G21 F100\nG42.1 D3\nG1 X10\nG10 L2 P2 X2\nG1 Y10\nG40\nM2\n")) == 3

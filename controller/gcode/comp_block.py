@@ -33,6 +33,18 @@ def check_while_on(comp: CutterComp, w: Words, old: ModalState) -> None:
         raise GcodeError("cannot change coordinate systems with cutter radius compensation on")
     if "retract" in w.g:
         raise GcodeError("cannot change retract mode with cutter radius compensation on")
+    if w.m.get("tool_change") == 6:
+        raise GcodeError("cannot change tools with cutter radius compensation on; G40 first")
+    if "path_control" in w.g:
+        raise GcodeError("cannot change control mode (G61/G64) with cutter radius compensation on")
+    if w.g.get("nonmodal") == 100 and round(w.values.get("L", 0)) in (2, 20):
+        p = round(w.values.get("P", 0))
+        if p in (0, old.coord_index):
+            raise GcodeError(
+                "cannot change the active coordinate system with cutter radius compensation on"
+            )
+    if "tool_length" in w.g:
+        raise GcodeError("cannot change tool offset with cutter radius compensation on")
     nonmodal = w.g.get("nonmodal")
     if nonmodal in (280, 300):
         raise GcodeError("cannot use G28 or G30 with cutter radius compensation on")
