@@ -106,3 +106,9 @@ def test_dialects_without_canned_cycles_refuse_them() -> None:
     for dialect in ("grbl", "g2core", "marlin"):
         message = error_of("G81 X1 Z-1 R1 F10\nM2\n", dialect).message
         assert "G81 is not supported" in message and dialect in message
+
+
+def test_g95_cycle_feeds_are_f_per_revolution_times_s() -> None:
+    got = moves("G21 G95 S1000 M3 F0.1\nG0 Z5\nG81 X1 Z-2 R1\nM2\n")
+    assert [m.feed_mm_per_min for m in got if isinstance(m, Linear)] == [pytest.approx(100.0)]
+    assert "zero spindle speed" in error_of("G21 G95 F0.1\nG0 Z5\nG81 X1 Z-2 R1\nM2\n").message

@@ -281,6 +281,14 @@ class Interpreter:
         """A canned cycle's moves (and, when asked for, its dwell and stop events)."""
         if self.state.motion != motion:
             cycle = replace(cycle, motion=None)  # rs274: R, Z, P, Q... are needed again
+        feed = s.feed_mm_per_min
+        if s.feed_mode == 950:  # G95: F per revolution times S, as for G1
+            if s.rpm <= 0.0 and feed > 0.0:
+                raise GcodeError(
+                    f"cannot feed {g_name(motion)} with zero spindle speed in feed per "
+                    "revolution (G95); set S"
+                )
+            feed *= s.rpm
         items, end, cycle = run_cycle(
             w.line,
             motion,
@@ -291,7 +299,7 @@ class Interpreter:
             scale=s.scale,
             incremental=s.incremental,
             frame=s.frame,
-            feed_mm_per_min=s.feed_mm_per_min,
+            feed_mm_per_min=feed,
             inverse_time=s.feed_mode == 930,
             spindle=s.spindle,
             memory=cycle,
