@@ -13,6 +13,8 @@ import math
 import random
 from pathlib import Path
 
+from rs274_comp_programs import comp_programs
+from rs274_cycle_programs import cycle_programs
 from rs274_language_programs import language_programs
 
 ROOT = Path(__file__).resolve().parent.parent
@@ -384,6 +386,12 @@ def main() -> int:
     lang = language_programs(SEED + 10)  # its own stream: the families above stay as they were
     assert not set(lang) & set(progs), "duplicate program names"
     progs.update(lang)
+    cycles = cycle_programs(SEED + 20)  # canned cycles (issue 11): a stream of their own
+    assert not set(cycles) & set(progs), "duplicate program names"
+    progs.update(cycles)
+    comp = comp_programs(SEED + 30)  # cutter compensation (issue 11)
+    assert not set(comp) & set(progs), "duplicate program names"
+    progs.update(comp)
     PROGRAMS.mkdir(parents=True, exist_ok=True)
     for old in PROGRAMS.glob("gen_*.ngc"):
         if old.stem not in progs:

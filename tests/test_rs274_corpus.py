@@ -26,7 +26,7 @@ import pytest
 
 DATA = Path(__file__).parent / "data" / "rs274"
 PROGRAMS = sorted((DATA / "programs").glob("*.ngc"))
-MIN_PROGRAMS = 900
+MIN_PROGRAMS = 1575
 
 
 #: Where gantry-sim deliberately differs from rs274, and why. rs274 is a 9-axis interpreter and
@@ -137,7 +137,9 @@ def _check_motion(i: int, got: dict, want: dict, unit_mm: float) -> list[str]:
             bad.append(
                 f"motion {i}: radius {got.get('radius')} != rs274 {want['radius']} (tol {r_tol:g})"
             )
-        a_tol = 3e-4 * unit_mm / want["radius"] + 1e-9
+        # a zero-radius arc (cutter compensation inside an arc of exactly the tool's radius)
+        # is a point in the plane: its angle moves nothing, and rs274's is rounding noise
+        a_tol = 3e-4 * unit_mm / want["radius"] + 1e-9 if want["radius"] > 0 else math.inf
         if not abs(got.get("angle", math.nan) - want["angle"]) <= a_tol:
             bad.append(
                 f"motion {i}: angle {got.get('angle')} != rs274 {want['angle']} (tol {a_tol:g} rad)"

@@ -12,7 +12,7 @@ from __future__ import annotations
 # G code (tenths) -> modal group name ("nonmodal" is LinuxCNC's group 0).
 G_GROUPS: dict[int, str] = {
     **dict.fromkeys((0, 10, 20, 30, 330, 331, 382, 383, 384, 385, 50, 51, 52, 730, 760), "motion"),
-    **dict.fromkeys((800, 810, 820, 830, 840, 850, 860, 870, 880, 890), "motion"),
+    **dict.fromkeys((740, 800, 810, 820, 830, 840, 850, 860, 870, 880, 890), "motion"),
     **dict.fromkeys((170, 180, 190, 171, 181, 191), "plane"),
     **dict.fromkeys((900, 910), "distance"),
     **dict.fromkeys((901, 911), "arc_distance"),
@@ -34,12 +34,16 @@ G_GROUPS: dict[int, str] = {
 G_HANDLED = frozenset(
     (0, 10, 20, 30, 800, 170, 180, 190, 900, 910, 901, 911, 200, 210, 530,
      540, 550, 560, 570, 580, 590, 591, 592, 593, 100, 280, 281, 300, 301, 920, 921, 922, 923,
-     430, 490, 930, 950)
+     430, 490, 930, 950, 980, 990)
 )
+#: canned cycles (controller/gcode/canned_cycles.py).
+G_HANDLED = G_HANDLED | frozenset((730, 740, 810, 820, 830, 840, 850, 860, 870, 880, 890))
+#: cutter radius compensation (controller/gcode/cutter_comp.py).
+G_HANDLED = G_HANDLED | frozenset((410, 411, 420, 421))
 
 #: codes accepted with no effect on the programmed X/Y/Z tool-tip path in work coordinates.
 G_NO_PATH_EFFECT = frozenset(
-    (40, 940, 400, 980, 990, 610, 611, 640, 960, 970, 80)
+    (40, 940, 400, 610, 611, 640, 960, 970, 80)
 )
 # fmt: on
 #: refused codes -> why.
@@ -55,11 +59,7 @@ G_REFUSED: dict[int, str] = {
         "workpiece to touch",
     ),
     **dict.fromkeys((50, 51, 52), "splines (G5, G5.1, G5.2) are not supported yet"),
-    **dict.fromkeys(
-        (730, 810, 820, 830, 840, 850, 860, 870, 880, 890), "canned cycles are not supported yet"
-    ),
     **dict.fromkeys((171, 181, 191), "UVW planes are not supported on this XYZ machine"),
-    **dict.fromkeys((410, 411, 420, 421), "cutter radius compensation is not supported yet"),
     431: "a dynamic tool length offset (G43.1) is not supported; use a tool table and G43 H",
     432: "G43.2 (additional tool length offset) is not supported",
     70: "lathe diameter mode (G7) reads X as a diameter, and this is a mill (G8, radius mode, is "

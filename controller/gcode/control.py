@@ -215,6 +215,9 @@ class Runner:
                 if exc.file is None and f.source is not self.main:
                     exc.file = f.source.name
                 if self.errors is None or len(self.errors) >= MAX_ERRORS:
+                    # moves a block made before it failed (a canned cycle positions the tool
+                    # before it checks the spindle or Q, as rs274 does)
+                    yield from getattr(exc, "partial", ())
                     raise
                 self.errors.append(exc)  # --all-errors: note it, skip the line, go on
                 if len(self.frames) == depth and f.index == i:

@@ -97,6 +97,10 @@ class Dialect:
         arc_segment_mm: the controller's fixed arc segment length [mm], or None.
         own_lines: the controller's own line rules in controller/gcode/printer_codes.py
             ("marlin": M/T lines and printer G codes; "g2core": JSON lines, G28.2/G28.3), or "".
+        canned_cycles: G73, G74, G81-G89 (and G98/G99) run as LinuxCNC runs them
+            (controller/gcode/canned_cycles.py); False: refused, the firmware has none.
+        cutter_comp: G41/G42/G41.1/G42.1 run as LinuxCNC runs them (controller/gcode/
+            cutter_comp.py); False: refused (G40 is accepted everywhere).
     """
 
     name: str
@@ -130,6 +134,8 @@ class Dialect:
     arc_tolerance_mm: float | None = None
     arc_segment_mm: float | None = None
     own_lines: str = ""
+    canned_cycles: bool = False
+    cutter_comp: bool = False
 
 
 _TOL_MM = 2 * 0.01 * math.sqrt(2.0)  # 0.028284 mm, rs274 CENTER_ARC_RADIUS_TOLERANCE_MM
@@ -150,6 +156,8 @@ LINUXCNC = Dialect(
     min_radius_in=0.00005,
     r_short_is_semicircle=False,
     require_program_end=True,
+    canned_cycles=True,
+    cutter_comp=True,
 )
 
 G2CORE = Dialect(

@@ -17,6 +17,7 @@ from pathlib import Path
 
 from gantry_sim.controller.errors import GcodeError
 from gantry_sim.controller.gcode.arc_block import arc_move
+from gantry_sim.controller.gcode.canned_cycles import CYCLES, CycleMemory, run_cycle
 from gantry_sim.controller.gcode.codes import (
     G_HANDLED,
     G_NO_PATH_EFFECT,
@@ -24,6 +25,7 @@ from gantry_sim.controller.gcode.codes import (
     M_PROGRAM_END,
     g_name,
 )
+from gantry_sim.controller.gcode.comp_block import check_while_on, comp_move, switch
 from gantry_sim.controller.gcode.control import DEFAULT_MAX_ITERATIONS, MAX_ERRORS, Runner
 from gantry_sim.controller.gcode.coords import (
     SYSTEMS,
@@ -35,6 +37,7 @@ from gantry_sim.controller.gcode.coords import (
     store_home,
     system_frame,
 )
+from gantry_sim.controller.gcode.cutter_comp import CutterComp
 from gantry_sim.controller.gcode.dialect_checks import check_codes, check_jog, check_plain
 from gantry_sim.controller.gcode.dialects import Dialect, coded, get_dialect
 from gantry_sim.controller.gcode.expressions import evaluate
@@ -91,10 +94,12 @@ class Interpreter:
         self.params = Parameters(self._predefined, lambda: self.state.scale)
         self.params.numbered[COORD_INDEX] = 1.0
         self.line = 0
+        self.cycle = CycleMemory()
+        self.comp = CutterComp()
 
     def step(self, block: Block) -> tuple[list[Move | Event], bool]:
         """Validate ``block`` on a copy of the state, commit, return (moves, program ended)."""
-        self.line = block.line
+        self.line = self.comp.line = block.line
         self._refresh_system_parameters()
         d = self.dialect
         if not d.language:
@@ -119,12 +124,22 @@ class Interpreter:
             if code in G_REFUSED:
                 raise GcodeError(f"{g_name(code)} is not supported: {G_REFUSED[code]}")
             assert code in G_HANDLED or code in G_NO_PATH_EFFECT
+            if code in CYCLES and not d.canned_cycles:
+                raise GcodeError(f"{g_name(code)} is not supported: {d.name} has no canned cycles")
+            if code in (410, 411, 420, 421) and not d.cutter_comp:
+                raise GcodeError(
+                    f"{g_name(code)} is not supported: {d.name} has no cutter radius compensation"
+                )
         # Step 3: feed (in the units in effect BEFORE this block's G20/G21, as rs274 does).
         if "F" in w.values:
             if w.values["F"] < 0.0:
                 raise GcodeError("negative F word; the feed must be >= 0 (units per minute)")
             s = replace(s, feed_mm_per_min=w.values["F"] * s.scale)
         s = self._tools(w, s)
+        if self.comp.resync and w.m.get("tool_change") == 6:
+            x, y, _ = from_work(s.work, s.frame)
+            s = replace(s, position=(x, y, s.position[2]))
+            self.comp.resync = False
         if "feed_mode" in w.g:
             s = replace(s, feed_mode=w.g["feed_mode"])
         if "S" in w.values and "S" not in d.ignored_letters:
@@ -135,6 +150,7 @@ class Interpreter:
             c = w.m["coolant"]
             s = replace(s, mist=c == 7 or (s.mist and c == 8), flood=c == 8 or (s.flood and c == 7))
         # Step 4: plane, units, coordinate system, distance modes.
+        check_while_on(self.comp, w, self.state)
         if "plane" in w.g:
             s = replace(s, plane=_PLANES[w.g["plane"]])
         if w.g.get("units") == 200 and not d.g20_is_inch:
@@ -149,6 +165,13 @@ class Interpreter:
             s = replace(s, arc_absolute=w.g["arc_distance"] == 901)
         if "path_control" in w.g:
             s = replace(s, path=path_control(w.g["path_control"], w.values, s.scale))
+        dwell_held = w.g.get("nonmodal") == 40 and "P" in w.values and self.comp.holding
+        if dwell_held:  # rs274 queues the dwell behind the held move: it waits where that ends
+            self.comp.hold_dwell(w.line, w.values["P"])
+        released = switch(self.comp, w, s, self._tool)  # G40/G41/G42, before the motion
+        cycle = self.cycle
+        if "retract" in w.g:
+            cycle = replace(cycle, retract_to_r=w.g["retract"] == 990)
         # Step 5: which motion this block makes, if any.
         nonmodal = w.g.get("nonmodal")
         axis_code = nonmodal in AXIS_NONMODAL
@@ -158,6 +181,7 @@ class Interpreter:
             if has_axes and not axis_code:
                 raise GcodeError("axis words with G80 (motion off); use G0, G1, G2 or G3")
             s, motion = replace(s, motion=None), None
+            cycle = replace(cycle, initial=None)
         elif motion is not None:
             if nonmodal is not None and axis_code and has_axes:
                 raise GcodeError(
@@ -180,7 +204,11 @@ class Interpreter:
                 "line (otherwise it is 'Repeat', not supported); write G2 ... R or G3 ... R"
             )
         # Step 6: the non-modal codes, then the move, validated against the new state.
-        moves: list[Move | Event] = []
+        moves: list[Move | Event] = list(released)
+        if released:  # G40 finished the held move: the tool stays at its offset point, while
+            # rs274 goes on from the programmed point until a tool change re-reads the position
+            s = replace(s, work=self.comp.released_end)
+            self.comp.resync = True
         if nonmodal == 100 and round(w.values.get("L", 0)) in (1, 10) and d.g10_rotation:
             self._g10_tool(w.values, s)
         elif nonmodal == 100:
@@ -197,12 +225,32 @@ class Interpreter:
                 raise GcodeError("G53 (machine coordinates) must be used with G0 or G1")
             if s.incremental:
                 raise GcodeError("G53 cannot be used in incremental distance mode (G91); use G90")
-        if motion is not None:
+        if motion is not None and motion not in CYCLES:
+            cycle = replace(cycle, initial=None)  # a series of cycles ends with another motion
+        if motion in CYCLES:
+            if self.comp.side is not None:
+                raise GcodeError(
+                    f"cannot use canned cycles with cutter compensation on; G40 before "
+                    f"{g_name(motion)}"
+                )
+            if machine_coords:
+                raise GcodeError("G53 (machine coordinates) must be used with G0 or G1")
+            s, cycle = self._cycle(w, s, motion, cycle, moves)
+        elif motion is not None:
             if machine_coords:
                 end = self._machine_end_point(w.values, s)
             else:
                 end = self._end_point(w.values, s)
-            if motion == 0:
+            if motion in (20, 30) and self.comp.arc_not_allowed:
+                raise GcodeError(
+                    "the move just after exiting cutter compensation mode must be straight, "
+                    "not an arc"
+                )
+            if motion in (0, 10):
+                self.comp.arc_not_allowed = False
+            if self.comp.active:
+                s = self._comp_motion(w, s, motion, end, moves)
+            elif motion == 0:
                 s = self._emit(moves, s, Rapid(w.line, s.work, to_work(end, s.frame)), end)
             elif motion == 10:
                 self._require_feed(s, "a G1 move", w)
@@ -215,21 +263,80 @@ class Interpreter:
                     placed = path_feed(self._arc_to_work(arc, s), s, w.values)
                     s = self._emit(moves, s, placed, arc.end)  # arc.end: program frame
         s = self._modal_state(w.m.get("modal_state"), s)
+        stop = w.m.get("stopping")
+        if stop is not None and self.comp.side is not None:  # rs274 convert_stop: finish it
+            if self.comp.active and not self.comp.first:
+                moves.extend(self.comp.flush_at(self.comp.current[0], self.comp.current[1]))
+                s = replace(s, work=self.comp.released_end)
+            if stop in M_PROGRAM_END:
+                self.comp.side, self.comp.first = None, True
         # Step 7: commit; events after the block's motion (rs274 runs G4 before motion, so a
         # dwell on a motion line waits before it moves).
         if self.events:
-            if nonmodal == 40 and "P" in w.values:
+            if nonmodal == 40 and "P" in w.values and not dwell_held:
                 moves.insert(0, Dwell(w.line, self.state.work, w.values["P"]))
             stop = w.m.get("stopping")
             if stop in (0, 1, 60):
                 moves.append(Stop(w.line, s.work, f"M{stop}"))
         self.state = s
+        self.cycle = cycle
         for target, value in w.settings:
             if isinstance(target, str):
                 self.params.set_named(target, value)
             else:
                 self.params.set_number(target, value)
         return moves, w.m.get("stopping") in M_PROGRAM_END
+
+    def _cycle(
+        self, w: Words, s: ModalState, motion: int, cycle: CycleMemory, moves: list[Move | Event]
+    ) -> tuple[ModalState, CycleMemory]:
+        """A canned cycle's moves (and, when asked for, its dwell and stop events)."""
+        if self.state.motion != motion:
+            cycle = replace(cycle, motion=None)  # rs274: R, Z, P, Q... are needed again
+        feed = s.feed_mm_per_min
+        if s.feed_mode == 950:  # G95: F per revolution times S, as for G1
+            if s.rpm <= 0.0 and feed > 0.0:
+                raise GcodeError(
+                    f"cannot feed {g_name(motion)} with zero spindle speed in feed per "
+                    "revolution (G95); set S"
+                )
+            feed *= s.rpm
+        items, end, cycle = run_cycle(
+            w.line,
+            motion,
+            w.values,
+            position=s.position,
+            work=s.work,
+            plane=s.plane,
+            scale=s.scale,
+            incremental=s.incremental,
+            frame=s.frame,
+            feed_mm_per_min=feed,
+            inverse_time=s.feed_mode == 930,
+            spindle=s.spindle,
+            memory=cycle,
+        )
+        moves.extend(m for m in items if self.events or isinstance(m, Rapid | Linear))
+        work = next((m.end for m in reversed(items) if isinstance(m, Rapid | Linear)), s.work)
+        return replace(s, position=end, work=work), cycle
+
+    def _comp_motion(
+        self, w: Words, s: ModalState, motion: int, end: Vec3, moves: list[Move | Event]
+    ) -> ModalState:
+        """A G0/G1/G2/G3 under cutter compensation: its tool-centre path, released a block
+        late (controller/gcode/comp_paths.py)."""
+        programmed = None
+        if motion == 10:
+            self._require_feed(s, "a G1 move", w)
+        elif motion in (20, 30):
+            self._require_feed(s, "an arc", w)
+            programmed = arc_move(w.line, w.values, s, end, motion == 30, self.dialect)
+            if programmed is None:
+                return s
+            end = programmed.end
+        released = comp_move(self.comp, motion, w.line, end, s, programmed, "R" in w.values)
+        moves.extend(released)
+        return replace(s, position=end, work=self.comp.released_end)
 
     @staticmethod
     def _emit(moves: list[Move | Event], s: ModalState, move: Move, end: Vec3) -> ModalState:

@@ -22,6 +22,8 @@ from gantry_sim.controller.gcode.parameters import (
 )
 
 _OTHER_AXES = "ABCUVW"
+#: canned cycles (tenths): they take R and L (and P, Q, I/J/K as each needs).
+_CYCLES = frozenset((730, 740, 810, 820, 830, 840, 850, 860, 870, 880, 890))
 
 
 @dataclass(frozen=True)
@@ -111,34 +113,46 @@ def check_words(w: Words, motion: int | None, dialect: Dialect) -> None:
             raise GcodeError(f"{letter} axis word on a 3-axis machine; allowed axes: X, Y, Z")
     arc = motion in (20, 30)
     g10 = w.g.get("nonmodal") == 100
+    cycle = dialect.canned_cycles and motion in _CYCLES
     uses = {
-        "I": arc,
-        "J": arc,
-        "K": arc,
-        "R": arc or (g10 and dialect.g10_rotation),
-        "L": g10 or w.m.get("io") == 66,
+        "I": arc or motion == 870,
+        "J": arc or motion == 870,
+        "K": arc or motion == 870,
+        "R": arc or (g10 and dialect.g10_rotation) or cycle,
+        "L": g10
+        or w.m.get("io") == 66
+        or (cycle and motion != 740)  # rs274: not with G74
+        or w.g.get("cutter_comp") in (411, 421),
         "P": (arc and dialect.arc_p_allowed)
         or g10
+        or motion in (740, 820, 840, 860, 880, 890)
         or w.g.get("nonmodal") == 40
         or w.g.get("path_control") == 640
         or w.m.get("io") in (62, 63, 64, 65, 66)
         or "user" in w.m,
         "Q": w.g.get("path_control") == 640
+        or motion in (730, 830)
         or "user" in w.m
         or w.m.get("tool_change") == 61
         or w.m.get("io") in (66, 67, 68),
         "E": w.m.get("io") in (66, 67, 68),
         "H": w.g.get("tool_length") == 430,
+        "D": dialect.cutter_comp and w.g.get("cutter_comp") in (410, 411, 420, 421),
     }
     for letter in v:
         if letter in dialect.ignored_letters or letter in "XYZFST@^":
             continue
         if not uses.get(letter, False):
-            need = {"P": "G2, G3, G4, G10 or G64", "Q": "G64", "H": "G43"}.get(letter, "G2 or G3")
+            need = {
+                "P": "G2, G3, G4, G10, G64, G82, G86, G88 or G89",
+                "Q": "G64, G73 or G83",
+                "H": "G43",
+                "R": "G2, G3 or a canned cycle",
+            }.get(letter, "G2, G3 or G87")
             if letter in "DLE":
                 need = {
-                    "D": "cutter compensation (not supported)",
-                    "L": "G10",
+                    "D": "G41, G41.1, G42 or G42.1",
+                    "L": "G10 or a canned cycle",
                     "E": "a code that takes E (none here; G-code numbers have no exponent, so 1e3 reads as 1 then an E word)",
                 }[letter]
             raise GcodeError(f"{letter} word with no code that uses it; {letter} needs {need}")
