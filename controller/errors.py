@@ -50,3 +50,16 @@ class PlanningError(GantryError):
 
 class SimulationError(GantryError):
     """The simulation diverged or produced non-finite values."""
+
+
+class PlannerFailure(RuntimeError):
+    """The planner could not plan a move of a valid program within the machine's limits.
+
+    Not a GantryError: the program and the machine file are fine, so this is a limitation of
+    gantry-sim's planner, reported as an internal error (exit 3, "please report") rather than
+    blamed on the user's input (exit 2).
+    """
+
+    def __init__(self, message: str, line: int) -> None:
+        super().__init__(f"line {line}: {message}")
+        self.line = line

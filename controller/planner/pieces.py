@@ -18,7 +18,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from gantry_sim.controller.config import Limits
-from gantry_sim.controller.errors import PlanningError
+from gantry_sim.controller.errors import PlannerFailure
 from gantry_sim.controller.planner.arc_states import VertexStates, vertex_states
 from gantry_sim.controller.planner.cubic import CubicBuilder
 from gantry_sim.controller.planner.jerk3 import PiecePhases, jerk3, jerk3_points, piece_limits_ok
@@ -199,10 +199,10 @@ class MovePieces:
         try:
             piece = self.solver.piece(start, end, min_duration_s, PIECE_SAMPLES if sampled else 0)
         except RuckigRejected as exc:
-            raise PlanningError(
-                f"Ruckig could not join two chord vertices ({exc.reason}) even without a "
-                "minimum duration; lower the feed or check the machine limits",
-                line=g.move.line,
+            raise PlannerFailure(
+                f"no jerk-limited piece joins two chord vertices of this {g.move.kind} move "
+                f"within the machine's limits (Ruckig: {exc.reason})",
+                g.move.line,
             ) from None
         for i in range(3):
             self.out.add(i, *piece.phases[i])

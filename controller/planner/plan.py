@@ -36,7 +36,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from gantry_sim.controller.config import MachineConfig
-from gantry_sim.controller.errors import ConfigError, PlanningError
+from gantry_sim.controller.errors import ConfigError, PlannerFailure, PlanningError
 from gantry_sim.controller.moves import Arc, Dwell, Event, Linear, Move, Rapid
 from gantry_sim.controller.moves import Limits as LimitsEvent
 from gantry_sim.controller.planner.blend import PathPlan, path_plan
@@ -306,8 +306,10 @@ def _path_profile(solver: RuckigSolver, g: MoveGeometry, v_in: float, v_out: flo
             g.length_mm, v_in, v_out, lim.cap_mm_per_s, lim.acc_mm_per_s2, lim.jerk_mm_per_s3
         )
     except RuckigRejected as exc:
-        raise PlanningError(
-            f"Ruckig could not plan the speed profile ({exc.reason})", line=g.move.line
+        raise PlannerFailure(
+            f"no speed profile along this {g.move.kind} move fits the machine's limits "
+            f"(Ruckig: {exc.reason})",
+            g.move.line,
         ) from None
     except ProfileReverses:
         raise PlanningError(
