@@ -22,9 +22,15 @@ import numpy as np
 import ruckig
 
 from gantry_sim.controller.config import Limits
+from gantry_sim.controller.planner.jerk3 import jerk3_pairs
 from gantry_sim.controller.planner.profile import Profile1D
 
 _OK = (ruckig.Result.Working, ruckig.Result.Finished)
+#: an axis whose piece moves less than this, this slowly, is planned in closed form when Ruckig
+#: rejects the piece (see RuckigSolver._piece_past_tiny_axes) [mm], [mm/s], [mm/s^2]
+TINY_AXIS_MM = 1e-6
+TINY_AXIS_MM_PER_S = 1e-2
+TINY_AXIS_MM_PER_S2 = 10.0
 
 #: Constant-jerk phases of one axis: durations [s] and each phase's start position [mm],
 #: velocity [mm/s], acceleration [mm/s^2], and its jerk [mm/s^3].
@@ -154,10 +160,67 @@ class RuckigSolver:
             _calculate(self._otg3, inp, tr)
         except RuckigRejected:
             inp.minimum_duration = None
-            _calculate(self._otg3, inp, tr)
+            try:
+                _calculate(self._otg3, inp, tr)
+            except RuckigRejected:
+                return self._piece_past_tiny_axes(start, end, min_duration_s, samples)
         dur = tr.duration
         phases = (_phases(tr, 0), _phases(tr, 1), _phases(tr, 2))
         if not samples:
             return RuckigPiece(dur, phases)
         pv = [tr.at_time(t) for t in np.linspace(0.0, dur, samples)]
         return RuckigPiece(dur, phases, np.array([x[0] for x in pv]), np.array([x[1] for x in pv]))
+
+    def _piece_past_tiny_axes(
+        self,
+        start: tuple[np.ndarray, np.ndarray, np.ndarray],
+        end: tuple[np.ndarray, np.ndarray, np.ndarray],
+        min_duration_s: float,
+        samples: int,
+    ) -> RuckigPiece:
+        """The piece when Ruckig rejects it because an axis barely moves (on an arc near a
+        quadrant point one axis may move 1e-8 mm at 1e-5 mm/s, below Ruckig's numerical
+        resolution): Ruckig plans the other axes, and each tiny axis follows the closed-form
+        three-phase constant-jerk piece between its states over the same time, which must keep
+        its jerk limit. Raises RuckigRejected when no axis is tiny or that fails too."""
+        p0, v0, a0 = start
+        p1, v1, a1 = end
+        tiny = (
+            (np.abs(p1 - p0) < TINY_AXIS_MM)
+            & (np.maximum(np.abs(v0), np.abs(v1)) < TINY_AXIS_MM_PER_S)
+            & (np.maximum(np.abs(a0), np.abs(a1)) < TINY_AXIS_MM_PER_S2)
+        )
+        if not tiny.any() or tiny.all():
+            raise RuckigRejected("no piece, and no axis small enough to plan on its own")
+        inp, tr = self._in3, self._tr3
+        inp.enabled = [not bool(t) for t in tiny]
+        try:
+            inp.minimum_duration = float(min_duration_s)
+            _calculate(self._otg3, inp, tr)
+        finally:
+            inp.enabled = [True, True, True]
+        dur = tr.duration
+        closed = jerk3_pairs(
+            p0[None], v0[None], a0[None], p1[None], v1[None], a1[None], np.array([dur])
+        )
+        if np.any(np.abs(closed.j[0][:, tiny]) > np.asarray(inp.max_jerk)[tiny]):
+            raise RuckigRejected("no piece: a barely moving axis would exceed its jerk limit")
+        h = dur / 3.0
+        phases = tuple(
+            ([h, h, h], *(closed[q][0, :, i].tolist() for q in range(4)))
+            if tiny[i]
+            else _phases(tr, i)
+            for i in range(3)
+        )
+        if not samples:
+            return RuckigPiece(dur, phases)  # type: ignore[arg-type]
+        times = np.linspace(0.0, dur, samples)
+        pv = [tr.at_time(t) for t in times]
+        pos, vel = np.array([x[0] for x in pv]), np.array([x[1] for x in pv])
+        k = np.minimum((times / h).astype(int), 2)
+        tau = times - k * h
+        for i in np.flatnonzero(tiny):
+            cp, cv, ca, cj = (closed[q][0, k, i] for q in range(4))
+            pos[:, i] = cp + cv * tau + ca * tau**2 / 2 + cj * tau**3 / 6
+            vel[:, i] = cv + ca * tau + cj * tau**2 / 2
+        return RuckigPiece(dur, phases, pos, vel)  # type: ignore[arg-type]
