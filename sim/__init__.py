@@ -6,7 +6,8 @@ entry point is :mod:`.api`):
     api.py           run_program / write_run_outputs: interpret -> plan -> simulate -> analyse
     machine.py       MJCF -> Gantry: axis names resolved, plant read, work origin placed (SI <-> mm)
     site_slides.py   closed-form tool site when only slide joints carry it (fast trace)
-    runner.py        the servo loop around mj_step: one discrete PD tick, then physics substeps
+    runner.py        the simulation: servo-loop ranges, each checked for divergence
+    servo_loop.py    the servo loop around mj_step: one discrete PD tick, then physics substeps
     trace.py         Trace: the per-tick arrays of a run (trace.npz)
     nearest.py       nearest points on commanded lines, arcs and helices
     contour.py       contour error against the commanded geometry; chord/reference/tracking parts
