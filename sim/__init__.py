@@ -8,6 +8,7 @@ entry point is :mod:`.api`):
     site_slides.py   closed-form tool site when only slide joints carry it (fast trace)
     runner.py        the simulation: servo-loop ranges, each checked for divergence
     servo_loop.py    the servo loop around mj_step: one discrete PD tick, then physics substeps
+    stream.py        a run range by range: sample, simulate, analyse; 13 bytes a tick kept
     trace.py         Trace: the per-tick arrays of a run (trace.npz)
     nearest.py       nearest points on commanded lines, arcs and helices
     contour.py       contour error against the commanded geometry; chord/reference/tracking parts
