@@ -80,17 +80,19 @@ def stream_run(
     machine: MachineConfig,
     gantry: Gantry,
     *,
-    range_ticks: int = STREAM_TICKS,
+    range_ticks: int | None = None,
     on_range: OnRange | None = None,
     on_ticks: Callable[[int], object] | None = None,
 ) -> StreamedRun:
-    """Sample, simulate and analyse ``planned`` ``range_ticks`` servo ticks at a time.
+    """Sample, simulate and analyse ``planned`` ``range_ticks`` (default STREAM_TICKS) servo
+    ticks at a time.
 
     Raises SimulationError when the run diverges (as sim.runner.simulate). ``on_ticks(n)`` is
     called as the simulation advances (a progress bar's update).
     """
     period = machine.servo.period_s
     n = planned.sample_count(period)
+    range_ticks = range_ticks or STREAM_TICKS
     tab = move_table(moves)
     contexts: deque[tuple[int, Trajectory]] = deque()
     stride = max(1, n // DECIMATED_TICKS)

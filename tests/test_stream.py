@@ -75,3 +75,34 @@ def test_streamed_run_equals_the_whole_program_run(machine, stateful):
     assert np.array_equal(traj.t[rows], dec.t)
     assert np.array_equal(sim.pos[rows], dec.pos) and np.array_equal(whole.err_um[rows], dec.err_um)
     assert dec.err_um.max() == whole.err_um.max()
+
+
+def test_run_program_streams_long_runs_with_the_same_outputs(machine, monkeypatch, tmp_path):
+    """run_program streams a run beyond STREAM_ABOVE_TICKS: report.json (bar the wall-clock
+    timings) and trace.npz equal the whole-program run's bit for bit; the RunResult's trace is
+    decimated rows of the whole one."""
+    import json
+
+    from gantry_sim.sim import api, stream
+
+    whole = api.run_program(PROGRAM, machine=machine)
+    api.write_run_outputs(whole, tmp_path / "whole", plots=False, deterministic=True)
+    monkeypatch.setattr(api, "STREAM_ABOVE_TICKS", 0)
+    monkeypatch.setattr(stream, "STREAM_TICKS", 256)
+    monkeypatch.setattr(stream, "DECIMATED_TICKS", 100)
+    streamed = api.run_program(PROGRAM, machine=machine)
+    assert streamed.trace_file is not None and streamed.trace.t.size < whole.trace.t.size / 5
+    api.write_run_outputs(streamed, tmp_path / "streamed", plots=True, deterministic=True)
+    a, b = (json.loads((tmp_path / d / "report.json").read_text()) for d in ("whole", "streamed"))
+    assert set(b["timing_s"]) - set(a["timing_s"]) == {"trace"}
+    a.pop("timing_s")
+    b.pop("timing_s")
+    assert a == b
+    with (
+        np.load(tmp_path / "whole" / "trace.npz") as x,
+        np.load(tmp_path / "streamed" / "trace.npz") as y,
+    ):
+        assert sorted(x.files) == sorted(y.files)
+        for name in x.files:
+            assert x[name].dtype == y[name].dtype and np.array_equal(x[name], y[name]), name
+    assert (tmp_path / "streamed" / "path.png").stat().st_size > 0
