@@ -36,6 +36,17 @@ class Trajectory:
         """Time of the last sample [s]."""
         return float(self.t[-1]) if self.t.size else 0.0
 
+    def slice(self, lo: int, hi: int) -> Trajectory:
+        """Samples lo..hi-1 (views, not copies; times keep their absolute values)."""
+        return Trajectory(
+            t=self.t[lo:hi],
+            pos=self.pos[lo:hi],
+            vel=self.vel[lo:hi],
+            acc=self.acc[lo:hi],
+            line=self.line[lo:hi],
+            period_s=self.period_s,
+        )
+
     def to_npz_dict(self) -> dict[str, np.ndarray]:
         """The arrays of the ``gantry plan --out`` contract."""
         return {"t": self.t, "pos": self.pos, "vel": self.vel, "acc": self.acc, "line": self.line}

@@ -7,8 +7,11 @@ entry point is :mod:`.api`):
     program.py       the program on the machine: tools, offsets, subroutine folders, refusals
     machine.py       MJCF -> Gantry: axis names resolved, plant read, work origin placed (SI <-> mm)
     site_slides.py   closed-form tool site when only slide joints carry it (fast trace)
-    runner.py        the servo loop around mj_step: one discrete PD tick, then physics substeps
+    runner.py        the simulation: servo-loop ranges, each checked for divergence
+    servo_loop.py    the servo loop around mj_step: one discrete PD tick, then physics substeps
+    stream.py        a run range by range: sample, simulate, analyse; 13 bytes a tick kept
     trace.py         Trace: the per-tick arrays of a run (trace.npz)
+    trace_writer.py  trace.npz written range by range (a streamed run), zipped at the end
     nearest.py       nearest points on commanded lines, arcs and helices
     contour.py       contour error against the commanded geometry; chord/reference/tracking parts
     report.py        RunReport (typed) -> report.json, timing.json; write_outputs (+ trace, plots)

@@ -23,7 +23,7 @@ from __future__ import annotations
 import os
 import time
 from collections.abc import Sequence
-from dataclasses import dataclass, replace
+from dataclasses import dataclass, field, replace
 from functools import cached_property
 from pathlib import Path
 
@@ -34,6 +34,10 @@ from gantry_sim.sim.budget import Budget, check_budget
 from gantry_sim.sim.gates import Gates, Verdict
 from gantry_sim.sim.report import RunReport
 from gantry_sim.sim.trace import Trace
+
+#: runs longer than this [servo ticks] are streamed (sim.stream): the same numbers, in memory
+#: bounded by sim.stream.STREAM_TICKS; their RunResult.trace is decimated (trace.npz is not)
+STREAM_ABOVE_TICKS = 262_144
 
 
 @dataclass(frozen=True)
@@ -49,6 +53,11 @@ class RunResult:
     run_report: RunReport
     trace: Trace
     moves: tuple
+    #: a streamed run's full-rate trace.npz, staged in a temporary folder (the run is then too
+    #: long to hold: :attr:`trace` is its decimated trace); None when :attr:`trace` is complete
+    trace_file: Path | None = None
+    #: keeps the staging folder of :attr:`trace_file` alive as long as the result
+    staging: object = field(default=None, repr=False, compare=False)
 
     @cached_property
     def report(self) -> dict:
@@ -125,6 +134,17 @@ def run_program(
         t1 = time.perf_counter()
         planned = plan(items, machine, feed_override_pct=feed_override_pct)
         check_budget(planned, machine, budget or Budget(), file)
+        if planned.sample_count(machine.servo.period_s) > STREAM_ABOVE_TICKS:
+            return _streamed(
+                moves,
+                planned,
+                machine,
+                file,
+                dialect,
+                feed_override_pct,
+                progress,
+                {"parse": t1 - t0, "plan": time.perf_counter() - t1},
+            )
         traj = planned.sample(machine.servo.period_s)
         t2 = time.perf_counter()
         gantry = load_gantry(machine)
@@ -167,6 +187,67 @@ def run_program(
         timing=timing,
     )
     return RunResult(run_report=report, trace=trace, moves=moves)
+
+
+def _streamed(
+    moves: tuple,
+    planned,
+    machine: MachineConfig,
+    file: str,
+    dialect: str,
+    feed_override_pct: float,
+    progress: bool | None,
+    timing: dict[str, float],
+) -> RunResult:
+    """run_program's path for long runs: sim.stream range by range, the full-rate trace
+    written incrementally into a staging folder (sim.trace_writer), a decimated trace kept."""
+    import dataclasses
+    import sys
+    import tempfile
+
+    from gantry_sim.sim.blend_parts import split_reference_by_ranges
+    from gantry_sim.sim.machine import load_gantry
+    from gantry_sim.sim.report import build_streamed_report
+    from gantry_sim.sim.runner import want_progress
+    from gantry_sim.sim.stream import stream_run
+    from gantry_sim.sim.trace_writer import TraceWriter
+
+    n = planned.sample_count(machine.servo.period_s)
+    staging = tempfile.TemporaryDirectory(prefix="gantry-trace-")
+    writer = TraceWriter(Path(staging.name), n)
+    bar = None
+    if want_progress(progress, planned.duration_s):
+        from tqdm import tqdm
+
+        bar = tqdm(total=n, unit="tick", desc="simulate+analyse", file=sys.stderr, leave=False)
+    gantry = load_gantry(machine)
+    try:
+        streamed = stream_run(
+            moves, planned, machine, gantry, on_range=writer, on_ticks=bar.update if bar else None
+        )
+    finally:
+        if bar is not None:
+            bar.close()
+    streamed = dataclasses.replace(
+        streamed,
+        analysis=split_reference_by_ranges(streamed.analysis, planned, machine.servo.period_s),
+    )
+    t0 = time.perf_counter()
+    trace_file = writer.finish(Path(staging.name) / "trace.npz")
+    timing |= {"simulate": streamed.simulate_s, "analyse": streamed.analyse_s}
+    timing["trace"] = time.perf_counter() - t0
+    timing["total"] = sum(timing.values())
+    report = build_streamed_report(
+        program=file,
+        dialect=dialect,
+        machine=machine,
+        steps=n * gantry.substeps,
+        feed_override_pct=feed_override_pct,
+        planned=planned,
+        streamed=streamed,
+        timing=timing,
+    )
+    return RunResult(report, streamed.decimated, moves, trace_file=trace_file, staging=staging)
 
 
 def _program_text(program: str | os.PathLike[str], file: str | None) -> tuple[str, str]:
@@ -227,5 +308,6 @@ def write_run_outputs(
         deterministic=deterministic,
         gates=gates,
         started=started,
+        trace_file=result.trace_file,
     )
     return replace(result, run_report=report)

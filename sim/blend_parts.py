@@ -34,12 +34,35 @@ class BlendedParts(ErrorParts):
         return out
 
 
+#: reference samples taken at a time when the run is streamed (see split_reference_by_ranges)
+RANGE_TICKS = 65536
+
+
 def split_reference(analysis: Analysis, planned: Plan, traj: Trajectory) -> Analysis:
     """``analysis`` with its parts split into blend and planning (see the module docstring)."""
     feed = analysis.feed
     path = planned.path_moves or planned.moves
     dist = distance_to_program(path, traj.line[feed], traj.pos[feed])[0]
     planning_um = float(dist.max()) * UM_PER_MM if dist.size else 0.0
+    return _with_split(analysis, planned, planning_um)
+
+
+def split_reference_by_ranges(analysis: Analysis, planned: Plan, period_s: float) -> Analysis:
+    """:func:`split_reference` for a streamed run: the reference sampled range by range
+    (bounded memory), the same largest distance as over the whole trajectory."""
+    path = planned.path_moves or planned.moves
+    n = planned.sample_count(period_s)
+    planning_mm = 0.0
+    for k0 in range(0, n, RANGE_TICKS):
+        traj = planned.sample_range(period_s, k0, k0 + RANGE_TICKS)
+        feed = analysis.feed[k0 : k0 + len(traj.t)]
+        dist = distance_to_program(path, traj.line[feed], traj.pos[feed])[0]
+        if dist.size:
+            planning_mm = max(planning_mm, float(dist.max()))
+    return _with_split(analysis, planned, planning_mm * UM_PER_MM)
+
+
+def _with_split(analysis: Analysis, planned: Plan, planning_um: float) -> Analysis:
     blend_um = max((b.deviation_mm for b in planned.blends), default=0.0) * UM_PER_MM
     base = {f.name: getattr(analysis.parts, f.name) for f in fields(ErrorParts)}
     parts = BlendedParts(
@@ -48,4 +71,4 @@ def split_reference(analysis: Analysis, planned: Plan, traj: Trajectory) -> Anal
     return replace(analysis, parts=parts)
 
 
-__all__ = ["BlendedParts", "split_reference"]
+__all__ = ["BlendedParts", "split_reference", "split_reference_by_ranges"]

@@ -37,6 +37,7 @@ if TYPE_CHECKING:
     from gantry_sim.controller.planner.result import Plan
     from gantry_sim.controller.trajectory import Trajectory
     from gantry_sim.sim.runner import SimTrace
+    from gantry_sim.sim.stream import StreamedRun
 
 #: files a run writes into its output folder (removed first by `gantry run`: no stale report)
 OUTPUT_FILES = ("report.json", "timing.json", "trace.npz", "path.png", "error.png")
@@ -175,9 +176,76 @@ def build_report(
 ) -> RunReport:
     """The report of one run: the plan's figures, the simulation's and the analysis's."""
     force = np.abs(sim.force)
-    limit = np.array([[-p.force_min_N, p.force_max_N] for p in plant]).min(axis=1)
+    limit = force_limits_N(plant)
     saturated = (force >= limit * (1 - 1e-12)).mean(axis=0) if force.size else np.zeros(3)
     max_force = force.max(axis=0) if force.size else np.zeros(3)
+    return _report(
+        program=program,
+        dialect=dialect,
+        machine=machine,
+        feed_override_pct=feed_override_pct,
+        planned=planned,
+        line=traj.line,
+        realtime=float(traj.duration_s / sim.wall_s) if sim.wall_s > 0 else 0.0,
+        steps=int(sim.steps),
+        max_force=max_force,
+        saturated=saturated,
+        analysis=analysis,
+        timing=timing,
+    )
+
+
+def build_streamed_report(
+    *,
+    program: str,
+    dialect: str,
+    machine: MachineConfig,
+    steps: int,
+    feed_override_pct: float,
+    planned: Plan,
+    streamed: StreamedRun,
+    timing: dict[str, float],
+) -> RunReport:
+    """:func:`build_report` of a streamed run (sim.stream): the same figures from its running
+    maxima and counts (the saturated fraction is count / ticks, as the mean of the flags)."""
+    ticks = max(streamed.ticks, 1)
+    sim_s = streamed.simulate_s
+    return _report(
+        program=program,
+        dialect=dialect,
+        machine=machine,
+        feed_override_pct=feed_override_pct,
+        planned=planned,
+        line=streamed.line,
+        realtime=float(streamed.duration_s / sim_s) if sim_s > 0 else 0.0,
+        steps=steps,
+        max_force=streamed.max_force_N,
+        saturated=streamed.saturated_ticks / ticks if streamed.ticks else np.zeros(3),
+        analysis=streamed.analysis,
+        timing=timing,
+    )
+
+
+def force_limits_N(plant: Sequence[AxisPlant]) -> np.ndarray:
+    """(3,) the smaller of |force_min| and force_max per axis [N] (a tick at it is saturated)."""
+    return np.array([[-p.force_min_N, p.force_max_N] for p in plant]).min(axis=1)
+
+
+def _report(
+    *,
+    program: str,
+    dialect: str,
+    machine: MachineConfig,
+    feed_override_pct: float,
+    planned: Plan,
+    line: np.ndarray,
+    realtime: float,
+    steps: int,
+    max_force: np.ndarray,
+    saturated: np.ndarray,
+    analysis: Analysis,
+    timing: dict[str, float],
+) -> RunReport:
     return RunReport(
         program=program,
         dialect=dialect,
@@ -194,14 +262,14 @@ def build_report(
         sim=SimStats(
             physics_timestep_s=machine.sim.physics_timestep_s,
             servo_period_s=machine.servo.period_s,
-            steps=int(sim.steps),
-            realtime_factor=float(traj.duration_s / sim.wall_s) if sim.wall_s > 0 else 0.0,
+            steps=steps,
+            realtime_factor=realtime,
             model=machine.sim.model,
             max_force_N=_vec3(max_force),
             saturated_fraction=_vec3(saturated),
         ),
         timing_s={k: float(v) for k, v in timing.items()},
-        block_time_s=_block_times(traj.line, machine.servo.period_s, analysis.blocks),
+        block_time_s=_block_times(line, machine.servo.period_s, analysis.blocks),
     )
 
 
@@ -229,10 +297,14 @@ def write_outputs(
     deterministic: bool = False,
     gates: Gates | None = None,
     started: float | None = None,
+    trace_file: Path | None = None,
 ) -> RunReport:
     """Write the run's files into a temporary folder, then move them in, report.json last.
 
     Args:
+        trace: the arrays plotted, and written as trace.npz unless ``trace_file`` is given.
+        trace_file: a trace.npz already written (a streamed run's full-rate trace, while
+            ``trace`` is its decimated one), copied in as trace.npz.
         plots: draw path.png and error.png.
         deterministic: wall-clock fields null in report.json (timing.json has them).
         gates: drawn on error.png.
@@ -246,15 +318,20 @@ def write_outputs(
 
     t0 = time.perf_counter()
     with atomic_output_dir(out_dir, last="report.json") as tmp:
-        np.savez_compressed(
-            tmp / "trace.npz",
-            t=trace.t,
-            ref=trace.ref,
-            pos=trace.pos,
-            line=trace.line,
-            err_um=trace.err_um,
-            force_N=trace.force_N,
-        )
+        if trace_file is not None:
+            import shutil
+
+            shutil.copyfile(trace_file, tmp / "trace.npz")
+        else:
+            np.savez_compressed(
+                tmp / "trace.npz",
+                t=trace.t,
+                ref=trace.ref,
+                pos=trace.pos,
+                line=trace.line,
+                err_um=trace.err_um,
+                force_N=trace.force_N,
+            )
         if plots:
             from gantry_sim.sim.error_plot import save_error_plot
             from gantry_sim.sim.path_plot import save_path_plot

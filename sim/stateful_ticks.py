@@ -5,7 +5,7 @@ integral clamp, the force clamp, the saturation flag) and the transmission of
 :func:`gantry_sim.controller.transmission.motor_side_mm`, unrolled over x, y, z with the same
 operations in the same order, so the forces are those of the law exactly (tests/test_servo_integral.py
 replays the law on a trace; tests/test_backlash.py checks that with ki = 0 and no backlash this
-loop is sim/runner.py's PD loop bit for bit). Used by sim/runner.py only when the machine file
+loop is sim/servo_loop.py's PD loop bit for bit). Used by sim/servo_loop.py only when the machine file
 sets ``[servo] ki_N_per_mm_s`` or ``[sim] backlash_mm``.
 
 Start: the error integral 0, no saturation, each encoder at its axis' position (the axis in the
@@ -16,6 +16,8 @@ from __future__ import annotations
 
 from collections.abc import Callable
 from typing import Any
+
+import numpy as np
 
 from gantry_sim.controller.servo import DiscretePD
 from gantry_sim.sim.machine import MM_PER_M, Gantry
@@ -29,8 +31,6 @@ class StatefulTicks:
         servo: the law (gains, limits, integral gains and clamps).
         backlash_mm: play per axis [mm].
         data: the ``mujoco.MjData`` being stepped (at rest at the first sample).
-        b: (N, 3) drive terms b_k [N] as nested lists.
-        ref_joint: (N, 3) reference in joint coordinates [mm] as nested lists.
     """
 
     def __init__(
@@ -39,12 +39,10 @@ class StatefulTicks:
         servo: DiscretePD,
         backlash_mm,
         data: Any,
-        b: list,
-        ref_joint: list,
     ) -> None:
         import mujoco
 
-        self.gantry, self.servo, self.data, self.b, self.ref = gantry, servo, data, b, ref_joint
+        self.gantry, self.servo, self.data = gantry, servo, data
         self.half = tuple(0.5 * float(v) for v in backlash_mm)
         self.step_physics = mujoco.mj_step
         q = data.qpos.tolist()
@@ -52,11 +50,11 @@ class StatefulTicks:
         self.enc = [q[i] * MM_PER_M for i in gantry.qpos_adr]
         self.integral = [0.0, 0.0, 0.0]
         self.saturated = [0, 0, 0]
-        #: held forces [N], x y z of tick after tick
-        self.force: list[float] = []
 
-    def run(self, lo: int, hi: int, record: Callable[[list[float]], Any]) -> None:
-        """Ticks lo..hi-1; ``record`` receives each tick's qpos (the state at t_k)."""
+    def run(self, b: list, ref: list, record: Callable[[list[float]], Any]) -> np.ndarray:
+        """The next ticks: ``b`` (n, 3) drive terms b_k [N] and ``ref`` (n, 3) reference in joint
+        coordinates [mm], as nested lists; ``record`` receives each tick's qpos (the state at
+        t_k). Returns the held forces (n, 3) [N]."""
         g, servo, d = self.gantry, self.servo, self.data
         m, qpos, ctrl, nsub, step = g.model, d.qpos, d.ctrl, g.substeps, self.step_physics
         ix, iy, iz = g.qpos_adr
@@ -73,8 +71,9 @@ class StatefulTicks:
         px, py, pz = self.enc
         ix_, iy_, iz_ = self.integral
         sx, sy, sz = self.saturated
-        out = self.force.extend
-        for (bx, by, bz), (rx, ry, rz) in zip(self.b[lo:hi], self.ref[lo:hi], strict=True):
+        forces: list[float] = []
+        out = forces.extend
+        for (bx, by, bz), (rx, ry, rz) in zip(b, ref, strict=True):
             q = qpos.tolist()
             record(q)
             # X: encoder (controller.transmission.motor_side_mm), then DiscretePD.step
@@ -121,3 +120,4 @@ class StatefulTicks:
         self.enc = [px, py, pz]
         self.integral = [ix_, iy_, iz_]
         self.saturated = [sx, sy, sz]
+        return np.fromiter(forces, float, len(forces)).reshape(-1, 3)

@@ -69,7 +69,7 @@ def test_stateful_loop_with_zero_state_terms_is_the_pd_loop_bit_for_bit(machine,
     """The runner's stateful loop (integral, backlash) with ki = 0 and no backlash computes the
     same trace and forces as its unrolled PD loop, to the last bit."""
     from gantry_sim.controller.servo import DiscretePD
-    from gantry_sim.sim import runner
+    from gantry_sim.sim import servo_loop
 
     plain = run_program(CIRCLE, machine=machine).trace
 
@@ -80,13 +80,13 @@ def test_stateful_loop_with_zero_state_terms_is_the_pd_loop_bit_for_bit(machine,
             super().__init__(*args, **kwargs)
             self.has_integral = True  # take the stateful path with ki = 0
 
-    class Counted(runner.StatefulTicks):
-        def run(self, lo, hi, record) -> None:
-            chunks.append(hi - lo)
-            super().run(lo, hi, record)
+    class Counted(servo_loop.StatefulTicks):
+        def run(self, b, ref, record):
+            chunks.append(len(b))
+            return super().run(b, ref, record)
 
-    monkeypatch.setattr(runner, "DiscretePD", Forced)
-    monkeypatch.setattr(runner, "StatefulTicks", Counted)
+    monkeypatch.setattr(servo_loop, "DiscretePD", Forced)
+    monkeypatch.setattr(servo_loop, "StatefulTicks", Counted)
     stateful = run_program(CIRCLE, machine=machine).trace
     assert sum(chunks) == plain.t.size
     assert np.array_equal(stateful.pos, plain.pos)

@@ -63,3 +63,25 @@ class Plan:
         else:
             line = np.zeros(n, dtype=np.int64)
         return Trajectory(t=t, pos=pos, vel=vel, acc=acc, line=line, period_s=period_s)
+
+    def sample_count(self, period_s: float) -> int:
+        """How many samples :meth:`sample` takes every ``period_s`` [s]."""
+        if not period_s > 0:
+            raise ConfigError(f"sampling period must be > 0 s, got {period_s}")
+        return int(np.ceil(self.duration_s / period_s - 1e-9)) + 1
+
+    def sample_range(self, period_s: float, k0: int, k1: int) -> Trajectory:
+        """Samples k0..k1-1 of :meth:`sample` (clipped to its length), the same numbers bit for
+        bit (each sample is a function of its own time only; tests/test_stream.py checks), for
+        runs that take the reference range by range instead of all at once."""
+        n = self.sample_count(period_s)
+        t = np.arange(max(0, k0), min(n, k1)) * period_s
+        pos, vel, acc = self.curve.evaluate(t)
+        done = t >= self.duration_s
+        pos[done], vel[done], acc[done] = self.end_mm, 0.0, 0.0
+        if self.move_lines.size:
+            k = np.clip(np.searchsorted(self.move_start_s, t, side="right") - 1, 0, None)
+            line = self.move_lines[k]
+        else:
+            line = np.zeros(t.size, dtype=np.int64)
+        return Trajectory(t=t, pos=pos, vel=vel, acc=acc, line=line, period_s=period_s)

@@ -1,0 +1,184 @@
+"""A run streamed range by range: sample, simulate and analyse STREAM_TICKS servo ticks at a time.
+
+Per range [lo, hi) of the run's N ticks: the plan is sampled over the range and the analysis'
+reference context around it (Plan.sample_range; sim.contour.reference_context), the servo loop
+continues from where the previous range left it (sim.runner.simulate_pieces: MjData, encoders,
+integral and backlash state carried exactly), and the range is analysed (sim.contour
+.analyse_chunk). What is kept for the whole run is what report.json needs -- per tick err_um
+(float64), line (int32) and the feed flag: 13 bytes a tick -- plus running maxima of the forces
+and the saturated-tick counts, and a decimated trace (every ``stride``-th tick and each range's
+worst tick) for the plots. The full-rate arrays of each range go to ``on_range`` (e.g. a
+sim.trace_writer.TraceWriter) and are dropped. The peak memory is therefore that of one range,
+plus 13 bytes a tick.
+
+The figures equal those of the whole-program path (sample, simulate, analyse at once) bit for bit:
+tests/test_stream.py runs both.
+"""
+
+from __future__ import annotations
+
+import time
+from collections import deque
+from collections.abc import Callable, Iterator, Sequence
+from dataclasses import dataclass, replace
+
+import numpy as np
+
+from gantry_sim.controller.config import MachineConfig
+from gantry_sim.controller.moves import Move
+from gantry_sim.controller.planner.result import Plan
+from gantry_sim.controller.trajectory import Trajectory
+from gantry_sim.sim.contour import (
+    Analysis,
+    ChunkAnalysis,
+    analyse_chunk,
+    chord_max_um,
+    combine,
+    reference_context,
+)
+from gantry_sim.sim.machine import Gantry
+from gantry_sim.sim.move_table import move_table
+from gantry_sim.sim.runner import simulate_pieces
+from gantry_sim.sim.trace import Trace
+
+#: servo ticks per range (about 1 minute of machine time at 1 kHz; ~100 MB of arrays at peak)
+STREAM_TICKS = 65536
+#: ticks kept at full rate in the decimated trace at most (about; plus each range's worst)
+DECIMATED_TICKS = 200_000
+
+#: ``on_range(lo, piece, pos, force, analysis)``: one range's full-rate arrays
+OnRange = Callable[[int, Trajectory, np.ndarray, np.ndarray, ChunkAnalysis], object]
+
+
+@dataclass(frozen=True)
+class StreamedRun:
+    """A run streamed range by range.
+
+    Attributes:
+        analysis: the contour analysis (err_um and feed per tick; nearest is not kept: empty).
+        line: (N,) program line per tick (int32).
+        ticks: servo ticks N; duration_s: time of the last tick [s].
+        max_force_N: (3,) largest |force| per axis [N]; saturated_ticks: (3,) ticks at the limit.
+        decimated: the trace every ``stride``-th tick and at each range's worst tick.
+        simulate_s, analyse_s: wall time of the simulation and of the analysis [s].
+    """
+
+    analysis: Analysis
+    line: np.ndarray
+    ticks: int
+    duration_s: float
+    max_force_N: np.ndarray
+    saturated_ticks: np.ndarray
+    decimated: Trace
+    simulate_s: float
+    analyse_s: float
+
+
+def stream_run(
+    moves: Sequence[Move],
+    planned: Plan,
+    machine: MachineConfig,
+    gantry: Gantry,
+    *,
+    range_ticks: int | None = None,
+    on_range: OnRange | None = None,
+    on_ticks: Callable[[int], object] | None = None,
+) -> StreamedRun:
+    """Sample, simulate and analyse ``planned`` ``range_ticks`` (default STREAM_TICKS) servo
+    ticks at a time.
+
+    Raises SimulationError when the run diverges (as sim.runner.simulate). ``on_ticks(n)`` is
+    called as the simulation advances (a progress bar's update).
+    """
+    period = machine.servo.period_s
+    n = planned.sample_count(period)
+    range_ticks = range_ticks or STREAM_TICKS
+    tab = move_table(moves)
+    contexts: deque[tuple[int, Trajectory]] = deque()
+    stride = max(1, n // DECIMATED_TICKS)
+    limit = np.array([[-p.force_min_N, p.force_max_N] for p in gantry.plant]).min(axis=1)
+
+    def pieces() -> Iterator[Trajectory]:
+        for lo in range(0, n, range_ticks):
+            hi = min(n, lo + range_ticks)
+            c0, c1 = reference_context(lo, hi, n)
+            ctx = planned.sample_range(period, c0, c1)
+            contexts.append((c0, ctx))
+            yield ctx.slice(lo - c0, hi - c0)
+
+    chunks: list[ChunkAnalysis] = []
+    lines: list[np.ndarray] = []
+    kept: list[tuple[np.ndarray, Trajectory, np.ndarray, np.ndarray, ChunkAnalysis]] = []
+    max_force, saturated = np.zeros(3), np.zeros(3, dtype=np.int64)
+    sim_s = ana_s = 0.0
+    start = planned.sample_range(period, 0, 1).pos[0]
+    lo = 0
+    t0 = time.perf_counter()
+    for pos, force in simulate_pieces(gantry, machine, pieces(), start, on_ticks):
+        t1 = time.perf_counter()
+        sim_s += t1 - t0
+        c0, ctx = contexts.popleft()
+        piece = ctx.slice(lo - c0, lo - c0 + pos.shape[0])
+        part = analyse_chunk(tab, piece.line, pos, ctx.pos, lo - c0)
+        if on_range is not None:
+            on_range(lo, piece, pos, force, part)
+        absf = np.abs(force)
+        if absf.size:
+            max_force = np.maximum(max_force, absf.max(axis=0))
+        saturated += (absf >= limit * (1 - 1e-12)).sum(axis=0)
+        rows = np.arange(lo, lo + pos.shape[0])
+        pick = (rows % stride == 0) | (rows == lo + int(np.argmax(part.err_um)))
+        kept.append(_decimate((rows[pick], piece, pos[pick], force[pick], part), pick))
+        chunks.append(replace(part, nearest=np.zeros((0, 3))))
+        lines.append(piece.line.astype(np.int32))
+        lo += pos.shape[0]
+        t0 = time.perf_counter()
+        ana_s += t0 - t1
+    line = np.concatenate(lines) if lines else np.zeros(0, dtype=np.int32)
+    t1 = time.perf_counter()
+    analysis = combine(tab, line, chunks, chord_max_um(moves, planned.vertices, tab))
+    ana_s += time.perf_counter() - t1
+    return StreamedRun(
+        analysis=analysis,
+        line=line,
+        ticks=n,
+        duration_s=(n - 1) * period if n else 0.0,
+        max_force_N=max_force,
+        saturated_ticks=saturated,
+        decimated=_join_decimated(kept),
+        simulate_s=sim_s,
+        analyse_s=ana_s,
+    )
+
+
+def _decimate(item, pick: np.ndarray):
+    """The picked ticks of one range, as small copies (the range's arrays can be freed)."""
+    rows, piece, pos, force, part = item
+    small = Trajectory(
+        t=piece.t[pick].copy(),
+        pos=piece.pos[pick].copy(),
+        vel=piece.vel[pick].copy(),
+        acc=piece.acc[pick].copy(),
+        line=piece.line[pick].copy(),
+        period_s=piece.period_s,
+    )
+    small_part = replace(
+        part, err_um=part.err_um[pick], nearest=part.nearest[pick], feed=part.feed[pick]
+    )
+    return rows, small, pos, force, small_part
+
+
+def _join_decimated(kept) -> Trace:
+    def cat(arrays, shape):
+        return np.concatenate(arrays) if arrays else np.zeros(shape)
+
+    return Trace(
+        t=cat([k[1].t for k in kept], (0,)),
+        ref=cat([k[1].pos for k in kept], (0, 3)),
+        pos=cat([k[2] for k in kept], (0, 3)),
+        line=cat([k[1].line for k in kept], (0,)).astype(np.int64),
+        err_um=cat([k[4].err_um for k in kept], (0,)),
+        nearest=cat([k[4].nearest for k in kept], (0, 3)),
+        feed=cat([k[4].feed for k in kept], (0,)).astype(bool),
+        force_N=cat([k[3] for k in kept], (0, 3)),
+    )

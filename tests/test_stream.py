@@ -1,0 +1,109 @@
+"""The streamed run (sim/stream.py) gives the whole-program run's numbers bit for bit."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from gantry_sim.controller.gcode.interpreter import interpret
+from gantry_sim.controller.planner.plan import plan
+from gantry_sim.sim.contour import analyse
+from gantry_sim.sim.machine import load_gantry
+from gantry_sim.sim.runner import simulate
+from gantry_sim.sim.stream import stream_run
+
+# ~1.5 s: a rapid, a circle, short chords, a Z plunge: several ranges of 300 ticks
+PROGRAM = (
+    "G21 G17 G90 G94\nG0 X1 Y1\nG1 X5 Y0 F2000\nG3 I-5 J0\n"
+    + "".join(f"G1 X{5 - 0.3 * i:g} Y{0.1 * (i % 2):g}\n" for i in range(1, 12))
+    + "G1 Z-1\nG0 Z2\nM2\n"
+)
+
+
+def _planned(machine):
+    moves = tuple(interpret(PROGRAM, "linuxcnc", "t"))
+    return moves, plan(moves, machine)
+
+
+def test_sample_range_is_a_slice_of_sample_bit_for_bit(machine):
+    _, planned = _planned(machine)
+    period = machine.servo.period_s
+    whole = planned.sample(period)
+    n = whole.t.size
+    for k0, k1 in ((0, 1), (0, 7), (5, 300), (n - 10, n), (n - 3, n + 50), (0, n)):
+        part = planned.sample_range(period, k0, k1)
+        for name in ("t", "pos", "vel", "acc", "line"):
+            assert np.array_equal(getattr(part, name), getattr(whole, name)[k0:k1]), name
+
+
+@pytest.mark.parametrize("stateful", [False, True])
+def test_streamed_run_equals_the_whole_program_run(machine, stateful):
+    if stateful:
+        machine = machine.with_changes("servo", ki_N_per_mm_s=[40.0, 40.0, 60.0]).with_changes(
+            "sim", backlash_mm=[0.01, 0.02, 0.005]
+        )
+    moves, planned = _planned(machine)
+    gantry = load_gantry(machine)
+    traj = planned.sample(machine.servo.period_s)
+    sim = simulate(gantry, machine, traj)
+    whole = analyse(moves, traj.line, traj.pos, sim.pos, planned.vertices)
+
+    ranges = []
+    streamed = stream_run(
+        moves, planned, machine, gantry, range_ticks=300, on_range=lambda *a: ranges.append(a)
+    )
+    n = traj.t.size
+    assert streamed.ticks == n and len(ranges) == -(-n // 300) > 3
+    got = streamed.analysis
+    assert got.contour == whole.contour and got.parts == whole.parts
+    assert got.blocks == whole.blocks
+    assert np.array_equal(got.err_um, whole.err_um) and np.array_equal(got.feed, whole.feed)
+    assert np.array_equal(streamed.line, traj.line)
+    # full-rate arrays, range by range, are the whole run's
+    assert [lo for lo, *_ in ranges] == list(range(0, n, 300))
+    cat = np.concatenate
+    assert np.array_equal(cat([r[1].t for r in ranges]), traj.t)
+    assert np.array_equal(cat([r[1].pos for r in ranges]), traj.pos)
+    assert np.array_equal(cat([r[2] for r in ranges]), sim.pos)
+    assert np.array_equal(cat([r[3] for r in ranges]), sim.force)
+    assert np.array_equal(cat([r[4].nearest for r in ranges]), whole.nearest)
+    # running figures of the forces
+    assert np.array_equal(streamed.max_force_N, np.abs(sim.force).max(axis=0))
+    # the decimated trace: rows of the whole trace, with each range's worst tick
+    dec = streamed.decimated
+    rows = np.searchsorted(traj.t, dec.t)
+    assert np.array_equal(traj.t[rows], dec.t)
+    assert np.array_equal(sim.pos[rows], dec.pos) and np.array_equal(whole.err_um[rows], dec.err_um)
+    assert dec.err_um.max() == whole.err_um.max()
+
+
+def test_run_program_streams_long_runs_with_the_same_outputs(machine, monkeypatch, tmp_path):
+    """run_program streams a run beyond STREAM_ABOVE_TICKS: report.json (bar the wall-clock
+    timings) and trace.npz equal the whole-program run's bit for bit; the RunResult's trace is
+    decimated rows of the whole one."""
+    import json
+
+    from gantry_sim.sim import api, blend_parts, stream
+
+    whole = api.run_program(PROGRAM, machine=machine)
+    api.write_run_outputs(whole, tmp_path / "whole", plots=False, deterministic=True)
+    monkeypatch.setattr(api, "STREAM_ABOVE_TICKS", 0)
+    monkeypatch.setattr(stream, "STREAM_TICKS", 256)
+    monkeypatch.setattr(stream, "DECIMATED_TICKS", 100)
+    monkeypatch.setattr(blend_parts, "RANGE_TICKS", 256)  # the reference split range by range
+    streamed = api.run_program(PROGRAM, machine=machine)
+    assert streamed.trace_file is not None and streamed.trace.t.size < whole.trace.t.size / 5
+    api.write_run_outputs(streamed, tmp_path / "streamed", plots=True, deterministic=True)
+    a, b = (json.loads((tmp_path / d / "report.json").read_text()) for d in ("whole", "streamed"))
+    assert set(b["timing_s"]) - set(a["timing_s"]) == {"trace"}
+    a.pop("timing_s")
+    b.pop("timing_s")
+    assert a == b
+    with (
+        np.load(tmp_path / "whole" / "trace.npz") as x,
+        np.load(tmp_path / "streamed" / "trace.npz") as y,
+    ):
+        assert sorted(x.files) == sorted(y.files)
+        for name in x.files:
+            assert x[name].dtype == y[name].dtype and np.array_equal(x[name], y[name]), name
+    assert (tmp_path / "streamed" / "path.png").stat().st_size > 0
