@@ -11,7 +11,6 @@ import shutil
 import signal
 import subprocess
 import sys
-import sysconfig
 import time
 from collections.abc import Iterator
 from importlib.metadata import version
@@ -131,20 +130,38 @@ def test_the_model_goes_as_data_to_a_worker_that_cannot_see_it(
         assert line.split(",")[4] == repr(row["max_error_um"])
 
 
+NO_GANTRY_SIM = """import sys
+
+
+class _NoGantrySim:
+    def find_spec(self, name, path=None, target=None):
+        if name == "gantry_sim" or name.startswith("gantry_sim."):
+            raise ModuleNotFoundError(f"No module named {name!r}", name=name)
+        return None
+
+
+sys.meta_path.insert(0, _NoGantrySim())
+"""
+
+
 def test_a_worker_without_gantry_sim_is_a_clear_error_not_a_hang(
     tmp_path, scheduler, start_worker, capsys
 ):
-    # -S: no .pth files, so the editable gantry-sim is not importable; Dask still is
-    env = dict(os.environ, PYTHONPATH=sysconfig.get_paths()["purelib"])
+    # A Python where Dask imports and gantry_sim does not, however gantry-sim is installed
+    # (editable or not): a sitecustomize on the worker's path refuses the package's import.
+    blocker = tmp_path / "no_gantry_sim"
+    blocker.mkdir()
+    (blocker / "sitecustomize.py").write_text(NO_GANTRY_SIM)
+    env = dict(os.environ, PYTHONPATH=str(blocker))
     probe = subprocess.run(
-        [sys.executable, "-S", "-c", "import distributed; import gantry_sim.sim"],
+        [sys.executable, "-c", "import distributed; import gantry_sim.sim"],
         env=env,
         capture_output=True,
         text=True,
         timeout=60,
     )
     assert "No module named 'gantry_sim'" in probe.stderr  # the environment we mean
-    start_worker(scheduler, tmp_path, env=env, python=(sys.executable, "-S"))
+    start_worker(scheduler, tmp_path, env=env)
     prog = tmp_path / "p.ngc"
     prog.write_text(TINY)
     t0 = time.monotonic()

@@ -16,9 +16,9 @@ from pathlib import Path
 import pytest
 from test_faults_sweep import _children, _gone
 
-# 90 s simulated at 100 %: the 200 % and 150 % points take about 0.5 s of computing each, the
-# 60 % points about 1.5 s, so the slow pair is running when Ctrl-C comes.
-PROGRAM = "G21 G90\nG1 X150 F100\nM2\n"
+# 240 s simulated at 100 %: the 200 % and 150 % points take about 1-3 s of computing each, the
+# 60 % points about 3-8 s (idle or loaded machine), so the slow pair is running when Ctrl-C comes.
+PROGRAM = "G21 G90\nG0 X-200\nG1 X200 F100\nM2\n"
 GRID = "200,150,60,61"
 
 
