@@ -30,7 +30,14 @@ def _sweep(prog: Path, out: Path) -> subprocess.Popen:
         stderr=subprocess.PIPE,
         text=True,
         start_new_session=True,  # its own process group, as a terminal's foreground job
+        # as a terminal's job: Ctrl-C delivered (a test runner started in the background by a
+        # non-interactive shell passes SIGINT on ignored, and an ignored signal stays ignored)
+        preexec_fn=_default_sigint,
     )
+
+
+def _default_sigint() -> None:
+    signal.signal(signal.SIGINT, signal.SIG_DFL)
 
 
 def _lines(path: Path) -> list[str]:
