@@ -50,19 +50,7 @@ class Plan:
     def sample(self, period_s: float) -> Trajectory:
         """The reference every ``period_s`` [s] from 0 to the end; the last sample is at rest at
         the program's end exactly (time ceil(duration / period) * period)."""
-        if not period_s > 0:
-            raise ConfigError(f"sampling period must be > 0 s, got {period_s}")
-        n = int(np.ceil(self.duration_s / period_s - 1e-9)) + 1
-        t = np.arange(n) * period_s
-        pos, vel, acc = self.curve.evaluate(t)
-        done = t >= self.duration_s
-        pos[done], vel[done], acc[done] = self.end_mm, 0.0, 0.0
-        if self.move_lines.size:
-            k = np.clip(np.searchsorted(self.move_start_s, t, side="right") - 1, 0, None)
-            line = self.move_lines[k]
-        else:
-            line = np.zeros(n, dtype=np.int64)
-        return Trajectory(t=t, pos=pos, vel=vel, acc=acc, line=line, period_s=period_s)
+        return self.sample_range(period_s, 0, self.sample_count(period_s))
 
     def sample_count(self, period_s: float) -> int:
         """How many samples :meth:`sample` takes every ``period_s`` [s]."""
