@@ -253,7 +253,7 @@ def _streamed(
 def _program_text(program: str | os.PathLike[str], file: str | None) -> tuple[str, str]:
     """(text, name) of ``program``: a path is read, a str is the text (see run_program)."""
     if isinstance(program, os.PathLike):
-        from gantry_sim.sim.commands.common import read_program
+        from gantry_sim.sim.program import read_program
 
         path = Path(program)
         return read_program(path), file if file is not None else str(path)

@@ -6,7 +6,8 @@ The interpreter gets the machine file's tool table and initial offsets (``[tools
 files (the program's own first, then ``--subroutine-path``), and the bound on loops and calls.
 A refused program stops at its first refused line, as before; when other lines are refused too,
 the error says how many and that ``gantry parse --all-errors`` lists them all, so a user fixes a
-program in one pass.
+program in one pass. :func:`read_program` reads a program file as text, for the commands and the
+Python API alike.
 """
 
 from __future__ import annotations
@@ -108,3 +109,28 @@ def _other_refused_lines(text: str, dialect: str, file: str, kwargs: dict[str, A
     except GantryError:
         pass  # more than MAX_ERRORS: the count so far
     return max(len(errors) - 1, 0)
+
+
+def read_program(path: Path) -> str:
+    """Read a G-code program as text; unreadable or non-text files are a GcodeError."""
+    try:
+        data = path.read_bytes()
+    except FileNotFoundError:
+        raise GcodeError("program file not found", file=str(path)) from None
+    except IsADirectoryError:
+        raise GcodeError(
+            "program path is a directory, expected a G-code file", file=str(path)
+        ) from None
+    except OSError as exc:
+        raise GcodeError(f"cannot read program: {exc.strerror}", file=str(path)) from None
+    if b"\x00" in data:
+        raise GcodeError("not a G-code text file (it contains NUL bytes)", file=str(path))
+    try:
+        return data.decode("utf-8")
+    except UnicodeDecodeError as exc:
+        line = data[: exc.start].count(b"\n") + 1
+        raise GcodeError(
+            "not a G-code text file (invalid UTF-8); programs are ASCII/UTF-8 text",
+            file=str(path),
+            line=line,
+        ) from None

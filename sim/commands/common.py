@@ -6,8 +6,8 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
-from gantry_sim.controller.errors import GcodeError
 from gantry_sim.controller.gcode.dialects import DIALECTS
+from gantry_sim.sim.program import read_program as read_program  # the commands read through it
 
 #: the one default output folder of every command that writes files (run, ballbar, tune, sweep);
 #: their file names differ, so they can share it
@@ -36,31 +36,6 @@ def load_machine(path: Path | None):
     from gantry_sim.models import DEFAULT_MACHINE
 
     return load_machine_config(DEFAULT_MACHINE, path)
-
-
-def read_program(path: Path) -> str:
-    """Read a G-code program as text; unreadable or non-text files are a GcodeError."""
-    try:
-        data = path.read_bytes()
-    except FileNotFoundError:
-        raise GcodeError("program file not found", file=str(path)) from None
-    except IsADirectoryError:
-        raise GcodeError(
-            "program path is a directory, expected a G-code file", file=str(path)
-        ) from None
-    except OSError as exc:
-        raise GcodeError(f"cannot read program: {exc.strerror}", file=str(path)) from None
-    if b"\x00" in data:
-        raise GcodeError("not a G-code text file (it contains NUL bytes)", file=str(path))
-    try:
-        return data.decode("utf-8")
-    except UnicodeDecodeError as exc:
-        line = data[: exc.start].count(b"\n") + 1
-        raise GcodeError(
-            "not a G-code text file (invalid UTF-8); programs are ASCII/UTF-8 text",
-            file=str(path),
-            line=line,
-        ) from None
 
 
 def work_offset(text: str) -> tuple[float, float, float]:
