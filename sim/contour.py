@@ -32,6 +32,7 @@ from gantry_sim.controller.units import UM_PER_MM
 from gantry_sim.sim.move_table import MoveTable, move_table
 from gantry_sim.sim.nearest import nearest_on_moves
 from gantry_sim.sim.program_distance import distance_to_moves, distance_to_program, line_ranges
+from gantry_sim.sim.tracking import max_distance_to_polyline_near
 
 __all__ = [
     "Analysis",
@@ -49,7 +50,6 @@ __all__ = [
     "feed_samples",
     "reference_context",
 ]
-from gantry_sim.sim.tracking import max_distance_to_polyline_near
 
 #: reference samples either side searched for the tracking part (50 ms at 1 kHz)
 TRACKING_WINDOW = 50

@@ -136,6 +136,14 @@ def _label(c: tuple[float | None, float | None]) -> str:
     return f"accel {a}, jerk {j}"
 
 
+def _finish(fig: Figure, ax: Any, bottom: float) -> None:
+    """Grid, legend (when something is labelled) and layout above the faulted-points note."""
+    ax.grid(alpha=0.3)
+    if ax.get_legend_handles_labels()[0]:
+        ax.legend(fontsize=7, loc="lower right")
+    fig.tight_layout(rect=(0, bottom, 1, 1))
+
+
 def _faulted_note(fig: Figure, faulted: Sequence[Mapping[str, Any]]) -> float:
     """List the faulted points under the plot; returns the figure fraction it takes."""
     if not faulted:
@@ -194,10 +202,7 @@ def sweep_figures(rows: Sequence[Mapping[str, Any]]) -> tuple[Figure, Figure]:
         f"error {_spread(errors, 'um')}",
         fontsize=9,
     )
-    ax.grid(alpha=0.3)
-    if ax.get_legend_handles_labels()[0]:
-        ax.legend(fontsize=7, loc="lower right")
-    fig.tight_layout(rect=(0, bottom, 1, 1))
+    _finish(fig, ax, bottom)
     by_feed = fig
 
     fig = _figure((7.5, 4.8))
@@ -230,8 +235,5 @@ def sweep_figures(rows: Sequence[Mapping[str, Any]]) -> tuple[Figure, Figure]:
         f"error {_spread(errors, 'um')}; cycle {_spread(cycles, 's')}",
         fontsize=9,
     )
-    ax.grid(alpha=0.3)
-    if ax.get_legend_handles_labels()[0]:
-        ax.legend(fontsize=7, loc="lower right")
-    fig.tight_layout(rect=(0, bottom, 1, 1))
+    _finish(fig, ax, bottom)
     return by_feed, fig
