@@ -39,7 +39,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
 from benchmarks.junction_floor import junction_floor
 from gantry_sim.controller.arcs import arc_derivatives, arc_frame
 from gantry_sim.controller.config import load_machine_config
-from gantry_sim.controller.errors import PlanningError
+from gantry_sim.controller.errors import PlannerFailure, PlanningError
 from gantry_sim.controller.moves import Arc, Linear, Rapid
 from gantry_sim.controller.planes import PLANE_AXES
 from gantry_sim.controller.planner.limits import s_curve_time
@@ -307,7 +307,7 @@ def main(argv=None) -> int:
         if small:
             try:
                 ref_rk = reference_error(plan(moves, machine, arc_pieces="ruckig"), moves) / tol
-            except PlanningError:  # Ruckig failed on a piece even without minimum_duration
+            except (PlanningError, PlannerFailure):  # Ruckig failed on a piece
                 ref_rk = float("inf")
         bound, floor, junc = lower_bound(moves, lim, 0.25 * tol)
         ratios_c.append(p.duration_s / bound)

@@ -63,8 +63,8 @@ class EndState(NamedTuple):
 @dataclass(frozen=True, eq=False)
 class JunctionState:
     """The reference's state at a junction per unit speed: passing at speed v it has velocity
-    v * ``direction`` and acceleration v^2 * ``curvature_per_mm`` (the tangential part is 0 at
-    junctions).
+    v * ``direction`` and acceleration v^2 * ``curvature_per_mm`` plus its tangential acceleration along
+    ``direction`` (0 where a move's own profile starts or ends).
 
     Attributes:
         direction: unit velocity direction (3,) (zeros at the start of an empty program).
@@ -74,9 +74,12 @@ class JunctionState:
     direction: np.ndarray
     curvature_per_mm: np.ndarray
 
-    def at(self, speed_mm_per_s: float) -> EndState:
-        """The state when passed at ``speed_mm_per_s``."""
-        return EndState(self.direction * speed_mm_per_s, self.curvature_per_mm * speed_mm_per_s**2)
+    def at(self, speed_mm_per_s: float, acc_t_mm_per_s2: float = 0.0) -> EndState:
+        """The state when passed at ``speed_mm_per_s`` with the tangential acceleration
+        ``acc_t_mm_per_s2`` (non-zero only inside a chain, see
+        :mod:`~gantry_sim.controller.planner.chains`)."""
+        acc = self.curvature_per_mm * speed_mm_per_s**2 + self.direction * acc_t_mm_per_s2
+        return EndState(self.direction * speed_mm_per_s, acc)
 
 
 def junction_cap(

@@ -40,12 +40,18 @@ from gantry_sim.controller.errors import ConfigError, PlannerFailure, PlanningEr
 from gantry_sim.controller.moves import Arc, Dwell, Event, Linear, Move, Rapid
 from gantry_sim.controller.moves import Limits as LimitsEvent
 from gantry_sim.controller.planner.blend import PathPlan, path_plan
+from gantry_sim.controller.planner.chains import (
+    chain_limits,
+    chain_spans,
+    split_profile,
+)
 from gantry_sim.controller.planner.junctions import (
     JunctionState,
     feasible_junction_caps,
     junction_caps,
 )
 from gantry_sim.controller.planner.limit_events import concatenate, split_at_limits
+from gantry_sim.controller.planner.limits import BlockLimits
 from gantry_sim.controller.planner.lookahead import plan_junction_speeds
 from gantry_sim.controller.planner.move_geometry import (
     ArcGeometry,
@@ -243,9 +249,16 @@ def _replan_until_junctions_hold(
     """Plan the moves; while pieces next to moving junctions leave the arc, lower those
     junctions' caps (``caps`` is changed) by :data:`JUNCTION_BACKOFF` and plan again, at most
     :data:`MAX_ROUNDS` times; in the last round the junctions still offending become stops."""
+    blocks = [g.limits for g in active]
     for rnd in range(MAX_ROUNDS + 1):
-        speeds = plan_junction_speeds([g.limits for g in active], caps)
-        done = _plan_round(active, speeds, states, machine, solver, arc_pieces, holds, smoothing)
+        spans = chain_spans(blocks, caps)
+        chained = [chain_limits(blocks[first:stop]) for first, stop in spans]
+        ends = [first for first, _ in spans] + [len(active)]
+        speeds = np.full(len(active) + 1, np.nan)
+        speeds[ends] = plan_junction_speeds(chained, caps[ends])
+        done = _plan_round(
+            active, spans, speeds, states, machine, solver, arc_pieces, holds, smoothing
+        )
         if not done.bad_junctions:
             break
         for b in done.bad_junctions:
@@ -255,6 +268,7 @@ def _replan_until_junctions_hold(
 
 def _plan_round(
     active: list[MoveGeometry],
+    spans: list[tuple[int, int]],
     speeds: np.ndarray,
     states: list[JunctionState],
     machine: MachineConfig,
@@ -263,11 +277,15 @@ def _plan_round(
     holds: dict[int, list[Dwell]],
     smoothing: list[float],
 ) -> _Round:
-    """Every move's profile and pieces for the junction speeds ``speeds`` [mm/s]; the dwells
-    ``holds`` (per junction) hold the reference still for their time."""
+    """Every move's profile and pieces: one profile per chain (``spans``,
+    :func:`~gantry_sim.controller.planner.chains.chain_limits`) between the junction speeds
+    ``speeds`` [mm/s] at the chains' ends (set here at the junctions inside chains: the
+    profile's speed there); the dwells ``holds`` (per junction) hold the reference still for
+    their time."""
     tol = machine.segmentation.chord_tolerance_mm
     pieces, bad = MovePieces(machine.limits, tol, arc_pieces, solver), set()
     boost_cache: dict = {}
+    acc_t = np.zeros(len(active) + 1)
     clock, starts, lines = 0.0, [], []
 
     def hold(b: int) -> float:
@@ -278,40 +296,55 @@ def _plan_round(
                 pieces.out.add(i, [dw.seconds], [dw.position[i]], [0.0], [0.0], [0.0])
         return sum(dw.seconds for dw in holds.get(b, ()))
 
-    for b, g in enumerate(active):
-        clock += hold(b)
-        starts.append(clock)
-        lines.append(g.move.line)
-        prof = _path_profile(solver, g, speeds[b], speeds[b + 1])
-        if isinstance(g, ArcGeometry):
-            fast = boosted_profile(
-                g, speeds[b], speeds[b + 1], prof, machine.limits, solver, boost_cache
+    for first, stop in spans:
+        lim = chain_limits([g.limits for g in active[first:stop]])
+        prof = _path_profile(solver, active[first].move, lim, speeds[first], speeds[stop])
+        if stop - first == 1:
+            parts = [prof]
+        else:
+            lengths = [g.length_mm for g in active[first:stop]]
+            parts, speeds[first + 1 : stop], acc_t[first + 1 : stop] = split_profile(prof, lengths)
+        for b, part in zip(range(first, stop), parts, strict=True):
+            g = active[b]
+            clock += hold(b)
+            starts.append(clock)
+            lines.append(g.move.line)
+            if not isinstance(g, ArcGeometry):
+                clock += pieces.straight(g, part)
+                continue
+            fast = (
+                boosted_profile(
+                    g, speeds[b], speeds[b + 1], part, machine.limits, solver, boost_cache
+                )
+                if stop - first == 1
+                else ()
             )
-            s_in, s_out = states[b].at(speeds[b]), states[b + 1].at(speeds[b + 1])
-            dur, bad_in, bad_out = pieces.arc(g, prof, s_in, s_out, fast, smoothing[b])
+            s_in = states[b].at(speeds[b], acc_t[b])
+            s_out = states[b + 1].at(speeds[b + 1], acc_t[b + 1])
+            dur, bad_in, bad_out = pieces.arc(g, part, s_in, s_out, fast, smoothing[b])
             clock += dur
             bad |= {b} if bad_in else set()
             bad |= {b + 1} if bad_out else set()
-        else:
-            clock += pieces.straight(g, prof)
     clock += hold(len(active))
     return _Round(pieces, clock, starts, bad, lines)
 
 
-def _path_profile(solver: RuckigSolver, g: MoveGeometry, v_in: float, v_out: float) -> Profile1D:
-    """The move's 1-D profile from ``v_in`` to ``v_out`` [mm/s] under its block limits."""
-    lim = g.limits
+def _path_profile(
+    solver: RuckigSolver, move: Move, lim: BlockLimits, v_in: float, v_out: float
+) -> Profile1D:
+    """The 1-D profile of a block (one move, or a chain starting with ``move``) from ``v_in``
+    to ``v_out`` [mm/s] under its limits."""
     try:
         return solver.profile(
-            g.length_mm, v_in, v_out, lim.cap_mm_per_s, lim.acc_mm_per_s2, lim.jerk_mm_per_s3
+            lim.length_mm, v_in, v_out, lim.cap_mm_per_s, lim.acc_mm_per_s2, lim.jerk_mm_per_s3
         )
     except RuckigRejected as exc:
         raise PlannerFailure(
-            f"no speed profile along this {g.move.kind} move fits the machine's limits "
+            f"no speed profile along this {move.kind} move fits the machine's limits "
             f"(Ruckig: {exc.reason})",
-            g.move.line,
+            move.line,
         ) from None
     except ProfileReverses:
         raise PlanningError(
-            "the speed profile would reverse along the path", line=g.move.line
+            "the speed profile would reverse along the path", line=move.line
         ) from None

@@ -1,0 +1,94 @@
+"""Chains: runs of moves planned as one 1-D speed profile.
+
+Where consecutive moves have the same speed cap and the junctions between them do not bind
+(each junction's cap is at least that cap), the reference does not need to slow down, nor to
+bring its tangential acceleration to 0, at those junctions. Planning each move alone would do
+both: a chain of short moves (a circle written as 360 G1 segments and blended in G64, tangent
+arcs, a CAM surface's polyline) would then ramp its speed in a staircase, one move at a time,
+and take several times as long as the same path written as one arc. A chain is planned instead
+as one block of the look-ahead (:func:`chain_limits`: its length, and the lowest of its moves'
+limits), its profile is one Ruckig profile, and :func:`split_profile` cuts that profile at the
+moves' ends: each move gets its own part, and the junctions between them get the profile's
+speed and tangential acceleration there.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+
+import numpy as np
+
+from gantry_sim.controller.planner.limits import BlockLimits
+from gantry_sim.controller.planner.profile import Profile1D
+
+#: Relative difference of two speed caps [1] below which moves can share one profile.
+SAME_CAP_REL = 1e-9
+
+
+def chain_spans(blocks: Sequence[BlockLimits], caps: np.ndarray) -> list[tuple[int, int]]:
+    """Split the moves into chains ``[(first, stop), ...]`` (``stop`` exclusive, in order,
+    covering every move): a junction ``b`` (between moves ``b - 1`` and ``b``) is inside a chain
+    when both moves have the same speed cap (to :data:`SAME_CAP_REL`) and the junction's cap
+    ``caps[b]`` [mm/s] is at least that cap."""
+    spans, first = [], 0
+    for b in range(1, len(blocks)):
+        c0, c1 = blocks[b - 1].cap_mm_per_s, blocks[b].cap_mm_per_s
+        top = max(c0, c1)
+        joined = abs(c0 - c1) <= SAME_CAP_REL * top and caps[b] >= top * (1.0 - SAME_CAP_REL)
+        if not joined:
+            spans.append((first, b))
+            first = b
+    if blocks:
+        spans.append((first, len(blocks)))
+    return spans
+
+
+def chain_limits(blocks: Sequence[BlockLimits]) -> BlockLimits:
+    """One block for a chain: its total length [mm] and the lowest of its moves' speed cap,
+    acceleration and jerk limits (every move's own limits hold along the whole profile)."""
+    if len(blocks) == 1:
+        return blocks[0]
+    return BlockLimits(
+        length_mm=float(sum(b.length_mm for b in blocks)),
+        cap_mm_per_s=min(b.cap_mm_per_s for b in blocks),
+        acc_mm_per_s2=min(b.acc_mm_per_s2 for b in blocks),
+        jerk_mm_per_s3=min(b.jerk_mm_per_s3 for b in blocks),
+    )
+
+
+def split_profile(
+    profile: Profile1D, lengths_mm: Sequence[float]
+) -> tuple[list[Profile1D], np.ndarray, np.ndarray]:
+    """Cut a chain's ``profile`` at the ends of its moves (``lengths_mm``, summing to the
+    profile's length).
+
+    Returns:
+        (parts, speeds, accelerations): one profile per move, its arc length counted from the
+        move's start; and at the k - 1 inner junctions, the path speed [mm/s] and tangential
+        acceleration [mm/s^2] where the profile passes them.
+    """
+    rows = profile.rows[profile.rows[:, 0] > 0]
+    dur, s0, v0, a0, j0 = rows.T
+    t_start = np.concatenate(([0.0], np.cumsum(dur)))
+    bounds = np.concatenate(([0.0], np.cumsum(lengths_mm)))
+    t_cut, v_cut, a_cut = profile.invert(bounds[1:-1])
+    t_cut = np.maximum.accumulate(np.clip(t_cut, 0.0, t_start[-1]))
+    times = np.union1d(t_start, t_cut)
+    t_lo, t_hi = times[:-1], times[1:]
+    k = np.clip(np.searchsorted(t_start, t_lo, side="right") - 1, 0, dur.size - 1)
+    tau = t_lo - t_start[k]
+    jk = j0[k]
+    a = a0[k] + tau * jk
+    v = v0[k] + tau * (a0[k] + 0.5 * tau * jk)
+    s = s0[k] + tau * (v0[k] + tau * (0.5 * a0[k] + tau * jk / 6.0))
+    owner = np.searchsorted(t_cut, t_lo, side="right")
+    s = np.maximum(s - bounds[owner], 0.0)
+    table = np.column_stack([t_hi - t_lo, s, v, a, jk])
+    parts = []
+    for m in range(len(lengths_mm)):
+        mine = table[(owner == m) & (table[:, 0] > 0)]
+        if mine.size == 0:  # a move the profile passes in no time: hold its start state
+            mine = np.zeros((1, 5))
+        mine[0, 1] = 0.0
+        parts.append(Profile1D(mine))
+    return parts, v_cut, a_cut
