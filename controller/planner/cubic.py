@@ -9,6 +9,7 @@ cubic per axis: a 60 s program at 1 kHz samples in milliseconds.
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from dataclasses import dataclass
 
 import numpy as np
@@ -29,16 +30,29 @@ class CubicBuilder:
         c[3].extend(a)
         c[4].extend(j)
 
+    def chunk(self) -> tuple[tuple[np.ndarray, ...], ...]:
+        """The phases collected, per axis (duration, p, v, a, j) as arrays."""
+        return tuple(tuple(np.asarray(x, dtype=float) for x in c) for c in self.cols)
+
     def build(self) -> PiecewiseCubic:
-        axes = []
-        for c in self.cols:
-            dur = np.asarray(c[0], dtype=float)
-            t0 = np.concatenate(([0.0], np.cumsum(dur)[:-1])) if dur.size else dur
-            arrs = [t0] + [np.asarray(x, dtype=float) for x in c[1:]]
-            for arr in arrs:
-                arr.setflags(write=False)
-            axes.append(tuple(arrs))
-        return PiecewiseCubic(tuple(axes))
+        return phases_from_chunks([self.chunk()])
+
+
+def phases_from_chunks(chunks: Sequence[tuple[tuple[np.ndarray, ...], ...]]) -> PiecewiseCubic:
+    """One :class:`PiecewiseCubic` from stretches of phases in time order, each per axis
+    (duration [s], p, v, a, j) as arrays."""
+    axes = []
+    for i in range(3):
+        cols = [
+            np.concatenate([c[i][k] for c in chunks]) if chunks else np.zeros(0) for k in range(5)
+        ]
+        dur = cols[0]
+        t0 = np.concatenate(([0.0], np.cumsum(dur)[:-1])) if dur.size else dur
+        arrs = [t0, *cols[1:]]
+        for arr in arrs:
+            arr.setflags(write=False)
+        axes.append(tuple(arrs))
+    return PiecewiseCubic(tuple(axes))
 
 
 @dataclass(frozen=True)

@@ -22,61 +22,43 @@
 5. All pieces are stored as constant-jerk phases (:mod:`~gantry_sim.controller.planner.cubic`)
    and sampled vectorised.
 
-Steps 3-4 run in a re-planning loop (:func:`_replan_until_junctions_hold`): a piece next to a
-moving junction that leaves the arc, or that Ruckig had to stretch, lowers that junction's speed
-and the program is planned again. A Ruckig piece that fails even without ``minimum_duration``
+Steps 3-4 run in re-planning rounds (:mod:`~gantry_sim.controller.planner.rounds`, which
+re-plans only the chains whose end speeds changed): a piece next to a moving junction that
+leaves the arc, or that Ruckig had to stretch, lowers that junction's speed and the program is
+planned again. A Ruckig piece that fails even without ``minimum_duration``
 raises :class:`PlanningError` naming the line: never a reference beyond the limits.
 """
 
 from __future__ import annotations
 
 from collections.abc import Sequence
-from dataclasses import dataclass
 
 import numpy as np
 
 from gantry_sim.controller.config import MachineConfig
-from gantry_sim.controller.errors import ConfigError, PlannerFailure, PlanningError
+from gantry_sim.controller.errors import ConfigError
 from gantry_sim.controller.moves import Arc, Dwell, Event, Linear, Move, Rapid
 from gantry_sim.controller.moves import Limits as LimitsEvent
 from gantry_sim.controller.planner.blend import PathPlan, path_plan
-from gantry_sim.controller.planner.chains import (
-    chain_limits,
-    chain_spans,
-    split_profile,
-)
 from gantry_sim.controller.planner.junctions import (
     JunctionState,
     feasible_junction_caps,
     junction_caps,
 )
 from gantry_sim.controller.planner.limit_events import concatenate, split_at_limits
-from gantry_sim.controller.planner.limits import BlockLimits
-from gantry_sim.controller.planner.lookahead import plan_junction_speeds
 from gantry_sim.controller.planner.move_geometry import (
-    ArcGeometry,
     MoveGeometry,
     limits_for_junctions,
     move_geometry,
 )
-from gantry_sim.controller.planner.pieces import MovePieces
-from gantry_sim.controller.planner.profile import Profile1D
 from gantry_sim.controller.planner.result import Plan
-from gantry_sim.controller.planner.ruckig_solver import (
-    ProfileReverses,
-    RuckigRejected,
-    RuckigSolver,
-)
+from gantry_sim.controller.planner.rounds import replan_until_junctions_hold
+from gantry_sim.controller.planner.ruckig_solver import RuckigSolver
 from gantry_sim.controller.planner.segment import segment_arc
-from gantry_sim.controller.planner.speedup import boosted_profile
 from gantry_sim.controller.planner.travel import check_travel
 
 __all__ = ["Plan", "plan"]
 
-#: Re-planning rounds (each lowers the offending junction caps by JUNCTION_BACKOFF); the last
-#: round stops at the junctions still offending.
-MAX_ROUNDS = 8
-JUNCTION_BACKOFF = 0.6
 #: A G64 blend is kept only where it can be entered at this share of its neighbours' speed caps
 #: (see :func:`_slow_blends`).
 BLEND_MIN_SPEED_SHARE = 0.5
@@ -136,7 +118,7 @@ def plan(
         prepared = _prepare(path, machine, feed_override_pct)
     geoms, active, caps, states, holds, smoothing = prepared
     solver = RuckigSolver(machine.limits)
-    done = _replan_until_junctions_hold(
+    done = replan_until_junctions_hold(
         active, caps, states, machine, solver, arc_pieces, holds, smoothing
     )
     end = np.array(program[-1].end if program else (0.0, 0.0, 0.0), dtype=float)
@@ -152,8 +134,8 @@ def plan(
         segment_count=sum(len(v) - 1 for v in vertices),
         chord_tolerance_mm=machine.segmentation.chord_tolerance_mm,
         vertices=vertices,
-        ruckig_piece_count=done.pieces.ruckig_pieces,
-        curve=done.pieces.out.build(),
+        ruckig_piece_count=done.ruckig_pieces,
+        curve=done.curve(),
         move_start_s=move_start,
         move_lines=lines,
         end_mm=end,
@@ -221,130 +203,3 @@ def _vertices(m: Move, machine: MachineConfig) -> np.ndarray:
     verts = np.array([m.start, m.end], dtype=float)
     verts.setflags(write=False)
     return verts
-
-
-@dataclass
-class _Round:
-    """One planning round: the pieces, the duration [s], each move's (and dwell's) start time
-    [s], the junctions whose neighbouring pieces left the arc (their speed must come down), and
-    the program line of each entry of ``move_start_s``."""
-
-    pieces: MovePieces
-    duration_s: float
-    move_start_s: list[float]
-    bad_junctions: set[int]
-    lines: list[int]
-
-
-def _replan_until_junctions_hold(
-    active: list[MoveGeometry],
-    caps: np.ndarray,
-    states: list[JunctionState],
-    machine: MachineConfig,
-    solver: RuckigSolver,
-    arc_pieces: str,
-    holds: dict[int, list[Dwell]],
-    smoothing: list[float],
-) -> _Round:
-    """Plan the moves; while pieces next to moving junctions leave the arc, lower those
-    junctions' caps (``caps`` is changed) by :data:`JUNCTION_BACKOFF` and plan again, at most
-    :data:`MAX_ROUNDS` times; in the last round the junctions still offending become stops."""
-    blocks = [g.limits for g in active]
-    for rnd in range(MAX_ROUNDS + 1):
-        spans = chain_spans(blocks, caps)
-        chained = [chain_limits(blocks[first:stop]) for first, stop in spans]
-        ends = [first for first, _ in spans] + [len(active)]
-        speeds = np.full(len(active) + 1, np.nan)
-        speeds[ends] = plan_junction_speeds(chained, caps[ends])
-        done = _plan_round(
-            active, spans, speeds, states, machine, solver, arc_pieces, holds, smoothing
-        )
-        if not done.bad_junctions:
-            break
-        for b in done.bad_junctions:
-            caps[b] = 0.0 if rnd == MAX_ROUNDS - 1 else JUNCTION_BACKOFF * speeds[b]
-    return done
-
-
-def _plan_round(
-    active: list[MoveGeometry],
-    spans: list[tuple[int, int]],
-    speeds: np.ndarray,
-    states: list[JunctionState],
-    machine: MachineConfig,
-    solver: RuckigSolver,
-    arc_pieces: str,
-    holds: dict[int, list[Dwell]],
-    smoothing: list[float],
-) -> _Round:
-    """Every move's profile and pieces: one profile per chain (``spans``,
-    :func:`~gantry_sim.controller.planner.chains.chain_limits`) between the junction speeds
-    ``speeds`` [mm/s] at the chains' ends (set here at the junctions inside chains: the
-    profile's speed there); the dwells ``holds`` (per junction) hold the reference still for
-    their time."""
-    tol = machine.segmentation.chord_tolerance_mm
-    pieces, bad = MovePieces(machine.limits, tol, arc_pieces, solver), set()
-    boost_cache: dict = {}
-    acc_t = np.zeros(len(active) + 1)
-    clock, starts, lines = 0.0, [], []
-
-    def hold(b: int) -> float:
-        for dw in holds.get(b, ()):
-            starts.append(clock)
-            lines.append(dw.line)
-            for i in range(3):
-                pieces.out.add(i, [dw.seconds], [dw.position[i]], [0.0], [0.0], [0.0])
-        return sum(dw.seconds for dw in holds.get(b, ()))
-
-    for first, stop in spans:
-        lim = chain_limits([g.limits for g in active[first:stop]])
-        prof = _path_profile(solver, active[first].move, lim, speeds[first], speeds[stop])
-        if stop - first == 1:
-            parts = [prof]
-        else:
-            lengths = [g.length_mm for g in active[first:stop]]
-            parts, speeds[first + 1 : stop], acc_t[first + 1 : stop] = split_profile(prof, lengths)
-        for b, part in zip(range(first, stop), parts, strict=True):
-            g = active[b]
-            clock += hold(b)
-            starts.append(clock)
-            lines.append(g.move.line)
-            if not isinstance(g, ArcGeometry):
-                clock += pieces.straight(g, part)
-                continue
-            fast = (
-                boosted_profile(
-                    g, speeds[b], speeds[b + 1], part, machine.limits, solver, boost_cache
-                )
-                if stop - first == 1
-                else ()
-            )
-            s_in = states[b].at(speeds[b], acc_t[b])
-            s_out = states[b + 1].at(speeds[b + 1], acc_t[b + 1])
-            dur, bad_in, bad_out = pieces.arc(g, part, s_in, s_out, fast, smoothing[b])
-            clock += dur
-            bad |= {b} if bad_in else set()
-            bad |= {b + 1} if bad_out else set()
-    clock += hold(len(active))
-    return _Round(pieces, clock, starts, bad, lines)
-
-
-def _path_profile(
-    solver: RuckigSolver, move: Move, lim: BlockLimits, v_in: float, v_out: float
-) -> Profile1D:
-    """The 1-D profile of a block (one move, or a chain starting with ``move``) from ``v_in``
-    to ``v_out`` [mm/s] under its limits."""
-    try:
-        return solver.profile(
-            lim.length_mm, v_in, v_out, lim.cap_mm_per_s, lim.acc_mm_per_s2, lim.jerk_mm_per_s3
-        )
-    except RuckigRejected as exc:
-        raise PlannerFailure(
-            f"no speed profile along this {move.kind} move fits the machine's limits "
-            f"(Ruckig: {exc.reason})",
-            move.line,
-        ) from None
-    except ProfileReverses:
-        raise PlanningError(
-            "the speed profile would reverse along the path", line=move.line
-        ) from None
