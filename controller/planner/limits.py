@@ -93,33 +93,38 @@ def arc_limits(
     if sin_pitch > 0:
         cap = min(cap, vmax[n] / sin_pitch)
     k, dk = follow.curvature_per_mm, follow.dcurv_per_mm2
-    best = None
-    for margin in CURVATURE_MARGINS:
-        cap_m = curvature_speed_cap(cap, k, dk, a_pl, j_pl, margin)
-        a_max = math.sqrt(max(a_pl * a_pl - (cap_m * cap_m * k) ** 2, 0.0))
-        j_left = j_pl - cap_m**3 * dk
-        for share in JERK_SHARES:
-            a_t = min(a_max, share * j_left / (3.0 * cap_m * k)) if k > 0 else a_max
-            j_t = math.sqrt(max(j_pl * j_pl - (3.0 * cap_m * a_t * k) ** 2, 0.0)) - cap_m**3 * dk
-            if sin_pitch > 0:
-                a_t = min(a_t, amax[n] / sin_pitch)
-                j_t = min(j_t, jmax[n] / sin_pitch)
-            if a_t <= 0 or j_t <= 0:
-                continue
-            cost = length_mm / cap_m
-            for v_end in ends_mm_per_s:  # a ramp from v to the cap loses (cap - v) / (2 cap)
-                dv = max(cap_m - v_end, 0.0)
-                cost += s_curve_time(dv, a_t, j_t) * dv / (2.0 * cap_m)
-            if best is None or cost < best[0]:
-                best = (cost, cap_m, a_t, j_t)
-            if k == 0:
-                break
-        if k == 0 and dk == 0:
-            break
+    # Every (margin, share) pair at once, margins outer: the first pair of least cost wins.
+    margins = np.array(CURVATURE_MARGINS[:1] if k == 0 and dk == 0 else CURVATURE_MARGINS)
+    shares = np.array(JERK_SHARES[:1] if k == 0 else JERK_SHARES)
+    cap_m = np.full(margins.shape, cap)
+    if k > 0:
+        cap_m = np.minimum(cap_m, np.sqrt(margins * a_pl / k))
+    if dk > 0:
+        cap_m = np.minimum(cap_m, (margins * j_pl / dk) ** (1.0 / 3.0))
+    a_max = np.sqrt(np.maximum(a_pl * a_pl - (cap_m * cap_m * k) ** 2, 0.0))[:, None]
+    j_left = (j_pl - cap_m**3 * dk)[:, None]
+    cap_c = cap_m[:, None]
+    if k > 0:
+        a_t = np.minimum(a_max, shares[None, :] * j_left / (3.0 * cap_c * k))
+    else:
+        a_t = np.broadcast_to(a_max, (margins.size, shares.size))
+    j_t = np.sqrt(np.maximum(j_pl * j_pl - (3.0 * cap_c * a_t * k) ** 2, 0.0)) - cap_c**3 * dk
+    if sin_pitch > 0:
+        a_t = np.minimum(a_t, amax[n] / sin_pitch)
+        j_t = np.minimum(j_t, jmax[n] / sin_pitch)
+    ok = (a_t > 0) & (j_t > 0)
     # margin < 1 leaves acceleration and jerk to the tangential terms: some pair always fits
-    assert best is not None, "arc_limits found no (cap, a_t, j_t): limits must be > 0"
-    _, cap, a_t, j_t = best
-    return BlockLimits(length_mm, cap, a_t, j_t)
+    assert ok.any(), "arc_limits found no (cap, a_t, j_t): limits must be > 0"
+    a_s, j_s = np.where(ok, a_t, 1.0), np.where(ok, j_t, 1.0)
+    cost = length_mm / cap_c
+    for v_end in ends_mm_per_s:  # a ramp from v to the cap loses (cap - v) / (2 cap)
+        dv = np.maximum(cap_c - v_end, 0.0)
+        ramp = np.where(dv * j_s >= a_s * a_s, dv / a_s + a_s / j_s, 2.0 * np.sqrt(dv / j_s))
+        cost = cost + ramp * dv / (2.0 * cap_c)
+    cost = np.where(ok, cost, np.inf)
+    m, sh = np.unravel_index(int(np.argmin(cost)), cost.shape)
+    cap, a_t_best, j_t_best = float(cap_m[m]), float(a_t[m, sh]), float(j_t[m, sh])
+    return BlockLimits(length_mm, cap, a_t_best, j_t_best)
 
 
 @dataclass(frozen=True)
