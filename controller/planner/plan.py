@@ -32,6 +32,7 @@ raises :class:`PlanningError` naming the line: never a reference beyond the limi
 from __future__ import annotations
 
 from collections.abc import Sequence
+from dataclasses import replace
 
 import numpy as np
 
@@ -111,11 +112,12 @@ def plan(
     check_travel(program, machine.travel)
     seg = machine.segmentation
     path = path_plan(items, machine.path, seg.chord_tolerance_mm)
-    prepared = _prepare(path, machine, feed_override_pct)
+    known: dict = {}
+    prepared = _prepare(path, machine, feed_override_pct, known)
     slow = _slow_blends(path, prepared)
     if slow:  # those corners are faster as exact stops: plan them so
         path = path_plan(items, machine.path, seg.chord_tolerance_mm, slow)
-        prepared = _prepare(path, machine, feed_override_pct)
+        prepared = _prepare(path, machine, feed_override_pct, known)
     geoms, active, caps, states, holds, smoothing = prepared
     solver = RuckigSolver(machine.limits)
     done = replan_until_junctions_hold(
@@ -154,11 +156,20 @@ _Prepared = tuple[
 ]
 
 
-def _prepare(path: PathPlan, machine: MachineConfig, feed_override_pct: float) -> _Prepared:
+def _prepare(
+    path: PathPlan, machine: MachineConfig, feed_override_pct: float, known: dict
+) -> _Prepared:
     """Geometry, junction caps and states, dwells and smoothing budgets per junction of the
-    moves of ``path`` (zero-length moves dropped)."""
+    moves of ``path`` (zero-length moves dropped); ``known``: geometry by move (equal moves
+    have equal geometry), filled here, so planning again after :func:`_slow_blends` only
+    computes the moves that changed."""
     lim, seg = machine.limits, machine.segmentation
-    geoms = [move_geometry(m, lim, seg, feed_override_pct / 100.0) for m in path.moves]
+    geoms = []
+    for m in path.moves:
+        g = known.get(m)
+        if g is None:
+            g = known[m] = move_geometry(m, lim, seg, feed_override_pct / 100.0)
+        geoms.append(g if g.move is m else replace(g, move=m))
     keep = [g.length_mm > 1e-9 for g in geoms]
     active = [g for g, k in zip(geoms, keep, strict=True) if k]
     at = np.concatenate(([0], np.cumsum(keep))).astype(int)  # planned junction -> active
