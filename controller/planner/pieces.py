@@ -68,6 +68,9 @@ class MovePieces:
         self.dev_max = JUNCTION_DEVIATION_MAX * chord_tolerance_mm
         self.out = CubicBuilder()
         self.ruckig_pieces = 0
+        #: Ruckig pieces that left the arc or exceeded the feed on an arc with no moving
+        #: junction (lowering a junction's speed cannot help: the planner slows the profile).
+        self.off_pieces = 0
 
     def straight(self, g: MoveGeometry, profile: Profile1D) -> float:
         """The profile projected on the straight move; its duration [s]."""
@@ -156,11 +159,15 @@ class MovePieces:
             if piece.positions is not None and piece.velocities is not None:
                 q = piece.positions
                 speed = np.linalg.norm(piece.velocities, axis=1).max()
-                off = g.deviation(q, u[k]) > dev_max or speed > g.feed_mm_per_s
+                # the smoothing budget is for the jumps at moving junctions only
+                near = dev_max if check.get(k) else self.dev_max
+                off = g.deviation(q, u[k]) > near or speed > g.feed_mm_per_s
                 if k in check:
                     bad[k] = off or d > mins[k] * 1.001 + 1e-9
                 elif off:  # inside the arc: its moving junctions must come down
                     bad[0], bad[n - 1] = bad[0] or check[0], bad[n - 1] or check[n - 1]
+                if off and not (check[0] or check[n - 1]):
+                    self.off_pieces += 1  # no junction speed to lower: the profile must change
         return total, bad[0], bad[n - 1]
 
     def closed_form(

@@ -14,7 +14,7 @@ pieces of a chain are kept as arrays (a few bytes per phase, not Python floats).
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 
@@ -171,11 +171,38 @@ def _plan_round(
     return Round(chunks, clock, starts, bad, lines, ruckig), used
 
 
+#: Tries of a chain's profile with slower limits (each: :data:`SLOWER_CAP` of the speed cap,
+#: :data:`SLOWER_RAMP` of the acceleration and jerk) when a Ruckig piece inside an arc with
+#: no moving junction left the arc or exceeded the feed.
+SLOWER_TRIES = 6
+SLOWER_CAP = 0.995
+SLOWER_RAMP = 0.8
+
+
 def _plan_chain(
     setup: _Setup, first: int, stop: int, lim: BlockLimits, speeds: np.ndarray
 ) -> _Chain:
     """The pieces of moves ``first..stop-1`` (one chain with the limits ``lim``) from
-    ``speeds[first]`` to ``speeds[stop]`` [mm/s]."""
+    ``speeds[first]`` to ``speeds[stop]`` [mm/s]; slower (:data:`SLOWER_TRIES`) while a piece
+    inside an arc with no moving junction leaves the arc or exceeds the feed."""
+    floor = max(float(speeds[first]), float(speeds[stop]))
+    for _ in range(SLOWER_TRIES):
+        chain, off = _chain_pieces(setup, first, stop, lim, speeds)
+        if not off:
+            break
+        lim = replace(
+            lim,
+            cap_mm_per_s=max(SLOWER_CAP * lim.cap_mm_per_s, floor),
+            acc_mm_per_s2=SLOWER_RAMP * lim.acc_mm_per_s2,
+            jerk_mm_per_s3=SLOWER_RAMP * lim.jerk_mm_per_s3,
+        )
+    return chain
+
+
+def _chain_pieces(
+    setup: _Setup, first: int, stop: int, lim: BlockLimits, speeds: np.ndarray
+) -> tuple[_Chain, int]:
+    """One try of :func:`_plan_chain`: the chain, and how many pieces were off."""
     active, states, limits = setup.active, setup.states, setup.machine.limits
     tol = setup.machine.segmentation.chord_tolerance_mm
     pieces = MovePieces(limits, tol, setup.arc_pieces, setup.solver)
@@ -206,9 +233,10 @@ def _plan_chain(
         clock += dur
         bad |= {b} if bad_in else set()
         bad |= {b + 1} if bad_out else set()
-    return _Chain(
+    chain = _Chain(
         pieces.out.chunk(), clock, tuple(starts), frozenset(bad), pieces.ruckig_pieces, v[1:-1]
     )
+    return chain, pieces.off_pieces
 
 
 def _path_profile(
