@@ -15,23 +15,20 @@ import numpy as np
 
 
 class CubicBuilder:
-    """Collects phases per axis in time order (plain lists: appending is the hot path)."""
+    """Collects phases per axis in time order, as the arrays (or sequences) given."""
 
     def __init__(self) -> None:
-        self.cols: list[tuple[list[float], ...]] = [([], [], [], [], []) for _ in range(3)]
+        self.cols: list[tuple[list[np.ndarray], ...]] = [([], [], [], [], []) for _ in range(3)]
 
     def add(self, axis: int, dur, p, v, a, j) -> None:
         """Append phases (sequences of equal length) to ``axis``."""
         c = self.cols[axis]
-        c[0].extend(dur)
-        c[1].extend(p)
-        c[2].extend(v)
-        c[3].extend(a)
-        c[4].extend(j)
+        for col, x in zip(c, (dur, p, v, a, j), strict=True):
+            col.append(np.asarray(x, dtype=float).ravel())
 
     def chunk(self) -> tuple[tuple[np.ndarray, ...], ...]:
         """The phases collected, per axis (duration, p, v, a, j) as arrays."""
-        return tuple(tuple(np.asarray(x, dtype=float) for x in c) for c in self.cols)
+        return tuple(tuple(np.concatenate(x) if x else np.zeros(0) for x in c) for c in self.cols)
 
     def build(self) -> PiecewiseCubic:
         """The phases collected, as a :class:`PiecewiseCubic`."""
@@ -40,27 +37,29 @@ class CubicBuilder:
 
 def phases_from_chunks(chunks: list[tuple[tuple[np.ndarray, ...], ...]]) -> PiecewiseCubic:
     """One :class:`PiecewiseCubic` from stretches of phases in time order, each per axis
-    (duration [s], p, v, a, j) as arrays. ``chunks`` is emptied as it is copied (from its
-    end), so the phases are held about once, not twice, at the peak (a 100,000-block CAM
-    plan's phases take about 1 GB)."""
-    ends = np.cumsum([c[0][0].size for c in chunks]).tolist()
-    total = ends[-1] if ends else 0
-    dur = np.empty((3, total))
-    pvaj = np.empty((3, 4, total))
+    (duration [s], p, v, a, j) as arrays (the axes of a stretch may have different phase
+    counts: Ruckig's pieces do). ``chunks`` is emptied as it is copied (from its end), so the
+    phases are held about once, not twice, at the peak (a 100,000-block CAM plan's phases take
+    about 1 GB)."""
+    ends = [np.cumsum([c[i][0].size for c in chunks]).tolist() for i in range(3)]
+    totals = [e[-1] if e else 0 for e in ends]
+    cols = [np.empty((5, n)) for n in totals]
     while chunks:
         chunk = chunks.pop()
-        stop = ends.pop()
-        start = ends[-1] if ends else 0
         for i in range(3):
-            dur[i, start:stop] = chunk[i][0]
-            for k in range(4):
-                pvaj[i, k, start:stop] = chunk[i][k + 1]
+            stop = ends[i].pop()
+            start = ends[i][-1] if ends[i] else 0
+            for k in range(5):
+                cols[i][k, start:stop] = chunk[i][k]
     axes = []
     for i in range(3):
-        t0 = np.zeros(total)
-        if total > 1:
-            np.cumsum(dur[i, :-1], out=t0[1:])
-        arrs = [t0, *(pvaj[i, k] for k in range(4))]
+        col, n = cols[i], totals[i]
+        t0 = np.zeros(n)
+        if n > 1:
+            np.cumsum(col[0, :-1], out=t0[1:])
+        arrs = [t0, *(col[k].copy() for k in range(1, 5))]
+        del col
+        cols[i] = np.zeros((5, 0))  # this axis' block is freed before the next is copied
         for arr in arrs:
             arr.setflags(write=False)
         axes.append(tuple(arrs))
