@@ -199,3 +199,71 @@ def test_marlin_limit_codes_apply_from_their_line_on(machine):
     assert 0.01 < p.blends[0].deviation_mm <= 0.05
     assert np.array_equal(tr.pos[-1], [120.0, 0.0, 0.0])
     assert p.moves == tuple(i for i in items if isinstance(i, Linear))
+
+
+# Corners with an arc on one side, 3 degrees (line -> R10 arc, arc -> line, arc -> arc).
+ARC_CORNERS = {
+    "line-arc": "G1 X20 F3000\nG3 X29.4629 Y10.5097 I-0.5234 J9.9863\nG1 Y30",
+    "arc-line": "G1 X20 F3000\nG3 X29.4629 Y10.5097 I-0.5234 J9.9863\nG1 X28.9 Y30",
+    "arc-arc": "G1 X20 F3000\nG3 X29.4629 Y10.5097 I-0.5234 J9.9863\nG2 X38.3626 Y21.4999 I9.945 J1.045",
+}
+
+
+def _program_distance(points: np.ndarray, moves) -> np.ndarray:
+    """Distance [mm] of each point from the programmed path (moves sampled every ~0.5 um)."""
+    from gantry_sim.controller.arcs import arc_points
+    from gantry_sim.controller.moves import Arc
+
+    dense = []
+    for m in moves:
+        k = max(2, int(m.length_mm / 5e-4))
+        u = np.linspace(0.0, 1.0, k)
+        dense.append(
+            arc_points(m, u)
+            if isinstance(m, Arc)
+            else np.outer(1 - u, m.start) + np.outer(u, m.end)
+        )
+    path = np.vstack(dense)
+    out = np.empty(len(points))
+    for i in range(0, len(points), 256):
+        d = np.linalg.norm(points[i : i + 256, None, :2] - path[None, :, :2], axis=2)
+        out[i : i + 256] = d.min(axis=1)
+    return out
+
+
+@pytest.mark.parametrize("name", sorted(ARC_CORNERS))
+def test_g64_blends_corners_with_arcs_within_p(machine, name):
+    body = ARC_CORNERS[name]
+    moves = parse_program(f"G21 G90 G17 G64 P0.01\n{body}\nM2")
+    p = plan(moves, machine)
+    g61 = plan(parse_program(f"G21 G90 G17 G61\n{body}\nM2"), machine)
+    assert len(p.blends) == 2 and all(0 < b.deviation_mm <= 0.01 for b in p.blends)
+    assert p.duration_s < g61.duration_s  # the corners are passed moving
+    tr = p.sample(machine.servo.period_s)
+    assert_within_limits(tr, machine, moves)
+    near = np.linalg.norm(tr.pos[:, :2] - np.array([20.0, 0.0]), axis=1) < 0.2
+    assert _program_distance(tr.pos[near], moves).max() <= 0.01
+    assert np.linalg.norm(tr.vel, axis=1)[near].min() > 10.0
+    assert np.array_equal(tr.pos[-1], moves[-1].end)
+
+
+def test_a_blended_arc_is_trimmed_on_its_own_circle(machine):
+    from gantry_sim.controller.arcs import arc_frame
+    from gantry_sim.controller.moves import Arc
+
+    moves = parse_program(f"G21 G90 G17 G64 P0.01\n{ARC_CORNERS['arc-arc']}\nM2")
+    p = plan(moves, machine)
+    arcs = [m for m in p.path_moves if isinstance(m, Arc)]
+    programmed = [m for m in moves if isinstance(m, Arc)]
+    assert len(arcs) == 4  # two programmed arcs (trimmed) and two blends
+    for trimmed, orig in ((arcs[1], programmed[0]), (arcs[3], programmed[1])):
+        assert trimmed.center == orig.center and trimmed.direction == orig.direction
+        f = arc_frame(orig)
+        for q in (trimmed.start, trimmed.end):
+            # on the programmed arc (a slight spiral: its end radii differ by rounding)
+            th = math.atan2(q[1] - orig.center[1], q[0] - orig.center[0])
+            u = (f.sigma * (th - f.theta0_rad)) % (2 * math.pi) / orig.angle
+            r = math.hypot(q[0] - orig.center[0], q[1] - orig.center[1])
+            assert 0 <= u <= 1 + 1e-12
+            assert r == pytest.approx(f.r0_mm + (f.r1_mm - f.r0_mm) * u, abs=1e-9)
+        assert trimmed.angle < orig.angle

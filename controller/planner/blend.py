@@ -27,9 +27,16 @@ from dataclasses import dataclass, field, replace
 
 import numpy as np
 
+from gantry_sim.controller.arcs import arc_derivatives
 from gantry_sim.controller.config import PathSettings
 from gantry_sim.controller.moves import Arc, Dwell, Event, Linear, Move, Rapid, Stop
 from gantry_sim.controller.planes import PLANE_AXES, Plane, Vec3
+from gantry_sim.controller.planner.corner_blend import (
+    CornerCut,
+    corner_blend,
+    in_plane,
+    trimmed_arc,
+)
 
 #: Share of the chord tolerance the planner's reference may leave an arc by (the G61 promise);
 #: a blend keeps this much of the tolerance for it.
@@ -41,6 +48,9 @@ GEOMETRY_SHARE = 0.8
 #: which the blend would be a near-reversal (an exact stop instead).
 MIN_TURN_RAD = 1e-6
 MAX_TURN_RAD = math.radians(179.0)
+#: A junction involving an arc turning by less than this [rad] is tangent, not a corner: the
+#: planner keeps its speed and smooths the kink (junctions.CORNER_ANGLE_RAD, the same 1 degree).
+ARC_CORNER_MIN_RAD = math.radians(1.0)
 #: Longest run of straight moves the naive-CAM merge considers at once (bounds its cost).
 MAX_MERGE_RUN = 256
 EPS_MM = 1e-9
@@ -216,33 +226,44 @@ def _blend_corners(
     n = len(moves)
     use = [0.0] * (n + 1)  # length each junction takes from its neighbours [mm]
     turn: list[tuple[float, Plane] | None] = [None] * (n + 1)
+    cuts: dict[int, CornerCut] = {}  # corners with an arc on one side
     for b in range(1, n):
         m0, m1 = moves[b - 1], moves[b]
         c = control(m0, settings)
         if out.stop_after[b - 1] or b in out.holds or c.mode != "G64" or b in skip:
             continue
+        budget = c.tolerance_mm - REFERENCE_SHARE * chord_tolerance_mm
+        if isinstance(m0, Linear | Arc) and isinstance(m1, Linear | Arc) and budget > 0:
+            if isinstance(m0, Arc) or isinstance(m1, Arc):
+                cut = _arc_corner(m0, m1, GEOMETRY_SHARE * budget)
+                if cut is not None:
+                    cuts[b] = cut
+                continue
         if not (isinstance(m0, Linear) and isinstance(m1, Linear)):
             continue
         d0, d1 = _direction(m0), _direction(m1)
         phi = math.acos(float(np.clip(d0 @ d1, -1.0, 1.0)))
         plane = _plane_of(d0, d1)
-        budget = c.tolerance_mm - REFERENCE_SHARE * chord_tolerance_mm
         if not (MIN_TURN_RAD < phi < MAX_TURN_RAD) or plane is None or budget <= 0:
             continue
         half = 0.5 * phi
         r_tol = GEOMETRY_SHARE * budget / (1.0 / math.cos(half) - 1.0)
         use[b] = min(r_tol * math.tan(half), 0.5 * m0.length_mm, 0.5 * m1.length_mm)
         turn[b] = (phi, plane)
-    if not any(use):
+    if not any(use) and not cuts:
         return
+    before = [cuts[k].before_mm if k in cuts else use[k] for k in range(n + 1)]
+    after = [cuts[k].after_mm if k in cuts else use[k] for k in range(n + 1)]
     # Trimmed straight moves: their new end points (a vanishing move: its midpoint, shared).
     starts, ends, keep = [], [], []
     for i, m in enumerate(moves):
+        if isinstance(m, Arc) and (after[i] or before[i + 1]):
+            moves[i] = m = trimmed_arc(m, after[i], before[i + 1])
         a, e = np.asarray(m.start, float), np.asarray(m.end, float)
-        if isinstance(m, Linear) and (use[i] or use[i + 1]):
+        if isinstance(m, Linear) and (after[i] or before[i + 1]):
             d = _direction(m)
-            a, e = a + d * use[i], e - d * use[i + 1]
-            rest = m.length_mm - use[i] - use[i + 1]
+            a, e = a + d * after[i], e - d * before[i + 1]
+            rest = m.length_mm - after[i] - before[i + 1]
             radii = [use[k] / math.tan(0.5 * t[0]) for k in (i, i + 1) if (t := turn[k])]
             if rest <= EPS_MM or (len(radii) == 2 and rest <= ABSORB_PER_MM * min(radii)):
                 a = e = 0.5 * (a + e)  # the blends meet: they absorb what is left
@@ -260,6 +281,16 @@ def _blend_corners(
             new_moves.append(_trimmed(m, starts[i], ends[i]))
             new_stops.append(out.stop_after[i])
             smoothing.append(out.smoothing_mm[i])
+        if i + 1 in cuts:
+            cut = cuts[i + 1]
+            tol = control(m, settings).tolerance_mm
+            out.blend_junction[len(new_moves)] = i + 1
+            new_moves.append(cut.arc)
+            new_stops.append(False)
+            smoothing.append(
+                max(tol - REFERENCE_SHARE * chord_tolerance_mm - cut.deviation_mm, 0.0)
+            )
+            out.blends.append(Blend(m.line, cut.deviation_mm, tol))
         t = turn[i + 1]
         if t is not None:
             nxt = moves[i + 1]
@@ -274,6 +305,33 @@ def _blend_corners(
         new_holds[len(new_moves)] = out.holds[n]
     out.moves, out.stop_after, out.holds = new_moves, new_stops, new_holds
     out.smoothing_mm = smoothing
+
+
+def _arc_corner(m0: Linear | Arc, m1: Linear | Arc, budget_mm: float) -> CornerCut | None:
+    """The blend of a corner with an arc on one side (:mod:`.corner_blend`), or None: not a
+    corner (a turn below :data:`ARC_CORNER_MIN_RAD` is a tangent junction, smoothed by the
+    planner), a near-reversal, or not in one principal plane."""
+    t0 = _end_tangent(m0, at_end=True)
+    t1 = _end_tangent(m1, at_end=False)
+    phi = math.acos(float(np.clip(t0 @ t1, -1.0, 1.0)))
+    plane = _plane_of(t0, t1)
+    if isinstance(m0, Arc):
+        plane = m0.plane if plane is None or plane == m0.plane else None
+    if isinstance(m1, Arc) and plane != m1.plane:
+        plane = None
+    if not (ARC_CORNER_MIN_RAD < phi < MAX_TURN_RAD) or plane is None:
+        return None
+    if not (in_plane(m0, plane) and in_plane(m1, plane)):
+        return None
+    return corner_blend(m0, m1, budget_mm, plane)
+
+
+def _end_tangent(m: Linear | Arc, at_end: bool) -> np.ndarray:
+    """Unit tangent (direction of motion) at the end or start of ``m``."""
+    if isinstance(m, Linear):
+        return _direction(m)
+    d1, _ = arc_derivatives(m, 1.0 if at_end else 0.0)
+    return d1[0] / np.linalg.norm(d1[0])
 
 
 def _v3(a: np.ndarray) -> Vec3:

@@ -1,0 +1,200 @@
+"""G64 blends of corners that involve an arc: line -> arc, arc -> line, arc -> arc.
+
+A corner between two straight moves has a closed-form blend (:mod:`.blend`). Where one side is
+an arc (in the corner's plane, no helix), the blend is still a circular arc tangent to both
+moves: it leaves the first move ``s0`` mm before the corner and joins the second ``s1`` mm after
+it, where the two tangent lines meet at equal distances from those points (the condition for a
+circle tangent to both lines at both points). For a given ``s0`` that ``s1`` is found by the
+secant method; ``s0`` is the largest (at most half of either move) whose blend stays within the
+geometry budget of the corner, found by bisection. The deviation is measured, not assumed: the
+largest distance of the cut-away parts of both moves from the blend circle.
+
+Conventions: millimetres; an arc's sweep fraction u runs from 0 at its start to 1 at its end;
+tangents are unit vectors in the direction of motion.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from gantry_sim.controller.arcs import arc_derivatives, arc_points
+from gantry_sim.controller.moves import Arc, Linear
+from gantry_sim.controller.planes import PLANE_AXES, Plane
+
+#: Bisection steps on the length cut from the first move, and secant steps on the second.
+BISECTION_STEPS = 30
+SECANT_STEPS = 40
+#: Samples of each cut-away part checked against the blend circle.
+CHECK_SAMPLES = 17
+
+
+@dataclass(frozen=True)
+class CornerCut:
+    """A blended corner: path length cut from the end of the first move and from the start of
+    the second [mm], the blend arc, and its largest distance from the cut-away path [mm]."""
+
+    before_mm: float
+    after_mm: float
+    arc: Arc
+    deviation_mm: float
+
+
+def in_plane(m: Linear | Arc, plane: Plane) -> bool:
+    """Whether ``m`` lies in ``plane`` (an arc: in that plane, with no helix)."""
+    n = PLANE_AXES[plane][2]
+    if isinstance(m, Arc):
+        return m.plane == plane and m.start[n] == m.end[n]
+    return abs(m.end[n] - m.start[n]) <= 1e-12
+
+
+def _at(m: Linear | Arc, s: float, from_end: bool) -> tuple[np.ndarray, np.ndarray]:
+    """Point and unit tangent of ``m`` at path distance ``s`` [mm] from its end (or start)."""
+    if isinstance(m, Linear):
+        a, b = np.asarray(m.start, float), np.asarray(m.end, float)
+        d = (b - a) / np.linalg.norm(b - a)
+        return (b - d * s, d) if from_end else (a + d * s, d)
+    u = 1.0 - s / m.length_mm if from_end else s / m.length_mm
+    p = arc_points(m, u)[0]
+    d1, _ = arc_derivatives(m, u)
+    return p, d1[0] / np.linalg.norm(d1[0])
+
+
+def _tangent_lengths(pa, ta, pb, tb, i1, i2) -> tuple[float, float] | None:
+    """(lambda, mu) with pa + lambda ta = pb - mu tb in the plane, or None (parallel)."""
+    m = np.array([[ta[i1], tb[i1]], [ta[i2], tb[i2]]])
+    det = float(np.linalg.det(m))
+    if abs(det) < 1e-15:
+        return None
+    lam, mu = np.linalg.solve(m, np.array([pb[i1] - pa[i1], pb[i2] - pa[i2]]))
+    return float(lam), float(mu)
+
+
+def _cut(m0, m1, s0: float, s1_max: float, plane: Plane):
+    """The blend leaving ``m0`` ``s0`` mm before the corner: (s1, pa, ta, pb, tb, lam), or
+    None when no ``s1`` <= ``s1_max`` gives equal tangent lengths."""
+    i1, i2, _ = PLANE_AXES[plane]
+    pa, ta = _at(m0, s0, True)
+
+    def gap(s1: float):
+        pb, tb = _at(m1, s1, False)
+        lm = _tangent_lengths(pa, ta, pb, tb, i1, i2)
+        return (None, pb, tb, None) if lm is None else (lm[0] - lm[1], pb, tb, lm[0])
+
+    x0, x1 = s0, min(1.1 * s0, s1_max)
+    g0, g1 = gap(x0)[0], gap(x1)[0]
+    for _ in range(SECANT_STEPS):
+        if g0 is None or g1 is None or g1 == g0:
+            return None
+        x2 = min(max(x1 - g1 * (x1 - x0) / (g1 - g0), 1e-12), s1_max)
+        x0, g0 = x1, g1
+        x1 = x2
+        g1, pb, tb, lam = gap(x1)
+        if g1 is not None and abs(g1) <= 1e-12 * max(s0, 1e-9):
+            if lam is None or lam <= 0:
+                return None
+            return x1, pa, ta, pb, tb, lam
+    return None
+
+
+def _deviation(m0, m1, s0, s1, center, radius, plane) -> float:
+    """Largest distance of the cut-away parts of ``m0`` and ``m1`` from the blend circle."""
+    i1, i2, _ = PLANE_AXES[plane]
+    pts = [_at(m0, s, True)[0] for s in np.linspace(0.0, s0, CHECK_SAMPLES)]
+    pts += [_at(m1, s, False)[0] for s in np.linspace(0.0, s1, CHECK_SAMPLES)]
+    q = np.array(pts)
+    r = np.hypot(q[:, i1] - center[i1], q[:, i2] - center[i2])
+    return float(np.max(np.abs(r - radius)))
+
+
+def _blend(m0, m1, s0, s1_max, plane):
+    """(CornerCut-like tuple) for cut ``s0``: (s1, arc geometry, deviation) or None."""
+    found = _cut(m0, m1, s0, s1_max, plane)
+    if found is None:
+        return None
+    s1, pa, ta, pb, tb, lam = found
+    i1, i2, n = PLANE_AXES[plane]
+    cross = ta[i1] * tb[i2] - ta[i2] * tb[i1]
+    phi = math.acos(float(np.clip(ta @ tb, -1.0, 1.0)))
+    if phi <= 0.0:
+        return None
+    radius = lam / math.tan(0.5 * phi)
+    normal = np.zeros(3)
+    side = 1.0 if cross > 0 else -1.0  # the centre lies left of the motion on a ccw turn
+    normal[i1], normal[i2] = -side * ta[i2], side * ta[i1]
+    center = pa + radius * normal
+    center[n] = pa[n]
+    dev = _deviation(m0, m1, s0, s1, center, radius, plane)
+    return s1, pa, pb, center, radius, phi, cross > 0, dev
+
+
+def corner_blend(
+    m0: Linear | Arc, m1: Linear | Arc, budget_mm: float, plane: Plane
+) -> CornerCut | None:
+    """The blend of the corner where ``m0`` ends and ``m1`` starts (both in ``plane``): the
+    largest cut (at most half of either move) whose blend stays within ``budget_mm`` of the
+    path, or None when no blend fits (the corner stays an exact stop)."""
+    s_max = 0.5 * min(m0.length_mm, m1.length_mm)
+    s1_max = 0.5 * m1.length_mm
+    best = None
+    lo, hi = 0.0, s_max
+    top = _blend(m0, m1, hi, s1_max, plane)
+    if top is not None and top[-1] <= budget_mm:
+        best, lo = (hi, top), hi
+    else:
+        for _ in range(BISECTION_STEPS):
+            mid = 0.5 * (lo + hi)
+            got = _blend(m0, m1, mid, s1_max, plane)
+            if got is not None and got[-1] <= budget_mm:
+                best, lo = (mid, got), mid
+            else:
+                hi = mid
+    if best is None:
+        return None
+    s0, (s1, pa, pb, center, _radius, phi, ccw, dev) = best
+    i1, i2, _ = PLANE_AXES[plane]
+    arc = Arc(
+        line=m0.line,
+        start=_v3(pa),
+        end=_v3(pb),
+        feed_mm_per_min=min(m0.feed_mm_per_min, m1.feed_mm_per_min),
+        plane=plane,
+        direction="ccw" if ccw else "cw",
+        center=_v3(center),
+        radius=math.hypot(pa[i1] - center[i1], pa[i2] - center[i2]),
+        turns=1,
+        angle=phi,
+        path=m0.path,
+    )
+    return CornerCut(s0, s1, arc, dev)
+
+
+def trimmed_arc(m: Arc, cut_start_mm: float, cut_end_mm: float) -> Arc:
+    """``m`` without ``cut_start_mm`` of path at its start and ``cut_end_mm`` at its end."""
+    if cut_start_mm <= 0 and cut_end_mm <= 0:
+        return m
+    length = m.length_mm
+    u0, u1 = cut_start_mm / length, 1.0 - cut_end_mm / length
+    start = m.start if u0 <= 0 else _v3(arc_points(m, u0)[0])
+    end = m.end if u1 >= 1 else _v3(arc_points(m, u1)[0])
+    i1, i2, _ = PLANE_AXES[m.plane]
+    radius = math.hypot(start[i1] - m.center[i1], start[i2] - m.center[i2])
+    return Arc(
+        line=m.line,
+        start=start,
+        end=end,
+        feed_mm_per_min=m.feed_mm_per_min,
+        plane=m.plane,
+        direction=m.direction,
+        center=m.center,
+        radius=radius,
+        turns=m.turns,
+        angle=m.angle * (u1 - u0),
+        path=m.path,
+    )
+
+
+def _v3(a: np.ndarray) -> tuple[float, float, float]:
+    return (float(a[0]), float(a[1]), float(a[2]))
