@@ -51,6 +51,10 @@ MAX_TURN_RAD = math.radians(179.0)
 #: A junction involving an arc turning by less than this [rad] is tangent, not a corner: the
 #: planner keeps its speed and smooths the kink (junctions.CORNER_ANGLE_RAD, the same 1 degree).
 ARC_CORNER_MIN_RAD = math.radians(1.0)
+#: A corner with an arc whose estimated blend speed is below this share of the feed is not
+#: searched for a blend (:func:`_worth_blending`; the planner keeps blends passed at half the
+#: neighbouring caps or more, plan.BLEND_MIN_SPEED_SHARE).
+ARC_BLEND_MIN_FEED_SHARE = 0.4
 #: Longest run of straight moves the naive-CAM merge considers at once (bounds its cost).
 MAX_MERGE_RUN = 256
 EPS_MM = 1e-9
@@ -118,10 +122,13 @@ def path_plan(
     settings: PathSettings,
     chord_tolerance_mm: float,
     skip: frozenset[int] = frozenset(),
+    jerk_mm_per_s3: float = math.inf,
 ) -> PathPlan:
     """The moves and stops the planner follows for ``items`` (moves and events in order);
     junctions in ``skip`` (values of a previous result's ``blend_junction``) are not blended
-    (the planner found the exact stop faster there)."""
+    (the planner found the exact stop faster there). ``jerk_mm_per_s3``: the machine's lowest
+    axis jerk, to skip corners with an arc whose blend would be passed too slowly to pay
+    (:func:`_worth_blending`)."""
     out = PathPlan()
     for item in items:
         if isinstance(item, Dwell | Stop):
@@ -136,7 +143,7 @@ def path_plan(
         out.stop_after.append(control(item, settings).mode == "G61.1")
     _merge_naive_cam(out, settings)
     out.smoothing_mm = [_smoothing(m, settings, chord_tolerance_mm) for m in out.moves]
-    _blend_corners(out, settings, chord_tolerance_mm, skip)
+    _blend_corners(out, settings, chord_tolerance_mm, skip, jerk_mm_per_s3)
     return out
 
 
@@ -219,7 +226,11 @@ def _plane_of(d0: np.ndarray, d1: np.ndarray) -> Plane | None:
 
 
 def _blend_corners(
-    out: PathPlan, settings: PathSettings, chord_tolerance_mm: float, skip: frozenset[int]
+    out: PathPlan,
+    settings: PathSettings,
+    chord_tolerance_mm: float,
+    skip: frozenset[int],
+    jerk_mm_per_s3: float = math.inf,
 ) -> None:
     """Replace G64 corners between straight feed moves by tangent arcs (see module docstring)."""
     moves = out.moves
@@ -235,7 +246,7 @@ def _blend_corners(
         budget = c.tolerance_mm - REFERENCE_SHARE * chord_tolerance_mm
         if isinstance(m0, Linear | Arc) and isinstance(m1, Linear | Arc) and budget > 0:
             if isinstance(m0, Arc) or isinstance(m1, Arc):
-                cut = _arc_corner(m0, m1, GEOMETRY_SHARE * budget)
+                cut = _arc_corner(m0, m1, budget, jerk_mm_per_s3)
                 if cut is not None:
                     cuts[b] = cut
                 continue
@@ -307,10 +318,12 @@ def _blend_corners(
     out.smoothing_mm = smoothing
 
 
-def _arc_corner(m0: Linear | Arc, m1: Linear | Arc, budget_mm: float) -> CornerCut | None:
+def _arc_corner(
+    m0: Linear | Arc, m1: Linear | Arc, budget_mm: float, jerk_mm_per_s3: float
+) -> CornerCut | None:
     """The blend of a corner with an arc on one side (:mod:`.corner_blend`), or None: not a
     corner (a turn below :data:`ARC_CORNER_MIN_RAD` is a tangent junction, smoothed by the
-    planner), a near-reversal, or not in one principal plane."""
+    planner), a near-reversal, not in one principal plane, or not worth blending."""
     t0 = _end_tangent(m0, at_end=True)
     t1 = _end_tangent(m1, at_end=False)
     phi = math.acos(float(np.clip(t0 @ t1, -1.0, 1.0)))
@@ -323,7 +336,26 @@ def _arc_corner(m0: Linear | Arc, m1: Linear | Arc, budget_mm: float) -> CornerC
         return None
     if not (in_plane(m0, plane) and in_plane(m1, plane)):
         return None
-    return corner_blend(m0, m1, budget_mm, plane)
+    if not _worth_blending(m0, m1, phi, budget_mm, jerk_mm_per_s3):
+        return None
+    return corner_blend(m0, m1, GEOMETRY_SHARE * budget_mm, plane)
+
+
+def _worth_blending(
+    m0: Linear | Arc, m1: Linear | Arc, phi: float, budget_mm: float, jerk_mm_per_s3: float
+) -> bool:
+    """A quick estimate before the blend's geometry is searched: the line-line blend of the
+    same turn (radius R from the budget, at most half of either move) is passed at about
+    sqrt((6 e J^2)^(1/3) R) (its curvature jump, smoothed within e = the budget's share left
+    for it; see junctions.junction_cap); below :data:`ARC_BLEND_MIN_FEED_SHARE` of the feed the
+    planner would make it an exact stop anyway (plan._slow_blends), so it is not searched."""
+    half = 0.5 * phi
+    reach = GEOMETRY_SHARE * budget_mm / (1.0 / math.cos(half) - 1.0) * math.tan(half)
+    radius = min(reach, 0.5 * m0.length_mm, 0.5 * m1.length_mm) / math.tan(half)
+    e = (1.0 - GEOMETRY_SHARE) * budget_mm
+    speed = math.sqrt((6.0 * e * jerk_mm_per_s3**2) ** (1.0 / 3.0) * radius)
+    feed = min(m0.feed_mm_per_min, m1.feed_mm_per_min) / 60.0
+    return speed >= ARC_BLEND_MIN_FEED_SHARE * feed
 
 
 def _end_tangent(m: Linear | Arc, at_end: bool) -> np.ndarray:

@@ -25,7 +25,7 @@ from gantry_sim.controller.moves import Arc, Linear
 from gantry_sim.controller.planes import PLANE_AXES, Plane
 
 #: Bisection steps on the length cut from the first move, and secant steps on the second.
-BISECTION_STEPS = 30
+BISECTION_STEPS = 20
 SECANT_STEPS = 40
 #: Samples of each cut-away part checked against the blend circle.
 CHECK_SAMPLES = 17
@@ -99,12 +99,25 @@ def _cut(m0, m1, s0: float, s1_max: float, plane: Plane):
     return None
 
 
+def _points(m: Linear | Arc, s: np.ndarray, from_end: bool) -> np.ndarray:
+    """Points (k, 3) of ``m`` at path distances ``s`` [mm] from its end (or start)."""
+    if isinstance(m, Linear):
+        a, b = np.asarray(m.start, float), np.asarray(m.end, float)
+        d = (b - a) / np.linalg.norm(b - a)
+        return b - np.outer(s, d) if from_end else a + np.outer(s, d)
+    u = 1.0 - s / m.length_mm if from_end else s / m.length_mm
+    return arc_points(m, u)
+
+
 def _deviation(m0, m1, s0, s1, center, radius, plane) -> float:
     """Largest distance of the cut-away parts of ``m0`` and ``m1`` from the blend circle."""
     i1, i2, _ = PLANE_AXES[plane]
-    pts = [_at(m0, s, True)[0] for s in np.linspace(0.0, s0, CHECK_SAMPLES)]
-    pts += [_at(m1, s, False)[0] for s in np.linspace(0.0, s1, CHECK_SAMPLES)]
-    q = np.array(pts)
+    q = np.vstack(
+        [
+            _points(m0, np.linspace(0.0, s0, CHECK_SAMPLES), True),
+            _points(m1, np.linspace(0.0, s1, CHECK_SAMPLES), False),
+        ]
+    )
     r = np.hypot(q[:, i1] - center[i1], q[:, i2] - center[i2])
     return float(np.max(np.abs(r - radius)))
 

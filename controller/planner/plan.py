@@ -111,12 +111,13 @@ def plan(
     program = tuple(m for m in items if isinstance(m, Rapid | Linear | Arc))
     check_travel(program, machine.travel)
     seg = machine.segmentation
-    path = path_plan(items, machine.path, seg.chord_tolerance_mm)
+    jerk = float(min(machine.limits.max_jerk_mm_per_s3))
+    path = path_plan(items, machine.path, seg.chord_tolerance_mm, jerk_mm_per_s3=jerk)
     known: dict = {}
     prepared = _prepare(path, machine, feed_override_pct, known)
     slow = _slow_blends(path, prepared)
     if slow:  # those corners are faster as exact stops: plan them so
-        path = path_plan(items, machine.path, seg.chord_tolerance_mm, slow)
+        path = path_plan(items, machine.path, seg.chord_tolerance_mm, slow, jerk)
         prepared = _prepare(path, machine, feed_override_pct, known)
     geoms, active, caps, states, holds, smoothing = prepared
     solver = RuckigSolver(machine.limits)
