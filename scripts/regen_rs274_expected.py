@@ -41,6 +41,8 @@ from pathlib import Path
 ROOT = Path(__file__).resolve().parent.parent
 DATA = ROOT / "tests" / "data" / "rs274"
 INCH_MM = 25.4
+#: rs274 is not safe to run twice at once: every run takes this lock (``flock``)
+LOCK = "/tmp/rs274.lock"
 EOF_MESSAGES = ("File ended with no percent sign", "File ended with no percent sign or program end")
 CANON_RE = re.compile(r"^\s*\d+\s+N(\S*)\s+([A-Z_0-9]+)\((.*)\)\s*$")
 N_LINE_RE = re.compile(r"^\s*N(\d+)", re.IGNORECASE)
@@ -154,8 +156,13 @@ def run_rs274(text: str) -> tuple[int, str, str]:
         with tempfile.TemporaryDirectory() as tmp:
             path = Path(tmp) / "prog.ngc"
             path.write_bytes(text.encode("utf-8"))
+            # another rs274 user on this machine takes the same lock (rs274 shares state)
             proc = subprocess.run(
-                ["rs274", "-g", str(path)], capture_output=True, text=True, cwd=tmp, timeout=30
+                ["flock", LOCK, "rs274", "-g", str(path)],
+                capture_output=True,
+                text=True,
+                cwd=tmp,
+                timeout=120,
             )
         if proc.returncode >= 0:
             return proc.returncode, proc.stdout, proc.stderr
@@ -181,16 +188,24 @@ def _nums(args: str) -> list[float]:
 
 
 def _sweep(
-    plane: str, start: list[float], end: list[float], center: list[float], rotation: int
+    plane: str,
+    start: list[float],
+    end: list[float],
+    center: list[float],
+    rotation: int,
+    unit_mm: float,
 ) -> float:
     i1, i2, _ = PLANE_AXES[plane]
     a0 = math.atan2(start[i2] - center[i2], start[i1] - center[i1])
     a1 = math.atan2(end[i2] - center[i2], end[i1] - center[i1])
     d = (a1 - a0) if rotation > 0 else (a0 - a1)
     d %= 2.0 * math.pi
-    # equal ends (to well below rs274's 4-decimal print; the start may come back through the
-    # offsets' inverse with rounding) make a full circle
-    if abs(start[i1] - end[i1]) < 1e-9 and abs(start[i2] - end[i2]) < 1e-9:
+    # Equal ends make a full circle. Both are rs274's 4-decimal prints (0.5e-4 unit each); the
+    # start may come back through a rotated frame into another (at most 0.71e-4 unit per
+    # coordinate), so ends closer than 1.5e-4 unit are the same point: no program in the corpus
+    # has an arc shorter than that, and rs274 itself decides a full circle from exact numbers.
+    tol = 1.5e-4 * unit_mm
+    if abs(start[i1] - end[i1]) < tol and abs(start[i2] - end[i2]) < tol:
         d = 2.0 * math.pi
     return d + 2.0 * math.pi * (abs(rotation) - 1)
 
@@ -281,7 +296,7 @@ def parse_canon(stdout: str) -> tuple[list[dict], float]:
                     "center": _to_work(center, g5x, g92, rot),
                     "radius": math.hypot(prog[i1] - center[i1], prog[i2] - center[i2]),
                     "turns": abs(rotation),
-                    "angle": _sweep(plane, prog, end, center, rotation),
+                    "angle": _sweep(plane, prog, end, center, rotation, scale),
                 }
             )
             pos = motions[-1]["end"]

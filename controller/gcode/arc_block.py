@@ -11,6 +11,7 @@ inch tolerances apply to G20 programs exactly as rs274 applies them.
 from __future__ import annotations
 
 import math
+from dataclasses import replace
 
 from gantry_sim.controller.errors import GcodeError
 from gantry_sim.controller.gcode.arc_centre import (
@@ -153,3 +154,20 @@ def _check_radius(r0: float, r1: float, inch: bool, d: Dialect) -> None:
             f"{abs_err:.4g} {unit} ({rel_err * 100:.4f} %); the {d.name} dialect allows at most "
             f"{tol:g} {unit} (or {rc.rel_tol * 100:g} % of the radius, up to {cap:g} {unit})"
         )
+
+
+def from_where_it_is(arc: Arc, fuzz: float = 1e-12) -> Arc:
+    """``arc`` (work frame) run from its ``start`` as LinuxCNC's canonical layer runs it when the
+    tool is not where the interpreter believes: after G10 L2 R changes the XY rotation while a
+    G92 offset is in effect, rs274 re-expresses its current point without the G92 offset, so
+    the next arc starts at the tool's real place. It goes from there to the programmed end about
+    the programmed centre: a spiral whose radius runs from the start's distance to the end's,
+    its angle measured from the real start (a full turn when both ends coincide)."""
+    i1, i2, n = PLANE_AXES[arc.plane]
+    start, end = (arc.start[i1], arc.start[i2]), (arc.end[i1], arc.end[i2])
+    centre = (arc.center[i1], arc.center[i2])
+    radius = math.hypot(start[0] - centre[0], start[1] - centre[1])
+    angle = swept_angle(start, end, centre, arc.direction == "ccw", arc.turns, fuzz)
+    c = list(arc.center)
+    c[n] = arc.start[n]
+    return replace(arc, center=(c[0], c[1], c[2]), radius=radius, angle=angle)

@@ -115,8 +115,8 @@ def check_words(w: Words, motion: int | None, dialect: Dialect) -> None:
     g10 = w.g.get("nonmodal") == 100
     cycle = dialect.canned_cycles and motion in _CYCLES
     uses = {
-        "I": arc or motion == 870,
-        "J": arc or motion == 870,
+        "I": arc or motion == 870 or (g10 and dialect.g10_rotation),
+        "J": arc or motion == 870 or (g10 and dialect.g10_rotation),
         "K": arc or motion == 870,
         "R": arc or (g10 and dialect.g10_rotation) or cycle,
         "L": g10
@@ -131,12 +131,13 @@ def check_words(w: Words, motion: int | None, dialect: Dialect) -> None:
         or w.m.get("io") in (62, 63, 64, 65, 66)
         or "user" in w.m,
         "Q": w.g.get("path_control") == 640
+        or (g10 and dialect.g10_rotation)
         or motion in (730, 830)
         or "user" in w.m
         or w.m.get("tool_change") == 61
         or w.m.get("io") in (66, 67, 68),
         "E": w.m.get("io") in (66, 67, 68),
-        "H": w.g.get("tool_length") == 430,
+        "H": w.g.get("tool_length") in (430, 432),
         "D": dialect.cutter_comp and w.g.get("cutter_comp") in (410, 411, 420, 421),
     }
     for letter in v:
@@ -146,7 +147,7 @@ def check_words(w: Words, motion: int | None, dialect: Dialect) -> None:
             need = {
                 "P": "G2, G3, G4, G10, G64, G82, G86, G88 or G89",
                 "Q": "G64, G73 or G83",
-                "H": "G43",
+                "H": "G43 or G43.2",
                 "R": "G2, G3 or a canned cycle",
             }.get(letter, "G2, G3 or G87")
             if letter in "DLE":
