@@ -46,6 +46,7 @@ from gantry_sim.controller.gcode.lexer import Block
 from gantry_sim.controller.gcode.modal_save import restore
 from gantry_sim.controller.gcode.parameters import (
     COORD_INDEX,
+    G28_HOME,
     G92_ENABLED,
     G92_OFFSET,
     POSITION,
@@ -455,13 +456,22 @@ class Interpreter:
         return [Limits(block.line, block_code(block), tuple(sorted(values.items())))]
 
     def _printer_home(self, block: Block) -> list[Move | Event]:
-        """Marlin G28: the named axes (all when none) rapid to the work origin."""
+        """Marlin G28: the named axes (all when none) go to the machine's home, the position
+        its endstops give: the machine file's [work] g28_mm (default: the work origin). As
+        Marlin's set_axis_is_at_home, homing also clears the G92 shift of every homed axis."""
         s = self.state
         named = [a for a, _ in block.words] or list("XYZ")
-        target = tuple(0.0 if a in named else s.work[i] for i, a in enumerate("XYZ"))
-        end = from_work((target[0], target[1], target[2]), s.frame)
+        home = [self.params.mm(G28_HOME + i) for i in range(3)]
+        target = tuple(home[i] if a in named else s.work[i] for i, a in enumerate("XYZ"))
+        g92 = tuple(0.0 if a in named else s.frame.g92[i] for i, a in enumerate("XYZ"))
+        for i, a in enumerate("XYZ"):
+            if a in named:
+                self.params.numbered[G92_OFFSET + i] = 0.0
+        frame = replace(s.frame, g92=(g92[0], g92[1], g92[2]))
+        s = replace(s, frame=frame)
+        end = from_work((target[0], target[1], target[2]), frame)
         moves: list[Move | Event] = []
-        self.state = self._emit(moves, s, Rapid(block.line, s.work, to_work(end, s.frame)), end)
+        self.state = self._emit(moves, s, Rapid(block.line, s.work, to_work(end, frame)), end)
         return moves
 
     def _jog(self, block: Block) -> tuple[list[Move | Event], bool]:
