@@ -129,6 +129,7 @@ def check_words(w: Words, motion: int | None, dialect: Dialect) -> None:
         or w.g.get("nonmodal") == 40
         or w.g.get("path_control") == 640
         or w.m.get("io") in (62, 63, 64, 65, 66)
+        or w.m.get("override") in (50, 51, 52, 53)  # rs274: M50-M53 P (override on/off)
         or "user" in w.m,
         "Q": w.g.get("path_control") == 640
         or (g10 and dialect.g10_rotation)
@@ -141,7 +142,7 @@ def check_words(w: Words, motion: int | None, dialect: Dialect) -> None:
         "D": dialect.cutter_comp and w.g.get("cutter_comp") in (410, 411, 420, 421),
     }
     for letter in v:
-        if letter in dialect.ignored_letters or letter in "XYZFST@^":
+        if letter in dialect.ignored_letters or letter in "XYZFST@^$":
             continue
         if not uses.get(letter, False):
             need = {
@@ -157,6 +158,18 @@ def check_words(w: Words, motion: int | None, dialect: Dialect) -> None:
                     "E": "a code that takes E (none here; G-code numbers have no exponent, so 1e3 reads as 1 then an E word)",
                 }[letter]
             raise GcodeError(f"{letter} word with no code that uses it; {letter} needs {need}")
+    if "$" in v:
+        spindle_code = w.m.get("spindle") is not None or w.m.get("override") == 51
+        if not (spindle_code or "S" in v or w.g.get("feed_mode") == 950 or "spindle_mode" in w.g):
+            raise GcodeError(
+                "$ (spindle selection) word with no M3, M4, M5, M19, M51, G33, G33.1, G76, G95, "
+                "G96 or G97 to use it"
+            )
+        if round(v["$"]) not in (-1, 0):
+            raise GcodeError(
+                f"invalid spindle ($) number {v['$']:g}: this machine has one spindle ($0; $-1 "
+                "selects all)"
+            )
     if "S" not in dialect.ignored_letters and v.get("S", 0.0) < 0.0:
         raise GcodeError("negative S word; the spindle speed must be >= 0")
     if v.get("T", 0.0) < 0.0:
