@@ -210,6 +210,24 @@ def _sweep(
     return d + 2.0 * math.pi * (abs(rotation) - 1)
 
 
+def _turned_plane(plane: str, ccw: bool, rot_deg: float) -> tuple[str, bool]:
+    """An arc's plane and direction in the work frame when its system is turned by ``rot_deg``
+    about Z (LinuxCNC's canon turns the plane's basis): the plane's normal turned, which must
+    lie along a principal axis; a normal that ends up pointing the negative way flips the
+    direction as seen from the positive end. Otherwise the plane is "tilted"."""
+    normal = {"XY": (0.0, 0.0, 1.0), "XZ": (0.0, 1.0, 0.0), "YZ": (1.0, 0.0, 0.0)}[plane]
+    t = math.radians(rot_deg)
+    n = (
+        normal[0] * math.cos(t) - normal[1] * math.sin(t),
+        normal[0] * math.sin(t) + normal[1] * math.cos(t),
+        normal[2],
+    )
+    for axis, name in ((0, "YZ"), (1, "XZ"), (2, "XY")):
+        if abs(abs(n[axis]) - 1.0) < 1e-9:
+            return name, ccw if n[axis] > 0 else not ccw
+    return "tilted", ccw
+
+
 def _to_work(p: list[float], g5x: list[float], g92: list[float], rot_deg: float) -> list[float]:
     """Program point [mm] -> work frame [mm], as emccanon.cc's rotate_and_offset_pos."""
     if not any(g5x) and not any(g92) and rot_deg == 0.0:
@@ -284,6 +302,7 @@ def parse_canon(stdout: str) -> tuple[list[dict], float]:
             end[i1], end[i2], end[k] = v[0] * scale, v[1] * scale, v[5] * scale
             center = [0.0, 0.0, 0.0]
             center[i1], center[i2], center[k] = v[2] * scale, v[3] * scale, prog[k]
+            work_plane, ccw = _turned_plane(plane, rotation > 0, rot)
             motions.append(
                 {
                     "n": n,
@@ -291,8 +310,8 @@ def parse_canon(stdout: str) -> tuple[list[dict], float]:
                     "start": pos,
                     "end": _to_work(end, g5x, g92, rot),
                     "feed": feed,
-                    "plane": plane,
-                    "direction": "ccw" if rotation > 0 else "cw",
+                    "plane": work_plane,
+                    "direction": "ccw" if ccw else "cw",
                     "center": _to_work(center, g5x, g92, rot),
                     "radius": math.hypot(prog[i1] - center[i1], prog[i2] - center[i2]),
                     "turns": abs(rotation),

@@ -5,6 +5,9 @@ Families (every line opens with ``N<line number>``, see ``scripts/rs274_language
 - ``gen_tofs_*``: tool changes and offsets mixed with motion: T, M6, M61, G43 (with and without
   H, on the change's line and later), G43.1 X/Y/Z, G43.2 H, G49, G10 L1/L10/L11 (X, Y, Z, R),
   G28/G30/G28.1 and G53 with an offset in effect, under G92/G52 offsets and rotated systems.
+- ``gen_turn_*``: XZ and YZ arcs (helical too) in systems turned by quarter turns (G10 L2 R90,
+  R180, R-90, R270), which LinuxCNC runs in the turned principal plane, with G92 offsets and
+  system changes between them.
 - ``gen_frame_*``: frames: G92, G52 and the G92 family together with G10 L2 R, G10 L20 (in
   rotated systems too), G54..G59.3 changes, G28/G30 naming some axes, G53, arcs (XY only while
   a rotation is in effect: gantry-sim refuses XZ/YZ arcs in a turned system).
@@ -121,6 +124,39 @@ def frames(rng: random.Random, count: int) -> dict[str, str]:
     return out
 
 
+def turned_arcs(rng: random.Random, count: int) -> dict[str, str]:
+    out = {}
+    for k in range(count):
+        lines = ["G21 G90 G17"]
+        for _ in range(rng.randint(4, 9)):
+            c = rng.random()
+            if c < 0.25:
+                r = rng.choice((90, 180, -90, 270, 0, 450))
+                lines.append(f"G10 L2 P{rng.choice((0, 1, 2))} {_axes(rng, 3)} R{r}")
+            elif c < 0.35:
+                lines.append(rng.choice(("G54", "G55", f"G92 {_axes(rng, 2)}", "G92.1")))
+            elif c < 0.45:
+                lines.append(f"G0 {_axes(rng, 3)}")
+            else:
+                plane = rng.choice(("G18", "G19"))
+                i1, i2 = {"G18": ("K", "I"), "G19": ("J", "K")}[plane]
+                a1, a2 = {"G18": ("Z", "X"), "G19": ("Y", "Z")}[plane]
+                r = rng.uniform(2, 8)
+                end = ""
+                if rng.random() < 0.5:  # a half circle, sometimes with a helix along the normal
+                    end = f" {a2}[#<_{a2.lower()}>+{_n(2 * r)}]"
+                    if rng.random() < 0.5:
+                        normal = "Y" if plane == "G18" else "X"
+                        end += f" {normal}{_n(rng.uniform(-5, 5))}"
+                g = rng.choice((2, 3))
+                lines += [f"{plane} G{g}{end} {i1}0 {i2}{_n(r)} F300", "G17"]
+                _ = a1
+        lines += ["G0 X1 Y2 Z3", "M2"]
+        out[f"gen_turn_{k:03d}"] = numbered(lines)
+    return out
+
+
 def tool_frame_programs(seed: int) -> dict[str, str]:
     rng = random.Random(seed)
-    return {**tool_offsets(rng, 120), **frames(rng, 120)}
+    programs = {**tool_offsets(rng, 120), **frames(rng, 120)}
+    return {**programs, **turned_arcs(random.Random(seed + 1), 60)}  # own stream: above kept

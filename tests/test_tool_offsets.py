@@ -62,3 +62,19 @@ def test_g52_sets_the_offset_itself_and_g92_1_clears_it():
     got = ends("G21 G90\nG0 X1 Y1\nG52 X10\nG0 X2\nG92 X5\nG0 X3\nG92.1\nG0 X5\nM2\n")
     # rs274: G52 X10 -> offset 10 (X2 is at 12); G92 X5 at program X2 -> offset 7 (X3 at 10)
     assert [e[0] for e in got] == pytest.approx([1.0, 12.0, 10.0, 5.0])
+
+
+def test_xz_arc_in_a_system_turned_a_quarter_lies_in_yz():
+    """G18 G2 from X10 to X20 about X15 bulges to Z-5 (clockwise seen from +Y); turned by 90
+    degrees its X runs along Y: the same half circle in YZ, counter-clockwise seen from +X."""
+    (_, arc) = list(interpret("G21\nG10 L2 P1 R90\nG0 X10\nG18 G2 X20 I5 K0 F100\nM2\n"))
+    assert (arc.plane, arc.direction) == ("YZ", "ccw")
+    assert arc.center == pytest.approx((0.0, 15.0, 0.0), abs=1e-12)
+    assert arc.angle == pytest.approx(3.141592653589793)
+
+
+def test_xz_arc_in_a_system_turned_by_other_angles_is_refused():
+    from gantry_sim.controller.errors import GcodeError
+
+    with pytest.raises(GcodeError, match="vertical plane turned by the rotation"):
+        list(interpret("G21\nG10 L2 P1 R30\nG0 X10\nG18 G2 X20 I5 K0 F100\nM2\n"))

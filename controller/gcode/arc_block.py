@@ -22,7 +22,7 @@ from gantry_sim.controller.gcode.arc_centre import (
 )
 from gantry_sim.controller.gcode.dialects import Dialect
 from gantry_sim.controller.gcode.state import ModalState
-from gantry_sim.controller.moves import Arc, Vec3
+from gantry_sim.controller.moves import Arc, Plane, Vec3
 from gantry_sim.controller.planes import AXES, PLANE_AXES
 
 _OFFSETS = "IJK"
@@ -171,3 +171,36 @@ def from_where_it_is(arc: Arc, fuzz: float = 1e-12) -> Arc:
     c = list(arc.center)
     c[n] = arc.start[n]
     return replace(arc, center=(c[0], c[1], c[2]), radius=radius, angle=angle)
+
+
+#: where an XY rotation by a quarter turn (1, 2, 3) takes an XZ/YZ arc: (plane, direction flips)
+_QUARTER_TURNS: dict[tuple[str, int], tuple[Plane, bool]] = {
+    ("XZ", 1): ("YZ", True),  # normal +Y -> -X
+    ("XZ", 2): ("XZ", True),  # -> -Y
+    ("XZ", 3): ("YZ", False),  # -> +X
+    ("YZ", 1): ("XZ", False),  # normal +X -> +Y
+    ("YZ", 2): ("YZ", True),  # -> -X
+    ("YZ", 3): ("XZ", True),  # -> -Y
+}
+
+
+def turned_plane(arc: Arc, rotation_deg: float) -> Arc:
+    """An XZ/YZ arc (already placed in the work frame) of a system turned by ``rotation_deg``
+    about Z: LinuxCNC's canonical layer turns the arc's plane with the system, so a quarter
+    turn gives another principal plane (its direction flips when the plane's normal now points
+    the other way); any other angle gives a vertical plane that is not a principal one, which
+    this model's arcs cannot represent: refused (rs274 accepts it)."""
+    quarters = rotation_deg / 90.0
+    q = round(quarters) % 4
+    if abs(quarters - round(quarters)) > 1e-9:
+        raise GcodeError(
+            f"a {arc.plane} arc under an XY rotation of {rotation_deg:g} degrees lies in a "
+            "vertical plane turned by the rotation (LinuxCNC runs it there), which is not "
+            "supported: gantry-sim's arcs lie in XY, XZ or YZ; use G17 arcs, or rotations by "
+            "multiples of 90 degrees"
+        )
+    if q == 0:
+        return arc
+    plane, flip = _QUARTER_TURNS[(arc.plane, q)]
+    direction = arc.direction if not flip else ("ccw" if arc.direction == "cw" else "cw")
+    return replace(arc, plane=plane, direction=direction)

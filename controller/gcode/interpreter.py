@@ -16,7 +16,7 @@ from dataclasses import replace
 from pathlib import Path
 
 from gantry_sim.controller.errors import GcodeError
-from gantry_sim.controller.gcode.arc_block import arc_move, from_where_it_is
+from gantry_sim.controller.gcode.arc_block import arc_move, from_where_it_is, turned_plane
 from gantry_sim.controller.gcode.canned_cycles import CYCLES, CycleMemory, run_cycle
 from gantry_sim.controller.gcode.codes import (
     G_HANDLED,
@@ -351,16 +351,13 @@ class Interpreter:
     def _arc_to_work(self, arc: Arc, s: ModalState) -> Arc:
         """The arc (program coordinates) placed in the work frame, from where the tool is."""
         f = s.frame
-        if f.rotation_deg != 0.0 and arc.plane != "XY":
-            raise GcodeError(
-                f"a {arc.plane} arc under an XY rotation of {f.rotation_deg:g} degrees lies in a "
-                "tilted plane, which is not supported; arcs under a rotation must be G17 (XY)"
-            )
         placed = arc
         if not f.identity:
             placed = replace(
                 arc, start=s.work, end=to_work(arc.end, f), center=to_work(arc.center, f)
             )
+        if f.rotation_deg != 0.0 and arc.plane != "XY":
+            placed = turned_plane(placed, f.rotation_deg)  # a quarter turn: another plane
         if max(abs(a - b) for a, b in zip(to_work(arc.start, f), s.work, strict=True)) > 1e-9:
             # rs274 re-expressed its point (G10 L2 R under G92, a tool offset change): the
             # canonical layer starts the arc where the tool is
