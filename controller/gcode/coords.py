@@ -112,7 +112,7 @@ def g92(s: ModalState, p: Parameters, code: int, v: dict[str, float]) -> ModalSt
     G52 (520: the offset itself is v; LinuxCNC 2.9 keeps it as G92's, in #5211.. with #5210)."""
     offset = list(s.frame.g92)
     if code in (920, 520):
-        if not any(a in v for a in _AXES):
+        if not any(a in v for a in "XYZABC"):  # (A/B/C words reach here only as 0: no-ops)
             raise GcodeError(
                 f"{'G92' if code == 920 else 'G52'} needs at least one axis word"
                 + (": the value the current point gets" if code == 920 else ": the offset")

@@ -174,7 +174,7 @@ class Interpreter:
         # Step 5: which motion this block makes, if any.
         nonmodal = w.g.get("nonmodal")
         axis_code = nonmodal in AXIS_NONMODAL
-        has_axes = any(a in w.values for a in "XYZ@^")
+        has_axes = any(a in w.values for a in "XYZ@^ABC")  # A/B/C: only 0 gets this far
         motion = w.g.get("motion")
         if motion == 800:
             if has_axes and not axis_code:

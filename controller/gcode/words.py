@@ -22,6 +22,8 @@ from gantry_sim.controller.gcode.parameters import (
 )
 
 _OTHER_AXES = "ABCUVW"
+#: rotary axes rs274 -g has (A/B/C); a word of 0 keeps such an axis where it always is (at 0)
+ROTARY_AXES = "ABC"
 #: canned cycles (tenths): they take R and L (and P, Q, I/J/K as each needs).
 _CYCLES = frozenset((730, 740, 810, 820, 830, 840, 850, 860, 870, 880, 890))
 
@@ -109,7 +111,8 @@ def check_words(w: Words, motion: int | None, dialect: Dialect) -> None:
     """Step 5b: every word has a code that uses it."""
     v = w.values
     for letter in v:
-        if letter in _OTHER_AXES:
+        # a rotary word that leaves its axis at 0 (the posts' "A0.") moves nothing: accepted
+        if letter in _OTHER_AXES and not (letter in ROTARY_AXES and v[letter] == 0.0):
             raise GcodeError(f"{letter} axis word on a 3-axis machine; allowed axes: X, Y, Z")
     arc = motion in (20, 30)
     g10 = w.g.get("nonmodal") == 100
@@ -141,8 +144,11 @@ def check_words(w: Words, motion: int | None, dialect: Dialect) -> None:
         "H": w.g.get("tool_length") in (430, 432),
         "D": dialect.cutter_comp and w.g.get("cutter_comp") in (410, 411, 420, 421),
     }
+    if cycle and any(a in v for a in ROTARY_AXES):
+        a = next(a for a in ROTARY_AXES if a in v)
+        raise GcodeError(f"cannot put an {a} in a canned cycle")
     for letter in v:
-        if letter in dialect.ignored_letters or letter in "XYZFST@^$":
+        if letter in dialect.ignored_letters or letter in "XYZFST@^$" + ROTARY_AXES:
             continue
         if not uses.get(letter, False):
             need = {
