@@ -254,6 +254,9 @@ def parse_canon(stdout: str) -> tuple[list[dict], float]:
     """Canonical calls -> motions (without lines; ``n``: the block's N word or None) in the work
     frame [mm], and the largest print unit used [mm]."""
     scale, plane, feed = 1.0, "XY", 0.0
+    # G95: rs274 passes F per revolution (SET_FEED_MODE(spindle, 1)) and LinuxCNC's motion
+    # multiplies it by the spindle speed; gantry-sim's feed is that path speed [mm/min]
+    per_rev, rpm = False, 0.0
     pos = [0.0, 0.0, 0.0]  # work frame
     g5x, g92, rot = [0.0, 0.0, 0.0], [0.0, 0.0, 0.0], 0.0
     unit_max = 1.0
@@ -276,6 +279,10 @@ def parse_canon(stdout: str) -> tuple[list[dict], float]:
             scale = INCH_MM if "INCHES" in args else 1.0
         elif name == "SELECT_PLANE":
             plane = PLANES[args.strip()]
+        elif name == "SET_FEED_MODE":
+            per_rev = int(_nums(args)[1]) == 1
+        elif name == "SET_SPINDLE_SPEED":
+            rpm = _nums(args)[1]
         elif name == "SET_FEED_RATE":
             feed = _nums(args)[0] * scale
         elif name in ("STRAIGHT_TRAVERSE", "STRAIGHT_FEED"):
@@ -289,7 +296,7 @@ def parse_canon(stdout: str) -> tuple[list[dict], float]:
                 "end": end,
             }
             if name == "STRAIGHT_FEED":
-                mo["feed"] = feed
+                mo["feed"] = feed * rpm if per_rev else feed
             motions.append(mo)
             pos = end
             unit_max = max(unit_max, scale)
@@ -309,7 +316,7 @@ def parse_canon(stdout: str) -> tuple[list[dict], float]:
                     "kind": "arc",
                     "start": pos,
                     "end": _to_work(end, g5x, g92, rot),
-                    "feed": feed,
+                    "feed": feed * rpm if per_rev else feed,
                     "plane": work_plane,
                     "direction": "ccw" if ccw else "cw",
                     "center": _to_work(center, g5x, g92, rot),
