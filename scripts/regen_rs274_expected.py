@@ -44,7 +44,7 @@ INCH_MM = 25.4
 #: rs274 is not safe to run twice at once: every run takes this lock (``flock``)
 LOCK = "/tmp/rs274.lock"
 EOF_MESSAGES = ("File ended with no percent sign", "File ended with no percent sign or program end")
-CANON_RE = re.compile(r"^\s*\d+\s+N(\S*)\s+([A-Z_0-9]+)\((.*)\)\s*$")
+CANON_RE = re.compile(r"^\s*\d+\s+N(\S*)\s+([A-Z_0-9.]+)\((.*)\)\s*$")
 N_LINE_RE = re.compile(r"^\s*N(\d+)", re.IGNORECASE)
 #: Canonical calls that do not move the tool (everything else that appears is refused loudly).
 QUIET_CALLS = {
@@ -93,6 +93,7 @@ QUIET_CALLS = {
     "TURN_PROBE_OFF",
     "ORIENT_SPINDLE",
     "WAIT_SPINDLE_ORIENT_COMPLETE",
+    "SPINDLE.0.WAIT_ORIENT_COMPLETE",  # M19 (rs274 2.9 prints the spindle's number in the name)
     "USE_NO_SPINDLE_FORCE",
     "USE_SPINDLE_FORCE",
     "SET_TOOL_TABLE_ENTRY",

@@ -74,7 +74,7 @@ M_GROUPS: dict[int, str] = {
     **dict.fromkeys((62, 63, 64, 65, 66, 67, 68), "io"),  # digital/analog outputs, wait input
     **dict.fromkeys((70, 71, 72, 73), "modal_state"),  # save/invalidate/restore/auto-restore
     **dict.fromkeys(range(100, 200), "user"),  # user M-codes: programs M100..M199 (if present)
-    **dict.fromkeys((3, 4, 5), "spindle"),
+    **dict.fromkeys((3, 4, 5, 19), "spindle"),  # M19: orient the spindle (R angle, Q, P)
     **dict.fromkeys((7, 8, 9), "coolant"),
     **dict.fromkeys((48, 49, 50, 51, 52, 53, 56), "override"),  # M56: grbl's parking override
 }

@@ -144,7 +144,7 @@ class Interpreter:
         if "S" in w.values and "S" not in d.ignored_letters:
             s = replace(s, rpm=w.values["S"])
         if "spindle" in w.m:
-            s = replace(s, spindle={3: 1, 4: -1, 5: 0}[w.m["spindle"]])
+            s = replace(s, spindle={3: 1, 4: -1, 5: 0, 19: 0}[w.m["spindle"]])  # M19: stopped
         if "coolant" in w.m:
             c = w.m["coolant"]
             s = replace(s, mist=c == 7 or (s.mist and c == 8), flood=c == 8 or (s.flood and c == 7))

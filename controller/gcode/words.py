@@ -121,7 +121,7 @@ def check_words(w: Words, motion: int | None, dialect: Dialect) -> None:
         "I": arc or motion == 870 or (g10 and dialect.g10_rotation),
         "J": arc or motion == 870 or (g10 and dialect.g10_rotation),
         "K": arc or motion == 870,
-        "R": arc or (g10 and dialect.g10_rotation) or cycle,
+        "R": arc or (g10 and dialect.g10_rotation) or cycle or w.m.get("spindle") == 19,
         "L": g10
         or w.m.get("io") == 66
         or (cycle and motion != 740)  # rs274: not with G74
@@ -133,8 +133,10 @@ def check_words(w: Words, motion: int | None, dialect: Dialect) -> None:
         or w.g.get("path_control") == 640
         or w.m.get("io") in (62, 63, 64, 65, 66)
         or w.m.get("override") in (50, 51, 52, 53)  # rs274: M50-M53 P (override on/off)
+        or w.m.get("spindle") == 19
         or "user" in w.m,
         "Q": w.g.get("path_control") == 640
+        or w.m.get("spindle") == 19
         or (g10 and dialect.g10_rotation)
         or motion in (730, 830)
         or "user" in w.m
@@ -142,7 +144,8 @@ def check_words(w: Words, motion: int | None, dialect: Dialect) -> None:
         or w.m.get("io") in (66, 67, 68),
         "E": w.m.get("io") in (66, 67, 68),
         "H": w.g.get("tool_length") in (430, 432),
-        "D": dialect.cutter_comp and w.g.get("cutter_comp") in (410, 411, 420, 421),
+        "D": (dialect.cutter_comp and w.g.get("cutter_comp") in (410, 411, 420, 421))
+        or w.g.get("spindle_mode") == 960,  # G96 D: the spindle's speed limit
     }
     if cycle and any(a in v for a in ROTARY_AXES):
         a = next(a for a in ROTARY_AXES if a in v)
@@ -159,11 +162,13 @@ def check_words(w: Words, motion: int | None, dialect: Dialect) -> None:
             }.get(letter, "G2, G3 or G87")
             if letter in "DLE":
                 need = {
-                    "D": "G41, G41.1, G42 or G42.1",
+                    "D": "G41, G41.1, G42, G42.1 or G96",
                     "L": "G10 or a canned cycle",
                     "E": "a code that takes E (none here; G-code numbers have no exponent, so 1e3 reads as 1 then an E word)",
                 }[letter]
             raise GcodeError(f"{letter} word with no code that uses it; {letter} needs {need}")
+    if w.m.get("spindle") == 19 and "P" in v and round(v["P"]) not in (0, 1, 2):
+        raise GcodeError("P value must be 0, 1 or 2 with M19 (the direction to orient in)")
     if "$" in v:
         spindle_code = w.m.get("spindle") is not None or w.m.get("override") == 51
         if not (spindle_code or "S" in v or w.g.get("feed_mode") == 950 or "spindle_mode" in w.g):
