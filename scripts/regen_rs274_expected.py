@@ -163,7 +163,7 @@ def run_rs274(text: str) -> tuple[int, str, str]:
                 capture_output=True,
                 text=True,
                 cwd=tmp,
-                timeout=120,
+                timeout=900,  # includes waiting for the lock (another rs274 user)
             )
         if proc.returncode >= 0:
             return proc.returncode, proc.stdout, proc.stderr

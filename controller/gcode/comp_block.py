@@ -83,7 +83,7 @@ def switch(
             if number < 0:
                 raise GcodeError("negative D word tool radius index used")
         else:
-            number = s.tool
+            number = 0  # rs274: no D is index 0, the spindle's entry
         found = tool(number)
         diameter = found.diameter_mm if found is not None else 0.0
     comp.inch = s.inch

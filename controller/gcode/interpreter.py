@@ -13,6 +13,7 @@ from __future__ import annotations
 
 from collections.abc import Iterator, Mapping
 from dataclasses import replace
+from functools import partial
 from pathlib import Path
 
 from gantry_sim.controller.errors import GcodeError
@@ -167,7 +168,9 @@ class Interpreter:
         dwell_held = w.g.get("nonmodal") == 40 and "P" in w.values and self.comp.holding
         if dwell_held:  # rs274 queues the dwell behind the held move: it waits where that ends
             self.comp.hold_dwell(w.line, w.values["P"])
-        released = switch(self.comp, w, s, self.table.lookup)  # G40/G41/G42, before the motion
+        # G40/G41/G42, before the motion; G41/G42 read rs274's tool_table[find_tool_index(D)]:
+        # D0 and no D are the spindle's entry
+        released = switch(self.comp, w, s, partial(self.table.entry, s))
         cycle = self.cycle
         if "retract" in w.g:
             cycle = replace(cycle, retract_to_r=w.g["retract"] == 990)
