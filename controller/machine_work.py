@@ -3,7 +3,8 @@ stored positions every program starts from.
 
 ``[tools]``: one entry per tool, ``N = { length_mm = L, diameter_mm = D }`` with N >= 1 the tool
 number (T word), L its length offset along Z [mm] (G43 H) and D its diameter [mm] (optional,
-default 0). A machine file's ``[tools]`` replaces the bundled table as a whole; with no tool in
+default 0); optional ``x_mm`` / ``y_mm``: X/Y offsets, applied by G43 as rs274 applies a tool
+table's (a lathe's; 0 on a mill). A machine file's ``[tools]`` replaces the bundled table as a whole; with no tool in
 any file there is no table and every tool has zero length (as ``gantry parse`` without
 ``--tool-table``).
 
@@ -48,7 +49,7 @@ SYSTEM_KEYS = (
     "g59_3_mm",
 )
 WORK_KEYS = (*SYSTEM_KEYS, "g92_mm", "g28_mm", "g30_mm")
-TOOL_KEYS = ("length_mm", "diameter_mm")
+TOOL_KEYS = ("length_mm", "diameter_mm", "x_mm", "y_mm")
 #: largest |coordinate| accepted [mm] (as --work-offset)
 MAX_MM = 1e6
 ZERO: Vec3 = (0.0, 0.0, 0.0)
@@ -148,7 +149,10 @@ def _tools(table: dict[str, Any], file: str) -> tuple[Tool, ...] | None:
             )
         length = _number(entry["length_mm"], f"[tools] {key} length_mm", file, None)
         diameter = _number(entry.get("diameter_mm", 0.0), f"[tools] {key} diameter_mm", file, 0.0)
-        tools[number] = Tool(number, length, diameter)
+        x, y = (
+            _number(entry.get(k, 0.0), f"[tools] {key} {k}", file, None) for k in ("x_mm", "y_mm")
+        )
+        tools[number] = Tool(number, length, diameter, x, y)
     return tuple(tools[n] for n in sorted(tools)) if tools else None
 
 

@@ -16,6 +16,7 @@ from pathlib import Path
 from rs274_comp_programs import comp_programs
 from rs274_cycle_programs import cycle_programs
 from rs274_language_programs import language_programs
+from rs274_tool_frame_programs import tool_frame_programs
 
 ROOT = Path(__file__).resolve().parent.parent
 PROGRAMS = ROOT / "tests" / "data" / "rs274" / "programs"
@@ -392,6 +393,9 @@ def main() -> int:
     comp = comp_programs(SEED + 30)  # cutter compensation (issue 11)
     assert not set(comp) & set(progs), "duplicate program names"
     progs.update(comp)
+    tool_frame = tool_frame_programs(SEED + 40)  # tool offsets and frames (issue 10)
+    assert not set(tool_frame) & set(progs), "duplicate program names"
+    progs.update(tool_frame)
     PROGRAMS.mkdir(parents=True, exist_ok=True)
     for old in PROGRAMS.glob("gen_*.ngc"):
         if old.stem not in progs:

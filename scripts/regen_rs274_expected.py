@@ -41,8 +41,10 @@ from pathlib import Path
 ROOT = Path(__file__).resolve().parent.parent
 DATA = ROOT / "tests" / "data" / "rs274"
 INCH_MM = 25.4
+#: rs274 is not safe to run twice at once: every run takes this lock (``flock``)
+LOCK = "/tmp/rs274.lock"
 EOF_MESSAGES = ("File ended with no percent sign", "File ended with no percent sign or program end")
-CANON_RE = re.compile(r"^\s*\d+\s+N(\S*)\s+([A-Z_0-9]+)\((.*)\)\s*$")
+CANON_RE = re.compile(r"^\s*\d+\s+N(\S*)\s+([A-Z_0-9.]+)\((.*)\)\s*$")
 N_LINE_RE = re.compile(r"^\s*N(\d+)", re.IGNORECASE)
 #: Canonical calls that do not move the tool (everything else that appears is refused loudly).
 QUIET_CALLS = {
@@ -91,6 +93,7 @@ QUIET_CALLS = {
     "TURN_PROBE_OFF",
     "ORIENT_SPINDLE",
     "WAIT_SPINDLE_ORIENT_COMPLETE",
+    "SPINDLE.0.WAIT_ORIENT_COMPLETE",  # M19 (rs274 2.9 prints the spindle's number in the name)
     "USE_NO_SPINDLE_FORCE",
     "USE_SPINDLE_FORCE",
     "SET_TOOL_TABLE_ENTRY",
@@ -154,8 +157,13 @@ def run_rs274(text: str) -> tuple[int, str, str]:
         with tempfile.TemporaryDirectory() as tmp:
             path = Path(tmp) / "prog.ngc"
             path.write_bytes(text.encode("utf-8"))
+            # another rs274 user on this machine takes the same lock (rs274 shares state)
             proc = subprocess.run(
-                ["rs274", "-g", str(path)], capture_output=True, text=True, cwd=tmp, timeout=30
+                ["flock", LOCK, "rs274", "-g", str(path)],
+                capture_output=True,
+                text=True,
+                cwd=tmp,
+                timeout=900,  # includes waiting for the lock (another rs274 user)
             )
         if proc.returncode >= 0:
             return proc.returncode, proc.stdout, proc.stderr
@@ -181,18 +189,44 @@ def _nums(args: str) -> list[float]:
 
 
 def _sweep(
-    plane: str, start: list[float], end: list[float], center: list[float], rotation: int
+    plane: str,
+    start: list[float],
+    end: list[float],
+    center: list[float],
+    rotation: int,
+    unit_mm: float,
 ) -> float:
     i1, i2, _ = PLANE_AXES[plane]
     a0 = math.atan2(start[i2] - center[i2], start[i1] - center[i1])
     a1 = math.atan2(end[i2] - center[i2], end[i1] - center[i1])
     d = (a1 - a0) if rotation > 0 else (a0 - a1)
     d %= 2.0 * math.pi
-    # equal ends (to well below rs274's 4-decimal print; the start may come back through the
-    # offsets' inverse with rounding) make a full circle
-    if abs(start[i1] - end[i1]) < 1e-9 and abs(start[i2] - end[i2]) < 1e-9:
+    # Equal ends make a full circle. Both are rs274's 4-decimal prints (0.5e-4 unit each); the
+    # start may come back through a rotated frame into another (at most 0.71e-4 unit per
+    # coordinate), so ends closer than 1.5e-4 unit are the same point: no program in the corpus
+    # has an arc shorter than that, and rs274 itself decides a full circle from exact numbers.
+    tol = 1.5e-4 * unit_mm
+    if abs(start[i1] - end[i1]) < tol and abs(start[i2] - end[i2]) < tol:
         d = 2.0 * math.pi
     return d + 2.0 * math.pi * (abs(rotation) - 1)
+
+
+def _turned_plane(plane: str, ccw: bool, rot_deg: float) -> tuple[str, bool]:
+    """An arc's plane and direction in the work frame when its system is turned by ``rot_deg``
+    about Z (LinuxCNC's canon turns the plane's basis): the plane's normal turned, which must
+    lie along a principal axis; a normal that ends up pointing the negative way flips the
+    direction as seen from the positive end. Otherwise the plane is "tilted"."""
+    normal = {"XY": (0.0, 0.0, 1.0), "XZ": (0.0, 1.0, 0.0), "YZ": (1.0, 0.0, 0.0)}[plane]
+    t = math.radians(rot_deg)
+    n = (
+        normal[0] * math.cos(t) - normal[1] * math.sin(t),
+        normal[0] * math.sin(t) + normal[1] * math.cos(t),
+        normal[2],
+    )
+    for axis, name in ((0, "YZ"), (1, "XZ"), (2, "XY")):
+        if abs(abs(n[axis]) - 1.0) < 1e-9:
+            return name, ccw if n[axis] > 0 else not ccw
+    return "tilted", ccw
 
 
 def _to_work(p: list[float], g5x: list[float], g92: list[float], rot_deg: float) -> list[float]:
@@ -221,6 +255,9 @@ def parse_canon(stdout: str) -> tuple[list[dict], float]:
     """Canonical calls -> motions (without lines; ``n``: the block's N word or None) in the work
     frame [mm], and the largest print unit used [mm]."""
     scale, plane, feed = 1.0, "XY", 0.0
+    # G95: rs274 passes F per revolution (SET_FEED_MODE(spindle, 1)) and LinuxCNC's motion
+    # multiplies it by the spindle speed; gantry-sim's feed is that path speed [mm/min]
+    per_rev, rpm = False, 0.0
     pos = [0.0, 0.0, 0.0]  # work frame
     g5x, g92, rot = [0.0, 0.0, 0.0], [0.0, 0.0, 0.0], 0.0
     unit_max = 1.0
@@ -243,6 +280,10 @@ def parse_canon(stdout: str) -> tuple[list[dict], float]:
             scale = INCH_MM if "INCHES" in args else 1.0
         elif name == "SELECT_PLANE":
             plane = PLANES[args.strip()]
+        elif name == "SET_FEED_MODE":
+            per_rev = int(_nums(args)[1]) == 1
+        elif name == "SET_SPINDLE_SPEED":
+            rpm = _nums(args)[1]
         elif name == "SET_FEED_RATE":
             feed = _nums(args)[0] * scale
         elif name in ("STRAIGHT_TRAVERSE", "STRAIGHT_FEED"):
@@ -256,7 +297,7 @@ def parse_canon(stdout: str) -> tuple[list[dict], float]:
                 "end": end,
             }
             if name == "STRAIGHT_FEED":
-                mo["feed"] = feed
+                mo["feed"] = feed * rpm if per_rev else feed
             motions.append(mo)
             pos = end
             unit_max = max(unit_max, scale)
@@ -269,19 +310,20 @@ def parse_canon(stdout: str) -> tuple[list[dict], float]:
             end[i1], end[i2], end[k] = v[0] * scale, v[1] * scale, v[5] * scale
             center = [0.0, 0.0, 0.0]
             center[i1], center[i2], center[k] = v[2] * scale, v[3] * scale, prog[k]
+            work_plane, ccw = _turned_plane(plane, rotation > 0, rot)
             motions.append(
                 {
                     "n": n,
                     "kind": "arc",
                     "start": pos,
                     "end": _to_work(end, g5x, g92, rot),
-                    "feed": feed,
-                    "plane": plane,
-                    "direction": "ccw" if rotation > 0 else "cw",
+                    "feed": feed * rpm if per_rev else feed,
+                    "plane": work_plane,
+                    "direction": "ccw" if ccw else "cw",
                     "center": _to_work(center, g5x, g92, rot),
                     "radius": math.hypot(prog[i1] - center[i1], prog[i2] - center[i2]),
                     "turns": abs(rotation),
-                    "angle": _sweep(plane, prog, end, center, rotation),
+                    "angle": _sweep(plane, prog, end, center, rotation, scale),
                 }
             )
             pos = motions[-1]["end"]

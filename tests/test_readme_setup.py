@@ -12,7 +12,7 @@ import pytest
 from gantry_sim.controller.errors import PlanningError
 from gantry_sim.controller.gcode.dialects import DIALECTS
 from gantry_sim.controller.gcode.interpreter import parse_program
-from gantry_sim.controller.machine_work import SYSTEM_KEYS, WORK_KEYS
+from gantry_sim.controller.machine_work import SYSTEM_KEYS, TOOL_KEYS, WORK_KEYS
 from gantry_sim.controller.planner.travel import check_travel
 from gantry_sim.sim.commands.common import add_program_setup
 
@@ -33,7 +33,9 @@ def test_every_program_setup_option_is_in_the_options_table():
 
 
 def test_tools_and_work_keys_are_in_the_machine_file_table():
-    assert "| `[tools]` | `N = { length_mm = L, diameter_mm = D }` | mm |" in README
+    row = next(r for r in README.splitlines() if r.startswith("| `[tools]` |"))
+    for key in TOOL_KEYS:
+        assert f"{key}" in row, key
     assert f"| `[work]` | `{SYSTEM_KEYS[0]}` .. `{SYSTEM_KEYS[-1]}` | mm |" in README
     for key in WORK_KEYS[len(SYSTEM_KEYS) :]:
         assert f"`{key}`" in README.split("| `[work]`", 1)[1].split("\n\n", 1)[0], key

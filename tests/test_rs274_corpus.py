@@ -26,7 +26,7 @@ import pytest
 
 DATA = Path(__file__).parent / "data" / "rs274"
 PROGRAMS = sorted((DATA / "programs").glob("*.ngc"))
-MIN_PROGRAMS = 1575
+MIN_PROGRAMS = 1892
 
 
 #: Where gantry-sim deliberately differs from rs274, and why. rs274 is a 9-axis interpreter and
@@ -34,23 +34,17 @@ MIN_PROGRAMS = 1575
 #: misreport the path, so the words are refused. For these programs the test still demands rs274's
 #: motions up to the first line with such a word, and an error on exactly that line that names it.
 DEVIATIONS: dict[str, str] = {
-    name: "A/B/C axis words are refused on this 3-axis machine (rs274 moves rotary axes)"
+    name: "A/B/C axis words are refused on this 3-axis machine (rs274 moves rotary axes; a word "
+    "of 0, which moves nothing, is accepted: rotary_words_of_zero)"
     for name in ("abc_linear", "abc_on_arc", "abc_only_a")
 }
 
 
-#: Programs where gantry-sim is known to differ and the cause is not yet resolved: each combines a
-#: G92 offset with an XY rotation, where rs274's interpreter bookkeeping (R p + g92 + g5x) and
-#: its canonical layer (R (p + g92) + g5x) disagree about where the tool is. Strict xfail: the
-#: test fails as soon as one of them starts to match, so the list cannot go stale.
-KNOWN_DIFFERENCES: dict[str, str] = {
-    name: "G92 offset together with an XY rotation (rs274 interp vs canon bookkeeping)"
-    for name in ("gen_lang_offsets_122", "gen_lang_offsets_125", "gen_lang_offsets_142")
-}
-KNOWN_DIFFERENCES["m61_and_io_codes"] = (
-    "G43 after M61: rs274 leaves Z as it was (after M6 on an earlier line it shifts Z by the "
-    "length); the rule behind it is not yet known"
-)
+#: Programs where gantry-sim is known to differ and the cause is not yet resolved (strict xfail:
+#: the test fails as soon as one of them starts to match, so the list cannot go stale). None now:
+#: the G92-with-rotation programs follow rs274's own re-expression of its current point, and
+#: M61 then G43 follows rs274's tool slots (controller/gcode/tool_offsets.py).
+KNOWN_DIFFERENCES: dict[str, str] = {}
 
 
 #: LinuxCNC's own sample programs (lcnc_*, see tests/data/rs274/LINUXCNC_SAMPLES.md) use features

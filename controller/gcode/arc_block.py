@@ -11,6 +11,7 @@ inch tolerances apply to G20 programs exactly as rs274 applies them.
 from __future__ import annotations
 
 import math
+from dataclasses import replace
 
 from gantry_sim.controller.errors import GcodeError
 from gantry_sim.controller.gcode.arc_centre import (
@@ -21,7 +22,7 @@ from gantry_sim.controller.gcode.arc_centre import (
 )
 from gantry_sim.controller.gcode.dialects import Dialect
 from gantry_sim.controller.gcode.state import ModalState
-from gantry_sim.controller.moves import Arc, Vec3
+from gantry_sim.controller.moves import Arc, Plane, Vec3
 from gantry_sim.controller.planes import AXES, PLANE_AXES
 
 _OFFSETS = "IJK"
@@ -153,3 +154,53 @@ def _check_radius(r0: float, r1: float, inch: bool, d: Dialect) -> None:
             f"{abs_err:.4g} {unit} ({rel_err * 100:.4f} %); the {d.name} dialect allows at most "
             f"{tol:g} {unit} (or {rc.rel_tol * 100:g} % of the radius, up to {cap:g} {unit})"
         )
+
+
+def from_where_it_is(arc: Arc, fuzz: float = 1e-12) -> Arc:
+    """``arc`` (work frame) run from its ``start`` as LinuxCNC's canonical layer runs it when the
+    tool is not where the interpreter believes: after G10 L2 R changes the XY rotation while a
+    G92 offset is in effect, rs274 re-expresses its current point without the G92 offset, so
+    the next arc starts at the tool's real place. It goes from there to the programmed end about
+    the programmed centre: a spiral whose radius runs from the start's distance to the end's,
+    its angle measured from the real start (a full turn when both ends coincide)."""
+    i1, i2, n = PLANE_AXES[arc.plane]
+    start, end = (arc.start[i1], arc.start[i2]), (arc.end[i1], arc.end[i2])
+    centre = (arc.center[i1], arc.center[i2])
+    radius = math.hypot(start[0] - centre[0], start[1] - centre[1])
+    angle = swept_angle(start, end, centre, arc.direction == "ccw", arc.turns, fuzz)
+    c = list(arc.center)
+    c[n] = arc.start[n]
+    return replace(arc, center=(c[0], c[1], c[2]), radius=radius, angle=angle)
+
+
+#: where an XY rotation by a quarter turn (1, 2, 3) takes an XZ/YZ arc: (plane, direction flips)
+_QUARTER_TURNS: dict[tuple[str, int], tuple[Plane, bool]] = {
+    ("XZ", 1): ("YZ", True),  # normal +Y -> -X
+    ("XZ", 2): ("XZ", True),  # -> -Y
+    ("XZ", 3): ("YZ", False),  # -> +X
+    ("YZ", 1): ("XZ", False),  # normal +X -> +Y
+    ("YZ", 2): ("YZ", True),  # -> -X
+    ("YZ", 3): ("XZ", True),  # -> -Y
+}
+
+
+def turned_plane(arc: Arc, rotation_deg: float) -> Arc:
+    """An XZ/YZ arc (already placed in the work frame) of a system turned by ``rotation_deg``
+    about Z: LinuxCNC's canonical layer turns the arc's plane with the system, so a quarter
+    turn gives another principal plane (its direction flips when the plane's normal now points
+    the other way); any other angle gives a vertical plane that is not a principal one, which
+    this model's arcs cannot represent: refused (rs274 accepts it)."""
+    quarters = rotation_deg / 90.0
+    q = round(quarters) % 4
+    if abs(quarters - round(quarters)) > 1e-9:
+        raise GcodeError(
+            f"a {arc.plane} arc under an XY rotation of {rotation_deg:g} degrees lies in a "
+            "vertical plane turned by the rotation (LinuxCNC runs it there), which is not "
+            "supported: gantry-sim's arcs lie in XY, XZ or YZ; use G17 arcs, or rotations by "
+            "multiples of 90 degrees"
+        )
+    if q == 0:
+        return arc
+    plane, flip = _QUARTER_TURNS[(arc.plane, q)]
+    direction = arc.direction if not flip else ("ccw" if arc.direction == "cw" else "cw")
+    return replace(arc, plane=plane, direction=direction)

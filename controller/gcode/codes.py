@@ -34,7 +34,7 @@ G_GROUPS: dict[int, str] = {
 G_HANDLED = frozenset(
     (0, 10, 20, 30, 800, 170, 180, 190, 900, 910, 901, 911, 200, 210, 530,
      540, 550, 560, 570, 580, 590, 591, 592, 593, 100, 280, 281, 300, 301, 920, 921, 922, 923,
-     430, 490, 930, 950, 980, 990)
+     430, 431, 432, 490, 930, 950, 980, 990, 520)
 )
 #: canned cycles (controller/gcode/canned_cycles.py).
 G_HANDLED = G_HANDLED | frozenset((730, 740, 810, 820, 830, 840, 850, 860, 870, 880, 890))
@@ -60,11 +60,8 @@ G_REFUSED: dict[int, str] = {
     ),
     **dict.fromkeys((50, 51, 52), "splines (G5, G5.1, G5.2) are not supported yet"),
     **dict.fromkeys((171, 181, 191), "UVW planes are not supported on this XYZ machine"),
-    431: "a dynamic tool length offset (G43.1) is not supported; use a tool table and G43 H",
-    432: "G43.2 (additional tool length offset) is not supported",
     70: "lathe diameter mode (G7) reads X as a diameter, and this is a mill (G8, radius mode, is "
     "the default and accepted)",
-    520: "G52 (local coordinate offset) is not supported; use G92 or G10 L2",
     **dict.fromkeys(
         (700, 710, 711, 720, 721), "lathe roughing/finishing cycles (G70-G72) need a lathe"
     ),
@@ -77,7 +74,7 @@ M_GROUPS: dict[int, str] = {
     **dict.fromkeys((62, 63, 64, 65, 66, 67, 68), "io"),  # digital/analog outputs, wait input
     **dict.fromkeys((70, 71, 72, 73), "modal_state"),  # save/invalidate/restore/auto-restore
     **dict.fromkeys(range(100, 200), "user"),  # user M-codes: programs M100..M199 (if present)
-    **dict.fromkeys((3, 4, 5), "spindle"),
+    **dict.fromkeys((3, 4, 5, 19), "spindle"),  # M19: orient the spindle (R angle, Q, P)
     **dict.fromkeys((7, 8, 9), "coolant"),
     **dict.fromkeys((48, 49, 50, 51, 52, 53, 56), "override"),  # M56: grbl's parking override
 }

@@ -48,7 +48,7 @@ def check_while_on(comp: CutterComp, w: Words, old: ModalState) -> None:
     nonmodal = w.g.get("nonmodal")
     if nonmodal in (280, 300):
         raise GcodeError("cannot use G28 or G30 with cutter radius compensation on")
-    if nonmodal in (920, 921, 922, 923):
+    if nonmodal in (920, 921, 922, 923, 520):
         raise GcodeError("cannot change axis offsets (G92) with cutter radius compensation on")
     if nonmodal == 530:
         raise GcodeError("cannot use G53 with cutter radius compensation on")
@@ -83,7 +83,7 @@ def switch(
             if number < 0:
                 raise GcodeError("negative D word tool radius index used")
         else:
-            number = s.tool
+            number = 0  # rs274: no D is index 0, the spindle's entry
         found = tool(number)
         diameter = found.diameter_mm if found is not None else 0.0
     comp.inch = s.inch

@@ -21,6 +21,7 @@ from pathlib import Path
 
 from gantry_sim.controller.errors import GcodeError
 from gantry_sim.controller.gcode.expressions import evaluate
+from gantry_sim.controller.gcode.fanuc_subs import fanuc_code, find_program
 from gantry_sim.controller.gcode.lexer import (
     COMMENT,
     Block,
@@ -144,6 +145,7 @@ class Frame:
     loops: list[Loop] = field(default_factory=list)
     sub: str | None = None
     labels: Labels = field(default_factory=Labels)
+    fanuc: tuple[int, int] | None = None  # M98 subprogram: (its O line, calls still to make)
 
 
 class Runner:
@@ -182,6 +184,12 @@ class Runner:
         while not self.ended:
             f = self.frames[-1]
             if f.index >= len(f.source.lines):
+                if f.fanuc is not None:
+                    raise GcodeError(
+                        f"file ended inside subprogram O{f.sub}; end it with M99",
+                        file=f.source.name,
+                        line=len(f.source.lines),
+                    )
                 if f.sub is not None:
                     raise GcodeError(
                         f"file ended inside subroutine o{_show(f.sub)}; close it with "
@@ -208,6 +216,10 @@ class Runner:
                 if block.empty:
                     continue
                 self.on_block(block)
+                code = fanuc_code(block) if self.owords else None
+                if code is not None:
+                    self._fanuc(f, block, code)
+                    continue
                 moves, ended = self.step(block)
             except GcodeError as exc:
                 if exc.line is None:
@@ -412,6 +424,58 @@ class Runner:
         self.params.globals["_value_returned"] = 0.0
         self.params.enter(args)
         self.frames.append(Frame(src, at + 1, sub=o.name))
+
+    def _fanuc(self, f: Frame, block: Block, code: int) -> None:
+        """M98 P<n> [L<count>] / M99 (controller/gcode/fanuc_subs.py); ``f.index`` is already
+        past the line."""
+        if code == 99:
+            if f.fanuc is None and len(self.frames) == 1:
+                self.ended = True  # rs274 -g: M99 in the main program ends it
+                return
+            if f.fanuc is None:
+                raise GcodeError(
+                    "M99 in an o-word subroutine; 'O.... endsub' or 'O.... return' must follow "
+                    "'O.... sub'"
+                )
+            at, left = f.fanuc
+            if left > 1:
+                self.iterations += 1
+                f.fanuc, f.index, f.loops = (at, left - 1), at + 1, []
+                return
+            passed = {i: self.params.numbered.get(i, 0.0) for i in range(1, 31)}
+            self.params.leave()
+            self.params.numbered.update(passed)  # M98: #1..#30 are the caller's, not restored
+            self.frames.pop()
+            return
+        words = dict(block.words[1:])
+        if "P" not in words:
+            raise GcodeError("found M98 with no P word: the number of the O subprogram to call")
+        p = evaluate(words["P"], self.params)
+        number = round(p)
+        if abs(p - number) > 0.0001:
+            raise GcodeError(f"M98 P{p:g}: the subprogram number must be a whole number")
+        count = round(evaluate(words["L"], self.params)) if "L" in words else 1
+        if count <= 0:
+            return  # L0: no call
+        found = find_program(f.source.lines, f.index, number)
+        if found is None:
+            raise GcodeError(
+                f"M98 P{number}: no subprogram O{number} in {f.source.name} (a line 'O{number}' "
+                "starts it, M99 ends it)"
+            )
+        if len(self.frames) > MAX_CALL_LEVELS:
+            raise GcodeError(
+                f"too many subroutine levels (more than {MAX_CALL_LEVELS} nested calls, as in "
+                "LinuxCNC); a runaway recursion?"
+            )
+        self.iterations += 1
+        if self.iterations > self.max_iterations:
+            raise GcodeError(
+                f"more than {self.max_iterations} loop repetitions and calls (at M98 P{number})"
+                "; raise the bound with --max-iterations if the program is right"
+            )
+        self.params.enter([self.params.numbered.get(i, 0.0) for i in range(1, 31)])
+        self.frames.append(Frame(f.source, found + 1, sub=str(number), fanuc=(found, count)))
 
     def _find_sub(self, src: Source, i: int, name: str) -> tuple[Source, int]:
         at = src.find(i + 1, name, ("sub",))

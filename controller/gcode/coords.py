@@ -12,7 +12,15 @@ from __future__ import annotations
 from dataclasses import replace
 
 from gantry_sim.controller.errors import GcodeError
-from gantry_sim.controller.gcode.frames import Frame, from_interp_machine, from_work, interp_machine
+from gantry_sim.controller.gcode.frames import (
+    Frame,
+    from_interp_machine,
+    from_work,
+    interp_machine,
+    rotate,
+    sub,
+    to_work,
+)
 from gantry_sim.controller.gcode.parameters import (
     COORD_INDEX,
     G28_HOME,
@@ -46,9 +54,14 @@ def system_frame(p: Parameters, index: int, g92: Vec3) -> Frame:
 
 
 def select_system(s: ModalState, p: Parameters, index: int) -> ModalState:
-    """G54..G59.3: make system ``index`` the one in effect."""
+    """G54..G59.3: make system ``index`` the one in effect; the tool stays where it is
+    (rs274's find_current_in_system: the point through every offset and back)."""
     p.numbered[COORD_INDEX] = float(index)
-    return replace(reframe(s, system_frame(p, index, s.frame.g92)), coord_index=index)
+    if index == s.coord_index:
+        return s
+    frame = system_frame(p, index, s.frame.g92)
+    position = from_work(to_work(s.position, s.frame), frame)
+    return replace(s, frame=frame, position=position, coord_index=index)
 
 
 def g10(s: ModalState, p: Parameters, v: dict[str, float], systems: int = 9) -> ModalState:
@@ -61,10 +74,7 @@ def g10(s: ModalState, p: Parameters, v: dict[str, float], systems: int = 9) -> 
         )
     level, number = round(v["L"]), round(v["P"])
     if level not in (2, 20):
-        why = "L11 (tool entry in G59.3) is not supported" if level == 11 else ""
-        raise GcodeError(
-            f"G10 L{v['L']:g} is not supported{'; ' + why if why else ''}; use L2 or L20"
-        )
+        raise GcodeError(f"G10 L{v['L']:g} is not supported; use L2 or L20")
     if abs(v["P"] - number) > 1e-4 or not 0 <= number <= systems:
         raise GcodeError(
             f"G10 P{v['P']:g}: P must be one of the {systems} coordinate systems 1..{systems} "
@@ -82,24 +92,35 @@ def g10(s: ModalState, p: Parameters, v: dict[str, float], systems: int = 9) -> 
     else:
         if "R" in v:
             raise GcodeError("G10 L20 takes no R word; set the rotation with G10 L2 R")
-        m = interp_machine(s.position, s.frame)
+        # rs274: the current point in system ``index`` (find_current_in_system), and the
+        # origin that makes it read v there, X/Y turned by the system's rotation
+        origin = (p.mm(base), p.mm(base + 1), p.mm(base + 2))
+        r = p.numbered.get(base + 9, 0.0)
+        c = sub(rotate(sub(to_work(s.position, s.frame), origin), -r), _param_g92(p))
+        want = tuple(v[a] * scale if a in v else c[i] for i, a in enumerate(_AXES))
+        old_xy, new_xy = rotate(c, r), rotate((want[0], want[1], want[2]), r)
         for i, a in enumerate(_AXES):
-            if a in v:
-                p.numbered[base + i] = m[i] - s.frame.g92[i] - v[a] * scale
+            if a in v or i < 2:  # rs274 sets X and Y together (a turned X moves both)
+                p.numbered[base + i] = old_xy[i] + origin[i] - new_xy[i]
     if index != s.coord_index:
         return s
     return reframe(s, system_frame(p, index, s.frame.g92))
 
 
 def g92(s: ModalState, p: Parameters, code: int, v: dict[str, float]) -> ModalState:
-    """G92 (offset so the point reads v), G92.1 (clear and zero), G92.2 (clear), G92.3 (restore)."""
+    """G92 (offset so the point reads v), G92.1 (clear and zero), G92.2 (clear), G92.3 (restore),
+    G52 (520: the offset itself is v; LinuxCNC 2.9 keeps it as G92's, in #5211.. with #5210)."""
     offset = list(s.frame.g92)
-    if code == 920:
-        if not any(a in v for a in _AXES):
-            raise GcodeError("G92 needs at least one axis word: the value the current point gets")
+    if code in (920, 520):
+        if not any(a in v for a in "XYZABC"):  # (A/B/C words reach here only as 0: no-ops)
+            raise GcodeError(
+                f"{'G92' if code == 920 else 'G52'} needs at least one axis word"
+                + (": the value the current point gets" if code == 920 else ": the offset")
+            )
         for i, a in enumerate(_AXES):
             if a in v:
-                offset[i] = s.position[i] + s.frame.g92[i] - v[a] * s.scale
+                value = v[a] * s.scale
+                offset[i] = value if code == 520 else s.position[i] + s.frame.g92[i] - value
                 p.numbered[G92_OFFSET + i] = offset[i]
         p.numbered[G92_ENABLED] = 1.0
     elif code == 921:
@@ -119,17 +140,33 @@ def g92(s: ModalState, p: Parameters, code: int, v: dict[str, float]) -> ModalSt
     return replace(s, frame=frame, position=pos)
 
 
+def _param_g92(p: Parameters) -> Vec3:
+    """The G92 offset rs274 takes out of a point expressed in a system: #5211.. when #5210."""
+    if not p.numbered.get(G92_ENABLED, 0.0):
+        return (0.0, 0.0, 0.0)
+    return _vec([p.mm(G92_OFFSET + i) for i in range(3)])
+
+
+def spindle_point(s: ModalState) -> Vec3:
+    """Where the interpreter has the spindle (current point, every offset, the tool's too)."""
+    w = to_work(s.position, s.frame)
+    t = s.tool_offset_mm
+    return (w[0] + t[0], w[1] + t[1], w[2] + t[2])
+
+
 def store_home(s: ModalState, p: Parameters, code: int) -> None:
-    """G28.1 / G30.1: store the current absolute point."""
+    """G28.1 / G30.1: store the current absolute point (rs274's convert_savehome)."""
     base = G28_HOME if code == 281 else G30_HOME
+    point = spindle_point(s)
     for i in range(3):
-        p.numbered[base + i] = s.work[i] + (s.tool_offset_z_mm if i == 2 else 0.0)
+        p.numbered[base + i] = point[i]
 
 
 def home_point(s: ModalState, p: Parameters, code: int, axes: set[str]) -> Vec3:
-    """G28 / G30: the stored point in program coordinates, for ``axes`` (all when empty)."""
+    """G28 / G30: the stored point in program coordinates for ``axes`` (all when empty), the
+    other axes where they are (rs274's convert_home: find_relative of every axis, then the
+    named ones taken). Stored points are the spindle's, as G53: the tool offset comes off."""
     base = G28_HOME if code == 280 else G30_HOME
-    target = [p.mm(base + i) if not axes or a in axes else s.work[i] for i, a in enumerate(_AXES)]
-    if not axes or "Z" in axes:
-        target[2] -= s.tool_offset_z_mm  # stored points are the spindle's, as G53
-    return from_work(_vec(target), s.frame)
+    stored = _vec([p.mm(base + i) for i in range(3)])
+    home = from_work(sub(stored, s.tool_offset_mm), s.frame)
+    return _vec([home[i] if not axes or a in axes else s.position[i] for i, a in enumerate(_AXES)])

@@ -3,9 +3,12 @@
 LinuxCNC's canonical layer places a program point p (mm) in the work frame as
 ``R(rotation) (p + g92) + g5x`` (emccanon.cc, rotate_and_offset_pos): the G92 offset is added in
 the program frame, the XY rotation of the active G54..G59.3 system turns X/Y about that system's
-origin, and the system's origin is added last. The interpreter itself keeps its bookkeeping as
-``R p + g92 + g5x`` when it re-expresses the current point after an offset or rotation changes
-(measured with ``rs274 -g``); :func:`interp_machine` and :func:`from_interp_machine` follow that.
+origin, and the system's origin is added last. When G10 L2/L20 changes the origin or rotation
+of the system in effect, rs274's interpreter re-expresses its current point as ``R p + g5x``
+(without the G92 offset: convert_setup); :func:`interp_machine` and
+:func:`from_interp_machine` follow that, so with a G92 offset and a new rotation the point it
+believes differs from where the tool is (the next move starts at the tool). G54..G59.3, G92 and
+tool offset changes keep the tool where it is.
 With no offsets and no rotation every function is the identity, bit for bit.
 """
 

@@ -13,10 +13,11 @@ from __future__ import annotations
 
 from collections.abc import Iterator, Mapping
 from dataclasses import replace
+from functools import partial
 from pathlib import Path
 
 from gantry_sim.controller.errors import GcodeError
-from gantry_sim.controller.gcode.arc_block import arc_move
+from gantry_sim.controller.gcode.arc_block import arc_move, from_where_it_is, turned_plane
 from gantry_sim.controller.gcode.canned_cycles import CYCLES, CycleMemory, run_cycle
 from gantry_sim.controller.gcode.codes import (
     G_HANDLED,
@@ -32,7 +33,6 @@ from gantry_sim.controller.gcode.coords import (
     g10,
     g92,
     home_point,
-    reframe,
     select_system,
     store_home,
     system_frame,
@@ -42,11 +42,12 @@ from gantry_sim.controller.gcode.dialect_checks import check_codes, check_jog, c
 from gantry_sim.controller.gcode.dialects import Dialect, coded, get_dialect
 from gantry_sim.controller.gcode.expressions import evaluate
 from gantry_sim.controller.gcode.feed_modes import check_feed_mode, path_feed
-from gantry_sim.controller.gcode.frames import from_work, to_work
+from gantry_sim.controller.gcode.frames import Frame, add, from_work, sub, to_work
 from gantry_sim.controller.gcode.lexer import Block
 from gantry_sim.controller.gcode.modal_save import restore
 from gantry_sim.controller.gcode.parameters import (
     COORD_INDEX,
+    G28_HOME,
     G92_ENABLED,
     G92_OFFSET,
     POSITION,
@@ -57,6 +58,8 @@ from gantry_sim.controller.gcode.polar import polar_end_point
 from gantry_sim.controller.gcode.predefined import predefined
 from gantry_sim.controller.gcode.printer_codes import OWN_LINES
 from gantry_sim.controller.gcode.state import ModalState
+from gantry_sim.controller.gcode.tool_entries import set_tool_entry
+from gantry_sim.controller.gcode.tool_offsets import ToolTable, after_tool_change, tool_words
 from gantry_sim.controller.gcode.tools import Tool
 from gantry_sim.controller.gcode.words import Words, check_words, read_words
 from gantry_sim.controller.moves import (
@@ -74,8 +77,8 @@ from gantry_sim.controller.moves import (
 )
 
 _PLANES: dict[int, Plane] = {170: "XY", 180: "XZ", 190: "YZ"}
-#: non-modal codes whose axis words are theirs, not a motion's: G10, G28, G30, G92.
-AXIS_NONMODAL = frozenset((100, 280, 300, 920))
+#: non-modal codes whose axis words are theirs, not a motion's: G10, G28, G30, G92, G52.
+AXIS_NONMODAL = frozenset((100, 280, 300, 920, 520))
 
 
 class Interpreter:
@@ -85,12 +88,13 @@ class Interpreter:
         self, dialect: Dialect, tools: dict[int, Tool] | None = None, events: bool = False
     ) -> None:
         self.dialect = dialect
-        self.tools = tools
-        self.table_less = tools is None
+        self.table = ToolTable(tools)
         self.search_path: tuple[Path, ...] = ()
         self.saved: dict[int, tuple[ModalState, bool]] = {}
         self.events = events
-        self.state = ModalState(feed_mm_per_min=dialect.default_feed_mm_per_min or 0.0)
+        self.state = ModalState(
+            feed_mm_per_min=dialect.default_feed_mm_per_min or 0.0, pocket=self.table.first
+        )
         self.params = Parameters(self._predefined, lambda: self.state.scale)
         self.params.numbered[COORD_INDEX] = 1.0
         self.line = 0
@@ -135,17 +139,13 @@ class Interpreter:
             if w.values["F"] < 0.0:
                 raise GcodeError("negative F word; the feed must be >= 0 (units per minute)")
             s = replace(s, feed_mm_per_min=w.values["F"] * s.scale)
-        s = self._tools(w, s)
-        if self.comp.resync and w.m.get("tool_change") == 6:
-            x, y, _ = from_work(s.work, s.frame)
-            s = replace(s, position=(x, y, s.position[2]))
-            self.comp.resync = False
+        s, tool_changed = tool_words(s, w, self.table)
         if "feed_mode" in w.g:
             s = replace(s, feed_mode=w.g["feed_mode"])
         if "S" in w.values and "S" not in d.ignored_letters:
             s = replace(s, rpm=w.values["S"])
         if "spindle" in w.m:
-            s = replace(s, spindle={3: 1, 4: -1, 5: 0}[w.m["spindle"]])
+            s = replace(s, spindle={3: 1, 4: -1, 5: 0, 19: 0}[w.m["spindle"]])  # M19: stopped
         if "coolant" in w.m:
             c = w.m["coolant"]
             s = replace(s, mist=c == 7 or (s.mist and c == 8), flood=c == 8 or (s.flood and c == 7))
@@ -168,14 +168,16 @@ class Interpreter:
         dwell_held = w.g.get("nonmodal") == 40 and "P" in w.values and self.comp.holding
         if dwell_held:  # rs274 queues the dwell behind the held move: it waits where that ends
             self.comp.hold_dwell(w.line, w.values["P"])
-        released = switch(self.comp, w, s, self._tool)  # G40/G41/G42, before the motion
+        # G40/G41/G42, before the motion; G41/G42 read rs274's tool_table[find_tool_index(D)]:
+        # D0 and no D are the spindle's entry
+        released = switch(self.comp, w, s, partial(self.table.entry, s))
         cycle = self.cycle
         if "retract" in w.g:
             cycle = replace(cycle, retract_to_r=w.g["retract"] == 990)
         # Step 5: which motion this block makes, if any.
         nonmodal = w.g.get("nonmodal")
         axis_code = nonmodal in AXIS_NONMODAL
-        has_axes = any(a in w.values for a in "XYZ@^")
+        has_axes = any(a in w.values for a in "XYZ@^ABC")  # A/B/C: only 0 gets this far
         motion = w.g.get("motion")
         if motion == 800:
             if has_axes and not axis_code:
@@ -193,6 +195,8 @@ class Interpreter:
             pass  # the axis words belong to G10/G28/G30/G92
         elif s.motion in (20, 30) and any(c in w.values for c in "IJKR"):
             motion = s.motion  # rs274: a centre word alone continues a modal G2/G3
+        elif has_axes and w.g.get("tool_length") == 431:
+            pass  # the axis words are G43.1's offsets
         elif has_axes:
             if s.motion is None:
                 raise GcodeError("axis words with no motion mode; put G0, G1, G2 or G3 first")
@@ -208,12 +212,11 @@ class Interpreter:
         if released:  # G40 finished the held move: the tool stays at its offset point, while
             # rs274 goes on from the programmed point until a tool change re-reads the position
             s = replace(s, work=self.comp.released_end)
-            self.comp.resync = True
-        if nonmodal == 100 and round(w.values.get("L", 0)) in (1, 10) and d.g10_rotation:
-            self._g10_tool(w.values, s)
+        if nonmodal == 100 and round(w.values.get("L", 0)) in (1, 10, 11) and d.g10_rotation:
+            s = set_tool_entry(s, self.params, w.values, self.table)
         elif nonmodal == 100:
             s = g10(s, self.params, w.values, d.coordinate_systems)
-        elif nonmodal in (920, 921, 922, 923):
+        elif nonmodal in (920, 921, 922, 923, 520):
             s = g92(s, self.params, nonmodal, w.values)
         elif nonmodal in (281, 301):
             store_home(s, self.params, nonmodal)
@@ -278,6 +281,9 @@ class Interpreter:
             stop = w.m.get("stopping")
             if stop in (0, 1, 60):
                 moves.append(Stop(w.line, s.work, f"M{stop}"))
+        s = self._canon(s, moves)
+        if tool_changed:
+            s = after_tool_change(s)
         self.state = s
         self.cycle = cycle
         for target, value in w.settings:
@@ -346,16 +352,20 @@ class Interpreter:
         return replace(s, position=end, work=move.end)
 
     def _arc_to_work(self, arc: Arc, s: ModalState) -> Arc:
-        """The arc (program coordinates) placed in the work frame."""
+        """The arc (program coordinates) placed in the work frame, from where the tool is."""
         f = s.frame
-        if f.identity:
-            return arc
-        if f.rotation_deg != 0.0 and arc.plane != "XY":
-            raise GcodeError(
-                f"a {arc.plane} arc under an XY rotation of {f.rotation_deg:g} degrees lies in a "
-                "tilted plane, which is not supported; arcs under a rotation must be G17 (XY)"
+        placed = arc
+        if not f.identity:
+            placed = replace(
+                arc, start=s.work, end=to_work(arc.end, f), center=to_work(arc.center, f)
             )
-        return replace(arc, start=s.work, end=to_work(arc.end, f), center=to_work(arc.center, f))
+        if f.rotation_deg != 0.0 and arc.plane != "XY":
+            placed = turned_plane(placed, f.rotation_deg)  # a quarter turn: another plane
+        if max(abs(a - b) for a, b in zip(to_work(arc.start, f), s.work, strict=True)) > 1e-9:
+            # rs274 re-expressed its point (G10 L2 R under G92, a tool offset change): the
+            # canonical layer starts the arc where the tool is
+            return from_where_it_is(replace(placed, start=s.work))
+        return placed
 
     def _home(
         self, line: int, v: dict[str, float], s: ModalState, code: int, moves: list[Move | Event]
@@ -373,12 +383,12 @@ class Interpreter:
     def _machine_end_point(self, v: dict[str, float], s: ModalState) -> Vec3:
         """G53: axis words are machine coordinates: the work frame without offsets, rotation
         or tool length offset."""
-        end = list(s.work)
+        # rs274's find_ends: the unnamed axes stay at the interpreter's point; a named one is
+        # the spindle's machine coordinate, so the tool offset comes off
+        end = list(to_work(s.position, s.frame))
         for i, letter in enumerate("XYZ"):
             if letter in v:
-                end[i] = v[letter] * s.scale
-        if "Z" in v:
-            end[2] -= s.tool_offset_z_mm  # machine Z is the spindle's; the tip is below it
+                end[i] = v[letter] * s.scale - s.tool_offset_mm[i]
         return from_work((end[0], end[1], end[2]), s.frame)
 
     def preset(self, values: Mapping[int, float]) -> None:
@@ -390,13 +400,21 @@ class Interpreter:
         on = p.numbered.get(G92_ENABLED) == 1.0
         g92 = (p.mm(G92_OFFSET), p.mm(G92_OFFSET + 1), p.mm(G92_OFFSET + 2)) if on else (0.0,) * 3
         p.numbered[COORD_INDEX] = 1.0
-        self.state = replace(reframe(self.state, system_frame(p, 1, g92)), coord_index=1)
+        self._start_in(system_frame(p, 1, g92))
 
     def place(self, offset: Vec3) -> None:
         """Set G54's origin to ``offset`` [mm] and make it the frame in effect."""
         for i in range(3):
             self.params.numbered[g5x_base(1) + i] = offset[i]
-        self.state = select_system(self.state, self.params, 1)
+        self.params.numbered[COORD_INDEX] = 1.0
+        self._start_in(system_frame(self.params, 1, self.state.frame.g92))
+
+    def _start_in(self, frame: Frame) -> None:
+        """Before the first line: G54 in ``frame``, the tool where it is in the work frame."""
+        position = from_work(self.state.work, frame)
+        self.state = replace(
+            self.state, frame=frame, position=position, canon=position, coord_index=1
+        )
 
     def _modal_state(self, code: int | None, s: ModalState) -> ModalState:
         """M70 save, M71 invalidate, M72 restore, M73 save and restore at the subroutine's
@@ -418,61 +436,17 @@ class Interpreter:
         if saved is not None and saved[1]:
             self.state = restore(saved[0], self.state, self.params)
 
-    def _g10_tool(self, v: dict[str, float], s: ModalState) -> None:
-        """G10 L1 (set tool P's length to Z) and L10 (so that the current Z would read Z under
-        G43 with tool P), as rs274 does; the offset in effect changes only at the next G43."""
-        if "P" not in v:
-            raise GcodeError("G10 L1/L10 needs a P word: the tool number")
-        number = round(v["P"])
-        old = self._tool(number)
-        if number == 0 or "Z" not in v:
-            return
-        if round(v["L"]) == 1:
-            length = v["Z"] * s.scale
-        else:
-            length = s.position[2] + s.tool_offset_z_mm - v["Z"] * s.scale
-        if self.tools is None:
-            self.tools = {}
-        diameter = old.diameter_mm if old is not None else 0.0
-        self.tools = {**self.tools, number: Tool(number, length, diameter)}
-
-    def _tool(self, number: int) -> Tool | None:
-        if number == 0:
-            return None
-        if self.tools is None or (self.table_less and number not in self.tools):
-            return None  # no table: every tool has zero length (until G10 L1/L10 sets one)
-        if number not in self.tools:
-            raise GcodeError(f"requested tool {number} not found in the tool table")
-        return self.tools[number]
-
-    def _tools(self, w: Words, s: ModalState) -> ModalState:
-        """T (select), M6/M61 (change), G43 H / G49 (tool length offset), in rs274's order."""
-        if "T" in w.values:
-            number = round(w.values["T"])
-            self._tool(number)
-            s = replace(s, selected_tool=number)
-        if w.m.get("tool_change") == 6:
-            s = replace(s, tool=s.selected_tool)
-        elif w.m.get("tool_change") == 61:
-            if w.values.get("Q", -1.0) < 0.0:
-                raise GcodeError("M61 needs a Q word >= 0: the tool number now in the spindle")
-            number = round(w.values["Q"])
-            self._tool(number)
-            s = replace(s, tool=number)
-        code = w.g.get("tool_length")
-        if code in (430, 490):
-            new = 0.0
-            if code == 430:
-                h = round(w.values.get("H", s.tool))
-                tool = self._tool(h)
-                new = tool.z_mm if tool is not None else 0.0
-            x, y, z = s.position
-            # rs274: the current point is re-expressed so the tool tip does not move, except on
-            # an M6 line, after which rs274 takes the position back unchanged (measured)
-            if w.m.get("tool_change") != 6:
-                z = z + s.tool_offset_z_mm - new
-            s = replace(s, tool_offset_z_mm=new, position=(x, y, z))
-        return s
+    def _canon(self, s: ModalState, moves: list[Move | Event]) -> ModalState:
+        """Where rs274's canonical layer has the tool after this block (``ModalState.canon``):
+        the last motion's end, else the old place shifted by the change of G5x and G92."""
+        last = next((m for m in reversed(moves) if isinstance(m, Rapid | Linear | Arc)), None)
+        if last is not None:
+            return replace(s, canon=from_work(last.end, s.frame))
+        old, new = self.state.frame, s.frame
+        if old == new:
+            return s
+        shift = add(sub(old.g5x, new.g5x), sub(old.g92, new.g92))
+        return replace(s, canon=add(s.canon, shift))
 
     def _limits(self, block: Block) -> list:
         """Marlin M201/M203/M204/M205: a Limits event (when events are asked for)."""
@@ -482,13 +456,22 @@ class Interpreter:
         return [Limits(block.line, block_code(block), tuple(sorted(values.items())))]
 
     def _printer_home(self, block: Block) -> list[Move | Event]:
-        """Marlin G28: the named axes (all when none) rapid to the work origin."""
+        """Marlin G28: the named axes (all when none) go to the machine's home, the position
+        its endstops give: the machine file's [work] g28_mm (default: the work origin). As
+        Marlin's set_axis_is_at_home, homing also clears the G92 shift of every homed axis."""
         s = self.state
         named = [a for a, _ in block.words] or list("XYZ")
-        target = tuple(0.0 if a in named else s.work[i] for i, a in enumerate("XYZ"))
-        end = from_work((target[0], target[1], target[2]), s.frame)
+        home = [self.params.mm(G28_HOME + i) for i in range(3)]
+        target = tuple(home[i] if a in named else s.work[i] for i, a in enumerate("XYZ"))
+        g92 = tuple(0.0 if a in named else s.frame.g92[i] for i, a in enumerate("XYZ"))
+        for i, a in enumerate("XYZ"):
+            if a in named:
+                self.params.numbered[G92_OFFSET + i] = 0.0
+        frame = replace(s.frame, g92=(g92[0], g92[1], g92[2]))
+        s = replace(s, frame=frame)
+        end = from_work((target[0], target[1], target[2]), frame)
         moves: list[Move | Event] = []
-        self.state = self._emit(moves, s, Rapid(block.line, s.work, to_work(end, s.frame)), end)
+        self.state = self._emit(moves, s, Rapid(block.line, s.work, to_work(end, frame)), end)
         return moves
 
     def _jog(self, block: Block) -> tuple[list[Move | Event], bool]:

@@ -26,7 +26,8 @@ from gantry_sim.controller.gcode.expressions import Reader, Tree
 COMMENT = "("
 
 #: letters rs274 reads as words (O-words are read separately, N only opens a line).
-WORD_LETTERS = frozenset("ABCDEFGHIJKLMPQRSTUVWXYZ@^")  # @ ^: polar radius and angle
+#: @ ^: polar radius and angle; $: LinuxCNC 2.8+'s spindle selection ($0; $-1 all spindles)
+WORD_LETTERS = frozenset("ABCDEFGHIJKLMPQRSTUVWXYZ@^$")
 
 #: O-word keywords, longest first so that ENDSUB is not read as END... or ELSEIF as ELSE.
 # fmt: off

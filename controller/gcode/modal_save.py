@@ -12,6 +12,7 @@ from dataclasses import replace
 from gantry_sim.controller.gcode.coords import select_system
 from gantry_sim.controller.gcode.parameters import Parameters
 from gantry_sim.controller.gcode.state import ModalState
+from gantry_sim.controller.gcode.tool_offsets import apply_tool_offset
 
 
 def restore(saved: ModalState, now: ModalState, params: Parameters) -> ModalState:
@@ -31,8 +32,6 @@ def restore(saved: ModalState, now: ModalState, params: Parameters) -> ModalStat
     )
     if saved.coord_index != s.coord_index:
         s = select_system(s, params, saved.coord_index)
-    if saved.tool_offset_z_mm != s.tool_offset_z_mm:
-        x, y, z = s.position
-        z += s.tool_offset_z_mm - saved.tool_offset_z_mm
-        s = replace(s, tool_offset_z_mm=saved.tool_offset_z_mm, position=(x, y, z))
+    if saved.tool_offset_mm != s.tool_offset_mm:
+        s = apply_tool_offset(s, saved.tool_offset_mm)
     return s

@@ -58,7 +58,7 @@ def predefined(name: str, s: ModalState, p: Parameters, line: int) -> float | No
         case "_coord_system":
             return _SYSTEMS[int(p.mm(COORD_INDEX) or 1) - 1]
         case "_tool_offset":
-            return float(s.tool_offset_z_mm != 0.0)
+            return float(any(s.tool_offset_mm))
         case "_ijk_absolute_mode":
             return float(s.arc_absolute)
         case "_spindle_on":

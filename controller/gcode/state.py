@@ -5,6 +5,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 from gantry_sim.controller.gcode.frames import NO_OFFSETS, Frame
+from gantry_sim.controller.gcode.tools import Tool
 from gantry_sim.controller.moves import PathControl
 from gantry_sim.controller.planes import Plane, Vec3
 from gantry_sim.controller.units import MM_PER_INCH
@@ -30,7 +31,16 @@ class ModalState:
         rpm: the S word [rev/min].
         mist / flood: M7 / M8 on.
         tool / selected_tool: tool in the spindle (M6) / selected by T.
-        tool_offset_z_mm: tool length offset in effect (G43) [mm].
+        tool_offset_mm: tool offset in effect (G43, G43.1, G43.2) [mm], x y z.
+        spindle_tool: the spindle's tool data as rs274's interpreter holds it (its tool table's
+            slot 0: what G43 without H and H0 read); None: no tool (zero offsets).
+        spindle_tool_db: the tool data base's slot 0, which rs274 reloads into ``spindle_tool``
+            after a
+            tool change (M6 copies the tool into it; M61 does not).
+        pocket: the tool whose table entry is "current" (rs274's current_pocket: M6, M61).
+        canon: where rs274's canonical layer last put the tool, in program coordinates [mm]:
+            the last motion's end, shifted by every later change of a G5x or G92 offset (not
+            rotated). After a tool change rs274 takes its current point back from it.
         path: path control mode set by G61/G61.1/G64 (None until the program sets one).
     """
 
@@ -51,7 +61,11 @@ class ModalState:
     flood: bool = False
     tool: int = 0
     selected_tool: int = 0
-    tool_offset_z_mm: float = 0.0
+    tool_offset_mm: Vec3 = (0.0, 0.0, 0.0)
+    spindle_tool: Tool | None = None
+    spindle_tool_db: Tool | None = None
+    pocket: int = 0
+    canon: Vec3 = (0.0, 0.0, 0.0)
     path: PathControl | None = None
 
     @property

@@ -1,13 +1,15 @@
 """Tool tables: LinuxCNC's ``tool.tbl`` format, read into tool length offsets [mm].
 
-A line is ``T<n> P<pocket> Z<length> D<diameter> ;comment`` (other axis offsets are read and
-ignored on this 3-axis machine, where only Z matters for the tool tip). Lengths are in the
+A line is ``T<n> P<pocket> X<x> Y<y> Z<length> D<diameter> ;comment``; X and Y offsets are kept
+(rs274's G43 applies them, as a lathe's), the other axes' are read and ignored on this 3-axis
+machine. Lengths are in the
 table's units, which LinuxCNC takes from the machine (mm here by default; ``rs274 -g`` run
 without an INI file reads them in inches: pass ``units_mm=25.4`` for such a table).
 
-How the offset enters the simulation: G43 shifts the program's Z by the tool length, exactly as
-rs274 does, and gantry-sim outputs the programmed tool-tip path; the spindle nose (the machine's
-controlled point) is that path plus the length, which the simulation does not need.
+How the offset enters the simulation: G43 shifts the program's Z by the tool length (and X/Y by
+the tool's X/Y offsets), exactly as rs274 does, and gantry-sim outputs the programmed tool-tip
+path; the spindle nose (the machine's controlled point) is that path plus the offset, which the
+simulation does not need.
 """
 
 from __future__ import annotations
@@ -23,11 +25,18 @@ _WORD = re.compile(r"([A-Z])\s*([-+]?(?:\d+\.?\d*|\.\d+))")
 
 @dataclass(frozen=True)
 class Tool:
-    """One tool: number, length offset along Z [mm], diameter [mm]."""
+    """One tool: number, length offset along Z [mm], diameter [mm], X/Y offsets [mm]."""
 
     number: int
     z_mm: float
     diameter_mm: float = 0.0
+    x_mm: float = 0.0
+    y_mm: float = 0.0
+
+    @property
+    def offset_mm(self) -> tuple[float, float, float]:
+        """(x, y, z) offset [mm], as rs274's G43 applies it."""
+        return (self.x_mm, self.y_mm, self.z_mm)
 
 
 def parse_tool_table(
@@ -49,7 +58,11 @@ def parse_tool_table(
             )
         number = int(float(words["T"]))
         tools[number] = Tool(
-            number, float(words.get("Z", 0.0)) * units_mm, float(words.get("D", 0.0)) * units_mm
+            number,
+            float(words.get("Z", 0.0)) * units_mm,
+            float(words.get("D", 0.0)) * units_mm,
+            float(words.get("X", 0.0)) * units_mm,
+            float(words.get("Y", 0.0)) * units_mm,
         )
     return tools
 

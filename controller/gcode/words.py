@@ -22,6 +22,8 @@ from gantry_sim.controller.gcode.parameters import (
 )
 
 _OTHER_AXES = "ABCUVW"
+#: rotary axes rs274 -g has (A/B/C); a word of 0 keeps such an axis where it always is (at 0)
+ROTARY_AXES = "ABC"
 #: canned cycles (tenths): they take R and L (and P, Q, I/J/K as each needs).
 _CYCLES = frozenset((730, 740, 810, 820, 830, 840, 850, 860, 870, 880, 890))
 
@@ -109,16 +111,17 @@ def check_words(w: Words, motion: int | None, dialect: Dialect) -> None:
     """Step 5b: every word has a code that uses it."""
     v = w.values
     for letter in v:
-        if letter in _OTHER_AXES:
+        # a rotary word that leaves its axis at 0 (the posts' "A0.") moves nothing: accepted
+        if letter in _OTHER_AXES and not (letter in ROTARY_AXES and v[letter] == 0.0):
             raise GcodeError(f"{letter} axis word on a 3-axis machine; allowed axes: X, Y, Z")
     arc = motion in (20, 30)
     g10 = w.g.get("nonmodal") == 100
     cycle = dialect.canned_cycles and motion in _CYCLES
     uses = {
-        "I": arc or motion == 870,
-        "J": arc or motion == 870,
+        "I": arc or motion == 870 or (g10 and dialect.g10_rotation),
+        "J": arc or motion == 870 or (g10 and dialect.g10_rotation),
         "K": arc or motion == 870,
-        "R": arc or (g10 and dialect.g10_rotation) or cycle,
+        "R": arc or (g10 and dialect.g10_rotation) or cycle or w.m.get("spindle") == 19,
         "L": g10
         or w.m.get("io") == 66
         or (cycle and motion != 740)  # rs274: not with G74
@@ -129,33 +132,55 @@ def check_words(w: Words, motion: int | None, dialect: Dialect) -> None:
         or w.g.get("nonmodal") == 40
         or w.g.get("path_control") == 640
         or w.m.get("io") in (62, 63, 64, 65, 66)
+        or w.m.get("override") in (50, 51, 52, 53)  # rs274: M50-M53 P (override on/off)
+        or w.m.get("spindle") == 19
         or "user" in w.m,
         "Q": w.g.get("path_control") == 640
+        or w.m.get("spindle") == 19
+        or (g10 and dialect.g10_rotation)
         or motion in (730, 830)
         or "user" in w.m
         or w.m.get("tool_change") == 61
         or w.m.get("io") in (66, 67, 68),
         "E": w.m.get("io") in (66, 67, 68),
-        "H": w.g.get("tool_length") == 430,
-        "D": dialect.cutter_comp and w.g.get("cutter_comp") in (410, 411, 420, 421),
+        "H": w.g.get("tool_length") in (430, 432),
+        "D": (dialect.cutter_comp and w.g.get("cutter_comp") in (410, 411, 420, 421))
+        or w.g.get("spindle_mode") == 960,  # G96 D: the spindle's speed limit
     }
+    if cycle and any(a in v for a in ROTARY_AXES):
+        a = next(a for a in ROTARY_AXES if a in v)
+        raise GcodeError(f"cannot put an {a} in a canned cycle")
     for letter in v:
-        if letter in dialect.ignored_letters or letter in "XYZFST@^":
+        if letter in dialect.ignored_letters or letter in "XYZFST@^$" + ROTARY_AXES:
             continue
         if not uses.get(letter, False):
             need = {
                 "P": "G2, G3, G4, G10, G64, G82, G86, G88 or G89",
                 "Q": "G64, G73 or G83",
-                "H": "G43",
+                "H": "G43 or G43.2",
                 "R": "G2, G3 or a canned cycle",
             }.get(letter, "G2, G3 or G87")
             if letter in "DLE":
                 need = {
-                    "D": "G41, G41.1, G42 or G42.1",
+                    "D": "G41, G41.1, G42, G42.1 or G96",
                     "L": "G10 or a canned cycle",
                     "E": "a code that takes E (none here; G-code numbers have no exponent, so 1e3 reads as 1 then an E word)",
                 }[letter]
             raise GcodeError(f"{letter} word with no code that uses it; {letter} needs {need}")
+    if w.m.get("spindle") == 19 and "P" in v and round(v["P"]) not in (0, 1, 2):
+        raise GcodeError("P value must be 0, 1 or 2 with M19 (the direction to orient in)")
+    if "$" in v:
+        spindle_code = w.m.get("spindle") is not None or w.m.get("override") == 51
+        if not (spindle_code or "S" in v or w.g.get("feed_mode") == 950 or "spindle_mode" in w.g):
+            raise GcodeError(
+                "$ (spindle selection) word with no M3, M4, M5, M19, M51, G33, G33.1, G76, G95, "
+                "G96 or G97 to use it"
+            )
+        if round(v["$"]) not in (-1, 0):
+            raise GcodeError(
+                f"invalid spindle ($) number {v['$']:g}: this machine has one spindle ($0; $-1 "
+                "selects all)"
+            )
     if "S" not in dialect.ignored_letters and v.get("S", 0.0) < 0.0:
         raise GcodeError("negative S word; the spindle speed must be >= 0")
     if v.get("T", 0.0) < 0.0:

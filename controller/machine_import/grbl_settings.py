@@ -10,6 +10,11 @@ grbl 1.1 prints one ``$N=VALUE`` line per setting (grbl 0.9 adds a ``(descriptio
   * $12 arc tolerance [mm] -> [segmentation] method "chord", chord_tolerance_mm (grbl's own rule:
     chords whose sagitta stays within the tolerance).
 
+With the ``$#`` report in the same file (``[G54:x,y,z]`` ... ``[G28:...]``, ``[G30:...]``,
+``[G92:...]``, mm), the stored offsets go to ``[work]`` (``g54_mm`` .. ``g59_mm``, ``g28_mm``,
+``g30_mm``, ``g92_mm``; zero vectors are not written); ``[TLO:...]`` (G43.1's offset, not kept by
+grbl over a reset) and ``[PRB:...]`` are not mapped.
+
 Not mapped, and said so: $11 junction deviation (grbl's cornering-speed rule; gantry-sim's
 planner sizes corners with jerk-limited junction pieces), $13 report inches (display only), step
 and pin settings ($0-$6, $100-$102), status, limits, homing and spindle settings. grbl drives
@@ -40,6 +45,27 @@ _NOT_MAPPED = {
     100: "X steps/mm", 101: "Y steps/mm", 102: "Z steps/mm",
 }  # fmt: skip
 _MAPPED = {110, 111, 112, 120, 121, 122, 130, 131, 132, 12}
+_OFFSET_LINE = re.compile(r"^\[(G5[4-9]|G28|G30|G92):([^\]]*)\]$")
+
+
+def parse_offsets(text: str, path: str) -> dict[str, list[float]]:
+    """``$#`` lines ``[G54:x,y,z]`` ... -> [work] key -> [x, y, z] (mm; non-zero ones)."""
+    out: dict[str, list[float]] = {}
+    for number, raw in enumerate(text.splitlines(), start=1):
+        m = _OFFSET_LINE.match(raw.strip())
+        if m is None:
+            continue
+        try:
+            vec = [float(v) for v in m.group(2).split(",")[:3]]
+        except ValueError:
+            vec = []
+        if len(vec) != 3 or not all(math.isfinite(v) for v in vec):
+            raise ConfigError(
+                f"[{m.group(1)}:...]: expected three numbers x,y,z", file=path, line=number
+            )
+        if any(vec):
+            out[f"{m.group(1).lower()}_mm"] = vec
+    return out
 
 
 def parse_settings(text: str, path: str) -> dict[int, tuple[float, int]]:
@@ -88,7 +114,8 @@ def import_grbl(path: Path, target: Target) -> Imported:
             travel or arc tolerance (``FILE:LINE: error:``).
     """
     src = str(path)
-    settings = parse_settings(read_text(path, "grbl settings file"), src)
+    text = read_text(path, "grbl settings file")
+    settings = parse_settings(text, src)
     assumed: list[str] = []
     values: dict[str, dict] = {}
     rates = [_positive(settings, 110 + i, src) for i in range(3)]
@@ -121,6 +148,9 @@ def import_grbl(path: Path, target: Target) -> Imported:
         "grbl drives steppers open loop: [servo] keeps the bundled gains; grbl plans with "
         "infinite jerk: [limits] max_jerk_mm_per_s3 keeps the bundled values"
     )
+    if work := parse_offsets(text, src):
+        values["work"] = work
+        assumed.append("$# offsets (G54-G59, G28, G30, G92) -> [work] (mm)")
     notes = []
     for n in sorted(settings):
         if n in _MAPPED:

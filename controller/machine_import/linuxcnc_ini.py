@@ -18,7 +18,9 @@ Mapping (units: LINEAR_UNITS -> mm; times in s):
     fed forward), FF0, BIAS, DEADBAND, MAX_OUTPUT have no counterpart;
   * MAXERROR_I -> max_error_integral_mm_s; the smallest FERROR -> max_following_error_mm;
   * SERVO_PERIOD -> [servo] period_s (and [sim] physics_timestep_s = period / 2 when the
-    bundled 0.5 ms does not divide it).
+    bundled 0.5 ms does not divide it);
+  * [EMCIO] TOOL_TABLE -> [tools], [RS274NGC] PARAMETER_FILE -> [work]
+    (controller.machine_import.work_files).
 Jerk is not in a LinuxCNC configuration (its planner is trapezoidal or uses a global
 MAX_LINEAR_JERK only in 2.10's S-curve mode): the bundled jerk limits are kept and said so.
 """
@@ -39,6 +41,7 @@ from gantry_sim.controller.machine_import.common import (
 )
 from gantry_sim.controller.machine_import.gains import ZETA, force_gains
 from gantry_sim.controller.machine_import.ini_reader import IniFile, parse_ini
+from gantry_sim.controller.machine_import.work_files import import_tools, import_work
 
 UNITS_MM = {"mm": 1.0, "metric": 1.0, "inch": 25.4, "in": 25.4, "imperial": 25.4}
 BUNDLED_TIMESTEP_S = 0.0005
@@ -226,6 +229,14 @@ def _assemble(ini, path, target, scale, limits, pid, ferror, assumed, unmapped) 
         "jerk is not in a LinuxCNC configuration: [limits] max_jerk_mm_per_s3 keeps the bundled values"
     )
     notes = [f"{what}: {', '.join(where)}" for what, where in unmapped.items()]
+    for section, entry, reader in (
+        ("tools", ("EMCIO", "TOOL_TABLE"), import_tools),
+        ("work", ("RS274NGC", "PARAMETER_FILE"), import_work),
+    ):
+        if (name := ini.get(*entry)) is not None:
+            table = reader(Path(path), name[0], scale, assumed, notes)
+            if table:
+                values[section] = table
     return Imported(
         source=str(path),
         kind="LinuxCNC INI",

@@ -12,7 +12,7 @@ import math
 from gantry_sim.controller.machine_import.common import Imported
 
 #: section order of models/gantry.toml
-SECTIONS = ("limits", "travel", "segmentation", "servo", "sim")
+SECTIONS = ("limits", "travel", "segmentation", "servo", "sim", "tools", "work")
 
 
 def _number(v: float) -> str:
@@ -26,6 +26,8 @@ def _value(v) -> str:
         return json.dumps(v)
     if isinstance(v, (list, tuple)):
         return "[" + ", ".join(_value(x) for x in v) + "]"
+    if isinstance(v, dict):  # an inline table, e.g. a tool: { length_mm = 10.0, ... }
+        return "{ " + ", ".join(f"{k} = {_value(x)}" for k, x in v.items()) + " }"
     return _number(float(v))
 
 

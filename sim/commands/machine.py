@@ -56,8 +56,53 @@ def _show(args: argparse.Namespace) -> int:
 
     machine = load_machine(args.machine)
     info = effective_machine(machine, load_gantry(machine))
-    print(json.dumps(info, indent=2) if args.json else format_table(info))
+    info.update(work_info(machine.work))
+    print(json.dumps(info, indent=2) if args.json else format_table(info) + work_table(info))
     return 0
+
+
+def work_info(work) -> dict:
+    """The machine file's ``[tools]`` and ``[work]`` (controller/machine_work.py), in mm."""
+    from gantry_sim.controller.machine_work import SYSTEM_KEYS
+
+    tools = None
+    if work.tools is not None:
+        tools = [
+            {
+                "number": t.number,
+                "length_mm": t.z_mm,
+                "diameter_mm": t.diameter_mm,
+                "x_mm": t.x_mm,
+                "y_mm": t.y_mm,
+            }
+            for t in work.tools
+        ]
+    stored = {key: list(v) for key, v in zip(SYSTEM_KEYS, work.systems_mm, strict=True)}
+    stored.update(g92_mm=list(work.g92_mm), g28_mm=list(work.g28_mm), g30_mm=list(work.g30_mm))
+    return {"tools": tools, "work": stored}
+
+
+def work_table(info: dict) -> str:
+    """``[tools]`` and the non-zero ``[work]`` entries as lines for people (leading newline)."""
+    lines = ["", "tools [mm]"]
+    if info["tools"] is None:
+        lines.append(
+            "  none: every tool has zero length (a [tools] section or --tool-table sets them)"
+        )
+    else:
+        lines.append(f"  {'T':>5} {'length':>10} {'diameter':>10} {'x':>8} {'y':>8}")
+        for t in info["tools"]:
+            lines.append(
+                f"  {t['number']:>5} {t['length_mm']:>10.4f} {t['diameter_mm']:>10.4f} "
+                f"{t['x_mm']:>8.4f} {t['y_mm']:>8.4f}"
+            )
+    lines.append("work offsets and stored positions at program start [mm, work frame]")
+    set_ = {k: v for k, v in info["work"].items() if any(v)}
+    if not set_:
+        lines.append("  all zero: programs start in G54 at the work origin, no G92, G28/G30 at 0")
+    for key, v in set_.items():
+        lines.append(f"  {key:<9} {v[0]:>10.4f} {v[1]:>10.4f} {v[2]:>10.4f}")
+    return "\n".join(lines)
 
 
 def _import(args: argparse.Namespace) -> int:
