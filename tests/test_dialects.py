@@ -234,7 +234,6 @@ def test_unsupported_codes_say_why() -> None:
         ("G33 X1 K1", "simulates no spindle"),
         ("G38.2 Z-1 F10", "probe"),
         ("G7", "diameter"),
-        ("G5.1 X1 I1 J1", "splines"),
     ):
         assert why in error_of(code + "\nM2\n", "linuxcnc").message
     assert run("G8 G0 X1\nM2\n", "linuxcnc")[0].end == (1.0, 0.0, 0.0)

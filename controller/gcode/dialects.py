@@ -101,6 +101,8 @@ class Dialect:
             (controller/gcode/canned_cycles.py); False: refused, the firmware has none.
         cutter_comp: G41/G42/G41.1/G42.1 run as LinuxCNC runs them (controller/gcode/
             cutter_comp.py); False: refused (G40 is accepted everywhere).
+        splines: G5, G5.1, G5.2/G5.3 run as LinuxCNC runs them (controller/gcode/splines.py);
+            False: refused, the firmware has none.
     """
 
     name: str
@@ -136,6 +138,7 @@ class Dialect:
     own_lines: str = ""
     canned_cycles: bool = False
     cutter_comp: bool = False
+    splines: bool = False
 
 
 _TOL_MM = 2 * 0.01 * math.sqrt(2.0)  # 0.028284 mm, rs274 CENTER_ARC_RADIUS_TOLERANCE_MM
@@ -158,6 +161,7 @@ LINUXCNC = Dialect(
     require_program_end=True,
     canned_cycles=True,
     cutter_comp=True,
+    splines=True,
 )
 
 G2CORE = Dialect(

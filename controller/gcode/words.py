@@ -114,16 +114,19 @@ def check_words(w: Words, motion: int | None, dialect: Dialect) -> None:
     arc = motion in (20, 30)
     g10 = w.g.get("nonmodal") == 100
     cycle = dialect.canned_cycles and motion in _CYCLES
+    spline = dialect.splines and motion in (50, 51, 52)
     uses = {
-        "I": arc or motion == 870,
-        "J": arc or motion == 870,
+        "I": arc or motion == 870 or (spline and motion != 52),
+        "J": arc or motion == 870 or (spline and motion != 52),
         "K": arc or motion == 870,
         "R": arc or (g10 and dialect.g10_rotation) or cycle,
         "L": g10
+        or (spline and motion == 52)
         or w.m.get("io") == 66
         or (cycle and motion != 740)  # rs274: not with G74
         or w.g.get("cutter_comp") in (411, 421),
         "P": (arc and dialect.arc_p_allowed)
+        or (spline and motion in (50, 52))
         or g10
         or motion in (740, 820, 840, 860, 880, 890)
         or w.g.get("nonmodal") == 40
@@ -132,6 +135,7 @@ def check_words(w: Words, motion: int | None, dialect: Dialect) -> None:
         or "user" in w.m,
         "Q": w.g.get("path_control") == 640
         or motion in (730, 830)
+        or (spline and motion == 50)
         or "user" in w.m
         or w.m.get("tool_change") == 61
         or w.m.get("io") in (66, 67, 68),
