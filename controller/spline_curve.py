@@ -100,12 +100,12 @@ class SplineCurve:
         out: list[np.ndarray] = []
         for t, inside in ((lo, lo + eps), (hi, hi - eps)):
             d = self.nurbs.derivatives(np.array([t, inside]), 2)
-            row = 1 if self._zero_speed(d[1][0:1])[0] else 0
+            row = 1 if self.zero_speed(d[1][0:1])[0] else 0
             d1, d2 = d[1][row : row + 1], d[2][row : row + 1]
             out += [d1[0] / np.linalg.norm(d1[0]), _curvature(d1, d2)[0]]
         return out[0], out[1], out[2], out[3]
 
-    def _zero_speed(self, d1: np.ndarray) -> np.ndarray:
+    def zero_speed(self, d1: np.ndarray) -> np.ndarray:
         span = self.nurbs.t_max - self.nurbs.t_min
         return np.linalg.norm(d1, axis=1) <= ZERO_SPEED_SHARE * self.length_mm / span
 
@@ -114,7 +114,7 @@ class SplineCurve:
         t = self.t_of_s(np.asarray(sigma, dtype=float) * self.length_mm)
         c, d1, d2 = self.nurbs.derivatives(t, 2)
         speed = np.linalg.norm(d1, axis=1)
-        ok = ~self._zero_speed(d1)
+        ok = ~self.zero_speed(d1)
         tangent = np.where(ok[:, None], d1 / np.where(ok, speed, 1.0)[:, None], 0.0)
         k = np.where(ok[:, None], _curvature(np.where(ok[:, None], d1, 1.0), d2), 0.0)
         if not ok.all():  # a degenerate end: its limit tangent and curvature
