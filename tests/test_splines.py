@@ -198,3 +198,20 @@ def test_a_spline_program_runs_end_to_end_against_the_curve(machine) -> None:
     on = res.trace.line == 4
     near = res.trace.nearest[on]
     assert np.abs(nearest_on_move(a, near) - near).max() < 1e-9
+
+
+def test_marlins_g5_is_the_same_bezier_with_i_j_p_q_defaulting_to_zero() -> None:
+    text = "G21\nG1 X1 F600\nG5 I1 J2 P-1 Q2 X5 Y0 E3\nG5 X9 Y1 P1 Q1\n"
+    a, b = splines(text, "marlin")
+    assert a.control_points == ((1, 0, 0), (2, 2, 0), (4, 2, 0), (5, 0, 0))
+    # no mirror in Marlin: I J default to 0 (G5.cpp, parser.linearval)
+    assert b.control_points == ((5, 0, 0), (5, 0, 0), (10, 2, 0), (9, 1, 0))
+    for code, why in (("G5.1 I1 J1 X4 Y1", "only spline is G5"), ("G5 X4 Y1 Z2", "Z move")):
+        with pytest.raises(GcodeError, match=why):
+            parse_program("G21\nG1 X1 F600\n" + code + "\n", "marlin")
+
+
+def test_a_cusp_is_refused_by_the_planner_with_its_line(write_program, capsys) -> None:
+    path = write_program(HEAD + "G5 I0 J0 P1 Q0 X9 Y0\nM2\n")  # x overshoots 9 and turns back
+    assert main(["plan", str(path)]) == 2
+    assert f"{path}:4: error: this G5 spline reverses its direction" in capsys.readouterr().err

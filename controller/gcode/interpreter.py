@@ -59,6 +59,7 @@ from gantry_sim.controller.gcode.printer_codes import OWN_LINES
 from gantry_sim.controller.gcode.splines import (
     G5_2,
     G5_3,
+    SPLINE_CODES,
     SPLINE_MOTIONS,
     NurbsPoints,
     check_spline_block,
@@ -137,8 +138,10 @@ class Interpreter:
             assert code in G_HANDLED or code in G_NO_PATH_EFFECT
             if code in CYCLES and not d.canned_cycles:
                 raise GcodeError(f"{g_name(code)} is not supported: {d.name} has no canned cycles")
-            if code in SPLINE_MOTIONS and not d.splines:
+            if code in SPLINE_CODES and not d.splines:
                 raise GcodeError(f"{g_name(code)} is not supported: {d.name} has no splines")
+            if code in SPLINE_CODES and d.splines == "marlin" and code != 50:
+                raise GcodeError(f"{g_name(code)} is not supported: Marlin's only spline is G5")
             if code in (410, 411, 420, 421) and not d.cutter_comp:
                 raise GcodeError(
                     f"{g_name(code)} is not supported: {d.name} has no cutter radius compensation"
@@ -379,17 +382,19 @@ class Interpreter:
             end = self._end_point(w.values, s)
             memory = self.nurbs if nurbs is None else nurbs
             return s, cycle, nurbs_point(w.values, s, memory, end, restart)
+        marlin = self.dialect.splines == "marlin"
+        v = {"I": 0.0, "J": 0.0, "P": 0.0, "Q": 0.0, **w.values} if marlin else w.values
         if code != G5_3:
             self._require_feed(s, "a spline", w)
-            check_spline_block(code, w.values, s, comp_on=False)
-        end = self._end_point(w.values, s) if code != G5_3 else s.position
+            check_spline_block(code, v, s, comp_on=False, marlin=marlin)
+        end = self._end_point(v, s) if code != G5_3 else s.position
         move, ij, end = spline_block(
             w.line,
             code,
-            w.values,
+            v,
             s,
             end,
-            (cycle.ijk[0], cycle.ijk[1]),
+            (0.0, 0.0) if marlin else (cycle.ijk[0], cycle.ijk[1]),
             self.nurbs,
             self.state.motion,
             w.g.get("motion"),

@@ -15,6 +15,10 @@ convert_spline and convert_nurbs; the behaviour below was measured with ``rs274 
   which moves along the curve (its line) and leaves no motion mode. The tool does not move
   before G5.3, so G91 points are relative to the point where G5.2 began. X and Y are read in any
   plane (2.9 checks none) and a Z word is ignored, as in rs274.
+Marlin's G5 (``BEZIER_CURVE_SUPPORT``, G5.cpp and planner_bezier.cpp: the same cubic Bezier
+from the current point through current + (I, J) and target + (P, Q)): every one of I J P Q
+defaults to 0 (Marlin keeps no previous P Q), the plane must be XY; a Z move along it (Marlin
+interpolates Z linearly in t) is refused. Marlin has no G5.1, G5.2 or G5.3.
 I, J, P, Q are offsets in program units (not affected by G90/G91 or G90.1); every control point is
 placed in the work frame like X/Y (offsets, G92, XY rotation: an affine map, which maps the
 curve onto the curve of the mapped control points). Z stays at the current height.
@@ -35,6 +39,7 @@ from gantry_sim.controller.nurbs import linuxcnc_knots
 G5, G5_1, G5_2, G5_3 = 50, 51, 52, 53
 #: the spline motion codes (G5.3 is non-modal: it ends a G5.2 curve)
 SPLINE_MOTIONS = frozenset((G5, G5_1, G5_2))
+SPLINE_CODES = SPLINE_MOTIONS | {G5_3}
 _NAMES = {G5: "G5", G5_1: "G5.1", G5_2: "G5.2"}
 
 
@@ -46,8 +51,11 @@ class NurbsPoints:
     order: int = 3
 
 
-def check_spline_block(motion: int, v: dict[str, float], s: ModalState, comp_on: bool) -> None:
-    """rs274's checks on a G5 or G5.1 block, in its order."""
+def check_spline_block(
+    motion: int, v: dict[str, float], s: ModalState, comp_on: bool, marlin: bool = False
+) -> None:
+    """rs274's checks on a G5 or G5.1 block, in its order (``marlin``: Marlin's G5, whose
+    I J P Q default to 0)."""
     if comp_on:
         raise GcodeError(
             "cannot make a spline (G5, G5.1, G5.2/G5.3) with cutter radius compensation on; "
@@ -55,6 +63,13 @@ def check_spline_block(motion: int, v: dict[str, float], s: ModalState, comp_on:
         )
     if s.plane != "XY":
         raise GcodeError(f"splines must be in the XY plane (G17); the plane is {s.plane}")
+    if marlin:
+        if "Z" in v and v["Z"] * s.scale != (0.0 if s.incremental else s.position[2]):
+            raise GcodeError(
+                "Marlin's G5 with a Z move (Z linear in the curve's parameter) is not supported; "
+                "move Z on its own line"
+            )
+        return
     if "Z" in v:
         raise GcodeError("splines may not have motion in Z: G5 and G5.1 move in X and Y only")
     if motion == G5_1 and not ("I" in v and "J" in v):

@@ -114,7 +114,7 @@ def check_words(w: Words, motion: int | None, dialect: Dialect) -> None:
     arc = motion in (20, 30)
     g10 = w.g.get("nonmodal") == 100
     cycle = dialect.canned_cycles and motion in _CYCLES
-    spline = dialect.splines and motion in (50, 51, 52)
+    spline = bool(dialect.splines) and motion in (50, 51, 52)
     uses = {
         "I": arc or motion == 870 or (spline and motion != 52),
         "J": arc or motion == 870 or (spline and motion != 52),

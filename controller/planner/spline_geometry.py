@@ -14,13 +14,15 @@ sampling (:data:`SAMPLES_PER_CHORD` per chord and :data:`SAMPLES_PER_SPAN` per k
 times :data:`BOUND_MARGIN`. At a zero-speed end (G5 ``I0 J0``: the first control point is the
 start) the curvature grows without bound towards the end point; the samples there start one
 sample step inside, which the exact states at the vertices respect (the reference passes the
-end chord as the closed-form pieces do).
+end chord as the closed-form pieces do). A spline whose direction reverses between two samples
+(an interior cusp: it stops and turns back) is refused with its line.
 """
 
 from __future__ import annotations
 
 import numpy as np
 
+from gantry_sim.controller.errors import PlanningError
 from gantry_sim.controller.moves import Spline
 
 SAMPLES_PER_CHORD = 8
@@ -85,7 +87,14 @@ def curvature_bounds(move: Spline, chords: int) -> tuple[float, float]:
     t = np.linspace(t_lo, t_hi, n + 1)
     _, d1, d2, d3 = c.nurbs.derivatives(t, 3)
     ok = ~c.zero_speed(d1)  # a zero-speed end: its curvature is unbounded (module docstring)
-    _, p2, p3 = arc_length_derivatives(d1[ok], d2[ok], d3[ok])
+    p1, p2, p3 = arc_length_derivatives(d1[ok], d2[ok], d3[ok])
+    if (np.einsum("ij,ij->i", p1[:-1], p1[1:]) < 0.0).any():
+        raise PlanningError(
+            f"this {move.code} spline reverses its direction at a cusp (its control points "
+            "make it stop and turn back), which no machine follows without stopping there; "
+            "split it at the cusp or move its control points",
+            line=move.line,
+        )
     k = float(np.max(np.linalg.norm(p2, axis=1))) if len(p2) else 0.0
     dk = float(np.max(np.linalg.norm(p3, axis=1))) if len(p3) else 0.0
     return BOUND_MARGIN * k, BOUND_MARGIN * dk
