@@ -215,3 +215,12 @@ def test_a_cusp_is_refused_by_the_planner_with_its_line(write_program, capsys) -
     path = write_program(HEAD + "G5 I0 J0 P1 Q0 X9 Y0\nM2\n")  # x overshoots 9 and turns back
     assert main(["plan", str(path)]) == 2
     assert f"{path}:4: error: this G5 spline reverses its direction" in capsys.readouterr().err
+
+
+def test_error_gates_name_the_spline_kind() -> None:
+    from gantry_sim.sim.gates import parse_error_limits
+
+    (limit,) = parse_error_limits("spline=5")
+    assert limit.covers({"kind": "spline", "line": 4}) and not limit.covers(
+        {"kind": "arc", "line": 4}
+    )
