@@ -1,13 +1,16 @@
 """Write the spline corpus (G5, G5.1, G5.2/G5.3) and record what LinuxCNC does with it.
 
 Writes ``tests/data/rs274_splines/programs/*.ngc`` (``gen_*``: seeded, deterministic; ``err_*``:
-the refusals measured with rs274), then for every program:
+the refusals measured with rs274; ``doc_*``: the LinuxCNC documentation's examples; the
+``lcnc_*`` programs, LinuxCNC's own samples, are kept as they are: see LINUXCNC_SAMPLES.md),
+then for every program:
 
 * ``raw/NAME.txt``: ``rs274 -g NAME.ngc`` (exit status, stdout, stderr): rs274 prints each
   spline as ``NURBS_FEED(k, ...)`` with k its number of control points, and the error text;
 * ``expected/NAME.json``: ``nurbs_feeds`` (the k of each NURBS_FEED, in order), and what
   LinuxCNC's ``gcode`` module gives (``scripts/rs274_spline_probe.py``): every straight feed and
-  traverse with its source line, in the machine's work frame [mm] (inch output times 25.4;
+  traverse as a row [line, "feed" or "traverse", x, y, z] in the machine's work frame [mm]
+  (inch output times 25.4;
   ``R(rotation) (p + g92) + g5x``), where a spline is LinuxCNC's own NURBS evaluated at
   u = j * umax / (15 k) (gcodemodule.cc, NURBS_FEED), and the error (line, message) if any.
 
@@ -68,9 +71,9 @@ HAND: dict[str, str] = {
     "nurbs_plane_xz_reads_xy": "G21 G18 G1 F100 X1\nG5.2 X2 Y1 P1\nX3 Y0 P1\nG5.3\nM2\n",
     "nurbs_z_word_ignored": "G21 G1 F100 X1\nG5.2 X2 Y1 P1 Z3\nX3 Y0 P1\nG5.3\nM2\n",
     "nurbs_incremental": "G21 G91 G1 F100 X1\nG5.2 X2 Y1 P1\nX3 Y0 P1\nG5.3\nG1 X1\nM2\n",
-    "lcnc_doc_g5": "G21 G90 G17\nG0 X0 Y0\nG5 I0 J3 P0 Q-3 X1 Y1 F600\nG5 P0 Q-3 X2 Y2\nM2\n",
-    "lcnc_doc_g51": "G21 G90 G17\nG0 X-2 Y4\nG5.1 X2 I2 J-8 F600\nM2\n",
-    "lcnc_doc_nurbs": (
+    "doc_g5": "G21 G90 G17\nG0 X0 Y0\nG5 I0 J3 P0 Q-3 X1 Y1 F600\nG5 P0 Q-3 X2 Y2\nM2\n",
+    "doc_g51": "G21 G90 G17\nG0 X-2 Y4\nG5.1 X2 I2 J-8 F600\nM2\n",
+    "doc_nurbs": (
         "G21 G90 G17 F600\nG0 X0 Y0\nG5.2 X0 Y1 P1 L3\nX2 Y2 P1\nX2 Y0 P1\nX0 Y0 P2\nG5.3\n"
         "G0 X4 Y0\nG5.2 X4 Y2 P1 L3\nX6 Y2 P2\nX6 Y0 P1\nX4 Y0 P1\nG5.3\nM2\n"
     ),
@@ -188,7 +191,7 @@ def record(name: str, path: Path) -> None:
     if probe.returncode != 0:
         raise SystemExit(f"{name}: probe failed: {probe.stderr}")
     found = json.loads(probe.stdout.strip().splitlines()[-1])
-    moves = [{"line": m["line"], "kind": m["kind"], "end": to_work(m)} for m in found["moves"]]
+    moves = [[m["line"], m["kind"], *to_work(m)] for m in found["moves"]]
     version = run_locked(["dpkg-query", "-W", "-f", "${Version}", "linuxcnc-uspace"]).stdout
     expected = {
         "origin": f"LinuxCNC {version}: rs274 -g and the gcode module (scripts/{PROBE.name})",
@@ -196,20 +199,27 @@ def record(name: str, path: Path) -> None:
         "error": rs274_error(g.stderr, path.read_text(), found["error"]),
         "moves": moves,
     }
-    (DATA / "expected" / f"{name}.json").write_text(json.dumps(expected, indent=1) + "\n")
+    rows = ",\n".join(json.dumps(row) for row in moves)
+    head = json.dumps({k: v for k, v in expected.items() if k != "moves"})[:-1]
+    (DATA / "expected" / f"{name}.json").write_text(f'{head}, "moves": [\n{rows}\n]}}\n')
 
 
 def main() -> None:
     rng = random.Random(SEED)
     programs = {**HAND, **bezier_programs(rng), **nurbs_programs(rng)}
+    samples = sorted(p.stem for p in (DATA / "programs").glob("lcnc_*.ngc"))
     for sub in ("programs", "raw", "expected"):
         (DATA / sub).mkdir(parents=True, exist_ok=True)
         for stale in (DATA / sub).glob("*"):
-            stale.unlink()
+            if not stale.name.startswith("lcnc_"):
+                stale.unlink()
     for name, text in programs.items():
         path = DATA / "programs" / f"{name}.ngc"
         path.write_text(text)
         record(name, path)
+    for name in samples:
+        record(name, DATA / "programs" / f"{name}.ngc")
+    programs.update(dict.fromkeys(samples, ""))
     print(f"{len(programs)} programs recorded in {DATA}")
 
 

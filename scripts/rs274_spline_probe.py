@@ -89,7 +89,8 @@ class Canon:
 
 def main() -> None:
     canon = Canon()
-    result, line = gcode.parse(sys.argv[1], canon, "", "")
+    # G21 first: rs274 -g starts in mm (the module alone would start in inches)
+    result, line = gcode.parse(sys.argv[1], canon, "G21", "")
     error = None
     if result > gcode.MIN_ERROR:
         error = {"line": line, "message": gcode.strerror(result)}
