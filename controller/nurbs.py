@@ -3,9 +3,10 @@
 A NURBS curve of degree p with control points P_i, weights w_i > 0 and knots t_0..t_{n+p+1}
 (clamped: the first and last p + 1 knots equal) is C(t) = A(t) / W(t), where
 A(t) = sum N_{i,p}(t) w_i P_i and W(t) = sum N_{i,p}(t) w_i are one B-spline in homogeneous
-coordinates (w x, w y, w z, w). Points come from de Boor's algorithm; derivatives from the
-derivative B-splines (control points p (Q_{i+1} - Q_i) / (t_{i+p+1} - t_{i+1}), degree p - 1)
-and the quotient rule:
+coordinates (w x, w y, w z, w). De Boor's algorithm and the derivative B-splines (control
+points p (Q_{i+1} - Q_i) / (t_{i+p+1} - t_{i+1}), degree p - 1) give, once per curve, each knot
+span's polynomial (its Taylor coefficients at the span's start); points and derivatives are then
+Horner's rule on those, and the curve's derivatives follow from the quotient rule:
 
     C'   = (A'   - W' C) / W
     C''  = (A''  - 2 W' C'  - W'' C) / W
@@ -73,14 +74,64 @@ class BSpline:
 
 
 @dataclass(frozen=True, eq=False)
+class PiecewisePoly:
+    """A B-spline as one polynomial per knot span, in powers of (u - start of its span): the
+    coefficients are the Taylor coefficients D^k(start) / k! from the derivative B-splines (exact,
+    no fitting), so evaluating is a span look-up and Horner's rule.
+
+    Attributes:
+        breaks: (s + 1,) the distinct knots bounding the s non-empty spans.
+        coeffs: (4, s, p + 1, d): for derivative order 0..3, the coefficients of that derivative.
+    """
+
+    breaks: np.ndarray
+    coeffs: np.ndarray
+
+    @classmethod
+    def of(cls, spline: BSpline) -> PiecewisePoly:
+        p, t = spline.degree, spline.knots
+        lo, hi = t[spline.degree], t[len(spline.ctrl)]
+        breaks = np.unique(t[(t >= lo) & (t <= hi)])
+        starts = breaks[:-1]
+        taylor = np.zeros((len(starts), p + 1, spline.ctrl.shape[1]))
+        d, fact = spline, 1.0
+        for k in range(p + 1):
+            taylor[:, k] = d(starts) / fact
+            d, fact = d.derivative(), fact * (k + 1)
+        coeffs = np.zeros((4, *taylor.shape))
+        for order in range(
+            4
+        ):  # d^order/du^order of sum c_k x^k = sum c_k k!/(k-order)! x^(k-order)
+            for k in range(order, p + 1):
+                falling = float(np.prod(np.arange(k - order + 1, k + 1)))
+                coeffs[order, :, k - order] = taylor[:, k] * falling
+        return cls(breaks, coeffs)
+
+    def __call__(self, u: np.ndarray, order: int = 0) -> np.ndarray:
+        """The ``order``-th derivative (m, d) at ``u`` (m,) (clamped to the breaks)."""
+        b = self.breaks
+        u = np.clip(np.asarray(u, dtype=float), b[0], b[-1])
+        j = np.clip(np.searchsorted(b, u, side="right") - 1, 0, len(b) - 2)
+        x = (u - b[j])[:, None]
+        c = self.coeffs[order][j]  # (m, p + 1, d)
+        y = c[:, -1].copy()
+        for k in range(c.shape[1] - 2, -1, -1):
+            y = y * x + c[:, k]
+        return y
+
+
+@dataclass(frozen=True, eq=False)
 class Nurbs:
     """A rational curve in 3-D built from control points (n + 1, 3), weights and knots.
 
     Attributes:
+        homogeneous: the B-spline of (w x, w y, w z, w).
+        poly: the same, per span (:class:`PiecewisePoly`), which evaluates it and its derivatives.
         t_min, t_max: the parameter range.
     """
 
-    homogeneous: tuple[BSpline, BSpline, BSpline, BSpline]  # A|W and its three derivatives
+    homogeneous: BSpline
+    poly: PiecewisePoly
     t_min: float
     t_max: float
 
@@ -89,16 +140,13 @@ class Nurbs:
         ctrl = np.asarray(ctrl, dtype=float)
         w = np.asarray(weights, dtype=float)
         t = np.asarray(knots, dtype=float)
-        h0 = BSpline(np.column_stack([ctrl * w[:, None], w]), t, degree)
-        h1 = h0.derivative()
-        h2 = h1.derivative()
-        h3 = h2.derivative()
-        return cls((h0, h1, h2, h3), float(t[degree]), float(t[len(ctrl)]))
+        h = BSpline(np.column_stack([ctrl * w[:, None], w]), t, degree)
+        return cls(h, PiecewisePoly.of(h), float(t[degree]), float(t[len(ctrl)]))
 
     def derivatives(self, u: np.ndarray, order: int = 2) -> list[np.ndarray]:
         """[C, C', ..., C^(order)] at ``u`` (m,), each (m, 3), order <= 3."""
         u = np.asarray(u, dtype=float)
-        h = [self.homogeneous[i](u) for i in range(order + 1)]
+        h = [self.poly(u, i) for i in range(order + 1)]
         w = [hi[:, 3:4] for hi in h]
         a = [hi[:, :3] for hi in h]
         c = [a[0] / w[0]]
@@ -112,5 +160,5 @@ class Nurbs:
 
     def points(self, u: np.ndarray) -> np.ndarray:
         """C(u) (m, 3)."""
-        h = self.homogeneous[0](np.asarray(u, dtype=float))
+        h = self.poly(np.asarray(u, dtype=float))
         return h[:, :3] / h[:, 3:4]

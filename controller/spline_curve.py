@@ -28,7 +28,9 @@ from gantry_sim.controller.nurbs import Nurbs
 CELLS_PER_SPAN = 32
 _GL_X, _GL_W = np.polynomial.legendre.leggauss(8)
 #: Newton / bisection steps of the arc-length inversion and of the nearest-point search.
-INVERT_STEPS = 40
+INVERT_STEPS = 60
+#: the arc-length inversion stops within this share of the curve's length (at least 1e-15 mm)
+S_TOLERANCE_REL = 1e-12
 NEAREST_STEPS = 8
 #: a speed |C'| below this share of L / (t range) counts as zero (a degenerate end)
 ZERO_SPEED_SHARE = 1e-9
@@ -39,7 +41,7 @@ class SplineCurve:
 
     def __init__(self, nurbs: Nurbs) -> None:
         self.nurbs = nurbs
-        breaks = np.unique(nurbs.homogeneous[0].knots)
+        breaks = np.unique(nurbs.homogeneous.knots)
         breaks = breaks[(breaks >= nurbs.t_min) & (breaks <= nurbs.t_max)]
         cells = [np.linspace(a, b, CELLS_PER_SPAN + 1)[:-1] for a, b in itertools.pairwise(breaks)]
         self.grid = np.concatenate([*cells, [nurbs.t_max]])
@@ -68,7 +70,9 @@ class SplineCurve:
         return self.cum[cell] + self._integral(self.grid[cell], t)
 
     def t_of_s(self, s: np.ndarray) -> np.ndarray:
-        """The parameter t at arc length ``s`` [mm] (m,), clamped to the curve."""
+        """The parameter t at arc length ``s`` [mm] (m,), clamped to the curve: Newton steps
+        from the grid cell's linear guess, bisection where a step would leave the cell's
+        bracket, until the arc length is within :data:`S_TOLERANCE_REL` of the length."""
         s = np.clip(np.asarray(s, dtype=float), 0.0, self.length_mm)
         cell = np.clip(np.searchsorted(self.cum, s, side="right") - 1, 0, len(self.grid) - 2)
         lo, hi = self.grid[cell].copy(), self.grid[cell + 1].copy()
@@ -76,18 +80,22 @@ class SplineCurve:
         with np.errstate(divide="ignore", invalid="ignore"):
             frac = np.where(c1 > c0, (s - c0) / (c1 - c0), 0.0)
         t = lo + frac * (hi - lo)
+        tol = S_TOLERANCE_REL * max(self.length_mm, 1e-3)
+        active = np.arange(len(s))
         for _ in range(INVERT_STEPS):
-            f = self.cum[cell] + self._integral(self.grid[cell], t) - s
-            lo = np.where(f < 0, t, lo)
-            hi = np.where(f > 0, t, hi)
-            v = self.speed(t)
+            ta, ca = t[active], cell[active]
+            f = self.cum[ca] + self._integral(self.grid[ca], ta) - s[active]
+            ok = np.abs(f) <= tol
+            lo_a = np.where(f < 0, ta, lo[active])
+            hi_a = np.where(f > 0, ta, hi[active])
             with np.errstate(divide="ignore", invalid="ignore"):
-                nt = t - f / v
-            bad = ~np.isfinite(nt) | (nt <= lo) | (nt >= hi)
-            nt = np.where(bad, 0.5 * (lo + hi), nt)
-            done = np.abs(nt - t) <= 1e-15 * max(1.0, self.nurbs.t_max)
-            t = nt
-            if done.all():
+                nt = ta - f / self.speed(ta)
+            bad = ~np.isfinite(nt) | (nt <= lo_a) | (nt >= hi_a)
+            nt = np.where(bad, 0.5 * (lo_a + hi_a), nt)
+            t[active] = np.where(ok, ta, nt)
+            lo[active], hi[active] = lo_a, hi_a
+            active = active[~ok & (hi_a - lo_a > 0)]
+            if not active.size:
                 break
         return t
 
