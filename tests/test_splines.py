@@ -224,3 +224,23 @@ def test_error_gates_name_the_spline_kind() -> None:
     assert limit.covers({"kind": "spline", "line": 4}) and not limit.covers(
         {"kind": "arc", "line": 4}
     )
+
+
+def test_the_reference_keeps_the_limits_and_the_curve(machine) -> None:
+    from gantry_sim.controller.gcode.interpreter import interpret_events
+    from gantry_sim.controller.planner.plan import plan
+    from tests.plan_helpers import assert_within_limits
+
+    text = (
+        "G21 G17 G90\nG0 X0 Y0\nG1 X5 F12000\nG5 I20 J60 P-20 Q60 X100 Y0\n"
+        "G5 P-10 Q-30 X130 Y0\nG5.1 I5 J-40 X140 Y0\nG5.2 X150 Y10 P1 L4\nX160 Y-10 P3\n"
+        "X170 Y10 P1\nX180 Y0 P1\nG5.3\nG1 X200\nM2\n"
+    )
+    items = list(interpret_events(text))
+    traj = plan(items, machine).sample(1e-4)
+    moves = [m for m in items if hasattr(m, "kind")]
+    assert_within_limits(traj, machine, moves)
+    tol = machine.segmentation.chord_tolerance_mm
+    for s in (m for m in moves if isinstance(m, Spline)):
+        on = traj.pos[traj.line == s.line]
+        assert np.linalg.norm(nearest_on_move(s, on) - on, axis=1).max() <= tol

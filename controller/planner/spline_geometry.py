@@ -16,6 +16,13 @@ start) the curvature grows without bound towards the end point; the samples ther
 sample step inside, which the exact states at the vertices respect (the reference passes the
 end chord as the closed-form pieces do). A spline whose direction reverses between two samples
 (an interior cusp: it stops and turns back) is refused with its line.
+
+The block limits (limits.py, arc_limits) bound the jerk of exact following as if p''' were
+orthogonal to the curvature vector, which holds on circles; along a spline p''' also has a part
+dk/ds along it, so where the curvature changes fast those limits can be slightly optimistic.
+The reference still keeps every limit: each closed-form piece is checked per axis against the
+velocity, acceleration and jerk limits and the feed (pieces.py, jerk3.piece_limits_ok), and one
+that breaks a limit is replaced by a Ruckig piece.
 """
 
 from __future__ import annotations
