@@ -32,6 +32,8 @@ INVERT_STEPS = 60
 #: the arc-length inversion stops within this share of the curve's length (at least 1e-15 mm)
 S_TOLERANCE_REL = 1e-12
 NEAREST_STEPS = 8
+#: point-sample pairs compared at once by the nearest-point seeding
+SEED_BLOCK = 1_000_000
 #: a speed |C'| below this share of L / (t range) counts as zero (a degenerate end)
 ZERO_SPEED_SHARE = 1e-9
 
@@ -161,14 +163,10 @@ class SplineCurve:
         ts = np.linspace(t_lo, t_hi, max(samples, 2))
         pts = self.nurbs.points(ts)
         out = np.empty(len(q))
-        for a in range(0, len(q), 2048):  # bounded temporaries
-            qa = q[a : a + 2048]
-            d2 = (
-                np.einsum("ij,ij->i", qa, qa)[:, None]
-                - 2.0 * qa @ pts.T
-                + np.einsum("ij,ij->i", pts, pts)[None, :]
-            )
-            out[a : a + 2048] = ts[np.argmin(d2, axis=1)]
+        rows = max(1, SEED_BLOCK // len(ts))  # bounded temporaries (about 32 MB)
+        for a in range(0, len(q), rows):
+            rel = q[a : a + rows, None, :] - pts[None, :, :]
+            out[a : a + rows] = ts[np.argmin(np.einsum("ijk,ijk->ij", rel, rel), axis=1)]
         return out
 
     def nearest_points(self, q: np.ndarray) -> np.ndarray:
