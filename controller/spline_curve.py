@@ -32,6 +32,8 @@ INVERT_STEPS = 60
 #: the arc-length inversion stops within this share of the curve's length (at least 1e-15 mm)
 S_TOLERANCE_REL = 1e-12
 NEAREST_STEPS = 8
+#: samples either side of a seed in the nearest-point search's local refinement
+LOCAL_SAMPLES = 16
 #: point-sample pairs compared at once by the nearest-point seeding
 SEED_BLOCK = 1_000_000
 #: a speed |C'| below this share of L / (t range) counts as zero (a degenerate end)
@@ -134,12 +136,21 @@ class SplineCurve:
             k[~ok] = np.where(at_start[~ok][:, None], k0, k1)
         return c, tangent, k
 
-    def nearest(self, q: np.ndarray, t_seed: np.ndarray) -> np.ndarray:
-        """Parameters t (m,) of the points nearest to ``q`` (m, 3) from seeds ``t_seed`` (m,):
-        guarded Newton steps on f(t) = |C(t) - q|^2, clamped to the curve, each kept only where
-        it lowers f."""
+    def nearest(self, q: np.ndarray, t_seed: np.ndarray, spacing: float) -> np.ndarray:
+        """Parameters t (m,) of the points nearest to ``q`` (m, 3) from seeds ``t_seed`` (m,)
+        that are the nearest of samples ``spacing`` apart: the nearest of 33 samples across
+        +-``spacing`` around the seed, twice (each time 16 times finer), then guarded Newton
+        steps on f(t) = |C(t) - q|^2 (halved up to twice where a full step does not lower f),
+        clamped to the curve. The local samples matter where C' vanishes (a zero-speed end,
+        G5 ``I0 J0``): there f' = 0 at the end itself and Newton alone would not leave it."""
         t = np.asarray(t_seed, dtype=float).copy()
         lo, hi = self.nurbs.t_min, self.nurbs.t_max
+        offsets = np.linspace(-1.0, 1.0, 2 * LOCAL_SAMPLES + 1)
+        for scale in (spacing, spacing / LOCAL_SAMPLES):
+            cand = np.clip(t[:, None] + scale * offsets[None, :], lo, hi)  # (m, 33)
+            pts = self.nurbs.points(cand.ravel()).reshape(*cand.shape, 3)
+            rel = pts - q[:, None, :]
+            t = cand[np.arange(len(t)), np.argmin(np.einsum("ijk,ijk->ij", rel, rel), axis=1)]
         c = self.nurbs.points(t)
         f = np.einsum("ij,ij->i", c - q, c - q)
         for _ in range(NEAREST_STEPS):
@@ -149,12 +160,15 @@ class SplineCurve:
             h = np.einsum("ij,ij->i", d1, d1) + np.einsum("ij,ij->i", r, d2)
             with np.errstate(divide="ignore", invalid="ignore"):
                 step = np.where(h > 0, -g / h, 0.0)
-            nt = np.clip(t + step, lo, hi)
-            nc = self.nurbs.points(nt)
-            nf = np.einsum("ij,ij->i", nc - q, nc - q)
-            better = nf < f
-            t, f = np.where(better, nt, t), np.where(better, nf, f)
-            if not better.any():
+            improved = np.zeros(len(t), dtype=bool)
+            for share in (1.0, 0.5, 0.25):
+                nt = np.clip(t + share * step, lo, hi)
+                nc = self.nurbs.points(nt)
+                nf = np.einsum("ij,ij->i", nc - q, nc - q)
+                better = (nf < f) & ~improved
+                t, f = np.where(better, nt, t), np.where(better, nf, f)
+                improved |= better
+            if not improved.any():
                 break
         return t
 
@@ -171,9 +185,10 @@ class SplineCurve:
 
     def nearest_points(self, q: np.ndarray) -> np.ndarray:
         """Nearest points (m, 3) on the whole curve to ``q`` (m, 3) [mm]."""
-        spans = len(self.grid) - 1
-        seed = self.seeds(q, self.nurbs.t_min, self.nurbs.t_max, 4 * spans + 1)
-        return self.nurbs.points(self.nearest(q, seed))
+        samples = 4 * (len(self.grid) - 1) + 1
+        seed = self.seeds(q, self.nurbs.t_min, self.nurbs.t_max, samples)
+        spacing = (self.nurbs.t_max - self.nurbs.t_min) / (samples - 1)
+        return self.nurbs.points(self.nearest(q, seed, spacing))
 
 
 def _curvature(d1: np.ndarray, d2: np.ndarray) -> np.ndarray:

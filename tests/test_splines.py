@@ -227,12 +227,15 @@ def test_error_gates_name_the_spline_kind() -> None:
 
 
 def test_the_reference_keeps_the_limits_and_the_curve(machine) -> None:
+    """Including zero-speed ends (a first G5 without I J, P0 Q0), whose curvature is unbounded
+    at the end point."""
     from gantry_sim.controller.gcode.interpreter import interpret_events
     from gantry_sim.controller.planner.plan import plan
     from tests.plan_helpers import assert_within_limits
 
     text = (
-        "G21 G17 G90\nG0 X0 Y0\nG1 X5 F12000\nG5 I20 J60 P-20 Q60 X100 Y0\n"
+        "G21 G17 G90\nG0 X0 Y0\nG1 X5 F12000\nG5 P-20 Q60 X60 Y0\nG5 P0 Q0 X65 Y5\n"
+        "G5 I20 J60 P-20 Q60 X100 Y0\n"
         "G5 P-10 Q-30 X130 Y0\nG5.1 I5 J-40 X140 Y0\nG5.2 X150 Y10 P1 L4\nX160 Y-10 P3\n"
         "X170 Y10 P1\nX180 Y0 P1\nG5.3\nG1 X200\nM2\n"
     )
@@ -244,3 +247,13 @@ def test_the_reference_keeps_the_limits_and_the_curve(machine) -> None:
     for s in (m for m in moves if isinstance(m, Spline)):
         on = traj.pos[traj.line == s.line]
         assert np.linalg.norm(nearest_on_move(s, on) - on, axis=1).max() <= tol
+
+
+def test_nearest_points_next_to_a_zero_speed_end() -> None:
+    """C'(0) = 0 (first control point = start): f'(t) = 0 at the end itself, so the search must
+    not stop there (it once reported every point near the start as nearest to the start)."""
+    (s,) = splines(HEAD + "G5 P-2 Q2 X20 Y0\nM2\n")  # the first G5 without I J: (1,0) twice
+    t = np.linspace(1e-4, 2e-2, 40)
+    on = s.curve.nurbs.points(t)
+    q = on + np.array([0.0, 0.0, 1e-4])  # 0.1 um above the curve (its plane is XY)
+    assert np.abs(np.linalg.norm(nearest_on_move(s, q) - q, axis=1) - 1e-4).max() < 1e-9

@@ -11,11 +11,16 @@ t' = 1/v, t'' = -(C'.C'')/v^4, t''' = -(|C''|^2 + C'.C''')/v^5 + 4 (C'.C'')^2/v^
 
 The curvature varies along a spline: the bounds are the largest |p''| and |p'''| over a dense
 sampling (:data:`SAMPLES_PER_CHORD` per chord and :data:`SAMPLES_PER_SPAN` per knot span)
-times :data:`BOUND_MARGIN`. At a zero-speed end (G5 ``I0 J0``: the first control point is the
-start) the curvature grows without bound towards the end point; the samples there start one
-sample step inside, which the exact states at the vertices respect (the reference passes the
-end chord as the closed-form pieces do). A spline whose direction reverses between two samples
-(an interior cusp: it stops and turns back) is refused with its line.
+times :data:`BOUND_MARGIN`. At a zero-speed end (G5 ``I0 J0``, or the first G5 without I J:
+the first control point is the start) the curvature grows without bound towards the end point
+(like s^-1/2), so no finite bound holds there: the bounds are taken from the end chord's inner
+vertex on. On that end chord the reference passes the exact states at its vertices (more of
+them next to a stop, arc_states.py), the junction's cap comes from the end's own (very large)
+curvature, and every piece there is held to the limits one by one (see below); measured on
+``G1 X1 F3000`` then ``G5 P-2 Q2 X20 Y0``: the reference stays within 0.13 um of the curve and
+the move takes 1.2 s, where bounds sampled into the end chord made it crawl for 20 s.
+A spline whose direction reverses between two samples (an interior cusp: it stops and turns
+back) is refused with its line.
 
 The block limits (limits.py, arc_limits) bound the jerk of exact following as if p''' were
 orthogonal to the curvature vector, which holds on circles; along a spline p''' also has a part
@@ -62,7 +67,7 @@ def spline_deviation(move: Spline, q: np.ndarray, sigma_hint: float, window: flo
     lo, hi = max(sigma_hint - window, 0.0), min(sigma_hint + window, 1.0)
     t_lo, t_hi = c.t_of_s(np.array([lo, hi]) * c.length_mm)
     seed = c.seeds(q, float(t_lo), float(t_hi), 33)
-    near = c.nurbs.points(c.nearest(q, seed))
+    near = c.nurbs.points(c.nearest(q, seed, float(t_hi - t_lo) / 32))
     return float(np.max(np.linalg.norm(q - near, axis=1)))
 
 
@@ -102,6 +107,15 @@ def curvature_bounds(move: Spline, chords: int) -> tuple[float, float]:
             "split it at the cusp or move its control points",
             line=move.line,
         )
+    # next to a zero-speed end the bounds start at the end chord's inner vertex (see the
+    # module docstring: the end chord's pieces are held to the limits one by one)
+    inner = np.ones(len(t), dtype=bool)
+    t_first, t_last = c.t_of_s(np.array([1.0, chords - 1.0]) / chords * c.length_mm)
+    if not ok[0]:
+        inner &= t >= t_first
+    if not ok[-1]:
+        inner &= t <= t_last
+    p2, p3 = p2[inner[ok]], p3[inner[ok]]
     k = float(np.max(np.linalg.norm(p2, axis=1))) if len(p2) else 0.0
     dk = float(np.max(np.linalg.norm(p3, axis=1))) if len(p3) else 0.0
     return BOUND_MARGIN * k, BOUND_MARGIN * dk
