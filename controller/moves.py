@@ -8,6 +8,7 @@ helix, along the helix). Moves are frozen value objects; ``to_json`` gives the e
 from __future__ import annotations
 
 import math
+import weakref
 from dataclasses import dataclass
 
 from gantry_sim.controller.planes import PLANE_AXES, Direction, Plane, Vec3
@@ -23,6 +24,7 @@ __all__ = [
     "PathControl",
     "Plane",
     "Rapid",
+    "Spline",
     "Stop",
     "Vec3",
 ]
@@ -177,7 +179,78 @@ class Arc:
         }
 
 
-Move = Rapid | Linear | Arc
+@dataclass(frozen=True)
+class Spline:
+    """G5 (cubic Bezier), G5.1 (quadratic Bezier) or G5.2/G5.3 (NURBS): a spline in the XY
+    plane at constant Z, exactly as LinuxCNC defines it (every one is a NURBS curve; see
+    :mod:`gantry_sim.controller.nurbs`).
+
+    G5 ``I J P Q X Y``: control points start, start + (I, J), end + (P, Q), end; without I J,
+    the first offset is the previous G5's -(P, Q). G5.1 ``I J X Y``: start, start + (I, J), end.
+    G5.2 ``X Y P L`` lines and G5.3: the start and the listed points with their weights P, of
+    order L (degree L - 1), on LinuxCNC's uniform clamped knots.
+
+    Attributes:
+        line: 1-based source line (G5.2/G5.3: the G5.3 line, where LinuxCNC moves).
+        start: start point [mm] (the first control point).
+        end: end point [mm] (the last control point).
+        feed_mm_per_min: programmed speed along the path [mm/min].
+        code: "G5", "G5.1" or "G5.2".
+        control_points: every control point [mm], work frame, start and end included.
+        weights: one weight per control point (> 0; 1 for G5 and G5.1).
+        degree: polynomial degree (3 for G5, 2 for G5.1, L - 1 for G5.2).
+        knots: the knot vector (len(control_points) + degree + 1 values).
+        path: the path control mode set by the program (None: the machine file's default).
+    """
+
+    line: int
+    start: Vec3
+    end: Vec3
+    feed_mm_per_min: float
+    code: str
+    control_points: tuple[Vec3, ...]
+    weights: tuple[float, ...]
+    degree: int
+    knots: tuple[float, ...]
+    path: PathControl | None = None
+
+    kind = "spline"
+
+    @property
+    def curve(self):  # -> SplineCurve (imported here: moves.py stays free of numpy)
+        """The exact curve by arc length (:class:`~gantry_sim.controller.spline_curve.SplineCurve`),
+        built once per move."""
+        cached = _CURVES.get(self)
+        if cached is None:
+            from gantry_sim.controller.spline_curve import spline_curve
+
+            cached = _CURVES[self] = spline_curve(self)
+        return cached
+
+    @property
+    def length_mm(self) -> float:
+        """Arc length of the curve [mm] (Gauss-Legendre quadrature, see spline_curve.py)."""
+        return self.curve.length_mm
+
+    def to_json(self) -> dict:
+        return {
+            "line": self.line,
+            "kind": self.kind,
+            "start": _vec(self.start),
+            "end": _vec(self.end),
+            "feed": float(self.feed_mm_per_min),
+            "code": self.code,
+            "control_points": [_vec(p) for p in self.control_points],
+            "weights": [float(w) for w in self.weights],
+            "degree": int(self.degree),
+            "knots": [float(k) for k in self.knots],
+        }
+
+
+#: one curve per distinct spline move (a move is a frozen value; equal moves share a curve)
+_CURVES: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()
+
+Move = Rapid | Linear | Arc | Spline
 
 
 @dataclass(frozen=True)

@@ -103,7 +103,7 @@ def run_program(
         PlanningError also when the simulation would exceed ``budget``.
     """
     from gantry_sim.controller.gcode.dialects import with_segmentation_default
-    from gantry_sim.controller.moves import Arc, Linear, Rapid
+    from gantry_sim.controller.moves import Arc, Linear, Rapid, Spline
     from gantry_sim.controller.planner.plan import plan
     from gantry_sim.sim.blend_parts import split_reference
     from gantry_sim.sim.contour import analyse
@@ -130,7 +130,7 @@ def run_program(
                 events=True,
             )
         )
-        moves = tuple(m for m in items if isinstance(m, Rapid | Linear | Arc))
+        moves = tuple(m for m in items if isinstance(m, Rapid | Linear | Arc | Spline))
         t1 = time.perf_counter()
         planned = plan(items, machine, feed_override_pct=feed_override_pct)
         check_budget(planned, machine, budget or Budget(), file)

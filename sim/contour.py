@@ -139,14 +139,15 @@ def _stats(err_um: np.ndarray) -> ContourStats:
 def chord_max_um(
     moves: Sequence[Move], vertices: Sequence[np.ndarray] | None, tab: MoveTable | None = None
 ) -> float:
-    """Largest distance of the chords between each arc's vertices from the arc [um]."""
+    """Largest distance of the chords between each curve's (arc's, spline's) vertices from the
+    curve [um]."""
     if vertices is None:
         return 0.0
     tab = move_table(moves) if tab is None else tab
     pts, owner = [], []
     for j, verts in enumerate(vertices):
         verts = np.asarray(verts, dtype=float).reshape(-1, 3)
-        if not tab.arc[j] or len(verts) < 2:
+        if not (tab.arc[j] or tab.spline[j]) or len(verts) < 2:
             continue
         pts += [verts[:-1] + f * (verts[1:] - verts[:-1]) for f in CHORD_FRACTIONS]
         owner.append(np.full(len(CHORD_FRACTIONS) * (len(verts) - 1), j))
@@ -174,7 +175,9 @@ def block_stats(tab: MoveTable, line: np.ndarray, err_um: np.ndarray) -> tuple[B
     feed_moves = np.flatnonzero(tab.feed)
     block_lines, first = np.unique(tab.line[feed_moves], return_index=True)
     in_order = np.argsort(first, kind="stable")
-    block_lines, kinds = block_lines[in_order], tab.arc[feed_moves[first[in_order]]]
+    firsts = feed_moves[first[in_order]]
+    block_lines = block_lines[in_order]
+    kinds = np.where(tab.arc[firsts], "arc", np.where(tab.spline[firsts], "spline", "linear"))
     by_line = np.argsort(line, kind="stable")
     sorted_lines = line[by_line]
     err = err_um[by_line]
@@ -183,12 +186,12 @@ def block_stats(tab: MoveTable, line: np.ndarray, err_um: np.ndarray) -> tuple[B
     hi = np.searchsorted(sorted_lines, block_lines, "right").tolist()
     add, biggest = np.add.reduce, np.maximum.reduce
     blocks: list[BlockError] = []
-    for ln, is_arc, a, b in zip(block_lines.tolist(), kinds.tolist(), lo, hi, strict=True):
+    for ln, kind, a, b in zip(block_lines.tolist(), kinds.tolist(), lo, hi, strict=True):
         if b > a:
             peak, rms = float(biggest(err[a:b])), float(np.sqrt(add(sq[a:b]) / (b - a)))
         else:
             peak = rms = 0.0
-        blocks.append(BlockError(ln, "arc" if is_arc else "linear", peak, rms))
+        blocks.append(BlockError(ln, kind, peak, rms))
     return tuple(blocks)
 
 

@@ -23,7 +23,7 @@ from typing import Any
 from gantry_sim.controller.errors import ConfigError
 
 #: the motion kinds a limit may name (controller.moves' feed moves)
-KINDS = ("linear", "arc")
+KINDS = ("linear", "arc", "spline")
 #: lines listed per failure at most (a 100,000-block program must not flood report.json)
 MAX_LINES_LISTED = 20
 
@@ -34,7 +34,7 @@ class ErrorLimit:
 
     Attributes:
         limit_um: the largest block max error allowed [um].
-        kind: "linear" or "arc" only; None: every feed block.
+        kind: "linear", "arc" or "spline" only; None: every feed block.
         lines: (first, last) program lines, inclusive; None: every line.
     """
 

@@ -15,7 +15,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from gantry_sim.controller.arcs import arc_frame
-from gantry_sim.controller.moves import Arc, Move
+from gantry_sim.controller.moves import Arc, Move, Spline
 
 #: slack added to every move's bounding box [mm] (rounding in the box, not geometry)
 BOX_SLACK_MM = 1e-9
@@ -24,7 +24,7 @@ BOX_SLACK_MM = 1e-9
 @dataclass(frozen=True)
 class MoveTable:
     """Per move (M rows). Segments (G0/G1) use start, seg_d, length2; arcs the rest (zeros on
-    segment rows).
+    segment rows); splines (G5, G5.1, G5.2) their exact curve in ``curves``.
 
     Attributes:
         line: (M,) source line.
@@ -43,6 +43,8 @@ class MoveTable:
         box_lo, box_hi: (M, 3) an axis-aligned box holding the move (with BOX_SLACK_MM).
         arc_start: (M, 3) an arc's point at u = 0 as controller.arcs.arc_points computes it
         (the start on segment rows).
+        spline: (M,) True for G5/G5.1/G5.2 (their ``arc`` is False).
+        curves: (M,) per spline row its SplineCurve (controller/spline_curve.py), else None.
         cum_len: (M + 1,) path length [mm] before each move (cum_len[M]: the whole program).
     """
 
@@ -71,6 +73,8 @@ class MoveTable:
     box_hi: np.ndarray
     arc_start: np.ndarray
     cum_len: np.ndarray
+    spline: np.ndarray
+    curves: tuple
 
     def __len__(self) -> int:
         return len(self.line)
@@ -92,6 +96,10 @@ def move_table(moves: Sequence[Move]) -> MoveTable:
     newton = np.zeros(m, dtype=bool)
     box_lo, box_hi = np.minimum(start, end), np.maximum(start, end)
     for j, mv in enumerate(moves):
+        if isinstance(mv, Spline):
+            lo_j, hi_j = _spline_box(mv)
+            box_lo[j] = np.minimum(box_lo[j], lo_j)
+            box_hi[j] = np.maximum(box_hi[j], hi_j)
         if not isinstance(mv, Arc):
             continue
         i1, i2, n, theta0, sigma, r0, r1, h0, h1 = arc_frame(mv)
@@ -133,8 +141,27 @@ def move_table(moves: Sequence[Move]) -> MoveTable:
         box_hi=box_hi + BOX_SLACK_MM,
         arc_start=arc_start,
         cum_len=np.concatenate([[0.0], np.cumsum([mv.length_mm for mv in moves])]),
+        spline=np.array([isinstance(mv, Spline) for mv in moves], dtype=bool),
+        curves=tuple(mv.curve if isinstance(mv, Spline) else None for mv in moves),
         **cols,
     )
+
+
+def _spline_box(spline: Spline) -> tuple[np.ndarray, np.ndarray]:
+    """A box [mm] holding the spline: its control points' box (a NURBS with positive weights
+    lies in their convex hull); with a negative weight (rs274's first G5.2 point without P),
+    dense samples widened by :data:`SAMPLED_BOX_SLACK_MM`."""
+    pts = np.asarray(spline.control_points, dtype=float)
+    if min(spline.weights) > 0:
+        return pts.min(axis=0), pts.max(axis=0)
+    c = spline.curve
+    t = np.linspace(c.nurbs.t_min, c.nurbs.t_max, 4096 * len(pts))
+    on = c.nurbs.points(t)
+    return on.min(axis=0) - SAMPLED_BOX_SLACK_MM, on.max(axis=0) + SAMPLED_BOX_SLACK_MM
+
+
+#: slack on a sampled spline box [mm] (far above curvature * step^2 / 8 of the samples)
+SAMPLED_BOX_SLACK_MM = 1e-3
 
 
 def _arc_box(

@@ -17,6 +17,10 @@ Arc / helix (parametrised by the sweep fraction u in [0, 1], see controller.arcs
      f(u) = |p(u) - q|^2 from the best candidate (f' = 2 (p - q).p', f'' = 2 (p'.p' + (p - q).p'')),
      clamped to [0, 1], each accepted only when it lowers f.
 
+Spline (G5, G5.1, G5.2; controller/spline_curve.py): the nearest of samples spread evenly over
+the spline's parameter (4 per grid cell, 128 per knot span), then guarded Newton steps on
+f(t) = |C(t) - q|^2 (each kept only where it lowers f), clamped to the curve.
+
 Every point's result depends on that point and its move only (not on which other points share
 the call), so a trace may be cut anywhere and analysed piece by piece with identical numbers.
 """
@@ -201,12 +205,16 @@ def nearest_on_moves(tab: MoveTable, idx: np.ndarray, pts: np.ndarray) -> np.nda
     idx = np.asarray(idx, dtype=np.intp)
     pts = np.asarray(pts, dtype=float).reshape(-1, 3)
     out = np.empty_like(pts)
-    is_arc = tab.arc[idx]
-    seg, arc = np.flatnonzero(~is_arc), np.flatnonzero(is_arc)
+    is_arc, is_spline = tab.arc[idx], tab.spline[idx]
+    seg = np.flatnonzero(~is_arc & ~is_spline)
+    arc = np.flatnonzero(is_arc)
     if seg.size:
         out[seg] = _nearest_on_segments(tab, idx[seg], pts[seg])
     if arc.size:
         out[arc] = _nearest_on_arcs(tab, idx[arc], pts[arc])
+    for j in np.unique(idx[is_spline]).tolist():
+        mine = np.flatnonzero(idx == j)
+        out[mine] = tab.curves[j].nearest_points(pts[mine])
     return out
 
 

@@ -15,7 +15,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from gantry_sim.controller.arcs import arc_points
-from gantry_sim.controller.moves import Arc, Move
+from gantry_sim.controller.moves import Arc, Move, Spline
 from gantry_sim.sim.contour import ContourStats
 from gantry_sim.sim.plots import DPI, _figure, quiet
 from gantry_sim.sim.trace import Trace
@@ -40,7 +40,7 @@ def _polylines(moves: Sequence[Move]) -> tuple[np.ndarray, np.ndarray]:
     """(feed, rapid) geometry as one (k, 3) [mm] array each, moves separated by NaN rows (one
     Line2D draws them all). Arcs get about one point per degree, fewer where the figure cannot
     show more: enough that the chord's sagitta stays under 1/4000 of the drawing's extent (a
-    quarter pixel); an arc below that is drawn as its chord."""
+    quarter pixel); an arc below that is drawn as its chord. Splines: their curve, sampled."""
     if not moves:
         empty = np.empty((0, 3))
         return empty, empty
@@ -57,6 +57,10 @@ def _polylines(moves: Sequence[Move]) -> tuple[np.ndarray, np.ndarray]:
             n = int(min(n_fine, np.ceil(mv.angle * np.sqrt(mv.radius / (8.0 * pixel_mm)))))
             if n > 1:
                 pts = arc_points(mv, np.linspace(0.0, 1.0, max(n, 8) + 1))
+        elif isinstance(mv, Spline):  # the exact curve, ~ one point per quarter pixel of length
+            c = mv.curve
+            n = int(min(max(c.length_mm / (4.0 * pixel_mm), 8), 4096))
+            pts = c.nurbs.points(np.linspace(c.nurbs.t_min, c.nurbs.t_max, n + 1))
         (rapid if mv.kind == "rapid" else feed).extend((pts, gap))
     return _stack(feed), _stack(rapid)
 

@@ -204,7 +204,7 @@ def test_marlin_g28_homes_named_axes_and_g92_sets_the_position() -> None:
         (4, "linear", (5.0, 0.0, 0.0)),
         (6, "linear", (6.0, 0.0, 0.0)),  # G92 X0 at X5: X1 is 6 in the work frame
     ]
-    for code in ("G12", "G27", "G5 I1 J1 P1 Q1 X1 Y1", "G61"):
+    for code in ("G12", "G27", "G61"):
         assert "not" in error_of(code + "\n", "marlin").message
 
 
@@ -236,7 +236,6 @@ def test_unsupported_codes_say_why() -> None:
         ("G33 X1 K1", "simulates no spindle"),
         ("G38.2 Z-1 F10", "probe"),
         ("G7", "diameter"),
-        ("G5.1 X1 I1 J1", "splines"),
     ):
         assert why in error_of(code + "\nM2\n", "linuxcnc").message
     assert run("G8 G0 X1\nM2\n", "linuxcnc")[0].end == (1.0, 0.0, 0.0)

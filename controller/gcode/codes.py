@@ -26,6 +26,7 @@ G_GROUPS: dict[int, str] = {
     **dict.fromkeys((960, 970), "spindle_mode"),
     **dict.fromkeys((70, 80), "lathe_mode"),
     **dict.fromkeys((40, 100, 280, 281, 300, 301, 520, 530, 920, 921, 922, 923), "nonmodal"),
+    53: "nonmodal",  # G5.3: ends a G5.2 NURBS (rs274's modal group 0)
     **dict.fromkeys((700, 710, 711, 720, 721), "nonmodal"),  # lathe finishing/roughing cycles
 }
 
@@ -40,6 +41,8 @@ G_HANDLED = frozenset(
 G_HANDLED = G_HANDLED | frozenset((730, 740, 810, 820, 830, 840, 850, 860, 870, 880, 890))
 #: cutter radius compensation (controller/gcode/cutter_comp.py).
 G_HANDLED = G_HANDLED | frozenset((410, 411, 420, 421))
+#: splines G5, G5.1, G5.2, G5.3 (controller/gcode/splines.py).
+G_HANDLED = G_HANDLED | frozenset((50, 51, 52, 53))
 
 #: codes accepted with no effect on the programmed X/Y/Z tool-tip path in work coordinates.
 G_NO_PATH_EFFECT = frozenset(
@@ -58,7 +61,6 @@ G_REFUSED: dict[int, str] = {
         "a probing move ends where a probe input trips, and the simulation has no probe or "
         "workpiece to touch",
     ),
-    **dict.fromkeys((50, 51, 52), "splines (G5, G5.1, G5.2) are not supported yet"),
     **dict.fromkeys((171, 181, 191), "UVW planes are not supported on this XYZ machine"),
     70: "lathe diameter mode (G7) reads X as a diameter, and this is a mill (G8, radius mode, is "
     "the default and accepted)",

@@ -101,6 +101,9 @@ class Dialect:
             (controller/gcode/canned_cycles.py); False: refused, the firmware has none.
         cutter_comp: G41/G42/G41.1/G42.1 run as LinuxCNC runs them (controller/gcode/
             cutter_comp.py); False: refused (G40 is accepted everywhere).
+        splines: "linuxcnc": G5, G5.1, G5.2/G5.3 run as LinuxCNC runs them; "marlin": G5 alone,
+            as Marlin's BEZIER_CURVE_SUPPORT runs it (controller/gcode/splines.py); "": refused,
+            the firmware has none.
     """
 
     name: str
@@ -136,6 +139,7 @@ class Dialect:
     own_lines: str = ""
     canned_cycles: bool = False
     cutter_comp: bool = False
+    splines: str = ""
 
 
 _TOL_MM = 2 * 0.01 * math.sqrt(2.0)  # 0.028284 mm, rs274 CENTER_ARC_RADIUS_TOLERANCE_MM
@@ -158,6 +162,7 @@ LINUXCNC = Dialect(
     require_program_end=True,
     canned_cycles=True,
     cutter_comp=True,
+    splines="linuxcnc",
 )
 
 G2CORE = Dialect(
@@ -197,6 +202,7 @@ MARLIN = Dialect(
     max_p=100,
     arc_segment_mm=1.0,  # Marlin 2.x MAX_ARC_SEGMENT_MM (formerly MM_PER_ARC_SEGMENT)
     own_lines="marlin",
+    splines="marlin",
 )
 
 LASERDYNE_ON_ARC_TOL_MM = 0.005

@@ -12,7 +12,7 @@ from dataclasses import replace
 
 from gantry_sim.controller.errors import GcodeError
 from gantry_sim.controller.gcode.state import ModalState
-from gantry_sim.controller.moves import Arc, Linear
+from gantry_sim.controller.moves import Arc, Linear, Spline
 
 INVERSE_TIME = 930
 PER_REVOLUTION = 950
@@ -31,7 +31,9 @@ def check_feed_mode(s: ModalState, what: str, v: dict[str, float]) -> None:
         )
 
 
-def path_feed(move: Linear | Arc, s: ModalState, v: dict[str, float]) -> Linear | Arc:
+def path_feed(
+    move: Linear | Arc | Spline, s: ModalState, v: dict[str, float]
+) -> Linear | Arc | Spline:
     """``move`` with its path speed [mm/min] for the feed mode in effect."""
     if s.feed_mode == INVERSE_TIME:
         return replace(move, feed_mm_per_min=move.length_mm * v["F"])

@@ -57,6 +57,16 @@ from gantry_sim.controller.gcode.parameters import (
 from gantry_sim.controller.gcode.polar import polar_end_point
 from gantry_sim.controller.gcode.predefined import predefined
 from gantry_sim.controller.gcode.printer_codes import OWN_LINES
+from gantry_sim.controller.gcode.splines import (
+    G5_2,
+    G5_3,
+    SPLINE_CODES,
+    SPLINE_MOTIONS,
+    NurbsPoints,
+    check_spline_block,
+    nurbs_point,
+    spline_block,
+)
 from gantry_sim.controller.gcode.state import ModalState
 from gantry_sim.controller.gcode.tool_entries import set_tool_entry
 from gantry_sim.controller.gcode.tool_offsets import ToolTable, after_tool_change, tool_words
@@ -72,6 +82,7 @@ from gantry_sim.controller.moves import (
     PathControl,
     Plane,
     Rapid,
+    Spline,
     Stop,
     Vec3,
 )
@@ -100,6 +111,7 @@ class Interpreter:
         self.line = 0
         self.cycle = CycleMemory()
         self.comp = CutterComp()
+        self.nurbs = NurbsPoints()
 
     def step(self, block: Block) -> tuple[list[Move | Event], bool]:
         """Validate ``block`` on a copy of the state, commit, return (moves, program ended)."""
@@ -130,6 +142,10 @@ class Interpreter:
             assert code in G_HANDLED or code in G_NO_PATH_EFFECT
             if code in CYCLES and not d.canned_cycles:
                 raise GcodeError(f"{g_name(code)} is not supported: {d.name} has no canned cycles")
+            if code in SPLINE_CODES and not d.splines:
+                raise GcodeError(f"{g_name(code)} is not supported: {d.name} has no splines")
+            if code in SPLINE_CODES and d.splines == "marlin" and code != 50:
+                raise GcodeError(f"{g_name(code)} is not supported: Marlin's only spline is G5")
             if code in (410, 411, 420, 421) and not d.cutter_comp:
                 raise GcodeError(
                     f"{g_name(code)} is not supported: {d.name} has no cutter radius compensation"
@@ -190,7 +206,10 @@ class Interpreter:
                     f"{g_name(nonmodal)} and {g_name(motion)} both use the axis words; put them "
                     "on separate lines"
                 )
-            s = replace(s, motion=motion)
+            if motion in (50, 51) and not any(a in w.values for a in "XY@^"):
+                raise GcodeError(f"{g_name(motion)} needs X or Y: all axes missing")
+            if motion not in (50, 51):  # rs274: G5/G5.1 leave the motion mode as it was
+                s = replace(s, motion=motion)
         elif axis_code:
             pass  # the axis words belong to G10/G28/G30/G92
         elif s.motion in (20, 30) and any(c in w.values for c in "IJKR"):
@@ -230,7 +249,12 @@ class Interpreter:
                 raise GcodeError("G53 cannot be used in incremental distance mode (G91); use G90")
         if motion is not None and motion not in CYCLES:
             cycle = replace(cycle, initial=None)  # a series of cycles ends with another motion
-        if motion in CYCLES:
+        nurbs = self.nurbs
+        if nonmodal == G5_3:  # before the motion, as rs274's modal group 0
+            s, cycle, nurbs = self._splines(w, s, G5_3, cycle, moves)
+        if motion in SPLINE_MOTIONS:
+            s, cycle, nurbs = self._splines(w, s, motion, cycle, moves, nurbs, nonmodal == G5_3)
+        elif motion in CYCLES:
             if self.comp.side is not None:
                 raise GcodeError(
                     f"cannot use canned cycles with cutter compensation on; G40 before "
@@ -286,6 +310,7 @@ class Interpreter:
             s = after_tool_change(s)
         self.state = s
         self.cycle = cycle
+        self.nurbs = nurbs
         for target, value in w.settings:
             if isinstance(target, str):
                 self.params.set_named(target, value)
@@ -343,6 +368,55 @@ class Interpreter:
         released = comp_move(self.comp, motion, w.line, end, s, programmed, "R" in w.values)
         moves.extend(released)
         return replace(s, position=end, work=self.comp.released_end)
+
+    def _splines(
+        self,
+        w: Words,
+        s: ModalState,
+        code: int,
+        cycle: CycleMemory,
+        moves: list[Move | Event],
+        nurbs: NurbsPoints | None = None,
+        ended: bool = False,
+    ) -> tuple[ModalState, CycleMemory, NurbsPoints]:
+        """G5/G5.1 (a move now), a G5.2 control point, or G5.3 (the NURBS move); see
+        controller/gcode/splines.py."""
+        if self.comp.side is not None:
+            check_spline_block(code, w.values, s, comp_on=True)
+        if code == G5_2:
+            restart = self.state.motion != G5_2 or ended
+            end = self._end_point(w.values, s)
+            memory = self.nurbs if nurbs is None else nurbs
+            return s, cycle, nurbs_point(w.values, s, memory, end, restart)
+        marlin = self.dialect.splines == "marlin"
+        v = {"I": 0.0, "J": 0.0, "P": 0.0, "Q": 0.0, **w.values} if marlin else w.values
+        if code != G5_3:
+            self._require_feed(s, "a spline", w)
+            check_spline_block(code, v, s, comp_on=False, marlin=marlin)
+        end = self._end_point(v, s) if code != G5_3 else s.position
+        move, ij, end = spline_block(
+            w.line,
+            code,
+            v,
+            s,
+            end,
+            (0.0, 0.0) if marlin else (cycle.ijk[0], cycle.ijk[1]),
+            self.nurbs,
+            self.state.motion,
+            w.g.get("motion"),
+        )
+        if code == G5_3:
+            if s.feed_mode == 930:
+                raise GcodeError(
+                    "G5.3 under inverse time (G93) is not supported: give the NURBS a feed "
+                    "in units per minute (G94)"
+                )
+            self._require_feed(s, "a NURBS (G5.3)", w)
+            s = replace(s, motion=None)
+        cycle = replace(cycle, ijk=(ij[0], ij[1], cycle.ijk[2]))
+        placed = path_feed(move, s, w.values)
+        s = self._emit(moves, s, placed, end)
+        return s, cycle, NurbsPoints()
 
     @staticmethod
     def _emit(moves: list[Move | Event], s: ModalState, move: Move, end: Vec3) -> ModalState:
@@ -555,7 +629,7 @@ def interpret(
     """
     args = (text, dialect, file, search_path, max_iterations, errors, tools, work_offset)
     for item in interpret_events(*args, events=False, parameters=parameters):
-        if isinstance(item, Rapid | Linear | Arc):  # no events are made when not asked for
+        if isinstance(item, Rapid | Linear | Arc | Spline):  # no events made when not asked for
             yield item
 
 

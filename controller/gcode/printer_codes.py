@@ -6,7 +6,7 @@ know with "Unknown command" and goes on: every M and T line is accepted without 
 of Marlin's own that do not move the tool are accepted (G4 dwell in P ms or S s, G10/G11 firmware
 retract, G29-G35 and G76 probing and calibration, G60 save position, G80, G92 with E alone);
 G28 homes the named axes (all when none) to the machine file's work origin; the ones that move
-in ways this machine does not model are refused with a reason (G5 Bezier, G6 direct stepper,
+in ways this machine does not model are refused with a reason (G6 direct stepper,
 G12 nozzle clean, G26 mesh print, G27 park, G42 mesh point, G61 restore position, G38 probe).
 
 g2core: a line opening with ``{`` is a JSON configuration or status request (no motion), and so
@@ -32,7 +32,6 @@ MARLIN_QUIET_G = frozenset(
 )
 #: Marlin G codes refused, with why.
 MARLIN_REFUSED_G: dict[int, str] = {
-    50: "G5 (cubic Bezier) is not supported",
     60: "G6 (direct stepper moves) is not supported",
     120: "G12 (nozzle clean) moves in a pattern gantry-sim does not model",
     260: "G26 (mesh validation print) is not supported",

@@ -117,16 +117,19 @@ def check_words(w: Words, motion: int | None, dialect: Dialect) -> None:
     arc = motion in (20, 30)
     g10 = w.g.get("nonmodal") == 100
     cycle = dialect.canned_cycles and motion in _CYCLES
+    spline = bool(dialect.splines) and motion in (50, 51, 52)
     uses = {
-        "I": arc or motion == 870 or (g10 and dialect.g10_rotation),
-        "J": arc or motion == 870 or (g10 and dialect.g10_rotation),
+        "I": arc or motion == 870 or (g10 and dialect.g10_rotation) or (spline and motion != 52),
+        "J": arc or motion == 870 or (g10 and dialect.g10_rotation) or (spline and motion != 52),
         "K": arc or motion == 870,
         "R": arc or (g10 and dialect.g10_rotation) or cycle or w.m.get("spindle") == 19,
         "L": g10
+        or (spline and motion == 52)
         or w.m.get("io") == 66
         or (cycle and motion != 740)  # rs274: not with G74
         or w.g.get("cutter_comp") in (411, 421),
         "P": (arc and dialect.arc_p_allowed)
+        or (spline and motion in (50, 52))
         or g10
         or motion in (740, 820, 840, 860, 880, 890)
         or w.g.get("nonmodal") == 40
@@ -139,6 +142,7 @@ def check_words(w: Words, motion: int | None, dialect: Dialect) -> None:
         or w.m.get("spindle") == 19
         or (g10 and dialect.g10_rotation)
         or motion in (730, 830)
+        or (spline and motion == 50)
         or "user" in w.m
         or w.m.get("tool_change") == 61
         or w.m.get("io") in (66, 67, 68),

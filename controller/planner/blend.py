@@ -29,7 +29,7 @@ import numpy as np
 
 from gantry_sim.controller.arcs import arc_derivatives
 from gantry_sim.controller.config import PathSettings
-from gantry_sim.controller.moves import Arc, Dwell, Event, Linear, Move, Rapid, Stop
+from gantry_sim.controller.moves import Arc, Dwell, Event, Linear, Move, Rapid, Spline, Stop
 from gantry_sim.controller.planes import PLANE_AXES, Plane, Vec3
 from gantry_sim.controller.planner.corner_blend import (
     CornerCut,
@@ -137,7 +137,7 @@ def path_plan(
             if isinstance(item, Dwell) and item.seconds > 0:
                 out.holds.setdefault(len(out.moves), []).append(item)
             continue
-        if not isinstance(item, Rapid | Linear | Arc) or item.length_mm <= EPS_MM:
+        if not isinstance(item, Rapid | Linear | Arc | Spline) or item.length_mm <= EPS_MM:
             continue
         out.moves.append(item)
         out.stop_after.append(control(item, settings).mode == "G61.1")

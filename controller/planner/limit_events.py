@@ -23,7 +23,7 @@ from dataclasses import replace
 import numpy as np
 
 from gantry_sim.controller.config import MachineConfig
-from gantry_sim.controller.moves import Arc, Event, Limits, Linear, Move, Rapid
+from gantry_sim.controller.moves import Arc, Event, Limits, Linear, Move, Rapid, Spline
 from gantry_sim.controller.planner.cubic import PiecewiseCubic
 from gantry_sim.controller.planner.result import Plan
 
@@ -71,7 +71,7 @@ def split_at_limits(
     out: list[tuple[list[Move | Event], MachineConfig]] = []
     carry: list[Move | Event] = []
     for chunk, m in parts:
-        if any(isinstance(i, Rapid | Linear | Arc) for i in chunk):
+        if any(isinstance(i, Rapid | Linear | Arc | Spline) for i in chunk):
             out.append((carry + chunk, m))
             carry = []
         else:

@@ -13,7 +13,7 @@ import numpy as np
 
 from gantry_sim.controller.arcs import arc_derivatives, arc_frame, arc_points, frenet
 from gantry_sim.controller.config import Limits, Segmentation
-from gantry_sim.controller.moves import Arc, Move, Rapid
+from gantry_sim.controller.moves import Arc, Move, Rapid, Spline
 from gantry_sim.controller.planes import PLANE_AXES
 from gantry_sim.controller.planner.limits import (
     BlockLimits,
@@ -22,6 +22,12 @@ from gantry_sim.controller.planner.limits import (
     straight_limits,
 )
 from gantry_sim.controller.planner.segment import segment_arc
+from gantry_sim.controller.planner.spline_geometry import (
+    curvature_bounds,
+    spline_derivatives,
+    spline_deviation,
+    spline_points,
+)
 from gantry_sim.controller.units import mm_per_min_to_mm_per_s
 
 #: The closed-form arc pieces (:mod:`gantry_sim.controller.planner.jerk3`) overshoot the vertex speed by about
@@ -59,15 +65,20 @@ class MoveGeometry:
 
 @dataclass(frozen=True)
 class ArcGeometry(MoveGeometry):
-    """An arc's or helix's :class:`MoveGeometry`, with its exact geometry."""
+    """A curve's :class:`MoveGeometry` (an arc, a helix or a spline), with its exact geometry.
 
-    move: Arc
-    u: np.ndarray  # sweep fractions of the vertices
+    The curve is parametrised by ``u`` in [0, 1]: an arc's sweep fraction, a spline's arc-length
+    fraction (both proportional to arc length; :mod:`.spline_geometry`)."""
+
+    move: Arc | Spline
+    u: np.ndarray  # sweep (arc-length) fractions of the vertices
     #: What bounds following it exactly (its limits, :func:`~gantry_sim.controller.planner.speedup.follow_ok`).
     follow: FollowGeometry
 
     def points(self, u: np.ndarray) -> np.ndarray:
-        """Points on the arc at sweep fractions ``u`` (u = 0 and 1: start and end exactly)."""
+        """Points on the curve at fractions ``u`` (u = 0 and 1: start and end exactly)."""
+        if isinstance(self.move, Spline):
+            return spline_points(self.move, u)
         pts = arc_points(self.move, u)
         pts[u == 0.0] = self.move.start
         return pts
@@ -75,7 +86,10 @@ class ArcGeometry(MoveGeometry):
     def deviation(self, q: np.ndarray, u_hint: float) -> float:
         """Largest distance [mm] of points ``q`` (k, 3) near sweep fraction ``u_hint`` from the
         arc: in-plane radius error and normal-axis error at the point's own polar angle (an
-        upper bound on the distance to the curve)."""
+        upper bound on the distance to the curve; a spline: the distance to the nearest point
+        found by Newton steps from the nearest of samples within two chords of ``u_hint``)."""
+        if isinstance(self.move, Spline):
+            return spline_deviation(self.move, q, u_hint, 2.0 / max(self.u.size - 1, 1))
         i1, i2, n, theta0, sigma, r0, r1, h0, h1 = arc_frame(self.move)
         c = self.move.center
         th = np.arctan2(q[:, i2] - c[i2], q[:, i1] - c[i1])
@@ -87,13 +101,22 @@ class ArcGeometry(MoveGeometry):
         return float(np.max(np.hypot(d_r, d_n)))
 
     def derivatives(self, u: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """dp/du and d2p/du2 (k, 3) [mm] at fractions ``u``."""
+        if isinstance(self.move, Spline):
+            return spline_derivatives(self.move, u)
         return arc_derivatives(self.move, u)
+
+
+#: The general name: arcs, helices and splines are all curves to the planner.
+CurveGeometry = ArcGeometry
 
 
 def move_geometry(move: Move, limits: Limits, seg: Segmentation, feed_scale: float) -> MoveGeometry:
     """Vertices (arcs: chords by ``seg``), end tangents/curvatures and 1-D limits of ``move``
     (feed times ``feed_scale``) on a machine of per-axis ``limits``."""
     zero = np.zeros(3)
+    if isinstance(move, Spline):
+        return _spline_geometry(move, limits, seg, feed_scale)
     if not isinstance(move, Arc):
         verts = np.array([move.start, move.end], dtype=float)
         verts.setflags(write=False)
@@ -127,6 +150,30 @@ def move_geometry(move: Move, limits: Limits, seg: Segmentation, feed_scale: flo
         curvature,
         dcurv,
         feed * (1.0 - FEED_MARGIN_PER_PHI4 * (ang / n) ** 4 - FEED_MARGIN_REL),
+    )
+    block = arc_limits(follow, length, limits)
+    return ArcGeometry(move, verts, length, t_in, t_out, k_in, k_out, block, feed, u, follow)
+
+
+def _spline_geometry(
+    move: Spline, limits: Limits, seg: Segmentation, feed_scale: float
+) -> ArcGeometry:
+    """A spline's geometry: equal arc-length chords, exact end frames, curvature bounds."""
+    verts = segment_arc(move, seg.method, seg.chord_tolerance_mm, seg.segment_length_mm)
+    n = len(verts) - 1
+    u = np.arange(n + 1) / n
+    curve = move.curve
+    t_in, k_in, t_out, k_out = curve.end_frames
+    length = curve.length_mm
+    curvature, dcurv = curvature_bounds(move, n)
+    feed = mm_per_min_to_mm_per_s(move.feed_mm_per_min) * feed_scale
+    sweep = curvature * length / n  # the most a chord turns [rad]
+    follow = FollowGeometry(
+        (0, 1, 2),
+        0.0,
+        curvature,
+        dcurv,
+        feed * (1.0 - FEED_MARGIN_PER_PHI4 * min(sweep, 1.0) ** 4 - FEED_MARGIN_REL),
     )
     block = arc_limits(follow, length, limits)
     return ArcGeometry(move, verts, length, t_in, t_out, k_in, k_out, block, feed, u, follow)

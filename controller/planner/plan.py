@@ -38,7 +38,7 @@ import numpy as np
 
 from gantry_sim.controller.config import MachineConfig
 from gantry_sim.controller.errors import ConfigError
-from gantry_sim.controller.moves import Arc, Dwell, Event, Linear, Move, Rapid
+from gantry_sim.controller.moves import Arc, Dwell, Event, Linear, Move, Rapid, Spline
 from gantry_sim.controller.moves import Limits as LimitsEvent
 from gantry_sim.controller.planner.blend import PathPlan, path_plan
 from gantry_sim.controller.planner.junctions import (
@@ -108,7 +108,7 @@ def plan(
                 for c, m in parts
             ]
         )
-    program = tuple(m for m in items if isinstance(m, Rapid | Linear | Arc))
+    program = tuple(m for m in items if isinstance(m, Rapid | Linear | Arc | Spline))
     check_travel(program, machine.travel)
     seg = machine.segmentation
     jerk = float(min(machine.limits.max_jerk_mm_per_s3))
@@ -210,7 +210,7 @@ def _slow_blends(path: PathPlan, prepared: _Prepared) -> frozenset[int]:
 def _vertices(m: Move, machine: MachineConfig) -> np.ndarray:
     """A programmed move's chord vertices (a blended straight move: its programmed ends)."""
     seg = machine.segmentation
-    if isinstance(m, Arc):
+    if isinstance(m, Arc | Spline):
         return segment_arc(m, seg.method, seg.chord_tolerance_mm, seg.segment_length_mm)
     verts = np.array([m.start, m.end], dtype=float)
     verts.setflags(write=False)

@@ -19,6 +19,12 @@ the arc/helix/spiral (:func:`gantry_sim.controller.arcs.arc_points`, no accumula
 vertex is the programmed end exactly. A helix's chord midpoint lies at the helix's mid height, so
 its distance from the helix is at most the in-plane sagitta.
 
+Splines (G5, G5.1, G5.2/G5.3; :func:`segment_spline`): n chords of equal arc length (the
+planner's parameter is the arc-length fraction, like an arc's sweep fraction), the fewest whose
+largest distance from the curve, measured on :data:`CHECK_SAMPLES` points per chord, stays within
+:data:`SPLINE_TOLERANCE_SHARE` of the chord tolerance (method "chord"); method "fixed" also takes
+at least floor(length / segment_length_mm) chords.
+
 An absurd program (``G2 ... P1000000``) must not exhaust memory: an arc needing more than
 :data:`MAX_SEGMENTS_PER_ARC` chords is refused with a :class:`PlanningError` naming its line.
 """
@@ -31,7 +37,8 @@ import numpy as np
 
 from gantry_sim.controller.arcs import arc_frame, arc_length_mm, arc_points
 from gantry_sim.controller.errors import ConfigError, PlanningError
-from gantry_sim.controller.moves import Arc
+from gantry_sim.controller.moves import Arc, Spline
+from gantry_sim.controller.planner.spline_geometry import spline_points
 
 #: Upper bound on chords per arc (about 100 MB of planner state): beyond it the arc is refused.
 MAX_SEGMENTS_PER_ARC = 1_000_000
@@ -77,19 +84,79 @@ def segment_count(
 
 
 def segment_arc(
-    arc: Arc, method: str, chord_tolerance_mm: float, segment_length_mm: float
+    arc: Arc | Spline, method: str, chord_tolerance_mm: float, segment_length_mm: float
 ) -> np.ndarray:
     """Chord vertices of ``arc``: read-only array (n + 1, 3) [mm], first = start, last = end.
 
     Args:
-        arc: the arc or helix.
+        arc: the arc or helix (or a spline: :func:`segment_spline`).
         method: "chord" (sagitta <= ``chord_tolerance_mm``) or "fixed" (``segment_length_mm``).
         chord_tolerance_mm: maximum chord sagitta [mm] (method "chord").
         segment_length_mm: nominal chord length [mm] (method "fixed").
     """
+    if isinstance(arc, Spline):
+        return segment_spline(arc, method, chord_tolerance_mm, segment_length_mm)
     n = segment_count(arc, method, chord_tolerance_mm, segment_length_mm)
     verts = arc_points(arc, np.arange(n + 1) / n)
     verts[0] = arc.start
     verts[-1] = arc.end
+    verts.setflags(write=False)
+    return verts
+
+
+#: points per chord where a spline chord's distance from the curve is measured
+CHECK_SAMPLES = 16
+#: the share of the chord tolerance a spline chord may use (the rest: between the samples)
+SPLINE_TOLERANCE_SHARE = 0.95
+
+
+def chord_deviation_mm(spline: Spline, n: int) -> float:
+    """Largest distance [mm] of the curve from its n equal-arc-length chords (sampled)."""
+    k = CHECK_SAMPLES
+    sigma = np.arange(n * k + 1) / (n * k)
+    pts = spline_points(spline, sigma)
+    a = pts[:-1:k][:, None, :]  # chord starts (n, 1, 3)
+    b = pts[k::k][:, None, :]
+    inner = pts[: n * k].reshape(n, k, 3)
+    d = b - a
+    dd = np.einsum("ijk,ijk->ij", d, d)
+    u = np.clip(np.einsum("ijk,ijk->ij", inner - a, d) / np.where(dd > 0, dd, 1.0), 0.0, 1.0)
+    off = inner - (a + u[:, :, None] * d)
+    return float(np.sqrt(np.einsum("ijk,ijk->ij", off, off).max()))
+
+
+def spline_segment_count(
+    spline: Spline, method: str, chord_tolerance_mm: float, segment_length_mm: float
+) -> int:
+    """Number of equal-arc-length chords of ``spline`` (see the module docstring)."""
+    if method not in METHODS:
+        raise ConfigError(f"segmentation method {method!r} is unknown; valid: chord, fixed")
+    if not (chord_tolerance_mm > 0 and segment_length_mm > 0):
+        raise ConfigError("chord_tolerance_mm and segment_length_mm must be > 0")
+    tol = SPLINE_TOLERANCE_SHARE * chord_tolerance_mm
+    length = spline.length_mm
+    n_min = max(math.floor(length / segment_length_mm), 1) if method == "fixed" else 1
+    n = n_min
+    for _ in range(60):
+        dev = chord_deviation_mm(spline, n)
+        if dev <= tol:
+            return n
+        # the deviation falls like 1/n^2 (like 1/n^1.5 next to a zero-speed end)
+        n = max(n + 1, math.ceil(n * (dev / tol) ** 0.5 * 1.02), math.ceil(n * 1.1))
+        if n > MAX_SEGMENTS_PER_ARC:
+            raise PlanningError(
+                f"spline needs more than {MAX_SEGMENTS_PER_ARC} segments to stay within the chord "
+                "tolerance; use a coarser tolerance",
+                line=spline.line,
+            )
+    raise PlanningError("no chord count keeps this spline within the tolerance", line=spline.line)
+
+
+def segment_spline(
+    spline: Spline, method: str, chord_tolerance_mm: float, segment_length_mm: float
+) -> np.ndarray:
+    """Chord vertices (n + 1, 3) [mm] of ``spline`` at equal arc-length steps (read-only)."""
+    n = spline_segment_count(spline, method, chord_tolerance_mm, segment_length_mm)
+    verts = spline_points(spline, np.arange(n + 1) / n)
     verts.setflags(write=False)
     return verts

@@ -18,6 +18,7 @@ import numpy as np
 
 from gantry_sim.controller.arcs import arc_frame
 from gantry_sim.controller.config import Limits
+from gantry_sim.controller.moves import Arc
 from gantry_sim.controller.planes import Vec3
 from gantry_sim.controller.planner.limits import FollowGeometry, curvature_speed_cap
 from gantry_sim.controller.planner.move_geometry import ArcGeometry
@@ -174,7 +175,9 @@ SATURATED_MIN_USE = 0.25
 
 
 def _plain_circle(g: ArcGeometry) -> bool:
-    """An arc of constant radius in its plane (no helix, no spiral)."""
+    """An arc of constant radius in its plane (no helix, no spiral; not a spline)."""
+    if not isinstance(g.move, Arc):
+        return False
     f = arc_frame(g.move)
     return abs(f.r1_mm - f.r0_mm) <= 1e-9 * f.r0_mm and f.h0_mm == f.h1_mm
 
@@ -203,7 +206,7 @@ def saturated_candidate(
     if fg.sin_pitch > 0 or use < SATURATED_MIN_USE or max(v_in, v_out) > SATURATED_END_SHARE * cap:
         return None
     sh = SATURATED_SHARE
-    if _plain_circle(g):
+    if isinstance(g.move, Arc) and _plain_circle(g):
         # Exact per-axis bounds: the planner checks every closed-form piece against the limits
         # before using the profile. The cap stays the orientation-free curvature cap: the cruise
         # (and the bridge between the ramps' peaks) must hold wherever on the circle it lies.

@@ -15,8 +15,9 @@ import numpy as np
 from gantry_sim.controller.arcs import arc_frame, arc_points
 from gantry_sim.controller.config import Travel
 from gantry_sim.controller.errors import PlanningError
-from gantry_sim.controller.moves import Arc, Move
+from gantry_sim.controller.moves import Arc, Move, Spline
 from gantry_sim.controller.planes import AXES
+from gantry_sim.controller.planner.spline_geometry import spline_extent_points
 
 #: Rounding allowance at the travel limits [mm].
 SLACK_MM = 1e-9
@@ -25,6 +26,8 @@ SLACK_MM = 1e-9
 def extent_points(move: Move) -> np.ndarray:
     """Points (k, 3) [mm] whose bounding box is the move's true extent."""
     pts = [np.asarray(move.start, dtype=float), np.asarray(move.end, dtype=float)]
+    if isinstance(move, Spline):
+        return spline_extent_points(move)
     if isinstance(move, Arc):
         frame = arc_frame(move)
         theta0 = frame.theta0_rad

@@ -1,0 +1,164 @@
+"""Exact NURBS evaluation: points and derivatives, vectorised over the parameter.
+
+A NURBS curve of degree p with control points P_i, weights w_i > 0 and knots t_0..t_{n+p+1}
+(clamped: the first and last p + 1 knots equal) is C(t) = A(t) / W(t), where
+A(t) = sum N_{i,p}(t) w_i P_i and W(t) = sum N_{i,p}(t) w_i are one B-spline in homogeneous
+coordinates (w x, w y, w z, w). De Boor's algorithm and the derivative B-splines (control
+points p (Q_{i+1} - Q_i) / (t_{i+p+1} - t_{i+1}), degree p - 1) give, once per curve, each knot
+span's polynomial (its Taylor coefficients at the span's start); points and derivatives are then
+Horner's rule on those, and the curve's derivatives follow from the quotient rule:
+
+    C'   = (A'   - W' C) / W
+    C''  = (A''  - 2 W' C'  - W'' C) / W
+    C''' = (A''' - 3 W' C'' - 3 W'' C' - W''' C) / W
+
+LinuxCNC's G5 (cubic Bezier), G5.1 (quadratic Bezier) and G5.2/G5.3 (NURBS) are all of this form
+(see :func:`linuxcnc_knots`). Units: whatever the control points are in (mm here).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+
+def linuxcnc_knots(n_points: int, order: int) -> tuple[float, ...]:
+    """LinuxCNC's knot vector for ``n_points`` control points and ``order`` (= degree + 1):
+    knot i (0 <= i <= n + k, n = n_points - 1, k = order) is 0 for i < k, i - k + 1 for
+    k <= i <= n, and n - k + 2 beyond (rs274ngc nurbs_additional_functions.cc,
+    knot_vector_creator): uniform, clamped, unit spacing, parameter range [0, n - k + 2]."""
+    n, k = n_points - 1, order
+    return tuple(
+        float(0 if i < k else (i - k + 1 if i <= n else n - k + 2)) for i in range(n + k + 1)
+    )
+
+
+@dataclass(frozen=True, eq=False)
+class BSpline:
+    """A (non-rational) B-spline: ``ctrl`` (n + 1, d), ``knots`` (n + p + 2,), degree ``p``."""
+
+    ctrl: np.ndarray
+    knots: np.ndarray
+    degree: int
+
+    def derivative(self) -> BSpline:
+        """The derivative B-spline (degree p - 1; a zero constant for degree 0)."""
+        p, t, q = self.degree, self.knots, self.ctrl
+        if p == 0:
+            return BSpline(np.zeros_like(q[:1]), t[:2].copy(), 0)
+        span = t[p + 1 : p + len(q)] - t[1 : len(q)]
+        with np.errstate(divide="ignore", invalid="ignore"):
+            d = np.where(span[:, None] > 0, p * np.diff(q, axis=0) / span[:, None], 0.0)
+        return BSpline(d, t[1:-1].copy(), p - 1)
+
+    def __call__(self, u: np.ndarray) -> np.ndarray:
+        """Values (m, d) at parameters ``u`` (m,) (de Boor; clamped to the knot range)."""
+        p, t, q = self.degree, self.knots, self.ctrl
+        n = len(q) - 1
+        u = np.clip(np.asarray(u, dtype=float), t[p], t[n + 1])
+        if p == 0 and n == 0:
+            return np.repeat(q[:1], len(u), axis=0)
+        # span j with t[j] <= u < t[j+1], p <= j <= n (u at the end: the last non-empty span)
+        j = np.clip(np.searchsorted(t, u, side="right") - 1, p, n)
+        idx = j[:, None] - p + np.arange(p + 1)[None, :]
+        d = q[idx]  # (m, p + 1, dim)
+        for r in range(1, p + 1):
+            for i in range(p, r - 1, -1):
+                lo = t[j - p + i]
+                hi = t[j + 1 + i - r]
+                den = hi - lo
+                alpha = np.where(den > 0, (u - lo) / np.where(den > 0, den, 1.0), 0.0)[:, None]
+                d[:, i] = (1.0 - alpha) * d[:, i - 1] + alpha * d[:, i]
+        return d[:, p]
+
+
+@dataclass(frozen=True, eq=False)
+class PiecewisePoly:
+    """A B-spline as one polynomial per knot span, in powers of (u - start of its span): the
+    coefficients are the Taylor coefficients D^k(start) / k! from the derivative B-splines (exact,
+    no fitting), so evaluating is a span look-up and Horner's rule.
+
+    Attributes:
+        breaks: (s + 1,) the distinct knots bounding the s non-empty spans.
+        coeffs: (4, s, p + 1, d): for derivative order 0..3, the coefficients of that derivative.
+    """
+
+    breaks: np.ndarray
+    coeffs: np.ndarray
+
+    @classmethod
+    def of(cls, spline: BSpline) -> PiecewisePoly:
+        p, t = spline.degree, spline.knots
+        lo, hi = t[spline.degree], t[len(spline.ctrl)]
+        breaks = np.unique(t[(t >= lo) & (t <= hi)])
+        starts = breaks[:-1]
+        taylor = np.zeros((len(starts), p + 1, spline.ctrl.shape[1]))
+        d, fact = spline, 1.0
+        for k in range(p + 1):
+            taylor[:, k] = d(starts) / fact
+            d, fact = d.derivative(), fact * (k + 1)
+        coeffs = np.zeros((4, *taylor.shape))
+        for order in range(
+            4
+        ):  # d^order/du^order of sum c_k x^k = sum c_k k!/(k-order)! x^(k-order)
+            for k in range(order, p + 1):
+                falling = float(np.prod(np.arange(k - order + 1, k + 1)))
+                coeffs[order, :, k - order] = taylor[:, k] * falling
+        return cls(breaks, coeffs)
+
+    def __call__(self, u: np.ndarray, order: int = 0) -> np.ndarray:
+        """The ``order``-th derivative (m, d) at ``u`` (m,) (clamped to the breaks)."""
+        b = self.breaks
+        u = np.clip(np.asarray(u, dtype=float), b[0], b[-1])
+        j = np.clip(np.searchsorted(b, u, side="right") - 1, 0, len(b) - 2)
+        x = (u - b[j])[:, None]
+        c = self.coeffs[order][j]  # (m, p + 1, d)
+        y = c[:, -1].copy()
+        for k in range(c.shape[1] - 2, -1, -1):
+            y = y * x + c[:, k]
+        return y
+
+
+@dataclass(frozen=True, eq=False)
+class Nurbs:
+    """A rational curve in 3-D built from control points (n + 1, 3), weights and knots.
+
+    Attributes:
+        homogeneous: the B-spline of (w x, w y, w z, w).
+        poly: the same, per span (:class:`PiecewisePoly`), which evaluates it and its derivatives.
+        t_min, t_max: the parameter range.
+    """
+
+    homogeneous: BSpline
+    poly: PiecewisePoly
+    t_min: float
+    t_max: float
+
+    @classmethod
+    def build(cls, ctrl: np.ndarray, weights: np.ndarray, knots: np.ndarray, degree: int) -> Nurbs:
+        ctrl = np.asarray(ctrl, dtype=float)
+        w = np.asarray(weights, dtype=float)
+        t = np.asarray(knots, dtype=float)
+        h = BSpline(np.column_stack([ctrl * w[:, None], w]), t, degree)
+        return cls(h, PiecewisePoly.of(h), float(t[degree]), float(t[len(ctrl)]))
+
+    def derivatives(self, u: np.ndarray, order: int = 2) -> list[np.ndarray]:
+        """[C, C', ..., C^(order)] at ``u`` (m,), each (m, 3), order <= 3."""
+        u = np.asarray(u, dtype=float)
+        h = [self.poly(u, i) for i in range(order + 1)]
+        w = [hi[:, 3:4] for hi in h]
+        a = [hi[:, :3] for hi in h]
+        c = [a[0] / w[0]]
+        if order >= 1:
+            c.append((a[1] - w[1] * c[0]) / w[0])
+        if order >= 2:
+            c.append((a[2] - 2.0 * w[1] * c[1] - w[2] * c[0]) / w[0])
+        if order >= 3:
+            c.append((a[3] - 3.0 * w[1] * c[2] - 3.0 * w[2] * c[1] - w[3] * c[0]) / w[0])
+        return c
+
+    def points(self, u: np.ndarray) -> np.ndarray:
+        """C(u) (m, 3)."""
+        h = self.poly(np.asarray(u, dtype=float))
+        return h[:, :3] / h[:, 3:4]
