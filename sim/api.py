@@ -76,6 +76,7 @@ def run_program(
     budget: Budget | None = None,
     search_path: Sequence[os.PathLike[str]] = (),
     max_iterations: int = DEFAULT_MAX_ITERATIONS,
+    keep_trace: bool = True,
 ) -> RunResult:
     """Interpret, plan, simulate and analyse one program on ``machine``.
 
@@ -97,6 +98,10 @@ def run_program(
         search_path: folders searched for ``NAME.ngc`` subroutine files, after the program's
             own folder when ``program`` is a path.
         max_iterations: bound on O-word loop repetitions and subroutine calls.
+        keep_trace: keep the full-rate trace for trace.npz. False (``--no-trace``): a streamed run
+            writes no staging trace (gigabytes for hours of machine time); the result's
+            ``trace`` is still there for the plots (a streamed run's is the decimated one),
+            and nothing else changes.
 
     Raises:
         GcodeError, ConfigError, PlanningError, SimulationError: with file and line;
@@ -144,6 +149,7 @@ def run_program(
                 feed_override_pct,
                 progress,
                 {"parse": t1 - t0, "plan": time.perf_counter() - t1},
+                keep_trace,
             )
         traj = planned.sample(machine.servo.period_s)
         t2 = time.perf_counter()
@@ -198,9 +204,11 @@ def _streamed(
     feed_override_pct: float,
     progress: bool | None,
     timing: dict[str, float],
+    keep_trace: bool = True,
 ) -> RunResult:
     """run_program's path for long runs: sim.stream range by range, the full-rate trace
-    written incrementally into a staging folder (sim.trace_writer), a decimated trace kept."""
+    written incrementally into a staging folder (sim.trace_writer) unless ``keep_trace`` is
+    False, a decimated trace kept."""
     import dataclasses
     import sys
     import tempfile
@@ -213,8 +221,8 @@ def _streamed(
     from gantry_sim.sim.trace_writer import TraceWriter
 
     n = planned.sample_count(machine.servo.period_s)
-    staging = tempfile.TemporaryDirectory(prefix="gantry-trace-")
-    writer = TraceWriter(Path(staging.name), n)
+    staging = tempfile.TemporaryDirectory(prefix="gantry-trace-") if keep_trace else None
+    writer = TraceWriter(Path(staging.name), n) if staging is not None else None
     bar = None
     if want_progress(progress, planned.duration_s):
         from tqdm import tqdm
@@ -233,7 +241,9 @@ def _streamed(
         analysis=split_reference_by_ranges(streamed.analysis, planned, machine.servo.period_s),
     )
     t0 = time.perf_counter()
-    trace_file = writer.finish(Path(staging.name) / "trace.npz")
+    trace_file = None
+    if writer is not None and staging is not None:
+        trace_file = writer.finish(Path(staging.name) / "trace.npz")
     timing |= {"simulate": streamed.simulate_s, "analyse": streamed.analyse_s}
     timing["trace"] = time.perf_counter() - t0
     timing["total"] = sum(timing.values())
@@ -288,9 +298,11 @@ def write_run_outputs(
     deterministic: bool = False,
     gates: Gates | None = None,
     started: float | None = None,
+    trace: bool = True,
 ) -> RunResult:
-    """Write report.json, timing.json, trace.npz and (``plots``) path.png and error.png into
-    ``out_dir`` (created if needed); return ``result`` with timing_s "write" and "total".
+    """Write report.json, timing.json, (``trace``) trace.npz and (``plots``) path.png and
+    error.png into ``out_dir`` (created if needed); return ``result`` with timing_s "write" and
+    "total", and report.json "files" listing what was written.
 
     Atomic per file set: everything is written into a temporary folder beside the outputs and
     moved in only when all of it succeeded, report.json last. ``deterministic``: report.json's
@@ -309,5 +321,6 @@ def write_run_outputs(
         gates=gates,
         started=started,
         trace_file=result.trace_file,
+        trace_npz=trace,
     )
     return replace(result, run_report=report)

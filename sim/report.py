@@ -45,6 +45,12 @@ OUTPUT_FILES = ("report.json", "timing.json", "trace.npz", "path.png", "error.pn
 PLOT_FILES = ("path.png", "error.png")
 
 
+def written_files(plots: bool = True, trace: bool = True) -> tuple[str, ...]:
+    """The files of OUTPUT_FILES a run writes with these options (report.json "files")."""
+    skip = (() if plots else PLOT_FILES) + (() if trace else ("trace.npz",))
+    return tuple(f for f in OUTPUT_FILES if f not in skip)
+
+
 @dataclass(frozen=True)
 class SimStats:
     """How the simulation ran (report.json "sim").
@@ -103,6 +109,8 @@ class RunReport:
             the line x servo period).
         verdict: the gates' verdict (passed, no gates, until :func:`gantry_sim.sim.gates`'s
             evaluation is applied).
+        files: the files written into the output folder (empty until :func:`write_outputs`);
+            trace.npz is missing when the run was asked not to write it (``--no-trace``).
     """
 
     program: str
@@ -121,6 +129,7 @@ class RunReport:
     timing_s: dict[str, float]
     block_time_s: Mapping[int, float] = field(default_factory=dict)
     verdict: Verdict = field(default_factory=Verdict)
+    files: tuple[str, ...] = ()
 
     def block(self, line: int) -> BlockError | None:
         """The block executing program line ``line``, or None when it is no feed block."""
@@ -150,6 +159,7 @@ class RunReport:
             "sim": self.sim.to_json(deterministic),
             "timing_s": {k: None if deterministic else v for k, v in self.timing_s.items()},
             "verdict": self.verdict.to_json(),
+            "files": list(self.files),
         }
 
     def timing_json(self) -> dict[str, Any]:
@@ -298,6 +308,7 @@ def write_outputs(
     gates: Gates | None = None,
     started: float | None = None,
     trace_file: Path | None = None,
+    trace_npz: bool = True,
 ) -> RunReport:
     """Write the run's files into a temporary folder, then move them in, report.json last.
 
@@ -306,19 +317,23 @@ def write_outputs(
         trace_file: a trace.npz already written (a streamed run's full-rate trace, while
             ``trace`` is its decimated one), copied in as trace.npz.
         plots: draw path.png and error.png.
+        trace_npz: write trace.npz (False: ``--no-trace``; the plots still use ``trace``).
         deterministic: wall-clock fields null in report.json (timing.json has them).
         gates: drawn on error.png.
         started: ``time.perf_counter()`` when the run started (the command's start); "total"
             counts from there to the outputs written. None: the stages' sum.
 
     Returns:
-        ``report`` with timing_s "write" (trace, plots, files) and "total" filled in.
+        ``report`` with timing_s "write" (trace, plots, files) and "total" filled in, and
+        ``files``.
     """
     from gantry_sim.sim.outdir import atomic_output_dir
 
     t0 = time.perf_counter()
     with atomic_output_dir(out_dir, last="report.json") as tmp:
-        if trace_file is not None:
+        if not trace_npz:
+            pass
+        elif trace_file is not None:
             import shutil
 
             shutil.copyfile(trace_file, tmp / "trace.npz")
@@ -343,7 +358,7 @@ def write_outputs(
         timing["write"] = t1 - t0
         stages = sum(timing.values())
         timing["total"] = (t1 - started) if started is not None else stages
-        report = replace(report, timing_s=timing)
+        report = replace(report, timing_s=timing, files=written_files(plots, trace_npz))
         text = json.dumps(report.to_json(deterministic), indent=2) + "\n"
         (tmp / "timing.json").write_text(json.dumps(report.timing_json(), indent=2) + "\n")
         (tmp / "report.json").write_text(text)
