@@ -30,6 +30,7 @@ from gantry_sim.controller.config import Limits, MachineConfig
 from gantry_sim.controller.servo import AxisPlant
 from gantry_sim.sim.contour import Analysis, BlockError, ContourStats, ErrorParts
 from gantry_sim.sim.gates import Gates, Verdict
+from gantry_sim.sim.progress import stage
 from gantry_sim.sim.trace import Trace
 
 if TYPE_CHECKING:
@@ -309,6 +310,7 @@ def write_outputs(
     started: float | None = None,
     trace_file: Path | None = None,
     trace_npz: bool = True,
+    progress: bool = False,
 ) -> RunReport:
     """Write the run's files into a temporary folder, then move them in, report.json last.
 
@@ -318,6 +320,7 @@ def write_outputs(
             ``trace`` is its decimated one), copied in as trace.npz.
         plots: draw path.png and error.png.
         trace_npz: write trace.npz (False: ``--no-trace``; the plots still use ``trace``).
+        progress: a bar on stderr over the files (sim.progress).
         deterministic: wall-clock fields null in report.json (timing.json has them).
         gates: drawn on error.png.
         started: ``time.perf_counter()`` when the run started (the command's start); "total"
@@ -330,7 +333,11 @@ def write_outputs(
     from gantry_sim.sim.outdir import atomic_output_dir
 
     t0 = time.perf_counter()
-    with atomic_output_dir(out_dir, last="report.json") as tmp:
+    files = written_files(plots, trace_npz)
+    with (
+        atomic_output_dir(out_dir, last="report.json") as tmp,
+        stage("write", len(files), "file", progress) as advance,
+    ):
         if not trace_npz:
             pass
         elif trace_file is not None:
@@ -347,19 +354,23 @@ def write_outputs(
                 err_um=trace.err_um,
                 force_N=trace.force_N,
             )
+        advance(int(trace_npz))
         if plots:
             from gantry_sim.sim.error_plot import save_error_plot
             from gantry_sim.sim.path_plot import save_path_plot
 
             save_path_plot(tmp / "path.png", moves, trace, report.program, report.contour_error_um)
+            advance(1)
             save_error_plot(tmp / "error.png", trace, report.contour_error_um, gates, moves)
+            advance(1)
         t1 = time.perf_counter()
         timing = {k: v for k, v in report.timing_s.items() if k not in ("write", "total")}
         timing["write"] = t1 - t0
         stages = sum(timing.values())
         timing["total"] = (t1 - started) if started is not None else stages
-        report = replace(report, timing_s=timing, files=written_files(plots, trace_npz))
+        report = replace(report, timing_s=timing, files=files)
         text = json.dumps(report.to_json(deterministic), indent=2) + "\n"
         (tmp / "timing.json").write_text(json.dumps(report.timing_json(), indent=2) + "\n")
         (tmp / "report.json").write_text(text)
+        advance(2)
     return report

@@ -1,6 +1,7 @@
 """``gantry run``: plan, simulate in MuJoCo, analyse; write report.json, trace.npz and plots.
 
 ``--no-trace`` leaves trace.npz out (report.json "files" and the summary say so).
+``--progress`` / ``--no-progress``: per-stage bars on stderr (default: when it is a terminal).
 
 Exit status: 0 done; 1 a gate failed (``--max-error-um``, ``--max-error-um-lines``,
 ``--max-cycle-time-s``, ``--baseline``; the outputs are still written, with the verdict in
@@ -96,6 +97,13 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         "per-block table and the plots are complete, and report.json 'files' says so",
     )
     parser.add_argument(
+        "--progress",
+        action=argparse.BooleanOptionalAction,
+        default=None,
+        help="bars with ETA on stderr for the stages of a long run (parse, plan, simulate, "
+        "analyse, write); default: only when stderr is a terminal",
+    )
+    parser.add_argument(
         "--deterministic",
         action="store_true",
         help="write the wall-clock fields of report.json (timing_s.*, sim.realtime_factor) as "
@@ -157,7 +165,7 @@ def run(args: argparse.Namespace) -> int:
         dialect=args.dialect,
         machine=machine,
         feed_override_pct=args.feed_override,
-        progress=sys.stderr.isatty(),
+        progress=args.progress,
         budget=budget,
         search_path=search_path(args),
         max_iterations=max_iterations(args),
@@ -181,6 +189,7 @@ def run(args: argparse.Namespace) -> int:
         gates=gates,
         started=started,
         trace=not args.no_trace,
+        progress=args.progress,
     )
     report = result.run_report
     files = list(report.files)
