@@ -83,6 +83,27 @@ def test_environment_selects_the_python_ticks(machine, monkeypatch):
     assert ServoLoop(g, machine, np.zeros(3)).compiled is not None
 
 
+def test_without_the_extension_the_python_ticks_run(machine, monkeypatch):
+    """An install without a C compiler has no gantry_sim.sim._pd_ticks: the loop falls back."""
+
+    def missing(name, *args):
+        raise ImportError(f"No module named {name!r}")
+
+    monkeypatch.setattr(pd_ticks.importlib, "import_module", missing)
+    pd_ticks._libraries.cache_clear()
+    try:
+        assert not pd_ticks.available()
+        q_py, f_py, _, _ = _run(machine, pure_python=True)
+        g = load_gantry(machine)
+        assert ServoLoop(g, machine, np.zeros(3), pure_python=False).compiled is None
+    finally:
+        monkeypatch.undo()
+        pd_ticks._libraries.cache_clear()
+    assert pd_ticks.available()
+    q_c, f_c, _, _ = _run(machine, pure_python=False)
+    assert np.array_equal(q_c, q_py) and np.array_equal(f_c, f_py)
+
+
 def test_a_fatal_mujoco_error_in_the_compiled_ticks_raises_fatal_error(tmp_path):
     """An arena too small for the constraint rows of an axis at its limit: MuJoCo's
     mju_error inside the C loop becomes mujoco.FatalError (not an exit of the process)."""
