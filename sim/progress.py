@@ -3,8 +3,8 @@ write), with the rate and the ETA where the stage knows its size.
 
 Shown only when asked (``gantry run --progress``) or, by default, when stderr is a terminal;
 never on stdout (the summary or the ``--json`` object stays clean), so tests and pipes are quiet
-unless they ask. A bar appears only once its stage has run for PROGRESS_DELAY_S: short stages
-and short runs print nothing. Planning reports no progress of its own (the planner is one call):
+unless they ask. A bar appears only once its stage has run for PROGRESS_DELAY_S (short stages
+and short runs print nothing) and is erased when the stage ends (the terminal keeps the summary). Planning reports no progress of its own (the planner is one call):
 its bar shows the elapsed time, with no ETA.
 """
 
@@ -54,6 +54,7 @@ def stage(
         unit=unit,
         file=sys.stderr,
         delay=PROGRESS_DELAY_S,
+        leave=False,  # a bar is erased when its stage ends: the terminal keeps the summary
         dynamic_ncols=True,
         bar_format=fmt,
         unit_scale=unit == "tick",
