@@ -9,21 +9,21 @@ Prints, measured in this one run:
    and by one mj_step(m, d, substeps) per tick from Python; the faster counts): aim >= 0.95.
    Both loops are timed: the compiled PD ticks (sim/pd_ticks.c, built by ``pip install .`` when
    a C compiler is there) and the pure-Python ticks (GANTRY_PURE_PYTHON=1), same numbers;
-
-Why a compiled path (one run on a loaded 2-core machine, 12,875 ticks, 2 physics steps each):
-MuJoCo alone on this motion takes 5.9-6.0 us a tick (rollout; 6.1 from a Python loop that only
-writes the held forces). The Python ticks cost 6.9 (ratio 0.86-0.89); the leanest Python tick
-that still reads qpos, records it, applies the law and writes ctrl measured 6.3 (0.94) -- the
-loop body alone is ~0.33 us of interpreter time a tick, against a 0.3 us budget for 0.95. The C
-ticks (the same law, the same operations in the same order, -ffp-contract=off) run at 5.9 us a
-tick, 1.00-1.02 of MuJoCo alone, and give the same qpos and forces bit for bit
-(tests/test_pd_ticks.py); without a compiler the install skips them and the Python ticks run.
 2. accuracy: max / RMS contour error of an R 10 mm XY circle block at F3000 and F10000 on the
    bundled machine, with its default feedforward and PD only (FF1/FF2 off; gravity
    compensation stays on, it is a static load) -- target <= 6 um max at F3000 with feedforward;
 3. fidelity: without friction and damping (a model variant written to a temp folder), the
    steady radius change of a PD-only circle against R (|G(e^{jwT})| - 1) of the discrete loop
    (ZOH mass, one-sample hold, the servo's own PD law) -- target within 5 %.
+
+Why a compiled path (one run on a loaded 2-core machine, 12,875 ticks, 2 physics steps each):
+MuJoCo alone on this motion takes 5.9-6.0 us a tick (rollout; 6.1 from a Python loop that only
+writes the held forces). The Python ticks cost 6.9 (ratio 0.86-0.89); the leanest Python tick
+that still reads qpos, records it, applies the law and writes ctrl measured 6.3 (0.94) -- the
+loop body alone is ~0.33 us of interpreter time a tick, against a 0.3 us budget for 0.95. The C
+ticks (the same law, the same operations in the same order, -ffp-contract=off) run at 5.6-6.1 us
+a tick, 0.99-1.02 of MuJoCo alone, and give the same qpos and forces bit for bit
+(tests/test_pd_ticks.py); without a compiler the install skips them and the Python ticks run.
 """
 
 from __future__ import annotations
