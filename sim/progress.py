@@ -11,8 +11,10 @@ its bar shows the elapsed time, with no ETA.
 from __future__ import annotations
 
 import sys
+import threading
 from collections.abc import Callable, Iterator
 from contextlib import contextmanager
+from typing import Any
 
 #: a stage's bar appears after it has run this long [s wall] (quick stages stay silent)
 PROGRESS_DELAY_S = 0.5
@@ -59,9 +61,35 @@ def stage(
         bar_format=fmt,
         unit_scale=unit == "tick",
     )
+    ticking = None if known_size else _Ticker(bar)
     try:
         yield bar.update
         if not known_size:
             bar.update((total or 0) - bar.n)
     finally:
+        if ticking is not None:
+            ticking.stop()
         bar.close()
+
+
+class _Ticker:
+    """Redraws a bar that gets no updates (a stage that cannot report its progress) once it is
+    PROGRESS_DELAY_S old and every TICK_S after, so its elapsed time shows."""
+
+    TICK_S = 1.0
+
+    def __init__(self, bar: Any) -> None:
+        self.bar = bar
+        self.done = threading.Event()
+        self.thread = threading.Thread(target=self._run, name="gantry-progress", daemon=True)
+        self.thread.start()
+
+    def _run(self) -> None:
+        wait = PROGRESS_DELAY_S
+        while not self.done.wait(wait):
+            self.bar.refresh()
+            wait = self.TICK_S
+
+    def stop(self) -> None:
+        self.done.set()
+        self.thread.join()
