@@ -10,18 +10,31 @@ G0/G1/G2/G3 contours with corners), seeded. Each program runs in a fresh subproc
 public API as ``gantry run`` does (run_program, then write_run_outputs into a temporary folder);
 the subprocess reports:
 
-* stage times [s]: parse, plan, simulate, analyse (report.json's timing_s) and plots+npz (the
-  writing of report.json, trace.npz and the PNGs);
+* stage times [s]: parse, plan, simulate, analyse, trace (report.json's timing_s; trace: a
+  streamed run's trace.npz zipped from its staged arrays) and write (report.json, trace.npz and
+  the PNGs written into a folder);
 * peak memory: the subprocess' maximum resident set (getrusage ru_maxrss) right after the run,
   before anything else is measured;
 * MuJoCo alone: the same model stepped open loop through the same motion -- the run's held
   forces replayed from the same initial state by ``mujoco.rollout`` (as bench_sim.py does), in
-  pieces of REPLAY_STEPS physics steps; the ratio end-to-end / MuJoCo alone is printed with and
-  without the planning stage (the planner's own benchmark owns planning);
+  pieces of REPLAY_STEPS physics steps; every stage's time is printed over it (a second table),
+  and the end-to-end ratio with and without the planning stage (the planner's own benchmark
+  owns planning);
 * before/after analysis: the analysis of THIS tree and that of git revision BASELINE_REV (the
   last one before the vectorised search: its sim/contour.py and sim/nearest.py are read with
   ``git show`` and imported from a temporary folder), timed on the very arguments the run passed
   to ``analyse``, and their results compared (err_um bit for bit, the report figures exactly).
+
+Tried and not kept (no measurable win on the 2-core machine these figures come from, with other
+jobs running; interleaved runs in one process, min / median of the wall time):
+* simulating range k+1 in a background thread while range k is analysed (the C ticks release
+  the GIL): 10k short G1, 4 pairs, 3.88 / 4.75 s threaded against 3.80 / 4.6 s in one thread;
+  1k mixed, 12 pairs, 5.2 / 9.8 s against 7.4 / 9.3 s. The threaded simulation itself slowed by
+  20-30 % (its Python part -- sampling, tool site, checks -- waits for the GIL the analysis holds)
+  and the analysis doubled, eating the overlap;
+* writing trace.npz in a background thread while the plots draw: 15 pairs, 1k arcs (142,733
+  ticks) 0.611 / 1.100 s against 0.586 / 1.112 s; 300 mixed (200,102 ticks) 0.915 / 1.400 s
+  against 0.876 / 1.361 s.
 
 The growth law printed at the end is the exponent b of time ~ ticks^b (and of the peak memory
 above the 1k run's) between the smallest and the largest size of each kind.
@@ -47,7 +60,8 @@ BASELINE_REV = "1834131"
 #: physics steps per mujoco.rollout call when replaying (bounds the replay's state output)
 REPLAY_STEPS = 200_000
 KINDS = ("arcs", "poly", "mixed")
-STAGES = ("parse", "plan", "simulate", "analyse", "write")
+STAGES = ("parse", "plan", "simulate", "analyse", "trace", "write")
+WIDTHS = (7, 8, 8, 8, 7, 7)
 
 
 def _load_baseline(rev: str, folder: Path):
@@ -141,6 +155,7 @@ def child(kind: str, blocks: int, baseline_rev: str | None) -> dict:
         "streamed": result.trace_file is not None,
         "cycle_s": result.report["cycle_time_s"],
         **{k: float(timing[k]) for k in ("parse", "plan", "simulate", "analyse")},
+        "trace": float(timing.get("trace", 0.0)),  # a streamed run's trace.npz zipped
         "write": t2 - t1,
         "wall": t2 - t0,
         "peak_bytes": peak,
@@ -185,8 +200,8 @@ def _run_child(kind: str, blocks: int, baseline: str | None) -> dict:
 def _print_table(rows: list[dict]) -> None:
     print(
         f"{'program':<13}{'ticks':>9}{'cycle':>8} |{'parse':>7}{'plan':>8}{'sim':>8}"
-        f"{'analyse':>8}{'write':>7}{'wall':>8} |{'mujoco':>7}{'ratio':>7}{'-plan':>7} |"
-        f"{'peak MB':>8} | analyse before -> after"
+        f"{'analyse':>8}{'trace':>7}{'write':>7}{'wall':>8} |{'mujoco':>7} |{'peak MB':>8} | "
+        "analyse before -> after"
     )
     for r in rows:
         before, after = r.get("analyse_before"), r.get("analyse_after")
@@ -199,11 +214,31 @@ def _print_table(rows: list[dict]) -> None:
         if "same" in r:
             ba += "  identical" if r["same"] else "  DIFFERENT"
         print(
-            f"{r['kind'] + ' ' + str(r['blocks']):<13}{r['ticks']:>9}{r['cycle_s'] / 60:>7.1f}m |"
-            + "".join(f"{r[k]:>{w}.2f}" for k, w in zip(STAGES, (7, 8, 8, 8, 7), strict=True))
-            + f"{r['wall']:>8.1f} |{r['mujoco']:>7.2f}{r['wall'] / r['mujoco']:>7.1f}"
-            + f"{(r['wall'] - r['plan']) / r['mujoco']:>7.1f} |{r['peak_bytes'] / 2**20:>8.0f} | {ba}"
+            f"{_name(r):<13}{r['ticks']:>9}{r['cycle_s'] / 60:>7.1f}m |"
+            + "".join(f"{r.get(k, 0.0):>{w}.2f}" for k, w in zip(STAGES, WIDTHS, strict=True))
+            + f"{r['wall']:>8.1f} |{r['mujoco']:>7.2f} |{r['peak_bytes'] / 2**20:>8.0f} | {ba}"
         )
+
+
+def _print_ratios(rows: list[dict]) -> None:
+    """Each stage's wall time over MuJoCo alone on the same motion, and the end-to-end ratio
+    with and without planning (the planner's benchmark owns planning)."""
+    print("\nwall time / MuJoCo alone, per stage")
+    print(
+        f"{'program':<13}{'streamed':>9} |{'parse':>7}{'plan':>8}{'sim':>8}{'analyse':>8}"
+        f"{'trace':>7}{'write':>7} |{'wall':>7}{'-plan':>7}"
+    )
+    for r in rows:
+        mj = r["mujoco"]
+        print(
+            f"{_name(r):<13}{'yes' if r['streamed'] else 'no':>9} |"
+            + "".join(f"{r.get(k, 0.0) / mj:>{w}.2f}" for k, w in zip(STAGES, WIDTHS, strict=True))
+            + f" |{r['wall'] / mj:>7.2f}{(r['wall'] - r['plan']) / mj:>7.2f}"
+        )
+
+
+def _name(r: dict) -> str:
+    return f"{r['kind']} {r['blocks']}"
 
 
 def _print_growth(rows: list[dict]) -> None:
@@ -214,7 +249,11 @@ def _print_growth(rows: list[dict]) -> None:
             continue
         a, b = runs[0], runs[-1]
         x = math.log(b["ticks"] / a["ticks"])
-        exps = {k: math.log(max(b[k], 1e-9) / max(a[k], 1e-9)) / x for k in (*STAGES, "wall")}
+        exps = {
+            k: math.log(max(b.get(k, 0.0), 1e-9) / max(a.get(k, 0.0), 1e-9)) / x
+            for k in (*STAGES, "wall")
+            if b.get(k, 0.0) > 0 and a.get(k, 0.0) > 0
+        }
         mem = (b["peak_bytes"] - a["peak_bytes"]) / max(1, b["ticks"] - a["ticks"])
         print(
             f"  {kind:<6}"
@@ -244,6 +283,7 @@ def main() -> int:
             rows.append(_run_child(kind, n, baseline))
     print("times [s]; ratio: end-to-end wall / MuJoCo alone (-plan: without planning)")
     _print_table(rows)
+    _print_ratios(rows)
     _print_growth(rows)
     return 0
 

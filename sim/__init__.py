@@ -8,7 +8,10 @@ entry point is :mod:`.api`):
     machine.py       MJCF -> Gantry: axis names resolved, plant read, work origin placed (SI <-> mm)
     site_slides.py   closed-form tool site when only slide joints carry it (fast trace)
     runner.py        the simulation: servo-loop ranges, each checked for divergence
+    progress.py      per-stage progress bars on stderr (a terminal, or --progress)
     servo_loop.py    the servo loop around mj_step: one discrete PD tick, then physics substeps
+    pd_ticks.py      the same PD ticks compiled (pd_ticks.c, optional at install), via ctypes
+    stateful_ticks.py  the ticks of a law with an integral term or backlash (Python)
     stream.py        a run range by range: sample, simulate, analyse; 13 bytes a tick kept
     trace.py         Trace: the per-tick arrays of a run (trace.npz)
     trace_writer.py  trace.npz written range by range (a streamed run), zipped at the end

@@ -22,7 +22,7 @@ from __future__ import annotations
 
 import os
 import time
-from collections.abc import Sequence
+from collections.abc import Iterable, Iterator, Sequence
 from dataclasses import dataclass, field, replace
 from functools import cached_property
 from pathlib import Path
@@ -32,6 +32,7 @@ from gantry_sim.controller.errors import GantryError, GcodeError
 from gantry_sim.controller.gcode.control import DEFAULT_MAX_ITERATIONS
 from gantry_sim.sim.budget import Budget, check_budget
 from gantry_sim.sim.gates import Gates, Verdict
+from gantry_sim.sim.progress import Advance, stage, wanted
 from gantry_sim.sim.report import RunReport
 from gantry_sim.sim.trace import Trace
 
@@ -72,10 +73,11 @@ def run_program(
     dialect: str = "linuxcnc",
     machine: MachineConfig,
     feed_override_pct: float = 100.0,
-    progress: bool = False,
+    progress: bool | None = False,
     budget: Budget | None = None,
     search_path: Sequence[os.PathLike[str]] = (),
     max_iterations: int = DEFAULT_MAX_ITERATIONS,
+    keep_trace: bool = True,
 ) -> RunResult:
     """Interpret, plan, simulate and analyse one program on ``machine``.
 
@@ -92,11 +94,16 @@ def run_program(
             Unless the machine file set a [segmentation], the dialect's own applies (grbl:
             chords within 0.002 mm; marlin: 1 mm segments).
         feed_override_pct: scales every programmed feed [%].
-        progress: show a progress bar on stderr during long simulations.
+        progress: bars on stderr for the stages that take long (sim.progress); None: when
+            stderr is a terminal.
         budget: the largest simulation run without asking (default: sim.budget.Budget()).
         search_path: folders searched for ``NAME.ngc`` subroutine files, after the program's
             own folder when ``program`` is a path.
         max_iterations: bound on O-word loop repetitions and subroutine calls.
+        keep_trace: keep the full-rate trace for trace.npz. False (``--no-trace``): a streamed run
+            writes no staging trace (gigabytes for hours of machine time); the result's
+            ``trace`` is still there for the plots (a streamed run's is the decimated one),
+            and nothing else changes.
 
     Raises:
         GcodeError, ConfigError, PlanningError, SimulationError: with file and line;
@@ -119,20 +126,26 @@ def run_program(
         folders.insert(0, Path(program).resolve().parent)
     try:
         machine = with_segmentation_default(machine, dialect)
-        items = tuple(
-            interpret_program(
-                text,
-                dialect=dialect,
-                file=file,
-                machine=machine,
-                search_path=folders,
-                max_iterations=max_iterations,
-                events=True,
+        shown = wanted(progress)
+        with stage("parse", text.count("\n") + 1, "line", shown) as advance:
+            items = tuple(
+                _advancing(
+                    interpret_program(
+                        text,
+                        dialect=dialect,
+                        file=file,
+                        machine=machine,
+                        search_path=folders,
+                        max_iterations=max_iterations,
+                        events=True,
+                    ),
+                    advance,
+                )
             )
-        )
         moves = tuple(m for m in items if isinstance(m, Rapid | Linear | Arc | Spline))
         t1 = time.perf_counter()
-        planned = plan(items, machine, feed_override_pct=feed_override_pct)
+        with stage("plan", len(items), "move", shown, known_size=False):
+            planned = plan(items, machine, feed_override_pct=feed_override_pct)
         check_budget(planned, machine, budget or Budget(), file)
         if planned.sample_count(machine.servo.period_s) > STREAM_ABOVE_TICKS:
             return _streamed(
@@ -144,14 +157,16 @@ def run_program(
                 feed_override_pct,
                 progress,
                 {"parse": t1 - t0, "plan": time.perf_counter() - t1},
+                keep_trace,
             )
         traj = planned.sample(machine.servo.period_s)
         t2 = time.perf_counter()
         gantry = load_gantry(machine)
         sim = simulate(gantry, machine, traj, progress=progress)
         t3 = time.perf_counter()
-        result = analyse(moves, traj.line, traj.pos, sim.pos, planned.vertices)
-        result = split_reference(result, planned, traj)
+        with stage("analyse", traj.t.size, "tick", shown, known_size=False):
+            result = analyse(moves, traj.line, traj.pos, sim.pos, planned.vertices)
+            result = split_reference(result, planned, traj)
         t4 = time.perf_counter()
     except GantryError as exc:
         if exc.file is None and exc.line is not None:
@@ -198,42 +213,35 @@ def _streamed(
     feed_override_pct: float,
     progress: bool | None,
     timing: dict[str, float],
+    keep_trace: bool = True,
 ) -> RunResult:
     """run_program's path for long runs: sim.stream range by range, the full-rate trace
-    written incrementally into a staging folder (sim.trace_writer), a decimated trace kept."""
+    written incrementally into a staging folder (sim.trace_writer) unless ``keep_trace`` is
+    False, a decimated trace kept."""
     import dataclasses
-    import sys
     import tempfile
 
     from gantry_sim.sim.blend_parts import split_reference_by_ranges
     from gantry_sim.sim.machine import load_gantry
     from gantry_sim.sim.report import build_streamed_report
-    from gantry_sim.sim.runner import want_progress
     from gantry_sim.sim.stream import stream_run
     from gantry_sim.sim.trace_writer import TraceWriter
 
     n = planned.sample_count(machine.servo.period_s)
-    staging = tempfile.TemporaryDirectory(prefix="gantry-trace-")
-    writer = TraceWriter(Path(staging.name), n)
-    bar = None
-    if want_progress(progress, planned.duration_s):
-        from tqdm import tqdm
-
-        bar = tqdm(total=n, unit="tick", desc="simulate+analyse", file=sys.stderr, leave=False)
+    staging = tempfile.TemporaryDirectory(prefix="gantry-trace-") if keep_trace else None
+    writer = TraceWriter(Path(staging.name), n) if staging is not None else None
     gantry = load_gantry(machine)
-    try:
-        streamed = stream_run(
-            moves, planned, machine, gantry, on_range=writer, on_ticks=bar.update if bar else None
-        )
-    finally:
-        if bar is not None:
-            bar.close()
+    with stage("simulate+analyse", n, "tick", wanted(progress)) as advance:
+        streamed = stream_run(moves, planned, machine, gantry, on_range=writer, on_ticks=advance)
     streamed = dataclasses.replace(
         streamed,
         analysis=split_reference_by_ranges(streamed.analysis, planned, machine.servo.period_s),
     )
     t0 = time.perf_counter()
-    trace_file = writer.finish(Path(staging.name) / "trace.npz")
+    trace_file = None
+    if writer is not None and staging is not None:
+        with stage("trace.npz", 1, "file", wanted(progress), known_size=False):
+            trace_file = writer.finish(Path(staging.name) / "trace.npz")
     timing |= {"simulate": streamed.simulate_s, "analyse": streamed.analyse_s}
     timing["trace"] = time.perf_counter() - t0
     timing["total"] = sum(timing.values())
@@ -248,6 +256,18 @@ def _streamed(
         timing=timing,
     )
     return RunResult(report, streamed.decimated, moves, trace_file=trace_file, staging=staging)
+
+
+def _advancing(items: Iterable, advance: Advance) -> Iterator:
+    """``items`` (the interpreter's moves and events), advancing the parse bar to each one's
+    source line as it comes."""
+    done = 0
+    for item in items:
+        line = getattr(item, "line", 0)
+        if isinstance(line, int) and line > done:
+            advance(line - done)
+            done = line
+        yield item
 
 
 def _program_text(program: str | os.PathLike[str], file: str | None) -> tuple[str, str]:
@@ -288,9 +308,13 @@ def write_run_outputs(
     deterministic: bool = False,
     gates: Gates | None = None,
     started: float | None = None,
+    trace: bool = True,
+    progress: bool | None = False,
 ) -> RunResult:
-    """Write report.json, timing.json, trace.npz and (``plots``) path.png and error.png into
-    ``out_dir`` (created if needed); return ``result`` with timing_s "write" and "total".
+    """Write report.json, timing.json, (``trace``) trace.npz and (``plots``) path.png and
+    error.png into ``out_dir`` (created if needed); return ``result`` with timing_s "write" and
+    "total", and report.json "files" listing what was written. ``progress``: a bar on stderr
+    over the files (sim.progress; None: when stderr is a terminal).
 
     Atomic per file set: everything is written into a temporary folder beside the outputs and
     moved in only when all of it succeeded, report.json last. ``deterministic``: report.json's
@@ -309,5 +333,7 @@ def write_run_outputs(
         gates=gates,
         started=started,
         trace_file=result.trace_file,
+        trace_npz=trace,
+        progress=wanted(progress),
     )
     return replace(result, run_report=report)

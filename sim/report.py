@@ -30,6 +30,7 @@ from gantry_sim.controller.config import Limits, MachineConfig
 from gantry_sim.controller.servo import AxisPlant
 from gantry_sim.sim.contour import Analysis, BlockError, ContourStats, ErrorParts
 from gantry_sim.sim.gates import Gates, Verdict
+from gantry_sim.sim.progress import stage
 from gantry_sim.sim.trace import Trace
 
 if TYPE_CHECKING:
@@ -43,6 +44,12 @@ if TYPE_CHECKING:
 OUTPUT_FILES = ("report.json", "timing.json", "trace.npz", "path.png", "error.png")
 #: the plots among them (not written with ``plots=False``)
 PLOT_FILES = ("path.png", "error.png")
+
+
+def written_files(plots: bool = True, trace: bool = True) -> tuple[str, ...]:
+    """The files of OUTPUT_FILES a run writes with these options (report.json "files")."""
+    skip = (() if plots else PLOT_FILES) + (() if trace else ("trace.npz",))
+    return tuple(f for f in OUTPUT_FILES if f not in skip)
 
 
 @dataclass(frozen=True)
@@ -103,6 +110,8 @@ class RunReport:
             the line x servo period).
         verdict: the gates' verdict (passed, no gates, until :func:`gantry_sim.sim.gates`'s
             evaluation is applied).
+        files: the files written into the output folder (empty until :func:`write_outputs`);
+            trace.npz is missing when the run was asked not to write it (``--no-trace``).
     """
 
     program: str
@@ -121,6 +130,7 @@ class RunReport:
     timing_s: dict[str, float]
     block_time_s: Mapping[int, float] = field(default_factory=dict)
     verdict: Verdict = field(default_factory=Verdict)
+    files: tuple[str, ...] = ()
 
     def block(self, line: int) -> BlockError | None:
         """The block executing program line ``line``, or None when it is no feed block."""
@@ -150,6 +160,7 @@ class RunReport:
             "sim": self.sim.to_json(deterministic),
             "timing_s": {k: None if deterministic else v for k, v in self.timing_s.items()},
             "verdict": self.verdict.to_json(),
+            "files": list(self.files),
         }
 
     def timing_json(self) -> dict[str, Any]:
@@ -298,6 +309,8 @@ def write_outputs(
     gates: Gates | None = None,
     started: float | None = None,
     trace_file: Path | None = None,
+    trace_npz: bool = True,
+    progress: bool = False,
 ) -> RunReport:
     """Write the run's files into a temporary folder, then move them in, report.json last.
 
@@ -306,19 +319,28 @@ def write_outputs(
         trace_file: a trace.npz already written (a streamed run's full-rate trace, while
             ``trace`` is its decimated one), copied in as trace.npz.
         plots: draw path.png and error.png.
+        trace_npz: write trace.npz (False: ``--no-trace``; the plots still use ``trace``).
+        progress: a bar on stderr over the files (sim.progress).
         deterministic: wall-clock fields null in report.json (timing.json has them).
         gates: drawn on error.png.
         started: ``time.perf_counter()`` when the run started (the command's start); "total"
             counts from there to the outputs written. None: the stages' sum.
 
     Returns:
-        ``report`` with timing_s "write" (trace, plots, files) and "total" filled in.
+        ``report`` with timing_s "write" (trace, plots, files) and "total" filled in, and
+        ``files``.
     """
     from gantry_sim.sim.outdir import atomic_output_dir
 
     t0 = time.perf_counter()
-    with atomic_output_dir(out_dir, last="report.json") as tmp:
-        if trace_file is not None:
+    files = written_files(plots, trace_npz)
+    with (
+        atomic_output_dir(out_dir, last="report.json") as tmp,
+        stage("write", len(files), "file", progress) as advance,
+    ):
+        if not trace_npz:
+            pass
+        elif trace_file is not None:
             import shutil
 
             shutil.copyfile(trace_file, tmp / "trace.npz")
@@ -332,19 +354,23 @@ def write_outputs(
                 err_um=trace.err_um,
                 force_N=trace.force_N,
             )
+        advance(int(trace_npz))
         if plots:
             from gantry_sim.sim.error_plot import save_error_plot
             from gantry_sim.sim.path_plot import save_path_plot
 
             save_path_plot(tmp / "path.png", moves, trace, report.program, report.contour_error_um)
+            advance(1)
             save_error_plot(tmp / "error.png", trace, report.contour_error_um, gates, moves)
+            advance(1)
         t1 = time.perf_counter()
         timing = {k: v for k, v in report.timing_s.items() if k not in ("write", "total")}
         timing["write"] = t1 - t0
         stages = sum(timing.values())
         timing["total"] = (t1 - started) if started is not None else stages
-        report = replace(report, timing_s=timing)
+        report = replace(report, timing_s=timing, files=files)
         text = json.dumps(report.to_json(deterministic), indent=2) + "\n"
         (tmp / "timing.json").write_text(json.dumps(report.timing_json(), indent=2) + "\n")
         (tmp / "report.json").write_text(text)
+        advance(2)
     return report

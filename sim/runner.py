@@ -13,7 +13,6 @@ Both step the same loop through the same ranges, so their numbers are the same b
 
 from __future__ import annotations
 
-import sys
 import time
 from collections.abc import Iterable, Iterator
 from dataclasses import dataclass
@@ -25,13 +24,12 @@ from gantry_sim.controller.config import MachineConfig
 from gantry_sim.controller.errors import SimulationError
 from gantry_sim.controller.trajectory import Trajectory
 from gantry_sim.sim.machine import AXES, Gantry
+from gantry_sim.sim.progress import stage, wanted
 from gantry_sim.sim.servo_loop import ServoLoop
 
 #: servo ticks between divergence checks (and tool-site passes, progress-bar updates): large
 #: enough that the per-range numpy work is a small part of the tick's cost
 CHUNK = 8192
-#: show a progress bar (when asked or on a TTY) only for runs longer than this [s simulated]
-PROGRESS_MIN_S = 5.0
 
 
 @dataclass(frozen=True)
@@ -49,14 +47,6 @@ class SimTrace:
     force: np.ndarray
     steps: int
     wall_s: float
-
-
-def want_progress(progress: bool | None, duration_s: float) -> bool:
-    """Whether to draw a progress bar: asked for (``progress``), or by default (None) when
-    stderr is a terminal; never for runs shorter than PROGRESS_MIN_S [s simulated]."""
-    if duration_s < PROGRESS_MIN_S:
-        return False
-    return bool(progress) if progress is not None else sys.stderr.isatty()
 
 
 def simulate_pieces(
@@ -110,25 +100,18 @@ def simulate(
     *,
     progress: bool | None = None,
 ) -> SimTrace:
-    """Run the servo against MuJoCo along ``traj`` and trace the tool tip.
+    """Run the servo against MuJoCo along ``traj`` and trace the tool tip; ``progress``: a
+    bar on stderr (sim.progress; None: when stderr is a terminal).
 
     The machine starts at rest at the trajectory's first sample. Raises SimulationError (with
     the program line being executed) when the run diverges.
     """
     n = traj.t.size
-    bar = None
-    if want_progress(progress, traj.duration_s):
-        from tqdm import tqdm
-
-        bar = tqdm(total=n, unit="tick", desc="simulate", file=sys.stderr, leave=False)
     start = time.perf_counter()
-    try:
+    with stage("simulate", n, "tick", wanted(progress)) as advance:
         start_mm = traj.pos[0] if n else np.zeros(3)
         pieces = (traj.slice(lo, min(n, lo + CHUNK)) for lo in range(0, n, CHUNK))
-        out = list(simulate_pieces(gantry, machine, pieces, start_mm, bar.update if bar else None))
-    finally:
-        if bar is not None:
-            bar.close()
+        out = list(simulate_pieces(gantry, machine, pieces, start_mm, advance))
     pos = _join([p for p, _ in out])
     force = _join([f for _, f in out])
     wall = time.perf_counter() - start

@@ -26,6 +26,7 @@ import numpy as np
 from gantry_sim.controller.config import MachineConfig
 from gantry_sim.controller.servo import DiscretePD
 from gantry_sim.sim.machine import MM_PER_M, Gantry
+from gantry_sim.sim.pd_ticks import compiled_ticks
 from gantry_sim.sim.stateful_ticks import StatefulTicks
 
 
@@ -36,9 +37,17 @@ class ServoLoop:
         gantry: the loaded model (indices, gear, substeps).
         machine: the machine file (servo law, backlash).
         start_joint_mm: (3,) where the machine rests at t = 0, joint coordinates [mm].
+        pure_python: True runs the Python ticks even when the compiled ones are built (None:
+            the environment's GANTRY_PURE_PYTHON decides; sim/pd_ticks.py).
     """
 
-    def __init__(self, gantry: Gantry, machine: MachineConfig, start_joint_mm: np.ndarray) -> None:
+    def __init__(
+        self,
+        gantry: Gantry,
+        machine: MachineConfig,
+        start_joint_mm: np.ndarray,
+        pure_python: bool | None = None,
+    ) -> None:
         import mujoco
 
         self.gantry = gantry
@@ -54,6 +63,12 @@ class ServoLoop:
         self.stateful: StatefulTicks | None = None
         if self.servo.has_integral or any(machine.sim.backlash_mm):
             self.stateful = StatefulTicks(gantry, self.servo, machine.sim.backlash_mm, self.data)
+        #: the compiled PD ticks (sim/pd_ticks.py), or None: the Python ticks below
+        self.compiled = (
+            None
+            if self.stateful is not None
+            else compiled_ticks(gantry, self.servo, self.data, MM_PER_M, pure_python)
+        )
         #: ticks run so far
         self.ticks = 0
 
@@ -73,6 +88,14 @@ class ServoLoop:
         b_arr = self.servo.drive_terms(
             np.vstack([head, ref]), np.vstack([vel[:1], vel]), np.vstack([acc[:1], acc])
         )[1:]
+        if self.compiled is not None:
+            qpos, force = np.empty((n, nq)), np.empty((n, 3))
+            enc = self.enc_prev.copy()
+            self.compiled(b_arr, enc, qpos, force)
+            self.enc_prev = enc
+            self.ref_prev = ref[-1].copy()
+            self.ticks += n
+            return qpos, force
         flat: list[float] = []  # qpos row after row (cheapest to extend and to convert)
         if self.stateful is not None:
             force = self.stateful.run(b_arr.tolist(), ref.tolist(), flat.extend)

@@ -98,6 +98,8 @@ def test_run_program_streams_long_runs_with_the_same_outputs(machine, monkeypatc
     assert set(b["timing_s"]) - set(a["timing_s"]) == {"trace"}
     a.pop("timing_s")
     b.pop("timing_s")
+    assert a.pop("files") == ["report.json", "timing.json", "trace.npz"]  # plots=False
+    assert b.pop("files") == ["report.json", "timing.json", "trace.npz", "path.png", "error.png"]
     assert a == b
     with (
         np.load(tmp_path / "whole" / "trace.npz") as x,
@@ -107,3 +109,49 @@ def test_run_program_streams_long_runs_with_the_same_outputs(machine, monkeypatc
         for name in x.files:
             assert x[name].dtype == y[name].dtype and np.array_equal(x[name], y[name]), name
     assert (tmp_path / "streamed" / "path.png").stat().st_size > 0
+
+
+def _cli_run(tmp_path, name, flags, capsys):
+    """`gantry run` of PROGRAM into tmp_path/name -> (report.json, sorted file names, stdout)."""
+    import json
+
+    from gantry_sim.sim.cli import main
+
+    program = tmp_path / "p.ngc"
+    program.write_text(PROGRAM)
+    out = tmp_path / name
+    assert main(["run", str(program), "--out", str(out), "--deterministic", *flags]) == 0
+    said = capsys.readouterr().out
+    return (
+        json.loads((out / "report.json").read_text()),
+        sorted(p.name for p in out.iterdir()),
+        said,
+    )
+
+
+@pytest.mark.parametrize("streamed", [False, True])
+def test_no_trace_writes_everything_but_trace_npz(streamed, monkeypatch, tmp_path, capsys):
+    """--no-trace: no trace.npz (and no staging trace in a streamed run); report.json lists
+    the files written in "files" and is otherwise the traced run's; the plots are drawn."""
+    from gantry_sim.sim import api, blend_parts, stream, trace_writer
+
+    if streamed:
+        monkeypatch.setattr(api, "STREAM_ABOVE_TICKS", 0)
+        monkeypatch.setattr(stream, "STREAM_TICKS", 256)
+        monkeypatch.setattr(blend_parts, "RANGE_TICKS", 256)
+    traced, names, _ = _cli_run(tmp_path, "traced", [], capsys)
+    assert names == ["error.png", "path.png", "report.json", "timing.json", "trace.npz"]
+    assert traced["files"] == ["report.json", "timing.json", "trace.npz", "path.png", "error.png"]
+
+    def no_staging(*args):
+        raise AssertionError("a --no-trace run staged a trace")
+
+    monkeypatch.setattr(trace_writer.TraceWriter, "__init__", no_staging)
+    bare, names, said = _cli_run(tmp_path, "bare", ["--no-trace"], capsys)
+    assert names == ["error.png", "path.png", "report.json", "timing.json"]
+    assert bare["files"] == ["report.json", "timing.json", "path.png", "error.png"]
+    assert "path.png, error.png (no trace.npz: --no-trace)" in said
+    assert "trace.npz," not in said
+    traced.pop("files")
+    bare.pop("files")
+    assert traced == bare

@@ -1,5 +1,8 @@
 """``gantry run``: plan, simulate in MuJoCo, analyse; write report.json, trace.npz and plots.
 
+``--no-trace`` leaves trace.npz out (report.json "files" and the summary say so).
+``--progress`` / ``--no-progress``: per-stage bars on stderr (default: when it is a terminal).
+
 Exit status: 0 done; 1 a gate failed (``--max-error-um``, ``--max-error-um-lines``,
 ``--max-cycle-time-s``, ``--baseline``; the outputs are still written, with the verdict in
 report.json); 2 invalid program, machine file or option, or a diverged simulation (no report is
@@ -88,6 +91,19 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         "--no-plots", action="store_true", help="skip path.png and error.png (faster)"
     )
     parser.add_argument(
+        "--no-trace",
+        action="store_true",
+        help="do not write trace.npz (a streamed run's would be gigabytes); report.json, the "
+        "per-block table and the plots are complete, and report.json 'files' says so",
+    )
+    parser.add_argument(
+        "--progress",
+        action=argparse.BooleanOptionalAction,
+        default=None,
+        help="bars with ETA on stderr for the stages of a long run (parse, plan, simulate, "
+        "analyse, write); default: only when stderr is a terminal",
+    )
+    parser.add_argument(
         "--deterministic",
         action="store_true",
         help="write the wall-clock fields of report.json (timing_s.*, sim.realtime_factor) as "
@@ -117,7 +133,8 @@ def _summary(report: dict, timing: dict, out_dir: Path, files: list[str]) -> str
         f"{timing['realtime_factor']:.0f}x real time; total {timing['timing_s']['total']:.2f} s "
         "(reading, simulating, analysing, plotting and writing)"
     )
-    lines.append(f"wrote {out_dir}/: {', '.join(files)}")
+    skipped = "" if "trace.npz" in files else " (no trace.npz: --no-trace)"
+    lines.append(f"wrote {out_dir}/: {', '.join(files)}{skipped}")
     return "\n".join(lines)
 
 
@@ -128,7 +145,7 @@ def run(args: argparse.Namespace) -> int:
     from gantry_sim.sim.compare import Margins, compare, format_table, load_report
     from gantry_sim.sim.gates import gates_from_options, verdict_for
     from gantry_sim.sim.outdir import prepare_output_dir
-    from gantry_sim.sim.report import OUTPUT_FILES, PLOT_FILES
+    from gantry_sim.sim.report import OUTPUT_FILES
 
     gates = gates_from_options(args.max_error_um, args.max_error_um_lines, args.max_cycle_time_s)
     if not (0 < args.feed_override < float("inf")):
@@ -148,10 +165,11 @@ def run(args: argparse.Namespace) -> int:
         dialect=args.dialect,
         machine=machine,
         feed_override_pct=args.feed_override,
-        progress=sys.stderr.isatty(),
+        progress=args.progress,
         budget=budget,
         search_path=search_path(args),
         max_iterations=max_iterations(args),
+        keep_trace=not args.no_trace,
     )
     comparison = None
     if baseline is not None:
@@ -170,9 +188,11 @@ def run(args: argparse.Namespace) -> int:
         deterministic=args.deterministic,
         gates=gates,
         started=started,
+        trace=not args.no_trace,
+        progress=args.progress,
     )
     report = result.run_report
-    files = [f for f in OUTPUT_FILES if not (args.no_plots and f in PLOT_FILES)]
+    files = list(report.files)
     if args.json:
         sys.stdout.write(json.dumps(report.to_json(args.deterministic)) + "\n")
     else:
