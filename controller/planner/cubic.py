@@ -43,26 +43,24 @@ def phases_from_chunks(chunks: list[tuple[tuple[np.ndarray, ...], ...]]) -> Piec
     about 1 GB)."""
     ends = [np.cumsum([c[i][0].size for c in chunks]).tolist() for i in range(3)]
     totals = [e[-1] if e else 0 for e in ends]
-    cols = [np.empty((5, n)) for n in totals]
+    cols = [[np.empty(n) for _ in range(5)] for n in totals]  # per axis: dur, p, v, a, j
     while chunks:
         chunk = chunks.pop()
         for i in range(3):
             stop = ends[i].pop()
             start = ends[i][-1] if ends[i] else 0
             for k in range(5):
-                cols[i][k, start:stop] = chunk[i][k]
+                cols[i][k][start:stop] = chunk[i][k]
     axes = []
     for i in range(3):
-        col, n = cols[i], totals[i]
-        t0 = np.zeros(n)
-        if n > 1:
-            np.cumsum(col[0, :-1], out=t0[1:])
-        arrs = [t0, *(col[k].copy() for k in range(1, 5))]
-        del col
-        cols[i] = np.zeros((5, 0))  # this axis' block is freed before the next is copied
-        for arr in arrs:
+        t0 = cols[i][0]  # the durations become the phases' start times, in place
+        if t0.size:
+            np.cumsum(t0, out=t0)
+            t0[1:] = t0[:-1].copy()
+            t0[0] = 0.0
+        for arr in cols[i]:
             arr.setflags(write=False)
-        axes.append(tuple(arrs))
+        axes.append(tuple(cols[i]))
     return PiecewiseCubic(tuple(axes))
 
 
