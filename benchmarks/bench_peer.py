@@ -37,11 +37,12 @@ def main() -> None:
     ap.add_argument("--only", nargs="*", default=[], help="program names (default: all)")
     args = ap.parse_args()
     peer = json.loads(PEER.read_text())
-    print(f"LinuxCNC: {peer['version']} ({peer['package']}), recorded {peer['date']}; ")
+    print(f"LinuxCNC: {peer['version']} ({peer['package']}), recorded {peer['date']}:")
     print(f"  {peer['how_measured']}; resolution {peer['resolution_s'] * 1000:g} ms")
-    print(
-        f"{'program':12s} {'mode':14s} {'ours [s]':>9s} {'LinuxCNC [s]':>12s} {'ratio':>7s}  plan"
-    )
+    jmax = MACHINE.limits.max_jerk_mm_per_s3
+    head = f"{'program':12s} {'mode':14s} {'ours [s]':>9s} {'LinuxCNC [s]':>12s} {'ratio':>7s}"
+    print(f"{head}  {'LC jerk/jmax':>12s}  plan")
+    g64: dict[str, float] = {}
     for name in programs():
         if args.only and name not in args.only:
             continue
@@ -56,9 +57,19 @@ def main() -> None:
                 theirs, note = "      -", "no LinuxCNC record"
             else:
                 stale = rec["sha256"] != hashlib.sha256(text.encode()).hexdigest()
-                theirs = f"{rec['cycle_s']:12.3f} {ours / rec['cycle_s']:7.3f}"
+                jerk = max(j / m for j, m in zip(rec["max_axis_jerk_mm_per_s3"], jmax, strict=True))
+                theirs = f"{rec['cycle_s']:12.3f} {ours / rec['cycle_s']:7.3f}  {jerk:12.1f}"
                 note = "STALE: the file changed since it was recorded" if stale else ""
+                if tag == "g64":
+                    g64[name] = ours / rec["cycle_s"]
             print(f"{name:12s} {MODES[tag]:14s} {ours:9.3f} {theirs}  {t_plan:5.1f} s {note}")
+    if g64:
+        over = sorted(n for n, r in g64.items() if r > 1.0)
+        print(
+            f"G64 P0.01: ours / LinuxCNC at most {max(g64.values()):.3f} (aim <= 1.00); "
+            f"above 1.00: {', '.join(over) or 'none'}. LC jerk/jmax: LinuxCNC's largest axis "
+            "jerk (third differences of its 1 ms positions) over our jerk limit."
+        )
 
 
 if __name__ == "__main__":

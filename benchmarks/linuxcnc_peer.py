@@ -15,7 +15,9 @@ How the cycle time is measured: a HAL ``sampler`` in the servo thread records mo
 period; halsampler writes every sample, numbered, so a lost one would show. The cycle time is
 the number of servo periods from the first period with a non-zero planned speed to the last one,
 inclusive, times the 1 ms period: the planner's own clock, not the wall clock, from motion's
-start to idle. Resolution: 1 ms. ``cycle_pos_s`` counts the periods in which the commanded
+start to idle. Resolution: 1 ms. ``stopped_periods`` counts the periods at zero planned speed
+in between (exact stops). The per-axis maxima of velocity, acceleration and jerk are differences
+of the commanded positions (after motion's joint interpolator), to show which limits bound. ``cycle_pos_s`` counts the periods in which the commanded
 positions change instead (it includes the joint interpolator's few-period smoothing at the
 ends). ``wall_s`` is the wall-clock time from the run command to idle as stat polling saw it
 (it adds the interpreter's start-up and LinuxCNC's task latency).
@@ -72,10 +74,20 @@ def cycle_times(samples: np.ndarray) -> dict[str, float | int]:
     changed = np.nonzero(np.any(np.diff(samples[:, 1:4], axis=0) != 0.0, axis=1))[0]
     if len(moving) == 0:
         raise RuntimeError("no motion was sampled")
+    inside = samples[moving[0] : moving[-1] + 1, 4]
+    pos = samples[:, 1:4]
+    vel = np.diff(pos, axis=0) / PERIOD_S
+    acc = np.diff(vel, axis=0) / PERIOD_S
+    jerk = np.diff(acc, axis=0) / PERIOD_S
     return {
         "cycle_s": round((moving[-1] - moving[0] + 1) * PERIOD_S, 6),
         "cycle_pos_s": round((changed[-1] - changed[0] + 1) * PERIOD_S, 6),
+        "stopped_periods": int(np.count_nonzero(inside == 0.0)),
         "max_speed_mm_per_s": round(float(samples[:, 4].max()), 4),
+        # per axis, by differences of the commanded positions (6 decimals: jerk +-1e3 mm/s^3)
+        "max_axis_velocity_mm_per_s": np.abs(vel).max(axis=0).round(3).tolist(),
+        "max_axis_acceleration_mm_per_s2": np.abs(acc).max(axis=0).round(1).tolist(),
+        "max_axis_jerk_mm_per_s3": np.abs(jerk).max(axis=0).round(-3).tolist(),
         "samples": len(samples),
     }
 
@@ -113,8 +125,10 @@ def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument("--only", nargs="*", default=[], help="program names (default: all)")
     ap.add_argument("--timeout", type=float, default=1200.0, help="per run [s]")
+    ap.add_argument("--out", type=Path, default=OUT, help=f"default: {OUT.relative_to(ROOT)}")
     args = ap.parse_args()
-    data = json.loads(OUT.read_text()) if OUT.exists() and args.only else {"programs": {}}
+    out = args.out
+    data = json.loads(out.read_text()) if out.exists() and args.only else {"programs": {}}
     data.update(
         {
             "origin": "LinuxCNC's own trajectory planner (tpmod), run by benchmarks/linuxcnc_peer.py",
@@ -142,8 +156,8 @@ def main() -> None:
         entry = {"file": program.relative_to(ROOT).as_posix(), "sha256": sha, **result}
         data["programs"].setdefault(name, {})[mode] = entry
         print(f"{name:12s} {mode:6s} {result['cycle_s']:9.3f} s  (wall {result['wall_s']:.3f} s)")
-        OUT.parent.mkdir(parents=True, exist_ok=True)
-        OUT.write_text(json.dumps(data, indent=1, sort_keys=True) + "\n")
+        out.parent.mkdir(parents=True, exist_ok=True)
+        out.write_text(json.dumps(data, indent=1, sort_keys=True) + "\n")
 
 
 if __name__ == "__main__":
