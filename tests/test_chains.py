@@ -1,5 +1,8 @@
 """Chains: runs of moves planned as one speed profile (controller/planner/chains.py).
 
+The polygons here run in G64 P0.01 Q0: without Q0, G64 P0.01 also merges moves within 0.01 mm
+of a line first (LinuxCNC's naive-CAM rule), and the 360 segments would become about 70.
+
 A circle written as short blended G1 segments must run about as fast as the same circle as one
 G3 (one profile, not one ramp per segment), keep every limit and the feed, and the profile cut
 at the moves' ends must be the same motion as the whole.
@@ -82,7 +85,7 @@ def _state(prof, t):
 
 def test_a_circle_of_360_blended_segments_runs_nearly_as_fast_as_one_arc(machine):
     circle = plan(parse_program("G21 G17 G90\nG0 X10 Y0\nG3 X10 Y0 I-10 J0 F3000\nM2"), machine)
-    moves = parse_program(_polygon(360, "G64 P0.01"))
+    moves = parse_program(_polygon(360, "G64 P0.01 Q0"))
     p = plan(moves, machine)
     # one profile along the chain: before chains each segment ramped alone (1.147 x)
     assert p.duration_s <= 1.05 * circle.duration_s
@@ -95,7 +98,7 @@ def test_a_circle_of_360_blended_segments_runs_nearly_as_fast_as_one_arc(machine
 
 
 def test_a_chain_passes_its_inner_junctions_accelerating(machine):
-    moves = parse_program(_polygon(360, "G64 P0.01"))
+    moves = parse_program(_polygon(360, "G64 P0.01 Q0"))
     p = plan(moves, machine)
     t = p.move_start_s[3:40]  # junctions inside the chain of segments and blends
     _, vel, acc = p.curve.evaluate(t)

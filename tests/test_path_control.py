@@ -49,6 +49,8 @@ def test_interpreter_carries_g61_g611_and_g64_p_q_in_program_units():
     assert moves[1].path == PathControl("G61.1")
     assert moves[2].path == PathControl("G61")
     assert moves[3].path == PathControl("G64", None, None)
+    # rs274 -g: "G64 P0.01" prints SET_NAIVECAM_TOLERANCE(0.0100): Q defaults to P
+    assert parse_program("G21 G64 P0.01\nG1 X1 F100\nM2")[0].path == PathControl("G64", 0.01, 0.01)
     assert parse_program("G1 X1 F100\nM2")[0].path is None
 
 
@@ -116,7 +118,10 @@ def test_polygon_circle_blends_within_p_faster_than_exact_stops(machine):
 def test_g64_q_merges_straight_moves_within_q(machine):
     zig = "".join(f"G1 X{k} Y{0.001 * (k % 2):.3f}\n" for k in range(1, 11))
     merged = plan(parse_program("G21 G64 P0.01 Q0.002 F3000\n" + zig + "M2"), machine)
-    plain = plan(parse_program("G21 G64 P0.01 F3000\n" + zig + "M2"), machine)
+    plain = plan(parse_program("G21 G64 P0.01 Q0 F3000\n" + zig + "M2"), machine)
+    # rs274: a P without Q is also the naive-CAM tolerance, so G64 P0.01 merges this zigzag too
+    by_p = plan(parse_program("G21 G64 P0.01 F3000\n" + zig + "M2"), machine)
+    assert by_p.move_lines.tolist() == [2] and not by_p.blends
     assert not merged.blends and len(plain.blends) == 9
     assert merged.move_lines.tolist() == [2]
     assert merged.duration_s < plain.duration_s

@@ -591,13 +591,16 @@ class Interpreter:
 
 def path_control(code: int, v: dict[str, float], scale: float) -> PathControl:
     """G61 (610), G61.1 (611) or G64 (640) with its P (tolerance) and Q (naive-CAM) words in
-    program units times ``scale`` [mm per unit]."""
+    program units times ``scale`` [mm per unit]; a P without Q is also the Q, as LinuxCNC 2.9's
+    rs274 does (a G64 with neither leaves both to the machine file)."""
     if code != 640:
         return PathControl("G61" if code == 610 else "G61.1")
     p, q = v.get("P"), v.get("Q")
     for letter, value in (("P", p), ("Q", q)):
         if value is not None and value < 0:
             raise GcodeError(f"G64 {letter} must be >= 0, got {value:g}")
+    if q is None:
+        q = p  # rs274: G64 P without Q sets the naive-CAM tolerance to P (SET_NAIVECAM_TOLERANCE)
     return PathControl("G64", None if p is None else p * scale, None if q is None else q * scale)
 
 
