@@ -9,6 +9,7 @@ cubic per axis: a 60 s program at 1 kHz samples in milliseconds.
 
 from __future__ import annotations
 
+import ctypes
 from dataclasses import dataclass
 
 import numpy as np
@@ -44,7 +45,10 @@ def phases_from_chunks(chunks: list[tuple[tuple[np.ndarray, ...], ...]]) -> Piec
     ends = [np.cumsum([c[i][0].size for c in chunks]).tolist() for i in range(3)]
     totals = [e[-1] if e else 0 for e in ends]
     cols = [[np.empty(n) for _ in range(5)] for n in totals]  # per axis: dur, p, v, a, j
+    step = max(len(chunks) // 16, 1)
     while chunks:
+        if len(chunks) % step == 0:
+            _return_freed_memory()
         chunk = chunks.pop()
         for i in range(3):
             stop = ends[i].pop()
@@ -62,6 +66,15 @@ def phases_from_chunks(chunks: list[tuple[tuple[np.ndarray, ...], ...]]) -> Piec
             arr.setflags(write=False)
         axes.append(tuple(cols[i]))
     return PiecewiseCubic(tuple(axes))
+
+
+def _return_freed_memory() -> None:
+    """Hand the heap pages of freed chunks back to the system (glibc's malloc_trim), so that
+    copying the phases into their final arrays does not hold them twice; elsewhere a no-op."""
+    try:
+        ctypes.CDLL("libc.so.6").malloc_trim(0)
+    except (OSError, AttributeError):
+        pass
 
 
 @dataclass(frozen=True)
