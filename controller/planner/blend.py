@@ -37,6 +37,7 @@ from gantry_sim.controller.planner.corner_blend import (
     in_plane,
     trimmed_arc,
 )
+from gantry_sim.controller.planner.junctions import CHORD_FIT_BLEND
 
 #: Share of the chord tolerance the planner's reference may leave an arc by (the G61 promise);
 #: a blend keeps this much of the tolerance for it.
@@ -54,7 +55,7 @@ ARC_CORNER_MIN_RAD = math.radians(1.0)
 #: A corner with an arc whose estimated blend speed is below this share of the feed is not
 #: searched for a blend (:func:`_worth_blending`; the planner keeps blends passed at half the
 #: neighbouring caps or more, plan.BLEND_MIN_SPEED_SHARE).
-ARC_BLEND_MIN_FEED_SHARE = 0.4
+ARC_BLEND_MIN_FEED_SHARE = 0.5
 #: Longest run of straight moves the naive-CAM merge considers at once (bounds its cost).
 MAX_MERGE_RUN = 256
 EPS_MM = 1e-9
@@ -246,7 +247,7 @@ def _blend_corners(
         budget = c.tolerance_mm - REFERENCE_SHARE * chord_tolerance_mm
         if isinstance(m0, Linear | Arc) and isinstance(m1, Linear | Arc) and budget > 0:
             if isinstance(m0, Arc) or isinstance(m1, Arc):
-                cut = _arc_corner(m0, m1, budget, jerk_mm_per_s3)
+                cut = _arc_corner(m0, m1, budget, jerk_mm_per_s3, chord_tolerance_mm)
                 if cut is not None:
                     cuts[b] = cut
                 continue
@@ -319,7 +320,11 @@ def _blend_corners(
 
 
 def _arc_corner(
-    m0: Linear | Arc, m1: Linear | Arc, budget_mm: float, jerk_mm_per_s3: float
+    m0: Linear | Arc,
+    m1: Linear | Arc,
+    budget_mm: float,
+    jerk_mm_per_s3: float,
+    chord_tolerance_mm: float,
 ) -> CornerCut | None:
     """The blend of a corner with an arc on one side (:mod:`.corner_blend`), or None: not a
     corner (a turn below :data:`ARC_CORNER_MIN_RAD` is a tangent junction, smoothed by the
@@ -336,24 +341,33 @@ def _arc_corner(
         return None
     if not (in_plane(m0, plane) and in_plane(m1, plane)):
         return None
-    if not _worth_blending(m0, m1, phi, budget_mm, jerk_mm_per_s3):
+    if not _worth_blending(m0, m1, phi, budget_mm, jerk_mm_per_s3, chord_tolerance_mm):
         return None
     return corner_blend(m0, m1, GEOMETRY_SHARE * budget_mm, plane)
 
 
 def _worth_blending(
-    m0: Linear | Arc, m1: Linear | Arc, phi: float, budget_mm: float, jerk_mm_per_s3: float
+    m0: Linear | Arc,
+    m1: Linear | Arc,
+    phi: float,
+    budget_mm: float,
+    jerk_mm_per_s3: float,
+    chord_tolerance_mm: float,
 ) -> bool:
     """A quick estimate before the blend's geometry is searched: the line-line blend of the
     same turn (radius R from the budget, at most half of either move) is passed at about
     sqrt((6 e J^2)^(1/3) R) (its curvature jump, smoothed within e = the budget's share left
-    for it; see junctions.junction_cap); below :data:`ARC_BLEND_MIN_FEED_SHARE` of the feed the
+    for it, and within the blend's first chord; see junctions.junction_cap); below :data:`ARC_BLEND_MIN_FEED_SHARE` of the feed the
     planner would make it an exact stop anyway (plan._slow_blends), so it is not searched."""
     half = 0.5 * phi
     reach = GEOMETRY_SHARE * budget_mm / (1.0 / math.cos(half) - 1.0) * math.tan(half)
     radius = min(reach, 0.5 * m0.length_mm, 0.5 * m1.length_mm) / math.tan(half)
     e = (1.0 - GEOMETRY_SHARE) * budget_mm
-    speed = math.sqrt((6.0 * e * jerk_mm_per_s3**2) ** (1.0 / 3.0) * radius)
+    chord = 2.0 * math.sqrt(2.0 * radius * chord_tolerance_mm)  # the blend's first chord
+    speed = min(
+        math.sqrt((6.0 * e * jerk_mm_per_s3**2) ** (1.0 / 3.0) * radius),
+        (jerk_mm_per_s3 * chord * radius / CHORD_FIT_BLEND) ** (1.0 / 3.0),
+    )
     feed = min(m0.feed_mm_per_min, m1.feed_mm_per_min) / 60.0
     return speed >= ARC_BLEND_MIN_FEED_SHARE * feed
 
