@@ -165,16 +165,11 @@ def _prepare(
     have equal geometry), filled here, so planning again after :func:`_slow_blends` only
     computes the moves that changed."""
     lim, seg = machine.limits, machine.segmentation
-    blends = set(path.blend_junction)
     geoms = []
-    for k, m in enumerate(path.moves):
+    for m in path.moves:
         g = known.get(m)
         if g is None:
-            own = seg
-            if k in blends and path.smoothing_mm[k] > seg.chord_tolerance_mm:
-                # a blend arc is a tolerance feature: chords within its own smoothing budget
-                own = replace(seg, chord_tolerance_mm=path.smoothing_mm[k])
-            g = known[m] = move_geometry(m, lim, own, feed_override_pct / 100.0)
+            g = known[m] = move_geometry(m, lim, seg, feed_override_pct / 100.0)
         geoms.append(g if g.move is m else replace(g, move=m))
     keep = [g.length_mm > 1e-9 for g in geoms]
     active = [g for g, k in zip(geoms, keep, strict=True) if k]
