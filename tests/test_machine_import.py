@@ -73,7 +73,8 @@ def test_grbl_defaults_map_rates_acceleration_travel_and_arc_tolerance():
     assert v["travel"] == {"min_mm": [-100.0, -100.0, -75.0], "max_mm": [100.0, 100.0, 75.0]}
     assert v["segmentation"] == {"method": "chord", "chord_tolerance_mm": 0.002}
     assert "servo" not in v
-    assert any(n.startswith("$11=0.01 (junction deviation") for n in imp.not_mapped)
+    assert v["path"] == {"mode": "G64", "tolerance_mm": 0.01}  # $11 junction deviation
+    assert not any(n.startswith("$11") for n in imp.not_mapped)
     assert any(n.startswith("$13=0") for n in imp.not_mapped)
     assert any("jerk" in a for a in imp.assumed)
 
@@ -98,11 +99,17 @@ def test_cli_writes_a_machine_file_that_loads_and_lists_what_did_not_map(
     assert machine.limits.max_velocity_mm_per_s == tuple(written["limits"]["max_velocity_mm_per_s"])
 
 
+def test_grbl_junction_deviation_zero_is_exact_stop_at_corners(tmp_path):
+    dump = tmp_path / "grbl.txt"
+    dump.write_text("$11=0\n$12=0.002\n")
+    assert import_grbl(dump, TARGET).values["path"] == {"mode": "G61"}
+
+
 def test_cli_prints_the_file_on_stdout_and_the_notes_on_stderr(capsys):
     assert main(["machine", "import", "grbl", str(DATA / "grbl_1.1_generic.txt")]) == 0
     cap = capsys.readouterr()
     assert tomllib.loads(cap.out)["limits"]["max_acceleration_mm_per_s2"] == [10.0] * 3
-    assert "$11=0.01" in cap.err
+    assert "$13=0" in cap.err  # what did not map is listed on stderr
 
 
 def test_stiff_stepper_pid_is_imported_with_an_instability_warning(tmp_path, capsys):
@@ -135,6 +142,7 @@ def test_include_and_continuation_lines(tmp_path):
         ("grbl", "$110=500\n$111 500\n", ":2: error:", "not a grbl setting line"),
         ("grbl", "$110=500\n$120=fast\n", ":2: error:", "expected a number"),
         ("grbl", "$110=500\n$111=0\n$112=5\n", ":2: error:", "must be > 0"),
+        ("grbl", "$110=500\n$11=-0.01\n", ":2: error:", "must be >= 0"),
         ("grbl", "hello\n", ":1: error:", "not a grbl setting line"),
         (
             "linuxcnc",

@@ -8,15 +8,18 @@ grbl 1.1 prints one ``$N=VALUE`` line per setting (grbl 0.9 adds a ``(descriptio
   * $130-$132 max travel [mm] -> [travel] as -L/2..L/2 about the model's joint-range middle
     (grbl's machine space after homing is -L..0; a program's work offsets are not in ``$$``);
   * $12 arc tolerance [mm] -> [segmentation] method "chord", chord_tolerance_mm (grbl's own rule:
-    chords whose sagitta stays within the tolerance).
+    chords whose sagitta stays within the tolerance);
+  * $11 junction deviation [mm] -> [path] mode "G64", tolerance_mm: grbl's junction deviation
+    is the distance from the corner to the circle its cornering speed is sized on, the same
+    distance a G64 P blend keeps (controller/planner/blend.py); 0 (grbl stops at every
+    corner) -> mode "G61".
 
 With the ``$#`` report in the same file (``[G54:x,y,z]`` ... ``[G28:...]``, ``[G30:...]``,
 ``[G92:...]``, mm), the stored offsets go to ``[work]`` (``g54_mm`` .. ``g59_mm``, ``g28_mm``,
 ``g30_mm``, ``g92_mm``; zero vectors are not written); ``[TLO:...]`` (G43.1's offset, not kept by
 grbl over a reset) and ``[PRB:...]`` are not mapped.
 
-Not mapped, and said so: $11 junction deviation (grbl's cornering-speed rule; gantry-sim's
-planner sizes corners with jerk-limited junction pieces), $13 report inches (display only), step
+Not mapped, and said so: $13 report inches (display only), step
 and pin settings ($0-$6, $100-$102), status, limits, homing and spindle settings. grbl drives
 steppers open loop and plans with infinite jerk: the bundled servo and jerk limits are kept.
 """
@@ -35,8 +38,6 @@ _NOT_MAPPED = {
     0: "step pulse time", 1: "step idle delay", 2: "step port invert", 3: "direction invert",
     4: "step enable invert", 5: "limit pins invert", 6: "probe pin invert",
     10: "status report mask",
-    11: "junction deviation: grbl's cornering-speed rule; gantry-sim's planner sizes corners "
-    "with jerk-limited junction pieces",
     13: "report inches: display only (gantry-sim reports mm)",
     20: "soft limits: gantry-sim always refuses programs that leave [travel]",
     21: "hard limits", 22: "homing cycle", 23: "homing direction", 24: "homing feed",
@@ -44,7 +45,7 @@ _NOT_MAPPED = {
     30: "max spindle speed", 31: "min spindle speed", 32: "laser mode",
     100: "X steps/mm", 101: "Y steps/mm", 102: "Z steps/mm",
 }  # fmt: skip
-_MAPPED = {110, 111, 112, 120, 121, 122, 130, 131, 132, 12}
+_MAPPED = {110, 111, 112, 120, 121, 122, 130, 131, 132, 12, 11}
 _OFFSET_LINE = re.compile(r"^\[(G5[4-9]|G28|G30|G92):([^\]]*)\]$")
 
 
@@ -144,6 +145,18 @@ def import_grbl(path: Path, target: Target) -> Imported:
             assumed.append(f"{name} incomplete: not written (bundled kept)")
     if (tol := _positive(settings, 12, src)) is not None:
         values["segmentation"] = {"method": "chord", "chord_tolerance_mm": tol}
+    if 11 in settings:
+        deviation, line = settings[11]
+        if deviation < 0:
+            raise ConfigError(f"$11 = {deviation:g}: must be >= 0", file=src, line=line)
+        values["path"] = (
+            {"mode": "G64", "tolerance_mm": deviation} if deviation > 0 else {"mode": "G61"}
+        )
+        assumed.append(
+            "$11 junction deviation -> [path] G64 tolerance (the corner-to-circle distance a "
+            "blend keeps; grbl sizes a corner's speed on that circle, gantry-sim blends it "
+            "with a jerk-limited arc)"
+        )
     assumed.append(
         "grbl drives steppers open loop: [servo] keeps the bundled gains; grbl plans with "
         "infinite jerk: [limits] max_jerk_mm_per_s3 keeps the bundled values"
