@@ -40,8 +40,8 @@ __all__ = ["JUNCTION_BACKOFF", "MAX_ROUNDS", "Round", "replan_until_junctions_ho
 
 #: Re-planning rounds (each lowers the offending junction caps by JUNCTION_BACKOFF); the last
 #: round stops at the junctions still offending.
-MAX_ROUNDS = 8
-JUNCTION_BACKOFF = 0.6
+MAX_ROUNDS = 16
+JUNCTION_BACKOFF = 0.9
 
 #: Per axis, the phases (duration [s], position [mm], velocity [mm/s], acceleration [mm/s^2],
 #: jerk [mm/s^3]) of a stretch of the reference, as arrays of equal length.
