@@ -121,8 +121,9 @@ def plan(
         prepared = _prepare(path, machine, feed_override_pct, known)
     geoms, active, caps, states, holds, smoothing = prepared
     solver = RuckigSolver(machine.limits)
+    blend_arcs = frozenset(id(path.moves[k]) for k in path.blend_junction)
     done = replan_until_junctions_hold(
-        active, caps, states, machine, solver, arc_pieces, holds, smoothing
+        active, caps, states, machine, solver, arc_pieces, holds, smoothing, blend_arcs
     )
     end = np.array(program[-1].end if program else (0.0, 0.0, 0.0), dtype=float)
     move_start = np.asarray(done.move_start_s, dtype=float)

@@ -91,6 +91,7 @@ class _Setup:
     arc_pieces: str
     smoothing: list[float]
     boost_cache: dict
+    blend_arcs: frozenset[int]
 
 
 def replan_until_junctions_hold(
@@ -102,12 +103,15 @@ def replan_until_junctions_hold(
     arc_pieces: str,
     holds: dict[int, list[Dwell]],
     smoothing: list[float],
+    blend_arcs: frozenset[int] = frozenset(),
 ) -> Round:
     """Plan the moves; while pieces next to moving junctions leave the arc, lower those
     junctions' caps (``caps`` [mm/s] is changed) by :data:`JUNCTION_BACKOFF` and plan again, at
     most :data:`MAX_ROUNDS` times; in the last round the junctions still offending become
-    stops. ``holds``: dwells per junction (exact stops holding the reference for their time)."""
-    setup = _Setup(active, states, machine, solver, arc_pieces, smoothing, {})
+    stops. ``holds``: dwells per junction (exact stops holding the reference for their time).
+    ``blend_arcs``: ids of the G64 blend arcs among the moves (tolerance features: no
+    saturated-ramp search, which costs tenths of a second and can save them microseconds)."""
+    setup = _Setup(active, states, machine, solver, arc_pieces, smoothing, {}, blend_arcs)
     blocks = [g.limits for g in active]
     cache: dict[tuple[int, int, float, float], _Chain] = {}
     for rnd in range(MAX_ROUNDS + 1):
@@ -223,7 +227,16 @@ def _chain_pieces(
             clock += pieces.straight(g, part)
             continue
         fast = (
-            boosted_profile(g, v[k], v[k + 1], part, limits, setup.solver, setup.boost_cache)
+            boosted_profile(
+                g,
+                v[k],
+                v[k + 1],
+                part,
+                limits,
+                setup.solver,
+                setup.boost_cache,
+                saturated=id(g.move) not in setup.blend_arcs,
+            )
             if stop - first == 1
             else ()
         )
