@@ -27,17 +27,15 @@ from dataclasses import dataclass, field, replace
 
 import numpy as np
 
-from gantry_sim.controller.arcs import arc_derivatives
 from gantry_sim.controller.config import PathSettings
 from gantry_sim.controller.moves import Arc, Dwell, Event, Linear, Move, Rapid, Spline, Stop
-from gantry_sim.controller.planes import PLANE_AXES, Plane, Vec3
+from gantry_sim.controller.planes import PLANE_AXES, Plane, Vec3, plane_of
 from gantry_sim.controller.planner.corner_blend import (
+    ArcCorner,
     CornerCut,
-    corner_blend,
-    in_plane,
+    arc_corner,
     trimmed_arc,
 )
-from gantry_sim.controller.planner.junctions import CHORD_FIT_BLEND
 
 #: Share of the chord tolerance the planner's reference may leave an arc by (the G61 promise);
 #: a blend keeps this much of the tolerance for it.
@@ -49,13 +47,6 @@ GEOMETRY_SHARE = 0.8
 #: which the blend would be a near-reversal (an exact stop instead).
 MIN_TURN_RAD = 1e-6
 MAX_TURN_RAD = math.radians(179.0)
-#: A junction involving an arc turning by less than this [rad] is tangent, not a corner: the
-#: planner keeps its speed and smooths the kink (junctions.CORNER_ANGLE_RAD, the same 1 degree).
-ARC_CORNER_MIN_RAD = math.radians(1.0)
-#: A corner with an arc whose estimated blend speed is below this share of the feed is not
-#: searched for a blend (:func:`_worth_blending`; the planner keeps blends passed at half the
-#: neighbouring caps or more, plan.BLEND_MIN_SPEED_SHARE).
-ARC_BLEND_MIN_FEED_SHARE = 0.5
 #: Longest run of straight moves the naive-CAM merge considers at once (bounds its cost).
 MAX_MERGE_RUN = 256
 EPS_MM = 1e-9
@@ -129,7 +120,7 @@ def path_plan(
     junctions in ``skip`` (values of a previous result's ``blend_junction``) are not blended
     (the planner found the exact stop faster there). ``jerk_mm_per_s3``: the machine's lowest
     axis jerk, to skip corners with an arc whose blend would be passed too slowly to pay
-    (:func:`_worth_blending`)."""
+    (:func:`~gantry_sim.controller.planner.corner_blend.arc_corner`)."""
     out = PathPlan()
     for item in items:
         if isinstance(item, Dwell | Stop):
@@ -218,14 +209,6 @@ def _direction(m: Move) -> np.ndarray:
     return d / np.linalg.norm(d)
 
 
-def _plane_of(d0: np.ndarray, d1: np.ndarray) -> Plane | None:
-    """The principal plane holding both directions, if any."""
-    for plane, (_i1, _i2, n) in PLANE_AXES.items():
-        if abs(d0[n]) <= 1e-12 and abs(d1[n]) <= 1e-12:
-            return plane  # type: ignore[return-value]
-    return None
-
-
 def _blend_corners(
     out: PathPlan,
     settings: PathSettings,
@@ -247,7 +230,8 @@ def _blend_corners(
         budget = c.tolerance_mm - REFERENCE_SHARE * chord_tolerance_mm
         if isinstance(m0, Linear | Arc) and isinstance(m1, Linear | Arc) and budget > 0:
             if isinstance(m0, Arc) or isinstance(m1, Arc):
-                cut = _arc_corner(m0, m1, budget, jerk_mm_per_s3, chord_tolerance_mm)
+                corner = ArcCorner(budget, GEOMETRY_SHARE, MAX_TURN_RAD, jerk_mm_per_s3)
+                cut = arc_corner(m0, m1, corner, chord_tolerance_mm)
                 if cut is not None:
                     cuts[b] = cut
                 continue
@@ -255,7 +239,7 @@ def _blend_corners(
             continue
         d0, d1 = _direction(m0), _direction(m1)
         phi = math.acos(float(np.clip(d0 @ d1, -1.0, 1.0)))
-        plane = _plane_of(d0, d1)
+        plane = plane_of(d0, d1)
         if not (MIN_TURN_RAD < phi < MAX_TURN_RAD) or plane is None or budget <= 0:
             continue
         half = 0.5 * phi
@@ -317,67 +301,6 @@ def _blend_corners(
         new_holds[len(new_moves)] = out.holds[n]
     out.moves, out.stop_after, out.holds = new_moves, new_stops, new_holds
     out.smoothing_mm = smoothing
-
-
-def _arc_corner(
-    m0: Linear | Arc,
-    m1: Linear | Arc,
-    budget_mm: float,
-    jerk_mm_per_s3: float,
-    chord_tolerance_mm: float,
-) -> CornerCut | None:
-    """The blend of a corner with an arc on one side (:mod:`.corner_blend`), or None: not a
-    corner (a turn below :data:`ARC_CORNER_MIN_RAD` is a tangent junction, smoothed by the
-    planner), a near-reversal, not in one principal plane, or not worth blending."""
-    t0 = _end_tangent(m0, at_end=True)
-    t1 = _end_tangent(m1, at_end=False)
-    phi = math.acos(float(np.clip(t0 @ t1, -1.0, 1.0)))
-    plane = _plane_of(t0, t1)
-    if isinstance(m0, Arc):
-        plane = m0.plane if plane is None or plane == m0.plane else None
-    if isinstance(m1, Arc) and plane != m1.plane:
-        plane = None
-    if not (ARC_CORNER_MIN_RAD < phi < MAX_TURN_RAD) or plane is None:
-        return None
-    if not (in_plane(m0, plane) and in_plane(m1, plane)):
-        return None
-    if not _worth_blending(m0, m1, phi, budget_mm, jerk_mm_per_s3, chord_tolerance_mm):
-        return None
-    return corner_blend(m0, m1, GEOMETRY_SHARE * budget_mm, plane)
-
-
-def _worth_blending(
-    m0: Linear | Arc,
-    m1: Linear | Arc,
-    phi: float,
-    budget_mm: float,
-    jerk_mm_per_s3: float,
-    chord_tolerance_mm: float,
-) -> bool:
-    """A quick estimate before the blend's geometry is searched: the line-line blend of the
-    same turn (radius R from the budget, at most half of either move) is passed at about
-    sqrt((6 e J^2)^(1/3) R) (its curvature jump, smoothed within e = the budget's share left
-    for it, and within the blend's first chord; see junctions.junction_cap); below :data:`ARC_BLEND_MIN_FEED_SHARE` of the feed the
-    planner would make it an exact stop anyway (plan._slow_blends), so it is not searched."""
-    half = 0.5 * phi
-    reach = GEOMETRY_SHARE * budget_mm / (1.0 / math.cos(half) - 1.0) * math.tan(half)
-    radius = min(reach, 0.5 * m0.length_mm, 0.5 * m1.length_mm) / math.tan(half)
-    e = (1.0 - GEOMETRY_SHARE) * budget_mm
-    chord = 2.0 * math.sqrt(2.0 * radius * chord_tolerance_mm)  # the blend's first chord
-    speed = min(
-        math.sqrt((6.0 * e * jerk_mm_per_s3**2) ** (1.0 / 3.0) * radius),
-        (jerk_mm_per_s3 * chord * radius / CHORD_FIT_BLEND) ** (1.0 / 3.0),
-    )
-    feed = min(m0.feed_mm_per_min, m1.feed_mm_per_min) / 60.0
-    return speed >= ARC_BLEND_MIN_FEED_SHARE * feed
-
-
-def _end_tangent(m: Linear | Arc, at_end: bool) -> np.ndarray:
-    """Unit tangent (direction of motion) at the end or start of ``m``."""
-    if isinstance(m, Linear):
-        return _direction(m)
-    d1, _ = arc_derivatives(m, 1.0 if at_end else 0.0)
-    return d1[0] / np.linalg.norm(d1[0])
 
 
 def _v3(a: np.ndarray) -> Vec3:

@@ -22,7 +22,8 @@ import numpy as np
 
 from gantry_sim.controller.arcs import arc_derivatives, arc_points
 from gantry_sim.controller.moves import Arc, Linear
-from gantry_sim.controller.planes import PLANE_AXES, Plane
+from gantry_sim.controller.planes import PLANE_AXES, Plane, plane_of
+from gantry_sim.controller.planner.junctions import CHORD_FIT_BLEND
 
 #: Bisection steps on the length cut from the first move, and secant steps on the second.
 BISECTION_STEPS = 20
@@ -123,7 +124,9 @@ def _deviation(m0, m1, s0, s1, center, radius, plane) -> float:
 
 
 def _blend(m0, m1, s0, s1_max, plane):
-    """(CornerCut-like tuple) for cut ``s0``: (s1, arc geometry, deviation) or None."""
+    """The blend that leaves ``m0`` ``s0`` mm before the corner, or None: (s1 [mm], its start
+    and end points, centre, radius [mm], sweep [rad], True when counter-clockwise, its largest
+    distance from the cut-away path [mm])."""
     found = _cut(m0, m1, s0, s1_max, plane)
     if found is None:
         return None
@@ -211,3 +214,75 @@ def trimmed_arc(m: Arc, cut_start_mm: float, cut_end_mm: float) -> Arc:
 
 def _v3(a: np.ndarray) -> tuple[float, float, float]:
     return (float(a[0]), float(a[1]), float(a[2]))
+
+
+#: A junction involving an arc turning by less than this [rad] is tangent, not a corner: the
+#: planner keeps its speed and smooths the kink (junctions.CORNER_ANGLE_RAD, the same 1 degree).
+ARC_CORNER_MIN_RAD = math.radians(1.0)
+#: A corner with an arc whose estimated blend speed is below this share of the feed is not
+#: searched for a blend (:func:`_worth_blending`; the planner keeps blends passed at half the
+#: neighbouring caps or more, plan.BLEND_MIN_SPEED_SHARE).
+ARC_BLEND_MIN_FEED_SHARE = 0.5
+
+
+@dataclass(frozen=True)
+class ArcCorner:
+    """How a G64 corner with an arc may be blended: the corner's budget (P less the reference's
+    share) [mm], the share of it the blend's geometry may use, the largest turn blended [rad],
+    and the machine's lowest axis jerk [mm/s^3] (for :func:`_worth_blending`)."""
+
+    budget_mm: float
+    geometry_share: float
+    max_turn_rad: float
+    jerk_mm_per_s3: float
+
+
+def arc_corner(
+    m0: Linear | Arc, m1: Linear | Arc, corner: ArcCorner, chord_tolerance_mm: float
+) -> CornerCut | None:
+    """The blend of a corner with an arc on one side (:func:`corner_blend`), or None: not a
+    corner (a turn below :data:`ARC_CORNER_MIN_RAD` is a tangent junction, smoothed by the
+    planner), a near-reversal, not in one principal plane, or not worth blending."""
+    t0 = _end_tangent(m0, at_end=True)
+    t1 = _end_tangent(m1, at_end=False)
+    phi = math.acos(float(np.clip(t0 @ t1, -1.0, 1.0)))
+    plane = plane_of(t0, t1)
+    if isinstance(m0, Arc):
+        plane = m0.plane if plane is None or plane == m0.plane else None
+    if isinstance(m1, Arc) and plane != m1.plane:
+        plane = None
+    if not (ARC_CORNER_MIN_RAD < phi < corner.max_turn_rad) or plane is None:
+        return None
+    if not (in_plane(m0, plane) and in_plane(m1, plane)):
+        return None
+    if not _worth_blending(m0, m1, phi, corner, chord_tolerance_mm):
+        return None
+    return corner_blend(m0, m1, corner.geometry_share * corner.budget_mm, plane)
+
+
+def _worth_blending(
+    m0: Linear | Arc, m1: Linear | Arc, phi: float, corner: ArcCorner, chord_tolerance_mm: float
+) -> bool:
+    """A quick estimate before the blend's geometry is searched: the line-line blend of the
+    same turn (radius R from the budget, at most half of either move) is passed at about
+    sqrt((6 e J^2)^(1/3) R) (its curvature jump, smoothed within e = the budget's share left
+    for it, and within the blend's first chord; see junctions.junction_cap); below
+    :data:`ARC_BLEND_MIN_FEED_SHARE` of the feed the planner would make it an exact stop
+    anyway (plan._slow_blends), so it is not searched."""
+    half = 0.5 * phi
+    share, budget, jerk = corner.geometry_share, corner.budget_mm, corner.jerk_mm_per_s3
+    reach = share * budget / (1.0 / math.cos(half) - 1.0) * math.tan(half)
+    radius = min(reach, 0.5 * m0.length_mm, 0.5 * m1.length_mm) / math.tan(half)
+    e = (1.0 - share) * budget
+    chord = 2.0 * math.sqrt(2.0 * radius * chord_tolerance_mm)  # the blend's first chord
+    speed = min(
+        math.sqrt((6.0 * e * jerk**2) ** (1.0 / 3.0) * radius),
+        (jerk * chord * radius / CHORD_FIT_BLEND) ** (1.0 / 3.0),
+    )
+    feed = min(m0.feed_mm_per_min, m1.feed_mm_per_min) / 60.0
+    return speed >= ARC_BLEND_MIN_FEED_SHARE * feed
+
+
+def _end_tangent(m: Linear | Arc, at_end: bool) -> np.ndarray:
+    """Unit tangent (direction of motion) at the end or start of ``m``."""
+    return _at(m, 0.0, from_end=at_end)[1]
