@@ -34,6 +34,8 @@ COMMANDS: dict[str, str] = {
 }
 #: exit statuses (README, "Exit status")
 EXIT_OK, EXIT_GATE, EXIT_INPUT, EXIT_INTERNAL = 0, 1, 2, 3
+#: MuJoCo's choice of OpenGL backend; "disable" skips it (gantry renders nothing)
+MUJOCO_GL_ENV = "MUJOCO_GL"
 #: environment variable that shows the traceback of an internal error (like --debug)
 DEBUG_ENV = "GANTRY_DEBUG"
 DEBUG_HELP = f"show the traceback of an internal error (also: {DEBUG_ENV}=1)"
@@ -135,6 +137,12 @@ def main(argv: Sequence[str] | None = None) -> int:
     """Run ``gantry`` with ``argv`` (default: sys.argv[1:]) and return the exit status."""
     if sys.stderr is None:  # started with stderr closed: messages go nowhere, but no crash
         sys.stderr = open(os.devnull, "w")  # lives as long as the process
+    # gantry never renders with OpenGL: without this, `import mujoco` imports pyGLFW, which
+    # starts `python -c` children to probe the GLFW library (0.1 s per import); a sweep worker
+    # stopped mid-import orphaned one, whose BrokenPipeError traceback then reached the user's
+    # stderr after "gantry: terminated". Set before any subcommand (or sweep worker, which
+    # inherits the environment) imports mujoco; a value the user set is kept.
+    os.environ.setdefault(MUJOCO_GL_ENV, "disable")
     args = build_parser().parse_args(argv)
     debug = bool(args.debug) or os.environ.get(DEBUG_ENV, "") not in ("", "0")
     if sys.stdout is None:

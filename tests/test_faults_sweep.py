@@ -154,3 +154,17 @@ def test_malformed_or_unreachable_scheduler_is_a_quick_clean_error(tmp_path, cap
     err = capsys.readouterr().err
     assert err.startswith("--scheduler: error: ") and TRACEBACK not in err
     assert json.dumps(address)[1:-1] in err
+
+
+def test_gantry_runs_mujoco_without_an_opengl_backend(monkeypatch, capsys, tmp_path):
+    """gantry renders nothing: MUJOCO_GL=disable keeps `import mujoco` from importing pyGLFW,
+    whose `python -c` probe children, orphaned when a sweep worker was stopped mid-import,
+    printed a BrokenPipeError traceback on the user's stderr after "gantry: terminated"."""
+    monkeypatch.delenv("MUJOCO_GL", raising=False)
+    prog = tmp_path / "p.ngc"
+    prog.write_text(TINY)
+    assert main(["parse", str(prog)]) == 0
+    assert os.environ["MUJOCO_GL"] == "disable"
+    monkeypatch.setenv("MUJOCO_GL", "egl")  # a choice the user made is kept
+    assert main(["parse", str(prog)]) == 0
+    assert os.environ["MUJOCO_GL"] == "egl"

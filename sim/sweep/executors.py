@@ -33,13 +33,8 @@ _ADDRESS = re.compile(r"^(?:(tcp|tls|ucx|ws|wss)://)?(\[[0-9a-fA-F:.]+\]|[\w.-]+
 
 def _die_with_parent(parent_pid: int) -> None:
     """Worker initializer: killed with the parent (Linux), deaf to Ctrl-C (the parent stops
-    the pool), silent when its parent's end of a pipe is gone (SIGPIPE at its default: a
-    worker still sending a result while the parent stops would otherwise print a
-    BrokenPipeError traceback; seen once on a loaded CI machine), and gone at once if the
-    parent died before this ran."""
+    the pool), and gone at once if the parent died before this ran."""
     signal.signal(signal.SIGINT, signal.SIG_IGN)
-    if hasattr(signal, "SIGPIPE"):
-        signal.signal(signal.SIGPIPE, signal.SIG_DFL)
     if sys.platform.startswith("linux"):
         import ctypes
 
