@@ -115,6 +115,47 @@ def test_polygon_circle_blends_within_p_faster_than_exact_stops(machine):
     assert polyline_distance(tr.pos[feed], blended[1:]).max() <= 0.01
 
 
+def _polygon(n: int, mode: str, r: float = 10.0) -> str:
+    pts = [
+        (r * math.cos(2 * math.pi * k / n), r * math.sin(2 * math.pi * k / n)) for k in range(n + 1)
+    ]
+    body = "".join(f"G1 X{x:.4f} Y{y:.4f}\n" for x, y in pts[1:])
+    return f"G21 G90 G17 {mode}\nG0 X{pts[0][0]:.4f} Y{pts[0][1]:.4f}\nF3000\n{body}M2"
+
+
+def test_blends_of_a_regular_polygon_meet_and_pass_it_like_a_circle(machine):
+    """Blends that can use up the straight moves between them take up to 0.99 of the budget
+    (P less the reference's share): no line-to-arc curvature jump is left, so the 72-gon runs
+    at the feed like the G3 circle (it ran at about 0.55 F with blends of 0.8 of the budget)."""
+    moves = parse_program(_polygon(72, "G64 P0.01"))
+    p, tr = _sample(moves, machine)
+    g3 = plan(parse_program("G21 G90 G17\nG0 X10 Y0\nG3 X10 Y0 I-10 J0 F3000\nM2"), machine)
+    assert p.duration_s <= 1.03 * g3.duration_s
+    budget = 0.01 - 0.25 * machine.segmentation.chord_tolerance_mm
+    inner = p.blends[1:-1]
+    assert len(inner) == 69
+    assert all(0.8 * budget < b.deviation_mm <= 0.99 * budget for b in inner)
+    speed = np.linalg.norm(tr.vel, axis=1)
+    mid = slice(len(speed) // 4, 3 * len(speed) // 4)
+    assert speed[mid].min() >= 0.999 * 50.0
+    assert_within_limits(tr, machine, moves)
+    feed = tr.line > 3
+    assert polyline_distance(tr.pos[feed], moves[1:]).max() <= 0.01
+
+
+def test_blends_that_cannot_meet_keep_their_smoothing_share(machine):
+    """A 72-gon of R50 turns 5 degrees at each corner like the R10 one, but its sides are too
+    long for its blends to meet within P: each keeps 0.8 of the budget for geometry and the rest
+    for smoothing its line-to-arc curvature jumps."""
+    moves = parse_program(_polygon(72, "G64 P0.01", r=50.0))
+    p, tr = _sample(moves, machine)
+    budget = 0.01 - 0.25 * machine.segmentation.chord_tolerance_mm
+    assert len(p.blends) == 71
+    assert all(b.deviation_mm == pytest.approx(0.8 * budget, rel=1e-6) for b in p.blends)
+    assert_within_limits(tr, machine, moves)
+    assert polyline_distance(tr.pos[tr.line > 3], moves[1:]).max() <= 0.01
+
+
 def test_g64_q_merges_straight_moves_within_q(machine):
     zig = "".join(f"G1 X{k} Y{0.001 * (k % 2):.3f}\n" for k in range(1, 11))
     merged = plan(parse_program("G21 G64 P0.01 Q0.002 F3000\n" + zig + "M2"), machine)

@@ -11,7 +11,9 @@ junction at the move's END, as LinuxCNC's termination condition does:
   turn of angle phi, a blend of radius R leaves the corner by d = R (1/cos(phi/2) - 1) and uses
   L = R tan(phi/2) of each move; R is the largest with d <= P - the planner's own deviation from
   an arc (0.25 x chord tolerance, the G61 promise), and L at most half of each move, so the
-  reference stays within P of the programmed corner. Blends need both moves in one principal
+  reference stays within P of the programmed corner. Where the blends at both ends of a
+  straight move can use all of it between them (:data:`MEET_SHARE`), they do: a regular polygon
+  becomes one chain of equal arcs with no curvature jump left. Blends need both moves in one principal
   plane (XY, XZ or YZ; the planner's arcs live there); other corners stay exact stops.
 * G64 Q: consecutive straight feed moves at one feed whose end points lie within Q of one line
   are merged into that line first (LinuxCNC's naive-CAM detector).
@@ -55,6 +57,11 @@ EPS_MM = 1e-9
 #: both negligible), so a polygon of nearly equal short moves becomes one chain of arcs without
 #: the curvature jumps the rounding of its points would otherwise leave.
 ABSORB_PER_MM = 2e-4
+#: Share of a blend's budget its geometry may use when that lets it meet the next blend: nothing
+#: of the straight move between them is left, so there is no line-to-arc curvature jump there to
+#: smooth (the 1 % left covers the small jump between two nearly equal blends). A regular
+#: polygon then becomes one chain of equal arcs, passed like a circle.
+MEET_SHARE = 0.99
 
 
 @dataclass(frozen=True)
@@ -221,6 +228,7 @@ def _blend_corners(
     n = len(moves)
     use = [0.0] * (n + 1)  # length each junction takes from its neighbours [mm]
     turn: list[tuple[float, Plane] | None] = [None] * (n + 1)
+    budgets = [0.0] * (n + 1)  # line-line corners: P less the reference's share [mm]
     cuts: dict[int, CornerCut] = {}  # corners with an arc on one side
     for b in range(1, n):
         m0, m1 = moves[b - 1], moves[b]
@@ -246,8 +254,10 @@ def _blend_corners(
         r_tol = GEOMETRY_SHARE * budget / (1.0 / math.cos(half) - 1.0)
         use[b] = min(r_tol * math.tan(half), 0.5 * m0.length_mm, 0.5 * m1.length_mm)
         turn[b] = (phi, plane)
+        budgets[b] = budget
     if not any(use) and not cuts:
         return
+    _meet_neighbours(moves, use, turn, budgets)
     before = [cuts[k].before_mm if k in cuts else use[k] for k in range(n + 1)]
     after = [cuts[k].after_mm if k in cuts else use[k] for k in range(n + 1)]
     # Trimmed straight moves: their new end points (a vanishing move: its midpoint, shared).
@@ -301,6 +311,39 @@ def _blend_corners(
         new_holds[len(new_moves)] = out.holds[n]
     out.moves, out.stop_after, out.holds = new_moves, new_stops, new_holds
     out.smoothing_mm = smoothing
+
+
+def _meet_neighbours(
+    moves: Sequence[Move],
+    use: list[float],
+    turn: Sequence[tuple[float, Plane] | None],
+    budgets: Sequence[float],
+) -> None:
+    """Lengthen blends (up to :data:`MEET_SHARE` of their budget) where the two blends of a
+    straight move can then use all of it between them; ``use`` [mm] is updated in place.
+
+    Only corners whose straight move is used up this way are lengthened: elsewhere the larger
+    geometry share would take smoothing budget from a line-to-arc junction for nothing."""
+    n = len(moves)
+    reach = [0.0] * (n + 1)
+    for b in range(1, n):
+        t = turn[b]
+        if t is None:
+            continue
+        half = 0.5 * t[0]
+        r_meet = MEET_SHARE * budgets[b] / (1.0 / math.cos(half) - 1.0)
+        reach[b] = min(
+            r_meet * math.tan(half), 0.5 * moves[b - 1].length_mm, 0.5 * moves[b].length_mm
+        )
+    for i in range(1, n - 1):  # move i lies between corners i and i + 1
+        ends = [(reach[k], t[0]) for k in (i, i + 1) if (t := turn[k]) is not None]
+        if len(ends) < 2:
+            continue
+        rest = moves[i].length_mm - ends[0][0] - ends[1][0]
+        radius = min(r / math.tan(0.5 * phi) for r, phi in ends)
+        if rest <= EPS_MM or rest <= ABSORB_PER_MM * radius:
+            use[i] = max(use[i], reach[i])
+            use[i + 1] = max(use[i + 1], reach[i + 1])
 
 
 def _v3(a: np.ndarray) -> Vec3:
