@@ -1,6 +1,6 @@
 """Seeded CAM-like programs for the scaling benchmarks: N motion blocks of one of three kinds.
 
-    python benchmarks/programs.py KIND N [--seed S] > part.ngc      (KIND: arcs, poly, mixed)
+    python benchmarks/programs.py KIND N [--seed S] > part.ngc   (KIND: arcs, poly, mixed, finish)
 
 Kinds (work coordinates [mm], linuxcnc dialect, XY plane unless stated, 4 decimals, IJ
 incremental as G91.1 is the default):
@@ -14,6 +14,10 @@ incremental as G91.1 is the default):
   plunge at F600, then G1 lines (1-15 mm) and G2/G3 arcs (R 2-20 mm, sweep 20-180 degrees,
   one in five helical, going down), each meeting the one before at a corner of 20-160 degrees,
   at F800-F4000; G0 retract to Z5.
+* ``finish``: a 3-D finishing raster as CAM writes it for a ball-nose pass, in G18 with
+  G64 P0.001 (the shape of the 1,905-line program of issue 12): rows along X of G1 moves
+  0.2-0.5 mm long over a wavy surface z(x, y) (up to 3 mm deep, slopes up to about 25 degrees),
+  alternating direction, 0.4 mm apart in Y, F1500.
 
 N counts the motion blocks after the opening G0 (which is not counted). Every program stays
 inside BOX, well within the bundled machine's travel (X +-300, Y +-200, Z +-75): each arc's
@@ -29,7 +33,7 @@ import sys
 
 #: the half-extents of the box the programs stay in [mm]
 BOX = (240.0, 140.0, 50.0)
-KINDS = ("arcs", "poly", "mixed")
+KINDS = ("arcs", "poly", "mixed", "finish")
 Z_SAFE = 5.0
 
 
@@ -162,7 +166,28 @@ def mixed(n: int, rng: random.Random) -> tuple[str, list[str]]:
     return "G0 X0 Y0 Z5", pen.blocks
 
 
-GENERATORS = {"arcs": tangent_arcs, "poly": polyline, "mixed": mixed}
+def finish(n: int, rng: random.Random) -> tuple[str, list[str]]:
+    width = 40.0  # row length [mm]
+
+    def z(x: float, y: float) -> float:
+        return -1.5 + 1.5 * math.sin(x / 6.0) * math.cos(y / 9.0)
+
+    blocks: list[str] = [f"G1 Z{_num(z(0.0, 0.0))} F1500"]
+    x, y, forward = 0.0, 0.0, True
+    while len(blocks) < n:
+        step = rng.uniform(0.2, 0.5)
+        nx = x + step if forward else x - step
+        if not 0.0 <= nx <= width:  # end of the row: step over in Y, turn back
+            y = _r4(y + 0.4)
+            forward = not forward
+            blocks.append(f"G1 Y{_num(y)} Z{_num(z(x, y))}")
+            continue
+        x = _r4(nx)
+        blocks.append(f"G1 X{_num(x)} Z{_num(z(x, y))}")
+    return "G18 G64 P0.001 G0 X0 Y0 Z5", blocks
+
+
+GENERATORS = {"arcs": tangent_arcs, "poly": polyline, "mixed": mixed, "finish": finish}
 
 
 def program(kind: str, n: int, seed: int = 1) -> str:
