@@ -233,9 +233,11 @@ def _streamed(
     gantry = load_gantry(machine)
     with stage("simulate+analyse", n, "tick", wanted(progress)) as advance:
         streamed = stream_run(moves, planned, machine, gantry, on_range=writer, on_ticks=advance)
+    t0 = time.perf_counter()
     streamed = dataclasses.replace(
         streamed,
         analysis=split_reference_by_ranges(streamed.analysis, planned, machine.servo.period_s),
+        analyse_s=streamed.analyse_s + time.perf_counter() - t0,  # part of the analysis
     )
     t0 = time.perf_counter()
     trace_file = None
