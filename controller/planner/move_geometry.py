@@ -34,9 +34,11 @@ from gantry_sim.controller.units import mm_per_min_to_mm_per_s
 #: 5e-4 * phi^4 (phi: chord sweep [rad]); the arc's speed cap keeps twice that below the feed.
 FEED_MARGIN_PER_PHI4 = 1e-3
 #: And a relative margin for what the pieces between exact helix states overshoot besides
-#: (measured up to 1.4e-6 on helices and S-chains; at 1e-9 those pieces broke the feed, went to Ruckig, and
-#: Ruckig's minimum-duration pieces left the path by up to 0.93 mm).
-FEED_MARGIN_REL = 1e-5
+#: (measured up to 1.4e-6 on helices and S-chains, and 1.0e-5 on a blend arc of a CAM polyline
+#: next to its curvature jumps, which passed the feed by 3.6e-8 of it at 1e-5; at 1e-9 those
+#: pieces broke the feed, went to Ruckig, and Ruckig's minimum-duration pieces left the path by
+#: up to 0.93 mm).
+FEED_MARGIN_REL = 5e-5
 
 
 @dataclass(frozen=True)
