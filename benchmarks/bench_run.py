@@ -135,12 +135,16 @@ def child(kind: str, blocks: int, baseline_rev: str | None) -> dict:
 
     contour.analyse = analyse
     from gantry_sim.sim.api import run_program, write_run_outputs
+    from gantry_sim.sim.budget import Budget
     from gantry_sim.sim.machine import load_gantry
 
     machine = load_machine_config(DEFAULT_MACHINE)
     text = program(kind, blocks)
     t0 = time.perf_counter()
-    result = run_program(text, file=f"{kind}_{blocks}.ngc", machine=machine)
+    # 100k arcs and mixed run 4 and 16 hours of machine time: past the default budget, which
+    # asks a user to confirm such runs with --max-sim-s / --max-physics-steps
+    big = Budget(max_sim_s=1e9, max_physics_steps=1e15)
+    result = run_program(text, file=f"{kind}_{blocks}.ngc", machine=machine, budget=big)
     t1 = time.perf_counter()
     with tempfile.TemporaryDirectory() as tmp:
         write_run_outputs(result, Path(tmp) / "out")
