@@ -31,9 +31,10 @@ from gantry_sim.controller.trajectory import Trajectory
 from gantry_sim.sim.contour import (
     Analysis,
     ChunkAnalysis,
+    ErrorParts,
     analyse_chunk,
     chord_max_um,
-    combine,
+    joined,
     reference_context,
 )
 from gantry_sim.sim.machine import Gantry
@@ -106,8 +107,10 @@ def stream_run(
             contexts.append((c0, ctx))
             yield ctx.slice(lo - c0, hi - c0)
 
-    chunks: list[ChunkAnalysis] = []
-    lines: list[np.ndarray] = []
+    # what the whole-run figures need, filled range by range (13 bytes a tick)
+    err_um, feed = np.empty(n), np.empty(n, dtype=bool)
+    line = np.empty(n, dtype=np.int32)
+    reference_max = tracking_max = 0.0
     kept: list[tuple[np.ndarray, Trajectory, np.ndarray, np.ndarray, ChunkAnalysis]] = []
     max_force, saturated = np.zeros(3), np.zeros(3, dtype=np.int64)
     sim_s = ana_s = 0.0
@@ -129,14 +132,17 @@ def stream_run(
         rows = np.arange(lo, lo + pos.shape[0])
         pick = (rows % stride == 0) | (rows == lo + int(np.argmax(part.err_um)))
         kept.append(_decimate((rows[pick], piece, pos[pick], force[pick], part), pick))
-        chunks.append(replace(part, nearest=np.zeros((0, 3))))
-        lines.append(piece.line.astype(np.int32))
+        hi = lo + pos.shape[0]
+        err_um[lo:hi], feed[lo:hi], line[lo:hi] = part.err_um, part.feed, piece.line
+        reference_max = max(reference_max, part.reference_max_um)
+        tracking_max = max(tracking_max, part.tracking_max_um)
         lo += pos.shape[0]
         t0 = time.perf_counter()
         ana_s += t0 - t1
-    line = np.concatenate(lines) if lines else np.zeros(0, dtype=np.int32)
+    err_um, feed, line = err_um[:lo], feed[:lo], line[:lo]
     t1 = time.perf_counter()
-    analysis = combine(tab, line, chunks, chord_max_um(moves, planned.vertices, tab))
+    parts = ErrorParts(chord_max_um(moves, planned.vertices, tab), reference_max, tracking_max)
+    analysis = joined(tab, line, err_um, np.zeros((0, 3)), feed, parts)
     ana_s += time.perf_counter() - t1
     return StreamedRun(
         analysis=analysis,
