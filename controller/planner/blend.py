@@ -36,6 +36,7 @@ from gantry_sim.controller.planner.corner_blend import (
     ArcCorner,
     CornerCut,
     arc_corner,
+    blend_tangent_mm,
     trimmed_arc,
 )
 
@@ -250,9 +251,7 @@ def _blend_corners(
         plane = plane_of(d0, d1)
         if not (MIN_TURN_RAD < phi < MAX_TURN_RAD) or plane is None or budget <= 0:
             continue
-        half = 0.5 * phi
-        r_tol = GEOMETRY_SHARE * budget / (1.0 / math.cos(half) - 1.0)
-        use[b] = min(r_tol * math.tan(half), 0.5 * m0.length_mm, 0.5 * m1.length_mm)
+        use[b] = blend_tangent_mm(GEOMETRY_SHARE * budget, phi, m0.length_mm, m1.length_mm)
         turn[b] = (phi, plane)
         budgets[b] = budget
     if not any(use) and not cuts:
@@ -271,7 +270,7 @@ def _blend_corners(
             a, e = a + d * after[i], e - d * before[i + 1]
             rest = m.length_mm - after[i] - before[i + 1]
             radii = [use[k] / math.tan(0.5 * t[0]) for k in (i, i + 1) if (t := turn[k])]
-            if rest <= EPS_MM or (len(radii) == 2 and rest <= ABSORB_PER_MM * min(radii)):
+            if _used_up(rest, radii):
                 a = e = 0.5 * (a + e)  # the blends meet: they absorb what is left
         starts.append(a)
         ends.append(e)
@@ -330,20 +329,23 @@ def _meet_neighbours(
         t = turn[b]
         if t is None:
             continue
-        half = 0.5 * t[0]
-        r_meet = MEET_SHARE * budgets[b] / (1.0 / math.cos(half) - 1.0)
-        reach[b] = min(
-            r_meet * math.tan(half), 0.5 * moves[b - 1].length_mm, 0.5 * moves[b].length_mm
+        reach[b] = blend_tangent_mm(
+            MEET_SHARE * budgets[b], t[0], moves[b - 1].length_mm, moves[b].length_mm
         )
     for i in range(1, n - 1):  # move i lies between corners i and i + 1
         ends = [(reach[k], t[0]) for k in (i, i + 1) if (t := turn[k]) is not None]
         if len(ends) < 2:
             continue
         rest = moves[i].length_mm - ends[0][0] - ends[1][0]
-        radius = min(r / math.tan(0.5 * phi) for r, phi in ends)
-        if rest <= EPS_MM or rest <= ABSORB_PER_MM * radius:
+        if _used_up(rest, [r / math.tan(0.5 * phi) for r, phi in ends]):
             use[i] = max(use[i], reach[i])
             use[i + 1] = max(use[i + 1], reach[i + 1])
+
+
+def _used_up(rest_mm: float, radii_mm: Sequence[float]) -> bool:
+    """True when the blends at a straight move's ends leave nothing of it (``rest_mm``), or,
+    with a blend at both ends (``radii_mm``), a sliver they absorb (:data:`ABSORB_PER_MM`)."""
+    return rest_mm <= EPS_MM or (len(radii_mm) == 2 and rest_mm <= ABSORB_PER_MM * min(radii_mm))
 
 
 def _v3(a: np.ndarray) -> Vec3:

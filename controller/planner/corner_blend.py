@@ -212,6 +212,16 @@ def trimmed_arc(m: Arc, cut_start_mm: float, cut_end_mm: float) -> Arc:
     )
 
 
+def blend_tangent_mm(deviation_mm: float, turn_rad: float, len0_mm: float, len1_mm: float) -> float:
+    """Tangent length L [mm] of the circle blending a turn of ``turn_rad`` between two straight
+    moves of lengths ``len0_mm`` and ``len1_mm``: the longest whose blend leaves the corner by
+    at most ``deviation_mm`` (radius R leaves it by R (1/cos(phi/2) - 1) and uses L =
+    R tan(phi/2) of each move), and at most half of either move."""
+    half = 0.5 * turn_rad
+    reach = deviation_mm / (1.0 / math.cos(half) - 1.0) * math.tan(half)
+    return min(reach, 0.5 * len0_mm, 0.5 * len1_mm)
+
+
 def _v3(a: np.ndarray) -> tuple[float, float, float]:
     return (float(a[0]), float(a[1]), float(a[2]))
 
@@ -269,10 +279,9 @@ def _worth_blending(
     for it, and within the blend's first chord; see junctions.junction_cap); below
     :data:`ARC_BLEND_MIN_FEED_SHARE` of the feed the planner would make it an exact stop
     anyway (plan._slow_blends), so it is not searched."""
-    half = 0.5 * phi
     share, budget, jerk = corner.geometry_share, corner.budget_mm, corner.jerk_mm_per_s3
-    reach = share * budget / (1.0 / math.cos(half) - 1.0) * math.tan(half)
-    radius = min(reach, 0.5 * m0.length_mm, 0.5 * m1.length_mm) / math.tan(half)
+    tangent = blend_tangent_mm(share * budget, phi, m0.length_mm, m1.length_mm)
+    radius = tangent / math.tan(0.5 * phi)
     e = (1.0 - share) * budget
     chord = 2.0 * math.sqrt(2.0 * radius * chord_tolerance_mm)  # the blend's first chord
     speed = min(
