@@ -53,6 +53,16 @@ def _vec(v: Vec3) -> list[float]:
     return [float(c) for c in v]
 
 
+def _motion_json(m: Rapid | Linear | Arc | Spline) -> dict:
+    """The keys every motion's JSON starts with (``gantry parse``, CONTRACTS.md)."""
+    return {"line": m.line, "kind": m.kind, "start": _vec(m.start), "end": _vec(m.end)}
+
+
+def _feed_json(m: Linear | Arc | Spline) -> dict:
+    """:func:`_motion_json` and the feed [mm/min] of a feed move."""
+    return _motion_json(m) | {"feed": float(m.feed_mm_per_min)}
+
+
 @dataclass(frozen=True)
 class Rapid:
     """G0: a straight traverse at the machine's rapid speed.
@@ -75,12 +85,7 @@ class Rapid:
         return math.dist(self.start, self.end)
 
     def to_json(self) -> dict:
-        return {
-            "line": self.line,
-            "kind": self.kind,
-            "start": _vec(self.start),
-            "end": _vec(self.end),
-        }
+        return _motion_json(self)
 
 
 @dataclass(frozen=True)
@@ -110,13 +115,7 @@ class Linear:
         return math.dist(self.start, self.end)
 
     def to_json(self) -> dict:
-        return {
-            "line": self.line,
-            "kind": self.kind,
-            "start": _vec(self.start),
-            "end": _vec(self.end),
-            "feed": float(self.feed_mm_per_min),
-        }
+        return _feed_json(self)
 
 
 @dataclass(frozen=True)
@@ -164,12 +163,7 @@ class Arc:
         return math.hypot(0.5 * (self.radius + r1) * self.angle, self.end[n] - self.start[n])
 
     def to_json(self) -> dict:
-        return {
-            "line": self.line,
-            "kind": self.kind,
-            "start": _vec(self.start),
-            "end": _vec(self.end),
-            "feed": float(self.feed_mm_per_min),
+        return _feed_json(self) | {
             "plane": self.plane,
             "direction": self.direction,
             "center": _vec(self.center),
@@ -233,12 +227,7 @@ class Spline:
         return self.curve.length_mm
 
     def to_json(self) -> dict:
-        return {
-            "line": self.line,
-            "kind": self.kind,
-            "start": _vec(self.start),
-            "end": _vec(self.end),
-            "feed": float(self.feed_mm_per_min),
+        return _feed_json(self) | {
             "code": self.code,
             "control_points": [_vec(p) for p in self.control_points],
             "weights": [float(w) for w in self.weights],

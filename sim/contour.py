@@ -15,7 +15,8 @@ Statistics cover the feed moves only (G1/G2/G3): rapids are not cutting.
 
 In pieces: :func:`analyse_chunk` analyses any run of consecutive samples given the reference
 TRACKING_WINDOW samples either side of it (:func:`reference_context`); :func:`combine` joins the
-pieces into exactly the :class:`Analysis` of the whole trace. What a streaming run carries from
+pieces into exactly the :class:`Analysis` of the whole trace (:func:`joined`, when the per-sample
+arrays were filled in place, as a streamed run does). What a streaming run carries from
 piece to piece is only the move table, the running maxima of the reference and tracking parts,
 and each sample's err_um and line (for the rms, p95 and per-block figures at the end).
 """
