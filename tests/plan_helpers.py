@@ -93,6 +93,18 @@ def assert_within_limits(traj, machine, moves) -> None:
             )
 
 
+def polyline_distance(points: np.ndarray, moves) -> np.ndarray:
+    """Distance [mm] of each point (k, 3) from the nearest programmed straight move."""
+    a = np.array([m.start for m in moves], float)
+    b = np.array([m.end for m in moves], float)
+    d = b - a
+    out = np.full(len(points), np.inf)
+    for i in range(len(a)):
+        t = np.clip((points - a[i]) @ d[i] / (d[i] @ d[i]), 0.0, 1.0)
+        out = np.minimum(out, np.linalg.norm(points - (a[i] + t[:, None] * d[i]), axis=1))
+    return out
+
+
 def arc_deviation(traj, a: Arc) -> float:
     """Largest distance [mm] of the samples of ``a``'s line from the true arc/helix.
 

@@ -18,8 +18,7 @@ from hypothesis import strategies as st
 from gantry_sim.controller.gcode.interpreter import parse_program
 from gantry_sim.controller.moves import Linear
 from gantry_sim.controller.planner.plan import plan
-from tests.plan_helpers import assert_within_limits
-from tests.test_path_control import polyline_distance
+from tests.plan_helpers import assert_within_limits, polyline_distance
 
 SETTINGS = settings(
     derandomize=True,

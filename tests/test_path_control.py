@@ -13,7 +13,7 @@ import pytest
 from gantry_sim.controller.gcode.interpreter import interpret_events, parse_program
 from gantry_sim.controller.moves import Dwell, Linear, PathControl, Stop
 from gantry_sim.controller.planner.plan import plan
-from tests.plan_helpers import assert_within_limits
+from tests.plan_helpers import assert_within_limits, polyline_distance
 
 
 def _sample(moves, machine):
@@ -23,18 +23,6 @@ def _sample(moves, machine):
 
 def _speed_at(p, t):
     return float(np.linalg.norm(p.curve.evaluate(np.array([t]))[1]))
-
-
-def polyline_distance(points: np.ndarray, moves) -> np.ndarray:
-    """Distance [mm] of each point (k, 3) from the nearest programmed straight move."""
-    a = np.array([m.start for m in moves], float)
-    b = np.array([m.end for m in moves], float)
-    d = b - a
-    out = np.full(len(points), np.inf)
-    for i in range(len(a)):
-        t = np.clip((points - a[i]) @ d[i] / (d[i] @ d[i]), 0.0, 1.0)
-        out = np.minimum(out, np.linalg.norm(points - (a[i] + t[:, None] * d[i]), axis=1))
-    return out
 
 
 def _corner_program(mode: str) -> str:
