@@ -58,6 +58,8 @@ TRACKING_WINDOW = 50
 LAG_REACH = 2.0
 #: points along each chord checked for the chord part (fractions of the chord)
 CHORD_FRACTIONS = (0.25, 0.5, 0.75)
+#: chords checked at once by :func:`chord_max_um` (bounds its memory: ~50 MB)
+CHORD_BATCH = 65536
 
 
 @dataclass(frozen=True)
@@ -141,22 +143,34 @@ def chord_max_um(
     moves: Sequence[Move], vertices: Sequence[np.ndarray] | None, tab: MoveTable | None = None
 ) -> float:
     """Largest distance of the chords between each curve's (arc's, spline's) vertices from the
-    curve [um]."""
+    curve [um], checked at CHORD_FRACTIONS of every chord, CHORD_BATCH chords at a time (the
+    points of 100,000 arcs at once took 4 GB)."""
     if vertices is None:
         return 0.0
     tab = move_table(moves) if tab is None else tab
-    pts, owner = [], []
+    worst_mm = 0.0
+    batch: list[tuple[int, np.ndarray]] = []
+    chords = 0
     for j, verts in enumerate(vertices):
         verts = np.asarray(verts, dtype=float).reshape(-1, 3)
         if not (tab.arc[j] or tab.spline[j]) or len(verts) < 2:
             continue
-        pts += [verts[:-1] + f * (verts[1:] - verts[:-1]) for f in CHORD_FRACTIONS]
-        owner.append(np.full(len(CHORD_FRACTIONS) * (len(verts) - 1), j))
-    if not pts:
-        return 0.0
+        batch.append((j, verts))
+        chords += len(verts) - 1
+        if chords >= CHORD_BATCH:
+            worst_mm = max(worst_mm, _chord_batch_max_mm(tab, batch))
+            batch, chords = [], 0
+    if batch:
+        worst_mm = max(worst_mm, _chord_batch_max_mm(tab, batch))
+    return worst_mm * UM_PER_MM
+
+
+def _chord_batch_max_mm(tab: MoveTable, batch: list[tuple[int, np.ndarray]]) -> float:
+    """The largest distance [mm] of the chords of (move index, vertices) from their moves."""
+    pts = [v[:-1] + f * (v[1:] - v[:-1]) for _, v in batch for f in CHORD_FRACTIONS]
+    owner = [np.full(len(CHORD_FRACTIONS) * (len(v) - 1), j) for j, v in batch]
     p = np.concatenate(pts)
-    dist = np.linalg.norm(nearest_on_moves(tab, np.concatenate(owner), p) - p, axis=1)
-    return float(dist.max()) * UM_PER_MM
+    return float(np.linalg.norm(nearest_on_moves(tab, np.concatenate(owner), p) - p, axis=1).max())
 
 
 def feed_samples(tab: MoveTable, line: np.ndarray) -> np.ndarray:

@@ -72,3 +72,16 @@ def test_the_run_reports_the_whole_analysis(run):
     assert np.array_equal(tr.err_um, whole.err_um)
     assert run.run_report.blocks == whole.blocks
     assert run.report["contour_error_um"] == whole.contour.to_json()
+
+
+def test_chord_part_is_the_same_checked_in_small_batches(machine, monkeypatch):
+    from gantry_sim.controller.gcode.interpreter import parse_program
+    from gantry_sim.controller.planner import plan
+    from gantry_sim.sim import contour
+
+    arcs = PROGRAM.replace("M2\n", "G2 X6.6 Y3.1 I2 J0\nG3 X2.6 Y3.1 I-2 J0\nM2\n")
+    moves = parse_program(arcs)
+    vertices = plan(moves, machine).vertices
+    at_once = contour.chord_max_um(moves, vertices)
+    monkeypatch.setattr(contour, "CHORD_BATCH", 3)  # many batches, cut inside and between arcs
+    assert contour.chord_max_um(moves, vertices) == at_once > 0
