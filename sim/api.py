@@ -218,10 +218,8 @@ def _streamed(
     """run_program's path for long runs: sim.stream range by range, the full-rate trace
     written incrementally into a staging folder (sim.trace_writer) unless ``keep_trace`` is
     False, a decimated trace kept."""
-    import dataclasses
     import tempfile
 
-    from gantry_sim.sim.blend_parts import split_reference_by_ranges
     from gantry_sim.sim.machine import load_gantry
     from gantry_sim.sim.report import build_streamed_report
     from gantry_sim.sim.stream import stream_run
@@ -233,12 +231,6 @@ def _streamed(
     gantry = load_gantry(machine)
     with stage("simulate+analyse", n, "tick", wanted(progress)) as advance:
         streamed = stream_run(moves, planned, machine, gantry, on_range=writer, on_ticks=advance)
-    t0 = time.perf_counter()
-    streamed = dataclasses.replace(
-        streamed,
-        analysis=split_reference_by_ranges(streamed.analysis, planned, machine.servo.period_s),
-        analyse_s=streamed.analyse_s + time.perf_counter() - t0,  # part of the analysis
-    )
     t0 = time.perf_counter()
     trace_file = None
     if writer is not None and staging is not None:

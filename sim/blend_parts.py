@@ -14,11 +14,13 @@ from __future__ import annotations
 
 from dataclasses import dataclass, fields, replace
 
+import numpy as np
+
 from gantry_sim.controller.planner.result import Plan
 from gantry_sim.controller.trajectory import Trajectory
 from gantry_sim.controller.units import UM_PER_MM
-from gantry_sim.sim.contour import Analysis, ErrorParts, distance_to_program
-from gantry_sim.sim.move_table import move_table
+from gantry_sim.sim.contour import Analysis, ErrorParts
+from gantry_sim.sim.move_table import MoveTable, move_table
 from gantry_sim.sim.program_distance import distance_to_moves
 
 
@@ -36,35 +38,24 @@ class BlendedParts(ErrorParts):
         return out
 
 
-#: reference samples taken at a time when the run is streamed (see split_reference_by_ranges)
-RANGE_TICKS = 65536
-
-
 def split_reference(analysis: Analysis, planned: Plan, traj: Trajectory) -> Analysis:
     """``analysis`` with its parts split into blend and planning (see the module docstring)."""
-    feed = analysis.feed
-    path = planned.path_moves or planned.moves
-    dist = distance_to_program(path, traj.line[feed], traj.pos[feed])[0]
-    planning_um = float(dist.max()) * UM_PER_MM if dist.size else 0.0
-    return _with_split(analysis, planned, planning_um)
+    tab = move_table(planned.path_moves or planned.moves)
+    planning_mm = planning_distance_mm(tab, traj, analysis.feed)
+    return with_planning_split(analysis, planned, planning_mm * UM_PER_MM)
 
 
-def split_reference_by_ranges(analysis: Analysis, planned: Plan, period_s: float) -> Analysis:
-    """:func:`split_reference` for a streamed run: the reference sampled range by range
-    (bounded memory), the same largest distance as over the whole trajectory."""
-    tab = move_table(planned.path_moves or planned.moves)  # once: 0.65 s at 100k moves
-    n = planned.sample_count(period_s)
-    planning_mm = 0.0
-    for k0 in range(0, n, RANGE_TICKS):
-        traj = planned.sample_range(period_s, k0, k0 + RANGE_TICKS)
-        feed = analysis.feed[k0 : k0 + len(traj.t)]
-        dist = distance_to_moves(tab, traj.line[feed], traj.pos[feed])[0]
-        if dist.size:
-            planning_mm = max(planning_mm, float(dist.max()))
-    return _with_split(analysis, planned, planning_mm * UM_PER_MM)
+def planning_distance_mm(path_tab: MoveTable, traj: Trajectory, feed: np.ndarray) -> float:
+    """The largest distance [mm] of the reference samples ``traj`` flagged ``feed`` from the
+    path the planner followed (``path_tab``: the move table of ``Plan.path_moves``); 0 with no
+    feed sample. A streamed run (sim.stream) takes it range by range."""
+    dist = distance_to_moves(path_tab, traj.line[feed], traj.pos[feed])[0]
+    return float(dist.max()) if dist.size else 0.0
 
 
-def _with_split(analysis: Analysis, planned: Plan, planning_um: float) -> Analysis:
+def with_planning_split(analysis: Analysis, planned: Plan, planning_um: float) -> Analysis:
+    """``analysis`` with its parts split: the plan's largest blend deviation, and
+    ``planning_um`` [um] (:func:`planning_distance_mm` over the run)."""
     blend_um = max((b.deviation_mm for b in planned.blends), default=0.0) * UM_PER_MM
     base = {f.name: getattr(analysis.parts, f.name) for f in fields(ErrorParts)}
     parts = BlendedParts(
@@ -73,4 +64,4 @@ def _with_split(analysis: Analysis, planned: Plan, planning_um: float) -> Analys
     return replace(analysis, parts=parts)
 
 
-__all__ = ["BlendedParts", "split_reference", "split_reference_by_ranges"]
+__all__ = ["BlendedParts", "planning_distance_mm", "split_reference", "with_planning_split"]

@@ -30,6 +30,7 @@ import numpy as np
 
 from gantry_sim.controller.moves import Move
 from gantry_sim.controller.units import UM_PER_MM
+from gantry_sim.sim.error_tally import ErrorTally
 from gantry_sim.sim.move_table import MoveTable, move_table
 from gantry_sim.sim.nearest import nearest_on_moves
 from gantry_sim.sim.program_distance import distance_to_moves, distance_to_program, line_ranges
@@ -50,6 +51,7 @@ __all__ = [
     "distance_to_program",
     "feed_samples",
     "reference_context",
+    "tally_figures",
 ]
 
 #: reference samples either side searched for the tracking part (50 ms at 1 kHz)
@@ -92,12 +94,14 @@ class ErrorParts:
 
 @dataclass(frozen=True)
 class BlockError:
-    """The contour error of one feed block (all samples executing its line) [um]."""
+    """The contour error of one feed block (all samples executing its line) [um], and how many
+    samples execute it (``ticks``: report.json gives ticks x servo period as its time)."""
 
     line: int
     kind: str
     max_error_um: float
     rms_error_um: float
+    ticks: int = 0
 
     def to_json(self) -> dict[str, int | str | float]:
         return {
@@ -127,16 +131,6 @@ class Analysis:
     contour: ContourStats
     parts: ErrorParts
     blocks: tuple[BlockError, ...]
-
-
-def _stats(err_um: np.ndarray) -> ContourStats:
-    if err_um.size == 0:
-        return ContourStats(0.0, 0.0, 0.0)
-    return ContourStats(
-        max_um=float(err_um.max()),
-        rms_um=float(np.sqrt(np.mean(err_um**2))),
-        p95_um=float(np.percentile(err_um, 95)),
-    )
 
 
 def chord_max_um(
@@ -181,36 +175,16 @@ def feed_samples(tab: MoveTable, line: np.ndarray) -> np.ndarray:
 
 def block_stats(tab: MoveTable, line: np.ndarray, err_um: np.ndarray) -> tuple[BlockError, ...]:
     """Per feed line in program order: its largest and rms error over the samples executing it
-    (0 when none do).
+    (0 when none do), and their count (sim.error_tally: linear in the samples)."""
+    tally = ErrorTally(tab, spill=False)
+    tally.add(line, err_um, np.zeros(np.shape(line), dtype=bool))
+    return tally_figures(tally)[1]
 
-    One stable sort of the samples by line, then one slice per block: linear in the samples.
-    The sum of squares is numpy's pairwise sum of each block's samples in time order, so the
-    figures are those of a direct ``np.mean`` over the block's samples.
-    """
-    feed_moves = np.flatnonzero(tab.feed)
-    block_lines, first = np.unique(tab.line[feed_moves], return_index=True)
-    in_order = np.argsort(first, kind="stable")
-    firsts = feed_moves[first[in_order]]
-    block_lines = block_lines[in_order]
-    kinds = np.where(tab.arc[firsts], "arc", np.where(tab.spline[firsts], "spline", "linear"))
-    # the temporaries are freed as soon as they are used: at 58.6 M samples each is 0.2-0.5 GB
-    by_line = np.argsort(line, kind="stable")
-    sorted_lines = line[by_line]
-    lo = np.searchsorted(sorted_lines, block_lines, "left").tolist()
-    hi = np.searchsorted(sorted_lines, block_lines, "right").tolist()
-    del sorted_lines
-    err = err_um[by_line]
-    del by_line
-    add, biggest = np.add.reduce, np.maximum.reduce
-    blocks: list[BlockError] = []
-    for ln, kind, a, b in zip(block_lines.tolist(), kinds.tolist(), lo, hi, strict=True):
-        if b > a:
-            part = err[a:b]
-            peak, rms = float(biggest(part)), float(np.sqrt(add(part**2) / (b - a)))
-        else:
-            peak = rms = 0.0
-        blocks.append(BlockError(ln, kind, peak, rms))
-    return tuple(blocks)
+
+def tally_figures(tally: ErrorTally) -> tuple[ContourStats, tuple[BlockError, ...]]:
+    """The statistics over the feed samples and the per-block figures of a finished tally."""
+    (peak, rms, p95), blocks = tally.finish()
+    return ContourStats(peak, rms, p95), tuple(BlockError(*b) for b in blocks)
 
 
 @dataclass(frozen=True)
@@ -286,10 +260,12 @@ def joined(
 ) -> Analysis:
     """The :class:`Analysis` of a whole trace from its per-sample arrays, already joined (a
     streamed run fills them range by range: no second copy), and its parts [um]."""
-    blocks = block_stats(tab, np.asarray(line), err_um)
+    tally = ErrorTally(tab, spill=False)
+    tally.add(line, err_um, feed)
+    contour, blocks = tally_figures(tally)
     for arr in (err_um, nearest, feed):
         arr.setflags(write=False)
-    return Analysis(err_um, nearest, feed, _stats(err_um[feed]), parts, blocks)
+    return Analysis(err_um, nearest, feed, contour, parts, blocks)
 
 
 def analyse(

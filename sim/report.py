@@ -196,7 +196,6 @@ def build_report(
         machine=machine,
         feed_override_pct=feed_override_pct,
         planned=planned,
-        line=traj.line,
         realtime=float(traj.duration_s / sim.wall_s) if sim.wall_s > 0 else 0.0,
         steps=int(sim.steps),
         max_force=max_force,
@@ -227,7 +226,6 @@ def build_streamed_report(
         machine=machine,
         feed_override_pct=feed_override_pct,
         planned=planned,
-        line=streamed.line,
         realtime=float(streamed.duration_s / sim_s) if sim_s > 0 else 0.0,
         steps=steps,
         max_force=streamed.max_force_N,
@@ -249,7 +247,6 @@ def _report(
     machine: MachineConfig,
     feed_override_pct: float,
     planned: Plan,
-    line: np.ndarray,
     realtime: float,
     steps: int,
     max_force: np.ndarray,
@@ -280,17 +277,8 @@ def _report(
             saturated_fraction=_vec3(saturated),
         ),
         timing_s={k: float(v) for k, v in timing.items()},
-        block_time_s=_block_times(line, machine.servo.period_s, analysis.blocks),
+        block_time_s={b.line: b.ticks * machine.servo.period_s for b in analysis.blocks},
     )
-
-
-def _block_times(
-    line: np.ndarray, period_s: float, blocks: Sequence[BlockError]
-) -> dict[int, float]:
-    """Per feed block's line, servo ticks executing it x the servo period [s]."""
-    uniq, counts = np.unique(np.asarray(line), return_counts=True)
-    ticks = dict(zip(uniq.tolist(), counts.tolist(), strict=True))
-    return {b.line: ticks.get(b.line, 0) * period_s for b in blocks}
 
 
 def _vec3(values: np.ndarray) -> tuple[float, float, float]:

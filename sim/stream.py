@@ -4,12 +4,14 @@ Per range [lo, hi) of the run's N ticks: the plan is sampled over the range and 
 reference context around it (Plan.sample_range; sim.contour.reference_context), the servo loop
 continues from where the previous range left it (sim.runner.simulate_pieces: MjData, encoders,
 integral and backlash state carried exactly), and the range is analysed (sim.contour
-.analyse_chunk). What is kept for the whole run is what report.json needs -- per tick err_um
-(float64), line (int32) and the feed flag: 13 bytes a tick -- plus running maxima of the forces
-and the saturated-tick counts, and a decimated trace (every ``stride``-th tick and each range's
-worst tick) for the plots. The full-rate arrays of each range go to ``on_range`` (e.g. a
-sim.trace_writer.TraceWriter) and are dropped. The peak memory is therefore that of one range,
-plus 13 bytes a tick.
+.analyse_chunk, and the reference's distance from the path it follows for the blend/planning
+split, sim.blend_parts). What is kept for the whole run is what report.json needs: running
+figures (sim.error_tally.ErrorTally: per block a few numbers, the feed ticks' errors in an
+anonymous temporary file for the exact 95th percentile), running maxima of the forces and the
+parts, the saturated-tick counts, and a decimated trace (every ``stride``-th tick and each
+range's worst tick) for the plots. The full-rate arrays of each range go to ``on_range`` (e.g. a
+sim.trace_writer.TraceWriter) and are dropped. The peak memory is therefore that of one range
+and of the program's moves, whatever the number of ticks.
 
 The figures equal those of the whole-program path (sample, simulate, analyse at once) bit for bit:
 tests/test_stream.py runs both.
@@ -28,15 +30,18 @@ from gantry_sim.controller.config import MachineConfig
 from gantry_sim.controller.moves import Move
 from gantry_sim.controller.planner.result import Plan
 from gantry_sim.controller.trajectory import Trajectory
+from gantry_sim.controller.units import UM_PER_MM
+from gantry_sim.sim.blend_parts import planning_distance_mm, with_planning_split
 from gantry_sim.sim.contour import (
     Analysis,
     ChunkAnalysis,
     ErrorParts,
     analyse_chunk,
     chord_max_um,
-    joined,
     reference_context,
+    tally_figures,
 )
+from gantry_sim.sim.error_tally import ErrorTally
 from gantry_sim.sim.machine import Gantry
 from gantry_sim.sim.move_table import move_table
 from gantry_sim.sim.runner import simulate_pieces
@@ -56,8 +61,8 @@ class StreamedRun:
     """A run streamed range by range.
 
     Attributes:
-        analysis: the contour analysis (err_um and feed per tick; nearest is not kept: empty).
-        line: (N,) program line per tick (int32).
+        analysis: the contour analysis, its parts split into blend and planning; the per-tick
+            arrays (err_um, nearest, feed) are not kept: empty.
         ticks: servo ticks N; duration_s: time of the last tick [s].
         max_force_N: (3,) largest |force| per axis [N]; saturated_ticks: (3,) ticks at the limit.
         decimated: the trace every ``stride``-th tick and at each range's worst tick.
@@ -65,7 +70,6 @@ class StreamedRun:
     """
 
     analysis: Analysis
-    line: np.ndarray
     ticks: int
     duration_s: float
     max_force_N: np.ndarray
@@ -107,46 +111,49 @@ def stream_run(
             contexts.append((c0, ctx))
             yield ctx.slice(lo - c0, hi - c0)
 
-    # what the whole-run figures need, filled range by range (13 bytes a tick)
-    err_um, feed = np.empty(n), np.empty(n, dtype=bool)
-    line = np.empty(n, dtype=np.int32)
-    reference_max = tracking_max = 0.0
+    tally = ErrorTally(tab, spill=True)  # the whole-run figures, in bounded memory
+    path_tab = move_table(planned.path_moves or planned.moves)  # for the blend/planning split
+    reference_max = tracking_max = planning_mm = 0.0
     kept: list[tuple[np.ndarray, Trajectory, np.ndarray, np.ndarray, ChunkAnalysis]] = []
     max_force, saturated = np.zeros(3), np.zeros(3, dtype=np.int64)
     sim_s = ana_s = 0.0
     start = planned.sample_range(period, 0, 1).pos[0]
     lo = 0
-    t0 = time.perf_counter()
-    for pos, force in simulate_pieces(gantry, machine, pieces(), start, on_ticks):
-        t1 = time.perf_counter()
-        sim_s += t1 - t0
-        c0, ctx = contexts.popleft()
-        piece = ctx.slice(lo - c0, lo - c0 + pos.shape[0])
-        part = analyse_chunk(tab, piece.line, pos, ctx.pos, lo - c0)
-        if on_range is not None:
-            on_range(lo, piece, pos, force, part)
-        absf = np.abs(force)
-        if absf.size:
-            max_force = np.maximum(max_force, absf.max(axis=0))
-        saturated += (absf >= limit * (1 - 1e-12)).sum(axis=0)
-        rows = np.arange(lo, lo + pos.shape[0])
-        pick = (rows % stride == 0) | (rows == lo + int(np.argmax(part.err_um)))
-        kept.append(_decimate((rows[pick], piece, pos[pick], force[pick], part), pick))
-        hi = lo + pos.shape[0]
-        err_um[lo:hi], feed[lo:hi], line[lo:hi] = part.err_um, part.feed, piece.line
-        reference_max = max(reference_max, part.reference_max_um)
-        tracking_max = max(tracking_max, part.tracking_max_um)
-        lo += pos.shape[0]
+    try:
         t0 = time.perf_counter()
-        ana_s += t0 - t1
-    err_um, feed, line = err_um[:lo], feed[:lo], line[:lo]
-    t1 = time.perf_counter()
+        for pos, force in simulate_pieces(gantry, machine, pieces(), start, on_ticks):
+            t1 = time.perf_counter()
+            sim_s += t1 - t0
+            c0, ctx = contexts.popleft()
+            piece = ctx.slice(lo - c0, lo - c0 + pos.shape[0])
+            part = analyse_chunk(tab, piece.line, pos, ctx.pos, lo - c0)
+            if on_range is not None:
+                on_range(lo, piece, pos, force, part)
+            absf = np.abs(force)
+            if absf.size:
+                max_force = np.maximum(max_force, absf.max(axis=0))
+            saturated += (absf >= limit * (1 - 1e-12)).sum(axis=0)
+            rows = np.arange(lo, lo + pos.shape[0])
+            pick = (rows % stride == 0) | (rows == lo + int(np.argmax(part.err_um)))
+            kept.append(_decimate((rows[pick], piece, pos[pick], force[pick], part), pick))
+            tally.add(piece.line, part.err_um, part.feed)
+            reference_max = max(reference_max, part.reference_max_um)
+            tracking_max = max(tracking_max, part.tracking_max_um)
+            planning_mm = max(planning_mm, planning_distance_mm(path_tab, piece, part.feed))
+            lo += pos.shape[0]
+            t0 = time.perf_counter()
+            ana_s += t0 - t1
+        t1 = time.perf_counter()
+        contour, blocks = tally_figures(tally)
+    finally:
+        tally.values.close()
     parts = ErrorParts(chord_max_um(moves, planned.vertices, tab), reference_max, tracking_max)
-    analysis = joined(tab, line, err_um, np.zeros((0, 3)), feed, parts)
+    empty = np.zeros(0)
+    analysis = Analysis(empty, np.zeros((0, 3)), empty.astype(bool), contour, parts, blocks)
+    analysis = with_planning_split(analysis, planned, planning_mm * UM_PER_MM)
     ana_s += time.perf_counter() - t1
     return StreamedRun(
         analysis=analysis,
-        line=line,
         ticks=n,
         duration_s=(n - 1) * period if n else 0.0,
         max_force_N=max_force,

@@ -71,6 +71,7 @@ def test_rapids_do_not_count_and_blocks_are_per_feed_line():
             kind="linear",
             max_error_um=pytest.approx(2.0),
             rms_error_um=pytest.approx(math.sqrt(2.5)),
+            ticks=2,
         ),
     )
     assert res.parts.reference_max_um == 0.0

@@ -170,6 +170,6 @@ def test_block_statistics_equal_a_direct_scan_per_block():
         e = err[line == mv.line]
         rms = float(np.sqrt(np.mean(e**2))) if e.size else 0.0
         peak = float(e.max()) if e.size else 0.0
-        expect.append(contour.BlockError(mv.line, mv.kind, peak, rms))
+        expect.append(contour.BlockError(mv.line, mv.kind, peak, rms, e.size))
     assert got == tuple(expect)  # exactly: the same pairwise sums as np.mean
     assert [b.line for b in got] == [1, 3, 4, 5] and got[-1].max_error_um == 0.0

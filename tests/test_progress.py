@@ -7,7 +7,7 @@ import json
 
 import pytest
 
-from gantry_sim.sim import api, blend_parts, progress, stream
+from gantry_sim.sim import api, error_tally, progress, stream
 from gantry_sim.sim.cli import main
 
 PROGRAM = "G21 G17 G90 G94\nG0 X1 Y1\nG1 X5 Y0 F2000\nG3 I-5 J0\nG1 X0 Y0\nM2\n"
@@ -35,7 +35,7 @@ def test_progress_of_a_streamed_run(tmp_path, capsys, monkeypatch):
     monkeypatch.setattr(progress, "PROGRESS_DELAY_S", 0.0)
     monkeypatch.setattr(api, "STREAM_ABOVE_TICKS", 0)
     monkeypatch.setattr(stream, "STREAM_TICKS", 256)
-    monkeypatch.setattr(blend_parts, "RANGE_TICKS", 256)
+    monkeypatch.setattr(error_tally, "TILE_TICKS", 100)
     _, err = _run(tmp_path, capsys, "--progress")
     for name in ("parse", "plan", "simulate+analyse", "trace.npz", "write"):
         assert f"{name}: " in err, name

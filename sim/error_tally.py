@@ -1,0 +1,132 @@
+"""A run's whole-run contour-error figures from its ticks fed in order, in bounded memory.
+
+:class:`ErrorTally` takes consecutive ranges of ticks (each tick's program line, contour error
+[um] and feed flag) and gives, at the end, what report.json needs of them: the statistics over
+the feed ticks (largest, rms, exact 95th percentile) and per feed block its largest and rms
+error and its tick count. It holds per block a few numbers, the ticks of at most one tile, and
+the feed ticks' errors for the percentile -- in memory for a run analysed at once, in an
+anonymous temporary file for a streamed one (sim.percentile.ValueSpill: 8 bytes a feed tick on
+disk, none in memory).
+
+Sums of squares are taken tile by tile: TILE_TICKS ticks aligned to the run's first tick,
+summed with numpy's pairwise sum (over the feed ticks of the tile, and over each block's ticks
+of the tile in tick order), the tiles' sums then added in tile order: a run of one tile gets
+exactly ``np.mean(err ** 2)``. The figures therefore depend on the
+ticks only, never on how the run was cut into ranges: a streamed run gives the whole-run
+analysis' numbers bit for bit (tests/test_stream.py).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from gantry_sim.sim.move_table import MoveTable
+from gantry_sim.sim.percentile import ValueSpill, percentile_linear
+
+#: ticks summed at once (aligned to the run's first tick)
+TILE_TICKS = 65536
+
+
+class ErrorTally:
+    """Whole-run error figures of the ticks :meth:`add` ed in order (see the module docstring).
+
+    ``tab``: the program's move table (which lines are feed blocks, and their kinds);
+    ``spill``: keep the feed ticks' errors on disk rather than in memory; ``tile_ticks``:
+    default TILE_TICKS.
+    """
+
+    def __init__(self, tab: MoveTable, *, spill: bool, tile_ticks: int | None = None) -> None:
+        feed_moves = np.flatnonzero(tab.feed)
+        lines, first = np.unique(tab.line[feed_moves], return_index=True)
+        order = np.argsort(first, kind="stable")  # blocks in program order
+        firsts = feed_moves[first[order]]
+        self.block_lines = lines[order]
+        self.block_kinds = np.where(
+            tab.arc[firsts], "arc", np.where(tab.spline[firsts], "spline", "linear")
+        )
+        self._sorted_lines = lines  # sorted; block of lines[i] is _block_of[i]
+        self._block_of = np.argsort(order, kind="stable")
+        nb = lines.size
+        self.block_max = np.zeros(nb)
+        self.block_sq = np.zeros(nb)
+        self.block_ticks = np.zeros(nb, dtype=np.int64)
+        self.feed_max = 0.0
+        self.feed_sq = 0.0
+        self._tile = tile_ticks or TILE_TICKS
+        self._pending: list[tuple[np.ndarray, np.ndarray, np.ndarray]] = []
+        self._pending_n = 0
+        self.values = ValueSpill(on_disk=spill)
+
+    def add(self, line: np.ndarray, err_um: np.ndarray, feed: np.ndarray) -> None:
+        """The next ticks: their program lines (n,), contour errors (n,) [um], feed flags (n,)."""
+        line, err_um, feed = np.asarray(line), np.asarray(err_um, float), np.asarray(feed, bool)
+        while line.size:
+            take = min(line.size, self._tile - self._pending_n)
+            self._pending.append((line[:take], err_um[:take], feed[:take]))
+            self._pending_n += take
+            line, err_um, feed = line[take:], err_um[take:], feed[take:]
+            if self._pending_n == self._tile:
+                self._reduce_tile()
+
+    def _reduce_tile(self) -> None:
+        if not self._pending:
+            return
+        if len(self._pending) == 1:
+            line, err, feed = self._pending[0]
+        else:
+            line, err, feed = (np.concatenate(c) for c in zip(*self._pending, strict=True))
+        self._pending, self._pending_n = [], 0
+        fe = err[feed]
+        if fe.size:
+            self.feed_max = max(self.feed_max, float(fe.max()))
+            self.feed_sq += float(np.add.reduce(fe * fe))
+            self.values.add(fe)
+        if not self._sorted_lines.size:
+            return
+        at = np.minimum(np.searchsorted(self._sorted_lines, line), self._sorted_lines.size - 1)
+        mine = self._sorted_lines[at] == line
+        block, e = self._block_of[at[mine]], err[mine]
+        if not block.size:
+            return
+        order = np.argsort(block, kind="stable")  # each block's ticks in tick order
+        block, e = block[order], e[order]
+        cuts = np.flatnonzero(block[1:] != block[:-1]) + 1
+        starts, stops = [0, *cuts.tolist()], [*cuts.tolist(), block.size]
+        add, biggest = np.add.reduce, np.maximum.reduce
+        sq, peak, ticks = self.block_sq, self.block_max, self.block_ticks
+        for b, lo, hi in zip(block[starts].tolist(), starts, stops, strict=True):
+            part = e[lo:hi]
+            sq[b] += float(add(part * part))
+            peak[b] = max(peak[b], float(biggest(part)))
+            ticks[b] += hi - lo
+
+    def finish(self) -> tuple[tuple[float, float, float], list[tuple[int, str, float, float, int]]]:
+        """((max, rms, p95) over the feed ticks [um] (zeros when none), per feed block in program
+        order (line, kind, max [um], rms [um], ticks)). Closes the spill."""
+        self._reduce_tile()
+        n = self.values.count
+        try:
+            if n:
+                stats = (
+                    self.feed_max,
+                    float(np.sqrt(self.feed_sq / n)),
+                    percentile_linear(self.values.kth, n, 95),
+                )
+            else:
+                stats = (0.0, 0.0, 0.0)
+        finally:
+            self.values.close()
+        ticks = self.block_ticks
+        rms = np.sqrt(self.block_sq / np.maximum(ticks, 1))
+        blocks = [
+            (int(ln), str(kind), float(peak), float(r), int(t))
+            for ln, kind, peak, r, t in zip(
+                self.block_lines.tolist(),
+                self.block_kinds.tolist(),
+                self.block_max.tolist(),
+                rms.tolist(),
+                ticks.tolist(),
+                strict=True,
+            )
+        ]
+        return stats, blocks
