@@ -41,15 +41,18 @@ class BlendedParts(ErrorParts):
 def split_reference(analysis: Analysis, planned: Plan, traj: Trajectory) -> Analysis:
     """``analysis`` with its parts split into blend and planning (see the module docstring)."""
     tab = move_table(planned.path_moves or planned.moves)
-    planning_mm = planning_distance_mm(tab, traj, analysis.feed)
+    planning_mm = planning_distance_mm(tab, traj.line, traj.pos, analysis.feed)
     return with_planning_split(analysis, planned, planning_mm * UM_PER_MM)
 
 
-def planning_distance_mm(path_tab: MoveTable, traj: Trajectory, feed: np.ndarray) -> float:
-    """The largest distance [mm] of the reference samples ``traj`` flagged ``feed`` from the
-    path the planner followed (``path_tab``: the move table of ``Plan.path_moves``); 0 with no
-    feed sample. A streamed run (sim.stream) takes it range by range."""
-    dist = distance_to_moves(path_tab, traj.line[feed], traj.pos[feed])[0]
+def planning_distance_mm(
+    path_tab: MoveTable, line: np.ndarray, ref: np.ndarray, feed: np.ndarray
+) -> float:
+    """The largest distance [mm] of the reference samples ``ref`` (n, 3) [mm] executing
+    ``line`` (n,) and flagged ``feed`` (n,) from the path the planner followed (``path_tab``:
+    the move table of ``Plan.path_moves``); 0 with no feed sample. A streamed run (sim.stream)
+    takes it range by range."""
+    dist = distance_to_moves(path_tab, line[feed], ref[feed])[0]
     return float(dist.max()) if dist.size else 0.0
 
 

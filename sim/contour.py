@@ -60,8 +60,8 @@ TRACKING_WINDOW = 50
 LAG_REACH = 2.0
 #: points along each chord checked for the chord part (fractions of the chord)
 CHORD_FRACTIONS = (0.25, 0.5, 0.75)
-#: chords checked at once by :func:`chord_max_um` (bounds its memory: ~50 MB)
-CHORD_BATCH = 65536
+#: chords checked at once by :func:`chord_max_um` (bounds its memory: ~30 MB)
+CHORD_BATCH = 16384
 
 
 @dataclass(frozen=True)

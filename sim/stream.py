@@ -31,12 +31,12 @@ from gantry_sim.controller.moves import Move
 from gantry_sim.controller.planner.result import Plan
 from gantry_sim.controller.trajectory import Trajectory
 from gantry_sim.controller.units import UM_PER_MM
-from gantry_sim.sim.blend_parts import planning_distance_mm, with_planning_split
+from gantry_sim.sim.analysis_worker import RangeJob, Result, make_analyser
+from gantry_sim.sim.blend_parts import with_planning_split
 from gantry_sim.sim.contour import (
     Analysis,
     ChunkAnalysis,
     ErrorParts,
-    analyse_chunk,
     chord_max_um,
     reference_context,
     tally_figures,
@@ -66,7 +66,9 @@ class StreamedRun:
         ticks: servo ticks N; duration_s: time of the last tick [s].
         max_force_N: (3,) largest |force| per axis [N]; saturated_ticks: (3,) ticks at the limit.
         decimated: the trace every ``stride``-th tick and at each range's worst tick.
-        simulate_s, analyse_s: wall time of the simulation and of the analysis [s].
+        simulate_s: wall time of the simulation [s]; analyse_s: of the analysis, besides the
+            simulation [s] (with sim.analysis_worker's worker process: what the run waited for
+            it, and the running figures).
     """
 
     analysis: Analysis
@@ -113,12 +115,19 @@ def stream_run(
 
     tally = ErrorTally(tab, spill=True)  # the whole-run figures, in bounded memory
     path_tab = move_table(planned.path_moves or planned.moves)  # for the blend/planning split
-    reference_max = tracking_max = planning_mm = 0.0
-    kept: list[tuple[np.ndarray, Trajectory, np.ndarray, np.ndarray, ChunkAnalysis]] = []
-    max_force, saturated = np.zeros(3), np.zeros(3, dtype=np.int64)
+    run = _Running(stride, limit)
     sim_s = ana_s = 0.0
     start = planned.sample_range(period, 0, 1).pos[0]
     lo = 0
+
+    def take(results: list[Result]) -> None:
+        for job, part, planning_mm in results:
+            if on_range is not None:
+                on_range(job.lo, job.piece, job.pos, job.force, part)
+            run.add(job, part, planning_mm)
+            tally.add(job.piece.line, part.err_um, part.feed)
+
+    analyser = make_analyser(tab, path_tab)
     try:
         t0 = time.perf_counter()
         for pos, force in simulate_pieces(gantry, machine, pieces(), start, on_ticks):
@@ -126,42 +135,57 @@ def stream_run(
             sim_s += t1 - t0
             c0, ctx = contexts.popleft()
             piece = ctx.slice(lo - c0, lo - c0 + pos.shape[0])
-            part = analyse_chunk(tab, piece.line, pos, ctx.pos, lo - c0)
-            if on_range is not None:
-                on_range(lo, piece, pos, force, part)
-            absf = np.abs(force)
-            if absf.size:
-                max_force = np.maximum(max_force, absf.max(axis=0))
-            saturated += (absf >= limit * (1 - 1e-12)).sum(axis=0)
-            rows = np.arange(lo, lo + pos.shape[0])
-            pick = (rows % stride == 0) | (rows == lo + int(np.argmax(part.err_um)))
-            kept.append(_decimate((rows[pick], piece, pos[pick], force[pick], part), pick))
-            tally.add(piece.line, part.err_um, part.feed)
-            reference_max = max(reference_max, part.reference_max_um)
-            tracking_max = max(tracking_max, part.tracking_max_um)
-            planning_mm = max(planning_mm, planning_distance_mm(path_tab, piece, part.feed))
+            analyser.submit(RangeJob(lo, piece, ctx.pos, lo - c0, pos, force))
+            take(analyser.ready())
             lo += pos.shape[0]
             t0 = time.perf_counter()
             ana_s += t0 - t1
         t1 = time.perf_counter()
+        take(analyser.ready(drain=True))
         contour, blocks = tally_figures(tally)
     finally:
+        analyser.close()
         tally.values.close()
-    parts = ErrorParts(chord_max_um(moves, planned.vertices, tab), reference_max, tracking_max)
+    chord_um = chord_max_um(moves, planned.vertices, tab)
+    parts = ErrorParts(chord_um, run.reference_max, run.tracking_max)
     empty = np.zeros(0)
     analysis = Analysis(empty, np.zeros((0, 3)), empty.astype(bool), contour, parts, blocks)
-    analysis = with_planning_split(analysis, planned, planning_mm * UM_PER_MM)
+    analysis = with_planning_split(analysis, planned, run.planning_mm * UM_PER_MM)
     ana_s += time.perf_counter() - t1
     return StreamedRun(
         analysis=analysis,
         ticks=n,
         duration_s=(n - 1) * period if n else 0.0,
-        max_force_N=max_force,
-        saturated_ticks=saturated,
-        decimated=_join_decimated(kept),
+        max_force_N=run.max_force,
+        saturated_ticks=run.saturated,
+        decimated=_join_decimated(run.kept),
         simulate_s=sim_s,
         analyse_s=ana_s,
     )
+
+
+class _Running:
+    """The running figures of a streamed run: maxima of the forces and the error parts, the
+    saturated-tick counts, and the decimated trace's rows."""
+
+    def __init__(self, stride: int, limit_N: np.ndarray) -> None:
+        self.stride, self.limit_N = stride, limit_N
+        self.max_force, self.saturated = np.zeros(3), np.zeros(3, dtype=np.int64)
+        self.reference_max = self.tracking_max = self.planning_mm = 0.0
+        self.kept: list[tuple[np.ndarray, Trajectory, np.ndarray, np.ndarray, ChunkAnalysis]] = []
+
+    def add(self, job: RangeJob, part: ChunkAnalysis, planning_mm: float) -> None:
+        absf = np.abs(job.force)
+        if absf.size:
+            self.max_force = np.maximum(self.max_force, absf.max(axis=0))
+        self.saturated += (absf >= self.limit_N * (1 - 1e-12)).sum(axis=0)
+        rows = np.arange(job.lo, job.lo + job.pos.shape[0])
+        pick = (rows % self.stride == 0) | (rows == job.lo + int(np.argmax(part.err_um)))
+        item = (rows[pick], job.piece, job.pos[pick], job.force[pick], part)
+        self.kept.append(_decimate(item, pick))
+        self.reference_max = max(self.reference_max, part.reference_max_um)
+        self.tracking_max = max(self.tracking_max, part.tracking_max_um)
+        self.planning_mm = max(self.planning_mm, planning_mm)
 
 
 def _decimate(item, pick: np.ndarray):

@@ -2,11 +2,14 @@
 
 from __future__ import annotations
 
+import multiprocessing
+
 import numpy as np
 import pytest
 
 from gantry_sim.controller.gcode.interpreter import interpret
 from gantry_sim.controller.planner.plan import plan
+from gantry_sim.sim import stream
 from gantry_sim.sim.contour import analyse
 from gantry_sim.sim.machine import load_gantry
 from gantry_sim.sim.runner import simulate
@@ -36,12 +39,16 @@ def test_sample_range_is_a_slice_of_sample_bit_for_bit(machine):
             assert np.array_equal(getattr(part, name), getattr(whole, name)[k0:k1]), name
 
 
-@pytest.mark.parametrize("stateful", [False, True])
-def test_streamed_run_equals_the_whole_program_run(machine, stateful, monkeypatch):
-    from gantry_sim.sim import error_tally
+@pytest.mark.parametrize(("stateful", "worker"), [(False, "1"), (True, "1"), (False, "0")])
+def test_streamed_run_equals_the_whole_program_run(machine, stateful, worker, monkeypatch):
+    from gantry_sim.sim import analysis_worker, error_tally
     from gantry_sim.sim.blend_parts import split_reference
 
     monkeypatch.setattr(error_tally, "TILE_TICKS", 128)  # sums over tiles cut across ranges
+    monkeypatch.setenv("GANTRY_ANALYSIS_WORKER", worker)  # analysed in a worker process or here
+    made = []
+    make = analysis_worker.make_analyser
+    monkeypatch.setattr(stream, "make_analyser", lambda *a: made.append(make(*a)) or made[-1])
     if stateful:
         machine = machine.with_changes("servo", ki_N_per_mm_s=[40.0, 40.0, 60.0]).with_changes(
             "sim", backlash_mm=[0.01, 0.02, 0.005]
@@ -59,6 +66,8 @@ def test_streamed_run_equals_the_whole_program_run(machine, stateful, monkeypatc
     )
     n = traj.t.size
     assert streamed.ticks == n and len(ranges) == -(-n // 300) > 3
+    forked = isinstance(made[0], analysis_worker.ForkedAnalyser)
+    assert forked == (worker == "1" and "fork" in multiprocessing.get_all_start_methods())
     got = streamed.analysis
     assert got.contour == whole.contour and got.parts == whole.parts
     assert got.blocks == whole.blocks and sum(b.ticks for b in got.blocks) > 0
@@ -82,6 +91,23 @@ def test_streamed_run_equals_the_whole_program_run(machine, stateful, monkeypatc
     assert np.array_equal(traj.t[rows], dec.t)
     assert np.array_equal(sim.pos[rows], dec.pos) and np.array_equal(whole.err_um[rows], dec.err_um)
     assert dec.err_um.max() == whole.err_um.max()
+
+
+def test_a_failure_in_the_analysis_worker_stops_the_run(machine, monkeypatch):
+    from gantry_sim.sim import analysis_worker
+
+    if "fork" not in multiprocessing.get_all_start_methods():
+        pytest.skip("no fork start method: the analysis runs in the run's process")
+    monkeypatch.setenv("GANTRY_ANALYSIS_WORKER", "1")
+
+    def broken(*args):
+        raise ZeroDivisionError("in the worker")
+
+    monkeypatch.setattr(analysis_worker, "analyse_range", broken)  # the fork inherits it
+    moves, planned = _planned(machine)
+    gantry = load_gantry(machine)
+    with pytest.raises(RuntimeError, match=r"analysis worker failed: .*ZeroDivisionError"):
+        stream_run(moves, planned, machine, gantry, range_ticks=300)
 
 
 def test_run_program_streams_long_runs_with_the_same_outputs(machine, monkeypatch, tmp_path):
@@ -161,3 +187,65 @@ def test_no_trace_writes_everything_but_trace_npz(streamed, monkeypatch, tmp_pat
     traced.pop("files")
     bare.pop("files")
     assert traced == bare
+
+
+def test_the_worker_takes_ranges_larger_than_the_pipe_buffer():
+    """Each range and each reply is larger than a pipe's buffer (64 KB on Linux): sending a
+    range while the worker is sending its reply would block both processes (a deadlock the
+    alarm turns into a failure); the results are those of the inline analysis."""
+    import signal
+
+    from gantry_sim.controller.trajectory import Trajectory
+    from gantry_sim.sim import analysis_worker
+    from gantry_sim.sim.move_table import move_table
+
+    if "fork" not in multiprocessing.get_all_start_methods():
+        pytest.skip("no fork start method")
+    moves = tuple(interpret("G1 X100 F6000\nG3 X100 Y20 I0 J10\nM2\n", "linuxcnc", "t"))
+    tab = move_table(moves)
+    n = 20_000
+    rng = np.random.default_rng(0)
+    jobs = []
+    for k in range(4):
+        x = np.linspace(0, 100, n + 2 * 50)
+        ref = np.column_stack([x, np.zeros_like(x), np.zeros_like(x)])
+        pos = ref[50:-50] + rng.normal(scale=1e-3, size=(n, 3))
+        line = np.where(np.arange(n) < n // 2 + 100 * k, 1, 2)
+        piece = Trajectory(
+            t=np.arange(n) * 1e-3,
+            pos=ref[50:-50],
+            vel=ref[50:-50],
+            acc=ref[50:-50],
+            line=line,
+            period_s=1e-3,
+        )
+        jobs.append(analysis_worker.RangeJob(k * n, piece, ref, 50, pos, pos))
+
+    def hang(*_):
+        raise TimeoutError("the analysis worker and the run blocked each other")
+
+    previous = signal.signal(signal.SIGALRM, hang)
+    signal.alarm(20)
+    forked = analysis_worker.ForkedAnalyser(tab, tab)
+    try:
+        got = []
+        for job in jobs:
+            forked.submit(job)
+            got += forked.ready()
+        got += forked.ready(drain=True)
+    finally:
+        signal.alarm(0)
+        signal.signal(signal.SIGALRM, previous)
+        forked.close()
+    inline = analysis_worker.InlineAnalyser(tab, tab)
+    for job in jobs:
+        inline.submit(job)
+    expect = inline.ready(drain=True)
+    assert [g[0].lo for g in got] == [e[0].lo for e in expect] == [0, n, 2 * n, 3 * n]
+    for (_, a, pa), (_, b, pb) in zip(got, expect, strict=True):
+        assert np.array_equal(a.err_um, b.err_um) and np.array_equal(a.nearest, b.nearest)
+        assert (a.reference_max_um, a.tracking_max_um, pa) == (
+            b.reference_max_um,
+            b.tracking_max_um,
+            pb,
+        )
