@@ -14,7 +14,9 @@ the subprocess reports:
   streamed run's trace.npz zipped from its staged arrays) and write (report.json, trace.npz and
   the PNGs written into a folder);
 * peak memory: the subprocess' maximum resident set (getrusage ru_maxrss) right after the run,
-  before anything else is measured;
+  before anything else is measured; and "worker", that of its largest child (a streamed run's
+  analysis worker, sim.analysis_worker: a fork, whose resident set also counts the pages it
+  shares with the run and touches);
 * MuJoCo alone: the same model stepped open loop through the same motion -- the run's held
   forces replayed from the same initial state by ``mujoco.rollout`` (as bench_sim.py does), in
   pieces of REPLAY_STEPS physics steps; every stage's time is printed over it (a second table),
@@ -150,6 +152,7 @@ def child(kind: str, blocks: int, baseline_rev: str | None) -> dict:
         write_run_outputs(result, Path(tmp) / "out")
         t2 = time.perf_counter()
         peak = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss * 1024
+        worker_peak = resource.getrusage(resource.RUSAGE_CHILDREN).ru_maxrss * 1024
     contour.analyse = real_analyse
     timing = result.report["timing_s"]
     out = {
@@ -163,6 +166,7 @@ def child(kind: str, blocks: int, baseline_rev: str | None) -> dict:
         "write": t2 - t1,
         "wall": t2 - t0,
         "peak_bytes": peak,
+        "worker_peak_bytes": worker_peak,
     }
     if result.trace_file is not None:  # a streamed run: its trace is decimated, the file is not
         with np.load(result.trace_file) as npz:
@@ -204,7 +208,7 @@ def _run_child(kind: str, blocks: int, baseline: str | None) -> dict:
 def _print_table(rows: list[dict]) -> None:
     print(
         f"{'program':<13}{'ticks':>9}{'cycle':>8} |{'parse':>7}{'plan':>8}{'sim':>8}"
-        f"{'analyse':>8}{'trace':>7}{'write':>7}{'wall':>8} |{'mujoco':>7} |{'peak MB':>8} | "
+        f"{'analyse':>8}{'trace':>7}{'write':>7}{'wall':>8} |{'mujoco':>7} |{'peak MB':>8}{'worker':>7} | "
         "analyse before -> after"
     )
     for r in rows:
@@ -220,7 +224,7 @@ def _print_table(rows: list[dict]) -> None:
         print(
             f"{_name(r):<13}{r['ticks']:>9}{r['cycle_s'] / 60:>7.1f}m |"
             + "".join(f"{r.get(k, 0.0):>{w}.2f}" for k, w in zip(STAGES, WIDTHS, strict=True))
-            + f"{r['wall']:>8.1f} |{r['mujoco']:>7.2f} |{r['peak_bytes'] / 2**20:>8.0f} | {ba}"
+            + f"{r['wall']:>8.1f} |{r['mujoco']:>7.2f} |{r['peak_bytes'] / 2**20:>8.0f}{r.get('worker_peak_bytes', 0) / 2**20:>7.0f} | {ba}"
         )
 
 
