@@ -12,11 +12,16 @@ entry point is :mod:`.api`):
     servo_loop.py    the servo loop around mj_step: one discrete PD tick, then physics substeps
     pd_ticks.py      the same PD ticks compiled (pd_ticks.c, optional at install), via ctypes
     stateful_ticks.py  the ticks of a law with an integral term or backlash (Python)
-    stream.py        a run range by range: sample, simulate, analyse; 13 bytes a tick kept
+    stream.py        a run range by range: sample, simulate, analyse; nothing kept per tick
+    analysis_worker.py  a streamed run's range analysis, in a forked worker process
+    error_tally.py   whole-run figures (rms, p95, per block) from ranges, in bounded memory
+    percentile.py    exact percentile of values kept in memory or spilled to a temporary file
     trace.py         Trace: the per-tick arrays of a run (trace.npz)
-    trace_writer.py  trace.npz written range by range (a streamed run), zipped at the end
+    trace_writer.py  trace.npz written range by range (a streamed run), deflated as it comes
+    deflate_zip.py   a .zip (ZIP64) assembled around members deflated beforehand
     nearest.py       nearest points on commanded lines, arcs and helices
     contour.py       contour error against the commanded geometry; chord/reference/tracking parts
+    blend_parts.py   the reference part split into G64 blend deviation and planning
     report.py        RunReport (typed) -> report.json, timing.json; write_outputs (+ trace, plots)
     gates.py         error limits per kind / line range, cycle-time limit, the verdict
     compare.py       a run against a baseline report.json, block by block

@@ -159,10 +159,13 @@ def _serve(conn, parent_end, tab: MoveTable, path_tab: MoveTable) -> None:
     try:
         while (msg := conn.recv()) is not None:
             conn.send(analyse_range(tab, path_tab, *msg))
-    except (EOFError, KeyboardInterrupt):
-        pass
+    except (EOFError, OSError, KeyboardInterrupt):
+        pass  # the run is gone or interrupted (OSError: a broken pipe): nobody to tell
     except Exception:  # reported to the run, which raises it
-        conn.send(traceback.format_exc(limit=-3).strip().replace("\n", " | "))
+        try:
+            conn.send(traceback.format_exc(limit=-3).strip().replace("\n", " | "))
+        except OSError:
+            pass
     finally:
         conn.close()
 

@@ -228,9 +228,16 @@ def _streamed(
     n = planned.sample_count(machine.servo.period_s)
     staging = tempfile.TemporaryDirectory(prefix="gantry-trace-") if keep_trace else None
     writer = TraceWriter(Path(staging.name), n) if staging is not None else None
-    gantry = load_gantry(machine)
-    with stage("simulate+analyse", n, "tick", wanted(progress)) as advance:
-        streamed = stream_run(moves, planned, machine, gantry, on_range=writer, on_ticks=advance)
+    try:
+        gantry = load_gantry(machine)
+        with stage("simulate+analyse", n, "tick", wanted(progress)) as advance:
+            streamed = stream_run(
+                moves, planned, machine, gantry, on_range=writer, on_ticks=advance
+            )
+    except BaseException:
+        if writer is not None:
+            writer.close()  # its thread and files; the staging folder goes with ``staging``
+        raise
     t0 = time.perf_counter()
     trace_file = None
     if writer is not None and staging is not None:

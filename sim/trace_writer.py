@@ -1,16 +1,18 @@
-"""trace.npz written range by range: one ``.npy`` file per array, appended to, zipped at the end.
+"""trace.npz written range by range: each array deflated as its ranges arrive, zipped at the end.
 
-A streamed run (sim/stream.py) hands each range's full-rate arrays to :class:`TraceWriter`, which
-appends them to ``.npy`` files in a staging folder (the header written first for the run's known
-length; plain writes rather than memory maps, whose touched pages would count as the process'
-resident memory), and
-:meth:`TraceWriter.finish` zips them into a ``.npz`` that ``numpy.load`` reads like one written by
+A streamed run (sim/stream.py) hands each range's full-rate arrays to :class:`TraceWriter`. A
+background thread appends them to one deflated member per array (sim.deflate_zip.DeflatedMember,
+the ``.npy`` header first, written for the run's known length) in a staging folder: zlib and
+the file writes release the GIL, so the deflating runs on a free core while the servo loop
+steps MuJoCo. :meth:`TraceWriter.finish` then writes the zip around the deflated bytes (no
+second compression pass). ``numpy.load`` reads the result like one written by
 ``numpy.savez_compressed`` (same names, dtypes and values; tests/test_stream.py compares).
 """
 
 from __future__ import annotations
 
-import zipfile
+import queue
+import threading
 from pathlib import Path
 from typing import Any
 
@@ -18,6 +20,7 @@ import numpy as np
 
 from gantry_sim.controller.trajectory import Trajectory
 from gantry_sim.sim.contour import ChunkAnalysis
+from gantry_sim.sim.deflate_zip import DeflatedMember, write_zip
 
 #: trace.npz's arrays: name -> (shape per tick, dtype)
 FIELDS: dict[str, tuple[tuple[int, ...], Any]] = {
@@ -28,6 +31,8 @@ FIELDS: dict[str, tuple[tuple[int, ...], Any]] = {
     "err_um": ((), np.float64),
     "force_N": ((3,), np.float64),
 }
+#: ranges waiting for the deflating thread at most (each a few MB)
+QUEUED_RANGES = 2
 
 
 class TraceWriter:
@@ -39,12 +44,18 @@ class TraceWriter:
         self.folder = Path(folder)
         self.ticks = ticks
         self.written = 0
-        self.files = {}
+        self.members: dict[str, DeflatedMember] = {}
         for name, (shape, dtype) in FIELDS.items():
-            f = open(self.folder / f"{name}.npy", "wb")  # closed in finish()
+            member = DeflatedMember(f"{name}.npy", self.folder / f"{name}.npy.deflated")
             header = {"descr": npy.dtype_to_descr(np.dtype(dtype)), "fortran_order": False}
-            npy.write_array_header_1_0(f, header | {"shape": (ticks, *shape)})
-            self.files[name] = f
+            head = _Buffer()
+            npy.write_array_header_1_0(head, header | {"shape": (ticks, *shape)})
+            member.add(head.data)
+            self.members[name] = member
+        self._queue: queue.Queue[dict[str, np.ndarray] | None] = queue.Queue(QUEUED_RANGES)
+        self._failed: BaseException | None = None
+        self._thread = threading.Thread(target=self._deflate, name="trace.npz", daemon=True)
+        self._thread.start()
 
     def __call__(
         self, lo: int, piece: Trajectory, pos: np.ndarray, force: np.ndarray, part: ChunkAnalysis
@@ -52,23 +63,54 @@ class TraceWriter:
         """Write ticks lo..lo+n-1 (the arguments of sim.stream's ``on_range``)."""
         if lo != self.written:
             raise ValueError(f"trace ranges out of order: got tick {lo}, expected {self.written}")
+        self._raise_failure()
         rows = {"t": piece.t, "ref": piece.pos, "pos": pos, "line": piece.line}
         rows |= {"err_um": part.err_um, "force_N": force}
-        for name, values in rows.items():
-            dtype = FIELDS[name][1]
-            self.files[name].write(np.ascontiguousarray(values, dtype=dtype).tobytes())
+        self._queue.put(
+            {name: np.ascontiguousarray(v, dtype=FIELDS[name][1]) for name, v in rows.items()}
+        )
         self.written += pos.shape[0]
 
+    def _deflate(self) -> None:
+        while (rows := self._queue.get()) is not None:
+            if self._failed is not None:
+                continue  # drain: the run hears of it at its next range
+            try:
+                for name, values in rows.items():
+                    self.members[name].add(values.data.cast("B"))
+            except BaseException as exc:  # e.g. the disk is full
+                self._failed = exc
+
+    def _raise_failure(self) -> None:
+        if self._failed is not None:
+            raise self._failed
+
+    def close(self) -> None:
+        """Stop the thread and close the members' files (idempotent)."""
+        if self._thread.is_alive():
+            self._queue.put(None)
+            self._thread.join()
+        for member in self.members.values():
+            member.close()
+
     def finish(self, npz: Path) -> Path:
-        """Zip the arrays into ``npz`` (deflated, fast level) and remove the ``.npy`` files."""
-        for f in self.files.values():
-            f.close()
-        self.files.clear()
+        """Zip the deflated arrays into ``npz`` and remove them."""
+        self.close()
+        self._raise_failure()
         if self.written != self.ticks:
             raise ValueError(f"trace has {self.written} of {self.ticks} ticks")
-        with zipfile.ZipFile(npz, "w", zipfile.ZIP_DEFLATED, compresslevel=1) as z:
-            for name in FIELDS:
-                path = self.folder / f"{name}.npy"
-                z.write(path, arcname=f"{name}.npy")
-                path.unlink()
+        with open(npz, "wb") as out:
+            write_zip(list(self.members.values()), out)
+        for member in self.members.values():
+            member.path.unlink()
         return npz
+
+
+class _Buffer:
+    """A write-only byte sink for numpy's .npy header writer."""
+
+    def __init__(self) -> None:
+        self.data = b""
+
+    def write(self, chunk: bytes) -> None:
+        self.data += chunk

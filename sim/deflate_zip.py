@@ -1,0 +1,117 @@
+"""A .zip file assembled from members deflated beforehand (APPNOTE.TXT 6.3: local headers,
+data, central directory, ZIP64 end records).
+
+Python's zipfile compresses a member while writing it, one member after the other; a streamed
+run's trace.npz has six members whose bytes arrive interleaved, range by range, for minutes. So
+each member is deflated as its bytes arrive (:class:`DeflatedMember`: raw deflate, CRC-32 and
+sizes kept), and :func:`write_zip` then writes the container around the deflated bytes, copying
+them. Every entry carries ZIP64 sizes and offsets (version 4.5), whatever its size, so the one
+path that writes multi-gigabyte traces is the one the tests read back with zipfile and numpy.
+"""
+
+from __future__ import annotations
+
+import shutil
+import struct
+import zlib
+from pathlib import Path
+from typing import BinaryIO
+
+#: zlib level: 1, as trace.npz was written (fast; float data deflates little more at 9)
+LEVEL = 1
+_MAX32 = 0xFFFFFFFF
+_VERSION = 45  # ZIP64
+_DOS_TIME, _DOS_DATE = 0, (1980 - 1980) << 9 | 1 << 5 | 1  # 1980-01-01 00:00, as numpy's savez
+
+
+class DeflatedMember:
+    """One member's bytes, deflated into the file ``path`` as they are added."""
+
+    def __init__(self, name: str, path: Path) -> None:
+        self.name, self.path = name, Path(path)
+        self.crc, self.size, self.compressed = 0, 0, 0
+        self._file: BinaryIO | None = open(self.path, "wb")  # closed by close()
+        self._deflate = zlib.compressobj(LEVEL, zlib.DEFLATED, -15)
+
+    def add(self, data: bytes | memoryview) -> None:
+        assert self._file is not None, "member already closed"
+        self.crc = zlib.crc32(data, self.crc)
+        self.size += len(data)
+        self._write(self._deflate.compress(data))
+
+    def close(self) -> None:
+        """Flush the deflate stream and close the file (idempotent)."""
+        if self._file is not None:
+            self._write(self._deflate.flush())
+            self._file.close()
+            self._file = None
+
+    def _write(self, chunk: bytes) -> None:
+        assert self._file is not None
+        self._file.write(chunk)
+        self.compressed += len(chunk)
+
+
+def write_zip(members: list[DeflatedMember], out: BinaryIO) -> None:
+    """Write a zip of ``members`` (closed) to ``out``, each member's deflated bytes copied."""
+    central = []
+    for m in members:
+        m.close()
+        offset = out.tell()
+        name = m.name.encode()
+        extra = struct.pack("<HHQQ", 1, 16, m.size, m.compressed)
+        out.write(
+            struct.pack(
+                "<IHHHHHIIIHH",
+                0x04034B50,
+                _VERSION,
+                0,
+                zlib.DEFLATED,
+                _DOS_TIME,
+                _DOS_DATE,
+                m.crc,
+                _MAX32,
+                _MAX32,
+                len(name),
+                len(extra),
+            )
+            + name
+            + extra
+        )
+        with open(m.path, "rb") as f:
+            shutil.copyfileobj(f, out, 1 << 20)
+        extra = struct.pack("<HHQQQ", 1, 24, m.size, m.compressed, offset)
+        central.append(
+            struct.pack(
+                "<IHHHHHHIIIHHHHHII",
+                0x02014B50,
+                3 << 8 | _VERSION,  # made by: Unix (the external attributes are its mode)
+                _VERSION,
+                0,
+                zlib.DEFLATED,
+                _DOS_TIME,
+                _DOS_DATE,
+                m.crc,
+                _MAX32,
+                _MAX32,
+                len(name),
+                len(extra),
+                0,
+                0,
+                0,
+                0o644 << 16,
+                _MAX32,
+            )
+            + name
+            + extra
+        )
+    start = out.tell()
+    for entry in central:
+        out.write(entry)
+    end = out.tell()
+    n, size = len(central), end - start
+    out.write(
+        struct.pack("<IQHHIIQQQQ", 0x06064B50, 44, _VERSION, _VERSION, 0, 0, n, n, size, start)
+    )
+    out.write(struct.pack("<IIQI", 0x07064B50, 0, end, 1))
+    out.write(struct.pack("<IHHHHIIH", 0x06054B50, 0, 0, n, n, _MAX32, _MAX32, 0))
