@@ -11,8 +11,8 @@ public API as ``gantry run`` does (run_program, then write_run_outputs into a te
 the subprocess reports:
 
 * stage times [s]: parse, plan, simulate, analyse, trace (report.json's timing_s; trace: a
-  streamed run's trace.npz zipped from its staged arrays) and write (report.json, trace.npz and
-  the PNGs written into a folder);
+  streamed run's trace.npz, the zip written around its arrays deflated during the run) and
+  write (report.json, trace.npz and the PNGs written into a folder);
 * peak memory: the subprocess' maximum resident set (getrusage ru_maxrss) right after the run,
   before anything else is measured; and "worker", that of its largest child (a streamed run's
   analysis worker, sim.analysis_worker: a fork, whose resident set also counts the pages it
@@ -162,7 +162,7 @@ def child(kind: str, blocks: int, baseline_rev: str | None) -> dict:
         "streamed": result.trace_file is not None,
         "cycle_s": result.report["cycle_time_s"],
         **{k: float(timing[k]) for k in ("parse", "plan", "simulate", "analyse")},
-        "trace": float(timing.get("trace", 0.0)),  # a streamed run's trace.npz zipped
+        "trace": float(timing.get("trace", 0.0)),  # a streamed run's trace.npz assembled
         "write": t2 - t1,
         "wall": t2 - t0,
         "peak_bytes": peak,
