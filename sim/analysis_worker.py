@@ -1,25 +1,36 @@
-"""The streamed run's analysis of each range, in this process or in a forked worker process.
+"""The streamed run's analysis of each range, in this process or in a worker process.
 
 A streamed run (sim.stream) hands each simulated range to an analyser and takes its result back
-one range later, in order. :class:`InlineAnalyser` analyses at once; :class:`ForkedAnalyser`
-sends the range to a worker process forked at the start of the run (it inherits the move
-tables, so nothing but the range's arrays crosses the pipe: about 90 bytes a tick each way) and
-returns the previous range's result, so the analysis of range k runs on the second core while
-the servo loop simulates range k + 1. The work is the same function on the same arrays: the
-figures are identical either way (tests/test_stream.py runs both).
+one range later, in order. :class:`InlineAnalyser` analyses at once; :class:`ProcessAnalyser`
+starts a worker process at the start of the run (``python -m gantry_sim.sim.analysis_worker``,
+talking over its stdin and stdout), sends it the move tables once, then each range's lines,
+traced points and reference (about 90 bytes a tick each way), and returns the previous range's
+result, so the analysis of range k runs on the second core while the servo loop simulates
+range k + 1. The work is the same function on the same arrays: the figures are identical either
+way (tests/test_stream.py runs both).
 
-The worker is used where it can pay: a fork start method (Linux, macOS with fork), two or more
-cores, and ``GANTRY_ANALYSIS_WORKER`` not set to 0. A failure in the worker is raised in the
-run as a RuntimeError carrying the worker's traceback (exit status 3 from the CLI).
+A fresh interpreter, not a fork: a forked worker shared the run's heap copy-on-write, and its
+allocations landing in the pages the planner had freed copied them one by one (1.4 GB private
+to the worker at 100,000 mixed blocks, growing with the program); nor multiprocessing's spawn,
+which runs the caller's main script again in the worker (a user's script without a
+``__main__`` guard would run twice). The worker ends when its stdin closes: when the run ends,
+or its process dies, whatever the cause.
+
+The worker is used where it can pay: a POSIX system, two or more cores, and
+``GANTRY_ANALYSIS_WORKER`` not set to 0. A failure in the worker is raised in the run as a
+RuntimeError carrying the worker's traceback (exit status 3 from the CLI).
 """
 
 from __future__ import annotations
 
-import multiprocessing
 import os
+import subprocess
+import sys
+import threading
 import traceback
 from collections import deque
 from dataclasses import dataclass
+from multiprocessing.connection import Connection
 
 import numpy as np
 
@@ -84,29 +95,46 @@ class InlineAnalyser:
         self._done.clear()
 
 
-class ForkedAnalyser:
-    """Analyses the ranges in a forked worker process, one range behind the simulation."""
+class ProcessAnalyser:
+    """Analyses the ranges in a worker process, one range behind the simulation."""
 
     def __init__(self, tab: MoveTable, path_tab: MoveTable) -> None:
-        ctx = multiprocessing.get_context("fork")
-        self._conn, child = ctx.Pipe()
-        self._proc = ctx.Process(
-            target=_serve, args=(child, self._conn, tab, path_tab), daemon=True
+        env = dict(os.environ, PYTHONPATH=os.pathsep.join(p for p in sys.path if p))
+        self._proc = subprocess.Popen(
+            [sys.executable, "-m", "gantry_sim.sim.analysis_worker"],
+            stdin=subprocess.PIPE,
+            stdout=subprocess.PIPE,
+            env=env,
+            start_new_session=True,  # a terminal's Ctrl-C goes to the run, which closes our stdin
         )
-        self._proc.start()
-        child.close()
+        assert self._proc.stdin is not None and self._proc.stdout is not None
+        self._out = Connection(os.dup(self._proc.stdin.fileno()), readable=False)
+        self._in = Connection(os.dup(self._proc.stdout.fileno()), writable=False)
+        self._proc.stdin.close()
+        self._proc.stdout.close()
         self._sent: deque[RangeJob] = deque()
         self._done: deque[Result] = deque()
+        # the tables go while the first range simulates (the worker takes ~0.3 s to start)
+        self._tables = threading.Thread(target=self._send, args=((tab, path_tab),), daemon=True)
+        self._send_error: OSError | None = None
+        self._tables.start()
+
+    def _send(self, msg: object) -> None:
+        try:
+            self._out.send(msg)
+        except OSError as exc:
+            self._send_error = exc
 
     def submit(self, job: RangeJob) -> None:
         """Take the previous range's result (waiting for it), then send this range (its lines,
-        traced points and reference positions). One range at a time is in the pipe: the
-        worker's reply and the next range are each larger than the pipe's buffer, so sending
+        traced points and reference positions). One range at a time is in the pipes: the
+        worker's reply and the next range are each larger than a pipe's buffer, so sending
         both ways at once would block both processes."""
+        self._tables.join()
         self._take_replies()
-        try:
-            self._conn.send((job.piece.line, job.pos, job.context_pos, job.offset))
-        except OSError:  # the worker is gone: say why
+        if self._send_error is None:
+            self._send((job.piece.line, job.pos, job.context_pos, job.offset))
+        if self._send_error is not None:  # the worker is gone: say why
             while True:
                 self._recv()
         self._sent.append(job)
@@ -126,55 +154,57 @@ class ForkedAnalyser:
 
     def _recv(self) -> tuple[ChunkAnalysis, float]:
         try:
-            reply = self._conn.recv()
+            reply = self._in.recv()
         except (EOFError, OSError):
+            self._proc.wait()
             raise RuntimeError(
-                f"analysis worker exited (status {self._proc.exitcode}) without its results"
+                f"analysis worker exited (status {self._proc.returncode}) without its results"
             ) from None
         if isinstance(reply, str):
             raise RuntimeError(f"analysis worker failed: {reply}")
         return reply
 
     def close(self) -> None:
-        """Stop the worker: at the end of the run, asked to (it waits for a range, so the
-        message goes through); when the run stopped with a range still out, terminated."""
-        if not self._sent and self._proc.is_alive():
-            try:
-                self._conn.send(None)
-            except OSError:
-                pass
-            self._proc.join(timeout=5)
-        if self._proc.is_alive():
+        """Stop the worker: its stdin closed, it ends (at once when it waits for a range; when
+        the run stopped with a range still out, it is terminated)."""
+        self._out.close()
+        if self._sent:
             self._proc.terminate()
-            self._proc.join()
+        try:
+            self._proc.wait(timeout=5)
+        except subprocess.TimeoutExpired:
+            self._proc.kill()
+            self._proc.wait()
+        self._in.close()
         self._sent.clear()
-        self._conn.close()
 
 
-def _serve(conn, parent_end, tab: MoveTable, path_tab: MoveTable) -> None:
-    """The worker: analyse every range received until None, or until the run's process is gone
-    (its end of the pipe, inherited by the fork, is closed here first, so that the run's exit
-    -- even a kill -- ends this loop with an EOFError)."""
-    parent_end.close()
+def _serve(inp: Connection, out: Connection) -> None:
+    """The worker: the move tables, then every range received until the input ends."""
     try:
-        while (msg := conn.recv()) is not None:
-            conn.send(analyse_range(tab, path_tab, *msg))
+        tab, path_tab = inp.recv()
+        while True:
+            out.send(analyse_range(tab, path_tab, *inp.recv()))
     except (EOFError, OSError, KeyboardInterrupt):
-        pass  # the run is gone or interrupted (OSError: a broken pipe): nobody to tell
+        pass  # the run ended, is gone or interrupted (OSError: a broken pipe): nobody to tell
     except Exception:  # reported to the run, which raises it
         try:
-            conn.send(traceback.format_exc(limit=-3).strip().replace("\n", " | "))
+            out.send(traceback.format_exc(limit=-3).strip().replace("\n", " | "))
         except OSError:
             pass
-    finally:
-        conn.close()
 
 
-def make_analyser(tab: MoveTable, path_tab: MoveTable) -> InlineAnalyser | ForkedAnalyser:
-    """A :class:`ForkedAnalyser` where it can pay (see the module docstring), else inline."""
-    forked = (
+def make_analyser(tab: MoveTable, path_tab: MoveTable) -> InlineAnalyser | ProcessAnalyser:
+    """A :class:`ProcessAnalyser` where it can pay (see the module docstring), else inline."""
+    worker = (
         os.environ.get("GANTRY_ANALYSIS_WORKER", "1") != "0"
-        and "fork" in multiprocessing.get_all_start_methods()
+        and os.name == "posix"
         and (os.cpu_count() or 1) >= 2
     )
-    return ForkedAnalyser(tab, path_tab) if forked else InlineAnalyser(tab, path_tab)
+    return ProcessAnalyser(tab, path_tab) if worker else InlineAnalyser(tab, path_tab)
+
+
+if __name__ == "__main__":  # the worker process (see ProcessAnalyser)
+    stdin, stdout = os.dup(0), os.dup(1)
+    os.dup2(2, 1)  # a stray print goes to stderr, not into the replies
+    _serve(Connection(stdin, writable=False), Connection(stdout, readable=False))

@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-import multiprocessing
+import os
 
 import numpy as np
 import pytest
@@ -66,8 +66,8 @@ def test_streamed_run_equals_the_whole_program_run(machine, stateful, worker, mo
     )
     n = traj.t.size
     assert streamed.ticks == n and len(ranges) == -(-n // 300) > 3
-    forked = isinstance(made[0], analysis_worker.ForkedAnalyser)
-    assert forked == (worker == "1" and "fork" in multiprocessing.get_all_start_methods())
+    in_process = isinstance(made[0], analysis_worker.ProcessAnalyser)
+    assert in_process == (worker == "1" and os.name == "posix" and (os.cpu_count() or 1) >= 2)
     got = streamed.analysis
     assert got.contour == whole.contour and got.parts == whole.parts
     assert got.blocks == whole.blocks and sum(b.ticks for b in got.blocks) > 0
@@ -93,21 +93,25 @@ def test_streamed_run_equals_the_whole_program_run(machine, stateful, worker, mo
     assert dec.err_um.max() == whole.err_um.max()
 
 
-def test_a_failure_in_the_analysis_worker_stops_the_run(machine, monkeypatch):
+def test_a_failure_in_the_analysis_worker_stops_the_run(machine):
+    """An exception in the worker reaches the run as a RuntimeError with its traceback, and the
+    worker is gone."""
     from gantry_sim.sim import analysis_worker
+    from gantry_sim.sim.move_table import move_table
 
-    if "fork" not in multiprocessing.get_all_start_methods():
-        pytest.skip("no fork start method: the analysis runs in the run's process")
-    monkeypatch.setenv("GANTRY_ANALYSIS_WORKER", "1")
-
-    def broken(*args):
-        raise ZeroDivisionError("in the worker")
-
-    monkeypatch.setattr(analysis_worker, "analyse_range", broken)  # the fork inherits it
+    if os.name != "posix":
+        pytest.skip("the worker process runs on POSIX systems")
     moves, planned = _planned(machine)
-    gantry = load_gantry(machine)
-    with pytest.raises(RuntimeError, match=r"analysis worker failed: .*ZeroDivisionError"):
-        stream_run(moves, planned, machine, gantry, range_ticks=300)
+    piece = planned.sample_range(machine.servo.period_s, 0, 100)
+    worker = analysis_worker.ProcessAnalyser(move_table(moves), move_table(moves))
+    try:
+        broken = np.zeros((3, 3))  # a reference context far shorter than the range
+        worker.submit(analysis_worker.RangeJob(0, piece, broken, 0, piece.pos, piece.pos))
+        with pytest.raises(RuntimeError, match=r"analysis worker failed: .*Error"):
+            worker.ready(drain=True)
+    finally:
+        worker.close()
+    assert worker._proc.returncode is not None
 
 
 def test_run_program_streams_long_runs_with_the_same_outputs(machine, monkeypatch, tmp_path):
@@ -199,8 +203,8 @@ def test_the_worker_takes_ranges_larger_than_the_pipe_buffer():
     from gantry_sim.sim import analysis_worker
     from gantry_sim.sim.move_table import move_table
 
-    if "fork" not in multiprocessing.get_all_start_methods():
-        pytest.skip("no fork start method")
+    if os.name != "posix":
+        pytest.skip("the worker process runs on POSIX systems")
     moves = tuple(interpret("G1 X100 F6000\nG3 X100 Y20 I0 J10\nM2\n", "linuxcnc", "t"))
     tab = move_table(moves)
     n = 20_000
@@ -226,17 +230,17 @@ def test_the_worker_takes_ranges_larger_than_the_pipe_buffer():
 
     previous = signal.signal(signal.SIGALRM, hang)
     signal.alarm(20)
-    forked = analysis_worker.ForkedAnalyser(tab, tab)
+    worker = analysis_worker.ProcessAnalyser(tab, tab)
     try:
         got = []
         for job in jobs:
-            forked.submit(job)
-            got += forked.ready()
-        got += forked.ready(drain=True)
+            worker.submit(job)
+            got += worker.ready()
+        got += worker.ready(drain=True)
     finally:
         signal.alarm(0)
         signal.signal(signal.SIGALRM, previous)
-        forked.close()
+        worker.close()
     inline = analysis_worker.InlineAnalyser(tab, tab)
     for job in jobs:
         inline.submit(job)
