@@ -13,7 +13,7 @@ import numpy as np
 
 from gantry_sim.controller.planner.junctions import EndState
 from gantry_sim.controller.planner.move_geometry import ArcGeometry
-from gantry_sim.controller.planner.profile import Profile1D
+from gantry_sim.controller.planner.profile import Profile1D, invert_many
 
 #: Extra vertices at 1/2, 1/4, ... of the first (last) chord of an arc that starts (ends) at rest.
 STOP_REFINEMENT = 8
@@ -41,13 +41,36 @@ class VertexStates:
 def vertex_states(
     g: ArcGeometry, profile: Profile1D, state_in: EndState, state_out: EndState
 ) -> VertexStates:
-    """Exact arc states where the reference passes through the arc.
+    """Exact arc states where the reference passes through the arc (see
+    :func:`vertex_states_many`)."""
+    return vertex_states_many([(g, profile, state_in, state_out)])[0]
+
+
+def vertex_states_many(
+    requests: list[tuple[ArcGeometry, Profile1D, EndState, EndState]],
+) -> list[VertexStates]:
+    """Exact arc states where the reference passes through each arc ``g`` along its
+    ``profile``, between its end states: the profiles are inverted in one vectorised solve.
 
     Vertices: the chord vertices, plus the points where ``profile`` switches phase (within one
     phase the motion is smooth), plus, next to a stop, points at 1/2, 1/4, ... of the end chord
     (there the speed grows like s^(2/3); a piece across the whole chord would start along a
     straight line).
     """
+    fractions = [_fractions(g, prof, s_in, s_out) for g, prof, s_in, s_out in requests]
+    inverted = invert_many(
+        [(r[1], u[1:-1] * r[0].length_mm) for r, u in zip(requests, fractions, strict=True)]
+    )
+    return [
+        _states(g, prof, s_in, s_out, u, inv)
+        for (g, prof, s_in, s_out), u, inv in zip(requests, fractions, inverted, strict=True)
+    ]
+
+
+def _fractions(
+    g: ArcGeometry, profile: Profile1D, state_in: EndState, state_out: EndState
+) -> np.ndarray:
+    """The sweep fractions of the vertices (see :func:`vertex_states_many`)."""
     # Each knot of the 1-D profile becomes a vertex: the nearest chord vertex moves onto it when
     # within a quarter chord (a piece much shorter than a chord would let rounding dominate its
     # jerk), or it is added. The reference only passes through exact arc states, so moving a
@@ -72,7 +95,20 @@ def vertex_states(
         u = np.union1d(u, 1.0 - (1.0 - u[-2]) * halves)
     u = u[np.concatenate(([True], np.diff(u) > 1e-12))]
     u[-1] = 1.0
-    t_k, v_k, a_k = profile.invert(u[1:-1] * g.length_mm)
+    return u
+
+
+def _states(
+    g: ArcGeometry,
+    profile: Profile1D,
+    state_in: EndState,
+    state_out: EndState,
+    u: np.ndarray,
+    inverted: tuple[np.ndarray, np.ndarray, np.ndarray],
+) -> VertexStates:
+    """The states at the fractions ``u``, given the profile's (times, speeds, tangential
+    accelerations) at the inner ones."""
+    t_k, v_k, a_k = inverted
     d1, d2 = g.derivatives(u[1:-1])
     speed_u = np.linalg.norm(d1, axis=1)
     ud = (v_k / speed_u)[:, None]

@@ -23,11 +23,11 @@ from gantry_sim.controller.errors import PlannerFailure, PlanningError
 from gantry_sim.controller.moves import Dwell, Move
 from gantry_sim.controller.planner.chains import chain_limits, chain_spans, split_profile
 from gantry_sim.controller.planner.cubic import PiecewiseCubic, phases_from_chunks
-from gantry_sim.controller.planner.junctions import JunctionState
+from gantry_sim.controller.planner.junctions import EndState, JunctionState
 from gantry_sim.controller.planner.limits import BlockLimits
 from gantry_sim.controller.planner.lookahead import plan_junction_speeds
 from gantry_sim.controller.planner.move_geometry import ArcGeometry, MoveGeometry
-from gantry_sim.controller.planner.pieces import MovePieces
+from gantry_sim.controller.planner.pieces import MovePieces, Pieces
 from gantry_sim.controller.planner.profile import Profile1D
 from gantry_sim.controller.planner.ruckig_solver import (
     ProfileReverses,
@@ -159,10 +159,12 @@ def _plan_round(
             )
             clock += dw.seconds
 
-    for (first, stop), lim in zip(spans, chained, strict=True):
+    keys = [(first, stop, float(speeds[first]), float(speeds[stop])) for first, stop in spans]
+    todo = [(k, lim) for k, lim in zip(keys, chained, strict=True) if k not in cache]
+    fresh = _plan_chains(setup, todo, speeds)
+    for (first, stop), key in zip(spans, keys, strict=True):
         hold(first)
-        key = (first, stop, float(speeds[first]), float(speeds[stop]))
-        chain = cache.get(key) or _plan_chain(setup, first, stop, lim, speeds)
+        chain = cache.get(key) or fresh[key]
         used[key] = chain
         speeds[first + 1 : stop] = chain.inner_speeds
         starts.extend(clock + t for t in chain.starts_s)
@@ -175,6 +177,56 @@ def _plan_round(
     return Round(chunks, clock, starts, bad, lines, ruckig), used
 
 
+#: Closed-form pieces computed in one vectorised batch (about this many pieces at most: the
+#: batch's arrays take about 1 kB per piece).
+BATCH_PIECES = 20_000
+
+_Key = tuple[int, int, float, float]
+
+
+def _plan_chains(
+    setup: _Setup, todo: list[tuple[_Key, BlockLimits]], speeds: np.ndarray
+) -> dict[_Key, _Chain]:
+    """The chains ``todo`` (key (first, stop, speed in, speed out), limits), planned in batches:
+    each chain's profile and arcs' candidate profiles first, then the closed-form pieces of
+    the first candidate of every arc of the batch at once, then each chain's pieces."""
+    out: dict[_Key, _Chain] = {}
+    batch: list[tuple[_Key, BlockLimits, _Prep]] = []
+    size = 0
+    for key, lim in todo:
+        prep = _chain_prep(setup, key[0], key[1], lim, speeds)
+        batch.append((key, lim, prep))
+        size += sum(g.u.size for _, g, *_ in prep.arcs)
+        if size >= BATCH_PIECES:
+            _finish_batch(setup, batch, speeds, out)
+            batch, size = [], 0
+    _finish_batch(setup, batch, speeds, out)
+    return out
+
+
+def _finish_batch(
+    setup: _Setup,
+    batch: list[tuple[_Key, BlockLimits, _Prep]],
+    speeds: np.ndarray,
+    out: dict[_Key, _Chain],
+) -> None:
+    """Plan the prepared chains of ``batch`` into ``out``."""
+    requests = []
+    for _key, _lim, prep in batch:
+        for k, g, fast, s_in, s_out in prep.arcs:
+            requests.append((g, fast[0] if fast else prep.parts[k], s_in, s_out))
+    maker = MovePieces(
+        setup.machine.limits,
+        setup.machine.segmentation.chord_tolerance_mm,
+        setup.arc_pieces,
+        setup.solver,
+    )
+    found = iter(maker.closed_forms(requests)) if setup.arc_pieces == "jerk3" else None
+    for key, lim, prep in batch:
+        first = None if found is None else {k: next(found) for k, *_ in prep.arcs}
+        out[key] = _plan_chain(setup, key[0], key[1], lim, speeds, prep, first)
+
+
 #: Tries of a chain's profile with slower limits (each: :data:`SLOWER_CAP` of the speed cap,
 #: :data:`SLOWER_RAMP` of the acceleration and jerk) when a Ruckig piece inside an arc with
 #: no moving junction left the arc or exceeded the feed.
@@ -184,14 +236,24 @@ SLOWER_RAMP = 0.8
 
 
 def _plan_chain(
-    setup: _Setup, first: int, stop: int, lim: BlockLimits, speeds: np.ndarray
+    setup: _Setup,
+    first: int,
+    stop: int,
+    lim: BlockLimits,
+    speeds: np.ndarray,
+    prep: _Prep | None = None,
+    pre: dict[int, Pieces] | None = None,
 ) -> _Chain:
     """The pieces of moves ``first..stop-1`` (one chain with the limits ``lim``) from
     ``speeds[first]`` to ``speeds[stop]`` [mm/s]; slower (:data:`SLOWER_TRIES`) while a piece
-    inside an arc with no moving junction leaves the arc or exceeds the feed."""
+    inside an arc with no moving junction leaves the arc or exceeds the feed. ``prep`` and
+    ``pre``: the chain's preparation for ``lim`` and the closed-form pieces of each arc's first
+    candidate, when already made."""
     floor = max(float(speeds[first]), float(speeds[stop]))
     for _ in range(SLOWER_TRIES):
-        chain, off = _chain_pieces(setup, first, stop, lim, speeds)
+        if prep is None:
+            prep = _chain_prep(setup, first, stop, lim, speeds)
+        chain, off = _chain_pieces(setup, first, stop, prep, pre)
         if not off:
             break
         lim = replace(
@@ -200,16 +262,28 @@ def _plan_chain(
             acc_mm_per_s2=SLOWER_RAMP * lim.acc_mm_per_s2,
             jerk_mm_per_s3=SLOWER_RAMP * lim.jerk_mm_per_s3,
         )
+        prep, pre = None, None
     return chain
 
 
-def _chain_pieces(
+@dataclass(frozen=True, eq=False)
+class _Prep:
+    """A chain's profile cut at its moves' ends (``parts``), the speeds [mm/s] and tangential
+    accelerations [mm/s^2] at its junctions, and per arc (its index in the chain, its
+    geometry, its faster candidate profiles, its end states)."""
+
+    parts: list[Profile1D]
+    speeds: np.ndarray
+    acc_t: np.ndarray
+    arcs: list[tuple[int, ArcGeometry, tuple[Profile1D, ...], EndState, EndState]]
+
+
+def _chain_prep(
     setup: _Setup, first: int, stop: int, lim: BlockLimits, speeds: np.ndarray
-) -> tuple[_Chain, int]:
-    """One try of :func:`_plan_chain`: the chain, and how many pieces were off."""
+) -> _Prep:
+    """The profile of moves ``first..stop-1`` under ``lim``, cut per move, and each arc's
+    candidates and end states."""
     active, states, limits = setup.active, setup.states, setup.machine.limits
-    tol = setup.machine.segmentation.chord_tolerance_mm
-    pieces = MovePieces(limits, tol, setup.arc_pieces, setup.solver)
     prof = _path_profile(setup.solver, active[first].move, lim, speeds[first], speeds[stop])
     v = np.empty(stop - first + 1)
     acc_t = np.zeros(stop - first + 1)
@@ -219,12 +293,10 @@ def _chain_pieces(
     else:
         lengths = [g.length_mm for g in active[first:stop]]
         parts, v[1:-1], acc_t[1:-1] = split_profile(prof, lengths)
-    clock, starts, bad = 0.0, [], set()
+    arcs = []
     for k, part in enumerate(parts):
         b, g = first + k, active[first + k]
-        starts.append(clock)
         if not isinstance(g, ArcGeometry):
-            clock += pieces.straight(g, part)
             continue
         fast = (
             boosted_profile(
@@ -240,14 +312,40 @@ def _chain_pieces(
             if stop - first == 1
             else ()
         )
-        s_in = states[b].at(v[k], acc_t[k])
-        s_out = states[b + 1].at(v[k + 1], acc_t[k + 1])
-        dur, bad_in, bad_out = pieces.arc(g, part, s_in, s_out, fast, setup.smoothing[b])
+        arcs.append(
+            (k, g, fast, states[b].at(v[k], acc_t[k]), states[b + 1].at(v[k + 1], acc_t[k + 1]))
+        )
+    return _Prep(parts, v, acc_t, arcs)
+
+
+def _chain_pieces(
+    setup: _Setup, first: int, stop: int, prep: _Prep, pre: dict[int, Pieces] | None
+) -> tuple[_Chain, int]:
+    """One try of :func:`_plan_chain`: the chain, and how many pieces were off."""
+    active = setup.active
+    tol = setup.machine.segmentation.chord_tolerance_mm
+    pieces = MovePieces(setup.machine.limits, tol, setup.arc_pieces, setup.solver)
+    arcs = {k: (fast, s_in, s_out) for k, _, fast, s_in, s_out in prep.arcs}
+    clock, starts, bad = 0.0, [], set()
+    for k, part in enumerate(prep.parts):
+        b, g = first + k, active[first + k]
+        starts.append(clock)
+        if not isinstance(g, ArcGeometry):
+            clock += pieces.straight(g, part)
+            continue
+        fast, s_in, s_out = arcs[k]
+        known = None if pre is None else pre[k]
+        dur, bad_in, bad_out = pieces.arc(g, part, s_in, s_out, fast, setup.smoothing[b], known)
         clock += dur
         bad |= {b} if bad_in else set()
         bad |= {b + 1} if bad_out else set()
     chain = _Chain(
-        pieces.out.chunk(), clock, tuple(starts), frozenset(bad), pieces.ruckig_pieces, v[1:-1]
+        pieces.out.chunk(),
+        clock,
+        tuple(starts),
+        frozenset(bad),
+        pieces.ruckig_pieces,
+        prep.speeds[1:-1],
     )
     return chain, pieces.off_pieces
 
