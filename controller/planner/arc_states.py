@@ -95,7 +95,8 @@ def _derivatives(geoms: list[ArcGeometry], us: list[np.ndarray]) -> tuple[np.nda
     arcs = [i for i, g in enumerate(geoms) if isinstance(g.move, Arc)]
     if arcs:
         rows = np.concatenate([np.arange(start[i], start[i] + counts[i]) for i in arcs])
-        a1, a2 = arc_derivatives_many([geoms[i].move for i in arcs], [us[i] for i in arcs])
+        moves = [m for m in (geoms[i].move for i in arcs) if isinstance(m, Arc)]
+        a1, a2 = arc_derivatives_many(moves, [us[i] for i in arcs])
         d1[rows], d2[rows] = a1, a2
     for i, g in enumerate(geoms):
         if not isinstance(g.move, Arc):

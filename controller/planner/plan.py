@@ -50,7 +50,7 @@ from gantry_sim.controller.planner.limit_events import concatenate, split_at_lim
 from gantry_sim.controller.planner.move_geometry import (
     MoveGeometry,
     limits_for_junctions,
-    move_geometry,
+    move_geometries,
 )
 from gantry_sim.controller.planner.result import Plan
 from gantry_sim.controller.planner.rounds import replan_until_junctions_hold
@@ -166,11 +166,11 @@ def _prepare(
     have equal geometry), filled here, so planning again after :func:`_slow_blends` only
     computes the moves that changed."""
     lim, seg = machine.limits, machine.segmentation
+    new = list({m: None for m in path.moves if m not in known})  # each once, in order
+    known.update(zip(new, move_geometries(new, lim, seg, feed_override_pct / 100.0), strict=True))
     geoms = []
     for m in path.moves:
-        g = known.get(m)
-        if g is None:
-            g = known[m] = move_geometry(m, lim, seg, feed_override_pct / 100.0)
+        g = known[m]
         geoms.append(g if g.move is m else replace(g, move=m))
     keep = [g.length_mm > 1e-9 for g in geoms]
     active = [g for g, k in zip(geoms, keep, strict=True) if k]
