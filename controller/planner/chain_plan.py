@@ -37,9 +37,9 @@ from gantry_sim.controller.planner.speedup import boosted_profile
 
 __all__ = ["BATCH_PIECES", "Chain", "ChainKey", "ChainSetup", "Chunk", "plan_chains"]
 
-#: Per axis, the phases (duration [s], position [mm], velocity [mm/s], acceleration [mm/s^2],
-#: jerk [mm/s^3]) of a stretch of the reference, as arrays of equal length.
-Chunk = tuple[tuple[np.ndarray, ...], ...]
+#: Per axis, the phases of a stretch of the reference as one (5, n) array, rows duration [s],
+#: position [mm], velocity [mm/s], acceleration [mm/s^2], jerk [mm/s^3].
+Chunk = tuple[np.ndarray, ...]
 
 
 @dataclass(frozen=True, eq=False)

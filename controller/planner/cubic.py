@@ -27,22 +27,31 @@ class CubicBuilder:
         for col, x in zip(c, (dur, p, v, a, j), strict=True):
             col.append(np.asarray(x, dtype=float).ravel())
 
-    def chunk(self) -> tuple[tuple[np.ndarray, ...], ...]:
-        """The phases collected, per axis (duration, p, v, a, j) as arrays."""
-        return tuple(tuple(np.concatenate(x) if x else np.zeros(0) for x in c) for c in self.cols)
+    def chunk(self) -> tuple[np.ndarray, ...]:
+        """The phases collected, per axis one (5, n) array: rows duration [s], p, v, a, j
+        (one array, not five: a plan keeps tens of thousands of chunks until it is built)."""
+        out = []
+        for c in self.cols:
+            n = sum(x.size for x in c[0])
+            arr = np.empty((5, n))
+            if n:
+                for row, x in zip(arr, c, strict=True):
+                    np.concatenate(x, out=row)
+            out.append(arr)
+        return tuple(out)
 
     def build(self) -> PiecewiseCubic:
         """The phases collected, as a :class:`PiecewiseCubic`."""
         return phases_from_chunks([self.chunk()])
 
 
-def phases_from_chunks(chunks: list[tuple[tuple[np.ndarray, ...], ...]]) -> PiecewiseCubic:
-    """One :class:`PiecewiseCubic` from stretches of phases in time order, each per axis
-    (duration [s], p, v, a, j) as arrays (the axes of a stretch may have different phase
+def phases_from_chunks(chunks: list[tuple[np.ndarray, ...]]) -> PiecewiseCubic:
+    """One :class:`PiecewiseCubic` from stretches of phases in time order, each per axis a
+    (5, n) array (rows duration [s], p, v, a, j; the axes of a stretch may have different phase
     counts: Ruckig's pieces do). ``chunks`` is emptied as it is copied (from its end), so the
     phases are held about once, not twice, at the peak (a 100,000-block CAM plan's phases take
     about 1 GB)."""
-    ends = [np.cumsum([c[i][0].size for c in chunks]).tolist() for i in range(3)]
+    ends = [np.cumsum([c[i].shape[1] for c in chunks]).tolist() for i in range(3)]
     totals = [e[-1] if e else 0 for e in ends]
     cols = [[np.empty(n) for _ in range(5)] for n in totals]  # per axis: dur, p, v, a, j
     step = max(len(chunks) // 16, 1)

@@ -122,7 +122,7 @@ def _plan_round(
             lines.append(dw.line)
             chunks.append(
                 tuple(
-                    tuple(np.array([x]) for x in (dw.seconds, dw.position[i], 0.0, 0.0, 0.0))
+                    np.array([[dw.seconds], [dw.position[i]], [0.0], [0.0], [0.0]])
                     for i in range(3)
                 )
             )
