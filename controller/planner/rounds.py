@@ -94,6 +94,7 @@ def replan_until_junctions_hold(
             break
         for b in done.bad_junctions:
             caps[b] = 0.0 if rnd == MAX_ROUNDS - 1 else JUNCTION_BACKOFF * speeds[b]
+        done.chunks.clear()  # the next round reuses them through the cache alone
     return done
 
 
@@ -106,7 +107,8 @@ def _plan_round(
     cache: dict[ChainKey, Chain],
 ) -> tuple[Round, dict[ChainKey, Chain]]:
     """Every chain's pieces between the junction speeds ``speeds`` [mm/s] at the chains' ends
-    (filled in here inside chains), reusing ``cache``'s chains planned for the same speeds;
+    (filled in here inside chains), reusing ``cache``'s chains planned for the same speeds
+    (the others are dropped from it first, so a plan holds about one round's phases);
     returns the round and the cache of its chains."""
     chunks: list[Chunk] = []
     clock, ruckig = 0.0, 0
@@ -129,6 +131,9 @@ def _plan_round(
             clock += dw.seconds
 
     keys = [(first, stop, float(speeds[first]), float(speeds[stop])) for first, stop in spans]
+    needed = set(keys)
+    for key in [k for k in cache if k not in needed]:  # free them before planning new ones
+        del cache[key]
     todo = [(k, lim) for k, lim in zip(keys, chained, strict=True) if k not in cache]
     fresh = plan_chains(setup, todo, speeds)
     for (first, stop), key in zip(spans, keys, strict=True):
