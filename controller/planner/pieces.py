@@ -13,12 +13,14 @@ moving junction are checked against the arc.
 from __future__ import annotations
 
 from collections.abc import Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 
 from gantry_sim.controller.config import Limits
 from gantry_sim.controller.errors import PlannerFailure
+from gantry_sim.controller.moves import Arc
+from gantry_sim.controller.planner.arc_batch import arc_deviation_many, piece_points_many
 from gantry_sim.controller.planner.arc_states import VertexStates, vertex_states_many
 from gantry_sim.controller.planner.cubic import CubicBuilder
 from gantry_sim.controller.planner.jerk3 import (
@@ -49,11 +51,14 @@ class Pieces:
         states: the exact arc states the pieces join.
         phases: the closed-form pieces (None when every piece goes to Ruckig).
         ok: (k - 1,) True where the closed-form piece keeps every limit.
+        end_dev_mm: the distance [mm] from the arc of the end pieces next to a moving
+            junction, by piece index, where already measured (:meth:`MovePieces.closed_forms`).
     """
 
     states: VertexStates
     phases: PiecePhases | None
     ok: np.ndarray
+    end_dev_mm: dict[int, float] = field(default_factory=dict)
 
 
 class MovePieces:
@@ -147,8 +152,7 @@ class MovePieces:
                 self.out.add(i, dur, *(c.ravel() for c in cols))
             for k in (0, n - 1):
                 if check[k]:
-                    q = jerk3_points(ps[k], vs[k], as_[k], js[k], mins[k])
-                    bad[k] = g.deviation(q, u[k]) > dev_max
+                    bad[k] = _deviation(g, pieces, k) > dev_max
             return float(mins.sum()), bad[0], bad[n - 1]
         total = 0.0
         k = 0
@@ -166,8 +170,7 @@ class MovePieces:
                     total += x
                 for c in {k, e - 1}:
                     if check.get(c):
-                        q = jerk3_points(ps[c], vs[c], as_[c], js[c], mins[c])
-                        bad[c] = g.deviation(q, u[c]) > dev_max
+                        bad[c] = _deviation(g, pieces, c) > dev_max
                 k = e
                 continue
             if self.pieces != "ruckig":
@@ -224,11 +227,12 @@ class MovePieces:
         ok &= piece_limits_ok(
             phases.v, phases.a, phases.j, safe, acc[nxt], *self.limits.per_axis(), feed
         )
-        out = []
         stop = np.cumsum(counts)
-        for st, lo, hi in zip(states, stop - counts, stop, strict=True):
+        devs = _end_deviations(requests, states, phases, mins, stop - counts)
+        out = []
+        for st, lo, hi, dev in zip(states, stop - counts, stop, devs, strict=True):
             ph = PiecePhases(*(x[lo:hi] for x in phases))
-            out.append(Pieces(st, ph, ok[lo:hi]))
+            out.append(Pieces(st, ph, ok[lo:hi], dev))
         return out
 
     def ruckig_piece(
@@ -253,3 +257,40 @@ class MovePieces:
         for i in range(3):
             self.out.add(i, *piece.phases[i])
         return piece
+
+
+def _deviation(g: ArcGeometry, pieces: Pieces, k: int) -> float:
+    """Distance [mm] from the arc of the closed-form piece ``k`` (measured on 25 points)."""
+    if k in pieces.end_dev_mm:
+        return pieces.end_dev_mm[k]
+    ps, vs, as_, js = pieces.phases  # type: ignore[misc]
+    q = jerk3_points(ps[k], vs[k], as_[k], js[k], pieces.states.durations[k])
+    return g.deviation(q, pieces.states.u[k])
+
+
+def _end_deviations(
+    requests: list[tuple[ArcGeometry, Profile1D, EndState, EndState]],
+    states: list[VertexStates],
+    phases: PiecePhases,
+    mins: np.ndarray,
+    first: np.ndarray,
+) -> list[dict[int, float]]:
+    """:func:`_deviation` of each arc's end pieces next to a moving junction, in one batch
+    (splines: left to :func:`_deviation`)."""
+    out: list[dict[int, float]] = [{} for _ in requests]
+    at: list[tuple[int, int]] = []  # (request, piece)
+    for i, ((g, _, s_in, s_out), st) in enumerate(zip(requests, states, strict=True)):
+        if isinstance(g.move, Arc):
+            n = st.durations.size
+            at += [(i, k) for k, moving in ((0, s_in.moving), (n - 1, s_out.moving)) if moving]
+    if not at:
+        return out
+    rows = np.array([first[i] + k for i, k in at], dtype=np.intp)
+    q = piece_points_many(
+        phases.p[rows], phases.v[rows], phases.a[rows], phases.j[rows], mins[rows]
+    )
+    arcs = [m for m in (requests[i][0].move for i, _ in at) if isinstance(m, Arc)]
+    dev = arc_deviation_many(arcs, q, [states[i].u[k] for i, k in at]).tolist()
+    for (i, k), d in zip(at, dev, strict=True):
+        out[i][k] = d
+    return out
