@@ -23,6 +23,7 @@ from gantry_sim.controller.config import MachineConfig
 from gantry_sim.controller.errors import PlannerFailure, PlanningError
 from gantry_sim.controller.moves import Move
 from gantry_sim.controller.planner.chains import move_bounds, split_profile
+from gantry_sim.controller.planner.cubic import Chunk
 from gantry_sim.controller.planner.junctions import EndState, JunctionState
 from gantry_sim.controller.planner.limits import BlockLimits
 from gantry_sim.controller.planner.move_geometry import ArcGeometry, MoveGeometry
@@ -36,10 +37,6 @@ from gantry_sim.controller.planner.ruckig_solver import (
 from gantry_sim.controller.planner.speedup import boosted_profile
 
 __all__ = ["BATCH_PIECES", "Chain", "ChainKey", "ChainSetup", "Chunk", "plan_chains"]
-
-#: Per axis, the phases of a stretch of the reference as one (5, n) array, rows duration [s],
-#: position [mm], velocity [mm/s], acceleration [mm/s^2], jerk [mm/s^3].
-Chunk = tuple[np.ndarray, ...]
 
 
 @dataclass(frozen=True, eq=False)

@@ -22,7 +22,7 @@ from gantry_sim.controller.errors import PlannerFailure
 from gantry_sim.controller.moves import Arc
 from gantry_sim.controller.planner.arc_batch import arc_deviation_many, piece_points_many
 from gantry_sim.controller.planner.arc_states import VertexStates, vertex_states_many
-from gantry_sim.controller.planner.cubic import CubicBuilder
+from gantry_sim.controller.planner.cubic import CubicBuilder, Jerk3Run
 from gantry_sim.controller.planner.jerk3 import (
     PiecePhases,
     jerk3_pairs,
@@ -146,10 +146,7 @@ class MovePieces:
         phases = pieces.phases  # None only in "ruckig" mode, where no piece is ok
         if ok.all() and phases is not None:
             ps, vs, as_, js = phases
-            dur = np.repeat(mins / 3.0, 3)
-            for i in range(3):
-                cols = (ps[:, :, i], vs[:, :, i], as_[:, :, i], js[:, :, i])
-                self.out.add(i, dur, *(c.ravel() for c in cols))
+            self.out.add_jerk3(Jerk3Run(mins / 3.0, ps[:, 0], vs[:, 0], as_[:, 0], js))
             for k in (0, n - 1):
                 if check[k]:
                     bad[k] = _deviation(g, pieces, k) > dev_max
@@ -162,10 +159,8 @@ class MovePieces:
                 while e < n and ok[e]:
                     e += 1
                 ps, vs, as_, js = phases
-                dur = np.repeat(mins[k:e] / 3.0, 3)
-                for i in range(3):
-                    cols = (ps[k:e, :, i], vs[k:e, :, i], as_[k:e, :, i], js[k:e, :, i])
-                    self.out.add(i, dur, *cols)
+                run = (ps[k:e, 0], vs[k:e, 0], as_[k:e, 0], js[k:e])
+                self.out.add_jerk3(Jerk3Run(mins[k:e] / 3.0, *run))
                 for x in mins[k:e].tolist():  # summed in order, as piece by piece
                     total += x
                 for c in {k, e - 1}:

@@ -132,6 +132,10 @@ def plan(
         arr.setflags(write=False)
     planned = {id(g.move): g.vertices for g in geoms}
     vertices = tuple(planned[id(m)] if id(m) in planned else _vertices(m, machine) for m in program)
+    # the planning state is not needed any more: free it before the phases are copied into
+    # the plan's arrays (the peak of a long program's planning is there)
+    del prepared, geoms, active, caps, states, known, planned, solver
+    curve = done.curve()
     return Plan(
         moves=program,
         duration_s=done.duration_s,
@@ -139,7 +143,7 @@ def plan(
         chord_tolerance_mm=machine.segmentation.chord_tolerance_mm,
         vertices=vertices,
         ruckig_piece_count=done.ruckig_pieces,
-        curve=done.curve(),
+        curve=curve,
         move_start_s=move_start,
         move_lines=lines,
         end_mm=end,

@@ -122,12 +122,10 @@ def _plan_round(
         for dw in holds.get(b, ()):
             starts.append(clock)
             lines.append(dw.line)
-            chunks.append(
-                tuple(
-                    np.array([[dw.seconds], [dw.position[i]], [0.0], [0.0], [0.0]])
-                    for i in range(3)
-                )
-            )
+            axes = [
+                np.array([[dw.seconds], [dw.position[i]], [0.0], [0.0], [0.0]]) for i in range(3)
+            ]
+            chunks.append(((axes[0], axes[1], axes[2]),))
             clock += dw.seconds
 
     keys = [(first, stop, float(speeds[first]), float(speeds[stop])) for first, stop in spans]
