@@ -11,9 +11,11 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from gantry_sim.controller.moves import Arc
+from gantry_sim.controller.planner.arc_batch import arc_derivatives_many
 from gantry_sim.controller.planner.junctions import EndState
 from gantry_sim.controller.planner.move_geometry import ArcGeometry
-from gantry_sim.controller.planner.profile import Profile1D
+from gantry_sim.controller.planner.profile import Profile1D, invert_many
 
 #: Extra vertices at 1/2, 1/4, ... of the first (last) chord of an arc that starts (ends) at rest.
 STOP_REFINEMENT = 8
@@ -41,13 +43,73 @@ class VertexStates:
 def vertex_states(
     g: ArcGeometry, profile: Profile1D, state_in: EndState, state_out: EndState
 ) -> VertexStates:
-    """Exact arc states where the reference passes through the arc.
+    """Exact arc states where the reference passes through the arc (see
+    :func:`vertex_states_many`)."""
+    return vertex_states_many([(g, profile, state_in, state_out)])[0]
+
+
+def vertex_states_many(
+    requests: list[tuple[ArcGeometry, Profile1D, EndState, EndState]],
+) -> list[VertexStates]:
+    """Exact arc states where the reference passes through each arc ``g`` along its
+    ``profile``, between its end states: the profiles are inverted in one vectorised solve.
 
     Vertices: the chord vertices, plus the points where ``profile`` switches phase (within one
     phase the motion is smooth), plus, next to a stop, points at 1/2, 1/4, ... of the end chord
     (there the speed grows like s^(2/3); a piece across the whole chord would start along a
     straight line).
     """
+    fractions = [_fractions(g, prof, s_in, s_out) for g, prof, s_in, s_out in requests]
+    inner = [u[1:-1] for u in fractions]
+    inverted = invert_many(
+        [(r[1], u * r[0].length_mm) for r, u in zip(requests, inner, strict=True)]
+    )
+    d1, d2 = _derivatives([r[0] for r in requests], inner)
+    speed_u = np.linalg.norm(d1, axis=1)
+    v_k = np.concatenate([inv[1] for inv in inverted]) if inverted else np.zeros(0)
+    a_k = np.concatenate([inv[2] for inv in inverted]) if inverted else np.zeros(0)
+    ud = (v_k / speed_u)[:, None]
+    udd = (a_k / speed_u)[:, None]
+    vel_in = d1 * ud
+    acc_in = d2 * ud * ud + d1 * udd
+    out = []
+    lo = 0
+    for (g, prof, s_in, s_out), u, inv in zip(requests, fractions, inverted, strict=True):
+        hi = lo + u.size - 2
+        vel = np.vstack([s_in.vel_mm_per_s, vel_in[lo:hi], s_out.vel_mm_per_s])
+        acc = np.vstack([s_in.acc_mm_per_s2, acc_in[lo:hi], s_out.acc_mm_per_s2])
+        times = np.concatenate(([0.0], inv[0], [prof.duration_s]))
+        verts = g.vertices if np.array_equal(u, g.u) else g.points(u)
+        out.append(VertexStates(u, verts, vel, acc, np.maximum(np.diff(times), 0.0)))
+        lo = hi
+    return out
+
+
+def _derivatives(geoms: list[ArcGeometry], us: list[np.ndarray]) -> tuple[np.ndarray, np.ndarray]:
+    """Each curve's dp/du and d2p/du2 at its fractions ``us[i]``, stacked (the arcs' in one
+    batch)."""
+    counts = np.array([u.size for u in us], dtype=np.intp)
+    start = np.concatenate(([0], np.cumsum(counts)[:-1])).astype(np.intp)
+    d1 = np.empty((int(counts.sum()), 3))
+    d2 = np.empty_like(d1)
+    arcs = [i for i, g in enumerate(geoms) if isinstance(g.move, Arc)]
+    if arcs:
+        rows = np.concatenate([np.arange(start[i], start[i] + counts[i]) for i in arcs])
+        moves = [m for m in (geoms[i].move for i in arcs) if isinstance(m, Arc)]
+        a1, a2 = arc_derivatives_many(moves, [us[i] for i in arcs])
+        d1[rows], d2[rows] = a1, a2
+    for i, g in enumerate(geoms):
+        if not isinstance(g.move, Arc):
+            d1[start[i] : start[i] + counts[i]], d2[start[i] : start[i] + counts[i]] = (
+                g.derivatives(us[i])
+            )
+    return d1, d2
+
+
+def _fractions(
+    g: ArcGeometry, profile: Profile1D, state_in: EndState, state_out: EndState
+) -> np.ndarray:
+    """The sweep fractions of the vertices (see :func:`vertex_states_many`)."""
     # Each knot of the 1-D profile becomes a vertex: the nearest chord vertex moves onto it when
     # within a quarter chord (a piece much shorter than a chord would let rounding dominate its
     # jerk), or it is added. The reference only passes through exact arc states, so moving a
@@ -72,13 +134,4 @@ def vertex_states(
         u = np.union1d(u, 1.0 - (1.0 - u[-2]) * halves)
     u = u[np.concatenate(([True], np.diff(u) > 1e-12))]
     u[-1] = 1.0
-    t_k, v_k, a_k = profile.invert(u[1:-1] * g.length_mm)
-    d1, d2 = g.derivatives(u[1:-1])
-    speed_u = np.linalg.norm(d1, axis=1)
-    ud = (v_k / speed_u)[:, None]
-    udd = (a_k / speed_u)[:, None]
-    vel = np.vstack([state_in.vel_mm_per_s, d1 * ud, state_out.vel_mm_per_s])
-    acc = np.vstack([state_in.acc_mm_per_s2, d2 * ud * ud + d1 * udd, state_out.acc_mm_per_s2])
-    times = np.concatenate(([0.0], t_k, [profile.duration_s]))
-    verts = g.vertices if np.array_equal(u, g.u) else g.points(u)
-    return VertexStates(u, verts, vel, acc, np.maximum(np.diff(times), 0.0))
+    return u

@@ -56,11 +56,19 @@ def chain_limits(blocks: Sequence[BlockLimits]) -> BlockLimits:
     )
 
 
+def move_bounds(lengths_mm: Sequence[float]) -> np.ndarray:
+    """Arc length [mm] along a chain at its moves' starts and its end (len(lengths_mm) + 1,)."""
+    return np.concatenate(([0.0], np.cumsum(lengths_mm)))
+
+
 def split_profile(
-    profile: Profile1D, lengths_mm: Sequence[float]
+    profile: Profile1D,
+    lengths_mm: Sequence[float],
+    cut: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None,
 ) -> tuple[list[Profile1D], np.ndarray, np.ndarray]:
     """Cut a chain's ``profile`` at the ends of its moves (``lengths_mm``, summing to the
-    profile's length).
+    profile's length). ``cut``: ``profile.invert`` at the inner junctions
+    (``move_bounds(lengths_mm)[1:-1]``) when already made (several chains are inverted at once).
 
     Returns:
         (parts, speeds, accelerations): one profile per move, its arc length counted from the
@@ -70,8 +78,8 @@ def split_profile(
     rows = profile.rows[profile.rows[:, 0] > 0]
     dur, s0, v0, a0, j0 = rows.T
     t_start = np.concatenate(([0.0], np.cumsum(dur)))
-    bounds = np.concatenate(([0.0], np.cumsum(lengths_mm)))
-    t_cut, v_cut, a_cut = profile.invert(bounds[1:-1])
+    bounds = move_bounds(lengths_mm)
+    t_cut, v_cut, a_cut = profile.invert(bounds[1:-1]) if cut is None else cut
     t_cut = np.maximum.accumulate(np.clip(t_cut, 0.0, t_start[-1]))
     times = np.union1d(t_start, t_cut)
     t_lo, t_hi = times[:-1], times[1:]

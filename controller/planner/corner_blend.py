@@ -293,5 +293,9 @@ def _worth_blending(
 
 
 def _end_tangent(m: Linear | Arc, at_end: bool) -> np.ndarray:
-    """Unit tangent (direction of motion) at the end or start of ``m``."""
-    return _at(m, 0.0, from_end=at_end)[1]
+    """Unit tangent (direction of motion) at the end or start of ``m`` (as :func:`_at` at 0 mm,
+    without the point)."""
+    if isinstance(m, Linear):
+        return _at(m, 0.0, from_end=at_end)[1]
+    d1, _ = arc_derivatives(m, 1.0 if at_end else 0.0)
+    return d1[0] / np.linalg.norm(d1[0])

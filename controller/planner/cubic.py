@@ -11,8 +11,43 @@ from __future__ import annotations
 
 import ctypes
 from dataclasses import dataclass
+from typing import NamedTuple
 
 import numpy as np
+
+from gantry_sim.controller.planner.jerk3 import phase_starts
+
+
+class Jerk3Run(NamedTuple):
+    """m closed-form pieces (:mod:`~gantry_sim.controller.planner.jerk3`) of three phases of
+    length ``h`` (m,) [s], on all axes: each piece's start position [mm], velocity [mm/s],
+    acceleration [mm/s^2] (m, 3) and its jerks [mm/s^3] (m, 3 phases, 3 axes). The later
+    phases' start states are rebuilt (:func:`~gantry_sim.controller.planner.jerk3.phase_starts`,
+    the same numbers) when the plan is built: held this way, a round's arcs take 19 numbers per
+    piece instead of 45."""
+
+    h: np.ndarray
+    p: np.ndarray
+    v: np.ndarray
+    a: np.ndarray
+    j: np.ndarray
+
+    def axis_phases(self, axis: int) -> tuple[np.ndarray, ...]:
+        """The phases of ``axis`` (duration [s], p, v, a, j), 3 m each."""
+        ps, vs, as_ = phase_starts(self.p, self.v, self.a, self.j, self.h)
+        cols = (ps[:, :, axis], vs[:, :, axis], as_[:, :, axis], self.j[:, :, axis])
+        return (np.repeat(self.h, 3), *(c.ravel() for c in cols))
+
+
+#: A stretch of phases: per axis one (5, n) array (rows duration [s], p, v, a, j; the axes may
+#: have different phase counts: Ruckig's pieces do), or a :class:`Jerk3Run`.
+Segment = tuple[np.ndarray, np.ndarray, np.ndarray] | Jerk3Run
+#: The phases of a chain (or a dwell), segment by segment in time order.
+Chunk = tuple[Segment, ...]
+
+
+def _phase_count(seg: Segment, axis: int) -> int:
+    return 3 * seg.h.size if isinstance(seg, Jerk3Run) else seg[axis].shape[1]
 
 
 class CubicBuilder:
@@ -20,6 +55,7 @@ class CubicBuilder:
 
     def __init__(self) -> None:
         self.cols: list[tuple[list[np.ndarray], ...]] = [([], [], [], [], []) for _ in range(3)]
+        self.segments: list[Segment] = []
 
     def add(self, axis: int, dur, p, v, a, j) -> None:
         """Append phases (sequences of equal length) to ``axis``."""
@@ -27,34 +63,63 @@ class CubicBuilder:
         for col, x in zip(c, (dur, p, v, a, j), strict=True):
             col.append(np.asarray(x, dtype=float).ravel())
 
-    def chunk(self) -> tuple[tuple[np.ndarray, ...], ...]:
-        """The phases collected, per axis (duration, p, v, a, j) as arrays."""
-        return tuple(tuple(np.concatenate(x) if x else np.zeros(0) for x in c) for c in self.cols)
+    def add_jerk3(self, run: Jerk3Run) -> None:
+        """Append closed-form pieces to every axis (copied: ``run`` may view larger arrays)."""
+        self._flush()
+        self.segments.append(Jerk3Run(*(np.array(x) for x in run)))
+
+    def _flush(self) -> None:
+        """The phases added since the last segment, as one segment (per axis a (5, n) array:
+        one array, not five, as a plan keeps tens of thousands of them until it is built)."""
+        if not any(c[0] for c in self.cols):
+            return
+        out = []
+        for c in self.cols:
+            n = sum(x.size for x in c[0])
+            arr = np.empty((5, n))
+            if n:
+                for row, x in zip(arr, c, strict=True):
+                    np.concatenate(x, out=row)
+            out.append(arr)
+            for col in c:
+                col.clear()
+        self.segments.append((out[0], out[1], out[2]))
+
+    def chunk(self) -> Chunk:
+        """The phases collected, segment by segment."""
+        self._flush()
+        return tuple(self.segments)
 
     def build(self) -> PiecewiseCubic:
         """The phases collected, as a :class:`PiecewiseCubic`."""
         return phases_from_chunks([self.chunk()])
 
 
-def phases_from_chunks(chunks: list[tuple[tuple[np.ndarray, ...], ...]]) -> PiecewiseCubic:
-    """One :class:`PiecewiseCubic` from stretches of phases in time order, each per axis
-    (duration [s], p, v, a, j) as arrays (the axes of a stretch may have different phase
-    counts: Ruckig's pieces do). ``chunks`` is emptied as it is copied (from its end), so the
-    phases are held about once, not twice, at the peak (a 100,000-block CAM plan's phases take
-    about 1 GB)."""
-    ends = [np.cumsum([c[i][0].size for c in chunks]).tolist() for i in range(3)]
+def phases_from_chunks(chunks: list[Chunk]) -> PiecewiseCubic:
+    """One :class:`PiecewiseCubic` from stretches of phases in time order. ``chunks`` is emptied
+    as it is copied (from its end), so the phases are held about once, not twice, at the peak
+    (a 100,000-block CAM plan's phases take about 1 GB)."""
+    ends = [
+        np.cumsum([sum(_phase_count(s, i) for s in c) for c in chunks]).tolist() for i in range(3)
+    ]
     totals = [e[-1] if e else 0 for e in ends]
+    _return_freed_memory()  # what planning freed (its geometry) before the arrays are filled
     cols = [[np.empty(n) for _ in range(5)] for n in totals]  # per axis: dur, p, v, a, j
-    step = max(len(chunks) // 16, 1)
+    step = max(len(chunks) // 64, 1)
     while chunks:
         if len(chunks) % step == 0:
             _return_freed_memory()
         chunk = chunks.pop()
         for i in range(3):
             stop = ends[i].pop()
-            start = ends[i][-1] if ends[i] else 0
-            for k in range(5):
-                cols[i][k][start:stop] = chunk[i][k]
+            at = ends[i][-1] if ends[i] else 0
+            for seg in chunk:
+                rows = seg.axis_phases(i) if isinstance(seg, Jerk3Run) else seg[i]
+                n = rows[0].size
+                for k in range(5):
+                    cols[i][k][at : at + n] = rows[k]
+                at += n
+            assert at == stop
     axes = []
     for i in range(3):
         t0 = cols[i][0]  # the durations become the phases' start times, in place

@@ -65,16 +65,27 @@ def jerk3_pairs(
     r1 = (v1 - v0 - 3.0 * h * a0) / h**2
     r2 = (p1 - p0 - 3.0 * h * v0 - 4.5 * h * h * a0) / h**3
     js = np.einsum("kr,rnd->nkd", _M_INV, np.stack([r0, r1, r2]))
-    n = dur.size
+    return PiecePhases(*phase_starts(p0, v0, a0, js, h[:, 0]), js)
+
+
+def phase_starts(
+    p0: np.ndarray, v0: np.ndarray, a0: np.ndarray, js: np.ndarray, h: np.ndarray
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Each phase's start position, velocity, acceleration (n, 3 phases, 3 axes) of n pieces
+    from their start states (n, 3), jerks ``js`` (n, 3, 3) and phase length ``h`` (n,) [s]
+    (the same operations whenever called: a piece stored by its start state is rebuilt
+    bit for bit)."""
+    hc = h[:, None]
+    n = h.size
     ps, vs, as_ = (np.empty((n, 3, 3)) for _ in range(3))
-    cp, cv, ca = p0.copy(), v0.copy(), a0.copy()
+    cp, cv, ca = p0, v0, a0
     for k in range(3):
         ps[:, k], vs[:, k], as_[:, k] = cp, cv, ca
         jk = js[:, k]
-        cp = cp + h * (cv + h * (0.5 * ca + h * jk / 6.0))
-        cv = cv + h * (ca + 0.5 * h * jk)
-        ca = ca + h * jk
-    return PiecePhases(ps, vs, as_, js)
+        cp = cp + hc * (cv + hc * (0.5 * ca + hc * jk / 6.0))
+        cv = cv + hc * (ca + 0.5 * hc * jk)
+        ca = ca + hc * jk
+    return ps, vs, as_
 
 
 def piece_limits_ok(

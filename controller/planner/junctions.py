@@ -26,8 +26,9 @@ import numpy as np
 
 from gantry_sim.controller.arcs import frenet
 from gantry_sim.controller.config import Limits
-from gantry_sim.controller.moves import Rapid
+from gantry_sim.controller.moves import Arc, Rapid
 from gantry_sim.controller.planes import Vec3
+from gantry_sim.controller.planner.arc_batch import arc_derivatives_many
 from gantry_sim.controller.planner.jerk3 import jerk3_pairs, piece_limits_ok
 from gantry_sim.controller.planner.move_geometry import ArcGeometry, MoveGeometry
 
@@ -202,23 +203,24 @@ def feasible_junction_caps(
     per_axis = limits.per_axis()
     rows = []  # (junction, p0, t0, k0, p1, t1, k1, chord length along the path, feed, side)
     caps = caps.copy()
+    sides = []  # (junction, arc, side) of every arc next to a moving junction
     for b in range(1, len(geoms)):
         caps[b] = min(caps[b], geoms[b - 1].limits.cap_mm_per_s, geoms[b].limits.cap_mm_per_s)
         if not caps[b] > 0.0:
             continue
-        d, kv = states[b].direction, states[b].curvature_per_mm
         for g, side in ((geoms[b], "after"), (geoms[b - 1], "before")):
-            if not isinstance(g, ArcGeometry):
-                continue
-            u = g.u[1] if side == "after" else g.u[-2]
-            d1, d2 = g.derivatives(np.array([u]))
-            t, k = frenet(d1[0], d2[0])
-            pv = g.vertices[1] if side == "after" else g.vertices[-2]
-            s = (u if side == "after" else 1.0 - u) * g.length_mm
-            if side == "after":
-                rows.append((b, g.vertices[0], d, kv, pv, t, k, s, g.feed_mm_per_s))
-            else:
-                rows.append((b, pv, t, k, g.vertices[-1], d, kv, s, g.feed_mm_per_s))
+            if isinstance(g, ArcGeometry):
+                sides.append((b, g, side))
+    frames = _side_frames(sides)
+    for (b, g, side), (t, k) in zip(sides, frames, strict=True):
+        d, kv = states[b].direction, states[b].curvature_per_mm
+        u = g.u[1] if side == "after" else g.u[-2]
+        pv = g.vertices[1] if side == "after" else g.vertices[-2]
+        s = (u if side == "after" else 1.0 - u) * g.length_mm
+        if side == "after":
+            rows.append((b, g.vertices[0], d, kv, pv, t, k, s, g.feed_mm_per_s))
+        else:
+            rows.append((b, pv, t, k, g.vertices[-1], d, kv, s, g.feed_mm_per_s))
     if not rows:
         return caps
     jb = np.array([r[0] for r in rows])
@@ -263,3 +265,19 @@ def feasible_junction_caps(
 
 def _subset(idx, *arrays):
     return tuple(a[idx] for a in arrays)
+
+
+def _side_frames(sides: list[tuple[int, ArcGeometry, str]]) -> list[tuple[np.ndarray, np.ndarray]]:
+    """Unit tangent and curvature vector at the vertex next to the junction of each (junction,
+    arc, side): the arcs' derivatives in one batch, the splines' one by one."""
+    us = [np.array([g.u[1] if side == "after" else g.u[-2]]) for _, g, side in sides]
+    arcs = [i for i, (_, g, _) in enumerate(sides) if isinstance(g.move, Arc)]
+    d1 = np.empty((len(sides), 3))
+    d2 = np.empty((len(sides), 3))
+    if arcs:
+        moves = [m for m in (sides[i][1].move for i in arcs) if isinstance(m, Arc)]
+        d1[arcs], d2[arcs] = arc_derivatives_many(moves, [us[i] for i in arcs])
+    for i, (_, g, _) in enumerate(sides):
+        if not isinstance(g.move, Arc):
+            d1[i : i + 1], d2[i : i + 1] = g.derivatives(us[i])
+    return [frenet(d1[i], d2[i]) for i in range(len(sides))]

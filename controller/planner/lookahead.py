@@ -46,13 +46,17 @@ def max_reachable_speed(v_from: float, length_mm: float, acc: float, jerk: float
     return 0.5 * (-b + math.sqrt(b * b - 4.0 * c))
 
 
-def plan_junction_speeds(blocks: list[BlockLimits], junction_caps: np.ndarray) -> np.ndarray:
+def plan_junction_speeds(
+    blocks: list[BlockLimits], junction_caps: np.ndarray, memo: dict | None = None
+) -> np.ndarray:
     """Junction speeds [mm/s] of a chain of blocks (backward then forward pass).
 
     Args:
         blocks: the chain's blocks in order.
         junction_caps: (len(blocks) + 1,) speed caps at the junctions [mm/s]; 0 is a stop. The
             first and last entries are normally 0 (the chain starts and ends at rest).
+        memo: :func:`max_reachable_speed` by its arguments, filled here: the planner's rounds
+            pass the same blocks again with a few speeds changed, and reuse the rest.
 
     Returns:
         (len(blocks) + 1,) speeds: v[b] entering block b, v[b + 1] leaving it. Every block can
@@ -65,16 +69,20 @@ def plan_junction_speeds(blocks: list[BlockLimits], junction_caps: np.ndarray) -
         v[b] = min(v[b], cap)
         v[b + 1] = min(v[b + 1], cap)
     shrink = 1.0 - 1e-9
+    memo = {} if memo is None else memo
+    speeds = v.tolist()  # Python floats: the same numbers, without numpy scalars per block
     for b in range(n - 1, -1, -1):
         blk = blocks[b]
-        reach = max_reachable_speed(
-            v[b + 1], blk.length_mm * shrink, blk.acc_mm_per_s2, blk.jerk_mm_per_s3
-        )
-        v[b] = min(v[b], reach)
+        key = (speeds[b + 1], blk.length_mm * shrink, blk.acc_mm_per_s2, blk.jerk_mm_per_s3)
+        reach = memo.get(key)
+        if reach is None:
+            reach = memo[key] = max_reachable_speed(*key)
+        speeds[b] = min(speeds[b], reach)
     for b in range(n):
         blk = blocks[b]
-        reach = max_reachable_speed(
-            v[b], blk.length_mm * shrink, blk.acc_mm_per_s2, blk.jerk_mm_per_s3
-        )
-        v[b + 1] = min(v[b + 1], reach)
-    return v
+        key = (speeds[b], blk.length_mm * shrink, blk.acc_mm_per_s2, blk.jerk_mm_per_s3)
+        reach = memo.get(key)
+        if reach is None:
+            reach = memo[key] = max_reachable_speed(*key)
+        speeds[b + 1] = min(speeds[b + 1], reach)
+    return np.array(speeds)

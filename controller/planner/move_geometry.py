@@ -18,9 +18,9 @@ from gantry_sim.controller.planes import PLANE_AXES
 from gantry_sim.controller.planner.limits import (
     BlockLimits,
     FollowGeometry,
-    arc_limits,
     straight_limits,
 )
+from gantry_sim.controller.planner.limits_batch import arc_limits_many
 from gantry_sim.controller.planner.segment import segment_arc
 from gantry_sim.controller.planner.spline_geometry import (
     curvature_bounds,
@@ -116,9 +116,31 @@ CurveGeometry = ArcGeometry
 def move_geometry(move: Move, limits: Limits, seg: Segmentation, feed_scale: float) -> MoveGeometry:
     """Vertices (arcs: chords by ``seg``), end tangents/curvatures and 1-D limits of ``move``
     (feed times ``feed_scale``) on a machine of per-axis ``limits``."""
+    return move_geometries([move], limits, seg, feed_scale)[0]
+
+
+def move_geometries(
+    moves: list[Move], limits: Limits, seg: Segmentation, feed_scale: float
+) -> list[MoveGeometry]:
+    """:func:`move_geometry` of each move; the curves' limits in one batch
+    (:func:`~gantry_sim.controller.planner.limits_batch.arc_limits_many`)."""
+    geoms = [_geometry(m, limits, seg, feed_scale) for m in moves]
+    curves = [g for g in geoms if isinstance(g, ArcGeometry)]
+    blocks = iter(
+        arc_limits_many([g.follow for g in curves], [g.length_mm for g in curves], limits)
+    )
+    return [replace(g, limits=next(blocks)) if isinstance(g, ArcGeometry) else g for g in geoms]
+
+
+#: Placeholder limits of a curve until :func:`move_geometries` sets them.
+_UNSET = BlockLimits(0.0, 0.0, 0.0, 0.0)
+
+
+def _geometry(move: Move, limits: Limits, seg: Segmentation, feed_scale: float) -> MoveGeometry:
+    """:func:`move_geometry`, a curve's limits left :data:`_UNSET`."""
     zero = np.zeros(3)
     if isinstance(move, Spline):
-        return _spline_geometry(move, limits, seg, feed_scale)
+        return _spline_geometry(move, seg, feed_scale)
     if not isinstance(move, Arc):
         verts = np.array([move.start, move.end], dtype=float)
         verts.setflags(write=False)
@@ -153,13 +175,10 @@ def move_geometry(move: Move, limits: Limits, seg: Segmentation, feed_scale: flo
         dcurv,
         feed * (1.0 - FEED_MARGIN_PER_PHI4 * (ang / n) ** 4 - FEED_MARGIN_REL),
     )
-    block = arc_limits(follow, length, limits)
-    return ArcGeometry(move, verts, length, t_in, t_out, k_in, k_out, block, feed, u, follow)
+    return ArcGeometry(move, verts, length, t_in, t_out, k_in, k_out, _UNSET, feed, u, follow)
 
 
-def _spline_geometry(
-    move: Spline, limits: Limits, seg: Segmentation, feed_scale: float
-) -> ArcGeometry:
+def _spline_geometry(move: Spline, seg: Segmentation, feed_scale: float) -> ArcGeometry:
     """A spline's geometry: equal arc-length chords, exact end frames, curvature bounds."""
     verts = segment_arc(move, seg.method, seg.chord_tolerance_mm, seg.segment_length_mm)
     n = len(verts) - 1
@@ -177,8 +196,7 @@ def _spline_geometry(
         dcurv,
         feed * (1.0 - FEED_MARGIN_PER_PHI4 * min(sweep, 1.0) ** 4 - FEED_MARGIN_REL),
     )
-    block = arc_limits(follow, length, limits)
-    return ArcGeometry(move, verts, length, t_in, t_out, k_in, k_out, block, feed, u, follow)
+    return ArcGeometry(move, verts, length, t_in, t_out, k_in, k_out, _UNSET, feed, u, follow)
 
 
 def limits_for_junctions(
@@ -187,11 +205,15 @@ def limits_for_junctions(
     """``geoms`` with each arc's limits chosen for its junction caps ``caps`` [mm/s] (see
     :func:`gantry_sim.controller.planner.limits.arc_limits`: inside a tangent chain an arc need
     not ramp from rest, so it may cruise closer to its curvature cap)."""
-    out = []
-    for b, g in enumerate(geoms):
-        if not isinstance(g, ArcGeometry) or not (caps[b] > 0 or caps[b + 1] > 0):
-            out.append(g)
-            continue
-        ends = (float(min(caps[b], 1e300)), float(min(caps[b + 1], 1e300)))
-        out.append(replace(g, limits=arc_limits(g.follow, g.length_mm, limits, ends)))
+    moving = [
+        b
+        for b, g in enumerate(geoms)
+        if isinstance(g, ArcGeometry) and (caps[b] > 0 or caps[b + 1] > 0)
+    ]
+    arcs = [g for g in (geoms[b] for b in moving) if isinstance(g, ArcGeometry)]
+    ends = [(float(min(caps[b], 1e300)), float(min(caps[b + 1], 1e300))) for b in moving]
+    blocks = arc_limits_many([g.follow for g in arcs], [g.length_mm for g in arcs], limits, ends)
+    out = list(geoms)
+    for b, g, block in zip(moving, arcs, blocks, strict=True):
+        out[b] = replace(g, limits=block)
     return out

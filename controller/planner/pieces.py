@@ -13,15 +13,22 @@ moving junction are checked against the arc.
 from __future__ import annotations
 
 from collections.abc import Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 
 from gantry_sim.controller.config import Limits
 from gantry_sim.controller.errors import PlannerFailure
-from gantry_sim.controller.planner.arc_states import VertexStates, vertex_states
-from gantry_sim.controller.planner.cubic import CubicBuilder
-from gantry_sim.controller.planner.jerk3 import PiecePhases, jerk3, jerk3_points, piece_limits_ok
+from gantry_sim.controller.moves import Arc
+from gantry_sim.controller.planner.arc_batch import arc_deviation_many, piece_points_many
+from gantry_sim.controller.planner.arc_states import VertexStates, vertex_states_many
+from gantry_sim.controller.planner.cubic import CubicBuilder, Jerk3Run
+from gantry_sim.controller.planner.jerk3 import (
+    PiecePhases,
+    jerk3_pairs,
+    jerk3_points,
+    piece_limits_ok,
+)
 from gantry_sim.controller.planner.junctions import EndState
 from gantry_sim.controller.planner.move_geometry import ArcGeometry, MoveGeometry
 from gantry_sim.controller.planner.profile import Profile1D
@@ -44,11 +51,14 @@ class Pieces:
         states: the exact arc states the pieces join.
         phases: the closed-form pieces (None when every piece goes to Ruckig).
         ok: (k - 1,) True where the closed-form piece keeps every limit.
+        end_dev_mm: the distance [mm] from the arc of the end pieces next to a moving
+            junction, by piece index, where already measured (:meth:`MovePieces.closed_forms`).
     """
 
     states: VertexStates
     phases: PiecePhases | None
     ok: np.ndarray
+    end_dev_mm: dict[int, float] = field(default_factory=dict)
 
 
 class MovePieces:
@@ -94,11 +104,14 @@ class MovePieces:
         state_out: EndState,
         fast: Sequence[Profile1D] = (),
         dev_max_mm: float = 0.0,
+        known: Pieces | None = None,
     ) -> tuple[float, bool, bool]:
         """Pieces between the exact arc states at the vertices: of the first profile in ``fast``
         (faster candidates, fastest first) whose closed-form pieces all keep the limits, else of
         ``profile``. ``dev_max_mm``: the deviation allowed next to its junctions when larger than
-        the default (a G64 blend arc's smoothing budget) [mm].
+        the default (a G64 blend arc's smoothing budget) [mm]. ``known``: the
+        :meth:`closed_form` of the first candidate (``fast[0]``, else ``profile``), when
+        already made (:meth:`closed_forms`).
 
         Returns:
             (duration [s], bad_in, bad_out): bad_* when the piece next to a moving junction
@@ -107,14 +120,18 @@ class MovePieces:
         """
         dev_max = max(self.dev_max, dev_max_mm)
         pieces = None
-        for cand in () if self.pieces == "ruckig" else fast:
-            found = self.closed_form(g, cand, state_in, state_out)
+        for i, cand in enumerate(() if self.pieces == "ruckig" else fast):
+            found = known if i == 0 and known is not None else None
+            found = found or self.closed_form(g, cand, state_in, state_out)
             ok = found.ok
             if ok[1:-1].all() and (ok[0] or state_in.moving) and (ok[-1] or state_out.moving):
                 pieces = found
                 break
         if pieces is None:
-            pieces = self.closed_form(g, profile, state_in, state_out)
+            if known is not None and not fast:
+                pieces = known
+            else:
+                pieces = self.closed_form(g, profile, state_in, state_out)
         st, ok = pieces.states, pieces.ok
         u, verts, vel, acc, mins = (
             st.u,
@@ -129,26 +146,27 @@ class MovePieces:
         phases = pieces.phases  # None only in "ruckig" mode, where no piece is ok
         if ok.all() and phases is not None:
             ps, vs, as_, js = phases
-            dur = np.repeat(mins / 3.0, 3)
-            for i in range(3):
-                cols = (ps[:, :, i], vs[:, :, i], as_[:, :, i], js[:, :, i])
-                self.out.add(i, dur, *(c.ravel() for c in cols))
+            self.out.add_jerk3(Jerk3Run(mins / 3.0, ps[:, 0], vs[:, 0], as_[:, 0], js))
             for k in (0, n - 1):
                 if check[k]:
-                    q = jerk3_points(ps[k], vs[k], as_[k], js[k], mins[k])
-                    bad[k] = g.deviation(q, u[k]) > dev_max
+                    bad[k] = _deviation(g, pieces, k) > dev_max
             return float(mins.sum()), bad[0], bad[n - 1]
         total = 0.0
-        for k in range(n):
-            if ok[k] and phases is not None:
+        k = 0
+        while k < n:
+            if ok[k] and phases is not None:  # a run of closed-form pieces, added at once
+                e = k + 1
+                while e < n and ok[e]:
+                    e += 1
                 ps, vs, as_, js = phases
-                h3 = [mins[k] / 3.0] * 3
-                for i in range(3):
-                    self.out.add(i, h3, ps[k, :, i], vs[k, :, i], as_[k, :, i], js[k, :, i])
-                total += mins[k]
-                if check.get(k):
-                    q = jerk3_points(ps[k], vs[k], as_[k], js[k], mins[k])
-                    bad[k] = g.deviation(q, u[k]) > dev_max
+                run = (ps[k:e, 0], vs[k:e, 0], as_[k:e, 0], js[k:e])
+                self.out.add_jerk3(Jerk3Run(mins[k:e] / 3.0, *run))
+                for x in mins[k:e].tolist():  # summed in order, as piece by piece
+                    total += x
+                for c in {k, e - 1}:
+                    if check.get(c):
+                        bad[c] = _deviation(g, pieces, c) > dev_max
+                k = e
                 continue
             if self.pieces != "ruckig":
                 self.ruckig_pieces += 1
@@ -168,29 +186,49 @@ class MovePieces:
                     bad[0], bad[n - 1] = bad[0] or check[0], bad[n - 1] or check[n - 1]
                 if off and not (check[0] or check[n - 1]):
                     self.off_pieces += 1  # no junction speed to lower: the profile must change
+            k += 1
         return total, bad[0], bad[n - 1]
 
     def closed_form(
         self, g: ArcGeometry, profile: Profile1D, state_in: EndState, state_out: EndState
     ) -> Pieces:
         """Vertex states and closed-form pieces for ``profile``, and which keep the limits."""
-        st = vertex_states(g, profile, state_in, state_out)
-        mins = st.durations
+        return self.closed_forms([(g, profile, state_in, state_out)])[0]
+
+    def closed_forms(
+        self, requests: list[tuple[ArcGeometry, Profile1D, EndState, EndState]]
+    ) -> list[Pieces]:
+        """:meth:`closed_form` of several (arc, profile, state in, state out) at once: the
+        states, pieces and limit checks of all of them in a few vectorised calls (each number
+        as when computed alone: the work is row by row)."""
+        states = vertex_states_many(requests)
         if self.pieces == "ruckig":
-            return Pieces(st, None, np.zeros(mins.size, bool))
+            return [Pieces(st, None, np.zeros(st.durations.size, bool)) for st in states]
+        if not states:
+            return []
+        counts = [st.durations.size for st in states]
+        pos = np.concatenate([st.positions for st in states])
+        vel = np.concatenate([st.velocities for st in states])
+        acc = np.concatenate([st.accelerations for st in states])
+        mins = np.concatenate([st.durations for st in states])
+        first = np.concatenate(([0], np.cumsum([c + 1 for c in counts])[:-1]))
+        start = np.repeat(first - np.concatenate(([0], np.cumsum(counts)[:-1])), counts)
+        start += np.arange(mins.size)  # each piece's first vertex in the stacked states
+        feed = np.repeat([r[0].feed_mm_per_s for r in requests], counts)
         ok = mins > 1e-9
         safe = np.where(ok, mins, 1.0)
-        phases = jerk3(st.positions, st.velocities, st.accelerations, safe)
+        nxt = start + 1
+        phases = jerk3_pairs(pos[start], vel[start], acc[start], pos[nxt], vel[nxt], acc[nxt], safe)
         ok &= piece_limits_ok(
-            phases.v,
-            phases.a,
-            phases.j,
-            safe,
-            st.accelerations[1:],
-            *self.limits.per_axis(),
-            g.feed_mm_per_s,
+            phases.v, phases.a, phases.j, safe, acc[nxt], *self.limits.per_axis(), feed
         )
-        return Pieces(st, phases, ok)
+        stop = np.cumsum(counts)
+        devs = _end_deviations(requests, states, phases, mins, stop - counts)
+        out = []
+        for st, lo, hi, dev in zip(states, stop - counts, stop, devs, strict=True):
+            ph = PiecePhases(*(x[lo:hi] for x in phases))
+            out.append(Pieces(st, ph, ok[lo:hi], dev))
+        return out
 
     def ruckig_piece(
         self,
@@ -214,3 +252,40 @@ class MovePieces:
         for i in range(3):
             self.out.add(i, *piece.phases[i])
         return piece
+
+
+def _deviation(g: ArcGeometry, pieces: Pieces, k: int) -> float:
+    """Distance [mm] from the arc of the closed-form piece ``k`` (measured on 25 points)."""
+    if k in pieces.end_dev_mm:
+        return pieces.end_dev_mm[k]
+    ps, vs, as_, js = pieces.phases  # type: ignore[misc]
+    q = jerk3_points(ps[k], vs[k], as_[k], js[k], pieces.states.durations[k])
+    return g.deviation(q, pieces.states.u[k])
+
+
+def _end_deviations(
+    requests: list[tuple[ArcGeometry, Profile1D, EndState, EndState]],
+    states: list[VertexStates],
+    phases: PiecePhases,
+    mins: np.ndarray,
+    first: np.ndarray,
+) -> list[dict[int, float]]:
+    """:func:`_deviation` of each arc's end pieces next to a moving junction, in one batch
+    (splines: left to :func:`_deviation`)."""
+    out: list[dict[int, float]] = [{} for _ in requests]
+    at: list[tuple[int, int]] = []  # (request, piece)
+    for i, ((g, _, s_in, s_out), st) in enumerate(zip(requests, states, strict=True)):
+        if isinstance(g.move, Arc):
+            n = st.durations.size
+            at += [(i, k) for k, moving in ((0, s_in.moving), (n - 1, s_out.moving)) if moving]
+    if not at:
+        return out
+    rows = np.array([first[i] + k for i, k in at], dtype=np.intp)
+    q = piece_points_many(
+        phases.p[rows], phases.v[rows], phases.a[rows], phases.j[rows], mins[rows]
+    )
+    arcs = [m for m in (requests[i][0].move for i, _ in at) if isinstance(m, Arc)]
+    dev = arc_deviation_many(arcs, q, [states[i].u[k] for i, k in at]).tolist()
+    for (i, k), d in zip(at, dev, strict=True):
+        out[i][k] = d
+    return out

@@ -50,7 +50,7 @@ from gantry_sim.controller.planner.limit_events import concatenate, split_at_lim
 from gantry_sim.controller.planner.move_geometry import (
     MoveGeometry,
     limits_for_junctions,
-    move_geometry,
+    move_geometries,
 )
 from gantry_sim.controller.planner.result import Plan
 from gantry_sim.controller.planner.rounds import replan_until_junctions_hold
@@ -132,6 +132,10 @@ def plan(
         arr.setflags(write=False)
     planned = {id(g.move): g.vertices for g in geoms}
     vertices = tuple(planned[id(m)] if id(m) in planned else _vertices(m, machine) for m in program)
+    # the planning state is not needed any more: free it before the phases are copied into
+    # the plan's arrays (the peak of a long program's planning is there)
+    del prepared, geoms, active, caps, states, known, planned, solver
+    curve = done.curve()
     return Plan(
         moves=program,
         duration_s=done.duration_s,
@@ -139,7 +143,7 @@ def plan(
         chord_tolerance_mm=machine.segmentation.chord_tolerance_mm,
         vertices=vertices,
         ruckig_piece_count=done.ruckig_pieces,
-        curve=done.curve(),
+        curve=curve,
         move_start_s=move_start,
         move_lines=lines,
         end_mm=end,
@@ -166,11 +170,11 @@ def _prepare(
     have equal geometry), filled here, so planning again after :func:`_slow_blends` only
     computes the moves that changed."""
     lim, seg = machine.limits, machine.segmentation
+    new = list({m: None for m in path.moves if m not in known})  # each once, in order
+    known.update(zip(new, move_geometries(new, lim, seg, feed_override_pct / 100.0), strict=True))
     geoms = []
     for m in path.moves:
-        g = known.get(m)
-        if g is None:
-            g = known[m] = move_geometry(m, lim, seg, feed_override_pct / 100.0)
+        g = known[m]
         geoms.append(g if g.move is m else replace(g, move=m))
     keep = [g.length_mm > 1e-9 for g in geoms]
     active = [g for g, k in zip(geoms, keep, strict=True) if k]

@@ -59,23 +59,55 @@ class Profile1D:
     def invert(self, s: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """Times [s], speeds [mm/s], tangential accelerations [mm/s^2] where the profile passes
         the arc lengths ``s`` [mm] (ascending)."""
+        return invert_many([(self, s)])[0]
 
-        keep = self.rows[:, 0] > 0
-        dur, p, v, a, j = self.rows[keep].T
+
+def invert_many(
+    queries: list[tuple[Profile1D, np.ndarray]],
+) -> list[tuple[np.ndarray, np.ndarray, np.ndarray]]:
+    """:meth:`Profile1D.invert` for several (profile, arc lengths) at once: one vectorised
+    solve over all of them (each number is computed exactly as alone, bit for bit: the solve is
+    element by element), so planning many arcs costs a few numpy calls, not a few hundred each."""
+    parts = []
+    for prof, s in queries:
+        keep = prof.rows[:, 0] > 0
+        dur, p, v, a, j = prof.rows[keep].T
         t0 = np.concatenate(([0.0], np.cumsum(dur)[:-1]))
         k = np.clip(np.searchsorted(p, s, side="right") - 1, 0, p.size - 1)
-        lo, hi = np.zeros(s.size), dur[k].copy()
-        pk, vk, ak, jk = p[k], v[k], a[k], j[k]
-        for _ in range(24):  # bisection: s(t) is monotone (v >= 0) ...
-            mid = 0.5 * (lo + hi)
-            below = pk + mid * (vk + mid * (0.5 * ak + mid * jk / 6.0)) < s
-            lo = np.where(below, mid, lo)
-            hi = np.where(below, hi, mid)
-        tau = 0.5 * (lo + hi)
-        for _ in range(3):  # ... then Newton, kept inside the bracket
-            f = pk + tau * (vk + tau * (0.5 * ak + tau * jk / 6.0)) - s
-            df = vk + tau * (ak + 0.5 * tau * jk)
-            with np.errstate(divide="ignore", invalid="ignore"):
-                step = np.where(df > 0, f / df, 0.0)
-            tau = np.clip(tau - step, lo, hi)
-        return t0[k] + tau, vk + tau * (ak + 0.5 * tau * jk), ak + tau * jk
+        parts.append(np.stack([p[k], v[k], a[k], j[k], dur[k], t0[k], s]))
+    if not parts:
+        return []
+    sizes = np.cumsum([x.shape[1] for x in parts])[:-1]
+    pk, vk, ak, jk, dk, t0k, s_all = np.concatenate(parts, axis=1)
+    t, vel, acc = _solve_tau(pk, vk, ak, jk, dk, t0k, s_all)
+    return list(zip(np.split(t, sizes), np.split(vel, sizes), np.split(acc, sizes), strict=True))
+
+
+def _solve_tau(pk, vk, ak, jk, dk, t0k, s):
+    """Element by element: the time in its phase (start state pk, vk, ak, jerk jk, duration dk,
+    start time t0k) where s(t) = ``s``; returns (t0k + tau, speed, acceleration) there."""
+    lo, hi = np.zeros(s.size), dk.copy()
+    half_a = 0.5 * ak
+    mid, poly, below = np.empty(s.size), np.empty(s.size), np.empty(s.size, dtype=bool)
+    for _ in range(24):  # bisection: s(t) is monotone (v >= 0) ...
+        np.add(lo, hi, out=mid)
+        mid *= 0.5
+        np.multiply(mid, jk, out=poly)  # pk + mid * (vk + mid * (0.5 ak + mid jk / 6))
+        poly /= 6.0
+        poly += half_a
+        poly *= mid
+        poly += vk
+        poly *= mid
+        poly += pk
+        np.less(poly, s, out=below)
+        np.copyto(lo, mid, where=below)
+        np.logical_not(below, out=below)
+        np.copyto(hi, mid, where=below)
+    tau = 0.5 * (lo + hi)
+    for _ in range(3):  # ... then Newton, kept inside the bracket
+        f = pk + tau * (vk + tau * (0.5 * ak + tau * jk / 6.0)) - s
+        df = vk + tau * (ak + 0.5 * tau * jk)
+        with np.errstate(divide="ignore", invalid="ignore"):
+            step = np.where(df > 0, f / df, 0.0)
+        tau = np.clip(tau - step, lo, hi)
+    return t0k + tau, vk + tau * (ak + 0.5 * tau * jk), ak + tau * jk

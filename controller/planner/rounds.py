@@ -3,7 +3,8 @@
 A round plans each chain (:mod:`~gantry_sim.controller.planner.chains`) between the junction
 speeds the look-ahead gives: one 1-D Ruckig profile, cut at the moves' ends; straight moves are
 that profile projected on the line, arcs are joined through their exact vertex states
-(:class:`~gantry_sim.controller.planner.pieces.MovePieces`). Where a piece next to a moving
+(:class:`~gantry_sim.controller.planner.pieces.MovePieces`; the chains of a round are planned
+in batches by :mod:`~gantry_sim.controller.planner.chain_plan`). Where a piece next to a moving
 junction leaves the arc or needed Ruckig to stretch it, that junction's cap comes down by
 :data:`JUNCTION_BACKOFF` and the program is planned again (:func:`replan_until_junctions_hold`).
 
@@ -14,27 +15,26 @@ pieces of a chain are kept as arrays (a few bytes per phase, not Python floats).
 
 from __future__ import annotations
 
-from dataclasses import dataclass, replace
+from dataclasses import dataclass
 
 import numpy as np
 
 from gantry_sim.controller.config import MachineConfig
-from gantry_sim.controller.errors import PlannerFailure, PlanningError
-from gantry_sim.controller.moves import Dwell, Move
-from gantry_sim.controller.planner.chains import chain_limits, chain_spans, split_profile
+from gantry_sim.controller.moves import Dwell
+from gantry_sim.controller.planner.chain_plan import (
+    Chain,
+    ChainKey,
+    ChainSetup,
+    Chunk,
+    plan_chains,
+)
+from gantry_sim.controller.planner.chains import chain_limits, chain_spans
 from gantry_sim.controller.planner.cubic import PiecewiseCubic, phases_from_chunks
 from gantry_sim.controller.planner.junctions import JunctionState
 from gantry_sim.controller.planner.limits import BlockLimits
 from gantry_sim.controller.planner.lookahead import plan_junction_speeds
-from gantry_sim.controller.planner.move_geometry import ArcGeometry, MoveGeometry
-from gantry_sim.controller.planner.pieces import MovePieces
-from gantry_sim.controller.planner.profile import Profile1D
-from gantry_sim.controller.planner.ruckig_solver import (
-    ProfileReverses,
-    RuckigRejected,
-    RuckigSolver,
-)
-from gantry_sim.controller.planner.speedup import boosted_profile
+from gantry_sim.controller.planner.move_geometry import MoveGeometry
+from gantry_sim.controller.planner.ruckig_solver import RuckigSolver
 
 __all__ = ["JUNCTION_BACKOFF", "MAX_ROUNDS", "Round", "replan_until_junctions_hold"]
 
@@ -42,24 +42,6 @@ __all__ = ["JUNCTION_BACKOFF", "MAX_ROUNDS", "Round", "replan_until_junctions_ho
 #: round stops at the junctions still offending.
 MAX_ROUNDS = 16
 JUNCTION_BACKOFF = 0.9
-
-#: Per axis, the phases (duration [s], position [mm], velocity [mm/s], acceleration [mm/s^2],
-#: jerk [mm/s^3]) of a stretch of the reference, as arrays of equal length.
-Chunk = tuple[tuple[np.ndarray, ...], ...]
-
-
-@dataclass(frozen=True, eq=False)
-class _Chain:
-    """One chain's pieces: ``chunk``, its duration [s], each move's start [s] from the chain's
-    start, the junctions whose pieces failed, Ruckig pieces used, and the profile's speed
-    [mm/s] at the junctions inside the chain."""
-
-    chunk: Chunk
-    duration_s: float
-    starts_s: tuple[float, ...]
-    bad: frozenset[int]
-    ruckig_pieces: int
-    inner_speeds: np.ndarray
 
 
 @dataclass
@@ -80,20 +62,6 @@ class Round:
         return phases_from_chunks(self.chunks)
 
 
-@dataclass(frozen=True)
-class _Setup:
-    """What every chain of a plan is planned with."""
-
-    active: list[MoveGeometry]
-    states: list[JunctionState]
-    machine: MachineConfig
-    solver: RuckigSolver
-    arc_pieces: str
-    smoothing: list[float]
-    boost_cache: dict
-    blend_arcs: frozenset[int]
-
-
 def replan_until_junctions_hold(
     active: list[MoveGeometry],
     caps: np.ndarray,
@@ -111,58 +79,64 @@ def replan_until_junctions_hold(
     stops. ``holds``: dwells per junction (exact stops holding the reference for their time).
     ``blend_arcs``: ids of the G64 blend arcs among the moves (tolerance features: no
     saturated-ramp search, which costs tenths of a second and can save them microseconds)."""
-    setup = _Setup(active, states, machine, solver, arc_pieces, smoothing, {}, blend_arcs)
+    setup = ChainSetup(active, states, machine, solver, arc_pieces, smoothing, {}, blend_arcs)
     blocks = [g.limits for g in active]
-    cache: dict[tuple[int, int, float, float], _Chain] = {}
+    cache: dict[ChainKey, Chain] = {}
+    reach_memo: dict = {}
     for rnd in range(MAX_ROUNDS + 1):
         spans = chain_spans(blocks, caps)
         chained = [chain_limits(blocks[first:stop]) for first, stop in spans]
         ends = [first for first, _ in spans] + [len(active)]
         speeds = np.full(len(active) + 1, np.nan)
-        speeds[ends] = plan_junction_speeds(chained, caps[ends])
+        speeds[ends] = plan_junction_speeds(chained, caps[ends], reach_memo)
         done, cache = _plan_round(setup, spans, chained, speeds, holds, cache)
         if not done.bad_junctions:
             break
         for b in done.bad_junctions:
             caps[b] = 0.0 if rnd == MAX_ROUNDS - 1 else JUNCTION_BACKOFF * speeds[b]
+        done.chunks.clear()  # the next round reuses them through the cache alone
     return done
 
 
 def _plan_round(
-    setup: _Setup,
+    setup: ChainSetup,
     spans: list[tuple[int, int]],
     chained: list[BlockLimits],
     speeds: np.ndarray,
     holds: dict[int, list[Dwell]],
-    cache: dict[tuple[int, int, float, float], _Chain],
-) -> tuple[Round, dict[tuple[int, int, float, float], _Chain]]:
+    cache: dict[ChainKey, Chain],
+) -> tuple[Round, dict[ChainKey, Chain]]:
     """Every chain's pieces between the junction speeds ``speeds`` [mm/s] at the chains' ends
-    (filled in here inside chains), reusing ``cache``'s chains planned for the same speeds;
+    (filled in here inside chains), reusing ``cache``'s chains planned for the same speeds
+    (the others are dropped from it first, so a plan holds about one round's phases);
     returns the round and the cache of its chains."""
     chunks: list[Chunk] = []
     clock, ruckig = 0.0, 0
     starts: list[float] = []
     lines: list[int] = []
     bad: set[int] = set()
-    used: dict[tuple[int, int, float, float], _Chain] = {}
+    used: dict[ChainKey, Chain] = {}
 
     def hold(b: int) -> None:
         nonlocal clock
         for dw in holds.get(b, ()):
             starts.append(clock)
             lines.append(dw.line)
-            chunks.append(
-                tuple(
-                    tuple(np.array([x]) for x in (dw.seconds, dw.position[i], 0.0, 0.0, 0.0))
-                    for i in range(3)
-                )
-            )
+            axes = [
+                np.array([[dw.seconds], [dw.position[i]], [0.0], [0.0], [0.0]]) for i in range(3)
+            ]
+            chunks.append(((axes[0], axes[1], axes[2]),))
             clock += dw.seconds
 
-    for (first, stop), lim in zip(spans, chained, strict=True):
+    keys = [(first, stop, float(speeds[first]), float(speeds[stop])) for first, stop in spans]
+    needed = set(keys)
+    for key in [k for k in cache if k not in needed]:  # free them before planning new ones
+        del cache[key]
+    todo = [(k, lim) for k, lim in zip(keys, chained, strict=True) if k not in cache]
+    fresh = plan_chains(setup, todo, speeds)
+    for (first, stop), key in zip(spans, keys, strict=True):
         hold(first)
-        key = (first, stop, float(speeds[first]), float(speeds[stop]))
-        chain = cache.get(key) or _plan_chain(setup, first, stop, lim, speeds)
+        chain = cache.get(key) or fresh[key]
         used[key] = chain
         speeds[first + 1 : stop] = chain.inner_speeds
         starts.extend(clock + t for t in chain.starts_s)
@@ -173,101 +147,3 @@ def _plan_round(
         ruckig += chain.ruckig_pieces
     hold(len(setup.active))
     return Round(chunks, clock, starts, bad, lines, ruckig), used
-
-
-#: Tries of a chain's profile with slower limits (each: :data:`SLOWER_CAP` of the speed cap,
-#: :data:`SLOWER_RAMP` of the acceleration and jerk) when a Ruckig piece inside an arc with
-#: no moving junction left the arc or exceeded the feed.
-SLOWER_TRIES = 6
-SLOWER_CAP = 0.995
-SLOWER_RAMP = 0.8
-
-
-def _plan_chain(
-    setup: _Setup, first: int, stop: int, lim: BlockLimits, speeds: np.ndarray
-) -> _Chain:
-    """The pieces of moves ``first..stop-1`` (one chain with the limits ``lim``) from
-    ``speeds[first]`` to ``speeds[stop]`` [mm/s]; slower (:data:`SLOWER_TRIES`) while a piece
-    inside an arc with no moving junction leaves the arc or exceeds the feed."""
-    floor = max(float(speeds[first]), float(speeds[stop]))
-    for _ in range(SLOWER_TRIES):
-        chain, off = _chain_pieces(setup, first, stop, lim, speeds)
-        if not off:
-            break
-        lim = replace(
-            lim,
-            cap_mm_per_s=max(SLOWER_CAP * lim.cap_mm_per_s, floor),
-            acc_mm_per_s2=SLOWER_RAMP * lim.acc_mm_per_s2,
-            jerk_mm_per_s3=SLOWER_RAMP * lim.jerk_mm_per_s3,
-        )
-    return chain
-
-
-def _chain_pieces(
-    setup: _Setup, first: int, stop: int, lim: BlockLimits, speeds: np.ndarray
-) -> tuple[_Chain, int]:
-    """One try of :func:`_plan_chain`: the chain, and how many pieces were off."""
-    active, states, limits = setup.active, setup.states, setup.machine.limits
-    tol = setup.machine.segmentation.chord_tolerance_mm
-    pieces = MovePieces(limits, tol, setup.arc_pieces, setup.solver)
-    prof = _path_profile(setup.solver, active[first].move, lim, speeds[first], speeds[stop])
-    v = np.empty(stop - first + 1)
-    acc_t = np.zeros(stop - first + 1)
-    v[0], v[-1] = speeds[first], speeds[stop]
-    if stop - first == 1:
-        parts = [prof]
-    else:
-        lengths = [g.length_mm for g in active[first:stop]]
-        parts, v[1:-1], acc_t[1:-1] = split_profile(prof, lengths)
-    clock, starts, bad = 0.0, [], set()
-    for k, part in enumerate(parts):
-        b, g = first + k, active[first + k]
-        starts.append(clock)
-        if not isinstance(g, ArcGeometry):
-            clock += pieces.straight(g, part)
-            continue
-        fast = (
-            boosted_profile(
-                g,
-                v[k],
-                v[k + 1],
-                part,
-                limits,
-                setup.solver,
-                setup.boost_cache,
-                saturated=id(g.move) not in setup.blend_arcs,
-            )
-            if stop - first == 1
-            else ()
-        )
-        s_in = states[b].at(v[k], acc_t[k])
-        s_out = states[b + 1].at(v[k + 1], acc_t[k + 1])
-        dur, bad_in, bad_out = pieces.arc(g, part, s_in, s_out, fast, setup.smoothing[b])
-        clock += dur
-        bad |= {b} if bad_in else set()
-        bad |= {b + 1} if bad_out else set()
-    chain = _Chain(
-        pieces.out.chunk(), clock, tuple(starts), frozenset(bad), pieces.ruckig_pieces, v[1:-1]
-    )
-    return chain, pieces.off_pieces
-
-
-def _path_profile(
-    solver: RuckigSolver, move: Move, lim: BlockLimits, v_in: float, v_out: float
-) -> Profile1D:
-    """The 1-D profile of a block (one move, or a chain starting with ``move``) from ``v_in``
-    to ``v_out`` [mm/s] under its limits."""
-    try:
-        return solver.profile(
-            lim.length_mm, v_in, v_out, lim.cap_mm_per_s, lim.acc_mm_per_s2, lim.jerk_mm_per_s3
-        )
-    except RuckigRejected as exc:
-        raise PlannerFailure(
-            f"no speed profile along this {move.kind} move fits the machine's limits "
-            f"(Ruckig: {exc.reason})",
-            move.line,
-        ) from None
-    except ProfileReverses:
-        raise PlanningError(
-            "the speed profile would reverse along the path", line=move.line
-        ) from None

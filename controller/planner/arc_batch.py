@@ -1,0 +1,93 @@
+"""Arc geometry for many arcs at once: each row computed exactly as
+:mod:`gantry_sim.controller.arcs` computes it for one arc (the same operations, element by
+element), so a batch gives the numbers bit for bit, in a few numpy calls instead of a few per
+arc.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+
+import numpy as np
+
+from gantry_sim.controller.arcs import arc_frame
+from gantry_sim.controller.moves import Arc
+from gantry_sim.controller.planes import PLANE_AXES
+
+
+def arc_derivatives_many(
+    arcs: Sequence[Arc], us: Sequence[np.ndarray]
+) -> tuple[np.ndarray, np.ndarray]:
+    """:func:`gantry_sim.controller.arcs.arc_derivatives` of each arc at its fractions ``us[i]``,
+    stacked: dp/du and d2p/du2 (sum of the sizes, 3) [mm]."""
+    counts = [u.size for u in us]
+    frames = [arc_frame(a) for a in arcs]
+
+    def rows(values: list[float]) -> np.ndarray:
+        return np.repeat(np.array(values, dtype=float), counts)
+
+    u = np.concatenate(us) if us else np.zeros(0)
+    a = rows([f.sigma * arc.angle for f, arc in zip(frames, arcs, strict=True)])
+    r0, r1 = rows([f.r0_mm for f in frames]), rows([f.r1_mm for f in frames])
+    theta = rows([f.theta0_rad for f in frames]) + a * u
+    r = r0 + (r1 - r0) * u
+    dr = r1 - r0
+    cos_t, sin_t = np.cos(theta), np.sin(theta)
+    axes = np.repeat(np.array([PLANE_AXES[arc.plane] for arc in arcs], dtype=np.intp), counts, 0)
+    at = np.arange(u.size)
+    d1 = np.zeros((u.size, 3))
+    d2 = np.zeros((u.size, 3))
+    d1[at, axes[:, 0]] = dr * cos_t - r * a * sin_t
+    d1[at, axes[:, 1]] = dr * sin_t + r * a * cos_t
+    d1[at, axes[:, 2]] = rows([f.h1_mm - f.h0_mm for f in frames])
+    d2[at, axes[:, 0]] = -2.0 * dr * a * sin_t - r * a * a * cos_t
+    d2[at, axes[:, 1]] = 2.0 * dr * a * cos_t - r * a * a * sin_t
+    return d1, d2
+
+
+def piece_points_many(
+    ps: np.ndarray, vs: np.ndarray, as_: np.ndarray, js: np.ndarray, dur: np.ndarray
+) -> np.ndarray:
+    """:func:`gantry_sim.controller.planner.jerk3.jerk3_points` (8 points per phase) of m
+    pieces at once: ``ps``.. (m, 3 phases, 3 axes), ``dur`` (m,) [s] -> (m, 25, 3) [mm]."""
+    h = dur / 3.0
+    tau = (np.arange(8.0)[None, :] * (h / 8)[:, None] + 0.0)[:, None, :, None]  # linspace's
+    p, v, a, j = (x[:, :, None, :] for x in (ps, vs, as_, js))
+    pts = p + tau * (v + tau * (0.5 * a + tau * j / 6.0))
+    hc = h[:, None]
+    last = ps[:, 2] + hc * (vs[:, 2] + hc * (0.5 * as_[:, 2] + hc * js[:, 2] / 6.0))
+    return np.concatenate([pts.reshape(len(dur), 24, 3), last[:, None, :]], axis=1)
+
+
+def arc_deviation_many(arcs: Sequence[Arc], q: np.ndarray, u_hint: Sequence[float]) -> np.ndarray:
+    """:meth:`gantry_sim.controller.planner.move_geometry.ArcGeometry.deviation` of the points
+    ``q[i]`` (k, 3) near ``u_hint[i]`` from each arc, at once -> (m,) [mm]."""
+    m, k = q.shape[0], q.shape[1]
+    frames = [arc_frame(a) for a in arcs]
+
+    def rows(values: list[float]) -> np.ndarray:
+        return np.repeat(np.array(values, dtype=float), k)
+
+    axes = np.repeat(np.array([PLANE_AXES[a.plane] for a in arcs], dtype=np.intp), k, 0)
+    pts = q.reshape(m * k, 3)
+    at = np.arange(m * k)
+    q1, q2, qn = pts[at, axes[:, 0]], pts[at, axes[:, 1]], pts[at, axes[:, 2]]
+    c1 = rows([a.center[f.i1] for a, f in zip(arcs, frames, strict=True)])
+    c2 = rows([a.center[f.i2] for a, f in zip(arcs, frames, strict=True)])
+    theta0 = rows([f.theta0_rad for f in frames])
+    sigma = rows([f.sigma for f in frames])
+    angle = rows([a.angle for a in arcs])
+    hint = rows(
+        [
+            f.theta0_rad + f.sigma * a.angle * uh
+            for a, f, uh in zip(arcs, frames, u_hint, strict=True)
+        ]
+    )
+    r0, r1 = rows([f.r0_mm for f in frames]), rows([f.r1_mm for f in frames])
+    h0, h1 = rows([f.h0_mm for f in frames]), rows([f.h1_mm for f in frames])
+    th = np.arctan2(q2 - c2, q1 - c1)
+    th = th - 2.0 * np.pi * np.round((th - hint) / (2.0 * np.pi))
+    u = sigma * (th - theta0) / angle
+    d_r = np.hypot(q1 - c1, q2 - c2) - (r0 + (r1 - r0) * u)
+    d_n = qn - (h0 + (h1 - h0) * u)
+    return np.hypot(d_r, d_n).reshape(m, k).max(axis=1)

@@ -1,0 +1,168 @@
+"""One re-planning round's chains: profile, cut, candidates, and pieces, in vectorised batches.
+
+A chain (:mod:`~gantry_sim.controller.planner.chains`) is planned from the speeds at its two
+ends: its profile, cut per move, and each arc's candidates come from
+:mod:`~gantry_sim.controller.planner.chain_prep`; straight moves are that profile projected on
+the line, arcs are joined through their exact vertex states
+(:class:`~gantry_sim.controller.planner.pieces.MovePieces`), trying each single arc's faster
+candidates first.
+
+The work of many chains is done at once (:func:`plan_chains`): the vertex states, closed-form
+pieces and limit checks of every arc's first candidate are computed in one batch of about
+:data:`BATCH_PIECES` pieces; what stays per arc is the choice among its results. Every number
+is computed element by element as when planned alone, so batching does not change the plan by
+a bit.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, replace
+
+import numpy as np
+
+from gantry_sim.controller.planner.chain_prep import ChainPrep, ChainSetup, chain_prep, chain_preps
+from gantry_sim.controller.planner.cubic import Chunk
+from gantry_sim.controller.planner.limits import BlockLimits
+from gantry_sim.controller.planner.move_geometry import ArcGeometry
+from gantry_sim.controller.planner.pieces import MovePieces, Pieces
+
+__all__ = ["BATCH_PIECES", "Chain", "ChainKey", "ChainSetup", "Chunk", "plan_chains"]
+
+
+@dataclass(frozen=True, eq=False)
+class Chain:
+    """One chain's pieces: ``chunk``, its duration [s], each move's start [s] from the chain's
+    start, the junctions whose pieces failed, Ruckig pieces used, and the profile's speed
+    [mm/s] at the junctions inside the chain."""
+
+    chunk: Chunk
+    duration_s: float
+    starts_s: tuple[float, ...]
+    bad: frozenset[int]
+    ruckig_pieces: int
+    inner_speeds: np.ndarray
+
+
+#: Closed-form pieces computed in one vectorised batch (about this many pieces at most: the
+#: batch's arrays take about 1 kB per piece).
+BATCH_PIECES = 20_000
+
+#: A chain by (first move, stop, speed in [mm/s], speed out [mm/s]).
+ChainKey = tuple[int, int, float, float]
+
+
+def plan_chains(
+    setup: ChainSetup, todo: list[tuple[ChainKey, BlockLimits]], speeds: np.ndarray
+) -> dict[ChainKey, Chain]:
+    """The chains ``todo`` (key (first, stop, speed in, speed out), limits), planned in batches
+    of about :data:`BATCH_PIECES` pieces: the chains' profiles first, cut at their moves' ends
+    all at once, then the closed-form pieces of the first candidate of every arc of the batch
+    at once, then each chain's pieces."""
+    out: dict[ChainKey, Chain] = {}
+    batch: list[tuple[ChainKey, BlockLimits]] = []
+    size = 0
+    for key, lim in todo:
+        batch.append((key, lim))
+        size += 1 + sum(
+            g.u.size for g in setup.active[key[0] : key[1]] if isinstance(g, ArcGeometry)
+        )
+        if size >= BATCH_PIECES:
+            _plan_batch(setup, batch, speeds, out)
+            batch, size = [], 0
+    _plan_batch(setup, batch, speeds, out)
+    return out
+
+
+def _plan_batch(
+    setup: ChainSetup,
+    batch: list[tuple[ChainKey, BlockLimits]],
+    speeds: np.ndarray,
+    out: dict[ChainKey, Chain],
+) -> None:
+    """Plan the chains of ``batch`` into ``out``."""
+    preps = chain_preps(setup, [(key[0], key[1], lim) for key, lim in batch], speeds)
+    requests = []
+    for prep in preps:
+        for k, g, fast, s_in, s_out in prep.arcs:
+            requests.append((g, fast[0] if fast else prep.parts[k], s_in, s_out))
+    maker = MovePieces(
+        setup.machine.limits,
+        setup.machine.segmentation.chord_tolerance_mm,
+        setup.arc_pieces,
+        setup.solver,
+    )
+    found = iter(maker.closed_forms(requests)) if setup.arc_pieces == "jerk3" else None
+    for (key, lim), prep in zip(batch, preps, strict=True):
+        first = None if found is None else {k: next(found) for k, *_ in prep.arcs}
+        out[key] = _plan_chain(setup, key[0], key[1], lim, speeds, prep, first)
+
+
+#: Tries of a chain's profile with slower limits (each: :data:`SLOWER_CAP` of the speed cap,
+#: :data:`SLOWER_RAMP` of the acceleration and jerk) when a Ruckig piece inside an arc with
+#: no moving junction left the arc or exceeded the feed.
+SLOWER_TRIES = 6
+SLOWER_CAP = 0.995
+SLOWER_RAMP = 0.8
+
+
+def _plan_chain(
+    setup: ChainSetup,
+    first: int,
+    stop: int,
+    lim: BlockLimits,
+    speeds: np.ndarray,
+    prep: ChainPrep | None = None,
+    pre: dict[int, Pieces] | None = None,
+) -> Chain:
+    """The pieces of moves ``first..stop-1`` (one chain with the limits ``lim``) from
+    ``speeds[first]`` to ``speeds[stop]`` [mm/s]; slower (:data:`SLOWER_TRIES`) while a piece
+    inside an arc with no moving junction leaves the arc or exceeds the feed. ``prep`` and
+    ``pre``: the chain's preparation for ``lim`` and the closed-form pieces of each arc's first
+    candidate, when already made."""
+    floor = max(float(speeds[first]), float(speeds[stop]))
+    for _ in range(SLOWER_TRIES):
+        if prep is None:
+            prep = chain_prep(setup, first, stop, lim, speeds)
+        chain, off = _chain_pieces(setup, first, stop, prep, pre)
+        if not off:
+            break
+        lim = replace(
+            lim,
+            cap_mm_per_s=max(SLOWER_CAP * lim.cap_mm_per_s, floor),
+            acc_mm_per_s2=SLOWER_RAMP * lim.acc_mm_per_s2,
+            jerk_mm_per_s3=SLOWER_RAMP * lim.jerk_mm_per_s3,
+        )
+        prep, pre = None, None
+    return chain
+
+
+def _chain_pieces(
+    setup: ChainSetup, first: int, stop: int, prep: ChainPrep, pre: dict[int, Pieces] | None
+) -> tuple[Chain, int]:
+    """One try of :func:`_plan_chain`: the chain, and how many pieces were off."""
+    active = setup.active
+    tol = setup.machine.segmentation.chord_tolerance_mm
+    pieces = MovePieces(setup.machine.limits, tol, setup.arc_pieces, setup.solver)
+    arcs = {k: (fast, s_in, s_out) for k, _, fast, s_in, s_out in prep.arcs}
+    clock, starts, bad = 0.0, [], set()
+    for k, part in enumerate(prep.parts):
+        b, g = first + k, active[first + k]
+        starts.append(clock)
+        if not isinstance(g, ArcGeometry):
+            clock += pieces.straight(g, part)
+            continue
+        fast, s_in, s_out = arcs[k]
+        known = None if pre is None else pre[k]
+        dur, bad_in, bad_out = pieces.arc(g, part, s_in, s_out, fast, setup.smoothing[b], known)
+        clock += dur
+        bad |= {b} if bad_in else set()
+        bad |= {b + 1} if bad_out else set()
+    chain = Chain(
+        pieces.out.chunk(),
+        clock,
+        tuple(starts),
+        frozenset(bad),
+        pieces.ruckig_pieces,
+        prep.speeds[1:-1],
+    )
+    return chain, pieces.off_pieces

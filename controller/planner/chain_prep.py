@@ -1,0 +1,155 @@
+"""A chain's preparation: its 1-D profile, cut at its moves' ends, and each arc's candidates.
+
+:func:`chain_preps` prepares many chains (:mod:`~gantry_sim.controller.planner.chains`) at
+once: each chain's Ruckig profile from the speeds at its ends, then all profiles cut at their
+moves' ends in one vectorised inversion (the same numbers as one by one), then per arc its
+faster candidate profiles (:mod:`~gantry_sim.controller.planner.speedup`, single-arc chains)
+and its end states. :mod:`~gantry_sim.controller.planner.chain_plan` makes the pieces.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from gantry_sim.controller.config import MachineConfig
+from gantry_sim.controller.errors import PlannerFailure, PlanningError
+from gantry_sim.controller.moves import Move
+from gantry_sim.controller.planner.chains import move_bounds, split_profile
+from gantry_sim.controller.planner.junctions import EndState, JunctionState
+from gantry_sim.controller.planner.limits import BlockLimits
+from gantry_sim.controller.planner.move_geometry import ArcGeometry, MoveGeometry
+from gantry_sim.controller.planner.profile import Profile1D, invert_many
+from gantry_sim.controller.planner.ruckig_solver import (
+    ProfileReverses,
+    RuckigRejected,
+    RuckigSolver,
+)
+from gantry_sim.controller.planner.speedup import boosted_profile
+
+__all__ = ["ChainPrep", "ChainSetup", "chain_prep", "chain_preps"]
+
+
+@dataclass(frozen=True)
+class ChainSetup:
+    """What every chain of a plan is planned with."""
+
+    active: list[MoveGeometry]
+    states: list[JunctionState]
+    machine: MachineConfig
+    solver: RuckigSolver
+    arc_pieces: str
+    smoothing: list[float]
+    boost_cache: dict
+    blend_arcs: frozenset[int]
+
+
+@dataclass(frozen=True, eq=False)
+class ChainPrep:
+    """A chain's profile cut at its moves' ends (``parts``), the speeds [mm/s] and tangential
+    accelerations [mm/s^2] at its junctions, and per arc (its index in the chain, its
+    geometry, its faster candidate profiles, its end states)."""
+
+    parts: list[Profile1D]
+    speeds: np.ndarray
+    acc_t: np.ndarray
+    arcs: list[tuple[int, ArcGeometry, tuple[Profile1D, ...], EndState, EndState]]
+
+
+def chain_prep(
+    setup: ChainSetup, first: int, stop: int, lim: BlockLimits, speeds: np.ndarray
+) -> ChainPrep:
+    """The profile of moves ``first..stop-1`` under ``lim``, cut per move, and each arc's
+    candidates and end states."""
+    return chain_preps(setup, [(first, stop, lim)], speeds)[0]
+
+
+def chain_preps(
+    setup: ChainSetup, chains: list[tuple[int, int, BlockLimits]], speeds: np.ndarray
+) -> list[ChainPrep]:
+    """:func:`_chain_prep` of several chains (first, stop, limits); their profiles are cut at
+    their moves' ends in one vectorised inversion."""
+    active = setup.active
+    profs = [
+        _path_profile(setup.solver, active[first].move, lim, speeds[first], speeds[stop])
+        for first, stop, lim in chains
+    ]
+    lengths = [[g.length_mm for g in active[first:stop]] for first, stop, _ in chains]
+    multi = [i for i, (first, stop, _) in enumerate(chains) if stop - first > 1]
+    cuts = dict(
+        zip(
+            multi,
+            invert_many([(profs[i], move_bounds(lengths[i])[1:-1]) for i in multi]),
+            strict=True,
+        )
+    )
+    return [
+        _prep_one(setup, first, stop, prof, ls, speeds, cuts.get(i))
+        for i, ((first, stop, _), prof, ls) in enumerate(zip(chains, profs, lengths, strict=True))
+    ]
+
+
+def _prep_one(
+    setup: ChainSetup,
+    first: int,
+    stop: int,
+    prof: Profile1D,
+    lengths: list[float],
+    speeds: np.ndarray,
+    cut: tuple[np.ndarray, np.ndarray, np.ndarray] | None,
+) -> ChainPrep:
+    """One chain's :class:`ChainPrep` from its profile ``prof`` (``cut``: its inversion at the
+    inner junctions)."""
+    active, states, limits = setup.active, setup.states, setup.machine.limits
+    v = np.empty(stop - first + 1)
+    acc_t = np.zeros(stop - first + 1)
+    v[0], v[-1] = speeds[first], speeds[stop]
+    if stop - first == 1:
+        parts = [prof]
+    else:
+        parts, v[1:-1], acc_t[1:-1] = split_profile(prof, lengths, cut)
+    arcs = []
+    for k, part in enumerate(parts):
+        b, g = first + k, active[first + k]
+        if not isinstance(g, ArcGeometry):
+            continue
+        fast = (
+            boosted_profile(
+                g,
+                v[k],
+                v[k + 1],
+                part,
+                limits,
+                setup.solver,
+                setup.boost_cache,
+                saturated=id(g.move) not in setup.blend_arcs,
+            )
+            if stop - first == 1
+            else ()
+        )
+        arcs.append(
+            (k, g, fast, states[b].at(v[k], acc_t[k]), states[b + 1].at(v[k + 1], acc_t[k + 1]))
+        )
+    return ChainPrep(parts, v, acc_t, arcs)
+
+
+def _path_profile(
+    solver: RuckigSolver, move: Move, lim: BlockLimits, v_in: float, v_out: float
+) -> Profile1D:
+    """The 1-D profile of a block (one move, or a chain starting with ``move``) from ``v_in``
+    to ``v_out`` [mm/s] under its limits."""
+    try:
+        return solver.profile(
+            lim.length_mm, v_in, v_out, lim.cap_mm_per_s, lim.acc_mm_per_s2, lim.jerk_mm_per_s3
+        )
+    except RuckigRejected as exc:
+        raise PlannerFailure(
+            f"no speed profile along this {move.kind} move fits the machine's limits "
+            f"(Ruckig: {exc.reason})",
+            move.line,
+        ) from None
+    except ProfileReverses:
+        raise PlanningError(
+            "the speed profile would reverse along the path", line=move.line
+        ) from None
