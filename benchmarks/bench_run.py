@@ -15,8 +15,8 @@ the subprocess reports:
   write (report.json, trace.npz and the PNGs written into a folder);
 * peak memory: the subprocess' maximum resident set (getrusage ru_maxrss) right after the run,
   before anything else is measured; and "worker", that of its largest child (a streamed run's
-  analysis worker, sim.analysis_worker: a fork, whose resident set also counts the pages it
-  shares with the run and touches);
+  analysis worker, sim.analysis_worker: a fresh interpreter holding the path tables and one
+  range at a time);
 * MuJoCo alone: the same model stepped open loop through the same motion -- the run's held
   forces replayed from the same initial state by ``mujoco.rollout`` (as bench_sim.py does), in
   pieces of REPLAY_STEPS physics steps; every stage's time is printed over it (a second table),

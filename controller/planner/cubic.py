@@ -9,7 +9,6 @@ cubic per axis: a 60 s program at 1 kHz samples in milliseconds.
 
 from __future__ import annotations
 
-import ctypes
 from dataclasses import dataclass
 from typing import NamedTuple
 
@@ -89,57 +88,6 @@ class CubicBuilder:
         """The phases collected, segment by segment."""
         self._flush()
         return tuple(self.segments)
-
-    def build(self) -> PiecewiseCubic:
-        """The phases collected, as a :class:`PiecewiseCubic`."""
-        return phases_from_chunks([self.chunk()])
-
-
-def phases_from_chunks(chunks: list[Chunk]) -> PiecewiseCubic:
-    """One :class:`PiecewiseCubic` from stretches of phases in time order. ``chunks`` is emptied
-    as it is copied (from its end), so the phases are held about once, not twice, at the peak
-    (a 100,000-block CAM plan's phases take about 1 GB)."""
-    ends = [
-        np.cumsum([sum(_phase_count(s, i) for s in c) for c in chunks]).tolist() for i in range(3)
-    ]
-    totals = [e[-1] if e else 0 for e in ends]
-    _return_freed_memory()  # what planning freed (its geometry) before the arrays are filled
-    cols = [[np.empty(n) for _ in range(5)] for n in totals]  # per axis: dur, p, v, a, j
-    step = max(len(chunks) // 64, 1)
-    while chunks:
-        if len(chunks) % step == 0:
-            _return_freed_memory()
-        chunk = chunks.pop()
-        for i in range(3):
-            stop = ends[i].pop()
-            at = ends[i][-1] if ends[i] else 0
-            for seg in chunk:
-                rows = seg.axis_phases(i) if isinstance(seg, Jerk3Run) else seg[i]
-                n = rows[0].size
-                for k in range(5):
-                    cols[i][k][at : at + n] = rows[k]
-                at += n
-            assert at == stop
-    axes = []
-    for i in range(3):
-        t0 = cols[i][0]  # the durations become the phases' start times, in place
-        if t0.size:
-            np.cumsum(t0, out=t0)
-            t0[1:] = t0[:-1].copy()
-            t0[0] = 0.0
-        for arr in cols[i]:
-            arr.setflags(write=False)
-        axes.append(tuple(cols[i]))
-    return PiecewiseCubic(tuple(axes))
-
-
-def _return_freed_memory() -> None:
-    """Hand the heap pages of freed chunks back to the system (glibc's malloc_trim), so that
-    copying the phases into their final arrays does not hold them twice; elsewhere a no-op."""
-    try:
-        ctypes.CDLL("libc.so.6").malloc_trim(0)
-    except (OSError, AttributeError):
-        pass
 
 
 @dataclass(frozen=True)

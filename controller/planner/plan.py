@@ -132,8 +132,6 @@ def plan(
         arr.setflags(write=False)
     planned = {id(g.move): g.vertices for g in geoms}
     vertices = tuple(planned[id(m)] if id(m) in planned else _vertices(m, machine) for m in program)
-    # the planning state is not needed any more: free it before the phases are copied into
-    # the plan's arrays (the peak of a long program's planning is there)
     del prepared, geoms, active, caps, states, known, planned, solver
     curve = done.curve()
     return Plan(

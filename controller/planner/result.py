@@ -11,6 +11,7 @@ from gantry_sim.controller.errors import ConfigError
 from gantry_sim.controller.moves import Move
 from gantry_sim.controller.planner.blend import Blend
 from gantry_sim.controller.planner.cubic import PiecewiseCubic
+from gantry_sim.controller.planner.segmented_curve import SegmentedCurve
 from gantry_sim.controller.trajectory import Trajectory
 
 
@@ -26,7 +27,8 @@ class Plan:
         vertices: per move, read-only (k, 3) chord vertices [mm] (first = start, last = end).
         ruckig_piece_count: arc pieces given to Ruckig because the closed-form piece would have
             broken a limit (typically next to a junction with a curvature jump).
-        curve: the reference, as constant-jerk phases per axis.
+        curve: the reference, as constant-jerk phases per axis (a planned program's held
+            segment by segment, :mod:`~gantry_sim.controller.planner.segmented_curve`).
         move_start_s: read-only (m,) start time [s] of each move of non-zero length.
         move_lines: read-only (m,) their program lines.
         end_mm: read-only (3,) the program's end point [mm].
@@ -40,7 +42,7 @@ class Plan:
     chord_tolerance_mm: float
     vertices: tuple[np.ndarray, ...]
     ruckig_piece_count: int
-    curve: PiecewiseCubic = field(repr=False)
+    curve: PiecewiseCubic | SegmentedCurve = field(repr=False)
     move_start_s: np.ndarray = field(repr=False)
     move_lines: np.ndarray = field(repr=False)
     end_mm: np.ndarray = field(repr=False)

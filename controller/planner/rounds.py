@@ -29,12 +29,12 @@ from gantry_sim.controller.planner.chain_plan import (
     plan_chains,
 )
 from gantry_sim.controller.planner.chains import chain_limits, chain_spans
-from gantry_sim.controller.planner.cubic import PiecewiseCubic, phases_from_chunks
 from gantry_sim.controller.planner.junctions import JunctionState
 from gantry_sim.controller.planner.limits import BlockLimits
 from gantry_sim.controller.planner.lookahead import plan_junction_speeds
 from gantry_sim.controller.planner.move_geometry import MoveGeometry
 from gantry_sim.controller.planner.ruckig_solver import RuckigSolver
+from gantry_sim.controller.planner.segmented_curve import SegmentedCurve
 
 __all__ = ["JUNCTION_BACKOFF", "MAX_ROUNDS", "Round", "replan_until_junctions_hold"]
 
@@ -57,9 +57,10 @@ class Round:
     lines: list[int]
     ruckig_pieces: int
 
-    def curve(self) -> PiecewiseCubic:
-        """The reference as constant-jerk phases per axis."""
-        return phases_from_chunks(self.chunks)
+    def curve(self) -> SegmentedCurve:
+        """The reference as constant-jerk phases per axis (``chunks`` is emptied: the
+        curve holds its segments)."""
+        return SegmentedCurve(self.chunks)
 
 
 def replan_until_junctions_hold(

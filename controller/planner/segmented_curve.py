@@ -1,0 +1,157 @@
+"""A plan's reference held as the planner made it, its phases laid out only where sampled.
+
+The planner's chains are stretches of constant-jerk phases (:data:`~gantry_sim.controller.planner.cubic.Chunk`):
+closed-form arc pieces are held as :class:`~gantry_sim.controller.planner.cubic.Jerk3Run`
+(19 numbers per piece of three phases, where three laid-out phases on three axes take 45), Ruckig
+pieces and straight moves as (5, n) arrays per axis. Laying the whole reference out as one
+:class:`~gantry_sim.controller.planner.cubic.PiecewiseCubic` took 120 bytes a phase: about 1 GB
+for a 100,000-block CAM program, held for the whole run. :class:`SegmentedCurve` keeps the
+segments, grouped into blocks of about :data:`BLOCK_PHASES` phases, and lays out a block's phases
+when a sample falls in it (the last :data:`CACHED_BLOCKS` blocks are kept, so a run that samples
+range after range lays each block out about once).
+
+The numbers are those of the laid-out curve bit for bit: a phase's start time is the running sum
+of the durations before it, added in the same order (each block's sum starts from the previous
+block's last one: ``np.cumsum`` adds one term at a time), and a sample takes the phase and the
+formula that :meth:`PiecewiseCubic.evaluate` takes (tests/test_segmented_curve.py checks).
+"""
+
+from __future__ import annotations
+
+from collections import OrderedDict
+from itertools import pairwise
+
+import numpy as np
+
+from gantry_sim.controller.planner.cubic import Chunk, Jerk3Run, PiecewiseCubic, Segment
+
+__all__ = ["BLOCK_PHASES", "CACHED_BLOCKS", "SegmentedCurve"]
+
+#: Phases (on the first axis) per block laid out at a time: 65,536 phases take 2.6 MB per axis.
+BLOCK_PHASES = 65_536
+#: Blocks kept laid out (a range of samples rarely spans more than two).
+CACHED_BLOCKS = 3
+
+_Phases = tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]
+
+
+def _axis_rows(seg: Segment, axis: int) -> tuple[np.ndarray, ...]:
+    """Duration [s], p, v, a, j of ``seg``'s phases on ``axis``."""
+    return seg.axis_phases(axis) if isinstance(seg, Jerk3Run) else tuple(seg[axis])
+
+
+def _durations(seg: Segment, axis: int) -> np.ndarray:
+    return np.repeat(seg.h, 3) if isinstance(seg, Jerk3Run) else seg[axis][0]
+
+
+class SegmentedCurve:
+    """The reference as constant-jerk phases per axis, held segment by segment (see the module
+    docstring); :meth:`evaluate` and :attr:`axes` as :class:`PiecewiseCubic`'s."""
+
+    __slots__ = ("_blocks", "_cache", "_counts", "_first", "_starts")
+
+    def __init__(self, chunks: list[Chunk]) -> None:
+        """The curve of ``chunks`` (stretches of phases in time order), which is emptied as it
+        is read: the segments are held once."""
+        blocks: list[tuple[Segment, ...]] = []
+        current: list[Segment] = []
+        size = 0
+        chunks.reverse()
+        while chunks:
+            for seg in chunks.pop():
+                current.append(seg)
+                size += 3 * seg.h.size if isinstance(seg, Jerk3Run) else seg[0].shape[1]
+                if size >= BLOCK_PHASES:
+                    blocks.append(tuple(current))
+                    current, size = [], 0
+        if current:
+            blocks.append(tuple(current))
+        self._blocks = tuple(blocks)
+        counts = np.zeros((3, len(blocks)), dtype=np.int64)
+        starts = np.zeros((3, len(blocks)))
+        for i in range(3):
+            carry = 0.0
+            for b, block in enumerate(blocks):
+                starts[i, b] = carry
+                dur = [_durations(s, i) for s in block]
+                counts[i, b] = sum(d.size for d in dur)
+                if counts[i, b]:
+                    carry = float(np.cumsum(np.concatenate([[carry], *dur]))[-1])
+        self._counts = counts
+        # per axis: the start time [s] of each block with phases on that axis, and its index
+        self._first = tuple(np.flatnonzero(counts[i]) for i in range(3))
+        self._starts = tuple(starts[i, self._first[i]] for i in range(3))
+        self._cache: OrderedDict[tuple[int, int], _Phases] = OrderedDict()
+
+    @property
+    def phase_counts(self) -> tuple[int, int, int]:
+        """Phases per axis."""
+        c = self._counts.sum(axis=1)
+        return int(c[0]), int(c[1]), int(c[2])
+
+    def _block(self, axis: int, k: int) -> _Phases:
+        """Block ``self._first[axis][k]``'s phases on ``axis``: start time [s], p, v, a, j."""
+        key = (axis, k)
+        hit = self._cache.get(key)
+        if hit is not None:
+            self._cache.move_to_end(key)
+            return hit
+        b = int(self._first[axis][k])
+        rows = [_axis_rows(s, axis) for s in self._blocks[b]]
+        cols = [np.concatenate([r[c] for r in rows]) for c in range(5)]
+        t0 = np.cumsum(np.concatenate(([self._starts[axis][k]], cols[0])))[:-1]
+        out = (t0, cols[1], cols[2], cols[3], cols[4])
+        for arr in out:
+            arr.setflags(write=False)
+        self._cache[key] = out
+        while len(self._cache) > 3 * CACHED_BLOCKS:
+            self._cache.popitem(last=False)
+        return out
+
+    @property
+    def axes(self) -> tuple[tuple[np.ndarray, ...], ...]:
+        """Every phase laid out: per axis (t0, p, v, a, j), as :class:`PiecewiseCubic` holds
+        them (built on each call: the whole reference, 120 bytes a phase)."""
+        out = []
+        for i in range(3):
+            parts = [self._block(i, k) for k in range(self._first[i].size)]
+            cols = [
+                np.concatenate([p[c] for p in parts]) if parts else np.empty(0) for c in range(5)
+            ]
+            out.append(tuple(cols))
+        return tuple(out)
+
+    def laid_out(self) -> PiecewiseCubic:
+        """The same reference as one :class:`PiecewiseCubic`."""
+        return PiecewiseCubic(self.axes)
+
+    def evaluate(self, t: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Position, velocity, acceleration (N, 3) at times ``t`` (N,) [s]: those of
+        :meth:`PiecewiseCubic.evaluate` on the laid-out phases, bit for bit."""
+        t = np.asarray(t, dtype=float)
+        pos = np.zeros((t.size, 3))
+        vel = np.zeros((t.size, 3))
+        acc = np.zeros((t.size, 3))
+        order = (
+            None if t.size < 2 or bool(np.all(t[1:] >= t[:-1])) else np.argsort(t, kind="stable")
+        )
+        ts = t if order is None else t[order]
+        for i in range(3):
+            starts = self._starts[i]
+            if starts.size == 0:
+                continue
+            blk = np.clip(np.searchsorted(starts, ts, side="right") - 1, 0, starts.size - 1)
+            cuts = np.concatenate(([0], np.flatnonzero(np.diff(blk)) + 1, [ts.size]))
+            for lo, hi in pairwise(cuts.tolist()):
+                if hi <= lo:
+                    continue
+                t0, p, v, a, j = self._block(i, int(blk[lo]))
+                tt = ts[lo:hi]
+                k = np.clip(np.searchsorted(t0, tt, side="right") - 1, 0, t0.size - 1)
+                dt = tt - t0[k]
+                jk, ak = j[k], a[k]
+                rows = slice(lo, hi) if order is None else order[lo:hi]
+                pos[rows, i] = p[k] + dt * (v[k] + dt * (0.5 * ak + dt * jk / 6.0))
+                vel[rows, i] = v[k] + dt * (ak + 0.5 * dt * jk)
+                acc[rows, i] = ak + dt * jk
+        return pos, vel, acc
