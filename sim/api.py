@@ -109,6 +109,7 @@ def run_program(
         GcodeError, ConfigError, PlanningError, SimulationError: with file and line;
         PlanningError also when the simulation would exceed ``budget``.
     """
+    from gantry_sim.controller.gc_pause import gc_paused
     from gantry_sim.controller.gcode.dialects import with_segmentation_default
     from gantry_sim.controller.moves import Arc, Linear, Rapid, Spline
     from gantry_sim.controller.planner.plan import plan
@@ -127,7 +128,7 @@ def run_program(
     try:
         machine = with_segmentation_default(machine, dialect)
         shown = wanted(progress)
-        with stage("parse", text.count("\n") + 1, "line", shown) as advance:
+        with stage("parse", text.count("\n") + 1, "line", shown) as advance, gc_paused():
             items = tuple(
                 _advancing(
                     interpret_program(
