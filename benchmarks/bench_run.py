@@ -14,9 +14,11 @@ the subprocess reports:
   streamed run's trace.npz, the zip written around its arrays deflated during the run) and
   write (report.json, trace.npz and the PNGs written into a folder);
 * peak memory: the subprocess' maximum resident set (getrusage ru_maxrss) right after the run,
-  before anything else is measured; and "worker", that of its largest child (a streamed run's
-  analysis worker, sim.analysis_worker: a fresh interpreter holding the path tables and one
-  range at a time);
+  before anything else is measured; and "worker", the largest high-water mark (VmHWM) of its
+  children (a streamed run's analysis worker, sim.analysis_worker: a fresh interpreter holding
+  the path tables and one range at a time), polled every 0.2 s from /proc while the run goes
+  (getrusage's RUSAGE_CHILDREN would count the run's own resident set at the moment the worker
+  was spawned, before its exec);
 * MuJoCo alone: the same model stepped open loop through the same motion -- the run's held
   forces replayed from the same initial state by ``mujoco.rollout`` (as bench_sim.py does), in
   pieces of REPLAY_STEPS physics steps; every stage's time is printed over it (a second table),
@@ -119,6 +121,35 @@ def _replay_s(gantry, start_mm, force) -> float:
     return wall
 
 
+class _ChildrenPeak:
+    """The largest VmHWM [bytes] of this process' children, polled from /proc every 0.2 s by a
+    thread until :meth:`stop` (0 where /proc has no such files)."""
+
+    def __init__(self) -> None:
+        import threading
+
+        self.peak, self._done = 0, threading.Event()
+        self._thread = threading.Thread(target=self._poll, daemon=True)
+        self._thread.start()
+
+    def _poll(self) -> None:
+        while not self._done.wait(0.2):
+            for pids in Path("/proc/self/task").glob("*/children"):
+                for pid in pids.read_text().split():
+                    try:
+                        status = Path(f"/proc/{pid}/status").read_text()
+                    except OSError:
+                        continue
+                    for row in status.splitlines():
+                        if row.startswith("VmHWM:"):
+                            self.peak = max(self.peak, int(row.split()[1]) * 1024)
+
+    def stop(self) -> int:
+        self._done.set()
+        self._thread.join()
+        return self.peak
+
+
 def child(kind: str, blocks: int, baseline_rev: str | None) -> dict:
     """Run one program; return the measurements (see the module docstring)."""
     import numpy as np
@@ -142,6 +173,7 @@ def child(kind: str, blocks: int, baseline_rev: str | None) -> dict:
 
     machine = load_machine_config(DEFAULT_MACHINE)
     text = program(kind, blocks)
+    children = _ChildrenPeak()
     t0 = time.perf_counter()
     # 100k arcs and mixed run 4 and 16 hours of machine time: past the default budget, which
     # asks a user to confirm such runs with --max-sim-s / --max-physics-steps
@@ -152,7 +184,7 @@ def child(kind: str, blocks: int, baseline_rev: str | None) -> dict:
         write_run_outputs(result, Path(tmp) / "out")
         t2 = time.perf_counter()
         peak = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss * 1024
-        worker_peak = resource.getrusage(resource.RUSAGE_CHILDREN).ru_maxrss * 1024
+        worker_peak = children.stop()
     contour.analyse = real_analyse
     timing = result.report["timing_s"]
     out = {
