@@ -24,6 +24,7 @@ from itertools import pairwise
 import numpy as np
 
 from gantry_sim.controller.planner.cubic import Chunk, Jerk3Run, PiecewiseCubic, Segment
+from gantry_sim.controller.planner.jerk3 import phase_starts
 
 __all__ = ["BLOCK_PHASES", "CACHED_BLOCKS", "SegmentedCurve"]
 
@@ -35,11 +36,6 @@ CACHED_BLOCKS = 3
 _Phases = tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]
 
 
-def _axis_rows(seg: Segment, axis: int) -> tuple[np.ndarray, ...]:
-    """Duration [s], p, v, a, j of ``seg``'s phases on ``axis``."""
-    return seg.axis_phases(axis) if isinstance(seg, Jerk3Run) else tuple(seg[axis])
-
-
 def _durations(seg: Segment, axis: int) -> np.ndarray:
     return np.repeat(seg.h, 3) if isinstance(seg, Jerk3Run) else seg[axis][0]
 
@@ -48,7 +44,7 @@ class SegmentedCurve:
     """The reference as constant-jerk phases per axis, held segment by segment (see the module
     docstring); :meth:`evaluate` and :attr:`axes` as :class:`PiecewiseCubic`'s."""
 
-    __slots__ = ("_blocks", "_cache", "_counts", "_first", "_starts")
+    __slots__ = ("_block_starts", "_blocks", "_cache", "_counts", "_first", "_starts")
 
     def __init__(self, chunks: list[Chunk]) -> None:
         """The curve of ``chunks`` (stretches of phases in time order), which is emptied as it
@@ -78,10 +74,11 @@ class SegmentedCurve:
                 if counts[i, b]:
                     carry = float(np.cumsum(np.concatenate([[carry], *dur]))[-1])
         self._counts = counts
+        self._block_starts = starts  # (3, blocks) [s]
         # per axis: the start time [s] of each block with phases on that axis, and its index
         self._first = tuple(np.flatnonzero(counts[i]) for i in range(3))
         self._starts = tuple(starts[i, self._first[i]] for i in range(3))
-        self._cache: OrderedDict[tuple[int, int], _Phases] = OrderedDict()
+        self._cache: OrderedDict[int, tuple[_Phases, _Phases, _Phases]] = OrderedDict()
 
     @property
     def phase_counts(self) -> tuple[int, int, int]:
@@ -91,22 +88,43 @@ class SegmentedCurve:
 
     def _block(self, axis: int, k: int) -> _Phases:
         """Block ``self._first[axis][k]``'s phases on ``axis``: start time [s], p, v, a, j."""
-        key = (axis, k)
-        hit = self._cache.get(key)
+        return self._layout(int(self._first[axis][k]))[axis]
+
+    def _layout(self, b: int) -> tuple[_Phases, _Phases, _Phases]:
+        """Block ``b``'s phases on every axis (the closed-form pieces' later phase states
+        rebuilt in one batch for the block: each row's numbers are the same as alone)."""
+        hit = self._cache.get(b)
         if hit is not None:
-            self._cache.move_to_end(key)
+            self._cache.move_to_end(b)
             return hit
-        b = int(self._first[axis][k])
-        rows = [_axis_rows(s, axis) for s in self._blocks[b]]
-        cols = [np.concatenate([r[c] for r in rows]) for c in range(5)]
-        t0 = np.cumsum(np.concatenate(([self._starts[axis][k]], cols[0])))[:-1]
-        out = (t0, cols[1], cols[2], cols[3], cols[4])
-        for arr in out:
-            arr.setflags(write=False)
-        self._cache[key] = out
-        while len(self._cache) > 3 * CACHED_BLOCKS:
+        segs = self._blocks[b]
+        runs = [s for s in segs if isinstance(s, Jerk3Run)]
+        if runs:
+            h, p0, v0, a0, js = (np.concatenate([r[f] for r in runs]) for f in range(5))
+            ps, vs, as_ = phase_starts(p0, v0, a0, js, h)
+            at = np.cumsum([0] + [3 * r.h.size for r in runs]).tolist()
+        out = []
+        for i in range(3):
+            if runs:
+                laid = (np.repeat(h, 3), *(x[:, :, i].ravel() for x in (ps, vs, as_, js)))
+            rows, n = [], 0
+            for seg in segs:
+                if isinstance(seg, Jerk3Run):
+                    rows.append(tuple(c[at[n] : at[n + 1]] for c in laid))
+                    n += 1
+                else:
+                    rows.append(tuple(seg[i]))
+            cols = [np.concatenate([r[c] for r in rows]) for c in range(5)]
+            t0 = np.cumsum(np.concatenate(([self._block_starts[i, b]], cols[0])))[:-1]
+            phases = (t0, cols[1], cols[2], cols[3], cols[4])
+            for arr in phases:
+                arr.setflags(write=False)
+            out.append(phases)
+        laid_out = (out[0], out[1], out[2])
+        self._cache[b] = laid_out
+        while len(self._cache) > CACHED_BLOCKS:
             self._cache.popitem(last=False)
-        return out
+        return laid_out
 
     @property
     def axes(self) -> tuple[tuple[np.ndarray, ...], ...]:
