@@ -61,7 +61,7 @@ class EndState(NamedTuple):
         return bool(np.any(self.vel_mm_per_s))
 
 
-@dataclass(frozen=True, eq=False)
+@dataclass(frozen=True, eq=False, slots=True)
 class JunctionState:
     """The reference's state at a junction per unit speed: passing at speed v it has velocity
     v * ``direction`` and acceleration v^2 * ``curvature_per_mm`` plus its tangential acceleration along

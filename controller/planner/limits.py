@@ -32,7 +32,7 @@ CURVATURE_MARGINS = (0.99, 0.97, 0.94, 0.9, 0.85, 0.8, 0.7, 0.6, 0.5)
 JERK_SHARES = (0.2, 0.35, 0.5, 0.65, 0.8)
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, slots=True)
 class BlockLimits:
     """Limits of the 1-D profile along one move.
 
@@ -127,7 +127,7 @@ def arc_limits(
     return BlockLimits(length_mm, cap, a_t_best, j_t_best)
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, slots=True)
 class FollowGeometry:
     """What bounds the exact following of an arc/helix (the bounds in this module's docstring).
 

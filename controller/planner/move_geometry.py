@@ -41,7 +41,7 @@ FEED_MARGIN_PER_PHI4 = 1e-3
 FEED_MARGIN_REL = 5e-5
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, slots=True)
 class MoveGeometry:
     """What the planner needs to know about one move (a straight one; arcs:
     :class:`ArcGeometry`)."""
@@ -65,7 +65,7 @@ class MoveGeometry:
         return self.vertices[0]
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, slots=True)
 class ArcGeometry(MoveGeometry):
     """A curve's :class:`MoveGeometry` (an arc, a helix or a spline), with its exact geometry.
 
