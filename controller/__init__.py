@@ -15,5 +15,6 @@ Shared value types, used by several stages: ``errors`` (GantryError and its kind
 ``units``, ``planes`` (the one plane/axis table), ``moves`` (Rapid, Linear, Arc and the events),
 ``arcs`` (exact arc and helix geometry), ``config`` (the machine file), ``trajectory`` (the
 sampled reference), ``transmission`` (backlash), ``loop_figures`` (a position loop's figures)
-and ``machine_import/`` (machine files from LinuxCNC INI files and grbl settings).
+``machine_import/`` (machine files from LinuxCNC INI files and grbl settings) and ``gc_pause``
+(the cyclic collector paused while a long program is read and planned).
 """

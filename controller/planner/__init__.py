@@ -5,29 +5,41 @@ servo's reference. Units: mm, s (speeds mm/s, accelerations mm/s^2, jerks mm/s^3
 
 The steps, in the order :func:`plan` runs them (module: its one job):
 
+0. ``blend``          path control (G61, G61.1, G64 P Q): G64 Q merges, blend arcs at corners
+   ``corner_blend``   (``corner_blend``: corners that involve an arc); ``limit_events``: Marlin's
+                      M201-M205, planned part by part
 1. ``travel``         refuse moves that leave the machine's travel (arcs: their quadrant points)
 2. ``segment``        arcs -> chord vertices ("chord": grbl's sagitta rule, "fixed": Marlin's)
 3. ``move_geometry``  per move: vertices, end tangents and curvatures, its 1-D limits
    ``limits``         (leaf) what a move may do: BlockLimits, FollowGeometry, the curvature caps
+   ``limits_batch``   the arcs' limits in one vectorised batch; ``spline_geometry``: a spline
+                      taken as a curve by its arc-length fraction
 4. ``junctions``      speed caps and JunctionStates between moves; caps the pieces can take
-5. ``lookahead``      backward and forward passes -> the junction speeds
-6. ``ruckig_solver``  the only ruckig import: the 1-D profile per move, the 3-DoF pieces
+5. ``chains``         runs of moves planned as one 1-D profile (their junctions do not bind)
+   ``lookahead``      backward and forward passes over the chains -> the junction speeds
+6. ``ruckig_solver``  the only ruckig import: the 1-D profile per chain, the 3-DoF pieces
    ``profile``        Profile1D, the 1-D profile (dur, s, v, a, j per phase) every step hands on
    ``speedup``        faster 1-D candidates for arcs that ramp, checked point by point
    ``saturated_ramp`` time-optimal-like ramps on small arcs from rest (a speedup candidate)
    ``ramp_bounds``    the jerk and acceleration those ramps may use, per state
-7. ``arc_states``     exact arc states where the profile passes the vertices
+7. ``arc_states``     exact arc states where the profile passes the vertices (``arc_batch``:
+                      many arcs at once, bit for bit as one by one)
    ``jerk3``          closed-form constant-jerk pieces between those states, and their limit check
    ``pieces``         profile -> the reference's phases: straight moves projected, arc pieces
                       by jerk3 or (where they break a limit) by the solver
-8. ``plan``           the orchestration and the junction re-planning loop (a piece that leaves
-                      the arc next to a moving junction lowers that junction and plans again)
-9. ``cubic``          the phases per axis, stored and sampled vectorised
+8. ``rounds``         the re-planning rounds (a piece that leaves the arc next to a moving
+                      junction lowers that junction; only the chains whose ends changed are
+                      planned again); ``chain_plan`` / ``chain_prep``: a round's chains in
+                      vectorised batches
+   ``plan``           the orchestration: path control, geometry, junctions, rounds -> Plan
+9. ``cubic``          constant-jerk phases per axis, sampled vectorised
+   ``segmented_curve`` the plan's reference held as the planner's segments, laid out by block
    ``result``         Plan, the frozen result, and its sampling at the servo period
 
 Imports run one way: ``limits`` and ``profile`` are leaves; ``move_geometry`` uses ``limits`` and
 ``segment``; ``junctions``, ``speedup``, ``arc_states`` and ``pieces`` use ``move_geometry``;
-``plan`` uses them all.
+``plan`` uses them all. Parsing and planning run with the cyclic garbage collector paused
+(:mod:`gantry_sim.controller.gc_pause`).
 """
 
 from gantry_sim.controller.planner.plan import plan
