@@ -220,6 +220,9 @@ def analyse_chunk(
     pos = np.asarray(pos, dtype=float)
     ref_context = np.asarray(ref_context, dtype=float)
     ref = ref_context[offset : offset + len(pos)]
+    if len(tab.line) == 0:  # a program without moves (a dwell alone): nothing commanded
+        n = len(pos)
+        return ChunkAnalysis(np.zeros(n), pos.copy(), np.zeros(n, dtype=bool), 0.0, 0.0)
     feed = feed_samples(tab, line)
     lag_mm = LAG_REACH * np.linalg.norm(pos - ref, axis=1)
     dist, nearest = distance_to_moves(tab, line, pos, lag_mm)
