@@ -52,6 +52,25 @@ class DeflatedMember:
         self.compressed += len(chunk)
 
 
+def _entry_fields(m: DeflatedMember, name: bytes, extra: bytes) -> bytes:
+    """The fields the local header and the central directory entry share (APPNOTE 4.3.7 and
+    4.3.12): version needed, flags, method, time, date, CRC-32, sizes (in the ZIP64 extra
+    field, so 0xFFFFFFFF here), name and extra field lengths."""
+    return struct.pack(
+        "<HHHHHIIIHH",
+        _VERSION,
+        0,
+        zlib.DEFLATED,
+        _DOS_TIME,
+        _DOS_DATE,
+        m.crc,
+        _MAX32,
+        _MAX32,
+        len(name),
+        len(extra),
+    )
+
+
 def write_zip(members: list[DeflatedMember], out: BinaryIO) -> None:
     """Write a zip of ``members`` (closed) to ``out``, each member's deflated bytes copied."""
     central = []
@@ -60,51 +79,15 @@ def write_zip(members: list[DeflatedMember], out: BinaryIO) -> None:
         offset = out.tell()
         name = m.name.encode()
         extra = struct.pack("<HHQQ", 1, 16, m.size, m.compressed)
-        out.write(
-            struct.pack(
-                "<IHHHHHIIIHH",
-                0x04034B50,
-                _VERSION,
-                0,
-                zlib.DEFLATED,
-                _DOS_TIME,
-                _DOS_DATE,
-                m.crc,
-                _MAX32,
-                _MAX32,
-                len(name),
-                len(extra),
-            )
-            + name
-            + extra
-        )
+        out.write(struct.pack("<I", 0x04034B50) + _entry_fields(m, name, extra) + name + extra)
         with open(m.path, "rb") as f:
             shutil.copyfileobj(f, out, 1 << 20)
         extra = struct.pack("<HHQQQ", 1, 24, m.size, m.compressed, offset)
-        central.append(
-            struct.pack(
-                "<IHHHHHHIIIHHHHHII",
-                0x02014B50,
-                3 << 8 | _VERSION,  # made by: Unix (the external attributes are its mode)
-                _VERSION,
-                0,
-                zlib.DEFLATED,
-                _DOS_TIME,
-                _DOS_DATE,
-                m.crc,
-                _MAX32,
-                _MAX32,
-                len(name),
-                len(extra),
-                0,
-                0,
-                0,
-                0o644 << 16,
-                _MAX32,
-            )
-            + name
-            + extra
-        )
+        made_by = 3 << 8 | _VERSION  # Unix (the external attributes are its mode)
+        # comment length, disk, internal attributes, external attributes, offset (in extra)
+        tail = struct.pack("<HHHII", 0, 0, 0, 0o644 << 16, _MAX32)
+        head = struct.pack("<IH", 0x02014B50, made_by)
+        central.append(head + _entry_fields(m, name, extra) + tail + name + extra)
     start = out.tell()
     for entry in central:
         out.write(entry)
