@@ -11,6 +11,7 @@ second compression pass). ``numpy.load`` reads the result like one written by
 
 from __future__ import annotations
 
+import io
 import queue
 import threading
 from pathlib import Path
@@ -48,9 +49,9 @@ class TraceWriter:
         for name, (shape, dtype) in FIELDS.items():
             member = DeflatedMember(f"{name}.npy", self.folder / f"{name}.npy.deflated")
             header = {"descr": npy.dtype_to_descr(np.dtype(dtype)), "fortran_order": False}
-            head = _Buffer()
+            head = io.BytesIO()
             npy.write_array_header_1_0(head, header | {"shape": (ticks, *shape)})
-            member.add(head.data)
+            member.add(head.getvalue())
             self.members[name] = member
         self._queue: queue.Queue[dict[str, np.ndarray] | None] = queue.Queue(QUEUED_RANGES)
         self._failed: BaseException | None = None
@@ -104,13 +105,3 @@ class TraceWriter:
         for member in self.members.values():
             member.path.unlink()
         return npz
-
-
-class _Buffer:
-    """A write-only byte sink for numpy's .npy header writer."""
-
-    def __init__(self) -> None:
-        self.data = b""
-
-    def write(self, chunk: bytes) -> None:
-        self.data += chunk

@@ -45,10 +45,6 @@ Segment = tuple[np.ndarray, np.ndarray, np.ndarray] | Jerk3Run
 Chunk = tuple[Segment, ...]
 
 
-def _phase_count(seg: Segment, axis: int) -> int:
-    return 3 * seg.h.size if isinstance(seg, Jerk3Run) else seg[axis].shape[1]
-
-
 class CubicBuilder:
     """Collects phases per axis in time order, as the arrays (or sequences) given."""
 

@@ -143,8 +143,6 @@ def _plan(
         arr.setflags(write=False)
     planned = {id(g.move): g.vertices for g in geoms}
     vertices = tuple(planned[id(m)] if id(m) in planned else _vertices(m, machine) for m in program)
-    del prepared, geoms, active, caps, states, known, planned, solver
-    curve = done.curve()
     return Plan(
         moves=program,
         duration_s=done.duration_s,
@@ -152,7 +150,7 @@ def _plan(
         chord_tolerance_mm=machine.segmentation.chord_tolerance_mm,
         vertices=vertices,
         ruckig_piece_count=done.ruckig_pieces,
-        curve=curve,
+        curve=done.curve(),
         move_start_s=move_start,
         move_lines=lines,
         end_mm=end,

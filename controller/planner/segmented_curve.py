@@ -37,7 +37,12 @@ _Phases = tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]
 
 
 def _durations(seg: Segment, axis: int) -> np.ndarray:
+    """The durations [s] of ``seg``'s phases on ``axis``."""
     return np.repeat(seg.h, 3) if isinstance(seg, Jerk3Run) else seg[axis][0]
+
+
+def _phase_count(seg: Segment, axis: int) -> int:
+    return 3 * seg.h.size if isinstance(seg, Jerk3Run) else seg[axis].shape[1]
 
 
 class SegmentedCurve:
@@ -56,7 +61,7 @@ class SegmentedCurve:
         while chunks:
             for seg in chunks.pop():
                 current.append(seg)
-                size += 3 * seg.h.size if isinstance(seg, Jerk3Run) else seg[0].shape[1]
+                size += _phase_count(seg, 0)
                 if size >= BLOCK_PHASES:
                     blocks.append(tuple(current))
                     current, size = [], 0
