@@ -8,8 +8,12 @@ Programs: benchmarks/programs.py (tangent arcs with S-bends, 0.05-0.5 mm G1 poly
 G0/G1/G2/G3 contours with corners; ``--kinds finish``: a G18 finishing raster in G64 P0.001), seeded, on the bundled machine (G64 P0.01, 1 um chords).
 Each size runs in a fresh subprocess, so its peak resident set (getrusage ru_maxrss) is the
 planner's own: parse, then plan(). Printed per kind and size: parse and plan time [s], blocks
-per second, chords, cycle time of the plan [s], peak RSS [MB]; then the growth exponent b of
-plan time ~ blocks^b between the smallest and largest size (1: linear).
+per second, chords, cycle time of the plan [s], peak RSS [MB] of the planning process, the
+private memory its forked children added at most [MB] (large rounds are planned over the cores,
+controller/forked.py; benchmarks/memory_probe.py) and the tree's peak [MB]: the largest of the
+process' own peak and its RSS plus its children's private memory at one poll; then the growth
+exponent b of plan time ~ blocks^b between the smallest and largest size (1: linear).
+``GANTRY_PLAN_WORKERS=1`` plans in one process.
 """
 
 from __future__ import annotations
@@ -28,6 +32,7 @@ HERE = Path(__file__).resolve().parent
 
 def child(kind: str, blocks: int) -> dict:
     sys.path.insert(0, str(HERE))
+    from memory_probe import TreeMemory
     from programs import program
 
     from gantry_sim.controller.config import load_machine_config
@@ -40,14 +45,19 @@ def child(kind: str, blocks: int) -> dict:
     t0 = time.perf_counter()
     moves = parse_program(text)
     t1 = time.perf_counter()
+    tree = TreeMemory()
     p = plan(moves, machine)
     t2 = time.perf_counter()
+    forks, total = tree.stop()
+    peak = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss * 1024
     return {
         "parse_s": t1 - t0,
         "plan_s": t2 - t1,
         "chords": p.segment_count,
         "cycle_s": p.duration_s,
-        "peak_mb": resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0,
+        "peak_mb": peak / 2**20,
+        "forks_mb": forks / 2**20,
+        "tree_mb": max(peak, total) / 2**20,
     }
 
 
@@ -63,7 +73,7 @@ def main() -> int:
     sizes = [int(x) for x in args.sizes.split(",")]
     print(
         f"{'kind':6s} {'blocks':>7s} {'parse s':>8s} {'plan s':>8s} {'blocks/s':>9s} "
-        f"{'chords':>9s} {'cycle s':>9s} {'peak MB':>8s}"
+        f"{'chords':>9s} {'cycle s':>9s} {'peak MB':>8s} {'forks MB':>9s} {'tree MB':>8s}"
     )
     for kind in args.kinds.split(","):
         rows = []
@@ -79,7 +89,7 @@ def main() -> int:
             print(
                 f"{kind:6s} {n:7d} {r['parse_s']:8.2f} {r['plan_s']:8.2f} "
                 f"{n / r['plan_s']:9.0f} {r['chords']:9d} {r['cycle_s']:9.1f} "
-                f"{r['peak_mb']:8.0f}",
+                f"{r['peak_mb']:8.0f} {r['forks_mb']:9.0f} {r['tree_mb']:8.0f}",
                 flush=True,
             )
         if len(rows) > 1:

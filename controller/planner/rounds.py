@@ -26,7 +26,7 @@ from gantry_sim.controller.planner.chain_plan import (
     ChainKey,
     ChainSetup,
     Chunk,
-    plan_chains,
+    plan_chains_forked,
 )
 from gantry_sim.controller.planner.chains import chain_limits, chain_spans
 from gantry_sim.controller.planner.junctions import JunctionState
@@ -134,7 +134,7 @@ def _plan_round(
     for key in [k for k in cache if k not in needed]:  # free them before planning new ones
         del cache[key]
     todo = [(k, lim) for k, lim in zip(keys, chained, strict=True) if k not in cache]
-    fresh = plan_chains(setup, todo, speeds)
+    fresh = plan_chains_forked(setup, todo, speeds)
     for (first, stop), key in zip(spans, keys, strict=True):
         hold(first)
         chain = cache.get(key) or fresh[key]

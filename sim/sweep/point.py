@@ -8,6 +8,7 @@ from pathlib import Path
 
 from gantry_sim.controller.config import MachineConfig
 from gantry_sim.controller.errors import SimulationError
+from gantry_sim.controller.forked import one_process
 from gantry_sim.sim.budget import Budget, BudgetError
 
 
@@ -70,15 +71,16 @@ def run_point(
         "max_jerk_mm_per_s3": point.max_jerk_mm_per_s3,
     }
     try:
-        result = run_program(
-            text,
-            file=file,
-            dialect=dialect,
-            machine=machine_for(machine, point),
-            feed_override_pct=point.feed_override_pct,
-            budget=budget,
-            **_setup_kwargs(setup),
-        )
+        with one_process():  # the sweep runs a point per core: no forked planning on top
+            result = run_program(
+                text,
+                file=file,
+                dialect=dialect,
+                machine=machine_for(machine, point),
+                feed_override_pct=point.feed_override_pct,
+                budget=budget,
+                **_setup_kwargs(setup),
+            )
     except (SimulationError, BudgetError) as exc:
         nan = float("nan")
         what = "over the budget" if isinstance(exc, BudgetError) else "simulation error"

@@ -1,0 +1,130 @@
+"""Work split over forked child processes, with the parent's own sequential run as fallback.
+
+:func:`fork_map` computes ``fn(part)`` for each part: the first here, the others each in a child
+forked from this process (Linux only), which inherits everything ``fn`` reads without copying
+or pickling it and sends back only its result (pickled through a pipe, read as it streams).
+A child that fails in any way (an exception, a signal, a result that does not arrive) is not
+trusted with an error of its own: its part is computed again here, so the caller sees exactly
+what a sequential run gives, the same exception with its message and line included.
+
+The children write nothing to stdout or stderr (another thread of the parent may have held
+their locks when it forked) and leave with ``os._exit``: no ``atexit`` handlers, no flushing
+of buffers inherited from the parent.
+
+How many processes: :func:`process_count`; ``GANTRY_PLAN_WORKERS=1`` (or 0) or
+:func:`one_process` keep everything in this process (the sweep's workers, already one per
+core, do).
+"""
+
+from __future__ import annotations
+
+import os
+import pickle
+import sys
+import warnings
+from collections.abc import Callable, Iterator, Sequence
+from contextlib import contextmanager
+from contextvars import ContextVar
+from typing import TypeVar
+
+__all__ = ["MAX_PROCESSES", "fork_map", "one_process", "process_count"]
+
+T = TypeVar("T")
+R = TypeVar("R")
+
+#: Processes at most (this one included): each child holds its share of the work's arrays.
+MAX_PROCESSES = 4
+
+_ONE: ContextVar[bool] = ContextVar("gantry_one_process", default=False)
+
+
+@contextmanager
+def one_process() -> Iterator[None]:
+    """Inside, :func:`process_count` is 1 (for callers already running one process per core)."""
+    token = _ONE.set(True)
+    try:
+        yield
+    finally:
+        _ONE.reset(token)
+
+
+def process_count() -> int:
+    """Processes :func:`fork_map` may use: the cores this process may run on (at most
+    :data:`MAX_PROCESSES`), or ``GANTRY_PLAN_WORKERS`` when set to a whole number; 1 inside
+    :func:`one_process` and where fork is not available (not Linux)."""
+    if _ONE.get() or not sys.platform.startswith("linux"):
+        return 1
+    env = os.environ.get("GANTRY_PLAN_WORKERS", "").strip()
+    if env.isdigit():
+        return max(1, int(env))
+    return max(1, min(MAX_PROCESSES, len(os.sched_getaffinity(0))))
+
+
+def fork_map(fn: Callable[[T], R], parts: Sequence[T]) -> list[R]:
+    """``[fn(p) for p in parts]``, ``parts[1:]`` each computed in a forked child while this
+    process computes ``parts[0]`` (see the module docstring). ``fn`` must not depend on side
+    effects of the other parts, and its own side effects in a child are lost."""
+    if len(parts) <= 1:
+        return [fn(p) for p in parts]
+    pending: list[tuple[int, int]] = []  # (pid, read end) of the children not collected yet
+    try:
+        for part in parts[1:]:
+            pending.append(_start(fn, part))
+        out = [fn(parts[0])]
+        for part in parts[1:]:
+            out.append(_collect(fn, part, pending.pop(0)))
+    finally:
+        for pid, fd in pending:  # the parent failed: stop and reap the children still there
+            _end(pid, fd)
+    return out
+
+
+def _start(fn: Callable[[T], R], part: T) -> tuple[int, int]:
+    """A child computing ``fn(part)``; returns its pid and the read end of its result pipe."""
+    read, write = os.pipe()
+    pid = os.fork()
+    if pid == 0:  # the child
+        status = 1
+        try:
+            os.close(read)
+            warnings.simplefilter("ignore")  # nothing on stderr (see the module docstring)
+            with os.fdopen(write, "wb") as out:
+                pickle.dump(fn(part), out, protocol=pickle.HIGHEST_PROTOCOL)
+            status = 0
+        except BaseException:  # reported by the exit status: the parent redoes it
+            pass
+        finally:
+            os._exit(status)
+    os.close(write)
+    return pid, read
+
+
+def _collect(fn: Callable[[T], R], part: T, child: tuple[int, int]) -> R:
+    """The child's result, or ``fn(part)`` computed here when the child failed."""
+    pid, fd = child
+    result: R | None = None
+    ok = False
+    try:
+        with os.fdopen(fd, "rb") as inp:
+            result = pickle.load(inp)
+            ok = True
+    except Exception:  # a broken or short result: computed again below
+        pass
+    finally:
+        _, status = os.waitpid(pid, 0)
+    if ok and os.waitstatus_to_exitcode(status) == 0:
+        return result  # type: ignore[return-value]
+    return fn(part)
+
+
+def _end(pid: int, fd: int) -> None:
+    """Kill and reap a child, closing its pipe."""
+    try:
+        os.kill(pid, 9)
+    except ProcessLookupError:
+        pass
+    try:
+        os.close(fd)
+    except OSError:
+        pass
+    os.waitpid(pid, 0)

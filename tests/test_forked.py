@@ -1,0 +1,130 @@
+"""Work split over forked processes: the same results as one process, failures redone here."""
+
+from __future__ import annotations
+
+import os
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+import gantry_sim.controller.planner.chain_plan as chain_plan
+from gantry_sim.controller import forked
+from gantry_sim.controller.config import load_machine_config
+from gantry_sim.controller.forked import fork_map, one_process, process_count
+from gantry_sim.controller.gcode.interpreter import parse_program
+from gantry_sim.controller.planner import plan
+from gantry_sim.models import DEFAULT_MACHINE
+
+linux = pytest.mark.skipif(not sys.platform.startswith("linux"), reason="fork: Linux only")
+EXAMPLES = Path(__file__).resolve().parent.parent / "examples"
+
+
+def _children() -> set[str]:
+    """This process' children, zombies included (Linux)."""
+    return {
+        pid for f in Path("/proc/self/task").glob("*/children") for pid in f.read_text().split()
+    }
+
+
+@pytest.fixture(autouse=True)
+def _no_child_left_behind() -> object:
+    before = _children() if sys.platform.startswith("linux") else set()
+    yield
+    if sys.platform.startswith("linux"):
+        assert _children() <= before
+
+
+def _square_and_pid(x: int) -> tuple[int, int]:
+    return x * x, os.getpid()
+
+
+@linux
+def test_parts_after_the_first_run_in_other_processes_in_order() -> None:
+    out = fork_map(_square_and_pid, [1, 2, 3, 4])
+    assert [v for v, _ in out] == [1, 4, 9, 16]
+    assert out[0][1] == os.getpid()
+    others = {pid for _, pid in out[1:]}
+    assert os.getpid() not in others and len(others) == 3
+
+
+@linux
+def test_an_exception_in_a_child_is_raised_here_as_a_sequential_run_raises_it() -> None:
+    def fn(x: int) -> int:
+        if x == 3:
+            raise ValueError("part three is wrong")
+        return x
+
+    with pytest.raises(ValueError, match="part three is wrong"):
+        fork_map(fn, [1, 2, 3])
+
+
+@linux
+def test_a_child_that_dies_has_its_part_computed_here() -> None:
+    parent = os.getpid()
+
+    def fn(x: int) -> tuple[int, int]:
+        if os.getpid() != parent:
+            os._exit(7)  # killed, out of memory...: no result arrives
+        return x + 1, os.getpid()
+
+    assert fork_map(fn, [1, 2, 3]) == [(2, parent), (3, parent), (4, parent)]
+
+
+@linux
+def test_a_failing_parent_part_leaves_no_child_behind() -> None:
+    parent = os.getpid()
+
+    def fn(x: int) -> int:
+        if os.getpid() == parent:
+            raise KeyError(x)
+        return x
+
+    with pytest.raises(KeyError):
+        fork_map(fn, [0, 1, 2])
+
+
+def test_the_process_count_follows_the_environment_and_one_process(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    monkeypatch.setenv("GANTRY_PLAN_WORKERS", "3")
+    assert process_count() == (3 if sys.platform.startswith("linux") else 1)
+    with one_process():
+        assert process_count() == 1
+    monkeypatch.setenv("GANTRY_PLAN_WORKERS", "0")
+    assert process_count() == 1
+    monkeypatch.delenv("GANTRY_PLAN_WORKERS")
+    assert 1 <= process_count() <= forked.MAX_PROCESSES
+
+
+def _curve_bytes(p) -> list[bytes]:  # type: ignore[no-untyped-def]
+    return [np.ascontiguousarray(a).tobytes() for ax in p.curve.axes for a in ax]
+
+
+@linux
+@pytest.mark.parametrize("name", ["pocket_tangent_arcs.ngc", "side_planes.ngc"])
+def test_a_plan_split_over_processes_is_the_same_bit_for_bit(
+    name: str, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    machine = load_machine_config(DEFAULT_MACHINE)
+    moves = parse_program((EXAMPLES / name).read_text())
+    monkeypatch.setenv("GANTRY_PLAN_WORKERS", "1")
+    alone = plan(moves, machine)
+    calls: list[int] = []
+    real = chain_plan.fork_map
+
+    def spy(fn, parts):  # type: ignore[no-untyped-def]
+        calls.append(len(parts))
+        return real(fn, parts)
+
+    monkeypatch.setattr(chain_plan, "fork_map", spy)
+    monkeypatch.setattr(chain_plan, "FORK_CHAINS", 2)
+    monkeypatch.setattr(chain_plan, "FORK_RUN", 1)
+    monkeypatch.setenv("GANTRY_PLAN_WORKERS", "3")
+    split = plan(moves, machine)
+    assert calls and max(calls) > 1  # the split path ran
+    assert split.duration_s == alone.duration_s
+    assert np.array_equal(split.move_start_s, alone.move_start_s)
+    assert split.ruckig_piece_count == alone.ruckig_piece_count
+    assert _curve_bytes(split) == _curve_bytes(alone)
