@@ -12,7 +12,6 @@ then program end), so ``G20 G1 X1`` moves to 1 inch, and ``F10 G20`` keeps 10 mm
 from __future__ import annotations
 
 from collections.abc import Iterator, Mapping
-from dataclasses import replace
 from functools import partial
 from pathlib import Path
 
@@ -67,7 +66,7 @@ from gantry_sim.controller.gcode.splines import (
     nurbs_point,
     spline_block,
 )
-from gantry_sim.controller.gcode.state import ModalState
+from gantry_sim.controller.gcode.state import ModalState, evolve
 from gantry_sim.controller.gcode.tool_entries import set_tool_entry
 from gantry_sim.controller.gcode.tool_offsets import ToolTable, after_tool_change, tool_words
 from gantry_sim.controller.gcode.tools import Tool
@@ -154,33 +153,33 @@ class Interpreter:
         if "F" in w.values:
             if w.values["F"] < 0.0:
                 raise GcodeError("negative F word; the feed must be >= 0 (units per minute)")
-            s = replace(s, feed_mm_per_min=w.values["F"] * s.scale)
+            s = evolve(s, feed_mm_per_min=w.values["F"] * s.scale)
         s, tool_changed = tool_words(s, w, self.table)
         if "feed_mode" in w.g:
-            s = replace(s, feed_mode=w.g["feed_mode"])
+            s = evolve(s, feed_mode=w.g["feed_mode"])
         if "S" in w.values and "S" not in d.ignored_letters:
-            s = replace(s, rpm=w.values["S"])
+            s = evolve(s, rpm=w.values["S"])
         if "spindle" in w.m:
-            s = replace(s, spindle={3: 1, 4: -1, 5: 0, 19: 0}[w.m["spindle"]])  # M19: stopped
+            s = evolve(s, spindle={3: 1, 4: -1, 5: 0, 19: 0}[w.m["spindle"]])  # M19: stopped
         if "coolant" in w.m:
             c = w.m["coolant"]
-            s = replace(s, mist=c == 7 or (s.mist and c == 8), flood=c == 8 or (s.flood and c == 7))
+            s = evolve(s, mist=c == 7 or (s.mist and c == 8), flood=c == 8 or (s.flood and c == 7))
         # Step 4: plane, units, coordinate system, distance modes.
         check_while_on(self.comp, w, self.state)
         if "plane" in w.g:
-            s = replace(s, plane=_PLANES[w.g["plane"]])
+            s = evolve(s, plane=_PLANES[w.g["plane"]])
         if w.g.get("units") == 200 and not d.g20_is_inch:
             raise GcodeError(d.g20_refusal)
         if "units" in w.g:
-            s = replace(s, inch=w.g["units"] == 200)
+            s = evolve(s, inch=w.g["units"] == 200)
         if "coordinate_system" in w.g:
             s = select_system(s, self.params, SYSTEMS[w.g["coordinate_system"]])
         if "distance" in w.g:
-            s = replace(s, incremental=w.g["distance"] == 910)
+            s = evolve(s, incremental=w.g["distance"] == 910)
         if "arc_distance" in w.g:
-            s = replace(s, arc_absolute=w.g["arc_distance"] == 901)
+            s = evolve(s, arc_absolute=w.g["arc_distance"] == 901)
         if "path_control" in w.g:
-            s = replace(s, path=path_control(w.g["path_control"], w.values, s.scale))
+            s = evolve(s, path=path_control(w.g["path_control"], w.values, s.scale))
         dwell_held = w.g.get("nonmodal") == 40 and "P" in w.values and self.comp.holding
         if dwell_held:  # rs274 queues the dwell behind the held move: it waits where that ends
             self.comp.hold_dwell(w.line, w.values["P"])
@@ -189,7 +188,7 @@ class Interpreter:
         released = switch(self.comp, w, s, partial(self.table.entry, s))
         cycle = self.cycle
         if "retract" in w.g:
-            cycle = replace(cycle, retract_to_r=w.g["retract"] == 990)
+            cycle = evolve(cycle, retract_to_r=w.g["retract"] == 990)
         # Step 5: which motion this block makes, if any.
         nonmodal = w.g.get("nonmodal")
         axis_code = nonmodal in AXIS_NONMODAL
@@ -198,8 +197,8 @@ class Interpreter:
         if motion == 800:
             if has_axes and not axis_code:
                 raise GcodeError("axis words with G80 (motion off); use G0, G1, G2 or G3")
-            s, motion = replace(s, motion=None), None
-            cycle = replace(cycle, initial=None)
+            s, motion = evolve(s, motion=None), None
+            cycle = evolve(cycle, initial=None)
         elif motion is not None:
             if nonmodal is not None and axis_code and has_axes:
                 raise GcodeError(
@@ -209,7 +208,7 @@ class Interpreter:
             if motion in (50, 51) and not any(a in w.values for a in "XY@^"):
                 raise GcodeError(f"{g_name(motion)} needs X or Y: all axes missing")
             if motion not in (50, 51):  # rs274: G5/G5.1 leave the motion mode as it was
-                s = replace(s, motion=motion)
+                s = evolve(s, motion=motion)
         elif axis_code:
             pass  # the axis words belong to G10/G28/G30/G92
         elif s.motion in (20, 30) and any(c in w.values for c in "IJKR"):
@@ -230,7 +229,7 @@ class Interpreter:
         moves: list[Move | Event] = list(released)
         if released:  # G40 finished the held move: the tool stays at its offset point, while
             # rs274 goes on from the programmed point until a tool change re-reads the position
-            s = replace(s, work=self.comp.released_end)
+            s = evolve(s, work=self.comp.released_end)
         if nonmodal == 100 and round(w.values.get("L", 0)) in (1, 10, 11) and d.g10_rotation:
             s = set_tool_entry(s, self.params, w.values, self.table)
         elif nonmodal == 100:
@@ -248,7 +247,7 @@ class Interpreter:
             if s.incremental:
                 raise GcodeError("G53 cannot be used in incremental distance mode (G91); use G90")
         if motion is not None and motion not in CYCLES:
-            cycle = replace(cycle, initial=None)  # a series of cycles ends with another motion
+            cycle = evolve(cycle, initial=None)  # a series of cycles ends with another motion
         nurbs = self.nurbs
         if nonmodal == G5_3:  # before the motion, as rs274's modal group 0
             s, cycle, nurbs = self._splines(w, s, G5_3, cycle, moves)
@@ -294,7 +293,7 @@ class Interpreter:
         if stop is not None and self.comp.side is not None:  # rs274 convert_stop: finish it
             if self.comp.active and not self.comp.first:
                 moves.extend(self.comp.flush_at(self.comp.current[0], self.comp.current[1]))
-                s = replace(s, work=self.comp.released_end)
+                s = evolve(s, work=self.comp.released_end)
             if stop in M_PROGRAM_END:
                 self.comp.side, self.comp.first = None, True
         # Step 7: commit; events after the block's motion (rs274 runs G4 before motion, so a
@@ -323,7 +322,7 @@ class Interpreter:
     ) -> tuple[ModalState, CycleMemory]:
         """A canned cycle's moves (and, when asked for, its dwell and stop events)."""
         if self.state.motion != motion:
-            cycle = replace(cycle, motion=None)  # rs274: R, Z, P, Q... are needed again
+            cycle = evolve(cycle, motion=None)  # rs274: R, Z, P, Q... are needed again
         feed = s.feed_mm_per_min
         if s.feed_mode == 950:  # G95: F per revolution times S, as for G1
             if s.rpm <= 0.0 and feed > 0.0:
@@ -349,7 +348,7 @@ class Interpreter:
         )
         moves.extend(m for m in items if self.events or isinstance(m, Rapid | Linear))
         work = next((m.end for m in reversed(items) if isinstance(m, Rapid | Linear)), s.work)
-        return replace(s, position=end, work=work), cycle
+        return evolve(s, position=end, work=work), cycle
 
     def _comp_motion(
         self, w: Words, s: ModalState, motion: int, end: Vec3, moves: list[Move | Event]
@@ -367,7 +366,7 @@ class Interpreter:
             end = programmed.end
         released = comp_move(self.comp, motion, w.line, end, s, programmed, "R" in w.values)
         moves.extend(released)
-        return replace(s, position=end, work=self.comp.released_end)
+        return evolve(s, position=end, work=self.comp.released_end)
 
     def _splines(
         self,
@@ -412,8 +411,8 @@ class Interpreter:
                     "in units per minute (G94)"
                 )
             self._require_feed(s, "a NURBS (G5.3)", w)
-            s = replace(s, motion=None)
-        cycle = replace(cycle, ijk=(ij[0], ij[1], cycle.ijk[2]))
+            s = evolve(s, motion=None)
+        cycle = evolve(cycle, ijk=(ij[0], ij[1], cycle.ijk[2]))
         placed = path_feed(move, s, w.values)
         s = self._emit(moves, s, placed, end)
         return s, cycle, NurbsPoints()
@@ -421,16 +420,16 @@ class Interpreter:
     @staticmethod
     def _emit(moves: list[Move | Event], s: ModalState, move: Move, end: Vec3) -> ModalState:
         if s.path is not None and not isinstance(move, Rapid):
-            move = replace(move, path=s.path)
+            move = evolve(move, path=s.path)
         moves.append(move)
-        return replace(s, position=end, work=move.end)
+        return evolve(s, position=end, work=move.end)
 
     def _arc_to_work(self, arc: Arc, s: ModalState) -> Arc:
         """The arc (program coordinates) placed in the work frame, from where the tool is."""
         f = s.frame
         placed = arc
         if not f.identity:
-            placed = replace(
+            placed = evolve(
                 arc, start=s.work, end=to_work(arc.end, f), center=to_work(arc.center, f)
             )
         if f.rotation_deg != 0.0 and arc.plane != "XY":
@@ -438,7 +437,7 @@ class Interpreter:
         if max(abs(a - b) for a, b in zip(to_work(arc.start, f), s.work, strict=True)) > 1e-9:
             # rs274 re-expressed its point (G10 L2 R under G92, a tool offset change): the
             # canonical layer starts the arc where the tool is
-            return from_where_it_is(replace(placed, start=s.work))
+            return from_where_it_is(evolve(placed, start=s.work))
         return placed
 
     def _home(
@@ -486,7 +485,7 @@ class Interpreter:
     def _start_in(self, frame: Frame) -> None:
         """Before the first line: G54 in ``frame``, the tool where it is in the work frame."""
         position = from_work(self.state.work, frame)
-        self.state = replace(
+        self.state = evolve(
             self.state, frame=frame, position=position, canon=position, coord_index=1
         )
 
@@ -515,12 +514,12 @@ class Interpreter:
         the last motion's end, else the old place shifted by the change of G5x and G92."""
         last = next((m for m in reversed(moves) if isinstance(m, Rapid | Linear | Arc)), None)
         if last is not None:
-            return replace(s, canon=from_work(last.end, s.frame))
+            return evolve(s, canon=from_work(last.end, s.frame))
         old, new = self.state.frame, s.frame
         if old == new:
             return s
         shift = add(sub(old.g5x, new.g5x), sub(old.g92, new.g92))
-        return replace(s, canon=add(s.canon, shift))
+        return evolve(s, canon=add(s.canon, shift))
 
     def _limits(self, block: Block) -> list:
         """Marlin M201/M203/M204/M205: a Limits event (when events are asked for)."""
@@ -541,8 +540,8 @@ class Interpreter:
         for i, a in enumerate("XYZ"):
             if a in named:
                 self.params.numbered[G92_OFFSET + i] = 0.0
-        frame = replace(s.frame, g92=(g92[0], g92[1], g92[2]))
-        s = replace(s, frame=frame)
+        frame = evolve(s.frame, g92=(g92[0], g92[1], g92[2]))
+        s = evolve(s, frame=frame)
         end = from_work((target[0], target[1], target[2]), frame)
         moves: list[Move | Event] = []
         self.state = self._emit(moves, s, Rapid(block.line, s.work, to_work(end, frame)), end)
@@ -558,7 +557,7 @@ class Interpreter:
             moves, _ = self.step(g1)
         finally:
             done = self.state
-            self.state = replace(saved, position=done.position, work=done.work)
+            self.state = evolve(saved, position=done.position, work=done.work)
         return moves, False
 
     def _predefined(self, name: str) -> float | None:

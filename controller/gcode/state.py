@@ -2,13 +2,50 @@
 
 from __future__ import annotations
 
+import dataclasses
+import functools
 from dataclasses import dataclass
+from typing import Any, TypeVar
 
 from gantry_sim.controller.gcode.frames import NO_OFFSETS, Frame
 from gantry_sim.controller.gcode.tools import Tool
 from gantry_sim.controller.moves import PathControl
 from gantry_sim.controller.planes import Plane, Vec3
 from gantry_sim.controller.units import MM_PER_INCH
+
+T = TypeVar("T")
+
+
+def evolve(obj: T, /, **changes: Any) -> T:
+    """``dataclasses.replace(obj, **changes)``, about 4 x faster for a plain dataclass (the
+    interpreter makes a few new states a block: a third of parsing time went into ``replace``):
+    a copy of its ``__dict__`` with ``changes``. Records with slots, a ``__post_init__``, a
+    cached property, or a name that is not one of their fields go through
+    ``dataclasses.replace`` (which checks)."""
+    cls = type(obj)
+    plain = _PLAIN.get(cls)
+    if plain is None:
+        plain = _PLAIN[cls] = _is_plain(cls)
+    d = getattr(obj, "__dict__", None)
+    if not plain or d is None or not changes.keys() <= d.keys():
+        return dataclasses.replace(obj, **changes)  # type: ignore[type-var]
+    new = object.__new__(cls)
+    new.__dict__.update(d)
+    new.__dict__.update(changes)
+    return new
+
+
+_PLAIN: dict[type, bool] = {}
+
+
+def _is_plain(cls: type) -> bool:
+    """A dataclass whose instances hold their fields and nothing else in ``__dict__``, with
+    no ``__post_init__`` and every field set by ``__init__``."""
+    if not dataclasses.is_dataclass(cls) or hasattr(cls, "__post_init__"):
+        return False
+    if any(isinstance(v, functools.cached_property) for k in cls.__mro__ for v in vars(k).values()):
+        return False
+    return all(f.init for f in dataclasses.fields(cls))
 
 
 @dataclass(frozen=True)
