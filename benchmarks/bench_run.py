@@ -14,11 +14,13 @@ the subprocess reports:
   streamed run's trace.npz, the zip written around its arrays deflated during the run) and
   write (report.json, trace.npz and the PNGs written into a folder);
 * peak memory: the subprocess' maximum resident set (getrusage ru_maxrss) right after the run,
-  before anything else is measured; and "worker", the largest high-water mark (VmHWM) of its
-  children (a streamed run's analysis worker, sim.analysis_worker: a fresh interpreter holding
-  the path tables and one range at a time), polled every 0.2 s from /proc while the run goes
-  (getrusage's RUSAGE_CHILDREN would count the run's own resident set at the moment the worker
-  was spawned, before its exec);
+  before anything else is measured; "child", the largest private memory its children held at
+  once (a streamed run's analysis worker, sim.analysis_worker, a fresh interpreter holding the
+  path tables and one range at a time; and while planning, the planner's forked processes,
+  controller/forked.py); and "tree", the largest of the subprocess' peak and its resident set
+  plus its children's private memory at one poll (benchmarks/memory_probe.py, every 0.1 s: a
+  forked child's own resident set counts the pages it shares with its parent, and getrusage's
+  RUSAGE_CHILDREN the run's resident set at the moment the worker was spawned);
 * MuJoCo alone: the same model stepped open loop through the same motion -- the run's held
   forces replayed from the same initial state by ``mujoco.rollout`` (as bench_sim.py does), in
   pieces of REPLAY_STEPS physics steps; every stage's time is printed over it (a second table),
@@ -121,39 +123,11 @@ def _replay_s(gantry, start_mm, force) -> float:
     return wall
 
 
-class _ChildrenPeak:
-    """The largest VmHWM [bytes] of this process' children, polled from /proc every 0.2 s by a
-    thread until :meth:`stop` (0 where /proc has no such files)."""
-
-    def __init__(self) -> None:
-        import threading
-
-        self.peak, self._done = 0, threading.Event()
-        self._thread = threading.Thread(target=self._poll, daemon=True)
-        self._thread.start()
-
-    def _poll(self) -> None:
-        while not self._done.wait(0.2):
-            for pids in Path("/proc/self/task").glob("*/children"):
-                for pid in pids.read_text().split():
-                    try:
-                        status = Path(f"/proc/{pid}/status").read_text()
-                    except OSError:
-                        continue
-                    for row in status.splitlines():
-                        if row.startswith("VmHWM:"):
-                            self.peak = max(self.peak, int(row.split()[1]) * 1024)
-
-    def stop(self) -> int:
-        self._done.set()
-        self._thread.join()
-        return self.peak
-
-
 def child(kind: str, blocks: int, baseline_rev: str | None) -> dict:
     """Run one program; return the measurements (see the module docstring)."""
     import numpy as np
 
+    from benchmarks.memory_probe import TreeMemory
     from benchmarks.programs import program
     from gantry_sim.controller.config import load_machine_config
     from gantry_sim.models import DEFAULT_MACHINE
@@ -173,7 +147,7 @@ def child(kind: str, blocks: int, baseline_rev: str | None) -> dict:
 
     machine = load_machine_config(DEFAULT_MACHINE)
     text = program(kind, blocks)
-    children = _ChildrenPeak()
+    tree = TreeMemory()
     t0 = time.perf_counter()
     # 100k arcs and mixed run 4 and 16 hours of machine time: past the default budget, which
     # asks a user to confirm such runs with --max-sim-s / --max-physics-steps
@@ -184,7 +158,7 @@ def child(kind: str, blocks: int, baseline_rev: str | None) -> dict:
         write_run_outputs(result, Path(tmp) / "out")
         t2 = time.perf_counter()
         peak = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss * 1024
-        worker_peak = children.stop()
+        children, tree_peak = tree.stop()
     contour.analyse = real_analyse
     timing = result.report["timing_s"]
     out = {
@@ -198,7 +172,8 @@ def child(kind: str, blocks: int, baseline_rev: str | None) -> dict:
         "write": t2 - t1,
         "wall": t2 - t0,
         "peak_bytes": peak,
-        "worker_peak_bytes": worker_peak,
+        "children_bytes": children,
+        "tree_bytes": max(peak, tree_peak),
     }
     if result.trace_file is not None:  # a streamed run: its trace is decimated, the file is not
         with np.load(result.trace_file) as npz:
@@ -240,7 +215,7 @@ def _run_child(kind: str, blocks: int, baseline: str | None) -> dict:
 def _print_table(rows: list[dict]) -> None:
     print(
         f"{'program':<13}{'ticks':>9}{'cycle':>8} |{'parse':>7}{'plan':>8}{'sim':>8}"
-        f"{'analyse':>8}{'trace':>7}{'write':>7}{'wall':>8} |{'mujoco':>7} |{'peak MB':>8}{'worker':>7} | "
+        f"{'analyse':>8}{'trace':>7}{'write':>7}{'wall':>8} |{'mujoco':>7} |{'peak MB':>8}{'child':>7}{'tree':>7} | "
         "analyse before -> after"
     )
     for r in rows:
@@ -256,7 +231,8 @@ def _print_table(rows: list[dict]) -> None:
         print(
             f"{_name(r):<13}{r['ticks']:>9}{r['cycle_s'] / 60:>7.1f}m |"
             + "".join(f"{r.get(k, 0.0):>{w}.2f}" for k, w in zip(STAGES, WIDTHS, strict=True))
-            + f"{r['wall']:>8.1f} |{r['mujoco']:>7.2f} |{r['peak_bytes'] / 2**20:>8.0f}{r.get('worker_peak_bytes', 0) / 2**20:>7.0f} | {ba}"
+            + f"{r['wall']:>8.1f} |{r['mujoco']:>7.2f} |{r['peak_bytes'] / 2**20:>8.0f}"
+            + f"{r['children_bytes'] / 2**20:>7.0f}{r['tree_bytes'] / 2**20:>7.0f} | {ba}"
         )
 
 

@@ -84,30 +84,45 @@ def plan_chains_forked(
     setup: ChainSetup, todo: list[tuple[ChainKey, BlockLimits]], speeds: np.ndarray
 ) -> dict[ChainKey, Chain]:
     """:func:`plan_chains`, split over :func:`~gantry_sim.controller.forked.process_count`
-    processes (:func:`~gantry_sim.controller.forked.fork_map`) when there are at least
-    :data:`FORK_CHAINS` chains or :data:`FORK_PIECES` pieces: runs of :data:`FORK_RUN` chains
-    are dealt to the processes in turn, so each gets its share of every part of the program.
-    A chain's pieces depend on nothing but the chain and its end speeds, so the plan is the
-    same bit for bit."""
+    processes (:func:`~gantry_sim.controller.forked.fork_map`) when its work (:func:`_work`) is
+    at least :data:`FORK_WORK`. The chains go in waves, contiguous stretches of about
+    :data:`WAVE_WORK` per process (a forked child's private memory, the pages it copies on
+    writing and what it plans, grows with its share: one wave for all took 1.1 GB besides the
+    parent's 1.4 GB at 100,000 arcs); in a wave, runs of :data:`FORK_RUN` chains are dealt to
+    the processes in turn. A chain's pieces depend on nothing but the chain and its end speeds,
+    so the plan is the same bit for bit."""
     n = process_count()
-    if n <= 1 or (
-        len(todo) < FORK_CHAINS and sum(_pieces(setup, key) for key, _ in todo) < FORK_PIECES
-    ):
+    work = [_work(setup, key) for key, _ in todo]
+    if n <= 1 or sum(work) < FORK_WORK:
         return plan_chains(setup, todo, speeds)
-    runs = [todo[i : i + FORK_RUN] for i in range(0, len(todo), FORK_RUN)]
-    parts = [[c for run in runs[k::n] for c in run] for k in range(min(n, len(runs)))]
     out: dict[ChainKey, Chain] = {}
-    for done in fork_map(lambda part: plan_chains(setup, part, speeds), parts):
-        out.update(done)
+    first, size = 0, 0
+    for i, w in enumerate(work):
+        size += w
+        if size >= n * WAVE_WORK or i == len(todo) - 1:
+            wave = todo[first : i + 1]
+            runs = [wave[k : k + FORK_RUN] for k in range(0, len(wave), FORK_RUN)]
+            parts = [[c for run in runs[k::n] for c in run] for k in range(min(n, len(runs)))]
+            for done in fork_map(lambda part: plan_chains(setup, part, speeds), parts):
+                out.update(done)
+            first, size = i + 1, 0
     return out
 
 
-#: :func:`plan_chains_forked` splits a round of this many chains, or of this many pieces, over
-#: processes (about 0.3 s of planning either way; a fork of a planner holding 1 GB costs about
-#: 20 ms), dealing them in runs of FORK_RUN chains.
-FORK_CHAINS = 500
-FORK_PIECES = 2 * BATCH_PIECES
+#: A chain's planning work besides its pieces, in pieces (measured in the first round of
+#: 10,000-block programs: about 0.14 ms a chain, 20 us an arc piece).
+CHAIN_WORK = 8
+#: :func:`plan_chains_forked` splits a round of this much work over processes (about 0.2 s of
+#: planning; a fork of a planner holding 1 GB costs about 20 ms) in waves of WAVE_WORK per
+#: process (about 2 s), dealing each wave's chains in runs of FORK_RUN.
+FORK_WORK = 10_000
+WAVE_WORK = 100_000
 FORK_RUN = 32
+
+
+def _work(setup: ChainSetup, key: ChainKey) -> int:
+    """Chain ``key``'s planning work (:data:`CHAIN_WORK` and its pieces)."""
+    return CHAIN_WORK + _pieces(setup, key)
 
 
 def _pieces(setup: ChainSetup, key: ChainKey) -> int:

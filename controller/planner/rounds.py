@@ -90,13 +90,17 @@ def replan_until_junctions_hold(
         ends = [first for first, _ in spans] + [len(active)]
         speeds = np.full(len(active) + 1, np.nan)
         speeds[ends] = plan_junction_speeds(chained, caps[ends], reach_memo)
-        done, cache = _plan_round(setup, spans, chained, speeds, holds, cache)
-        if not done.bad_junctions:
+        chains, cache = _plan_round(setup, spans, chained, speeds, cache)
+        bad: set[int] = set()
+        for (first, stop), chain in zip(spans, chains, strict=True):
+            if chain.bad:
+                bad |= chain.bad
+                speeds[first + 1 : stop] = chain.inner_speeds
+        if not bad:
             break
-        for b in done.bad_junctions:
+        for b in bad:
             caps[b] = 0.0 if rnd == MAX_ROUNDS - 1 else JUNCTION_BACKOFF * speeds[b]
-        done.chunks.clear()  # the next round reuses them through the cache alone
-    return done
+    return _assemble(setup, spans, chains, holds)
 
 
 def _plan_round(
@@ -104,19 +108,36 @@ def _plan_round(
     spans: list[tuple[int, int]],
     chained: list[BlockLimits],
     speeds: np.ndarray,
-    holds: dict[int, list[Dwell]],
     cache: dict[ChainKey, Chain],
-) -> tuple[Round, dict[ChainKey, Chain]]:
-    """Every chain's pieces between the junction speeds ``speeds`` [mm/s] at the chains' ends
-    (filled in here inside chains), reusing ``cache``'s chains planned for the same speeds
-    (the others are dropped from it first, so a plan holds about one round's phases);
-    returns the round and the cache of its chains."""
+) -> tuple[list[Chain], dict[ChainKey, Chain]]:
+    """Every chain's pieces between the junction speeds ``speeds`` [mm/s] at the chains' ends,
+    reusing ``cache``'s chains planned for the same speeds (the others are dropped from it
+    first, so a plan holds about one round's phases); returns the chains, in order, and the
+    cache of this round's chains."""
+    keys = [(first, stop, float(speeds[first]), float(speeds[stop])) for first, stop in spans]
+    needed = set(keys)
+    for key in [k for k in cache if k not in needed]:  # free them before planning new ones
+        del cache[key]
+    todo = [(k, lim) for k, lim in zip(keys, chained, strict=True) if k not in cache]
+    fresh = plan_chains_forked(setup, todo, speeds)
+    chains = [cache.get(key) or fresh[key] for key in keys]
+    return chains, dict(zip(keys, chains, strict=True))
+
+
+def _assemble(
+    setup: ChainSetup,
+    spans: list[tuple[int, int]],
+    chains: list[Chain],
+    holds: dict[int, list[Dwell]],
+) -> Round:
+    """The round of the last chains planned: their phases in order, with the dwells of
+    ``holds`` at their junctions, each move's start time and line (once, for the round that
+    is kept: the rounds before only needed their chains' failed junctions)."""
     chunks: list[Chunk] = []
     clock, ruckig = 0.0, 0
     starts: list[float] = []
     lines: list[int] = []
     bad: set[int] = set()
-    used: dict[ChainKey, Chain] = {}
 
     def hold(b: int) -> None:
         nonlocal clock
@@ -129,17 +150,8 @@ def _plan_round(
             chunks.append(((axes[0], axes[1], axes[2]),))
             clock += dw.seconds
 
-    keys = [(first, stop, float(speeds[first]), float(speeds[stop])) for first, stop in spans]
-    needed = set(keys)
-    for key in [k for k in cache if k not in needed]:  # free them before planning new ones
-        del cache[key]
-    todo = [(k, lim) for k, lim in zip(keys, chained, strict=True) if k not in cache]
-    fresh = plan_chains_forked(setup, todo, speeds)
-    for (first, stop), key in zip(spans, keys, strict=True):
+    for (first, stop), chain in zip(spans, chains, strict=True):
         hold(first)
-        chain = cache.get(key) or fresh[key]
-        used[key] = chain
-        speeds[first + 1 : stop] = chain.inner_speeds
         starts.extend(clock + t for t in chain.starts_s)
         lines.extend(g.move.line for g in setup.active[first:stop])
         chunks.append(chain.chunk)
@@ -147,4 +159,4 @@ def _plan_round(
         bad |= chain.bad
         ruckig += chain.ruckig_pieces
     hold(len(setup.active))
-    return Round(chunks, clock, starts, bad, lines, ruckig), used
+    return Round(chunks, clock, starts, bad, lines, ruckig)
