@@ -95,3 +95,60 @@ def frenet(d1: np.ndarray, d2: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     speed = float(np.linalg.norm(d1))
     t = d1 / speed
     return t, (d2 - np.dot(d2, t) * t) / speed**2
+
+
+#: Gauss-Legendre nodes on [0, 1] and weights for a spiral's arc length (|dp/du| is the square
+#: root of a quadratic in u: 16 nodes integrate it to rounding on any spiral LinuxCNC accepts).
+_GL_X, _GL_W = np.polynomial.legendre.leggauss(16)
+_GL_X, _GL_W = 0.5 * (_GL_X + 1.0), 0.5 * _GL_W
+
+
+#: An arc whose end radius differs from its start radius by more than this share is planned as
+#: the spiral it is (:func:`is_spiral`); below it, |dp/du| varies by less than the planner's
+#: margins on the limits can absorb, and u is taken as the arc-length fraction.
+SPIRAL_REL = 1e-7
+
+
+def is_spiral(arc: Arc) -> bool:
+    """Whether the in-plane radius changes along ``arc`` by more than :data:`SPIRAL_REL` of it
+    (LinuxCNC accepts up to 0.1 % in a program, and more where a tool offset changed under
+    the arc): then |dp/du| is not constant and the sweep fraction u is not the arc-length
+    fraction."""
+    f = arc_frame(arc)
+    return abs(f.r1_mm - f.r0_mm) > SPIRAL_REL * max(f.r0_mm, f.r1_mm)
+
+
+def spiral_speed_rate(arc: Arc, u: np.ndarray) -> np.ndarray:
+    """d|dp/du|/du [mm] at sweep fractions ``u`` (0 on a circle or helix): with
+    |dp/du|^2 = (r1 - r0)^2 + (r(u) A)^2 + (h1 - h0)^2, it is r(u) A^2 (r1 - r0) / |dp/du|."""
+    f = arc_frame(arc)
+    dr = f.r1_mm - f.r0_mm
+    r = f.r0_mm + dr * np.asarray(u, dtype=float)
+    speed = np.sqrt(dr**2 + (r * arc.angle) ** 2 + (f.h1_mm - f.h0_mm) ** 2)
+    return r * arc.angle**2 * dr / speed
+
+
+def spiral_length_at(arc: Arc, u: np.ndarray) -> np.ndarray:
+    """Path length [mm] from the start to sweep fractions ``u`` (k,) of a spiral:
+    the integral of |dp/du| = sqrt((r1 - r0)^2 + (r(u) A)^2 + (h1 - h0)^2), by Gauss-Legendre
+    on [0, u]."""
+    f = arc_frame(arc)
+    u = np.asarray(u, dtype=float)
+    w = u[:, None] * _GL_X[None, :]
+    r = f.r0_mm + (f.r1_mm - f.r0_mm) * w
+    c2 = (f.r1_mm - f.r0_mm) ** 2 + (f.h1_mm - f.h0_mm) ** 2
+    return u * (np.sqrt(c2 + (r * arc.angle) ** 2) @ _GL_W)
+
+
+def spiral_fraction_at(arc: Arc, s_mm: np.ndarray, length_mm: float) -> np.ndarray:
+    """The sweep fractions where a spiral of length ``length_mm`` (:func:`spiral_length_at` of
+    1) has run ``s_mm`` [mm] (Newton's method from s / length; |dp/du| > 0 and varies slowly,
+    so it converges in a few steps)."""
+    s = np.asarray(s_mm, dtype=float)
+    u = s / length_mm
+    f = arc_frame(arc)
+    c2 = (f.r1_mm - f.r0_mm) ** 2 + (f.h1_mm - f.h0_mm) ** 2
+    for _ in range(6):
+        r = f.r0_mm + (f.r1_mm - f.r0_mm) * u
+        u = u - (spiral_length_at(arc, u) - s) / np.sqrt(c2 + (r * arc.angle) ** 2)
+    return u

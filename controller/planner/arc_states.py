@@ -11,6 +11,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from gantry_sim.controller.arcs import spiral_speed_rate
 from gantry_sim.controller.moves import Arc
 from gantry_sim.controller.planner.arc_batch import arc_derivatives_many
 from gantry_sim.controller.planner.junctions import EndState
@@ -61,15 +62,20 @@ def vertex_states_many(
     """
     fractions = [_fractions(g, prof, s_in, s_out) for g, prof, s_in, s_out in requests]
     inner = [u[1:-1] for u in fractions]
-    inverted = invert_many(
-        [(r[1], u * r[0].length_mm) for r, u in zip(requests, inner, strict=True)]
-    )
+    inverted = invert_many([(r[1], r[0].s_at(u)) for r, u in zip(requests, inner, strict=True)])
     d1, d2 = _derivatives([r[0] for r in requests], inner)
     speed_u = np.linalg.norm(d1, axis=1)
     v_k = np.concatenate([inv[1] for inv in inverted]) if inverted else np.zeros(0)
     a_k = np.concatenate([inv[2] for inv in inverted]) if inverted else np.zeros(0)
     ud = (v_k / speed_u)[:, None]
     udd = (a_k / speed_u)[:, None]
+    lo = 0
+    for (g, *_), u in zip(requests, inner, strict=True):
+        if g.spiral:  # u'' = (a - v^2 d|dp/du|/du / |dp/du|) / |dp/du|: |dp/du| changes with u
+            k = slice(lo, lo + u.size)
+            rate = spiral_speed_rate(g.move, u)  # type: ignore[arg-type]
+            udd[k, 0] -= v_k[k] ** 2 * rate / speed_u[k] ** 3
+        lo += u.size
     vel_in = d1 * ud
     acc_in = d2 * ud * ud + d1 * udd
     out = []
@@ -118,7 +124,7 @@ def _fractions(
     u = g.u.copy()
     snapped = np.zeros(m + 1, dtype=bool)
     extra = []
-    for uk in profile.s[1:] / g.length_mm:
+    for uk in g.u_at(profile.s[1:]):
         if not 0.0 < uk < 1.0:
             continue
         i = round(uk * m)

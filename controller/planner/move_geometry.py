@@ -11,7 +11,15 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
-from gantry_sim.controller.arcs import arc_derivatives, arc_frame, arc_points, frenet
+from gantry_sim.controller.arcs import (
+    arc_derivatives,
+    arc_frame,
+    arc_points,
+    frenet,
+    is_spiral,
+    spiral_fraction_at,
+    spiral_length_at,
+)
 from gantry_sim.controller.config import Limits, Segmentation
 from gantry_sim.controller.moves import Arc, Move, Rapid, Spline
 from gantry_sim.controller.planes import PLANE_AXES
@@ -108,6 +116,24 @@ class ArcGeometry(MoveGeometry):
             return spline_derivatives(self.move, u)
         return arc_derivatives(self.move, u)
 
+    @property
+    def spiral(self) -> bool:
+        """An arc whose radius changes (:func:`~gantry_sim.controller.arcs.is_spiral`): u is
+        not its arc-length fraction."""
+        return isinstance(self.move, Arc) and is_spiral(self.move)
+
+    def s_at(self, u: np.ndarray) -> np.ndarray:
+        """Path length [mm] from the start to fractions ``u``."""
+        if self.spiral:
+            return spiral_length_at(self.move, u)  # type: ignore[arg-type]
+        return u * self.length_mm
+
+    def u_at(self, s_mm: np.ndarray) -> np.ndarray:
+        """The fractions where the path has run ``s_mm`` [mm] (inverse of :meth:`s_at`)."""
+        if self.spiral:
+            return spiral_fraction_at(self.move, s_mm, self.length_mm)  # type: ignore[arg-type]
+        return s_mm / self.length_mm
+
 
 #: The general name: arcs, helices and splines are all curves to the planner.
 CurveGeometry = ArcGeometry
@@ -162,7 +188,10 @@ def _geometry(move: Move, limits: Limits, seg: Segmentation, feed_scale: float) 
     frame = arc_frame(move)
     r_max = max(frame.r0_mm, frame.r1_mm)
     speed_u = float(min(np.linalg.norm(d1[0]), np.linalg.norm(d1[1])))  # |dp/du| [mm]
-    length = float(0.5 * (np.linalg.norm(d1[0]) + np.linalg.norm(d1[1])))
+    if is_spiral(move):
+        length = float(spiral_length_at(move, np.array([1.0]))[0])
+    else:
+        length = float(0.5 * (np.linalg.norm(d1[0]) + np.linalg.norm(d1[1])))
     ang = move.angle
     curvature = r_max * ang * ang / speed_u**2
     dcurv = r_max * ang**3 / speed_u**3
