@@ -133,22 +133,29 @@ def spiral_length_at(arc: Arc, u: np.ndarray) -> np.ndarray:
     the integral of |dp/du| = sqrt((r1 - r0)^2 + (r(u) A)^2 + (h1 - h0)^2), by Gauss-Legendre
     on [0, u]."""
     f = arc_frame(arc)
-    u = np.asarray(u, dtype=float)
-    w = u[:, None] * _GL_X[None, :]
-    r = f.r0_mm + (f.r1_mm - f.r0_mm) * w
+    return _spiral_length(f, arc.angle, np.asarray(u, dtype=float))
+
+
+def _spiral_length(f: ArcFrame, angle: float, u: np.ndarray) -> np.ndarray:
+    r = f.r0_mm + (f.r1_mm - f.r0_mm) * (u[:, None] * _GL_X[None, :])
     c2 = (f.r1_mm - f.r0_mm) ** 2 + (f.h1_mm - f.h0_mm) ** 2
-    return u * (np.sqrt(c2 + (r * arc.angle) ** 2) @ _GL_W)
+    return u * (np.sqrt(c2 + (r * angle) ** 2) @ _GL_W)
 
 
 def spiral_fraction_at(arc: Arc, s_mm: np.ndarray, length_mm: float) -> np.ndarray:
     """The sweep fractions where a spiral of length ``length_mm`` (:func:`spiral_length_at` of
-    1) has run ``s_mm`` [mm] (Newton's method from s / length; |dp/du| > 0 and varies slowly,
-    so it converges in a few steps)."""
+    1) has run ``s_mm`` [mm]: Newton's method from s / length (|dp/du| > 0 varies slowly, so
+    a step or two reach rounding on the spirals LinuxCNC accepts; at most 8)."""
     s = np.asarray(s_mm, dtype=float)
     u = s / length_mm
     f = arc_frame(arc)
-    c2 = (f.r1_mm - f.r0_mm) ** 2 + (f.h1_mm - f.h0_mm) ** 2
-    for _ in range(6):
-        r = f.r0_mm + (f.r1_mm - f.r0_mm) * u
-        u = u - (spiral_length_at(arc, u) - s) / np.sqrt(c2 + (r * arc.angle) ** 2)
+    dr = f.r1_mm - f.r0_mm
+    c2 = dr**2 + (f.h1_mm - f.h0_mm) ** 2
+    for _ in range(8):
+        step = (_spiral_length(f, arc.angle, u) - s) / np.sqrt(
+            c2 + ((f.r0_mm + dr * u) * arc.angle) ** 2
+        )
+        u = u - step
+        if not np.any(np.abs(step) > 4e-16):
+            break
     return u

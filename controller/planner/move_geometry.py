@@ -84,6 +84,9 @@ class ArcGeometry(MoveGeometry):
     u: np.ndarray  # sweep (arc-length) fractions of the vertices
     #: What bounds following it exactly (its limits, :func:`~gantry_sim.controller.planner.speedup.follow_ok`).
     follow: FollowGeometry
+    #: An arc whose radius changes (:func:`~gantry_sim.controller.arcs.is_spiral`): u is not its
+    #: arc-length fraction.
+    spiral: bool = False
 
     def points(self, u: np.ndarray) -> np.ndarray:
         """Points on the curve at fractions ``u`` (u = 0 and 1: start and end exactly)."""
@@ -115,12 +118,6 @@ class ArcGeometry(MoveGeometry):
         if isinstance(self.move, Spline):
             return spline_derivatives(self.move, u)
         return arc_derivatives(self.move, u)
-
-    @property
-    def spiral(self) -> bool:
-        """An arc whose radius changes (:func:`~gantry_sim.controller.arcs.is_spiral`): u is
-        not its arc-length fraction."""
-        return isinstance(self.move, Arc) and is_spiral(self.move)
 
     def s_at(self, u: np.ndarray) -> np.ndarray:
         """Path length [mm] from the start to fractions ``u``."""
@@ -188,7 +185,8 @@ def _geometry(move: Move, limits: Limits, seg: Segmentation, feed_scale: float) 
     frame = arc_frame(move)
     r_max = max(frame.r0_mm, frame.r1_mm)
     speed_u = float(min(np.linalg.norm(d1[0]), np.linalg.norm(d1[1])))  # |dp/du| [mm]
-    if is_spiral(move):
+    spiral = is_spiral(move)
+    if spiral:
         length = float(spiral_length_at(move, np.array([1.0]))[0])
     else:
         length = float(0.5 * (np.linalg.norm(d1[0]) + np.linalg.norm(d1[1])))
@@ -204,7 +202,9 @@ def _geometry(move: Move, limits: Limits, seg: Segmentation, feed_scale: float) 
         dcurv,
         feed * (1.0 - FEED_MARGIN_PER_PHI4 * (ang / n) ** 4 - FEED_MARGIN_REL),
     )
-    return ArcGeometry(move, verts, length, t_in, t_out, k_in, k_out, _UNSET, feed, u, follow)
+    return ArcGeometry(
+        move, verts, length, t_in, t_out, k_in, k_out, _UNSET, feed, u, follow, spiral
+    )
 
 
 def _spline_geometry(move: Spline, seg: Segmentation, feed_scale: float) -> ArcGeometry:

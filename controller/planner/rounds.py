@@ -96,10 +96,11 @@ def replan_until_junctions_hold(
             if chain.bad:
                 bad |= chain.bad
                 speeds[first + 1 : stop] = chain.inner_speeds
-        if not bad:
+        if not bad or rnd == MAX_ROUNDS:
             break
         for b in bad:
             caps[b] = 0.0 if rnd == MAX_ROUNDS - 1 else JUNCTION_BACKOFF * speeds[b]
+        chains.clear()  # the chains replaced next round are freed before it plans new ones
     return _assemble(setup, spans, chains, holds)
 
 
