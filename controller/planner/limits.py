@@ -54,11 +54,10 @@ def straight_limits(
 ) -> BlockLimits:
     """Limits along a straight move of unit ``direction`` (each axis gets |T_i| of the path)."""
     vmax, amax, jmax = limits.per_axis()
-    t = np.abs(direction)
-    with np.errstate(divide="ignore"):
-        v = float(np.min(np.asarray(vmax) / t))
-        a = float(np.min(np.asarray(amax) / t))
-        j = float(np.min(np.asarray(jmax) / t))
+    t = [abs(x) for x in direction.tolist()]  # in floats: 4 x faster than numpy on 3 numbers
+    v = min(m / ti if ti else math.inf for m, ti in zip(vmax, t, strict=True))
+    a = min(m / ti if ti else math.inf for m, ti in zip(amax, t, strict=True))
+    j = min(m / ti if ti else math.inf for m, ti in zip(jmax, t, strict=True))
     return BlockLimits(length_mm, min(feed_mm_per_s, v), a, j)
 
 
