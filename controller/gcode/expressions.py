@@ -15,6 +15,7 @@ Trig functions work in degrees, as in rs274.
 from __future__ import annotations
 
 import math
+import re
 from typing import Protocol
 
 from gantry_sim.controller.errors import GcodeError
@@ -36,6 +37,8 @@ _FUNCTIONS = (
 )
 # fmt: on
 _NUM_CHARS = "0123456789."
+#: the longest run of ``_NUM_CHARS`` (a number's characters, read in one match)
+_NUMBER = re.compile(r"[0-9.]*")
 MAX_NESTING = 64  # brackets, signs and # per value: deeper is refused (no recursion blow-up)
 #: the largest magnitude a number or result may have; beyond it values are refused as not finite
 MAX_MAGNITUDE = 1e300
@@ -128,8 +131,7 @@ class Reader:
 
     def number(self) -> Tree:
         start = self.pos
-        while self.peek() and self.peek() in _NUM_CHARS:
-            self.pos += 1
+        self.pos = _NUMBER.match(self.text, start).end()  # type: ignore[union-attr]
         raw = self.text[start : self.pos]
         if raw.count(".") > 1:
             raise GcodeError(f"bad number format {raw!r}; expected digits with at most one '.'")
