@@ -16,7 +16,8 @@ junction at the move's END, as LinuxCNC's termination condition does:
   becomes one chain of equal arcs with no curvature jump left. Blends need both moves in one principal
   plane (XY, XZ or YZ; the planner's arcs live there); other corners stay exact stops.
 * G64 Q: consecutive straight feed moves at one feed whose end points lie within Q of one line
-  are merged into that line first (LinuxCNC's naive-CAM detector).
+  are merged into that line first (LinuxCNC's naive-CAM detector:
+  :mod:`~gantry_sim.controller.planner.path_control`, which also resolves each move's mode).
 
 Events: a dwell (G4) is an exact stop plus its time; a program stop (M0/M1/M60) an exact stop.
 """
@@ -39,6 +40,7 @@ from gantry_sim.controller.planner.corner_blend import (
     blend_tangent_mm,
     trimmed_arc,
 )
+from gantry_sim.controller.planner.path_control import EPS_MM, control, merge_naive_cam
 
 #: Share of the chord tolerance the planner's reference may leave an arc by (the G61 promise);
 #: a blend keeps this much of the tolerance for it.
@@ -50,9 +52,6 @@ GEOMETRY_SHARE = 0.8
 #: which the blend would be a near-reversal (an exact stop instead).
 MIN_TURN_RAD = 1e-6
 MAX_TURN_RAD = math.radians(179.0)
-#: Longest run of straight moves the naive-CAM merge considers at once (bounds its cost).
-MAX_MERGE_RUN = 256
-EPS_MM = 1e-9
 #: A straight move left between two blends shorter than this times the smaller blend radius is
 #: absorbed: both blends run on to its midpoint (a spiral by rest^2 / (8 R), a kink by rest / R,
 #: both negligible), so a polygon of nearly equal short moves becomes one chain of arcs without
@@ -98,25 +97,6 @@ class PathPlan:
     blend_junction: dict[int, int] = field(default_factory=dict)
 
 
-@dataclass(frozen=True)
-class Control:
-    """The path control of one move, resolved against the machine file."""
-
-    mode: str
-    tolerance_mm: float
-    naive_cam_mm: float
-
-
-def control(move: Move, settings: PathSettings) -> Control:
-    """``move``'s path control (its own, else the machine file's ``settings``)."""
-    pc = getattr(move, "path", None)
-    if pc is None:
-        return Control(settings.mode, settings.tolerance_mm, settings.naive_cam_tolerance_mm)
-    tol = settings.tolerance_mm if pc.tolerance_mm is None else pc.tolerance_mm
-    q = settings.naive_cam_tolerance_mm if pc.naive_cam_mm is None else pc.naive_cam_mm
-    return Control(pc.mode, tol, q)
-
-
 def path_plan(
     items: Sequence[Move | Event],
     settings: PathSettings,
@@ -141,7 +121,9 @@ def path_plan(
             continue
         out.moves.append(item)
         out.stop_after.append(control(item, settings).mode == "G61.1")
-    _merge_naive_cam(out, settings)
+    out.moves, out.stop_after, out.holds = merge_naive_cam(
+        out.moves, out.stop_after, out.holds, settings
+    )
     out.smoothing_mm = [_smoothing(m, settings, chord_tolerance_mm) for m in out.moves]
     _blend_corners(out, settings, chord_tolerance_mm, skip, jerk_mm_per_s3)
     return out
@@ -154,62 +136,6 @@ def _smoothing(m: Move, settings: PathSettings, chord_tolerance_mm: float) -> fl
     if isinstance(m, Rapid) or c.mode != "G64":
         return 0.0
     return max(c.tolerance_mm - REFERENCE_SHARE * chord_tolerance_mm, 0.0)
-
-
-def _merge_naive_cam(out: PathPlan, settings: PathSettings) -> None:
-    """G64 Q: merge runs of straight moves whose end points lie within Q of one line."""
-    moves, stops = out.moves, out.stop_after
-    new_moves: list[Move] = []
-    new_stops: list[bool] = []
-    new_holds: dict[int, list[Dwell]] = {}
-    i = 0
-    while i < len(moves):
-        if i in out.holds:
-            new_holds[len(new_moves)] = out.holds[i]
-        m = moves[i]
-        c = control(m, settings)
-        j = i
-        if isinstance(m, Linear) and c.mode == "G64" and c.naive_cam_mm > 0:
-            while (
-                j + 1 < len(moves)
-                and j + 1 - i < MAX_MERGE_RUN
-                and not stops[j]
-                and (j + 1) not in out.holds
-                and _mergeable(m, moves[j + 1], settings)
-                and _within(moves[i : j + 2], c.naive_cam_mm)
-            ):
-                j += 1
-        if j > i and isinstance(m, Linear):
-            last = moves[j]
-            new_moves.append(replace(m, end=last.end, path=getattr(last, "path", None)))
-        else:
-            new_moves.append(m)
-        new_stops.append(stops[j])
-        i = j + 1
-    if len(moves) in out.holds:
-        new_holds[len(new_moves)] = out.holds[len(moves)]
-    out.moves, out.stop_after, out.holds = new_moves, new_stops, new_holds
-
-
-def _mergeable(first: Linear, nxt: Move, settings: PathSettings) -> bool:
-    return (
-        isinstance(nxt, Linear)
-        and nxt.feed_mm_per_min == first.feed_mm_per_min
-        and control(nxt, settings).mode == "G64"
-    )
-
-
-def _within(run: Sequence[Move], q_mm: float) -> bool:
-    """True when every end point of ``run`` lies within ``q_mm`` of the run's chord."""
-    a, b = np.asarray(run[0].start, float), np.asarray(run[-1].end, float)
-    d = b - a
-    n = float(np.linalg.norm(d))
-    if n <= EPS_MM:
-        return False
-    pts = np.array([m.end for m in run[:-1]], dtype=float) - a
-    t = np.clip(pts @ d / (n * n), 0.0, 1.0)
-    off = np.linalg.norm(pts - t[:, None] * d, axis=1)
-    return bool(np.all(off <= q_mm))
 
 
 def _direction(m: Move) -> np.ndarray:

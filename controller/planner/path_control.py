@@ -1,0 +1,103 @@
+"""The path control of a move (G61, G61.1, G64 P Q, else the machine file's ``[path]``), and
+G64 Q's naive-CAM merge: consecutive straight feed moves at one feed whose end points lie within
+Q of one line become that line (LinuxCNC's naive-CAM detector), before corners are blended
+(:mod:`~gantry_sim.controller.planner.blend`).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import dataclass, replace
+
+import numpy as np
+
+from gantry_sim.controller.config import PathSettings
+from gantry_sim.controller.moves import Dwell, Linear, Move
+
+__all__ = ["EPS_MM", "MAX_MERGE_RUN", "Control", "control", "merge_naive_cam"]
+
+#: Longest run of straight moves the naive-CAM merge considers at once (bounds its cost).
+MAX_MERGE_RUN = 256
+#: Lengths [mm] at or below this are nothing (zero-length moves, coincident points).
+EPS_MM = 1e-9
+
+
+@dataclass(frozen=True)
+class Control:
+    """The path control of one move, resolved against the machine file."""
+
+    mode: str
+    tolerance_mm: float
+    naive_cam_mm: float
+
+
+def control(move: Move, settings: PathSettings) -> Control:
+    """``move``'s path control (its own, else the machine file's ``settings``)."""
+    pc = getattr(move, "path", None)
+    if pc is None:
+        return Control(settings.mode, settings.tolerance_mm, settings.naive_cam_tolerance_mm)
+    tol = settings.tolerance_mm if pc.tolerance_mm is None else pc.tolerance_mm
+    q = settings.naive_cam_tolerance_mm if pc.naive_cam_mm is None else pc.naive_cam_mm
+    return Control(pc.mode, tol, q)
+
+
+def merge_naive_cam(
+    moves: list[Move],
+    stops: list[bool],
+    holds: dict[int, list[Dwell]],
+    settings: PathSettings,
+) -> tuple[list[Move], list[bool], dict[int, list[Dwell]]]:
+    """G64 Q: runs of straight moves whose end points lie within Q of one line, merged into
+    that line. ``stops``: per move, an exact stop after it; ``holds``: dwells per junction
+    (0: before the first move); returns the three for the merged moves."""
+    new_moves: list[Move] = []
+    new_stops: list[bool] = []
+    new_holds: dict[int, list[Dwell]] = {}
+    i = 0
+    while i < len(moves):
+        if i in holds:
+            new_holds[len(new_moves)] = holds[i]
+        m = moves[i]
+        c = control(m, settings)
+        j = i
+        if isinstance(m, Linear) and c.mode == "G64" and c.naive_cam_mm > 0:
+            while (
+                j + 1 < len(moves)
+                and j + 1 - i < MAX_MERGE_RUN
+                and not stops[j]
+                and (j + 1) not in holds
+                and _mergeable(m, moves[j + 1], settings)
+                and _within(moves[i : j + 2], c.naive_cam_mm)
+            ):
+                j += 1
+        if j > i and isinstance(m, Linear):
+            last = moves[j]
+            new_moves.append(replace(m, end=last.end, path=getattr(last, "path", None)))
+        else:
+            new_moves.append(m)
+        new_stops.append(stops[j])
+        i = j + 1
+    if len(moves) in holds:
+        new_holds[len(new_moves)] = holds[len(moves)]
+    return new_moves, new_stops, new_holds
+
+
+def _mergeable(first: Linear, nxt: Move, settings: PathSettings) -> bool:
+    return (
+        isinstance(nxt, Linear)
+        and nxt.feed_mm_per_min == first.feed_mm_per_min
+        and control(nxt, settings).mode == "G64"
+    )
+
+
+def _within(run: Sequence[Move], q_mm: float) -> bool:
+    """True when every end point of ``run`` lies within ``q_mm`` of the run's chord."""
+    a, b = np.asarray(run[0].start, float), np.asarray(run[-1].end, float)
+    d = b - a
+    n = float(np.linalg.norm(d))
+    if n <= EPS_MM:
+        return False
+    pts = np.array([m.end for m in run[:-1]], dtype=float) - a
+    t = np.clip(pts @ d / (n * n), 0.0, 1.0)
+    off = np.linalg.norm(pts - t[:, None] * d, axis=1)
+    return bool(np.all(off <= q_mm))
