@@ -122,24 +122,27 @@ def spiral_speed_rate(arc: Arc, u: np.ndarray) -> np.ndarray:
     """d|dp/du|/du [mm] at sweep fractions ``u`` (0 on a circle or helix): with
     |dp/du|^2 = (r1 - r0)^2 + (r(u) A)^2 + (h1 - h0)^2, it is r(u) A^2 (r1 - r0) / |dp/du|."""
     f = arc_frame(arc)
+    u = np.asarray(u, dtype=float)
+    r = f.r0_mm + (f.r1_mm - f.r0_mm) * u
+    return r * arc.angle**2 * (f.r1_mm - f.r0_mm) / _speed_u(f, arc.angle, u)
+
+
+def _speed_u(f: ArcFrame, angle: float, u: np.ndarray) -> np.ndarray:
+    """|dp/du| [mm] of a spiral at sweep fractions ``u`` (any shape):
+    sqrt((r1 - r0)^2 + (r(u) A)^2 + (h1 - h0)^2)."""
     dr = f.r1_mm - f.r0_mm
-    r = f.r0_mm + dr * np.asarray(u, dtype=float)
-    speed = np.sqrt(dr**2 + (r * arc.angle) ** 2 + (f.h1_mm - f.h0_mm) ** 2)
-    return r * arc.angle**2 * dr / speed
+    c2 = dr**2 + (f.h1_mm - f.h0_mm) ** 2
+    return np.sqrt(c2 + ((f.r0_mm + dr * u) * angle) ** 2)
 
 
 def spiral_length_at(arc: Arc, u: np.ndarray) -> np.ndarray:
     """Path length [mm] from the start to sweep fractions ``u`` (k,) of a spiral:
-    the integral of |dp/du| = sqrt((r1 - r0)^2 + (r(u) A)^2 + (h1 - h0)^2), by Gauss-Legendre
-    on [0, u]."""
-    f = arc_frame(arc)
-    return _spiral_length(f, arc.angle, np.asarray(u, dtype=float))
+    the integral of |dp/du| on [0, u], by Gauss-Legendre."""
+    return _spiral_length(arc_frame(arc), arc.angle, np.asarray(u, dtype=float))
 
 
 def _spiral_length(f: ArcFrame, angle: float, u: np.ndarray) -> np.ndarray:
-    r = f.r0_mm + (f.r1_mm - f.r0_mm) * (u[:, None] * _GL_X[None, :])
-    c2 = (f.r1_mm - f.r0_mm) ** 2 + (f.h1_mm - f.h0_mm) ** 2
-    return u * (np.sqrt(c2 + (r * angle) ** 2) @ _GL_W)
+    return u * (_speed_u(f, angle, u[:, None] * _GL_X[None, :]) @ _GL_W)
 
 
 def spiral_fraction_at(arc: Arc, s_mm: np.ndarray, length_mm: float) -> np.ndarray:
@@ -149,12 +152,8 @@ def spiral_fraction_at(arc: Arc, s_mm: np.ndarray, length_mm: float) -> np.ndarr
     s = np.asarray(s_mm, dtype=float)
     u = s / length_mm
     f = arc_frame(arc)
-    dr = f.r1_mm - f.r0_mm
-    c2 = dr**2 + (f.h1_mm - f.h0_mm) ** 2
     for _ in range(8):
-        step = (_spiral_length(f, arc.angle, u) - s) / np.sqrt(
-            c2 + ((f.r0_mm + dr * u) * arc.angle) ** 2
-        )
+        step = (_spiral_length(f, arc.angle, u) - s) / _speed_u(f, arc.angle, u)
         u = u - step
         if not np.any(np.abs(step) > 4e-16):
             break

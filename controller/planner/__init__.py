@@ -5,9 +5,10 @@ servo's reference. Units: mm, s (speeds mm/s, accelerations mm/s^2, jerks mm/s^3
 
 The steps, in the order :func:`plan` runs them (module: its one job):
 
-0. ``blend``          path control (G61, G61.1, G64 P Q): G64 Q merges, blend arcs at corners
-   ``corner_blend``   (``corner_blend``: corners that involve an arc); ``limit_events``: Marlin's
-                      M201-M205, planned part by part
+0. ``blend``          path control (G61, G61.1, G64 P Q): blend arcs at corners
+   ``corner_blend``   (``corner_blend``: corners that involve an arc); ``path_control``: each
+                      move's mode and G64 Q's merge; ``limit_events``: Marlin's M201-M205,
+                      planned part by part
 1. ``travel``         refuse moves that leave the machine's travel (arcs: their quadrant points)
 2. ``segment``        arcs -> chord vertices ("chord": grbl's sagitta rule, "fixed": Marlin's)
 3. ``move_geometry``  per move: vertices, end tangents and curvatures, its 1-D limits

@@ -92,8 +92,10 @@ def plan_chains_forked(
     the processes in turn. A chain's pieces depend on nothing but the chain and its end speeds,
     so the plan is the same bit for bit."""
     n = process_count()
+    if n <= 1:
+        return plan_chains(setup, todo, speeds)
     work = [_work(setup, key) for key, _ in todo]
-    if n <= 1 or sum(work) < FORK_WORK:
+    if sum(work) < FORK_WORK:
         return plan_chains(setup, todo, speeds)
     out: dict[ChainKey, Chain] = {}
     first, size = 0, 0
