@@ -10,37 +10,79 @@ cubic per axis: a 60 s program at 1 kHz samples in milliseconds.
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import NamedTuple
 
 import numpy as np
 
 from gantry_sim.controller.planner.jerk3 import phase_starts
 
 
-class Jerk3Run(NamedTuple):
+class Jerk3Run:
     """m closed-form pieces (:mod:`~gantry_sim.controller.planner.jerk3`) of three phases of
-    length ``h`` (m,) [s], on all axes: each piece's start position [mm], velocity [mm/s],
+    length :attr:`h` (m,) [s], on all axes: each piece's start position [mm], velocity [mm/s],
     acceleration [mm/s^2] (m, 3) and its jerks [mm/s^3] (m, 3 phases, 3 axes). The later
     phases' start states are rebuilt (:func:`~gantry_sim.controller.planner.jerk3.phase_starts`,
     the same numbers) when the plan is built: held this way, a round's arcs take 19 numbers per
-    piece instead of 45."""
+    piece instead of 45. The 19 numbers of a piece are one row of one (m, 19) array
+    (:attr:`rows`: h, p, v, a, j): a plan holds tens of thousands of runs until the run ends,
+    and five arrays a run took a third more memory than their numbers, in array headers."""
 
-    h: np.ndarray
-    p: np.ndarray
-    v: np.ndarray
-    a: np.ndarray
-    j: np.ndarray
+    __slots__ = ("rows",)
+
+    def __init__(self, h, p, v, a, j) -> None:
+        """A copy of the pieces given (``h`` (m,), ``p``, ``v``, ``a`` (m, 3), ``j`` (m, 3, 3))."""
+        m = np.shape(h)[0]
+        rows = np.empty((m, 19))
+        rows[:, 0] = h
+        rows[:, 1:4] = p
+        rows[:, 4:7] = v
+        rows[:, 7:10] = a
+        rows[:, 10:] = np.reshape(j, (m, 9))
+        self.rows = rows
+
+    @classmethod
+    def joined(cls, runs: list[Jerk3Run]) -> Jerk3Run:
+        """The pieces of ``runs``, one after another, as one run."""
+        out = cls.__new__(cls)
+        out.rows = np.concatenate([r.rows for r in runs])
+        return out
+
+    @property
+    def h(self) -> np.ndarray:
+        return self.rows[:, 0]
+
+    @property
+    def p(self) -> np.ndarray:
+        return self.rows[:, 1:4]
+
+    @property
+    def v(self) -> np.ndarray:
+        return self.rows[:, 4:7]
+
+    @property
+    def a(self) -> np.ndarray:
+        return self.rows[:, 7:10]
+
+    @property
+    def j(self) -> np.ndarray:
+        return self.rows[:, 10:].reshape(-1, 3, 3)
+
+    @property
+    def fields(self) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+        """(h, p, v, a, j), views of :attr:`rows`."""
+        return self.h, self.p, self.v, self.a, self.j
 
     def axis_phases(self, axis: int) -> tuple[np.ndarray, ...]:
         """The phases of ``axis`` (duration [s], p, v, a, j), 3 m each."""
-        ps, vs, as_ = phase_starts(self.p, self.v, self.a, self.j, self.h)
-        cols = (ps[:, :, axis], vs[:, :, axis], as_[:, :, axis], self.j[:, :, axis])
-        return (np.repeat(self.h, 3), *(c.ravel() for c in cols))
+        h, p, v, a, j = self.fields
+        ps, vs, as_ = phase_starts(p, v, a, j, h)
+        cols = (ps[:, :, axis], vs[:, :, axis], as_[:, :, axis], j[:, :, axis])
+        return (np.repeat(h, 3), *(c.ravel() for c in cols))
 
 
 #: A stretch of phases: per axis one (5, n) array (rows duration [s], p, v, a, j; the axes may
-#: have different phase counts: Ruckig's pieces do), or a :class:`Jerk3Run`.
-Segment = tuple[np.ndarray, np.ndarray, np.ndarray] | Jerk3Run
+#: have different phase counts: Ruckig's pieces do), indexed by axis: a tuple of three, or one
+#: (3, 5, n) array where the counts are equal; or a :class:`Jerk3Run`.
+Segment = tuple[np.ndarray, np.ndarray, np.ndarray] | np.ndarray | Jerk3Run
 #: The phases of a chain (or a dwell), segment by segment in time order.
 Chunk = tuple[Segment, ...]
 
@@ -59,26 +101,31 @@ class CubicBuilder:
             col.append(np.asarray(x, dtype=float).ravel())
 
     def add_jerk3(self, run: Jerk3Run) -> None:
-        """Append closed-form pieces to every axis (copied: ``run`` may view larger arrays)."""
+        """Append closed-form pieces to every axis (a :class:`Jerk3Run` holds a copy of its
+        pieces)."""
         self._flush()
-        self.segments.append(Jerk3Run(*(np.array(x) for x in run)))
+        self.segments.append(run)
 
     def _flush(self) -> None:
-        """The phases added since the last segment, as one segment (per axis a (5, n) array:
-        one array, not five, as a plan keeps tens of thousands of them until it is built)."""
+        """The phases added since the last segment, as one segment: per axis a (5, n) array
+        (one array, not five, as a plan keeps tens of thousands of them until it is built),
+        and where the axes have as many phases (all but some Ruckig pieces), one (3, 5, n)
+        array whose ``[axis]`` is that axis' (5, n), in place of three."""
         if not any(c[0] for c in self.cols):
             return
-        out = []
-        for c in self.cols:
-            n = sum(x.size for x in c[0])
-            arr = np.empty((5, n))
+        sizes = [sum(x.size for x in c[0]) for c in self.cols]
+        if sizes[0] == sizes[1] == sizes[2]:
+            whole = np.empty((3, 5, sizes[0]))
+            out = [whole[0], whole[1], whole[2]]
+        else:
+            out = [np.empty((5, n)) for n in sizes]
+        for c, arr, n in zip(self.cols, out, sizes, strict=True):
             if n:
                 for row, x in zip(arr, c, strict=True):
                     np.concatenate(x, out=row)
-            out.append(arr)
             for col in c:
                 col.clear()
-        self.segments.append((out[0], out[1], out[2]))
+        self.segments.append(whole if sizes[0] == sizes[1] == sizes[2] else tuple(out))
 
     def chunk(self) -> Chunk:
         """The phases collected, segment by segment."""

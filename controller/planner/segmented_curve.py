@@ -105,7 +105,7 @@ class SegmentedCurve:
         segs = self._blocks[b]
         runs = [s for s in segs if isinstance(s, Jerk3Run)]
         if runs:
-            h, p0, v0, a0, js = (np.concatenate([r[f] for r in runs]) for f in range(5))
+            h, p0, v0, a0, js = Jerk3Run.joined(runs).fields
             ps, vs, as_ = phase_starts(p0, v0, a0, js, h)
             at = np.cumsum([0] + [3 * r.h.size for r in runs]).tolist()
         out = []
