@@ -31,6 +31,17 @@ _OK = (ruckig.Result.Working, ruckig.Result.Finished)
 TINY_AXIS_MM = 1e-6
 TINY_AXIS_MM_PER_S = 1e-2
 TINY_AXIS_MM_PER_S2 = 10.0
+#: Ruckig 0.19 rejects some 1-D profiles that lie exactly on the boundary between two of its
+#: profile shapes (a 0.20000000000000284 mm move from rest to rest at acceleration 1000 mm/s^2
+#: and jerk 100,000 mm/s^3, a Marlin printer's travel move, fails in its step 1 while 0.2 mm and
+#: 0.2000000000001 mm plan). Such a profile is planned again with the acceleration and jerk
+#: limits lowered by these shares, in turn: lower limits are still kept, and the profile is
+#: longer by about the same share.
+LIMIT_RETRY_SHARES = (1e-9, 1e-6)
+#: Doublings of a piece's duration tried for an axis planned in closed form beside Ruckig's
+#: (see RuckigSolver._piece_past_tiny_axes), then bisection steps on that duration.
+TINY_AXIS_DOUBLINGS = 40
+TINY_AXIS_BISECTIONS = 40
 
 #: Constant-jerk phases of one axis: durations [s] and each phase's start position [mm],
 #: velocity [mm/s], acceleration [mm/s^2], and its jerk [mm/s^3].
@@ -127,9 +138,15 @@ class RuckigSolver:
         inp.target_position, inp.target_velocity = [length_mm], [v_out]
         inp.target_acceleration = [0.0]
         inp.max_velocity = [cap_mm_per_s]
-        inp.max_acceleration = [acc_mm_per_s2]
-        inp.max_jerk = [jerk_mm_per_s3]
-        _calculate(self._otg1, inp, self._tr1)
+        for share in (0.0, *LIMIT_RETRY_SHARES):  # see LIMIT_RETRY_SHARES
+            inp.max_acceleration = [acc_mm_per_s2 * (1.0 - share)]
+            inp.max_jerk = [jerk_mm_per_s3 * (1.0 - share)]
+            try:
+                _calculate(self._otg1, inp, self._tr1)
+                break
+            except RuckigRejected:
+                if share == LIMIT_RETRY_SHARES[-1]:
+                    raise
         rows = np.array(_phases(self._tr1, 0), dtype=float).T
         if rows[:, 2].min() < -1e-9 * max(cap_mm_per_s, 1.0):
             raise ProfileReverses()
@@ -182,7 +199,11 @@ class RuckigSolver:
         quadrant point one axis may move 1e-8 mm at 1e-5 mm/s, below Ruckig's numerical
         resolution): Ruckig plans the other axes, and each tiny axis follows the closed-form
         three-phase constant-jerk piece between its states over the same time, which must keep
-        its jerk limit. Raises RuckigRejected when no axis is tiny or that fails too."""
+        its acceleration and jerk limits. Where it would not (the others' piece is short, and a
+        tiny axis must still change its acceleration), the piece is made longer: the shortest
+        duration the tiny axes fit in (:meth:`_tiny_axes_duration`), which the caller sees as a
+        stretched piece and answers by slowing the junction. Raises RuckigRejected when no axis
+        is tiny or that fails too."""
         p0, v0, a0 = start
         p1, v1, a1 = end
         tiny = (
@@ -193,18 +214,34 @@ class RuckigSolver:
         if not tiny.any() or tiny.all():
             raise RuckigRejected("no piece, and no axis small enough to plan on its own")
         inp, tr = self._in3, self._tr3
+        lim = np.asarray(inp.max_acceleration)[tiny], np.asarray(inp.max_jerk)[tiny]
+
+        def closed_form(duration_s: float):
+            """The tiny axes' closed-form piece over ``duration_s``, and whether it keeps their
+            acceleration and jerk limits."""
+            c = jerk3_pairs(
+                p0[None], v0[None], a0[None], p1[None], v1[None], a1[None], np.array([duration_s])
+            )
+            ok = np.all(np.abs(c.a[0][:, tiny]) <= lim[0]) and np.all(
+                np.abs(c.j[0][:, tiny]) <= lim[1]
+            )
+            return c, bool(ok)
+
         inp.enabled = [not bool(t) for t in tiny]
         try:
             inp.minimum_duration = float(min_duration_s)
             _calculate(self._otg3, inp, tr)
+            closed, ok = closed_form(tr.duration)
+            if not ok:  # longer, so that the tiny axes keep their limits (the caller sees it)
+                longer = self._tiny_axes_duration(tr.duration, closed_form)
+                inp.minimum_duration = longer
+                _calculate(self._otg3, inp, tr)
+                closed, ok = closed_form(tr.duration)
         finally:
             inp.enabled = [True, True, True]
-        dur = tr.duration
-        closed = jerk3_pairs(
-            p0[None], v0[None], a0[None], p1[None], v1[None], a1[None], np.array([dur])
-        )
-        if np.any(np.abs(closed.j[0][:, tiny]) > np.asarray(inp.max_jerk)[tiny]):
+        if not ok:
             raise RuckigRejected("no piece: a barely moving axis would exceed its jerk limit")
+        dur = tr.duration
         h = dur / 3.0
         phases = tuple(
             ([h, h, h], *(closed[q][0, :, i].tolist() for q in range(4)))
@@ -224,3 +261,21 @@ class RuckigSolver:
             pos[:, i] = cp + cv * tau + ca * tau**2 / 2 + cj * tau**3 / 6
             vel[:, i] = cv + ca * tau + cj * tau**2 / 2
         return RuckigPiece(dur, phases, pos, vel)  # type: ignore[arg-type]
+
+    @staticmethod
+    def _tiny_axes_duration(start_s: float, closed_form) -> float:
+        """The shortest duration [s] from ``start_s`` on (to within 2^-TINY_AXIS_BISECTIONS of
+        it) over which ``closed_form(duration)[1]`` holds: the tiny axes' closed-form piece keeps
+        their limits (its jerks fall as the piece gets longer); ``start_s`` if none is found."""
+        lo, hi = start_s, start_s
+        for _ in range(TINY_AXIS_DOUBLINGS):
+            hi *= 2.0
+            if closed_form(hi)[1]:
+                break
+            lo = hi
+        else:
+            return start_s
+        for _ in range(TINY_AXIS_BISECTIONS):
+            mid = 0.5 * (lo + hi)
+            lo, hi = (lo, mid) if closed_form(mid)[1] else (mid, hi)
+        return hi

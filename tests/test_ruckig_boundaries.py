@@ -1,0 +1,113 @@
+"""Profiles and pieces where Ruckig 0.19 gives no answer, found in real programs.
+
+* A Marlin travel of 0.20000000000000284 mm (86.997 - 86.797 in floats) from rest to rest at
+  1000 mm/s^2 lies on the boundary of two of Ruckig's profile shapes, and its step 1 fails
+  (PrusaSlicer 2.x output, a door-opener print; ``RuckigSolver.profile`` retries with limits
+  lowered by 1e-9).
+* In a slot of CAMotics' example ``spindle-encoder.ngc`` (Lawrence Glaister, 2007; G64 P.002
+  in inches), the piece at the start of a 0.19 mm arc must turn the X acceleration of the blend
+  before it (-9.4 mm/s^2) in 0.13 ms while X barely moves: Ruckig rejects the 3-DoF piece, and
+  the closed-form X piece over Y's duration broke X's jerk limit 4 times. The piece is now made
+  longer until X fits (``RuckigSolver._tiny_axes_duration``), and the junction slows.
+
+Both exited 3 ("internal error") before.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from gantry_sim.controller.gcode.interpreter import interpret_events
+from gantry_sim.controller.moves import Linear, Rapid
+from gantry_sim.controller.planner.plan import plan
+from gantry_sim.controller.planner.ruckig_solver import RuckigSolver
+from tests.plan_helpers import assert_within_limits
+
+MARLIN_TRAVEL = """G21
+G90
+M204 S1000
+G1 F8400
+G1 X80.733 Y100.993
+G1 X86.797 Y78.362
+G1 X86.997 Y78.362
+G1 X99.394 Y90.759
+"""
+
+ENCODER_SLOT = """G21 G17 G90 G64 P0.0508
+G0 X28.3845 Y0 Z0
+G1 X27.209738 Y-0.025452 Z-0.104422 F139.7
+G3 X27.209738 Y0.025452 I-27.209738 J0.025452
+G1 X29.559093 Y0.096188
+G2 X29.559093 Y-0.096188 I-29.559093 J-0.096188
+G1 X27.209738 Y-0.025452
+G0 Z2.54
+M2
+"""
+
+
+def _end_state(phases) -> tuple[float, float, float]:  # type: ignore[no-untyped-def]
+    """Position, velocity and acceleration at the end of one axis' constant-jerk phases."""
+    dur, p, v, a, j = (np.asarray(x, dtype=float) for x in phases)
+    h = dur[-1]
+    return (
+        p[-1] + h * (v[-1] + h * (0.5 * a[-1] + h * j[-1] / 6.0)),
+        v[-1] + h * (a[-1] + 0.5 * h * j[-1]),
+        a[-1] + h * j[-1],
+    )
+
+
+def test_a_profile_on_a_shape_boundary_plans_within_its_limits(machine) -> None:  # type: ignore[no-untyped-def]
+    length = 86.997 - 86.797
+    assert length == 0.20000000000000284
+    prof = RuckigSolver(machine.limits).profile(length, 0.0, 0.0, 140.0, 1000.0, 100_000.0)
+    dur, p, v, a, j = prof.rows.T
+    assert np.all(np.abs(j) <= 100_000.0) and np.all(np.abs(a) <= 1000.0)
+    assert np.all(v >= 0.0) and np.all(v <= 140.0)
+    end = _end_state((dur, p, v, a, j))
+    assert end == pytest.approx((length, 0.0, 0.0), abs=1e-12)
+    assert prof.duration_s == pytest.approx(0.04, rel=1e-6)  # 1e-9 lower limits: as long
+
+
+def test_a_piece_whose_barely_moving_axis_must_turn_its_acceleration_is_lengthened(machine) -> None:  # type: ignore[no-untyped-def]
+    start = (
+        np.array([29.559249998061585, 3.3851972186039987e-04, -0.10442222222222221]),
+        np.array([1.5103420154931733e-05, -1.318817614942333, 0.0]),
+        np.array([-9.3791102891301463, -1.0741185268052733e-04, 0.0]),
+    )
+    end = (
+        np.array([29.559249999515053, 1.6931898494441263e-04, -0.10442222222222221]),
+        np.array([7.5581180419075706e-06, -1.3194757858110924, 0.0]),
+        np.array([-0.05884042499863563, -10.261795433027933, 0.0]),
+    )
+    chord_s = 1.2827595908455190e-04
+    piece = RuckigSolver(machine.limits).piece(start, end, chord_s, samples=50)
+    assert piece.duration_s > chord_s  # stretched: the planner then slows the junction
+    vmax, amax, jmax = (np.asarray(x) for x in machine.limits.per_axis())
+    for i, phases in enumerate(piece.phases):
+        dur, _p, v, a, j = (np.asarray(x, dtype=float) for x in phases)
+        assert dur.sum() == pytest.approx(piece.duration_s, rel=1e-12)
+        assert np.all(np.abs(j) <= jmax[i]) and np.all(np.abs(a) <= amax[i]), i
+        assert np.all(np.abs(v) <= vmax[i]), i
+        got = _end_state(phases)
+        want = (end[0][i], end[1][i], end[2][i])
+        assert got == pytest.approx(want, abs=1e-9), i
+    assert piece.positions is not None
+    assert np.allclose(piece.positions[-1], end[0], atol=1e-9)
+
+
+@pytest.mark.parametrize(
+    ("text", "dialect"), [(MARLIN_TRAVEL, "marlin"), (ENCODER_SLOT, "linuxcnc")]
+)
+def test_real_program_fragments_that_stopped_the_planner_plan_within_limits(
+    text: str, dialect: str, machine
+) -> None:  # type: ignore[no-untyped-def]
+    items = list(interpret_events(text, dialect))
+    p = plan(items, machine)
+    tr = p.sample(machine.servo.period_s)
+    moves = [m for m in items if isinstance(m, Rapid | Linear)]
+    assert_within_limits(tr, machine, moves)
+    assert np.allclose(tr.pos[-1], p.end_mm, atol=1e-9)
+    assert not tr.vel[-1].any()
+    if dialect == "linuxcnc":  # blends stay within G64 P0.0508
+        assert max(b.deviation_mm for b in p.blends) <= 0.0508
