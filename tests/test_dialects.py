@@ -162,11 +162,24 @@ def test_grbl_needs_no_program_end_and_reads_system_lines_and_jogs() -> None:
         ("G10 P1 X1", 28),
         ("G2 X2.1 I1 F10", 33),
         ("G2 X3 R1 F10", 34),
+        ("G2 I-1.1 F300", 26),  # grbl traces no full circle from offsets alone (gcode.c)
+        ("G2 Z-1 I-1.1 F300", 32),
+        ("G18 G2 Y1 I1 F300", 32),  # XZ plane: Y is not its axis
+        ("G2 X1 F10", 35),
     ],
 )
 def test_grbl_refuses_what_grbl_refuses_with_its_error_number(text: str, code: int) -> None:
     err = error_of(text + "\n", "grbl")
     assert err.line == 1 and err.message.endswith(f"(grbl error {code})"), err.message
+
+
+def test_a_full_circle_from_offsets_alone_is_linuxcncs_not_grbls() -> None:
+    # rs274 draws it (tests/data/rs274: gen_frame_075, "G17 G2 I2.184 J-0.7"); grbl 1.1 fails
+    # the block with error 26 before it reads the offsets
+    text = "G21 G90\nG0 X0 Y0\nG2 I-1.1 F300\nM2\n"
+    (arc,) = [m for m in parse_program(text) if isinstance(m, Arc)]
+    assert arc.turns == 1 and abs(arc.angle) == pytest.approx(2 * math.pi)
+    assert error_of(text, "grbl").line == 3
 
 
 def test_grbl_arcs_homing_and_offsets() -> None:

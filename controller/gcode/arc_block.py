@@ -1,6 +1,6 @@
 """One G2/G3 block -> an :class:`~controller.moves.Arc`, validated under a dialect's rules.
 
-Numbered checks, in rs274's order: (1) a centre is given (IJK or R, not both); (2) P is a whole
+Numbered checks, in rs274's order (grbl first asks for an axis word of the plane): (1) a centre is given (IJK or R, not both); (2) P is a whole
 number of turns; (3) no offset of the plane's normal axis; (4) R format: a plane axis word is
 given, the end differs from the start, |R| reaches the end; IJK format: the offsets the dialect
 requires are present, neither radius is zero, the end lies on the arc within the dialect's
@@ -64,6 +64,17 @@ def arc_move(
     i1, i2, n = PLANE_AXES[s.plane]
     a1, a2 = AXES[i1], AXES[i2]
     o1, o2, on = _OFFSETS[i1], _OFFSETS[i2], _OFFSETS[n]
+    if d.arc_needs_plane_axis_word and a1 not in v and a2 not in v:
+        # grbl checks the axis words before the centre (gcode.c: errors 26, then 32)
+        if not any(a in v for a in AXES):
+            raise GcodeError(
+                f"G2/G3 with no axis word; {d.name} needs the arc's end point in the "
+                f"{s.plane} plane ({a1} and/or {a2}), also for a full circle"
+            )
+        raise GcodeError(
+            f"arc with neither {a1} nor {a2}; {d.name} needs the arc's end point in the "
+            f"{s.plane} plane, also for a full circle"
+        )
     has_r = "R" in v
     has_ijk = any(o in v for o in (o1, o2) if d.off_plane_offset_ignored) or (
         not d.off_plane_offset_ignored and any(o in v for o in _OFFSETS)

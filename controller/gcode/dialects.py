@@ -89,6 +89,8 @@ class Dialect:
         arc_p_allowed: P (turns) is an arc word.
         off_plane_offset_ignored: an offset word of the plane's normal axis on an arc is
             consumed and ignored (grbl) instead of an error.
+        arc_needs_plane_axis_word: every G2/G3 needs an axis word of its plane, in either
+            format (grbl: no full circle from the offsets alone).
         g10_rotation: G10 L2 takes R (the XY rotation).
         coordinate_systems: how many of G54..G59.3 exist (grbl: 6).
         error_codes: (message fragment, firmware error number) pairs; the first match is
@@ -131,6 +133,7 @@ class Dialect:
     home_all_axes: bool = False
     arc_p_allowed: bool = True
     off_plane_offset_ignored: bool = False
+    arc_needs_plane_axis_word: bool = False
     g10_rotation: bool = True
     coordinate_systems: int = 9
     error_codes: tuple[tuple[str, int], ...] = ()
@@ -247,7 +250,8 @@ _GRBL_ERRORS = (
     ("unknown g code", 20), ("unsupported m code", 20), ("is not supported", 20),
     ("two g codes from one modal group", 21),
     ("two m codes from one modal group", 21), ("zero feed rate", 22),
-    ("both use the axis words", 24), ("multiple", 25), ("g10 needs", 28),
+    ("both use the axis words", 24), ("multiple", 25), ("with no axis word", 26),
+    ("g10 needs", 28),
     ("dwell) needs a p", 28), ("coordinate systems", 29), ("g53", 30), ("g80", 31),
     ("neither", 32), ("ends where it starts", 33), ("radius to end of arc", 33),
     ("too small to reach", 34), ("has no centre", 35), ("missing", 35),
@@ -277,6 +281,7 @@ GRBL = Dialect(
     home_all_axes=True,
     arc_p_allowed=False,
     off_plane_offset_ignored=True,
+    arc_needs_plane_axis_word=True,
     g10_rotation=False,
     coordinate_systems=6,
     error_codes=_GRBL_ERRORS,
