@@ -47,6 +47,9 @@ CHORD_FIT_BLEND = 1.5
 JUNCTION_DEVIATION_SHARE = 0.1
 #: Bisection steps on the junction speed (the cap is found to within 2^-10 of its start value).
 STEPS = 10
+#: Pieces checked per batch in :func:`feasible_junction_caps`: its arrays take about 3 KB a
+#: piece, so the whole program at once was a transient of hundreds of MB at 100,000 blocks.
+BATCH_PIECES = 4096
 
 
 class EndState(NamedTuple):
@@ -221,8 +224,18 @@ def feasible_junction_caps(
             rows.append((b, g.vertices[0], d, kv, pv, t, k, s, g.feed_mm_per_s))
         else:
             rows.append((b, pv, t, k, g.vertices[-1], d, kv, s, g.feed_mm_per_s))
-    if not rows:
-        return caps
+    out = caps.copy()
+    for first in range(0, len(rows), BATCH_PIECES):
+        _lower_caps(rows[first : first + BATCH_PIECES], caps, out, per_axis)
+    return out
+
+
+def _lower_caps(
+    rows: list[tuple], caps: np.ndarray, out: np.ndarray, per_axis: tuple[Vec3, Vec3, Vec3]
+) -> None:
+    """Lower ``out`` [mm/s] (in place) to the highest speed, found by bisection below
+    ``caps``, at which each row's piece (see :func:`feasible_junction_caps`) keeps the
+    limits."""
     jb = np.array([r[0] for r in rows])
     p0, t0, k0, p1, t1, k1 = (np.array([r[i] for r in rows]) for i in range(1, 7))
     length = np.array([r[7] for r in rows])
@@ -238,7 +251,7 @@ def feasible_junction_caps(
 
     good = ok_at(hi)
     if good.all():
-        return caps
+        return
     idx = np.flatnonzero(~good)
     lo_i, hi_i = lo[idx], hi[idx]
     for _ in range(STEPS):
@@ -257,10 +270,8 @@ def feasible_junction_caps(
         )
         lo_i = np.where(okm, mid, lo_i)
         hi_i = np.where(okm, hi_i, mid)
-    out = caps.copy()
     for j, v in zip(jb[idx], lo_i, strict=True):
         out[j] = min(out[j], v)
-    return out
 
 
 def _subset(idx, *arrays):

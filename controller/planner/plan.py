@@ -131,6 +131,8 @@ def _plan(
         path = path_plan(items, machine.path, seg.chord_tolerance_mm, slow, jerk)
         prepared = _prepare(path, machine, feed_override_pct, known)
     geoms, active, caps, states, holds, smoothing = prepared
+    planned = {id(g.move): g.vertices for g in geoms}
+    del known, prepared, geoms  # held through the rounds otherwise (a tenth of their peak)
     solver = RuckigSolver(machine.limits)
     blend_arcs = frozenset(id(path.moves[k]) for k in path.blend_junction)
     done = replan_until_junctions_hold(
@@ -141,7 +143,6 @@ def _plan(
     lines = np.asarray(done.lines, dtype=np.int64)
     for arr in (end, move_start, lines):
         arr.setflags(write=False)
-    planned = {id(g.move): g.vertices for g in geoms}
     vertices = tuple(planned[id(m)] if id(m) in planned else _vertices(m, machine) for m in program)
     return Plan(
         moves=program,
