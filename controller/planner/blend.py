@@ -200,7 +200,9 @@ def _blend_corners(
                 a = e = 0.5 * (a + e)  # the blends meet: they absorb what is left
         starts.append(a)
         ends.append(e)
-        keep.append(float(np.linalg.norm(e - a)) > EPS_MM)
+        # a curve by its length: a full circle or a closed spline ends where it starts
+        straight = isinstance(m, Rapid | Linear)
+        keep.append((float(np.linalg.norm(e - a)) if straight else m.length_mm) > EPS_MM)
     new_moves: list[Move] = []
     new_stops: list[bool] = []
     new_holds: dict[int, list[Dwell]] = {}

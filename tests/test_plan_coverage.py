@@ -1,0 +1,127 @@
+"""Every programmed move is in the plan: on generated programs of lines, arcs and full circles
+(and two-turn circles) in each plane, under G61 and G64 with and without P, each arc's source
+line takes at least the time its length needs at its feed, less what corner blends may cut from
+its ends.
+
+Found by running real router programs (fortcollinscreatorhub/cnc, ``clamping/corner-3.ngc``: a
+plunge, a G1, then full-circle G3s under G64 P0.001): once one corner was blended, the blend
+pass dropped every move whose end is its start, so each full circle vanished from the plan
+(exit 0, cycle time 0.81 of the feed's lower bound, the circle's block 0 s in report.json).
+Seeded (derandomized): every run tests the same programs.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from hypothesis import HealthCheck, given, settings
+from hypothesis import strategies as st
+
+from gantry_sim.controller.gcode.dialects import with_segmentation_default
+from gantry_sim.controller.gcode.interpreter import parse_program
+from gantry_sim.controller.moves import Arc
+from gantry_sim.controller.planner.plan import plan
+from gantry_sim.sim.program import interpret_program
+
+SETTINGS = settings(
+    derandomize=True,
+    database=None,
+    deadline=None,
+    max_examples=40,
+    suppress_health_check=[HealthCheck.function_scoped_fixture, HealthCheck.too_slow],
+)
+#: plane -> (first axis, second axis, offset words) of the plane
+PLANES = {"G17": (0, 1, "IJ"), "G18": (2, 0, "KI"), "G19": (1, 2, "JK")}
+MODES = ["G61", "G64", "G64 P0.01", "G64 P0.05"]
+#: Share of an arc's time at its feed that must remain: a G64 P0.05 corner cut takes about
+#: 0.12 mm from each end of an arc of at least 3.1 mm (R >= 2, sweep >= 90 degrees).
+KEPT_SHARE = 0.85
+SAMPLE_S = 1e-3
+
+
+@st.composite
+def programs(draw):
+    """(text, {line: (length [mm], feed [mm/s])} of its arcs)."""
+    plane = draw(st.sampled_from(sorted(PLANES)))
+    i, j, words = PLANES[plane]
+    mode = draw(st.sampled_from(MODES))
+    feed = draw(st.sampled_from([600, 1500, 3000]))
+    pos = [0.0, 0.0, 0.0]
+    lines = [f"G21 G90 {plane} {mode}", "G0 X0 Y0 Z0", f"F{feed}"]
+    arcs: dict[int, tuple[float, float]] = {}
+    axis_words = "XYZ"
+    for _ in range(draw(st.integers(2, 6))):
+        kind = draw(st.sampled_from(["line", "arc", "circle", "circle2"]))
+        if kind == "line":
+            heading = draw(st.floats(0.0, 2 * math.pi))
+            length = draw(st.floats(2.0, 15.0))
+            pos[i] += length * math.cos(heading)
+            pos[j] += length * math.sin(heading)
+            lines.append("G1 " + " ".join(f"{axis_words[k]}{pos[k]:.4f}" for k in range(3)))
+            continue
+        radius = draw(st.floats(2.0, 15.0))
+        towards = draw(st.floats(0.0, 2 * math.pi))  # direction from the start to the centre
+        ccw = draw(st.booleans())
+        c = (pos[i] + radius * math.cos(towards), pos[j] + radius * math.sin(towards))
+        offsets = f"{words[0]}{c[0] - pos[i]:.4f} {words[1]}{c[1] - pos[j]:.4f}"
+        code = "G3" if ccw else "G2"
+        if kind == "arc":
+            sweep = draw(st.floats(math.pi / 2, 1.6 * math.pi))
+            start = math.atan2(pos[j] - c[1], pos[i] - c[0])
+            end = start + (sweep if ccw else -sweep)
+            pos[i], pos[j] = c[0] + radius * math.cos(end), c[1] + radius * math.sin(end)
+            target = " ".join(f"{axis_words[k]}{pos[k]:.4f}" for k in (i, j))
+            lines.append(f"{code} {target} {offsets}")
+            length = radius * sweep
+        else:  # a full circle (two turns: P2), its end word its start
+            turns = 2 if kind == "circle2" else 1
+            target = " ".join(f"{axis_words[k]}{pos[k]:.4f}" for k in (i, j))
+            lines.append(f"{code} {target} {offsets}" + (" P2" if turns == 2 else ""))
+            length = 2 * math.pi * radius * turns
+        arcs[len(lines)] = (length, feed / 60.0)
+    lines.append("M2")
+    return "\n".join(lines) + "\n", arcs
+
+
+def _seconds_per_line(text: str, machine) -> dict[int, float]:
+    p = plan(parse_program(text), machine)
+    lines = p.sample(SAMPLE_S).line
+    found, counts = np.unique(lines, return_counts=True)
+    return dict(zip(found.tolist(), (counts * SAMPLE_S).tolist(), strict=True))
+
+
+@SETTINGS
+@given(case=programs())
+def test_every_arc_and_full_circle_takes_its_time_at_its_feed(machine, case):
+    text, arcs = case
+    seconds = _seconds_per_line(text, machine)
+    for line, (length, feed) in arcs.items():
+        assert seconds.get(line, 0.0) >= KEPT_SHARE * length / feed, (line, text)
+
+
+#: The cut-down router program (the source's plunge, then one full circle after a blended
+#: corner) and the same pattern in grbl, whose default path mode blends every corner.
+CIRCLE_AFTER_BLEND = (
+    "G21 G90 G17\nG64 P0.02\nG0 X0 Y0\nG1 Z-1 F250\nG1 X3 F750\nG3 X3 Y0 I-3 J0\nM2\n"
+)
+GRBL_RAMP_THEN_CIRCLE = "G21 G90 G17\nG0 X0 Y0\nG1 X2 Z-1 F750\nG1 X3 Z-1\nG3 X3 Y0 I-3 J0\nM2\n"
+
+
+def test_a_full_circle_after_a_blended_corner_is_planned(machine):
+    p = plan(parse_program(CIRCLE_AFTER_BLEND), machine)
+    assert p.blends, "the corner at line 5 is blended"
+    circle = next(m for m in p.moves if isinstance(m, Arc))
+    seconds = _seconds_per_line(CIRCLE_AFTER_BLEND, machine)
+    assert seconds[6] >= KEPT_SHARE * circle.length_mm / (750 / 60.0)
+
+
+def test_grbl_plans_a_full_circle_after_a_ramp(machine):
+    grbl = with_segmentation_default(machine, "grbl")  # as `gantry plan --dialect grbl`
+    moves = interpret_program(
+        GRBL_RAMP_THEN_CIRCLE, dialect="grbl", file="ramp.gcode", machine=grbl, events=True
+    )
+    p = plan(moves, grbl)
+    assert p.blends, "grbl's corners are blended by default"
+    circle = 2 * math.pi * 3.0
+    assert p.duration_s >= circle / (750 / 60.0)
