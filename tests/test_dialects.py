@@ -166,11 +166,29 @@ def test_grbl_needs_no_program_end_and_reads_system_lines_and_jogs() -> None:
         ("G2 Z-1 I-1.1 F300", 32),
         ("G18 G2 Y1 I1 F300", 32),  # XZ plane: Y is not its axis
         ("G2 X1 F10", 35),
+        ("G80\nX1", 31),  # after G80 grbl has no motion mode for axis words alone
+        ("M98 P1", 20),
     ],
 )
 def test_grbl_refuses_what_grbl_refuses_with_its_error_number(text: str, code: int) -> None:
     err = error_of(text + "\n", "grbl")
-    assert err.line == 1 and err.message.endswith(f"(grbl error {code})"), err.message
+    assert err.line == text.count("\n") + 1, err.message
+    assert err.message.endswith(f"(grbl error {code})"), err.message
+    assert "M48" not in err.message  # an M code's message lists grbl's codes, not LinuxCNC's
+
+
+def test_grbl_starts_in_g0_and_takes_realtime_characters_out() -> None:
+    # svenhb/GRBL-Plotter's gcode_relative.nc opens "G21 G91 / Z2": grbl's parser state starts
+    # zeroed, and motion mode 0 is G0; marcio-pessoa/Escriba's programs carry "?  ; status"
+    text = "G21 G91\nZ2\n?  ; View current status\nG0 X-10 Y-10 ~\n\u00b0!X1 F100 G1\n"
+    moves = run(text, "grbl")
+    assert [(m.line, m.kind, m.end) for m in moves] == [
+        (2, "rapid", (0.0, 0.0, 2.0)),
+        (4, "rapid", (-10.0, -10.0, 2.0)),
+        (5, "linear", (-9.0, -10.0, 2.0)),
+    ]
+    assert "no motion mode" in error_of("G21 G91\nZ2\nM2\n", "linuxcnc").message  # rs274
+    assert "bad character '?'" in error_of("G21\n?\nM2\n", "linuxcnc").message
 
 
 def test_a_full_circle_from_offsets_alone_is_linuxcncs_not_grbls() -> None:

@@ -29,6 +29,7 @@ from gantry_sim.controller.gcode.lexer import (
     lex_line,
     split_lines,
     strip_line,
+    without_realtime,
 )
 from gantry_sim.controller.gcode.printer_codes import marlin_dwell_seconds
 from gantry_sim.controller.moves import Event, Move
@@ -46,6 +47,7 @@ class Source:
     lines: list[str]
     system_lines: bool = False
     own_lines: Callable[[str], str | None] | None = None
+    realtime: bool = False
     blocks: dict[int, Block | GcodeError] = field(default_factory=dict)
 
     def block(self, i: int) -> Block:
@@ -63,7 +65,7 @@ class Source:
         return got
 
     def _lex(self, i: int) -> Block:
-        raw = self.lines[i]
+        raw = without_realtime(self.lines[i]) if self.realtime else self.lines[i]
         kind = self.own_lines(raw) if self.own_lines is not None else None
         if kind == "quiet":
             return Block(i + 1, (), (), False, raw)
@@ -162,8 +164,9 @@ class Runner:
         system_lines: bool = False,
         owords: bool = True,
         own_lines: Callable[[str], str | None] | None = None,
+        realtime: bool = False,
     ) -> None:
-        self.main = Source(file, split_lines(text), system_lines, own_lines)
+        self.main = Source(file, split_lines(text), system_lines, own_lines, realtime)
         self.owords = owords
         self.step = step
         self.params = params

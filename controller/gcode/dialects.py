@@ -91,6 +91,13 @@ class Dialect:
             consumed and ignored (grbl) instead of an error.
         arc_needs_plane_axis_word: every G2/G3 needs an axis word of its plane, in either
             format (grbl: no full circle from the offsets alone).
+        initial_motion: the motion mode (tenths) at program start, which axis words alone
+            continue; None: none until the program sets one (rs274 refuses them). grbl: G0
+            (gc_init zeroes the parser state, and MOTION_MODE_SEEK is 0).
+        realtime_characters: the serial layer takes ``?``, ``~``, ``!``, ctrl-X and every byte
+            above 0x7F out of the stream before a line is parsed (grbl's realtime commands:
+            status, cycle start, feed hold, reset, and the extended-ASCII overrides), so they
+            may stand anywhere in a line.
         g10_rotation: G10 L2 takes R (the XY rotation).
         coordinate_systems: how many of G54..G59.3 exist (grbl: 6).
         error_codes: (message fragment, firmware error number) pairs; the first match is
@@ -134,6 +141,8 @@ class Dialect:
     arc_p_allowed: bool = True
     off_plane_offset_ignored: bool = False
     arc_needs_plane_axis_word: bool = False
+    initial_motion: int | None = None
+    realtime_characters: bool = False
     g10_rotation: bool = True
     coordinate_systems: int = 9
     error_codes: tuple[tuple[str, int], ...] = ()
@@ -256,6 +265,7 @@ _GRBL_ERRORS = (
     ("neither", 32), ("ends where it starts", 33), ("radius to end of arc", 33),
     ("too small to reach", 34), ("has no centre", 35), ("missing", 35),
     ("with no code that uses it", 36), ("axis word on a 3-axis machine", 20),
+    ("axis words with no motion mode", 31),
 )
 # fmt: on
 GRBL = Dialect(
@@ -282,6 +292,8 @@ GRBL = Dialect(
     arc_p_allowed=False,
     off_plane_offset_ignored=True,
     arc_needs_plane_axis_word=True,
+    initial_motion=0,
+    realtime_characters=True,
     g10_rotation=False,
     coordinate_systems=6,
     error_codes=_GRBL_ERRORS,

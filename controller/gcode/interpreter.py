@@ -103,7 +103,9 @@ class Interpreter:
         self.saved: dict[int, tuple[ModalState, bool]] = {}
         self.events = events
         self.state = ModalState(
-            feed_mm_per_min=dialect.default_feed_mm_per_min or 0.0, pocket=self.table.first
+            feed_mm_per_min=dialect.default_feed_mm_per_min or 0.0,
+            pocket=self.table.first,
+            motion=dialect.initial_motion,
         )
         self.params = Parameters(self._predefined, lambda: self.state.scale)
         self.params.numbered[COORD_INDEX] = 1.0
@@ -125,7 +127,7 @@ class Interpreter:
             return self._printer_home(block), False
         if block.limits:
             return self._limits(block), False
-        w = read_words(block, self.params)
+        w = read_words(block, self.params, d)
         s = self.state
         # Step 2: every code is one gantry-sim supports.
         check_codes(w, d)
@@ -550,7 +552,7 @@ class Interpreter:
     def _jog(self, block: Block) -> tuple[list[Move | Event], bool]:
         """grbl ``$J=``: a G1 in the jog's own modes and feed; the modal state is kept."""
         saved = self.state
-        w = read_words(block, self.params)
+        w = read_words(block, self.params, self.dialect)
         check_jog(w)
         g1 = Block(block.line, (("G", ("num", 1.0)), *block.words), (), False, block.text)
         try:
@@ -668,6 +670,7 @@ def interpret_events(
             system_lines=rules.system_lines,
             owords=rules.language,
             own_lines=OWN_LINES.get(rules.own_lines),
+            realtime=rules.realtime_characters,
         )
         runner.errors = errors
         runner.on_return = interp.sub_returned

@@ -37,6 +37,10 @@ O_KEYWORDS = (
 )
 # fmt: on
 _LINE_END = re.compile(r"\r\n|\r|\n")
+#: grbl's realtime characters (status, cycle start, feed hold, reset) and every character
+#: outside ASCII (grbl's serial layer drops each byte above 0x7F: its extended-ASCII realtime
+#: commands and anything else), taken out of a line before it is parsed.
+_REALTIME = re.compile("[?~!\x18\x80-\U0010ffff]")
 
 
 @dataclass(frozen=True)
@@ -120,6 +124,11 @@ def strip_line(raw: str) -> str:
     if in_comment:
         raise GcodeError("unclosed comment found; close it with ')' on the same line")
     return "".join(out).upper()
+
+
+def without_realtime(raw: str) -> str:
+    """``raw`` as grbl's parser receives it: realtime characters taken out of the stream."""
+    return _REALTIME.sub("", raw)
 
 
 def lex_line(raw: str, line: int, system_lines: bool = False) -> Block:

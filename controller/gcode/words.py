@@ -52,8 +52,16 @@ def _code(value: float, tenths: bool) -> int | None:
     return code if abs(scaled - code) < 1e-6 else None
 
 
-def read_words(block: Block, params: ParameterReader) -> Words:
-    """Step 1: evaluate the block's values (with parameters as they were before the line)."""
+def _m_list(dialect: Dialect | None) -> str:
+    """The M codes ``dialect`` accepts, as a message says them."""
+    if dialect is None or dialect.m_codes is None:
+        return f"allowed: {m_allowed()}"
+    return f"{dialect.name} accepts: " + ", ".join(f"M{m}" for m in sorted(dialect.m_codes))
+
+
+def read_words(block: Block, params: ParameterReader, dialect: Dialect | None = None) -> Words:
+    """Step 1: evaluate the block's values (with parameters as they were before the line);
+    ``dialect``: whose M codes an unknown one's message lists (default LinuxCNC's)."""
     g: dict[str, int] = {}
     m: dict[str, int] = {}
     values: dict[str, float] = {}
@@ -79,7 +87,7 @@ def read_words(block: Block, params: ParameterReader) -> Words:
             code = _code(value, False)
             group = None if code is None else M_GROUPS.get(code)
             if code is None or group is None:
-                raise GcodeError(f"unsupported M code M{value:g}; allowed: {m_allowed()}")
+                raise GcodeError(f"unsupported M code M{value:g}; {_m_list(dialect)}")
             if group in m:
                 raise GcodeError(
                     f"two M codes from one modal group on a line (M{m[group]} and M{code}); "
