@@ -33,7 +33,7 @@ SETTINGS = settings(
 )
 #: plane -> (first axis, second axis, offset words) of the plane
 PLANES = {"G17": (0, 1, "IJ"), "G18": (2, 0, "KI"), "G19": (1, 2, "JK")}
-MODES = ["G61", "G64", "G64 P0.01", "G64 P0.05"]
+MODES = ["G61", "G61.1", "G64", "G64 P0.01", "G64 P0.05", "G64 P0.02 Q0.02"]
 #: Share of an arc's time at its feed that must remain: a G64 P0.05 corner cut takes about
 #: 0.12 mm from each end of an arc of at least 3.1 mm (R >= 2, sweep >= 90 degrees).
 KEPT_SHARE = 0.85
