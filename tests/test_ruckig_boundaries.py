@@ -111,3 +111,34 @@ def test_real_program_fragments_that_stopped_the_planner_plan_within_limits(
     assert not tr.vel[-1].any()
     if dialect == "linuxcnc":  # blends stay within G64 P0.0508
         assert max(b.deviation_mm for b in p.blends) <= 0.0508
+
+
+#: Feeds so low that one piece between chord vertices outlasts Ruckig's 7,600 s: Ruckig returns
+#: ErrorTrajectoryDuration (-101), a code its Python binding's Result enum lacks (ValueError),
+#: which escaped as an internal error. Found by a hostile-input sweep.
+TOO_SLOW = {
+    "arc.ngc": ("G21 G90\nF0.000005\nG2 X10 Y0 I5 J0\nM2\n", 3),
+    "blended.ngc": ("G21 G90\nG1 X1 F0.00001\nG1 X2 Y1\nM2\n", 2),  # the corner's blend arc
+}
+
+
+@pytest.mark.parametrize("name", sorted(TOO_SLOW))
+def test_a_piece_longer_than_ruckig_plans_is_refused_naming_the_line(name, tmp_path, capsys):
+    from gantry_sim.sim.cli import main
+
+    text, line = TOO_SLOW[name]
+    program = tmp_path / name
+    program.write_text(text)
+    assert main(["plan", str(program)]) == 2
+    err = capsys.readouterr().err
+    assert err.startswith(f"{program}:{line}: error: ") and "raise the F" in err, err
+    assert err.count("\n") == 1
+
+
+def test_a_result_code_outside_the_bindings_enum_is_a_rejection(machine):
+    solver = RuckigSolver(machine.limits)
+    start = (np.zeros(3), np.zeros(3), np.zeros(3))
+    end = (np.array([1.0, 0.5, 0.0]), np.zeros(3), np.zeros(3))
+    # minimum_duration above 7,600 s: Ruckig's -101, then the time-optimal piece
+    piece = solver.piece(start, end, 1e4)
+    assert piece.duration_s < 1.0

@@ -18,7 +18,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from gantry_sim.controller.config import Limits
-from gantry_sim.controller.errors import PlannerFailure
+from gantry_sim.controller.errors import PlannerFailure, PlanningError
 from gantry_sim.controller.moves import Arc
 from gantry_sim.controller.planner.arc_batch import arc_deviation_many, piece_points_many
 from gantry_sim.controller.planner.arc_states import VertexStates, vertex_states_many
@@ -32,7 +32,12 @@ from gantry_sim.controller.planner.jerk3 import (
 from gantry_sim.controller.planner.junctions import EndState
 from gantry_sim.controller.planner.move_geometry import ArcGeometry, MoveGeometry
 from gantry_sim.controller.planner.profile import Profile1D
-from gantry_sim.controller.planner.ruckig_solver import RuckigPiece, RuckigRejected, RuckigSolver
+from gantry_sim.controller.planner.ruckig_solver import (
+    RUCKIG_MAX_DURATION_S,
+    RuckigPiece,
+    RuckigRejected,
+    RuckigSolver,
+)
 
 #: Largest distance of a piece next to a moving junction from the arc, in chord tolerances;
 #: beyond it the junction's speed is lowered and the program planned again. The check samples 25
@@ -241,6 +246,13 @@ class MovePieces:
         """One 3-DoF state-to-state piece by Ruckig (see
         :meth:`~gantry_sim.controller.planner.ruckig_solver.RuckigSolver.piece`), added to
         :attr:`out`; ``sampled``: with :data:`PIECE_SAMPLES` samples to check it."""
+        if min_duration_s > RUCKIG_MAX_DURATION_S:
+            raise PlanningError(
+                f"at this line's feed one piece of its path (between two chord vertices) takes "
+                f"{min_duration_s:.4g} s; a jerk-limited piece can last at most "
+                f"{RUCKIG_MAX_DURATION_S:g} s (Ruckig's numerical limit): raise the F",
+                line=g.move.line,
+            )
         try:
             piece = self.solver.piece(start, end, min_duration_s, PIECE_SAMPLES if sampled else 0)
         except RuckigRejected as exc:

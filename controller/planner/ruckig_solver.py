@@ -88,6 +88,8 @@ def _calculate(otg: ruckig.Ruckig, inp: ruckig.InputParameter, traj: ruckig.Traj
         res = otg.calculate(inp, traj)
     except ruckig.RuckigError as exc:
         raise RuckigRejected(f"RuckigError: {str(exc).strip().splitlines()[0]}") from None
+    except ValueError as exc:  # a result code the binding's Result enum lacks (-101: duration)
+        raise RuckigRejected(f"Ruckig result {str(exc).split(' ', 1)[0]}") from None
     if res not in _OK:
         raise RuckigRejected(f"{res}")
 
@@ -101,6 +103,11 @@ def _phases(traj: ruckig.Trajectory, dof: int) -> AxisPhases:
         dur = list(brake.t) + dur
         p, v, a, j = brake.p[:2] + p, brake.v[:2] + v, brake.a[:2] + a, list(brake.j) + j
     return dur, p, v, a, j
+
+
+#: The longest trajectory Ruckig computes [s]: above it a multi-DoF calculation returns
+#: ErrorTrajectoryDuration (-101; ruckig/calculator_target.hpp, ``duration > 7.6e3``).
+RUCKIG_MAX_DURATION_S = 7.6e3
 
 
 class RuckigSolver:
