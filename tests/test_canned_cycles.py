@@ -9,6 +9,7 @@ from __future__ import annotations
 import pytest
 
 from gantry_sim.controller.errors import GcodeError
+from gantry_sim.controller.gcode.canned_cycles import MAX_CYCLE_STEPS
 from gantry_sim.controller.gcode.interpreter import interpret, interpret_events
 from gantry_sim.controller.moves import Dwell, Linear, Rapid, Stop
 
@@ -112,3 +113,22 @@ def test_g95_cycle_feeds_are_f_per_revolution_times_s() -> None:
     got = moves("G21 G95 S1000 M3 F0.1\nG0 Z5\nG81 X1 Z-2 R1\nM2\n")
     assert [m.feed_mm_per_min for m in got if isinstance(m, Linear)] == [pytest.approx(100.0)]
     assert "zero spindle speed" in error_of("G21 G95 F0.1\nG0 Z5\nG81 X1 Z-2 R1\nM2\n").message
+
+
+@pytest.mark.parametrize(
+    ("block", "holes", "pecks"),
+    [
+        ("G91 G81 X0.001 Z-1 R1 L99999999", "99,999,999", "1"),  # 3e8 moves: hours to expand
+        ("G73 X1 Y1 Z-50 R1 Q0.00001", "1", "5,100,000"),
+        ("G91 G83 X1 Z-2 R1 Q0.001 L501", "501", "2,000"),  # each factor alone is small
+    ],
+)
+def test_a_cycle_of_more_than_a_million_holes_x_pecks_is_refused_at_once(block, holes, pecks):
+    with pytest.raises(GcodeError) as info:
+        list(interpret(f"G21 F100\nG0 Z5\n{block}\nM2\n"))
+    assert info.value.line == 3
+    assert f"{holes} hole(s) of {pecks} peck(s)" in info.value.message
+    # below the bound a cycle expands peck by peck (one hole here: 500 would take seconds)
+    assert MAX_CYCLE_STEPS == 1_000_000
+    pecked = list(interpret("G21 F100\nG0 Z5\nG91 G83 X1 Z-2 R1 Q0.001\nM2\n"))
+    assert sum(m.kind == "linear" for m in pecked) == 2_000

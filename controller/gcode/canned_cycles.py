@@ -41,6 +41,10 @@ _PECK_CLEARANCE_INCH = 0.010
 #: the current point comes back from mm with rounding noise; rs274 keeps program units exactly
 _EPS = 1e-9
 _INTEGER_TOL = 0.0001  # rs274: a value within this of an integer is that integer
+#: The most holes x pecks one canned-cycle block expands into. rs274 has no bound, but
+#: ``G81 L99999999`` (3e8 moves) or a 50 mm G73 in pecks of Q0.00001 (5e6 pecks) would take
+#: hours and gigabytes to expand and plan; refused at once instead, naming the line.
+MAX_CYCLE_STEPS = 1_000_000
 
 
 @dataclass(frozen=True)
@@ -183,6 +187,13 @@ def run_cycle(
         p, q, ijk = _words(motion, v, memory, same)
     except GcodeError as exc:
         raise cyc.fail(exc.message) from None
+    pecks = math.ceil((r - cc) / q) if motion in (730, 830) and q > 0.0 else 1
+    if repeats * pecks > MAX_CYCLE_STEPS:
+        raise cyc.fail(
+            f"{_name(motion)} would make {repeats:,} hole(s) of {pecks:,} peck(s) each; "
+            f"gantry-sim expands a canned cycle into at most {MAX_CYCLE_STEPS:,} holes x pecks "
+            "(each a few moves to plan): lower L, or raise Q"
+        )
     clear = r if memory.retract_to_r else old_cc
     for rep in range(repeats, 0, -1):
         aa, bb = aa + a_inc, bb + b_inc
