@@ -66,3 +66,14 @@ def test_bad_machine_file_and_program_errors_exit_2(write_program, tmp_path, cap
     assert "not found" in capsys.readouterr().err
     assert main(["plan", str(prog), "--out", str(tmp_path / "no" / "dir" / "t.npz")]) == 2
     assert "does not exist" in capsys.readouterr().err
+
+
+def test_a_marlin_limit_out_of_range_names_the_program_line(write_program, capsys):
+    # the M204 value made the machine file's [limits] invalid, and the error named the machine
+    # file (found by a hostile-input sweep); it is the program's line
+    for text, code in (("M204 S-100", "M204"), ("M203 X0", "M203")):
+        path = write_program(f"G21 G90\n{text}\nG1 X10 F1000\n", "p.gcode")
+        assert main(["plan", "--dialect", "marlin", str(path)]) == 2
+        err = capsys.readouterr().err
+        assert err.startswith(f"{path}:2: error: {code} on this line would set"), err
+        assert "gantry.toml" not in err and err.count("\n") == 1

@@ -23,6 +23,7 @@ from dataclasses import replace
 import numpy as np
 
 from gantry_sim.controller.config import MachineConfig
+from gantry_sim.controller.errors import ConfigError, GcodeError
 from gantry_sim.controller.moves import Arc, Event, Limits, Linear, Move, Rapid, Spline
 from gantry_sim.controller.planner.cubic import PiecewiseCubic
 from gantry_sim.controller.planner.result import Plan
@@ -65,7 +66,13 @@ def split_at_limits(
     parts: list[tuple[list[Move | Event], MachineConfig]] = [([], machine)]
     for item in items:
         if isinstance(item, Limits):
-            parts.append(([], state.apply(item)))
+            try:
+                parts.append(([], state.apply(item)))
+            except ConfigError as exc:  # the program's value, not the machine file's
+                raise GcodeError(
+                    f"{item.code} on this line would set the machine's {exc.message}",
+                    line=item.line,
+                ) from None
         else:
             parts[-1][0].append(item)
     out: list[tuple[list[Move | Event], MachineConfig]] = []
