@@ -112,7 +112,8 @@ def _other_refused_lines(text: str, dialect: str, file: str, kwargs: dict[str, A
 
 
 def read_program(path: Path) -> str:
-    """Read a G-code program as text; unreadable or non-text files are a GcodeError."""
+    """Read a G-code program as text (UTF-8, else Latin-1); unreadable files and files with
+    NUL bytes are a GcodeError."""
     try:
         data = path.read_bytes()
     except FileNotFoundError:
@@ -127,10 +128,9 @@ def read_program(path: Path) -> str:
         raise GcodeError("not a G-code text file (it contains NUL bytes)", file=str(path))
     try:
         return data.decode("utf-8")
-    except UnicodeDecodeError as exc:
-        line = data[: exc.start].count(b"\n") + 1
-        raise GcodeError(
-            "not a G-code text file (invalid UTF-8); programs are ASCII/UTF-8 text",
-            file=str(path),
-            line=line,
-        ) from None
+    except UnicodeDecodeError:
+        # A program in a one-byte code page (CAM posts write "(Fräser 8 mm)" in Windows-1252 or
+        # Latin-1): controllers read bytes and skip comments, and G-code words are ASCII, so
+        # each byte is read as its Latin-1 character; one outside a comment is refused by the
+        # lexer as a bad character, on its line.
+        return data.decode("latin-1")

@@ -55,7 +55,7 @@ def test_parse_error_exits_2_with_file_and_line(write_program, capsys) -> None:
     [
         (b"", "no program end"),
         (b"\x00\x01\x02garbage", "NUL bytes"),
-        (b"\xff\xfe\xfa binary", "invalid UTF-8"),
+        (b"\xff\xfe\xfa binary", "bad character"),  # read as Latin-1: not words
         (b"G0 X" + b"1" * 1_000_000 + b"\nM2\n", "not a finite number"),
         (b"G1 F10 X" + b"1 " * 500_000 + b"\nM2\n", "finite"),
         (b"(" + b"x" * 1_000_000 + b"\nM2\n", "unclosed comment"),
@@ -94,3 +94,15 @@ def test_bundled_examples_parse(capsys) -> None:
     for path in examples:
         assert main(["parse", str(path)]) == 0, path
     assert "arc" in capsys.readouterr().out
+
+
+def test_a_latin1_comment_is_read_as_controllers_read_it(tmp_path, capsys) -> None:
+    # CAM posts on Windows write comments in a one-byte code page ("(Fräser 8)" in Latin-1):
+    # the words are ASCII, and controllers skip comments byte by byte
+    path = tmp_path / "latin1.ngc"
+    path.write_bytes(b"G21 G90\n(Fr\xe4s 8)\nG0 X1 ; \xb0\nM2\n")
+    assert main(["parse", str(path)]) == 0
+    assert json.loads(capsys.readouterr().out)["end"] == [1.0, 0.0, 0.0]
+    path.write_bytes(b"G21 G90\n\xe4G0 X1\nM2\n")  # outside a comment: not a word
+    assert main(["parse", str(path)]) == 2
+    assert capsys.readouterr().err.startswith(f"{path}:2: error: bad character")

@@ -490,9 +490,13 @@ class Runner:
             path = folder / f"{name}.ngc"
             if path.is_file():
                 try:
-                    text = path.read_bytes().decode("utf-8")
-                except (OSError, UnicodeDecodeError) as exc:
+                    data = path.read_bytes()
+                except OSError as exc:
                     raise GcodeError(f"cannot read subroutine file {path}: {exc}") from None
+                try:  # as the program itself is read (sim/program.py read_program)
+                    text = data.decode("utf-8")
+                except UnicodeDecodeError:
+                    text = data.decode("latin-1")
                 sub_src = Source(str(path), split_lines(text))
                 at = sub_src.find(0, name, ("sub",))
                 if at is None:
