@@ -129,6 +129,11 @@ def test_runaway_loops_and_recursion_stop_with_their_line() -> None:
     assert err.line == 1 and "more than 1000" in err.message
     err = error_of("o1 sub\no1 call\no1 endsub\no1 call\nM2\n")
     assert err.line == 2 and "too many subroutine levels" in err.message
+    # M98's L repeats count at the call (they ran without bound: found by a hostile sweep)
+    sub = "M2\nO100\nG1 X1\nG1 X0\nM99\n"
+    err = error_of(f"G21 F1000\nM98 P100 L99999999\n{sub}", max_iterations=1000)
+    assert err.line == 2 and "more than 1000" in err.message
+    assert len(list(interpret(f"G21 F1000\nM98 P100 L500\n{sub}", max_iterations=500))) == 1000
 
 
 def test_subroutine_files_on_the_search_path(tmp_path) -> None:

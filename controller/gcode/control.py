@@ -441,8 +441,7 @@ class Runner:
                     "'O.... sub'"
                 )
             at, left = f.fanuc
-            if left > 1:
-                self.iterations += 1
+            if left > 1:  # counted in ``iterations`` by the call
                 f.fanuc, f.index, f.loops = (at, left - 1), at + 1, []
                 return
             passed = {i: self.params.numbered.get(i, 0.0) for i in range(1, 31)}
@@ -471,7 +470,7 @@ class Runner:
                 f"too many subroutine levels (more than {MAX_CALL_LEVELS} nested calls, as in "
                 "LinuxCNC); a runaway recursion?"
             )
-        self.iterations += 1
+        self.iterations += count  # its L repeats, counted at once: M98 P1 L99999999 stops here
         if self.iterations > self.max_iterations:
             raise GcodeError(
                 f"more than {self.max_iterations} loop repetitions and calls (at M98 P{number})"
