@@ -13,6 +13,7 @@ user accepts.
 from __future__ import annotations
 
 import json
+import math
 from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
@@ -92,7 +93,35 @@ def load_report(path: Path) -> dict[str, Any]:
         raise ConfigError(f"not a readable report.json: {exc}", file=str(file)) from None
     if not isinstance(data, dict) or not {"blocks", "cycle_time_s"} <= data.keys():
         raise ConfigError("not a gantry report.json (no blocks / cycle_time_s)", file=str(file))
+    problem = _schema_problem(data)
+    if problem:
+        raise ConfigError(f"not a gantry report.json ({problem})", file=str(file))
     return data
+
+
+def _number(x: Any) -> bool:
+    """A finite JSON number (not a bool)."""
+    return isinstance(x, int | float) and not isinstance(x, bool) and math.isfinite(x)
+
+
+def _schema_problem(data: dict[str, Any]) -> str:
+    """What :func:`compare` would trip on in a report (empty when nothing): the cycle time a
+    number, each block an object with an integer line, a number max_error_um and time_s a
+    number or null."""
+    if not _number(data["cycle_time_s"]):
+        return f"cycle_time_s is {data['cycle_time_s']!r}, not a number [s]"
+    if not isinstance(data["blocks"], list):
+        return "blocks is not a list"
+    for i, b in enumerate(data["blocks"]):
+        if not isinstance(b, dict):
+            return f"blocks[{i}] is not an object"
+        if not (isinstance(b.get("line"), int) and not isinstance(b.get("line"), bool)):
+            return f"blocks[{i}].line is {b.get('line')!r}, not a line number"
+        if not _number(b.get("max_error_um")):
+            return f"blocks[{i}].max_error_um is {b.get('max_error_um')!r}, not a number [um]"
+        if b.get("time_s") is not None and not _number(b["time_s"]):
+            return f"blocks[{i}].time_s is {b['time_s']!r}, not a number [s] or null"
+    return ""
 
 
 def _grew(base: float | None, run: float | None, allowed: float) -> bool:

@@ -124,3 +124,28 @@ def test_a_baseline_without_block_times_compares_errors_and_cycle_time():
     cmp = compare(old, run, Margins())
     assert [r.status for r in cmp.rows] == ["ok"]  # no time to compare per block
     assert [f["gate"] for f in cmp.failures] == ["baseline cycle time"]
+
+
+GOOD = {"cycle_time_s": 1.0, "blocks": [{"line": 2, "kind": "linear", "max_error_um": 1.0}]}
+
+
+@pytest.mark.parametrize(
+    ("bad", "fragment"),
+    [
+        ({"cycle_time_s": 1.0, "blocks": "x"}, "blocks is not a list"),
+        ({"cycle_time_s": None, "blocks": []}, "cycle_time_s is None"),
+        ({"cycle_time_s": 1.0, "blocks": [None]}, "blocks[0] is not an object"),
+        ({"cycle_time_s": "1", "blocks": []}, "not a number"),
+        ({"cycle_time_s": 1.0, "blocks": [{"line": 2, "max_error_um": "big"}]}, "max_error_um"),
+        ({"cycle_time_s": 1.0, "blocks": [{"line": 2.5, "max_error_um": 1.0}]}, ".line is 2.5"),
+    ],
+)
+def test_a_report_of_the_wrong_shape_exits_2_naming_it(tmp_path, capsys, bad, fragment):
+    # these exited 3 (TypeError inside the comparison), found by a hostile-input sweep
+    good, wrong = tmp_path / "good.json", tmp_path / "wrong.json"
+    good.write_text(json.dumps(GOOD))
+    wrong.write_text(json.dumps(bad))
+    assert main(["compare", str(good), str(wrong)]) == 2
+    err = capsys.readouterr().err
+    assert err.startswith(f"{wrong}: error: not a gantry report.json (") and fragment in err, err
+    assert main(["compare", str(good), str(good)]) == 0
