@@ -19,6 +19,7 @@ from typing import Any, Literal, overload
 from gantry_sim.controller.config import MachineConfig
 from gantry_sim.controller.errors import GantryError, GcodeError
 from gantry_sim.controller.gcode.control import DEFAULT_MAX_ITERATIONS, MAX_ERRORS
+from gantry_sim.controller.gcode.lexer import decode_program
 from gantry_sim.controller.moves import Event, Move
 
 
@@ -126,11 +127,4 @@ def read_program(path: Path) -> str:
         raise GcodeError(f"cannot read program: {exc.strerror}", file=str(path)) from None
     if b"\x00" in data:
         raise GcodeError("not a G-code text file (it contains NUL bytes)", file=str(path))
-    try:
-        return data.decode("utf-8")
-    except UnicodeDecodeError:
-        # A program in a one-byte code page (CAM posts write "(Fräser 8 mm)" in Windows-1252 or
-        # Latin-1): controllers read bytes and skip comments, and G-code words are ASCII, so
-        # each byte is read as its Latin-1 character; one outside a comment is refused by the
-        # lexer as a bad character, on its line.
-        return data.decode("latin-1")
+    return decode_program(data)

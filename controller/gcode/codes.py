@@ -89,6 +89,11 @@ def g_name(code: int) -> str:
     return f"G{whole}" if tenth == 0 else f"G{whole}.{tenth}"
 
 
+def m_accepted(dialect_name: str, codes: frozenset[int]) -> str:
+    """A dialect's own M codes, for messages: "grbl accepts: M0, M1, ..."."""
+    return f"{dialect_name} accepts: " + ", ".join(f"M{m}" for m in sorted(codes))
+
+
 def m_allowed() -> str:
     """The M codes gantry-sim accepts, for messages."""
     return ", ".join(f"M{m}" for m in sorted(M_GROUPS) if m != 56 and m < 100) + (

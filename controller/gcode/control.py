@@ -26,6 +26,7 @@ from gantry_sim.controller.gcode.lexer import (
     COMMENT,
     Block,
     OWord,
+    decode_program,
     lex_line,
     split_lines,
     strip_line,
@@ -492,10 +493,7 @@ class Runner:
                     data = path.read_bytes()
                 except OSError as exc:
                     raise GcodeError(f"cannot read subroutine file {path}: {exc}") from None
-                try:  # as the program itself is read (sim/program.py read_program)
-                    text = data.decode("utf-8")
-                except UnicodeDecodeError:
-                    text = data.decode("latin-1")
+                text = decode_program(data)
                 sub_src = Source(str(path), split_lines(text))
                 at = sub_src.find(0, name, ("sub",))
                 if at is None:

@@ -8,7 +8,7 @@ message that names the word.
 from __future__ import annotations
 
 from gantry_sim.controller.errors import GcodeError
-from gantry_sim.controller.gcode.codes import M_GROUPS, g_name
+from gantry_sim.controller.gcode.codes import M_GROUPS, g_name, m_accepted
 from gantry_sim.controller.gcode.dialects import Dialect
 from gantry_sim.controller.gcode.lexer import Block
 from gantry_sim.controller.gcode.words import Words
@@ -42,10 +42,7 @@ def check_codes(w: Words, d: Dialect) -> None:
     allowed_m = LINUXCNC_M if d.m_codes is None else d.m_codes
     for code in w.m.values():
         if code not in allowed_m:
-            raise GcodeError(
-                f"unsupported M code M{code}; {d.name} accepts: "
-                + ", ".join(f"M{m}" for m in sorted(allowed_m))
-            )
+            raise GcodeError(f"unsupported M code M{code}; {m_accepted(d.name, allowed_m)}")
     if d.letters is not None:
         for letter in w.values:
             if letter not in d.letters:

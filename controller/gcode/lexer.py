@@ -126,6 +126,17 @@ def strip_line(raw: str) -> str:
     return "".join(out).upper()
 
 
+def decode_program(data: bytes) -> str:
+    """A program file's bytes as text: UTF-8, else each byte as its Latin-1 character (CAM
+    posts write comments such as "(Fräser 8 mm)" in a one-byte code page; controllers read
+    bytes and skip comments, and G-code words are ASCII, so such a character outside a comment
+    is refused by the lexer as a bad character, on its line)."""
+    try:
+        return data.decode("utf-8")
+    except UnicodeDecodeError:
+        return data.decode("latin-1")
+
+
 def without_realtime(raw: str) -> str:
     """``raw`` as grbl's parser receives it: realtime characters taken out of the stream."""
     return _REALTIME.sub("", raw)

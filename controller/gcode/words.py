@@ -10,7 +10,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 from gantry_sim.controller.errors import GcodeError
-from gantry_sim.controller.gcode.codes import G_GROUPS, M_GROUPS, g_name, m_allowed
+from gantry_sim.controller.gcode.codes import G_GROUPS, M_GROUPS, g_name, m_accepted, m_allowed
 from gantry_sim.controller.gcode.dialects import Dialect
 from gantry_sim.controller.gcode.expressions import ParameterReader, evaluate
 from gantry_sim.controller.gcode.lexer import Block
@@ -56,7 +56,7 @@ def _m_list(dialect: Dialect | None) -> str:
     """The M codes ``dialect`` accepts, as a message says them."""
     if dialect is None or dialect.m_codes is None:
         return f"allowed: {m_allowed()}"
-    return f"{dialect.name} accepts: " + ", ".join(f"M{m}" for m in sorted(dialect.m_codes))
+    return m_accepted(dialect.name, dialect.m_codes)
 
 
 def read_words(block: Block, params: ParameterReader, dialect: Dialect | None = None) -> Words:
