@@ -9,11 +9,21 @@ from __future__ import annotations
 import math
 
 import numpy as np
+from hypothesis import HealthCheck, settings
 
 from gantry_sim.controller.arcs import arc_points
 from gantry_sim.controller.moves import Arc
 from gantry_sim.controller.planes import PLANE_AXES
 
+#: Hypothesis settings of the planner's property tests: seeded (every run tests the same
+#: programs), no example database, no deadline (a plan takes tenths of a second), 40 programs.
+PLAN_PROPERTY_SETTINGS = settings(
+    derandomize=True,
+    database=None,
+    deadline=None,
+    max_examples=40,
+    suppress_health_check=[HealthCheck.function_scoped_fixture, HealthCheck.too_slow],
+)
 #: Relative slack on the limits for rounding; jerk is a finite difference of the sampled
 #: acceleration (exact for piecewise-linear acceleration, up to rounding).
 REL = 1e-9

@@ -12,21 +12,15 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from hypothesis import HealthCheck, given, settings
+from hypothesis import given
 from hypothesis import strategies as st
 
 from gantry_sim.controller.gcode.interpreter import parse_program
 from gantry_sim.controller.moves import Linear
 from gantry_sim.controller.planner.plan import plan
+from tests.plan_helpers import PLAN_PROPERTY_SETTINGS as SETTINGS
 from tests.plan_helpers import assert_within_limits, polyline_distance
 
-SETTINGS = settings(
-    derandomize=True,
-    database=None,
-    deadline=None,
-    max_examples=40,
-    suppress_health_check=[HealthCheck.function_scoped_fixture, HealthCheck.too_slow],
-)
 PLANES = {"G17": (0, 1), "G18": (2, 0), "G19": (1, 2)}
 
 

@@ -15,7 +15,7 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from hypothesis import HealthCheck, given, settings
+from hypothesis import given
 from hypothesis import strategies as st
 
 from gantry_sim.controller.gcode.dialects import with_segmentation_default
@@ -23,14 +23,8 @@ from gantry_sim.controller.gcode.interpreter import parse_program
 from gantry_sim.controller.moves import Arc
 from gantry_sim.controller.planner.plan import plan
 from gantry_sim.sim.program import interpret_program
+from tests.plan_helpers import PLAN_PROPERTY_SETTINGS as SETTINGS
 
-SETTINGS = settings(
-    derandomize=True,
-    database=None,
-    deadline=None,
-    max_examples=40,
-    suppress_health_check=[HealthCheck.function_scoped_fixture, HealthCheck.too_slow],
-)
 #: plane -> (first axis, second axis, offset words) of the plane
 PLANES = {"G17": (0, 1, "IJ"), "G18": (2, 0, "KI"), "G19": (1, 2, "JK")}
 MODES = ["G61", "G61.1", "G64", "G64 P0.01", "G64 P0.05", "G64 P0.02 Q0.02"]
