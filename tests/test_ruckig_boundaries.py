@@ -10,7 +10,12 @@
   the closed-form X piece over Y's duration broke X's jerk limit 4 times. The piece is now made
   longer until X fits (``RuckigSolver._tiny_axes_duration``), and the junction slows.
 
-Both exited 3 ("internal error") before.
+* In FlatCAM grbl output (isolation routing, G1 steps of a few hundredths of a mm), the last
+  chord of a corner's blend arc must bring Y from 16 mm/s^2 to rest while it moves 5e-8 mm;
+  Ruckig finds no profile for that axis even alone. Such an axis now follows the closed-form
+  piece, as a barely moving one does.
+
+All exited 3 ("internal error") before.
 """
 
 from __future__ import annotations
@@ -18,6 +23,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
+from gantry_sim.controller.gcode.dialects import with_segmentation_default
 from gantry_sim.controller.gcode.interpreter import interpret_events
 from gantry_sim.controller.moves import Linear, Rapid
 from gantry_sim.controller.planner.plan import plan
@@ -42,6 +48,15 @@ G1 X29.559093 Y0.096188
 G2 X29.559093 Y-0.096188 I-29.559093 J-0.096188
 G1 X27.209738 Y-0.025452
 G0 Z2.54
+M2
+"""
+
+FLATCAM_STEPS = """G21 G90 G94
+G1 Z-0.08 F240
+G1 X8.3672 Y1.8635
+G01 X8.4018 Y1.8616
+G01 X8.4193 Y1.8613
+G01 X53.0334 Y1.8613
 M2
 """
 
@@ -96,12 +111,39 @@ def test_a_piece_whose_barely_moving_axis_must_turn_its_acceleration_is_lengthen
     assert np.allclose(piece.positions[-1], end[0], atol=1e-9)
 
 
+def test_an_axis_ruckig_cannot_plan_alone_follows_the_closed_form_piece(machine) -> None:  # type: ignore[no-untyped-def]
+    start = (
+        np.array([8.42772274421509, 1.861300052856656, -0.08]),
+        np.array([3.9997997925988753, -0.001286997887214898, 0.0]),
+        np.array([0.0050415671747271575, 15.668447896748399, 0.0]),
+    )
+    end = (
+        np.array([8.428051285619839, 1.8613, -0.08]),
+        np.array([3.9997999996546794, 0.0, 0.0]),
+        np.zeros(3),
+    )
+    chord_s = 8.213945958422762e-05
+    piece = RuckigSolver(machine.limits).piece(start, end, chord_s, samples=50)
+    assert piece.duration_s > chord_s  # Y needs longer than X's chord to shed 16 mm/s^2
+    vmax, amax, jmax = (np.asarray(x) for x in machine.limits.per_axis())
+    for i, phases in enumerate(piece.phases):
+        dur, _p, v, a, j = (np.asarray(x, dtype=float) for x in phases)
+        assert dur.sum() == pytest.approx(piece.duration_s, rel=1e-12)
+        assert np.all(np.abs(j) <= jmax[i]), i
+        assert np.all(np.abs(a) <= amax[i]) and np.all(np.abs(v) <= vmax[i]), i
+        assert _end_state(phases) == pytest.approx((end[0][i], end[1][i], end[2][i]), abs=1e-9), i
+    assert piece.positions is not None
+    assert np.allclose(piece.positions[-1], end[0], atol=1e-9)
+
+
 @pytest.mark.parametrize(
-    ("text", "dialect"), [(MARLIN_TRAVEL, "marlin"), (ENCODER_SLOT, "linuxcnc")]
+    ("text", "dialect"),
+    [(MARLIN_TRAVEL, "marlin"), (ENCODER_SLOT, "linuxcnc"), (FLATCAM_STEPS, "grbl")],
 )
 def test_real_program_fragments_that_stopped_the_planner_plan_within_limits(
     text: str, dialect: str, machine
 ) -> None:  # type: ignore[no-untyped-def]
+    machine = with_segmentation_default(machine, dialect)  # as the CLI plans it
     items = list(interpret_events(text, dialect))
     p = plan(items, machine)
     tr = p.sample(machine.servo.period_s)

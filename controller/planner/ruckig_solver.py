@@ -22,7 +22,7 @@ import numpy as np
 import ruckig
 
 from gantry_sim.controller.config import Limits
-from gantry_sim.controller.planner.jerk3 import jerk3_pairs
+from gantry_sim.controller.planner.jerk3 import PiecePhases, jerk3_pairs
 from gantry_sim.controller.planner.profile import Profile1D
 
 _OK = (ruckig.Result.Working, ruckig.Result.Finished)
@@ -204,13 +204,15 @@ class RuckigSolver:
     ) -> RuckigPiece:
         """The piece when Ruckig rejects it because an axis barely moves (on an arc near a
         quadrant point one axis may move 1e-8 mm at 1e-5 mm/s, below Ruckig's numerical
-        resolution): Ruckig plans the other axes, and each tiny axis follows the closed-form
-        three-phase constant-jerk piece between its states over the same time, which must keep
-        its acceleration and jerk limits. Where it would not (the others' piece is short, and a
-        tiny axis must still change its acceleration), the piece is made longer: the shortest
-        duration the tiny axes fit in (:meth:`_tiny_axes_duration`), which the caller sees as a
-        stretched piece and answers by slowing the junction. Raises RuckigRejected when no axis
-        is tiny or that fails too."""
+        resolution), or because one axis alone is a state pair Ruckig finds no profile for
+        (a blend arc's last chord: 5e-8 mm while turning 16 mm/s^2 of acceleration to rest,
+        from FlatCAM grbl output). Ruckig plans the other axes, and each such axis follows the
+        closed-form three-phase constant-jerk piece between its states over the same time,
+        which must keep its limits. Where it would not (the others' piece is short, and the
+        axis must still change its acceleration), the piece is made longer: the shortest
+        duration the closed-form axes fit in (:meth:`_tiny_axes_duration`), which the caller
+        sees as a stretched piece and answers by slowing the junction. Raises RuckigRejected
+        when no axis can be taken out or that fails too."""
         p0, v0, a0 = start
         p1, v1, a1 = end
         tiny = (
@@ -218,22 +220,43 @@ class RuckigSolver:
             & (np.maximum(np.abs(v0), np.abs(v1)) < TINY_AXIS_MM_PER_S)
             & (np.maximum(np.abs(a0), np.abs(a1)) < TINY_AXIS_MM_PER_S2)
         )
-        if not tiny.any() or tiny.all():
-            raise RuckigRejected("no piece, and no axis small enough to plan on its own")
         inp, tr = self._in3, self._tr3
-        lim = np.asarray(inp.max_acceleration)[tiny], np.asarray(inp.max_jerk)[tiny]
+        vmax, amax, jmax = (
+            np.asarray(x) for x in (inp.max_velocity, inp.max_acceleration, inp.max_jerk)
+        )
+        for i in np.flatnonzero(~tiny):
+            tiny[i] = not self._axis_plans(
+                (p0[i], v0[i], a0[i]), (p1[i], v1[i], a1[i]), vmax[i], amax[i], jmax[i]
+            )
+        if not tiny.any():
+            raise RuckigRejected("no piece, and no axis to plan on its own")
+        lim = vmax[tiny], amax[tiny], jmax[tiny]
 
         def closed_form(duration_s: float):
-            """The tiny axes' closed-form piece over ``duration_s``, and whether it keeps their
-            acceleration and jerk limits."""
+            """The closed-form axes' piece over ``duration_s``, and whether it keeps their
+            velocity (bounded from each phase's start), acceleration and jerk limits."""
             c = jerk3_pairs(
                 p0[None], v0[None], a0[None], p1[None], v1[None], a1[None], np.array([duration_s])
             )
-            ok = np.all(np.abs(c.a[0][:, tiny]) <= lim[0]) and np.all(
-                np.abs(c.j[0][:, tiny]) <= lim[1]
+            h = duration_s / 3.0
+            v, a, j = (np.abs(x[0][:, tiny]) for x in (c.v, c.a, c.j))
+            ok = (
+                np.all(v + h * a + 0.5 * h * h * j <= lim[0])
+                and np.all(a <= lim[1])
+                and np.all(np.abs(c.a[0][:, tiny] + h * c.j[0][:, tiny]) <= lim[1])
+                and np.all(j <= lim[2])
             )
             return c, bool(ok)
 
+        if tiny.all():  # every axis in closed form: no Ruckig piece sets the duration
+            dur = max(float(min_duration_s), 1e-9)
+            closed, ok = closed_form(dur)
+            if not ok:
+                dur = self._tiny_axes_duration(dur, closed_form)
+                closed, ok = closed_form(dur)
+            if not ok:
+                raise RuckigRejected("no piece: no closed-form piece keeps the limits")
+            return _assemble(dur, closed, tiny, None, samples)
         inp.enabled = [not bool(t) for t in tiny]
         try:
             inp.minimum_duration = float(min_duration_s)
@@ -248,26 +271,31 @@ class RuckigSolver:
             inp.enabled = [True, True, True]
         if not ok:
             raise RuckigRejected("no piece: a barely moving axis would exceed its jerk limit")
-        dur = tr.duration
-        h = dur / 3.0
-        phases = tuple(
-            ([h, h, h], *(closed[q][0, :, i].tolist() for q in range(4)))
-            if tiny[i]
-            else _phases(tr, i)
-            for i in range(3)
+        return _assemble(tr.duration, closed, tiny, tr, samples)
+
+    def _axis_plans(
+        self,
+        start: tuple[float, float, float],
+        end: tuple[float, float, float],
+        vmax: float,
+        amax: float,
+        jmax: float,
+    ) -> bool:
+        """Whether Ruckig plans one axis alone from ``start`` to ``end`` (position [mm],
+        velocity [mm/s], acceleration [mm/s^2]) under its limits, time-optimally."""
+        inp = self._in1
+        inp.current_position, inp.current_velocity, inp.current_acceleration = (
+            [float(x)] for x in start
         )
-        if not samples:
-            return RuckigPiece(dur, phases)  # type: ignore[arg-type]
-        times = np.linspace(0.0, dur, samples)
-        pv = [tr.at_time(t) for t in times]
-        pos, vel = np.array([x[0] for x in pv]), np.array([x[1] for x in pv])
-        k = np.minimum((times / h).astype(int), 2)
-        tau = times - k * h
-        for i in np.flatnonzero(tiny):
-            cp, cv, ca, cj = (closed[q][0, k, i] for q in range(4))
-            pos[:, i] = cp + cv * tau + ca * tau**2 / 2 + cj * tau**3 / 6
-            vel[:, i] = cv + ca * tau + cj * tau**2 / 2
-        return RuckigPiece(dur, phases, pos, vel)  # type: ignore[arg-type]
+        inp.target_position, inp.target_velocity, inp.target_acceleration = (
+            [float(x)] for x in end
+        )
+        inp.max_velocity, inp.max_acceleration, inp.max_jerk = [vmax], [amax], [jmax]
+        try:
+            _calculate(self._otg1, inp, self._tr1)
+        except RuckigRejected:
+            return False
+        return True
 
     @staticmethod
     def _tiny_axes_duration(start_s: float, closed_form) -> float:
@@ -286,3 +314,35 @@ class RuckigSolver:
             mid = 0.5 * (lo + hi)
             lo, hi = (lo, mid) if closed_form(mid)[1] else (mid, hi)
         return hi
+
+
+def _assemble(
+    dur: float,
+    closed: PiecePhases,
+    tiny: np.ndarray,
+    tr: ruckig.Trajectory | None,
+    samples: int,
+) -> RuckigPiece:
+    """The piece of duration ``dur`` [s] whose ``tiny`` axes follow the closed-form phases
+    ``closed`` and the others Ruckig's trajectory ``tr`` (None: every axis is tiny)."""
+    h = dur / 3.0
+    phases = tuple(
+        ([h, h, h], *(closed[q][0, :, i].tolist() for q in range(4)))
+        if tiny[i] or tr is None
+        else _phases(tr, i)
+        for i in range(3)
+    )
+    if not samples:
+        return RuckigPiece(dur, phases)  # type: ignore[arg-type]
+    times = np.linspace(0.0, dur, samples)
+    pos, vel = np.zeros((samples, 3)), np.zeros((samples, 3))
+    if tr is not None:
+        pv = [tr.at_time(t) for t in times]
+        pos, vel = np.array([x[0] for x in pv]), np.array([x[1] for x in pv])
+    k = np.minimum((times / h).astype(int), 2)
+    tau = times - k * h
+    for i in np.flatnonzero(tiny):
+        cp, cv, ca, cj = (closed[q][0, k, i] for q in range(4))
+        pos[:, i] = cp + cv * tau + ca * tau**2 / 2 + cj * tau**3 / 6
+        vel[:, i] = cv + ca * tau + cj * tau**2 / 2
+    return RuckigPiece(dur, phases, pos, vel)  # type: ignore[arg-type]
