@@ -162,10 +162,10 @@ def clean_legacy_stages(out_dir: Path) -> None:
         pass  # best effort: never a reason to fail a run
 
 
-def prepare_output_dir(out_dir: Path, clear: Sequence[str] = ()) -> None:
+def prepare_output_dir(out_dir: Path) -> None:
     """Check early (before a long simulation) that ``out_dir`` can take outputs: create it,
-    clean stale staging folders, probe that a file can be created in it, and remove the files
-    named in ``clear`` (an earlier run's outputs a failing run must not leave behind)."""
+    clean stale staging folders, and probe that a file can be created in it. An earlier run's
+    files stay: a run interrupted before its commit leaves them whole."""
     out_dir = Path(out_dir)
     ensure_dir(out_dir)
     clean_legacy_stages(out_dir)
@@ -173,10 +173,24 @@ def prepare_output_dir(out_dir: Path, clear: Sequence[str] = ()) -> None:
         try:
             recover(out_dir)
             Path(tempfile.mkdtemp(prefix=STAGE_PREFIX, dir=out_dir)).rmdir()
-            for name in clear:
-                (out_dir / name).unlink(missing_ok=True)
         except OSError as exc:
             raise os_error(exc, out_dir) from None
+
+
+def remove_outputs(out_dir: Path, names: Sequence[str], last: str) -> None:
+    """Remove an earlier run's files ``names`` from ``out_dir``, its marker ``last`` first (so
+    no moment shows a marker beside a partial run), under the folder's lock: what a run that
+    failed does, so that its error is not read beside an older run's report. Best effort: a
+    folder that cannot be changed keeps them, and the run's own error is what is reported."""
+    out_dir = Path(out_dir)
+    if not out_dir.is_dir():
+        return
+    try:
+        with locked(out_dir):
+            for name in sorted(names, key=lambda n: n != last):
+                (out_dir / name).unlink(missing_ok=True)
+    except (OSError, OutputError):
+        pass
 
 
 @contextmanager

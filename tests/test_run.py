@@ -11,7 +11,7 @@ import pytest
 
 from gantry_sim.controller.servo import DiscretePD
 from gantry_sim.sim.api import run_program
-from gantry_sim.sim.cli import main
+from gantry_sim.sim.cli import Terminated, main
 from gantry_sim.sim.machine import load_gantry
 from tests.machine_variants import AXIS_NAMES, UNLIMITED_FORCE, gantry_variant, write_variant
 
@@ -122,6 +122,26 @@ def test_program_outside_travel_exits_2_and_leaves_no_report(write_program, tmp_
     assert main(["run", str(prog), "--out", str(out)]) == 2
     assert f"{prog}:2: error:" in capsys.readouterr().err
     assert not (out / "report.json").exists()
+
+
+@pytest.mark.parametrize(("interruption", "status"), [(KeyboardInterrupt, 130), (Terminated, 143)])
+def test_an_interrupted_run_leaves_the_earlier_whole_run(
+    interruption, status, write_program, tmp_path, monkeypatch
+):  # type: ignore[no-untyped-def]
+    """Ctrl-C or SIGTERM during the simulation: the folder still holds the earlier run, whole
+    (a failing run removes it; an interrupted one has not failed)."""
+    out = tmp_path / "out"
+    prog = write_program(CIRCLE)
+    assert main(["run", str(prog), "--out", str(out), "--no-plots"]) == 0
+    before = {f.name: f.read_bytes() for f in out.iterdir()}
+    assert "report.json" in before
+
+    def interrupted(*args, **kwargs):  # type: ignore[no-untyped-def]
+        raise interruption
+
+    monkeypatch.setattr("gantry_sim.sim.api.run_program", interrupted)
+    assert main(["run", str(prog), "--out", str(out), "--no-plots"]) == status
+    assert {f.name: f.read_bytes() for f in out.iterdir()} == before
 
 
 def test_divergence_is_an_error(write_program, tmp_path, capsys):

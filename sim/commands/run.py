@@ -144,7 +144,7 @@ def run(args: argparse.Namespace) -> int:
     from gantry_sim.sim.api import run_program, with_verdict, write_run_outputs
     from gantry_sim.sim.compare import Margins, compare, format_table, load_report
     from gantry_sim.sim.gates import gates_from_options, verdict_for
-    from gantry_sim.sim.outdir import prepare_output_dir
+    from gantry_sim.sim.outdir import prepare_output_dir, remove_outputs
     from gantry_sim.sim.report import OUTPUT_FILES
 
     gates = gates_from_options(args.max_error_um, args.max_error_um_lines, args.max_cycle_time_s)
@@ -156,41 +156,44 @@ def run(args: argparse.Namespace) -> int:
         raise ConfigError("--out must be a folder, not a file", file=str(args.out))
     machine = program_machine(args)
     text = read_program(args.program)
-    # before the simulation: a folder that cannot take the outputs fails now, not after it;
-    # a failing run must not leave an earlier run's report behind
-    prepare_output_dir(args.out, clear=OUTPUT_FILES)
-    result = run_program(
-        text,
-        file=str(args.program),
-        dialect=args.dialect,
-        machine=machine,
-        feed_override_pct=args.feed_override,
-        progress=args.progress,
-        budget=budget,
-        search_path=search_path(args),
-        max_iterations=max_iterations(args),
-        keep_trace=not args.no_trace,
-    )
-    comparison = None
-    if baseline is not None:
-        comparison = compare(baseline, result.report, Margins())
-    verdict = verdict_for(
-        result.report,
-        gates,
-        comparison.failures if comparison is not None else (),
-        str(args.baseline) if args.baseline is not None else None,
-    )
-    result = with_verdict(result, verdict)
-    result = write_run_outputs(
-        result,
-        args.out,
-        plots=not args.no_plots,
-        deterministic=args.deterministic,
-        gates=gates,
-        started=started,
-        trace=not args.no_trace,
-        progress=args.progress,
-    )
+    # before the simulation: a folder that cannot take the outputs fails now, not after it
+    prepare_output_dir(args.out)
+    try:
+        result = run_program(
+            text,
+            file=str(args.program),
+            dialect=args.dialect,
+            machine=machine,
+            feed_override_pct=args.feed_override,
+            progress=args.progress,
+            budget=budget,
+            search_path=search_path(args),
+            max_iterations=max_iterations(args),
+            keep_trace=not args.no_trace,
+        )
+        comparison = None
+        if baseline is not None:
+            comparison = compare(baseline, result.report, Margins())
+        verdict = verdict_for(
+            result.report,
+            gates,
+            comparison.failures if comparison is not None else (),
+            str(args.baseline) if args.baseline is not None else None,
+        )
+        result = with_verdict(result, verdict)
+        result = write_run_outputs(
+            result,
+            args.out,
+            plots=not args.no_plots,
+            deterministic=args.deterministic,
+            gates=gates,
+            started=started,
+            trace=not args.no_trace,
+            progress=args.progress,
+        )
+    except Exception:  # an error, not an interruption: no older report beside it
+        remove_outputs(args.out, OUTPUT_FILES, last="report.json")
+        raise
     report = result.run_report
     files = list(report.files)
     if args.json:
