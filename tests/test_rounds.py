@@ -1,4 +1,5 @@
-"""Re-planning rounds: the round that is kept is whole, however the rounds end."""
+"""Re-planning rounds: the round that is kept is whole and has no offending junction, however
+few rounds are allowed."""
 
 from __future__ import annotations
 
@@ -27,7 +28,7 @@ def _program() -> str:
 
 
 @pytest.mark.parametrize("max_rounds", [0, 1, 2])
-def test_the_last_allowed_round_is_kept_whole(
+def test_the_round_kept_is_whole_and_stops_where_junctions_still_offend(
     max_rounds: int, machine, monkeypatch: pytest.MonkeyPatch
 ) -> None:  # type: ignore[no-untyped-def]
     moves = parse_program(_program())
@@ -43,11 +44,8 @@ def test_the_last_allowed_round_is_kept_whole(
     monkeypatch.setattr(rounds, "MAX_ROUNDS", max_rounds)
     monkeypatch.setattr(rounds, "_plan_round", spy)
     cut = plan(moves, machine)
-    assert len(calls) == max_rounds + 1
-    if max_rounds == 0:
-        assert calls[-1] > 0  # the only round allowed is kept with its junctions still bad
-    else:
-        assert calls[-2] > 0 and calls[-1] == 0  # those still bad became stops in the last
+    assert len(calls) >= max_rounds + 1  # the allowed rounds, then any adding stops
+    assert all(c > 0 for c in calls[:-1]) and calls[-1] == 0  # no junction kept offending
     assert cut.move_start_s.size == free.move_start_s.size
     assert np.all(np.diff(cut.move_start_s) >= 0.0) and cut.duration_s > cut.move_start_s[-1]
     tr = cut.sample(machine.servo.period_s)

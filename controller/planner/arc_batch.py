@@ -13,6 +13,7 @@ import numpy as np
 from gantry_sim.controller.arcs import arc_frame
 from gantry_sim.controller.moves import Arc
 from gantry_sim.controller.planes import PLANE_AXES
+from gantry_sim.controller.planner.move_geometry import arc_overrun_mm
 
 
 def arc_derivatives_many(
@@ -90,4 +91,5 @@ def arc_deviation_many(arcs: Sequence[Arc], q: np.ndarray, u_hint: Sequence[floa
     u = sigma * (th - theta0) / angle
     d_r = np.hypot(q1 - c1, q2 - c2) - (r0 + (r1 - r0) * u)
     d_n = qn - (h0 + (h1 - h0) * u)
-    return np.hypot(d_r, d_n).reshape(m, k).max(axis=1)
+    d_t = arc_overrun_mm(u, angle, r0, r1, h1 - h0)
+    return np.hypot(np.hypot(d_r, d_n), d_t).reshape(m, k).max(axis=1)

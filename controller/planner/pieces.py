@@ -146,19 +146,21 @@ class MovePieces:
             st.durations,
         )
         n = mins.size
-        check = {0: state_in.moving, n - 1: state_out.moving}
-        bad = {0: False, n - 1: False}
+        # the end pieces next to a moving junction (one piece: next to both ends)
+        ends = [k for k, moving in ((0, state_in.moving), (n - 1, state_out.moving)) if moving]
+        bad_in = bad_out = False
         phases = pieces.phases  # None only in "ruckig" mode, where no piece is ok
         if ok.all() and phases is not None:
             ps, vs, as_, js = phases
             self.out.add_jerk3(Jerk3Run(mins / 3.0, ps[:, 0], vs[:, 0], as_[:, 0], js))
-            for k in (0, n - 1):
-                if check[k]:
-                    bad[k] = _deviation(g, pieces, k) > dev_max
-            return float(mins.sum()), bad[0], bad[n - 1]
+            off_at = {k: _deviation(g, pieces, k) > dev_max for k in set(ends)}
+            bad_in = state_in.moving and off_at[0]
+            bad_out = state_out.moving and off_at[n - 1]
+            return float(mins.sum()), bad_in, bad_out
         total = 0.0
         k = 0
         while k < n:
+            at_in, at_out = k == 0 and state_in.moving, k == n - 1 and state_out.moving
             if ok[k] and phases is not None:  # a run of closed-form pieces, added at once
                 e = k + 1
                 while e < n and ok[e]:
@@ -168,9 +170,10 @@ class MovePieces:
                 self.out.add_jerk3(Jerk3Run(mins[k:e] / 3.0, *run))
                 for x in mins[k:e].tolist():  # summed in order, as piece by piece
                     total += x
-                for c in {k, e - 1}:
-                    if check.get(c):
-                        bad[c] = _deviation(g, pieces, c) > dev_max
+                for c in {k, e - 1} & set(ends):
+                    off = _deviation(g, pieces, c) > dev_max
+                    bad_in |= c == 0 and state_in.moving and off
+                    bad_out |= c == n - 1 and state_out.moving and off
                 k = e
                 continue
             if self.pieces != "ruckig":
@@ -183,16 +186,19 @@ class MovePieces:
                 q = piece.positions
                 speed = np.linalg.norm(piece.velocities, axis=1).max()
                 # the smoothing budget is for the jumps at moving junctions only
-                near = dev_max if check.get(k) else self.dev_max
+                near = dev_max if at_in or at_out else self.dev_max
                 off = g.deviation(q, u[k]) > near or speed > g.feed_mm_per_s
-                if k in check:
-                    bad[k] = off or d > mins[k] * 1.001 + 1e-9
-                elif off:  # inside the arc: its moving junctions must come down
-                    bad[0], bad[n - 1] = bad[0] or check[0], bad[n - 1] or check[n - 1]
-                if off and not (check[0] or check[n - 1]):
-                    self.off_pieces += 1  # no junction speed to lower: the profile must change
+                stretched = d > mins[k] * 1.001 + 1e-9
+                bad_in |= at_in and (off or stretched)
+                bad_out |= at_out and (off or stretched)
+                if off and not (at_in or at_out):
+                    if state_in.moving or state_out.moving:  # their speeds must come down
+                        bad_in |= state_in.moving
+                        bad_out |= state_out.moving
+                    else:  # no junction speed to lower: the profile must change
+                        self.off_pieces += 1
             k += 1
-        return total, bad[0], bad[n - 1]
+        return total, bad_in, bad_out
 
     def closed_form(
         self, g: ArcGeometry, profile: Profile1D, state_in: EndState, state_out: EndState

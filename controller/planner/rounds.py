@@ -15,6 +15,7 @@ pieces of a chain are kept as arrays (a few bytes per phase, not Python floats).
 
 from __future__ import annotations
 
+import itertools
 from dataclasses import dataclass
 
 import numpy as np
@@ -38,8 +39,8 @@ from gantry_sim.controller.planner.segmented_curve import SegmentedCurve
 
 __all__ = ["JUNCTION_BACKOFF", "MAX_ROUNDS", "Round", "replan_until_junctions_hold"]
 
-#: Re-planning rounds (each lowers the offending junction caps by JUNCTION_BACKOFF); the last
-#: round stops at the junctions still offending.
+#: Re-planning rounds that lower the offending junction caps by JUNCTION_BACKOFF; from then on
+#: each round stops at the junctions still offending, until none does (a stop never offends).
 MAX_ROUNDS = 16
 JUNCTION_BACKOFF = 0.9
 
@@ -76,15 +77,17 @@ def replan_until_junctions_hold(
 ) -> Round:
     """Plan the moves; while pieces next to moving junctions leave the arc, lower those
     junctions' caps (``caps`` [mm/s] is changed) by :data:`JUNCTION_BACKOFF` and plan again, at
-    most :data:`MAX_ROUNDS` times; in the last round the junctions still offending become
-    stops. ``holds``: dwells per junction (exact stops holding the reference for their time).
+    most :data:`MAX_ROUNDS` times; after that the junctions still offending become stops, round
+    by round, until none offends: the plan kept never has a piece off its path next to a moving
+    junction (lowering one junction changes its neighbours' speeds, so a junction may first
+    offend in a late round). ``holds``: dwells per junction (exact stops holding the reference for their time).
     ``blend_arcs``: ids of the G64 blend arcs among the moves (tolerance features: no
     saturated-ramp search, which costs tenths of a second and can save them microseconds)."""
     setup = ChainSetup(active, states, machine, solver, arc_pieces, smoothing, {}, blend_arcs)
     blocks = [g.limits for g in active]
     cache: dict[ChainKey, Chain] = {}
     reach_memo: dict = {}
-    for rnd in range(MAX_ROUNDS + 1):
+    for rnd in itertools.count():
         spans = chain_spans(blocks, caps)
         chained = [chain_limits(blocks[first:stop]) for first, stop in spans]
         ends = [first for first, _ in spans] + [len(active)]
@@ -96,10 +99,10 @@ def replan_until_junctions_hold(
             if chain.bad:
                 bad |= chain.bad
                 speeds[first + 1 : stop] = chain.inner_speeds
-        if not bad or rnd == MAX_ROUNDS:
+        if not bad:
             break
-        for b in bad:
-            caps[b] = 0.0 if rnd == MAX_ROUNDS - 1 else JUNCTION_BACKOFF * speeds[b]
+        for b in bad:  # only moving junctions are ever bad: each stop makes one fewer
+            caps[b] = 0.0 if rnd >= MAX_ROUNDS - 1 else JUNCTION_BACKOFF * speeds[b]
         chains.clear()  # the chains replaced next round are freed before it plans new ones
     return _assemble(setup, spans, chains, holds)
 
