@@ -27,6 +27,7 @@ from gantry_sim.controller.planner.ramp_bounds import CircleLimits, NormLimits
 from gantry_sim.controller.planner.ruckig_solver import RuckigSolver, SolverFailure
 from gantry_sim.controller.planner.saturated_ramp import SHARE as SATURATED_SHARE
 from gantry_sim.controller.planner.saturated_ramp import saturated_profile
+from gantry_sim.controller.planner.tangent_limits import tangent_profile
 
 #: An arc whose entry or exit speed is below this share of its cap tries a faster profile.
 BOOST_RAMP_SHARE = 0.9
@@ -119,7 +120,7 @@ def boosted_profile(
     acceleration where the speed is low, or cruise a little below the curvature cap to keep
     jerk for the ramps. Tried only where the block ramps (an end below
     :data:`BOOST_RAMP_SHARE` of its cap); the fastest checked candidate wins, preceded by the
-    saturated ramps (:func:`saturated_candidate`) where they are faster still.
+    saturated ramps (:func:`saturated_candidates`) where they are faster still.
 
     Args:
         g: the arc's geometry; ``v_in``, ``v_out``: its end speeds [mm/s]; ``profile``: its
@@ -164,9 +165,8 @@ def boosted_profile(
     # the saturated ramps (a few tenths of a second to build) cannot beat cruising the whole
     # arc at its speed cap: skip them where that could save less than SATURATED_MIN_GAIN_S
     if saturated and best_t - g.length_mm / base >= SATURATED_MIN_GAIN_S:
-        sat = saturated_candidate(g, v_in, v_out, base, amax, jmax)
-        if sat is not None and sat.duration_s < best_t:
-            found = (sat, *found)
+        sat = saturated_candidates(g, v_in, v_out, base, amax, jmax, solver)
+        found = (*(p for p in sat if p.duration_s < best_t), *found)
     cache[key] = found
     return found
 
@@ -181,6 +181,11 @@ SATURATED_MIN_USE = 0.25
 #: a polyline passed near rest could save microseconds, for 0.36 s of planning each: measured on
 #: 1,000 blended G1 moves, 13 of them took 4.7 s of a 5 s plan).
 SATURATED_MIN_GAIN_S = 0.002
+#: Where the profile under the tangent's limits peaks below this share of the curvature cap,
+#: the saturated ramps are not built: on the first 3,000 lines of a Bambu Studio arc-fitted
+#: print (2,389 moves) they took 47 s of a 52 s plan to shorten a 228 s cycle by 2 ms at 0.5
+#: (and 71 s, 0.3 s, without the tangent's profile). A full circle from rest peaks at its cap.
+TANGENT_ENOUGH = 0.85
 
 
 def _plain_circle(g: ArcGeometry) -> bool:
@@ -191,21 +196,28 @@ def _plain_circle(g: ArcGeometry) -> bool:
     return abs(f.r1_mm - f.r0_mm) <= 1e-9 * f.r0_mm and f.h0_mm == f.h1_mm
 
 
-def saturated_candidate(
+def saturated_candidates(
     g: ArcGeometry,
     v_in: float,
     v_out: float,
     base: float,
     amax: Vec3,
     jmax: Vec3,
+    solver: RuckigSolver,
     try_spirals: bool = False,
-) -> Profile1D | None:
-    """The saturated-ramp profile of an arc from and to near rest on which the curvature takes
-    much of the jerk or acceleration, or None (see :data:`SATURATED_END_SHARE`). On a plain
-    circle the ramps use each plane axis' own limits (:class:`CircleLimits`). Elsewhere (an arc
-    whose end radii differ, as rounded CAM output's do) the orientation-free ones, checked by
-    :func:`follow_ok`, only with ``try_spirals``: measured on 2,000 mixed CAM blocks, 41 such
-    arcs cost 27 s of a 29 s plan and none passed the check, so the planner does not try them."""
+) -> tuple[Profile1D, ...]:
+    """The profiles of an arc from and to near rest on which the curvature takes much of the
+    jerk or acceleration (see :data:`SATURATED_END_SHARE`), fastest first (none elsewhere).
+    On a plain circle: the profile under the tangent's per-axis limits
+    (:func:`tangent_profile`, a few Ruckig calls) and the saturated ramps, which use each plane
+    axis' own limits (:class:`CircleLimits`) and cost tenths of a second an arc (an arc-fitted
+    print has thousands of such arcs): they are built only where the tangent's profile peaks
+    above :data:`TANGENT_ENOUGH` of the curvature cap (below it the curvature takes too little
+    of the limits for them to gain much).
+    Elsewhere (an arc whose end radii differ, as rounded CAM output's do) the orientation-free
+    bounds, checked by :func:`follow_ok`, only with ``try_spirals``: measured on 2,000 mixed CAM
+    blocks, 41 such arcs cost 27 s of a 29 s plan and none passed the check, so the planner
+    does not try them."""
     fg = g.follow
     i1, i2, _ = fg.plane_axes
     a_pl, j_pl = min(amax[i1], amax[i2]), min(jmax[i1], jmax[i2])
@@ -213,21 +225,36 @@ def saturated_candidate(
     cap = curvature_speed_cap(base, k, dk, a_pl, j_pl, SATURATED_SHARE)
     use = max(cap**3 * dk / j_pl, cap * cap * k / a_pl)
     if fg.sin_pitch > 0 or use < SATURATED_MIN_USE or max(v_in, v_out) > SATURATED_END_SHARE * cap:
-        return None
+        return ()
     sh = SATURATED_SHARE
     if isinstance(g.move, Arc) and _plain_circle(g):
         # Exact per-axis bounds: the planner checks every closed-form piece against the limits
         # before using the profile. The cap stays the orientation-free curvature cap: the cruise
         # (and the bridge between the ramps' peaks) must hold wherever on the circle it lies.
         f = arc_frame(g.move)
-        acc, jerk = (sh * amax[i1], sh * amax[i2]), (sh * jmax[i1], sh * jmax[i2])
+        acc, jerk = (amax[i1], amax[i2]), (jmax[i1], jmax[i2])
+        tang = tangent_profile(f, g.length_mm, v_in, v_out, cap, acc, jerk, solver)
+        found = () if tang is None else (tang,)
+        if tang is not None and tang.rows[:, 2].max() <= TANGENT_ENOUGH * cap:
+            return found
         up, down = (
-            CircleLimits(f.theta0_rad, f.sigma, f.r0_mm, g.length_mm, rev, acc, jerk)
+            CircleLimits(
+                f.theta0_rad,
+                f.sigma,
+                f.r0_mm,
+                g.length_mm,
+                rev,
+                (sh * acc[0], sh * acc[1]),
+                (sh * jerk[0], sh * jerk[1]),
+            )
             for rev in (False, True)
         )
-        return saturated_profile(g.length_mm, v_in, v_out, cap, (up, down))
+        sat = saturated_profile(g.length_mm, v_in, v_out, cap, (up, down))
+        if sat is not None:
+            found = tuple(sorted((*found, sat), key=lambda p: p.duration_s))
+        return found
     if not try_spirals:
-        return None
+        return ()
     norm = NormLimits(k, dk, sh * a_pl, sh * j_pl)
     prof = saturated_profile(g.length_mm, v_in, v_out, cap, (norm, norm))
-    return prof if prof is not None and follow_ok(prof, fg, base, amax, jmax) else None
+    return (prof,) if prof is not None and follow_ok(prof, fg, base, amax, jmax) else ()
