@@ -33,6 +33,7 @@ from gantry_sim.controller.gcode.lexer import (
     without_realtime,
 )
 from gantry_sim.controller.gcode.printer_codes import marlin_dwell_seconds
+from gantry_sim.controller.gcode.words import whole_number
 from gantry_sim.controller.moves import Event, Move
 
 MAX_CALL_LEVELS = 9
@@ -457,7 +458,7 @@ class Runner:
         number = round(p)
         if abs(p - number) > 0.0001:
             raise GcodeError(f"M98 P{p:g}: the subprogram number must be a whole number")
-        count = round(evaluate(words["L"], self.params)) if "L" in words else 1
+        count = int(whole_number("L", evaluate(words["L"], self.params))) if "L" in words else 1
         if count <= 0:
             return  # L0: no call
         found = find_program(f.source.lines, f.index, number)

@@ -110,6 +110,8 @@ class Dialect:
             (controller/gcode/canned_cycles.py); False: refused, the firmware has none.
         cutter_comp: G41/G42/G41.1/G42.1 run as LinuxCNC runs them (controller/gcode/
             cutter_comp.py); False: refused (G40 is accepted everywhere).
+        integer_words: letters read as whole numbers as rs274's read_integer_value reads them
+            (within 0.0001 of one; else an error), not rounded.
         splines: "linuxcnc": G5, G5.1, G5.2/G5.3 run as LinuxCNC runs them; "marlin": G5 alone,
             as Marlin's BEZIER_CURVE_SUPPORT runs it (controller/gcode/splines.py); "": refused,
             the firmware has none.
@@ -152,6 +154,7 @@ class Dialect:
     canned_cycles: bool = False
     cutter_comp: bool = False
     splines: str = ""
+    integer_words: frozenset[str] = frozenset()
 
 
 _TOL_MM = 2 * 0.01 * math.sqrt(2.0)  # 0.028284 mm, rs274 CENTER_ARC_RADIUS_TOLERANCE_MM
@@ -172,6 +175,7 @@ LINUXCNC = Dialect(
     min_radius_in=0.00005,
     r_short_is_semicircle=False,
     require_program_end=True,
+    integer_words=frozenset("HLT"),
     canned_cycles=True,
     cutter_comp=True,
     splines="linuxcnc",

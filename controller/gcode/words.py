@@ -7,11 +7,12 @@ once and must have a code on the line (or the modal motion) that uses it.
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
 from gantry_sim.controller.errors import GcodeError
 from gantry_sim.controller.gcode.codes import G_GROUPS, M_GROUPS, g_name, m_accepted, m_allowed
-from gantry_sim.controller.gcode.dialects import Dialect
+from gantry_sim.controller.gcode.dialects import LINUXCNC, Dialect
 from gantry_sim.controller.gcode.expressions import ParameterReader, evaluate
 from gantry_sim.controller.gcode.lexer import Block
 from gantry_sim.controller.gcode.parameters import (
@@ -59,9 +60,28 @@ def _m_list(dialect: Dialect | None) -> str:
     return m_accepted(dialect.name, dialect.m_codes)
 
 
+#: rs274's read_integer_value: a value within this of a whole number is that number
+INTEGER_TOL = 0.0001
+
+
+def whole_number(letter: str, value: float) -> float:
+    """``value`` of an integer word (T, H, L in LinuxCNC) as rs274 reads it: the whole number
+    within :data:`INTEGER_TOL` of it (T1.99995 is T2), else GcodeError (T1.5, L19.6)."""
+    low = math.floor(value)
+    if value - low > 1.0 - INTEGER_TOL:
+        return float(low + 1)
+    if value - low > INTEGER_TOL:
+        raise GcodeError(
+            f"{letter}{value:g} is not an integer; {letter} takes a whole number (within "
+            f"{INTEGER_TOL:g} of one)"
+        )
+    return float(low)
+
+
 def read_words(block: Block, params: ParameterReader, dialect: Dialect | None = None) -> Words:
     """Step 1: evaluate the block's values (with parameters as they were before the line);
-    ``dialect``: whose M codes an unknown one's message lists (default LinuxCNC's)."""
+    ``dialect``: whose M codes an unknown one's message lists and whose integer words are
+    read as rs274 reads them (default LinuxCNC's)."""
     g: dict[str, int] = {}
     m: dict[str, int] = {}
     values: dict[str, float] = {}
@@ -99,6 +119,8 @@ def read_words(block: Block, params: ParameterReader, dialect: Dialect | None = 
         else:
             if letter == "R" and g.get("motion") not in (20, 30):
                 r_before_arc_code = True  # no G2/G3 earlier on the line (Laserdyne: "Repeat")
+            if letter in (dialect or LINUXCNC).integer_words:
+                value = whole_number(letter, value)
             values[letter] = value
     settings: list[tuple[int | str, float]] = []
     for (kind, target), value_tree in block.settings:
