@@ -30,7 +30,7 @@ from pathlib import Path
 from gantry_sim.controller.config import MachineConfig
 from gantry_sim.controller.errors import GantryError, GcodeError
 from gantry_sim.controller.gcode.control import DEFAULT_MAX_ITERATIONS
-from gantry_sim.sim.budget import Budget, check_budget
+from gantry_sim.sim.budget import Budget, check_budget, check_lower_bound
 from gantry_sim.sim.gates import Gates, Verdict
 from gantry_sim.sim.progress import Advance, stage, wanted
 from gantry_sim.sim.report import RunReport
@@ -145,6 +145,7 @@ def run_program(
             )
         moves = tuple(m for m in items if isinstance(m, Rapid | Linear | Arc | Spline))
         t1 = time.perf_counter()
+        check_lower_bound(items, machine, budget or Budget(), file, feed_override_pct)
         with stage("plan", len(items), "move", shown, known_size=False):
             planned = plan(items, machine, feed_override_pct=feed_override_pct)
         check_budget(planned, machine, budget or Budget(), file)

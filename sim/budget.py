@@ -12,6 +12,7 @@ and the option that raises the bound (``--max-sim-s``, ``--max-physics-steps``).
 from __future__ import annotations
 
 import math
+from collections.abc import Iterable
 from dataclasses import dataclass
 from typing import TYPE_CHECKING
 
@@ -69,39 +70,112 @@ def _longest_move(plan) -> tuple[int | None, float]:
 def check_budget(plan, machine: MachineConfig, budget: Budget, file: str) -> None:
     """Raise PlanningError (on the longest move's line) if simulating ``plan`` would exceed
     ``budget``; the message gives the estimate, the bound and the option to raise it."""
-    duration = float(plan.duration_s)
+    line, longest = _longest_move(plan)
+    _check_duration(float(plan.duration_s), line, longest, machine, budget, file, "")
+
+
+def duration_lower_bound(
+    items: Iterable[object], machine: MachineConfig, feed_override_pct: float = 100.0
+) -> tuple[float, int | None, float]:
+    """A lower bound [s] on the planned duration of ``items`` (moves and dwells): every move
+    at the fastest speed it could have (its feed times the override, capped by the axis
+    speed limits along a straight move's direction, by their norm along a curve; a rapid at
+    the cap), plus the dwells; and the line whose moves take longest, and their bound (a
+    canned cycle's line makes many moves). Cheap (no planning),
+    so that a program far beyond the budget is refused before its planning takes minutes."""
+    from gantry_sim.controller.moves import Dwell, Linear, Rapid
+
+    vmax = machine.limits.max_velocity_mm_per_s
+    norm = math.sqrt(sum(v * v for v in vmax))
+    scale = feed_override_pct / 100.0
+    per_line: dict[int, float] = {}
+    for m in items:
+        if isinstance(m, Dwell):
+            t = m.seconds
+        elif hasattr(m, "length_mm"):
+            length = m.length_mm
+            if isinstance(m, Rapid | Linear):
+                d = [e - b for b, e in zip(m.start, m.end, strict=True)]
+                cap = min(
+                    (v / abs(x) * length for v, x in zip(vmax, d, strict=True) if x), default=norm
+                )
+            else:
+                cap = norm
+            feed = getattr(m, "feed_mm_per_min", None)
+            speed = cap if feed is None else min(cap, feed * scale / 60.0)
+            t = length / speed if speed > 0 else 0.0
+        else:
+            continue
+        at = m.line  # type: ignore[attr-defined]
+        per_line[at] = per_line.get(at, 0.0) + t
+    if not per_line:
+        return 0.0, None, 0.0
+    line = max(per_line, key=lambda k: per_line[k])
+    return math.fsum(per_line.values()), line, per_line[line]
+
+
+def check_lower_bound(
+    items: Iterable[object],
+    machine: MachineConfig,
+    budget: Budget,
+    file: str,
+    feed_override_pct: float = 100.0,
+) -> None:
+    """Raise the error of :func:`check_budget` before planning when even
+    :func:`duration_lower_bound` exceeds ``budget`` (the plan would be refused after it)."""
+    duration, line, longest = duration_lower_bound(items, machine, feed_override_pct)
+    _check_duration(duration, line, longest, machine, budget, file, "at least ")
+
+
+def _check_duration(
+    duration: float,
+    line: int | None,
+    longest: float,
+    machine: MachineConfig,
+    budget: Budget,
+    file: str,
+    at_least: str,
+) -> None:
+    """The checks of :func:`check_budget` on a duration [s] (``at_least``: "at least " when
+    it is a lower bound) and the longest move's line and duration."""
     ticks = duration / machine.servo.period_s
     substeps = max(1, round(machine.servo.period_s / machine.sim.physics_timestep_s))
     steps = ticks * substeps
-    line, longest = _longest_move(plan)
-    on_line = f" (the move on this line alone takes {longest:.6g} s)" if line is not None else ""
+    on_line = (
+        f" (the {'moves' if at_least else 'move'} on this line alone take"
+        f"{'' if at_least else 's'} {at_least}{longest:.6g} s)"
+        if line is not None
+        else ""
+    )
     if duration > budget.max_sim_s:
         bound = (
             f", beyond the bound of {budget.max_sim_s:g} s (memory grows by about 0.6 MB per "
             f"simulated second); check the feeds (F is in mm/min), or pass --max-sim-s "
-            f"{math.ceil(duration)} to simulate it anyway"
+            f"{'above ' if at_least else ''}{math.ceil(duration)} to simulate it anyway"
         )
         raise BudgetError(
-            f"the program takes {duration:.6g} s of simulated time{on_line}{bound}",
-            f"it takes {duration:.6g} s of simulated time{bound}",
+            f"the program takes {at_least}{duration:.6g} s of simulated time{on_line}{bound}",
+            f"it takes {at_least}{duration:.6g} s of simulated time{bound}",
             file=file,
             line=line,
         )
     if ticks > budget.max_sim_s * TICKS_PER_BUDGET_S:
         need = math.ceil(ticks / TICKS_PER_BUDGET_S)
         message = (
-            f"simulating it takes {ticks:.3g} servo ticks ({duration:.6g} s at [servo] "
+            f"simulating it takes {at_least}{ticks:.3g} servo ticks ({duration:.6g} s at [servo] "
             f"period_s = {machine.servo.period_s:g}), beyond the bound of "
             f"{budget.max_sim_s * TICKS_PER_BUDGET_S:.3g} (--max-sim-s counts 1000 ticks, about "
-            f"0.6 MB of memory, per second); pass --max-sim-s {need} to simulate it anyway"
+            f"0.6 MB of memory, per second); pass --max-sim-s {'above ' if at_least else ''}"
+            f"{need} to simulate it anyway"
         )
         raise BudgetError(message, message, file=file)
     if steps > budget.max_physics_steps:
         message = (
-            f"simulating it takes {steps:.3g} MuJoCo physics steps ({duration:.6g} s at [sim] "
+            f"simulating it takes {at_least}{steps:.3g} MuJoCo physics steps ({duration:.6g} s at [sim] "
             f"physics_timestep_s = {machine.sim.physics_timestep_s:g}), beyond the bound of "
             f"{budget.max_physics_steps:.3g} (about a minute of computing); use a larger "
-            f"physics timestep, or pass --max-physics-steps {math.ceil(steps)} to simulate it "
+            f"physics timestep, or pass --max-physics-steps {'above ' if at_least else ''}"
+            f"{math.ceil(steps)} to simulate it "
             "anyway"
         )
         raise BudgetError(message, message, file=file)

@@ -138,14 +138,54 @@ def test_a_program_of_600000_simulated_seconds_is_refused_at_once(tmp_path, caps
         if cmd[0] == "sweep":  # per grid point: a row, not a crash; no point ran: exit 1
             assert status == 1 and "over the budget" in cap.out
             continue
-        assert status == 2
-        assert cap.err.startswith(f"{slow}:1: error: the program takes 600000 s of simulated")
-        assert "--max-sim-s 600001" in cap.err
+        assert status == 2  # refused before planning: its moves at their feeds take 600000 s
+        assert cap.err.startswith(f"{slow}:1: error: the program takes at least 600000 s of")
+        assert "--max-sim-s above 600000" in cap.err
+
+
+def test_far_beyond_the_bound_is_refused_before_planning(tmp_path, capsys, monkeypatch):
+    """A canned cycle of 51,000 pecks (150,000 moves; Q0.0001 makes ten times as many, minutes
+    and gigabytes to plan) is refused from its moves alone; the planner is never called."""
+    import importlib
+
+    planner = importlib.import_module("gantry_sim.controller.planner.plan")
+
+    def never(*args, **kwargs):  # type: ignore[no-untyped-def]
+        raise AssertionError("planned")
+
+    monkeypatch.setattr(planner, "plan", never)
+    pecks = tmp_path / "pecks.ngc"
+    pecks.write_text("G0 Z5\nG83 X1 Y1 Z-50 R1 Q0.001 F100000\nM2\n")
+    assert main(["run", str(pecks), "--out", str(tmp_path / "o"), "--no-plots"]) == 2
+    err = capsys.readouterr().err
+    found = re.match(
+        rf"{re.escape(str(pecks))}:2: error: the program takes at least ([\d.]+) s", err
+    )
+    assert found and float(found.group(1)) > 7200
+    assert "the moves on this line alone take at least" in err and TRACEBACK not in err
+
+
+@pytest.mark.parametrize(
+    "text",
+    [
+        "G21 G90\nG0 X50 Y20 Z-5\nG1 X10 F3000\nG2 X0 Y10 I-10 J0 F1200\nG4 P0.5\nG1 Y-30\nM2\n",
+        "G21 G90 G64 P0.01\nG1 X1 Y0.2 F6000\nG1 X2 Y0\nG1 X3 Y0.2\nG3 X5 Y0.2 I1 J0\nM2\n",
+    ],
+)
+def test_the_bound_from_the_moves_is_below_the_planned_duration(text, machine):  # type: ignore[no-untyped-def]
+    from gantry_sim.controller.gcode.interpreter import interpret_events
+    from gantry_sim.controller.planner.plan import plan
+    from gantry_sim.sim.budget import duration_lower_bound
+
+    items = list(interpret_events(text, "linuxcnc"))
+    bound, _, _ = duration_lower_bound(items, machine)
+    assert 0.0 < bound <= plan(items, machine).duration_s
 
 
 def test_the_bounds_can_be_raised_explicitly(tmp_path, capsys, prog):
     assert main(["run", str(prog), "--out", str(tmp_path / "o"), "--max-sim-s", "0.05"]) == 2
-    assert "--max-sim-s 1" in capsys.readouterr().err
+    # its moves alone take 0.1 s at their feeds: refused before planning
+    assert re.search(r"--max-sim-s (above )?1 to", capsys.readouterr().err)
     assert main(["run", str(prog), "--out", str(tmp_path / "o"), "--max-sim-s", "1"]) == 0
     mf = tmp_path / "m.toml"
     mf.write_text("[sim]\nphysics_timestep_s = 1e-6\n")

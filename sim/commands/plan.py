@@ -64,7 +64,7 @@ def blend_summary(blends: tuple) -> dict:
 def run(args: argparse.Namespace) -> int:
     from gantry_sim.controller.errors import GantryError
     from gantry_sim.controller.planner.plan import plan
-    from gantry_sim.sim.budget import Budget, check_budget
+    from gantry_sim.sim.budget import Budget, check_budget, check_lower_bound
     from gantry_sim.sim.outdir import check_output_file
     from gantry_sim.sim.program import interpret_program
 
@@ -84,6 +84,8 @@ def run(args: argparse.Namespace) -> int:
             max_iterations=max_iterations(args),
             events=True,
         )
+        if args.out is not None:  # before planning: far beyond the bound is refused now
+            check_lower_bound(moves, machine, Budget(budget.max_sim_s, float("inf")), file)
         result = plan(moves, machine)
     except GantryError as exc:
         raise exc.located(file) from None
