@@ -95,13 +95,15 @@ class Source:
         self, start: int, name: str, keywords: tuple[str, ...], labels: Labels | None = None
     ) -> int | None:
         """The first line from ``start`` on with O-word ``name`` and one of ``keywords``;
-        ``labels``: check the labels of the lines passed (rs274 reads skipped lines too)."""
+        ``labels``: check the lines passed that open a construct with the same label (rs274,
+        skipping a body, refuses those as duplicates; other labels in it are not recorded, so
+        an if and its else may each hold an ``o2 if``)."""
         i = start
         while i < len(self.lines):
             o = self.oword(i)
             if o is not None and o.name == name and o.keyword in keywords:
                 return i
-            if o is not None and labels is not None:
+            if o is not None and labels is not None and o.name == name:
                 labels.note(self, i, o)
             i += 1
         return None
