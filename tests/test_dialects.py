@@ -226,6 +226,27 @@ def test_marlin_printer_codes_are_accepted_without_motion() -> None:
     assert [(m.line, m.end) for m in moves] == [(25, (10.0, 10.0, 0.0))]
 
 
+def test_marlin_skips_lines_it_does_not_know_and_ignores_m_t_words_after_g() -> None:
+    """Marlin answers a line with no command "Unknown command" and goes on, and reads the M and
+    T words of a G line as parameters the command ignores (found in real printer files: a stray
+    "1", a "% text" banner, Klipper macros, "G90 M107")."""
+    text = (
+        "G21\n1\n% print start\nPRINT_START BED=60 EXTRUDER=210\nEXCLUDE_OBJECT_DEFINE NAME=a\n"
+        "G90 M107\nG1 X5 F600 T1 ; M3 in a comment\n/G1 X7\n#1=2\nG1 Y#1\n"
+    )
+    moves = run(text, "marlin")
+    assert [(m.line, m.end) for m in moves] == [
+        (7, (5.0, 0.0, 0.0)),
+        (8, (7.0, 0.0, 0.0)),
+        (10, (7.0, 2.0, 0.0)),
+    ]
+    # a line of bare axis words is still the shared step's: no motion mode yet, refused
+    assert error_of("G21\nX5\n", "marlin").line == 2
+    # LinuxCNC keeps refusing these
+    assert error_of("G21\nPRINT_START\nM2\n", "linuxcnc").line == 2
+    assert error_of("G90 M107\nM2\n", "linuxcnc").line == 1
+
+
 def test_marlin_g28_homes_named_axes_and_g92_sets_the_position() -> None:
     moves = run("G1 X3 Y4 Z5 F100\nG28 X\nG28\nG1 X5\nG92 X0\nG1 X1\n", "marlin")
     assert [(m.line, m.kind, m.end) for m in moves] == [

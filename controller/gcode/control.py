@@ -32,7 +32,10 @@ from gantry_sim.controller.gcode.lexer import (
     strip_line,
     without_realtime,
 )
-from gantry_sim.controller.gcode.printer_codes import marlin_dwell_seconds
+from gantry_sim.controller.gcode.printer_codes import (
+    marlin_dwell_seconds,
+    without_marlin_parameters,
+)
 from gantry_sim.controller.gcode.words import whole_number
 from gantry_sim.controller.moves import Event, Move
 
@@ -79,6 +82,8 @@ class Source:
                 return replace(lex_line(raw, i + 1), limits=True)
             except GcodeError:  # Marlin reads what it can and ignores the rest
                 return Block(i + 1, (), (), False, raw)
+        if kind == "parameters":  # Marlin: M and T words after a G command are ignored
+            return lex_line(without_marlin_parameters(raw), i + 1, self.system_lines)
         if kind == "home":  # Marlin G28 [X] [Y] [Z]: bare axis letters name the axes to home
             text = strip_line(raw).split(COMMENT, 1)[0]
             axes = tuple((a, ("num", 0.0)) for a in "XYZ" if a in text[text.find("28") :])

@@ -8,6 +8,9 @@ retract, G29-G35 and G76 probing and calibration, G60 save position, G80, G92 wi
 G28 homes the named axes (all when none) to the machine file's work origin; the ones that move
 in ways this machine does not model are refused with a reason (G6 direct stepper,
 G12 nozzle clean, G26 mesh print, G27 park, G42 mesh point, G61 restore position, G38 probe).
+A line that opens with no command (a stray number, ``% text``, a Klipper macro) gets Marlin's
+"Unknown command" and is skipped; M and T words after a G command are its parameters, which
+it ignores (``G90 M107`` is G90).
 
 g2core: a line opening with ``{`` is a JSON configuration or status request (no motion), and so
 are M100 (JSON in a G-code line), M100.1 and M101 (wait for inputs); G28.2/G28.3 (homing / set
@@ -45,10 +48,15 @@ MARLIN_REFUSED_G: dict[int, str] = {
 
 def marlin_line(raw: str) -> str | None:
     """What a Marlin line is before the shared step: "quiet" (accepted, no motion), "home" (G28),
-    "dwell" (G4 P<ms> or S<s>), "limits" (M201/M203/M204/M205) or None (a shared G-code line). GcodeError for a refused G code."""
+    "dwell" (G4 P<ms> or S<s>), "limits" (M201/M203/M204/M205), "parameters" (a G line with M
+    or T words, which Marlin reads as parameters the command ignores) or None (a shared G-code
+    line). GcodeError for a refused G code."""
     if _TEXT.match(raw):
         return "quiet"
-    head = _HEAD.match(raw.split(";", 1)[0])
+    code = raw.split(";", 1)[0]
+    if _NOT_A_COMMAND.match(code):
+        return "quiet"  # Marlin: "Unknown command", and on to the next line
+    head = _HEAD.match(code)
     if head is None:
         return None
     letter, number = head.group(1).upper(), head.group(2)
@@ -65,7 +73,27 @@ def marlin_line(raw: str) -> str | None:
         raise GcodeError(f"{MARLIN_REFUSED_G[tenths]} (Marlin G{number})")
     if tenths in MARLIN_QUIET_G or (tenths == 920 and _E_ONLY.match(raw)):
         return "quiet"
+    if _PARAMETER_MT.search(code[head.end() :]):
+        return "parameters"
     return None
+
+
+#: A line Marlin answers with "Unknown command": one that opens with neither a letter and a
+#: value nor a comment (a stray number, ``% text``, a Klipper macro such as ``PRINT_START
+#: BED=60``). A line of bare axis words (``X10 Y5``), a block delete ``/``, a parameter
+#: setting ``#`` and a lone ``%`` are left to the shared step.
+_NOT_A_COMMAND = re.compile(r"^\s*(?:N\d+\s*)?(?:[^A-Za-z(\s/#%]|%.*\S|[A-Za-z][A-Za-z_])")
+#: An M or T word after a G command: a parameter to Marlin, which that command ignores.
+_PARAMETER_MT = re.compile(r"[MT]\s*[-+]?(?:\d+\.?\d*|\.\d+)", re.IGNORECASE)
+
+
+def without_marlin_parameters(raw: str) -> str:
+    """A G line without its M and T words (see :func:`marlin_line`'s "parameters"); the
+    comment, if any, is kept."""
+    code, sep, comment = raw.partition(";")
+    head = _HEAD.match(code)
+    start = head.end() if head is not None else 0
+    return code[:start] + _PARAMETER_MT.sub(" ", code[start:]) + sep + comment
 
 
 _G2CORE_QUIET = re.compile(
