@@ -10,7 +10,7 @@ import pytest
 from gantry_sim.controller.errors import GcodeError
 from gantry_sim.controller.gcode.dialects import DIALECTS, MARLIN, get_dialect
 from gantry_sim.controller.gcode.interpreter import parse_program
-from gantry_sim.controller.moves import Arc
+from gantry_sim.controller.moves import Arc, Linear, Rapid
 
 
 def run(text: str, dialect: str):
@@ -245,6 +245,20 @@ def test_marlin_skips_lines_it_does_not_know_and_ignores_m_t_words_after_g() -> 
     # LinuxCNC keeps refusing these
     assert error_of("G21\nPRINT_START\nM2\n", "linuxcnc").line == 2
     assert error_of("G90 M107\nM2\n", "linuxcnc").line == 1
+
+
+def test_marlin_g0_is_a_g1_at_the_modal_feed() -> None:
+    """Marlin's G0_G1 command: in a printer build G0 moves at the feed rate G1 uses, and an F
+    on a G0 line sets it for both (Cura writes its travel as "G0 F9000 X.. Y..")."""
+    moves = run("G1 X1 F600\nG0 X10\nG0 X20 F3000\nG1 X30\n", "marlin")
+    assert [(type(m), m.feed_mm_per_min) for m in moves] == [
+        (Linear, 600.0),
+        (Linear, 600.0),
+        (Linear, 3000.0),
+        (Linear, 3000.0),
+    ]
+    assert isinstance(run("G0 X10\n", "marlin")[0], Linear)  # Marlin's default 1500 mm/min
+    assert isinstance(run("G0 X10\nM2\n", "linuxcnc")[0], Rapid)
 
 
 def test_marlin_g28_homes_named_axes_and_g92_sets_the_position() -> None:

@@ -110,6 +110,9 @@ class Dialect:
             (controller/gcode/canned_cycles.py); False: refused, the firmware has none.
         cutter_comp: G41/G42/G41.1/G42.1 run as LinuxCNC runs them (controller/gcode/
             cutter_comp.py); False: refused (G40 is accepted everywhere).
+        g0_at_feed: G0 is a G1 (the modal feed, joined to its neighbours like any move), as
+            Marlin runs it in a printer build (its G0_G1 command; only laser and CNC builds
+            move G0 at the axes' top speed).
         integer_words: letters read as whole numbers as rs274's read_integer_value reads them
             (within 0.0001 of one; else an error), not rounded.
         splines: "linuxcnc": G5, G5.1, G5.2/G5.3 run as LinuxCNC runs them; "marlin": G5 alone,
@@ -155,6 +158,7 @@ class Dialect:
     cutter_comp: bool = False
     splines: str = ""
     integer_words: frozenset[str] = frozenset()
+    g0_at_feed: bool = False
 
 
 _TOL_MM = 2 * 0.01 * math.sqrt(2.0)  # 0.028284 mm, rs274 CENTER_ARC_RADIUS_TOLERANCE_MM
@@ -219,6 +223,7 @@ MARLIN = Dialect(
     arc_segment_mm=1.0,  # Marlin 2.x MAX_ARC_SEGMENT_MM (formerly MM_PER_ARC_SEGMENT)
     own_lines="marlin",
     splines="marlin",
+    g0_at_feed=True,
 )
 
 LASERDYNE_ON_ARC_TOL_MM = 0.005

@@ -278,9 +278,9 @@ class Interpreter:
                 self.comp.arc_not_allowed = False
             if self.comp.active:
                 s = self._comp_motion(w, s, motion, end, moves)
-            elif motion == 0:
+            elif motion == 0 and not d.g0_at_feed:
                 s = self._emit(moves, s, Rapid(w.line, s.work, to_work(end, s.frame)), end)
-            elif motion == 10:
+            elif motion in (0, 10):  # G1, or a G0 where the controller moves it as one
                 self._require_feed(s, "a G1 move", w)
                 move = Linear(w.line, s.work, to_work(end, s.frame), s.feed_mm_per_min)
                 s = self._emit(moves, s, path_feed(move, s, w.values), end)
