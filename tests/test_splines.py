@@ -257,3 +257,17 @@ def test_nearest_points_next_to_a_zero_speed_end() -> None:
     on = s.curve.nurbs.points(t)
     q = on + np.array([0.0, 0.0, 1e-4])  # 0.1 um above the curve (its plane is XY)
     assert np.abs(np.linalg.norm(nearest_on_move(s, q) - q, axis=1) - 1e-4).max() < 1e-9
+
+
+def test_a_g5_of_no_length_plans_without_numpy_warnings(machine) -> None:  # type: ignore[no-untyped-def]
+    """Every control point at the start (a hostile-input sweep's find): rs274 emits its
+    NURBS_FEED; the planner took its chord vertices from the curve's tangent, 0/0."""
+    import warnings
+
+    from gantry_sim.controller.planner.plan import plan as plan_moves
+
+    moves = parse_program("G21 G90\nG5 I0 J0 P0 Q0 X0 Y0 F100\nM2\n")
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        p = plan_moves(moves, machine)
+    assert p.duration_s == 0.0 and len(p.moves) == 1

@@ -221,9 +221,10 @@ def _slow_blends(path: PathPlan, prepared: _Prepared) -> frozenset[int]:
 
 
 def _vertices(m: Move, machine: MachineConfig) -> np.ndarray:
-    """A programmed move's chord vertices (a blended straight move: its programmed ends)."""
+    """A programmed move's chord vertices (a blended straight move, or a curve of no length
+    such as a G5 whose control points all lie at its start: its programmed ends)."""
     seg = machine.segmentation
-    if isinstance(m, Arc | Spline):
+    if isinstance(m, Arc | Spline) and m.length_mm > 0.0:
         return segment_arc(m, seg.method, seg.chord_tolerance_mm, seg.segment_length_mm)
     verts = np.array([m.start, m.end], dtype=float)
     verts.setflags(write=False)
