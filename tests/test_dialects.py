@@ -200,6 +200,16 @@ def test_a_full_circle_from_offsets_alone_is_linuxcncs_not_grbls() -> None:
     assert error_of(text, "grbl").line == 3
 
 
+def test_grbl_reads_one_sign_before_a_number() -> None:
+    """grbl's read_float takes one + or - and then digits: X+-1 is error 2 (LinuxCNC reads the
+    signs as unary operators: -1)."""
+    for text in ("G1 X+-1 F100\n", "G1 X-+1 F100\n", "G1 X++1 F100\n"):
+        err = error_of(text, "grbl")
+        assert err.line == 1 and "(grbl error 2)" in str(err), text
+    assert run("G1 X-1 F+100 (a -- b)\n", "grbl")[0].end == (-1.0, 0.0, 0.0)
+    assert run("G1 X+-1 F100\nM2\n", "linuxcnc")[0].end == (-1.0, 0.0, 0.0)
+
+
 def test_grbl_arcs_homing_and_offsets() -> None:
     # a K word on a G17 arc is consumed and ignored; 0.004 mm radius mismatch is within 0.005 mm
     arc = run("G2 X2.004 Y0 I1 K5 F100\n", "grbl")[0]

@@ -7,10 +7,12 @@ message that names the word.
 
 from __future__ import annotations
 
+import re
+
 from gantry_sim.controller.errors import GcodeError
 from gantry_sim.controller.gcode.codes import M_GROUPS, g_name, m_accepted
 from gantry_sim.controller.gcode.dialects import Dialect
-from gantry_sim.controller.gcode.lexer import Block
+from gantry_sim.controller.gcode.lexer import COMMENT, Block, strip_line
 from gantry_sim.controller.gcode.words import Words
 
 #: M codes of LinuxCNC (every dialect without its own list); M56 is grbl's alone; user M-codes
@@ -25,12 +27,22 @@ def _plain(tree: tuple) -> bool:
 
 
 def check_plain(block: Block, d: Dialect) -> None:
-    """No parameters or expressions (a dialect without LinuxCNC's language)."""
+    """No parameters or expressions (a dialect without LinuxCNC's language), and one sign at
+    most before a number (grbl's read_float: ``X+-1`` is error 2, a bad number format)."""
     if block.settings or not all(_plain(t) for _, t in block.words):
         raise GcodeError(
             f"'#' parameters and [expressions] are not {d.name} features; {d.name} expects a "
             "command letter followed by a number"
         )
+    signs = _SIGNS.search(strip_line(block.text).replace(COMMENT, ""))
+    if signs is not None:
+        raise GcodeError(
+            f"bad number format '{signs.group()}...': {d.name} reads one sign (+ or -) at most "
+            "before a number"
+        )
+
+
+_SIGNS = re.compile(r"[+-][+-]+")
 
 
 def check_codes(w: Words, d: Dialect) -> None:

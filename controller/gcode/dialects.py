@@ -263,7 +263,7 @@ _GRBL_G = frozenset((
 ))
 #: grbl's status codes (report.c / the grbl 1.1 wiki "Error codes"), matched on our messages.
 _GRBL_ERRORS = (
-    ("expects a command letter", 1), ("not grbl features", 20),
+    ("expects a command letter", 1), ("not grbl features", 20), ("bad number format", 2),
     ("bad number format", 2), ("bad character", 1), ("bad value", 1), ("negative", 4),
     ("unknown g code", 20), ("unsupported m code", 20), ("is not supported", 20),
     ("two g codes from one modal group", 21),
