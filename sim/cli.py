@@ -16,6 +16,7 @@ import os
 import signal
 import sys
 import threading
+import traceback
 from collections.abc import Sequence
 
 from gantry_sim.controller.errors import GantryError
@@ -92,7 +93,29 @@ class Terminated(BaseException):
 
 
 def _on_sigterm(signum, frame) -> None:
+    global _TERMINATED
+    _TERMINATED = True
     raise Terminated
+
+
+#: SIGTERM arrived during this process: an error it caused is the interruption, not a bug
+#: (raised inside ``import mujoco``, it surfaces as "ImportError: initialization failed").
+_TERMINATED = False
+
+
+def _interrupted_by(exc: BaseException) -> str | None:
+    """ "terminated" or "interrupted" when ``exc`` came from a SIGTERM or a Ctrl-C that an
+    extension module turned into another exception (its cause or context chain), else None."""
+    seen: set[int] = set()
+    e: BaseException | None = exc
+    while e is not None and id(e) not in seen:
+        seen.add(id(e))
+        if isinstance(e, Terminated):
+            return "terminated"
+        if isinstance(e, KeyboardInterrupt):
+            return "interrupted"
+        e = e.__cause__ or e.__context__
+    return "terminated" if _TERMINATED else None
 
 
 def _silence_stdout() -> None:
@@ -151,6 +174,8 @@ def main(argv: Sequence[str] | None = None) -> int:
     real_stdout = sys.stdout
     sys.stdout = _GuardedStdout(real_stdout)
     previous = None
+    global _TERMINATED
+    _TERMINATED = False
     if threading.current_thread() is threading.main_thread():
         previous = signal.signal(signal.SIGTERM, _on_sigterm)
     try:
@@ -184,6 +209,12 @@ def _dispatch(args: argparse.Namespace, debug: bool) -> int:
         print("gantry: terminated", file=sys.stderr)
         return 128 + signal.SIGTERM
     except Exception as exc:  # a bug: one line, exit 3 (README, "Exit status")
+        why = _interrupted_by(exc)
+        if why is not None:
+            if debug:
+                traceback.print_exc()
+            print(f"gantry: {why}", file=sys.stderr)
+            return 128 + (signal.SIGTERM if why == "terminated" else signal.SIGINT)
         return _internal_error(exc, debug)
 
 
@@ -221,5 +252,23 @@ class _GuardedStdout:
         return getattr(self._stream, name)
 
 
+def entry() -> None:
+    """The ``gantry`` command: :func:`main`, then exit. After an interruption (Ctrl-C,
+    SIGTERM) the process ends without the interpreter's finalisation: a signal that arrived
+    inside ``import mujoco`` leaves that extension half set up, and tearing it down aborted
+    the process (exit 134 after "gantry: terminated"). Everything gantry cleans up has been
+    cleaned by then (the interruption unwinds through it)."""
+    status = main()
+    if status in (128 + signal.SIGINT, 128 + signal.SIGTERM):
+        for stream in (sys.stdout, sys.stderr):
+            try:
+                if stream is not None:
+                    stream.flush()
+            except (OSError, ValueError):
+                pass
+        os._exit(status)
+    sys.exit(status)
+
+
 if __name__ == "__main__":
-    sys.exit(main())
+    entry()

@@ -247,3 +247,33 @@ def test_non_finite_or_far_trace_is_a_simulation_error(machine):
         with pytest.raises(SimulationError, match=f"on Y is {what}") as info:
             _check(d, machine, traj, work_mm, 0, traj.t.size)
         assert info.value.line == 1
+
+
+@pytest.mark.parametrize("chained", [True, False])
+def test_sigterm_turned_into_an_import_error_is_a_termination(
+    chained, write_program, tmp_path, monkeypatch, capsys
+):  # type: ignore[no-untyped-def]
+    """SIGTERM arriving inside ``import mujoco``: pybind11 reports the module's failed
+    initialisation as "ImportError: initialization failed" (exit 3 before); it is the SIGTERM,
+    exit 143. ``chained``: the ImportError names the Terminated as its context, or nothing."""
+    import gantry_sim.sim.cli as cli
+
+    def killed_mid_import(*args, **kwargs):  # type: ignore[no-untyped-def]
+        try:
+            cli._on_sigterm(15, None)
+        except BaseException:
+            if chained:
+                raise ImportError("initialization failed") from None
+        raise ImportError("initialization failed")
+
+    monkeypatch.setattr("gantry_sim.sim.api.run_program", killed_mid_import)
+    prog = write_program(CIRCLE)
+    assert main(["run", str(prog), "--out", str(tmp_path / "o")]) == 143
+    assert capsys.readouterr().err == "gantry: terminated\n"
+
+    def bug(*args, **kwargs):  # type: ignore[no-untyped-def]
+        raise ImportError("initialization failed")
+
+    monkeypatch.setattr("gantry_sim.sim.api.run_program", bug)  # no SIGTERM this time: a bug
+    assert main(["run", str(prog), "--out", str(tmp_path / "o")]) == 3
+    assert "internal error" in capsys.readouterr().err
