@@ -311,3 +311,15 @@ def test_user_m_codes_need_their_program_file(tmp_path) -> None:
     (tmp_path / "M101").write_text("#!/bin/sh\n")
     moves = list(interpret("M101 P1 Q2\nG0 X1\nM2\n", search_path=(tmp_path,)))
     assert [m.end for m in moves] == [(1.0, 0.0, 0.0)]
+
+
+def test_a_subroutine_name_too_long_for_a_file_is_refused_on_its_line(tmp_path, capsys) -> None:  # type: ignore[no-untyped-def]
+    """A 300-character o<name> call: looking for NAME.ngc failed with ENAMETOOLONG, reported
+    on the file name alone, with no program line (a hostile-input sweep's find)."""
+    from gantry_sim.sim.cli import main
+
+    prog = tmp_path / "p.ngc"
+    prog.write_text("G1 X1 F100\no<" + "a" * 300 + "> call\nM2\n")
+    assert main(["parse", str(prog)]) == 2
+    err = capsys.readouterr().err
+    assert err.startswith(f"{prog}:2: error: subroutine o<aaaa") and "File name too long" in err

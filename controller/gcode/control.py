@@ -496,7 +496,14 @@ class Runner:
             return src, at
         for folder in self.search_path:
             path = folder / f"{name}.ngc"
-            if path.is_file():
+            try:
+                found = path.is_file()
+            except OSError as exc:  # a name longer than the file system allows, ...
+                raise GcodeError(
+                    f"subroutine o{_show(name[:40])}{'...' if len(name) > 40 else ''} cannot be "
+                    f"looked up as a file in {folder}: {exc.strerror}"
+                ) from None
+            if found:
                 try:
                     data = path.read_bytes()
                 except OSError as exc:
