@@ -61,7 +61,7 @@ class EndState(NamedTuple):
 
     @property
     def moving(self) -> bool:
-        return bool(np.any(self.vel_mm_per_s))
+        return self.vel_mm_per_s.tolist() != [0.0, 0.0, 0.0]  # NaN counts (as np.any's)
 
 
 @dataclass(frozen=True, eq=False, slots=True)

@@ -146,21 +146,22 @@ class MovePieces:
             st.durations,
         )
         n = mins.size
+        mv_in, mv_out = state_in.moving, state_out.moving
         # the end pieces next to a moving junction (one piece: next to both ends)
-        ends = [k for k, moving in ((0, state_in.moving), (n - 1, state_out.moving)) if moving]
+        ends = [k for k, moving in ((0, mv_in), (n - 1, mv_out)) if moving]
         bad_in = bad_out = False
         phases = pieces.phases  # None only in "ruckig" mode, where no piece is ok
         if ok.all() and phases is not None:
             ps, vs, as_, js = phases
             self.out.add_jerk3(Jerk3Run(mins / 3.0, ps[:, 0], vs[:, 0], as_[:, 0], js))
             off_at = {k: _deviation(g, pieces, k) > dev_max for k in set(ends)}
-            bad_in = state_in.moving and off_at[0]
-            bad_out = state_out.moving and off_at[n - 1]
+            bad_in = mv_in and off_at[0]
+            bad_out = mv_out and off_at[n - 1]
             return float(mins.sum()), bad_in, bad_out
         total = 0.0
         k = 0
         while k < n:
-            at_in, at_out = k == 0 and state_in.moving, k == n - 1 and state_out.moving
+            at_in, at_out = k == 0 and mv_in, k == n - 1 and mv_out
             if ok[k] and phases is not None:  # a run of closed-form pieces, added at once
                 e = k + 1
                 while e < n and ok[e]:
@@ -172,8 +173,8 @@ class MovePieces:
                     total += x
                 for c in {k, e - 1} & set(ends):
                     off = _deviation(g, pieces, c) > dev_max
-                    bad_in |= c == 0 and state_in.moving and off
-                    bad_out |= c == n - 1 and state_out.moving and off
+                    bad_in |= c == 0 and mv_in and off
+                    bad_out |= c == n - 1 and mv_out and off
                 k = e
                 continue
             if self.pieces != "ruckig":
@@ -192,9 +193,9 @@ class MovePieces:
                 bad_in |= at_in and (off or stretched)
                 bad_out |= at_out and (off or stretched)
                 if off and not (at_in or at_out):
-                    if state_in.moving or state_out.moving:  # their speeds must come down
-                        bad_in |= state_in.moving
-                        bad_out |= state_out.moving
+                    if mv_in or mv_out:  # their speeds must come down
+                        bad_in |= mv_in
+                        bad_out |= mv_out
                     else:  # no junction speed to lower: the profile must change
                         self.off_pieces += 1
             k += 1
