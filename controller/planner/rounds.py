@@ -15,8 +15,9 @@ pieces of a chain are kept as arrays (a few bytes per phase, not Python floats).
 
 from __future__ import annotations
 
+import bisect
 import itertools
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 
@@ -40,9 +41,14 @@ from gantry_sim.controller.planner.segmented_curve import SegmentedCurve
 __all__ = ["JUNCTION_BACKOFF", "MAX_ROUNDS", "Round", "replan_until_junctions_hold"]
 
 #: Re-planning rounds that lower the offending junction caps by JUNCTION_BACKOFF; from then on
-#: each round stops at the junctions still offending, until none does (a stop never offends).
+#: each round softens (below) or stops the junctions still offending, until none does (a stop
+#: never offends).
 MAX_ROUNDS = 16
 JUNCTION_BACKOFF = 0.9
+#: After those rounds a junction still offending first has the tangential acceleration and
+#: jerk of its two moves lowered by SOFTEN, up to SOFTEN_TRIES times, then becomes a stop.
+SOFTEN = 0.7
+SOFTEN_TRIES = 3
 
 
 @dataclass
@@ -77,16 +83,21 @@ def replan_until_junctions_hold(
 ) -> Round:
     """Plan the moves; while pieces next to moving junctions leave the arc, lower those
     junctions' caps (``caps`` [mm/s] is changed) by :data:`JUNCTION_BACKOFF` and plan again, at
-    most :data:`MAX_ROUNDS` times; after that the junctions still offending become stops, round
-    by round, until none offends: the plan kept never has a piece off its path next to a moving
-    junction (lowering one junction changes its neighbours' speeds, so a junction may first
-    offend in a late round). ``holds``: dwells per junction (exact stops holding the reference for their time).
+    most :data:`MAX_ROUNDS` times; after that a junction still offending has its two moves'
+    tangential acceleration and jerk lowered by :data:`SOFTEN` (at most :data:`SOFTEN_TRIES`
+    times), then becomes a stop, round by round, until none offends: the plan kept never has a
+    piece off its path next to a moving junction (lowering one junction changes its
+    neighbours' speeds, so a junction may first offend in a late round). Softening helps where
+    the chain's profile ends a ramp at its full tangential jerk right at a junction whose
+    curvature changes (a blend arc of a polyline of 0.035 mm steps): the axes need that jerk
+    plus the curvature's, and no lower junction speed frees it. ``holds``: dwells per junction (exact stops holding the reference for their time).
     ``blend_arcs``: ids of the G64 blend arcs among the moves (tolerance features: no
     saturated-ramp search, which costs tenths of a second and can save them microseconds)."""
     setup = ChainSetup(active, states, machine, solver, arc_pieces, smoothing, {}, blend_arcs)
     blocks = [g.limits for g in active]
     cache: dict[ChainKey, Chain] = {}
     reach_memo: dict = {}
+    softened: dict[int, int] = {}
     for rnd in itertools.count():
         spans = chain_spans(blocks, caps)
         chained = [chain_limits(blocks[first:stop]) for first, stop in spans]
@@ -101,10 +112,37 @@ def replan_until_junctions_hold(
                 speeds[first + 1 : stop] = chain.inner_speeds
         if not bad:
             break
-        for b in bad:  # only moving junctions are ever bad: each stop makes one fewer
-            caps[b] = 0.0 if rnd >= MAX_ROUNDS - 1 else JUNCTION_BACKOFF * speeds[b]
+        touched: set[int] = set()  # moves whose limits were softened this round
+        for b in sorted(bad):  # only moving junctions are ever bad: each stop makes one fewer
+            if rnd < MAX_ROUNDS - 1:
+                caps[b] = JUNCTION_BACKOFF * speeds[b]
+            elif softened.get(b, 0) < SOFTEN_TRIES:
+                softened[b] = softened.get(b, 0) + 1
+                touched |= {m for m in (b - 1, b) if 0 <= m < len(blocks)}
+            else:
+                caps[b] = 0.0
+        _soften(blocks, touched, cache)
         chains.clear()  # the chains replaced next round are freed before it plans new ones
     return _assemble(setup, spans, chains, holds)
+
+
+def _soften(blocks: list[BlockLimits], moves: set[int], cache: dict[ChainKey, Chain]) -> None:
+    """Lower the tangential acceleration and jerk of ``moves`` by :data:`SOFTEN` (``blocks``
+    is changed) and drop the cached chains holding any of them."""
+    if not moves:
+        return
+    for m in moves:
+        lim = blocks[m]
+        blocks[m] = replace(
+            lim,
+            acc_mm_per_s2=SOFTEN * lim.acc_mm_per_s2,
+            jerk_mm_per_s3=SOFTEN * lim.jerk_mm_per_s3,
+        )
+    order = sorted(moves)
+    for key in list(cache):
+        i = bisect.bisect_left(order, key[0])
+        if i < len(order) and order[i] < key[1]:  # a softened move in [first, stop)
+            del cache[key]
 
 
 def _plan_round(
