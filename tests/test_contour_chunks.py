@@ -85,3 +85,41 @@ def test_chord_part_is_the_same_checked_in_small_batches(machine, monkeypatch):
     at_once = contour.chord_max_um(moves, vertices)
     monkeypatch.setattr(contour, "CHORD_BATCH", 3)  # many batches, cut inside and between arcs
     assert contour.chord_max_um(moves, vertices) == at_once > 0
+
+
+def test_passes_bound_the_pairs_measured_at_once_and_cover_every_point(monkeypatch):
+    """A line with many moves (an O-word loop: 400 on one line took 2.8 GB) or a dwell's line
+    (compared with every move) makes a point's window large; the passes hold fewer points."""
+    from gantry_sim.sim import program_distance as pd
+
+    monkeypatch.setattr(pd, "PAIRS_PER_PASS", 100)
+    monkeypatch.setattr(pd, "TICKS_PER_PASS", 16)
+    counts = np.array([3] * 40 + [402] * 5 + [3] * 40 + [250])
+    passes = pd._passes(counts)
+    assert passes[0].start == 0 and passes[-1].stop == len(counts)
+    assert all(a.stop == b.start for a, b in itertools.pairwise(passes))
+    for sl in passes:
+        assert sl.stop - sl.start <= 16
+        assert counts[sl].sum() <= 100 or sl.stop - sl.start == 1
+
+
+def test_small_passes_give_the_same_distances(monkeypatch):
+    """Bounding the pairs per pass changes how the work is cut, never a number: 150 moves on
+    one line (an O-word loop) and a dwell, measured in passes of at most 64 pairs."""
+    from gantry_sim.controller.gcode.interpreter import parse_program
+    from gantry_sim.sim import program_distance as pd
+
+    text = (
+        "G21 G90 G17 F2000\nG1 X1\n#1=0\no1 while [#1 LT 150]\n"
+        "G1 X[2 + COS[#1 * 0.2] * [1 + #1 * 0.02]] Y[SIN[#1 * 0.2] * [1 + #1 * 0.02]]\n"
+        "#1=[#1+1]\no1 endwhile\nG4 P1\nG1 X0 Y0\nM2\n"
+    )
+    tab = move_table(parse_program(text))
+    rng = np.random.default_rng(3)
+    lines = rng.choice([2, 5, 8, 9], size=500)  # 8: the dwell's line, which has no move
+    pts = rng.uniform(-4.0, 6.0, size=(500, 3)) * [1.0, 1.0, 0.0]
+    reach = rng.uniform(0.0, 2.0, size=500)
+    whole = pd.distance_to_moves(tab, lines, pts, reach)
+    monkeypatch.setattr(pd, "PAIRS_PER_PASS", 64)
+    cut = pd.distance_to_moves(tab, lines, pts, reach)
+    assert np.array_equal(whole[0], cut[0]) and np.array_equal(whole[1], cut[1])
