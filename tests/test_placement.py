@@ -24,7 +24,7 @@ def test_error_names_the_extent_and_the_offset_that_fits(machine):
     assert info.value.line == 2 and "reaches Z100.0000, outside the machine's travel" in msg
     assert "the program spans X 0..50, Y 0..235, Z -5..100 mm (work frame)" in msg
     # the smallest shift per axis: Y down by 35 (235 -> 200), Z down by 25 (100 -> 75)
-    assert "moved by 0,-35,-25 mm it fits: place it with --work-offset 0,-35,-25" in msg
+    assert "moved by 0,-35,-25 mm it fits: place it with --work-offset=0,-35,-25" in msg
 
 
 def test_error_says_when_no_offset_can_fit(machine):
@@ -33,7 +33,7 @@ def test_error_says_when_no_offset_can_fit(machine):
     with pytest.raises(PlanningError) as info:
         check_travel(moves, machine.travel)
     assert "spans X 50..100, Y -250..-220, Z 0..0 mm" in info.value.message
-    assert "--work-offset 0,50,0 " in info.value.message
+    assert "--work-offset=0,50,0 " in info.value.message
     with pytest.raises(PlanningError) as info:
         check_travel(parse_program("G0 X-350\nG0 X350\nM2\n"), machine.travel)
     msg = info.value.message
@@ -45,7 +45,7 @@ def test_the_suggested_offset_places_the_program(write_program, tmp_path, capsys
     prog = write_program(CLEARANCE)
     assert main(["plan", str(prog)]) == 2
     err = capsys.readouterr().err
-    offset = re.search(r"--work-offset (\S+)", err)
+    offset = re.search(r"--work-offset=(\S+)", err)
     assert offset is not None
     assert main(["plan", str(prog), "--work-offset", offset.group(1)]) == 0
     assert json.loads(capsys.readouterr().out)["moves"] == 5
@@ -58,3 +58,18 @@ def test_the_suggested_offset_places_the_program(write_program, tmp_path, capsys
     assert main(args) == 0
     report = json.loads((out / "report.json").read_text())
     assert report["moves"] == 5
+
+
+def test_the_suggested_work_offset_is_an_option_that_parses(tmp_path, capsys):  # type: ignore[no-untyped-def]
+    """The hint must work as printed: "--work-offset -100,0,0" is read by argparse as an option
+    with no value ("expected one argument"); "--work-offset=-100,0,0" is not."""
+    import re
+
+    from gantry_sim.sim.cli import main
+
+    prog = tmp_path / "p.ngc"
+    prog.write_text("G21 G90\nG0 X350 Y10\nG1 X390 F1000\nM2\n")
+    assert main(["plan", str(prog)]) == 2
+    hint = re.search(r"place it with (--work-offset=\S+)", capsys.readouterr().err)
+    assert hint is not None and hint.group(1) == "--work-offset=-90,0,0"
+    assert main(["plan", str(prog), hint.group(1)]) == 0

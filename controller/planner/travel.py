@@ -86,6 +86,6 @@ def placement_hint(moves: Sequence[Move], lo: np.ndarray, hi: np.ndarray) -> str
         return f"{text}; it cannot be placed within the travel: it is {', '.join(too_long)}"
     offset = ",".join(f"{d:g}" for d in shift)
     return (
-        f"{text}; moved by {offset} mm it fits: place it with --work-offset {offset} (or the "
+        f"{text}; moved by {offset} mm it fits: place it with --work-offset={offset} (or the "
         "machine file's [work] g54_mm), added to any work offset already in effect"
     )
