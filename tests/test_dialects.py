@@ -257,6 +257,17 @@ def test_marlin_skips_lines_it_does_not_know_and_ignores_m_t_words_after_g() -> 
     assert error_of("G90 M107\nM2\n", "linuxcnc").line == 1
 
 
+def test_marlin_skips_unknown_g_codes_and_a_bare_g5() -> None:
+    """Marlin's gcode.cpp ends its G switch with ``default: unknown_command_warning()`` and goes
+    on (Bambu Studio's G392, G380); its G5 defaults every parameter to zero, so a bare G5 (in
+    Cura's Anycubic i3 Mega start code) makes a curve of no length. G codes it knows but that
+    move as gantry-sim does not model stay refused."""
+    moves = run("G21\nG392 S0\nG380 S2 Z-0.04 F1200\nG5\nG1 X5 F600\n", "marlin")
+    assert [(m.line, m.end) for m in moves] == [(5, (5.0, 0.0, 0.0))]
+    assert error_of("G21\nG38.2 Z-5 F100\n", "marlin").line == 2
+    assert error_of("G21\nG392\nM2\n", "linuxcnc").line == 2
+
+
 def test_marlin_g0_is_a_g1_at_the_modal_feed() -> None:
     """Marlin's G0_G1 command: in a printer build G0 moves at the feed rate G1 uses, and an F
     on a G0 line sets it for both (Cura writes its travel as "G0 F9000 X.. Y..")."""

@@ -8,8 +8,10 @@ retract, G29-G35 and G76 probing and calibration, G60 save position, G80, G92 wi
 G28 homes the named axes (all when none) to the machine file's work origin; the ones that move
 in ways this machine does not model are refused with a reason (G6 direct stepper,
 G12 nozzle clean, G26 mesh print, G27 park, G42 mesh point, G61 restore position, G38 probe).
-A line that opens with no command (a stray number, ``% text``, a Klipper macro) gets Marlin's
-"Unknown command" and is skipped; M and T words after a G command are its parameters, which
+A line that opens with no command (a stray number, ``% text``, a Klipper macro) or with a G
+code Marlin does not know (``G392``: gcode.cpp's ``default: unknown_command_warning()``) gets
+Marlin's "Unknown command" and is skipped, and so is a bare ``G5`` (every parameter defaults to
+zero: a curve of no length; Cura's Anycubic start code has one); M and T words after a G command are its parameters, which
 it ignores (``G90 M107`` is G90).
 
 g2core: a line opening with ``{`` is a JSON configuration or status request (no motion), and so
@@ -23,6 +25,7 @@ from __future__ import annotations
 import re
 
 from gantry_sim.controller.errors import GcodeError
+from gantry_sim.controller.gcode.codes import G_GROUPS
 
 #: M codes with free text after them (M117 message, M118 serial echo, SD file names).
 _TEXT = re.compile(r"^\s*(?:N\d+\s*)?M\s*0*(117|118|23|28|30|32|33|928)(?!\d)", re.IGNORECASE)
@@ -73,6 +76,10 @@ def marlin_line(raw: str) -> str | None:
         raise GcodeError(f"{MARLIN_REFUSED_G[tenths]} (Marlin G{number})")
     if tenths in MARLIN_QUIET_G or (tenths == 920 and _E_ONLY.match(raw)):
         return "quiet"
+    if tenths not in G_GROUPS:
+        return "quiet"  # Marlin: unknown_command_warning(), and on (Bambu's G392, G380, ...)
+    if tenths == 50 and not _WORD.search(code[head.end() :]):
+        return "quiet"  # a bare G5: every parameter defaults to zero, a curve of no length
     if _PARAMETER_MT.search(code[head.end() :]):
         return "parameters"
     return None
@@ -83,6 +90,8 @@ def marlin_line(raw: str) -> str | None:
 #: BED=60``). A line of bare axis words (``X10 Y5``), a block delete ``/``, a parameter
 #: setting ``#`` and a lone ``%`` are left to the shared step.
 _NOT_A_COMMAND = re.compile(r"^\s*(?:N\d+\s*)?(?:[^A-Za-z(\s/#%]|%.*\S|[A-Za-z][A-Za-z_])")
+#: Any word (a letter and a value).
+_WORD = re.compile(r"[A-Z]\s*[-+]?[.\d]", re.IGNORECASE)
 #: An M or T word after a G command: a parameter to Marlin, which that command ignores.
 _PARAMETER_MT = re.compile(r"[MT]\s*[-+]?(?:\d+\.?\d*|\.\d+)", re.IGNORECASE)
 
