@@ -58,3 +58,23 @@ def test_s_chain_middle_arc_stays_on_the_arc(machine):
 
 def test_near_full_circle_from_rest_keeps_the_feed(machine):
     _check(NEAR_FULL_CIRCLE, machine)
+
+
+#: From LinuxCNC's trajectory-planner test 51MeanderAve.ngc (a plasma post), which LinuxCNC
+#: runs: G64 P0.01 blends leave 1.8 nm of the 0.012 mm G1 on line 5 between two blends, and
+#: the look-ahead's speeds at its ends differ by 3e-11 of 52 mm/s. No profile changes speed
+#: over 1.8 nm with zero acceleration at both ends; Ruckig's went back 52 mm/s (exit 2, "the
+#: speed profile would reverse along the path").
+MEANDER = (
+    "G21 G90\nG64 P0.01\nG0 X102.882 Y25.888\nG02 F5000 X107.812 Y26.233 I3.440 J-13.762\n"
+    "G01 X108.772 Y26.150\nX108.784 Y26.149\nX111.012 Y25.901\nM2\n"
+)
+
+
+def test_nanometres_left_between_two_blends_are_a_cruise(machine):  # type: ignore[no-untyped-def]
+    moves = parse_program(MEANDER)
+    p = plan(moves, machine)
+    tr = p.sample(machine.servo.period_s)
+    assert_within_limits(tr, machine, moves)
+    assert np.allclose(tr.pos[-1], moves[-1].end, atol=1e-9)
+    assert p.duration_s < 1.0  # 3.2 mm at 83 mm/s: no detour
