@@ -8,7 +8,7 @@
   in inches), the piece at the start of a 0.19 mm arc must turn the X acceleration of the blend
   before it (-9.4 mm/s^2) in 0.13 ms while X barely moves: Ruckig rejects the 3-DoF piece, and
   the closed-form X piece over Y's duration broke X's jerk limit 4 times. The piece is now made
-  longer until X fits (``RuckigSolver._tiny_axes_duration``), and the junction slows.
+  longer until X fits (``RuckigSolver._closed_form_duration``), and the junction slows.
 
 * In FlatCAM grbl output (isolation routing, G1 steps of a few hundredths of a mm), the last
   chord of a corner's blend arc must bring Y from 16 mm/s^2 to rest while it moves 5e-8 mm;

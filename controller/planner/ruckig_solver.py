@@ -7,7 +7,8 @@ machine's per-axis limits and passed to the steps that need it. It does two thin
   (0, v_in, 0) to (L, v_out, 0) under a speed cap, tangential acceleration and jerk limits;
 * :meth:`RuckigSolver.piece`: a 3-DoF state-to-state piece under the axis limits, time
   synchronised, lasting at least a given time; where Ruckig rejects that, it is retried without
-  the minimum duration (plain time-optimal).
+  the minimum duration (plain time-optimal), then with the axes it cannot plan (barely moving,
+  or rejected even alone) following the closed-form piece between their states.
 
 Failures are typed (:class:`RuckigRejected`, :class:`ProfileReverses`); the callers turn them
 into a :class:`~gantry_sim.controller.errors.PlanningError` naming the line, or try something
@@ -26,8 +27,9 @@ from gantry_sim.controller.planner.jerk3 import PiecePhases, jerk3_pairs
 from gantry_sim.controller.planner.profile import Profile1D
 
 _OK = (ruckig.Result.Working, ruckig.Result.Finished)
-#: an axis whose piece moves less than this, this slowly, is planned in closed form when Ruckig
-#: rejects the piece (see RuckigSolver._piece_past_tiny_axes) [mm], [mm/s], [mm/s^2]
+#: an axis whose piece moves less than this, this slowly (or that Ruckig finds no profile for
+#: alone) is planned in closed form when Ruckig rejects the piece (see
+#: RuckigSolver._piece_with_closed_form_axes) [mm], [mm/s], [mm/s^2]
 TINY_AXIS_MM = 1e-6
 TINY_AXIS_MM_PER_S = 1e-2
 TINY_AXIS_MM_PER_S2 = 10.0
@@ -39,9 +41,9 @@ TINY_AXIS_MM_PER_S2 = 10.0
 #: longer by about the same share.
 LIMIT_RETRY_SHARES = (1e-9, 1e-6)
 #: Doublings of a piece's duration tried for an axis planned in closed form beside Ruckig's
-#: (see RuckigSolver._piece_past_tiny_axes), then bisection steps on that duration.
-TINY_AXIS_DOUBLINGS = 40
-TINY_AXIS_BISECTIONS = 40
+#: (see RuckigSolver._piece_with_closed_form_axes), then bisection steps on that duration.
+CLOSED_FORM_DOUBLINGS = 40
+CLOSED_FORM_BISECTIONS = 40
 
 #: Constant-jerk phases of one axis: durations [s] and each phase's start position [mm],
 #: velocity [mm/s], acceleration [mm/s^2], and its jerk [mm/s^3].
@@ -187,7 +189,7 @@ class RuckigSolver:
             try:
                 _calculate(self._otg3, inp, tr)
             except RuckigRejected:
-                return self._piece_past_tiny_axes(start, end, min_duration_s, samples)
+                return self._piece_with_closed_form_axes(start, end, min_duration_s, samples)
         dur = tr.duration
         phases = (_phases(tr, 0), _phases(tr, 1), _phases(tr, 2))
         if not samples:
@@ -195,7 +197,7 @@ class RuckigSolver:
         pv = [tr.at_time(t) for t in np.linspace(0.0, dur, samples)]
         return RuckigPiece(dur, phases, np.array([x[0] for x in pv]), np.array([x[1] for x in pv]))
 
-    def _piece_past_tiny_axes(
+    def _piece_with_closed_form_axes(
         self,
         start: tuple[np.ndarray, np.ndarray, np.ndarray],
         end: tuple[np.ndarray, np.ndarray, np.ndarray],
@@ -210,7 +212,7 @@ class RuckigSolver:
         closed-form three-phase constant-jerk piece between its states over the same time,
         which must keep its limits. Where it would not (the others' piece is short, and the
         axis must still change its acceleration), the piece is made longer: the shortest
-        duration the closed-form axes fit in (:meth:`_tiny_axes_duration`), which the caller
+        duration the closed-form axes fit in (:meth:`_closed_form_duration`), which the caller
         sees as a stretched piece and answers by slowing the junction. Raises RuckigRejected
         when no axis can be taken out or that fails too."""
         p0, v0, a0 = start
@@ -252,7 +254,7 @@ class RuckigSolver:
             dur = max(float(min_duration_s), 1e-9)
             closed, ok = closed_form(dur)
             if not ok:
-                dur = self._tiny_axes_duration(dur, closed_form)
+                dur = self._closed_form_duration(dur, closed_form)
                 closed, ok = closed_form(dur)
             if not ok:
                 raise RuckigRejected("no piece: no closed-form piece keeps the limits")
@@ -263,14 +265,14 @@ class RuckigSolver:
             _calculate(self._otg3, inp, tr)
             closed, ok = closed_form(tr.duration)
             if not ok:  # longer, so that the tiny axes keep their limits (the caller sees it)
-                longer = self._tiny_axes_duration(tr.duration, closed_form)
+                longer = self._closed_form_duration(tr.duration, closed_form)
                 inp.minimum_duration = longer
                 _calculate(self._otg3, inp, tr)
                 closed, ok = closed_form(tr.duration)
         finally:
             inp.enabled = [True, True, True]
         if not ok:
-            raise RuckigRejected("no piece: a barely moving axis would exceed its jerk limit")
+            raise RuckigRejected("no piece: an axis planned in closed form would exceed its limits")
         return _assemble(tr.duration, closed, tiny, tr, samples)
 
     def _axis_plans(
@@ -298,19 +300,19 @@ class RuckigSolver:
         return True
 
     @staticmethod
-    def _tiny_axes_duration(start_s: float, closed_form) -> float:
-        """The shortest duration [s] from ``start_s`` on (to within 2^-TINY_AXIS_BISECTIONS of
-        it) over which ``closed_form(duration)[1]`` holds: the tiny axes' closed-form piece keeps
+    def _closed_form_duration(start_s: float, closed_form) -> float:
+        """The shortest duration [s] from ``start_s`` on (to within 2^-CLOSED_FORM_BISECTIONS of
+        it) over which ``closed_form(duration)[1]`` holds: the closed-form axes' piece keeps
         their limits (its jerks fall as the piece gets longer); ``start_s`` if none is found."""
         lo, hi = start_s, start_s
-        for _ in range(TINY_AXIS_DOUBLINGS):
+        for _ in range(CLOSED_FORM_DOUBLINGS):
             hi *= 2.0
             if closed_form(hi)[1]:
                 break
             lo = hi
         else:
             return start_s
-        for _ in range(TINY_AXIS_BISECTIONS):
+        for _ in range(CLOSED_FORM_BISECTIONS):
             mid = 0.5 * (lo + hi)
             lo, hi = (lo, mid) if closed_form(mid)[1] else (mid, hi)
         return hi
