@@ -250,6 +250,10 @@ def test_marlin_skips_lines_it_does_not_know_and_ignores_m_t_words_after_g() -> 
         (8, (7.0, 0.0, 0.0)),
         (10, (7.0, 2.0, 0.0)),
     ]
+    # the M word leaves a word boundary (not F100.5), and a comment's M is the comment's
+    assert error_of("G21\nG1 X1 F100 M3.5.5\n", "marlin").line == 2
+    moves = run("G21\nG1 X1 (M3 note) F100 M5\n", "marlin")
+    assert [(m.end, m.feed_mm_per_min) for m in moves] == [((1.0, 0.0, 0.0), 100.0)]
     # a line of bare axis words is still the shared step's: no motion mode yet, refused
     assert error_of("G21\nX5\n", "marlin").line == 2
     # LinuxCNC keeps refusing these

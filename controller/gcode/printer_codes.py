@@ -96,13 +96,21 @@ _WORD = re.compile(r"[A-Z]\s*[-+]?[.\d]", re.IGNORECASE)
 _PARAMETER_MT = re.compile(r"[MT]\s*[-+]?(?:\d+\.?\d*|\.\d+)", re.IGNORECASE)
 
 
+#: A ( ) comment, kept as it is, or an M or T word outside one.
+_COMMENT_OR_MT = re.compile(r"\([^)]*\)?|" + _PARAMETER_MT.pattern, re.IGNORECASE)
+
+
 def without_marlin_parameters(raw: str) -> str:
-    """A G line without its M and T words (see :func:`marlin_line`'s "parameters"); the
-    comment, if any, is kept."""
+    """A G line without its M and T words (see :func:`marlin_line`'s "parameters"), each
+    replaced by an empty comment (a word boundary: ``F100 M3.5.5`` must not become ``F100.5``);
+    comments are kept as they are."""
     code, sep, comment = raw.partition(";")
     head = _HEAD.match(code)
     start = head.end() if head is not None else 0
-    return code[:start] + _PARAMETER_MT.sub(" ", code[start:]) + sep + comment
+    rest = _COMMENT_OR_MT.sub(
+        lambda m: m.group() if m.group().startswith("(") else "()", code[start:]
+    )
+    return code[:start] + rest + sep + comment
 
 
 _G2CORE_QUIET = re.compile(
