@@ -80,12 +80,19 @@ def duration_lower_bound(
     """A lower bound [s] on the planned duration of ``items`` (moves and dwells): every move
     at the fastest speed it could have (its feed times the override, capped by the axis
     speed limits along a straight move's direction, by their norm along a curve; a rapid at
-    the cap), plus the dwells; and the line whose moves take longest, and their bound (a
+    the cap; the highest speed a Marlin M203 in the program sets counts), plus the dwells; and the line whose moves take longest, and their bound (a
     canned cycle's line makes many moves). Cheap (no planning),
     so that a program far beyond the budget is refused before its planning takes minutes."""
-    from gantry_sim.controller.moves import Dwell, Linear, Rapid
+    from gantry_sim.controller.moves import Dwell, Limits, Linear, Rapid
 
-    vmax = machine.limits.max_velocity_mm_per_s
+    items = list(items)
+    vmax = list(machine.limits.max_velocity_mm_per_s)
+    for e in items:  # a Marlin M203 may raise an axis' speed: the fastest ever set bounds it
+        if isinstance(e, Limits) and e.code == "M203":
+            for axis, value in e.values:
+                if axis in "XYZ" and math.isfinite(value):
+                    i = "XYZ".index(axis)
+                    vmax[i] = max(vmax[i], value)
     norm = math.sqrt(sum(v * v for v in vmax))
     scale = feed_override_pct / 100.0
     per_line: dict[int, float] = {}

@@ -166,18 +166,26 @@ def test_far_beyond_the_bound_is_refused_before_planning(tmp_path, capsys, monke
 
 
 @pytest.mark.parametrize(
-    "text",
+    ("text", "dialect"),
     [
-        "G21 G90\nG0 X50 Y20 Z-5\nG1 X10 F3000\nG2 X0 Y10 I-10 J0 F1200\nG4 P0.5\nG1 Y-30\nM2\n",
-        "G21 G90 G64 P0.01\nG1 X1 Y0.2 F6000\nG1 X2 Y0\nG1 X3 Y0.2\nG3 X5 Y0.2 I1 J0\nM2\n",
+        (
+            "G21 G90\nG0 X50 Y20 Z-5\nG1 X10 F3000\nG2 X0 Y10 I-10 J0 F1200\nG4 P0.5\nG1 Y-30\nM2\n",
+            "linuxcnc",
+        ),
+        (
+            "G21 G90 G64 P0.01\nG1 X1 Y0.2 F6000\nG1 X2 Y0\nG1 X3 Y0.2\nG3 X5 Y0.2 I1 J0\nM2\n",
+            "linuxcnc",
+        ),
+        # Marlin's M203 raises X past the machine file's 500 mm/s: the plan takes 1.15 s
+        ("G21\nM203 X1000 Y1000 Z1000\nM201 X100000 Y100000\nG1 X250 F60000\nG1 X-250\n", "marlin"),
     ],
 )
-def test_the_bound_from_the_moves_is_below_the_planned_duration(text, machine):  # type: ignore[no-untyped-def]
+def test_the_bound_from_the_moves_is_below_the_planned_duration(text, dialect, machine):  # type: ignore[no-untyped-def]
     from gantry_sim.controller.gcode.interpreter import interpret_events
     from gantry_sim.controller.planner.plan import plan
     from gantry_sim.sim.budget import duration_lower_bound
 
-    items = list(interpret_events(text, "linuxcnc"))
+    items = list(interpret_events(text, dialect))
     bound, _, _ = duration_lower_bound(items, machine)
     assert 0.0 < bound <= plan(items, machine).duration_s
 
