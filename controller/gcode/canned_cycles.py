@@ -40,7 +40,6 @@ _DWELL_CYCLES = (820, 860, 880, 890)
 _PECK_CLEARANCE_INCH = 0.010
 #: the current point comes back from mm with rounding noise; rs274 keeps program units exactly
 _EPS = 1e-9
-_INTEGER_TOL = 0.0001  # rs274: a value within this of an integer is that integer
 #: The most holes x pecks one canned-cycle block expands into. rs274 has no bound, but
 #: ``G81 L99999999`` (3e8 moves) or a 50 mm G73 in pecks of Q0.00001 (5e6 pecks) would take
 #: hours and gigabytes to expand and plan; refused at once instead, naming the line.
@@ -136,9 +135,7 @@ def run_cycle(
         r_word = memory.r
     else:
         raise GcodeError(f"R clearance plane unspecified in canned cycle {_name(motion)}")
-    repeats = 1 if "L" not in v else round(v["L"])
-    if "L" in v and abs(v["L"] - repeats) > _INTEGER_TOL:
-        raise GcodeError(f"L{v['L']:g} is not an integer; L is the number of repeats")
+    repeats = 1 if "L" not in v else round(v["L"])  # whole already: words.whole_number
     if repeats < 0:
         raise GcodeError(f"negative L word used (L{repeats}); L is the number of repeats, >= 1")
     if "L" in v and repeats == 0:
