@@ -56,6 +56,19 @@ class Profile1D:
         """Total duration [s]."""
         return float(self.rows[:, 0].sum())
 
+    def states_at(
+        self, per_phase: int = 9
+    ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+        """Arc length [mm], path speed [mm/s] and tangential acceleration [mm/s^2] at
+        ``per_phase`` evenly spaced points of every phase (ends included), each (k, per_phase),
+        and each phase's jerk [mm/s^3] (k, 1): what a point-by-point check of following the
+        path reads."""
+        ph = self.rows
+        t = ph[:, :1] * np.linspace(0.0, 1.0, per_phase)[None, :]
+        s0, v0, a0, j = ph[:, 1:2], ph[:, 2:3], ph[:, 3:4], ph[:, 4:5]
+        s = s0 + t * (v0 + t * (0.5 * a0 + t * j / 6.0))
+        return s, v0 + t * (a0 + 0.5 * t * j), a0 + t * j, j
+
     def invert(self, s: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """Times [s], speeds [mm/s], tangential accelerations [mm/s^2] where the profile passes
         the arc lengths ``s`` [mm] (ascending)."""

@@ -52,11 +52,8 @@ def follow_ok(profile: Profile1D, fg: FollowGeometry, cap: float, amax, jmax) ->
     9 points of every phase instead of at their worst combination (speed-dependent limits)."""
     i1, i2, n = fg.plane_axes
     k, dk, sp = fg.curvature_per_mm, fg.dcurv_per_mm2, fg.sin_pitch
-    ph = profile.rows
-    t = ph[:, :1] * _FRACTIONS
-    v, a, j = ph[:, 2:3], ph[:, 3:4], ph[:, 4:5]
-    vv = v + t * (a + 0.5 * t * j)
-    aa = np.abs(a + t * j)
+    _, vv, acc, j = profile.states_at()
+    aa = np.abs(acc)
     if vv.max() > cap * (1.0 + 1e-12):  # Ruckig reaches its cap to rounding; cap < feed
         return False
     m = FOLLOW_MARGIN
@@ -68,9 +65,6 @@ def follow_ok(profile: Profile1D, fg: FollowGeometry, cap: float, amax, jmax) ->
     if (jj * jj + ja * ja).max() > (m * min(jmax[i1], jmax[i2])) ** 2:
         return False
     return sp == 0 or (aa.max() * sp <= m * amax[n] and np.abs(j).max() * sp <= m * jmax[n])
-
-
-_FRACTIONS = np.linspace(0.0, 1.0, 9)[None, :]
 
 
 def boost_candidates(fg: FollowGeometry, vmax, amax, jmax) -> list[tuple[float, float, float]]:

@@ -36,8 +36,6 @@ TRIES = 6
 #: built on the profile again, exactly).
 CHECK_MARGIN = 0.97
 
-_FRACTIONS = np.linspace(0.0, 1.0, 9)[None, :]
-
 
 def _tangent_limit(th: np.ndarray, sigma: float, lims: tuple[float, float]) -> float:
     """Smallest over angles ``th`` [rad] of the tangential limit the two plane axes allow:
@@ -58,12 +56,7 @@ def follows_per_axis(
     """Whether following the plain circle of ``frame`` with ``profile`` (path length from the
     arc's start [mm]) keeps each plane axis within ``margin`` of its acceleration [mm/s^2] and
     jerk [mm/s^3] limits (``acc``, ``jerk``: the plane's two axes), at 9 points of every phase."""
-    ph = profile.rows
-    t = ph[:, :1] * _FRACTIONS
-    s0, v0, a0, j = ph[:, 1:2], ph[:, 2:3], ph[:, 3:4], ph[:, 4:5]
-    s = s0 + t * (v0 + t * (0.5 * a0 + t * j / 6.0))
-    v = v0 + t * (a0 + 0.5 * t * j)
-    a = a0 + t * j
+    s, v, a, j = profile.states_at()
     r, sg = frame.r0_mm, frame.sigma
     th = frame.theta0_rad + sg * s / r
     tang = (-sg * np.sin(th), sg * np.cos(th))
