@@ -103,9 +103,9 @@ def test_the_tangent_profile_keeps_each_axis_limit_along_the_arc(
     assert prof.duration_s < slow.duration_s
 
 
-def test_infill_turns_plan_within_limits_without_building_saturated_ramps(
-    machine, monkeypatch
-) -> None:  # type: ignore[no-untyped-def]
+@pytest.fixture
+def saturated_builds(monkeypatch) -> list[float]:  # type: ignore[no-untyped-def]
+    """The lengths [mm] of the arcs the planner builds saturated ramps for, in order."""
     built: list[float] = []
     real = speedup.saturated_profile
 
@@ -114,9 +114,17 @@ def test_infill_turns_plan_within_limits_without_building_saturated_ramps(
         return real(length, *args)
 
     monkeypatch.setattr(speedup, "saturated_profile", counted)
+    return built
+
+
+def test_infill_turns_plan_within_limits_without_building_saturated_ramps(
+    machine, saturated_builds
+) -> None:  # type: ignore[no-untyped-def]
     items = list(interpret_events(INFILL_TURNS, "marlin"))
     p = plan(items, machine)
-    assert built == []  # each turn peaks far below its curvature cap: the tangent's is enough
+    assert (
+        saturated_builds == []
+    )  # each turn peaks far below its curvature cap: the tangent's is enough
     tr = p.sample(machine.servo.period_s)
     moves = [m for m in items if hasattr(m, "end")]
     assert_within_limits(tr, machine, moves)
@@ -125,14 +133,8 @@ def test_infill_turns_plan_within_limits_without_building_saturated_ramps(
             assert arc_deviation(tr, m) <= 0.25 * machine.segmentation.chord_tolerance_mm, m.line
 
 
-def test_a_full_circle_from_rest_still_builds_the_saturated_ramps(machine, monkeypatch) -> None:  # type: ignore[no-untyped-def]
-    built: list[float] = []
-    real = speedup.saturated_profile
-
-    def counted(length, *args):  # type: ignore[no-untyped-def]
-        built.append(length)
-        return real(length, *args)
-
-    monkeypatch.setattr(speedup, "saturated_profile", counted)
+def test_a_full_circle_from_rest_still_builds_the_saturated_ramps(
+    machine, saturated_builds
+) -> None:  # type: ignore[no-untyped-def]
     plan(parse_program("G21 G90 G17\nG0 X1 Y0\nG3 I-1 J0 F3000\nM2\n"), machine)
-    assert built and built[0] == pytest.approx(2 * math.pi)
+    assert saturated_builds and saturated_builds[0] == pytest.approx(2 * math.pi)
