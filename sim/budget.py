@@ -80,10 +80,11 @@ def duration_lower_bound(
     """A lower bound [s] on the planned duration of ``items`` (moves and dwells): every move
     at the fastest speed it could have (its feed times the override, capped by the axis
     speed limits along a straight move's direction, by their norm along a curve; a rapid at
-    the cap; the highest speed a Marlin M203 in the program sets counts), plus the dwells; and the line whose moves take longest, and their bound (a
-    canned cycle's line makes many moves). Cheap (no planning),
-    so that a program far beyond the budget is refused before its planning takes minutes."""
-    from gantry_sim.controller.moves import Dwell, Limits, Linear, Rapid
+    the cap; the highest speed a Marlin M203 in the program sets counts), plus the dwells;
+    and the line whose moves take longest, and their bound (a canned cycle's line makes many
+    moves). Cheap (no planning), so that a program far beyond the budget is refused before
+    its planning takes minutes."""
+    from gantry_sim.controller.moves import Arc, Dwell, Limits, Linear, Rapid, Spline
 
     items = list(items)
     vmax = list(machine.limits.max_velocity_mm_per_s)
@@ -99,7 +100,7 @@ def duration_lower_bound(
     for m in items:
         if isinstance(m, Dwell):
             t = m.seconds
-        elif hasattr(m, "length_mm"):
+        elif isinstance(m, Rapid | Linear | Arc | Spline):
             length = m.length_mm
             if isinstance(m, Rapid | Linear):
                 d = [e - b for b, e in zip(m.start, m.end, strict=True)]
@@ -113,8 +114,7 @@ def duration_lower_bound(
             t = length / speed if speed > 0 else 0.0
         else:
             continue
-        at = m.line  # type: ignore[attr-defined]
-        per_line[at] = per_line.get(at, 0.0) + t
+        per_line[m.line] = per_line.get(m.line, 0.0) + t
     if not per_line:
         return 0.0, None, 0.0
     line = max(per_line, key=lambda k: per_line[k])
@@ -148,17 +148,14 @@ def _check_duration(
     ticks = duration / machine.servo.period_s
     substeps = max(1, round(machine.servo.period_s / machine.sim.physics_timestep_s))
     steps = ticks * substeps
-    on_line = (
-        f" (the {'moves' if at_least else 'move'} on this line alone take"
-        f"{'' if at_least else 's'} {at_least}{longest:.6g} s)"
-        if line is not None
-        else ""
-    )
+    above = "above " if at_least else ""  # a lower bound: that much would not do either
+    moves = "moves on this line alone take" if at_least else "move on this line alone takes"
+    on_line = f" (the {moves} {at_least}{longest:.6g} s)" if line is not None else ""
     if duration > budget.max_sim_s:
         bound = (
             f", beyond the bound of {budget.max_sim_s:g} s (memory grows by about 0.6 MB per "
             f"simulated second); check the feeds (F is in mm/min), or pass --max-sim-s "
-            f"{'above ' if at_least else ''}{math.ceil(duration)} to simulate it anyway"
+            f"{above}{math.ceil(duration)} to simulate it anyway"
         )
         raise BudgetError(
             f"the program takes {at_least}{duration:.6g} s of simulated time{on_line}{bound}",
@@ -169,20 +166,19 @@ def _check_duration(
     if ticks > budget.max_sim_s * TICKS_PER_BUDGET_S:
         need = math.ceil(ticks / TICKS_PER_BUDGET_S)
         message = (
-            f"simulating it takes {at_least}{ticks:.3g} servo ticks ({duration:.6g} s at [servo] "
-            f"period_s = {machine.servo.period_s:g}), beyond the bound of "
+            f"simulating it takes {at_least}{ticks:.3g} servo ticks ({duration:.6g} s at "
+            f"[servo] period_s = {machine.servo.period_s:g}), beyond the bound of "
             f"{budget.max_sim_s * TICKS_PER_BUDGET_S:.3g} (--max-sim-s counts 1000 ticks, about "
-            f"0.6 MB of memory, per second); pass --max-sim-s {'above ' if at_least else ''}"
-            f"{need} to simulate it anyway"
+            f"0.6 MB of memory, per second); pass --max-sim-s {above}{need} to simulate it "
+            "anyway"
         )
         raise BudgetError(message, message, file=file)
     if steps > budget.max_physics_steps:
         message = (
-            f"simulating it takes {at_least}{steps:.3g} MuJoCo physics steps ({duration:.6g} s at [sim] "
-            f"physics_timestep_s = {machine.sim.physics_timestep_s:g}), beyond the bound of "
-            f"{budget.max_physics_steps:.3g} (about a minute of computing); use a larger "
-            f"physics timestep, or pass --max-physics-steps {'above ' if at_least else ''}"
-            f"{math.ceil(steps)} to simulate it "
-            "anyway"
+            f"simulating it takes {at_least}{steps:.3g} MuJoCo physics steps ({duration:.6g} s "
+            f"at [sim] physics_timestep_s = {machine.sim.physics_timestep_s:g}), beyond the "
+            f"bound of {budget.max_physics_steps:.3g} (about a minute of computing); use a "
+            f"larger physics timestep, or pass --max-physics-steps {above}{math.ceil(steps)} to "
+            "simulate it anyway"
         )
         raise BudgetError(message, message, file=file)
