@@ -11,8 +11,8 @@ G12 nozzle clean, G26 mesh print, G27 park, G42 mesh point, G61 restore position
 A line that opens with no command (a stray number, ``% text``, a Klipper macro) or with a G
 code Marlin does not know (``G392``: gcode.cpp's ``default: unknown_command_warning()``) gets
 Marlin's "Unknown command" and is skipped, and so is a bare ``G5`` (every parameter defaults to
-zero: a curve of no length; Cura's Anycubic start code has one); M and T words after a G command are its parameters, which
-it ignores (``G90 M107`` is G90).
+zero: a curve of no length; Cura's Anycubic start code has one); M and T words after a G
+command are its parameters, which it ignores (``G90 M107`` is G90).
 
 g2core: a line opening with ``{`` is a JSON configuration or status request (no motion), and so
 are M100 (JSON in a G-code line), M100.1 and M101 (wait for inputs); G28.2/G28.3 (homing / set
@@ -78,9 +78,10 @@ def marlin_line(raw: str) -> str | None:
         return "quiet"
     if tenths not in G_GROUPS:
         return "quiet"  # Marlin: unknown_command_warning(), and on (Bambu's G392, G380, ...)
-    if tenths == 50 and not _WORD.search(code[head.end() :]):
+    words = code[head.end() :]
+    if tenths == 50 and not _WORD.search(words):
         return "quiet"  # a bare G5: every parameter defaults to zero, a curve of no length
-    if _PARAMETER_MT.search(code[head.end() :]):
+    if _PARAMETER_MT.search(words):
         return "parameters"
     return None
 

@@ -90,8 +90,8 @@ def replan_until_junctions_hold(
     neighbours' speeds, so a junction may first offend in a late round). Softening helps where
     the chain's profile ends a ramp at its full tangential jerk right at a junction whose
     curvature changes (a blend arc of a polyline of 0.035 mm steps): the axes need that jerk
-    plus the curvature's, and no lower junction speed frees it. ``holds``: dwells per junction (exact stops holding the reference for their time).
-    ``blend_arcs``: ids of the G64 blend arcs among the moves (tolerance features: no
+    plus the curvature's, and no lower junction speed frees it. ``holds``: dwells per junction
+    (exact stops holding the reference for their time). ``blend_arcs``: ids of the G64 blend arcs among the moves (tolerance features: no
     saturated-ramp search, which costs tenths of a second and can save them microseconds)."""
     setup = ChainSetup(active, states, machine, solver, arc_pieces, smoothing, {}, blend_arcs)
     blocks = [g.limits for g in active]
