@@ -18,6 +18,9 @@ class Trajectory:
         acc: (N, 3) reference acceleration [mm/s^2].
         line: (N,) 1-based source line of the move being executed (int64).
         period_s: sampling period [s].
+        source: (N, 2) the first and last index among the planned program's moves that the
+            sample is executing (a dwell: the moves it lies between; -1: none), or None when
+            not known: the contour error then searches by ``line``.
     """
 
     t: np.ndarray
@@ -26,10 +29,13 @@ class Trajectory:
     acc: np.ndarray
     line: np.ndarray
     period_s: float
+    source: np.ndarray | None = None
 
     def __post_init__(self) -> None:
         for name in ("t", "pos", "vel", "acc", "line"):
             getattr(self, name).setflags(write=False)
+        if self.source is not None:
+            self.source.setflags(write=False)
 
     @property
     def duration_s(self) -> float:
@@ -45,6 +51,7 @@ class Trajectory:
             acc=self.acc[lo:hi],
             line=self.line[lo:hi],
             period_s=self.period_s,
+            source=None if self.source is None else self.source[lo:hi],
         )
 
     def to_npz_dict(self) -> dict[str, np.ndarray]:

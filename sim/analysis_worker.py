@@ -38,6 +38,7 @@ from gantry_sim.controller.trajectory import Trajectory
 from gantry_sim.sim.blend_parts import planning_distance_mm
 from gantry_sim.sim.contour import ChunkAnalysis, analyse_chunk
 from gantry_sim.sim.move_table import MoveTable
+from gantry_sim.sim.program_distance import path_window
 
 
 @dataclass(frozen=True)
@@ -58,32 +59,50 @@ class RangeJob:
 Result = tuple[RangeJob, ChunkAnalysis, float]
 
 
+@dataclass(frozen=True)
+class Tables:
+    """What every range is analysed against: the program's move table, that of the path the
+    planner followed, and which program moves each path move comes from (Plan.path_sources;
+    None where the path's rows are not known: the path is then searched by line)."""
+
+    tab: MoveTable
+    path_tab: MoveTable
+    path_sources: np.ndarray | None = None
+
+
 def analyse_range(
-    tab: MoveTable,
-    path_tab: MoveTable,
+    tables: Tables,
     line: np.ndarray,
+    source: np.ndarray | None,
     pos: np.ndarray,
     context_pos: np.ndarray,
     offset: int,
 ) -> tuple[ChunkAnalysis, float]:
-    """The contour analysis of ticks executing ``line`` (n,) traced at ``pos`` (n, 3) [mm]
+    """The contour analysis of ticks executing ``line`` (n,) and the program moves ``source``
+    (n, 2) (Trajectory.source, or None) traced at ``pos`` (n, 3) [mm]
     (sim.contour.analyse_chunk), and the largest distance [mm] of their feed reference
     samples from the path the planner followed (sim.blend_parts.planning_distance_mm)."""
-    part = analyse_chunk(tab, line, pos, context_pos, offset)
+    part = analyse_chunk(tables.tab, line, pos, context_pos, offset, source)
     ref = context_pos[offset : offset + len(pos)]
-    return part, planning_distance_mm(path_tab, line, ref, part.feed)
+    window = None
+    if source is not None and tables.path_sources is not None:
+        window = path_window(tables.path_sources, source)
+    return part, planning_distance_mm(tables.path_tab, line, ref, part.feed, window)
+
+
+def _job_args(job: RangeJob) -> tuple:
+    return (job.piece.line, job.piece.source, job.pos, job.context_pos, job.offset)
 
 
 class InlineAnalyser:
     """Analyses each range when it is submitted."""
 
-    def __init__(self, tab: MoveTable, path_tab: MoveTable) -> None:
-        self.tab, self.path_tab = tab, path_tab
+    def __init__(self, tables: Tables) -> None:
+        self.tables = tables
         self._done: deque[Result] = deque()
 
     def submit(self, job: RangeJob) -> None:
-        args = (job.piece.line, job.pos, job.context_pos, job.offset)
-        self._done.append((job, *analyse_range(self.tab, self.path_tab, *args)))
+        self._done.append((job, *analyse_range(self.tables, *_job_args(job))))
 
     def ready(self, drain: bool = False) -> list[Result]:
         """The results of the ranges analysed so far, in order."""
@@ -98,7 +117,7 @@ class InlineAnalyser:
 class ProcessAnalyser:
     """Analyses the ranges in a worker process, one range behind the simulation."""
 
-    def __init__(self, tab: MoveTable, path_tab: MoveTable) -> None:
+    def __init__(self, tables: Tables) -> None:
         env = dict(os.environ, PYTHONPATH=os.pathsep.join(p for p in sys.path if p))
         self._proc = subprocess.Popen(
             [sys.executable, "-m", "gantry_sim.sim.analysis_worker"],
@@ -115,7 +134,7 @@ class ProcessAnalyser:
         self._sent: deque[RangeJob] = deque()
         self._done: deque[Result] = deque()
         # the tables go while the first range simulates (the worker takes ~0.3 s to start)
-        self._tables = threading.Thread(target=self._send, args=((tab, path_tab),), daemon=True)
+        self._tables = threading.Thread(target=self._send, args=(tables,), daemon=True)
         self._send_error: OSError | None = None
         self._tables.start()
 
@@ -133,7 +152,7 @@ class ProcessAnalyser:
         self._tables.join()
         self._take_replies()
         if self._send_error is None:
-            self._send((job.piece.line, job.pos, job.context_pos, job.offset))
+            self._send(_job_args(job))
         if self._send_error is not None:  # the worker is gone: say why
             while True:
                 self._recv()
@@ -182,9 +201,9 @@ class ProcessAnalyser:
 def _serve(inp: Connection, out: Connection) -> None:
     """The worker: the move tables, then every range received until the input ends."""
     try:
-        tab, path_tab = inp.recv()
+        tables = inp.recv()
         while True:
-            out.send(analyse_range(tab, path_tab, *inp.recv()))
+            out.send(analyse_range(tables, *inp.recv()))
     except (EOFError, OSError, KeyboardInterrupt):
         pass  # the run ended, is gone or interrupted (OSError: a broken pipe): nobody to tell
     except Exception:  # reported to the run, which raises it
@@ -194,14 +213,14 @@ def _serve(inp: Connection, out: Connection) -> None:
             pass
 
 
-def make_analyser(tab: MoveTable, path_tab: MoveTable) -> InlineAnalyser | ProcessAnalyser:
+def make_analyser(tables: Tables) -> InlineAnalyser | ProcessAnalyser:
     """A :class:`ProcessAnalyser` where it can pay (see the module docstring), else inline."""
     worker = (
         os.environ.get("GANTRY_ANALYSIS_WORKER", "1") != "0"
         and os.name == "posix"
         and (os.cpu_count() or 1) >= 2
     )
-    return ProcessAnalyser(tab, path_tab) if worker else InlineAnalyser(tab, path_tab)
+    return ProcessAnalyser(tables) if worker else InlineAnalyser(tables)
 
 
 if __name__ == "__main__":  # the worker process (see ProcessAnalyser)

@@ -167,7 +167,7 @@ def run_program(
         sim = simulate(gantry, machine, traj, progress=progress)
         t3 = time.perf_counter()
         with stage("analyse", traj.t.size, "tick", shown, known_size=False):
-            result = analyse(moves, traj.line, traj.pos, sim.pos, planned.vertices)
+            result = analyse(moves, traj.line, traj.pos, sim.pos, planned.vertices, traj.source)
             result = split_reference(result, planned, traj)
         t4 = time.perf_counter()
     except GantryError as exc:

@@ -21,7 +21,7 @@ from gantry_sim.controller.trajectory import Trajectory
 from gantry_sim.controller.units import UM_PER_MM
 from gantry_sim.sim.contour import Analysis, ErrorParts
 from gantry_sim.sim.move_table import MoveTable, move_table
-from gantry_sim.sim.program_distance import distance_to_moves
+from gantry_sim.sim.program_distance import distance_to_moves, path_window
 
 
 @dataclass(frozen=True)
@@ -41,18 +41,36 @@ class BlendedParts(ErrorParts):
 def split_reference(analysis: Analysis, planned: Plan, traj: Trajectory) -> Analysis:
     """``analysis`` with its parts split into blend and planning (see the module docstring)."""
     tab = move_table(planned.path_moves or planned.moves)
-    planning_mm = planning_distance_mm(tab, traj.line, traj.pos, analysis.feed)
+    window = path_windows(planned, traj.source)
+    planning_mm = planning_distance_mm(tab, traj.line, traj.pos, analysis.feed, window)
     return with_planning_split(analysis, planned, planning_mm * UM_PER_MM)
 
 
+def path_windows(planned: Plan, source: np.ndarray | None) -> np.ndarray | None:
+    """Per sample executing the program moves ``source`` (Trajectory.source), the moves of
+    ``planned.path_moves`` they come from (sim.program_distance.path_window); None where
+    either is not known."""
+    if source is None or not planned.path_moves:
+        return None
+    if len(planned.path_sources) != len(planned.path_moves):
+        return None
+    return path_window(planned.path_sources, source)
+
+
 def planning_distance_mm(
-    path_tab: MoveTable, line: np.ndarray, ref: np.ndarray, feed: np.ndarray
+    path_tab: MoveTable,
+    line: np.ndarray,
+    ref: np.ndarray,
+    feed: np.ndarray,
+    window: np.ndarray | None = None,
 ) -> float:
     """The largest distance [mm] of the reference samples ``ref`` (n, 3) [mm] executing
     ``line`` (n,) and flagged ``feed`` (n,) from the path the planner followed (``path_tab``:
-    the move table of ``Plan.path_moves``); 0 with no feed sample. A streamed run (sim.stream)
+    the move table of ``Plan.path_moves``; ``window`` (n, 2): the rows of it each sample comes
+    from, if known: :func:`path_windows`); 0 with no feed sample. A streamed run (sim.stream)
     takes it range by range."""
-    dist = distance_to_moves(path_tab, line[feed], ref[feed])[0]
+    own = None if window is None else window[feed]
+    dist = distance_to_moves(path_tab, line[feed], ref[feed], window=own)[0]
     return float(dist.max()) if dist.size else 0.0
 
 
@@ -67,4 +85,10 @@ def with_planning_split(analysis: Analysis, planned: Plan, planning_um: float) -
     return replace(analysis, parts=parts)
 
 
-__all__ = ["BlendedParts", "planning_distance_mm", "split_reference", "with_planning_split"]
+__all__ = [
+    "BlendedParts",
+    "path_windows",
+    "planning_distance_mm",
+    "split_reference",
+    "with_planning_split",
+]

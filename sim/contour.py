@@ -11,7 +11,9 @@ sim/program_distance.py. Parts (all [um]):
 * tracking: how far the traced points leave the reference path (a polyline through the reference
   samples, searched near the same instant) -- the servo and the machine.
 
-Statistics cover the feed moves only (G1/G2/G3): rapids are not cutting.
+Statistics cover the feed moves only (G1/G2/G3): rapids are not cutting. Where the plan says
+which moves a sample executes (Trajectory.source), that is per move: a canned cycle's plunges
+count, its rapids do not.
 
 In pieces: :func:`analyse_chunk` analyses any run of consecutive samples given the reference
 TRACKING_WINDOW samples either side of it (:func:`reference_context`); :func:`combine` joins the
@@ -167,10 +169,18 @@ def _chord_batch_max_mm(tab: MoveTable, batch: list[tuple[int, np.ndarray]]) -> 
     return float(np.linalg.norm(nearest_on_moves(tab, np.concatenate(owner), p) - p, axis=1).max())
 
 
-def feed_samples(tab: MoveTable, line: np.ndarray) -> np.ndarray:
-    """(N,) True where the sample's line is a feed move's (its last move, if it has several)."""
+def feed_samples(tab: MoveTable, line: np.ndarray, source: np.ndarray | None = None) -> np.ndarray:
+    """(N,) True where the sample executes a feed move: with ``source`` (N, 2) (the moves it
+    executes, Trajectory.source), where they are all feed moves (a G64 blend arc: the two of
+    its corner) and its line has moves (a dwell's has none); else where its line's last move
+    is one (a canned cycle's line, its retract a rapid, then counts as no feed)."""
     _, last, found = line_ranges(tab, line)
-    return found & tab.feed[last]
+    if source is None:
+        return found & tab.feed[last]
+    source = np.asarray(source).reshape(-1, 2)
+    known = (source[:, 0] >= 0) & (source[:, 1] < len(tab))
+    a, b = np.where(known, source[:, 0], last), np.where(known, source[:, 1], last)
+    return found & tab.feed[a] & tab.feed[b]
 
 
 def block_stats(tab: MoveTable, line: np.ndarray, err_um: np.ndarray) -> tuple[BlockError, ...]:
@@ -211,10 +221,16 @@ def reference_context(lo: int, hi: int, total: int) -> tuple[int, int]:
 
 
 def analyse_chunk(
-    tab: MoveTable, line: np.ndarray, pos: np.ndarray, ref_context: np.ndarray, offset: int
+    tab: MoveTable,
+    line: np.ndarray,
+    pos: np.ndarray,
+    ref_context: np.ndarray,
+    offset: int,
+    source: np.ndarray | None = None,
 ) -> ChunkAnalysis:
     """Analyse n consecutive samples: ``line`` (n,), ``pos`` (n, 3) [mm]; the reference of
-    sample k is ref_context[offset + k] [mm], the context as :func:`reference_context` gives it.
+    sample k is ref_context[offset + k] [mm], the context as :func:`reference_context` gives it;
+    ``source`` (n, 2): the moves each sample executes (Trajectory.source), if known.
     Every figure is that of :func:`analyse` on the whole trace, for these samples."""
     line = np.asarray(line)
     pos = np.asarray(pos, dtype=float)
@@ -223,10 +239,11 @@ def analyse_chunk(
     if len(tab.line) == 0:  # a program without moves (a dwell alone): nothing commanded
         n = len(pos)
         return ChunkAnalysis(np.zeros(n), pos.copy(), np.zeros(n, dtype=bool), 0.0, 0.0)
-    feed = feed_samples(tab, line)
+    feed = feed_samples(tab, line, source)
     lag_mm = LAG_REACH * np.linalg.norm(pos - ref, axis=1)
-    dist, nearest = distance_to_moves(tab, line, pos, lag_mm)
-    ref_um = distance_to_moves(tab, line[feed], ref[feed])[0] * UM_PER_MM
+    dist, nearest = distance_to_moves(tab, line, pos, lag_mm, source)
+    own = None if source is None else np.asarray(source)[feed]
+    ref_um = distance_to_moves(tab, line[feed], ref[feed], window=own)[0] * UM_PER_MM
     track_mm = max_distance_to_polyline_near(ref_context, pos, TRACKING_WINDOW, feed, shift=offset)
     return ChunkAnalysis(
         err_um=dist * UM_PER_MM,
@@ -277,6 +294,7 @@ def analyse(
     ref: np.ndarray,
     pos: np.ndarray,
     vertices: Sequence[np.ndarray] | None = None,
+    source: np.ndarray | None = None,
 ) -> Analysis:
     """Contour error of the trace ``pos`` (N, 3) [mm] following ``ref`` (N, 3) [mm].
 
@@ -286,7 +304,9 @@ def analyse(
         ref: (N, 3) reference samples [mm] (program coordinates).
         pos: (N, 3) traced tool tip [mm] (program coordinates).
         vertices: per move, the planner's chord vertices (k, 3) [mm], for the chord part.
+        source: (N, 2) the moves each sample executes (Trajectory.source), where known: the
+            search is then linear in the moves too (else it takes every move of the line).
     """
     tab = move_table(moves)
-    whole = analyse_chunk(tab, line, pos, ref, 0)
+    whole = analyse_chunk(tab, line, pos, ref, 0, source)
     return combine(tab, line, [whole], chord_max_um(moves, vertices, tab))

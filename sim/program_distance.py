@@ -1,11 +1,14 @@
 """Distance from points to the COMMANDED program near the move each point is executing: the
 search behind the contour error (sim/contour.py), linear in the points.
 
-Per point: the moves of its line and one move either side (near a block junction the tool may
-be just before or after it), then -- where a reach is given -- every further move less than that
-reach of path away from its line's moves (a tool lagging or leading by several short moves),
-counted where strictly nearer. Each point's result depends on that point, its line and its reach
-only: a trace may be cut anywhere, in any order, with identical numbers.
+Per point: its own moves and one move either side (near a block junction the tool may be just
+before or after it), then -- where a reach is given -- every further move less than that reach
+of path away from its own moves (a tool lagging or leading by several short moves), counted
+where strictly nearer. Its own moves: those it is executing, where the plan says which
+(``window``: Plan.move_sources, sampled as Trajectory.source), else every move of its line (a
+line may hold hundreds: an O-word loop, a canned cycle). Each point's result depends on that
+point, its own moves and its reach only: a trace may be cut anywhere, in any order, with
+identical numbers.
 """
 
 from __future__ import annotations
@@ -103,20 +106,32 @@ def _walk_out(tab, own, step, reach, pts, best, nearest) -> None:
 
 
 def distance_to_moves(
-    tab: MoveTable, lines: np.ndarray, pts: np.ndarray, reach_mm: np.ndarray | None = None
+    tab: MoveTable,
+    lines: np.ndarray,
+    pts: np.ndarray,
+    reach_mm: np.ndarray | None = None,
+    window: np.ndarray | None = None,
 ) -> tuple[np.ndarray, np.ndarray]:
     """Distance [mm] and nearest commanded point (n, 3) [mm] for points executing ``lines``.
 
-    Searched per point: the moves of its line and one move either side (near a block junction
-    the tool may be just before or after it); then, where ``reach_mm`` (n,) is given, every
-    further move less than reach_mm of path away from its line's moves (a tool lagging or
-    leading by several short moves), counted where strictly nearer. A line no move has is
-    compared with every move. Linear in the points; done TICKS_PER_PASS points at a time.
+    Searched per point: its own moves and one move either side (near a block junction the
+    tool may be just before or after it); then, where ``reach_mm`` (n,) is given, every
+    further move less than reach_mm of path away from its own moves (a tool lagging or
+    leading by several short moves), counted where strictly nearer. Its own moves: rows
+    ``window`` (n, 2) first..last of ``tab`` where given and >= 0, else every move of its line.
+    A point with none (a line no move has) is compared with every move. Linear in the points
+    and, with ``window``, in the moves; done TICKS_PER_PASS points at a time.
     """
     n, m = len(pts), len(tab)
     if m == 0 or n == 0:
         return np.zeros(n), np.array(pts, dtype=float, copy=True)
-    first, last, found = line_ranges(tab, np.asarray(lines))
+    if window is None:
+        first, last, found = line_ranges(tab, np.asarray(lines))
+    else:
+        window = np.asarray(window, dtype=np.int64).reshape(n, 2)
+        found = (window[:, 0] >= 0) & (window[:, 1] < m)
+        first = np.where(found, window[:, 0], 0)
+        last = np.where(found, np.maximum(window[:, 1], first), 0)
     lo = np.where(found, np.maximum(first - 1, 0), 0)
     hi = np.where(found, np.minimum(last + 1, m - 1), m - 1)
     best = np.empty(n)
@@ -130,6 +145,24 @@ def distance_to_moves(
             _walk_out(tab, last[sl], +1, reach, p, b, q)
         best[sl], nearest[sl] = b, q
     return best, nearest
+
+
+def path_window(path_sources: np.ndarray, window: np.ndarray) -> np.ndarray:
+    """The rows of the path the planner followed (Plan.path_moves, whose program moves are
+    ``path_sources`` (p, 2)) that come from the program moves ``window`` (n, 2) (-1: none):
+    (n, 2), -1 where ``window`` is -1. Where no path move comes from them (a dwell between two
+    moves), the two path moves either side. Both columns of ``path_sources`` grow along the
+    path (moves in program order, a blend arc between its corner's two moves)."""
+    window = np.asarray(window, dtype=np.int64).reshape(-1, 2)
+    p = len(path_sources)
+    if p == 0:
+        return np.full(window.shape, -1, dtype=np.int64)
+    lo = np.searchsorted(path_sources[:, 1], window[:, 0], side="left")
+    hi = np.searchsorted(path_sources[:, 0], window[:, 1], side="right") - 1
+    lo, hi = np.minimum(lo, hi), np.maximum(lo, hi)
+    out = np.stack([np.clip(lo, 0, p - 1), np.clip(hi, 0, p - 1)], axis=1)
+    out[window[:, 0] < 0] = -1
+    return out
 
 
 def _passes(counts: np.ndarray) -> list[slice]:
@@ -147,8 +180,9 @@ def _passes(counts: np.ndarray) -> list[slice]:
 
 
 def distance_to_program(
-    moves: Sequence[Move], lines: np.ndarray, pts: np.ndarray
+    moves: Sequence[Move], lines: np.ndarray, pts: np.ndarray, window: np.ndarray | None = None
 ) -> tuple[np.ndarray, np.ndarray]:
     """Distance [mm] and nearest commanded point (n, 3) [mm] for points executing ``lines``
-    (see :func:`distance_to_moves`)."""
-    return distance_to_moves(move_table(moves), lines, np.asarray(pts, dtype=float))
+    (``window``: the moves they execute; see :func:`distance_to_moves`)."""
+    tab = move_table(moves)
+    return distance_to_moves(tab, lines, np.asarray(pts, dtype=float), window=window)

@@ -31,7 +31,7 @@ from gantry_sim.controller.moves import Move
 from gantry_sim.controller.planner.result import Plan
 from gantry_sim.controller.trajectory import Trajectory
 from gantry_sim.controller.units import UM_PER_MM
-from gantry_sim.sim.analysis_worker import RangeJob, Result, make_analyser
+from gantry_sim.sim.analysis_worker import RangeJob, Result, Tables, make_analyser
 from gantry_sim.sim.blend_parts import with_planning_split
 from gantry_sim.sim.contour import (
     Analysis,
@@ -127,7 +127,8 @@ def stream_run(
             run.add(job, part, planning_mm)
             tally.add(job.piece.line, part.err_um, part.feed)
 
-    analyser = make_analyser(tab, path_tab)
+    known = len(planned.path_sources) == len(planned.path_moves) > 0
+    analyser = make_analyser(Tables(tab, path_tab, planned.path_sources if known else None))
     try:
         t0 = time.perf_counter()
         for pos, force in simulate_pieces(gantry, machine, pieces(), start, on_ticks):
@@ -198,6 +199,7 @@ def _decimate(item, pick: np.ndarray):
         acc=piece.acc[pick].copy(),
         line=piece.line[pick].copy(),
         period_s=piece.period_s,
+        source=None if piece.source is None else piece.source[pick].copy(),
     )
     small_part = replace(
         part, err_um=part.err_um[pick], nearest=part.nearest[pick], feed=part.feed[pick]

@@ -103,7 +103,9 @@ def test_a_failure_in_the_analysis_worker_stops_the_run(machine):
         pytest.skip("the worker process runs on POSIX systems")
     moves, planned = _planned(machine)
     piece = planned.sample_range(machine.servo.period_s, 0, 100)
-    worker = analysis_worker.ProcessAnalyser(move_table(moves), move_table(moves))
+    worker = analysis_worker.ProcessAnalyser(
+        analysis_worker.Tables(move_table(moves), move_table(moves))
+    )
     try:
         broken = np.zeros((3, 3))  # a reference context far shorter than the range
         worker.submit(analysis_worker.RangeJob(0, piece, broken, 0, piece.pos, piece.pos))
@@ -230,7 +232,7 @@ def test_the_worker_takes_ranges_larger_than_the_pipe_buffer():
 
     previous = signal.signal(signal.SIGALRM, hang)
     signal.alarm(20)
-    worker = analysis_worker.ProcessAnalyser(tab, tab)
+    worker = analysis_worker.ProcessAnalyser(analysis_worker.Tables(tab, tab))
     try:
         got = []
         for job in jobs:
@@ -241,7 +243,7 @@ def test_the_worker_takes_ranges_larger_than_the_pipe_buffer():
         signal.alarm(0)
         signal.signal(signal.SIGALRM, previous)
         worker.close()
-    inline = analysis_worker.InlineAnalyser(tab, tab)
+    inline = analysis_worker.InlineAnalyser(analysis_worker.Tables(tab, tab))
     for job in jobs:
         inline.submit(job)
     expect = inline.ready(drain=True)

@@ -87,6 +87,9 @@ class PathPlan:
         smoothing_mm: per move, how far the smoothing of a curvature jump at its ends may take
             the reference from it [mm] (blend arcs: what their tolerance leaves; 0 elsewhere:
             the planner's own budget).
+        sources: per move, the first and last program move it comes from (indices among the
+            program's motions, zero-length ones counted): a move's own index twice, a G64 Q
+            merge its run, a blend arc the two moves of its corner.
     """
 
     moves: list[Move] = field(default_factory=list)
@@ -95,6 +98,7 @@ class PathPlan:
     blends: list[Blend] = field(default_factory=list)
     smoothing_mm: list[float] = field(default_factory=list)
     blend_junction: dict[int, int] = field(default_factory=dict)
+    sources: list[tuple[int, int]] = field(default_factory=list)
 
 
 def path_plan(
@@ -110,7 +114,10 @@ def path_plan(
     axis jerk, to skip corners with an arc whose blend would be passed too slowly to pay
     (:func:`~gantry_sim.controller.planner.corner_blend.arc_corner`)."""
     out = PathPlan()
+    index = -1  # of the item among the program's motions
     for item in items:
+        if isinstance(item, Rapid | Linear | Arc | Spline):
+            index += 1
         if isinstance(item, Dwell | Stop):
             if out.stop_after:
                 out.stop_after[-1] = True
@@ -121,8 +128,9 @@ def path_plan(
             continue
         out.moves.append(item)
         out.stop_after.append(control(item, settings).mode == "G61.1")
-    out.moves, out.stop_after, out.holds = merge_naive_cam(
-        out.moves, out.stop_after, out.holds, settings
+        out.sources.append((index, index))
+    out.moves, out.stop_after, out.holds, out.sources = merge_naive_cam(
+        out.moves, out.stop_after, out.holds, out.sources, settings
     )
     out.smoothing_mm = [_smoothing(m, settings, chord_tolerance_mm) for m in out.moves]
     _blend_corners(out, settings, chord_tolerance_mm, skip, jerk_mm_per_s3)
@@ -207,6 +215,7 @@ def _blend_corners(
     new_stops: list[bool] = []
     new_holds: dict[int, list[Dwell]] = {}
     smoothing: list[float] = []
+    sources: list[tuple[int, int]] = []
     for i, m in enumerate(moves):
         if i in out.holds:
             new_holds[len(new_moves)] = out.holds[i]
@@ -214,12 +223,15 @@ def _blend_corners(
             new_moves.append(_trimmed(m, starts[i], ends[i]))
             new_stops.append(out.stop_after[i])
             smoothing.append(out.smoothing_mm[i])
+            sources.append(out.sources[i])
+        between = (out.sources[i][1], out.sources[min(i + 1, n - 1)][0])  # a blend arc's sources
         if i + 1 in cuts:
             cut = cuts[i + 1]
             tol = control(m, settings).tolerance_mm
             out.blend_junction[len(new_moves)] = i + 1
             new_moves.append(cut.arc)
             new_stops.append(False)
+            sources.append(between)
             smoothing.append(
                 max(tol - REFERENCE_SHARE * chord_tolerance_mm - cut.deviation_mm, 0.0)
             )
@@ -232,12 +244,13 @@ def _blend_corners(
             out.blend_junction[len(new_moves)] = i + 1
             new_moves.append(arc)
             new_stops.append(False)
+            sources.append(between)
             smoothing.append(max(tol - REFERENCE_SHARE * chord_tolerance_mm - dev, 0.0))
             out.blends.append(Blend(m.line, dev, tol))
     if n in out.holds:
         new_holds[len(new_moves)] = out.holds[n]
     out.moves, out.stop_after, out.holds = new_moves, new_stops, new_holds
-    out.smoothing_mm = smoothing
+    out.smoothing_mm, out.sources = smoothing, sources
 
 
 def _meet_neighbours(

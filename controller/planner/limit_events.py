@@ -103,7 +103,15 @@ def concatenate(plans: Sequence[Plan]) -> Plan:
 
     starts = np.concatenate([p.move_start_s + off for p, off in zip(plans, offsets, strict=True)])
     lines = np.concatenate([p.move_lines for p in plans])
-    for arr in (starts, lines):
+    first = np.concatenate(([0], np.cumsum([len(p.moves) for p in plans])[:-1]))
+
+    def sources(name: str) -> np.ndarray:  # indices into each plan's moves -> into all
+        own = [getattr(p, name) for p in plans]
+        parts = [np.where(s >= 0, s + k, -1) for s, k in zip(own, first, strict=True)]
+        return np.concatenate(parts).reshape(-1, 2).astype(np.int64)
+
+    move_sources, path_sources = sources("move_sources"), sources("path_sources")
+    for arr in (starts, lines, move_sources, path_sources):
         arr.setflags(write=False)
     last = plans[-1]
     return replace(
@@ -118,6 +126,8 @@ def concatenate(plans: Sequence[Plan]) -> Plan:
         move_lines=lines,
         blends=cat("blends"),
         path_moves=cat("path_moves"),
+        move_sources=move_sources,
+        path_sources=path_sources,
     )
 
 

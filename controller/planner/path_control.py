@@ -45,14 +45,17 @@ def merge_naive_cam(
     moves: list[Move],
     stops: list[bool],
     holds: dict[int, list[Dwell]],
+    sources: list[tuple[int, int]],
     settings: PathSettings,
-) -> tuple[list[Move], list[bool], dict[int, list[Dwell]]]:
+) -> tuple[list[Move], list[bool], dict[int, list[Dwell]], list[tuple[int, int]]]:
     """G64 Q: runs of straight moves whose end points lie within Q of one line, merged into
     that line. ``stops``: per move, an exact stop after it; ``holds``: dwells per junction
-    (0: before the first move); returns the three for the merged moves."""
+    (0: before the first move); ``sources``: per move, the first and last program move it
+    comes from; returns the four for the merged moves."""
     new_moves: list[Move] = []
     new_stops: list[bool] = []
     new_holds: dict[int, list[Dwell]] = {}
+    new_sources: list[tuple[int, int]] = []
     i = 0
     while i < len(moves):
         if i in holds:
@@ -76,10 +79,11 @@ def merge_naive_cam(
         else:
             new_moves.append(m)
         new_stops.append(stops[j])
+        new_sources.append((sources[i][0], sources[j][1]))
         i = j + 1
     if len(moves) in holds:
         new_holds[len(new_moves)] = holds[len(moves)]
-    return new_moves, new_stops, new_holds
+    return new_moves, new_stops, new_holds, new_sources
 
 
 def _mergeable(first: Linear, nxt: Move, settings: PathSettings) -> bool:

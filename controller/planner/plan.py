@@ -130,7 +130,7 @@ def _plan(
     if slow:  # those corners are faster as exact stops: plan them so
         path = path_plan(items, machine.path, seg.chord_tolerance_mm, slow, jerk)
         prepared = _prepare(path, machine, feed_override_pct, known)
-    geoms, active, caps, states, holds, smoothing = prepared
+    geoms, active, caps, states, holds, smoothing, active_sources = prepared
     planned = {id(g.move): g.vertices for g in geoms}
     del known, prepared, geoms  # held through the rounds otherwise (a tenth of their peak)
     solver = RuckigSolver(machine.limits)
@@ -141,7 +141,9 @@ def _plan(
     end = np.array(program[-1].end if program else (0.0, 0.0, 0.0), dtype=float)
     move_start = np.asarray(done.move_start_s, dtype=float)
     lines = np.asarray(done.lines, dtype=np.int64)
-    for arr in (end, move_start, lines):
+    sources = _entry_sources(done.entries, active_sources)
+    path_sources = np.array(path.sources, dtype=np.int64).reshape(-1, 2)
+    for arr in (end, move_start, lines, sources, path_sources):
         arr.setflags(write=False)
     vertices = tuple(planned[id(m)] if id(m) in planned else _vertices(m, machine) for m in program)
     return Plan(
@@ -157,7 +159,27 @@ def _plan(
         end_mm=end,
         blends=tuple(path.blends),
         path_moves=tuple(path.moves),
+        move_sources=sources,
+        path_sources=path_sources,
     )
+
+
+def _entry_sources(
+    entries: Sequence[tuple[int, int]], active_sources: Sequence[tuple[int, int]]
+) -> np.ndarray:
+    """(m, 2) per entry of the plan's timeline (a move, or a dwell between two moves: see
+    :class:`~gantry_sim.controller.planner.rounds.Round`), the first and last program move
+    it comes from or lies between (-1 -1: a dwell of a program without moves)."""
+    out = np.full((len(entries), 2), -1, dtype=np.int64)
+    n = len(active_sources)
+    for k, (a, b) in enumerate(entries):
+        if a == b:  # a move
+            out[k] = active_sources[a]
+        elif n:  # a dwell between moves a and b (either may be past an end)
+            before = active_sources[a][1] if a >= 0 else active_sources[b][0]
+            after = active_sources[b][0] if b < n else active_sources[a][1]
+            out[k] = before, after
+    return out
 
 
 _Prepared = tuple[
@@ -167,6 +189,7 @@ _Prepared = tuple[
     list[JunctionState],
     dict[int, list[Dwell]],
     list[float],
+    list[tuple[int, int]],
 ]
 
 
@@ -192,12 +215,13 @@ def _prepare(
     for j, dwells in path.holds.items():
         holds.setdefault(int(at[j]), []).extend(dwells)
     smoothing = [e for e, k in zip(path.smoothing_mm, keep, strict=True) if k]
+    sources = [s for s, k in zip(path.sources, keep, strict=True) if k]
     caps, states = junction_caps(active, lim, seg.chord_tolerance_mm, smoothing)
     for b in stops | set(holds):
         caps[b] = 0.0
     active = limits_for_junctions(active, caps, lim)
     caps = feasible_junction_caps(active, caps, states, lim)
-    return geoms, active, caps, states, holds, smoothing
+    return geoms, active, caps, states, holds, smoothing, sources
 
 
 def _slow_blends(path: PathPlan, prepared: _Prepared) -> frozenset[int]:

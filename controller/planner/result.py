@@ -34,6 +34,10 @@ class Plan:
         end_mm: read-only (3,) the program's end point [mm].
         blends: every corner blended in G64 (line, deviation from the corner, tolerance).
         path_moves: the moves the reference follows (blend arcs inserted, G64 Q merged).
+        move_sources: read-only (m, 2) per move of ``move_start_s``, the first and last index
+            in ``moves`` it comes from (a dwell: the two moves it lies between; -1 for none):
+            which program moves a sample is executing, for the contour error's search.
+        path_sources: read-only (p, 2) the same per move of ``path_moves``.
     """
 
     moves: tuple[Move, ...]
@@ -48,6 +52,8 @@ class Plan:
     end_mm: np.ndarray = field(repr=False)
     blends: tuple[Blend, ...] = ()
     path_moves: tuple[Move, ...] = ()
+    move_sources: np.ndarray = field(repr=False, default_factory=lambda: _no_sources())
+    path_sources: np.ndarray = field(repr=False, default_factory=lambda: _no_sources())
 
     def sample(self, period_s: float) -> Trajectory:
         """The reference every ``period_s`` [s] from 0 to the end; the last sample is at rest at
@@ -69,9 +75,20 @@ class Plan:
         pos, vel, acc = self.curve.evaluate(t)
         done = t >= self.duration_s
         pos[done], vel[done], acc[done] = self.end_mm, 0.0, 0.0
+        source = None
         if self.move_lines.size:
             k = np.clip(np.searchsorted(self.move_start_s, t, side="right") - 1, 0, None)
             line = self.move_lines[k]
+            if len(self.move_sources) == len(self.move_lines):
+                source = self.move_sources[k]
         else:
             line = np.zeros(t.size, dtype=np.int64)
-        return Trajectory(t=t, pos=pos, vel=vel, acc=acc, line=line, period_s=period_s)
+        return Trajectory(
+            t=t, pos=pos, vel=vel, acc=acc, line=line, period_s=period_s, source=source
+        )
+
+
+def _no_sources() -> np.ndarray:
+    out = np.zeros((0, 2), dtype=np.int64)
+    out.setflags(write=False)
+    return out

@@ -55,7 +55,9 @@ SOFTEN_TRIES = 3
 class Round:
     """One planning round: the reference, its duration [s], each move's (and dwell's) start
     time [s] and program line, the junctions whose neighbouring pieces left the arc (their
-    speed must come down), and the Ruckig pieces used."""
+    speed must come down), the Ruckig pieces used, and per move (and dwell) the first and
+    last of the planned moves it is (a move: its index twice) or lies between (a dwell at
+    junction b: b - 1 and b; -1 or the move count past either end)."""
 
     chunks: list[Chunk]
     duration_s: float
@@ -63,6 +65,7 @@ class Round:
     bad_junctions: set[int]
     lines: list[int]
     ruckig_pieces: int
+    entries: list[tuple[int, int]]
 
     def curve(self) -> SegmentedCurve:
         """The reference as constant-jerk phases per axis (``chunks`` is emptied: the
@@ -179,6 +182,7 @@ def _assemble(
     clock, ruckig = 0.0, 0
     starts: list[float] = []
     lines: list[int] = []
+    entries: list[tuple[int, int]] = []
     bad: set[int] = set()
 
     def hold(b: int) -> None:
@@ -186,6 +190,7 @@ def _assemble(
         for dw in holds.get(b, ()):
             starts.append(clock)
             lines.append(dw.line)
+            entries.append((b - 1, b))
             axes = [
                 np.array([[dw.seconds], [dw.position[i]], [0.0], [0.0], [0.0]]) for i in range(3)
             ]
@@ -196,9 +201,10 @@ def _assemble(
         hold(first)
         starts.extend(clock + t for t in chain.starts_s)
         lines.extend(g.move.line for g in setup.active[first:stop])
+        entries.extend((b, b) for b in range(first, stop))
         chunks.append(chain.chunk)
         clock += chain.duration_s
         bad |= chain.bad
         ruckig += chain.ruckig_pieces
     hold(len(setup.active))
-    return Round(chunks, clock, starts, bad, lines, ruckig)
+    return Round(chunks, clock, starts, bad, lines, ruckig, entries)
