@@ -17,6 +17,7 @@ from dataclasses import dataclass
 from typing import TYPE_CHECKING
 
 from gantry_sim.controller.errors import ConfigError, PlanningError
+from gantry_sim.sim.duration_bound import duration_lower_bound
 
 if TYPE_CHECKING:  # no numpy or config import when the CLI only builds its parser
     from gantry_sim.controller.config import MachineConfig
@@ -72,53 +73,6 @@ def check_budget(plan, machine: MachineConfig, budget: Budget, file: str) -> Non
     ``budget``; the message gives the estimate, the bound and the option to raise it."""
     line, longest = _longest_move(plan)
     _check_duration(float(plan.duration_s), line, longest, machine, budget, file, "")
-
-
-def duration_lower_bound(
-    items: Iterable[object], machine: MachineConfig, feed_override_pct: float = 100.0
-) -> tuple[float, int | None, float]:
-    """A lower bound [s] on the planned duration of ``items`` (moves and dwells): every move
-    at the fastest speed it could have (its feed times the override, capped by the axis
-    speed limits along a straight move's direction, by their norm along a curve; a rapid at
-    the cap; the highest speed a Marlin M203 in the program sets counts), plus the dwells;
-    and the line whose moves take longest, and their bound (a canned cycle's line makes many
-    moves). Cheap (no planning), so that a program far beyond the budget is refused before
-    its planning takes minutes."""
-    from gantry_sim.controller.moves import Arc, Dwell, Limits, Linear, Rapid, Spline
-
-    items = list(items)
-    vmax = list(machine.limits.max_velocity_mm_per_s)
-    for e in items:  # a Marlin M203 may raise an axis' speed: the fastest ever set bounds it
-        if isinstance(e, Limits) and e.code == "M203":
-            for axis, value in e.values:
-                if axis in "XYZ" and math.isfinite(value):
-                    i = "XYZ".index(axis)
-                    vmax[i] = max(vmax[i], value)
-    norm = math.sqrt(sum(v * v for v in vmax))
-    scale = feed_override_pct / 100.0
-    per_line: dict[int, float] = {}
-    for m in items:
-        if isinstance(m, Dwell):
-            t = m.seconds
-        elif isinstance(m, Rapid | Linear | Arc | Spline):
-            length = m.length_mm
-            if isinstance(m, Rapid | Linear):
-                d = [e - b for b, e in zip(m.start, m.end, strict=True)]
-                cap = min(
-                    (v / abs(x) * length for v, x in zip(vmax, d, strict=True) if x), default=norm
-                )
-            else:
-                cap = norm
-            feed = getattr(m, "feed_mm_per_min", None)
-            speed = cap if feed is None else min(cap, feed * scale / 60.0)
-            t = length / speed if speed > 0 else 0.0
-        else:
-            continue
-        per_line[m.line] = per_line.get(m.line, 0.0) + t
-    if not per_line:
-        return 0.0, None, 0.0
-    line = max(per_line, key=lambda k: per_line[k])
-    return math.fsum(per_line.values()), line, per_line[line]
 
 
 def check_lower_bound(

@@ -178,6 +178,14 @@ def test_far_beyond_the_bound_is_refused_before_planning(tmp_path, capsys, monke
         ),
         # Marlin's M203 raises X past the machine file's 500 mm/s: the plan takes 1.15 s
         ("G21\nM203 X1000 Y1000 Z1000\nM201 X100000 Y100000\nG1 X250 F60000\nG1 X-250\n", "marlin"),
+        # reversals: every one a rest (rest-to-rest runs bound each move), rapids too
+        (
+            "G21 G90 G64 P0.01\nG1 X1 F100000\nG1 X0\nG1 X1 Y0.001\nG0 X0 Y0\nG0 X0.5\nM2\n",
+            "linuxcnc",
+        ),
+        # G64 Q may fold the 0.5 mm step back into the line: no rest there
+        ("G21 G90 G64 P0.01 Q1\nG1 X2 F6000\nG1 X1.5\nG1 X3\nG1 X2.5 Y0.0001\nM2\n", "linuxcnc"),
+        ("G21 G90\nG0 X1\nG4 P0.2\nG0 X0\nG1 X0.001 F600\nG1 X0\n", "grbl"),
     ],
 )
 def test_the_bound_from_the_moves_is_below_the_planned_duration(text, dialect, machine):  # type: ignore[no-untyped-def]
@@ -188,6 +196,49 @@ def test_the_bound_from_the_moves_is_below_the_planned_duration(text, dialect, m
     items = list(interpret_events(text, dialect))
     bound, _, _ = duration_lower_bound(items, machine)
     assert 0.0 < bound <= plan(items, machine).duration_s
+
+
+def test_reversals_bound_each_move_by_a_rest_to_rest_run(machine):
+    """Back and forth: each move starts and ends at rest, so it takes at least the fastest
+    rest-to-rest run of its length (0.0285 s for 1 mm at the bundled machine's acceleration
+    norm), far above its time at the feed (0.002 s at 500 mm/s)."""
+    import math
+
+    from gantry_sim.controller.gcode.interpreter import interpret_events
+    from gantry_sim.sim.duration_bound import duration_lower_bound, rest_to_rest_s
+
+    text = "G21 G90\n" + "G1 X1 F100000\nG1 X0\n" * 50 + "M2\n"
+    bound, _, _ = duration_lower_bound(list(interpret_events(text)), machine)
+    acc = math.hypot(*machine.limits.max_acceleration_mm_per_s2)
+    assert bound == pytest.approx(100 * 2 * math.sqrt(1.0 / acc))
+    assert bound == pytest.approx(100 * rest_to_rest_s(1.0, 1e9, acc))
+    # the same moves turning by 90 degrees are not rests: their length runs as one stretch
+    square = "G21 G90\n" + "G1 X1 F100000\nG1 Y1\nG1 X0\nG1 Y0\n" * 25 + "M2\n"
+    bound, _, _ = duration_lower_bound(list(interpret_events(square)), machine)
+    speed = math.hypot(*machine.limits.max_velocity_mm_per_s)
+    assert bound == pytest.approx(rest_to_rest_s(100.0, speed, acc))
+
+
+def test_a_back_and_forth_loop_is_refused_before_planning(tmp_path, capsys, monkeypatch):
+    """10,000 one-millimetre moves back and forth at F100000 take 20 s at their feeds but at
+    least 285 s from rest to rest: refused with --max-sim-s 100 before planning."""
+    import importlib
+
+    planner = importlib.import_module("gantry_sim.controller.planner.plan")
+
+    def never(*args, **kwargs):  # type: ignore[no-untyped-def]
+        raise AssertionError("planned")
+
+    monkeypatch.setattr(planner, "plan", never)
+    loop = tmp_path / "loop.ngc"
+    loop.write_text("o1 repeat [5000]\nG1 X1 F100000\nG1 X0\no1 endrepeat\nM2\n")
+    out = tmp_path / "o"
+    assert main(["run", str(loop), "--out", str(out), "--max-sim-s", "100", "--no-plots"]) == 2
+    err = capsys.readouterr().err
+    found = re.match(
+        rf"{re.escape(str(loop))}:2: error: the program takes at least ([\d.]+) s", err
+    )
+    assert found and float(found.group(1)) > 280 and TRACEBACK not in err
 
 
 def test_the_bounds_can_be_raised_explicitly(tmp_path, capsys, prog):
