@@ -186,6 +186,21 @@ def test_far_beyond_the_bound_is_refused_before_planning(tmp_path, capsys, monke
         # G64 Q may fold the 0.5 mm step back into the line: no rest there
         ("G21 G90 G64 P0.01 Q1\nG1 X2 F6000\nG1 X1.5\nG1 X3\nG1 X2.5 Y0.0001\nM2\n", "linuxcnc"),
         ("G21 G90\nG0 X1\nG4 P0.2\nG0 X0\nG1 X0.001 F600\nG1 X0\n", "grbl"),
+        # G64 blends cut 120-degree corners of 0.1 mm steps: the path is a fifth shorter than
+        # the program's (the speeds-only bound was 1.23 x the plan of LinuxCNC's flowsnake.ngc)
+        (
+            "G21 G90 G64 P0.01\n"
+            + "".join(f"G1 X{0.05 * i:.3f} Y{0.0866 * (i % 2):.4f} F60\n" for i in range(1, 41))
+            + "M2\n",
+            "linuxcnc",
+        ),
+        # the same with Q: naive-CAM runs count for nothing
+        (
+            "G21 G90 G64 P0.01 Q0.01\n"
+            + "".join(f"G1 X{0.05 * i:.3f} Y{0.0866 * (i % 2):.4f} F60\n" for i in range(1, 41))
+            + "G1 X0 Y0\nG1 X3\nG1 X2.995\nG1 X4\nM2\n",
+            "linuxcnc",
+        ),
     ],
 )
 def test_the_bound_from_the_moves_is_below_the_planned_duration(text, dialect, machine):  # type: ignore[no-untyped-def]
@@ -212,8 +227,9 @@ def test_reversals_bound_each_move_by_a_rest_to_rest_run(machine):
     acc = math.hypot(*machine.limits.max_acceleration_mm_per_s2)
     assert bound == pytest.approx(100 * 2 * math.sqrt(1.0 / acc))
     assert bound == pytest.approx(100 * rest_to_rest_s(1.0, 1e9, acc))
-    # the same moves turning by 90 degrees are not rests: their length runs as one stretch
-    square = "G21 G90\n" + "G1 X1 F100000\nG1 Y1\nG1 X0\nG1 Y0\n" * 25 + "M2\n"
+    # the same moves turning by 90 degrees are not rests (in G61, with no blend to shorten
+    # them): their length runs as one stretch
+    square = "G21 G90 G61\n" + "G1 X1 F100000\nG1 Y1\nG1 X0\nG1 Y0\n" * 25 + "M2\n"
     bound, _, _ = duration_lower_bound(list(interpret_events(square)), machine)
     speed = math.hypot(*machine.limits.max_velocity_mm_per_s)
     assert bound == pytest.approx(rest_to_rest_s(100.0, speed, acc))
