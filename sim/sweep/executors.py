@@ -179,7 +179,7 @@ def dask_map(
             n_workers=workers or os.cpu_count() or 1,
             threads_per_worker=1,
             processes=True,
-            dashboard_address=None,
+            dashboard_address=":0",  # any free port (None took 8787, and warned if busy)
         )
         client = Client(cluster)
     try:
