@@ -35,10 +35,9 @@ from multiprocessing.connection import Connection
 import numpy as np
 
 from gantry_sim.controller.trajectory import Trajectory
-from gantry_sim.sim.blend_parts import planning_distance_mm
+from gantry_sim.sim.blend_parts import path_windows, planning_distance_mm
 from gantry_sim.sim.contour import ChunkAnalysis, analyse_chunk
 from gantry_sim.sim.move_table import MoveTable
-from gantry_sim.sim.program_distance import path_window
 
 
 @dataclass(frozen=True)
@@ -84,9 +83,7 @@ def analyse_range(
     samples from the path the planner followed (sim.blend_parts.planning_distance_mm)."""
     part = analyse_chunk(tables.tab, line, pos, context_pos, offset, source)
     ref = context_pos[offset : offset + len(pos)]
-    window = None
-    if source is not None and tables.path_sources is not None:
-        window = path_window(tables.path_sources, source)
+    window = path_windows(tables.path_sources, source)
     return part, planning_distance_mm(tables.path_tab, line, ref, part.feed, window)
 
 

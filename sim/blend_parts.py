@@ -41,20 +41,26 @@ class BlendedParts(ErrorParts):
 def split_reference(analysis: Analysis, planned: Plan, traj: Trajectory) -> Analysis:
     """``analysis`` with its parts split into blend and planning (see the module docstring)."""
     tab = move_table(planned.path_moves or planned.moves)
-    window = path_windows(planned, traj.source)
+    window = path_windows(known_path_sources(planned), traj.source)
     planning_mm = planning_distance_mm(tab, traj.line, traj.pos, analysis.feed, window)
     return with_planning_split(analysis, planned, planning_mm * UM_PER_MM)
 
 
-def path_windows(planned: Plan, source: np.ndarray | None) -> np.ndarray | None:
-    """Per sample executing the program moves ``source`` (Trajectory.source), the moves of
-    ``planned.path_moves`` they come from (sim.program_distance.path_window); None where
-    either is not known."""
-    if source is None or not planned.path_moves:
+def known_path_sources(planned: Plan) -> np.ndarray | None:
+    """``planned.path_sources`` where they give the program moves of every path move (a plan
+    built without them: None)."""
+    if planned.path_moves and len(planned.path_sources) == len(planned.path_moves):
+        return planned.path_sources
+    return None
+
+
+def path_windows(path_sources: np.ndarray | None, source: np.ndarray | None) -> np.ndarray | None:
+    """Per sample executing the program moves ``source`` (Trajectory.source), the path moves
+    they come from (sim.program_distance.path_window, on :func:`known_path_sources`); None
+    where either is not known."""
+    if source is None or path_sources is None:
         return None
-    if len(planned.path_sources) != len(planned.path_moves):
-        return None
-    return path_window(planned.path_sources, source)
+    return path_window(path_sources, source)
 
 
 def planning_distance_mm(
@@ -87,6 +93,7 @@ def with_planning_split(analysis: Analysis, planned: Plan, planning_um: float) -
 
 __all__ = [
     "BlendedParts",
+    "known_path_sources",
     "path_windows",
     "planning_distance_mm",
     "split_reference",

@@ -32,7 +32,7 @@ from gantry_sim.controller.planner.result import Plan
 from gantry_sim.controller.trajectory import Trajectory
 from gantry_sim.controller.units import UM_PER_MM
 from gantry_sim.sim.analysis_worker import RangeJob, Result, Tables, make_analyser
-from gantry_sim.sim.blend_parts import with_planning_split
+from gantry_sim.sim.blend_parts import known_path_sources, with_planning_split
 from gantry_sim.sim.contour import (
     Analysis,
     ChunkAnalysis,
@@ -127,8 +127,7 @@ def stream_run(
             run.add(job, part, planning_mm)
             tally.add(job.piece.line, part.err_um, part.feed)
 
-    known = len(planned.path_sources) == len(planned.path_moves) > 0
-    analyser = make_analyser(Tables(tab, path_tab, planned.path_sources if known else None))
+    analyser = make_analyser(Tables(tab, path_tab, known_path_sources(planned)))
     try:
         t0 = time.perf_counter()
         for pos, force in simulate_pieces(gantry, machine, pieces(), start, on_ticks):

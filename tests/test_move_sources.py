@@ -11,7 +11,7 @@ from gantry_sim.controller.gcode.interpreter import interpret_events
 from gantry_sim.controller.moves import Arc, Dwell, Linear
 from gantry_sim.controller.planner.plan import plan
 from gantry_sim.sim import program_distance
-from gantry_sim.sim.blend_parts import path_windows, planning_distance_mm
+from gantry_sim.sim.blend_parts import known_path_sources, path_windows, planning_distance_mm
 from gantry_sim.sim.contour import analyse
 from gantry_sim.sim.move_table import move_table
 from gantry_sim.sim.program_distance import path_window
@@ -133,7 +133,7 @@ def test_contour_search_on_a_loop_line_measures_a_few_moves_per_sample(
 def test_the_planning_part_searches_the_path_moves_of_each_sample(loop_run, machine):
     _, planned = _planned(LOOP, machine)
     traj = planned.sample(machine.servo.period_s)
-    window = path_windows(planned, traj.source)
+    window = path_windows(known_path_sources(planned), traj.source)
     assert window is not None and window.shape == (len(traj.t), 2)
     tab = move_table(planned.path_moves)
     feed = loop_run.trace.feed
