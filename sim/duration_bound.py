@@ -41,6 +41,7 @@ from typing import TYPE_CHECKING
 
 if TYPE_CHECKING:  # no numpy or config import when the CLI only builds its parser
     from gantry_sim.controller.config import MachineConfig
+    from gantry_sim.controller.planner.path_control import Control
 
 #: turn [rad] from which a junction of two straight moves is an exact stop in every mode (the
 #: planner blends corners below 179 degrees only: controller/planner/blend.py MAX_TURN_RAD)
@@ -99,43 +100,38 @@ def duration_lower_bound(
             cap = norm
         speed = cap if feed is None else min(cap, feed * scale / 60.0)
         t = length / speed if speed > 0 else 0.0
-        joins = (
-            isinstance(m, Linear)
+        here = None if c is None else _Prev(m.line, feed, speed, t, c, d, length, m.start)
+        joins = (  # a straight G64 feed move at the feed of the straight G64 feed move before
+            here is not None
+            and here.g64
+            and d is not None
             and prev is not None
             and prev.g64
             and prev.direction is not None
             and feed == prev.feed
-            and c is not None
-            and c.mode == "G64"
         )
-        run_q = max(run_q, c.naive_cam_mm) if joins and c is not None else 0.0
-        if joins and c is not None and prev is not None and max(run_q, prev.q) > 0:
-            run_q = max(run_q, prev.q)  # a naive-CAM run: no shorter than its chord
+        run_q = max(run_q, prev.q, here.q) if joins and prev and here else 0.0
+        if prev is not None and here is not None and run_q > 0:  # a naive-CAM run
             if prev.dropped:
                 stretch.extend_run(m.end)
-            else:
+            else:  # the run starts at the move before: no shorter than its chord
                 stretch.drop_last()
                 per_line[prev.line] = max(per_line.get(prev.line, 0.0) - prev.t, 0.0)
                 chord_speed = min(norm, feed * scale / 60.0) if feed is not None else norm
                 stretch.start_run(prev.start, m.end, chord_speed)
-            prev = _Prev(m.line, feed, speed, t, c.tolerance_mm, c.naive_cam_mm, True, d, length)
-            prev.dropped, prev.start = True, m.start
+            here.dropped = True
+            prev = here
             continue
         if d is not None and stretch.reverses(d, length):
             total += stretch.close()
-        elif prev is not None and c is not None and prev.g64:
+        elif prev is not None and here is not None and prev.g64:
             saved = _blend_saving_mm(prev, d, length)
             saved_s = saved / min(prev.speed, speed) if saved > 0 else 0.0
             stretch.shorten(saved, saved_s)
             per_line[prev.line] = max(per_line.get(prev.line, 0.0) - saved_s, 0.0)
         stretch.add(length, t, d)
         per_line[m.line] = per_line.get(m.line, 0.0) + t
-        if c is not None:
-            g64 = c.mode == "G64"
-            prev = _Prev(m.line, feed, speed, t, c.tolerance_mm, c.naive_cam_mm, g64, d, length)
-            prev.start = m.start
-        else:
-            prev = None
+        prev = here
     total += stretch.close()
     if not per_line:
         return 0.0, None, 0.0
@@ -144,9 +140,10 @@ def duration_lower_bound(
 
 
 class _Prev:
-    """The last feed move: its line, feed [mm/min], fastest speed [mm/s] and time [s], its G64
-    P and Q [mm] (``g64``: its junction is blended), displacement (None: an arc) and length
-    [mm], start point [mm], and whether a naive-CAM run took it (``dropped``)."""
+    """A feed move (G1, G2, G3): its line, feed [mm/min], fastest speed [mm/s] and time [s],
+    its path control's P and Q [mm] and whether it is G64 (its end junction is blended), its
+    displacement (None: an arc), length and start point [mm], and whether a naive-CAM run took
+    it (``dropped``)."""
 
     def __init__(
         self,
@@ -154,17 +151,15 @@ class _Prev:
         feed: float | None,
         speed: float,
         t: float,
-        p: float,
-        q: float,
-        g64: bool,
+        control: Control,
         d: list[float] | None,
         length: float,
+        start: Sequence[float],
     ) -> None:
         self.line, self.feed, self.speed, self.t = line, feed, speed, t
-        self.p, self.q, self.g64 = p, q, g64
-        self.direction, self.length = d, length
+        self.p, self.q, self.g64 = control.tolerance_mm, control.naive_cam_mm, control.mode == "G64"
+        self.direction, self.length, self.start = d, length, start
         self.dropped = False
-        self.start: tuple[float, float, float] = (0.0, 0.0, 0.0)
 
 
 def _blend_saving_mm(prev: _Prev, d: list[float] | None, length_mm: float) -> float:

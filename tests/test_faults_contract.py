@@ -23,6 +23,19 @@ LINE = "G21 G90\nG1 X2 F1200\nM2\n"
 
 
 @pytest.fixture
+def no_planning(monkeypatch):
+    """The planner fails the test if it is called (a program must be refused before)."""
+    import importlib
+
+    planner = importlib.import_module("gantry_sim.controller.planner.plan")
+
+    def never(*args, **kwargs):  # type: ignore[no-untyped-def]
+        raise AssertionError("planned")
+
+    monkeypatch.setattr(planner, "plan", never)
+
+
+@pytest.fixture
 def prog(tmp_path):
     path = tmp_path / "p.ngc"
     path.write_text(LINE)
@@ -143,17 +156,9 @@ def test_a_program_of_600000_simulated_seconds_is_refused_at_once(tmp_path, caps
         assert "--max-sim-s above 600000" in cap.err
 
 
-def test_far_beyond_the_bound_is_refused_before_planning(tmp_path, capsys, monkeypatch):
+def test_far_beyond_the_bound_is_refused_before_planning(tmp_path, capsys, no_planning):
     """A canned cycle of 51,000 pecks (150,000 moves; Q0.0001 makes ten times as many, minutes
     and gigabytes to plan) is refused from its moves alone; the planner is never called."""
-    import importlib
-
-    planner = importlib.import_module("gantry_sim.controller.planner.plan")
-
-    def never(*args, **kwargs):  # type: ignore[no-untyped-def]
-        raise AssertionError("planned")
-
-    monkeypatch.setattr(planner, "plan", never)
     pecks = tmp_path / "pecks.ngc"
     pecks.write_text("G0 Z5\nG83 X1 Y1 Z-50 R1 Q0.001 F100000\nM2\n")
     assert main(["run", str(pecks), "--out", str(tmp_path / "o"), "--no-plots"]) == 2
@@ -235,17 +240,9 @@ def test_reversals_bound_each_move_by_a_rest_to_rest_run(machine):
     assert bound == pytest.approx(rest_to_rest_s(100.0, speed, acc))
 
 
-def test_a_back_and_forth_loop_is_refused_before_planning(tmp_path, capsys, monkeypatch):
+def test_a_back_and_forth_loop_is_refused_before_planning(tmp_path, capsys, no_planning):
     """10,000 one-millimetre moves back and forth at F100000 take 20 s at their feeds but at
     least 285 s from rest to rest: refused with --max-sim-s 100 before planning."""
-    import importlib
-
-    planner = importlib.import_module("gantry_sim.controller.planner.plan")
-
-    def never(*args, **kwargs):  # type: ignore[no-untyped-def]
-        raise AssertionError("planned")
-
-    monkeypatch.setattr(planner, "plan", never)
     loop = tmp_path / "loop.ngc"
     loop.write_text("o1 repeat [5000]\nG1 X1 F100000\nG1 X0\no1 endrepeat\nM2\n")
     out = tmp_path / "o"
