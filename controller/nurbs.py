@@ -120,14 +120,11 @@ class PiecewisePoly:
         u = np.minimum(np.maximum(np.asarray(u, dtype=float), b[0]), b[-1])
         j = np.minimum(np.maximum(np.searchsorted(b, u, side="right") - 1, 0), len(b) - 2)
         x = (u - b[j])[:, None]
-        out = []
-        for order in range(top + 1):
-            c = self.coeffs[order][j]  # (m, p + 1, d)
-            y = c[:, -1].copy()
-            for k in range(c.shape[1] - 2, -1, -1):
-                y = y * x + c[:, k]
-            out.append(y)
-        return out
+        c = self.coeffs[: top + 1, j]  # (top + 1, m, p + 1, d): every order's Horner at once
+        y = c[:, :, -1]
+        for k in range(c.shape[2] - 2, -1, -1):
+            y = y * x + c[:, :, k]
+        return list(y)
 
 
 @dataclass(frozen=True, eq=False)

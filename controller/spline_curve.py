@@ -67,6 +67,14 @@ class SplineCurve:
         v = self.speed(t.ravel()).reshape(t.shape)
         return half * (v @ _GL_W)
 
+    def _integral_and_speed(self, a: np.ndarray, b: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """:meth:`_integral` from ``a`` to ``b`` and :meth:`speed` at ``b``, from one
+        evaluation of the curve (the same numbers as the two calls)."""
+        half = 0.5 * (b - a)
+        t = (0.5 * (a + b))[:, None] + half[:, None] * _GL_X[None, :]
+        v = self.speed(np.concatenate([t.ravel(), b]))
+        return half * (v[: t.size].reshape(t.shape) @ _GL_W), v[t.size :]
+
     def s_of_t(self, t: np.ndarray) -> np.ndarray:
         """Arc length [mm] from the start to parameter ``t`` (m,)."""
         t = np.clip(np.asarray(t, dtype=float), self.nurbs.t_min, self.nurbs.t_max)
@@ -88,12 +96,13 @@ class SplineCurve:
         active = np.arange(len(s))
         for _ in range(INVERT_STEPS):
             ta, ca = t[active], cell[active]
-            f = self.cum[ca] + self._integral(self.grid[ca], ta) - s[active]
+            piece, speed_ta = self._integral_and_speed(self.grid[ca], ta)
+            f = self.cum[ca] + piece - s[active]
             ok = np.abs(f) <= tol
             lo_a = np.where(f < 0, ta, lo[active])
             hi_a = np.where(f > 0, ta, hi[active])
             with np.errstate(divide="ignore", invalid="ignore"):
-                nt = ta - f / self.speed(ta)
+                nt = ta - f / speed_ta
             bad = ~np.isfinite(nt) | (nt <= lo_a) | (nt >= hi_a)
             nt = np.where(bad, 0.5 * (lo_a + hi_a), nt)
             t[active] = np.where(ok, ta, nt)
@@ -161,10 +170,11 @@ class SplineCurve:
             with np.errstate(divide="ignore", invalid="ignore"):
                 step = np.where(h > 0, -g / h, 0.0)
             improved = np.zeros(len(t), dtype=bool)
-            for share in (1.0, 0.5, 0.25):
-                nt = np.clip(t + share * step, lo, hi)
-                nc = self.nurbs.points(nt)
-                nf = np.einsum("ij,ij->i", nc - q, nc - q)
+            shares = np.array([1.0, 0.5, 0.25])  # the three trial steps evaluated at once
+            trial = np.clip(t[None, :] + shares[:, None] * step[None, :], lo, hi)
+            tc = self.nurbs.points(trial.ravel()).reshape(*trial.shape, 3) - q[None, :, :]
+            trial_f = np.einsum("kij,kij->ki", tc, tc)
+            for nt, nf in zip(trial, trial_f, strict=True):
                 better = (nf < f) & ~improved
                 t, f = np.where(better, nt, t), np.where(better, nf, f)
                 improved |= better
