@@ -5,9 +5,10 @@ Per move, the fastest speed it could have: its feed times the override, capped b
 speed limits along a straight move's direction, by their norm along a curve (a rapid at the
 cap; the highest speed a Marlin M203 in the program sets counts).
 
-Between two rests -- the start, the end, a dwell, and a reversal: two straight moves turning by
-:data:`REVERSAL_RAD` or more, where every axis that turns back passes zero speed and the planner
-stops -- the bound is the larger of the moves' times at those speeds and the fastest
+Between two rests -- the start, the end, a dwell, a program stop (M0, M1, M60), a Marlin limit
+change (M201-M205: the planner plans the parts either side from rest to rest), and a reversal:
+two straight moves turning by :data:`REVERSAL_RAD` or more, where every axis that turns back
+passes zero speed and the planner stops -- the bound is the larger of the moves' times at those speeds and the fastest
 rest-to-rest run of their length under the norms of the axis speed and acceleration limits (the
 tangential acceleration never exceeds the acceleration's norm; no jerk limit, so it holds for
 any). A Marlin M201 or M204 in the program drops that term (they may raise the acceleration).
@@ -20,9 +21,12 @@ G64 shortens the path, and the bound takes that off:
   move, and it is R (2 tan(phi/2) - phi) shorter than the corner (up to 2 P as phi nears 180
   degrees); a corner with an arc: at most 2 P, and at most the two moves' lengths;
 * a G64 Q merge (LinuxCNC's naive-CAM detector) replaces a run of straight moves at one feed by
-  lines through some of its points, which can fold steps back along the line and remove a
-  reversal: a run that could be merged counts as the straight line from its start to its end
-  (no longer than those lines), at its feed, with no rest inside.
+  the line from its start to its end, which can fold steps back along the line and remove a
+  reversal: the runs are found by the planner's own rule
+  (:func:`~gantry_sim.controller.planner.path_control.extends_run`), and each counts as that
+  line, at its feed, with no rest inside. (Counting every run of straight moves at one feed as
+  its chord, as this bound first did, made a G64 P back-and-forth loop, which no merge
+  shortens, a bound near 0: 600,000 such moves were refused only after an 84 s plan.)
 
 Each junction's saving is taken off the stretch's length, and at the slower of its two moves'
 speeds off their time.
@@ -30,13 +34,14 @@ speeds off their time.
 A back-and-forth of 600,000 one-millimetre G1 moves at F100000 is bounded at 17,100 s this way
 (at least 0.0285 s a move), against 1,200 s by the speeds alone: refused at once, where it was
 refused after a 64 s plan. On 88 real and benchmark programs planned, the bound is up to
-0.9997 of the plan (near 0 for G64 Q polylines, whose runs count as their chords).
+0.9997 of the plan.
 """
 
 from __future__ import annotations
 
 import math
 from collections.abc import Iterable, Sequence
+from dataclasses import replace
 from typing import TYPE_CHECKING
 
 if TYPE_CHECKING:  # no numpy or config import when the CLI only builds its parser
@@ -56,8 +61,8 @@ def duration_lower_bound(
     """A lower bound [s] on the planned duration of ``items`` (moves and events; see the
     module docstring), and the line whose moves take longest at their speeds with that time
     [s] (a canned cycle's line makes many moves); (0, None, 0) without moves or dwells."""
-    from gantry_sim.controller.moves import Arc, Dwell, Limits, Linear, Rapid, Spline
-    from gantry_sim.controller.planner.path_control import control
+    from gantry_sim.controller.moves import Arc, Dwell, Limits, Linear, Rapid, Spline, Stop
+    from gantry_sim.controller.planner.path_control import control, extends_run
 
     items = list(items)
     vmax = list(machine.limits.max_velocity_mm_per_s)
@@ -75,13 +80,19 @@ def duration_lower_bound(
     per_line: dict[int, float] = {}
     stretch = _Stretch(norm, acc)
     total = 0.0
-    run_q = 0.0  # the largest G64 Q of the straight feed moves that could be merged so far
+    run: list[Linear] = []  # the naive-CAM run under way, as the planner's merge makes it
     prev: _Prev | None = None  # the last feed move (Linear or Arc) of non-zero length
+    path = machine.path
     for m in items:
-        if isinstance(m, Dwell):
-            total += stretch.close() + m.seconds
-            per_line[m.line] = per_line.get(m.line, 0.0) + m.seconds
-            prev = None
+        if isinstance(m, Dwell | Stop | Limits):  # an exact stop (and the dwell's time)
+            if isinstance(m, Limits) and m.code == "M205":  # J: the blend tolerance from here
+                j = dict(m.values).get("J", 0.0)
+                path = replace(path, tolerance_mm=j) if j > 0 else path
+            seconds = m.seconds if isinstance(m, Dwell) else 0.0
+            total += stretch.close() + seconds
+            if seconds:
+                per_line[m.line] = per_line.get(m.line, 0.0) + seconds
+            prev, run = None, []
             continue
         if not isinstance(m, Rapid | Linear | Arc | Spline):
             continue
@@ -89,7 +100,7 @@ def duration_lower_bound(
         if length <= EPS_MM:  # the planner drops it: no junction, no time
             continue
         feed = getattr(m, "feed_mm_per_min", None)
-        c = control(m, machine.path) if isinstance(m, Linear | Arc) else None
+        c = control(m, path) if isinstance(m, Linear | Arc) else None
         straight = isinstance(m, Rapid | Linear)
         d = [e - b for b, e in zip(m.start, m.end, strict=True)] if straight else None
         if d is not None:
@@ -101,17 +112,14 @@ def duration_lower_bound(
         speed = cap if feed is None else min(cap, feed * scale / 60.0)
         t = length / speed if speed > 0 else 0.0
         here = None if c is None else _Prev(m.line, feed, speed, t, c, d, length, m.start)
-        joins = (  # a straight G64 feed move at the feed of the straight G64 feed move before
-            here is not None
-            and here.g64
-            and d is not None
-            and prev is not None
-            and prev.g64
-            and prev.direction is not None
-            and feed == prev.feed
-        )
-        run_q = max(run_q, prev.q, here.q) if joins and prev and here else 0.0
-        if prev is not None and here is not None and run_q > 0:  # a naive-CAM run
+        joins = isinstance(m, Linear) and bool(run) and extends_run(run, m, path)
+        if isinstance(m, Linear) and joins:
+            run.append(m)
+        elif isinstance(m, Linear) and c is not None and c.mode == "G64" and c.naive_cam_mm > 0:
+            run = [m]  # a straight G64 feed move with Q > 0 may start a run
+        else:
+            run = []
+        if joins and prev is not None and here is not None:  # a naive-CAM run takes m
             if prev.dropped:
                 stretch.extend_run(m.end)
             else:  # the run starts at the move before: no shorter than its chord

@@ -6,6 +6,7 @@ warnings checked, and messages that name what the user typed."""
 from __future__ import annotations
 
 import dataclasses
+import math
 import re
 import time
 
@@ -252,6 +253,61 @@ def test_a_back_and_forth_loop_is_refused_before_planning(tmp_path, capsys, no_p
         rf"{re.escape(str(loop))}:2: error: the program takes at least ([\d.]+) s", err
     )
     assert found and float(found.group(1)) > 280 and TRACEBACK not in err
+
+
+def test_a_blended_back_and_forth_loop_is_refused_before_planning(tmp_path, capsys, no_planning):
+    """The same loop in G64 P0.1 (Q0.1 with it, as in LinuxCNC): no naive-CAM run can take a
+    move that turns back (its end would lie a millimetre off the run's chord), so every
+    reversal is still a rest. The bound once counted any run of straight moves at one feed as
+    its chord -- near 0 here -- and 600,000 such moves were refused only after an 84 s plan."""
+    loop = tmp_path / "loop.ngc"
+    loop.write_text("G64 P0.1\no1 repeat [5000]\nG1 X1 F100000\nG1 X0\no1 endrepeat\nM2\n")
+    out = tmp_path / "o"
+    assert main(["run", str(loop), "--out", str(out), "--max-sim-s", "100", "--no-plots"]) == 2
+    err = capsys.readouterr().err
+    found = re.match(
+        rf"{re.escape(str(loop))}:3: error: the program takes at least ([\d.]+) s", err
+    )
+    assert found and float(found.group(1)) > 280 and TRACEBACK not in err
+
+
+def _folded_polyline(seed: int) -> str:
+    """A G64 P Q polyline of short steps that fold back along their line now and then
+    (what the naive-CAM merge may remove), with turns, a program stop and a dwell."""
+    import random
+
+    rng = random.Random(seed)
+    x = y = 0.0
+    lines = [f"G21 G90 G64 P0.02 Q{rng.choice((0.005, 0.02, 0.1))}", "G1 X0 Y0 F3000"]
+    heading = 0.0
+    for k in range(60):
+        step = rng.uniform(0.05, 1.0)
+        if rng.random() < 0.2:
+            step = -rng.uniform(0.0, 0.15)  # back along the line, within or beyond Q
+        elif rng.random() < 0.3:
+            heading += rng.uniform(-1.0, 1.0)
+        x += step * math.cos(heading)
+        y += step * math.sin(heading)
+        lines.append(f"G1 X{x:.4f} Y{y:.4f}")
+        if k == 20:
+            lines.append("M0")
+        if k == 40:
+            lines.append("G4 P0.1")
+    return "\n".join([*lines, "M2", ""])
+
+
+@pytest.mark.parametrize("seed", range(6))
+def test_the_bound_of_folded_g64_q_polylines_is_below_the_plan(seed, machine):  # type: ignore[no-untyped-def]
+    """The bound follows the planner's naive-CAM runs: never above the planned duration, and
+    within a factor of it (each run counts as the line the planner makes of it)."""
+    from gantry_sim.controller.gcode.interpreter import interpret_events
+    from gantry_sim.controller.planner.plan import plan
+    from gantry_sim.sim.budget import duration_lower_bound
+
+    items = list(interpret_events(_folded_polyline(seed)))
+    bound, _, _ = duration_lower_bound(items, machine)
+    planned = plan(items, machine).duration_s
+    assert 0.3 * planned < bound <= planned
 
 
 def test_the_bounds_can_be_raised_explicitly(tmp_path, capsys, prog):

@@ -14,7 +14,7 @@ import numpy as np
 from gantry_sim.controller.config import PathSettings
 from gantry_sim.controller.moves import Dwell, Linear, Move
 
-__all__ = ["EPS_MM", "MAX_MERGE_RUN", "Control", "control", "merge_naive_cam"]
+__all__ = ["EPS_MM", "MAX_MERGE_RUN", "Control", "control", "extends_run", "merge_naive_cam"]
 
 #: Longest run of straight moves the naive-CAM merge considers at once (bounds its cost).
 MAX_MERGE_RUN = 256
@@ -66,11 +66,9 @@ def merge_naive_cam(
         if isinstance(m, Linear) and c.mode == "G64" and c.naive_cam_mm > 0:
             while (
                 j + 1 < len(moves)
-                and j + 1 - i < MAX_MERGE_RUN
                 and not stops[j]
                 and (j + 1) not in holds
-                and _mergeable(m, moves[j + 1], settings)
-                and _within(moves[i : j + 2], c.naive_cam_mm)
+                and extends_run(moves[i : j + 1], moves[j + 1], settings)
             ):
                 j += 1
         if j > i and isinstance(m, Linear):
@@ -86,11 +84,20 @@ def merge_naive_cam(
     return new_moves, new_stops, new_holds, new_sources
 
 
-def _mergeable(first: Linear, nxt: Move, settings: PathSettings) -> bool:
+def extends_run(run: Sequence[Move], nxt: Move, settings: PathSettings) -> bool:
+    """True when the naive-CAM run ``run`` (straight G64 moves, the first with Q > 0, not
+    broken by a stop or dwell) takes ``nxt`` too: a straight G64 move at the run's feed, the
+    run no longer than :data:`MAX_MERGE_RUN`, every end point within the first move's Q of the
+    chord from the run's start to ``nxt``'s end. (The rule of :func:`merge_naive_cam`, which
+    ``sim/duration_bound.py`` follows too.)"""
+    first = run[0]
     return (
-        isinstance(nxt, Linear)
+        len(run) < MAX_MERGE_RUN
+        and isinstance(first, Linear)
+        and isinstance(nxt, Linear)
         and nxt.feed_mm_per_min == first.feed_mm_per_min
         and control(nxt, settings).mode == "G64"
+        and _within([*run, nxt], control(first, settings).naive_cam_mm)
     )
 
 
