@@ -51,6 +51,22 @@ def test_g2core_radius_mismatch_thresholds() -> None:
     assert error_of("F10\nG2 X2000.6 I1000", "g2core").line == 2
 
 
+def test_g2core_takes_the_last_of_repeated_words() -> None:
+    """g2core's parser stores each word as it reads it (gcode_parser.cpp _parse_gcode_block,
+    SET_NON_MODAL / SET_MODAL) and checks neither repeats nor modal groups: the last wins.
+    (The TinyG test file test_001.gcode has "N82 Y0 Y0".) rs274 and grbl refuse both."""
+    text = "G21 G90\nG0 X1 Y5 Y0\nG0 G1 X3 F600 F1200\nM3 M5\nG1 X4"
+    moves = run(text, "g2core")
+    assert [(type(m), m.end) for m in moves] == [
+        (Rapid, (1.0, 0.0, 0.0)),
+        (Linear, (3.0, 0.0, 0.0)),
+        (Linear, (4.0, 0.0, 0.0)),
+    ]
+    assert moves[1].feed_mm_per_min == 1200.0
+    for dialect in ("linuxcnc", "grbl"):
+        assert error_of(text, dialect).line == 2
+
+
 def test_g2core_needs_feed_and_integer_p() -> None:
     assert "zero feed rate" in error_of("G2 I1", "g2core").message
     assert "integer" in error_of("F1\nG2 I1 P1.5", "g2core").message

@@ -118,6 +118,9 @@ class Dialect:
         splines: "linuxcnc": G5, G5.1, G5.2/G5.3 run as LinuxCNC runs them; "marlin": G5 alone,
             as Marlin's BEZIER_CURVE_SUPPORT runs it (controller/gcode/splines.py); "": refused,
             the firmware has none.
+        last_word_wins: a letter given twice on a line, or two G (M) codes of one modal group,
+            take the last one (g2core's parser stores each word as it reads it and checks
+            neither); False: an error (rs274, grbl's error 25).
     """
 
     name: str
@@ -159,6 +162,7 @@ class Dialect:
     splines: str = ""
     integer_words: frozenset[str] = frozenset()
     g0_at_feed: bool = False
+    last_word_wins: bool = False
 
 
 _TOL_MM = 2 * 0.01 * math.sqrt(2.0)  # 0.028284 mm, rs274 CENTER_ARC_RADIUS_TOLERANCE_MM
@@ -202,6 +206,7 @@ G2CORE = Dialect(
     require_program_end=False,
     system_lines=True,
     own_lines="g2core",
+    last_word_wins=True,
 )
 
 MARLIN = Dialect(

@@ -86,6 +86,7 @@ def read_words(block: Block, params: ParameterReader, dialect: Dialect | None = 
     m: dict[str, int] = {}
     values: dict[str, float] = {}
     r_before_arc_code = False
+    last_wins = dialect is not None and dialect.last_word_wins
     for letter, tree in block.words:
         value = evaluate(tree, params)
         if letter == "G":
@@ -97,7 +98,7 @@ def read_words(block: Block, params: ParameterReader, dialect: Dialect | None = 
                 # rs274: G80 beside another motion code is ignored ("G0 X1 G80" is a G0).
                 g[group] = g.get(group, 800) if code == 800 else code
                 continue
-            if group in g:
+            if group in g and not last_wins:
                 raise GcodeError(
                     f"two G codes from one modal group on a line ({g_name(g[group])} and "
                     f"{g_name(code)}); use one {group.replace('_', ' ')} code per line"
@@ -108,13 +109,13 @@ def read_words(block: Block, params: ParameterReader, dialect: Dialect | None = 
             group = None if code is None else M_GROUPS.get(code)
             if code is None or group is None:
                 raise GcodeError(f"unsupported M code M{value:g}; {_m_list(dialect)}")
-            if group in m:
+            if group in m and not last_wins:
                 raise GcodeError(
                     f"two M codes from one modal group on a line (M{m[group]} and M{code}); "
                     f"use one {group.replace('_', ' ')} code per line"
                 )
             m[group] = code
-        elif letter in values:
+        elif letter in values and not last_wins:
             raise GcodeError(f"multiple {letter} words on one line; give each letter once")
         else:
             if letter == "R" and g.get("motion") not in (20, 30):
