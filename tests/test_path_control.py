@@ -301,3 +301,53 @@ def test_a_blended_arc_is_trimmed_on_its_own_circle(machine):
             assert 0 <= u <= 1 + 1e-12
             assert r == pytest.approx(f.r0_mm + (f.r1_mm - f.r0_mm) * u, abs=1e-9)
         assert trimmed.angle < orig.angle
+
+
+#: Corners of an arc into a line from a printed part (ArcWelder output of a Slic3r Benchy,
+#: its arcs' ends as Marlin projects them onto the arc), where the search for the blend's
+#: join on the line stopped at rounding: the two tangent lengths agreed to 1.003e-12 of the
+#: cut, against the 1e-12 asked, so no blend was found and the corner was an exact stop
+#: (100 of 2,329 corners with arcs in the first 6,000 lines).
+ROUNDING_CORNERS = (
+    (
+        "G2 X102.76897259031863 Y102.9829932932381 I-1.889 J-1.087 F1200\nG1 X102.85 Y102.705",
+        (102.541, 103.552),
+    ),
+    (
+        "G3 X75.25298986119597 Y93.21760229723526 I1.213 J0.096 F84.6555\nG1 X98.995 Y91.567",
+        (74.071, 94.338),
+    ),
+    (
+        "G3 X75.04000347483688 Y93.69706682378597 I0.497 J-0.06 F128.951\nG1 X98.847 Y91.938",
+        (74.569, 94.257),
+    ),
+)
+
+
+@pytest.mark.parametrize(("body", "start"), ROUNDING_CORNERS)
+def test_arc_corners_whose_search_stops_at_rounding_are_blended(machine, body, start):
+    text = f"G21 G90 G17 G64 P0.01\nG0 X{start[0]} Y{start[1]} Z1\n{body}\nM2"
+    moves = parse_program(text)
+    p = plan(moves, machine)
+    assert len(p.blends) == 1 and 0 < p.blends[0].deviation_mm <= 0.01
+    assert p.duration_s < plan(parse_program(text.replace("G64 P0.01", "G61")), machine).duration_s
+    tr = p.sample(machine.servo.period_s)
+    assert_within_limits(tr, machine, moves)
+    arc, line = moves[1], moves[2]
+    near = tr.pos[np.linalg.norm(tr.pos[:, :2] - np.array(arc.end[:2]), axis=1) < 0.3]
+    dist = np.minimum(_arc_distance(near, arc), polyline_distance(near, [line]))
+    assert len(near) > 10 and dist.max() <= 0.01
+
+
+def _arc_distance(q: np.ndarray, a) -> np.ndarray:
+    """Exact distance [mm] of points (k, 3) from the XY arc ``a`` (no helix, no spiral)."""
+    from gantry_sim.controller.arcs import arc_frame
+
+    f = arc_frame(a)
+    rel = q[:, :2] - np.array(a.center[:2])
+    swept = (f.sigma * (np.arctan2(rel[:, 1], rel[:, 0]) - f.theta0_rad)) % (2 * np.pi)
+    ends = np.minimum(
+        np.linalg.norm(q - np.array(a.start), axis=1), np.linalg.norm(q - np.array(a.end), axis=1)
+    )
+    on = np.hypot(np.abs(np.hypot(rel[:, 0], rel[:, 1]) - a.radius), q[:, 2] - a.start[2])
+    return np.where(swept <= a.angle, on, ends)

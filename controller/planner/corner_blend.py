@@ -16,11 +16,12 @@ tangents are unit vectors in the direction of motion.
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 from dataclasses import dataclass
 
 import numpy as np
 
-from gantry_sim.controller.arcs import arc_derivatives, arc_points
+from gantry_sim.controller.arcs import arc_derivatives, arc_frame, arc_points
 from gantry_sim.controller.moves import Arc, Linear
 from gantry_sim.controller.planes import PLANE_AXES, Plane, plane_of
 from gantry_sim.controller.planner.junctions import CHORD_FIT_BLEND
@@ -28,6 +29,13 @@ from gantry_sim.controller.planner.junctions import CHORD_FIT_BLEND
 #: Bisection steps on the length cut from the first move, and secant steps on the second.
 BISECTION_STEPS = 20
 SECANT_STEPS = 40
+#: The secant stops where the two tangent lengths differ by this share of the cut [1]; where
+#: rounding stops it first (the gap no longer changes from one step to the next, or the steps
+#: run out), a gap within GAP_ROUNDING_REL of the cut is taken (a blend whose end lies 1e-9 of
+#: the cut off its circle: far below any tolerance; rejecting it turned about one corner search
+#: in ten on a printed part's arcs into a smaller blend, by rounding luck).
+GAP_REL = 1e-12
+GAP_ROUNDING_REL = 1e-9
 #: Samples of each cut-away part checked against the blend circle.
 CHECK_SAMPLES = 17
 
@@ -53,51 +61,80 @@ def in_plane(m: Linear | Arc, plane: Plane) -> bool:
 
 def _at(m: Linear | Arc, s: float, from_end: bool) -> tuple[np.ndarray, np.ndarray]:
     """Point and unit tangent of ``m`` at path distance ``s`` [mm] from its end (or start)."""
+    p, t = _pose(m, from_end)(s)
+    return np.array(p), np.array(t)
+
+
+_Pose = Callable[[float], tuple[list[float], list[float]]]
+
+
+def _pose(m: Linear | Arc, from_end: bool) -> _Pose:
+    """The function s -> (point, unit tangent) of ``m`` at path distance ``s`` [mm] from its
+    end (or start), in plain floats: the corner search asks for one point at a time, hundreds
+    of times a corner, where numpy's per-call overhead was most of the cost (the formulas of
+    :func:`~gantry_sim.controller.arcs.arc_points` and ``arc_derivatives``)."""
     if isinstance(m, Linear):
-        a, b = np.asarray(m.start, float), np.asarray(m.end, float)
-        d = (b - a) / np.linalg.norm(b - a)
-        return (b - d * s, d) if from_end else (a + d * s, d)
-    u = 1.0 - s / m.length_mm if from_end else s / m.length_mm
-    p = arc_points(m, u)[0]
-    d1, _ = arc_derivatives(m, u)
-    return p, d1[0] / np.linalg.norm(d1[0])
+        a, b = m.start, m.end
+        length = math.dist(a, b)
+        d = [(y - x) / length for x, y in zip(a, b, strict=True)]
+        if from_end:
+            return lambda s: ([y - dk * s for y, dk in zip(b, d, strict=True)], d)
+        return lambda s: ([x + dk * s for x, dk in zip(a, d, strict=True)], d)
+    i1, i2, n, theta0, sigma, r0, r1, h0, h1 = arc_frame(m)
+    a_rad, dr, c, length, end = sigma * m.angle, r1 - r0, m.center, m.length_mm, m.end
+
+    def at(s: float) -> tuple[list[float], list[float]]:
+        u = 1.0 - s / length if from_end else s / length
+        theta, r = theta0 + a_rad * u, r0 + dr * u
+        cos_t, sin_t = math.cos(theta), math.sin(theta)
+        p = [0.0, 0.0, 0.0]
+        p[i1], p[i2], p[n] = c[i1] + r * cos_t, c[i2] + r * sin_t, h0 + (h1 - h0) * u
+        d = [0.0, 0.0, 0.0]
+        d[i1], d[i2], d[n] = dr * cos_t - r * a_rad * sin_t, dr * sin_t + r * a_rad * cos_t, h1 - h0
+        norm = math.sqrt(d[0] * d[0] + d[1] * d[1] + d[2] * d[2])
+        return (list(end) if u == 1.0 else p), [x / norm for x in d]
+
+    return at
 
 
 def _tangent_lengths(pa, ta, pb, tb, i1, i2) -> tuple[float, float] | None:
     """(lambda, mu) with pa + lambda ta = pb - mu tb in the plane, or None (parallel)."""
-    m = np.array([[ta[i1], tb[i1]], [ta[i2], tb[i2]]])
-    det = float(np.linalg.det(m))
+    det = ta[i1] * tb[i2] - tb[i1] * ta[i2]
     if abs(det) < 1e-15:
         return None
-    lam, mu = np.linalg.solve(m, np.array([pb[i1] - pa[i1], pb[i2] - pa[i2]]))
-    return float(lam), float(mu)
+    r1, r2 = pb[i1] - pa[i1], pb[i2] - pa[i2]
+    return (r1 * tb[i2] - tb[i1] * r2) / det, (ta[i1] * r2 - ta[i2] * r1) / det
 
 
 def _cut(m0, m1, s0: float, s1_max: float, plane: Plane):
     """The blend leaving ``m0`` ``s0`` mm before the corner: (s1, pa, ta, pb, tb, lam), or
     None when no ``s1`` <= ``s1_max`` gives equal tangent lengths."""
     i1, i2, _ = PLANE_AXES[plane]
-    pa, ta = _at(m0, s0, True)
+    pa, ta = _pose(m0, True)(s0)
+    pose1 = _pose(m1, False)
 
     def gap(s1: float):
-        pb, tb = _at(m1, s1, False)
+        pb, tb = pose1(s1)
         lm = _tangent_lengths(pa, ta, pb, tb, i1, i2)
         return (None, pb, tb, None) if lm is None else (lm[0] - lm[1], pb, tb, lm[0])
 
+    scale = max(s0, 1e-9)
     x0, x1 = s0, min(1.1 * s0, s1_max)
-    g0, g1 = gap(x0)[0], gap(x1)[0]
+    g0 = gap(x0)[0]
+    g1, pb, tb, lam = gap(x1)
     for _ in range(SECANT_STEPS):
         if g0 is None or g1 is None or g1 == g0:
-            return None
+            break
         x2 = min(max(x1 - g1 * (x1 - x0) / (g1 - g0), 1e-12), s1_max)
         x0, g0 = x1, g1
         x1 = x2
         g1, pb, tb, lam = gap(x1)
-        if g1 is not None and abs(g1) <= 1e-12 * max(s0, 1e-9):
-            if lam is None or lam <= 0:
-                return None
-            return x1, pa, ta, pb, tb, lam
-    return None
+        if g1 is not None and abs(g1) <= GAP_REL * scale:
+            break
+    # converged, or stopped at rounding (the secant's step no longer changes the gap)
+    if g1 is None or abs(g1) > GAP_ROUNDING_REL * scale or lam is None or lam <= 0:
+        return None
+    return x1, np.array(pa), np.array(ta), np.array(pb), np.array(tb), lam
 
 
 def _points(m: Linear | Arc, s: np.ndarray, from_end: bool) -> np.ndarray:
