@@ -4,8 +4,10 @@
 programmed geometry. In G64 part of that is intended: the blends replace corners by arcs. The
 split (both [um], added to ``parts_um`` of report.json beside the existing keys):
 
-* ``reference_blend_max``: how far the blended path leaves the programmed corners (the largest
-  blend deviation of the plan; 0 with no blend);
+* ``reference_blend_max``: how far the path the planner follows leaves the programmed one
+  where the program's path control asks it to: the largest deviation of the plan's G64 blends
+  (from the corners they cut) and G64 Q merges (from the points they merge away); 0 with
+  neither;
 * ``reference_planning_max``: how far the reference samples of the feed moves leave the path
   the planner followed (the blended one): chords, junction smoothing, pieces.
 """
@@ -81,9 +83,10 @@ def planning_distance_mm(
 
 
 def with_planning_split(analysis: Analysis, planned: Plan, planning_um: float) -> Analysis:
-    """``analysis`` with its parts split: the plan's largest blend deviation, and
+    """``analysis`` with its parts split: the plan's largest blend (or merge) deviation, and
     ``planning_um`` [um] (:func:`planning_distance_mm` over the run)."""
-    blend_um = max((b.deviation_mm for b in planned.blends), default=0.0) * UM_PER_MM
+    deviations = [b.deviation_mm for b in planned.blends] + [m.deviation_mm for m in planned.merges]
+    blend_um = max(deviations, default=0.0) * UM_PER_MM
     base = {f.name: getattr(analysis.parts, f.name) for f in fields(ErrorParts)}
     parts = BlendedParts(
         **base, reference_blend_max_um=blend_um, reference_planning_max_um=planning_um

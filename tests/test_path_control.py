@@ -156,6 +156,43 @@ def test_g64_q_merges_straight_moves_within_q(machine):
     assert merged.duration_s < plain.duration_s
 
 
+def test_g64_q_merges_report_how_far_they_leave_the_programmed_points(machine, tmp_path):
+    """The zigzag's inner points lie 1 um off its merged line: `gantry plan` reports the merge,
+    and the run's reference part is split to it (before, a merge counted as neither blend nor
+    planning, and the reference part was unexplained)."""
+    import json
+
+    from gantry_sim.sim.cli import main
+
+    zig = "".join(f"G1 X{k} Y{0.001 * (k % 2):.3f}\n" for k in range(1, 11))
+    text = "G21 G90 G64 P0.01 Q0.002 F3000\n" + zig + "G1 Y5\nG1 X0 Y5.0015\nG1 X-10 Y5\nM2\n"
+    p = plan(parse_program(text), machine)
+    assert [(m.line, m.tolerance_mm) for m in p.merges] == [(2, 0.002), (13, 0.002)]
+    assert p.merges[0].deviation_mm == pytest.approx(0.001, abs=1e-9)
+    assert p.merges[1].deviation_mm == pytest.approx(0.0015, abs=1e-9)
+    prog = tmp_path / "zig.ngc"
+    prog.write_text(text)
+    assert main(["plan", str(prog)]) == 0
+    out = tmp_path / "o"
+    assert main(["run", str(prog), "--out", str(out), "--no-plots", "--no-trace"]) == 0
+    parts = json.loads((out / "report.json").read_text())["parts_um"]
+    assert parts["reference_blend_max"] == pytest.approx(1.5, abs=1e-6)
+    assert parts["reference_max"] <= parts["reference_blend_max"] + parts["reference_planning_max"]
+
+
+def test_gantry_plan_reports_the_merges(tmp_path, capsys):
+    import json
+
+    from gantry_sim.sim.cli import main
+
+    prog = tmp_path / "zig.ngc"
+    prog.write_text("G21 G64 P0.01 Q0.002 F3000\nG1 X1\nG1 X2 Y0.001\nG1 X3 Y0\nM2\n")
+    assert main(["plan", str(prog)]) == 0
+    merges = json.loads(capsys.readouterr().out)["merges"]
+    assert merges["count"] == 1 and merges["max_deviation_line"] == 2
+    assert merges["max_deviation_mm"] == pytest.approx(0.001, abs=1e-9)
+
+
 def test_a_corner_outside_the_principal_planes_stays_an_exact_stop(machine):
     moves = [
         Linear(1, (0.0, 0.0, 0.0), (10.0, 0.0, 1.0), 3000.0, PathControl("G64", 0.01)),

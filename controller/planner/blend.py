@@ -40,7 +40,7 @@ from gantry_sim.controller.planner.corner_blend import (
     blend_tangent_mm,
     trimmed_arc,
 )
-from gantry_sim.controller.planner.path_control import EPS_MM, control, merge_naive_cam
+from gantry_sim.controller.planner.path_control import EPS_MM, Merge, control, merge_naive_cam
 
 #: Share of the chord tolerance the planner's reference may leave an arc by (the G61 promise);
 #: a blend keeps this much of the tolerance for it.
@@ -90,6 +90,7 @@ class PathPlan:
         sources: per move, the first and last program move it comes from (indices among the
             program's motions, zero-length ones counted): a move's own index twice, a G64 Q
             merge its run, a blend arc the two moves of its corner.
+        merges: every G64 Q merge (line, deviation from the programmed points, Q).
     """
 
     moves: list[Move] = field(default_factory=list)
@@ -99,6 +100,7 @@ class PathPlan:
     smoothing_mm: list[float] = field(default_factory=list)
     blend_junction: dict[int, int] = field(default_factory=dict)
     sources: list[tuple[int, int]] = field(default_factory=list)
+    merges: list[Merge] = field(default_factory=list)
 
 
 def path_plan(
@@ -129,7 +131,7 @@ def path_plan(
         out.moves.append(item)
         out.stop_after.append(control(item, settings).mode == "G61.1")
         out.sources.append((index, index))
-    out.moves, out.stop_after, out.holds, out.sources = merge_naive_cam(
+    out.moves, out.stop_after, out.holds, out.sources, out.merges = merge_naive_cam(
         out.moves, out.stop_after, out.holds, out.sources, settings
     )
     out.smoothing_mm = [_smoothing(m, settings, chord_tolerance_mm) for m in out.moves]

@@ -125,6 +125,7 @@ def concatenate(plans: Sequence[Plan]) -> Plan:
         move_start_s=starts,
         move_lines=lines,
         blends=cat("blends"),
+        merges=cat("merges"),
         path_moves=cat("path_moves"),
         move_sources=move_sources,
         path_sources=path_sources,

@@ -14,12 +14,31 @@ import numpy as np
 from gantry_sim.controller.config import PathSettings
 from gantry_sim.controller.moves import Dwell, Linear, Move
 
-__all__ = ["EPS_MM", "MAX_MERGE_RUN", "Control", "control", "extends_run", "merge_naive_cam"]
+__all__ = [
+    "EPS_MM",
+    "MAX_MERGE_RUN",
+    "Control",
+    "Merge",
+    "control",
+    "extends_run",
+    "merge_naive_cam",
+]
 
 #: Longest run of straight moves the naive-CAM merge considers at once (bounds its cost).
 MAX_MERGE_RUN = 256
 #: Lengths [mm] at or below this are nothing (zero-length moves, coincident points).
 EPS_MM = 1e-9
+
+
+@dataclass(frozen=True)
+class Merge:
+    """One G64 Q merge: the program line of the run's first move, the largest distance of the
+    run's inner end points from the merged line [mm] (how far the path followed leaves the
+    programmed one there), and the Q it was given [mm]."""
+
+    line: int
+    deviation_mm: float
+    tolerance_mm: float
 
 
 @dataclass(frozen=True)
@@ -47,11 +66,12 @@ def merge_naive_cam(
     holds: dict[int, list[Dwell]],
     sources: list[tuple[int, int]],
     settings: PathSettings,
-) -> tuple[list[Move], list[bool], dict[int, list[Dwell]], list[tuple[int, int]]]:
+) -> tuple[list[Move], list[bool], dict[int, list[Dwell]], list[tuple[int, int]], list[Merge]]:
     """G64 Q: runs of straight moves whose end points lie within Q of one line, merged into
     that line. ``stops``: per move, an exact stop after it; ``holds``: dwells per junction
     (0: before the first move); ``sources``: per move, the first and last program move it
-    comes from; returns the four for the merged moves."""
+    comes from; returns the four for the merged moves, and each merge (:class:`Merge`)."""
+    merges: list[Merge] = []
     new_moves: list[Move] = []
     new_stops: list[bool] = []
     new_holds: dict[int, list[Dwell]] = {}
@@ -74,6 +94,7 @@ def merge_naive_cam(
         if j > i and isinstance(m, Linear):
             last = moves[j]
             new_moves.append(replace(m, end=last.end, path=getattr(last, "path", None)))
+            merges.append(Merge(m.line, float(_offsets(moves[i : j + 1]).max()), c.naive_cam_mm))
         else:
             new_moves.append(m)
         new_stops.append(stops[j])
@@ -81,7 +102,7 @@ def merge_naive_cam(
         i = j + 1
     if len(moves) in holds:
         new_holds[len(new_moves)] = holds[len(moves)]
-    return new_moves, new_stops, new_holds, new_sources
+    return new_moves, new_stops, new_holds, new_sources, merges
 
 
 def extends_run(run: Sequence[Move], nxt: Move, settings: PathSettings) -> bool:
@@ -103,12 +124,18 @@ def extends_run(run: Sequence[Move], nxt: Move, settings: PathSettings) -> bool:
 
 def _within(run: Sequence[Move], q_mm: float) -> bool:
     """True when every end point of ``run`` lies within ``q_mm`` of the run's chord."""
+    off = _offsets(run)
+    return off.size > 0 and bool(np.all(off <= q_mm))
+
+
+def _offsets(run: Sequence[Move]) -> np.ndarray:
+    """Distances [mm] of the inner end points of ``run`` from the chord from its start to its
+    end (the segment); empty when the chord has no length."""
     a, b = np.asarray(run[0].start, float), np.asarray(run[-1].end, float)
     d = b - a
     n = float(np.linalg.norm(d))
     if n <= EPS_MM:
-        return False
-    pts = np.array([m.end for m in run[:-1]], dtype=float) - a
+        return np.empty(0)
+    pts = np.array([m.end for m in run[:-1]], dtype=float).reshape(-1, 3) - a
     t = np.clip(pts @ d / (n * n), 0.0, 1.0)
-    off = np.linalg.norm(pts - t[:, None] * d, axis=1)
-    return bool(np.all(off <= q_mm))
+    return np.linalg.norm(pts - t[:, None] * d, axis=1)

@@ -158,6 +158,7 @@ def _plan(
         move_lines=lines,
         end_mm=end,
         blends=tuple(path.blends),
+        merges=tuple(path.merges),
         path_moves=tuple(path.moves),
         move_sources=sources,
         path_sources=path_sources,

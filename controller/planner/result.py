@@ -11,6 +11,7 @@ from gantry_sim.controller.errors import ConfigError
 from gantry_sim.controller.moves import Move
 from gantry_sim.controller.planner.blend import Blend
 from gantry_sim.controller.planner.cubic import PiecewiseCubic
+from gantry_sim.controller.planner.path_control import Merge
 from gantry_sim.controller.planner.segmented_curve import SegmentedCurve
 from gantry_sim.controller.trajectory import Trajectory
 
@@ -38,6 +39,8 @@ class Plan:
             in ``moves`` it comes from (a dwell: the two moves it lies between; -1 for none):
             which program moves a sample is executing, for the contour error's search.
         path_sources: read-only (p, 2) the same per move of ``path_moves``.
+        merges: every G64 Q merge (line, largest distance of the merged-away programmed points
+            from the merged line, Q).
     """
 
     moves: tuple[Move, ...]
@@ -54,6 +57,7 @@ class Plan:
     path_moves: tuple[Move, ...] = ()
     move_sources: np.ndarray = field(repr=False, default_factory=lambda: _no_sources())
     path_sources: np.ndarray = field(repr=False, default_factory=lambda: _no_sources())
+    merges: tuple[Merge, ...] = ()
 
     def sample(self, period_s: float) -> Trajectory:
         """The reference every ``period_s`` [s] from 0 to the end; the last sample is at rest at

@@ -51,8 +51,8 @@ def write_npz_atomically(path: Path, arrays: dict) -> None:
 
 
 def blend_summary(blends: tuple) -> dict:
-    """The G64 blends: how many, the largest deviation from the programmed corner [mm] and its
-    line (null when none)."""
+    """The G64 blends (or G64 Q merges): how many, the largest deviation from the programmed
+    corner (the merged-away points) [mm] and its line (null when none)."""
     worst = max(blends, key=lambda b: b.deviation_mm, default=None)
     return {
         "count": len(blends),
@@ -101,6 +101,7 @@ def run(args: argparse.Namespace) -> int:
         "servo_period_s": period,
         "limits": machine.limits.to_json(),
         "blends": blend_summary(result.blends),
+        "merges": blend_summary(result.merges),
     }
     sys.stdout.write(json.dumps(summary) + "\n")
     return 0
