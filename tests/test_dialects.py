@@ -288,6 +288,18 @@ def test_marlin_skips_unknown_g_codes_and_a_bare_g5() -> None:
     assert error_of("G21\nG392\nM2\n", "linuxcnc").line == 2
 
 
+def test_marlin_skips_a_bare_g26_and_refuses_the_mesh_validation_print() -> None:
+    """LulzBot's Cura start code opens with "G26 ; clear potential 'probe fail' condition"
+    (its Marlin's meaning); Marlin's default configuration has no G26 (G26_MESH_VALIDATION
+    off: an unknown command, skipped). With parameters it is the mesh validation print."""
+    moves = run(
+        "G26                          ; clear potential 'probe fail' condition\nG1 X5 F600\n",
+        "marlin",
+    )
+    assert [(m.line, m.end) for m in moves] == [(2, (5.0, 0.0, 0.0))]
+    assert "mesh validation" in error_of("G26 C P5\n", "marlin").message
+
+
 def test_marlin_g0_is_a_g1_at_the_modal_feed() -> None:
     """Marlin's G0_G1 command: in a printer build G0 moves at the feed rate G1 uses, and an F
     on a G0 line sets it for both (Cura writes its travel as "G0 F9000 X.. Y..")."""

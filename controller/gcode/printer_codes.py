@@ -8,6 +8,9 @@ retract, G29-G35 and G76 probing and calibration, G60 save position, G80, G92 wi
 G28 homes the named axes (all when none) to the machine file's work origin; the ones that move
 in ways this machine does not model are refused with a reason (G6 direct stepper,
 G12 nozzle clean, G26 mesh print, G27 park, G42 mesh point, G61 restore position, G38 probe).
+A bare ``G26`` is skipped: Marlin's default configuration leaves G26_MESH_VALIDATION off (an
+unknown command there), and LulzBot's Marlin clears a failed probe with it (every LulzBot
+Cura start code opens with it); the mesh validation print takes parameters.
 A line that opens with no command (a stray number, ``% text``, a Klipper macro) or with a G
 code Marlin does not know (``G392``: gcode.cpp's ``default: unknown_command_warning()``) gets
 Marlin's "Unknown command" and is skipped, and so is a bare ``G5`` (every parameter defaults to
@@ -72,6 +75,8 @@ def marlin_line(raw: str) -> str | None:
         return "home"
     if tenths == 40:
         return "dwell"
+    if tenths == 260 and not _WORD.search(code[head.end() :]):
+        return "quiet"  # a bare G26: LulzBot's "clear probe fail", unknown to Marlin's default
     if tenths in MARLIN_REFUSED_G:
         raise GcodeError(f"{MARLIN_REFUSED_G[tenths]} (Marlin G{number})")
     if tenths in MARLIN_QUIET_G or (tenths == 920 and _E_ONLY.match(raw)):
