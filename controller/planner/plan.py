@@ -106,6 +106,8 @@ def _plan(
     arc_pieces: str,
 ) -> Plan:
     """:func:`plan` with its arguments checked."""
+    program = tuple(m for m in items if isinstance(m, Rapid | Linear | Arc | Spline))
+    check_travel(program, machine.travel)  # the whole program's: its hint places all of it
     if any(isinstance(i, LimitsEvent) for i in items):  # Marlin M201-M205: plan part by part
         parts = split_at_limits(items, machine)
         return concatenate(
@@ -119,8 +121,6 @@ def _plan(
                 for c, m in parts
             ]
         )
-    program = tuple(m for m in items if isinstance(m, Rapid | Linear | Arc | Spline))
-    check_travel(program, machine.travel)
     seg = machine.segmentation
     jerk = float(min(machine.limits.max_jerk_mm_per_s3))
     path = path_plan(items, machine.path, seg.chord_tolerance_mm, jerk_mm_per_s3=jerk)
