@@ -39,6 +39,11 @@ _E_ONLY = re.compile(r"^\s*(?:N\d+\s*)?G\s*0*92\s*(?:E[-+0-9.]*\s*)*(?:[;(].*)?$
 MARLIN_QUIET_G = frozenset(
     (40, 100, 110, 290, 291, 292, 293, 300, 310, 320, 330, 340, 350, 600, 760)
 )
+#: Marlin G codes (tenths) accepted with no motion when they come with no word: a bare G5
+#: (every parameter defaults to zero: a curve of no length) and a bare G26 (LulzBot's "clear
+#: probe fail"; Marlin's default configuration has no G26; with words it is the mesh
+#: validation print, refused below).
+MARLIN_BARE_QUIET_G = frozenset((50, 260))
 #: Marlin G codes refused, with why.
 MARLIN_REFUSED_G: dict[int, str] = {
     60: "G6 (direct stepper moves) is not supported",
@@ -75,17 +80,15 @@ def marlin_line(raw: str) -> str | None:
         return "home"
     if tenths == 40:
         return "dwell"
-    if tenths == 260 and not _WORD.search(code[head.end() :]):
-        return "quiet"  # a bare G26: LulzBot's "clear probe fail", unknown to Marlin's default
+    words = code[head.end() :]
+    if tenths in MARLIN_BARE_QUIET_G and not _WORD.search(words):
+        return "quiet"
     if tenths in MARLIN_REFUSED_G:
         raise GcodeError(f"{MARLIN_REFUSED_G[tenths]} (Marlin G{number})")
     if tenths in MARLIN_QUIET_G or (tenths == 920 and _E_ONLY.match(raw)):
         return "quiet"
     if tenths not in G_GROUPS:
         return "quiet"  # Marlin: unknown_command_warning(), and on (Bambu's G392, G380, ...)
-    words = code[head.end() :]
-    if tenths == 50 and not _WORD.search(words):
-        return "quiet"  # a bare G5: every parameter defaults to zero, a curve of no length
     if _PARAMETER_MT.search(words):
         return "parameters"
     return None

@@ -59,12 +59,6 @@ def in_plane(m: Linear | Arc, plane: Plane) -> bool:
     return abs(m.end[n] - m.start[n]) <= 1e-12
 
 
-def _at(m: Linear | Arc, s: float, from_end: bool) -> tuple[np.ndarray, np.ndarray]:
-    """Point and unit tangent of ``m`` at path distance ``s`` [mm] from its end (or start)."""
-    p, t = _pose(m, from_end)(s)
-    return np.array(p), np.array(t)
-
-
 _Pose = Callable[[float], tuple[list[float], list[float]]]
 
 
@@ -330,9 +324,9 @@ def _worth_blending(
 
 
 def _end_tangent(m: Linear | Arc, at_end: bool) -> np.ndarray:
-    """Unit tangent (direction of motion) at the end or start of ``m`` (as :func:`_at` at 0 mm,
-    without the point)."""
+    """Unit tangent (direction of motion) at the end or start of ``m`` (as :func:`_pose` at 0
+    mm, without the point)."""
     if isinstance(m, Linear):
-        return _at(m, 0.0, from_end=at_end)[1]
+        return np.array(_pose(m, at_end)(0.0)[1])
     d1, _ = arc_derivatives(m, 1.0 if at_end else 0.0)
     return d1[0] / np.linalg.norm(d1[0])
