@@ -8,8 +8,8 @@ cap; the highest speed a Marlin M203 in the program sets counts).
 Between two rests -- the start, the end, a dwell, a program stop (M0, M1, M60), a Marlin limit
 change (M201-M205: the planner plans the parts either side from rest to rest), and a reversal:
 two straight moves turning by :data:`REVERSAL_RAD` or more, where every axis that turns back
-passes zero speed and the planner stops -- the bound is the larger of the moves' times at those speeds and the fastest
-rest-to-rest run of their length under the norms of the axis speed and acceleration limits (the
+passes zero speed and the planner stops -- the bound is the larger of the moves' times at
+those speeds and the fastest rest-to-rest run of their length under the norms of the axis speed and acceleration limits (the
 tangential acceleration never exceeds the acceleration's norm; no jerk limit, so it holds for
 any). A Marlin M201 or M204 in the program drops that term (they may raise the acceleration).
 Dwells add their time.
@@ -46,6 +46,7 @@ from typing import TYPE_CHECKING
 
 if TYPE_CHECKING:  # no numpy or config import when the CLI only builds its parser
     from gantry_sim.controller.config import MachineConfig
+    from gantry_sim.controller.moves import Move
     from gantry_sim.controller.planner.path_control import Control
 
 #: turn [rad] from which a junction of two straight moves is an exact stop in every mode (the
@@ -62,7 +63,7 @@ def duration_lower_bound(
     module docstring), and the line whose moves take longest at their speeds with that time
     [s] (a canned cycle's line makes many moves); (0, None, 0) without moves or dwells."""
     from gantry_sim.controller.moves import Arc, Dwell, Limits, Linear, Rapid, Spline, Stop
-    from gantry_sim.controller.planner.path_control import control, extends_run
+    from gantry_sim.controller.planner.path_control import control, extends_run, starts_run
 
     items = list(items)
     vmax = list(machine.limits.max_velocity_mm_per_s)
@@ -80,7 +81,7 @@ def duration_lower_bound(
     per_line: dict[int, float] = {}
     stretch = _Stretch(norm, acc)
     total = 0.0
-    run: list[Linear] = []  # the naive-CAM run under way, as the planner's merge makes it
+    run: list[Move] = []  # the naive-CAM run under way, as the planner's merge makes it
     prev: _Prev | None = None  # the last feed move (Linear or Arc) of non-zero length
     path = machine.path
     for m in items:
@@ -112,13 +113,11 @@ def duration_lower_bound(
         speed = cap if feed is None else min(cap, feed * scale / 60.0)
         t = length / speed if speed > 0 else 0.0
         here = None if c is None else _Prev(m.line, feed, speed, t, c, d, length, m.start)
-        joins = isinstance(m, Linear) and bool(run) and extends_run(run, m, path)
-        if isinstance(m, Linear) and joins:
+        joins = bool(run) and extends_run(run, m, path)
+        if joins:
             run.append(m)
-        elif isinstance(m, Linear) and c is not None and c.mode == "G64" and c.naive_cam_mm > 0:
-            run = [m]  # a straight G64 feed move with Q > 0 may start a run
         else:
-            run = []
+            run = [m] if starts_run(m, path) else []
         if joins and prev is not None and here is not None:  # a naive-CAM run takes m
             if prev.dropped:
                 stretch.extend_run(m.end)

@@ -22,6 +22,7 @@ __all__ = [
     "control",
     "extends_run",
     "merge_naive_cam",
+    "starts_run",
 ]
 
 #: Longest run of straight moves the naive-CAM merge considers at once (bounds its cost).
@@ -83,7 +84,7 @@ def merge_naive_cam(
         m = moves[i]
         c = control(m, settings)
         j = i
-        if isinstance(m, Linear) and c.mode == "G64" and c.naive_cam_mm > 0:
+        if starts_run(m, settings):
             while (
                 j + 1 < len(moves)
                 and not stops[j]
@@ -105,12 +106,20 @@ def merge_naive_cam(
     return new_moves, new_stops, new_holds, new_sources, merges
 
 
+def starts_run(move: Move, settings: PathSettings) -> bool:
+    """True when a naive-CAM run may start at ``move``: a straight G64 move with Q > 0."""
+    if not isinstance(move, Linear):
+        return False
+    c = control(move, settings)
+    return c.mode == "G64" and c.naive_cam_mm > 0
+
+
 def extends_run(run: Sequence[Move], nxt: Move, settings: PathSettings) -> bool:
     """True when the naive-CAM run ``run`` (straight G64 moves, the first with Q > 0, not
     broken by a stop or dwell) takes ``nxt`` too: a straight G64 move at the run's feed, the
     run no longer than :data:`MAX_MERGE_RUN`, every end point within the first move's Q of the
-    chord from the run's start to ``nxt``'s end. (The rule of :func:`merge_naive_cam`, which
-    ``sim/duration_bound.py`` follows too.)"""
+    chord from the run's start to ``nxt``'s end. (With :func:`starts_run`, the rule of
+    :func:`merge_naive_cam`, which ``sim/duration_bound.py`` follows too.)"""
     first = run[0]
     return (
         len(run) < MAX_MERGE_RUN

@@ -50,7 +50,7 @@ def write_npz_atomically(path: Path, arrays: dict) -> None:
         np.savez(fh, **arrays)
 
 
-def blend_summary(blends: tuple) -> dict:
+def deviation_summary(blends: tuple) -> dict:
     """The G64 blends (or G64 Q merges): how many, the largest deviation from the programmed
     corner (the merged-away points) [mm] and its line (null when none)."""
     worst = max(blends, key=lambda b: b.deviation_mm, default=None)
@@ -100,8 +100,8 @@ def run(args: argparse.Namespace) -> int:
         "chord_tolerance_mm": result.chord_tolerance_mm,
         "servo_period_s": period,
         "limits": machine.limits.to_json(),
-        "blends": blend_summary(result.blends),
-        "merges": blend_summary(result.merges),
+        "blends": deviation_summary(result.blends),
+        "merges": deviation_summary(result.merges),
     }
     sys.stdout.write(json.dumps(summary) + "\n")
     return 0
