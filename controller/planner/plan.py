@@ -105,22 +105,30 @@ def _plan(
     feed_override_pct: float,
     arc_pieces: str,
 ) -> Plan:
-    """:func:`plan` with its arguments checked."""
+    """:func:`plan` with its arguments checked: the travel of the whole program (its hint
+    places all of it), then the program, or its parts where Marlin's M201-M205 change the
+    limits (each part from rest to rest, the travel the same)."""
     program = tuple(m for m in items if isinstance(m, Rapid | Linear | Arc | Spline))
-    check_travel(program, machine.travel)  # the whole program's: its hint places all of it
-    if any(isinstance(i, LimitsEvent) for i in items):  # Marlin M201-M205: plan part by part
-        parts = split_at_limits(items, machine)
-        return concatenate(
-            [
-                plan(
-                    [i for i in c if not isinstance(i, LimitsEvent)],
-                    m,
-                    feed_override_pct=feed_override_pct,
-                    arc_pieces=arc_pieces,
-                )
-                for c, m in parts
-            ]
-        )
+    check_travel(program, machine.travel)
+    if not any(isinstance(i, LimitsEvent) for i in items):
+        return _plan_part(items, program, machine, feed_override_pct, arc_pieces)
+    parts = []
+    for chunk, m in split_at_limits(items, machine):
+        own = tuple(i for i in chunk if not isinstance(i, LimitsEvent))
+        moves = tuple(i for i in own if isinstance(i, Rapid | Linear | Arc | Spline))
+        parts.append(_plan_part(own, moves, m, feed_override_pct, arc_pieces))
+    return concatenate(parts)
+
+
+def _plan_part(
+    items: tuple[Move | Event, ...],
+    program: tuple[Move, ...],
+    machine: MachineConfig,
+    feed_override_pct: float,
+    arc_pieces: str,
+) -> Plan:
+    """The plan of ``items`` (no limit changes among them; ``program``: their moves, whose
+    travel is checked) on ``machine``."""
     seg = machine.segmentation
     jerk = float(min(machine.limits.max_jerk_mm_per_s3))
     path = path_plan(items, machine.path, seg.chord_tolerance_mm, jerk_mm_per_s3=jerk)
