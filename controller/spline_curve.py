@@ -62,16 +62,13 @@ class SplineCurve:
 
     def _integral(self, a: np.ndarray, b: np.ndarray) -> np.ndarray:
         """Arc length [mm] from ``a`` to ``b`` (m,) (Gauss-Legendre, one interval each)."""
-        half = 0.5 * (b - a)
-        t = (0.5 * (a + b))[:, None] + half[:, None] * _GL_X[None, :]
-        v = self.speed(t.ravel()).reshape(t.shape)
-        return half * (v @ _GL_W)
+        half, t = _gl_nodes(a, b)
+        return half * (self.speed(t.ravel()).reshape(t.shape) @ _GL_W)
 
     def _integral_and_speed(self, a: np.ndarray, b: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """:meth:`_integral` from ``a`` to ``b`` and :meth:`speed` at ``b``, from one
         evaluation of the curve (the same numbers as the two calls)."""
-        half = 0.5 * (b - a)
-        t = (0.5 * (a + b))[:, None] + half[:, None] * _GL_X[None, :]
+        half, t = _gl_nodes(a, b)
         v = self.speed(np.concatenate([t.ravel(), b]))
         return half * (v[: t.size].reshape(t.shape) @ _GL_W), v[t.size :]
 
@@ -199,6 +196,12 @@ class SplineCurve:
         seed = self.seeds(q, self.nurbs.t_min, self.nurbs.t_max, samples)
         spacing = (self.nurbs.t_max - self.nurbs.t_min) / (samples - 1)
         return self.nurbs.points(self.nearest(q, seed, spacing))
+
+
+def _gl_nodes(a: np.ndarray, b: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Half-widths (m,) of the intervals ``a``..``b`` and their Gauss-Legendre nodes (m, 8)."""
+    half = 0.5 * (b - a)
+    return half, (0.5 * (a + b))[:, None] + half[:, None] * _GL_X[None, :]
 
 
 def _curvature(d1: np.ndarray, d2: np.ndarray) -> np.ndarray:
