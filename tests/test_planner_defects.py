@@ -78,3 +78,26 @@ def test_nanometres_left_between_two_blends_are_a_cruise(machine):  # type: igno
     assert_within_limits(tr, machine, moves)
     assert np.allclose(tr.pos[-1], moves[-1].end, atol=1e-9)
     assert p.duration_s < 1.0  # 3.2 mm at 83 mm/s: no detour
+
+
+#: A PrusaSlicer perimeter (lines 706-712 of lhalb/evt_v4.gcode, extrusion words dropped) in
+#: Marlin: its blend arcs meet, and the last chord of one was a 3-DoF Ruckig piece of 83 ms
+#: whose axes switch jerk at different times: a 1 ms bulge of the path speed 0.21 % above the
+#: feed at its start, between the 25 samples that checked it.
+PERIMETER = (
+    "G21\nG90\nG0 X37.214 Y-92.759 Z1.3\nG1 F360\nG1 X38.667 Y-92.257\nG1 X40.339 Y-91.679\n"
+    "G1 X40.803 Y-91.501\nG1 X42.806 Y-90.733\nG1 X43.314 Y-90.538\nG1 X44.866 Y-89.882\n"
+)
+
+
+def test_a_ruckig_piece_bulging_between_its_samples_keeps_the_feed(machine):  # type: ignore[no-untyped-def]
+    from gantry_sim.controller.gcode.dialects import with_segmentation_default
+    from gantry_sim.controller.gcode.interpreter import interpret_events
+
+    marlin = with_segmentation_default(machine, "marlin")
+    moves = list(interpret_events(PERIMETER, "marlin"))
+    p = plan(moves, marlin)
+    tr = p.sample(1e-5)  # fine enough to see a bulge of 1 ms
+    feed_lines = tr.line >= 5
+    assert np.linalg.norm(tr.vel[feed_lines], axis=1).max() <= 6.0 * (1 + 1e-9)
+    assert_within_limits(p.sample(marlin.servo.period_s), marlin, moves)

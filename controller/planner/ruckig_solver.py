@@ -73,14 +73,14 @@ class RuckigPiece:
     Attributes:
         duration_s: its duration [s] (longer than asked for where Ruckig needed more time).
         phases: per axis, its constant-jerk phases (:data:`AxisPhases`).
-        positions, velocities: (n, 3) samples at n evenly spaced times from 0 to the duration
-            [mm], [mm/s], when asked for (else None).
+        positions: (n, 3) samples at n evenly spaced times from 0 to the duration [mm], when
+            asked for (else None; the speed is checked exactly from the phases:
+            :func:`~gantry_sim.controller.planner.piece_speed.peak_speed`).
     """
 
     duration_s: float
     phases: tuple[AxisPhases, AxisPhases, AxisPhases]
     positions: np.ndarray | None = None
-    velocities: np.ndarray | None = None
 
 
 def _calculate(otg: ruckig.Ruckig, inp: ruckig.InputParameter, traj: ruckig.Trajectory) -> None:
@@ -171,7 +171,7 @@ class RuckigSolver:
         """The time-synchronised piece from state ``start`` to ``end`` (position [mm], velocity
         [mm/s], acceleration [mm/s^2], each (3,)) lasting at least ``min_duration_s``; where
         Ruckig rejects that, the time-optimal piece. ``samples``: how many evenly spaced
-        positions and velocities to return with it (0: none).
+        positions to return with it (0: none).
 
         Raises:
             RuckigRejected: Ruckig found no piece even without the minimum duration.
@@ -194,8 +194,8 @@ class RuckigSolver:
         phases = (_phases(tr, 0), _phases(tr, 1), _phases(tr, 2))
         if not samples:
             return RuckigPiece(dur, phases)
-        pv = [tr.at_time(t) for t in np.linspace(0.0, dur, samples)]
-        return RuckigPiece(dur, phases, np.array([x[0] for x in pv]), np.array([x[1] for x in pv]))
+        pos = [tr.at_time(t)[0] for t in np.linspace(0.0, dur, samples)]
+        return RuckigPiece(dur, phases, np.array(pos))
 
     def _piece_with_closed_form_axes(
         self,
@@ -337,14 +337,12 @@ def _assemble(
     if not samples:
         return RuckigPiece(dur, phases)  # type: ignore[arg-type]
     times = np.linspace(0.0, dur, samples)
-    pos, vel = np.zeros((samples, 3)), np.zeros((samples, 3))
+    pos = np.zeros((samples, 3))
     if tr is not None:
-        pv = [tr.at_time(t) for t in times]
-        pos, vel = np.array([x[0] for x in pv]), np.array([x[1] for x in pv])
+        pos = np.array([tr.at_time(t)[0] for t in times])
     k = np.minimum((times / h).astype(int), 2)
     tau = times - k * h
     for i in np.flatnonzero(tiny):
         cp, cv, ca, cj = (closed[q][0, k, i] for q in range(4))
         pos[:, i] = cp + cv * tau + ca * tau**2 / 2 + cj * tau**3 / 6
-        vel[:, i] = cv + ca * tau + cj * tau**2 / 2
-    return RuckigPiece(dur, phases, pos, vel)  # type: ignore[arg-type]
+    return RuckigPiece(dur, phases, pos)  # type: ignore[arg-type]

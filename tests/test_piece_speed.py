@@ -1,0 +1,60 @@
+"""The exact peak path speed of a piece whose axes switch jerk at their own times
+(controller/planner/piece_speed.py), against Ruckig's own samples of the same piece."""
+
+from __future__ import annotations
+
+import numpy as np
+from hypothesis import given
+from hypothesis import strategies as st
+
+from gantry_sim.controller.planner.piece_speed import peak_speed
+from gantry_sim.controller.planner.ruckig_solver import RuckigRejected, RuckigSolver
+from tests.plan_helpers import PLAN_PROPERTY_SETTINGS
+
+vec = st.tuples(*[st.floats(-1.0, 1.0)] * 3).map(np.array)
+
+
+@PLAN_PROPERTY_SETTINGS
+@given(dp=vec, v0=vec, v1=vec, a0=vec, a1=vec, t_min=st.floats(0.0, 0.1))
+def test_peak_speed_is_the_largest_speed_of_the_piece(machine, dp, v0, v1, a0, a1, t_min):  # type: ignore[no-untyped-def]
+    solver = RuckigSolver(machine.limits)
+    start = (np.zeros(3), 40.0 * v0, 400.0 * a0)
+    end = (dp, 40.0 * v1, 400.0 * a1)
+    try:
+        piece = solver.piece(start, end, t_min)
+    except RuckigRejected:
+        return
+    tr = solver._tr3  # the piece just made: sampled by Ruckig itself, 20,001 times
+    dense = max(
+        float(np.linalg.norm(tr.at_time(t)[1])) for t in np.linspace(0.0, piece.duration_s, 20001)
+    )
+    exact = peak_speed(piece.phases)
+    assert exact >= dense * (1 - 1e-12)  # never below a sample: no bulge missed
+    # and no higher than the samples can miss between them (|a| <= 1e4 mm/s^2, 5 us apart)
+    assert exact <= dense + 1e4 * piece.duration_s / 20000
+
+
+def test_peak_speed_of_a_bulge_between_coarse_samples():  # type: ignore[no-untyped-def]
+    # X cruises at 6 mm/s for 100 ms; Y steps out and back at 1e5 mm/s^3 in its first 2 ms,
+    # peaking at 0.025 mm/s after 1 ms: |v| peaks at sqrt(6^2 + 0.025^2), inside a phase
+    ms = 1e-3
+    x = ([100 * ms], [0.0], [6.0], [0.0], [0.0])
+    y = (
+        [ms / 2, ms, ms / 2, 98 * ms],
+        [0.0, 0.0, 0.0, 0.0],  # positions do not enter the speed
+        [0.0, 0.0125, 0.0125, 0.0],
+        [0.0, 50.0, -50.0, 0.0],
+        [1e5, -1e5, 1e5, 0.0],
+    )
+    z = ([100 * ms], [0.0], [0.0], [0.0], [0.0])
+    assert peak_speed((x, y, z)) == np.hypot(6.0, 0.025)
+    ts = np.linspace(0.0, 100 * ms, 25)  # what 25 samples see
+    assert np.hypot(_velocity(x, ts), _velocity(y, ts)).max() == 6.0
+
+
+def _velocity(axis, ts):  # type: ignore[no-untyped-def]
+    dur, _, v, a, j = (np.asarray(c, dtype=float) for c in axis)
+    starts = np.concatenate(([0.0], np.cumsum(dur)[:-1]))
+    k = np.clip(np.searchsorted(starts, ts, side="right") - 1, 0, dur.size - 1)
+    tau = np.minimum(ts - starts[k], dur[k])
+    return v[k] + tau * (a[k] + 0.5 * tau * j[k])
