@@ -7,7 +7,7 @@ import numpy as np
 from hypothesis import given
 from hypothesis import strategies as st
 
-from gantry_sim.controller.planner.piece_speed import peak_speed
+from gantry_sim.controller.planner.piece_speed import max_speed_squared, peak_speed
 from gantry_sim.controller.planner.ruckig_solver import RuckigRejected, RuckigSolver
 from tests.plan_helpers import PLAN_PROPERTY_SETTINGS
 
@@ -58,3 +58,24 @@ def _velocity(axis, ts):  # type: ignore[no-untyped-def]
     k = np.clip(np.searchsorted(starts, ts, side="right") - 1, 0, dur.size - 1)
     tau = np.minimum(ts - starts[k], dur[k])
     return v[k] + tau * (a[k] + 0.5 * tau * j[k])
+
+
+@PLAN_PROPERTY_SETTINGS
+@given(
+    v=st.lists(st.floats(-50.0, 50.0), min_size=9, max_size=9),
+    a=st.lists(st.floats(-2000.0, 2000.0), min_size=9, max_size=9),
+    j=st.lists(st.floats(-1e5, 1e5), min_size=9, max_size=9),
+    h=st.floats(1e-5, 0.05),
+)
+def test_five_samples_and_the_bound_between_them_cover_the_peak(v, a, j, h):  # type: ignore[no-untyped-def]
+    # jerk3.piece_limits_ok samples five points a phase and refines exactly only where the
+    # samples plus _between_samples could pass the cap: that sum must never be below the peak
+    from gantry_sim.controller.planner.jerk3 import _between_samples
+
+    vs, as_, js = (np.reshape(x, (1, 3, 3)) for x in (v, a, j))
+    hh = np.full((1, 1, 1), h)
+    taus = np.linspace(0.0, h, 5)[:, None, None, None]
+    vel = vs + taus * (as_ + 0.5 * taus * js)
+    sampled = np.einsum("fnkd,fnkd->fnk", vel, vel).max(axis=0)
+    peak = max_speed_squared(vs[0], as_[0], js[0], np.full(3, h))
+    assert np.all(sampled[0] + _between_samples(vs, as_, js, hh)[0] >= peak * (1 - 1e-12))

@@ -101,3 +101,20 @@ def test_a_ruckig_piece_bulging_between_its_samples_keeps_the_feed(machine):  # 
     feed_lines = tr.line >= 5
     assert np.linalg.norm(tr.vel[feed_lines], axis=1).max() <= 6.0 * (1 + 1e-9)
     assert_within_limits(p.sample(marlin.servo.period_s), marlin, moves)
+
+
+#: Three quadratic G5.1 splines of LinuxCNC's nc_files/systems.ngc (lines 663-665, truetype-tracer
+#: text; scaled to mm): 0.03 mm long each at F100, turning sharply. Their closed-form pieces
+#: bulged 4.9e-6 of the feed above it between the five points per phase that checked them.
+SHARP_SPLINES = (
+    "G21 G90 G17\nG0 X1.65964 Y-0.00636 Z-0.01\nG1 F100\nG5.1 X1.61284 Y0.00444 I-0.02904 J0\n"
+    "G5.1 X1.5952 Y0.0324 I-0.01764 J0.0108\nG5.1 X1.60324 Y0.05256 I0 J0.01236\nM2\n"
+)
+
+
+def test_closed_form_pieces_bulging_between_their_checks_keep_the_feed(machine):  # type: ignore[no-untyped-def]
+    moves = parse_program(SHARP_SPLINES)
+    p = plan(moves, machine)
+    tr = p.sample(1e-6)  # a microsecond: the bulge lasts tens of them
+    assert np.linalg.norm(tr.vel[tr.line >= 4], axis=1).max() <= 100.0 / 60.0 * (1 + 1e-9)
+    assert_within_limits(p.sample(machine.servo.period_s), machine, moves)

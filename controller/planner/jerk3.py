@@ -27,6 +27,8 @@ from typing import NamedTuple
 
 import numpy as np
 
+from gantry_sim.controller.planner.piece_speed import max_speed_squared
+
 _M_INV = np.linalg.inv(np.array([[1.0, 1.0, 1.0], [2.5, 1.5, 0.5], [19 / 6, 7 / 6, 1 / 6]]))
 
 
@@ -103,8 +105,11 @@ def piece_limits_ok(
 
     Jerk: per phase. Acceleration: linear per phase, so at the phase ends. Velocity per axis:
     quadratic per phase, so at its ends and its stationary point. Path speed: at 5 points per
-    phase (including the ends; the arc's speed cap keeps a margin below the feed for what lies
-    between, see move_geometry.FEED_MARGIN_PER_PHI4). ``speed_cap`` [mm/s]: a number or one per piece.
+    phase (including the ends), and exactly
+    (:func:`~gantry_sim.controller.planner.piece_speed.max_speed_squared`) on the phases where
+    what lies between those points could pass the cap (:func:`_between_samples`; the arc's speed
+    cap keeps a margin below the feed for it, see move_geometry.FEED_MARGIN_PER_PHI4, so few
+    phases need it). ``speed_cap`` [mm/s]: a number or one per piece.
     """
     vmax, amax, jmax = (np.asarray(x, dtype=float) for x in (vmax, amax, jmax))
     ok = np.all(np.abs(js) <= jmax, axis=(1, 2))
@@ -116,12 +121,31 @@ def piece_limits_ok(
     v_stat = vs + tau * (as_ + 0.5 * tau * js)
     v_end = vs + h * (as_ + 0.5 * h * js)
     ok &= np.all(np.abs(v_stat) <= vmax, axis=(1, 2)) & np.all(np.abs(v_end) <= vmax, axis=(1, 2))
+    cap2 = (np.asarray(speed_cap, dtype=float) ** 2).reshape(-1, 1)
+    sampled = np.zeros(js.shape[:2])  # (n, 3 phases): the largest |v|^2 of the 5 points
     for f in np.linspace(0.0, 1.0, 5):
         tf = f * h
         vel = vs + tf * (as_ + 0.5 * tf * js)
-        cap2 = (np.asarray(speed_cap, dtype=float) ** 2).reshape(-1, 1)
-        ok &= np.all(np.einsum("nkd,nkd->nk", vel, vel) <= cap2, axis=1)
+        sampled = np.maximum(sampled, np.einsum("nkd,nkd->nk", vel, vel))
+    ok &= np.all(sampled <= cap2, axis=1)
+    near = ok[:, None] & (sampled + _between_samples(vs, as_, js, h) > cap2)
+    if near.any():
+        rows, phase = np.nonzero(near)
+        exact = max_speed_squared(vs[rows, phase], as_[rows, phase], js[rows, phase], h[rows, 0, 0])
+        cap2_rows = np.broadcast_to(cap2, near.shape)[rows, phase]
+        ok[rows[exact > cap2_rows]] = False
     return ok
+
+
+def _between_samples(vs, as_, js, h) -> np.ndarray:
+    """(n, 3) a bound on how far |v|^2 [mm^2/s^2] rises above the larger of two neighbouring
+    samples of :func:`piece_limits_ok` (h/4 apart) within a phase: d^2/8 max|f''| for
+    f = |v|^2, f'' = 2 (|a|^2 + v . j), with |a| and |v| bounded over the phase per axis."""
+    hh = h[..., 0]
+    a_max = np.maximum(np.abs(as_), np.abs(as_ + h * js))
+    v_max = np.abs(vs) + h * (np.abs(as_) + 0.5 * h * np.abs(js))
+    f2 = 2.0 * ((a_max * a_max).sum(axis=2) + (v_max * np.abs(js)).sum(axis=2))
+    return (hh / 4.0) ** 2 / 8.0 * f2 * (1.0 + 1e-9)
 
 
 def jerk3_points(ps, vs, as_, js, dur: float, per_phase: int = 8) -> np.ndarray:
