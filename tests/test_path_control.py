@@ -156,6 +156,25 @@ def test_g64_q_merges_straight_moves_within_q(machine):
     assert merged.duration_s < plain.duration_s
 
 
+def test_a_blend_between_merged_moves_names_every_program_move_it_passes(machine):
+    # a 360-gon in G64 P0.01: Q (= P) merges five sides at a time, and the blends of the
+    # merged moves meet, each passing most of ten sides. A blend named only the two sides at
+    # its corner, so the contour error searched the wrong sides for its samples: 87 um from
+    # them where the path is 9.6 um from the polygon.
+    from gantry_sim.sim.program_distance import distance_to_program
+
+    sides = "".join(
+        f"G1 X{10 * math.cos(math.radians(a)):.4f} Y{10 * math.sin(math.radians(a)):.4f}\n"
+        for a in range(1, 361)
+    )
+    p = plan(parse_program(f"G21 G90 G17 G64 P0.01\nG0 X10 Y0\nF3000\n{sides}M2\n"), machine)
+    assert len(p.merges) > 50 and len(p.blends) > 50
+    tr = p.sample(machine.servo.period_s)
+    feed = tr.line > 3
+    dist, _ = distance_to_program(p.moves, tr.line[feed], tr.pos[feed], window=tr.source[feed])
+    assert dist.max() <= 0.01
+
+
 def test_g64_q_merges_report_how_far_they_leave_the_programmed_points(machine, tmp_path):
     """The zigzag's inner points lie 1 um off its merged line: `gantry plan` reports the merge,
     and the run's reference part is split to it (before, a merge counted as neither blend nor

@@ -226,7 +226,9 @@ def _blend_corners(
             new_stops.append(out.stop_after[i])
             smoothing.append(out.smoothing_mm[i])
             sources.append(out.sources[i])
-        between = (out.sources[i][1], out.sources[min(i + 1, n - 1)][0])  # a blend arc's sources
+        # a blend arc's sources: every program move of its two moves (a move merged by G64 Q
+        # stands for several, and a blend that eats most of it passes several of them)
+        between = (out.sources[i][0], out.sources[min(i + 1, n - 1)][1])
         if i + 1 in cuts:
             cut = cuts[i + 1]
             tol = control(m, settings).tolerance_mm
