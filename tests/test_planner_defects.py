@@ -90,19 +90,6 @@ PERIMETER = (
 )
 
 
-def test_a_ruckig_piece_bulging_between_its_samples_keeps_the_feed(machine):  # type: ignore[no-untyped-def]
-    from gantry_sim.controller.gcode.dialects import with_segmentation_default
-    from gantry_sim.controller.gcode.interpreter import interpret_events
-
-    marlin = with_segmentation_default(machine, "marlin")
-    moves = list(interpret_events(PERIMETER, "marlin"))
-    p = plan(moves, marlin)
-    tr = p.sample(1e-5)  # fine enough to see a bulge of 1 ms
-    feed_lines = tr.line >= 5
-    assert np.linalg.norm(tr.vel[feed_lines], axis=1).max() <= 6.0 * (1 + 1e-9)
-    assert_within_limits(p.sample(marlin.servo.period_s), marlin, moves)
-
-
 #: Three quadratic G5.1 splines of LinuxCNC's nc_files/systems.ngc (lines 663-665, truetype-tracer
 #: text; scaled to mm): 0.03 mm long each at F100, turning sharply. Their closed-form pieces
 #: bulged 4.9e-6 of the feed above it between the five points per phase that checked them.
@@ -112,9 +99,24 @@ SHARP_SPLINES = (
 )
 
 
-def test_closed_form_pieces_bulging_between_their_checks_keep_the_feed(machine):  # type: ignore[no-untyped-def]
-    moves = parse_program(SHARP_SPLINES)
-    p = plan(moves, machine)
-    tr = p.sample(1e-6)  # a microsecond: the bulge lasts tens of them
-    assert np.linalg.norm(tr.vel[tr.line >= 4], axis=1).max() <= 100.0 / 60.0 * (1 + 1e-9)
-    assert_within_limits(p.sample(machine.servo.period_s), machine, moves)
+@pytest.mark.parametrize(
+    ("program", "dialect", "first_feed_line", "feed_mm_per_min", "period_s"),
+    [
+        (PERIMETER, "marlin", 5, 360.0, 1e-5),  # a bulge of 1 ms
+        (SHARP_SPLINES, "linuxcnc", 4, 100.0, 1e-6),  # a bulge of tens of microseconds
+    ],
+    ids=["ruckig-piece", "closed-form-pieces"],
+)
+def test_a_speed_bulge_between_the_checked_points_keeps_the_feed(  # type: ignore[no-untyped-def]
+    machine, program, dialect, first_feed_line, feed_mm_per_min, period_s
+):
+    from gantry_sim.controller.gcode.dialects import with_segmentation_default
+    from gantry_sim.controller.gcode.interpreter import interpret_events
+
+    m = with_segmentation_default(machine, dialect)
+    moves = list(interpret_events(program, dialect))
+    p = plan(moves, m)
+    tr = p.sample(period_s)  # fine enough to see the bulge
+    speed = np.linalg.norm(tr.vel[tr.line >= first_feed_line], axis=1)
+    assert speed.max() <= feed_mm_per_min / 60.0 * (1 + 1e-9)
+    assert_within_limits(p.sample(m.servo.period_s), m, moves)
