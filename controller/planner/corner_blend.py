@@ -262,7 +262,7 @@ def _v3(a: np.ndarray) -> tuple[float, float, float]:
 ARC_CORNER_MIN_RAD = math.radians(1.0)
 #: A corner with an arc whose estimated blend speed is below this share of the feed is not
 #: searched for a blend (:func:`_worth_blending`; the planner keeps blends passed at half the
-#: neighbouring caps or more, plan.BLEND_MIN_SPEED_SHARE).
+#: neighbouring caps or more, prepare.BLEND_MIN_SPEED_SHARE).
 ARC_BLEND_MIN_FEED_SHARE = 0.5
 
 
@@ -309,7 +309,7 @@ def _worth_blending(
     sqrt((6 e J^2)^(1/3) R) (its curvature jump, smoothed within e = the budget's share left
     for it, and within the blend's first chord; see junctions.junction_cap); below
     :data:`ARC_BLEND_MIN_FEED_SHARE` of the feed the planner would make it an exact stop
-    anyway (plan._slow_blends), so it is not searched."""
+    anyway (prepare.slow_blends), so it is not searched."""
     share, budget, jerk = corner.geometry_share, corner.budget_mm, corner.jerk_mm_per_s3
     tangent = blend_tangent_mm(share * budget, phi, m0.length_mm, m1.length_mm)
     radius = tangent / math.tan(0.5 * phi)

@@ -32,38 +32,24 @@ raises :class:`PlanningError` naming the line: never a reference beyond the limi
 from __future__ import annotations
 
 from collections.abc import Sequence
-from dataclasses import replace
 
 import numpy as np
 
 from gantry_sim.controller.config import MachineConfig
 from gantry_sim.controller.errors import ConfigError
 from gantry_sim.controller.gc_pause import gc_paused
-from gantry_sim.controller.moves import Arc, Dwell, Event, Linear, Move, Rapid, Spline
+from gantry_sim.controller.moves import Arc, Event, Linear, Move, Rapid, Spline
 from gantry_sim.controller.moves import Limits as LimitsEvent
-from gantry_sim.controller.planner.blend import PathPlan, path_plan
-from gantry_sim.controller.planner.junctions import (
-    JunctionState,
-    feasible_junction_caps,
-    junction_caps,
-)
+from gantry_sim.controller.planner.blend import path_plan
 from gantry_sim.controller.planner.limit_events import concatenate, split_at_limits
-from gantry_sim.controller.planner.move_geometry import (
-    MoveGeometry,
-    limits_for_junctions,
-    move_geometries,
-)
+from gantry_sim.controller.planner.prepare import prepare, slow_blends
 from gantry_sim.controller.planner.result import Plan
-from gantry_sim.controller.planner.rounds import replan_until_junctions_hold
 from gantry_sim.controller.planner.ruckig_solver import RuckigSolver
 from gantry_sim.controller.planner.segment import segment_arc
 from gantry_sim.controller.planner.travel import check_travel
+from gantry_sim.controller.planner.windows import WINDOW_MOVES, blends_to_skip, plan_path
 
 __all__ = ["Plan", "plan"]
-
-#: A G64 blend is kept only where it can be entered at this share of its neighbours' speed caps
-#: (see :func:`_slow_blends`).
-BLEND_MIN_SPEED_SHARE = 0.5
 
 
 def plan(
@@ -132,28 +118,32 @@ def _plan_part(
     seg = machine.segmentation
     jerk = float(min(machine.limits.max_jerk_mm_per_s3))
     path = path_plan(items, machine.path, seg.chord_tolerance_mm, jerk_mm_per_s3=jerk)
-    known: dict = {}
-    prepared = _prepare(path, machine, feed_override_pct, known)
-    slow = _slow_blends(path, prepared)
-    if slow:  # those corners are faster as exact stops: plan them so
+    prepared = None
+    if len(path.moves) <= WINDOW_MOVES:  # planned whole: the geometry is made once
+        known: dict = {}
+        prepared = prepare(path, machine, feed_override_pct, known)
+        slow = slow_blends(path, prepared)
+        if slow:  # those corners are faster as exact stops: plan them so
+            path = path_plan(items, machine.path, seg.chord_tolerance_mm, slow, jerk)
+            prepared = prepare(path, machine, feed_override_pct, known)
+        del known
+    elif path.blend_junction and (slow := blends_to_skip(path, machine, feed_override_pct)):
         path = path_plan(items, machine.path, seg.chord_tolerance_mm, slow, jerk)
-        prepared = _prepare(path, machine, feed_override_pct, known)
-    geoms, active, caps, states, holds, smoothing, active_sources = prepared
-    planned = {id(g.move): g.vertices for g in geoms}
-    del known, prepared, geoms  # held through the rounds otherwise (a tenth of their peak)
     solver = RuckigSolver(machine.limits)
-    blend_arcs = frozenset(id(path.moves[k]) for k in path.blend_junction)
-    done = replan_until_junctions_hold(
-        active, caps, states, machine, solver, arc_pieces, holds, smoothing, blend_arcs
-    )
+    planned = plan_path(path, machine, feed_override_pct, arc_pieces, solver, prepared)
+    del prepared  # held through the rounds otherwise (a tenth of their peak)
+    done = planned.round
     end = np.array(program[-1].end if program else (0.0, 0.0, 0.0), dtype=float)
     move_start = np.asarray(done.move_start_s, dtype=float)
     lines = np.asarray(done.lines, dtype=np.int64)
-    sources = _entry_sources(done.entries, active_sources)
+    sources = _entry_sources(done.entries, planned.sources)
     path_sources = np.array(path.sources, dtype=np.int64).reshape(-1, 2)
     for arr in (end, move_start, lines, sources, path_sources):
         arr.setflags(write=False)
-    vertices = tuple(planned[id(m)] if id(m) in planned else _vertices(m, machine) for m in program)
+    known_vertices = planned.vertices
+    vertices = tuple(
+        known_vertices[id(m)] if id(m) in known_vertices else _vertices(m, machine) for m in program
+    )
     return Plan(
         moves=program,
         duration_s=done.duration_s,
@@ -189,68 +179,6 @@ def _entry_sources(
             after = active_sources[b][0] if b < n else active_sources[a][1]
             out[k] = before, after
     return out
-
-
-_Prepared = tuple[
-    list[MoveGeometry],
-    list[MoveGeometry],
-    np.ndarray,
-    list[JunctionState],
-    dict[int, list[Dwell]],
-    list[float],
-    list[tuple[int, int]],
-]
-
-
-def _prepare(
-    path: PathPlan, machine: MachineConfig, feed_override_pct: float, known: dict
-) -> _Prepared:
-    """Geometry, junction caps and states, dwells and smoothing budgets per junction of the
-    moves of ``path`` (zero-length moves dropped); ``known``: geometry by move (equal moves
-    have equal geometry), filled here, so planning again after :func:`_slow_blends` only
-    computes the moves that changed."""
-    lim, seg = machine.limits, machine.segmentation
-    new = list({m: None for m in path.moves if m not in known})  # each once, in order
-    known.update(zip(new, move_geometries(new, lim, seg, feed_override_pct / 100.0), strict=True))
-    geoms = []
-    for m in path.moves:
-        g = known[m]
-        geoms.append(g if g.move is m else replace(g, move=m))
-    keep = [g.length_mm > 1e-9 for g in geoms]
-    active = [g for g, k in zip(geoms, keep, strict=True) if k]
-    at = np.concatenate(([0], np.cumsum(keep))).astype(int)  # planned junction -> active
-    stops = {int(at[i + 1]) for i, stop in enumerate(path.stop_after) if stop}
-    holds: dict[int, list[Dwell]] = {}
-    for j, dwells in path.holds.items():
-        holds.setdefault(int(at[j]), []).extend(dwells)
-    smoothing = [e for e, k in zip(path.smoothing_mm, keep, strict=True) if k]
-    sources = [s for s, k in zip(path.sources, keep, strict=True) if k]
-    caps, states = junction_caps(active, lim, seg.chord_tolerance_mm, smoothing)
-    for b in stops | set(holds):
-        caps[b] = 0.0
-    active = limits_for_junctions(active, caps, lim)
-    caps = feasible_junction_caps(active, caps, states, lim)
-    return geoms, active, caps, states, holds, smoothing, sources
-
-
-def _slow_blends(path: PathPlan, prepared: _Prepared) -> frozenset[int]:
-    """Junctions whose blend would be passed below :data:`BLEND_MIN_SPEED_SHARE` of the
-    neighbouring moves' speed caps: there a jerk-limited pass of the blend arc (whose curvature
-    jumps from 0 to 1/R where it meets the straight moves) is not faster than an exact stop
-    (measured: a 90 degree corner at P0.01 passes at 1.4 of 50 mm/s and a 14 degree one at 11,
-    both slower overall than stopping), so those corners stay exact stops."""
-    geoms, active, caps, *_ = prepared
-    index = {id(g.move): b for b, g in enumerate(active)}
-    slow = set()
-    for k, junction in path.blend_junction.items():
-        b = index.get(id(geoms[k].move))
-        if b is None or b == 0 or b + 1 >= len(active):
-            continue
-        v = min(float(caps[b]), float(caps[b + 1]), active[b].limits.cap_mm_per_s)
-        cruise = min(active[b - 1].limits.cap_mm_per_s, active[b + 1].limits.cap_mm_per_s)
-        if not v >= BLEND_MIN_SPEED_SHARE * cruise:
-            slow.add(junction)
-    return frozenset(slow)
 
 
 def _vertices(m: Move, machine: MachineConfig) -> np.ndarray:

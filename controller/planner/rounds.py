@@ -6,7 +6,7 @@ that profile projected on the line, arcs are joined through their exact vertex s
 (:class:`~gantry_sim.controller.planner.pieces.MovePieces`; the chains of a round are planned
 in batches by :mod:`~gantry_sim.controller.planner.chain_plan`). Where a piece next to a moving
 junction leaves the arc or needed Ruckig to stretch it, that junction's cap comes down by
-:data:`JUNCTION_BACKOFF` and the program is planned again (:func:`replan_until_junctions_hold`).
+:data:`JUNCTION_BACKOFF` and the program is planned again (:func:`settle_chains`).
 
 Only what changed is planned again: a chain's pieces depend on nothing but the chain and the
 speeds at its two ends, so each round reuses the chains whose ends kept their speeds. The
@@ -38,7 +38,14 @@ from gantry_sim.controller.planner.move_geometry import MoveGeometry
 from gantry_sim.controller.planner.ruckig_solver import RuckigSolver
 from gantry_sim.controller.planner.segmented_curve import SegmentedCurve
 
-__all__ = ["JUNCTION_BACKOFF", "MAX_ROUNDS", "Round", "replan_until_junctions_hold"]
+__all__ = [
+    "JUNCTION_BACKOFF",
+    "MAX_ROUNDS",
+    "Round",
+    "Settled",
+    "assemble",
+    "settle_chains",
+]
 
 #: Re-planning rounds that lower the offending junction caps by JUNCTION_BACKOFF; from then on
 #: each round softens (below) or stops the junctions still offending, until none does (a stop
@@ -73,19 +80,31 @@ class Round:
         return SegmentedCurve(self.chunks)
 
 
-def replan_until_junctions_hold(
+@dataclass
+class Settled:
+    """The chains of the last round, when no junction offends any more: ``spans`` (first,
+    stop) over ``setup.active``, their ``chains``, and ``speeds`` [mm/s] at every junction
+    (len(active) + 1: the look-ahead's at the chains' ends, the profiles' inside them)."""
+
+    setup: ChainSetup
+    spans: list[tuple[int, int]]
+    chains: list[Chain]
+    speeds: np.ndarray
+
+
+def settle_chains(
     active: list[MoveGeometry],
     caps: np.ndarray,
     states: list[JunctionState],
     machine: MachineConfig,
     solver: RuckigSolver,
     arc_pieces: str,
-    holds: dict[int, list[Dwell]],
     smoothing: list[float],
     blend_arcs: frozenset[int] = frozenset(),
-) -> Round:
-    """Plan the moves; while pieces next to moving junctions leave the arc, lower those
-    junctions' caps (``caps`` [mm/s] is changed) by :data:`JUNCTION_BACKOFF` and plan again, at
+) -> Settled:
+    """Plan the moves' chains (not yet assembled into a timeline: :func:`assemble`; a window
+    of a long program keeps only a prefix of them, :mod:`~gantry_sim.controller.planner.windows`);
+    while pieces next to moving junctions leave the arc, lower those junctions' caps (``caps`` [mm/s] is changed) by :data:`JUNCTION_BACKOFF` and plan again, at
     most :data:`MAX_ROUNDS` times; after that a junction still offending has its two moves'
     tangential acceleration and jerk lowered by :data:`SOFTEN` (at most :data:`SOFTEN_TRIES`
     times), then becomes a stop, round by round, until none offends: the plan kept never has a
@@ -93,9 +112,9 @@ def replan_until_junctions_hold(
     neighbours' speeds, so a junction may first offend in a late round). Softening helps where
     the chain's profile ends a ramp at its full tangential jerk right at a junction whose
     curvature changes (a blend arc of a polyline of 0.035 mm steps): the axes need that jerk
-    plus the curvature's, and no lower junction speed frees it. ``holds``: dwells per junction
-    (exact stops holding the reference for their time). ``blend_arcs``: ids of the G64 blend arcs among the moves (tolerance features: no
-    saturated-ramp search, which costs tenths of a second and can save them microseconds)."""
+    plus the curvature's, and no lower junction speed frees it. ``blend_arcs``: ids of the G64
+    blend arcs among the moves (tolerance features: no saturated-ramp search, which costs
+    tenths of a second and can save them microseconds)."""
     setup = ChainSetup(active, states, machine, solver, arc_pieces, smoothing, {}, blend_arcs)
     blocks = [g.limits for g in active]
     cache: dict[ChainKey, Chain] = {}
@@ -110,9 +129,8 @@ def replan_until_junctions_hold(
         chains, cache = _plan_round(setup, spans, chained, speeds, cache)
         bad: set[int] = set()
         for (first, stop), chain in zip(spans, chains, strict=True):
-            if chain.bad:
-                bad |= chain.bad
-                speeds[first + 1 : stop] = chain.inner_speeds
+            speeds[first + 1 : stop] = chain.inner_speeds
+            bad |= chain.bad
         if not bad:
             break
         touched: set[int] = set()  # moves whose limits were softened this round
@@ -126,7 +144,7 @@ def replan_until_junctions_hold(
                 caps[b] = 0.0
         _soften(blocks, touched, cache)
         chains.clear()  # the chains replaced next round are freed before it plans new ones
-    return _assemble(setup, spans, chains, holds)
+    return Settled(setup, spans, chains, speeds)
 
 
 def _soften(blocks: list[BlockLimits], moves: set[int], cache: dict[ChainKey, Chain]) -> None:
@@ -169,17 +187,23 @@ def _plan_round(
     return chains, dict(zip(keys, chains, strict=True))
 
 
-def _assemble(
-    setup: ChainSetup,
-    spans: list[tuple[int, int]],
-    chains: list[Chain],
+def assemble(
+    settled: Settled,
     holds: dict[int, list[Dwell]],
+    count: int,
+    *,
+    end_hold: bool,
+    start_s: float = 0.0,
 ) -> Round:
-    """The round of the last chains planned: their phases in order, with the dwells of
-    ``holds`` at their junctions, each move's start time and line (once, for the round that
-    is kept: the rounds before only needed their chains' failed junctions)."""
+    """The timeline of the first ``count`` chains of ``settled``: their phases in order, with
+    the dwells of ``holds`` at their junctions (the one after the last chain only with
+    ``end_hold``), each move's start time and line (once, for the round that is kept: the
+    rounds before only needed their chains' failed junctions). Times count from ``start_s``
+    [s] (a window's: the one before it ended there), and ``duration_s`` is the end's."""
+    setup = settled.setup
+    spans, chains = settled.spans[:count], settled.chains[:count]
     chunks: list[Chunk] = []
-    clock, ruckig = 0.0, 0
+    clock, ruckig = start_s, 0
     starts: list[float] = []
     lines: list[int] = []
     entries: list[tuple[int, int]] = []
@@ -206,5 +230,6 @@ def _assemble(
         clock += chain.duration_s
         bad |= chain.bad
         ruckig += chain.ruckig_pieces
-    hold(len(setup.active))
+    if end_hold:
+        hold(spans[-1][1] if spans else len(setup.active))
     return Round(chunks, clock, starts, bad, lines, ruckig, entries)

@@ -1,0 +1,120 @@
+"""What the rounds plan from: the geometry, junction caps and states, dwells and smoothing
+budgets of a path's moves, and the G64 blends too slow to keep.
+
+:func:`prepare` works on a :class:`~gantry_sim.controller.planner.blend.PathPlan` or a stretch
+of one (:func:`sub_path`, for the windows of a long program:
+:mod:`~gantry_sim.controller.planner.windows`): every number it gives a junction depends only
+on the moves either side of it and their other junctions, so a stretch with a move of context
+before and after its moves of interest gives them what the whole path gives them.
+"""
+
+from __future__ import annotations
+
+from dataclasses import replace
+from typing import NamedTuple
+
+import numpy as np
+
+from gantry_sim.controller.config import MachineConfig
+from gantry_sim.controller.moves import Dwell
+from gantry_sim.controller.planner.blend import PathPlan
+from gantry_sim.controller.planner.junctions import (
+    JunctionState,
+    feasible_junction_caps,
+    junction_caps,
+)
+from gantry_sim.controller.planner.move_geometry import (
+    MoveGeometry,
+    limits_for_junctions,
+    move_geometries,
+)
+
+__all__ = ["BLEND_MIN_SPEED_SHARE", "Prepared", "prepare", "slow_blends", "sub_path"]
+
+#: A G64 blend is kept only where it can be entered at this share of its neighbours' speed caps
+#: (see :func:`slow_blends`).
+BLEND_MIN_SPEED_SHARE = 0.5
+
+
+class Prepared(NamedTuple):
+    """A path's moves made ready for the rounds: ``geoms`` per move of the path; ``active``
+    the ones with length (zero-length moves dropped) and ``at`` their indices in the path;
+    junction ``caps`` [mm/s] and ``states`` (len(active) + 1); dwells (``holds``), smoothing
+    budgets [mm] and program ``sources`` per active junction or move."""
+
+    geoms: list[MoveGeometry]
+    active: list[MoveGeometry]
+    at: list[int]
+    caps: np.ndarray
+    states: list[JunctionState]
+    holds: dict[int, list[Dwell]]
+    smoothing: list[float]
+    sources: list[tuple[int, int]]
+
+
+def sub_path(path: PathPlan, lo: int, hi: int, first_junction: int) -> PathPlan:
+    """Moves ``lo:hi`` of ``path`` as a path of their own, with the dwells of junctions
+    ``first_junction`` .. ``hi - 1`` (a junction j is before move j), and those after the
+    last move when ``hi`` is the path's end."""
+    out = PathPlan()
+    out.moves = path.moves[lo:hi]
+    out.stop_after = path.stop_after[lo:hi]
+    last = hi if hi == len(path.moves) else hi - 1
+    out.holds = {j - lo: d for j, d in path.holds.items() if first_junction <= j <= last}
+    out.smoothing_mm = path.smoothing_mm[lo:hi]
+    out.sources = path.sources[lo:hi]
+    out.blend_junction = {k - lo: j for k, j in path.blend_junction.items() if lo <= k < hi}
+    return out
+
+
+def prepare(
+    path: PathPlan, machine: MachineConfig, feed_override_pct: float, known: dict
+) -> Prepared:
+    """Geometry, junction caps and states, dwells and smoothing budgets per junction of the
+    moves of ``path`` (zero-length moves dropped); ``known``: geometry by move (equal moves
+    have equal geometry), filled here, so planning again after :func:`slow_blends` only
+    computes the moves that changed."""
+    lim, seg = machine.limits, machine.segmentation
+    new = list({m: None for m in path.moves if m not in known})  # each once, in order
+    known.update(zip(new, move_geometries(new, lim, seg, feed_override_pct / 100.0), strict=True))
+    geoms = []
+    for m in path.moves:
+        g = known[m]
+        geoms.append(g if g.move is m else replace(g, move=m))
+    keep = [g.length_mm > 1e-9 for g in geoms]
+    active = [g for g, k in zip(geoms, keep, strict=True) if k]
+    at = np.concatenate(([0], np.cumsum(keep))).astype(int)  # planned junction -> active
+    stops = {int(at[i + 1]) for i, stop in enumerate(path.stop_after) if stop}
+    holds: dict[int, list[Dwell]] = {}
+    for j, dwells in path.holds.items():
+        holds.setdefault(int(at[j]), []).extend(dwells)
+    smoothing = [e for e, k in zip(path.smoothing_mm, keep, strict=True) if k]
+    sources = [s for s, k in zip(path.sources, keep, strict=True) if k]
+    caps, states = junction_caps(active, lim, seg.chord_tolerance_mm, smoothing)
+    for b in stops | set(holds):
+        caps[b] = 0.0
+    active = limits_for_junctions(active, caps, lim)
+    caps = feasible_junction_caps(active, caps, states, lim)
+    where = [i for i, k in enumerate(keep) if k]
+    return Prepared(geoms, active, where, caps, states, holds, smoothing, sources)
+
+
+def slow_blends(path: PathPlan, prepared: Prepared) -> frozenset[int]:
+    """Junctions whose blend would be passed below :data:`BLEND_MIN_SPEED_SHARE` of the
+    neighbouring moves' speed caps: there a jerk-limited pass of the blend arc (whose curvature
+    jumps from 0 to 1/R where it meets the straight moves) is not faster than an exact stop
+    (measured: a 90 degree corner at P0.01 passes at 1.4 of 50 mm/s and a 14 degree one at 11,
+    both slower overall than stopping), so those corners stay exact stops. A blend at either
+    end of the active moves is not judged (a stretch's neighbours are not known there)."""
+    geoms, active, _, caps, *_ = prepared
+    index = {id(g.move): b for b, g in enumerate(active)}
+    slow = set()
+    for k, junction in path.blend_junction.items():
+        b = index.get(id(geoms[k].move))
+        if b is None or b == 0 or b + 1 >= len(active):
+            continue
+        v = min(float(caps[b]), float(caps[b + 1]), active[b].limits.cap_mm_per_s)
+        cruise = min(active[b - 1].limits.cap_mm_per_s, active[b + 1].limits.cap_mm_per_s)
+        if not v >= BLEND_MIN_SPEED_SHARE * cruise:
+            slow.add(junction)
+    return frozenset(slow)

@@ -1,0 +1,239 @@
+"""A long program planned a window of moves at a time, so planning's memory is the window's.
+
+Planning holds about 10 kB per move while it works (geometry, junction states, a round's
+chains and their batch arrays): a 100,000-block program took over 1 GB. A path of at most
+:data:`WINDOW_MOVES` moves is planned whole, as before. A longer one is planned window by
+window, the way a controller's look-ahead queue works, but with a look-ahead long enough that
+the cut does not change the motion:
+
+1. A probe plans moves [lo, hi) (hi = lo + window, or the path's end) from the speed v_lo the
+   window before left at junction lo (0 at the start), to rest at hi. The move before lo is
+   given as context, so junction lo gets the cap, state and smoothing the whole path gives it
+   (:mod:`~gantry_sim.controller.planner.prepare`).
+2. Where hi is the path's end, every chain is kept. Otherwise the probe's chains are kept up to
+   its last chain boundary c that leaves at least :data:`MARGIN_MOVES` moves and
+   :data:`MARGIN_BRAKING` braking distances (from the fastest speed cap of the moves after c)
+   before hi: the rest at hi, which the probe had to assume, slows nothing before c (no speed
+   after c needs more than that distance to come to rest, so the look-ahead's backward pass
+   from hi reaches c above every cap). A chain ends at its look-ahead speed with no tangential
+   acceleration, so the next window starts at c from (v_c, 0): the reference is continuous in
+   position, velocity and acceleration across the cut, and each side keeps every limit.
+3. The next probe must keep v_c at its start (its look-ahead may not need it lower). If it
+   does (a junction after c offending in the next probe lowered it), the window before is
+   planned again with twice the moves, keeping more; at worst the rest of the path is one
+   window. A probe whose chains leave no boundary to cut at is widened the same way.
+
+On a program with stretches shorter than the window between its exact stops, the windows
+give the whole-program plan exactly; on longer stretches the cut chains keep the same speeds
+and end states, and the plan differs from the whole one by rounding
+(``tests/test_plan_windows.py``).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from typing import NamedTuple
+
+import numpy as np
+
+from gantry_sim.controller.config import MachineConfig
+from gantry_sim.controller.planner.blend import PathPlan
+from gantry_sim.controller.planner.limits import BlockLimits
+from gantry_sim.controller.planner.prepare import Prepared, prepare, slow_blends, sub_path
+from gantry_sim.controller.planner.rounds import Round, Settled, assemble, settle_chains
+from gantry_sim.controller.planner.ruckig_solver import RuckigSolver
+
+__all__ = [
+    "MARGIN_BRAKING",
+    "MARGIN_MOVES",
+    "WINDOW_MOVES",
+    "Planned",
+    "blends_to_skip",
+    "plan_path",
+]
+
+#: Path moves planned at a time (a path up to this long is planned whole): about 50 MB of
+#: planning's working set.
+WINDOW_MOVES = 5_000
+#: Moves of a probe after the kept part, at least ...
+MARGIN_MOVES = 250
+#: ... and this many braking distances (from the probe's fastest speed cap to rest) [1].
+MARGIN_BRAKING = 2.0
+#: Moves of context around a stretch judged for slow blends (a blend's speed cap depends on
+#: its neighbours' limits, which depend on their other junctions).
+BLEND_CONTEXT = 3
+
+
+@dataclass
+class Planned:
+    """A path planned: its timeline (``round``: entries indexed over the active moves of the
+    whole path), each active move's program ``sources``, and the chord vertices [mm] of every
+    active move by ``id`` of its move."""
+
+    round: Round
+    sources: list[tuple[int, int]] = field(default_factory=list)
+    vertices: dict[int, np.ndarray] = field(default_factory=dict)
+
+
+def blends_to_skip(
+    path: PathPlan, machine: MachineConfig, feed_override_pct: float
+) -> frozenset[int]:
+    """The junctions of a long ``path`` whose blends are too slow to keep
+    (:func:`~gantry_sim.controller.planner.prepare.slow_blends`), judged a window at a time
+    with :data:`BLEND_CONTEXT` moves of context either side."""
+    n = len(path.moves)
+    slow: set[int] = set()
+    for lo in range(0, n, WINDOW_MOVES):
+        a, b = max(0, lo - BLEND_CONTEXT), min(n, lo + WINDOW_MOVES + BLEND_CONTEXT)
+        stretch = sub_path(path, a, b, a)
+        inner = {k: j for k, j in stretch.blend_junction.items() if lo <= a + k < lo + WINDOW_MOVES}
+        if not inner:
+            continue
+        prepared = prepare(stretch, machine, feed_override_pct, {})
+        stretch.blend_junction = inner
+        slow |= slow_blends(stretch, prepared)
+    return frozenset(slow)
+
+
+def plan_path(
+    path: PathPlan,
+    machine: MachineConfig,
+    feed_override_pct: float,
+    arc_pieces: str,
+    solver: RuckigSolver,
+    prepared: Prepared | None = None,
+) -> Planned:
+    """Plan ``path`` (see the module docstring); ``prepared``: its :func:`prepare` when made
+    already (a path planned whole)."""
+    n = len(path.moves)
+    blend_arcs = frozenset(id(path.moves[k]) for k in path.blend_junction)
+    out = Planned(Round([], 0.0, [], set(), [], 0, []))
+    history: list[tuple[_Start, _Mark]] = []  # per kept window: where it started, out before it
+    start, size = _Start(0, -1, 0.0), WINDOW_MOVES
+    while True:
+        lo, ctx, v_lo = start
+        hi = min(n, lo + size)
+        if prepared is not None and lo == 0 and hi == n:
+            pre, base = prepared, 0
+        else:
+            base = ctx if ctx >= 0 else lo
+            pre = _window(
+                sub_path(path, base, hi, base + (ctx >= 0)), machine, feed_override_pct, ctx >= 0
+            )
+        caps = pre.caps.copy()
+        caps[0] = v_lo
+        settled = settle_chains(
+            pre.active, caps, pre.states, machine, solver, arc_pieces, pre.smoothing, blend_arcs
+        )
+        cut = _cut(settled) if hi < n else (len(settled.spans), len(pre.active))
+        if settled.speeds[0] != v_lo and history:  # the window before must keep less speed
+            start, mark = history.pop()
+            _truncate(out, mark)
+            size *= 2
+            continue
+        if cut is None:  # no chain boundary to cut at: a wider window
+            size *= 2
+            continue
+        count, c = cut
+        history.append((start, _mark(out)))
+        upto = pre.at[c] if c < len(pre.active) else len(pre.geoms)  # stretch moves kept
+        kept = assemble(settled, pre.holds, count, end_hold=hi == n, start_s=out.round.duration_s)
+        _keep(out, pre, kept, c, upto)
+        if hi == n:
+            return out
+        start = _Start(base + pre.at[c], base + pre.at[c - 1], float(settled.speeds[c]))
+        size = WINDOW_MOVES
+        del settled, pre, caps
+
+
+class _Start(NamedTuple):
+    """Where a window starts: its first path move, the move before it (context; -1: none) and
+    the speed [mm/s] at the junction between."""
+
+    lo: int
+    ctx: int
+    v_mm_per_s: float
+
+
+class _Mark(NamedTuple):
+    """The lengths of a :class:`Planned` before a window was kept (to take it back)."""
+
+    entries: int
+    chunks: int
+    ruckig_pieces: int
+    duration_s: float
+    sources: int
+
+
+def _mark(out: Planned) -> _Mark:
+    r = out.round
+    return _Mark(len(r.entries), len(r.chunks), r.ruckig_pieces, r.duration_s, len(out.sources))
+
+
+def _truncate(out: Planned, mark: _Mark) -> None:
+    """Take back what was kept after ``mark``."""
+    r = out.round
+    del r.entries[mark.entries :], r.move_start_s[mark.entries :], r.lines[mark.entries :]
+    del r.chunks[mark.chunks :], out.sources[mark.sources :]
+    r.ruckig_pieces, r.duration_s = mark.ruckig_pieces, mark.duration_s
+
+
+def _window(
+    stretch: PathPlan, machine: MachineConfig, feed_override_pct: float, context: bool
+) -> Prepared:
+    """:func:`prepare` of a window's ``stretch``, less its first move when that is ``context``
+    (the move before the window; ``at`` stays counted from the stretch's start)."""
+    pre = prepare(stretch, machine, feed_override_pct, {})
+    if not context:
+        return pre
+    if not (pre.at and pre.at[0] == 0):
+        raise AssertionError("a window's context must be a move with length")
+    return Prepared(
+        pre.geoms,
+        pre.active[1:],
+        pre.at[1:],
+        pre.caps[1:],
+        pre.states[1:],
+        {b - 1: d for b, d in pre.holds.items() if b >= 1},
+        pre.smoothing[1:],
+        pre.sources[1:],
+    )
+
+
+def _cut(settled: Settled) -> tuple[int, int] | None:
+    """Where a probe is cut: (chains kept, the active move after them), at its last chain
+    boundary with the margins of the module docstring after it; None where there is none."""
+    active = settled.setup.active
+    lengths = np.array([g.limits.length_mm for g in active])
+    behind = np.concatenate((np.cumsum(lengths[::-1])[::-1], [0.0]))  # path length to the end
+    braking = np.array([_braking_mm(g.limits) for g in active] + [0.0])
+    needed = MARGIN_BRAKING * np.maximum.accumulate(braking[::-1])[::-1]  # from here on
+    for k in range(len(settled.spans) - 1, 0, -1):
+        first = settled.spans[k][0]
+        if len(active) - first >= MARGIN_MOVES and behind[first] >= needed[first]:
+            return k, first
+    return None
+
+
+def _braking_mm(lim: BlockLimits) -> float:
+    """Distance [mm] to come to rest from a block's speed cap with its acceleration and jerk:
+    an upper bound, v^2 / 2a + v a / j (the jerk-limited stop takes v^2 / 2a + v a / 2j, or
+    v sqrt(v / j) when v < a^2 / j; inf for a block without a finite cap)."""
+    v, a, j = lim.cap_mm_per_s, lim.acc_mm_per_s2, lim.jerk_mm_per_s3
+    return v * v / (2.0 * a) + v * a / j if np.isfinite(v) else math.inf
+
+
+def _keep(out: Planned, pre: Prepared, kept: Round, moves: int, upto: int) -> None:
+    """Append a window's kept timeline (of its first ``moves`` active moves; ``upto``: the
+    stretch's moves before the cut) to ``out``: its entries moved to the whole path's active
+    moves (its times already count from the path's start)."""
+    base, r = len(out.sources), out.round
+    r.chunks.extend(kept.chunks)
+    r.move_start_s.extend(kept.move_start_s)
+    r.lines.extend(kept.lines)
+    r.entries.extend((a + base, b + base) for a, b in kept.entries)
+    r.ruckig_pieces += kept.ruckig_pieces
+    r.duration_s = kept.duration_s  # counted from the path's start
+    out.sources.extend(pre.sources[:moves])
+    out.vertices.update((id(g.move), g.vertices) for g in pre.geoms[:upto])

@@ -1,0 +1,133 @@
+"""A long program planned window by window gives the whole-program plan (planner/windows.py).
+
+The windows are made small here (tens of moves) so that short programs cross several of them;
+the plan of each is compared with the same program planned whole, number for number.
+"""
+
+from __future__ import annotations
+
+import importlib
+import math
+
+import numpy as np
+import pytest
+
+from gantry_sim.controller.config import load_machine_config
+from gantry_sim.controller.gcode.interpreter import interpret_events
+from gantry_sim.controller.planner import plan, rounds, windows
+from gantry_sim.models import DEFAULT_MACHINE
+
+# the module, not the function the package re-exports under the same name
+plan_module = importlib.import_module("gantry_sim.controller.planner.plan")
+
+
+def _program() -> str:
+    """Polylines with sharp corners (slow blends: exact stops) and gentle ones, a dwell, a
+    G61.1 stretch, rapids, and tangent arcs."""
+    out = ["G21 G90 G17 G64 P0.01", "G0 X0 Y0 Z-1", "F2400"]
+    x = y = 0.0
+    for k in range(70):  # a polyline: mostly gentle turns, a right angle every 9th
+        ang = math.radians(90.0 if k % 9 == 8 else 4.0 * ((k % 5) - 2))
+        length = 0.3 + 0.2 * (k % 3)
+        heading = ang * (k + 1) if k % 9 != 8 else math.radians(90.0) * (k // 9 + 1)
+        x, y = x + length * math.cos(heading), y + length * math.sin(heading)
+        out.append(f"G1 X{x:.4f} Y{y:.4f}")
+        if k == 30:
+            out.append("G4 P0.05")
+        if k == 45:
+            out.append("G61.1")
+        if k == 55:
+            out.append("G64 P0.01")
+    out.append("G0 Z2")
+    out.append("G0 X20 Y0")
+    out.append("G1 Z-1")
+    x, y = 20.0, 0.0
+    for k in range(60):  # tangent arcs: quarter circles alternating direction (S-bends)
+        r = 1.0 + 0.5 * (k % 3)
+        ccw = k % 2 == 0
+        nx, ny = (x + r, y + r) if ccw else (x + r, y - r)
+        i, j = (0.0, r) if ccw else (0.0, -r)
+        out.append(f"{'G3' if ccw else 'G2'} X{nx:.4f} Y{ny:.4f} I{i:.4f} J{j:.4f}")
+        x, y = nx, ny
+    out.append("M2")
+    return "\n".join(out) + "\n"
+
+
+def _whole_and_windowed(text: str, monkeypatch, window: int, margin: int):
+    events = tuple(interpret_events(text))
+    machine = load_machine_config(DEFAULT_MACHINE)
+    whole = plan(events, machine)
+    probes = []
+    real = windows.settle_chains
+
+    def counted(*args, **kwargs):
+        probes.append(len(args[0]))
+        return real(*args, **kwargs)
+
+    monkeypatch.setattr(windows, "settle_chains", counted)
+    monkeypatch.setattr(windows, "WINDOW_MOVES", window)
+    monkeypatch.setattr(plan_module, "WINDOW_MOVES", window)
+    monkeypatch.setattr(windows, "MARGIN_MOVES", margin)
+    return whole, plan(events, machine), probes
+
+
+def _assert_same(a, b) -> None:
+    assert a.duration_s == b.duration_s
+    assert a.ruckig_piece_count == b.ruckig_piece_count
+    for name in ("move_start_s", "move_lines", "move_sources", "path_sources", "end_mm"):
+        np.testing.assert_array_equal(getattr(a, name), getattr(b, name), err_msg=name)
+    for axis_a, axis_b in zip(a.curve.axes, b.curve.axes, strict=True):
+        for col_a, col_b in zip(axis_a, axis_b, strict=True):
+            np.testing.assert_array_equal(col_a, col_b)
+    assert len(a.vertices) == len(b.vertices)
+    for va, vb in zip(a.vertices, b.vertices, strict=True):
+        np.testing.assert_array_equal(va, vb)
+    assert a.blends == b.blends and a.path_moves == b.path_moves
+
+
+def test_a_program_planned_in_windows_is_the_whole_program_plan(monkeypatch):
+    whole, windowed, probes = _whole_and_windowed(_program(), monkeypatch, 40, 8)
+    assert len(whole.path_moves) > 3 * 40  # blends inserted: several windows
+    assert len(probes) >= 4, probes
+    assert max(probes) <= 80  # no window grew to the whole program
+    _assert_same(whole, windowed)
+
+
+def test_a_window_whose_next_start_cannot_be_kept_is_planned_again_wider(monkeypatch):
+    """The next probe lowering the speed where the window before was cut sends the planner
+    back to that window, twice as wide; the plan is still the whole program's."""
+    real = rounds.settle_chains
+    calls = {"n": 0}
+
+    def refuse_second_start(active, caps, *args, **kwargs):
+        calls["n"] += 1
+        settled = real(active, caps, *args, **kwargs)
+        if calls["n"] == 2:  # the second window's probe: as if its look-ahead needed less
+            settled.speeds[0] = 0.5 * settled.speeds[0] if settled.speeds[0] > 0 else -1.0
+        return settled
+
+    whole, _, _ = _whole_and_windowed(_program(), monkeypatch, 40, 8)
+    monkeypatch.setattr(windows, "settle_chains", refuse_second_start)
+    windowed = plan(interpret_events(_program()), load_machine_config(DEFAULT_MACHINE))
+    assert calls["n"] >= 4
+    _assert_same(whole, windowed)
+
+
+def test_a_chain_longer_than_the_window_widens_it_to_the_chain(monkeypatch):
+    """Arcs of one circle, end to end, are one chain (no junction binds): there is nowhere to
+    cut inside it, so the window grows until the chain fits."""
+    text = "G21 G90 G17 G64 P0.01\nG0 X10 Y0 Z-1\nF3000\n"
+    text += "G3 X0 Y10 I-10 J0\nG3 X-10 Y0 I0 J-10\nG3 X0 Y-10 I10 J0\nG3 X10 Y0 I0 J10\n" * 20
+    text += "G0 Z5\nM2\n"
+    whole, windowed, probes = _whole_and_windowed(text, monkeypatch, 16, 4)
+    assert max(probes) >= 80, probes
+    _assert_same(whole, windowed)
+
+
+@pytest.mark.parametrize("window", [25, 60])
+def test_slow_blends_are_judged_the_same_in_windows(monkeypatch, window):
+    """Right-angle corners at P0.01 are slow blends (exact stops); judged window by window,
+    the same corners are found as in the whole program."""
+    whole, windowed, _ = _whole_and_windowed(_program(), monkeypatch, window, 5)
+    assert len(whole.blends) < 69  # some corners were not blended
+    assert windowed.blends == whole.blends
