@@ -131,3 +131,23 @@ def test_slow_blends_are_judged_the_same_in_windows(monkeypatch, window):
     whole, windowed, _ = _whole_and_windowed(_program(), monkeypatch, window, 5)
     assert len(whole.blends) < 69  # some corners were not blended
     assert windowed.blends == whole.blends
+
+
+def test_a_window_sent_back_again_comes_back_wider_each_time(monkeypatch):
+    """Each time the same window is sent back it is planned twice as wide as the last time
+    (planning it at the same width again would give the same cut and the same refusal)."""
+    real = rounds.settle_chains
+    sizes: list[int] = []
+
+    def refuse_every_second(active, caps, *args, **kwargs):
+        sizes.append(len(active))
+        settled = real(active, caps, *args, **kwargs)
+        if len(sizes) in (2, 4, 6):  # the probe after each kept window: refused
+            settled.speeds[0] = 0.5 * settled.speeds[0] if settled.speeds[0] > 0 else -1.0
+        return settled
+
+    whole, _, _ = _whole_and_windowed(_program(), monkeypatch, 16, 4)
+    monkeypatch.setattr(windows, "settle_chains", refuse_every_second)
+    windowed = plan(interpret_events(_program()), load_machine_config(DEFAULT_MACHINE))
+    assert sizes[0] == 16 and sizes[2] == 32 and sizes[4] == 64 and sizes[6] == 128, sizes
+    _assert_same(whole, windowed)

@@ -109,7 +109,8 @@ def plan_path(
     n = len(path.moves)
     blend_arcs = frozenset(id(path.moves[k]) for k in path.blend_junction)
     out = Planned(Round([], 0.0, [], set(), [], 0, []))
-    history: list[tuple[_Start, _Mark]] = []  # per kept window: where it started, out before it
+    # per kept window: where it started, its size, and ``out`` before it
+    history: list[tuple[_Start, int, _Mark]] = []
     start, size = _Start(0, -1, 0.0), WINDOW_MOVES
     while True:
         lo, ctx, v_lo = start
@@ -128,15 +129,15 @@ def plan_path(
         )
         cut = _cut(settled) if hi < n else (len(settled.spans), len(pre.active))
         if settled.speeds[0] != v_lo and history:  # the window before must keep less speed
-            start, mark = history.pop()
+            start, used, mark = history.pop()
             _truncate(out, mark)
-            size *= 2
+            size = 2 * used  # each time it comes back, wider: at worst the rest of the path
             continue
         if cut is None:  # no chain boundary to cut at: a wider window
             size *= 2
             continue
         count, c = cut
-        history.append((start, _mark(out)))
+        history.append((start, size, _mark(out)))
         upto = pre.at[c] if c < len(pre.active) else len(pre.geoms)  # stretch moves kept
         kept = assemble(settled, pre.holds, count, end_hold=hi == n, start_s=out.round.duration_s)
         _keep(out, pre, kept, c, upto)
