@@ -38,13 +38,14 @@ BLEND_MIN_SPEED_SHARE = 0.5
 
 class Prepared(NamedTuple):
     """A path's moves made ready for the rounds: ``geoms`` per move of the path; ``active``
-    the ones with length (zero-length moves dropped) and ``at`` their indices in the path;
+    the ones with length (zero-length moves dropped) and ``path_index`` their indices in the
+    path;
     junction ``caps`` [mm/s] and ``states`` (len(active) + 1); dwells (``holds``), smoothing
     budgets [mm] and program ``sources`` per active junction or move."""
 
     geoms: list[MoveGeometry]
     active: list[MoveGeometry]
-    at: list[int]
+    path_index: list[int]
     caps: np.ndarray
     states: list[JunctionState]
     holds: dict[int, list[Dwell]]

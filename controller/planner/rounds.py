@@ -83,8 +83,8 @@ class Round:
 @dataclass
 class Settled:
     """The chains of the last round, when no junction offends any more: ``spans`` (first,
-    stop) over ``setup.active``, their ``chains``, and ``speeds`` [mm/s] at every junction
-    (len(active) + 1: the look-ahead's at the chains' ends, the profiles' inside them)."""
+    stop) over ``setup.active``, their ``chains``, and ``speeds`` [mm/s] (len(active) + 1) at
+    the chains' ends, as the look-ahead gave them (NaN inside the chains)."""
 
     setup: ChainSetup
     spans: list[tuple[int, int]]
@@ -129,8 +129,9 @@ def settle_chains(
         chains, cache = _plan_round(setup, spans, chained, speeds, cache)
         bad: set[int] = set()
         for (first, stop), chain in zip(spans, chains, strict=True):
-            speeds[first + 1 : stop] = chain.inner_speeds
-            bad |= chain.bad
+            if chain.bad:
+                bad |= chain.bad
+                speeds[first + 1 : stop] = chain.inner_speeds
         if not bad:
             break
         touched: set[int] = set()  # moves whose limits were softened this round

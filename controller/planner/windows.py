@@ -23,10 +23,11 @@ the cut does not change the motion:
    planned again with twice the moves, keeping more; at worst the rest of the path is one
    window. A probe whose chains leave no boundary to cut at is widened the same way.
 
-On a program with stretches shorter than the window between its exact stops, the windows
-give the whole-program plan exactly; on longer stretches the cut chains keep the same speeds
-and end states, and the plan differs from the whole one by rounding
-(``tests/test_plan_windows.py``).
+Where the margin holds, every kept chain is planned from the end speeds the whole program
+gives it, so the windows give the whole-program plan bit for bit: the generated programs of
+``benchmarks/programs.py`` at 5,000 blocks in windows of 1,000
+(``benchmarks/bench_plan_windows.py``), and ``tests/test_plan_windows.py``'s program in
+windows of 16-60 moves.
 """
 
 from __future__ import annotations
@@ -69,7 +70,7 @@ BLEND_CONTEXT = 3
 class Planned:
     """A path planned: its timeline (``round``: entries indexed over the active moves of the
     whole path), each active move's program ``sources``, and the chord vertices [mm] of every
-    active move by ``id`` of its move."""
+    move of the path (zero-length ones too) by ``id`` of its move."""
 
     round: Round
     sources: list[tuple[int, int]] = field(default_factory=list)
@@ -127,23 +128,25 @@ def plan_path(
         settled = settle_chains(
             pre.active, caps, pre.states, machine, solver, arc_pieces, pre.smoothing, blend_arcs
         )
-        cut = _cut(settled) if hi < n else (len(settled.spans), len(pre.active))
         if settled.speeds[0] != v_lo and history:  # the window before must keep less speed
             start, used, mark = history.pop()
             _truncate(out, mark)
             size = 2 * used  # each time it comes back, wider: at worst the rest of the path
             continue
+        cut = _cut(settled) if hi < n else (len(settled.spans), len(pre.active))
         if cut is None:  # no chain boundary to cut at: a wider window
             size *= 2
             continue
         count, c = cut
         history.append((start, size, _mark(out)))
-        upto = pre.at[c] if c < len(pre.active) else len(pre.geoms)  # stretch moves kept
+        upto = pre.path_index[c] if c < len(pre.active) else len(pre.geoms)  # stretch moves kept
         kept = assemble(settled, pre.holds, count, end_hold=hi == n, start_s=out.round.duration_s)
         _keep(out, pre, kept, c, upto)
         if hi == n:
             return out
-        start = _Start(base + pre.at[c], base + pre.at[c - 1], float(settled.speeds[c]))
+        start = _Start(
+            base + pre.path_index[c], base + pre.path_index[c - 1], float(settled.speeds[c])
+        )
         size = WINDOW_MOVES
         del settled, pre, caps
 
@@ -184,16 +187,16 @@ def _window(
     stretch: PathPlan, machine: MachineConfig, feed_override_pct: float, context: bool
 ) -> Prepared:
     """:func:`prepare` of a window's ``stretch``, less its first move when that is ``context``
-    (the move before the window; ``at`` stays counted from the stretch's start)."""
+    (the move before the window; ``path_index`` stays counted from the stretch's start)."""
     pre = prepare(stretch, machine, feed_override_pct, {})
     if not context:
         return pre
-    if not (pre.at and pre.at[0] == 0):
+    if not (pre.path_index and pre.path_index[0] == 0):
         raise AssertionError("a window's context must be a move with length")
     return Prepared(
         pre.geoms,
         pre.active[1:],
-        pre.at[1:],
+        pre.path_index[1:],
         pre.caps[1:],
         pre.states[1:],
         {b - 1: d for b, d in pre.holds.items() if b >= 1},
