@@ -130,3 +130,27 @@ def arc_deviation(traj, a: Arc) -> float:
     sigma = 1.0 if a.direction == "ccw" else -1.0
     u = np.clip(sigma * (th - th0) / a.angle, 0.0, 1.0)
     return float(np.max(np.linalg.norm(p - arc_points(a, u), axis=1)))
+
+
+def plan_with_chunks(text: str):
+    """The plan of the program ``text`` on the bundled machine and a copy of the chunks (the
+    reference's segments, stretch by stretch) its curve was built of."""
+    from gantry_sim.controller.config import load_machine_config
+    from gantry_sim.controller.gcode.interpreter import interpret_events
+    from gantry_sim.controller.planner import plan
+    from gantry_sim.controller.planner import segmented_curve as sc
+    from gantry_sim.models import DEFAULT_MACHINE
+
+    seen: list = []
+    real = sc.CurveBuilder.extend
+
+    def keep(self, chunks):
+        seen.extend(chunks)
+        return real(self, chunks)
+
+    sc.CurveBuilder.extend = keep  # type: ignore[method-assign]
+    try:
+        p = plan(list(interpret_events(text)), load_machine_config(DEFAULT_MACHINE))
+    finally:
+        sc.CurveBuilder.extend = real  # type: ignore[method-assign]
+    return p, seen

@@ -14,7 +14,7 @@ import pytest
 
 from gantry_sim.controller.config import load_machine_config
 from gantry_sim.controller.gcode.interpreter import interpret_events
-from gantry_sim.controller.planner import plan, rounds, windows
+from gantry_sim.controller.planner import plan, rounds, segmented_curve, windows
 from gantry_sim.models import DEFAULT_MACHINE
 
 # the module, not the function the package re-exports under the same name
@@ -68,6 +68,9 @@ def _whole_and_windowed(text: str, monkeypatch, window: int, margin: int):
     monkeypatch.setattr(windows, "WINDOW_MOVES", window)
     monkeypatch.setattr(plan_module, "WINDOW_MOVES", window)
     monkeypatch.setattr(windows, "MARGIN_MOVES", margin)
+    # small blocks: the windows' reference goes to the temporary file, and a window sent back
+    # takes back blocks written there
+    monkeypatch.setattr(segmented_curve, "BLOCK_PHASES", 40)
     return whole, plan(events, machine), probes
 
 
@@ -90,6 +93,7 @@ def test_a_program_planned_in_windows_is_the_whole_program_plan(monkeypatch):
     assert len(whole.path_moves) > 3 * 40  # blends inserted: several windows
     assert len(probes) >= 4, probes
     assert max(probes) <= 80  # no window grew to the whole program
+    assert windowed.curve.spilled_bytes > 0  # the reference went to the temporary file
     _assert_same(whole, windowed)
 
 
@@ -110,6 +114,7 @@ def test_a_window_whose_next_start_cannot_be_kept_is_planned_again_wider(monkeyp
     monkeypatch.setattr(windows, "settle_chains", refuse_second_start)
     windowed = plan(interpret_events(_program()), load_machine_config(DEFAULT_MACHINE))
     assert calls["n"] >= 4
+    assert windowed.curve.spilled_bytes > 0
     _assert_same(whole, windowed)
 
 

@@ -5,13 +5,9 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from gantry_sim.controller.config import load_machine_config
-from gantry_sim.controller.gcode.interpreter import interpret_events
-from gantry_sim.controller.planner import plan
-from gantry_sim.controller.planner import rounds as rounds_mod
 from gantry_sim.controller.planner import segmented_curve as sc
 from gantry_sim.controller.planner.cubic import Jerk3Run, PiecewiseCubic
-from gantry_sim.models import DEFAULT_MACHINE
+from tests.plan_helpers import plan_with_chunks
 
 #: lines and corners (straight phases), tangent arcs with curvature jumps (closed-form pieces and
 #: Ruckig pieces), a helix, a dwell (a hold), a rapid
@@ -34,19 +30,7 @@ M2
 @pytest.fixture(scope="module")
 def planned_and_chunks():
     """The plan of PROGRAM and a copy of the chunks its curve was made of."""
-    seen: list = []
-    real = rounds_mod.SegmentedCurve
-
-    def keep(chunks):
-        seen.extend(chunks)
-        return real(chunks)
-
-    rounds_mod.SegmentedCurve = keep  # type: ignore[misc]
-    try:
-        p = plan(list(interpret_events(PROGRAM)), load_machine_config(DEFAULT_MACHINE))
-    finally:
-        rounds_mod.SegmentedCurve = real  # type: ignore[misc]
-    return p, seen
+    return plan_with_chunks(PROGRAM)
 
 
 def _laid_out_once(chunks) -> PiecewiseCubic:

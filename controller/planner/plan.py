@@ -151,7 +151,7 @@ def _plan_part(
         chord_tolerance_mm=machine.segmentation.chord_tolerance_mm,
         vertices=vertices,
         ruckig_piece_count=done.ruckig_pieces,
-        curve=done.curve(),
+        curve=planned.curve.finish(),
         move_start_s=move_start,
         move_lines=lines,
         end_mm=end,

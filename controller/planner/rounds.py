@@ -36,7 +36,6 @@ from gantry_sim.controller.planner.limits import BlockLimits
 from gantry_sim.controller.planner.lookahead import plan_junction_speeds
 from gantry_sim.controller.planner.move_geometry import MoveGeometry
 from gantry_sim.controller.planner.ruckig_solver import RuckigSolver
-from gantry_sim.controller.planner.segmented_curve import SegmentedCurve
 
 __all__ = [
     "JUNCTION_BACKOFF",
@@ -73,11 +72,6 @@ class Round:
     lines: list[int]
     ruckig_pieces: int
     entries: list[tuple[int, int]]
-
-    def curve(self) -> SegmentedCurve:
-        """The reference as constant-jerk phases per axis (``chunks`` is emptied: the
-        curve holds its segments)."""
-        return SegmentedCurve(self.chunks)
 
 
 @dataclass

@@ -8,7 +8,11 @@ pieces and straight moves as (5, n) arrays per axis. Laying the whole reference 
 for a 100,000-block CAM program, held for the whole run. :class:`SegmentedCurve` keeps the
 segments, grouped into blocks of about :data:`BLOCK_PHASES` phases, and lays out a block's phases
 when a sample falls in it (the last :data:`CACHED_BLOCKS` blocks are kept, so a run that samples
-range after range lays each block out about once).
+range after range lays each block out about once). The segments themselves took about 3 KB an
+arc (400 MB at 100,000 arcs, and as much again in the planner's forked children, which copied
+the pages they touched): :class:`CurveBuilder` writes each full block to a temporary file as the
+planner's windows add them (:mod:`~gantry_sim.controller.planner.block_file`), so memory holds
+one block being built and the blocks laid out.
 
 The numbers are those of the laid-out curve bit for bit: a phase's start time is the running sum
 of the durations before it, added in the same order (each block's sum starts from the previous
@@ -23,10 +27,11 @@ from itertools import pairwise
 
 import numpy as np
 
+from gantry_sim.controller.planner.block_file import BlockFile
 from gantry_sim.controller.planner.cubic import Chunk, Jerk3Run, PiecewiseCubic, Segment
 from gantry_sim.controller.planner.jerk3 import phase_starts
 
-__all__ = ["BLOCK_PHASES", "CACHED_BLOCKS", "SegmentedCurve"]
+__all__ = ["BLOCK_PHASES", "CACHED_BLOCKS", "CurveBuilder", "SegmentedCurve"]
 
 #: Phases (on the first axis) per block laid out at a time: 65,536 phases take 2.6 MB per axis.
 BLOCK_PHASES = 65_536
@@ -45,6 +50,84 @@ def _phase_count(seg: Segment, axis: int) -> int:
     return 3 * seg.h.size if isinstance(seg, Jerk3Run) else seg[axis].shape[1]
 
 
+class CurveBuilder:
+    """A :class:`SegmentedCurve` made chunk by chunk: full blocks go to a :class:`BlockFile` as
+    they fill (so a long program's reference is held on disk, not in memory, while it is
+    planned and run), and the chunks added last can be taken back (:meth:`truncate`: a planning
+    window sent back). The curve made is the same, bit for bit, as one made of the chunks kept,
+    added at once."""
+
+    __slots__ = ("_carry", "_chunk_at", "_counts", "_current", "_file", "_size", "_starts")
+
+    def __init__(self) -> None:
+        self._file = BlockFile()
+        self._current: list[Segment] = []  # the open block's segments
+        self._size = 0  # its phases on the first axis
+        self._carry = np.zeros(3)  # per axis the open block's start time [s]
+        self._counts: list[np.ndarray] = []  # per closed block: phases per axis
+        self._starts: list[np.ndarray] = []  # per closed block: start time per axis [s]
+        self._chunk_at: list[tuple[int, int]] = []  # per chunk: (block, segment) of its start
+
+    def __len__(self) -> int:
+        """Chunks added (and not taken back)."""
+        return len(self._chunk_at)
+
+    def extend(self, chunks: list[Chunk]) -> None:
+        """Add ``chunks`` (stretches of phases in time order, after those added before); the
+        list is emptied as it is read, so the segments are held once."""
+        chunks.reverse()
+        while chunks:
+            self._chunk_at.append((len(self._file), len(self._current)))
+            for seg in chunks.pop():
+                self._current.append(seg)
+                self._size += _phase_count(seg, 0)
+                if self._size >= BLOCK_PHASES:
+                    self._close(spill=True)
+
+    def truncate(self, count: int) -> None:
+        """Keep the first ``count`` chunks only."""
+        if count >= len(self._chunk_at):
+            return
+        b, s = self._chunk_at[count]
+        del self._chunk_at[count:]
+        if b < len(self._file):  # the chunk began in a closed block: open it again
+            self._current = list(self._file[b])
+            self._file.truncate(b)
+            self._carry = self._starts[b]
+            del self._counts[b:], self._starts[b:]
+        del self._current[s:]
+        self._size = sum(_phase_count(seg, 0) for seg in self._current)
+
+    def finish(self) -> SegmentedCurve:
+        """The curve of the chunks added (the builder is left empty)."""
+        if self._current:
+            self._close(spill=False)
+        counts = np.array(self._counts, dtype=np.int64).reshape(-1, 3).T
+        starts = np.array(self._starts, dtype=float).reshape(-1, 3).T
+        curve = SegmentedCurve.__new__(SegmentedCurve)
+        curve._setup(self._file, counts, starts)
+        self._file = BlockFile()
+        self._counts, self._starts, self._chunk_at = [], [], []
+        self._carry = np.zeros(3)
+        return curve
+
+    def _close(self, *, spill: bool) -> None:
+        """Close the open block: its phase counts and start times, then into the file."""
+        block = tuple(self._current)
+        counts = np.zeros(3, dtype=np.int64)
+        carry = self._carry.copy()
+        for i in range(3):
+            dur = [_durations(s, i) for s in block]
+            counts[i] = sum(d.size for d in dur)
+            if counts[i]:
+                carry[i] = float(np.cumsum(np.concatenate([[carry[i]], *dur]))[-1])
+        self._counts.append(counts)
+        self._starts.append(self._carry)
+        self._carry = carry
+        self._file.append(block, spill=spill)
+        self._current, self._size = [], 0
+
+
 class SegmentedCurve:
     """The reference as constant-jerk phases per axis, held segment by segment (see the module
     docstring); :meth:`evaluate` and :attr:`axes` as :class:`PiecewiseCubic`'s."""
@@ -53,37 +136,26 @@ class SegmentedCurve:
 
     def __init__(self, chunks: list[Chunk]) -> None:
         """The curve of ``chunks`` (stretches of phases in time order), which is emptied as it
-        is read: the segments are held once."""
-        blocks: list[tuple[Segment, ...]] = []
-        current: list[Segment] = []
-        size = 0
-        chunks.reverse()
-        while chunks:
-            for seg in chunks.pop():
-                current.append(seg)
-                size += _phase_count(seg, 0)
-                if size >= BLOCK_PHASES:
-                    blocks.append(tuple(current))
-                    current, size = [], 0
-        if current:
-            blocks.append(tuple(current))
-        self._blocks = tuple(blocks)
-        counts = np.zeros((3, len(blocks)), dtype=np.int64)
-        starts = np.zeros((3, len(blocks)))
-        for i in range(3):
-            carry = 0.0
-            for b, block in enumerate(blocks):
-                starts[i, b] = carry
-                dur = [_durations(s, i) for s in block]
-                counts[i, b] = sum(d.size for d in dur)
-                if counts[i, b]:
-                    carry = float(np.cumsum(np.concatenate([[carry], *dur]))[-1])
+        is read: the segments are held once (in a temporary file past the first block)."""
+        builder = CurveBuilder()
+        builder.extend(chunks)
+        built = builder.finish()
+        self._setup(built._blocks, built._counts, built._block_starts)
+
+    def _setup(self, blocks: BlockFile, counts: np.ndarray, starts: np.ndarray) -> None:
+        """``blocks`` of segments with their phase counts and start times [s], (3, blocks)."""
+        self._blocks = blocks
         self._counts = counts
         self._block_starts = starts  # (3, blocks) [s]
         # per axis: the start time [s] of each block with phases on that axis, and its index
         self._first = tuple(np.flatnonzero(counts[i]) for i in range(3))
         self._starts = tuple(starts[i, self._first[i]] for i in range(3))
         self._cache: OrderedDict[int, tuple[_Phases, _Phases, _Phases]] = OrderedDict()
+
+    @property
+    def spilled_bytes(self) -> int:
+        """Bytes of the curve's segments held in its temporary file."""
+        return self._blocks.spilled_bytes
 
     @property
     def phase_counts(self) -> tuple[int, int, int]:

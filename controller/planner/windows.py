@@ -28,6 +28,10 @@ gives it, so the windows give the whole-program plan bit for bit: the generated 
 ``benchmarks/programs.py`` at 5,000 blocks in windows of 1,000
 (``benchmarks/bench_plan_windows.py``), and ``tests/test_plan_windows.py``'s program in
 windows of 16-60 moves.
+
+Each window's kept reference goes to a :class:`~gantry_sim.controller.planner.segmented_curve.CurveBuilder`,
+which writes its full blocks of segments to a temporary file (and reads them back when the
+window is sent back): the finished plan's reference is held on disk, not in memory.
 """
 
 from __future__ import annotations
@@ -44,6 +48,7 @@ from gantry_sim.controller.planner.limits import BlockLimits
 from gantry_sim.controller.planner.prepare import Prepared, prepare, slow_blends, sub_path
 from gantry_sim.controller.planner.rounds import Round, Settled, assemble, settle_chains
 from gantry_sim.controller.planner.ruckig_solver import RuckigSolver
+from gantry_sim.controller.planner.segmented_curve import CurveBuilder
 
 __all__ = [
     "MARGIN_BRAKING",
@@ -75,6 +80,8 @@ class Planned:
     round: Round
     sources: list[tuple[int, int]] = field(default_factory=list)
     vertices: dict[int, np.ndarray] = field(default_factory=dict)
+    #: the reference of the windows kept (``round.chunks`` stays empty)
+    curve: CurveBuilder = field(default_factory=CurveBuilder)
 
 
 def blends_to_skip(
@@ -172,14 +179,15 @@ class _Mark(NamedTuple):
 
 def _mark(out: Planned) -> _Mark:
     r = out.round
-    return _Mark(len(r.entries), len(r.chunks), r.ruckig_pieces, r.duration_s, len(out.sources))
+    return _Mark(len(r.entries), len(out.curve), r.ruckig_pieces, r.duration_s, len(out.sources))
 
 
 def _truncate(out: Planned, mark: _Mark) -> None:
     """Take back what was kept after ``mark``."""
     r = out.round
     del r.entries[mark.entries :], r.move_start_s[mark.entries :], r.lines[mark.entries :]
-    del r.chunks[mark.chunks :], out.sources[mark.sources :]
+    del out.sources[mark.sources :]
+    out.curve.truncate(mark.chunks)
     r.ruckig_pieces, r.duration_s = mark.ruckig_pieces, mark.duration_s
 
 
@@ -233,7 +241,7 @@ def _keep(out: Planned, pre: Prepared, kept: Round, moves: int, upto: int) -> No
     stretch's moves before the cut) to ``out``: its entries moved to the whole path's active
     moves (its times already count from the path's start)."""
     base, r = len(out.sources), out.round
-    r.chunks.extend(kept.chunks)
+    out.curve.extend(kept.chunks)
     r.move_start_s.extend(kept.move_start_s)
     r.lines.extend(kept.lines)
     r.entries.extend((a + base, b + base) for a, b in kept.entries)
