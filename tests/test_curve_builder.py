@@ -4,6 +4,7 @@ planner/block_file.py)."""
 
 from __future__ import annotations
 
+import os
 import pickle
 import tempfile
 
@@ -87,12 +88,20 @@ def test_full_blocks_go_to_the_temporary_file_and_come_back(chunks, monkeypatch)
     _assert_same(curve, whole)
 
 
-def test_without_a_temporary_folder_the_blocks_stay_in_memory(chunks, monkeypatch) -> None:
+@pytest.mark.parametrize("failing", ["create", "write"])
+def test_without_a_writable_temporary_file_the_blocks_stay_in_memory(
+    chunks, monkeypatch, failing
+) -> None:
+    """No temporary folder, or a disk that fills up during the plan: the same curve, in memory."""
+
     def refuse(*args, **kwargs):
-        raise OSError("no space left on device")
+        raise OSError(28, "No space left on device")
 
     monkeypatch.setattr(sc, "BLOCK_PHASES", _PHASES)
-    monkeypatch.setattr(tempfile, "TemporaryFile", refuse)
+    if failing == "create":
+        monkeypatch.setattr(tempfile, "TemporaryFile", refuse)
+    else:
+        monkeypatch.setattr(os, "pwrite", refuse)
     curve = sc.SegmentedCurve(list(chunks))
     assert curve.spilled_bytes == 0
     monkeypatch.undo()

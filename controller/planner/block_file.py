@@ -6,7 +6,8 @@ A 100,000-block program's reference is hundreds of megabytes of segments (about 
 kept in memory, while a run samples it one range of ticks at a time. :class:`BlockFile` writes
 each full block, pickled, to an anonymous temporary file in ``$TMPDIR`` (unlinked at once: the
 system frees it when the file is closed or the process ends, however it ends) and reads a block
-back when it is laid out. Where no temporary file can be made, the blocks stay in memory.
+back when it is laid out. Where no temporary file can be made or written (no writable folder, a
+full disk), the blocks stay in memory.
 Reads are ``os.pread`` (no shared file position), so threads may read at once.
 """
 
@@ -42,9 +43,14 @@ class BlockFile:
 
     def append(self, block: Block, *, spill: bool = True) -> None:
         """Add ``block`` after the others: on disk when ``spill`` (and a file can be made)."""
-        data = pickle.dumps(block, protocol=pickle.HIGHEST_PROTOCOL) if spill else b""
-        if data and self._open() is not None:
-            _write_all(self._fd(), data, self._end)
+        data = b""
+        if spill and self._open() is not None:
+            data = pickle.dumps(block, protocol=pickle.HIGHEST_PROTOCOL)
+            try:
+                _write_all(self._fd(), data, self._end)
+            except OSError:  # the disk is full (or gone): this block stays in memory
+                data = b""
+        if data:
             self._spans.append((self._end, len(data)))
             self._end += len(data)
         else:
