@@ -9,10 +9,10 @@ Between two rests -- the start, the end, a dwell, a program stop (M0, M1, M60), 
 change (M201-M205: the planner plans the parts either side from rest to rest), and a reversal:
 two straight moves turning by :data:`REVERSAL_RAD` or more, where every axis that turns back
 passes zero speed and the planner stops -- the bound is the larger of the moves' times at
-those speeds and the fastest rest-to-rest run of their length under the norms of the axis speed and acceleration limits (the
-tangential acceleration never exceeds the acceleration's norm; no jerk limit, so it holds for
-any). A Marlin M201 or M204 in the program drops that term (they may raise the acceleration).
-Dwells add their time.
+those speeds and the fastest rest-to-rest run of their length under the norms of the axis
+speed and acceleration limits (the tangential acceleration never exceeds the acceleration's
+norm; no jerk limit, so it holds for any). A Marlin M201 or M204 in the program drops that
+term (they may raise the acceleration). Dwells add their time.
 
 G64 shortens the path, and the bound takes that off:
 

@@ -131,7 +131,6 @@ def _plan_part(
         path = path_plan(items, machine.path, seg.chord_tolerance_mm, slow, jerk)
     solver = RuckigSolver(machine.limits)
     planned = plan_path(path, machine, feed_override_pct, arc_pieces, solver, prepared)
-    del prepared  # held through the rounds otherwise (a tenth of their peak)
     done = planned.round
     end = np.array(program[-1].end if program else (0.0, 0.0, 0.0), dtype=float)
     move_start = np.asarray(done.move_start_s, dtype=float)

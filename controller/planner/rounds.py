@@ -96,19 +96,20 @@ def settle_chains(
     smoothing: list[float],
     blend_arcs: frozenset[int] = frozenset(),
 ) -> Settled:
-    """Plan the moves' chains (not yet assembled into a timeline: :func:`assemble`; a window
-    of a long program keeps only a prefix of them, :mod:`~gantry_sim.controller.planner.windows`);
-    while pieces next to moving junctions leave the arc, lower those junctions' caps (``caps`` [mm/s] is changed) by :data:`JUNCTION_BACKOFF` and plan again, at
-    most :data:`MAX_ROUNDS` times; after that a junction still offending has its two moves'
-    tangential acceleration and jerk lowered by :data:`SOFTEN` (at most :data:`SOFTEN_TRIES`
-    times), then becomes a stop, round by round, until none offends: the plan kept never has a
-    piece off its path next to a moving junction (lowering one junction changes its
-    neighbours' speeds, so a junction may first offend in a late round). Softening helps where
-    the chain's profile ends a ramp at its full tangential jerk right at a junction whose
-    curvature changes (a blend arc of a polyline of 0.035 mm steps): the axes need that jerk
-    plus the curvature's, and no lower junction speed frees it. ``blend_arcs``: ids of the G64
-    blend arcs among the moves (tolerance features: no saturated-ramp search, which costs
-    tenths of a second and can save them microseconds)."""
+    """Plan the moves' chains (not yet assembled into a timeline: :func:`assemble`; a window of a
+    long program keeps only a prefix of them, :mod:`~gantry_sim.controller.planner.windows`);
+    while pieces next to moving junctions leave the arc, lower those junctions' caps (``caps``
+    [mm/s] is changed) by :data:`JUNCTION_BACKOFF` and plan again, at most :data:`MAX_ROUNDS`
+    times; after that a junction still offending has its two moves' tangential acceleration and
+    jerk lowered by :data:`SOFTEN` (at most :data:`SOFTEN_TRIES` times), then becomes a stop,
+    round by round, until none offends: the plan kept never has a piece off its path next to a
+    moving junction (lowering one junction changes its neighbours' speeds, so a junction may
+    first offend in a late round). Softening helps where the chain's profile ends a ramp at its
+    full tangential jerk right at a junction whose curvature changes (a blend arc of a polyline
+    of 0.035 mm steps): the axes need that jerk plus the curvature's, and no lower junction
+    speed frees it. ``blend_arcs``: ids of the G64 blend arcs among the moves (tolerance
+    features: no saturated-ramp search, which costs tenths of a second and can save them
+    microseconds)."""
     setup = ChainSetup(active, states, machine, solver, arc_pieces, smoothing, {}, blend_arcs)
     blocks = [g.limits for g in active]
     cache: dict[ChainKey, Chain] = {}

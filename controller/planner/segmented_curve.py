@@ -100,16 +100,21 @@ class CurveBuilder:
 
     def finish(self) -> SegmentedCurve:
         """The curve of the chunks added (the builder is left empty)."""
+        curve = SegmentedCurve.__new__(SegmentedCurve)
+        curve._setup(*self._take())
+        return curve
+
+    def _take(self) -> tuple[BlockFile, np.ndarray, np.ndarray]:
+        """The blocks, with their phase counts and start times [s] (3, blocks), handed over:
+        the builder is left empty."""
         if self._current:
             self._close(spill=False)
         counts = np.array(self._counts, dtype=np.int64).reshape(-1, 3).T
         starts = np.array(self._starts, dtype=float).reshape(-1, 3).T
-        curve = SegmentedCurve.__new__(SegmentedCurve)
-        curve._setup(self._file, counts, starts)
-        self._file = BlockFile()
+        blocks, self._file = self._file, BlockFile()
         self._counts, self._starts, self._chunk_at = [], [], []
         self._carry = np.zeros(3)
-        return curve
+        return blocks, counts, starts
 
     def _close(self, *, spill: bool) -> None:
         """Close the open block: its phase counts and start times, then into the file."""
@@ -139,8 +144,7 @@ class SegmentedCurve:
         is read: the segments are held once (in a temporary file past the first block)."""
         builder = CurveBuilder()
         builder.extend(chunks)
-        built = builder.finish()
-        self._setup(built._blocks, built._counts, built._block_starts)
+        self._setup(*builder._take())
 
     def _setup(self, blocks: BlockFile, counts: np.ndarray, starts: np.ndarray) -> None:
         """``blocks`` of segments with their phase counts and start times [s], (3, blocks)."""
