@@ -7,7 +7,12 @@ import numpy as np
 from hypothesis import given
 from hypothesis import strategies as st
 
-from gantry_sim.controller.planner.piece_speed import max_speed_squared, peak_speed
+from gantry_sim.controller.planner.piece_speed import (
+    axis_speed_bound,
+    max_speed_squared,
+    peak_speed,
+    speed_exceeds,
+)
 from gantry_sim.controller.planner.ruckig_solver import RuckigRejected, RuckigSolver
 from tests.plan_helpers import PLAN_PROPERTY_SETTINGS
 
@@ -79,3 +84,46 @@ def test_five_samples_and_the_bound_between_them_cover_the_peak(v, a, j, h):  # 
     sampled = np.einsum("fnkd,fnkd->fnk", vel, vel).max(axis=0)
     peak = max_speed_squared(vs[0], as_[0], js[0], np.full(3, h))
     assert np.all(sampled[0] + _between_samples(vs, as_, js, hh)[0] >= peak * (1 - 1e-12))
+
+
+@PLAN_PROPERTY_SETTINGS
+@given(dp=vec, v0=vec, v1=vec, a0=vec, a1=vec, t_min=st.floats(0.0, 0.1))
+def test_the_axis_bound_settles_the_feed_check_as_the_exact_peak_does(  # type: ignore[no-untyped-def]
+    machine, dp, v0, v1, a0, a1, t_min
+):
+    # the planner asks speed_exceeds(piece, feed); the cheap per-axis bound may answer only
+    # where it lies below the cap, so the answer is the exact peak's at every cap
+    solver = RuckigSolver(machine.limits)
+    try:
+        piece = solver.piece(
+            (np.zeros(3), 40.0 * v0, 400.0 * a0), (dp, 40.0 * v1, 400.0 * a1), t_min
+        )
+    except RuckigRejected:
+        return
+    exact = peak_speed(piece.phases)
+    bound = axis_speed_bound(piece.phases)
+    assert bound >= exact * (1 - 1e-12)
+    for cap in (0.5 * exact, exact * (1 - 1e-12), exact, exact * (1 + 1e-12), bound, 2.0 * bound):
+        assert speed_exceeds(piece.phases, cap) == (exact > cap)
+
+
+def test_the_axis_bound_of_a_bulge_inside_a_phase_and_of_an_axis_at_rest():  # type: ignore[no-untyped-def]
+    ms = 1e-3
+    x = ([100 * ms], [0.0], [6.0], [0.0], [0.0])
+    y = ([2 * ms], [0.0], [0.0], [100.0], [-1e5])  # out and back: 0.05 mm/s at 1 ms
+    z = ([], [], [], [], [])  # no phase: holds its start velocity (none: 0)
+    assert np.isclose(axis_speed_bound((x, y, z)), np.hypot(6.0, 0.05), rtol=1e-15, atol=0)
+    assert axis_speed_bound((x, y, z)) >= peak_speed((x, y, z))
+    assert not speed_exceeds((x, y, z), 6.001) and speed_exceeds((x, y, z), 6.0001)
+
+
+def test_a_piece_longer_than_asked_carries_no_samples(machine):  # type: ignore[no-untyped-def]
+    solver = RuckigSolver(machine.limits)
+    start, end = (
+        (np.zeros(3), np.zeros(3), np.zeros(3)),
+        (np.array([1.0, 0.5, 0.0]), np.zeros(3), np.zeros(3)),
+    )
+    piece = solver.piece(start, end, 0.0, samples=25)
+    assert piece.positions is not None and piece.positions.shape == (25, 3)
+    assert solver.piece(start, end, 0.0, 25, piece.duration_s).positions is not None
+    assert solver.piece(start, end, 0.0, 25, 0.5 * piece.duration_s).positions is None

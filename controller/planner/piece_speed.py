@@ -19,7 +19,11 @@ from collections.abc import Sequence
 
 import numpy as np
 
-__all__ = ["max_speed_squared", "peak_speed"]
+__all__ = ["axis_speed_bound", "max_speed_squared", "peak_speed", "speed_exceeds"]
+
+#: :func:`speed_exceeds` trusts the per-axis bound only this far below the cap (relative), so
+#: that its answer is :func:`peak_speed`'s to the last bit (their roundings are ~1e-16).
+BOUND_MARGIN = 1e-9
 
 
 def max_speed_squared(v: np.ndarray, a: np.ndarray, j: np.ndarray, h: np.ndarray) -> np.ndarray:
@@ -73,9 +77,38 @@ def peak_speed(phases: Sequence[Sequence[Sequence[float]]]) -> float:
         starts = np.concatenate(([0.0], ends[i][:-1]))  # the cuts' own numbers
         k = np.clip(np.searchsorted(starts, t0, side="right") - 1, 0, ax.shape[1] - 1)
         tau = t0 - starts[k]
-        past = tau > ax[0, k]  # after the axis' last phase: its end velocity, held
+        past = t0 >= ends[i][k]  # after the axis' last phase: its end velocity, held
         tau = np.minimum(tau, ax[0, k])
         v[:, i] = ax[2, k] + tau * (ax[3, k] + 0.5 * tau * ax[4, k])
         a[:, i] = np.where(past, 0.0, ax[3, k] + tau * ax[4, k])
         j[:, i] = np.where(past, 0.0, ax[4, k])
     return float(np.sqrt(max_speed_squared(v, a, j, h).max()))
+
+
+def axis_speed_bound(phases: Sequence[Sequence[Sequence[float]]]) -> float:
+    """An upper bound on :func:`peak_speed` [mm/s]: each axis' largest |velocity| over its own
+    phases (a phase's ends and its stationary point), combined as if they coincided. Pure
+    Python on the few phases of a Ruckig piece: about 10 x faster than the exact peak."""
+    total = 0.0
+    for dur, _p, v, a, j in phases:
+        top = abs(v[0]) if len(v) else 0.0  # an axis with no phase holds its start velocity
+        for d, v0, a0, j0 in zip(dur, v, a, j, strict=False):
+            if not d > 0.0:
+                continue
+            v1 = v0 + d * (a0 + 0.5 * d * j0)
+            top = max(top, abs(v0), abs(v1))
+            if j0 != 0.0:
+                tau = -a0 / j0
+                if 0.0 < tau < d:
+                    top = max(top, abs(v0 + tau * (a0 + 0.5 * tau * j0)))
+        total += top * top
+    return total**0.5
+
+
+def speed_exceeds(phases: Sequence[Sequence[Sequence[float]]], cap_mm_per_s: float) -> bool:
+    """Whether :func:`peak_speed` of ``phases`` exceeds ``cap_mm_per_s``, the same answer:
+    the cheap :func:`axis_speed_bound` settles it where it lies clearly below the cap (most
+    pieces), the exact peak elsewhere."""
+    if axis_speed_bound(phases) < cap_mm_per_s * (1.0 - BOUND_MARGIN):
+        return False
+    return peak_speed(phases) > cap_mm_per_s
