@@ -12,6 +12,7 @@ moving junction are checked against the arc.
 
 from __future__ import annotations
 
+import math
 from collections.abc import Sequence
 from dataclasses import dataclass, field
 
@@ -31,7 +32,7 @@ from gantry_sim.controller.planner.jerk3 import (
 )
 from gantry_sim.controller.planner.junctions import EndState
 from gantry_sim.controller.planner.move_geometry import ArcGeometry, MoveGeometry
-from gantry_sim.controller.planner.piece_speed import peak_speed
+from gantry_sim.controller.planner.piece_speed import speed_exceeds
 from gantry_sim.controller.planner.profile import Profile1D
 from gantry_sim.controller.planner.ruckig_solver import (
     RUCKIG_MAX_DURATION_S,
@@ -181,18 +182,26 @@ class MovePieces:
             if self.pieces != "ruckig":
                 self.ruckig_pieces += 1
             start, end = (verts[k], vel[k], acc[k]), (verts[k + 1], vel[k + 1], acc[k + 1])
-            piece = self.ruckig_piece(g, start, end, mins[k], True)
+            # a piece next to a moving junction that Ruckig stretched makes that junction
+            # bad whatever its shape: it needs no samples, nor checks
+            stretch_s = mins[k] * 1.001 + 1e-9
+            piece = self.ruckig_piece(
+                g, start, end, mins[k], True, stretch_s if at_in or at_out else math.inf
+            )
             d = piece.duration_s
             total += d
-            if piece.positions is not None:
+            stretched = d > stretch_s
+            if stretched and (at_in or at_out):
+                bad_in |= at_in
+                bad_out |= at_out
+            elif piece.positions is not None:
                 q = piece.positions
-                speed = peak_speed(piece.phases)  # exact: a short bulge falls between samples
                 # the smoothing budget is for the jumps at moving junctions only
                 near = dev_max if at_in or at_out else self.dev_max
-                off = g.deviation(q, u[k]) > near or speed > g.feed_mm_per_s
-                stretched = d > mins[k] * 1.001 + 1e-9
-                bad_in |= at_in and (off or stretched)
-                bad_out |= at_out and (off or stretched)
+                # the speed exactly: a short bulge falls between samples
+                off = g.deviation(q, u[k]) > near or speed_exceeds(piece.phases, g.feed_mm_per_s)
+                bad_in |= at_in and off
+                bad_out |= at_out and off
                 if off and not (at_in or at_out):
                     if mv_in or mv_out:  # their speeds must come down
                         bad_in |= mv_in
@@ -250,10 +259,12 @@ class MovePieces:
         end: tuple[np.ndarray, np.ndarray, np.ndarray],
         min_duration_s: float,
         sampled: bool,
+        sampled_within_s: float = math.inf,
     ) -> RuckigPiece:
         """One 3-DoF state-to-state piece by Ruckig (see
         :meth:`~gantry_sim.controller.planner.ruckig_solver.RuckigSolver.piece`), added to
-        :attr:`out`; ``sampled``: with :data:`PIECE_SAMPLES` samples to check it."""
+        :attr:`out`; ``sampled``: with :data:`PIECE_SAMPLES` samples to check it, if it lasts
+        at most ``sampled_within_s`` [s]."""
         if min_duration_s > RUCKIG_MAX_DURATION_S:
             raise PlanningError(
                 f"at this line's feed one piece of its path (between two chord vertices) takes "
@@ -262,7 +273,9 @@ class MovePieces:
                 line=g.move.line,
             )
         try:
-            piece = self.solver.piece(start, end, min_duration_s, PIECE_SAMPLES if sampled else 0)
+            piece = self.solver.piece(
+                start, end, min_duration_s, PIECE_SAMPLES if sampled else 0, sampled_within_s
+            )
         except RuckigRejected as exc:
             raise PlannerFailure(
                 f"no jerk-limited piece joins two chord vertices of this {g.move.kind} move "

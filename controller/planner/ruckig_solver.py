@@ -17,6 +17,7 @@ else. Never ``intermediate_positions`` (the free Ruckig would send them to a clo
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
 import numpy as np
@@ -167,11 +168,13 @@ class RuckigSolver:
         end: tuple[np.ndarray, np.ndarray, np.ndarray],
         min_duration_s: float,
         samples: int = 0,
+        sampled_within_s: float = math.inf,
     ) -> RuckigPiece:
         """The time-synchronised piece from state ``start`` to ``end`` (position [mm], velocity
         [mm/s], acceleration [mm/s^2], each (3,)) lasting at least ``min_duration_s``; where
         Ruckig rejects that, the time-optimal piece. ``samples``: how many evenly spaced
-        positions to return with it (0: none).
+        positions to return with it (0: none) when it lasts at most ``sampled_within_s`` [s]
+        (a caller that rejects longer pieces needs no samples of them).
 
         Raises:
             RuckigRejected: Ruckig found no piece even without the minimum duration.
@@ -191,6 +194,8 @@ class RuckigSolver:
             except RuckigRejected:
                 return self._piece_with_closed_form_axes(start, end, min_duration_s, samples)
         dur = tr.duration
+        if dur > sampled_within_s:
+            samples = 0
         phases = (_phases(tr, 0), _phases(tr, 1), _phases(tr, 2))
         if not samples:
             return RuckigPiece(dur, phases)
