@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import importlib
 import math
+import sys
 
 import numpy as np
 import pytest
@@ -155,4 +156,25 @@ def test_a_window_sent_back_again_comes_back_wider_each_time(monkeypatch):
     monkeypatch.setattr(windows, "settle_chains", refuse_every_second)
     windowed = plan(interpret_events(_program()), load_machine_config(DEFAULT_MACHINE))
     assert sizes[0] == 16 and sizes[2] == 32 and sizes[4] == 64 and sizes[6] == 128, sizes
+    _assert_same(whole, windowed)
+
+
+@pytest.mark.skipif(not sys.platform.startswith("linux"), reason="forks on Linux only")
+def test_slow_blends_judged_over_processes_are_the_ones_judged_in_one(monkeypatch):
+    """The windows of the slow-blend judgement go to forked processes, a wave at a time: the
+    corners found, and so the plan, are those of the whole program in one process."""
+    monkeypatch.setenv("GANTRY_PLAN_WORKERS", "1")
+    whole, _, _ = _whole_and_windowed(_program(), monkeypatch, 25, 5)
+    waves: list[int] = []
+    real = windows.fork_map
+
+    def spy(fn, parts):  # type: ignore[no-untyped-def]
+        waves.append(len(parts))
+        return real(fn, parts)
+
+    monkeypatch.setattr(windows, "fork_map", spy)
+    monkeypatch.setenv("GANTRY_PLAN_WORKERS", "3")
+    windowed = plan(interpret_events(_program()), load_machine_config(DEFAULT_MACHINE))
+    assert len(waves) > 1 and max(waves) == 3, waves  # several waves of three processes
+    assert len(whole.blends) < 69  # some corners were judged slow
     _assert_same(whole, windowed)

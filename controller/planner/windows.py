@@ -43,6 +43,7 @@ from typing import NamedTuple
 import numpy as np
 
 from gantry_sim.controller.config import MachineConfig
+from gantry_sim.controller.forked import fork_map, process_count
 from gantry_sim.controller.planner.blend import PathPlan
 from gantry_sim.controller.planner.limits import BlockLimits
 from gantry_sim.controller.planner.prepare import Prepared, prepare, slow_blends, sub_path
@@ -89,18 +90,25 @@ def blends_to_skip(
 ) -> frozenset[int]:
     """The junctions of a long ``path`` whose blends are too slow to keep
     (:func:`~gantry_sim.controller.planner.prepare.slow_blends`), judged a window at a time
-    with :data:`BLEND_CONTEXT` moves of context either side."""
+    with :data:`BLEND_CONTEXT` moves of context either side; the windows are independent, so
+    they are judged over the cores (:func:`~gantry_sim.controller.forked.fork_map`, a wave of
+    one window per process: each holds one window's working set)."""
     n = len(path.moves)
-    slow: set[int] = set()
-    for lo in range(0, n, WINDOW_MOVES):
+    starts = sorted({k // WINDOW_MOVES * WINDOW_MOVES for k in path.blend_junction})
+
+    def judge(lo: int) -> frozenset[int]:
         a, b = max(0, lo - BLEND_CONTEXT), min(n, lo + WINDOW_MOVES + BLEND_CONTEXT)
         stretch = sub_path(path, a, b, a)
         inner = {k: j for k, j in stretch.blend_junction.items() if lo <= a + k < lo + WINDOW_MOVES}
-        if not inner:
-            continue
         prepared = prepare(stretch, machine, feed_override_pct, {})
         stretch.blend_junction = inner
-        slow |= slow_blends(stretch, prepared)
+        return slow_blends(stretch, prepared)
+
+    slow: set[int] = set()
+    wave = process_count()
+    for first in range(0, len(starts), wave):
+        for found in fork_map(judge, starts[first : first + wave]):
+            slow |= found
     return frozenset(slow)
 
 
