@@ -38,8 +38,26 @@ class ArcFrame(NamedTuple):
     h1_mm: float  #: normal-axis coordinate at the end [mm]
 
 
+#: Frames kept by :func:`arc_frame` (the planner asks for the same arc's frame tens of times
+#: while it plans it), each with its arc, so an id is never mistaken; emptied when full.
+FRAME_CACHE_SIZE = 4096
+_frames: dict[int, tuple[Arc, ArcFrame]] = {}
+
+
 def arc_frame(arc: Arc) -> ArcFrame:
-    """The :class:`ArcFrame` of ``arc``."""
+    """The :class:`ArcFrame` of ``arc`` (kept for the :data:`FRAME_CACHE_SIZE` arcs asked for
+    last)."""
+    hit = _frames.get(id(arc))
+    if hit is not None and hit[0] is arc:
+        return hit[1]
+    frame = _arc_frame(arc)
+    if len(_frames) >= FRAME_CACHE_SIZE:
+        _frames.clear()  # one step, safe beside other threads
+    _frames[id(arc)] = (arc, frame)
+    return frame
+
+
+def _arc_frame(arc: Arc) -> ArcFrame:
     i1, i2, n = PLANE_AXES[arc.plane]
     c, s, e = arc.center, arc.start, arc.end
     theta0 = math.atan2(s[i2] - c[i2], s[i1] - c[i1])

@@ -10,6 +10,7 @@ planning the rs274 corpus).
 
 from __future__ import annotations
 
+import math
 from pathlib import Path
 
 import numpy as np
@@ -74,3 +75,27 @@ def test_spiral_length_and_its_inverse_match_the_polyline() -> None:
     s = spiral_length_at(a, u)
     assert np.abs(s - polyline).max() < 1e-7  # the chords' own shortfall is below 1e-8 mm
     assert np.abs(spiral_fraction_at(a, s, float(s[-1])) - u).max() < 1e-12
+
+
+def test_arc_frames_kept_for_reuse_are_each_arcs_own() -> None:
+    # arc_frame keeps the frames it made (keyed by the arc's id, with the arc held): arcs
+    # made and dropped in turn, more than the cache holds, each get their own frame
+    from gantry_sim.controller import arcs
+
+    for k in range(arcs.FRAME_CACHE_SIZE + 100):
+        r = 1.0 + k * 1e-3
+        arc = Arc(
+            1,
+            (r, 0.0, 0.0),
+            (0.0, r, 0.0),
+            600.0,
+            "XY",
+            "ccw",
+            (0.0, 0.0, 0.0),
+            r,
+            1,
+            0.5 * math.pi,
+        )
+        assert arcs.arc_frame(arc) == arcs._arc_frame(arc)
+        assert arcs.arc_frame(arc).r0_mm == r
+    assert 0 < len(arcs._frames) <= arcs.FRAME_CACHE_SIZE
