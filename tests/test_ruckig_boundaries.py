@@ -133,6 +133,9 @@ def test_an_axis_ruckig_cannot_plan_alone_follows_the_closed_form_piece(machine)
         assert np.all(np.abs(a) <= amax[i]) and np.all(np.abs(v) <= vmax[i]), i
         assert _end_state(phases) == pytest.approx((end[0][i], end[1][i], end[2][i]), abs=1e-9), i
     assert piece.positions is not None
+    # a caller that rejects a stretched piece asks for no samples of it, on this path too
+    longer = RuckigSolver(machine.limits).piece(start, end, chord_s, 50, chord_s * 1.001)
+    assert longer.positions is None and longer.duration_s == piece.duration_s
     assert np.allclose(piece.positions[-1], end[0], atol=1e-9)
 
 

@@ -186,7 +186,7 @@ class MovePieces:
             # bad whatever its shape: it needs no samples, nor checks
             stretch_s = mins[k] * 1.001 + 1e-9
             piece = self.ruckig_piece(
-                g, start, end, mins[k], True, stretch_s if at_in or at_out else math.inf
+                g, start, end, mins[k], stretch_s if at_in or at_out else math.inf
             )
             d = piece.duration_s
             total += d
@@ -258,13 +258,12 @@ class MovePieces:
         start: tuple[np.ndarray, np.ndarray, np.ndarray],
         end: tuple[np.ndarray, np.ndarray, np.ndarray],
         min_duration_s: float,
-        sampled: bool,
         sampled_within_s: float = math.inf,
     ) -> RuckigPiece:
         """One 3-DoF state-to-state piece by Ruckig (see
         :meth:`~gantry_sim.controller.planner.ruckig_solver.RuckigSolver.piece`), added to
-        :attr:`out`; ``sampled``: with :data:`PIECE_SAMPLES` samples to check it, if it lasts
-        at most ``sampled_within_s`` [s]."""
+        :attr:`out`, with :data:`PIECE_SAMPLES` samples to check it if it lasts at most
+        ``sampled_within_s`` [s]."""
         if min_duration_s > RUCKIG_MAX_DURATION_S:
             raise PlanningError(
                 f"at this line's feed one piece of its path (between two chord vertices) takes "
@@ -273,9 +272,7 @@ class MovePieces:
                 line=g.move.line,
             )
         try:
-            piece = self.solver.piece(
-                start, end, min_duration_s, PIECE_SAMPLES if sampled else 0, sampled_within_s
-            )
+            piece = self.solver.piece(start, end, min_duration_s, PIECE_SAMPLES, sampled_within_s)
         except RuckigRejected as exc:
             raise PlannerFailure(
                 f"no jerk-limited piece joins two chord vertices of this {g.move.kind} move "

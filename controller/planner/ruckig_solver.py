@@ -192,7 +192,9 @@ class RuckigSolver:
             try:
                 _calculate(self._otg3, inp, tr)
             except RuckigRejected:
-                return self._piece_with_closed_form_axes(start, end, min_duration_s, samples)
+                return self._piece_with_closed_form_axes(
+                    start, end, min_duration_s, samples, sampled_within_s
+                )
         dur = tr.duration
         if dur > sampled_within_s:
             samples = 0
@@ -208,6 +210,7 @@ class RuckigSolver:
         end: tuple[np.ndarray, np.ndarray, np.ndarray],
         min_duration_s: float,
         samples: int,
+        sampled_within_s: float,
     ) -> RuckigPiece:
         """The piece when Ruckig rejects it because an axis barely moves (on an arc near a
         quadrant point one axis may move 1e-8 mm at 1e-5 mm/s, below Ruckig's numerical
@@ -263,7 +266,7 @@ class RuckigSolver:
                 closed, ok = closed_form(dur)
             if not ok:
                 raise RuckigRejected("no piece: no closed-form piece keeps the limits")
-            return _assemble(dur, closed, tiny, None, samples)
+            return _assemble(dur, closed, tiny, None, samples if dur <= sampled_within_s else 0)
         inp.enabled = [not bool(t) for t in tiny]
         try:
             inp.minimum_duration = float(min_duration_s)
@@ -278,7 +281,8 @@ class RuckigSolver:
             inp.enabled = [True, True, True]
         if not ok:
             raise RuckigRejected("no piece: an axis planned in closed form would exceed its limits")
-        return _assemble(tr.duration, closed, tiny, tr, samples)
+        dur = tr.duration
+        return _assemble(dur, closed, tiny, tr, samples if dur <= sampled_within_s else 0)
 
     def _axis_plans(
         self,
