@@ -7,8 +7,10 @@ programs several planner tests share are kept here too.
 from __future__ import annotations
 
 import math
+from types import ModuleType
 
 import numpy as np
+import pytest
 from hypothesis import HealthCheck, settings
 
 from gantry_sim.controller.arcs import arc_points
@@ -154,3 +156,17 @@ def plan_with_chunks(text: str):
     finally:
         sc.CurveBuilder.extend = real  # type: ignore[method-assign]
     return p, seen
+
+
+def count_fork_map_parts(monkeypatch: pytest.MonkeyPatch, module: ModuleType) -> list[int]:
+    """Spy on ``module.fork_map`` (the real one still runs): the list returned gets each
+    call's number of parts, so a test can tell the work was split over processes."""
+    calls: list[int] = []
+    real = module.fork_map
+
+    def spy(fn, parts):  # type: ignore[no-untyped-def]
+        calls.append(len(parts))
+        return real(fn, parts)
+
+    monkeypatch.setattr(module, "fork_map", spy)
+    return calls

@@ -16,6 +16,7 @@ from gantry_sim.controller.forked import fork_map, one_process, process_count
 from gantry_sim.controller.gcode.interpreter import parse_program
 from gantry_sim.controller.planner import plan
 from gantry_sim.models import DEFAULT_MACHINE
+from tests.plan_helpers import count_fork_map_parts
 
 linux = pytest.mark.skipif(not sys.platform.startswith("linux"), reason="fork: Linux only")
 EXAMPLES = Path(__file__).resolve().parent.parent / "examples"
@@ -111,14 +112,7 @@ def test_a_plan_split_over_processes_is_the_same_bit_for_bit(
     moves = parse_program((EXAMPLES / name).read_text())
     monkeypatch.setenv("GANTRY_PLAN_WORKERS", "1")
     alone = plan(moves, machine)
-    calls: list[int] = []
-    real = chain_plan.fork_map
-
-    def spy(fn, parts):  # type: ignore[no-untyped-def]
-        calls.append(len(parts))
-        return real(fn, parts)
-
-    monkeypatch.setattr(chain_plan, "fork_map", spy)
+    calls = count_fork_map_parts(monkeypatch, chain_plan)
     monkeypatch.setattr(chain_plan, "FORK_WORK", 2)
     monkeypatch.setattr(chain_plan, "WAVE_WORK", 40)
     monkeypatch.setattr(chain_plan, "FORK_RUN", 1)

@@ -17,6 +17,7 @@ from gantry_sim.controller.config import load_machine_config
 from gantry_sim.controller.gcode.interpreter import interpret_events
 from gantry_sim.controller.planner import plan, rounds, segmented_curve, windows
 from gantry_sim.models import DEFAULT_MACHINE
+from tests.plan_helpers import count_fork_map_parts
 
 # the module, not the function the package re-exports under the same name
 plan_module = importlib.import_module("gantry_sim.controller.planner.plan")
@@ -165,14 +166,7 @@ def test_slow_blends_judged_over_processes_are_the_ones_judged_in_one(monkeypatc
     corners found, and so the plan, are those of the whole program in one process."""
     monkeypatch.setenv("GANTRY_PLAN_WORKERS", "1")
     whole, _, _ = _whole_and_windowed(_program(), monkeypatch, 25, 5)
-    waves: list[int] = []
-    real = windows.fork_map
-
-    def spy(fn, parts):  # type: ignore[no-untyped-def]
-        waves.append(len(parts))
-        return real(fn, parts)
-
-    monkeypatch.setattr(windows, "fork_map", spy)
+    waves = count_fork_map_parts(monkeypatch, windows)
     monkeypatch.setenv("GANTRY_PLAN_WORKERS", "3")
     windowed = plan(interpret_events(_program()), load_machine_config(DEFAULT_MACHINE))
     assert len(waves) > 1 and max(waves) == 3, waves  # several waves of three processes
