@@ -159,13 +159,15 @@ def child(kind: str, blocks: int, baseline_rev: str | None) -> dict:
         t2 = time.perf_counter()
         peak = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss * 1024
         children, tree_peak = tree.stop()
+        with np.load(Path(tmp) / "out" / "trace.npz") as npz:  # every tick, streamed or not
+            start, force = npz["ref"][0], npz["force_N"]
     contour.analyse = real_analyse
     timing = result.report["timing_s"]
     out = {
         "kind": kind,
         "blocks": blocks,
         "ticks": int(result.report["sim"]["steps"]) // load_gantry(machine).substeps,
-        "streamed": result.trace_file is not None,
+        "streamed": result.streamed,
         "cycle_s": result.report["cycle_time_s"],
         **{k: float(timing[k]) for k in ("parse", "plan", "simulate", "analyse")},
         "trace": float(timing.get("trace", 0.0)),  # a streamed run's trace.npz assembled
@@ -175,11 +177,6 @@ def child(kind: str, blocks: int, baseline_rev: str | None) -> dict:
         "children_bytes": children,
         "tree_bytes": max(peak, tree_peak),
     }
-    if result.trace_file is not None:  # a streamed run: its trace is decimated, the file is not
-        with np.load(result.trace_file) as npz:
-            start, force = npz["ref"][0], npz["force_N"]
-    else:
-        start, force = result.trace.ref[0], result.trace.force_N
     out["mujoco"] = _replay_s(load_gantry(machine), start, force)
     if "args" not in captured:  # streamed: analysed range by range, no whole-trace call
         return out

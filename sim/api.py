@@ -26,6 +26,7 @@ from collections.abc import Iterable, Iterator, Sequence
 from dataclasses import dataclass, field, replace
 from functools import cached_property
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 from gantry_sim.controller.config import MachineConfig
 from gantry_sim.controller.errors import GantryError, GcodeError
@@ -35,6 +36,9 @@ from gantry_sim.sim.gates import Gates, Verdict
 from gantry_sim.sim.progress import Advance, stage, wanted
 from gantry_sim.sim.report import RunReport
 from gantry_sim.sim.trace import Trace
+
+if TYPE_CHECKING:
+    from gantry_sim.sim.trace_writer import TraceWriter
 
 #: runs longer than this [servo ticks] are streamed (sim.stream): the same numbers, in memory
 #: bounded by sim.stream.STREAM_TICKS; their RunResult.trace is decimated (trace.npz is not)
@@ -54,11 +58,12 @@ class RunResult:
     run_report: RunReport
     trace: Trace
     moves: tuple
-    #: a streamed run's full-rate trace.npz, staged in a temporary folder (the run is then too
-    #: long to hold: :attr:`trace` is its decimated trace); None when :attr:`trace` is complete
-    trace_file: Path | None = None
-    #: keeps the staging folder of :attr:`trace_file` alive as long as the result
-    staging: object = field(default=None, repr=False, compare=False)
+    #: a streamed run's full-rate trace, deflated in anonymous temporary files (the run is then
+    #: too long to hold: :attr:`trace` is its decimated trace); ``full_trace.save(path)`` writes
+    #: it as trace.npz. None when :attr:`trace` is complete, or with ``keep_trace=False``.
+    full_trace: TraceWriter | None = field(default=None, repr=False, compare=False)
+    #: the run was streamed (sim.stream): :attr:`trace` is decimated
+    streamed: bool = False
 
     @cached_property
     def report(self) -> dict:
@@ -218,9 +223,8 @@ def _streamed(
     keep_trace: bool = True,
 ) -> RunResult:
     """run_program's path for long runs: sim.stream range by range, the full-rate trace
-    written incrementally into a staging folder (sim.trace_writer) unless ``keep_trace`` is
-    False, a decimated trace kept."""
-    import tempfile
+    deflated as it comes (sim.trace_writer) unless ``keep_trace`` is False, a decimated trace
+    kept."""
 
     from gantry_sim.sim.machine import load_gantry
     from gantry_sim.sim.report import build_streamed_report
@@ -228,8 +232,7 @@ def _streamed(
     from gantry_sim.sim.trace_writer import TraceWriter
 
     n = planned.sample_count(machine.servo.period_s)
-    staging = tempfile.TemporaryDirectory(prefix="gantry-trace-") if keep_trace else None
-    writer = TraceWriter(Path(staging.name), n) if staging is not None else None
+    writer = TraceWriter(n) if keep_trace else None
     try:
         gantry = load_gantry(machine)
         with stage("simulate+analyse", n, "tick", wanted(progress)) as advance:
@@ -238,13 +241,12 @@ def _streamed(
             )
     except BaseException:
         if writer is not None:
-            writer.close()  # its thread and files; the staging folder goes with ``staging``
+            writer.close()  # its thread and files
         raise
     t0 = time.perf_counter()
-    trace_file = None
-    if writer is not None and staging is not None:
+    if writer is not None:
         with stage("trace.npz", 1, "file", wanted(progress), known_size=False):
-            trace_file = writer.finish(Path(staging.name) / "trace.npz")
+            writer.finish()
     timing |= {"simulate": streamed.simulate_s, "analyse": streamed.analyse_s}
     timing["trace"] = time.perf_counter() - t0
     timing["total"] = sum(timing.values())
@@ -258,7 +260,7 @@ def _streamed(
         streamed=streamed,
         timing=timing,
     )
-    return RunResult(report, streamed.decimated, moves, trace_file=trace_file, staging=staging)
+    return RunResult(report, streamed.decimated, moves, full_trace=writer, streamed=True)
 
 
 def _advancing(items: Iterable, advance: Advance) -> Iterator:
@@ -335,7 +337,7 @@ def write_run_outputs(
         deterministic=deterministic,
         gates=gates,
         started=started,
-        trace_file=result.trace_file,
+        full_trace=result.full_trace,
         trace_npz=trace,
         progress=wanted(progress),
     )

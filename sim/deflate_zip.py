@@ -7,14 +7,18 @@ each member is deflated as its bytes arrive (:class:`DeflatedMember`: raw deflat
 sizes kept), and :func:`write_zip` then writes the container around the deflated bytes, copying
 them. Every entry carries ZIP64 sizes and offsets (version 4.5), whatever its size, so the one
 path that writes multi-gigabyte traces is the one the tests read back with zipfile and numpy.
+
+A member's deflated bytes wait in an anonymous temporary file (``tempfile.TemporaryFile`` in
+``$TMPDIR``: no name in any folder, so the system frees it when the process ends, however it
+ends: a sweep worker terminated mid-run leaves nothing behind).
 """
 
 from __future__ import annotations
 
 import shutil
 import struct
+import tempfile
 import zlib
-from pathlib import Path
 from typing import BinaryIO
 
 #: zlib level: 1, as trace.npz was written (fast; float data deflates little more at 9)
@@ -25,24 +29,40 @@ _DOS_TIME, _DOS_DATE = 0, (1980 - 1980) << 9 | 1 << 5 | 1  # 1980-01-01 00:00, a
 
 
 class DeflatedMember:
-    """One member's bytes, deflated into the file ``path`` as they are added."""
+    """One member's bytes, deflated as they are added into an anonymous temporary file (kept
+    until :meth:`release`, or until the member is garbage-collected)."""
 
-    def __init__(self, name: str, path: Path) -> None:
-        self.name, self.path = name, Path(path)
+    def __init__(self, name: str) -> None:
+        self.name = name
         self.crc, self.size, self.compressed = 0, 0, 0
-        self._file: BinaryIO | None = open(self.path, "wb")  # closed by close()
-        self._deflate = zlib.compressobj(LEVEL, zlib.DEFLATED, -15)
+        self._file: BinaryIO | None = tempfile.TemporaryFile()
+        self._deflate: zlib._Compress | None = zlib.compressobj(LEVEL, zlib.DEFLATED, -15)
 
     def add(self, data: bytes | memoryview) -> None:
-        assert self._file is not None, "member already closed"
+        assert self._deflate is not None, "member already finished"
         self.crc = zlib.crc32(data, self.crc)
         self.size += len(data)
         self._write(self._deflate.compress(data))
 
-    def close(self) -> None:
-        """Flush the deflate stream and close the file (idempotent)."""
-        if self._file is not None:
+    def finish(self) -> None:
+        """End the deflate stream: no more bytes are added (idempotent)."""
+        if self._deflate is not None:
             self._write(self._deflate.flush())
+            self._deflate = None
+
+    def copy_to(self, out: BinaryIO) -> None:
+        """Write the deflated bytes to ``out`` (the member finished)."""
+        self.finish()
+        if self._file is None:
+            raise ValueError(f"{self.name}: released")
+        self._file.seek(0)
+        shutil.copyfileobj(self._file, out, 1 << 20)
+        self._file.seek(0, 2)
+
+    def release(self) -> None:
+        """Free the deflated bytes (idempotent)."""
+        self._deflate = None
+        if self._file is not None:
             self._file.close()
             self._file = None
 
@@ -72,16 +92,16 @@ def _entry_fields(m: DeflatedMember, name: bytes, extra: bytes) -> bytes:
 
 
 def write_zip(members: list[DeflatedMember], out: BinaryIO) -> None:
-    """Write a zip of ``members`` (closed) to ``out``, each member's deflated bytes copied."""
+    """Write a zip of ``members`` (each finished first) to ``out``, their deflated bytes
+    copied."""
     central = []
     for m in members:
-        m.close()
+        m.finish()
         offset = out.tell()
         name = m.name.encode()
         extra = struct.pack("<HHQQ", 1, 16, m.size, m.compressed)
         out.write(struct.pack("<I", 0x04034B50) + _entry_fields(m, name, extra) + name + extra)
-        with open(m.path, "rb") as f:
-            shutil.copyfileobj(f, out, 1 << 20)
+        m.copy_to(out)
         extra = struct.pack("<HHQQQ", 1, 24, m.size, m.compressed, offset)
         made_by = 3 << 8 | _VERSION  # Unix (the external attributes are its mode)
         # comment length, disk, internal attributes, external attributes, offset (in extra)

@@ -39,6 +39,7 @@ if TYPE_CHECKING:
     from gantry_sim.controller.trajectory import Trajectory
     from gantry_sim.sim.runner import SimTrace
     from gantry_sim.sim.stream import StreamedRun
+    from gantry_sim.sim.trace_writer import TraceWriter
 
 #: files a run writes into its output folder (removed first by `gantry run`: no stale report)
 OUTPUT_FILES = ("report.json", "timing.json", "trace.npz", "path.png", "error.png")
@@ -296,16 +297,16 @@ def write_outputs(
     deterministic: bool = False,
     gates: Gates | None = None,
     started: float | None = None,
-    trace_file: Path | None = None,
+    full_trace: TraceWriter | None = None,
     trace_npz: bool = True,
     progress: bool = False,
 ) -> RunReport:
     """Write the run's files into a temporary folder, then move them in, report.json last.
 
     Args:
-        trace: the arrays plotted, and written as trace.npz unless ``trace_file`` is given.
-        trace_file: a trace.npz already written (a streamed run's full-rate trace, while
-            ``trace`` is its decimated one), copied in as trace.npz.
+        trace: the arrays plotted, and written as trace.npz unless ``full_trace`` is given.
+        full_trace: a streamed run's full-rate trace, deflated during the run (``trace`` is
+            then its decimated one), written as trace.npz (sim.trace_writer).
         plots: draw path.png and error.png.
         trace_npz: write trace.npz (False: ``--no-trace``; the plots still use ``trace``).
         progress: a bar on stderr over the files (sim.progress).
@@ -328,10 +329,8 @@ def write_outputs(
     ):
         if not trace_npz:
             pass
-        elif trace_file is not None:
-            import shutil
-
-            shutil.copyfile(trace_file, tmp / "trace.npz")
+        elif full_trace is not None:
+            full_trace.save(tmp / "trace.npz")
         else:
             np.savez_compressed(
                 tmp / "trace.npz",

@@ -2,10 +2,13 @@
 
 A streamed run (sim/stream.py) hands each range's full-rate arrays to :class:`TraceWriter`. A
 background thread appends them to one deflated member per array (sim.deflate_zip.DeflatedMember,
-the ``.npy`` header first, written for the run's known length) in a staging folder: zlib and
-the file writes release the GIL, so the deflating runs on a free core while the servo loop
-steps MuJoCo. :meth:`TraceWriter.finish` then writes the zip around the deflated bytes (no
-second compression pass). ``numpy.load`` reads the result like one written by
+the ``.npy`` header first, written for the run's known length; its bytes in an anonymous
+temporary file, gone with the process however it ends): zlib and the file writes release the
+GIL, so the deflating runs on a free core while the servo loop steps MuJoCo.
+:meth:`TraceWriter.finish` ends the streams when the run ends; :meth:`TraceWriter.save` writes
+the zip around the deflated bytes (no second compression pass), straight into the output
+folder's staging (sim.report.write_outputs), so the trace is written to disk once as deflated
+members and once as trace.npz. ``numpy.load`` reads the result like one written by
 ``numpy.savez_compressed`` (same names, dtypes and values; tests/test_stream.py compares).
 """
 
@@ -37,17 +40,16 @@ QUEUED_RANGES = 2
 
 
 class TraceWriter:
-    """The trace of ``ticks`` servo ticks, written range by range into ``folder``."""
+    """The trace of ``ticks`` servo ticks, deflated range by range."""
 
-    def __init__(self, folder: Path, ticks: int) -> None:
+    def __init__(self, ticks: int) -> None:
         from numpy.lib import format as npy
 
-        self.folder = Path(folder)
         self.ticks = ticks
         self.written = 0
         self.members: dict[str, DeflatedMember] = {}
         for name, (shape, dtype) in FIELDS.items():
-            member = DeflatedMember(f"{name}.npy", self.folder / f"{name}.npy.deflated")
+            member = DeflatedMember(f"{name}.npy")
             header = {"descr": npy.dtype_to_descr(np.dtype(dtype)), "fortran_order": False}
             head = io.BytesIO()
             npy.write_array_header_1_0(head, header | {"shape": (ticks, *shape)})
@@ -86,22 +88,31 @@ class TraceWriter:
         if self._failed is not None:
             raise self._failed
 
-    def close(self) -> None:
-        """Stop the thread and close the members' files (idempotent)."""
+    def _stop(self) -> None:
         if self._thread.is_alive():
             self._queue.put(None)
             self._thread.join()
-        for member in self.members.values():
-            member.close()
 
-    def finish(self, npz: Path) -> Path:
-        """Zip the deflated arrays into ``npz`` and remove them."""
-        self.close()
+    def close(self) -> None:
+        """Stop the thread and free the deflated bytes (idempotent): the run failed."""
+        self._stop()
+        for member in self.members.values():
+            member.release()
+
+    def finish(self) -> TraceWriter:
+        """The run ended: stop the thread, end the deflate streams, check every tick came."""
+        self._stop()
         self._raise_failure()
         if self.written != self.ticks:
             raise ValueError(f"trace has {self.written} of {self.ticks} ticks")
+        for member in self.members.values():
+            member.finish()
+        return self
+
+    def save(self, npz: Path) -> Path:
+        """Write trace.npz to ``npz`` (after :meth:`finish`; as often as wanted)."""
+        if self._thread.is_alive():
+            raise ValueError("the trace is still being written: finish() it first")
         with open(npz, "wb") as out:
             write_zip(list(self.members.values()), out)
-        for member in self.members.values():
-            member.path.unlink()
         return npz

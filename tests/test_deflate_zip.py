@@ -7,25 +7,35 @@ import itertools
 import zipfile
 
 import numpy as np
+import pytest
 
 from gantry_sim.sim.deflate_zip import DeflatedMember, write_zip
 
 
-def test_members_added_in_pieces_read_back_exactly(tmp_path):
+def test_members_added_in_pieces_read_back_exactly(tmp_path, monkeypatch):
+    """... and their deflated bytes wait in anonymous files: nothing named in $TMPDIR."""
+    import tempfile
+
+    monkeypatch.setattr(tempfile, "tempdir", str(tmp_path))
     rng = np.random.default_rng(0)
     data = {
         "noise.bin": rng.normal(size=50_000).tobytes(),
         "zeros.bin": bytes(300_000),
         "empty.bin": b"",
     }
-    members = [DeflatedMember(name, tmp_path / f"{k}.z") for k, name in enumerate(data)]
+    members = [DeflatedMember(name) for name in data]
     cuts = [0, 1, 7, 4096, 100_000, 299_999, 400_000]
     for a, b in itertools.pairwise(cuts):
         for m in members:  # interleaved, in uneven pieces, as a run's ranges arrive
             m.add(data[m.name][a:b])
+    assert list(tmp_path.iterdir()) == []
     out = io.BytesIO()
     out.write(b"ignored prefix")  # offsets are relative to the file, not to 0
     write_zip(members, out)
+    again = io.BytesIO()
+    again.write(b"ignored prefix")
+    write_zip(members, again)  # a member can be written more than once
+    assert again.getvalue() == out.getvalue()
     with zipfile.ZipFile(io.BytesIO(out.getvalue())) as z:
         assert z.testzip() is None  # every member's CRC-32 checks
         assert z.namelist() == list(data)
@@ -34,6 +44,9 @@ def test_members_added_in_pieces_read_back_exactly(tmp_path):
             assert info.compress_type == zipfile.ZIP_DEFLATED and info.file_size == len(content)
             assert z.read(name) == content
     assert members[1].compressed < 2000  # deflated, not stored
+    members[0].release()
+    with pytest.raises(ValueError, match=r"noise\.bin: released"):
+        write_zip(members, io.BytesIO())
 
 
 def test_an_npz_of_deflated_npy_members_loads_with_numpy(tmp_path):
@@ -42,7 +55,7 @@ def test_an_npz_of_deflated_npy_members_loads_with_numpy(tmp_path):
     for name, values in arrays.items():
         buf = io.BytesIO()
         np.save(buf, values)
-        m = DeflatedMember(f"{name}.npy", tmp_path / name)
+        m = DeflatedMember(f"{name}.npy")
         m.add(buf.getvalue())
         members.append(m)
     with open(tmp_path / "x.npz", "wb") as f:

@@ -131,7 +131,8 @@ def test_run_program_streams_long_runs_with_the_same_outputs(machine, monkeypatc
     monkeypatch.setattr(stream, "STREAM_TICKS", 256)
     monkeypatch.setattr(stream, "DECIMATED_TICKS", 100)
     streamed = api.run_program(PROGRAM, machine=machine)
-    assert streamed.trace_file is not None and streamed.trace.t.size < whole.trace.t.size / 5
+    assert streamed.streamed and streamed.full_trace is not None and not whole.streamed
+    assert streamed.trace.t.size < whole.trace.t.size / 5
     api.write_run_outputs(streamed, tmp_path / "streamed", plots=True, deterministic=True)
     a, b = (json.loads((tmp_path / d / "report.json").read_text()) for d in ("whole", "streamed"))
     assert set(b["timing_s"]) - set(a["timing_s"]) == {"trace"}
@@ -255,3 +256,83 @@ def test_the_worker_takes_ranges_larger_than_the_pipe_buffer():
             b.tracking_max_um,
             pb,
         )
+
+
+@pytest.mark.skipif(not os.path.isdir("/proc/self/fd"), reason="/proc")
+def test_a_streamed_run_killed_mid_run_leaves_nothing_in_tmpdir(tmp_path):
+    """kill -9 of a streamed run while it simulates: its temporary files (the deflating trace,
+    the spilled errors, the plan's blocks) were anonymous, so $TMPDIR is left as it was."""
+    import signal
+    import subprocess
+    import sys
+    import time
+
+    tmpdir = tmp_path / "tmp"
+    tmpdir.mkdir()
+    program = tmp_path / "p.ngc"
+    program.write_text("G21 G90\nG0 X-200\nG1 X200 F400\nM2\n")  # 60 s: 60,000 ticks
+    script = (
+        "import sys; from gantry_sim.sim import api, stream; from gantry_sim.sim.cli import main\n"
+        "api.STREAM_ABOVE_TICKS = 0; stream.STREAM_TICKS = 512\n"
+        "sys.exit(main(sys.argv[1:]))"
+    )
+    argv = [sys.executable, "-c", script, "run", str(program), "--out", str(tmp_path / "out")]
+    proc = subprocess.Popen(argv, env=dict(os.environ, TMPDIR=str(tmpdir)))
+    fds = f"/proc/{proc.pid}/fd"
+    try:
+        deadline = time.monotonic() + 60
+        while proc.poll() is None and time.monotonic() < deadline:
+            try:
+                links = [os.readlink(f"{fds}/{fd}") for fd in os.listdir(fds)]
+            except OSError:
+                links = []  # an fd closed while listed
+            if sum(link.startswith(str(tmpdir)) for link in links) >= 6:  # trace members
+                break
+            time.sleep(0.005)
+        assert proc.poll() is None, "the run ended before its trace was being written"
+        os.kill(proc.pid, signal.SIGKILL)
+        proc.wait()
+    finally:
+        if proc.poll() is None:
+            proc.kill()
+            proc.wait()
+    assert sorted(p.name for p in tmpdir.iterdir()) == []
+
+
+def test_the_move_tables_cross_to_the_worker_out_of_band():
+    """The tables reach the worker whole (every array equal, writable), and no message is a
+    pickled copy of their arrays: each array goes as its own memory (at 100,000 moves the
+    tables are 57 MB; pickling them in one piece held 126 MB more at the run's start)."""
+    import pickle
+    import threading
+    from multiprocessing import Pipe
+
+    from gantry_sim.sim.analysis_worker import Tables, recv_out_of_band, send_out_of_band
+    from gantry_sim.sim.move_table import move_table
+
+    text = "G21 G17\n" + "".join(f"G1 X{i % 97} Y{i % 89} F900\n" for i in range(3000))
+    moves = tuple(interpret(text + "G2 I5 J5\nM2\n", "linuxcnc", "t"))
+    tab = move_table(moves)
+    tables = Tables(tab, tab, np.arange(len(moves)))
+    reader, writer = Pipe(duplex=False)
+    sizes: list[int] = []
+
+    class Recording:  # the real pipe's end, noting the size of every message
+        def send(self, obj: object) -> None:
+            sizes.append(len(pickle.dumps(obj)))
+            writer.send(obj)
+
+        def send_bytes(self, buf) -> None:
+            writer.send_bytes(buf)
+
+    sender = threading.Thread(target=send_out_of_band, args=(Recording(), tables))
+    sender.start()
+    got = recv_out_of_band(reader)
+    sender.join()
+    assert isinstance(got, Tables) and len(got.tab) == len(moves)
+    for name in ("start", "end", "c1", "box_lo", "cum_len", "line", "arc"):
+        a, b = getattr(tab, name), getattr(got.tab, name)
+        assert a.dtype == b.dtype and np.array_equal(a, b), name
+        assert b.flags.writeable
+    assert np.array_equal(got.path_sources, tables.path_sources)
+    assert tab.start.nbytes > 70_000 and max(sizes) < 20_000
