@@ -112,7 +112,9 @@ def test_the_model_goes_as_data_to_a_worker_that_cannot_see_it(
     elsewhere.mkdir()
     # the worker runs elsewhere with the client's folder hidden under an empty tmpfs
     hide = ["unshare", "-rm", "sh", "-c", f'mount -t tmpfs none "{client}" && exec "$@"', "sh"]
-    start_worker(scheduler, elsewhere, prefix=hide)
+    worker_tmp = tmp_path / "worker_tmp"
+    worker_tmp.mkdir()
+    start_worker(scheduler, elsewhere, env=dict(os.environ, TMPDIR=str(worker_tmp)), prefix=hide)
 
     out = tmp_path / "out"
     argv = ["sweep", str(prog), "--feed-override", "100,150", "--machine", str(machine_file)]
@@ -121,6 +123,9 @@ def test_the_model_goes_as_data_to_a_worker_that_cannot_see_it(
     assert status == 0, cap.err
     lines = cap.out.splitlines()
     assert len(lines) == 3 and all(x.endswith(",ok") for x in lines[1:]), cap.out
+    # the model's files were written for each point and removed after it, not left to an
+    # atexit that a stopped worker never runs
+    assert sorted(p.name for p in worker_tmp.iterdir()) == []
 
     machine = load_machine_config(DEFAULT_MACHINE, machine_file)
     local = run_sweep(TINY, grid([100.0, 150.0]), machine, file=str(prog), workers=1)

@@ -5,12 +5,13 @@ client's files are gone."""
 from __future__ import annotations
 
 import shutil
+from pathlib import Path
 
 import numpy as np
 import pytest
 
 from gantry_sim.controller.errors import ConfigError
-from gantry_sim.sim.sweep.model_bundle import bundle_model, materialize
+from gantry_sim.sim.sweep.model_bundle import bundle_model, materialized
 
 TETRA_OBJ = "v 0 0 0\nv 0.1 0 0\nv 0 0.1 0\nv 0 0 0.1\nf 1 3 2\nf 1 2 4\nf 1 4 3\nf 2 3 4\n"
 MAIN = """<!-- a comment with -- inside, as MuJoCo allows -->
@@ -67,9 +68,9 @@ def test_the_bundle_compiles_without_the_clients_files(tmp_path):
     ]
     assert bundle.main == "models/robot.xml"
     shutil.rmtree(client)  # nothing of the client's is left to open
-    path = materialize(bundle)
-    assert materialize(bundle) == path  # written once per process
-    shipped = mujoco.MjModel.from_xml_path(path)
+    with materialized(bundle) as path:
+        shipped = mujoco.MjModel.from_xml_path(path)
+    assert not Path(path).parent.parent.exists()  # the private folder went with the block
     assert (shipped.nmesh, shipped.ntex, shipped.nbody) == (1, 1, 2)
     assert np.array_equal(shipped.mesh_vert, original.mesh_vert)
     assert shipped.body_mass[1] == original.body_mass[1] == 1.0

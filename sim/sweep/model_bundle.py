@@ -3,7 +3,7 @@
 :func:`bundle_model` reads, on the client, the model file and every file it references: the
 ``<include file>``s (recursively; relative to the main model's folder, as MuJoCo resolves them)
 and the asset files (``file``/``fileright``/... of mesh, skin, texture, hfield, relative to
-``<compiler meshdir/texturedir/assetdir>``). :func:`materialize` writes them, on a worker, under
+``<compiler meshdir/texturedir/assetdir>``). :func:`materialized` writes them, on a worker, under
 one private folder with the same relative layout and returns the main file's path there; the
 worker never opens a path of the client's. Machine files need nothing of this: a
 :class:`MachineConfig` travels as a value, only its ``[sim] model`` is a path.
@@ -11,13 +11,13 @@ worker never opens a path of the client's. Machine files need nothing of this: a
 
 from __future__ import annotations
 
-import atexit
 import hashlib
 import os
 import re
-import shutil
 import tempfile
 import xml.etree.ElementTree as ET
+from collections.abc import Iterator
+from contextlib import contextmanager
 from dataclasses import dataclass, replace
 from pathlib import Path
 
@@ -110,25 +110,21 @@ def bundle_model(model_path: str) -> ModelBundle:
     return ModelBundle(main.relative_to(base).as_posix(), files, digest.hexdigest()[:16])
 
 
-#: digest -> the main model file written by this process
-_WRITTEN: dict[str, str] = {}
+@contextmanager
+def materialized(bundle: ModelBundle) -> Iterator[str]:
+    """Write ``bundle`` into a private temporary folder and yield the absolute path of its main
+    MJCF file; the folder is removed when the block ends (a grid point's run: the model is read
+    when the run loads it). Per point, not per process: a Dask worker is stopped without
+    running ``atexit``, which left a folder behind in $TMPDIR per worker and sweep."""
+    with tempfile.TemporaryDirectory(prefix=f"gantry-model-{bundle.digest}-") as tmp:
+        folder = Path(tmp)
+        for rel, data in bundle.files:
+            path = folder.joinpath(*rel.split("/"))
+            path.parent.mkdir(parents=True, exist_ok=True)
+            path.write_bytes(data)
+        yield str(folder.joinpath(*bundle.main.split("/")))
 
 
-def materialize(bundle: ModelBundle) -> str:
-    """Write ``bundle`` into a private folder of this process (once per digest, removed at
-    exit) and return the absolute path of its main MJCF file."""
-    if bundle.digest in _WRITTEN:
-        return _WRITTEN[bundle.digest]
-    folder = Path(tempfile.mkdtemp(prefix=f"gantry-model-{bundle.digest}-"))
-    atexit.register(shutil.rmtree, folder, True)
-    for rel, data in bundle.files:
-        path = folder.joinpath(*rel.split("/"))
-        path.parent.mkdir(parents=True, exist_ok=True)
-        path.write_bytes(data)
-    _WRITTEN[bundle.digest] = str(folder.joinpath(*bundle.main.split("/")))
-    return _WRITTEN[bundle.digest]
-
-
-def with_bundle(machine: MachineConfig, bundle: ModelBundle) -> MachineConfig:
-    """``machine`` with its ``[sim] model`` pointing at ``bundle`` written on this host."""
-    return replace(machine, sim=replace(machine.sim, model=materialize(bundle)))
+def with_model(machine: MachineConfig, model: str) -> MachineConfig:
+    """``machine`` with its ``[sim] model`` at ``model`` (a path of this host)."""
+    return replace(machine, sim=replace(machine.sim, model=model))

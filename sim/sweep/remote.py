@@ -10,7 +10,7 @@ from __future__ import annotations
 
 from gantry_sim.controller.config import MachineConfig
 from gantry_sim.sim.budget import Budget
-from gantry_sim.sim.sweep.model_bundle import ModelBundle, with_bundle
+from gantry_sim.sim.sweep.model_bundle import ModelBundle, materialized, with_model
 from gantry_sim.sim.sweep.point import ProgramSetup, SweepPoint, run_point
 
 #: the sweep's fixed inputs: program text, its name, dialect, machine, budget, the model's files
@@ -27,4 +27,5 @@ def installed_version() -> str:
 def run_shipped_point(shared: Shared, point: SweepPoint) -> dict:
     """:func:`~gantry_sim.sim.sweep.grid.run_point` with the model written from the bundle."""
     text, file, dialect, machine, budget, bundle, setup = shared
-    return run_point(text, file, dialect, with_bundle(machine, bundle), point, budget, setup)
+    with materialized(bundle) as model:
+        return run_point(text, file, dialect, with_model(machine, model), point, budget, setup)
