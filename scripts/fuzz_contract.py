@@ -55,10 +55,14 @@ def main() -> int:
 
     limit = int(args.memory_gb * 2**30)
     resource.setrlimit(resource.RLIMIT_AS, (limit, limit))
+    with tempfile.TemporaryDirectory(prefix="gantry-fuzz-") as tmp:  # removed however it ends
+        return _fuzz(args, Path(tmp))
 
+
+def _fuzz(args: argparse.Namespace, work: Path) -> int:
+    """Every family's inputs, written into ``work``; the counts printed; the exit status."""
     counts: dict[str, collections.Counter] = collections.defaultdict(collections.Counter)
     examples: dict[str, list[str]] = collections.defaultdict(list)
-    work = Path(tempfile.mkdtemp(prefix="gantry-fuzz-"))
 
     def record(family: str, argv: list[str], note: str = "", expect_ok: bool = False) -> None:
         out = call(argv)

@@ -69,8 +69,13 @@ def main() -> int:
     ap.add_argument("--kills", type=int, default=20, help="kills per command (default 20)")
     ap.add_argument("--seed", type=int, default=1)
     args = ap.parse_args()
+    with tempfile.TemporaryDirectory(prefix="gantry-kill-") as tmp:  # removed however it ends
+        return _kill(args, Path(tmp))
+
+
+def _kill(args: argparse.Namespace, work: Path) -> int:
+    """Every command killed ``args.kills`` times in ``work``; the exit status."""
     rng = random.Random(args.seed)
-    work = Path(tempfile.mkdtemp(prefix="gantry-kill-"))
     (work / "circle.ngc").write_text(CIRCLE)
     (work / "line.ngc").write_text(LINE)
     base = [sys.executable, "-m", "gantry_sim.sim.cli"]
