@@ -195,12 +195,17 @@ def _blend_corners(
     _meet_neighbours(moves, use, turn, budgets)
     before = [cuts[k].before_mm if k in cuts else use[k] for k in range(n + 1)]
     after = [cuts[k].after_mm if k in cuts else use[k] for k in range(n + 1)]
-    # Trimmed straight moves: their new end points (a vanishing move: its midpoint, shared).
+    # Trimmed straight moves: their new end points (a vanishing move: its midpoint, shared),
+    # as arrays and as the tuples the path's moves hold: a blend arc holds the very tuples of
+    # the lines it joins, and a move left whole keeps its own (a path holds 1.3 KB a move).
     starts, ends, keep = [], [], []
+    start_pts: list[Vec3] = []
+    end_pts: list[Vec3] = []
     for i, m in enumerate(moves):
         if isinstance(m, Arc) and (after[i] or before[i + 1]):
             moves[i] = m = trimmed_arc(m, after[i], before[i + 1])
         a, e = np.asarray(m.start, float), np.asarray(m.end, float)
+        a_pt, e_pt = m.start, m.end
         if isinstance(m, Linear) and (after[i] or before[i + 1]):
             d = _direction(m)
             a, e = a + d * after[i], e - d * before[i + 1]
@@ -208,8 +213,12 @@ def _blend_corners(
             radii = [use[k] / math.tan(0.5 * t[0]) for k in (i, i + 1) if (t := turn[k])]
             if _used_up(rest, radii):
                 a = e = 0.5 * (a + e)  # the blends meet: they absorb what is left
+            a_pt = _v3(a)
+            e_pt = a_pt if e is a else _v3(e)
         starts.append(a)
         ends.append(e)
+        start_pts.append(a_pt)
+        end_pts.append(e_pt)
         # a curve by its length: a full circle or a closed spline ends where it starts
         straight = isinstance(m, Rapid | Linear)
         keep.append((float(np.linalg.norm(e - a)) if straight else m.length_mm) > EPS_MM)
@@ -222,7 +231,7 @@ def _blend_corners(
         if i in out.holds:
             new_holds[len(new_moves)] = out.holds[i]
         if keep[i]:
-            new_moves.append(_trimmed(m, starts[i], ends[i]))
+            new_moves.append(_trimmed(m, start_pts[i], end_pts[i]))
             new_stops.append(out.stop_after[i])
             smoothing.append(out.smoothing_mm[i])
             sources.append(out.sources[i])
@@ -243,7 +252,8 @@ def _blend_corners(
         t = turn[i + 1]
         if t is not None:
             nxt = moves[i + 1]
-            arc, dev = _blend_arc(m, nxt, ends[i], starts[i + 1], t[0], t[1])  # type: ignore[arg-type]
+            ends_at = (ends[i], starts[i + 1], end_pts[i], start_pts[i + 1])
+            arc, dev = _blend_arc(m, nxt, *ends_at, t[0], t[1])  # type: ignore[arg-type]
             tol = control(m, settings).tolerance_mm
             out.blend_junction[len(new_moves)] = i + 1
             new_moves.append(arc)
@@ -297,17 +307,27 @@ def _v3(a: np.ndarray) -> Vec3:
     return (float(a[0]), float(a[1]), float(a[2]))
 
 
-def _trimmed(m: Move, start: np.ndarray, end: np.ndarray) -> Move:
-    if not isinstance(m, Linear):
+def _trimmed(m: Move, start: Vec3, end: Vec3) -> Move:
+    """``m`` between ``start`` and ``end`` [mm]: a straight move trimmed (``m`` itself when both
+    are its own)."""
+    if not isinstance(m, Linear) or (start is m.start and end is m.end):
         return m
-    return replace(m, start=_v3(start), end=_v3(end))
+    return replace(m, start=start, end=end)
 
 
 def _blend_arc(
-    m0: Linear, m1: Linear, p0: np.ndarray, p1: np.ndarray, phi: float, plane: Plane
+    m0: Linear,
+    m1: Linear,
+    p0: np.ndarray,
+    p1: np.ndarray,
+    start: Vec3,
+    end: Vec3,
+    phi: float,
+    plane: Plane,
 ) -> tuple[Arc, float]:
-    """The arc tangent to ``m0`` at ``p0`` and to ``m1`` at ``p1`` (its corner: m0.end), and its
-    largest distance from the corner [mm]."""
+    """The arc tangent to ``m0`` at ``p0`` and to ``m1`` at ``p1`` (its corner: m0.end; ``start``
+    and ``end``: the same points as the tuples the trimmed lines hold), and its largest
+    distance from the corner [mm]."""
     d0, d1 = _direction(m0), _direction(m1)
     corner = np.asarray(m0.end, float)
     half = 0.5 * phi
@@ -324,8 +344,8 @@ def _blend_arc(
     sweep = abs(math.atan2(e0[0] * e1[1] - e0[1] * e1[0], e0[0] * e1[0] + e0[1] * e1[1]))
     arc = Arc(
         line=m0.line,
-        start=_v3(p0),
-        end=_v3(p1),
+        start=start,
+        end=end,
         feed_mm_per_min=min(m0.feed_mm_per_min, m1.feed_mm_per_min),
         plane=plane,
         direction="ccw" if ccw else "cw",

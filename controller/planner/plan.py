@@ -128,6 +128,7 @@ def _plan_part(
             prepared = prepare(path, machine, feed_override_pct, known)
         del known
     elif path.blend_junction and (slow := blends_to_skip(path, machine, feed_override_pct)):
+        del path  # made again without those blends: one path held at a time (1.3 KB a move)
         path = path_plan(items, machine.path, seg.chord_tolerance_mm, slow, jerk)
     solver = RuckigSolver(machine.limits)
     planned = plan_path(path, machine, feed_override_pct, arc_pieces, solver, prepared)
