@@ -323,3 +323,53 @@ def test_a_subroutine_name_too_long_for_a_file_is_refused_on_its_line(tmp_path, 
     assert main(["parse", str(prog)]) == 2
     err = capsys.readouterr().err
     assert err.startswith(f"{prog}:2: error: subroutine o<aaaa") and "File name too long" in err
+
+
+LONG_LOOP = (
+    """G21 G90 G17 F600
+o<edge> sub
+  G1 X[#1] Y[#1 * 2]
+  G2 X[#1 + 1] Y[#1 * 2 + 1] I0.5 J0.5
+o<edge> endsub
+#<k> = 0
+o10 while [#<k> LT 3]
+"""
+    + "".join(f"  G1 X[#<k> + {i / 10}] Y{i % 3}\n" for i in range(12))
+    + """\
+  o<edge> call [#<k> * 3]
+  o20 if [#<k> EQ 1]
+    G1 Z-1
+  o20 endif
+  #<k> = [#<k> + 1]
+o10 endwhile
+M98 P100 L2
+M2
+O100
+  G91 G1 X1
+  G90
+M99
+"""
+)
+
+
+def test_a_source_keeps_the_lines_it_lexed_last_only():
+    from gantry_sim.controller.gcode import control
+
+    lines = [f"G1 X{i} Y{i % 7}" for i in range(3 * control.LEXED_LINES_KEPT)]
+    source = control.Source("p", lines)
+    for i in range(len(lines)):
+        assert source.block(i).line == i + 1
+    assert len(source.blocks) == control.LEXED_LINES_KEPT
+    assert min(source.blocks) == len(lines) - control.LEXED_LINES_KEPT
+    assert source.block(0).line == 1  # lexed again, the same
+
+
+def test_loops_and_calls_longer_than_the_lexed_lines_kept_run_the_same(monkeypatch):
+    """A loop body, subroutine and M98 subprogram run again after their lines were dropped
+    from the lexed ones: lexed again, the same moves (line numbers and all)."""
+    from gantry_sim.controller.gcode import control
+
+    kept = parse_program(LONG_LOOP)
+    assert len(kept) == 3 * (12 + 2) + 1 + 2  # the 12 lines and the sub's 2, Z-1 once, M98
+    monkeypatch.setattr(control, "LEXED_LINES_KEPT", 2)
+    assert parse_program(LONG_LOOP) == kept

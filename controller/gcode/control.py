@@ -44,9 +44,16 @@ MAX_ERRORS = 1000  # --all-errors stops collecting (and raises) after this many
 DEFAULT_MAX_ITERATIONS = 1_000_000
 
 
+#: Lexed lines a :class:`Source` keeps (the latest lexed), for loops and subroutines that run
+#: them again: a line lexed again gives the same block. Keeping every line held about 0.75 KB a
+#: line until the program was read (75 MB at 100,000 lines, kept by the process' heap after).
+LEXED_LINES_KEPT = 8192
+
+
 @dataclass(eq=False)
 class Source:
-    """One file's lines, lexed on first use (a lexing error is raised only when the line runs)."""
+    """One file's lines, lexed on first use (a lexing error is raised only when the line runs);
+    the last :data:`LEXED_LINES_KEPT` lexed are kept."""
 
     name: str
     lines: list[str]
@@ -64,6 +71,8 @@ class Source:
                 if exc.line is None:
                     exc.line = i + 1
                 got = exc
+            if len(self.blocks) >= LEXED_LINES_KEPT:
+                del self.blocks[next(iter(self.blocks))]  # the one lexed first
             self.blocks[i] = got
         if isinstance(got, GcodeError):
             raise got
