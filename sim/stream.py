@@ -114,7 +114,7 @@ def stream_run(
             yield ctx.slice(lo - c0, hi - c0)
 
     tally = ErrorTally(tab, spill=True)  # the whole-run figures, in bounded memory
-    path_tab = move_table(planned.path_moves or planned.moves)  # for the blend/planning split
+    chord_um = chord_max_um(moves, planned.vertices, tab)
     run = _Running(stride, limit)
     sim_s = ana_s = 0.0
     start = planned.sample_range(period, 0, 1).pos[0]
@@ -127,7 +127,11 @@ def stream_run(
             run.add(job, part, planning_mm)
             tally.add(job.piece.line, part.err_um, part.feed)
 
+    # the tables (28 MB each at 100,000 blocks) are the analysis' alone: a worker process's
+    # once sent (sim.analysis_worker), so this process holds none while it simulates
+    path_tab = move_table(planned.path_moves or planned.moves)  # for the blend/planning split
     analyser = make_analyser(Tables(tab, path_tab, known_path_sources(planned)))
+    del tab, path_tab
     try:
         t0 = time.perf_counter()
         for pos, force in simulate_pieces(gantry, machine, pieces(), start, on_ticks):
@@ -146,7 +150,6 @@ def stream_run(
     finally:
         analyser.close()
         tally.values.close()
-    chord_um = chord_max_um(moves, planned.vertices, tab)
     parts = ErrorParts(chord_um, run.reference_max, run.tracking_max)
     empty = np.zeros(0)
     analysis = Analysis(empty, np.zeros((0, 3)), empty.astype(bool), contour, parts, blocks)

@@ -336,3 +336,22 @@ def test_the_move_tables_cross_to_the_worker_out_of_band():
         assert b.flags.writeable
     assert np.array_equal(got.path_sources, tables.path_sources)
     assert tab.start.nbytes > 70_000 and max(sizes) < 20_000
+
+
+@pytest.mark.skipif(os.name != "posix" or (os.cpu_count() or 1) < 2, reason="no worker here")
+def test_with_a_worker_the_run_holds_no_move_table_while_it_simulates(machine, monkeypatch):
+    """The move tables are the analysis' alone: with the analysis in its worker process, the
+    run's own process drops them once sent (28 MB each at 100,000 blocks)."""
+    import gc
+
+    from gantry_sim.sim.move_table import MoveTable
+
+    monkeypatch.setenv("GANTRY_ANALYSIS_WORKER", "1")
+    moves, planned = _planned(machine)
+    alive = []
+
+    def count(*_):
+        alive.append(sum(isinstance(o, MoveTable) for o in gc.get_objects()))
+
+    stream_run(moves, planned, machine, load_gantry(machine), range_ticks=300, on_range=count)
+    assert len(alive) > 3 and max(alive) == 0
