@@ -18,8 +18,8 @@ from collections.abc import Iterator
 
 import numpy as np
 
-#: values read from the spill file at a time
-READ_VALUES = 1 << 22
+#: values read from the spill file at a time (8 MB; a pass holds about twice that)
+READ_VALUES = 1 << 20
 #: candidates gathered into memory for the final selection at most
 GATHER_VALUES = 1 << 21
 
@@ -83,8 +83,10 @@ class ValueSpill:
         while matching > GATHER_VALUES and shift > 0:
             counts = np.zeros(1 << 16, dtype=np.int64)
             for bits in self._matching_bits(prefix, shift):
-                digits = ((bits >> np.uint64(shift - 16)) & np.uint64(0xFFFF)).astype(np.intp)
-                counts += np.bincount(digits, minlength=1 << 16)
+                digits = bits >> np.uint64(shift - 16)  # one array a chunk, then in place
+                digits &= np.uint64(0xFFFF)
+                counts += np.bincount(digits.view(np.int64), minlength=1 << 16)
+                del bits, digits  # before the next chunk is read
             cum = np.cumsum(counts)
             digit = int(np.searchsorted(cum, rank, side="right"))
             rank -= int(cum[digit - 1]) if digit else 0
@@ -98,7 +100,9 @@ class ValueSpill:
             bits = chunk.view(np.uint64)
             if shift < 64:
                 bits = bits[(bits >> np.uint64(shift)) == np.uint64(prefix)]
+            del chunk
             yield bits
+            del bits  # before the next chunk is read
 
     def _read(self) -> Iterator[np.ndarray]:
         assert self._file is not None
@@ -109,6 +113,7 @@ class ValueSpill:
             if chunk.size == 0:
                 return
             yield chunk
+            del chunk  # before the next one is read
 
     def close(self) -> None:
         if self._file is not None:

@@ -86,6 +86,27 @@ def test_order_statistics_from_disk_in_several_passes(monkeypatch):
             spill.kth(values.size)
 
 
+def test_a_pass_over_the_disk_holds_about_two_chunks(monkeypatch):
+    """Selecting from disk holds a chunk read and its digits, not four chunk-sized arrays (at
+    3.5 million feed ticks the 95th percentile took 96 MB more than the run held)."""
+    import tracemalloc
+
+    chunk = 1 << 18  # 2 MB, beside the radix counts' 3 x 0.5 MB
+    monkeypatch.setattr(percentile, "READ_VALUES", chunk)
+    monkeypatch.setattr(percentile, "GATHER_VALUES", 1000)
+    values = np.random.default_rng(2).lognormal(size=6 * chunk)
+    with ValueSpill(on_disk=True) as spill:
+        spill.add(values)
+        tracemalloc.start()
+        try:
+            got = spill.kth(values.size // 2)
+            peak = tracemalloc.get_traced_memory()[1]
+        finally:
+            tracemalloc.stop()
+    assert got == np.partition(values, values.size // 2)[values.size // 2]
+    assert peak < 2 * 8 * chunk + 2**21, peak
+
+
 def test_negative_values_are_refused():
     with ValueSpill(on_disk=False) as spill, pytest.raises(ValueError, match=">= 0"):
         spill.add(np.array([1.0, -1e-9]))
