@@ -7,6 +7,9 @@ A child that fails in any way (an exception, a signal, a result that does not ar
 trusted with an error of its own: its part is computed again here, so the caller sees exactly
 what a sequential run gives, the same exception with its message and line included.
 
+A child dies with this process (Linux ``PR_SET_PDEATHSIG``): a run killed with ``kill -9``
+leaves no child computing its part for nobody.
+
 The children write nothing to stdout or stderr (another thread of the parent may have held
 their locks when it forked) and leave with ``os._exit``: no ``atexit`` handlers, no flushing
 of buffers inherited from the parent.
@@ -18,8 +21,11 @@ core, do).
 
 from __future__ import annotations
 
+import ctypes
+import functools
 import os
 import pickle
+import signal
 import sys
 import warnings
 from collections.abc import Callable, Iterator, Sequence
@@ -82,10 +88,16 @@ def fork_map(fn: Callable[[T], R], parts: Sequence[T]) -> list[R]:
 def _start(fn: Callable[[T], R], part: T) -> tuple[int, int]:
     """A child computing ``fn(part)``; returns its pid and the read end of its result pipe."""
     read, write = os.pipe()
+    parent = os.getpid()
+    prctl = _prctl()  # looked up here: the child only calls it
     pid = os.fork()
     if pid == 0:  # the child
         status = 1
         try:
+            if prctl is not None:
+                prctl(_PR_SET_PDEATHSIG, int(signal.SIGKILL))
+            if os.getppid() != parent:  # the parent died before that
+                raise SystemExit
             os.close(read)
             warnings.simplefilter("ignore")  # nothing on stderr (see the module docstring)
             with os.fdopen(write, "wb") as out:
@@ -97,6 +109,19 @@ def _start(fn: Callable[[T], R], part: T) -> tuple[int, int]:
             os._exit(status)
     os.close(write)
     return pid, read
+
+
+#: prctl option: the signal this process gets when its parent dies
+_PR_SET_PDEATHSIG = 1
+
+
+@functools.cache
+def _prctl() -> Callable[[int, int], int] | None:
+    """libc's ``prctl`` (None where it cannot be found)."""
+    try:
+        return ctypes.CDLL(None, use_errno=True).prctl
+    except (OSError, AttributeError):
+        return None
 
 
 def _collect(fn: Callable[[T], R], part: T, child: tuple[int, int]) -> R:

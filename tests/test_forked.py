@@ -123,3 +123,43 @@ def test_a_plan_split_over_processes_is_the_same_bit_for_bit(
     assert np.array_equal(split.move_start_s, alone.move_start_s)
     assert split.ruckig_piece_count == alone.ruckig_piece_count
     assert _curve_bytes(split) == _curve_bytes(alone)
+
+
+def _alive(pid: int) -> bool:
+    """The process exists and is not a zombie (an orphan's zombie waits for init to reap it)."""
+    try:
+        state = Path(f"/proc/{pid}/stat").read_text().rsplit(")", 1)[1].split()[0]
+    except (FileNotFoundError, ProcessLookupError):
+        return False
+    return state not in ("Z", "X")
+
+
+@linux
+def test_a_child_dies_with_its_parent() -> None:
+    """kill -9 of the process that forked: its children stop at once, not after their part."""
+    import signal
+    import subprocess
+    import time
+
+    script = "import time\nfrom gantry_sim.controller.forked import fork_map\n"
+    script += "fork_map(time.sleep, [30.0, 30.0])\n"
+    proc = subprocess.Popen([sys.executable, "-c", script])
+    kids: list[int] = []
+    try:
+        deadline = time.monotonic() + 20
+        while not kids and time.monotonic() < deadline:
+            listed = Path(f"/proc/{proc.pid}/task/{proc.pid}/children").read_text().split()
+            kids = [int(k) for k in listed]
+            time.sleep(0.01)
+        assert kids, "the child was not forked"
+        time.sleep(0.2)  # past the child's own start
+    finally:
+        proc.send_signal(signal.SIGKILL)
+        proc.wait()
+    deadline = time.monotonic() + 5
+    while any(_alive(k) for k in kids) and time.monotonic() < deadline:
+        time.sleep(0.02)
+    left = [k for k in kids if _alive(k)]
+    for k in left:
+        os.kill(k, signal.SIGKILL)
+    assert not left, "a forked child outlived its parent"
