@@ -4,7 +4,8 @@ A streamed run (sim.stream) hands each simulated range to an analyser and takes 
 one range later, in order. :class:`InlineAnalyser` analyses at once; :class:`ProcessAnalyser`
 starts a worker process at the start of the run (``python -m gantry_sim.sim.analysis_worker``,
 talking over its stdin and stdout), sends it the move tables once, then each range's lines,
-traced points and reference (about 90 bytes a tick each way), and returns the previous range's
+traced points and reference (about 90 bytes a tick each way; every message to the worker with
+its arrays out of band: :func:`send_out_of_band`), and returns the previous range's
 result, so the analysis of range k runs on the second core while the servo loop simulates
 range k + 1. The work is the same function on the same arrays: the figures are identical either
 way (tests/test_stream.py runs both).
@@ -133,19 +134,13 @@ class ProcessAnalyser:
         self._sent: deque[RangeJob] = deque()
         self._done: deque[Result] = deque()
         # the tables go while the first range simulates (the worker takes ~0.3 s to start)
-        self._tables = threading.Thread(target=self._send_tables, args=(tables,), daemon=True)
+        self._tables = threading.Thread(target=self._send, args=(tables,), daemon=True)
         self._send_error: OSError | None = None
         self._tables.start()
 
     def _send(self, msg: object) -> None:
         try:
-            self._out.send(msg)
-        except OSError as exc:
-            self._send_error = exc
-
-    def _send_tables(self, tables: Tables) -> None:
-        try:
-            send_out_of_band(self._out, tables)
+            send_out_of_band(self._out, msg)
         except OSError as exc:
             self._send_error = exc
 
@@ -207,7 +202,8 @@ def send_out_of_band(conn: Connection, obj: object) -> None:
     """Send ``obj`` pickled with its arrays' bytes out of band (pickle protocol 5): the pickle
     without them, their sizes, then each array's own memory, so no pickled copy of the arrays
     is ever made (at 100,000 moves the move tables are 57 MB, and pickling them in one piece
-    held 126 MB more while it ran). :func:`recv_out_of_band` reads it."""
+    held 126 MB more while it ran; each range's arrays go the same way). :func:`recv_out_of_band`
+    reads it."""
     buffers: list[pickle.PickleBuffer] = []
     head = pickle.dumps(obj, protocol=5, buffer_callback=buffers.append)
     views = [b.raw() for b in buffers]
@@ -233,7 +229,8 @@ def _serve(inp: Connection, out: Connection) -> None:
         # not isinstance: run as __main__, this module's Tables is another class object
         tables = cast(Tables, recv_out_of_band(inp))
         while True:
-            out.send(analyse_range(tables, *inp.recv()))
+            job = cast(tuple, recv_out_of_band(inp))
+            out.send(analyse_range(tables, *job))
     except (EOFError, OSError, KeyboardInterrupt):
         pass  # the run ended, is gone or interrupted (OSError: a broken pipe): nobody to tell
     except Exception:  # reported to the run, which raises it
