@@ -195,10 +195,10 @@ def _blend_corners(
     _meet_neighbours(moves, use, turn, budgets)
     before = [cuts[k].before_mm if k in cuts else use[k] for k in range(n + 1)]
     after = [cuts[k].after_mm if k in cuts else use[k] for k in range(n + 1)]
-    # Trimmed straight moves: their new end points (a vanishing move: its midpoint, shared),
-    # as arrays and as the tuples the path's moves hold: a blend arc holds the very tuples of
-    # the lines it joins, and a move left whole keeps its own (a path holds 1.3 KB a move).
-    starts, ends, keep = [], [], []
+    # Trimmed straight moves: their new end points (a vanishing move: its midpoint, shared), as
+    # the tuples the path's moves hold: a blend arc holds the very tuples of the lines it joins,
+    # and a move left whole keeps its own (a path holds 1.3 KB a move).
+    keep: list[bool] = []
     start_pts: list[Vec3] = []
     end_pts: list[Vec3] = []
     for i, m in enumerate(moves):
@@ -215,8 +215,6 @@ def _blend_corners(
                 a = e = 0.5 * (a + e)  # the blends meet: they absorb what is left
             a_pt = _v3(a)
             e_pt = a_pt if e is a else _v3(e)
-        starts.append(a)
-        ends.append(e)
         start_pts.append(a_pt)
         end_pts.append(e_pt)
         # a curve by its length: a full circle or a closed spline ends where it starts
@@ -252,8 +250,7 @@ def _blend_corners(
         t = turn[i + 1]
         if t is not None:
             nxt = moves[i + 1]
-            ends_at = (ends[i], starts[i + 1], end_pts[i], start_pts[i + 1])
-            arc, dev = _blend_arc(m, nxt, *ends_at, t[0], t[1])  # type: ignore[arg-type]
+            arc, dev = _blend_arc(m, nxt, end_pts[i], start_pts[i + 1], t[0], t[1])  # type: ignore[arg-type]
             tol = control(m, settings).tolerance_mm
             out.blend_junction[len(new_moves)] = i + 1
             new_moves.append(arc)
@@ -316,18 +313,11 @@ def _trimmed(m: Move, start: Vec3, end: Vec3) -> Move:
 
 
 def _blend_arc(
-    m0: Linear,
-    m1: Linear,
-    p0: np.ndarray,
-    p1: np.ndarray,
-    start: Vec3,
-    end: Vec3,
-    phi: float,
-    plane: Plane,
+    m0: Linear, m1: Linear, start: Vec3, end: Vec3, phi: float, plane: Plane
 ) -> tuple[Arc, float]:
-    """The arc tangent to ``m0`` at ``p0`` and to ``m1`` at ``p1`` (its corner: m0.end; ``start``
-    and ``end``: the same points as the tuples the trimmed lines hold), and its largest
-    distance from the corner [mm]."""
+    """The arc tangent to ``m0`` at ``start`` and to ``m1`` at ``end`` (its corner: m0.end; the
+    very tuples the trimmed lines hold), and its largest distance from the corner [mm]."""
+    p0, p1 = np.asarray(start, float), np.asarray(end, float)
     d0, d1 = _direction(m0), _direction(m1)
     corner = np.asarray(m0.end, float)
     half = 0.5 * phi
