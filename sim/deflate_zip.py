@@ -57,7 +57,6 @@ class DeflatedMember:
             raise ValueError(f"{self.name}: released")
         self._file.seek(0)
         shutil.copyfileobj(self._file, out, 1 << 20)
-        self._file.seek(0, 2)
 
     def release(self) -> None:
         """Free the deflated bytes (idempotent)."""
@@ -96,7 +95,7 @@ def write_zip(members: list[DeflatedMember], out: BinaryIO) -> None:
     copied."""
     central = []
     for m in members:
-        m.finish()
+        m.finish()  # its sizes and CRC are final
         offset = out.tell()
         name = m.name.encode()
         extra = struct.pack("<HHQQ", 1, 16, m.size, m.compressed)

@@ -99,7 +99,7 @@ class TraceWriter:
         for member in self.members.values():
             member.release()
 
-    def finish(self) -> TraceWriter:
+    def finish(self) -> None:
         """The run ended: stop the thread, end the deflate streams, check every tick came."""
         self._stop()
         self._raise_failure()
@@ -107,7 +107,6 @@ class TraceWriter:
             raise ValueError(f"trace has {self.written} of {self.ticks} ticks")
         for member in self.members.values():
             member.finish()
-        return self
 
     def save(self, npz: Path) -> Path:
         """Write trace.npz to ``npz`` (after :meth:`finish`; as often as wanted)."""
