@@ -18,12 +18,12 @@ import pickle
 import tempfile
 from typing import IO, Any
 
-from gantry_sim.controller.planner.cubic import Segment
+from gantry_sim.controller.planner.packed_block import PackedBlock
 
 __all__ = ["Block", "BlockFile"]
 
-#: A block: segments in time order.
-Block = tuple[Segment, ...]
+#: A block: segments in time order, packed.
+Block = PackedBlock
 
 
 class BlockFile:

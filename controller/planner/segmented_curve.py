@@ -29,7 +29,7 @@ import numpy as np
 
 from gantry_sim.controller.planner.block_file import BlockFile
 from gantry_sim.controller.planner.cubic import Chunk, Jerk3Run, PiecewiseCubic, Segment
-from gantry_sim.controller.planner.jerk3 import phase_starts
+from gantry_sim.controller.planner.packed_block import PackedBlock, Phases
 
 __all__ = ["BLOCK_PHASES", "CACHED_BLOCKS", "CurveBuilder", "SegmentedCurve"]
 
@@ -37,13 +37,6 @@ __all__ = ["BLOCK_PHASES", "CACHED_BLOCKS", "CurveBuilder", "SegmentedCurve"]
 BLOCK_PHASES = 65_536
 #: Blocks kept laid out (a range of samples rarely spans more than two).
 CACHED_BLOCKS = 3
-
-_Phases = tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]
-
-
-def _durations(seg: Segment, axis: int) -> np.ndarray:
-    """The durations [s] of ``seg``'s phases on ``axis``."""
-    return np.repeat(seg.h, 3) if isinstance(seg, Jerk3Run) else seg[axis][0]
 
 
 def _phase_count(seg: Segment, axis: int) -> int:
@@ -91,7 +84,7 @@ class CurveBuilder:
         b, s = self._chunk_at[count]
         del self._chunk_at[count:]
         if b < len(self._file):  # the chunk began in a closed block: open it again
-            self._current = list(self._file[b])
+            self._current = list(self._file[b].segments())
             self._file.truncate(b)
             self._carry = self._starts[b]
             del self._counts[b:], self._starts[b:]
@@ -118,14 +111,14 @@ class CurveBuilder:
 
     def _close(self, *, spill: bool) -> None:
         """Close the open block: its phase counts and start times, then into the file."""
-        block = tuple(self._current)
+        block = PackedBlock(self._current)
         counts = np.zeros(3, dtype=np.int64)
         carry = self._carry.copy()
         for i in range(3):
-            dur = [_durations(s, i) for s in block]
-            counts[i] = sum(d.size for d in dur)
+            dur = block.durations(i)
+            counts[i] = dur.size
             if counts[i]:
-                carry[i] = float(np.cumsum(np.concatenate([[carry[i]], *dur]))[-1])
+                carry[i] = float(np.cumsum(np.concatenate(([carry[i]], dur)))[-1])
         self._counts.append(counts)
         self._starts.append(self._carry)
         self._carry = carry
@@ -154,7 +147,7 @@ class SegmentedCurve:
         # per axis: the start time [s] of each block with phases on that axis, and its index
         self._first = tuple(np.flatnonzero(counts[i]) for i in range(3))
         self._starts = tuple(starts[i, self._first[i]] for i in range(3))
-        self._cache: OrderedDict[int, tuple[_Phases, _Phases, _Phases]] = OrderedDict()
+        self._cache: OrderedDict[int, tuple[Phases, Phases, Phases]] = OrderedDict()
 
     @property
     def spilled_bytes(self) -> int:
@@ -167,41 +160,17 @@ class SegmentedCurve:
         c = self._counts.sum(axis=1)
         return int(c[0]), int(c[1]), int(c[2])
 
-    def _block(self, axis: int, k: int) -> _Phases:
+    def _block(self, axis: int, k: int) -> Phases:
         """Block ``self._first[axis][k]``'s phases on ``axis``: start time [s], p, v, a, j."""
         return self._layout(int(self._first[axis][k]))[axis]
 
-    def _layout(self, b: int) -> tuple[_Phases, _Phases, _Phases]:
-        """Block ``b``'s phases on every axis (the closed-form pieces' later phase states
-        rebuilt in one batch for the block: each row's numbers are the same as alone)."""
+    def _layout(self, b: int) -> tuple[Phases, Phases, Phases]:
+        """Block ``b``'s phases on every axis (:meth:`PackedBlock.layout`)."""
         hit = self._cache.get(b)
         if hit is not None:
             self._cache.move_to_end(b)
             return hit
-        segs = self._blocks[b]
-        runs = [s for s in segs if isinstance(s, Jerk3Run)]
-        if runs:
-            h, p0, v0, a0, js = Jerk3Run.joined(runs).fields
-            ps, vs, as_ = phase_starts(p0, v0, a0, js, h)
-            at = np.cumsum([0] + [3 * r.h.size for r in runs]).tolist()
-        out = []
-        for i in range(3):
-            if runs:
-                laid = (np.repeat(h, 3), *(x[:, :, i].ravel() for x in (ps, vs, as_, js)))
-            rows, n = [], 0
-            for seg in segs:
-                if isinstance(seg, Jerk3Run):
-                    rows.append(tuple(c[at[n] : at[n + 1]] for c in laid))
-                    n += 1
-                else:
-                    rows.append(tuple(seg[i]))
-            cols = [np.concatenate([r[c] for r in rows]) for c in range(5)]
-            t0 = np.cumsum(np.concatenate(([self._block_starts[i, b]], cols[0])))[:-1]
-            phases = (t0, cols[1], cols[2], cols[3], cols[4])
-            for arr in phases:
-                arr.setflags(write=False)
-            out.append(phases)
-        laid_out = (out[0], out[1], out[2])
+        laid_out = self._blocks[b].layout(self._block_starts[:, b])
         self._cache[b] = laid_out
         while len(self._cache) > CACHED_BLOCKS:
             self._cache.popitem(last=False)
