@@ -107,7 +107,7 @@ def main() -> None:
         curve = p.curve
         packed_file = curve._blocks
         count = len(packed_file)
-        packed = [min(_pass(p, ticks)[0] for _ in range(3))]
+        packed = min(_pass(p, ticks)[0] for _ in range(3))
         _, want = _pass(p, ticks)
         curve._blocks = _Blocks([_OneByOne(packed_file[b]) for b in range(count)])
         one = min(_pass(p, ticks)[0] for _ in range(3))
@@ -115,8 +115,8 @@ def main() -> None:
         curve._blocks = packed_file
         same = all(np.array_equal(a, b) for a, b in zip(want, got, strict=True))
         print(
-            f"{kind:6s} {args.blocks:7d} {ticks:9d} {count:12d} {packed[0]:9.3f} "
-            f"{one:12.3f} {one / packed[0]:6.2f}  {same}"
+            f"{kind:6s} {args.blocks:7d} {ticks:9d} {count:12d} {packed:9.3f} "
+            f"{one:12.3f} {one / packed:6.2f}  {same}"
         )
 
 

@@ -82,7 +82,7 @@ class PackedBlock:
 
     def durations(self, axis: int) -> np.ndarray:
         """The durations [s] of the phases on ``axis``, in time order."""
-        return self._merged(axis, np.repeat(self.runs[:, 0], 3), self.other[axis][0])
+        return _merged(self._from_runs(axis), np.repeat(self.runs[:, 0], 3), self.other[axis][0])
 
     def layout(self, start_s: np.ndarray) -> tuple[Phases, Phases, Phases]:
         """Per axis the phases, their start times counted from ``start_s[axis]`` [s] (the
@@ -94,15 +94,15 @@ class PackedBlock:
         j = rows[:, 10:].reshape(-1, 3, 3)
         if h.size:
             ps, vs, as_ = phase_starts(rows[:, 1:4], rows[:, 4:7], rows[:, 7:10], j, h)
-        else:
+        else:  # no runs: their columns are empty, as j (0, 3, 3) is
             ps = vs = as_ = j
         dur = np.repeat(h, 3)
         out = []
         for i in range(3):
-            mine = self.other[i]
-            cols = [self._merged(i, dur, mine[0])]
+            mine, from_runs = self.other[i], self._from_runs(i)
+            cols = [_merged(from_runs, dur, mine[0])]
             for c, laid in enumerate((ps, vs, as_, j), start=1):
-                cols.append(self._merged(i, laid[:, :, i].ravel(), mine[c]))
+                cols.append(_merged(from_runs, laid[:, :, i].ravel(), mine[c]))
             t0 = np.cumsum(np.concatenate(([start_s[i]], cols[0])))[:-1]
             phases = (t0, cols[1], cols[2], cols[3], cols[4])
             for arr in phases:
@@ -110,15 +110,19 @@ class PackedBlock:
             out.append(phases)
         return out[0], out[1], out[2]
 
-    def _merged(self, axis: int, from_runs: np.ndarray, from_other: np.ndarray) -> np.ndarray:
-        """One column of ``axis``' phases in time order, from the runs' and the other
-        segments' values of it."""
-        if from_other.size == 0:
-            return from_runs.copy()
-        if from_runs.size == 0:
-            return from_other.copy()
-        is_run = np.repeat(self.kinds == _RUN, self.counts[:, axis])
-        out = np.empty(is_run.size)
-        out[is_run] = from_runs
-        out[~is_run] = from_other
-        return out
+    def _from_runs(self, axis: int) -> np.ndarray:
+        """Per phase of ``axis`` in time order, whether a closed-form run holds it."""
+        return np.repeat(self.kinds == _RUN, self.counts[:, axis])
+
+
+def _merged(from_runs: np.ndarray, run_values: np.ndarray, other_values: np.ndarray) -> np.ndarray:
+    """One column of an axis' phases in time order: ``run_values`` where ``from_runs`` (see
+    :meth:`PackedBlock._from_runs`), ``other_values`` elsewhere, each in order."""
+    if other_values.size == 0:
+        return run_values.copy()
+    if run_values.size == 0:
+        return other_values.copy()
+    out = np.empty(from_runs.size)
+    out[from_runs] = run_values
+    out[~from_runs] = other_values
+    return out
