@@ -51,3 +51,34 @@ def test_the_round_kept_is_whole_and_stops_where_junctions_still_offend(
     tr = cut.sample(machine.servo.period_s)
     assert np.allclose(tr.pos[-1], moves[-1].end, atol=1e-9)
     assert not tr.vel[-1].any()
+
+
+# Three tangent arcs cut from benchmarks/programs.py's "arcs" program (seed 1): at the first
+# moving junction Ruckig stretches an end piece by less than 2 % (its closed-form piece breaks a
+# limit), which used to lower that junction's speed by 0.9 for a round of its own. G64 P0.01:
+# the curvature jumps at its tangent junctions may take the reference 0.01 mm off the arcs.
+SLIGHTLY_STRETCHED = """G21 G17 G90 G94 G64 P0.01
+G0 X29.2744 Y13.3973 Z-2
+F3000
+G3 X33.1196 Y16.9127 I-2.243 J6.3142
+G2 X40.1502 Y24.4636 I14.9527 J-6.8737
+G2 X41.5977 Y24.7517 I1.18 J-2.1485
+M2
+"""
+
+
+def test_an_end_piece_stretched_slightly_keeps_its_junction_speed(
+    machine, monkeypatch: pytest.MonkeyPatch
+) -> None:  # type: ignore[no-untyped-def]
+    from tests.plan_helpers import arc_deviation, assert_within_limits
+
+    pieces = importlib.import_module("gantry_sim.controller.planner.pieces")
+    moves = parse_program(SLIGHTLY_STRETCHED)
+    kept = plan(moves, machine)
+    monkeypatch.setattr(pieces, "END_STRETCH_MAX", 1.001)  # every stretch lowers the junction
+    lowered = plan(moves, machine)
+    assert kept.duration_s < lowered.duration_s - 1e-3
+    tr = kept.sample(1e-4)
+    assert_within_limits(tr, machine, moves)
+    for a in moves[1:]:
+        assert arc_deviation(tr, a) <= 0.01

@@ -5,7 +5,8 @@ speeds the look-ahead gives: one 1-D Ruckig profile, cut at the moves' ends; str
 that profile projected on the line, arcs are joined through their exact vertex states
 (:class:`~gantry_sim.controller.planner.pieces.MovePieces`; the chains of a round are planned
 in batches by :mod:`~gantry_sim.controller.planner.chain_plan`). Where a piece next to a moving
-junction leaves the arc or needed Ruckig to stretch it, that junction's cap comes down by
+junction leaves the arc or needed Ruckig to stretch it (beyond
+:data:`~gantry_sim.controller.planner.pieces.END_STRETCH_MAX`), that junction's cap comes down by
 :data:`JUNCTION_BACKOFF` and the program is planned again (:func:`settle_chains`).
 
 Only what changed is planned again: a chain's pieces depend on nothing but the chain and the
