@@ -37,6 +37,7 @@ from gantry_sim.controller.planner.corner_blend import (
     ArcCorner,
     CornerCut,
     arc_corner,
+    arc_end_tangents,
     blend_tangent_mm,
     trimmed_arc,
 )
@@ -167,6 +168,7 @@ def _blend_corners(
     turn: list[tuple[float, Plane] | None] = [None] * (n + 1)
     budgets = [0.0] * (n + 1)  # line-line corners: P less the reference's share [mm]
     cuts: dict[int, CornerCut] = {}  # corners with an arc on one side
+    tangents = arc_end_tangents(moves)
     for b in range(1, n):
         m0, m1 = moves[b - 1], moves[b]
         c = control(m0, settings)
@@ -176,7 +178,7 @@ def _blend_corners(
         if isinstance(m0, Linear | Arc) and isinstance(m1, Linear | Arc) and budget > 0:
             if isinstance(m0, Arc) or isinstance(m1, Arc):
                 corner = ArcCorner(budget, GEOMETRY_SHARE, MAX_TURN_RAD, jerk_mm_per_s3)
-                cut = arc_corner(m0, m1, corner, chord_tolerance_mm)
+                cut = arc_corner(m0, m1, corner, chord_tolerance_mm, tangents)
                 if cut is not None:
                     cuts[b] = cut
                 continue
