@@ -23,6 +23,7 @@ from gantry_sim.controller.arcs import (
 from gantry_sim.controller.config import Limits, Segmentation
 from gantry_sim.controller.moves import Arc, Move, Rapid, Spline
 from gantry_sim.controller.planes import PLANE_AXES
+from gantry_sim.controller.planner.arc_batch import arc_derivatives_many, arc_overrun_mm
 from gantry_sim.controller.planner.limits import (
     BlockLimits,
     FollowGeometry,
@@ -133,22 +134,6 @@ class ArcGeometry(MoveGeometry):
         return s_mm / self.length_mm
 
 
-def arc_overrun_mm(
-    u: np.ndarray,
-    angle_rad: float | np.ndarray,
-    r0: float | np.ndarray,
-    r1: float | np.ndarray,
-    rise_mm: float | np.ndarray,
-) -> np.ndarray:
-    """How far [mm] along the arc (or helix) points at sweep fractions ``u`` lie beyond its
-    ends (0 inside [0, 1]): a point on the arc's circle but past its end is off the arc. Without
-    it a piece that runs on along the tangent and back (a time-optimal Ruckig piece between the
-    states of a nearly straight blend arc, 0.1 mm past a 0.03 mm line) read as on the arc."""
-    over = np.maximum(np.maximum(u - 1.0, -u), 0.0)
-    r = r0 + (r1 - r0) * np.clip(u, 0.0, 1.0)
-    return over * np.hypot(r * angle_rad, rise_mm)
-
-
 #: The general name: arcs, helices and splines are all curves to the planner.
 CurveGeometry = ArcGeometry
 
@@ -164,7 +149,9 @@ def move_geometries(
 ) -> list[MoveGeometry]:
     """:func:`move_geometry` of each move; the curves' limits in one batch
     (:func:`~gantry_sim.controller.planner.limits_batch.arc_limits_many`)."""
-    geoms = [_geometry(m, limits, seg, feed_scale) for m in moves]
+    arcs = [m for m in moves if isinstance(m, Arc) and not isinstance(m, Spline)]
+    ends = _arc_end_derivatives(arcs)
+    geoms = [_geometry(m, limits, seg, feed_scale, ends.get(id(m))) for m in moves]
     curves = [g for g in geoms if isinstance(g, ArcGeometry)]
     blocks = iter(
         arc_limits_many([g.follow for g in curves], [g.length_mm for g in curves], limits)
@@ -176,8 +163,28 @@ def move_geometries(
 _UNSET = BlockLimits(0.0, 0.0, 0.0, 0.0)
 
 
-def _geometry(move: Move, limits: Limits, seg: Segmentation, feed_scale: float) -> MoveGeometry:
-    """:func:`move_geometry`, a curve's limits left :data:`_UNSET`."""
+def _arc_end_derivatives(arcs: list[Arc]) -> dict[int, tuple[np.ndarray, np.ndarray]]:
+    """dp/du and d2p/du2 (2, 3) [mm] at both ends of each arc, by ``id``, in one batch (each
+    row as :func:`~gantry_sim.controller.arcs.arc_derivatives` gives it)."""
+    if not arcs:
+        return {}
+    d1, d2 = arc_derivatives_many(arcs, [_ENDS] * len(arcs))
+    return {id(a): (d1[2 * k : 2 * k + 2], d2[2 * k : 2 * k + 2]) for k, a in enumerate(arcs)}
+
+
+#: The sweep fractions of an arc's two ends.
+_ENDS = np.array([0.0, 1.0])
+
+
+def _geometry(
+    move: Move,
+    limits: Limits,
+    seg: Segmentation,
+    feed_scale: float,
+    ends: tuple[np.ndarray, np.ndarray] | None = None,
+) -> MoveGeometry:
+    """:func:`move_geometry`, a curve's limits left :data:`_UNSET`; ``ends``: an arc's
+    derivatives at its ends (:func:`_arc_end_derivatives`), when made already."""
     zero = np.zeros(3)
     if isinstance(move, Spline):
         return _spline_geometry(move, seg, feed_scale)
@@ -196,7 +203,7 @@ def _geometry(move: Move, limits: Limits, seg: Segmentation, feed_scale: float) 
     verts = segment_arc(move, seg.method, seg.chord_tolerance_mm, seg.segment_length_mm)
     n = len(verts) - 1
     u = np.arange(n + 1) / n
-    d1, d2 = arc_derivatives(move, np.array([0.0, 1.0]))
+    d1, d2 = ends if ends is not None else arc_derivatives(move, _ENDS)
     t_in, k_in = frenet(d1[0], d2[0])
     t_out, k_out = frenet(d1[1], d2[1])
     frame = arc_frame(move)
