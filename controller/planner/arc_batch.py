@@ -45,6 +45,19 @@ def arc_derivatives_many(
     return d1, d2
 
 
+#: The sweep fractions of an arc's two ends.
+ARC_ENDS = np.array([0.0, 1.0])
+
+
+def arc_end_derivatives_many(arcs: Sequence[Arc]) -> tuple[np.ndarray, np.ndarray]:
+    """dp/du and d2p/du2 [mm] at the start and end of each arc, each (len(arcs), 2, 3):
+    :func:`arc_derivatives_many` at :data:`ARC_ENDS`, one batch for all of them."""
+    if not arcs:
+        return np.zeros((0, 2, 3)), np.zeros((0, 2, 3))
+    d1, d2 = arc_derivatives_many(arcs, [ARC_ENDS] * len(arcs))
+    return d1.reshape(-1, 2, 3), d2.reshape(-1, 2, 3)
+
+
 def piece_points_many(
     ps: np.ndarray, vs: np.ndarray, as_: np.ndarray, js: np.ndarray, dur: np.ndarray
 ) -> np.ndarray:

@@ -23,7 +23,11 @@ from gantry_sim.controller.arcs import (
 from gantry_sim.controller.config import Limits, Segmentation
 from gantry_sim.controller.moves import Arc, Move, Rapid, Spline
 from gantry_sim.controller.planes import PLANE_AXES
-from gantry_sim.controller.planner.arc_batch import arc_derivatives_many, arc_overrun_mm
+from gantry_sim.controller.planner.arc_batch import (
+    ARC_ENDS,
+    arc_end_derivatives_many,
+    arc_overrun_mm,
+)
 from gantry_sim.controller.planner.limits import (
     BlockLimits,
     FollowGeometry,
@@ -149,8 +153,8 @@ def move_geometries(
 ) -> list[MoveGeometry]:
     """:func:`move_geometry` of each move; the curves' limits in one batch
     (:func:`~gantry_sim.controller.planner.limits_batch.arc_limits_many`)."""
-    arcs = [m for m in moves if isinstance(m, Arc) and not isinstance(m, Spline)]
-    ends = _arc_end_derivatives(arcs)
+    arcs = [m for m in moves if isinstance(m, Arc)]
+    ends = dict(zip(map(id, arcs), zip(*arc_end_derivatives_many(arcs), strict=True), strict=True))
     geoms = [_geometry(m, limits, seg, feed_scale, ends.get(id(m))) for m in moves]
     curves = [g for g in geoms if isinstance(g, ArcGeometry)]
     blocks = iter(
@@ -163,19 +167,6 @@ def move_geometries(
 _UNSET = BlockLimits(0.0, 0.0, 0.0, 0.0)
 
 
-def _arc_end_derivatives(arcs: list[Arc]) -> dict[int, tuple[np.ndarray, np.ndarray]]:
-    """dp/du and d2p/du2 (2, 3) [mm] at both ends of each arc, by ``id``, in one batch (each
-    row as :func:`~gantry_sim.controller.arcs.arc_derivatives` gives it)."""
-    if not arcs:
-        return {}
-    d1, d2 = arc_derivatives_many(arcs, [_ENDS] * len(arcs))
-    return {id(a): (d1[2 * k : 2 * k + 2], d2[2 * k : 2 * k + 2]) for k, a in enumerate(arcs)}
-
-
-#: The sweep fractions of an arc's two ends.
-_ENDS = np.array([0.0, 1.0])
-
-
 def _geometry(
     move: Move,
     limits: Limits,
@@ -184,7 +175,7 @@ def _geometry(
     ends: tuple[np.ndarray, np.ndarray] | None = None,
 ) -> MoveGeometry:
     """:func:`move_geometry`, a curve's limits left :data:`_UNSET`; ``ends``: an arc's
-    derivatives at its ends (:func:`_arc_end_derivatives`), when made already."""
+    derivatives at its ends, when made already (``arc_batch.arc_end_derivatives_many``)."""
     zero = np.zeros(3)
     if isinstance(move, Spline):
         return _spline_geometry(move, seg, feed_scale)
@@ -203,7 +194,7 @@ def _geometry(
     verts = segment_arc(move, seg.method, seg.chord_tolerance_mm, seg.segment_length_mm)
     n = len(verts) - 1
     u = np.arange(n + 1) / n
-    d1, d2 = ends if ends is not None else arc_derivatives(move, _ENDS)
+    d1, d2 = ends if ends is not None else arc_derivatives(move, ARC_ENDS)
     t_in, k_in = frenet(d1[0], d2[0])
     t_out, k_out = frenet(d1[1], d2[1])
     frame = arc_frame(move)

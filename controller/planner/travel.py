@@ -85,10 +85,10 @@ def _may_leave(moves: Sequence[Move], lo: np.ndarray, hi: np.ndarray) -> np.ndar
     start = np.array([m.start for m in moves], dtype=float)
     end = np.array([m.end for m in moves], dtype=float)
     box_lo, box_hi = np.minimum(start, end), np.maximum(start, end)
-    arcs = [k for k, m in enumerate(moves) if isinstance(m, Arc)]
+    arcs = [(k, m) for k, m in enumerate(moves) if isinstance(m, Arc)]
     if arcs:
-        at = np.array(arcs)
-        sel = [m for m in (moves[k] for k in arcs) if isinstance(m, Arc)]
+        at = np.array([k for k, _ in arcs])
+        sel = [m for _, m in arcs]
         centre = np.array([m.center for m in sel], dtype=float)
         axes = np.array([PLANE_AXES[m.plane][:2] for m in sel], dtype=np.intp)
         rows = np.arange(len(sel))[:, None]
