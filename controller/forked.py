@@ -3,9 +3,12 @@
 :func:`fork_map` computes ``fn(part)`` for each part: the first here, the others each in a child
 forked from this process (Linux only), which inherits everything ``fn`` reads without copying
 or pickling it and sends back only its result (pickled through a pipe, read as it streams).
-A child that fails in any way (an exception, a signal, a result that does not arrive) is not
-trusted with an error of its own: its part is computed again here, so the caller sees exactly
-what a sequential run gives, the same exception with its message and line included.
+:func:`fork_runs` computes ``fn(run)`` for many runs, each taken by whichever process is free
+next (this one too, after a job of its own), so no process waits while another still has a
+queue of work. A child that fails in any way (an exception, a signal, a result that does not
+arrive) is not trusted with an error of its own: its part (its runs) is computed again here,
+so the caller sees exactly what a sequential run gives, the same exception with its message
+and line included.
 
 A child dies with this process (Linux ``PR_SET_PDEATHSIG``): a run killed with ``kill -9``
 leaves no child computing its part for nobody.
@@ -26,6 +29,7 @@ import functools
 import os
 import pickle
 import signal
+import struct
 import sys
 import warnings
 from collections.abc import Callable, Iterator, Sequence
@@ -33,7 +37,7 @@ from contextlib import contextmanager
 from contextvars import ContextVar
 from typing import TypeVar
 
-__all__ = ["MAX_PROCESSES", "fork_map", "one_process", "process_count"]
+__all__ = ["MAX_PROCESSES", "MAX_RUNS", "fork_map", "fork_runs", "one_process", "process_count"]
 
 T = TypeVar("T")
 R = TypeVar("R")
@@ -83,6 +87,60 @@ def fork_map(fn: Callable[[T], R], parts: Sequence[T]) -> list[R]:
         for pid, fd in pending:  # the parent failed: stop and reap the children still there
             _end(pid, fd)
     return out
+
+
+#: Runs :func:`fork_runs` takes at once (their indices fill the claim pipe's 64 KiB buffer).
+MAX_RUNS = 16_384
+_INDEX = struct.Struct("<I")
+
+
+def fork_runs(
+    fn: Callable[[T], R],
+    runs: Sequence[T],
+    processes: int,
+    before: Callable[[], object] | None = None,
+) -> list[R]:
+    """``[fn(r) for r in runs]``, each run computed by whichever of this process and
+    ``processes - 1`` forked children is free next: the runs' indices wait in a pipe, and each
+    process takes the next one (a read of 4 bytes, which a pipe gives whole to one reader)
+    until none is left. This process first calls ``before()`` (a job of its own, whose result
+    is dropped), then takes runs like the children. Each child sends back its runs' results
+    by index; the runs of a child that failed are computed here. ``fn`` must not depend on side
+    effects of other runs; at most :data:`MAX_RUNS` runs."""
+    if len(runs) > MAX_RUNS:
+        raise ValueError(f"at most {MAX_RUNS} runs, got {len(runs)}")
+    children = min(processes, len(runs) + 1) - 1  # no child without a run to take
+    if children <= 0:
+        if before is not None:
+            before()
+        return [fn(r) for r in runs]
+    read, write = os.pipe()
+    try:
+        os.write(write, b"".join(_INDEX.pack(i) for i in range(len(runs))))
+    finally:
+        os.close(write)  # the queue is all there: an empty pipe reads as its end
+
+    def take() -> dict[int, R]:
+        done: dict[int, R] = {}
+        while claim := os.read(read, _INDEX.size):
+            (i,) = _INDEX.unpack(claim)
+            done[i] = fn(runs[i])
+        return done
+
+    pending: list[tuple[int, int]] = []
+    try:
+        for _ in range(children):
+            pending.append(_start(lambda _: take(), None))
+        if before is not None:
+            before()
+        results = take()
+        while pending:
+            results.update(_collect(lambda _: {}, None, pending.pop(0)))
+    finally:
+        os.close(read)
+        for pid, fd in pending:  # the parent failed: stop and reap the children still there
+            _end(pid, fd)
+    return [results[i] if i in results else fn(r) for i, r in enumerate(runs)]
 
 
 def _start(fn: Callable[[T], R], part: T) -> tuple[int, int]:

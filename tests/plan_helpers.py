@@ -170,3 +170,17 @@ def count_fork_map_parts(monkeypatch: pytest.MonkeyPatch, module: ModuleType) ->
 
     monkeypatch.setattr(module, "fork_map", spy)
     return calls
+
+
+def count_fork_runs(monkeypatch: pytest.MonkeyPatch, module: ModuleType) -> list[tuple[int, bool]]:
+    """Spy on ``module.fork_runs`` (the real one still runs): the list returned gets each
+    call's number of runs and whether this process had a job of its own to do first."""
+    calls: list[tuple[int, bool]] = []
+    real = module.fork_runs
+
+    def spy(fn, runs, processes, before=None):  # type: ignore[no-untyped-def]
+        calls.append((len(runs), before is not None))
+        return real(fn, runs, processes, before)
+
+    monkeypatch.setattr(module, "fork_runs", spy)
+    return calls

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import os
 import sys
+import time
 from pathlib import Path
 
 import numpy as np
@@ -12,11 +13,11 @@ import pytest
 import gantry_sim.controller.planner.chain_plan as chain_plan
 from gantry_sim.controller import forked
 from gantry_sim.controller.config import load_machine_config
-from gantry_sim.controller.forked import fork_map, one_process, process_count
+from gantry_sim.controller.forked import fork_map, fork_runs, one_process, process_count
 from gantry_sim.controller.gcode.interpreter import parse_program
 from gantry_sim.controller.planner import plan
 from gantry_sim.models import DEFAULT_MACHINE
-from tests.plan_helpers import count_fork_map_parts
+from tests.plan_helpers import count_fork_runs
 
 linux = pytest.mark.skipif(not sys.platform.startswith("linux"), reason="fork: Linux only")
 EXAMPLES = Path(__file__).resolve().parent.parent / "examples"
@@ -86,6 +87,77 @@ def test_a_failing_parent_part_leaves_no_child_behind() -> None:
         fork_map(fn, [0, 1, 2])
 
 
+def _slow_square_and_pid(x: int) -> tuple[int, int]:
+    time.sleep(0.01)  # long enough that every process gets runs
+    return x * x, os.getpid()
+
+
+@linux
+def test_runs_are_shared_by_the_free_processes_and_come_back_in_order() -> None:
+    out = fork_runs(_slow_square_and_pid, list(range(40)), 3)
+    assert [v for v, _ in out] == [x * x for x in range(40)]
+    pids = {pid for _, pid in out}
+    assert os.getpid() in pids and len(pids) == 3
+
+
+@linux
+def test_the_children_take_the_runs_while_this_process_does_its_own_job() -> None:
+    """``before`` runs here, once, before this process takes runs: children forked before it
+    take the runs meanwhile (all of them, when the job outlasts the runs)."""
+    jobs: list[int] = []
+
+    def before() -> None:
+        jobs.append(os.getpid())
+        time.sleep(1.0)
+
+    out = fork_runs(_square_and_pid, list(range(8)), 2, before)
+    assert jobs == [os.getpid()]
+    assert [v for v, _ in out] == [x * x for x in range(8)]
+    assert os.getpid() not in {pid for _, pid in out}
+
+
+@linux
+def test_the_runs_of_a_child_that_dies_are_computed_here() -> None:
+    parent = os.getpid()
+
+    def fn(x: int) -> tuple[int, int]:
+        if os.getpid() != parent:
+            os._exit(7)  # killed, out of memory...: none of its results arrives
+        time.sleep(0.01)
+        return x + 1, os.getpid()
+
+    assert fork_runs(fn, list(range(10)), 3) == [(x + 1, parent) for x in range(10)]
+
+
+@linux
+def test_an_exception_in_a_run_is_raised_here_as_a_sequential_run_raises_it() -> None:
+    def fn(x: int) -> int:
+        time.sleep(0.01)
+        if x == 7:
+            raise ValueError("run seven is wrong")
+        return x
+
+    with pytest.raises(ValueError, match="run seven is wrong"):
+        fork_runs(fn, list(range(12)), 3)
+
+
+@linux
+def test_a_failing_job_of_this_process_leaves_no_child_behind() -> None:
+    def before() -> None:
+        raise KeyError("job")
+
+    with pytest.raises(KeyError):
+        fork_runs(_slow_square_and_pid, list(range(50)), 3, before)
+
+
+def test_runs_in_one_process_do_the_job_first_and_refuse_too_many_runs() -> None:
+    order: list[object] = []
+    out = fork_runs(lambda x: order.append(x) or x, [1, 2], 1, lambda: order.append("job"))
+    assert out == [1, 2] and order == ["job", 1, 2]
+    with pytest.raises(ValueError, match="at most"):
+        fork_runs(abs, [0] * (forked.MAX_RUNS + 1), 2)
+
+
 def test_the_process_count_follows_the_environment_and_one_process(
     monkeypatch: pytest.MonkeyPatch,
 ) -> None:
@@ -112,13 +184,13 @@ def test_a_plan_split_over_processes_is_the_same_bit_for_bit(
     moves = parse_program((EXAMPLES / name).read_text())
     monkeypatch.setenv("GANTRY_PLAN_WORKERS", "1")
     alone = plan(moves, machine)
-    calls = count_fork_map_parts(monkeypatch, chain_plan)
+    calls = count_fork_runs(monkeypatch, chain_plan)
     monkeypatch.setattr(chain_plan, "FORK_WORK", 2)
     monkeypatch.setattr(chain_plan, "WAVE_WORK", 40)
     monkeypatch.setattr(chain_plan, "FORK_RUN", 1)
     monkeypatch.setenv("GANTRY_PLAN_WORKERS", "3")
     split = plan(moves, machine)
-    assert len(calls) > 1 and max(calls) > 1  # the split path ran, in several waves
+    assert len(calls) > 1 and max(n for n, _ in calls) > 1  # the split path ran, in waves
     assert split.duration_s == alone.duration_s
     assert np.array_equal(split.move_start_s, alone.move_start_s)
     assert split.ruckig_piece_count == alone.ruckig_piece_count
