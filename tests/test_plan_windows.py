@@ -161,6 +161,63 @@ def test_a_window_sent_back_again_comes_back_wider_each_time(monkeypatch):
 
 
 @pytest.mark.skipif(not sys.platform.startswith("linux"), reason="forks on Linux only")
+def test_the_next_window_is_prepared_while_the_chains_are_planned(monkeypatch):
+    """Each window after the first is prepared while the window before plans its first round
+    (windows._Ahead): what is taken is what preparing it then gives, number for number, and
+    the plan is the whole program's."""
+    monkeypatch.setenv("GANTRY_PLAN_WORKERS", "2")
+    taken, paths = [], []
+    real_take, real_job = windows._Ahead.take, windows._Ahead.job
+    machine = load_machine_config(DEFAULT_MACHINE)
+
+    def job(self, path, *args):
+        paths.append(path)
+        return real_job(self, path, *args)
+
+    def take(self, key):
+        pre = real_take(self, key)
+        if pre is not None:
+            taken.append(pre)
+            path = paths[-1]  # the path being planned
+            fresh = windows._window(
+                windows.sub_path(path, key[0], key[1], key[0] + 1), machine, 100.0, True
+            )
+            np.testing.assert_array_equal(pre.caps, fresh.caps)
+            assert pre.path_index == fresh.path_index and pre.sources == fresh.sources
+            assert [g.limits for g in pre.active] == [g.limits for g in fresh.active]
+            for a, b in zip(pre.states, fresh.states, strict=True):
+                np.testing.assert_array_equal(a.direction, b.direction)
+                np.testing.assert_array_equal(a.curvature_per_mm, b.curvature_per_mm)
+        return pre
+
+    monkeypatch.setattr(windows._Ahead, "take", take)
+    monkeypatch.setattr(windows._Ahead, "job", job)
+    whole, windowed, probes = _whole_and_windowed(_program(), monkeypatch, 40, 8)
+    assert len(probes) >= 4 and len(taken) >= len(probes) // 2, (len(taken), probes)
+    _assert_same(whole, windowed)
+
+
+@pytest.mark.skipif(not sys.platform.startswith("linux"), reason="forks on Linux only")
+def test_a_window_whose_preparation_ahead_fails_is_prepared_again(monkeypatch):
+    """The job preparing the next window ahead never raises: the window is prepared where it
+    is used (an error there is raised in the order a plan without the job meets it)."""
+    monkeypatch.setenv("GANTRY_PLAN_WORKERS", "2")
+    real = windows._window
+    failed = []
+
+    def window(*args, **kwargs):
+        if sys._getframe(1).f_code.co_name == "prepare_next":
+            failed.append(True)
+            raise RuntimeError("prepared ahead")
+        return real(*args, **kwargs)
+
+    monkeypatch.setattr(windows, "_window", window)
+    whole, windowed, _ = _whole_and_windowed(_program(), monkeypatch, 40, 8)
+    assert failed
+    _assert_same(whole, windowed)
+
+
+@pytest.mark.skipif(not sys.platform.startswith("linux"), reason="forks on Linux only")
 def test_slow_blends_judged_over_processes_are_the_ones_judged_in_one(monkeypatch):
     """The windows of the slow-blend judgement go to forked processes, a wave at a time: the
     corners found, and so the plan, are those of the whole program in one process."""

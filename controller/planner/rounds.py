@@ -18,6 +18,7 @@ from __future__ import annotations
 
 import bisect
 import itertools
+from collections.abc import Callable
 from dataclasses import dataclass, replace
 
 import numpy as np
@@ -96,6 +97,7 @@ def settle_chains(
     arc_pieces: str,
     smoothing: list[float],
     blend_arcs: frozenset[int] = frozenset(),
+    ahead: Callable[[list[tuple[int, int]]], Callable[[], object] | None] | None = None,
 ) -> Settled:
     """Plan the moves' chains (not yet assembled into a timeline: :func:`assemble`; a window of a
     long program keeps only a prefix of them, :mod:`~gantry_sim.controller.planner.windows`);
@@ -110,7 +112,9 @@ def settle_chains(
     of 0.035 mm steps): the axes need that jerk plus the curvature's, and no lower junction
     speed frees it. ``blend_arcs``: ids of the G64 blend arcs among the moves (tolerance
     features: no saturated-ramp search, which costs tenths of a second and can save them
-    microseconds)."""
+    microseconds). ``ahead``: given the first round's chain spans, a job for this process to do
+    while other processes plan that round's chains (or None: see
+    :func:`~gantry_sim.controller.planner.chain_plan.plan_chains_forked`)."""
     setup = ChainSetup(active, states, machine, solver, arc_pieces, smoothing, {}, blend_arcs)
     blocks = [g.limits for g in active]
     cache: dict[ChainKey, Chain] = {}
@@ -122,7 +126,8 @@ def settle_chains(
         ends = [first for first, _ in spans] + [len(active)]
         speeds = np.full(len(active) + 1, np.nan)
         speeds[ends] = plan_junction_speeds(chained, caps[ends], reach_memo)
-        chains, cache = _plan_round(setup, spans, chained, speeds, cache)
+        before = ahead(spans) if ahead is not None and rnd == 0 else None
+        chains, cache = _plan_round(setup, spans, chained, speeds, cache, before)
         bad: set[int] = set()
         for (first, stop), chain in zip(spans, chains, strict=True):
             if chain.bad:
@@ -169,17 +174,19 @@ def _plan_round(
     chained: list[BlockLimits],
     speeds: np.ndarray,
     cache: dict[ChainKey, Chain],
+    before: Callable[[], object] | None = None,
 ) -> tuple[list[Chain], dict[ChainKey, Chain]]:
     """Every chain's pieces between the junction speeds ``speeds`` [mm/s] at the chains' ends,
     reusing ``cache``'s chains planned for the same speeds (the others are dropped from it
     first, so a plan holds about one round's phases); returns the chains, in order, and the
-    cache of this round's chains."""
+    cache of this round's chains. ``before``: a job of this process' own, done while other
+    processes plan the chains."""
     keys = [(first, stop, float(speeds[first]), float(speeds[stop])) for first, stop in spans]
     needed = set(keys)
     for key in [k for k in cache if k not in needed]:  # free them before planning new ones
         del cache[key]
     todo = [(k, lim) for k, lim in zip(keys, chained, strict=True) if k not in cache]
-    fresh = plan_chains_forked(setup, todo, speeds)
+    fresh = plan_chains_forked(setup, todo, speeds, before)
     chains = [cache.get(key) or fresh[key] for key in keys]
     return chains, dict(zip(keys, chains, strict=True))
 

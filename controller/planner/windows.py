@@ -37,6 +37,7 @@ window is sent back): the finished plan's reference is held on disk, not in memo
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from typing import NamedTuple
 
@@ -46,6 +47,7 @@ from gantry_sim.controller.config import MachineConfig
 from gantry_sim.controller.forked import fork_map, process_count
 from gantry_sim.controller.planner.blend import PathPlan
 from gantry_sim.controller.planner.limits import BlockLimits
+from gantry_sim.controller.planner.move_geometry import MoveGeometry
 from gantry_sim.controller.planner.prepare import Prepared, prepare, slow_blends, sub_path
 from gantry_sim.controller.planner.rounds import Round, Settled, assemble, settle_chains
 from gantry_sim.controller.planner.ruckig_solver import RuckigSolver
@@ -125,6 +127,7 @@ def plan_path(
     n = len(path.moves)
     blend_arcs = frozenset(id(path.moves[k]) for k in path.blend_junction)
     out = Planned(Round([], 0.0, [], set(), [], 0, []))
+    ahead = _Ahead()
     # per kept window: where it started, its size, and ``out`` before it
     history: list[tuple[_Start, int, _Mark]] = []
     start, size = _Start(0, -1, 0.0), WINDOW_MOVES
@@ -135,13 +138,21 @@ def plan_path(
             pre, base = prepared, 0
         else:
             base = ctx if ctx >= 0 else lo
-            pre = _window(
+            pre = ahead.take((base, hi, ctx >= 0)) or _window(
                 sub_path(path, base, hi, base + (ctx >= 0)), machine, feed_override_pct, ctx >= 0
             )
         caps = pre.caps.copy()
         caps[0] = v_lo
         settled = settle_chains(
-            pre.active, caps, pre.states, machine, solver, arc_pieces, pre.smoothing, blend_arcs
+            pre.active,
+            caps,
+            pre.states,
+            machine,
+            solver,
+            arc_pieces,
+            pre.smoothing,
+            blend_arcs,
+            ahead.job(path, pre, base, hi, machine, feed_override_pct),
         )
         if settled.speeds[0] != v_lo and history:  # the window before must keep less speed
             start, used, mark = history.pop()
@@ -199,6 +210,70 @@ def _truncate(out: Planned, mark: _Mark) -> None:
     r.ruckig_pieces, r.duration_s = mark.ruckig_pieces, mark.duration_s
 
 
+class _Ahead:
+    """The next window's :func:`_window`, prepared ahead while this window's first round is
+    planned by the other processes.
+
+    A probe's cut is its last chain boundary with the margins after it (:func:`_cut`), and its
+    rounds only add chain boundaries (a junction cap they lower may split a chain, never join
+    two), and add them near offending junctions: the cut that the first round's chains give is
+    nearly always the probe's own (every window of the generated programs of
+    ``benchmarks/programs.py`` at 20,000 blocks). So the window after that cut is prepared
+    then, by this process, while the forked children plan the round's chains
+    (:func:`~gantry_sim.controller.planner.chain_plan.plan_chains_forked`), and it is used only
+    when the next window is exactly that stretch: the same call of :func:`_window`, so the same
+    numbers bit for bit. Otherwise (another cut, a window sent back) it is dropped and the
+    window prepared as usual. Only where the chains are planned over several processes: in one
+    process it would just come earlier. The job never raises: an error in that stretch is
+    raised where the window is prepared for use, in the order a plan without it meets it."""
+
+    def __init__(self) -> None:
+        self._key: tuple[int, int, bool] | None = None
+        self._pre: Prepared | None = None
+
+    def take(self, key: tuple[int, int, bool]) -> Prepared | None:
+        """The window prepared ahead for (first stretch move, stop, with context), if that is
+        the one prepared; either way nothing is kept after."""
+        pre = self._pre if key == self._key else None
+        self._key, self._pre = None, None
+        return pre
+
+    def job(
+        self,
+        path: PathPlan,
+        pre: Prepared,
+        base: int,
+        hi: int,
+        machine: MachineConfig,
+        feed_override_pct: float,
+    ) -> Callable[[list[tuple[int, int]]], Callable[[], object] | None] | None:
+        """For :func:`~gantry_sim.controller.planner.rounds.settle_chains`: from the first
+        round's chain spans, the job preparing the window after the cut they give (None: the
+        last window, no cut, or one process)."""
+        if hi >= len(path.moves) or process_count() <= 1:
+            return None
+
+        def after(spans: list[tuple[int, int]]) -> Callable[[], object] | None:
+            cut = _cut_at(pre.active, spans)
+            if cut is None:
+                return None
+            c = cut[1]
+            ctx, lo = base + pre.path_index[c - 1], base + pre.path_index[c]
+            key = (ctx, min(len(path.moves), lo + WINDOW_MOVES), True)
+
+            def prepare_next() -> None:
+                try:
+                    stretch = sub_path(path, ctx, key[1], ctx + 1)
+                    self._pre = _window(stretch, machine, feed_override_pct, True)
+                    self._key = key
+                except Exception:  # raised again where the window is prepared for use
+                    self._key, self._pre = None, None
+
+            return prepare_next
+
+        return after
+
+
 def _window(
     stretch: PathPlan, machine: MachineConfig, feed_override_pct: float, context: bool
 ) -> Prepared:
@@ -224,13 +299,17 @@ def _window(
 def _cut(settled: Settled) -> tuple[int, int] | None:
     """Where a probe is cut: (chains kept, the active move after them), at its last chain
     boundary with the margins of the module docstring after it; None where there is none."""
-    active = settled.setup.active
+    return _cut_at(settled.setup.active, settled.spans)
+
+
+def _cut_at(active: list[MoveGeometry], spans: list[tuple[int, int]]) -> tuple[int, int] | None:
+    """:func:`_cut` of chains ``spans`` over the moves ``active``."""
     lengths = np.array([g.limits.length_mm for g in active])
     behind = np.concatenate((np.cumsum(lengths[::-1])[::-1], [0.0]))  # path length to the end
     braking = np.array([_braking_mm(g.limits) for g in active] + [0.0])
     needed = MARGIN_BRAKING * np.maximum.accumulate(braking[::-1])[::-1]  # from here on
-    for k in range(len(settled.spans) - 1, 0, -1):
-        first = settled.spans[k][0]
+    for k in range(len(spans) - 1, 0, -1):
+        first = spans[k][0]
         if len(active) - first >= MARGIN_MOVES and behind[first] >= needed[first]:
             return k, first
     return None
