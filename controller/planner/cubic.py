@@ -91,14 +91,14 @@ class CubicBuilder:
     """Collects phases per axis in time order, as the arrays (or sequences) given."""
 
     def __init__(self) -> None:
-        self.cols: list[tuple[list[np.ndarray], ...]] = [([], [], [], [], []) for _ in range(3)]
+        #: per axis, the phases added since the last segment: (5, n) arrays
+        self.cols: list[list[np.ndarray]] = [[], [], []]
         self.segments: list[Segment] = []
 
     def add(self, axis: int, dur, p, v, a, j) -> None:
-        """Append phases (sequences of equal length) to ``axis``."""
-        c = self.cols[axis]
-        for col, x in zip(c, (dur, p, v, a, j), strict=True):
-            col.append(np.asarray(x, dtype=float).ravel())
+        """Append phases (sequences of equal length) to ``axis`` (one (5, n) array: a Ruckig
+        piece adds 3 of them, not 15)."""
+        self.cols[axis].append(np.array((dur, p, v, a, j), dtype=float))
 
     def add_jerk3(self, run: Jerk3Run) -> None:
         """Append closed-form pieces to every axis (a :class:`Jerk3Run` holds a copy of its
@@ -111,9 +111,9 @@ class CubicBuilder:
         (one array, not five, as a plan keeps tens of thousands of them until it is built),
         and where the axes have as many phases (all but some Ruckig pieces), one (3, 5, n)
         array whose ``[axis]`` is that axis' (5, n), in place of three."""
-        if not any(c[0] for c in self.cols):
+        if not any(self.cols):
             return
-        sizes = [sum(x.size for x in c[0]) for c in self.cols]
+        sizes = [sum(x.shape[1] for x in c) for c in self.cols]
         if sizes[0] == sizes[1] == sizes[2]:
             whole = np.empty((3, 5, sizes[0]))
             out = [whole[0], whole[1], whole[2]]
@@ -121,10 +121,8 @@ class CubicBuilder:
             out = [np.empty((5, n)) for n in sizes]
         for c, arr, n in zip(self.cols, out, sizes, strict=True):
             if n:
-                for row, x in zip(arr, c, strict=True):
-                    np.concatenate(x, out=row)
-            for col in c:
-                col.clear()
+                np.concatenate(c, axis=1, out=arr)
+            c.clear()
         self.segments.append(whole if sizes[0] == sizes[1] == sizes[2] else tuple(out))
 
     def chunk(self) -> Chunk:
