@@ -171,6 +171,7 @@ class MovePieces:
             return float(mins.sum()), bad_in, bad_out
         total = 0.0
         k = 0
+        sampled: list[tuple[np.ndarray, float, RuckigPiece, bool, bool]] = []  # checked below
         while k < n:
             at_in, at_out = k == 0 and mv_in, k == n - 1 and mv_out
             if ok[k] and phases is not None:  # a run of closed-form pieces, added at once
@@ -204,20 +205,23 @@ class MovePieces:
                 bad_in |= at_in
                 bad_out |= at_out
             elif piece.positions is not None:
-                q = piece.positions
-                # the smoothing budget is for the jumps at moving junctions only
-                near = dev_max if at_in or at_out else self.dev_max
-                # the speed exactly: a short bulge falls between samples
-                off = g.deviation(q, u[k]) > near or speed_exceeds(piece.phases, g.feed_mm_per_s)
-                bad_in |= at_in and off
-                bad_out |= at_out and off
-                if off and not (at_in or at_out):
-                    if mv_in or mv_out:  # their speeds must come down
-                        bad_in |= mv_in
-                        bad_out |= mv_out
-                    else:  # no junction speed to lower: the profile must change
-                        self.off_pieces += 1
+                sampled.append((piece.positions, float(u[k]), piece, at_in, at_out))
             k += 1
+        # the sampled Ruckig pieces against the arc, at once (each as g.deviation measures it)
+        devs = _piece_deviations(g, [(q, uk) for q, uk, *_ in sampled])
+        for (_, _, piece, at_in, at_out), dev in zip(sampled, devs, strict=True):
+            # the smoothing budget is for the jumps at moving junctions only
+            near = dev_max if at_in or at_out else self.dev_max
+            # the speed exactly: a short bulge falls between samples
+            off = dev > near or speed_exceeds(piece.phases, g.feed_mm_per_s)
+            bad_in |= at_in and off
+            bad_out |= at_out and off
+            if off and not (at_in or at_out):
+                if mv_in or mv_out:  # their speeds must come down
+                    bad_in |= mv_in
+                    bad_out |= mv_out
+                else:  # no junction speed to lower: the profile must change
+                    self.off_pieces += 1
         return total, bad_in, bad_out
 
     def closed_form(
@@ -291,6 +295,18 @@ class MovePieces:
         for i in range(3):
             self.out.add(i, *piece.phases[i])
         return piece
+
+
+def _piece_deviations(g: ArcGeometry, pieces: list[tuple[np.ndarray, float]]) -> list[float]:
+    """:meth:`ArcGeometry.deviation` [mm] of each (points (k, 3), sweep fraction near them):
+    an arc's in one batch (:func:`arc_deviation_many`, the same numbers), a spline's one by
+    one."""
+    if not pieces:
+        return []
+    if not isinstance(g.move, Arc) or len({q.shape for q, _ in pieces}) > 1:
+        return [g.deviation(q, uh) for q, uh in pieces]
+    q = np.stack([q for q, _ in pieces])
+    return arc_deviation_many([g.move] * len(pieces), q, [uh for _, uh in pieces]).tolist()
 
 
 def _deviation(g: ArcGeometry, pieces: Pieces, k: int) -> float:
