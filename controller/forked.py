@@ -24,10 +24,12 @@ core, do).
 
 from __future__ import annotations
 
+import contextlib
 import ctypes
 import functools
 import os
 import pickle
+import select
 import signal
 import struct
 import sys
@@ -35,7 +37,7 @@ import warnings
 from collections.abc import Callable, Iterator, Sequence
 from contextlib import contextmanager
 from contextvars import ContextVar
-from typing import TypeVar
+from typing import Any, BinaryIO, TypeVar
 
 __all__ = ["MAX_PROCESSES", "MAX_RUNS", "fork_map", "fork_runs", "one_process", "process_count"]
 
@@ -89,6 +91,9 @@ def fork_map(fn: Callable[[T], R], parts: Sequence[T]) -> list[R]:
     return out
 
 
+#: Bytes a child's result pipe holds, where the system allows (Linux: fs.pipe-max-size, 1 MiB
+#: by default; else 64 KiB): a run's result of 32 chains of arcs pickles to about 100 kB.
+PIPE_BYTES = 1 << 20
 #: Runs :func:`fork_runs` takes at once (their indices fill the claim pipe's 64 KiB buffer).
 MAX_RUNS = 16_384
 _INDEX = struct.Struct("<I")
@@ -104,9 +109,11 @@ def fork_runs(
     ``processes - 1`` forked children is free next: the runs' indices wait in a pipe, and each
     process takes the next one (a read of 4 bytes, which a pipe gives whole to one reader)
     until none is left. This process first calls ``before()`` (a job of its own, whose result
-    is dropped), then takes runs like the children. Each child sends back its runs' results
-    by index; the runs of a child that failed are computed here. ``fn`` must not depend on side
-    effects of other runs; at most :data:`MAX_RUNS` runs."""
+    is dropped), then takes runs like the children. A child sends each run's result as soon as
+    it is done, and this process reads what has arrived between its own runs (reading is work
+    too: shared this way, it is balanced like the runs). The runs of a child that failed are
+    computed here. ``fn`` must not depend on side effects of other runs; at most
+    :data:`MAX_RUNS` runs."""
     if len(runs) > MAX_RUNS:
         raise ValueError(f"at most {MAX_RUNS} runs, got {len(runs)}")
     children = min(processes, len(runs) + 1) - 1  # no child without a run to take
@@ -120,32 +127,106 @@ def fork_runs(
     finally:
         os.close(write)  # the queue is all there: an empty pipe reads as its end
 
-    def take() -> dict[int, R]:
-        done: dict[int, R] = {}
+    def claims() -> Iterator[int]:
         while claim := os.read(read, _INDEX.size):
-            (i,) = _INDEX.unpack(claim)
-            done[i] = fn(runs[i])
-        return done
+            yield _INDEX.unpack(claim)[0]
 
-    pending: list[tuple[int, int]] = []
+    def serve(out: BinaryIO) -> None:  # in a child: each run's result as soon as it is done
+        for i in claims():
+            data = pickle.dumps((i, fn(runs[i])), protocol=pickle.HIGHEST_PROTOCOL)
+            out.write(_FRAME.pack(len(data)))
+            out.write(data)
+            out.flush()
+
+    streams: list[_Results] = []
     try:
         for _ in range(children):
-            pending.append(_start(lambda _: take(), None))
+            streams.append(_Results(*_fork(serve)))
         if before is not None:
             before()
-        results = take()
-        while pending:
-            results.update(_collect(lambda _: {}, None, pending.pop(0)))
+        results: dict[int, R] = {}
+        for i in claims():
+            results[i] = fn(runs[i])
+            for stream in streams:
+                stream.poll()
+        for stream in streams:
+            results.update(stream.finish())
     finally:
         os.close(read)
-        for pid, fd in pending:  # the parent failed: stop and reap the children still there
-            _end(pid, fd)
+        for stream in streams:  # the parent failed: stop and reap the children still there
+            stream.end()
     return [results[i] if i in results else fn(r) for i, r in enumerate(runs)]
+
+
+_FRAME = struct.Struct("<Q")
+
+
+class _Results:
+    """The results a :func:`fork_runs` child sends: frames of (run index, result), each
+    pickled behind its length."""
+
+    def __init__(self, pid: int, fd: int) -> None:
+        self.pid, self.fd = pid, fd
+        self.buffer = bytearray()
+        self.got: dict[int, object] = {}
+        self.open, self.broken, self.reaped = True, False, False
+
+    def poll(self) -> None:
+        """Take in what has arrived, without waiting."""
+        while self.open and select.select([self.fd], [], [], 0.0)[0]:
+            self._read()
+
+    def finish(self) -> dict[int, Any]:
+        """Everything the child sent, once it has ended ({} when it failed in any way)."""
+        while self.open:
+            self._read()
+        os.close(self.fd)
+        _, status = os.waitpid(self.pid, 0)
+        self.reaped = True
+        if self.broken or self.buffer or os.waitstatus_to_exitcode(status) != 0:
+            return {}
+        return self.got
+
+    def end(self) -> None:
+        """Kill and reap the child if :meth:`finish` did not."""
+        if not self.reaped:
+            _end(self.pid, self.fd)
+
+    def _read(self) -> None:
+        chunk = os.read(self.fd, 1 << 20)
+        if not chunk:
+            self.open = False
+            return
+        buf = self.buffer
+        buf += chunk
+        while len(buf) >= _FRAME.size:
+            (size,) = _FRAME.unpack_from(buf)
+            if len(buf) < _FRAME.size + size:
+                break
+            try:
+                i, result = pickle.loads(bytes(buf[_FRAME.size : _FRAME.size + size]))
+                self.got[i] = result
+            except Exception:  # a broken result: its runs are computed again by the parent
+                self.open, self.broken = False, True
+                return
+            del buf[: _FRAME.size + size]
 
 
 def _start(fn: Callable[[T], R], part: T) -> tuple[int, int]:
     """A child computing ``fn(part)``; returns its pid and the read end of its result pipe."""
+    return _fork(lambda out: pickle.dump(fn(part), out, protocol=pickle.HIGHEST_PROTOCOL))
+
+
+def _fork(body: Callable[[BinaryIO], object]) -> tuple[int, int]:
+    """A child calling ``body`` with the write end of a pipe, then leaving (see the module
+    docstring); returns its pid and the read end. The pipe holds :data:`PIPE_BYTES` where the
+    system allows: a child sending results as they come need not wait for this process to read
+    them while it is busy with its own."""
+    import fcntl  # here: the module is imported where there is no fcntl (fork is Linux only)
+
     read, write = os.pipe()
+    with contextlib.suppress(OSError, AttributeError):
+        fcntl.fcntl(write, fcntl.F_SETPIPE_SZ, PIPE_BYTES)
     parent = os.getpid()
     prctl = _prctl()  # looked up here: the child only calls it
     pid = os.fork()
@@ -159,7 +240,7 @@ def _start(fn: Callable[[T], R], part: T) -> tuple[int, int]:
             os.close(read)
             warnings.simplefilter("ignore")  # nothing on stderr (see the module docstring)
             with os.fdopen(write, "wb") as out:
-                pickle.dump(fn(part), out, protocol=pickle.HIGHEST_PROTOCOL)
+                body(out)
             status = 0
         except BaseException:  # reported by the exit status: the parent redoes it
             pass

@@ -130,6 +130,25 @@ def test_the_runs_of_a_child_that_dies_are_computed_here() -> None:
 
 
 @linux
+def test_a_child_that_dies_after_sending_results_is_not_trusted_with_any() -> None:
+    """Its results arrive run by run; it dies at its third run: the runs it sent are
+    computed here too."""
+    parent = os.getpid()
+    count = {"runs": 0}  # the child's own copy counts its runs
+
+    def fn(x: int) -> tuple[int, int]:
+        time.sleep(0.01)
+        if os.getpid() != parent:
+            count["runs"] += 1
+            if count["runs"] == 3:
+                os._exit(7)
+        return x + 1, os.getpid()
+
+    out = fork_runs(fn, list(range(20)), 2)
+    assert out == [(x + 1, parent) for x in range(20)]
+
+
+@linux
 def test_an_exception_in_a_run_is_raised_here_as_a_sequential_run_raises_it() -> None:
     def fn(x: int) -> int:
         time.sleep(0.01)
