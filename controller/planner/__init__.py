@@ -20,6 +20,7 @@ The steps, in the order :func:`plan` runs them (module: its one job):
    ``lookahead``      backward and forward passes over the chains -> the junction speeds
 6. ``ruckig_solver``  the only ruckig import: the 1-D profile per chain, the 3-DoF pieces
    ``profile``        Profile1D, the 1-D profile (dur, s, v, a, j per phase) every step hands on
+   ``knots``          (leaf) break points merged: the sorted union of two sets of times or fractions
    ``speedup``        faster 1-D candidates for arcs that ramp, checked point by point
    ``saturated_ramp`` time-optimal-like ramps on small arcs from rest (a speedup candidate)
    ``ramp_bounds``    the jerk and acceleration those ramps may use, per state
@@ -37,7 +38,7 @@ The steps, in the order :func:`plan` runs them (module: its one job):
    ``segmented_curve`` the plan's reference held as the planner's segments, laid out by block
    ``result``         Plan, the frozen result, and its sampling at the servo period
 
-Imports run one way: ``limits`` and ``profile`` are leaves; ``move_geometry`` uses ``limits`` and
+Imports run one way: ``limits``, ``profile`` and ``knots`` are leaves; ``move_geometry`` uses ``limits`` and
 ``segment``; ``junctions``, ``speedup``, ``arc_states`` and ``pieces`` use ``move_geometry``;
 ``plan`` uses them all. Parsing and planning run with the cyclic garbage collector paused
 (:mod:`gantry_sim.controller.gc_pause`).

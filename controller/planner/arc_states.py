@@ -15,6 +15,7 @@ from gantry_sim.controller.arcs import spiral_speed_rate
 from gantry_sim.controller.moves import Arc
 from gantry_sim.controller.planner.arc_batch import arc_derivatives_many
 from gantry_sim.controller.planner.junctions import EndState
+from gantry_sim.controller.planner.knots import union_sorted
 from gantry_sim.controller.planner.move_geometry import ArcGeometry
 from gantry_sim.controller.planner.profile import Profile1D, invert_many
 
@@ -132,12 +133,12 @@ def _fractions(
             u[i], snapped[i] = uk, True
         elif abs(uk * m - i) > 1e-3:
             extra.append(uk)
-    u = np.union1d(u, extra)
+    u = union_sorted(u, extra)
     halves = 0.5 ** np.arange(1, STOP_REFINEMENT + 1)
     if not state_in.moving:
-        u = np.union1d(u, u[1] * halves)
+        u = union_sorted(u, u[1] * halves)
     if not state_out.moving:
-        u = np.union1d(u, 1.0 - (1.0 - u[-2]) * halves)
+        u = union_sorted(u, 1.0 - (1.0 - u[-2]) * halves)
     u = u[np.concatenate(([True], np.diff(u) > 1e-12))]
     u[-1] = 1.0
     return u

@@ -18,6 +18,7 @@ from collections.abc import Sequence
 
 import numpy as np
 
+from gantry_sim.controller.planner.knots import union_sorted
 from gantry_sim.controller.planner.limits import BlockLimits
 from gantry_sim.controller.planner.profile import Profile1D
 
@@ -81,7 +82,7 @@ def split_profile(
     bounds = move_bounds(lengths_mm)
     t_cut, v_cut, a_cut = profile.invert(bounds[1:-1]) if cut is None else cut
     t_cut = np.maximum.accumulate(np.clip(t_cut, 0.0, t_start[-1]))
-    times = np.union1d(t_start, t_cut)
+    times = union_sorted(t_start, t_cut)
     t_lo, t_hi = times[:-1], times[1:]
     k = np.clip(np.searchsorted(t_start, t_lo, side="right") - 1, 0, dur.size - 1)
     tau = t_lo - t_start[k]
