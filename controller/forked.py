@@ -37,7 +37,7 @@ import warnings
 from collections.abc import Callable, Iterator, Sequence
 from contextlib import contextmanager
 from contextvars import ContextVar
-from typing import Any, BinaryIO, TypeVar
+from typing import Any, TypeVar
 
 __all__ = ["MAX_PROCESSES", "MAX_RUNS", "fork_map", "fork_runs", "one_process", "process_count"]
 
@@ -92,7 +92,7 @@ def fork_map(fn: Callable[[T], R], parts: Sequence[T]) -> list[R]:
 
 
 #: Bytes a child's result pipe holds, where the system allows (Linux: fs.pipe-max-size, 1 MiB
-#: by default; else 64 KiB): a run's result of 32 chains of arcs pickles to about 100 kB.
+#: by default; else 64 KiB): a run's result of 32 chains of arcs pickles to 0.2-0.3 MB.
 PIPE_BYTES = 1 << 20
 #: Runs :func:`fork_runs` takes at once (their indices fill the claim pipe's 64 KiB buffer).
 MAX_RUNS = 16_384
@@ -110,8 +110,10 @@ def fork_runs(
     process takes the next one (a read of 4 bytes, which a pipe gives whole to one reader)
     until none is left. This process first calls ``before()`` (a job of its own, whose result
     is dropped), then takes runs like the children. A child sends each run's result as soon as
-    it is done, and this process reads what has arrived between its own runs (reading is work
-    too: shared this way, it is balanced like the runs). The runs of a child that failed are
+    it is done, as far as its pipe takes it (it keeps the rest and goes on: it never waits for
+    this process, busy with its own job, to read), and this process reads what has arrived
+    between its own runs (reading is work too: shared this way, it is balanced like the
+    runs). The runs of a child that failed are
     computed here. ``fn`` must not depend on side effects of other runs; at most
     :data:`MAX_RUNS` runs."""
     if len(runs) > MAX_RUNS:
@@ -131,12 +133,19 @@ def fork_runs(
         while claim := os.read(read, _INDEX.size):
             yield _INDEX.unpack(claim)[0]
 
-    def serve(out: BinaryIO) -> None:  # in a child: each run's result as soon as it is done
+    def serve(out: int) -> None:  # in a child: each run's result as soon as it is done
+        unsent = bytearray()  # what the pipe did not take yet: a child never waits on it
+        os.set_blocking(out, False)
         for i in claims():
             data = pickle.dumps((i, fn(runs[i])), protocol=pickle.HIGHEST_PROTOCOL)
-            out.write(_FRAME.pack(len(data)))
-            out.write(data)
-            out.flush()
+            unsent += _FRAME.pack(len(data))
+            unsent += data
+            with contextlib.suppress(BlockingIOError):
+                while unsent:
+                    del unsent[: os.write(out, unsent)]
+        os.set_blocking(out, True)
+        while unsent:
+            del unsent[: os.write(out, unsent)]
 
     streams: list[_Results] = []
     try:
@@ -214,14 +223,18 @@ class _Results:
 
 def _start(fn: Callable[[T], R], part: T) -> tuple[int, int]:
     """A child computing ``fn(part)``; returns its pid and the read end of its result pipe."""
-    return _fork(lambda out: pickle.dump(fn(part), out, protocol=pickle.HIGHEST_PROTOCOL))
+
+    def body(fd: int) -> None:
+        with os.fdopen(fd, "wb", closefd=False) as out:
+            pickle.dump(fn(part), out, protocol=pickle.HIGHEST_PROTOCOL)
+
+    return _fork(body)
 
 
-def _fork(body: Callable[[BinaryIO], object]) -> tuple[int, int]:
+def _fork(body: Callable[[int], object]) -> tuple[int, int]:
     """A child calling ``body`` with the write end of a pipe, then leaving (see the module
     docstring); returns its pid and the read end. The pipe holds :data:`PIPE_BYTES` where the
-    system allows: a child sending results as they come need not wait for this process to read
-    them while it is busy with its own."""
+    system allows (fewer system calls for a child sending results as they come)."""
     import fcntl  # here: the module is imported where there is no fcntl (fork is Linux only)
 
     read, write = os.pipe()
@@ -239,8 +252,8 @@ def _fork(body: Callable[[BinaryIO], object]) -> tuple[int, int]:
                 raise SystemExit
             os.close(read)
             warnings.simplefilter("ignore")  # nothing on stderr (see the module docstring)
-            with os.fdopen(write, "wb") as out:
-                body(out)
+            body(write)
+            os.close(write)
             status = 0
         except BaseException:  # reported by the exit status: the parent redoes it
             pass

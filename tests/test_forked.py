@@ -117,6 +117,20 @@ def test_the_children_take_the_runs_while_this_process_does_its_own_job() -> Non
 
 
 @linux
+def test_a_child_goes_on_while_this_process_is_busy_with_its_own_job() -> None:
+    """Results far larger than the pipe holds: the child keeps what the pipe does not take and
+    goes on with its runs while this process, busy with its job, reads nothing."""
+
+    def fn(x: int) -> tuple[bytes, int]:
+        time.sleep(0.01)
+        return bytes(300_000), os.getpid()
+
+    out = fork_runs(fn, list(range(40)), 2, lambda: time.sleep(1.5))
+    assert len(out) == 40 and all(len(b) == 300_000 for b, _ in out)
+    assert os.getpid() not in {pid for _, pid in out}  # the child did every run meanwhile
+
+
+@linux
 def test_the_runs_of_a_child_that_dies_are_computed_here() -> None:
     parent = os.getpid()
 
