@@ -36,6 +36,7 @@ window is sent back): the finished plan's reference is held on disk, not in memo
 
 from __future__ import annotations
 
+import functools
 import math
 from collections.abc import Callable
 from dataclasses import dataclass, field
@@ -154,6 +155,7 @@ def plan_path(
             blend_arcs,
             ahead.job(path, pre, base, hi, machine, feed_override_pct),
         )
+        ahead.keep_now()  # the window before is kept by now (it may be taken back next)
         if settled.speeds[0] != v_lo and history:  # the window before must keep less speed
             start, used, mark = history.pop()
             _truncate(out, mark)
@@ -166,10 +168,11 @@ def plan_path(
         count, c = cut
         history.append((start, size, _mark(out)))
         upto = pre.path_index[c] if c < len(pre.active) else len(pre.geoms)  # stretch moves kept
-        kept = assemble(settled, pre.holds, count, end_hold=hi == n, start_s=out.round.duration_s)
-        _keep(out, pre, kept, c, upto)
+        keep = functools.partial(_assemble_and_keep, out, settled, pre, count, c, upto, hi == n)
         if hi == n:
+            keep()
             return out
+        ahead.keep_later(keep)
         start = _Start(
             base + pre.path_index[c], base + pre.path_index[c - 1], float(settled.speeds[c])
         )
@@ -211,8 +214,9 @@ def _truncate(out: Planned, mark: _Mark) -> None:
 
 
 class _Ahead:
-    """The next window's :func:`_window`, prepared ahead while this window's first round is
-    planned by the other processes.
+    """Work of this process done while the other processes plan a window's first round: the
+    keeping of the window before (:meth:`keep_later`) and the next window's :func:`_window`,
+    prepared ahead.
 
     A probe's cut is its last chain boundary with the margins after it (:func:`_cut`), and its
     rounds only add chain boundaries (a junction cap they lower may split a chain, never join
@@ -230,6 +234,21 @@ class _Ahead:
     def __init__(self) -> None:
         self._key: tuple[int, int, bool] | None = None
         self._pre: Prepared | None = None
+        self._keep: Callable[[], None] | None = None
+
+    def keep_later(self, keep: Callable[[], None]) -> None:
+        """Keep the window just planned (assemble its timeline, write its reference) while the
+        next window's first round is planned by the other processes, or at once where there
+        are none (one process: nothing to overlap, and its chains freed sooner)."""
+        self._keep = keep
+        if process_count() <= 1:
+            self.keep_now()
+
+    def keep_now(self) -> None:
+        """The keeping of :meth:`keep_later`, if not done yet."""
+        keep, self._keep = self._keep, None
+        if keep is not None:
+            keep()
 
     def take(self, key: tuple[int, int, bool]) -> Prepared | None:
         """The window prepared ahead for (first stretch move, stop, with context), if that is
@@ -262,6 +281,7 @@ class _Ahead:
             key = (ctx, min(len(path.moves), lo + WINDOW_MOVES), True)
 
             def prepare_next() -> None:
+                self.keep_now()
                 try:
                     stretch = sub_path(path, ctx, key[1], ctx + 1)
                     self._pre = _window(stretch, machine, feed_override_pct, True)
@@ -321,6 +341,15 @@ def _braking_mm(lim: BlockLimits) -> float:
     v sqrt(v / j) when v < a^2 / j; inf for a block without a finite cap)."""
     v, a, j = lim.cap_mm_per_s, lim.acc_mm_per_s2, lim.jerk_mm_per_s3
     return v * v / (2.0 * a) + v * a / j if np.isfinite(v) else math.inf
+
+
+def _assemble_and_keep(
+    out: Planned, settled: Settled, pre: Prepared, count: int, c: int, upto: int, end: bool
+) -> None:
+    """:func:`_keep` the timeline of the first ``count`` chains of ``settled`` (with the end's
+    dwells when ``end``), its times counting from where ``out`` ends."""
+    kept = assemble(settled, pre.holds, count, end_hold=end, start_s=out.round.duration_s)
+    _keep(out, pre, kept, c, upto)
 
 
 def _keep(out: Planned, pre: Prepared, kept: Round, moves: int, upto: int) -> None:
