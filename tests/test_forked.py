@@ -220,7 +220,7 @@ def test_a_plan_split_over_processes_is_the_same_bit_for_bit(
     calls = count_fork_runs(monkeypatch, chain_plan)
     monkeypatch.setattr(chain_plan, "FORK_WORK", 2)
     monkeypatch.setattr(chain_plan, "WAVE_WORK", 40)
-    monkeypatch.setattr(chain_plan, "FORK_RUN", 1)
+    monkeypatch.setattr(chain_plan, "MIN_RUN_WORK", 1)
     monkeypatch.setenv("GANTRY_PLAN_WORKERS", "3")
     split = plan(moves, machine)
     assert len(calls) > 1 and max(n for n, _ in calls) > 1  # the split path ran, in waves
@@ -228,6 +228,20 @@ def test_a_plan_split_over_processes_is_the_same_bit_for_bit(
     assert np.array_equal(split.move_start_s, alone.move_start_s)
     assert split.ruckig_piece_count == alone.ruckig_piece_count
     assert _curve_bytes(split) == _curve_bytes(alone)
+
+
+def test_a_wave_is_cut_into_contiguous_runs_largest_first() -> None:
+    """Every chain once, in order; each run about the work left over twice the processes
+    (the first a quarter of the wave for two), none below MIN_RUN_WORK but the last."""
+    work = [10 + (i % 7) * 30 for i in range(2000)]
+    chains = [((i, i + 1, 0.0, 0.0), i) for i in range(2000)]
+    runs = chain_plan._runs(chains, work, 2)  # type: ignore[arg-type]
+    assert [c for run in runs for c in run] == chains
+    sizes = [sum(work[i] for _, i in run) for run in runs]
+    assert sum(work) / 4 <= sizes[0] <= sum(work) / 4 + max(work)
+    assert all(s >= chain_plan.MIN_RUN_WORK for s in sizes[:-1])
+    assert max(sizes[len(sizes) // 2 :]) < sizes[0] / 4  # small runs at the end
+    assert len(runs) < 40
 
 
 def _alive(pid: int) -> bool:

@@ -95,7 +95,7 @@ def plan_chains_forked(
     meanwhile. The chains go in waves, contiguous stretches of about :data:`WAVE_WORK` per
     process (a forked child's private memory, the pages it copies on writing and what it plans,
     grows with its share: one wave for all took 1.1 GB besides the parent's 1.4 GB at 100,000
-    arcs); in a wave, runs of :data:`FORK_RUN` chains are taken by whichever process is free
+    arcs); a wave's chains go in runs (:func:`_runs`), each taken by whichever process is free
     next. A chain's pieces depend on nothing but the chain and its end speeds, so the plan is
     the same bit for bit."""
     n = process_count()
@@ -109,8 +109,7 @@ def plan_chains_forked(
     for i, w in enumerate(work):
         size += w
         if size >= n * WAVE_WORK or i == len(todo) - 1:
-            wave = todo[first : i + 1]
-            runs = [wave[k : k + FORK_RUN] for k in range(0, len(wave), FORK_RUN)]
+            runs = _runs(todo[first : i + 1], work[first : i + 1], n)
             for done in fork_runs(lambda run: plan_chains(setup, run, speeds), runs, n, before):
                 out.update(done)
             first, size, before = i + 1, 0, None
@@ -122,11 +121,34 @@ def plan_chains_forked(
 CHAIN_WORK = 8
 #: :func:`plan_chains_forked` splits a round of this much work over processes (about 0.2 s of
 #: planning; a fork of a planner holding 1 GB costs about 20 ms) in waves of WAVE_WORK per
-#: process (about 2 s), each wave's chains taken in runs of FORK_RUN (a run is planned as one
-#: batch: batches of 32 chains plan as fast as batches of 900).
+#: process (about 2 s), each wave's chains taken in runs of at least MIN_RUN_WORK (about 25 ms;
+#: a run is planned in batches of its own, and a batch of a few hundred pieces costs more per
+#: piece: polylines' chains of one or two pieces planned 1.8 x slower in batches of 300).
 FORK_WORK = 10_000
 WAVE_WORK = 100_000
-FORK_RUN = 32
+MIN_RUN_WORK = 1_000
+
+
+def _runs(
+    chains: list[tuple[ChainKey, BlockLimits]], work: list[int], processes: int
+) -> list[list[tuple[ChainKey, BlockLimits]]]:
+    """``chains`` (of planning ``work`` each) cut into contiguous runs, largest first: each
+    about the work left over twice the processes, at least :data:`MIN_RUN_WORK` (guided
+    self-scheduling: few runs, and small ones at the end, so that the processes finish a wave
+    together)."""
+    runs = []
+    left = sum(work)
+    k = 0
+    while k < len(chains):
+        target = max(MIN_RUN_WORK, left / (2 * processes))
+        stop, size = k + 1, work[k]
+        while stop < len(chains) and size < target:
+            size += work[stop]
+            stop += 1
+        runs.append(chains[k:stop])
+        left -= size
+        k = stop
+    return runs
 
 
 def _work(setup: ChainSetup, key: ChainKey) -> int:
