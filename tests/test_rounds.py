@@ -11,6 +11,7 @@ import pytest
 
 from gantry_sim.controller.gcode.interpreter import parse_program
 from gantry_sim.controller.planner import plan
+from gantry_sim.controller.planner.limits import BlockLimits
 
 rounds = importlib.import_module("gantry_sim.controller.planner.rounds")
 BENCH = Path(__file__).resolve().parent.parent / "benchmarks"
@@ -82,3 +83,17 @@ def test_an_end_piece_stretched_slightly_keeps_its_junction_speed(
     assert_within_limits(tr, machine, moves)
     for a in moves[1:]:
         assert arc_deviation(tr, a) <= 0.01
+
+
+def test_softened_moves_drop_the_chains_and_chain_limits_that_hold_them() -> None:
+    """rounds._soften lowers the moves' acceleration and jerk and forgets every cached chain
+    and every memoised chain limit whose span holds one of them (they would be stale)."""
+    blocks = [BlockLimits(1.0, 50.0, 1000.0, 1e5) for _ in range(8)]
+    cache = {(0, 3, 1.0, 2.0): "a", (3, 5, 2.0, 0.0): "b", (5, 8, 0.0, 0.0): "c"}
+    memo = {(0, 3): blocks[0], (3, 5): blocks[3], (5, 8): blocks[5], (2, 4): blocks[2]}
+    rounds._soften(blocks, {3}, cache, memo)  # type: ignore[arg-type]
+    assert sorted(cache) == [(0, 3, 1.0, 2.0), (5, 8, 0.0, 0.0)]
+    assert sorted(memo) == [(0, 3), (5, 8)]
+    assert blocks[3].acc_mm_per_s2 == rounds.SOFTEN * 1000.0
+    assert blocks[3].jerk_mm_per_s3 == rounds.SOFTEN * 1e5
+    assert blocks[2].acc_mm_per_s2 == 1000.0

@@ -32,10 +32,12 @@ def chain_spans(blocks: Sequence[BlockLimits], caps: np.ndarray) -> list[tuple[i
     when both moves have the same speed cap (to :data:`SAME_CAP_REL`) and the junction's cap
     ``caps[b]`` [mm/s] is at least that cap."""
     spans, first = [], 0
+    tops = [b.cap_mm_per_s for b in blocks]
+    at = caps.tolist()  # Python floats: the same numbers, without a NumPy scalar per junction
     for b in range(1, len(blocks)):
-        c0, c1 = blocks[b - 1].cap_mm_per_s, blocks[b].cap_mm_per_s
+        c0, c1 = tops[b - 1], tops[b]
         top = max(c0, c1)
-        joined = abs(c0 - c1) <= SAME_CAP_REL * top and caps[b] >= top * (1.0 - SAME_CAP_REL)
+        joined = abs(c0 - c1) <= SAME_CAP_REL * top and at[b] >= top * (1.0 - SAME_CAP_REL)
         if not joined:
             spans.append((first, b))
             first = b

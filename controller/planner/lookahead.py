@@ -63,14 +63,14 @@ def plan_junction_speeds(
         reach v[b + 1] from v[b] within its length (a hair of length is kept in reserve).
     """
     n = len(blocks)
-    v = np.array(junction_caps, dtype=float)
+    # Python floats: the same numbers, without NumPy scalars per block
+    speeds = np.array(junction_caps, dtype=float).tolist()
     for b in range(n):
         cap = blocks[b].cap_mm_per_s
-        v[b] = min(v[b], cap)
-        v[b + 1] = min(v[b + 1], cap)
+        speeds[b] = min(speeds[b], cap)
+        speeds[b + 1] = min(speeds[b + 1], cap)
     shrink = 1.0 - 1e-9
     memo = {} if memo is None else memo
-    speeds = v.tolist()  # Python floats: the same numbers, without numpy scalars per block
     for b in range(n - 1, -1, -1):
         blk = blocks[b]
         key = (speeds[b + 1], blk.length_mm * shrink, blk.acc_mm_per_s2, blk.jerk_mm_per_s3)

@@ -119,10 +119,16 @@ def settle_chains(
     blocks = [g.limits for g in active]
     cache: dict[ChainKey, Chain] = {}
     reach_memo: dict = {}
+    chain_memo: dict[tuple[int, int], BlockLimits] = {}  # chain_limits by span, across rounds
     softened: dict[int, int] = {}
     for rnd in itertools.count():
         spans = chain_spans(blocks, caps)
-        chained = [chain_limits(blocks[first:stop]) for first, stop in spans]
+        chained = []
+        for span in spans:
+            lim = chain_memo.get(span)
+            if lim is None:
+                lim = chain_memo[span] = chain_limits(blocks[span[0] : span[1]])
+            chained.append(lim)
         ends = [first for first, _ in spans] + [len(active)]
         speeds = np.full(len(active) + 1, np.nan)
         speeds[ends] = plan_junction_speeds(chained, caps[ends], reach_memo)
@@ -144,14 +150,19 @@ def settle_chains(
                 touched |= {m for m in (b - 1, b) if 0 <= m < len(blocks)}
             else:
                 caps[b] = 0.0
-        _soften(blocks, touched, cache)
+        _soften(blocks, touched, cache, chain_memo)
         chains.clear()  # the chains replaced next round are freed before it plans new ones
     return Settled(setup, spans, chains, speeds)
 
 
-def _soften(blocks: list[BlockLimits], moves: set[int], cache: dict[ChainKey, Chain]) -> None:
+def _soften(
+    blocks: list[BlockLimits],
+    moves: set[int],
+    cache: dict[ChainKey, Chain],
+    chain_memo: dict[tuple[int, int], BlockLimits],
+) -> None:
     """Lower the tangential acceleration and jerk of ``moves`` by :data:`SOFTEN` (``blocks``
-    is changed) and drop the cached chains holding any of them."""
+    is changed) and drop the cached chains, and the chains' limits, holding any of them."""
     if not moves:
         return
     for m in moves:
@@ -162,10 +173,15 @@ def _soften(blocks: list[BlockLimits], moves: set[int], cache: dict[ChainKey, Ch
             jerk_mm_per_s3=SOFTEN * lim.jerk_mm_per_s3,
         )
     order = sorted(moves)
-    for key in list(cache):
-        i = bisect.bisect_left(order, key[0])
-        if i < len(order) and order[i] < key[1]:  # a softened move in [first, stop)
-            del cache[key]
+
+    def holds_one(first: int, stop: int) -> bool:  # a softened move in [first, stop)
+        i = bisect.bisect_left(order, first)
+        return i < len(order) and order[i] < stop
+
+    for key in [k for k in cache if holds_one(k[0], k[1])]:
+        del cache[key]
+    for span in [k for k in chain_memo if holds_one(*k)]:
+        del chain_memo[span]
 
 
 def _plan_round(
@@ -181,7 +197,8 @@ def _plan_round(
     first, so a plan holds about one round's phases); returns the chains, in order, and the
     cache of this round's chains. ``before``: a job of this process' own, done while other
     processes plan the chains."""
-    keys = [(first, stop, float(speeds[first]), float(speeds[stop])) for first, stop in spans]
+    at = speeds.tolist()  # Python floats: the same numbers, without a NumPy scalar per chain
+    keys = [(first, stop, at[first], at[stop]) for first, stop in spans]
     needed = set(keys)
     for key in [k for k in cache if k not in needed]:  # free them before planning new ones
         del cache[key]
