@@ -220,7 +220,7 @@ def test_a_plan_split_over_processes_is_the_same_bit_for_bit(
     calls = count_fork_runs(monkeypatch, chain_plan)
     monkeypatch.setattr(chain_plan, "FORK_WORK", 2)
     monkeypatch.setattr(chain_plan, "WAVE_WORK", 40)
-    monkeypatch.setattr(chain_plan, "MIN_RUN_WORK", 1)
+    monkeypatch.setattr(chain_plan, "RUN_WORK", 1)
     monkeypatch.setenv("GANTRY_PLAN_WORKERS", "3")
     split = plan(moves, machine)
     assert len(calls) > 1 and max(n for n, _ in calls) > 1  # the split path ran, in waves
@@ -230,18 +230,18 @@ def test_a_plan_split_over_processes_is_the_same_bit_for_bit(
     assert _curve_bytes(split) == _curve_bytes(alone)
 
 
-def test_a_wave_is_cut_into_contiguous_runs_largest_first() -> None:
-    """Every chain once, in order; each run about the work left over twice the processes
-    (the first a quarter of the wave for two), none below MIN_RUN_WORK but the last."""
+def test_a_wave_is_cut_into_contiguous_runs_of_about_the_run_work() -> None:
+    """Every chain once, in order, in runs of at least RUN_WORK (the last may be less), none
+    longer than it needs to be."""
     work = [10 + (i % 7) * 30 for i in range(2000)]
     chains = [((i, i + 1, 0.0, 0.0), i) for i in range(2000)]
-    runs = chain_plan._runs(chains, work, 2)  # type: ignore[arg-type]
+    runs = chain_plan._runs(chains, work)  # type: ignore[arg-type]
     assert [c for run in runs for c in run] == chains
     sizes = [sum(work[i] for _, i in run) for run in runs]
-    assert sum(work) / 4 <= sizes[0] <= sum(work) / 4 + max(work)
-    assert all(s >= chain_plan.MIN_RUN_WORK for s in sizes[:-1])
-    assert max(sizes[len(sizes) // 2 :]) < sizes[0] / 4  # small runs at the end
-    assert len(runs) < 40
+    assert all(s >= chain_plan.RUN_WORK for s in sizes[:-1])
+    assert all(
+        s - work[run[-1][1]] < chain_plan.RUN_WORK for s, run in zip(sizes, runs, strict=True)
+    )
 
 
 def _alive(pid: int) -> bool:

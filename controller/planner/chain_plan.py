@@ -109,7 +109,7 @@ def plan_chains_forked(
     for i, w in enumerate(work):
         size += w
         if size >= n * WAVE_WORK or i == len(todo) - 1:
-            runs = _runs(todo[first : i + 1], work[first : i + 1], n)
+            runs = _runs(todo[first : i + 1], work[first : i + 1])
             for done in fork_runs(lambda run: plan_chains(setup, run, speeds), runs, n, before):
                 out.update(done)
             first, size, before = i + 1, 0, None
@@ -121,32 +121,28 @@ def plan_chains_forked(
 CHAIN_WORK = 8
 #: :func:`plan_chains_forked` splits a round of this much work over processes (about 0.2 s of
 #: planning; a fork of a planner holding 1 GB costs about 20 ms) in waves of WAVE_WORK per
-#: process (about 2 s), each wave's chains taken in runs of at least MIN_RUN_WORK (about 25 ms;
+#: process (about 2 s), each wave's chains taken in contiguous runs of RUN_WORK (about 50 ms:
 #: a run is planned in batches of its own, and a batch of a few hundred pieces costs more per
-#: piece: polylines' chains of one or two pieces planned 1.8 x slower in batches of 300).
+#: piece: polylines' chains of one or two pieces planned 1.8 x slower in batches of 300, while
+#: a long run holds a process at the end of a wave, and its result waits for the parent).
 FORK_WORK = 10_000
 WAVE_WORK = 100_000
-MIN_RUN_WORK = 1_000
+RUN_WORK = 2_000
 
 
 def _runs(
-    chains: list[tuple[ChainKey, BlockLimits]], work: list[int], processes: int
+    chains: list[tuple[ChainKey, BlockLimits]], work: list[int]
 ) -> list[list[tuple[ChainKey, BlockLimits]]]:
-    """``chains`` (of planning ``work`` each) cut into contiguous runs, largest first: each
-    about the work left over twice the processes, at least :data:`MIN_RUN_WORK` (guided
-    self-scheduling: few runs, and small ones at the end, so that the processes finish a wave
-    together)."""
+    """``chains`` (of planning ``work`` each) cut into contiguous runs of at least
+    :data:`RUN_WORK` (the last one may be less)."""
     runs = []
-    left = sum(work)
     k = 0
     while k < len(chains):
-        target = max(MIN_RUN_WORK, left / (2 * processes))
         stop, size = k + 1, work[k]
-        while stop < len(chains) and size < target:
+        while stop < len(chains) and size < RUN_WORK:
             size += work[stop]
             stop += 1
         runs.append(chains[k:stop])
-        left -= size
         k = stop
     return runs
 
