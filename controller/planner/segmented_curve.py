@@ -11,7 +11,7 @@ when a sample falls in it (the last :data:`CACHED_BLOCKS` blocks are kept, so a 
 range after range lays each block out about once). The segments themselves took about 3 KB an
 arc (400 MB at 100,000 arcs, and as much again in the planner's forked children, which copied
 the pages they touched): :class:`CurveBuilder` writes each full block to a temporary file as the
-planner's windows add them (:mod:`~gantry_sim.controller.planner.block_file`), so memory holds
+planner's windows add them (:mod:`~gantry_sim.controller.spill`), so memory holds
 one block being built and the blocks laid out.
 
 The numbers are those of the laid-out curve bit for bit: a phase's start time is the running sum
@@ -27,9 +27,9 @@ from itertools import pairwise
 
 import numpy as np
 
-from gantry_sim.controller.planner.block_file import BlockFile
 from gantry_sim.controller.planner.cubic import Chunk, Jerk3Run, PiecewiseCubic, Segment
 from gantry_sim.controller.planner.packed_block import PackedBlock, Phases
+from gantry_sim.controller.spill import BlockFile
 
 __all__ = ["BLOCK_PHASES", "CACHED_BLOCKS", "CurveBuilder", "SegmentedCurve"]
 
@@ -53,7 +53,7 @@ class CurveBuilder:
     __slots__ = ("_carry", "_chunk_at", "_counts", "_current", "_file", "_size", "_starts")
 
     def __init__(self) -> None:
-        self._file = BlockFile()
+        self._file: BlockFile[PackedBlock] = BlockFile()
         self._current: list[Segment] = []  # the open block's segments
         self._size = 0  # its phases on the first axis
         self._carry = np.zeros(3)  # per axis the open block's start time [s]
@@ -97,7 +97,7 @@ class CurveBuilder:
         curve._setup(*self._take())
         return curve
 
-    def _take(self) -> tuple[BlockFile, np.ndarray, np.ndarray]:
+    def _take(self) -> tuple[BlockFile[PackedBlock], np.ndarray, np.ndarray]:
         """The blocks, with their phase counts and start times [s] (3, blocks), handed over:
         the builder is left empty."""
         if self._current:
@@ -139,7 +139,9 @@ class SegmentedCurve:
         builder.extend(chunks)
         self._setup(*builder._take())
 
-    def _setup(self, blocks: BlockFile, counts: np.ndarray, starts: np.ndarray) -> None:
+    def _setup(
+        self, blocks: BlockFile[PackedBlock], counts: np.ndarray, starts: np.ndarray
+    ) -> None:
         """``blocks`` of segments with their phase counts and start times [s], (3, blocks)."""
         self._blocks = blocks
         self._counts = counts
