@@ -37,6 +37,7 @@ window is sent back): the finished plan's reference is held on disk, not in memo
 from __future__ import annotations
 
 import math
+from array import array
 from dataclasses import dataclass, field
 from typing import NamedTuple
 
@@ -74,14 +75,27 @@ BLEND_CONTEXT = 3
 
 @dataclass
 class Planned:
-    """A path planned: its timeline (``round``: entries indexed over the active moves of the
-    whole path), each active move's program ``sources``, and the chord vertices [mm] of every
-    move of the path (zero-length ones too) by ``id`` of its move."""
+    """A path planned: its timeline, in compact arrays (a long program's take 40 bytes a move
+    instead of 300 as Python objects).
 
-    round: Round
-    sources: list[tuple[int, int]] = field(default_factory=list)
-    vertices: dict[int, np.ndarray] = field(default_factory=dict)
-    #: the reference of the windows kept (``round.chunks`` stays empty)
+    Attributes:
+        duration_s: the end's time [s].
+        ruckig_pieces: arc pieces Ruckig made.
+        move_start_s: per entry of the timeline (a move, or a dwell), its start time [s].
+        lines: per entry, its program line.
+        entries: per entry, flattened pairs: the first and last active move of the whole path
+            it is (a move: its index twice) or lies between (a dwell).
+        sources: per active move, flattened pairs: the first and last program move it comes
+            from.
+        curve: the reference of the windows kept.
+    """
+
+    duration_s: float = 0.0
+    ruckig_pieces: int = 0
+    move_start_s: array = field(default_factory=lambda: array("d"))
+    lines: array = field(default_factory=lambda: array("q"))
+    entries: array = field(default_factory=lambda: array("q"))
+    sources: array = field(default_factory=lambda: array("q"))
     curve: CurveBuilder = field(default_factory=CurveBuilder)
 
 
@@ -123,8 +137,7 @@ def plan_path(
     """Plan ``path`` (see the module docstring); ``prepared``: its :func:`prepare` when made
     already (a path planned whole)."""
     n = len(path.moves)
-    blend_arcs = frozenset(id(path.moves[k]) for k in path.blend_junction)
-    out = Planned(Round([], 0.0, [], set(), [], 0, []))
+    out = Planned()
     # per kept window: where it started, its size, and ``out`` before it
     history: list[tuple[_Start, int, _Mark]] = []
     start, size = _Start(0, -1, 0.0), WINDOW_MOVES
@@ -132,12 +145,13 @@ def plan_path(
         lo, ctx, v_lo = start
         hi = min(n, lo + size)
         if prepared is not None and lo == 0 and hi == n:
-            pre, base = prepared, 0
+            pre, base, stretch = prepared, 0, path
         else:
             base = ctx if ctx >= 0 else lo
-            pre = _window(
-                sub_path(path, base, hi, base + (ctx >= 0)), machine, feed_override_pct, ctx >= 0
-            )
+            stretch = sub_path(path, base, hi, base + (ctx >= 0))
+            pre = _window(stretch, machine, feed_override_pct, ctx >= 0)
+        # the G64 blend arcs, by id of the window's own moves (a path on disk reads back copies)
+        blend_arcs = frozenset(id(pre.geoms[k].move) for k in stretch.blend_junction)
         caps = pre.caps.copy()
         caps[0] = v_lo
         settled = settle_chains(
@@ -154,16 +168,15 @@ def plan_path(
             continue
         count, c = cut
         history.append((start, size, _mark(out)))
-        upto = pre.path_index[c] if c < len(pre.active) else len(pre.geoms)  # stretch moves kept
-        kept = assemble(settled, pre.holds, count, end_hold=hi == n, start_s=out.round.duration_s)
-        _keep(out, pre, kept, c, upto)
+        kept = assemble(settled, pre.holds, count, end_hold=hi == n, start_s=out.duration_s)
+        _keep(out, pre, kept, c)
         if hi == n:
             return out
         start = _Start(
             base + pre.path_index[c], base + pre.path_index[c - 1], float(settled.speeds[c])
         )
         size = WINDOW_MOVES
-        del settled, pre, caps
+        del settled, pre, caps, stretch
 
 
 class _Start(NamedTuple):
@@ -182,21 +195,21 @@ class _Mark(NamedTuple):
     chunks: int
     ruckig_pieces: int
     duration_s: float
-    sources: int
+    sources: int  # flattened: twice the moves
 
 
 def _mark(out: Planned) -> _Mark:
-    r = out.round
-    return _Mark(len(r.entries), len(out.curve), r.ruckig_pieces, r.duration_s, len(out.sources))
+    return _Mark(
+        len(out.lines), len(out.curve), out.ruckig_pieces, out.duration_s, len(out.sources)
+    )
 
 
 def _truncate(out: Planned, mark: _Mark) -> None:
     """Take back what was kept after ``mark``."""
-    r = out.round
-    del r.entries[mark.entries :], r.move_start_s[mark.entries :], r.lines[mark.entries :]
-    del out.sources[mark.sources :]
+    del out.move_start_s[mark.entries :], out.lines[mark.entries :]
+    del out.entries[2 * mark.entries :], out.sources[mark.sources :]
     out.curve.truncate(mark.chunks)
-    r.ruckig_pieces, r.duration_s = mark.ruckig_pieces, mark.duration_s
+    out.ruckig_pieces, out.duration_s = mark.ruckig_pieces, mark.duration_s
 
 
 def _window(
@@ -244,16 +257,15 @@ def _braking_mm(lim: BlockLimits) -> float:
     return v * v / (2.0 * a) + v * a / j if np.isfinite(v) else math.inf
 
 
-def _keep(out: Planned, pre: Prepared, kept: Round, moves: int, upto: int) -> None:
-    """Append a window's kept timeline (of its first ``moves`` active moves; ``upto``: the
-    stretch's moves before the cut) to ``out``: its entries moved to the whole path's active
-    moves (its times already count from the path's start)."""
-    base, r = len(out.sources), out.round
+def _keep(out: Planned, pre: Prepared, kept: Round, moves: int) -> None:
+    """Append a window's kept timeline (of its first ``moves`` active moves) to ``out``: its
+    entries moved to the whole path's active moves (its times already count from the path's
+    start)."""
+    base = len(out.sources) // 2
     out.curve.extend(kept.chunks)
-    r.move_start_s.extend(kept.move_start_s)
-    r.lines.extend(kept.lines)
-    r.entries.extend((a + base, b + base) for a, b in kept.entries)
-    r.ruckig_pieces += kept.ruckig_pieces
-    r.duration_s = kept.duration_s  # counted from the path's start
-    out.sources.extend(pre.sources[:moves])
-    out.vertices.update((id(g.move), g.vertices) for g in pre.geoms[:upto])
+    out.move_start_s.extend(kept.move_start_s)
+    out.lines.extend(kept.lines)
+    out.entries.extend(k + base for pair in kept.entries for k in pair)
+    out.ruckig_pieces += kept.ruckig_pieces
+    out.duration_s = kept.duration_s  # counted from the path's start
+    out.sources.extend(k for pair in pre.sources[:moves] for k in pair)
