@@ -94,7 +94,7 @@ class ErrorParts:
         }
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, slots=True)
 class BlockError:
     """The contour error of one feed block (all samples executing its line) [um], and how many
     samples execute it (``ticks``: report.json gives ticks x servo period as its time)."""
