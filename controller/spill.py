@@ -31,8 +31,9 @@ __all__ = ["BLOCK_ITEMS", "BlockFile", "SpilledList"]
 
 #: Items per block of a :class:`SpilledList` (moves: about 0.4 MB pickled).
 BLOCK_ITEMS = 4096
-#: Decoded blocks a :class:`SpilledList` keeps (the last read first to go).
-CACHED_BLOCKS = 4
+#: Decoded blocks a :class:`SpilledList` keeps (the least recently read first to go): its
+#: readers go in order, a window or a range at a time.
+CACHED_BLOCKS = 2
 
 T = TypeVar("T")
 

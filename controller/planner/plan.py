@@ -39,6 +39,7 @@ import numpy as np
 from gantry_sim.controller.config import MachineConfig
 from gantry_sim.controller.errors import ConfigError
 from gantry_sim.controller.gc_pause import gc_paused
+from gantry_sim.controller.heap import trim_heap
 from gantry_sim.controller.moves import Arc, Event, Linear, Move, Rapid, Spline
 from gantry_sim.controller.moves import Limits as LimitsEvent
 from gantry_sim.controller.planner.limit_events import concatenate, split_at_limits
@@ -84,8 +85,11 @@ def plan(
     if arc_pieces not in ("jerk3", "ruckig"):
         raise ConfigError(f"arc_pieces must be 'jerk3' or 'ruckig', got {arc_pieces!r}")
     items = moves if isinstance(moves, SpilledList) else tuple(moves)
-    with gc_paused():  # see controller/gc_pause.py: 19-22 % of planning time
-        return _plan(items, machine, feed_override_pct, arc_pieces)
+    try:
+        with gc_paused():  # see controller/gc_pause.py: 19-22 % of planning time
+            return _plan(items, machine, feed_override_pct, arc_pieces)
+    finally:
+        trim_heap()  # planning's freed working set back to the system (controller/heap.py)
 
 
 def _plan(

@@ -22,6 +22,7 @@ formula that :meth:`PiecewiseCubic.evaluate` takes (tests/test_segmented_curve.p
 
 from __future__ import annotations
 
+from array import array
 from collections import OrderedDict
 from itertools import pairwise
 
@@ -59,18 +60,20 @@ class CurveBuilder:
         self._carry = np.zeros(3)  # per axis the open block's start time [s]
         self._counts: list[np.ndarray] = []  # per closed block: phases per axis
         self._starts: list[np.ndarray] = []  # per closed block: start time per axis [s]
-        self._chunk_at: list[tuple[int, int]] = []  # per chunk: (block, segment) of its start
+        # per chunk, flattened: (block, segment) of its start (an array: one a move, for the
+        # whole program, so no small object per chunk is left among the window's garbage)
+        self._chunk_at = array("q")
 
     def __len__(self) -> int:
         """Chunks added (and not taken back)."""
-        return len(self._chunk_at)
+        return len(self._chunk_at) // 2
 
     def extend(self, chunks: list[Chunk]) -> None:
         """Add ``chunks`` (stretches of phases in time order, after those added before); the
         list is emptied as it is read, so the segments are held once."""
         chunks.reverse()
         while chunks:
-            self._chunk_at.append((len(self._file), len(self._current)))
+            self._chunk_at.extend((len(self._file), len(self._current)))
             for seg in chunks.pop():
                 self._current.append(seg)
                 self._size += _phase_count(seg, 0)
@@ -79,10 +82,10 @@ class CurveBuilder:
 
     def truncate(self, count: int) -> None:
         """Keep the first ``count`` chunks only."""
-        if count >= len(self._chunk_at):
+        if count >= len(self):
             return
-        b, s = self._chunk_at[count]
-        del self._chunk_at[count:]
+        b, s = self._chunk_at[2 * count], self._chunk_at[2 * count + 1]
+        del self._chunk_at[2 * count :]
         if b < len(self._file):  # the chunk began in a closed block: open it again
             self._current = list(self._file[b].segments())
             self._file.truncate(b)
@@ -105,7 +108,7 @@ class CurveBuilder:
         counts = np.array(self._counts, dtype=np.int64).reshape(-1, 3).T
         starts = np.array(self._starts, dtype=float).reshape(-1, 3).T
         blocks, self._file = self._file, BlockFile()
-        self._counts, self._starts, self._chunk_at = [], [], []
+        self._counts, self._starts, self._chunk_at = [], [], array("q")
         self._carry = np.zeros(3)
         return blocks, counts, starts
 
