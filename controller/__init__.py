@@ -15,6 +15,8 @@ Shared value types, used by several stages: ``errors`` (GantryError and its kind
 ``units``, ``planes`` (the one plane/axis table), ``moves`` (Rapid, Linear, Arc and the events),
 ``arcs`` (exact arc and helix geometry), ``config`` (the machine file), ``trajectory`` (the
 sampled reference), ``transmission`` (backlash), ``loop_figures`` (a position loop's figures)
-``machine_import/`` (machine files from LinuxCNC INI files and grbl settings) and ``gc_pause``
-(the cyclic collector paused while a long program is read and planned).
+``machine_import/`` (machine files from LinuxCNC INI files and grbl settings), ``gc_pause``
+(the cyclic collector paused while a long program is read and planned), ``heap`` (the C heap's
+free pages given back after planning) and ``spill`` (long sequences kept on disk in blocks: a
+long program's moves, path and reference).
 """

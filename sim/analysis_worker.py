@@ -3,9 +3,10 @@
 A streamed run (sim.stream) hands each simulated range to an analyser and takes its result back
 one range later, in order. :class:`InlineAnalyser` analyses at once; :class:`ProcessAnalyser`
 starts a worker process at the start of the run (``python -m gantry_sim.sim.analysis_worker``,
-talking over its stdin and stdout), sends it the move tables once, then each range's lines,
-traced points and reference (about 90 bytes a tick each way; every message to the worker with
-its arrays out of band: :func:`send_out_of_band`), and returns the previous range's
+talking over its stdin and stdout), sends it each range's lines, traced points and reference
+(about 90 bytes a tick each way) with the moves the range reaches (sim.range_rows: the worker
+lays out their tables; every message to the worker with its arrays out of band:
+:func:`send_out_of_band`), and returns the previous range's
 result, so the analysis of range k runs on the second core while the servo loop simulates
 range k + 1. The work is the same function on the same arrays: the figures are identical either
 way (tests/test_stream.py runs both).
@@ -28,7 +29,6 @@ import os
 import pickle
 import subprocess
 import sys
-import threading
 import traceback
 from collections import deque
 from dataclasses import dataclass
@@ -38,9 +38,10 @@ from typing import cast
 import numpy as np
 
 from gantry_sim.controller.trajectory import Trajectory
-from gantry_sim.sim.blend_parts import path_windows, planning_distance_mm
+from gantry_sim.sim.blend_parts import planning_distance_mm
 from gantry_sim.sim.contour import ChunkAnalysis, analyse_chunk
-from gantry_sim.sim.move_table import MoveTable
+from gantry_sim.sim.move_table import move_table
+from gantry_sim.sim.range_rows import RangeTables
 
 
 @dataclass(frozen=True)
@@ -61,19 +62,8 @@ class RangeJob:
 Result = tuple[RangeJob, ChunkAnalysis, float]
 
 
-@dataclass(frozen=True)
-class Tables:
-    """What every range is analysed against: the program's move table, that of the path the
-    planner followed, and which program moves each path move comes from (Plan.path_sources;
-    None where the path's rows are not known: the path is then searched by line)."""
-
-    tab: MoveTable
-    path_tab: MoveTable
-    path_sources: np.ndarray | None = None
-
-
 def analyse_range(
-    tables: Tables,
+    tables: RangeTables,
     line: np.ndarray,
     source: np.ndarray | None,
     pos: np.ndarray,
@@ -83,26 +73,30 @@ def analyse_range(
     """The contour analysis of ticks executing ``line`` (n,) and the program moves ``source``
     (n, 2) (Trajectory.source, or None) traced at ``pos`` (n, 3) [mm]
     (sim.contour.analyse_chunk), and the largest distance [mm] of their feed reference
-    samples from the path the planner followed (sim.blend_parts.planning_distance_mm)."""
-    part = analyse_chunk(tables.tab, line, pos, context_pos, offset, source)
+    samples from the path the planner followed (sim.blend_parts.planning_distance_mm), against
+    the moves ``tables`` holds (sim.range_rows: the rows the range reaches, laid out here)."""
+    tab = move_table(tables.moves, tables.cum_len)
+    if source is not None:
+        source = np.where(source >= 0, source - tables.r0, source)
+    part = analyse_chunk(tab, line, pos, context_pos, offset, source, tables.found)
     ref = context_pos[offset : offset + len(pos)]
-    window = path_windows(tables.path_sources, source)
-    return part, planning_distance_mm(tables.path_tab, line, ref, part.feed, window)
+    path_tab = move_table(tables.path_moves)
+    return part, planning_distance_mm(path_tab, line, ref, part.feed, tables.path_window)
 
 
-def _job_args(job: RangeJob) -> tuple:
-    return (job.piece.line, job.piece.source, job.pos, job.context_pos, job.offset)
+def _job_args(job: RangeJob, tables: RangeTables) -> tuple:
+    return (tables, job.piece.line, job.piece.source, job.pos, job.context_pos, job.offset)
 
 
 class InlineAnalyser:
     """Analyses each range when it is submitted."""
 
-    def __init__(self, tables: Tables) -> None:
-        self.tables = tables
+    def __init__(self) -> None:
         self._done: deque[Result] = deque()
 
-    def submit(self, job: RangeJob) -> None:
-        self._done.append((job, *analyse_range(self.tables, *_job_args(job))))
+    def submit(self, job: RangeJob, tables: RangeTables) -> None:
+        """Analyse ``job`` against ``tables`` (the moves it reaches: sim.range_rows)."""
+        self._done.append((job, *analyse_range(*_job_args(job, tables))))
 
     def ready(self, drain: bool = False) -> list[Result]:
         """The results of the ranges analysed so far, in order."""
@@ -117,7 +111,7 @@ class InlineAnalyser:
 class ProcessAnalyser:
     """Analyses the ranges in a worker process, one range behind the simulation."""
 
-    def __init__(self, tables: Tables) -> None:
+    def __init__(self) -> None:
         env = dict(os.environ, PYTHONPATH=os.pathsep.join(p for p in sys.path if p))
         self._proc = subprocess.Popen(
             [sys.executable, "-m", "gantry_sim.sim.analysis_worker"],
@@ -133,10 +127,7 @@ class ProcessAnalyser:
         self._proc.stdout.close()
         self._sent: deque[RangeJob] = deque()
         self._done: deque[Result] = deque()
-        # the tables go while the first range simulates (the worker takes ~0.3 s to start)
-        self._tables = threading.Thread(target=self._send, args=(tables,), daemon=True)
         self._send_error: OSError | None = None
-        self._tables.start()
 
     def _send(self, msg: object) -> None:
         try:
@@ -144,15 +135,14 @@ class ProcessAnalyser:
         except OSError as exc:
             self._send_error = exc
 
-    def submit(self, job: RangeJob) -> None:
+    def submit(self, job: RangeJob, tables: RangeTables) -> None:
         """Take the previous range's result (waiting for it), then send this range (its lines,
-        traced points and reference positions). One range at a time is in the pipes: the
-        worker's reply and the next range are each larger than a pipe's buffer, so sending
-        both ways at once would block both processes."""
-        self._tables.join()
+        traced points and reference positions, and the moves it reaches: sim.range_rows). One
+        range at a time is in the pipes: the worker's reply and the next range are each larger
+        than a pipe's buffer, so sending both ways at once would block both processes."""
         self._take_replies()
         if self._send_error is None:
-            self._send(_job_args(job))
+            self._send(_job_args(job, tables))
         if self._send_error is not None:  # the worker is gone: say why
             while True:
                 self._recv()
@@ -224,13 +214,11 @@ def recv_out_of_band(conn: Connection) -> object:
 
 
 def _serve(inp: Connection, out: Connection) -> None:
-    """The worker: the move tables, then every range received until the input ends."""
+    """The worker: every range received until the input ends."""
     try:
-        # not isinstance: run as __main__, this module's Tables is another class object
-        tables = cast(Tables, recv_out_of_band(inp))
         while True:
             job = cast(tuple, recv_out_of_band(inp))
-            out.send(analyse_range(tables, *job))
+            out.send(analyse_range(*job))
     except (EOFError, OSError, KeyboardInterrupt):
         pass  # the run ended, is gone or interrupted (OSError: a broken pipe): nobody to tell
     except Exception:  # reported to the run, which raises it
@@ -240,14 +228,14 @@ def _serve(inp: Connection, out: Connection) -> None:
             pass
 
 
-def make_analyser(tables: Tables) -> InlineAnalyser | ProcessAnalyser:
+def make_analyser() -> InlineAnalyser | ProcessAnalyser:
     """A :class:`ProcessAnalyser` where it can pay (see the module docstring), else inline."""
     worker = (
         os.environ.get("GANTRY_ANALYSIS_WORKER", "1") != "0"
         and os.name == "posix"
         and (os.cpu_count() or 1) >= 2
     )
-    return ProcessAnalyser(tables) if worker else InlineAnalyser(tables)
+    return ProcessAnalyser() if worker else InlineAnalyser()
 
 
 if __name__ == "__main__":  # the worker process (see ProcessAnalyser)

@@ -22,7 +22,7 @@ from __future__ import annotations
 
 import os
 import time
-from collections.abc import Iterable, Iterator, Sequence
+from collections.abc import Sequence
 from dataclasses import dataclass, field, replace
 from functools import cached_property
 from pathlib import Path
@@ -33,11 +33,12 @@ from gantry_sim.controller.errors import GantryError, GcodeError
 from gantry_sim.controller.gcode.control import DEFAULT_MAX_ITERATIONS
 from gantry_sim.sim.budget import Budget, check_budget, check_lower_bound
 from gantry_sim.sim.gates import Gates, Verdict
-from gantry_sim.sim.progress import Advance, stage, wanted
+from gantry_sim.sim.progress import stage, wanted
 from gantry_sim.sim.report import RunReport
 from gantry_sim.sim.trace import Trace
 
 if TYPE_CHECKING:
+    from gantry_sim.controller.moves import Move
     from gantry_sim.sim.trace_writer import TraceWriter
 
 #: runs longer than this [servo ticks] are streamed (sim.stream): the same numbers, in memory
@@ -52,12 +53,14 @@ class RunResult:
     Attributes:
         run_report: the report, typed (sim.report.RunReport); :attr:`report` is its JSON form.
         trace: the per-tick arrays (trace.npz).
-        moves: the interpreter's moves (the commanded geometry).
+        moves: the interpreter's moves (the commanded geometry): a sequence kept on disk in
+            blocks (:class:`~gantry_sim.controller.spill.SpilledList`), so a long program's
+            moves take no memory.
     """
 
     run_report: RunReport
     trace: Trace
-    moves: tuple
+    moves: Sequence[Move]
     #: a streamed run's full-rate trace, deflated in anonymous temporary files (the run is then
     #: too long to hold: :attr:`trace` is its decimated trace); ``full_trace.save(path)`` writes
     #: it as trace.npz. None when :attr:`trace` is complete, or with ``keep_trace=False``.
@@ -118,6 +121,7 @@ def run_program(
     from gantry_sim.controller.gcode.dialects import with_segmentation_default
     from gantry_sim.controller.moves import Arc, Linear, Rapid, Spline
     from gantry_sim.controller.planner.plan import plan
+    from gantry_sim.controller.spill import SpilledList
     from gantry_sim.sim.blend_parts import split_reference
     from gantry_sim.sim.contour import analyse
     from gantry_sim.sim.machine import load_gantry
@@ -134,21 +138,17 @@ def run_program(
         machine = with_segmentation_default(machine, dialect)
         shown = wanted(progress)
         with stage("parse", text.count("\n") + 1, "line", shown) as advance, gc_paused():
-            items = tuple(
-                _advancing(
-                    interpret_program(
-                        text,
-                        dialect=dialect,
-                        file=file,
-                        machine=machine,
-                        search_path=folders,
-                        max_iterations=max_iterations,
-                        events=True,
-                    ),
-                    advance,
-                )
+            items = interpret_program(
+                text,
+                dialect=dialect,
+                file=file,
+                machine=machine,
+                search_path=folders,
+                max_iterations=max_iterations,
+                events=True,
+                advance=advance,
             )
-        moves = tuple(m for m in items if isinstance(m, Rapid | Linear | Arc | Spline))
+        moves = SpilledList(m for m in items if isinstance(m, Rapid | Linear | Arc | Spline))
         t1 = time.perf_counter()
         check_lower_bound(items, machine, budget or Budget(), file, feed_override_pct)
         with stage("plan", len(items), "move", shown, known_size=False):
@@ -212,7 +212,7 @@ def run_program(
 
 
 def _streamed(
-    moves: tuple,
+    moves: Sequence[Move],
     planned,
     machine: MachineConfig,
     file: str,
@@ -261,18 +261,6 @@ def _streamed(
         timing=timing,
     )
     return RunResult(report, streamed.decimated, moves, full_trace=writer, streamed=True)
-
-
-def _advancing(items: Iterable, advance: Advance) -> Iterator:
-    """``items`` (the interpreter's moves and events), advancing the parse bar to each one's
-    source line as it comes."""
-    done = 0
-    for item in items:
-        line = getattr(item, "line", 0)
-        if isinstance(line, int) and line > done:
-            advance(line - done)
-            done = line
-        yield item
 
 
 def _program_text(program: str | os.PathLike[str], file: str | None) -> tuple[str, str]:

@@ -64,6 +64,8 @@ LAG_REACH = 2.0
 CHORD_FRACTIONS = (0.25, 0.5, 0.75)
 #: chords checked at once by :func:`chord_max_um` (bounds its memory: ~30 MB)
 CHORD_BATCH = 16384
+#: moves laid out at a time for the chord check (a long program's moves come from disk)
+CHORD_MOVES = 4096
 
 
 @dataclass(frozen=True)
@@ -94,7 +96,7 @@ class ErrorParts:
         }
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, slots=True)
 class BlockError:
     """The contour error of one feed block (all samples executing its line) [um], and how many
     samples execute it (``ticks``: report.json gives ticks x servo period as its time)."""
@@ -140,16 +142,30 @@ def chord_max_um(
 ) -> float:
     """Largest distance of the chords between each curve's (arc's, spline's) vertices from the
     curve [um], checked at CHORD_FRACTIONS of every chord, CHORD_BATCH chords at a time (the
-    points of 100,000 arcs at once took 4 GB)."""
+    points of 100,000 arcs at once took 4 GB). Without ``tab`` the moves are laid out
+    CHORD_MOVES at a time (a long program's come from disk)."""
     if vertices is None:
         return 0.0
-    tab = move_table(moves) if tab is None else tab
+    if tab is not None:
+        return _chord_max_mm(tab, vertices, 0, len(moves)) * UM_PER_MM
+    worst_mm = 0.0
+    for k in range(0, len(moves), CHORD_MOVES):
+        block = moves[k : k + CHORD_MOVES]
+        worst_mm = max(worst_mm, _chord_max_mm(move_table(block), vertices, k, len(block)))
+    return worst_mm * UM_PER_MM
+
+
+def _chord_max_mm(tab: MoveTable, vertices: Sequence[np.ndarray], first: int, n: int) -> float:
+    """:func:`chord_max_um` [mm] of the moves ``first`` .. ``first + n - 1``, rows 0.. of
+    ``tab``."""
     worst_mm = 0.0
     batch: list[tuple[int, np.ndarray]] = []
     chords = 0
-    for j, verts in enumerate(vertices):
-        verts = np.asarray(verts, dtype=float).reshape(-1, 3)
-        if not (tab.arc[j] or tab.spline[j]) or len(verts) < 2:
+    for j in range(n):
+        if not (tab.arc[j] or tab.spline[j]):
+            continue
+        verts = np.asarray(vertices[first + j], dtype=float).reshape(-1, 3)
+        if len(verts) < 2:
             continue
         batch.append((j, verts))
         chords += len(verts) - 1
@@ -158,7 +174,7 @@ def chord_max_um(
             batch, chords = [], 0
     if batch:
         worst_mm = max(worst_mm, _chord_batch_max_mm(tab, batch))
-    return worst_mm * UM_PER_MM
+    return worst_mm
 
 
 def _chord_batch_max_mm(tab: MoveTable, batch: list[tuple[int, np.ndarray]]) -> float:
@@ -169,12 +185,20 @@ def _chord_batch_max_mm(tab: MoveTable, batch: list[tuple[int, np.ndarray]]) -> 
     return float(np.linalg.norm(nearest_on_moves(tab, np.concatenate(owner), p) - p, axis=1).max())
 
 
-def feed_samples(tab: MoveTable, line: np.ndarray, source: np.ndarray | None = None) -> np.ndarray:
+def feed_samples(
+    tab: MoveTable,
+    line: np.ndarray,
+    source: np.ndarray | None = None,
+    found: np.ndarray | None = None,
+) -> np.ndarray:
     """(N,) True where the sample executes a feed move: with ``source`` (N, 2) (the moves it
     executes, Trajectory.source), where they are all feed moves (a G64 blend arc: the two of
     its corner) and its line has moves (a dwell's has none); else where its line's last move
-    is one (a canned cycle's line, its retract a rapid, then counts as no feed)."""
-    _, last, found = line_ranges(tab, line)
+    is one (a canned cycle's line, its retract a rapid, then counts as no feed). ``found``
+    (N,): whether each line has moves, where ``tab`` holds only some of the program's rows
+    (sim.range_rows)."""
+    _, last, has_moves = line_ranges(tab, line)
+    found = has_moves if found is None else found
     if source is None:
         return found & tab.feed[last]
     source = np.asarray(source).reshape(-1, 2)
@@ -227,11 +251,14 @@ def analyse_chunk(
     ref_context: np.ndarray,
     offset: int,
     source: np.ndarray | None = None,
+    found: np.ndarray | None = None,
 ) -> ChunkAnalysis:
     """Analyse n consecutive samples: ``line`` (n,), ``pos`` (n, 3) [mm]; the reference of
     sample k is ref_context[offset + k] [mm], the context as :func:`reference_context` gives it;
-    ``source`` (n, 2): the moves each sample executes (Trajectory.source), if known.
-    Every figure is that of :func:`analyse` on the whole trace, for these samples."""
+    ``source`` (n, 2): the moves each sample executes (Trajectory.source, rows of ``tab``), if
+    known; ``found`` (n,): whether each line has moves, where ``tab`` holds only the rows the
+    samples reach (sim.range_rows). Every figure is that of :func:`analyse` on the whole trace,
+    for these samples."""
     line = np.asarray(line)
     pos = np.asarray(pos, dtype=float)
     ref_context = np.asarray(ref_context, dtype=float)
@@ -239,7 +266,7 @@ def analyse_chunk(
     if len(tab.line) == 0:  # a program without moves (a dwell alone): nothing commanded
         n = len(pos)
         return ChunkAnalysis(np.zeros(n), pos.copy(), np.zeros(n, dtype=bool), 0.0, 0.0)
-    feed = feed_samples(tab, line, source)
+    feed = feed_samples(tab, line, source, found)
     lag_mm = LAG_REACH * np.linalg.norm(pos - ref, axis=1)
     dist, nearest = distance_to_moves(tab, line, pos, lag_mm, source)
     own = None if source is None else np.asarray(source)[feed]

@@ -65,7 +65,7 @@ def duration_lower_bound(
     from gantry_sim.controller.moves import Arc, Dwell, Limits, Linear, Rapid, Spline, Stop
     from gantry_sim.controller.planner.path_control import control, extends_run, starts_run
 
-    items = list(items)
+    items = items if isinstance(items, Sequence) else list(items)  # read twice
     vmax = list(machine.limits.max_velocity_mm_per_s)
     accel_set = False
     for e in items:  # a Marlin M203 may raise an axis' speed: the fastest ever set bounds it

@@ -20,7 +20,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from gantry_sim.sim.move_table import MoveTable
+from gantry_sim.sim.move_table import MoveTable, ProgramIndex
 from gantry_sim.sim.percentile import ValueSpill, percentile_linear
 
 #: ticks summed at once (aligned to the run's first tick)
@@ -30,12 +30,14 @@ TILE_TICKS = 65536
 class ErrorTally:
     """Whole-run error figures of the ticks :meth:`add` ed in order (see the module docstring).
 
-    ``tab``: the program's move table (which lines are feed blocks, and their kinds);
+    ``tab``: the program's move table or index (which lines are feed blocks, and their kinds);
     ``spill``: keep the feed ticks' errors on disk rather than in memory; ``tile_ticks``:
     default TILE_TICKS.
     """
 
-    def __init__(self, tab: MoveTable, *, spill: bool, tile_ticks: int | None = None) -> None:
+    def __init__(
+        self, tab: MoveTable | ProgramIndex, *, spill: bool, tile_ticks: int | None = None
+    ) -> None:
         feed_moves = np.flatnonzero(tab.feed)
         lines, first = np.unique(tab.line[feed_moves], return_index=True)
         order = np.argsort(first, kind="stable")  # blocks in program order

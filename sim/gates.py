@@ -16,9 +16,9 @@ against an earlier report.json) is :mod:`gantry_sim.sim.compare`.
 from __future__ import annotations
 
 import math
-from collections.abc import Iterable, Sequence
+from collections.abc import Iterable, Iterator, Mapping, Sequence
 from dataclasses import dataclass
-from typing import Any
+from typing import Any, Protocol
 
 from gantry_sim.controller.errors import ConfigError
 
@@ -42,10 +42,11 @@ class ErrorLimit:
     kind: str | None = None
     lines: tuple[int, int] | None = None
 
-    def covers(self, block: dict[str, Any]) -> bool:
-        if self.kind is not None and block["kind"] != self.kind:
+    def covers(self, line: int, kind: str) -> bool:
+        """Whether the limit applies to the block of program ``line`` of motion ``kind``."""
+        if self.kind is not None and kind != self.kind:
             return False
-        return self.lines is None or self.lines[0] <= block["line"] <= self.lines[1]
+        return self.lines is None or self.lines[0] <= line <= self.lines[1]
 
     def label(self) -> str:
         """The limit as the option that sets it, e.g. ``--max-error-um arc=5``."""
@@ -133,47 +134,77 @@ def gates_from_options(
     return Gates(tuple(errors), max_cycle_time_s)
 
 
-def _lines(blocks: Sequence[dict[str, Any]]) -> list[int]:
-    return [int(b["line"]) for b in blocks[:MAX_LINES_LISTED]]
+class BlockLike(Protocol):
+    """A feed block's figures as a typed report gives them (sim.contour.BlockError)."""
+
+    @property
+    def line(self) -> int: ...
+
+    @property
+    def kind(self) -> str: ...
+
+    @property
+    def max_error_um(self) -> float: ...
 
 
-def evaluate(report: dict[str, Any], gates: Gates) -> list[dict[str, Any]]:
-    """The failures of ``report`` (report.json's object) against ``gates``, one per limit
-    exceeded: {"gate", "value", "limit", "unit", "line" (the worst block), "blocks_over",
-    "lines" (the first 20 over), "message"}."""
+class ReportLike(Protocol):
+    """A typed report (sim.report.RunReport): its blocks and cycle time [s]."""
+
+    @property
+    def blocks(self) -> Sequence[BlockLike]: ...
+
+    @property
+    def cycle_time_s(self) -> float: ...
+
+
+def _blocks(report: Mapping[str, Any] | ReportLike) -> Iterator[tuple[int, str, float]]:
+    """(line, kind, max error [um]) per feed block of a report.json object or a typed report
+    (read as they come: a 100,000-block report is not made into dicts for this)."""
+    if isinstance(report, Mapping):
+        for b in report["blocks"]:
+            yield int(b["line"]), b["kind"], b["max_error_um"]
+    else:
+        for t in report.blocks:
+            yield t.line, t.kind, t.max_error_um
+
+
+def evaluate(report: Mapping[str, Any] | ReportLike, gates: Gates) -> list[dict[str, Any]]:
+    """The failures of ``report`` (report.json's object, or the typed report) against
+    ``gates``, one per limit exceeded: {"gate", "value", "limit", "unit", "line" (the worst
+    block), "blocks_over", "lines" (the first 20 over), "message"}."""
     failures: list[dict[str, Any]] = []
     for lim in gates.errors:
-        over = [b for b in report["blocks"] if lim.covers(b) and b["max_error_um"] > lim.limit_um]
+        over = [b for b in _blocks(report) if lim.covers(b[0], b[1]) and b[2] > lim.limit_um]
         if not over:
             continue
-        worst = max(over, key=lambda b: b["max_error_um"])
+        line, kind, value = max(over, key=lambda b: b[2])
         failures.append(
             {
                 "gate": lim.label(),
-                "value": worst["max_error_um"],
+                "value": value,
                 "limit": lim.limit_um,
                 "unit": "um",
-                "line": worst["line"],
+                "line": line,
                 "blocks_over": len(over),
-                "lines": _lines(over),
-                "message": f"line {worst['line']} ({worst['kind']}): max contour error "
-                f"{worst['max_error_um']:.3f} um > {lim.limit_um:g} um ({lim.label()}; "
+                "lines": [b[0] for b in over[:MAX_LINES_LISTED]],
+                "message": f"line {line} ({kind}): max contour error "
+                f"{value:.3f} um > {lim.limit_um:g} um ({lim.label()}; "
                 f"{len(over)} block(s) over)",
             }
         )
     cap = gates.max_cycle_time_s
-    if cap is not None and report["cycle_time_s"] > cap:
+    cycle = report["cycle_time_s"] if isinstance(report, Mapping) else report.cycle_time_s
+    if cap is not None and cycle > cap:
         failures.append(
             {
                 "gate": f"--max-cycle-time-s {cap:g}",
-                "value": report["cycle_time_s"],
+                "value": cycle,
                 "limit": cap,
                 "unit": "s",
                 "line": None,
                 "blocks_over": 0,
                 "lines": [],
-                "message": f"cycle time {report['cycle_time_s']:.3f} s > {cap:g} s "
-                "(--max-cycle-time-s)",
+                "message": f"cycle time {cycle:.3f} s > {cap:g} s (--max-cycle-time-s)",
             }
         )
     return failures
@@ -205,13 +236,14 @@ class Verdict:
 
 
 def verdict_for(
-    report: dict[str, Any],
+    report: Mapping[str, Any] | ReportLike,
     gates: Gates,
     baseline_failures: Sequence[dict[str, Any]] = (),
     baseline: str | None = None,
 ) -> Verdict:
-    """The verdict of ``report`` (report.json's object) on ``gates`` and, when compared with a
-    baseline, that comparison's failures (:func:`gantry_sim.sim.compare.compare`)."""
+    """The verdict of ``report`` (report.json's object, or the typed report) on ``gates`` and,
+    when compared with a baseline, that comparison's failures
+    (:func:`gantry_sim.sim.compare.compare`)."""
     failures = evaluate(report, gates) + list(baseline_failures)
     labels = gates.labels() + ([f"--baseline {baseline}"] if baseline is not None else [])
     return Verdict(not failures, tuple(labels), tuple(failures), baseline)

@@ -83,8 +83,10 @@ class MoveTable:
 _ARC_FIELDS = ("c1", "c2", "theta0", "sigma", "angle", "s_angle", "r0", "dr", "h0", "dh", "k2")
 
 
-def move_table(moves: Sequence[Move]) -> MoveTable:
-    """Lay out ``moves`` (the interpreter's, in program order) as a :class:`MoveTable`."""
+def move_table(moves: Sequence[Move], cum_len: np.ndarray | None = None) -> MoveTable:
+    """Lay out ``moves`` (the interpreter's, in program order) as a :class:`MoveTable`;
+    ``cum_len`` (len(moves) + 1,) [mm]: the path length before each move when the moves are
+    rows of a longer program (its :class:`ProgramIndex`'s), else counted from their start."""
     m = len(moves)
     start = np.array([mv.start for mv in moves], dtype=float).reshape(m, 3)
     end = np.array([mv.end for mv in moves], dtype=float).reshape(m, 3)
@@ -140,11 +142,64 @@ def move_table(moves: Sequence[Move]) -> MoveTable:
         box_lo=box_lo - BOX_SLACK_MM,
         box_hi=box_hi + BOX_SLACK_MM,
         arc_start=arc_start,
-        cum_len=np.concatenate([[0.0], np.cumsum([mv.length_mm for mv in moves])]),
+        cum_len=_cum_len(moves) if cum_len is None else np.asarray(cum_len, dtype=float),
         spline=np.array([isinstance(mv, Spline) for mv in moves], dtype=bool),
         curves=tuple(mv.curve if isinstance(mv, Spline) else None for mv in moves),
         **cols,
     )
+
+
+def _cum_len(moves: Sequence[Move]) -> np.ndarray:
+    """(len(moves) + 1,) path length [mm] before each move, and in all."""
+    return np.concatenate([[0.0], np.cumsum([mv.length_mm for mv in moves])])
+
+
+@dataclass(frozen=True)
+class ProgramIndex:
+    """What the whole-run figures need of every move of a long program, in compact arrays (a
+    :class:`MoveTable` is about 300 bytes a move; this 35): per move its line, whether it is a
+    feed move, an arc or a spline (:class:`~gantry_sim.sim.error_tally.ErrorTally`'s blocks), and
+    the path length [mm] before each move (len + 1,), counted as :func:`move_table` counts it,
+    so a table of some of its rows (``move_table(moves[a:b], index.cum_len[a:b + 1])``) has the
+    whole table's numbers."""
+
+    line: np.ndarray
+    feed: np.ndarray
+    arc: np.ndarray
+    spline: np.ndarray
+    cum_len: np.ndarray
+
+    def __len__(self) -> int:
+        return len(self.line)
+
+    @classmethod
+    def of(cls, moves: Sequence[Move], block: int = 4096) -> ProgramIndex:
+        """The index of ``moves``, read ``block`` moves at a time (a long program's come from
+        disk: :class:`~gantry_sim.controller.spill.SpilledList`)."""
+        parts: list[tuple[list, ...]] = []
+        for k in range(0, len(moves), block):
+            b = moves[k : k + block]
+            parts.append(
+                (
+                    [mv.line for mv in b],
+                    [mv.kind != "rapid" for mv in b],
+                    [isinstance(mv, Arc) for mv in b],
+                    [isinstance(mv, Spline) for mv in b],
+                    [mv.length_mm for mv in b],
+                )
+            )
+
+        def col(i: int, dtype: type) -> np.ndarray:
+            return np.array([x for p in parts for x in p[i]], dtype=dtype)
+
+        lengths = col(4, float)
+        return cls(
+            line=col(0, np.int64),
+            feed=col(1, bool),
+            arc=col(2, bool),
+            spline=col(3, bool),
+            cum_len=np.concatenate([[0.0], np.cumsum(lengths)]),
+        )
 
 
 def _spline_box(spline: Spline) -> tuple[np.ndarray, np.ndarray]:

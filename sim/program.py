@@ -12,7 +12,7 @@ Python API alike.
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Callable, Iterable, Iterator, Sequence
 from pathlib import Path
 from typing import Any, Literal, overload
 
@@ -21,6 +21,7 @@ from gantry_sim.controller.errors import GantryError, GcodeError
 from gantry_sim.controller.gcode.control import DEFAULT_MAX_ITERATIONS, MAX_ERRORS
 from gantry_sim.controller.gcode.lexer import decode_program
 from gantry_sim.controller.moves import Event, Move
+from gantry_sim.controller.spill import SpilledList
 
 
 @overload
@@ -33,7 +34,8 @@ def interpret_program(
     search_path: Sequence[Path] = ...,
     max_iterations: int = ...,
     events: Literal[False] = ...,
-) -> list[Move]: ...
+    advance: Callable[[int], object] | None = ...,
+) -> SpilledList[Move]: ...
 
 
 @overload
@@ -46,7 +48,8 @@ def interpret_program(
     search_path: Sequence[Path] = ...,
     max_iterations: int = ...,
     events: Literal[True],
-) -> list[Move | Event]: ...
+    advance: Callable[[int], object] | None = ...,
+) -> SpilledList[Move | Event]: ...
 
 
 def interpret_program(
@@ -58,8 +61,11 @@ def interpret_program(
     search_path: Sequence[Path] = (),
     max_iterations: int = DEFAULT_MAX_ITERATIONS,
     events: bool = False,
-) -> list[Move] | list[Move | Event]:
-    """The program's moves (and, with ``events``, its dwells, stops and limit changes).
+    advance: Callable[[int], object] | None = None,
+) -> SpilledList[Move] | SpilledList[Move | Event]:
+    """The program's moves (and, with ``events``, its dwells, stops and limit changes), in a
+    list kept on disk in blocks (:class:`~gantry_sim.controller.spill.SpilledList`: a long
+    program's moves take no memory).
 
     Args:
         text: the program.
@@ -69,6 +75,8 @@ def interpret_program(
         search_path: folders searched for ``NAME.ngc`` subroutine files, in order.
         max_iterations: bound on O-word loop repetitions and subroutine calls.
         events: include the program's events among the moves.
+        advance: called with the source lines read since its last call, as the moves come (a
+            progress bar's update).
 
     Raises:
         GcodeError: the first refused line (file, line), its message ending with the count of
@@ -83,9 +91,8 @@ def interpret_program(
         "parameters": machine.work.parameters(),
     }
     try:
-        if events:
-            return list(interpret_events(text, dialect, file, **kwargs))
-        return list(interpret(text, dialect, file, **kwargs))
+        made = (interpret_events if events else interpret)(text, dialect, file, **kwargs)
+        return SpilledList(made if advance is None else _advancing(made, advance))
     except GcodeError as exc:
         if "--max-iterations" in exc.message:
             raise  # the loop bound: a second pass would repeat the runaway loop's work
@@ -128,3 +135,15 @@ def read_program(path: Path) -> str:
     if b"\x00" in data:
         raise GcodeError("not a G-code text file (it contains NUL bytes)", file=str(path))
     return decode_program(data)
+
+
+def _advancing(items: Iterable, advance: Callable[[int], object]) -> Iterator:
+    """``items`` (the interpreter's moves and events), calling ``advance`` with the source
+    lines passed as each one comes."""
+    done = 0
+    for item in items:
+        line = getattr(item, "line", 0)
+        if isinstance(line, int) and line > done:
+            advance(line - done)
+            done = line
+        yield item

@@ -19,10 +19,10 @@ from __future__ import annotations
 
 import json
 import time
-from collections.abc import Mapping, Sequence
+from collections.abc import Iterator, Sequence
 from dataclasses import dataclass, field, replace
 from pathlib import Path
-from typing import TYPE_CHECKING, Any
+from typing import IO, TYPE_CHECKING, Any
 
 import numpy as np
 
@@ -107,8 +107,6 @@ class RunReport:
         sim: how the simulation ran.
         timing_s: wall-clock time per stage ("parse", "plan", "simulate", "analyse", "write"
             once written, "total": from the start to the outputs written) [s].
-        block_time_s: per feed block's line, the time spent executing it [s] (servo ticks on
-            the line x servo period).
         verdict: the gates' verdict (passed, no gates, until :func:`gantry_sim.sim.gates`'s
             evaluation is applied).
         files: the files written into the output folder (empty until :func:`write_outputs`);
@@ -129,7 +127,6 @@ class RunReport:
     chord_tolerance_mm: float
     sim: SimStats
     timing_s: dict[str, float]
-    block_time_s: Mapping[int, float] = field(default_factory=dict)
     verdict: Verdict = field(default_factory=Verdict)
     files: tuple[str, ...] = ()
 
@@ -137,14 +134,26 @@ class RunReport:
         """The block executing program line ``line``, or None when it is no feed block."""
         return next((b for b in self.blocks if b.line == line), None)
 
-    def to_json(self, deterministic: bool = False) -> dict[str, Any]:
-        """The report.json object (key order as written); ``deterministic``: the wall-clock
-        fields (timing_s.*, sim.realtime_factor) as null (see the module docstring)."""
-        blocks = []
+    @property
+    def block_time_s(self) -> dict[int, float]:
+        """Per feed block's line, the time spent executing it [s] (servo ticks on the line x
+        servo period)."""
+        period = self.sim.servo_period_s
+        return {b.line: b.ticks * period for b in self.blocks}
+
+    def blocks_json(self) -> Iterator[dict[str, Any]]:
+        """report.json's "blocks", one object at a time (a 100,000-block run's take 40 MB as
+        dicts at once)."""
+        period = self.sim.servo_period_s
         for b in self.blocks:
             item: dict[str, Any] = b.to_json()
-            item["time_s"] = self.block_time_s.get(b.line)
-            blocks.append(item)
+            item["time_s"] = b.ticks * period
+            yield item
+
+    def to_json(self, deterministic: bool = False, *, blocks: bool = True) -> dict[str, Any]:
+        """The report.json object (key order as written); ``deterministic``: the wall-clock
+        fields (timing_s.*, sim.realtime_factor) as null (see the module docstring);
+        ``blocks=False``: "blocks" left empty (:meth:`blocks_json` gives them)."""
         return {
             "program": self.program,
             "dialect": self.dialect,
@@ -153,7 +162,7 @@ class RunReport:
             "cycle_time_s": self.cycle_time_s,
             "contour_error_um": self.contour_error_um.to_json(),
             "parts_um": self.parts_um.to_json(),
-            "blocks": blocks,
+            "blocks": list(self.blocks_json()) if blocks else [],
             "limits": self.limits.to_json(),
             "moves": self.moves,
             "segments": self.segments,
@@ -163,6 +172,30 @@ class RunReport:
             "verdict": self.verdict.to_json(),
             "files": list(self.files),
         }
+
+    def worst_block(self) -> BlockError | None:
+        """The feed block with the largest max error (the first of equals), or None."""
+        return max(self.blocks, key=lambda b: b.max_error_um, default=None)
+
+    def write_json(self, out: IO[str], deterministic: bool = False) -> None:
+        """Write report.json's text to ``out``: ``json.dump(self.to_json(deterministic), out,
+        indent=2)`` and a newline, character for character, with the blocks written one at a
+        time (tests/test_report_json.py compares the two)."""
+        head = self.to_json(deterministic, blocks=False)
+        keys = list(head)
+        out.write("{\n")
+        for k, key in enumerate(keys):
+            out.write(f"  {json.dumps(key)}: ")
+            if key == "blocks" and self.blocks:
+                out.write("[")
+                for i, item in enumerate(self.blocks_json()):
+                    out.write(",\n    " if i else "\n    ")
+                    out.write(_indented(json.dumps(item, indent=2), "    "))
+                out.write("\n  ]")
+            else:
+                out.write(_indented(json.dumps(head[key], indent=2), "  "))
+            out.write(",\n" if k + 1 < len(keys) else "\n")
+        out.write("}\n")
 
     def timing_json(self) -> dict[str, Any]:
         """timing.json: the wall-clock fields of report.json, always measured."""
@@ -278,7 +311,6 @@ def _report(
             saturated_fraction=_vec3(saturated),
         ),
         timing_s={k: float(v) for k, v in timing.items()},
-        block_time_s={b.line: b.ticks * machine.servo.period_s for b in analysis.blocks},
     )
 
 
@@ -358,9 +390,15 @@ def write_outputs(
         report = replace(report, timing_s=timing, files=files)
         (tmp / "timing.json").write_text(json.dumps(report.timing_json(), indent=2) + "\n")
         with (tmp / "report.json").open("w", encoding="utf-8") as out:
-            # streamed to the file: json.dumps with indent lists every piece of the text first
-            # (about 1.3 KB a block, 130 MB at 100,000 blocks: the run's peak was here)
-            json.dump(report.to_json(deterministic), out, indent=2)
-            out.write("\n")
+            # streamed to the file block by block: json.dumps with indent lists every piece of
+            # the text first (about 1.3 KB a block, 130 MB at 100,000 blocks), and the blocks
+            # as dicts took 40 MB more
+            report.write_json(out, deterministic)
         advance(2)
     return report
+
+
+def _indented(text: str, pad: str) -> str:
+    """``text`` (a JSON value, indented from column 0) with every line after its first indented
+    by ``pad``: the value as json.dump writes it at that depth."""
+    return text.replace("\n", "\n" + pad)

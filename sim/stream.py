@@ -10,8 +10,10 @@ figures (sim.error_tally.ErrorTally: per block a few numbers, the feed ticks' er
 anonymous temporary file for the exact 95th percentile), running maxima of the forces and the
 parts, the saturated-tick counts, and a decimated trace (every ``stride``-th tick and each
 range's worst tick) for the plots. The full-rate arrays of each range go to ``on_range`` (e.g. a
-sim.trace_writer.TraceWriter) and are dropped. The peak memory is therefore that of one range
-and of the program's moves, whatever the number of ticks.
+sim.trace_writer.TraceWriter) and are dropped. Each range is analysed against the moves it
+reaches only (sim.range_rows); the program's moves and the plan's path stay on disk
+(controller.spill). The peak memory is therefore that of one range, and about 35 bytes per move
+of whole-program arrays (sim.move_table.ProgramIndex), whatever the number of ticks.
 
 The figures equal those of the whole-program path (sample, simulate, analyse at once) bit for bit:
 tests/test_stream.py runs both.
@@ -31,7 +33,7 @@ from gantry_sim.controller.moves import Move
 from gantry_sim.controller.planner.result import Plan
 from gantry_sim.controller.trajectory import Trajectory
 from gantry_sim.controller.units import UM_PER_MM
-from gantry_sim.sim.analysis_worker import RangeJob, Result, Tables, make_analyser
+from gantry_sim.sim.analysis_worker import RangeJob, Result, make_analyser
 from gantry_sim.sim.blend_parts import known_path_sources, with_planning_split
 from gantry_sim.sim.contour import (
     Analysis,
@@ -43,7 +45,8 @@ from gantry_sim.sim.contour import (
 )
 from gantry_sim.sim.error_tally import ErrorTally
 from gantry_sim.sim.machine import Gantry
-from gantry_sim.sim.move_table import move_table
+from gantry_sim.sim.move_table import ProgramIndex
+from gantry_sim.sim.range_rows import RowPicker
 from gantry_sim.sim.runner import simulate_pieces
 from gantry_sim.sim.trace import Trace
 
@@ -100,7 +103,7 @@ def stream_run(
     period = machine.servo.period_s
     n = planned.sample_count(period)
     range_ticks = range_ticks or STREAM_TICKS
-    tab = move_table(moves)
+    index = ProgramIndex.of(moves)  # 35 bytes a move; the tables are laid out per range
     contexts: deque[tuple[int, Trajectory]] = deque()
     stride = max(1, n // DECIMATED_TICKS)
     limit = np.array([[-p.force_min_N, p.force_max_N] for p in gantry.plant]).min(axis=1)
@@ -113,8 +116,8 @@ def stream_run(
             contexts.append((c0, ctx))
             yield ctx.slice(lo - c0, hi - c0)
 
-    tally = ErrorTally(tab, spill=True)  # the whole-run figures, in bounded memory
-    chord_um = chord_max_um(moves, planned.vertices, tab)
+    tally = ErrorTally(index, spill=True)  # the whole-run figures, in bounded memory
+    chord_um = chord_max_um(moves, planned.vertices)
     run = _Running(stride, limit)
     sim_s = ana_s = 0.0
     start = planned.sample_range(period, 0, 1).pos[0]
@@ -127,11 +130,11 @@ def stream_run(
             run.add(job, part, planning_mm)
             tally.add(job.piece.line, part.err_um, part.feed)
 
-    # the tables (28 MB each at 100,000 blocks) are the analysis' alone: a worker process's
-    # once sent (sim.analysis_worker), so this process holds none while it simulates
-    path_tab = move_table(planned.path_moves or planned.moves)  # for the blend/planning split
-    analyser = make_analyser(Tables(tab, path_tab, known_path_sources(planned)))
-    del tab, path_tab
+    # each range goes to the analysis with the moves it reaches (sim.range_rows), whose tables
+    # the analysis lays out: no table of the whole program is made (28 MB each at 100,000
+    # blocks: the program's, and the path's for the blend/planning split)
+    rows = RowPicker(moves, planned.path_moves or moves, index, known_path_sources(planned))
+    analyser = make_analyser()
     try:
         t0 = time.perf_counter()
         for pos, force in simulate_pieces(gantry, machine, pieces(), start, on_ticks):
@@ -139,7 +142,8 @@ def stream_run(
             sim_s += t1 - t0
             c0, ctx = contexts.popleft()
             piece = ctx.slice(lo - c0, lo - c0 + pos.shape[0])
-            analyser.submit(RangeJob(lo, piece, ctx.pos, lo - c0, pos, force))
+            job = RangeJob(lo, piece, ctx.pos, lo - c0, pos, force)
+            analyser.submit(job, rows.tables(piece, ctx.pos, lo - c0, pos))
             take(analyser.ready())
             lo += pos.shape[0]
             t0 = time.perf_counter()

@@ -1,6 +1,6 @@
 """A plan's reference built window by window (blocks written to a temporary file, windows
 taken back) is the curve of the chunks kept, bit for bit (planner/segmented_curve.py,
-planner/block_file.py)."""
+spill.py)."""
 
 from __future__ import annotations
 

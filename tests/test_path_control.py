@@ -288,7 +288,7 @@ def test_marlin_limit_codes_apply_from_their_line_on(machine):
     assert [b.tolerance_mm for b in p.blends] == [0.05]  # M205 J: the junction deviation
     assert 0.01 < p.blends[0].deviation_mm <= 0.05
     assert np.array_equal(tr.pos[-1], [120.0, 0.0, 0.0])
-    assert p.moves == tuple(i for i in items if isinstance(i, Linear))
+    assert list(p.moves) == [i for i in items if isinstance(i, Linear)]
 
 
 # Corners with an arc on one side, 3 degrees (line -> R10 arc, arc -> line, arc -> arc).
@@ -416,7 +416,7 @@ def test_a_blended_path_shares_its_points_and_keeps_whole_moves():
     polyline blocks, held through the run)."""
     from gantry_sim.controller.config import load_machine_config
     from gantry_sim.controller.moves import Arc
-    from gantry_sim.controller.planner.blend import path_plan
+    from gantry_sim.controller.planner.path_stream import path_plan
     from gantry_sim.models import DEFAULT_MACHINE
 
     machine = load_machine_config(DEFAULT_MACHINE)

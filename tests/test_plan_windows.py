@@ -175,8 +175,9 @@ def test_the_next_window_is_prepared_while_the_chains_are_planned(monkeypatch):
         return real_job(self, path, *args)
 
     def take(self, key):
-        pre = real_take(self, key)
-        if pre is not None:
+        got = real_take(self, key)
+        if got is not None:
+            pre = got[0]
             taken.append(pre)
             path = paths[-1]  # the path being planned
             fresh = windows._window(
@@ -188,7 +189,7 @@ def test_the_next_window_is_prepared_while_the_chains_are_planned(monkeypatch):
             for a, b in zip(pre.states, fresh.states, strict=True):
                 np.testing.assert_array_equal(a.direction, b.direction)
                 np.testing.assert_array_equal(a.curvature_per_mm, b.curvature_per_mm)
-        return pre
+        return got
 
     monkeypatch.setattr(windows._Ahead, "take", take)
     monkeypatch.setattr(windows._Ahead, "job", job)
@@ -202,16 +203,16 @@ def test_a_window_whose_preparation_ahead_fails_is_prepared_again(monkeypatch):
     """The job preparing the next window ahead never raises: the window is prepared where it
     is used (an error there is raised in the order a plan without the job meets it)."""
     monkeypatch.setenv("GANTRY_PLAN_WORKERS", "2")
-    real = windows._window
+    real = windows._window_of
     failed = []
 
-    def window(*args, **kwargs):
+    def window_of(*args, **kwargs):
         if sys._getframe(1).f_code.co_name == "prepare_next":
             failed.append(True)
             raise RuntimeError("prepared ahead")
         return real(*args, **kwargs)
 
-    monkeypatch.setattr(windows, "_window", window)
+    monkeypatch.setattr(windows, "_window_of", window_of)
     whole, windowed, _ = _whole_and_windowed(_program(), monkeypatch, 40, 8)
     assert failed
     _assert_same(whole, windowed)

@@ -221,9 +221,7 @@ def test_error_gates_name_the_spline_kind() -> None:
     from gantry_sim.sim.gates import parse_error_limits
 
     (limit,) = parse_error_limits("spline=5")
-    assert limit.covers({"kind": "spline", "line": 4}) and not limit.covers(
-        {"kind": "arc", "line": 4}
-    )
+    assert limit.covers(4, "spline") and not limit.covers(4, "arc")
 
 
 def test_the_reference_keeps_the_limits_and_the_curve(machine) -> None:

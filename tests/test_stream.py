@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import math
 import os
 
 import numpy as np
@@ -12,6 +13,8 @@ from gantry_sim.controller.planner.plan import plan
 from gantry_sim.sim import stream
 from gantry_sim.sim.contour import analyse
 from gantry_sim.sim.machine import load_gantry
+from gantry_sim.sim.move_table import ProgramIndex
+from gantry_sim.sim.range_rows import RowPicker
 from gantry_sim.sim.runner import simulate
 from gantry_sim.sim.stream import stream_run
 
@@ -23,8 +26,20 @@ PROGRAM = (
 )
 
 
-def _planned(machine):
-    moves = tuple(interpret(PROGRAM, "linuxcnc", "t"))
+# 500 chords of 0.04 mm on an R 20 curve at F6000 (not merged: Q0), a rapid, arcs; run on a soft
+# servo without feedforward, the tool lags the reference by up to 0.7 mm, a dozen chords: the
+# search walks back to them (163 ticks are nearest to a move it walked to)
+LONG = (
+    "G21 G17 G90 G64 P0.01 Q0\nG0 X20 Y0\nF6000\n"
+    + "".join(
+        f"G1 X{20 * math.cos(i / 500):.5f} Y{20 * math.sin(i / 500):.5f}\n" for i in range(1, 501)
+    )
+    + "G0 X30 Y0\nG1 X32 F2000\nG3 X32 Y4 I0 J2\nG2 X32 Y8 I0 J2\nG1 X20\nM2\n"
+)
+
+
+def _planned(machine, text=PROGRAM):
+    moves = tuple(interpret(text, "linuxcnc", "t"))
     return moves, plan(moves, machine)
 
 
@@ -39,8 +54,11 @@ def test_sample_range_is_a_slice_of_sample_bit_for_bit(machine):
             assert np.array_equal(getattr(part, name), getattr(whole, name)[k0:k1]), name
 
 
-@pytest.mark.parametrize(("stateful", "worker"), [(False, "1"), (True, "1"), (False, "0")])
-def test_streamed_run_equals_the_whole_program_run(machine, stateful, worker, monkeypatch):
+@pytest.mark.parametrize(
+    ("stateful", "worker", "text"),
+    [(False, "1", PROGRAM), (True, "1", PROGRAM), (False, "0", PROGRAM), (False, "1", LONG)],
+)
+def test_streamed_run_equals_the_whole_program_run(machine, stateful, worker, text, monkeypatch):
     from gantry_sim.sim import analysis_worker, error_tally
     from gantry_sim.sim.blend_parts import split_reference
 
@@ -53,19 +71,36 @@ def test_streamed_run_equals_the_whole_program_run(machine, stateful, worker, mo
         machine = machine.with_changes("servo", ki_N_per_mm_s=[40.0, 40.0, 60.0]).with_changes(
             "sim", backlash_mm=[0.01, 0.02, 0.005]
         )
-    moves, planned = _planned(machine)
+    if text is LONG:  # gains / 10 (kd / sqrt(10)), no feedforward
+        servo = machine.servo
+        machine = machine.with_changes(
+            "servo",
+            kp_N_per_mm=[k / 10.0 for k in servo.kp_N_per_mm],
+            kd_N_s_per_mm=[k / 10.0**0.5 for k in servo.kd_N_s_per_mm],
+            ff_velocity=[0.0] * 3,
+            ff_acceleration=[0.0] * 3,
+        )
+    reached = []
+    tables = RowPicker.tables
+    monkeypatch.setattr(
+        RowPicker, "tables", lambda *a: reached.append(len((t := tables(*a)).moves)) or t
+    )
+    moves, planned = _planned(machine, text)
     gantry = load_gantry(machine)
     traj = planned.sample(machine.servo.period_s)
     sim = simulate(gantry, machine, traj)
-    whole = analyse(moves, traj.line, traj.pos, sim.pos, planned.vertices)
+    whole = analyse(moves, traj.line, traj.pos, sim.pos, planned.vertices, traj.source)
     whole = split_reference(whole, planned, traj)
 
     ranges = []
+    size = 40 if text is LONG else 300  # LONG: the lag reaches back past a range's first moves
     streamed = stream_run(
-        moves, planned, machine, gantry, range_ticks=300, on_range=lambda *a: ranges.append(a)
+        moves, planned, machine, gantry, range_ticks=size, on_range=lambda *a: ranges.append(a)
     )
     n = traj.t.size
-    assert streamed.ticks == n and len(ranges) == -(-n // 300) > 3
+    assert streamed.ticks == n and len(ranges) == -(-n // size) > 3
+    if text is LONG:  # each range analysed against the few moves it reaches
+        assert len(reached) == len(ranges) and max(reached) < len(moves) / 4
     in_process = isinstance(made[0], analysis_worker.ProcessAnalyser)
     assert in_process == (worker == "1" and os.name == "posix" and (os.cpu_count() or 1) >= 2)
     got = streamed.analysis
@@ -73,7 +108,7 @@ def test_streamed_run_equals_the_whole_program_run(machine, stateful, worker, mo
     assert got.blocks == whole.blocks and sum(b.ticks for b in got.blocks) > 0
     assert got.err_um.size == got.feed.size == 0  # per-tick arrays: not kept for the whole run
     # full-rate arrays, range by range, are the whole run's
-    assert [lo for lo, *_ in ranges] == list(range(0, n, 300))
+    assert [lo for lo, *_ in ranges] == list(range(0, n, size))
     cat = np.concatenate
     assert np.array_equal(cat([r[1].t for r in ranges]), traj.t)
     assert np.array_equal(cat([r[1].pos for r in ranges]), traj.pos)
@@ -97,18 +132,17 @@ def test_a_failure_in_the_analysis_worker_stops_the_run(machine):
     """An exception in the worker reaches the run as a RuntimeError with its traceback, and the
     worker is gone."""
     from gantry_sim.sim import analysis_worker
-    from gantry_sim.sim.move_table import move_table
 
     if os.name != "posix":
         pytest.skip("the worker process runs on POSIX systems")
     moves, planned = _planned(machine)
     piece = planned.sample_range(machine.servo.period_s, 0, 100)
-    worker = analysis_worker.ProcessAnalyser(
-        analysis_worker.Tables(move_table(moves), move_table(moves))
-    )
+    picker = RowPicker(moves, moves, ProgramIndex.of(moves), None)
+    tables = picker.tables(piece, piece.pos, 0, piece.pos)
+    worker = analysis_worker.ProcessAnalyser()
     try:
         broken = np.zeros((3, 3))  # a reference context far shorter than the range
-        worker.submit(analysis_worker.RangeJob(0, piece, broken, 0, piece.pos, piece.pos))
+        worker.submit(analysis_worker.RangeJob(0, piece, broken, 0, piece.pos, piece.pos), tables)
         with pytest.raises(RuntimeError, match=r"analysis worker failed: .*Error"):
             worker.ready(drain=True)
     finally:
@@ -204,12 +238,11 @@ def test_the_worker_takes_ranges_larger_than_the_pipe_buffer():
 
     from gantry_sim.controller.trajectory import Trajectory
     from gantry_sim.sim import analysis_worker
-    from gantry_sim.sim.move_table import move_table
 
     if os.name != "posix":
         pytest.skip("the worker process runs on POSIX systems")
     moves = tuple(interpret("G1 X100 F6000\nG3 X100 Y20 I0 J10\nM2\n", "linuxcnc", "t"))
-    tab = move_table(moves)
+    picker = RowPicker(moves, moves, ProgramIndex.of(moves), None)
     n = 20_000
     rng = np.random.default_rng(0)
     jobs = []
@@ -226,27 +259,28 @@ def test_the_worker_takes_ranges_larger_than_the_pipe_buffer():
             line=line,
             period_s=1e-3,
         )
-        jobs.append(analysis_worker.RangeJob(k * n, piece, ref, 50, pos, pos))
+        job = analysis_worker.RangeJob(k * n, piece, ref, 50, pos, pos)
+        jobs.append((job, picker.tables(piece, ref, 50, pos)))
 
     def hang(*_):
         raise TimeoutError("the analysis worker and the run blocked each other")
 
     previous = signal.signal(signal.SIGALRM, hang)
     signal.alarm(20)
-    worker = analysis_worker.ProcessAnalyser(analysis_worker.Tables(tab, tab))
+    worker = analysis_worker.ProcessAnalyser()
     try:
         got = []
-        for job in jobs:
-            worker.submit(job)
+        for job, tables in jobs:
+            worker.submit(job, tables)
             got += worker.ready()
         got += worker.ready(drain=True)
     finally:
         signal.alarm(0)
         signal.signal(signal.SIGALRM, previous)
         worker.close()
-    inline = analysis_worker.InlineAnalyser(analysis_worker.Tables(tab, tab))
-    for job in jobs:
-        inline.submit(job)
+    inline = analysis_worker.InlineAnalyser()
+    for job, tables in jobs:
+        inline.submit(job, tables)
     expect = inline.ready(drain=True)
     assert [g[0].lo for g in got] == [e[0].lo for e in expect] == [0, n, 2 * n, 3 * n]
     for (_, a, pa), (_, b, pb) in zip(got, expect, strict=True):
@@ -299,21 +333,31 @@ def test_a_streamed_run_killed_mid_run_leaves_nothing_in_tmpdir(tmp_path):
     assert sorted(p.name for p in tmpdir.iterdir()) == []
 
 
-def test_the_move_tables_cross_to_the_worker_out_of_band():
-    """The tables reach the worker whole (every array equal, writable), and no message is a
-    pickled copy of their arrays: each array goes as its own memory (at 100,000 moves the
-    tables are 57 MB; pickling them in one piece held 126 MB more at the run's start)."""
+def test_a_range_crosses_to_the_worker_with_the_moves_it_reaches():
+    """A range of a long program goes to the worker with the few moves it reaches (their
+    tables laid out there), not the program's tables; its arrays go out of band and arrive
+    writable (at 100,000 moves the whole tables were 57 MB, sent once and held by the worker;
+    pickling them in one piece held 126 MB more at the run's start)."""
     import pickle
     import threading
     from multiprocessing import Pipe
 
-    from gantry_sim.sim.analysis_worker import Tables, recv_out_of_band, send_out_of_band
-    from gantry_sim.sim.move_table import move_table
+    from gantry_sim.controller.trajectory import Trajectory
+    from gantry_sim.sim.analysis_worker import recv_out_of_band, send_out_of_band
 
     text = "G21 G17\n" + "".join(f"G1 X{i % 97} Y{i % 89} F900\n" for i in range(3000))
     moves = tuple(interpret(text + "G2 I5 J5\nM2\n", "linuxcnc", "t"))
-    tab = move_table(moves)
-    tables = Tables(tab, tab, np.arange(len(moves)))
+    picker = RowPicker(
+        moves, moves, ProgramIndex.of(moves), np.repeat(np.arange(3001), 2).reshape(-1, 2)
+    )
+    n = 2000
+    src = np.repeat(np.arange(1000, 1010), n // 10)
+    ref = np.linspace(moves[1000].start, moves[1009].end, n)
+    piece = Trajectory(np.arange(n) * 1e-3, ref, ref, ref, src + 2, 1e-3, np.stack([src, src], 1))
+    tables = picker.tables(piece, ref, 0, ref + 1e-4)
+    assert 10 <= len(tables.moves) <= 16 and tables.r0 >= 995
+    assert len(tables.path_moves) <= 16 and tables.path_window is not None
+    job = (tables, piece.line, piece.source, ref + 1e-4, ref, 0)
     reader, writer = Pipe(duplex=False)
     sizes: list[int] = []
 
@@ -325,33 +369,12 @@ def test_the_move_tables_cross_to_the_worker_out_of_band():
         def send_bytes(self, buf) -> None:
             writer.send_bytes(buf)
 
-    sender = threading.Thread(target=send_out_of_band, args=(Recording(), tables))
+    sender = threading.Thread(target=send_out_of_band, args=(Recording(), job))
     sender.start()
     got = recv_out_of_band(reader)
     sender.join()
-    assert isinstance(got, Tables) and len(got.tab) == len(moves)
-    for name in ("start", "end", "c1", "box_lo", "cum_len", "line", "arc"):
-        a, b = getattr(tab, name), getattr(got.tab, name)
-        assert a.dtype == b.dtype and np.array_equal(a, b), name
-        assert b.flags.writeable
-    assert np.array_equal(got.path_sources, tables.path_sources)
-    assert tab.start.nbytes > 70_000 and max(sizes) < 20_000
-
-
-@pytest.mark.skipif(os.name != "posix" or (os.cpu_count() or 1) < 2, reason="no worker here")
-def test_with_a_worker_the_run_holds_no_move_table_while_it_simulates(machine, monkeypatch):
-    """The move tables are the analysis' alone: with the analysis in its worker process, the
-    run's own process drops them once sent (28 MB each at 100,000 blocks)."""
-    import gc
-
-    from gantry_sim.sim.move_table import MoveTable
-
-    monkeypatch.setenv("GANTRY_ANALYSIS_WORKER", "1")
-    moves, planned = _planned(machine)
-    alive = []
-
-    def count(*_):
-        alive.append(sum(isinstance(o, MoveTable) for o in gc.get_objects()))
-
-    stream_run(moves, planned, machine, load_gantry(machine), range_ticks=300, on_range=count)
-    assert len(alive) > 3 and max(alive) == 0
+    assert got[0].moves == tables.moves and got[0].r0 == tables.r0
+    for a, b in zip(job[1:5], got[1:5], strict=True):
+        assert a.dtype == b.dtype and np.array_equal(a, b)
+        assert b.flags.writeable or not a.flags.writeable
+    assert max(sizes) < 20_000 and ref.nbytes > 40_000

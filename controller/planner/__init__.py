@@ -5,10 +5,12 @@ servo's reference. Units: mm, s (speeds mm/s, accelerations mm/s^2, jerks mm/s^3
 
 The steps, in the order :func:`plan` runs them (module: its one job):
 
-0. ``blend``          path control (G61, G61.1, G64 P Q): blend arcs at corners
-   ``corner_blend``   (``corner_blend``: corners that involve an arc); ``path_control``: each
-                      move's mode and G64 Q's merge; ``limit_events``: Marlin's M201-M205,
-                      planned part by part
+0. ``path_stream``    path control (G61, G61.1, G64 P Q), made as the moves come: the moves
+   ``blend``          with length and their stops, G64 Q's merge (``path_control``: each
+   ``corner_blend``   move's mode and the merge), blend arcs at corners (``blend``;
+                      ``corner_blend``: corners that involve an arc), a stretch at a time into
+                      lists kept on disk; ``limit_events``: Marlin's M201-M205, planned part
+                      by part
 1. ``travel``         refuse moves that leave the machine's travel (arcs: their quadrant points)
 2. ``segment``        arcs -> chord vertices ("chord": grbl's sagitta rule, "fixed": Marlin's)
 3. ``move_geometry``  per move: vertices, end tangents and curvatures, its 1-D limits
@@ -37,6 +39,7 @@ The steps, in the order :func:`plan` runs them (module: its one job):
 9. ``cubic``          constant-jerk phases per axis, sampled vectorised
    ``segmented_curve`` the plan's reference held as the planner's segments, laid out by block
    ``result``         Plan, the frozen result, and its sampling at the servo period
+   ``vertices``       the programmed moves' chord vertices, made when read
 
 Imports run one way: ``limits``, ``profile`` and ``knots`` are leaves; ``move_geometry`` uses ``limits`` and
 ``segment``; ``junctions``, ``speedup``, ``arc_states`` and ``pieces`` use ``move_geometry``;

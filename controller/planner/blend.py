@@ -31,7 +31,7 @@ from dataclasses import dataclass, field, replace
 import numpy as np
 
 from gantry_sim.controller.config import PathSettings
-from gantry_sim.controller.moves import Arc, Dwell, Event, Linear, Move, Rapid, Spline, Stop
+from gantry_sim.controller.moves import Arc, Dwell, Linear, Move, Rapid
 from gantry_sim.controller.planes import PLANE_AXES, Plane, Vec3, plane_of
 from gantry_sim.controller.planner.corner_blend import (
     ArcCorner,
@@ -41,7 +41,7 @@ from gantry_sim.controller.planner.corner_blend import (
     blend_tangent_mm,
     trimmed_arc,
 )
-from gantry_sim.controller.planner.path_control import EPS_MM, Merge, control, merge_naive_cam
+from gantry_sim.controller.planner.path_control import EPS_MM, Merge, control
 
 #: Share of the chord tolerance the planner's reference may leave an arc by (the G61 promise);
 #: a blend keeps this much of the tolerance for it.
@@ -80,7 +80,9 @@ class PathPlan:
     """What the planner follows.
 
     Attributes:
-        moves: the moves, blends inserted, zero-length moves dropped.
+        moves: the moves, blends inserted, zero-length moves dropped (a
+            :class:`~gantry_sim.controller.spill.SpilledList` when made by
+            :func:`~gantry_sim.controller.planner.path_stream.path_plan`: on disk).
         stop_after: per move, True where the junction after it must be an exact stop.
         holds: junction index (0: before the first move, k: after move k-1) -> dwells there.
         blends: every blended corner.
@@ -94,53 +96,34 @@ class PathPlan:
         merges: every G64 Q merge (line, deviation from the programmed points, Q).
     """
 
-    moves: list[Move] = field(default_factory=list)
+    moves: Sequence[Move] = field(default_factory=list)
     stop_after: list[bool] = field(default_factory=list)
     holds: dict[int, list[Dwell]] = field(default_factory=dict)
-    blends: list[Blend] = field(default_factory=list)
-    smoothing_mm: list[float] = field(default_factory=list)
+    blends: Sequence[Blend] = field(default_factory=list)
+    smoothing_mm: Sequence[float] = field(default_factory=list)
     blend_junction: dict[int, int] = field(default_factory=dict)
+    sources: Sequence[tuple[int, int]] = field(default_factory=list)
+    merges: Sequence[Merge] = field(default_factory=list)
+
+
+@dataclass
+class Blended:
+    """What one move of a stretch becomes in the path (:func:`blend_corners`): the dwells at
+    the junction before it, its trimmed self (none where blends use it up) and the blend at
+    its end, each with its stop, smoothing budget [mm] and program sources; ``blend_at``: per
+    move made, the junction a blend arc replaces (an index among the stretch's moves; None for
+    a trimmed move); ``blends``: the blend at its end, if any."""
+
+    holds: list[Dwell] = field(default_factory=list)
+    moves: list[Move] = field(default_factory=list)
+    stops: list[bool] = field(default_factory=list)
+    smoothing: list[float] = field(default_factory=list)
     sources: list[tuple[int, int]] = field(default_factory=list)
-    merges: list[Merge] = field(default_factory=list)
+    blend_at: list[int | None] = field(default_factory=list)
+    blends: list[Blend] = field(default_factory=list)
 
 
-def path_plan(
-    items: Sequence[Move | Event],
-    settings: PathSettings,
-    chord_tolerance_mm: float,
-    skip: frozenset[int] = frozenset(),
-    jerk_mm_per_s3: float = math.inf,
-) -> PathPlan:
-    """The moves and stops the planner follows for ``items`` (moves and events in order);
-    junctions in ``skip`` (values of a previous result's ``blend_junction``) are not blended
-    (the planner found the exact stop faster there). ``jerk_mm_per_s3``: the machine's lowest
-    axis jerk, to skip corners with an arc whose blend would be passed too slowly to pay
-    (:func:`~gantry_sim.controller.planner.corner_blend.arc_corner`)."""
-    out = PathPlan()
-    index = -1  # of the item among the program's motions
-    for item in items:
-        if isinstance(item, Rapid | Linear | Arc | Spline):
-            index += 1
-        if isinstance(item, Dwell | Stop):
-            if out.stop_after:
-                out.stop_after[-1] = True
-            if isinstance(item, Dwell) and item.seconds > 0:
-                out.holds.setdefault(len(out.moves), []).append(item)
-            continue
-        if not isinstance(item, Rapid | Linear | Arc | Spline) or item.length_mm <= EPS_MM:
-            continue
-        out.moves.append(item)
-        out.stop_after.append(control(item, settings).mode == "G61.1")
-        out.sources.append((index, index))
-    out.moves, out.stop_after, out.holds, out.sources, out.merges = merge_naive_cam(
-        out.moves, out.stop_after, out.holds, out.sources, settings
-    )
-    out.smoothing_mm = [_smoothing(m, settings, chord_tolerance_mm) for m in out.moves]
-    _blend_corners(out, settings, chord_tolerance_mm, skip, jerk_mm_per_s3)
-    return out
-
-
-def _smoothing(m: Move, settings: PathSettings, chord_tolerance_mm: float) -> float:
+def smoothing_budget(m: Move, settings: PathSettings, chord_tolerance_mm: float) -> float:
     """The deviation a G64 move's junction smoothing may use: P less the reference's share
     (0 in G61/G61.1 and for rapids: the planner's own budget)."""
     c = control(m, settings)
@@ -154,15 +137,20 @@ def _direction(m: Move) -> np.ndarray:
     return d / np.linalg.norm(d)
 
 
-def _blend_corners(
-    out: PathPlan,
+def blend_corners(
+    stretch: PathPlan,
     settings: PathSettings,
     chord_tolerance_mm: float,
     skip: frozenset[int],
     jerk_mm_per_s3: float = math.inf,
-) -> None:
-    """Replace G64 corners between straight feed moves by tangent arcs (see module docstring)."""
-    moves = out.moves
+) -> list[Blended]:
+    """What each move of ``stretch`` (moves, stop_after, holds, smoothing_mm and sources set;
+    G64 Q merged) becomes once its G64 corners are blended (see the module docstring); ``skip``:
+    junctions (indices among the stretch's moves) left exact stops. A move's result depends on
+    the moves up to three either side of it only, so a long path is blended stretch by stretch
+    (:func:`~gantry_sim.controller.planner.path_stream.path_plan`)."""
+    moves = list(stretch.moves)
+    holds = stretch.holds
     n = len(moves)
     use = [0.0] * (n + 1)  # length each junction takes from its neighbours [mm]
     turn: list[tuple[float, Plane] | None] = [None] * (n + 1)
@@ -172,7 +160,7 @@ def _blend_corners(
     for b in range(1, n):
         m0, m1 = moves[b - 1], moves[b]
         c = control(m0, settings)
-        if out.stop_after[b - 1] or b in out.holds or c.mode != "G64" or b in skip:
+        if stretch.stop_after[b - 1] or b in holds or c.mode != "G64" or b in skip:
             continue
         budget = c.tolerance_mm - REFERENCE_SHARE * chord_tolerance_mm
         if isinstance(m0, Linear | Arc) and isinstance(m1, Linear | Arc) and budget > 0:
@@ -192,14 +180,19 @@ def _blend_corners(
         use[b] = blend_tangent_mm(GEOMETRY_SHARE * budget, phi, m0.length_mm, m1.length_mm)
         turn[b] = (phi, plane)
         budgets[b] = budget
-    if not any(use) and not cuts:
-        return
+    if not any(use) and not cuts:  # nothing blended: every move as it is
+        return [
+            Blended(holds.get(i, []), [m], [stop], [e], [src], [None])
+            for i, (m, stop, e, src) in enumerate(
+                zip(moves, stretch.stop_after, stretch.smoothing_mm, stretch.sources, strict=True)
+            )
+        ]
     _meet_neighbours(moves, use, turn, budgets)
     before = [cuts[k].before_mm if k in cuts else use[k] for k in range(n + 1)]
     after = [cuts[k].after_mm if k in cuts else use[k] for k in range(n + 1)]
     # Trimmed straight moves: their new end points (a vanishing move: its midpoint, shared), as
     # the tuples the path's moves hold: a blend arc holds the very tuples of the lines it joins,
-    # and a move left whole keeps its own (a path holds 1.3 KB a move).
+    # and a move left whole keeps its own.
     keep: list[bool] = []
     start_pts: list[Vec3] = []
     end_pts: list[Vec3] = []
@@ -222,48 +215,35 @@ def _blend_corners(
         # a curve by its length: a full circle or a closed spline ends where it starts
         straight = isinstance(m, Rapid | Linear)
         keep.append((float(np.linalg.norm(e - a)) if straight else m.length_mm) > EPS_MM)
-    new_moves: list[Move] = []
-    new_stops: list[bool] = []
-    new_holds: dict[int, list[Dwell]] = {}
-    smoothing: list[float] = []
-    sources: list[tuple[int, int]] = []
+    out: list[Blended] = []
+    sources = stretch.sources
     for i, m in enumerate(moves):
-        if i in out.holds:
-            new_holds[len(new_moves)] = out.holds[i]
+        made = Blended(holds.get(i, []))
+        out.append(made)
         if keep[i]:
-            new_moves.append(_trimmed(m, start_pts[i], end_pts[i]))
-            new_stops.append(out.stop_after[i])
-            smoothing.append(out.smoothing_mm[i])
-            sources.append(out.sources[i])
+            made.moves.append(_trimmed(m, start_pts[i], end_pts[i]))
+            made.stops.append(stretch.stop_after[i])
+            made.smoothing.append(stretch.smoothing_mm[i])
+            made.sources.append(sources[i])
+            made.blend_at.append(None)
         # a blend arc's sources: every program move of its two moves (a move merged by G64 Q
         # stands for several, and a blend that eats most of it passes several of them)
-        between = (out.sources[i][0], out.sources[min(i + 1, n - 1)][1])
+        between = (sources[i][0], sources[min(i + 1, n - 1)][1])
+        arc, dev = None, 0.0
         if i + 1 in cuts:
-            cut = cuts[i + 1]
-            tol = control(m, settings).tolerance_mm
-            out.blend_junction[len(new_moves)] = i + 1
-            new_moves.append(cut.arc)
-            new_stops.append(False)
-            sources.append(between)
-            smoothing.append(
-                max(tol - REFERENCE_SHARE * chord_tolerance_mm - cut.deviation_mm, 0.0)
-            )
-            out.blends.append(Blend(m.line, cut.deviation_mm, tol))
-        t = turn[i + 1]
-        if t is not None:
+            arc, dev = cuts[i + 1].arc, cuts[i + 1].deviation_mm
+        elif (t := turn[i + 1]) is not None:
             nxt = moves[i + 1]
             arc, dev = _blend_arc(m, nxt, end_pts[i], start_pts[i + 1], t[0], t[1])  # type: ignore[arg-type]
+        if arc is not None:
             tol = control(m, settings).tolerance_mm
-            out.blend_junction[len(new_moves)] = i + 1
-            new_moves.append(arc)
-            new_stops.append(False)
-            sources.append(between)
-            smoothing.append(max(tol - REFERENCE_SHARE * chord_tolerance_mm - dev, 0.0))
-            out.blends.append(Blend(m.line, dev, tol))
-    if n in out.holds:
-        new_holds[len(new_moves)] = out.holds[n]
-    out.moves, out.stop_after, out.holds = new_moves, new_stops, new_holds
-    out.smoothing_mm, out.sources = smoothing, sources
+            made.moves.append(arc)
+            made.stops.append(False)
+            made.smoothing.append(max(tol - REFERENCE_SHARE * chord_tolerance_mm - dev, 0.0))
+            made.sources.append(between)
+            made.blend_at.append(i + 1)
+            made.blends.append(Blend(m.line, dev, tol))
+    return out
 
 
 def _meet_neighbours(

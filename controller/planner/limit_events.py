@@ -22,11 +22,13 @@ from dataclasses import replace
 
 import numpy as np
 
-from gantry_sim.controller.config import MachineConfig
+from gantry_sim.controller.config import MachineConfig, Segmentation
 from gantry_sim.controller.errors import ConfigError, GcodeError
 from gantry_sim.controller.moves import Arc, Event, Limits, Linear, Move, Rapid, Spline
 from gantry_sim.controller.planner.cubic import PiecewiseCubic
 from gantry_sim.controller.planner.result import Plan
+from gantry_sim.controller.planner.vertices import ChordVertices
+from gantry_sim.controller.spill import SpilledList
 
 _AXES = "XYZ"
 
@@ -88,8 +90,9 @@ def split_at_limits(
     return out or [(carry, machine)]
 
 
-def concatenate(plans: Sequence[Plan]) -> Plan:
-    """The plans one after the other (each starts where, and at rest as, the one before ends)."""
+def concatenate(plans: Sequence[Plan], seg: Segmentation) -> Plan:
+    """The plans one after the other (each starts where, and at rest as, the one before ends);
+    ``seg``: the machine's segmentation (the same for every part), for the chord vertices."""
     offsets = np.concatenate(([0.0], np.cumsum([p.duration_s for p in plans])[:-1]))
     axes = []
     for i in range(3):
@@ -114,12 +117,13 @@ def concatenate(plans: Sequence[Plan]) -> Plan:
     for arr in (starts, lines, move_sources, path_sources):
         arr.setflags(write=False)
     last = plans[-1]
+    moves = SpilledList(m for p in plans for m in p.moves)
     return replace(
         last,
-        moves=cat("moves"),
+        moves=moves,
         duration_s=float(sum(p.duration_s for p in plans)),
         segment_count=sum(p.segment_count for p in plans),
-        vertices=cat("vertices"),
+        vertices=ChordVertices(moves, seg),
         ruckig_piece_count=sum(p.ruckig_piece_count for p in plans),
         curve=PiecewiseCubic(tuple(axes)),
         move_start_s=starts,

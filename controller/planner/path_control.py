@@ -6,7 +6,7 @@ Q of one line become that line (LinuxCNC's naive-CAM detector), before corners a
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Iterable, Iterator, Sequence
 from dataclasses import dataclass, replace
 
 import numpy as np
@@ -19,9 +19,10 @@ __all__ = [
     "MAX_MERGE_RUN",
     "Control",
     "Merge",
+    "PathEntry",
     "control",
     "extends_run",
-    "merge_naive_cam",
+    "merge_runs",
     "starts_run",
 ]
 
@@ -61,49 +62,56 @@ def control(move: Move, settings: PathSettings) -> Control:
     return Control(pc.mode, tol, q)
 
 
-def merge_naive_cam(
-    moves: list[Move],
-    stops: list[bool],
-    holds: dict[int, list[Dwell]],
-    sources: list[tuple[int, int]],
-    settings: PathSettings,
-) -> tuple[list[Move], list[bool], dict[int, list[Dwell]], list[tuple[int, int]], list[Merge]]:
+@dataclass
+class PathEntry:
+    """One move on its way into the planner's path (see
+    :func:`~gantry_sim.controller.planner.path_stream.path_plan`).
+
+    Attributes:
+        move: the move.
+        stop_after: an exact stop at the junction after it.
+        holds: the dwells at the junction before it (empty: none).
+        source: the first and last program move it comes from (indices among the program's
+            motions, zero-length ones counted).
+    """
+
+    move: Move
+    stop_after: bool
+    holds: list[Dwell]
+    source: tuple[int, int]
+
+
+def merge_runs(
+    entries: Iterable[PathEntry], settings: PathSettings, merges: list[Merge]
+) -> Iterator[PathEntry]:
     """G64 Q: runs of straight moves whose end points lie within Q of one line, merged into
-    that line. ``stops``: per move, an exact stop after it; ``holds``: dwells per junction
-    (0: before the first move); ``sources``: per move, the first and last program move it
-    comes from; returns the four for the merged moves, and each merge (:class:`Merge`)."""
-    merges: list[Merge] = []
-    new_moves: list[Move] = []
-    new_stops: list[bool] = []
-    new_holds: dict[int, list[Dwell]] = {}
-    new_sources: list[tuple[int, int]] = []
-    i = 0
-    while i < len(moves):
-        if i in holds:
-            new_holds[len(new_moves)] = holds[i]
-        m = moves[i]
-        c = control(m, settings)
-        j = i
-        if starts_run(m, settings):
+    that line, greedily from the first move on (LinuxCNC's naive-CAM detector), as the entries
+    come: a run ends at a stop, a dwell, a move it cannot take, or :data:`MAX_MERGE_RUN` moves.
+    Each merge is appended to ``merges``; a merged entry takes its run's first dwells, its last
+    stop and both ends of their sources."""
+    it = iter(entries)
+    cur = next(it, None)
+    while cur is not None:
+        run, moves = [cur], [cur.move]
+        nxt = next(it, None)
+        if starts_run(cur.move, settings):
             while (
-                j + 1 < len(moves)
-                and not stops[j]
-                and (j + 1) not in holds
-                and extends_run(moves[i : j + 1], moves[j + 1], settings)
+                nxt is not None
+                and not run[-1].stop_after
+                and not nxt.holds
+                and extends_run(moves, nxt.move, settings)
             ):
-                j += 1
-        if j > i and isinstance(m, Linear):
-            last = moves[j]
-            new_moves.append(replace(m, end=last.end, path=getattr(last, "path", None)))
-            merges.append(Merge(m.line, float(_offsets(moves[i : j + 1]).max()), c.naive_cam_mm))
-        else:
-            new_moves.append(m)
-        new_stops.append(stops[j])
-        new_sources.append((sources[i][0], sources[j][1]))
-        i = j + 1
-    if len(moves) in holds:
-        new_holds[len(new_moves)] = holds[len(moves)]
-    return new_moves, new_stops, new_holds, new_sources, merges
+                run.append(nxt)
+                moves.append(nxt.move)
+                nxt = next(it, None)
+        m = cur.move
+        if len(run) > 1 and isinstance(m, Linear):
+            last = moves[-1]
+            q = control(m, settings).naive_cam_mm
+            merges.append(Merge(m.line, float(_offsets(moves).max()), q))
+            m = replace(m, end=last.end, path=getattr(last, "path", None))
+        yield PathEntry(m, run[-1].stop_after, cur.holds, (cur.source[0], run[-1].source[1]))
+        cur = nxt
 
 
 def starts_run(move: Move, settings: PathSettings) -> bool:
@@ -119,7 +127,7 @@ def extends_run(run: Sequence[Move], nxt: Move, settings: PathSettings) -> bool:
     broken by a stop or dwell) takes ``nxt`` too: a straight G64 move at the run's feed, the
     run no longer than :data:`MAX_MERGE_RUN`, every end point within the first move's Q of the
     chord from the run's start to ``nxt``'s end. (With :func:`starts_run`, the rule of
-    :func:`merge_naive_cam`, which ``sim/duration_bound.py`` follows too.)"""
+    :func:`merge_runs`, which ``sim/duration_bound.py`` follows too.)"""
     first = run[0]
     return (
         len(run) < MAX_MERGE_RUN

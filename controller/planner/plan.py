@@ -31,6 +31,7 @@ raises :class:`PlanningError` naming the line: never a reference beyond the limi
 
 from __future__ import annotations
 
+import itertools
 from collections.abc import Sequence
 
 import numpy as np
@@ -38,16 +39,18 @@ import numpy as np
 from gantry_sim.controller.config import MachineConfig
 from gantry_sim.controller.errors import ConfigError
 from gantry_sim.controller.gc_pause import gc_paused
+from gantry_sim.controller.heap import trim_heap
 from gantry_sim.controller.moves import Arc, Event, Linear, Move, Rapid, Spline
 from gantry_sim.controller.moves import Limits as LimitsEvent
-from gantry_sim.controller.planner.blend import path_plan
 from gantry_sim.controller.planner.limit_events import concatenate, split_at_limits
+from gantry_sim.controller.planner.path_stream import path_plan
 from gantry_sim.controller.planner.prepare import prepare, slow_blends
 from gantry_sim.controller.planner.result import Plan
 from gantry_sim.controller.planner.ruckig_solver import RuckigSolver
-from gantry_sim.controller.planner.segment import segment_arc
 from gantry_sim.controller.planner.travel import check_travel
+from gantry_sim.controller.planner.vertices import ChordVertices
 from gantry_sim.controller.planner.windows import WINDOW_MOVES, blends_to_skip, plan_path
+from gantry_sim.controller.spill import SpilledList
 
 __all__ = ["Plan", "plan"]
 
@@ -81,12 +84,16 @@ def plan(
         raise ConfigError(f"feed override must be a number > 0 %, got {feed_override_pct}")
     if arc_pieces not in ("jerk3", "ruckig"):
         raise ConfigError(f"arc_pieces must be 'jerk3' or 'ruckig', got {arc_pieces!r}")
-    with gc_paused():  # see controller/gc_pause.py: 19-22 % of planning time
-        return _plan(tuple(moves), machine, feed_override_pct, arc_pieces)
+    items = moves if isinstance(moves, SpilledList) else tuple(moves)
+    try:
+        with gc_paused():  # see controller/gc_pause.py: 19-22 % of planning time
+            return _plan(items, machine, feed_override_pct, arc_pieces)
+    finally:
+        trim_heap()  # planning's freed working set back to the system (controller/heap.py)
 
 
 def _plan(
-    items: tuple[Move | Event, ...],
+    items: Sequence[Move | Event],
     machine: MachineConfig,
     feed_override_pct: float,
     arc_pieces: str,
@@ -94,21 +101,21 @@ def _plan(
     """:func:`plan` with its arguments checked: the travel of the whole program (its hint
     places all of it), then the program, or its parts where Marlin's M201-M205 change the
     limits (each part from rest to rest, the travel the same)."""
-    program = tuple(m for m in items if isinstance(m, Rapid | Linear | Arc | Spline))
+    program = SpilledList(m for m in items if isinstance(m, Rapid | Linear | Arc | Spline))
     check_travel(program, machine.travel)
     if not any(isinstance(i, LimitsEvent) for i in items):
         return _plan_part(items, program, machine, feed_override_pct, arc_pieces)
     parts = []
     for chunk, m in split_at_limits(items, machine):
         own = tuple(i for i in chunk if not isinstance(i, LimitsEvent))
-        moves = tuple(i for i in own if isinstance(i, Rapid | Linear | Arc | Spline))
+        moves = SpilledList(i for i in own if isinstance(i, Rapid | Linear | Arc | Spline))
         parts.append(_plan_part(own, moves, m, feed_override_pct, arc_pieces))
-    return concatenate(parts)
+    return concatenate(parts, machine.segmentation)
 
 
 def _plan_part(
-    items: tuple[Move | Event, ...],
-    program: tuple[Move, ...],
+    items: Sequence[Move | Event],
+    program: Sequence[Move],
     machine: MachineConfig,
     feed_override_pct: float,
     arc_pieces: str,
@@ -132,61 +139,52 @@ def _plan_part(
         path = path_plan(items, machine.path, seg.chord_tolerance_mm, slow, jerk)
     solver = RuckigSolver(machine.limits)
     planned = plan_path(path, machine, feed_override_pct, arc_pieces, solver, prepared)
-    done = planned.round
     end = np.array(program[-1].end if program else (0.0, 0.0, 0.0), dtype=float)
-    move_start = np.asarray(done.move_start_s, dtype=float)
-    lines = np.asarray(done.lines, dtype=np.int64)
-    sources = _entry_sources(done.entries, planned.sources)
-    path_sources = np.array(path.sources, dtype=np.int64).reshape(-1, 2)
+    move_start = np.frombuffer(planned.move_start_s, dtype=float).copy()
+    lines = np.frombuffer(planned.lines, dtype=np.int64).copy()
+    sources = _entry_sources(
+        np.frombuffer(planned.entries, dtype=np.int64).reshape(-1, 2),
+        np.frombuffer(planned.sources, dtype=np.int64).reshape(-1, 2),
+    )
+    path_sources = np.fromiter(
+        itertools.chain.from_iterable(path.sources), dtype=np.int64, count=2 * len(path.sources)
+    ).reshape(-1, 2)
     for arr in (end, move_start, lines, sources, path_sources):
         arr.setflags(write=False)
-    known_vertices = planned.vertices
-    vertices = tuple(
-        known_vertices[id(m)] if id(m) in known_vertices else _vertices(m, machine) for m in program
-    )
+    vertices = ChordVertices(program, seg)
     return Plan(
         moves=program,
-        duration_s=done.duration_s,
-        segment_count=sum(len(v) - 1 for v in vertices),
-        chord_tolerance_mm=machine.segmentation.chord_tolerance_mm,
+        duration_s=planned.duration_s,
+        segment_count=vertices.chord_total(),
+        chord_tolerance_mm=seg.chord_tolerance_mm,
         vertices=vertices,
-        ruckig_piece_count=done.ruckig_pieces,
+        ruckig_piece_count=planned.ruckig_pieces,
         curve=planned.curve.finish(),
         move_start_s=move_start,
         move_lines=lines,
         end_mm=end,
-        blends=tuple(path.blends),
+        blends=path.blends,
         merges=tuple(path.merges),
-        path_moves=tuple(path.moves),
+        path_moves=path.moves,
         move_sources=sources,
         path_sources=path_sources,
     )
 
 
-def _entry_sources(
-    entries: Sequence[tuple[int, int]], active_sources: Sequence[tuple[int, int]]
-) -> np.ndarray:
-    """(m, 2) per entry of the plan's timeline (a move, or a dwell between two moves: see
-    :class:`~gantry_sim.controller.planner.rounds.Round`), the first and last program move
-    it comes from or lies between (-1 -1: a dwell of a program without moves)."""
+def _entry_sources(entries: np.ndarray, active_sources: np.ndarray) -> np.ndarray:
+    """(m, 2) per entry of the plan's timeline (``entries`` (m, 2): a move, or a dwell between
+    two moves: see :class:`~gantry_sim.controller.planner.windows.Planned`), the first and last
+    program move it comes from or lies between (-1 -1: a dwell of a program without moves);
+    ``active_sources`` (n, 2): per active move, its program moves."""
     out = np.full((len(entries), 2), -1, dtype=np.int64)
     n = len(active_sources)
-    for k, (a, b) in enumerate(entries):
-        if a == b:  # a move
-            out[k] = active_sources[a]
-        elif n:  # a dwell between moves a and b (either may be past an end)
-            before = active_sources[a][1] if a >= 0 else active_sources[b][0]
-            after = active_sources[b][0] if b < n else active_sources[a][1]
-            out[k] = before, after
+    if not n or not len(entries):
+        return out
+    a, b = entries[:, 0], entries[:, 1]
+    move = a == b  # else a dwell between moves a and b (either may be past an end)
+    ia, ib = np.clip(a, 0, n - 1), np.clip(b, 0, n - 1)
+    before = np.where(a >= 0, active_sources[ia, 1], active_sources[ib, 0])
+    after = np.where(b < n, active_sources[ib, 0], active_sources[ia, 1])
+    out[:, 0] = np.where(move, active_sources[ia, 0], before)
+    out[:, 1] = np.where(move, active_sources[ia, 1], after)
     return out
-
-
-def _vertices(m: Move, machine: MachineConfig) -> np.ndarray:
-    """A programmed move's chord vertices (a blended straight move, or a curve of no length
-    such as a G5 whose control points all lie at its start: its programmed ends)."""
-    seg = machine.segmentation
-    if isinstance(m, Arc | Spline) and m.length_mm > 0.0:
-        return segment_arc(m, seg.method, seg.chord_tolerance_mm, seg.segment_length_mm)
-    verts = np.array([m.start, m.end], dtype=float)
-    verts.setflags(write=False)
-    return verts

@@ -3,6 +3,7 @@ reference is stored as constant-jerk phases and sampled vectorised."""
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -21,11 +22,14 @@ class Plan:
     """A planned program.
 
     Attributes:
-        moves: the moves planned, in order.
+        moves: the moves planned, in order (a :class:`~gantry_sim.controller.spill.SpilledList`
+            for a program planned by :func:`~gantry_sim.controller.planner.plan.plan`: a long
+            one is kept on disk).
         duration_s: time from rest at the first move's start to rest at the last move's end [s].
         segment_count: chords and straight pieces planned.
         chord_tolerance_mm: the machine's chord tolerance [mm].
-        vertices: per move, read-only (k, 3) chord vertices [mm] (first = start, last = end).
+        vertices: per move, read-only (k, 3) chord vertices [mm] (first = start, last = end),
+            made when read (:class:`~gantry_sim.controller.planner.vertices.ChordVertices`).
         ruckig_piece_count: arc pieces given to Ruckig because the closed-form piece would have
             broken a limit (typically next to a junction with a curvature jump).
         curve: the reference, as constant-jerk phases per axis (a planned program's held
@@ -43,18 +47,18 @@ class Plan:
             from the merged line, Q).
     """
 
-    moves: tuple[Move, ...]
+    moves: Sequence[Move]
     duration_s: float
     segment_count: int
     chord_tolerance_mm: float
-    vertices: tuple[np.ndarray, ...]
+    vertices: Sequence[np.ndarray]
     ruckig_piece_count: int
     curve: PiecewiseCubic | SegmentedCurve = field(repr=False)
     move_start_s: np.ndarray = field(repr=False)
     move_lines: np.ndarray = field(repr=False)
     end_mm: np.ndarray = field(repr=False)
-    blends: tuple[Blend, ...] = ()
-    path_moves: tuple[Move, ...] = ()
+    blends: Sequence[Blend] = ()
+    path_moves: Sequence[Move] = ()
     move_sources: np.ndarray = field(repr=False, default_factory=lambda: _no_sources())
     path_sources: np.ndarray = field(repr=False, default_factory=lambda: _no_sources())
     merges: tuple[Merge, ...] = ()

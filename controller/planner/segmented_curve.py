@@ -11,7 +11,7 @@ when a sample falls in it (the last :data:`CACHED_BLOCKS` blocks are kept, so a 
 range after range lays each block out about once). The segments themselves took about 3 KB an
 arc (400 MB at 100,000 arcs, and as much again in the planner's forked children, which copied
 the pages they touched): :class:`CurveBuilder` writes each full block to a temporary file as the
-planner's windows add them (:mod:`~gantry_sim.controller.planner.block_file`), so memory holds
+planner's windows add them (:mod:`~gantry_sim.controller.spill`), so memory holds
 one block being built and the blocks laid out.
 
 The numbers are those of the laid-out curve bit for bit: a phase's start time is the running sum
@@ -22,14 +22,15 @@ formula that :meth:`PiecewiseCubic.evaluate` takes (tests/test_segmented_curve.p
 
 from __future__ import annotations
 
+from array import array
 from collections import OrderedDict
 from itertools import pairwise
 
 import numpy as np
 
-from gantry_sim.controller.planner.block_file import BlockFile
 from gantry_sim.controller.planner.cubic import Chunk, Jerk3Run, PiecewiseCubic, Segment
 from gantry_sim.controller.planner.packed_block import PackedBlock, Phases
+from gantry_sim.controller.spill import BlockFile
 
 __all__ = ["BLOCK_PHASES", "CACHED_BLOCKS", "CurveBuilder", "SegmentedCurve"]
 
@@ -53,24 +54,26 @@ class CurveBuilder:
     __slots__ = ("_carry", "_chunk_at", "_counts", "_current", "_file", "_size", "_starts")
 
     def __init__(self) -> None:
-        self._file = BlockFile()
+        self._file: BlockFile[PackedBlock] = BlockFile()
         self._current: list[Segment] = []  # the open block's segments
         self._size = 0  # its phases on the first axis
         self._carry = np.zeros(3)  # per axis the open block's start time [s]
         self._counts: list[np.ndarray] = []  # per closed block: phases per axis
         self._starts: list[np.ndarray] = []  # per closed block: start time per axis [s]
-        self._chunk_at: list[tuple[int, int]] = []  # per chunk: (block, segment) of its start
+        # per chunk, flattened: (block, segment) of its start (an array: one a move, for the
+        # whole program, so no small object per chunk is left among the window's garbage)
+        self._chunk_at = array("q")
 
     def __len__(self) -> int:
         """Chunks added (and not taken back)."""
-        return len(self._chunk_at)
+        return len(self._chunk_at) // 2
 
     def extend(self, chunks: list[Chunk]) -> None:
         """Add ``chunks`` (stretches of phases in time order, after those added before); the
         list is emptied as it is read, so the segments are held once."""
         chunks.reverse()
         while chunks:
-            self._chunk_at.append((len(self._file), len(self._current)))
+            self._chunk_at.extend((len(self._file), len(self._current)))
             for seg in chunks.pop():
                 self._current.append(seg)
                 self._size += _phase_count(seg, 0)
@@ -79,10 +82,10 @@ class CurveBuilder:
 
     def truncate(self, count: int) -> None:
         """Keep the first ``count`` chunks only."""
-        if count >= len(self._chunk_at):
+        if count >= len(self):
             return
-        b, s = self._chunk_at[count]
-        del self._chunk_at[count:]
+        b, s = self._chunk_at[2 * count], self._chunk_at[2 * count + 1]
+        del self._chunk_at[2 * count :]
         if b < len(self._file):  # the chunk began in a closed block: open it again
             self._current = list(self._file[b].segments())
             self._file.truncate(b)
@@ -97,7 +100,7 @@ class CurveBuilder:
         curve._setup(*self._take())
         return curve
 
-    def _take(self) -> tuple[BlockFile, np.ndarray, np.ndarray]:
+    def _take(self) -> tuple[BlockFile[PackedBlock], np.ndarray, np.ndarray]:
         """The blocks, with their phase counts and start times [s] (3, blocks), handed over:
         the builder is left empty."""
         if self._current:
@@ -105,7 +108,7 @@ class CurveBuilder:
         counts = np.array(self._counts, dtype=np.int64).reshape(-1, 3).T
         starts = np.array(self._starts, dtype=float).reshape(-1, 3).T
         blocks, self._file = self._file, BlockFile()
-        self._counts, self._starts, self._chunk_at = [], [], []
+        self._counts, self._starts, self._chunk_at = [], [], array("q")
         self._carry = np.zeros(3)
         return blocks, counts, starts
 
@@ -139,7 +142,9 @@ class SegmentedCurve:
         builder.extend(chunks)
         self._setup(*builder._take())
 
-    def _setup(self, blocks: BlockFile, counts: np.ndarray, starts: np.ndarray) -> None:
+    def _setup(
+        self, blocks: BlockFile[PackedBlock], counts: np.ndarray, starts: np.ndarray
+    ) -> None:
         """``blocks`` of segments with their phase counts and start times [s], (3, blocks)."""
         self._blocks = blocks
         self._counts = counts

@@ -72,13 +72,24 @@ def check_travel(moves: Sequence[Move], travel: Travel) -> None:
 
 #: Relative and absolute padding [mm] of an arc's box (:func:`_may_leave`) over rounding.
 _BOX_PAD_REL, _BOX_PAD_MM = 1e-9, 1e-9
+#: Moves whose boxes are made at once.
+BOX_MOVES = 4096
 
 
 def _may_leave(moves: Sequence[Move], lo: np.ndarray, hi: np.ndarray) -> np.ndarray:
     """(len(moves),) bool: False where the move certainly stays within ``lo``..``hi`` [mm]:
     its end points' box, widened for an arc to its centre +- its larger in-plane radius
     (padded, so rounding never makes the box smaller than the arc's exact extent). A spline
-    is always checked exactly."""
+    is always checked exactly. Made :data:`BOX_MOVES` moves at a time (a long program's moves
+    are read from disk: :class:`~gantry_sim.controller.spill.SpilledList`)."""
+    parts = [
+        _boxes_leave(moves[k : k + BOX_MOVES], lo, hi) for k in range(0, len(moves), BOX_MOVES)
+    ]
+    return np.concatenate(parts) if parts else np.zeros(0, dtype=bool)
+
+
+def _boxes_leave(moves: Sequence[Move], lo: np.ndarray, hi: np.ndarray) -> np.ndarray:
+    """:func:`_may_leave` of a list of moves."""
     n = len(moves)
     if n == 0:
         return np.zeros(0, dtype=bool)

@@ -38,6 +38,7 @@ from __future__ import annotations
 
 import functools
 import math
+from array import array
 from collections.abc import Callable
 from dataclasses import dataclass, field
 from typing import NamedTuple
@@ -77,14 +78,27 @@ BLEND_CONTEXT = 3
 
 @dataclass
 class Planned:
-    """A path planned: its timeline (``round``: entries indexed over the active moves of the
-    whole path), each active move's program ``sources``, and the chord vertices [mm] of every
-    move of the path (zero-length ones too) by ``id`` of its move."""
+    """A path planned: its timeline, in compact arrays (a long program's take 40 bytes a move
+    instead of 300 as Python objects).
 
-    round: Round
-    sources: list[tuple[int, int]] = field(default_factory=list)
-    vertices: dict[int, np.ndarray] = field(default_factory=dict)
-    #: the reference of the windows kept (``round.chunks`` stays empty)
+    Attributes:
+        duration_s: the end's time [s].
+        ruckig_pieces: arc pieces Ruckig made.
+        move_start_s: per entry of the timeline (a move, or a dwell), its start time [s].
+        lines: per entry, its program line.
+        entries: per entry, flattened pairs: the first and last active move of the whole path
+            it is (a move: its index twice) or lies between (a dwell).
+        sources: per active move, flattened pairs: the first and last program move it comes
+            from.
+        curve: the reference of the windows kept.
+    """
+
+    duration_s: float = 0.0
+    ruckig_pieces: int = 0
+    move_start_s: array = field(default_factory=lambda: array("d"))
+    lines: array = field(default_factory=lambda: array("q"))
+    entries: array = field(default_factory=lambda: array("q"))
+    sources: array = field(default_factory=lambda: array("q"))
     curve: CurveBuilder = field(default_factory=CurveBuilder)
 
 
@@ -126,8 +140,7 @@ def plan_path(
     """Plan ``path`` (see the module docstring); ``prepared``: its :func:`prepare` when made
     already (a path planned whole)."""
     n = len(path.moves)
-    blend_arcs = frozenset(id(path.moves[k]) for k in path.blend_junction)
-    out = Planned(Round([], 0.0, [], set(), [], 0, []))
+    out = Planned()
     ahead = _Ahead()
     # per kept window: where it started, its size, and ``out`` before it
     history: list[tuple[_Start, int, _Mark]] = []
@@ -136,11 +149,11 @@ def plan_path(
         lo, ctx, v_lo = start
         hi = min(n, lo + size)
         if prepared is not None and lo == 0 and hi == n:
-            pre, base = prepared, 0
+            pre, blend_arcs, base = prepared, _blend_arcs(path, prepared), 0
         else:
             base = ctx if ctx >= 0 else lo
-            pre = ahead.take((base, hi, ctx >= 0)) or _window(
-                sub_path(path, base, hi, base + (ctx >= 0)), machine, feed_override_pct, ctx >= 0
+            pre, blend_arcs = ahead.take((base, hi, ctx >= 0)) or _window_of(
+                path, base, hi, ctx >= 0, machine, feed_override_pct
             )
         caps = pre.caps.copy()
         caps[0] = v_lo
@@ -167,8 +180,7 @@ def plan_path(
             continue
         count, c = cut
         history.append((start, size, _mark(out)))
-        upto = pre.path_index[c] if c < len(pre.active) else len(pre.geoms)  # stretch moves kept
-        keep = functools.partial(_assemble_and_keep, out, settled, pre, count, c, upto, hi == n)
+        keep = functools.partial(_assemble_and_keep, out, settled, pre, count, c, hi == n)
         if hi == n:
             keep()
             return out
@@ -177,7 +189,7 @@ def plan_path(
             base + pre.path_index[c], base + pre.path_index[c - 1], float(settled.speeds[c])
         )
         size = WINDOW_MOVES
-        del settled, pre, caps
+        del settled, pre, caps, blend_arcs
 
 
 class _Start(NamedTuple):
@@ -196,21 +208,42 @@ class _Mark(NamedTuple):
     chunks: int
     ruckig_pieces: int
     duration_s: float
-    sources: int
+    sources: int  # flattened: twice the moves
 
 
 def _mark(out: Planned) -> _Mark:
-    r = out.round
-    return _Mark(len(r.entries), len(out.curve), r.ruckig_pieces, r.duration_s, len(out.sources))
+    return _Mark(
+        len(out.lines), len(out.curve), out.ruckig_pieces, out.duration_s, len(out.sources)
+    )
 
 
 def _truncate(out: Planned, mark: _Mark) -> None:
     """Take back what was kept after ``mark``."""
-    r = out.round
-    del r.entries[mark.entries :], r.move_start_s[mark.entries :], r.lines[mark.entries :]
-    del out.sources[mark.sources :]
+    del out.move_start_s[mark.entries :], out.lines[mark.entries :]
+    del out.entries[2 * mark.entries :], out.sources[mark.sources :]
     out.curve.truncate(mark.chunks)
-    r.ruckig_pieces, r.duration_s = mark.ruckig_pieces, mark.duration_s
+    out.ruckig_pieces, out.duration_s = mark.ruckig_pieces, mark.duration_s
+
+
+def _window_of(
+    path: PathPlan,
+    base: int,
+    hi: int,
+    context: bool,
+    machine: MachineConfig,
+    feed_override_pct: float,
+) -> tuple[Prepared, frozenset[int]]:
+    """The window of path moves ``base:hi`` (the first one ``context``) prepared
+    (:func:`_window`), and its G64 blend arcs (:func:`_blend_arcs`)."""
+    stretch = sub_path(path, base, hi, base + context)
+    pre = _window(stretch, machine, feed_override_pct, context)
+    return pre, _blend_arcs(stretch, pre)
+
+
+def _blend_arcs(stretch: PathPlan, pre: Prepared) -> frozenset[int]:
+    """The G64 blend arcs of a window, by id of its own moves (a path on disk reads back
+    copies)."""
+    return frozenset(id(pre.geoms[k].move) for k in stretch.blend_junction)
 
 
 class _Ahead:
@@ -233,7 +266,7 @@ class _Ahead:
 
     def __init__(self) -> None:
         self._key: tuple[int, int, bool] | None = None
-        self._pre: Prepared | None = None
+        self._pre: tuple[Prepared, frozenset[int]] | None = None
         self._keep: Callable[[], None] | None = None
 
     def keep_later(self, keep: Callable[[], None]) -> None:
@@ -250,9 +283,10 @@ class _Ahead:
         if keep is not None:
             keep()
 
-    def take(self, key: tuple[int, int, bool]) -> Prepared | None:
-        """The window prepared ahead for (first stretch move, stop, with context), if that is
-        the one prepared; either way nothing is kept after."""
+    def take(self, key: tuple[int, int, bool]) -> tuple[Prepared, frozenset[int]] | None:
+        """The window prepared ahead for (first stretch move, stop, with context), and its
+        blend arcs (:func:`_window_of`), if that is the one prepared; either way nothing is
+        kept after."""
         pre = self._pre if key == self._key else None
         self._key, self._pre = None, None
         return pre
@@ -283,8 +317,7 @@ class _Ahead:
             def prepare_next() -> None:
                 self.keep_now()
                 try:
-                    stretch = sub_path(path, ctx, key[1], ctx + 1)
-                    self._pre = _window(stretch, machine, feed_override_pct, True)
+                    self._pre = _window_of(path, ctx, key[1], True, machine, feed_override_pct)
                     self._key = key
                 except Exception:  # raised again where the window is prepared for use
                     self._key, self._pre = None, None
@@ -344,24 +377,23 @@ def _braking_mm(lim: BlockLimits) -> float:
 
 
 def _assemble_and_keep(
-    out: Planned, settled: Settled, pre: Prepared, count: int, c: int, upto: int, end: bool
+    out: Planned, settled: Settled, pre: Prepared, count: int, c: int, end: bool
 ) -> None:
     """:func:`_keep` the timeline of the first ``count`` chains of ``settled`` (with the end's
     dwells when ``end``), its times counting from where ``out`` ends."""
-    kept = assemble(settled, pre.holds, count, end_hold=end, start_s=out.round.duration_s)
-    _keep(out, pre, kept, c, upto)
+    kept = assemble(settled, pre.holds, count, end_hold=end, start_s=out.duration_s)
+    _keep(out, pre, kept, c)
 
 
-def _keep(out: Planned, pre: Prepared, kept: Round, moves: int, upto: int) -> None:
-    """Append a window's kept timeline (of its first ``moves`` active moves; ``upto``: the
-    stretch's moves before the cut) to ``out``: its entries moved to the whole path's active
-    moves (its times already count from the path's start)."""
-    base, r = len(out.sources), out.round
+def _keep(out: Planned, pre: Prepared, kept: Round, moves: int) -> None:
+    """Append a window's kept timeline (of its first ``moves`` active moves) to ``out``: its
+    entries moved to the whole path's active moves (its times already count from the path's
+    start)."""
+    base = len(out.sources) // 2
     out.curve.extend(kept.chunks)
-    r.move_start_s.extend(kept.move_start_s)
-    r.lines.extend(kept.lines)
-    r.entries.extend((a + base, b + base) for a, b in kept.entries)
-    r.ruckig_pieces += kept.ruckig_pieces
-    r.duration_s = kept.duration_s  # counted from the path's start
-    out.sources.extend(pre.sources[:moves])
-    out.vertices.update((id(g.move), g.vertices) for g in pre.geoms[:upto])
+    out.move_start_s.extend(kept.move_start_s)
+    out.lines.extend(kept.lines)
+    out.entries.extend(k + base for pair in kept.entries for k in pair)
+    out.ruckig_pieces += kept.ruckig_pieces
+    out.duration_s = kept.duration_s  # counted from the path's start
+    out.sources.extend(k for pair in pre.sources[:moves] for k in pair)

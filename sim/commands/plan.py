@@ -6,7 +6,9 @@ from __future__ import annotations
 import argparse
 import json
 import sys
+from collections.abc import Sequence
 from pathlib import Path
+from typing import Any
 
 from gantry_sim.sim.commands.common import (
     add_budget,
@@ -50,7 +52,7 @@ def write_npz_atomically(path: Path, arrays: dict) -> None:
         np.savez(fh, **arrays)
 
 
-def deviation_summary(blends: tuple) -> dict:
+def deviation_summary(blends: Sequence[Any]) -> dict:
     """The G64 blends (or G64 Q merges): how many, the largest deviation from the programmed
     corner (the merged-away points) [mm] and its line (null when none)."""
     worst = max(blends, key=lambda b: b.deviation_mm, default=None)

@@ -16,6 +16,7 @@ import json
 import sys
 import time
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 from gantry_sim.sim.commands.common import (
     DEFAULT_OUT,
@@ -29,6 +30,9 @@ from gantry_sim.sim.commands.common import (
     read_program,
     search_path,
 )
+
+if TYPE_CHECKING:  # the CLI starts without numpy: sim.report is imported by run()
+    from gantry_sim.sim.report import RunReport
 
 HELP = "plan, simulate and analyse a program; write report.json, trace.npz and plots"
 
@@ -112,7 +116,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     add_budget(parser)
 
 
-def _summary(report: dict, timing: dict, out_dir: Path, files: list[str]) -> str:
+def _summary(typed: RunReport, out_dir: Path, files: list[str]) -> str:
+    report, timing = typed.to_json(blocks=False), typed.timing_json()
     ce, parts, sim = report["contour_error_um"], report["parts_um"], report["sim"]
     lines = [
         f"{report['program']} ({report['dialect']}): {report['moves']} moves, "
@@ -122,11 +127,10 @@ def _summary(report: dict, timing: dict, out_dir: Path, files: list[str]) -> str
         f"  parts: chord {parts['chord_max']:.3f} um, reference {parts['reference_max']:.3f} um, "
         f"tracking {parts['tracking_max']:.3f} um (max each)",
     ]
-    if report["blocks"]:
-        worst = max(report["blocks"], key=lambda b: b["max_error_um"])
+    worst = typed.worst_block()
+    if worst is not None:
         lines.append(
-            f"  worst block: line {worst['line']} ({worst['kind']}) "
-            f"max {worst['max_error_um']:.3f} um"
+            f"  worst block: line {worst.line} ({worst.kind}) max {worst.max_error_um:.3f} um"
         )
     lines.append(
         f"simulated {sim['steps']} steps of {sim['physics_timestep_s'] * 1e3:g} ms at "
@@ -175,7 +179,7 @@ def run(args: argparse.Namespace) -> int:
         if baseline is not None:
             comparison = compare(baseline, result.report, Margins())
         verdict = verdict_for(
-            result.report,
+            result.run_report,
             gates,
             comparison.failures if comparison is not None else (),
             str(args.baseline) if args.baseline is not None else None,
@@ -199,7 +203,7 @@ def run(args: argparse.Namespace) -> int:
     if args.json:
         sys.stdout.write(json.dumps(report.to_json(args.deterministic)) + "\n")
     else:
-        print(_summary(report.to_json(), report.timing_json(), args.out, files))
+        print(_summary(report, args.out, files))
     msg = sys.stderr if args.json else sys.stdout
     if comparison is not None:
         print(f"against {args.baseline}:", file=msg)

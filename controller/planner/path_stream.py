@@ -1,0 +1,164 @@
+"""The path the planner follows, made as the program's moves come, in bounded memory.
+
+:func:`path_plan` takes the program's moves and events in order and makes the
+:class:`~gantry_sim.controller.planner.blend.PathPlan` in three streamed stages:
+
+1. the moves with length, each with the exact stop after it (G61.1, a dwell, M0/M1/M60), the
+   dwells before it and its program index (:func:`_entries`);
+2. G64 Q's merge of straight runs (:func:`~gantry_sim.controller.planner.path_control.merge_runs`,
+   greedy from the first move on, runs of at most 256 moves);
+3. G64's corner blends (:func:`~gantry_sim.controller.planner.blend.blend_corners`), a stretch of
+   :data:`STRETCH_MOVES` merged moves at a time with :data:`CONTEXT_MOVES` moves of context
+   either side: a move's result depends on the moves up to three either side of it only, so the
+   stretches give the whole path's result move for move.
+
+The path's moves and blends go to :class:`~gantry_sim.controller.spill.SpilledList` (on disk in
+blocks), its per-move numbers to compact arrays: a 100,000-block polyline's path took 1.3 KB a
+move as Python objects, held while it was planned and run.
+"""
+
+from __future__ import annotations
+
+import math
+from array import array
+from collections.abc import Iterable, Iterator
+
+from gantry_sim.controller.config import PathSettings
+from gantry_sim.controller.moves import Arc, Dwell, Event, Linear, Move, Rapid, Spline, Stop
+from gantry_sim.controller.planner.blend import Blend, PathPlan, blend_corners, smoothing_budget
+from gantry_sim.controller.planner.path_control import (
+    EPS_MM,
+    Merge,
+    PathEntry,
+    control,
+    merge_runs,
+)
+from gantry_sim.controller.spill import SpilledList
+
+__all__ = ["CONTEXT_MOVES", "STRETCH_MOVES", "path_plan"]
+
+#: Merged moves blended at a time.
+STRETCH_MOVES = 2048
+#: Moves of context either side of a stretch (a blend's length depends on the corners at both
+#: ends of its moves; a trimmed move on the blends at both its ends).
+CONTEXT_MOVES = 3
+
+
+def path_plan(
+    items: Iterable[Move | Event],
+    settings: PathSettings,
+    chord_tolerance_mm: float,
+    skip: frozenset[int] = frozenset(),
+    jerk_mm_per_s3: float = math.inf,
+    *,
+    stretch_moves: int = STRETCH_MOVES,
+) -> PathPlan:
+    """The moves and stops the planner follows for ``items`` (moves and events in order; see
+    the module docstring); junctions in ``skip`` (values of a previous result's
+    ``blend_junction``) are not blended (the planner found the exact stop faster there).
+    ``jerk_mm_per_s3``: the machine's lowest axis jerk, to skip corners with an arc whose blend
+    would be passed too slowly to pay
+    (:func:`~gantry_sim.controller.planner.corner_blend.arc_corner`)."""
+    stretch = _Stretcher(settings, chord_tolerance_mm, skip, jerk_mm_per_s3)
+    out = stretch.out
+    merges: list[Merge] = []
+    trailing: list[Dwell] = []
+    buffer: list[PathEntry] = []  # merged moves first .. first + len(buffer) - 1
+    first = core = 0  # core: the first merged move not yet blended
+    for entry in merge_runs(_entries(items, settings, trailing), settings, merges):
+        buffer.append(entry)
+        if first + len(buffer) >= core + stretch_moves + CONTEXT_MOVES:
+            stretch.blend(buffer, first, core, core + stretch_moves)
+            core += stretch_moves
+            drop = max(0, core - CONTEXT_MOVES - first)
+            del buffer[:drop]
+            first += drop
+    stretch.blend(buffer, first, core, first + len(buffer))
+    if trailing:  # dwells after the last move
+        out.holds[len(out.moves)] = trailing
+    out.merges = merges
+    return out
+
+
+def _entries(
+    items: Iterable[Move | Event], settings: PathSettings, trailing: list[Dwell]
+) -> Iterator[PathEntry]:
+    """The moves with length of ``items``, in order, each with the stop after it (G61.1, or a
+    dwell or program stop before the next move), the dwells (of positive time) before it and its
+    index among the program's motions; the dwells after the last move go to ``trailing``."""
+    index = -1  # of the item among the program's motions
+    pending: PathEntry | None = None  # the last move, until what follows it is known
+    holds: list[Dwell] = []
+    for item in items:
+        if isinstance(item, Dwell | Stop):
+            if pending is not None:
+                pending.stop_after = True
+            if isinstance(item, Dwell) and item.seconds > 0:
+                holds.append(item)
+            continue
+        if not isinstance(item, Rapid | Linear | Arc | Spline):
+            continue
+        index += 1
+        if item.length_mm <= EPS_MM:
+            continue
+        if pending is not None:
+            yield pending
+        stop = control(item, settings).mode == "G61.1"
+        pending, holds = PathEntry(item, stop, holds, (index, index)), []
+    if pending is not None:
+        yield pending
+    trailing.extend(holds)
+
+
+class _Stretcher:
+    """Blends stretches of the merged moves into ``out`` (see :func:`path_plan`)."""
+
+    def __init__(
+        self,
+        settings: PathSettings,
+        chord_tolerance_mm: float,
+        skip: frozenset[int],
+        jerk_mm_per_s3: float,
+    ) -> None:
+        self.settings, self.skip = settings, skip
+        self.chord_tolerance_mm, self.jerk_mm_per_s3 = chord_tolerance_mm, jerk_mm_per_s3
+        self.moves: SpilledList[Move] = SpilledList()
+        self.blends: SpilledList[Blend] = SpilledList()
+        self.smoothing = array("d")
+        self.sources: SpilledList[tuple[int, int]] = SpilledList()
+        self.out = PathPlan(
+            moves=self.moves, blends=self.blends, smoothing_mm=self.smoothing, sources=self.sources
+        )
+
+    def blend(self, buffer: list[PathEntry], first: int, lo: int, hi: int) -> None:
+        """Blend merged moves ``lo`` .. ``hi - 1`` (``buffer``: merged moves ``first`` on, with
+        the context either side) and append what they become to the path."""
+        n = len(buffer)
+        local = PathPlan(
+            moves=[e.move for e in buffer],
+            stop_after=[e.stop_after for e in buffer],
+            holds={k: e.holds for k, e in enumerate(buffer) if e.holds},
+            smoothing_mm=[
+                smoothing_budget(e.move, self.settings, self.chord_tolerance_mm) for e in buffer
+            ],
+            sources=[e.source for e in buffer],
+        )
+        skip = frozenset(j - first for j in self.skip if first < j < first + n)
+        made = blend_corners(
+            local, self.settings, self.chord_tolerance_mm, skip, self.jerk_mm_per_s3
+        )
+        out = self.out
+        for k in range(lo - first, hi - first):
+            b = made[k]
+            if b.holds:
+                out.holds[len(self.moves)] = b.holds
+            for m, stop, e, src, at in zip(
+                b.moves, b.stops, b.smoothing, b.sources, b.blend_at, strict=True
+            ):
+                if at is not None:
+                    out.blend_junction[len(self.moves)] = at + first
+                self.moves.append(m)
+                out.stop_after.append(stop)
+                self.smoothing.append(e)
+                self.sources.append(src)
+            self.blends.extend(b.blends)

@@ -1,0 +1,75 @@
+"""The path made stretch by stretch (planner/path_stream.py) is the path made whole: the same
+moves, stops, dwells, smoothing budgets, sources, blends and merges, whatever the stretch."""
+
+from __future__ import annotations
+
+import math
+
+import pytest
+
+from gantry_sim.controller.config import load_machine_config
+from gantry_sim.controller.gcode.interpreter import interpret_events
+from gantry_sim.controller.planner.path_stream import path_plan
+from gantry_sim.models import DEFAULT_MACHINE
+
+
+def _program() -> str:
+    """Every kind of junction the path control decides: polyline corners blended and met,
+    slivers absorbed, G64 Q runs merged (and broken by a dwell and a feed change), dwells,
+    M0, G61.1 and G61 stretches, corners between lines and arcs, tangent arcs, rapids."""
+    out = ["G21 G90 G17 G64 P0.01 Q0.005", "G4 P0.1", "G0 X0 Y0 Z-1", "F2400"]
+    x = y = 0.0
+    for k in range(90):
+        heading = math.radians(3.0 * (k % 7) + (90.0 if k % 11 == 10 else 0.0) * (k // 11))
+        length = 0.2 + 0.15 * (k % 4)
+        x, y = x + length * math.cos(heading), y + length * math.sin(heading)
+        out.append(f"G1 X{x:.4f} Y{y:.4f}" + (" F1800" if k == 40 else ""))
+        if k in (20, 21):
+            out.append("G4 P0.05")
+        if k == 33:
+            out.append("M0")
+        if k == 50:
+            out.append("G61.1")
+        if k == 58:
+            out.append("G61")
+        if k == 64:
+            out.append("G64 P0.02")
+    for k in range(30):  # collinear pieces: one G64 Q run, then arcs meeting lines at corners
+        x += 0.1
+        out.append(f"G1 X{x:.4f} Y{y + (0.001 if k % 2 else 0.0):.4f}")
+    for k in range(20):
+        r = 1.0 + 0.5 * (k % 3)
+        out.append(f"G{2 + k % 2} X{x + r:.4f} Y{y + r:.4f} R{r:.4f}")
+        x, y = x + r, y + r
+        out.append(f"G1 X{x + 0.5:.4f} Y{y + 0.2 * (k % 2):.4f}")
+        x, y = x + 0.5, y + 0.2 * (k % 2)
+    out += ["G0 Z2", "G4 P0.2", "M2"]
+    return "\n".join(out) + "\n"
+
+
+@pytest.mark.parametrize("stretch", [1, 2, 3, 5, 8, 13, 64])
+def test_a_path_made_in_stretches_is_the_path_made_whole(stretch):
+    machine = load_machine_config(DEFAULT_MACHINE)
+    items = tuple(interpret_events(_program()))
+    tol = machine.segmentation.chord_tolerance_mm
+    whole = path_plan(items, machine.path, tol, stretch_moves=10**6)
+    assert len(whole.blends) > 50 and len(whole.merges) >= 2 and len(whole.holds) >= 3
+    skip = frozenset(list(whole.blend_junction.values())[::5])
+    for s in (frozenset(), skip):
+        a = path_plan(items, machine.path, tol, s, stretch_moves=10**6)
+        b = path_plan(items, machine.path, tol, s, stretch_moves=stretch)
+        assert list(b.moves) == list(a.moves)
+        assert b.stop_after == a.stop_after and b.holds == a.holds
+        assert list(b.smoothing_mm) == list(a.smoothing_mm)
+        assert list(b.sources) == list(a.sources) and b.blend_junction == a.blend_junction
+        assert list(b.blends) == list(a.blends) and list(b.merges) == list(a.merges)
+    assert len(path_plan(items, machine.path, tol, skip).blends) < len(whole.blends)
+
+
+def test_dwells_before_the_first_and_after_the_last_move_are_kept():
+    machine = load_machine_config(DEFAULT_MACHINE)
+    text = "G21 G90 G64 P0.01 F600\nG4 P0.5\nG1 X1\nG1 X2 Y1\nG4 P0.25\nM2\n"
+    path = path_plan(tuple(interpret_events(text)), machine.path, 0.001, stretch_moves=1)
+    assert [d.seconds for d in path.holds[0]] == [0.5]
+    assert [d.seconds for d in path.holds[len(path.moves)]] == [0.25]
+    assert path.stop_after[-1]  # the dwell after the last move stops it
