@@ -21,6 +21,7 @@ subclasses (GcodeError, ConfigError, PlanningError, SimulationError) carrying fi
 from __future__ import annotations
 
 import os
+import threading
 import time
 from collections.abc import Sequence
 from dataclasses import dataclass, field, replace
@@ -168,6 +169,7 @@ def run_program(
             )
         traj = planned.sample(machine.servo.period_s)
         t2 = time.perf_counter()
+        preload_plots()
         gantry = load_gantry(machine)
         sim = simulate(gantry, machine, traj, progress=progress)
         t3 = time.perf_counter()
@@ -234,6 +236,7 @@ def _streamed(
     n = planned.sample_count(machine.servo.period_s)
     writer = TraceWriter(n) if keep_trace else None
     try:
+        preload_plots()
         gantry = load_gantry(machine)
         with stage("simulate+analyse", n, "tick", wanted(progress)) as advance:
             streamed = stream_run(
@@ -261,6 +264,24 @@ def _streamed(
         timing=timing,
     )
     return RunResult(report, streamed.decimated, moves, full_trace=writer, streamed=True)
+
+
+def preload_plots() -> None:
+    """Import the plot modules (matplotlib: 0.3-0.7 s) in a background thread while the run
+    simulates: the compiled ticks run with the GIL released (sim/pd_ticks.py), so the import
+    takes the second core instead of the outputs' time after the run (write_run_outputs then
+    finds the modules loaded, or waits on the import lock for the rest). A run with no plots
+    wasted a thread's import; a failed import is met again, and raised, where the plots are
+    drawn."""
+
+    def load() -> None:
+        try:
+            import gantry_sim.sim.error_plot
+            import gantry_sim.sim.path_plot  # noqa: F401
+        except Exception:  # raised again by the import that needs it
+            pass
+
+    threading.Thread(target=load, name="gantry-plot-import", daemon=True).start()
 
 
 def _program_text(program: str | os.PathLike[str], file: str | None) -> tuple[str, str]:
