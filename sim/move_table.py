@@ -176,29 +176,21 @@ class ProgramIndex:
     def of(cls, moves: Sequence[Move], block: int = 4096) -> ProgramIndex:
         """The index of ``moves``, read ``block`` moves at a time (a long program's come from
         disk: :class:`~gantry_sim.controller.spill.SpilledList`)."""
-        parts: list[tuple[list, ...]] = []
+        lines: list[int] = []
+        kinds: list[str] = []
+        lengths: list[float] = []
         for k in range(0, len(moves), block):
-            b = moves[k : k + block]
-            parts.append(
-                (
-                    [mv.line for mv in b],
-                    [mv.kind != "rapid" for mv in b],
-                    [isinstance(mv, Arc) for mv in b],
-                    [isinstance(mv, Spline) for mv in b],
-                    [mv.length_mm for mv in b],
-                )
-            )
-
-        def col(i: int, dtype: type) -> np.ndarray:
-            return np.array([x for p in parts for x in p[i]], dtype=dtype)
-
-        lengths = col(4, float)
+            for mv in moves[k : k + block]:
+                lines.append(mv.line)
+                kinds.append(mv.kind)
+                lengths.append(mv.length_mm)
+        kind = np.array(kinds)
         return cls(
-            line=col(0, np.int64),
-            feed=col(1, bool),
-            arc=col(2, bool),
-            spline=col(3, bool),
-            cum_len=np.concatenate([[0.0], np.cumsum(lengths)]),
+            line=np.array(lines, dtype=np.int64),
+            feed=kind != "rapid",
+            arc=kind == "arc",
+            spline=kind == "spline",
+            cum_len=np.concatenate([[0.0], np.cumsum(np.array(lengths, dtype=float))]),
         )
 
 
