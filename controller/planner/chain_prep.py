@@ -15,7 +15,7 @@ import numpy as np
 
 from gantry_sim.controller.config import MachineConfig
 from gantry_sim.controller.errors import PlannerFailure, PlanningError
-from gantry_sim.controller.moves import Move
+from gantry_sim.controller.moves import PathMove
 from gantry_sim.controller.planner.chains import move_bounds, split_profile
 from gantry_sim.controller.planner.junctions import EndState, JunctionState
 from gantry_sim.controller.planner.limits import BlockLimits
@@ -140,7 +140,7 @@ SAME_SPEED_SHARE = 1e-9
 
 
 def _path_profile(
-    solver: RuckigSolver, move: Move, lim: BlockLimits, v_in: float, v_out: float
+    solver: RuckigSolver, move: PathMove, lim: BlockLimits, v_in: float, v_out: float
 ) -> Profile1D:
     """The 1-D profile of a block (one move, or a chain starting with ``move``) from ``v_in``
     to ``v_out`` [mm/s] under its limits."""
