@@ -15,6 +15,10 @@ junction at the move's END, as LinuxCNC's termination condition does:
   straight move can use all of it between them (:data:`MEET_SHARE`), they do: a regular polygon
   becomes one chain of equal arcs with no curvature jump left. Blends need both moves in one principal
   plane (XY, XZ or YZ; the planner's arcs live there); other corners stay exact stops.
+* G64 P, tangent junctions whose curvature jumps (line -> arc, S-bends, arcs of two radii): a
+  G2 transition within P (:mod:`~gantry_sim.controller.planner.transition`), a curve that
+  leaves the first move and joins the second with their tangent and curvature, in place of the
+  jump the planner would otherwise smooth within one chord (and pass slowly).
 * G64 Q: consecutive straight feed moves at one feed whose end points lie within Q of one line
   are merged into that line first (LinuxCNC's naive-CAM detector:
   :mod:`~gantry_sim.controller.planner.path_control`, which also resolves each move's mode).
@@ -31,7 +35,17 @@ from dataclasses import dataclass, field, replace
 import numpy as np
 
 from gantry_sim.controller.config import PathSettings
-from gantry_sim.controller.moves import Arc, Dwell, Event, Linear, Move, Rapid, Spline, Stop
+from gantry_sim.controller.moves import (
+    Arc,
+    Dwell,
+    Event,
+    Linear,
+    Move,
+    PathMove,
+    Rapid,
+    Spline,
+    Stop,
+)
 from gantry_sim.controller.planes import PLANE_AXES, Plane, Vec3, plane_of
 from gantry_sim.controller.planner.corner_blend import (
     ArcCorner,
@@ -39,9 +53,17 @@ from gantry_sim.controller.planner.corner_blend import (
     arc_corner,
     arc_end_tangents,
     blend_tangent_mm,
+    end_tangent,
     trimmed_arc,
 )
 from gantry_sim.controller.planner.path_control import EPS_MM, Merge, control, merge_naive_cam
+from gantry_sim.controller.planner.transition import (
+    TransitionCut,
+    TransitionMachine,
+    rejoined,
+    size_transitions,
+    transition_site,
+)
 
 #: Share of the chord tolerance the planner's reference may leave an arc by (the G61 promise);
 #: a blend keeps this much of the tolerance for it.
@@ -67,12 +89,15 @@ MEET_SHARE = 0.99
 
 @dataclass(frozen=True)
 class Blend:
-    """One blended corner: the program line of the move ending there, the blend's largest
-    distance from the programmed corner [mm], and the tolerance it was given [mm]."""
+    """One blended junction: the program line of the move ending there, the blend's largest
+    distance from the programmed path [mm], the tolerance it was given [mm], and its kind:
+    "corner" (a blend arc) or "transition" (a G2 transition at a tangent junction,
+    :mod:`~gantry_sim.controller.planner.transition`)."""
 
     line: int
     deviation_mm: float
     tolerance_mm: float
+    kind: str = "corner"
 
 
 @dataclass
@@ -80,21 +105,21 @@ class PathPlan:
     """What the planner follows.
 
     Attributes:
-        moves: the moves, blends inserted, zero-length moves dropped.
+        moves: the moves, blend arcs and transitions inserted, zero-length moves dropped.
         stop_after: per move, True where the junction after it must be an exact stop.
         holds: junction index (0: before the first move, k: after move k-1) -> dwells there.
-        blends: every blended corner.
+        blends: every blended corner and transition.
         blend_junction: index in ``moves`` of each blend arc -> its junction (for ``skip``).
         smoothing_mm: per move, how far the smoothing of a curvature jump at its ends may take
             the reference from it [mm] (blend arcs: what their tolerance leaves; 0 elsewhere:
             the planner's own budget).
         sources: per move, the first and last program move it comes from (indices among the
             program's motions, zero-length ones counted): a move's own index twice, a G64 Q
-            merge its run, a blend arc the two moves of its corner.
+            merge its run, a blend arc or a transition the two moves of its junction.
         merges: every G64 Q merge (line, deviation from the programmed points, Q).
     """
 
-    moves: list[Move] = field(default_factory=list)
+    moves: list[PathMove] = field(default_factory=list)
     stop_after: list[bool] = field(default_factory=list)
     holds: dict[int, list[Dwell]] = field(default_factory=dict)
     blends: list[Blend] = field(default_factory=list)
@@ -110,13 +135,20 @@ def path_plan(
     chord_tolerance_mm: float,
     skip: frozenset[int] = frozenset(),
     jerk_mm_per_s3: float = math.inf,
+    machine: TransitionMachine | None = None,
+    sized: dict | None = None,
 ) -> PathPlan:
     """The moves and stops the planner follows for ``items`` (moves and events in order);
     junctions in ``skip`` (values of a previous result's ``blend_junction``) are not blended
     (the planner found the exact stop faster there). ``jerk_mm_per_s3``: the machine's lowest
     axis jerk, to skip corners with an arc whose blend would be passed too slowly to pay
-    (:func:`~gantry_sim.controller.planner.corner_blend.arc_corner`)."""
+    (:func:`~gantry_sim.controller.planner.corner_blend.arc_corner`). ``machine``: the
+    machine's limits and segmentation, to put G2 transitions at the G64 tangent junctions whose
+    curvature jumps (:mod:`~gantry_sim.controller.planner.transition`); None: none.
+    ``sized``: the transitions sized by an earlier call for the same program, by site (filled
+    here: a path made again without some blends sizes only the sites that changed)."""
     out = PathPlan()
+    program: list[Move] = []
     index = -1  # of the item among the program's motions
     for item in items:
         if isinstance(item, Rapid | Linear | Arc | Spline):
@@ -125,22 +157,23 @@ def path_plan(
             if out.stop_after:
                 out.stop_after[-1] = True
             if isinstance(item, Dwell) and item.seconds > 0:
-                out.holds.setdefault(len(out.moves), []).append(item)
+                out.holds.setdefault(len(program), []).append(item)
             continue
         if not isinstance(item, Rapid | Linear | Arc | Spline) or item.length_mm <= EPS_MM:
             continue
-        out.moves.append(item)
+        program.append(item)
         out.stop_after.append(control(item, settings).mode == "G61.1")
         out.sources.append((index, index))
-    out.moves, out.stop_after, out.holds, out.sources, out.merges = merge_naive_cam(
-        out.moves, out.stop_after, out.holds, out.sources, settings
+    merged, out.stop_after, out.holds, out.sources, out.merges = merge_naive_cam(
+        program, out.stop_after, out.holds, out.sources, settings
     )
+    out.moves = list(merged)
     out.smoothing_mm = [_smoothing(m, settings, chord_tolerance_mm) for m in out.moves]
-    _blend_corners(out, settings, chord_tolerance_mm, skip, jerk_mm_per_s3)
+    _blend_corners(out, settings, chord_tolerance_mm, skip, jerk_mm_per_s3, machine, sized)
     return out
 
 
-def _smoothing(m: Move, settings: PathSettings, chord_tolerance_mm: float) -> float:
+def _smoothing(m: PathMove, settings: PathSettings, chord_tolerance_mm: float) -> float:
     """The deviation a G64 move's junction smoothing may use: P less the reference's share
     (0 in G61/G61.1 and for rapids: the planner's own budget)."""
     c = control(m, settings)
@@ -149,7 +182,7 @@ def _smoothing(m: Move, settings: PathSettings, chord_tolerance_mm: float) -> fl
     return max(c.tolerance_mm - REFERENCE_SHARE * chord_tolerance_mm, 0.0)
 
 
-def _direction(m: Move) -> np.ndarray:
+def _direction(m: PathMove) -> np.ndarray:
     d = np.asarray(m.end, float) - np.asarray(m.start, float)
     return d / np.linalg.norm(d)
 
@@ -160,14 +193,18 @@ def _blend_corners(
     chord_tolerance_mm: float,
     skip: frozenset[int],
     jerk_mm_per_s3: float = math.inf,
+    machine: TransitionMachine | None = None,
+    sized: dict | None = None,
 ) -> None:
-    """Replace G64 corners between straight feed moves by tangent arcs (see module docstring)."""
+    """Replace G64 corners by tangent arcs (see module docstring), and tangent junctions whose
+    curvature jumps by G2 transitions (with ``machine``)."""
     moves = out.moves
     n = len(moves)
     use = [0.0] * (n + 1)  # length each junction takes from its neighbours [mm]
     turn: list[tuple[float, Plane] | None] = [None] * (n + 1)
     budgets = [0.0] * (n + 1)  # line-line corners: P less the reference's share [mm]
     cuts: dict[int, CornerCut] = {}  # corners with an arc on one side
+    tangent: list[tuple[int, float]] = []  # (junction, budget) that may get a transition
     tangents = arc_end_tangents(moves)
     for b in range(1, n):
         m0, m1 = moves[b - 1], moves[b]
@@ -181,6 +218,8 @@ def _blend_corners(
                 cut = arc_corner(m0, m1, corner, chord_tolerance_mm, tangents)
                 if cut is not None:
                     cuts[b] = cut
+                elif machine is not None:
+                    tangent.append((b, budget))
                 continue
         if not (isinstance(m0, Linear) and isinstance(m1, Linear)):
             continue
@@ -192,11 +231,12 @@ def _blend_corners(
         use[b] = blend_tangent_mm(GEOMETRY_SHARE * budget, phi, m0.length_mm, m1.length_mm)
         turn[b] = (phi, plane)
         budgets[b] = budget
-    if not any(use) and not cuts:
-        return
     _meet_neighbours(moves, use, turn, budgets)
-    before = [cuts[k].before_mm if k in cuts else use[k] for k in range(n + 1)]
-    after = [cuts[k].after_mm if k in cuts else use[k] for k in range(n + 1)]
+    trans = _transitions(moves, tangent, cuts, use, tangents, machine, sized) if machine else {}
+    if not any(use) and not cuts and not trans:
+        return
+    before = [_cut(k, cuts, trans, use, True) for k in range(n + 1)]
+    after = [_cut(k, cuts, trans, use, False) for k in range(n + 1)]
     # Trimmed straight moves: their new end points (a vanishing move: its midpoint, shared), as
     # the tuples the path's moves hold: a blend arc holds the very tuples of the lines it joins,
     # and a move left whole keeps its own (a path holds 1.3 KB a move).
@@ -205,7 +245,7 @@ def _blend_corners(
     end_pts: list[Vec3] = []
     for i, m in enumerate(moves):
         if isinstance(m, Arc) and (after[i] or before[i + 1]):
-            moves[i] = m = trimmed_arc(m, after[i], before[i + 1])
+            moves[i] = m = _meeting(trimmed_arc(m, after[i], before[i + 1]), i, trans)
         a, e = np.asarray(m.start, float), np.asarray(m.end, float)
         a_pt, e_pt = m.start, m.end
         if isinstance(m, Linear) and (after[i] or before[i + 1]):
@@ -217,12 +257,19 @@ def _blend_corners(
                 a = e = 0.5 * (a + e)  # the blends meet: they absorb what is left
             a_pt = _v3(a)
             e_pt = a_pt if e is a else _v3(e)
+            # a transition's very end points (the same points, to rounding)
+            a_pt = trans[i].move.end if i in trans else a_pt
+            e_pt = trans[i + 1].move.start if i + 1 in trans else e_pt
         start_pts.append(a_pt)
         end_pts.append(e_pt)
         # a curve by its length: a full circle or a closed spline ends where it starts
         straight = isinstance(m, Rapid | Linear)
         keep.append((float(np.linalg.norm(e - a)) if straight else m.length_mm) > EPS_MM)
-    new_moves: list[Move] = []
+    # a move used up between two transitions: the second starts where the first ends
+    shared = [i for i, k in enumerate(keep) if not k and i in trans and i + 1 in trans]
+    again = rejoined([trans[i + 1] for i in shared], [trans[i].move.end for i in shared])
+    trans.update(zip((i + 1 for i in shared), again, strict=True))
+    new_moves: list[PathMove] = []
     new_stops: list[bool] = []
     new_holds: dict[int, list[Dwell]] = {}
     smoothing: list[float] = []
@@ -260,14 +307,86 @@ def _blend_corners(
             sources.append(between)
             smoothing.append(max(tol - REFERENCE_SHARE * chord_tolerance_mm - dev, 0.0))
             out.blends.append(Blend(m.line, dev, tol))
+        if i + 1 in trans:
+            tc = trans[i + 1]
+            tol = control(m, settings).tolerance_mm
+            new_moves.append(tc.move)
+            new_stops.append(False)
+            sources.append(between)
+            smoothing.append(max(tol - REFERENCE_SHARE * chord_tolerance_mm - tc.deviation_mm, 0.0))
+            out.blends.append(Blend(m.line, tc.deviation_mm, tol, "transition"))
     if n in out.holds:
         new_holds[len(new_moves)] = out.holds[n]
     out.moves, out.stop_after, out.holds = new_moves, new_stops, new_holds
     out.smoothing_mm, out.sources = smoothing, sources
 
 
+def _transitions(
+    moves: Sequence[PathMove],
+    junctions: Sequence[tuple[int, float]],
+    cuts: dict[int, CornerCut],
+    use: Sequence[float],
+    tangents: dict[int, tuple[np.ndarray, np.ndarray]],
+    machine: TransitionMachine,
+    sized: dict | None = None,
+) -> dict[int, TransitionCut]:
+    """The G2 transitions at the tangent ``junctions`` (junction, budget [mm]), by junction:
+    each move's room is its length less the corner cut at its other end (``cuts``, ``use``);
+    ``sized``: results by site (its moves, budget and rooms) of an earlier call, and filled."""
+    sites = []
+    known = {} if sized is None else sized
+    found: dict[int, TransitionCut] = {}
+    for b, budget in junctions:
+        m0, m1 = moves[b - 1], moves[b]
+        if not (isinstance(m0, Linear | Arc) and isinstance(m1, Linear | Arc)):
+            continue
+        room0 = m0.length_mm - (cuts[b - 1].after_mm if b - 1 in cuts else use[b - 1])
+        room1 = m1.length_mm - (cuts[b + 1].before_mm if b + 1 in cuts else use[b + 1])
+        ends = (end_tangent(m0, True, tangents), end_tangent(m1, False, tangents))
+        site = transition_site(m0, m1, b, budget, ends, (room0, room1))
+        if site is None:
+            continue
+        key = (m0, m1, budget, site.room_mm)
+        if key in known:
+            if known[key] is not None:
+                found[b] = known[key]
+        else:
+            sites.append((key, site))
+    new = size_transitions([site for _, site in sites], machine)
+    for key, site in sites:
+        known[key] = new.get(site.junction)
+    return found | new
+
+
+def _cut(
+    k: int,
+    cuts: dict[int, CornerCut],
+    trans: dict[int, TransitionCut],
+    use: Sequence[float],
+    before: bool,
+) -> float:
+    """Path length [mm] junction ``k`` takes from the end of the move before it (``before``)
+    or from the start of the move after it: a corner blend's, a transition's or a line-line
+    blend's."""
+    if k in cuts:
+        return cuts[k].before_mm if before else cuts[k].after_mm
+    if k in trans:
+        return trans[k].cut_mm
+    return use[k]
+
+
+def _meeting(arc: Arc, i: int, trans: dict[int, TransitionCut]) -> Arc:
+    """The trimmed arc ``i`` with the very end points of the transitions it meets (the same
+    points, to rounding): the path stays continuous bit for bit."""
+    start = trans[i].move.end if i in trans else arc.start
+    end = trans[i + 1].move.start if i + 1 in trans else arc.end
+    if start is arc.start and end is arc.end:
+        return arc
+    return replace(arc, start=start, end=end)
+
+
 def _meet_neighbours(
-    moves: Sequence[Move],
+    moves: Sequence[PathMove],
     use: list[float],
     turn: Sequence[tuple[float, Plane] | None],
     budgets: Sequence[float],
@@ -306,7 +425,7 @@ def _v3(a: np.ndarray) -> Vec3:
     return (float(a[0]), float(a[1]), float(a[2]))
 
 
-def _trimmed(m: Move, start: Vec3, end: Vec3) -> Move:
+def _trimmed(m: PathMove, start: Vec3, end: Vec3) -> PathMove:
     """``m`` between ``start`` and ``end`` [mm]: a straight move trimmed (``m`` itself when both
     are its own)."""
     if not isinstance(m, Linear) or (start is m.start and end is m.end):
