@@ -100,14 +100,16 @@ def test_a_program_planned_in_windows_is_the_whole_program_plan(monkeypatch):
 
 
 def _tangent_program() -> str:
-    """Half circles of R 2-4 along X, alternating G3 and G2 (S-bends), a straight move after
-    every fifth (line-arc junctions), at F3000 in G64 P0.01: a G2 transition at each junction."""
-    out = ["G21 G90 G17 G64 P0.01", "G0 X0 Y0", "F3000"]
-    x, y = 0.0, 0.0
-    for k in range(50):
-        r = 2.0 + (k % 3)
+    """Half circles of R 3-5 along X, alternating G3 and G2 (S-bends), a straight move after
+    every fifth (line-arc junctions), in G64 P0.01: a G2 transition at each junction; the feed
+    changes every tenth move (F3000, F2400), where the chains end (windows cut there)."""
+    out = ["G21 G90 G17 G64 P0.01", "G0 X-240 Y0", "F3000"]
+    x, y = -240.0, 0.0
+    for k in range(60):
+        r = 3.0 + (k % 3)
         x += 2 * r
-        out.append(f"G{3 if k % 2 == 0 else 2} X{x:.4f} Y{y:.4f} I{r:.4f}")
+        feed = f" F{3000 if k // 10 % 2 == 0 else 2400}" if k % 10 == 0 else ""
+        out.append(f"G{3 if k % 2 == 0 else 2} X{x:.4f} Y{y:.4f} I{r:.4f}{feed}")
         if k % 5 == 4:
             y += 3.0 if k % 2 == 0 else -3.0
             out.append(f"G1 Y{y:.4f}")
@@ -115,8 +117,8 @@ def _tangent_program() -> str:
 
 
 def test_g2_transitions_planned_in_windows_give_the_whole_program_plan(monkeypatch):
-    whole, windowed, probes = _whole_and_windowed(_tangent_program(), monkeypatch, 16, 3)
-    assert sum(b.kind == "transition" for b in whole.blends) >= 50
+    whole, windowed, probes = _whole_and_windowed(_tangent_program(), monkeypatch, 20, 4)
+    assert sum(b.kind == "transition" for b in whole.blends) >= 60
     assert len(probes) >= 4 and max(probes) < len(whole.path_moves), probes  # windows cut
     _assert_same(whole, windowed)
 

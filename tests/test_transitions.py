@@ -188,3 +188,19 @@ def test_a_transition_is_one_of_the_arcs_it_joins_for_the_analysis(machine):
     assert tuple(p.path_sources[k]) == (1, 2)  # the two half circles (after the G0)
     arcs = [m for m in p.moves if isinstance(m, Arc)]
     assert step.line == arcs[0].line
+
+
+def test_small_jumps_on_curvature_limited_arcs_are_not_slower_than_the_chord_smoothing(
+    machine, monkeypatch
+):
+    """Quarter arcs R 1-3 of a spiral at F6000 (each at its curvature cap, jumps of 5 %): the
+    transitions are as slow as the arcs' own |p'''| makes any curve, and the arcs beside them
+    keep the limits to ramp through them (1 % slower, before either rule)."""
+    from benchmarks.bench_planner import spiral_chain
+
+    moves = spiral_chain(40, 1.0, 0.05, 6000.0)
+    with_transitions = plan(moves, machine)
+    assert _transitions(with_transitions)
+    assert_within_limits(with_transitions.sample(machine.servo.period_s), machine, moves)
+    monkeypatch.setattr(transition, "GAIN", math.inf)
+    assert with_transitions.duration_s < 0.99 * plan(moves, machine).duration_s

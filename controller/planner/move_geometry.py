@@ -325,7 +325,11 @@ def limits_for_junctions(
     """``geoms`` with each arc's limits chosen for its junction caps ``caps`` [mm/s] (see
     :func:`gantry_sim.controller.planner.limits.arc_limits`: inside a tangent chain an arc need
     not ramp from rest, so it may cruise closer to its curvature cap). A transition keeps the
-    limits :func:`move_geometries` chose (its junctions never bind: limits_batch._curved)."""
+    limits :func:`move_geometries` chose (its junctions never bind: limits_batch._curved), and
+    an arc beside one takes its speed cap as that junction's: a junction that does not bind
+    is still passed no faster than the transition (an arc between two slower transitions
+    chose the cruise limits of an unbounded junction, 1 % of its jerk, and the chain could not
+    ramp)."""
     moving = [
         b
         for b, g in enumerate(geoms)
@@ -334,7 +338,16 @@ def limits_for_junctions(
         and (caps[b] > 0 or caps[b + 1] > 0)
     ]
     arcs = [g for g in (geoms[b] for b in moving) if isinstance(g, ArcGeometry)]
-    ends = [(float(min(caps[b], 1e300)), float(min(caps[b + 1], 1e300))) for b in moving]
+
+    def end(b: int) -> float:
+        """Junction ``b``'s speed as far as known: its cap, a transition's cap beside it."""
+        cap = float(caps[b])
+        for k in (b - 1, b):
+            if 0 <= k < len(geoms) and isinstance(geoms[k].move, Transition):
+                cap = min(cap, geoms[k].limits.cap_mm_per_s)
+        return min(cap, 1e300)
+
+    ends = [(end(b), end(b + 1)) for b in moving]
     blocks = arc_limits_many([g.follow for g in arcs], [g.length_mm for g in arcs], limits, ends)
     out = list(geoms)
     for b, g, block in zip(moving, arcs, blocks, strict=True):
