@@ -9,7 +9,9 @@ helix, along the helix). Moves are frozen value objects; ``to_json`` gives the e
 from __future__ import annotations
 
 import math
+import struct
 import weakref
+from collections.abc import Sequence
 from dataclasses import dataclass
 
 from gantry_sim.controller.planes import PLANE_AXES, Direction, Plane, Vec3
@@ -245,13 +247,14 @@ _CURVES: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()
 Move = Rapid | Linear | Arc | Spline
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, slots=True, weakref_slot=True)
 class Transition:
     """A G2-continuous transition the planner puts in place of a G64 tangent junction whose
     curvature jumps (never the interpreter's: it lies only on the path the planner follows,
     ``Plan.path_moves``; see :mod:`gantry_sim.controller.planner.transition`): a quintic
     Bezier curve from a point of the first move to a point of the second, matching position,
-    unit tangent and curvature vector of each there.
+    unit tangent and curvature vector of each there. Compact (slots, the inner control points
+    packed): the planner holds one per transition of the whole program.
 
     Attributes:
         line: the source line of the junction's first move.
@@ -259,7 +262,8 @@ class Transition:
         end: end point [mm] (a point of the second move; the last control point).
         feed_mm_per_min: the smaller feed of the two moves [mm/min].
         plane: the principal plane both moves, and so the curve, lie in.
-        control_points: the six Bezier control points [mm], start and end included.
+        inner: the four inner control points [mm], packed as 12 float64 (x, y, z of each;
+            :meth:`pack`): ``control_points`` gives all six.
         path: the path control mode of the first move (None: the machine file's default).
     """
 
@@ -268,10 +272,22 @@ class Transition:
     end: Vec3
     feed_mm_per_min: float
     plane: Plane
-    control_points: tuple[Vec3, ...]
+    inner: bytes
     path: PathControl | None = None
 
     kind = "transition"
+
+    @staticmethod
+    def pack(points: Sequence[Sequence[float]]) -> bytes:
+        """The ``inner`` of the four inner control points ``points`` [mm]."""
+        return struct.pack("12d", *(float(c) for p in points for c in p))
+
+    @property
+    def control_points(self) -> tuple[Vec3, ...]:
+        """The six Bezier control points [mm], start and end included."""
+        v = struct.unpack("12d", self.inner)
+        inner = tuple((v[i], v[i + 1], v[i + 2]) for i in range(0, 12, 3))
+        return (self.start, *inner, self.end)
 
     @property
     def curve(self):  # -> QuinticCurve (imported here: moves.py stays free of numpy)

@@ -239,12 +239,22 @@ def nearest_parameters(
     return t
 
 
+#: The layout of a curve's numbers in its packed row (:class:`QuinticCurve`): its power
+#: coefficients (6, 3), end points (2, 3), quadrature cells' arc lengths (CELLS + 1), the bounds
+#: (|p''|, |p'''|, |C'|) and the end frames (T_start, k_start, T_end, k_end, each 3).
+_COEF, _ENDS, _CUM = slice(0, 18), slice(18, 24), slice(24, 25 + CELLS)
+_BOUNDS, _FRAMES = slice(25 + CELLS, 28 + CELLS), slice(28 + CELLS, 40 + CELLS)
+ROW = 40 + CELLS
+
+
 class QuinticCurve:
     """One quintic Bezier curve (see the module docstring); :meth:`batch` makes many at once,
-    with the same numbers.
+    with the same numbers. Its numbers are one packed row of floats (:data:`ROW`; a batch's
+    rows are one array), about 0.5 KB a curve: the planner keeps a curve per transition of the
+    whole program, tens of thousands of them.
 
-    Attributes:
-        control_points: (6, 3) [mm].
+    Attributes (read from the row):
+        control_points: the end points (2, 3) [mm] (start and end, exactly).
         coef: (6, 3) its power-basis coefficients.
         cum: (CELLS + 1,) arc length [mm] from the start to each quadrature cell's bound.
         bounds: (largest |p''| [1/mm], largest |p'''| [1/mm^2]) along the curve.
@@ -253,22 +263,25 @@ class QuinticCurve:
             [1/mm] at its ends.
     """
 
-    control_points: np.ndarray
-    coef: np.ndarray
-    _orders: list[np.ndarray]
-    cum: np.ndarray
-    bounds: tuple[float, float]
-    speed_max: float
-    end_frames: tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]
+    __slots__ = ("row",)
 
     def __init__(self, control_points: np.ndarray) -> None:
-        one = QuinticCurve.batch(np.asarray(control_points, dtype=float).reshape(1, 6, 3))[0]
-        self.__dict__.update(one.__dict__)
+        self.row = QuinticCurve.rows(np.asarray(control_points, dtype=float).reshape(1, 6, 3))[0]
 
     @classmethod
     def batch(cls, ctrl: np.ndarray) -> list[QuinticCurve]:
         """The curves of control points ``ctrl`` (m, 6, 3) [mm], their arc lengths and
         bounds computed for all at once."""
+        out = []
+        for row in cls.rows(ctrl):
+            c = object.__new__(cls)
+            c.row = row
+            out.append(c)
+        return out
+
+    @staticmethod
+    def rows(ctrl: np.ndarray) -> np.ndarray:
+        """The packed rows (m, :data:`ROW`) of the curves of control points ``ctrl`` (m, 6, 3)."""
         ctrl = np.asarray(ctrl, dtype=float)
         m = ctrl.shape[0]
         coef = power_coefficients(ctrl)
@@ -283,18 +296,43 @@ class QuinticCurve:
         v2 = dot_rows(d1, d1)
         tangent = d1 / np.sqrt(v2)[..., None]
         normal = (d2 - dot_rows(d2, tangent)[..., None] * tangent) / v2[..., None]
-        out = []
-        for i in range(m):
-            c = object.__new__(cls)
-            c.control_points = ctrl[i]
-            c.coef = coef[i]
-            c._orders = [derivative_coefficients(coef[i], r) for r in range(4)]
-            c.cum = cum[i]
-            c.bounds = (float(k[i]), float(dk[i]))
-            c.speed_max = float(speed[i])
-            c.end_frames = (tangent[i, 0], normal[i, 0], tangent[i, 1], normal[i, 1])
-            out.append(c)
+        out = np.empty((m, ROW))
+        out[:, _COEF] = coef.reshape(m, 18)
+        out[:, _ENDS] = ctrl[:, [0, 5]].reshape(m, 6)
+        out[:, _CUM] = cum
+        out[:, _BOUNDS] = np.stack([k, dk, speed], axis=1)
+        frames = np.stack([tangent[:, 0], normal[:, 0], tangent[:, 1], normal[:, 1]], axis=1)
+        out[:, _FRAMES] = frames.reshape(m, 12)
         return out
+
+    @property
+    def control_points(self) -> np.ndarray:
+        return self.row[_ENDS].reshape(2, 3)
+
+    @property
+    def coef(self) -> np.ndarray:
+        return self.row[_COEF].reshape(6, 3)
+
+    @property
+    def cum(self) -> np.ndarray:
+        return self.row[_CUM]
+
+    @property
+    def bounds(self) -> tuple[float, float]:
+        return float(self.row[_BOUNDS][0]), float(self.row[_BOUNDS][1])
+
+    @property
+    def speed_max(self) -> float:
+        return float(self.row[_BOUNDS][2])
+
+    @property
+    def end_frames(self) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+        f = self.row[_FRAMES].reshape(4, 3)
+        return f[0], f[1], f[2], f[3]
+
+    def _order(self, r: int) -> np.ndarray:
+        """The power coefficients of the r-th derivative."""
+        return derivative_coefficients(self.coef, r)
 
     @property
     def length_mm(self) -> float:
@@ -302,31 +340,30 @@ class QuinticCurve:
 
     def derivatives(self, t: np.ndarray, order: int = 2) -> list[np.ndarray]:
         """[C, C', ..., C^(order)] (each (k, 3) [mm]) at parameters ``t`` (k,), order <= 3."""
-        return [evaluate(self._orders[r], t) for r in range(order + 1)]
+        return [evaluate(self._order(r), t) for r in range(order + 1)]
 
     def points(self, t: np.ndarray) -> np.ndarray:
         """C(t) (k, 3) [mm]; t = 0 and 1 give the end control points exactly."""
         t = np.asarray(t, dtype=float)
-        pts = evaluate(self._orders[0], t)
-        pts[t <= 0.0] = self.control_points[0]
-        pts[t >= 1.0] = self.control_points[5]
+        pts = evaluate(self.coef, t)
+        ends = self.control_points
+        pts[t <= 0.0] = ends[0]
+        pts[t >= 1.0] = ends[1]
         return pts
 
     def speed(self, t: np.ndarray) -> np.ndarray:
         """|C'(t)| [mm per unit t] (k,)."""
-        return _speed(self._orders[1], t)
+        return _speed(self._order(1), t)
 
     def speed_rate(self, t: np.ndarray) -> np.ndarray:
         """d|C'|/dt = C'.C'' / |C'| [mm] (k,) at parameters ``t``: what the planner needs where
         its parameter (here t) is not the arc-length fraction."""
-        d1, d2 = evaluate(self._orders[1], t), evaluate(self._orders[2], t)
+        d1, d2 = evaluate(self._order(1), t), evaluate(self._order(2), t)
         return dot_rows(d1, d2) / np.sqrt(dot_rows(d1, d1))
 
     def _rows(self, k: int) -> tuple[np.ndarray, np.ndarray]:
         """The first derivative's coefficients and the cell lengths, once per point (views)."""
-        return np.broadcast_to(self._orders[1], (k, 5, 3)), np.broadcast_to(
-            self.cum, (k, CELLS + 1)
-        )
+        return np.broadcast_to(self._order(1), (k, 5, 3)), np.broadcast_to(self.cum, (k, CELLS + 1))
 
     def s_of_t(self, t: np.ndarray) -> np.ndarray:
         """Arc length [mm] from the start to parameters ``t`` (k,) (:func:`lengths_at`)."""

@@ -135,8 +135,8 @@ GOLDEN_STEPS = 12
 #: deviation is still over the budget.
 SEARCH_STEPS = 2
 SHRINK_STEPS = 8
-#: Sites sized at once (bounds the search's arrays: about 40 KB a site).
-SIZE_BATCH = 2048
+#: Sites sized at once (bounds the search's arrays: about 30 KB a site).
+SIZE_BATCH = 1024
 #: First guess of the deviation per |k1 - k0| h^2 (measured: 0.0108 while h |k| is small).
 DEVIATION_PER_DK_H2 = 0.0108
 
@@ -244,7 +244,7 @@ def _size(sites: Sequence[TransitionSite], machine: TransitionMachine) -> dict[i
         site = batch.sites[i]
         found[site.junction] = TransitionCut(
             float(h[i]),
-            _transition(site.first, site.second, site.plane, curve),
+            _transition(site.first, site.second, site.plane, ctrl[i], curve),
             float(dev[i]),
             float(batch.target[i]),
             float(cap[i]),
@@ -263,25 +263,24 @@ def rejoined(cuts: Sequence[TransitionCut], starts: Sequence[Vec3]) -> list[Tran
     ctrl[:, 0] = np.array(starts, dtype=float).reshape(len(cuts), 3)
     out = []
     for c, start, curve in zip(cuts, starts, QuinticCurve.batch(ctrl), strict=True):
-        points = (start, *c.move.control_points[1:])
-        move = replace(c.move, start=start, control_points=points)
+        move = replace(c.move, start=start)
         remember_curve(move, curve)
         out.append(replace(c, move=move))
     return out
 
 
 def _transition(
-    m0: Linear | Arc, m1: Linear | Arc, plane: Plane, curve: QuinticCurve
+    m0: Linear | Arc, m1: Linear | Arc, plane: Plane, ctrl: np.ndarray, curve: QuinticCurve
 ) -> Transition:
-    """The :class:`Transition` from ``m0`` to ``m1`` along ``curve`` (kept as its curve)."""
-    points = tuple((float(p[0]), float(p[1]), float(p[2])) for p in curve.control_points)
+    """The :class:`Transition` from ``m0`` to ``m1`` with control points ``ctrl`` (6, 3) [mm]
+    along ``curve`` (kept as its curve)."""
     move = Transition(
         line=m0.line,
-        start=points[0],
-        end=points[-1],
+        start=(float(ctrl[0, 0]), float(ctrl[0, 1]), float(ctrl[0, 2])),
+        end=(float(ctrl[5, 0]), float(ctrl[5, 1]), float(ctrl[5, 2])),
         feed_mm_per_min=min(m0.feed_mm_per_min, m1.feed_mm_per_min),
         plane=plane,
-        control_points=points,
+        inner=Transition.pack(ctrl[1:5].tolist()),
         path=m0.path,
     )
     remember_curve(move, curve)
