@@ -9,9 +9,7 @@ helix, along the helix). Moves are frozen value objects; ``to_json`` gives the e
 from __future__ import annotations
 
 import math
-import struct
 import weakref
-from collections.abc import Sequence
 from dataclasses import dataclass
 
 from gantry_sim.controller.planes import PLANE_AXES, Direction, Plane, Vec3
@@ -247,14 +245,14 @@ _CURVES: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()
 Move = Rapid | Linear | Arc | Spline
 
 
-@dataclass(frozen=True, slots=True, weakref_slot=True)
+@dataclass(frozen=True, slots=True)
 class Transition:
     """A G2-continuous transition the planner puts in place of a G64 tangent junction whose
     curvature jumps (never the interpreter's: it lies only on the path the planner follows,
     ``Plan.path_moves``; see :mod:`gantry_sim.controller.planner.transition`): a quintic
     Bezier curve from a point of the first move to a point of the second, matching position,
-    unit tangent and curvature vector of each there. Compact (slots, the inner control points
-    packed): the planner holds one per transition of the whole program.
+    unit tangent and curvature vector of each there. Compact (slots; the curve's numbers one
+    packed buffer): the planner holds one per transition of the whole program.
 
     Attributes:
         line: the source line of the junction's first move.
@@ -262,8 +260,9 @@ class Transition:
         end: end point [mm] (a point of the second move; the last control point).
         feed_mm_per_min: the smaller feed of the two moves [mm/min].
         plane: the principal plane both moves, and so the curve, lie in.
-        inner: the four inner control points [mm], packed as 12 float64 (x, y, z of each;
-            :meth:`pack`): ``control_points`` gives all six.
+        row: the curve's numbers, packed as float64 (its control points, power coefficients,
+            arc lengths, bounds and end frames: :meth:`QuinticCurve.rows
+            <gantry_sim.controller.quintic_curve.QuinticCurve.rows>`).
         path: the path control mode of the first move (None: the machine file's default).
     """
 
@@ -272,33 +271,23 @@ class Transition:
     end: Vec3
     feed_mm_per_min: float
     plane: Plane
-    inner: bytes
+    row: bytes
     path: PathControl | None = None
 
     kind = "transition"
 
-    @staticmethod
-    def pack(points: Sequence[Sequence[float]]) -> bytes:
-        """The ``inner`` of the four inner control points ``points`` [mm]."""
-        return struct.pack("12d", *(float(c) for p in points for c in p))
+    @property
+    def curve(self):  # -> QuinticCurve (imported here: moves.py stays free of numpy)
+        """The exact curve (:class:`~gantry_sim.controller.quintic_curve.QuinticCurve`: points,
+        derivatives, arc length, bounds), read from :attr:`row` without copying it."""
+        from gantry_sim.controller.quintic_curve import QuinticCurve
+
+        return QuinticCurve.from_row(self.row)
 
     @property
     def control_points(self) -> tuple[Vec3, ...]:
         """The six Bezier control points [mm], start and end included."""
-        v = struct.unpack("12d", self.inner)
-        inner = tuple((v[i], v[i + 1], v[i + 2]) for i in range(0, 12, 3))
-        return (self.start, *inner, self.end)
-
-    @property
-    def curve(self):  # -> QuinticCurve (imported here: moves.py stays free of numpy)
-        """The exact curve (:class:`~gantry_sim.controller.quintic_curve.QuinticCurve`: points,
-        derivatives, arc length, bounds), built once per move."""
-        cached = _CURVES.get(self)
-        if cached is None:
-            from gantry_sim.controller.quintic_curve import QuinticCurve
-
-            cached = _CURVES[self] = QuinticCurve(self.control_points)
-        return cached
+        return tuple((p[0], p[1], p[2]) for p in self.curve.control_points.tolist())
 
     @property
     def length_mm(self) -> float:
@@ -310,13 +299,6 @@ class Transition:
             "plane": self.plane,
             "control_points": [_vec(p) for p in self.control_points],
         }
-
-
-def remember_curve(move: Spline | Transition, curve: object) -> None:
-    """Keep ``curve`` (made already, e.g. many at once) as ``move.curve`` (an equal move's
-    entry goes: the cache would keep that move as its key, and drop the entry with it)."""
-    _CURVES.pop(move, None)
-    _CURVES[move] = curve
 
 
 #: What the planner's path is made of: the program's moves, blend arcs (Arc) and transitions.

@@ -240,33 +240,54 @@ def nearest_parameters(
 
 
 #: The layout of a curve's numbers in its packed row (:class:`QuinticCurve`): its power
-#: coefficients (6, 3), end points (2, 3), quadrature cells' arc lengths (CELLS + 1), the bounds
-#: (|p''|, |p'''|, |C'|) and the end frames (T_start, k_start, T_end, k_end, each 3).
+#: coefficients (6, 3), end points (2, 3), quadrature cells' arc lengths (CELLS + 1) and the
+#: bounds (|p''|, |p'''|, |C'|).
 _COEF, _ENDS, _CUM = slice(0, 18), slice(18, 24), slice(24, 25 + CELLS)
-_BOUNDS, _FRAMES = slice(25 + CELLS, 28 + CELLS), slice(28 + CELLS, 40 + CELLS)
-ROW = 40 + CELLS
+_BOUNDS = slice(25 + CELLS, 28 + CELLS)
+ROW = 28 + CELLS
+#: Power to Bernstein basis (POWER's inverse): the control points of power coefficients.
+BERNSTEIN = np.linalg.inv(POWER)
+
+
+def end_frames(coef: np.ndarray) -> np.ndarray:
+    """(T_start, k_start, T_end, k_end) (m, 4, 3) of the curves ``coef`` (m, 6, 3): unit
+    tangents and curvature vectors [1/mm] at their ends."""
+    ends = np.broadcast_to(np.array([0.0, 1.0]), (coef.shape[0], 2))
+    d1, d2 = (evaluate(derivative_coefficients(coef, r), ends) for r in (1, 2))
+    v2 = dot_rows(d1, d1)
+    tangent = d1 / np.sqrt(v2)[..., None]
+    normal = (d2 - dot_rows(d2, tangent)[..., None] * tangent) / v2[..., None]
+    return np.stack([tangent[:, 0], normal[:, 0], tangent[:, 1], normal[:, 1]], axis=1)
 
 
 class QuinticCurve:
     """One quintic Bezier curve (see the module docstring); :meth:`batch` makes many at once,
     with the same numbers. Its numbers are one packed row of floats (:data:`ROW`; a batch's
-    rows are one array), about 0.5 KB a curve: the planner keeps a curve per transition of the
-    whole program, tens of thousands of them.
+    rows are one array): a transition keeps its curve as that row's bytes (``from_row``), so
+    the planner holds no other object per transition of the whole program.
 
     Attributes (read from the row):
-        control_points: the end points (2, 3) [mm] (start and end, exactly).
+        control_points: (6, 3) [mm] (the ends exactly; the inner four from the coefficients,
+            to rounding).
         coef: (6, 3) its power-basis coefficients.
         cum: (CELLS + 1,) arc length [mm] from the start to each quadrature cell's bound.
         bounds: (largest |p''| [1/mm], largest |p'''| [1/mm^2]) along the curve.
         speed_max: largest |C'| [mm per unit t].
         end_frames: (T_start, k_start, T_end, k_end): unit tangents and curvature vectors
-            [1/mm] at its ends.
+            [1/mm] at its ends (:func:`end_frames`, computed when asked for).
     """
 
     __slots__ = ("row",)
 
     def __init__(self, control_points: np.ndarray) -> None:
         self.row = QuinticCurve.rows(np.asarray(control_points, dtype=float).reshape(1, 6, 3))[0]
+
+    @classmethod
+    def from_row(cls, row: np.ndarray | bytes) -> QuinticCurve:
+        """The curve of a packed row (:meth:`rows`; bytes: its float64 buffer, not copied)."""
+        c = object.__new__(cls)
+        c.row = np.frombuffer(row, dtype=float) if isinstance(row, bytes) else row
+        return c
 
     @classmethod
     def batch(cls, ctrl: np.ndarray) -> list[QuinticCurve]:
@@ -291,23 +312,18 @@ class QuinticCurve:
         b = np.broadcast_to(grid[1:], (m, CELLS))
         cum = np.concatenate([np.zeros((m, 1)), np.cumsum(arc_length(coef1, a, b), axis=1)], 1)
         k, dk, speed = curvature_bounds(coef)
-        ends = np.broadcast_to(np.array([0.0, 1.0]), (m, 2))
-        d1, d2 = (evaluate(derivative_coefficients(coef, r), ends) for r in (1, 2))
-        v2 = dot_rows(d1, d1)
-        tangent = d1 / np.sqrt(v2)[..., None]
-        normal = (d2 - dot_rows(d2, tangent)[..., None] * tangent) / v2[..., None]
         out = np.empty((m, ROW))
         out[:, _COEF] = coef.reshape(m, 18)
         out[:, _ENDS] = ctrl[:, [0, 5]].reshape(m, 6)
         out[:, _CUM] = cum
         out[:, _BOUNDS] = np.stack([k, dk, speed], axis=1)
-        frames = np.stack([tangent[:, 0], normal[:, 0], tangent[:, 1], normal[:, 1]], axis=1)
-        out[:, _FRAMES] = frames.reshape(m, 12)
         return out
 
     @property
     def control_points(self) -> np.ndarray:
-        return self.row[_ENDS].reshape(2, 3)
+        ctrl = BERNSTEIN @ self.coef
+        ctrl[[0, 5]] = self.row[_ENDS].reshape(2, 3)
+        return ctrl
 
     @property
     def coef(self) -> np.ndarray:
@@ -327,7 +343,7 @@ class QuinticCurve:
 
     @property
     def end_frames(self) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
-        f = self.row[_FRAMES].reshape(4, 3)
+        f = end_frames(self.coef[None])[0]
         return f[0], f[1], f[2], f[3]
 
     def _order(self, r: int) -> np.ndarray:
@@ -346,7 +362,7 @@ class QuinticCurve:
         """C(t) (k, 3) [mm]; t = 0 and 1 give the end control points exactly."""
         t = np.asarray(t, dtype=float)
         pts = evaluate(self.coef, t)
-        ends = self.control_points
+        ends = self.row[_ENDS].reshape(2, 3)
         pts[t <= 0.0] = ends[0]
         pts[t >= 1.0] = ends[1]
         return pts

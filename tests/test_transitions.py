@@ -120,7 +120,9 @@ def test_moves_too_short_for_a_transition_keep_the_chord_smoothing(machine):
         assert_within_limits(p.sample(machine.servo.period_s), machine, parse_program(program(5)))
 
 
-def test_a_short_move_between_two_transitions_is_used_up_and_the_path_stays_continuous(machine):
+def test_a_short_move_between_two_transitions_keeps_a_tenth_and_the_path_stays_continuous(
+    machine,
+):
     text = (
         f"G21 G90 G17 G64 P{P}\nG0 X0 Y0\nF6000\nG3 X10 Y0 I5\n"
         "G2 X10.4 Y0 I0.2\nG3 X20.4 Y0 I5\nM2\n"
@@ -130,6 +132,8 @@ def test_a_short_move_between_two_transitions_is_used_up_and_the_path_stays_cont
     path = list(p.path_moves)
     assert len(_transitions(p)) == 2
     assert all(a.end == b.start for a, b in itertools.pairwise(path))
+    small = next(m for m in path if isinstance(m, Arc) and m.radius < 1.0)
+    assert small.length_mm >= 0.1 * moves[2].length_mm - 1e-12  # what the transitions left
     assert_within_limits(p.sample(machine.servo.period_s), machine, moves)
     assert program_deviation(_fine(p), moves) <= P
 

@@ -60,7 +60,6 @@ from gantry_sim.controller.planner.path_control import EPS_MM, Merge, control, m
 from gantry_sim.controller.planner.transition import (
     TransitionCut,
     TransitionMachine,
-    rejoined,
     size_transitions,
     transition_site,
 )
@@ -87,12 +86,13 @@ ABSORB_PER_MM = 2e-4
 MEET_SHARE = 0.99
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, slots=True)
 class Blend:
     """One blended junction: the program line of the move ending there, the blend's largest
     distance from the programmed path [mm], the tolerance it was given [mm], and its kind:
     "corner" (a blend arc) or "transition" (a G2 transition at a tangent junction,
-    :mod:`~gantry_sim.controller.planner.transition`)."""
+    :mod:`~gantry_sim.controller.planner.transition`). Slotted: a long program of tangent arcs
+    has one per junction."""
 
     line: int
     deviation_mm: float
@@ -146,7 +146,9 @@ def path_plan(
     machine's limits and segmentation, to put G2 transitions at the G64 tangent junctions whose
     curvature jumps (:mod:`~gantry_sim.controller.planner.transition`); None: none.
     ``sized``: the transitions sized by an earlier call for the same program, by site (filled
-    here: a path made again without some blends sizes only the sites that changed)."""
+    here: a path made again without some blends sizes only the sites that changed); None:
+    none kept (a long program's path is rarely made again, and they would take 0.5 KB a
+    site)."""
     out = PathPlan()
     program: list[Move] = []
     index = -1  # of the item among the program's motions
@@ -265,10 +267,6 @@ def _blend_corners(
         # a curve by its length: a full circle or a closed spline ends where it starts
         straight = isinstance(m, Rapid | Linear)
         keep.append((float(np.linalg.norm(e - a)) if straight else m.length_mm) > EPS_MM)
-    # a move used up between two transitions: the second starts where the first ends
-    shared = [i for i, k in enumerate(keep) if not k and i in trans and i + 1 in trans]
-    again = rejoined([trans[i + 1] for i in shared], [trans[i].move.end for i in shared])
-    trans.update(zip((i + 1 for i in shared), again, strict=True))
     new_moves: list[PathMove] = []
     new_stops: list[bool] = []
     new_holds: dict[int, list[Dwell]] = {}
@@ -332,9 +330,9 @@ def _transitions(
 ) -> dict[int, TransitionCut]:
     """The G2 transitions at the tangent ``junctions`` (junction, budget [mm]), by junction:
     each move's room is its length less the corner cut at its other end (``cuts``, ``use``);
-    ``sized``: results by site (its moves, budget and rooms) of an earlier call, and filled."""
+    ``sized``: results by site (junction, budget, rooms) of an earlier call for the same
+    program, and filled (None: not kept)."""
     sites = []
-    known = {} if sized is None else sized
     found: dict[int, TransitionCut] = {}
     for b, budget in junctions:
         m0, m1 = moves[b - 1], moves[b]
@@ -346,15 +344,15 @@ def _transitions(
         site = transition_site(m0, m1, b, budget, ends, (room0, room1))
         if site is None:
             continue
-        key = (m0, m1, budget, site.room_mm)
-        if key in known:
-            if known[key] is not None:
-                found[b] = known[key]
+        key = (b, budget, site.room_mm)  # the same moves in every call for one program
+        if sized is not None and key in sized:
+            if sized[key] is not None:
+                found[b] = sized[key]
         else:
-            sites.append((key, site))
-    new = size_transitions([site for _, site in sites], machine)
-    for key, site in sites:
-        known[key] = new.get(site.junction)
+            sites.append(site)
+    new = size_transitions(sites, machine)
+    if sized is not None:
+        sized.update(((s.junction, s.budget_mm, s.room_mm), new.get(s.junction)) for s in sites)
     return found | new
 
 

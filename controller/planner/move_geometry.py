@@ -45,6 +45,7 @@ from gantry_sim.controller.planner.spline_geometry import (
 )
 from gantry_sim.controller.planner.transition_geometry import (
     transition_deviation,
+    transition_end_frames_many,
     transition_vertices,
     transition_vertices_many,
 )
@@ -191,9 +192,10 @@ def move_geometries(
     chords = transition_vertices_many(
         steps, seg.method, seg.chord_tolerance_mm, seg.segment_length_mm
     )
-    verts = dict(zip(map(id, steps), chords, strict=True))
+    frames = transition_end_frames_many(steps)
+    verts = dict(zip(map(id, steps), zip(chords, frames, strict=True), strict=True))
     geoms = [
-        _transition_geometry(m, feed_scale, verts[id(m)])
+        _transition_geometry(m, feed_scale, *verts[id(m)])
         if isinstance(m, Transition)
         else _geometry(m, limits, seg, feed_scale, ends.get(id(m)))
         for m in moves
@@ -231,7 +233,7 @@ def _geometry(
         return _spline_geometry(move, seg, feed_scale)
     if isinstance(move, Transition):
         verts = transition_vertices(move, seg.method, seg.chord_tolerance_mm, seg.segment_length_mm)
-        return _transition_geometry(move, feed_scale, verts)
+        return _transition_geometry(move, feed_scale, verts, transition_end_frames_many([move])[0])
     if not isinstance(move, Arc):
         verts = np.array([move.start, move.end], dtype=float)
         verts.setflags(write=False)
@@ -296,13 +298,16 @@ def _spline_geometry(move: Spline, seg: Segmentation, feed_scale: float) -> ArcG
     return ArcGeometry(move, verts, length, t_in, t_out, k_in, k_out, _UNSET, feed, u, follow)
 
 
-def _transition_geometry(move: Transition, feed_scale: float, verts: np.ndarray) -> ArcGeometry:
-    """A G2 transition's geometry: its chord ``verts`` (equal steps of its parameter), exact
-    end frames, the curve's curvature bounds, in its plane (:mod:`.transition_geometry`)."""
+def _transition_geometry(
+    move: Transition, feed_scale: float, verts: np.ndarray, frames: np.ndarray
+) -> ArcGeometry:
+    """A G2 transition's geometry: its chord ``verts`` (equal steps of its parameter), its
+    end ``frames`` (T_start, k_start, T_end, k_end), the curve's curvature bounds, in its plane
+    (:mod:`.transition_geometry`)."""
     n = len(verts) - 1
     u = np.arange(n + 1) / n
     curve = move.curve
-    t_in, k_in, t_out, k_out = curve.end_frames
+    t_in, k_in, t_out, k_out = frames
     length = curve.length_mm
     curvature, dcurv = curve.bounds
     feed = mm_per_min_to_mm_per_s(move.feed_mm_per_min) * feed_scale

@@ -55,9 +55,7 @@ limits are chosen for that: limits_batch._curved); but no longer than the tolera
 measured deviation within P less the reference's share,
 :data:`~gantry_sim.controller.planner.blend.REFERENCE_SHARE` of the chord tolerance), and at
 most :data:`LENGTH_SHARE` of either move's room (its length less a corner blend's cut at its
-other end; two transitions at the ends of a short move then meet at its middle, where both
-have its tangent and curvature: the move is dropped and the second starts where the first
-ends). The cut is found from a first guess by the deviation's power law in
+other end), so that a move keeps some of itself between two transitions. The cut is found from a first guess by the deviation's power law in
 :data:`SEARCH_STEPS` steps on log h (the deviation and |p'''| are close to power laws of h;
 their exponents come from the last two measurements), measuring the curve each time, then
 measured on more points and shrunk until the deviation is within the budget. A transition is
@@ -84,14 +82,14 @@ from __future__ import annotations
 
 import math
 from collections.abc import Callable, Sequence
-from dataclasses import dataclass, replace
+from dataclasses import dataclass
 
 import numpy as np
 
 from gantry_sim.controller.arcs import arc_frame
 from gantry_sim.controller.config import Limits, Segmentation
-from gantry_sim.controller.moves import Arc, Linear, Transition, remember_curve
-from gantry_sim.controller.planes import PLANE_AXES, Plane, Vec3
+from gantry_sim.controller.moves import Arc, Linear, Transition
+from gantry_sim.controller.planes import PLANE_AXES, Plane
 from gantry_sim.controller.planner.corner_blend import ARC_CORNER_MIN_RAD, in_plane
 from gantry_sim.controller.planner.junctions import junction_cap
 from gantry_sim.controller.planner.limits import curvature_speed_cap
@@ -119,8 +117,11 @@ GAIN = 1.05
 #: pieces reach in the end. Its first guess uses 1.5 (CHORD_FIT_BLEND), and the rounds lower it:
 #: the pocket's line-arc junctions (R 0.5-3 at F1200) end at 7.9-17.4 mm/s, a fit of 5.1-7.1.
 CHORD_FIT_REACHED = 6.0
-#: Largest share of either move a transition may cut.
-LENGTH_SHARE = 0.5
+#: Largest share of either move's room a transition may cut: a move between two transitions
+#: keeps a tenth of itself (at a half, two could leave a sliver of 0.1 um, over which the
+#: look-ahead's speeds, a hair apart, could not be joined: planning failed on 100,000
+#: generated arcs).
+LENGTH_SHARE = 0.45
 #: Share of the deviation budget kept free of the sizing (what lies between the samples).
 DEVIATION_MARGIN = 0.01
 #: Points of the curve measured (deviation and bounds) while the cut is searched (the cut
@@ -238,13 +239,13 @@ def _size(sites: Sequence[TransitionSite], machine: TransitionMachine) -> dict[i
         ctrl[over], dev[over], k[over], dk[over] = batch.subset(over).final(h[over])
     cap = batch.curve_cap(k, dk)
     good = np.flatnonzero((dev <= budget) & (cap >= GAIN * batch.chord_cap))
-    curves = QuinticCurve.batch(ctrl[good])
+    rows = QuinticCurve.rows(ctrl[good])
     found: dict[int, TransitionCut] = {}
-    for i, curve in zip(good.tolist(), curves, strict=True):
+    for i, row in zip(good.tolist(), rows, strict=True):
         site = batch.sites[i]
         found[site.junction] = TransitionCut(
             float(h[i]),
-            _transition(site.first, site.second, site.plane, ctrl[i], curve),
+            _transition(site.first, site.second, site.plane, ctrl[i], row),
             float(dev[i]),
             float(batch.target[i]),
             float(cap[i]),
@@ -253,38 +254,20 @@ def _size(sites: Sequence[TransitionSite], machine: TransitionMachine) -> dict[i
     return found
 
 
-def rejoined(cuts: Sequence[TransitionCut], starts: Sequence[Vec3]) -> list[TransitionCut]:
-    """``cuts`` starting at ``starts`` [mm] instead (the end of the transition before each,
-    where the move between them was used up: the same points to rounding), their curves made
-    again in one batch."""
-    if not cuts:
-        return []
-    ctrl = np.array([c.move.control_points for c in cuts], dtype=float).reshape(len(cuts), 6, 3)
-    ctrl[:, 0] = np.array(starts, dtype=float).reshape(len(cuts), 3)
-    out = []
-    for c, start, curve in zip(cuts, starts, QuinticCurve.batch(ctrl), strict=True):
-        move = replace(c.move, start=start)
-        remember_curve(move, curve)
-        out.append(replace(c, move=move))
-    return out
-
-
 def _transition(
-    m0: Linear | Arc, m1: Linear | Arc, plane: Plane, ctrl: np.ndarray, curve: QuinticCurve
+    m0: Linear | Arc, m1: Linear | Arc, plane: Plane, ctrl: np.ndarray, row: np.ndarray
 ) -> Transition:
-    """The :class:`Transition` from ``m0`` to ``m1`` with control points ``ctrl`` (6, 3) [mm]
-    along ``curve`` (kept as its curve)."""
-    move = Transition(
+    """The :class:`Transition` from ``m0`` to ``m1`` with control points ``ctrl`` (6, 3) [mm],
+    its curve's packed ``row`` (:meth:`QuinticCurve.rows`)."""
+    return Transition(
         line=m0.line,
         start=(float(ctrl[0, 0]), float(ctrl[0, 1]), float(ctrl[0, 2])),
         end=(float(ctrl[5, 0]), float(ctrl[5, 1]), float(ctrl[5, 2])),
         feed_mm_per_min=min(m0.feed_mm_per_min, m1.feed_mm_per_min),
         plane=plane,
-        inner=Transition.pack(ctrl[1:5].tolist()),
+        row=row.tobytes(),
         path=m0.path,
     )
-    remember_curve(move, curve)
-    return move
 
 
 def _search(batch: _Batch) -> np.ndarray:
@@ -646,7 +629,6 @@ __all__ = [
     "TransitionMachine",
     "TransitionSite",
     "move_speed_cap",
-    "rejoined",
     "size_transitions",
     "transition_site",
 ]

@@ -30,6 +30,7 @@ from gantry_sim.controller.quintic_curve import (
     CELLS,
     WINDOW_SEED_SAMPLES,
     derivative_coefficients,
+    end_frames,
     evaluate,
     lengths_at,
     nearest_parameters,
@@ -149,6 +150,13 @@ def transition_speed_rates_many(
     )
 
 
+def transition_end_frames_many(moves: Sequence[Transition]) -> np.ndarray:
+    """(T_start, k_start, T_end, k_end) (m, 4, 3) of each move's curve, in one batch (the
+    numbers of ``move.curve.end_frames``)."""
+    coef = np.array([m.curve.coef for m in moves], dtype=float).reshape(len(moves), 6, 3)
+    return end_frames(coef)
+
+
 def transition_vertices_many(
     moves: Sequence[Transition], method: str, chord_tolerance_mm: float, segment_length_mm: float
 ) -> list[np.ndarray]:
@@ -161,7 +169,7 @@ def transition_vertices_many(
     lo = 0
     for m, n in zip(moves, counts, strict=True):
         verts = pts[lo : lo + n + 1]
-        verts[0], verts[-1] = m.control_points[0], m.control_points[-1]
+        verts[0], verts[-1] = m.start, m.end
         verts.setflags(write=False)
         out.append(verts)
         lo += n + 1
