@@ -147,8 +147,7 @@ def path_plan(
     curvature jumps (:mod:`~gantry_sim.controller.planner.transition`); None: none.
     ``sized``: the transitions sized by an earlier call for the same program, by site (filled
     here: a path made again without some blends sizes only the sites that changed); None:
-    none kept (a long program's path is rarely made again, and they would take 0.5 KB a
-    site)."""
+    none kept."""
     out = PathPlan()
     program: list[Move] = []
     index = -1  # of the item among the program's motions

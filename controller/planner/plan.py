@@ -119,8 +119,7 @@ def _plan_part(
     seg = machine.segmentation
     jerk = float(min(machine.limits.max_jerk_mm_per_s3))
     sizing = TransitionMachine(machine.limits, seg, feed_override_pct / 100.0)
-    # transitions by site, for a path made again without some blends (a short program's only)
-    sized: dict | None = {} if len(program) <= WINDOW_MOVES else None
+    sized: dict = {}  # transitions by site, for a path made again without some blends
     path = path_plan(items, machine.path, seg.chord_tolerance_mm, frozenset(), jerk, sizing, sized)
     prepared = None
     if len(path.moves) <= WINDOW_MOVES:  # planned whole: the geometry is made once
