@@ -13,7 +13,9 @@ The stages (each package's docstring is its own map):
 
 Shared value types, used by several stages: ``errors`` (GantryError and its kinds, FILE:LINE),
 ``units``, ``planes`` (the one plane/axis table), ``moves`` (Rapid, Linear, Arc and the events),
-``arcs`` (exact arc and helix geometry), ``config`` (the machine file), ``trajectory`` (the
+``arcs`` (exact arc and helix geometry), ``spline_curve`` and ``quintic_curve`` (a G5.x
+spline's curve, and the planner's G2 transitions', by arc length), ``config`` (the machine
+file), ``trajectory`` (the
 sampled reference), ``transmission`` (backlash), ``loop_figures`` (a position loop's figures)
 ``machine_import/`` (machine files from LinuxCNC INI files and grbl settings), ``gc_pause``
 (the cyclic collector paused while a long program is read and planned), ``heap`` (the C heap's

@@ -1,4 +1,5 @@
-"""The interpreter's output: exact moves, each with the source line that commanded it.
+"""The interpreter's output: exact moves, each with the source line that commanded it (and
+:class:`Transition`, the planner's G2 transition, which lies only on the path it follows).
 
 All positions are program (work) coordinates [mm]; feeds are [mm/min] along the 3-D path (for a
 helix, along the helix). Moves are frozen value objects; ``to_json`` gives the exact
@@ -22,10 +23,12 @@ __all__ = [
     "Linear",
     "Move",
     "PathControl",
+    "PathMove",
     "Plane",
     "Rapid",
     "Spline",
     "Stop",
+    "Transition",
     "Vec3",
 ]
 
@@ -53,12 +56,12 @@ def _vec(v: Vec3) -> list[float]:
     return [float(c) for c in v]
 
 
-def _motion_json(m: Rapid | Linear | Arc | Spline) -> dict:
+def _motion_json(m: Rapid | Linear | Arc | Spline | Transition) -> dict:
     """The keys every motion's JSON starts with (``gantry parse``, CONTRACTS.md)."""
     return {"line": m.line, "kind": m.kind, "start": _vec(m.start), "end": _vec(m.end)}
 
 
-def _feed_json(m: Linear | Arc | Spline) -> dict:
+def _feed_json(m: Linear | Arc | Spline | Transition) -> dict:
     """:func:`_motion_json` and the feed [mm/min] of a feed move."""
     return _motion_json(m) | {"feed": float(m.feed_mm_per_min)}
 
@@ -240,6 +243,66 @@ class Spline:
 _CURVES: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()
 
 Move = Rapid | Linear | Arc | Spline
+
+
+@dataclass(frozen=True, slots=True)
+class Transition:
+    """A G2-continuous transition the planner puts in place of a G64 tangent junction whose
+    curvature jumps (never the interpreter's: it lies only on the path the planner follows,
+    ``Plan.path_moves``; see :mod:`gantry_sim.controller.planner.transition`): a quintic
+    Bezier curve from a point of the first move to a point of the second, matching position,
+    unit tangent and curvature vector of each there. Compact (slots; the curve's numbers one
+    packed buffer): the planner holds one per transition of the whole program.
+
+    Attributes:
+        line: the source line of the junction's first move.
+        start: start point [mm] (a point of the first move; the first control point).
+        end: end point [mm] (a point of the second move; the last control point).
+        feed_mm_per_min: the smaller feed of the two moves [mm/min].
+        plane: the principal plane both moves, and so the curve, lie in.
+        row: the curve's numbers, packed as float64 (its control points, power coefficients,
+            arc lengths, bounds and end frames: :meth:`QuinticCurve.rows
+            <gantry_sim.controller.quintic_curve.QuinticCurve.rows>`).
+        path: the path control mode of the first move (None: the machine file's default).
+    """
+
+    line: int
+    start: Vec3
+    end: Vec3
+    feed_mm_per_min: float
+    plane: Plane
+    row: bytes
+    path: PathControl | None = None
+
+    kind = "transition"
+
+    @property
+    def curve(self):  # -> QuinticCurve (imported here: moves.py stays free of numpy)
+        """The exact curve (:class:`~gantry_sim.controller.quintic_curve.QuinticCurve`: points,
+        derivatives, arc length, bounds), read from :attr:`row` without copying it."""
+        from gantry_sim.controller.quintic_curve import QuinticCurve
+
+        return QuinticCurve.from_row(self.row)
+
+    @property
+    def control_points(self) -> tuple[Vec3, ...]:
+        """The six Bezier control points [mm], start and end included."""
+        return tuple((p[0], p[1], p[2]) for p in self.curve.control_points.tolist())
+
+    @property
+    def length_mm(self) -> float:
+        """Arc length of the curve [mm] (Gauss-Legendre quadrature, see quintic_curve.py)."""
+        return self.curve.length_mm
+
+    def to_json(self) -> dict:
+        return _feed_json(self) | {
+            "plane": self.plane,
+            "control_points": [_vec(p) for p in self.control_points],
+        }
+
+
+#: What the planner's path is made of: the program's moves, blend arcs (Arc) and transitions.
+PathMove = Move | Transition
 
 
 @dataclass(frozen=True)

@@ -15,7 +15,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from gantry_sim.controller.arcs import arc_frame
-from gantry_sim.controller.moves import Arc, Move, Spline
+from gantry_sim.controller.moves import Arc, Move, PathMove, Spline, Transition
 
 #: slack added to every move's bounding box [mm] (rounding in the box, not geometry)
 BOX_SLACK_MM = 1e-9
@@ -24,7 +24,8 @@ BOX_SLACK_MM = 1e-9
 @dataclass(frozen=True)
 class MoveTable:
     """Per move (M rows). Segments (G0/G1) use start, seg_d, length2; arcs the rest (zeros on
-    segment rows); splines (G5, G5.1, G5.2) their exact curve in ``curves``.
+    segment rows); splines (G5, G5.1, G5.2) and the planner's G2 transitions (on a path the
+    planner followed, Plan.path_moves) their exact curve in ``curves``.
 
     Attributes:
         line: (M,) source line.
@@ -43,8 +44,10 @@ class MoveTable:
         box_lo, box_hi: (M, 3) an axis-aligned box holding the move (with BOX_SLACK_MM).
         arc_start: (M, 3) an arc's point at u = 0 as controller.arcs.arc_points computes it
         (the start on segment rows).
-        spline: (M,) True for G5/G5.1/G5.2 (their ``arc`` is False).
-        curves: (M,) per spline row its SplineCurve (controller/spline_curve.py), else None.
+        spline: (M,) True for G5/G5.1/G5.2 and transitions (their ``arc`` is False).
+        curves: (M,) per spline row its SplineCurve (controller/spline_curve.py), per
+            transition row its QuinticCurve (controller/quintic_curve.py), else None; each
+            gives ``nearest_points``.
         cum_len: (M + 1,) path length [mm] before each move (cum_len[M]: the whole program).
     """
 
@@ -83,10 +86,11 @@ class MoveTable:
 _ARC_FIELDS = ("c1", "c2", "theta0", "sigma", "angle", "s_angle", "r0", "dr", "h0", "dh", "k2")
 
 
-def move_table(moves: Sequence[Move], cum_len: np.ndarray | None = None) -> MoveTable:
-    """Lay out ``moves`` (the interpreter's, in program order) as a :class:`MoveTable`;
-    ``cum_len`` (len(moves) + 1,) [mm]: the path length before each move when the moves are
-    rows of a longer program (its :class:`ProgramIndex`'s), else counted from their start."""
+def move_table(moves: Sequence[PathMove], cum_len: np.ndarray | None = None) -> MoveTable:
+    """Lay out ``moves`` (the interpreter's, in program order, or a plan's path) as a
+    :class:`MoveTable`; ``cum_len`` (len(moves) + 1,) [mm]: the path length before each move
+    when the moves are rows of a longer program (its :class:`ProgramIndex`'s), else counted
+    from their start."""
     m = len(moves)
     start = np.array([mv.start for mv in moves], dtype=float).reshape(m, 3)
     end = np.array([mv.end for mv in moves], dtype=float).reshape(m, 3)
@@ -98,7 +102,7 @@ def move_table(moves: Sequence[Move], cum_len: np.ndarray | None = None) -> Move
     newton = np.zeros(m, dtype=bool)
     box_lo, box_hi = np.minimum(start, end), np.maximum(start, end)
     for j, mv in enumerate(moves):
-        if isinstance(mv, Spline):
+        if isinstance(mv, Spline | Transition):
             lo_j, hi_j = _spline_box(mv)
             box_lo[j] = np.minimum(box_lo[j], lo_j)
             box_hi[j] = np.maximum(box_hi[j], hi_j)
@@ -143,13 +147,13 @@ def move_table(moves: Sequence[Move], cum_len: np.ndarray | None = None) -> Move
         box_hi=box_hi + BOX_SLACK_MM,
         arc_start=arc_start,
         cum_len=_cum_len(moves) if cum_len is None else np.asarray(cum_len, dtype=float),
-        spline=np.array([isinstance(mv, Spline) for mv in moves], dtype=bool),
-        curves=tuple(mv.curve if isinstance(mv, Spline) else None for mv in moves),
+        spline=np.array([isinstance(mv, Spline | Transition) for mv in moves], dtype=bool),
+        curves=tuple(mv.curve if isinstance(mv, Spline | Transition) else None for mv in moves),
         **cols,
     )
 
 
-def _cum_len(moves: Sequence[Move]) -> np.ndarray:
+def _cum_len(moves: Sequence[PathMove]) -> np.ndarray:
     """(len(moves) + 1,) path length [mm] before each move, and in all."""
     return np.concatenate([[0.0], np.cumsum([mv.length_mm for mv in moves])])
 
@@ -194,12 +198,13 @@ class ProgramIndex:
         )
 
 
-def _spline_box(spline: Spline) -> tuple[np.ndarray, np.ndarray]:
-    """A box [mm] holding the spline: its control points' box (a NURBS with positive weights
-    lies in their convex hull); with a negative weight (rs274's first G5.2 point without P),
-    dense samples widened by :data:`SAMPLED_BOX_SLACK_MM`."""
+def _spline_box(spline: Spline | Transition) -> tuple[np.ndarray, np.ndarray]:
+    """A box [mm] holding the spline: its control points' box (a NURBS with positive weights,
+    and a transition's Bezier curve, lie in their convex hull); with a negative weight
+    (rs274's first G5.2 point without P), dense samples widened by
+    :data:`SAMPLED_BOX_SLACK_MM`."""
     pts = np.asarray(spline.control_points, dtype=float)
-    if min(spline.weights) > 0:
+    if isinstance(spline, Transition) or min(spline.weights) > 0:
         return pts.min(axis=0), pts.max(axis=0)
     c = spline.curve
     t = np.linspace(c.nurbs.t_min, c.nurbs.t_max, 4096 * len(pts))

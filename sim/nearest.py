@@ -19,7 +19,9 @@ Arc / helix (parametrised by the sweep fraction u in [0, 1], see controller.arcs
 
 Spline (G5, G5.1, G5.2; controller/spline_curve.py): the nearest of samples spread evenly over
 the spline's parameter (4 per grid cell, 128 per knot span), then guarded Newton steps on
-f(t) = |C(t) - q|^2 (each kept only where it lowers f), clamped to the curve.
+f(t) = |C(t) - q|^2 (each kept only where it lowers f), clamped to the curve. A G2 transition
+on the path the planner followed (controller/quintic_curve.py) likewise: the nearest of 33
+samples of its parameter, then the same Newton steps.
 
 Every point's result depends on that point and its move only (not on which other points share
 the call), so a trace may be cut anywhere and analysed piece by piece with identical numbers.

@@ -21,7 +21,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from gantry_sim.controller.moves import Move
+from gantry_sim.controller.moves import Move, PathMove
 from gantry_sim.controller.trajectory import Trajectory
 from gantry_sim.sim.contour import LAG_REACH
 from gantry_sim.sim.move_table import ProgramIndex
@@ -52,7 +52,7 @@ class RangeTables:
     moves: list[Move]
     cum_len: np.ndarray
     r0: int
-    path_moves: list[Move]
+    path_moves: list[PathMove]
     found: np.ndarray
     path_window: np.ndarray | None
 
@@ -65,7 +65,7 @@ class RowPicker:
     def __init__(
         self,
         moves: Sequence[Move],
-        path_moves: Sequence[Move],
+        path_moves: Sequence[PathMove],
         index: ProgramIndex,
         path_sources: np.ndarray | None,
     ) -> None:

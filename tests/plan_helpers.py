@@ -134,6 +134,19 @@ def arc_deviation(traj, a: Arc) -> float:
     return float(np.max(np.linalg.norm(p - arc_points(a, u), axis=1)))
 
 
+def program_deviation(traj, moves) -> float:
+    """Largest distance [mm] of the feed samples from the programmed moves they execute (the
+    contour error's reference part: sim.program_distance, with the plan's move sources), for
+    G64, where a blend or a G2 transition between two moves carries the first one's line."""
+    from gantry_sim.sim.program_distance import distance_to_program
+
+    program = [m for m in moves if m.kind in ("rapid", "linear", "arc", "spline")]
+    feed = np.isin(traj.line, [m.line for m in program if m.kind != "rapid"])
+    window = None if traj.source is None else traj.source[feed]
+    dist, _ = distance_to_program(program, traj.line[feed], traj.pos[feed], window=window)
+    return float(dist.max()) if dist.size else 0.0
+
+
 def plan_with_chunks(text: str):
     """The plan of the program ``text`` on the bundled machine and a copy of the chunks (the
     reference's segments, stretch by stretch) its curve was built of."""
@@ -184,3 +197,18 @@ def count_fork_runs(monkeypatch: pytest.MonkeyPatch, module: ModuleType) -> list
 
     monkeypatch.setattr(module, "fork_runs", spy)
     return calls
+
+
+def assert_phases_within_limits(p, machine) -> None:
+    """Every axis within its velocity, acceleration and jerk limit on every planned
+    constant-jerk phase, exactly (a phase's ends and its velocity's stationary point)."""
+    lim = machine.limits
+    for i, (t0, _, v, a, j) in enumerate(p.curve.axes):
+        dur = np.diff(np.append(t0, p.duration_s))
+        with np.errstate(divide="ignore", invalid="ignore"):
+            tau = np.clip(np.where(j != 0, -a / j, 0.0), 0.0, dur)
+        v_top = max(np.abs(v).max(), np.abs(v + tau * (a + 0.5 * tau * j)).max())
+        a_top = max(np.abs(a).max(), np.abs(a + dur * j).max())
+        assert v_top <= lim.max_velocity_mm_per_s[i] * (1 + REL), (i, v_top)
+        assert a_top <= lim.max_acceleration_mm_per_s2[i] * (1 + REL), (i, a_top)
+        assert np.abs(j).max() <= lim.max_jerk_mm_per_s3[i] * (1 + REL), i

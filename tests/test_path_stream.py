@@ -73,3 +73,62 @@ def test_dwells_before_the_first_and_after_the_last_move_are_kept():
     assert [d.seconds for d in path.holds[0]] == [0.5]
     assert [d.seconds for d in path.holds[len(path.moves)]] == [0.25]
     assert path.stop_after[-1]  # the dwell after the last move stops it
+
+
+def _tangent_chain() -> str:
+    """Tangent arcs of several radii with S-bends, lines into arcs, a corner, a dwell: G2
+    transitions at most junctions (program shaped like benchmarks/programs.py's arcs)."""
+    out = ["G21 G90 G17 G64 P0.01", "G0 X0 Y0 Z-1", "F3000"]
+    x = 0.0
+    for k in range(24):
+        r = 2.0 + (k % 3)
+        out.append(f"G{2 + k % 2} X{x + 2 * r:.4f} Y0 I{r:.4f} J0")
+        x += 2 * r
+        if k % 5 == 4:
+            out.append(f"G1 X{x + 3:.4f}")
+            x += 3
+        if k == 11:
+            out.append("G4 P0.1")
+        if k == 17:
+            out.append(f"G1 X{x:.4f} Y2")  # a corner
+            out.append(f"G1 X{x + 1:.4f} Y2")
+            out.append(f"G1 X{x + 1:.4f} Y0")
+            x += 1
+    out += ["G0 Z2", "M2"]
+    return "\n".join(out) + "\n"
+
+
+@pytest.mark.parametrize("stretch", [1, 4, 7, 16])
+def test_transitions_made_in_stretches_are_the_transitions_made_whole(stretch, monkeypatch):
+    from gantry_sim.controller.planner import blend
+    from gantry_sim.controller.planner.transition import TransitionMachine
+
+    machine = load_machine_config(DEFAULT_MACHINE)
+    sizing = TransitionMachine(machine.limits, machine.segmentation)
+    items = tuple(interpret_events(_tangent_chain()))
+    tol = machine.segmentation.chord_tolerance_mm
+    jerk = float(min(machine.limits.max_jerk_mm_per_s3))
+    whole = path_plan(items, machine.path, tol, frozenset(), jerk, sizing, stretch_moves=10**6)
+    kinds = [b.kind for b in whole.blends]
+    assert kinds.count("transition") >= 15 and "corner" in kinds
+    sized: dict = {}
+    parts = path_plan(
+        items, machine.path, tol, frozenset(), jerk, sizing, sized, stretch_moves=stretch
+    )
+    assert len(sized) >= 18  # every site sized, by its junction in the whole path
+    real, sized_sites = blend.size_transitions, []
+
+    def spy(sites, m):  # type: ignore[no-untyped-def]
+        sized_sites.extend(sites)
+        return real(sites, m)
+
+    monkeypatch.setattr(blend, "size_transitions", spy)
+    again = path_plan(
+        items, machine.path, tol, frozenset(), jerk, sizing, sized, stretch_moves=stretch
+    )
+    assert sized_sites == []  # made again: every transition from ``sized``
+    for b in (parts, again):
+        assert list(b.moves) == list(whole.moves)
+        assert list(b.smoothing_mm) == list(whole.smoothing_mm)
+        assert list(b.sources) == list(whole.sources) and list(b.blends) == list(whole.blends)
+        assert b.stop_after == whole.stop_after and b.holds == whole.holds

@@ -99,6 +99,30 @@ def test_a_program_planned_in_windows_is_the_whole_program_plan(monkeypatch):
     _assert_same(whole, windowed)
 
 
+def _tangent_program() -> str:
+    """Half circles of R 3-5 along X, alternating G3 and G2 (S-bends), a straight move after
+    every fifth (line-arc junctions), in G64 P0.01: a G2 transition at each junction; the feed
+    changes every tenth move (F3000, F2400), where the chains end (windows cut there)."""
+    out = ["G21 G90 G17 G64 P0.01", "G0 X-240 Y0", "F3000"]
+    x, y = -240.0, 0.0
+    for k in range(60):
+        r = 3.0 + (k % 3)
+        x += 2 * r
+        feed = f" F{3000 if k // 10 % 2 == 0 else 2400}" if k % 10 == 0 else ""
+        out.append(f"G{3 if k % 2 == 0 else 2} X{x:.4f} Y{y:.4f} I{r:.4f}{feed}")
+        if k % 5 == 4:
+            y += 3.0 if k % 2 == 0 else -3.0
+            out.append(f"G1 Y{y:.4f}")
+    return "\n".join([*out, "M2"]) + "\n"
+
+
+def test_g2_transitions_planned_in_windows_give_the_whole_program_plan(monkeypatch):
+    whole, windowed, probes = _whole_and_windowed(_tangent_program(), monkeypatch, 20, 4)
+    assert sum(b.kind == "transition" for b in whole.blends) >= 60
+    assert len(probes) >= 4 and max(probes) < len(whole.path_moves), probes  # windows cut
+    _assert_same(whole, windowed)
+
+
 def test_a_window_whose_next_start_cannot_be_kept_is_planned_again_wider(monkeypatch):
     """The next probe lowering the speed where the window before was cut sends the planner
     back to that window, twice as wide; the plan is still the whole program's."""

@@ -11,12 +11,15 @@ The steps, in the order :func:`plan` runs them (module: its one job):
                       ``corner_blend``: corners that involve an arc), a stretch at a time into
                       lists kept on disk; ``limit_events``: Marlin's M201-M205, planned part
                       by part
+   ``transition``     G2 transitions (quintic curves) at G64 tangent junctions whose curvature
+                      jumps: where, how long, their deviation measured
 1. ``travel``         refuse moves that leave the machine's travel (arcs: their quadrant points)
 2. ``segment``        arcs -> chord vertices ("chord": grbl's sagitta rule, "fixed": Marlin's)
 3. ``move_geometry``  per move: vertices, end tangents and curvatures, its 1-D limits
    ``limits``         (leaf) what a move may do: BlockLimits, FollowGeometry, the curvature caps
    ``limits_batch``   the arcs' limits in one vectorised batch; ``spline_geometry``: a spline
-                      taken as a curve by its arc-length fraction
+                      taken as a curve by its arc-length fraction; ``transition_geometry``: a
+                      transition's chords, points and derivatives (many at once)
 4. ``junctions``      speed caps and JunctionStates between moves; caps the pieces can take
 5. ``chains``         runs of moves planned as one 1-D profile (their junctions do not bind)
    ``lookahead``      backward and forward passes over the chains -> the junction speeds

@@ -7,17 +7,23 @@ acceleration [mm/s^2]; :func:`vertex_states`).
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass
 
 import numpy as np
 
-from gantry_sim.controller.arcs import spiral_speed_rate
-from gantry_sim.controller.moves import Arc
+from gantry_sim.controller.moves import Arc, Transition
 from gantry_sim.controller.planner.arc_batch import arc_derivatives_many
 from gantry_sim.controller.planner.junctions import EndState
 from gantry_sim.controller.planner.knots import union_sorted
 from gantry_sim.controller.planner.move_geometry import ArcGeometry
 from gantry_sim.controller.planner.profile import Profile1D, invert_many
+from gantry_sim.controller.planner.transition_geometry import (
+    transition_derivatives_many,
+    transition_lengths_many,
+    transition_parameters_many,
+    transition_speed_rates_many,
+)
 
 #: Extra vertices at 1/2, 1/4, ... of the first (last) chord of an arc that starts (ends) at rest.
 STOP_REFINEMENT = 8
@@ -61,20 +67,26 @@ def vertex_states_many(
     (there the speed grows like s^(2/3); a piece across the whole chord would start along a
     straight line).
     """
-    fractions = [_fractions(g, prof, s_in, s_out) for g, prof, s_in, s_out in requests]
+    geoms = [r[0] for r in requests]
+    knots = _per_curve(geoms, [r[1].s[1:] for r in requests], "u_at", transition_parameters_many)
+    fractions = [
+        _fractions(g, prof, s_in, s_out, kn)
+        for (g, prof, s_in, s_out), kn in zip(requests, knots, strict=True)
+    ]
     inner = [u[1:-1] for u in fractions]
-    inverted = invert_many([(r[1], r[0].s_at(u)) for r, u in zip(requests, inner, strict=True)])
-    d1, d2 = _derivatives([r[0] for r in requests], inner)
+    lengths = _per_curve(geoms, inner, "s_at", transition_lengths_many)
+    inverted = invert_many([(r[1], s) for r, s in zip(requests, lengths, strict=True)])
+    d1, d2 = _derivatives(geoms, inner)
     speed_u = np.linalg.norm(d1, axis=1)
     v_k = np.concatenate([inv[1] for inv in inverted]) if inverted else np.zeros(0)
     a_k = np.concatenate([inv[2] for inv in inverted]) if inverted else np.zeros(0)
     ud = (v_k / speed_u)[:, None]
     udd = (a_k / speed_u)[:, None]
+    rates = _per_curve(geoms, inner, "speed_rate", transition_speed_rates_many)
     lo = 0
-    for (g, *_), u in zip(requests, inner, strict=True):
-        if g.spiral:  # u'' = (a - v^2 d|dp/du|/du / |dp/du|) / |dp/du|: |dp/du| changes with u
+    for g, u, rate in zip(geoms, inner, rates, strict=True):
+        if g.uneven:  # u'' = (a - v^2 d|dp/du|/du / |dp/du|) / |dp/du|: |dp/du| changes with u
             k = slice(lo, lo + u.size)
-            rate = spiral_speed_rate(g.move, u)  # type: ignore[arg-type]
             udd[k, 0] -= v_k[k] ** 2 * rate / speed_u[k] ** 3
         lo += u.size
     vel_in = d1 * ud
@@ -92,9 +104,32 @@ def vertex_states_many(
     return out
 
 
+def _per_curve(
+    geoms: list[ArcGeometry],
+    values: list[np.ndarray],
+    method: str,
+    many: Callable[[list[Transition], list[np.ndarray]], np.ndarray],
+) -> list[np.ndarray]:
+    """``g.<method>(values[i])`` of each curve (``s_at``, ``u_at``, ``speed_rate``), the
+    transitions' in one batch (``many``: the same numbers for all at once); a curve that
+    needs none (``speed_rate`` where u is its arc-length fraction) gets an empty array."""
+    out: list[np.ndarray] = [np.zeros(0)] * len(geoms)
+    at = [i for i, g in enumerate(geoms) if isinstance(g.move, Transition)]
+    if at:
+        moves = [m for m in (geoms[i].move for i in at) if isinstance(m, Transition)]
+        flat = many(moves, [values[i] for i in at])
+        cuts = np.cumsum([np.size(values[i]) for i in at])[:-1]
+        for i, part in zip(at, np.split(flat, cuts), strict=True):
+            out[i] = part
+    for i, g in enumerate(geoms):
+        if not isinstance(g.move, Transition) and (method != "speed_rate" or g.uneven):
+            out[i] = getattr(g, method)(values[i])
+    return out
+
+
 def _derivatives(geoms: list[ArcGeometry], us: list[np.ndarray]) -> tuple[np.ndarray, np.ndarray]:
     """Each curve's dp/du and d2p/du2 at its fractions ``us[i]``, stacked (the arcs' in one
-    batch)."""
+    batch, the transitions' in another)."""
     counts = np.array([u.size for u in us], dtype=np.intp)
     start = np.concatenate(([0], np.cumsum(counts)[:-1])).astype(np.intp)
     d1 = np.empty((int(counts.sum()), 3))
@@ -105,8 +140,13 @@ def _derivatives(geoms: list[ArcGeometry], us: list[np.ndarray]) -> tuple[np.nda
         moves = [m for m in (geoms[i].move for i in arcs) if isinstance(m, Arc)]
         a1, a2 = arc_derivatives_many(moves, [us[i] for i in arcs])
         d1[rows], d2[rows] = a1, a2
+    steps = [i for i, g in enumerate(geoms) if isinstance(g.move, Transition)]
+    if steps:
+        rows = np.concatenate([np.arange(start[i], start[i] + counts[i]) for i in steps])
+        curves = [m for m in (geoms[i].move for i in steps) if isinstance(m, Transition)]
+        d1[rows], d2[rows] = transition_derivatives_many(curves, [us[i] for i in steps])
     for i, g in enumerate(geoms):
-        if not isinstance(g.move, Arc):
+        if not isinstance(g.move, Arc | Transition):
             d1[start[i] : start[i] + counts[i]], d2[start[i] : start[i] + counts[i]] = (
                 g.derivatives(us[i])
             )
@@ -114,9 +154,14 @@ def _derivatives(geoms: list[ArcGeometry], us: list[np.ndarray]) -> tuple[np.nda
 
 
 def _fractions(
-    g: ArcGeometry, profile: Profile1D, state_in: EndState, state_out: EndState
+    g: ArcGeometry,
+    profile: Profile1D,
+    state_in: EndState,
+    state_out: EndState,
+    knots: np.ndarray,
 ) -> np.ndarray:
-    """The sweep fractions of the vertices (see :func:`vertex_states_many`)."""
+    """The parameters of the vertices (see :func:`vertex_states_many`); ``knots``: the
+    parameters where the profile switches phase (``g.u_at(profile.s[1:])``)."""
     # Each knot of the 1-D profile becomes a vertex: the nearest chord vertex moves onto it when
     # within a quarter chord (a piece much shorter than a chord would let rounding dominate its
     # jerk), or it is added. The reference only passes through exact arc states, so moving a
@@ -125,7 +170,7 @@ def _fractions(
     u = g.u.copy()
     snapped = np.zeros(m + 1, dtype=bool)
     extra = []
-    for uk in g.u_at(profile.s[1:]):
+    for uk in knots:
         if not 0.0 < uk < 1.0:
             continue
         i = round(uk * m)

@@ -15,6 +15,10 @@ junction at the move's END, as LinuxCNC's termination condition does:
   straight move can use all of it between them (:data:`MEET_SHARE`), they do: a regular polygon
   becomes one chain of equal arcs with no curvature jump left. Blends need both moves in one principal
   plane (XY, XZ or YZ; the planner's arcs live there); other corners stay exact stops.
+* G64 P, tangent junctions whose curvature jumps (line -> arc, S-bends, arcs of two radii): a
+  G2 transition within P (:mod:`~gantry_sim.controller.planner.transition`), a curve that
+  leaves the first move and joins the second with their tangent and curvature, in place of the
+  jump the planner would otherwise smooth within one chord (and pass slowly).
 * G64 Q: consecutive straight feed moves at one feed whose end points lie within Q of one line
   are merged into that line first (LinuxCNC's naive-CAM detector:
   :mod:`~gantry_sim.controller.planner.path_control`, which also resolves each move's mode).
@@ -31,7 +35,7 @@ from dataclasses import dataclass, field, replace
 import numpy as np
 
 from gantry_sim.controller.config import PathSettings
-from gantry_sim.controller.moves import Arc, Dwell, Linear, Move, Rapid
+from gantry_sim.controller.moves import Arc, Dwell, Linear, Move, PathMove, Rapid
 from gantry_sim.controller.planes import PLANE_AXES, Plane, Vec3, plane_of
 from gantry_sim.controller.planner.corner_blend import (
     ArcCorner,
@@ -39,9 +43,16 @@ from gantry_sim.controller.planner.corner_blend import (
     arc_corner,
     arc_end_tangents,
     blend_tangent_mm,
+    end_tangent,
     trimmed_arc,
 )
 from gantry_sim.controller.planner.path_control import EPS_MM, Merge, control
+from gantry_sim.controller.planner.transition import (
+    TransitionCut,
+    TransitionMachine,
+    size_transitions,
+    transition_site,
+)
 
 #: Share of the chord tolerance the planner's reference may leave an arc by (the G61 promise);
 #: a blend keeps this much of the tolerance for it.
@@ -65,14 +76,18 @@ ABSORB_PER_MM = 2e-4
 MEET_SHARE = 0.99
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, slots=True)
 class Blend:
-    """One blended corner: the program line of the move ending there, the blend's largest
-    distance from the programmed corner [mm], and the tolerance it was given [mm]."""
+    """One blended junction: the program line of the move ending there, the blend's largest
+    distance from the programmed path [mm], the tolerance it was given [mm], and its kind:
+    "corner" (a blend arc) or "transition" (a G2 transition at a tangent junction,
+    :mod:`~gantry_sim.controller.planner.transition`). Slotted: a long program of tangent arcs
+    has one per junction."""
 
     line: int
     deviation_mm: float
     tolerance_mm: float
+    kind: str = "corner"
 
 
 @dataclass
@@ -80,23 +95,23 @@ class PathPlan:
     """What the planner follows.
 
     Attributes:
-        moves: the moves, blends inserted, zero-length moves dropped (a
+        moves: the moves, blend arcs and transitions inserted, zero-length moves dropped (a
             :class:`~gantry_sim.controller.spill.SpilledList` when made by
             :func:`~gantry_sim.controller.planner.path_stream.path_plan`: on disk).
         stop_after: per move, True where the junction after it must be an exact stop.
         holds: junction index (0: before the first move, k: after move k-1) -> dwells there.
-        blends: every blended corner.
+        blends: every blended corner and transition.
         blend_junction: index in ``moves`` of each blend arc -> its junction (for ``skip``).
         smoothing_mm: per move, how far the smoothing of a curvature jump at its ends may take
             the reference from it [mm] (blend arcs: what their tolerance leaves; 0 elsewhere:
             the planner's own budget).
         sources: per move, the first and last program move it comes from (indices among the
             program's motions, zero-length ones counted): a move's own index twice, a G64 Q
-            merge its run, a blend arc the two moves of its corner.
+            merge its run, a blend arc or a transition the two moves of its junction.
         merges: every G64 Q merge (line, deviation from the programmed points, Q).
     """
 
-    moves: Sequence[Move] = field(default_factory=list)
+    moves: Sequence[PathMove] = field(default_factory=list)
     stop_after: list[bool] = field(default_factory=list)
     holds: dict[int, list[Dwell]] = field(default_factory=dict)
     blends: Sequence[Blend] = field(default_factory=list)
@@ -109,13 +124,13 @@ class PathPlan:
 @dataclass
 class Blended:
     """What one move of a stretch becomes in the path (:func:`blend_corners`): the dwells at
-    the junction before it, its trimmed self (none where blends use it up) and the blend at
-    its end, each with its stop, smoothing budget [mm] and program sources; ``blend_at``: per
+    the junction before it, its trimmed self (none where blends use it up) and the blend arc
+    or transition at its end, each with its stop, smoothing budget [mm] and program sources; ``blend_at``: per
     move made, the junction a blend arc replaces (an index among the stretch's moves; None for
-    a trimmed move); ``blends``: the blend at its end, if any."""
+    a trimmed move or a transition: not skipped); ``blends``: the blend at its end, if any."""
 
     holds: list[Dwell] = field(default_factory=list)
-    moves: list[Move] = field(default_factory=list)
+    moves: list[PathMove] = field(default_factory=list)
     stops: list[bool] = field(default_factory=list)
     smoothing: list[float] = field(default_factory=list)
     sources: list[tuple[int, int]] = field(default_factory=list)
@@ -132,7 +147,7 @@ def smoothing_budget(m: Move, settings: PathSettings, chord_tolerance_mm: float)
     return max(c.tolerance_mm - REFERENCE_SHARE * chord_tolerance_mm, 0.0)
 
 
-def _direction(m: Move) -> np.ndarray:
+def _direction(m: PathMove) -> np.ndarray:
     d = np.asarray(m.end, float) - np.asarray(m.start, float)
     return d / np.linalg.norm(d)
 
@@ -143,12 +158,19 @@ def blend_corners(
     chord_tolerance_mm: float,
     skip: frozenset[int],
     jerk_mm_per_s3: float = math.inf,
+    machine: TransitionMachine | None = None,
+    sized: dict | None = None,
+    base: int = 0,
 ) -> list[Blended]:
     """What each move of ``stretch`` (moves, stop_after, holds, smoothing_mm and sources set;
-    G64 Q merged) becomes once its G64 corners are blended (see the module docstring); ``skip``:
-    junctions (indices among the stretch's moves) left exact stops. A move's result depends on
-    the moves up to three either side of it only, so a long path is blended stretch by stretch
-    (:func:`~gantry_sim.controller.planner.path_stream.path_plan`)."""
+    G64 Q merged) becomes once its G64 corners are blended, and, with ``machine`` (its limits
+    and segmentation), its G64 tangent junctions whose curvature jumps get G2 transitions (see
+    the module docstring); ``skip``: junctions (indices among the stretch's moves) left exact
+    stops. A move's result depends on the moves up to three either side of it only, so a long
+    path is blended stretch by stretch
+    (:func:`~gantry_sim.controller.planner.path_stream.path_plan`). ``sized``: transitions
+    sized by an earlier call for the same program, by site (filled here; None: none kept);
+    ``base``: the index of the stretch's first move in the whole path, which keys them."""
     moves = list(stretch.moves)
     holds = stretch.holds
     n = len(moves)
@@ -156,6 +178,7 @@ def blend_corners(
     turn: list[tuple[float, Plane] | None] = [None] * (n + 1)
     budgets = [0.0] * (n + 1)  # line-line corners: P less the reference's share [mm]
     cuts: dict[int, CornerCut] = {}  # corners with an arc on one side
+    tangent: list[tuple[int, float]] = []  # (junction, budget) that may get a transition
     tangents = arc_end_tangents(moves)
     for b in range(1, n):
         m0, m1 = moves[b - 1], moves[b]
@@ -169,6 +192,8 @@ def blend_corners(
                 cut = arc_corner(m0, m1, corner, chord_tolerance_mm, tangents)
                 if cut is not None:
                     cuts[b] = cut
+                elif machine is not None:
+                    tangent.append((b, budget))
                 continue
         if not (isinstance(m0, Linear) and isinstance(m1, Linear)):
             continue
@@ -180,16 +205,20 @@ def blend_corners(
         use[b] = blend_tangent_mm(GEOMETRY_SHARE * budget, phi, m0.length_mm, m1.length_mm)
         turn[b] = (phi, plane)
         budgets[b] = budget
-    if not any(use) and not cuts:  # nothing blended: every move as it is
+    if any(use) or cuts:
+        _meet_neighbours(moves, use, turn, budgets)
+    trans: dict[int, TransitionCut] = {}
+    if machine is not None and tangent:
+        trans = _transitions(moves, tangent, cuts, use, tangents, machine, sized, base)
+    if not any(use) and not cuts and not trans:  # nothing blended: every move as it is
         return [
             Blended(holds.get(i, []), [m], [stop], [e], [src], [None])
             for i, (m, stop, e, src) in enumerate(
                 zip(moves, stretch.stop_after, stretch.smoothing_mm, stretch.sources, strict=True)
             )
         ]
-    _meet_neighbours(moves, use, turn, budgets)
-    before = [cuts[k].before_mm if k in cuts else use[k] for k in range(n + 1)]
-    after = [cuts[k].after_mm if k in cuts else use[k] for k in range(n + 1)]
+    before = [_cut(k, cuts, trans, use, True) for k in range(n + 1)]
+    after = [_cut(k, cuts, trans, use, False) for k in range(n + 1)]
     # Trimmed straight moves: their new end points (a vanishing move: its midpoint, shared), as
     # the tuples the path's moves hold: a blend arc holds the very tuples of the lines it joins,
     # and a move left whole keeps its own.
@@ -198,7 +227,7 @@ def blend_corners(
     end_pts: list[Vec3] = []
     for i, m in enumerate(moves):
         if isinstance(m, Arc) and (after[i] or before[i + 1]):
-            moves[i] = m = trimmed_arc(m, after[i], before[i + 1])
+            moves[i] = m = _meeting(trimmed_arc(m, after[i], before[i + 1]), i, trans)
         a, e = np.asarray(m.start, float), np.asarray(m.end, float)
         a_pt, e_pt = m.start, m.end
         if isinstance(m, Linear) and (after[i] or before[i + 1]):
@@ -210,6 +239,9 @@ def blend_corners(
                 a = e = 0.5 * (a + e)  # the blends meet: they absorb what is left
             a_pt = _v3(a)
             e_pt = a_pt if e is a else _v3(e)
+            # a transition's very end points (the same points, to rounding)
+            a_pt = trans[i].move.end if i in trans else a_pt
+            e_pt = trans[i + 1].move.start if i + 1 in trans else e_pt
         start_pts.append(a_pt)
         end_pts.append(e_pt)
         # a curve by its length: a full circle or a closed spline ends where it starts
@@ -243,11 +275,89 @@ def blend_corners(
             made.sources.append(between)
             made.blend_at.append(i + 1)
             made.blends.append(Blend(m.line, dev, tol))
+        if i + 1 in trans:
+            tc = trans[i + 1]
+            tol = control(m, settings).tolerance_mm
+            made.moves.append(tc.move)
+            made.stops.append(False)
+            made.smoothing.append(
+                max(tol - REFERENCE_SHARE * chord_tolerance_mm - tc.deviation_mm, 0.0)
+            )
+            made.sources.append(between)
+            made.blend_at.append(None)
+            made.blends.append(Blend(m.line, tc.deviation_mm, tol, "transition"))
     return out
 
 
+def _transitions(
+    moves: Sequence[PathMove],
+    junctions: Sequence[tuple[int, float]],
+    cuts: dict[int, CornerCut],
+    use: Sequence[float],
+    tangents: dict[int, tuple[np.ndarray, np.ndarray]],
+    machine: TransitionMachine,
+    sized: dict | None,
+    base: int,
+) -> dict[int, TransitionCut]:
+    """The G2 transitions at the tangent ``junctions`` (junction, budget [mm]), by junction:
+    each move's room is its length less the corner cut at its other end (``cuts``, ``use``);
+    ``sized``: results by site (junction + ``base``, budget, rooms) of an earlier call for the
+    same program, and filled (None: not kept)."""
+    sites = []
+    found: dict[int, TransitionCut] = {}
+    for b, budget in junctions:
+        m0, m1 = moves[b - 1], moves[b]
+        if not (isinstance(m0, Linear | Arc) and isinstance(m1, Linear | Arc)):
+            continue
+        room0 = m0.length_mm - (cuts[b - 1].after_mm if b - 1 in cuts else use[b - 1])
+        room1 = m1.length_mm - (cuts[b + 1].before_mm if b + 1 in cuts else use[b + 1])
+        ends = (end_tangent(m0, True, tangents), end_tangent(m1, False, tangents))
+        site = transition_site(m0, m1, b, budget, ends, (room0, room1))
+        if site is None:
+            continue
+        key = (b + base, budget, site.room_mm)  # the same moves in every call for one program
+        if sized is not None and key in sized:
+            if sized[key] is not None:
+                found[b] = sized[key]
+        else:
+            sites.append(site)
+    new = size_transitions(sites, machine)
+    if sized is not None:
+        sized.update(
+            ((s.junction + base, s.budget_mm, s.room_mm), new.get(s.junction)) for s in sites
+        )
+    return found | new
+
+
+def _cut(
+    k: int,
+    cuts: dict[int, CornerCut],
+    trans: dict[int, TransitionCut],
+    use: Sequence[float],
+    before: bool,
+) -> float:
+    """Path length [mm] junction ``k`` takes from the end of the move before it (``before``)
+    or from the start of the move after it: a corner blend's, a transition's or a line-line
+    blend's."""
+    if k in cuts:
+        return cuts[k].before_mm if before else cuts[k].after_mm
+    if k in trans:
+        return trans[k].cut_mm
+    return use[k]
+
+
+def _meeting(arc: Arc, i: int, trans: dict[int, TransitionCut]) -> Arc:
+    """The trimmed arc ``i`` with the very end points of the transitions it meets (the same
+    points, to rounding): the path stays continuous bit for bit."""
+    start = trans[i].move.end if i in trans else arc.start
+    end = trans[i + 1].move.start if i + 1 in trans else arc.end
+    if start is arc.start and end is arc.end:
+        return arc
+    return replace(arc, start=start, end=end)
+
+
 def _meet_neighbours(
-    moves: Sequence[Move],
+    moves: Sequence[PathMove],
     use: list[float],
     turn: Sequence[tuple[float, Plane] | None],
     budgets: Sequence[float],
@@ -286,7 +396,7 @@ def _v3(a: np.ndarray) -> Vec3:
     return (float(a[0]), float(a[1]), float(a[2]))
 
 
-def _trimmed(m: Move, start: Vec3, end: Vec3) -> Move:
+def _trimmed(m: PathMove, start: Vec3, end: Vec3) -> PathMove:
     """``m`` between ``start`` and ``end`` [mm]: a straight move trimmed (``m`` itself when both
     are its own)."""
     if not isinstance(m, Linear) or (start is m.start and end is m.end):

@@ -15,7 +15,7 @@ import numpy as np
 
 from gantry_sim.controller.config import MachineConfig
 from gantry_sim.controller.errors import PlannerFailure, PlanningError
-from gantry_sim.controller.moves import Move
+from gantry_sim.controller.moves import PathMove
 from gantry_sim.controller.planner.chains import move_bounds, split_profile
 from gantry_sim.controller.planner.junctions import EndState, JunctionState
 from gantry_sim.controller.planner.limits import BlockLimits
@@ -137,10 +137,13 @@ def _prep_one(
 #: End speeds this close (a share of the larger) are one speed where the profile between them
 #: would reverse (:func:`_path_profile`).
 SAME_SPEED_SHARE = 1e-9
+#: The cap a profile that starts or ends at it is given again where Ruckig's profile would
+#: reverse, as a share above it (rounding: :func:`_path_profile`).
+CAP_HAIR = 1e-12
 
 
 def _path_profile(
-    solver: RuckigSolver, move: Move, lim: BlockLimits, v_in: float, v_out: float
+    solver: RuckigSolver, move: PathMove, lim: BlockLimits, v_in: float, v_out: float
 ) -> Profile1D:
     """The 1-D profile of a block (one move, or a chain starting with ``move``) from ``v_in``
     to ``v_out`` [mm/s] under its limits."""
@@ -155,6 +158,24 @@ def _path_profile(
             move.line,
         ) from None
     except ProfileReverses:
+        cap = lim.cap_mm_per_s
+        if max(v_in, v_out) >= cap * (1.0 - CAP_HAIR) and lim.length_mm > 0:
+            # an end at the cap, the other as low as the block's length allows (the look-ahead
+            # keeps 1e-9 of it in reserve): Ruckig 0.19 took a start exactly at its velocity
+            # limit for one beyond it and went back along the path (a transition of 1.6 mm
+            # shedding 2.7 of 50 mm/s at 155 mm/s^2); with the limit a hair above, its profile
+            # decelerates at once, and its top speed is the cap to rounding (2e-14 of 50 mm/s)
+            try:
+                return solver.profile(
+                    lim.length_mm,
+                    v_in,
+                    v_out,
+                    cap * (1.0 + CAP_HAIR),
+                    lim.acc_mm_per_s2,
+                    lim.jerk_mm_per_s3,
+                )
+            except (ProfileReverses, RuckigRejected):
+                pass
         if v_out != v_in and abs(v_out - v_in) <= SAME_SPEED_SHARE * max(v_in, v_out):
             # a few nanometres left of a blended line between its blends: the look-ahead's
             # end speeds differ in their last digits (3e-11 of 52 mm/s over 1.8 nm), which no

@@ -290,8 +290,8 @@ def arc_corner(
     corner (a turn below :data:`ARC_CORNER_MIN_RAD` is a tangent junction, smoothed by the
     planner), a near-reversal, not in one principal plane, or not worth blending.
     ``tangents``: the arcs' :func:`arc_end_tangents`, when made for a whole path."""
-    t0 = _end_tangent(m0, at_end=True, known=tangents)
-    t1 = _end_tangent(m1, at_end=False, known=tangents)
+    t0 = end_tangent(m0, at_end=True, known=tangents)
+    t1 = end_tangent(m1, at_end=False, known=tangents)
     phi = math.acos(float(np.clip(t0 @ t1, -1.0, 1.0)))
     plane = plane_of(t0, t1)
     if isinstance(m0, Arc):
@@ -339,7 +339,7 @@ def arc_end_tangents(moves: Sequence[object]) -> dict[int, tuple[np.ndarray, np.
     return {id(a): (unit[k, 0], unit[k, 1]) for k, a in enumerate(arcs)}
 
 
-def _end_tangent(
+def end_tangent(
     m: Linear | Arc,
     at_end: bool,
     known: dict[int, tuple[np.ndarray, np.ndarray]] | None = None,

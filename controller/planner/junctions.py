@@ -26,11 +26,15 @@ import numpy as np
 
 from gantry_sim.controller.arcs import frenet
 from gantry_sim.controller.config import Limits
-from gantry_sim.controller.moves import Arc, Rapid
+from gantry_sim.controller.moves import Arc, Rapid, Transition
 from gantry_sim.controller.planes import Vec3
 from gantry_sim.controller.planner.arc_batch import arc_derivatives_many
 from gantry_sim.controller.planner.jerk3 import jerk3_pairs, piece_limits_ok
 from gantry_sim.controller.planner.move_geometry import ArcGeometry, MoveGeometry
+from gantry_sim.controller.planner.transition_geometry import (
+    transition_derivatives_many,
+    transition_lengths_many,
+)
 
 #: Tangent-direction change above which a junction involving an arc is a corner [rad] (1 degree).
 CORNER_ANGLE_RAD = math.radians(1.0)
@@ -215,11 +219,13 @@ def feasible_junction_caps(
             if isinstance(g, ArcGeometry):
                 sides.append((b, g, side))
     frames = _side_frames(sides)
-    for (b, g, side), (t, k) in zip(sides, frames, strict=True):
+    steps = [i for i, (_, g, _) in enumerate(sides) if isinstance(g.move, Transition)]
+    reach = dict(zip(steps, _transition_reach([sides[i] for i in steps]), strict=True))
+    for i, ((b, g, side), (t, k)) in enumerate(zip(sides, frames, strict=True)):
         d, kv = states[b].direction, states[b].curvature_per_mm
         u = g.u[1] if side == "after" else g.u[-2]
         pv = g.vertices[1] if side == "after" else g.vertices[-2]
-        s = (u if side == "after" else 1.0 - u) * g.length_mm
+        s = reach[i] if i in reach else (u if side == "after" else 1.0 - u) * g.length_mm
         if side == "after":
             rows.append((b, g.vertices[0], d, kv, pv, t, k, s, g.feed_mm_per_s))
         else:
@@ -274,13 +280,28 @@ def _lower_caps(
         out[j] = min(out[j], v)
 
 
+def _transition_reach(sides: list[tuple[int, ArcGeometry, str]]) -> list[float]:
+    """Path length [mm] of each transition's chord next to the junction (its parameter is not
+    its arc-length fraction), in one batch."""
+    if not sides:
+        return []
+    moves = [m for m in (g.move for _, g, _ in sides) if isinstance(m, Transition)]
+    us = [np.array([g.u[1] if side == "after" else g.u[-2]]) for _, g, side in sides]
+    s = transition_lengths_many(moves, us)
+    return [
+        float(x) if side == "after" else g.length_mm - float(x)
+        for x, (_, g, side) in zip(s, sides, strict=True)
+    ]
+
+
 def _subset(idx, *arrays):
     return tuple(a[idx] for a in arrays)
 
 
 def _side_frames(sides: list[tuple[int, ArcGeometry, str]]) -> list[tuple[np.ndarray, np.ndarray]]:
     """Unit tangent and curvature vector at the vertex next to the junction of each (junction,
-    arc, side): the arcs' derivatives in one batch, the splines' one by one."""
+    arc, side): the arcs' derivatives in one batch, the transitions' in another, the splines'
+    one by one."""
     us = [np.array([g.u[1] if side == "after" else g.u[-2]]) for _, g, side in sides]
     arcs = [i for i, (_, g, _) in enumerate(sides) if isinstance(g.move, Arc)]
     d1 = np.empty((len(sides), 3))
@@ -288,7 +309,11 @@ def _side_frames(sides: list[tuple[int, ArcGeometry, str]]) -> list[tuple[np.nda
     if arcs:
         moves = [m for m in (sides[i][1].move for i in arcs) if isinstance(m, Arc)]
         d1[arcs], d2[arcs] = arc_derivatives_many(moves, [us[i] for i in arcs])
+    steps = [i for i, (_, g, _) in enumerate(sides) if isinstance(g.move, Transition)]
+    if steps:
+        curves = [m for m in (sides[i][1].move for i in steps) if isinstance(m, Transition)]
+        d1[steps], d2[steps] = transition_derivatives_many(curves, [us[i] for i in steps])
     for i, (_, g, _) in enumerate(sides):
-        if not isinstance(g.move, Arc):
+        if not isinstance(g.move, Arc | Transition):
             d1[i : i + 1], d2[i : i + 1] = g.derivatives(us[i])
     return [frenet(d1[i], d2[i]) for i in range(len(sides))]

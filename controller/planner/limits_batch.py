@@ -35,9 +35,11 @@ def arc_limits_many(
     lengths_mm: Sequence[float],
     limits: Limits,
     ends_mm_per_s: Sequence[tuple[float, float]] | None = None,
+    even: bool = False,
 ) -> list[BlockLimits]:
     """``[arc_limits(f, length, limits, ends) ...]`` for each arc (``ends``: (0, 0) when
-    ``ends_mm_per_s`` is None)."""
+    ``ends_mm_per_s`` is None); ``even``: the choice for G2 transitions instead
+    (:func:`_curved`: the cruise cap and the most even shares; every transition is curved)."""
     n = len(follows)
     ends = [(0.0, 0.0)] * n if ends_mm_per_s is None else list(ends_mm_per_s)
     curved = [i for i, f in enumerate(follows) if f.curvature_per_mm > 0]
@@ -51,6 +53,7 @@ def arc_limits_many(
             [lengths_mm[i] for i in batch],
             limits,
             [ends[i] for i in batch],
+            even,
         )
         for i, b in zip(batch, found, strict=True):
             out[i] = b
@@ -62,8 +65,14 @@ def _curved(
     lengths_mm: list[float],
     limits: Limits,
     ends: list[tuple[float, float]],
+    even: bool = False,
 ) -> list[BlockLimits]:
-    """The batch of arcs with curvature > 0 (all margins and shares tried)."""
+    """The batch of arcs with curvature > 0 (all margins and shares tried). ``even``: of the
+    first margin's pairs (the highest cap), the share whose tangential acceleration and jerk
+    are the most even shares of the plane's (the largest of their smaller share), not the
+    cheapest: a G2 transition's junctions never bind, so it always cruises inside a chain,
+    whose ramps run on the lowest limits of its moves; the cheapest pair of a cruise, the
+    least tangential acceleration, made a chain of arcs ramp at a fifth of their own."""
     vmax, amax, jmax = limits.per_axis()
     a_pl, j_pl, cap, sin_p, amax_n, jmax_n = [], [], [], [], [], []
     for f in follows:
@@ -112,6 +121,10 @@ def _curved(
     cost = np.where(ok, cost, np.inf)
     best = cost.reshape(len(follows), -1).argmin(axis=1)
     m, sh = np.unravel_index(best, cost.shape[1:])
+    if even:
+        even_share = np.minimum(a_t[:, 0, :] / a_p[:, 0, :], j_t[:, 0, :] / j_p[:, 0, :])
+        sh = np.where(ok[:, 0, :], even_share, -np.inf).argmax(axis=1)
+        m = np.zeros_like(sh)
     rows = np.arange(len(follows))
     caps = cap_m[rows, m, 0].tolist()
     a_best, j_best = a_t[rows, m, sh].tolist(), j_t[rows, m, sh].tolist()

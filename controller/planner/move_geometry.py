@@ -7,6 +7,7 @@ Curvature vectors k = d2p/ds2 [1/mm] (|k| = 1/R, pointing to the centre); tangen
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 from dataclasses import dataclass, replace
 
 import numpy as np
@@ -19,9 +20,10 @@ from gantry_sim.controller.arcs import (
     is_spiral,
     spiral_fraction_at,
     spiral_length_at,
+    spiral_speed_rate,
 )
 from gantry_sim.controller.config import Limits, Segmentation
-from gantry_sim.controller.moves import Arc, Move, Rapid, Spline
+from gantry_sim.controller.moves import Arc, PathMove, Rapid, Spline, Transition
 from gantry_sim.controller.planes import PLANE_AXES
 from gantry_sim.controller.planner.arc_batch import (
     ARC_ENDS,
@@ -41,6 +43,12 @@ from gantry_sim.controller.planner.spline_geometry import (
     spline_deviation,
     spline_points,
 )
+from gantry_sim.controller.planner.transition_geometry import (
+    transition_deviation,
+    transition_end_frames_many,
+    transition_vertices,
+    transition_vertices_many,
+)
 from gantry_sim.controller.units import mm_per_min_to_mm_per_s
 
 #: The closed-form arc pieces (:mod:`gantry_sim.controller.planner.jerk3`) overshoot the vertex speed by about
@@ -59,7 +67,7 @@ class MoveGeometry:
     """What the planner needs to know about one move (a straight one; arcs:
     :class:`ArcGeometry`)."""
 
-    move: Move
+    move: PathMove
     vertices: np.ndarray  # (k, 3) [mm], read-only
     length_mm: float
     tangent_in: np.ndarray  # unit tangent at the start
@@ -80,23 +88,27 @@ class MoveGeometry:
 
 @dataclass(frozen=True, slots=True)
 class ArcGeometry(MoveGeometry):
-    """A curve's :class:`MoveGeometry` (an arc, a helix or a spline), with its exact geometry.
+    """A curve's :class:`MoveGeometry` (an arc, a helix, a spline or a G2 transition), with its
+    exact geometry.
 
-    The curve is parametrised by ``u`` in [0, 1]: an arc's sweep fraction, a spline's arc-length
-    fraction (both proportional to arc length; :mod:`.spline_geometry`)."""
+    The curve is parametrised by ``u`` in [0, 1]: an arc's sweep fraction, a spline's
+    arc-length fraction (both proportional to arc length; :mod:`.spline_geometry`), a
+    transition's Bezier parameter (:mod:`.transition_geometry`)."""
 
-    move: Arc | Spline
-    u: np.ndarray  # sweep (arc-length) fractions of the vertices
+    move: Arc | Spline | Transition
+    u: np.ndarray  # the vertices' parameters (sweep, arc-length fractions, Bezier parameter)
     #: What bounds following it exactly (its limits, :func:`~gantry_sim.controller.planner.speedup.follow_ok`).
     follow: FollowGeometry
-    #: An arc whose radius changes (:func:`~gantry_sim.controller.arcs.is_spiral`): u is not its
-    #: arc-length fraction.
-    spiral: bool = False
+    #: u is not the arc-length fraction: an arc whose radius changes
+    #: (:func:`~gantry_sim.controller.arcs.is_spiral`), or a transition.
+    uneven: bool = False
 
     def points(self, u: np.ndarray) -> np.ndarray:
         """Points on the curve at fractions ``u`` (u = 0 and 1: start and end exactly)."""
         if isinstance(self.move, Spline):
             return spline_points(self.move, u)
+        if isinstance(self.move, Transition):
+            return self.move.curve.points(u)
         pts = arc_points(self.move, u)
         pts[u == 0.0] = self.move.start
         return pts
@@ -105,9 +117,13 @@ class ArcGeometry(MoveGeometry):
         """Largest distance [mm] of points ``q`` (k, 3) near sweep fraction ``u_hint`` from the
         arc: in-plane radius error and normal-axis error at the point's own polar angle (an
         upper bound on the distance to the curve; a spline: the distance to the nearest point
-        found by Newton steps from the nearest of samples within two chords of ``u_hint``)."""
+        found by Newton steps from the nearest of samples within two chords of ``u_hint``; a
+        transition likewise)."""
+        window = 2.0 / max(self.u.size - 1, 1)
         if isinstance(self.move, Spline):
-            return spline_deviation(self.move, q, u_hint, 2.0 / max(self.u.size - 1, 1))
+            return spline_deviation(self.move, q, u_hint, window)
+        if isinstance(self.move, Transition):
+            return transition_deviation(self.move, q, u_hint, window)
         i1, i2, n, theta0, sigma, r0, r1, h0, h1 = arc_frame(self.move)
         c = self.move.center
         th = np.arctan2(q[:, i2] - c[i2], q[:, i1] - c[i1])
@@ -123,44 +139,80 @@ class ArcGeometry(MoveGeometry):
         """dp/du and d2p/du2 (k, 3) [mm] at fractions ``u``."""
         if isinstance(self.move, Spline):
             return spline_derivatives(self.move, u)
+        if isinstance(self.move, Transition):
+            _, d1, d2 = self.move.curve.derivatives(np.asarray(u, dtype=float), 2)
+            return d1, d2
         return arc_derivatives(self.move, u)
 
     def s_at(self, u: np.ndarray) -> np.ndarray:
-        """Path length [mm] from the start to fractions ``u``."""
-        if self.spiral:
+        """Path length [mm] from the start to parameters ``u``."""
+        if isinstance(self.move, Transition):
+            return self.move.curve.s_of_t(u)
+        if self.uneven:
             return spiral_length_at(self.move, u)  # type: ignore[arg-type]
         return u * self.length_mm
 
     def u_at(self, s_mm: np.ndarray) -> np.ndarray:
-        """The fractions where the path has run ``s_mm`` [mm] (inverse of :meth:`s_at`)."""
-        if self.spiral:
+        """The parameters where the path has run ``s_mm`` [mm] (inverse of :meth:`s_at`)."""
+        if isinstance(self.move, Transition):
+            return self.move.curve.t_of_s(s_mm)
+        if self.uneven:
             return spiral_fraction_at(self.move, s_mm, self.length_mm)  # type: ignore[arg-type]
         return s_mm / self.length_mm
 
+    def speed_rate(self, u: np.ndarray) -> np.ndarray:
+        """d|dp/du|/du [mm] at parameters ``u``: 0 where u is proportional to arc length."""
+        if isinstance(self.move, Transition):
+            return self.move.curve.speed_rate(u)
+        if self.uneven:
+            return spiral_speed_rate(self.move, u)  # type: ignore[arg-type]
+        return np.zeros(np.shape(u))
 
-#: The general name: arcs, helices and splines are all curves to the planner.
+
+#: The general name: arcs, helices, splines and transitions are all curves to the planner.
 CurveGeometry = ArcGeometry
 
 
-def move_geometry(move: Move, limits: Limits, seg: Segmentation, feed_scale: float) -> MoveGeometry:
+def move_geometry(
+    move: PathMove, limits: Limits, seg: Segmentation, feed_scale: float
+) -> MoveGeometry:
     """Vertices (arcs: chords by ``seg``), end tangents/curvatures and 1-D limits of ``move``
     (feed times ``feed_scale``) on a machine of per-axis ``limits``."""
     return move_geometries([move], limits, seg, feed_scale)[0]
 
 
 def move_geometries(
-    moves: list[Move], limits: Limits, seg: Segmentation, feed_scale: float
+    moves: Sequence[PathMove], limits: Limits, seg: Segmentation, feed_scale: float
 ) -> list[MoveGeometry]:
     """:func:`move_geometry` of each move; the curves' limits in one batch
     (:func:`~gantry_sim.controller.planner.limits_batch.arc_limits_many`)."""
     arcs = [m for m in moves if isinstance(m, Arc)]
     ends = dict(zip(map(id, arcs), zip(*arc_end_derivatives_many(arcs), strict=True), strict=True))
-    geoms = [_geometry(m, limits, seg, feed_scale, ends.get(id(m))) for m in moves]
-    curves = [g for g in geoms if isinstance(g, ArcGeometry)]
-    blocks = iter(
-        arc_limits_many([g.follow for g in curves], [g.length_mm for g in curves], limits)
+    steps = [m for m in moves if isinstance(m, Transition)]
+    chords = transition_vertices_many(
+        steps, seg.method, seg.chord_tolerance_mm, seg.segment_length_mm
     )
-    return [replace(g, limits=next(blocks)) if isinstance(g, ArcGeometry) else g for g in geoms]
+    frames = transition_end_frames_many(steps)
+    verts = dict(zip(map(id, steps), zip(chords, frames, strict=True), strict=True))
+    geoms = [
+        _transition_geometry(m, feed_scale, *verts[id(m)])
+        if isinstance(m, Transition)
+        else _geometry(m, limits, seg, feed_scale, ends.get(id(m)))
+        for m in moves
+    ]
+    out = list(geoms)
+    for even in (False, True):  # arcs and splines; transitions (limits_batch._curved)
+        at = [
+            i
+            for i, g in enumerate(geoms)
+            if isinstance(g, ArcGeometry) and isinstance(g.move, Transition) == even
+        ]
+        curves = [g for g in (geoms[i] for i in at) if isinstance(g, ArcGeometry)]
+        lengths = [g.length_mm for g in curves]
+        blocks = arc_limits_many([g.follow for g in curves], lengths, limits, even=even)
+        for i, block in zip(at, blocks, strict=True):
+            out[i] = replace(geoms[i], limits=block)
+    return out
 
 
 #: Placeholder limits of a curve until :func:`move_geometries` sets them.
@@ -168,7 +220,7 @@ _UNSET = BlockLimits(0.0, 0.0, 0.0, 0.0)
 
 
 def _geometry(
-    move: Move,
+    move: PathMove,
     limits: Limits,
     seg: Segmentation,
     feed_scale: float,
@@ -179,6 +231,9 @@ def _geometry(
     zero = np.zeros(3)
     if isinstance(move, Spline):
         return _spline_geometry(move, seg, feed_scale)
+    if isinstance(move, Transition):
+        verts = transition_vertices(move, seg.method, seg.chord_tolerance_mm, seg.segment_length_mm)
+        return _transition_geometry(move, feed_scale, verts, transition_end_frames_many([move])[0])
     if not isinstance(move, Arc):
         verts = np.array([move.start, move.end], dtype=float)
         verts.setflags(write=False)
@@ -243,19 +298,61 @@ def _spline_geometry(move: Spline, seg: Segmentation, feed_scale: float) -> ArcG
     return ArcGeometry(move, verts, length, t_in, t_out, k_in, k_out, _UNSET, feed, u, follow)
 
 
+def _transition_geometry(
+    move: Transition, feed_scale: float, verts: np.ndarray, frames: np.ndarray
+) -> ArcGeometry:
+    """A G2 transition's geometry: its chord ``verts`` (equal steps of its parameter), its
+    end ``frames`` (T_start, k_start, T_end, k_end), the curve's curvature bounds, in its plane
+    (:mod:`.transition_geometry`)."""
+    n = len(verts) - 1
+    u = np.arange(n + 1) / n
+    curve = move.curve
+    t_in, k_in, t_out, k_out = frames
+    length = curve.length_mm
+    curvature, dcurv = curve.bounds
+    feed = mm_per_min_to_mm_per_s(move.feed_mm_per_min) * feed_scale
+    sweep = curvature * curve.speed_max / n  # the most a chord turns [rad]
+    follow = FollowGeometry(
+        PLANE_AXES[move.plane],
+        0.0,
+        curvature,
+        dcurv,
+        feed * (1.0 - FEED_MARGIN_PER_PHI4 * min(sweep, 1.0) ** 4 - FEED_MARGIN_REL),
+    )
+    return ArcGeometry(
+        move, verts, length, t_in, t_out, k_in, k_out, _UNSET, feed, u, follow, uneven=True
+    )
+
+
 def limits_for_junctions(
     geoms: list[MoveGeometry], caps: np.ndarray, limits: Limits
 ) -> list[MoveGeometry]:
     """``geoms`` with each arc's limits chosen for its junction caps ``caps`` [mm/s] (see
     :func:`gantry_sim.controller.planner.limits.arc_limits`: inside a tangent chain an arc need
-    not ramp from rest, so it may cruise closer to its curvature cap)."""
+    not ramp from rest, so it may cruise closer to its curvature cap). A transition keeps the
+    limits :func:`move_geometries` chose (its junctions never bind: limits_batch._curved), and
+    an arc beside one takes its speed cap as that junction's: a junction that does not bind
+    is still passed no faster than the transition (an arc between two slower transitions
+    chose the cruise limits of an unbounded junction, 1 % of its jerk, and the chain could not
+    ramp)."""
     moving = [
         b
         for b, g in enumerate(geoms)
-        if isinstance(g, ArcGeometry) and (caps[b] > 0 or caps[b + 1] > 0)
+        if isinstance(g, ArcGeometry)
+        and not isinstance(g.move, Transition)
+        and (caps[b] > 0 or caps[b + 1] > 0)
     ]
     arcs = [g for g in (geoms[b] for b in moving) if isinstance(g, ArcGeometry)]
-    ends = [(float(min(caps[b], 1e300)), float(min(caps[b + 1], 1e300))) for b in moving]
+
+    def end(b: int) -> float:
+        """Junction ``b``'s speed as far as known: its cap, a transition's cap beside it."""
+        cap = float(caps[b])
+        for k in (b - 1, b):
+            if 0 <= k < len(geoms) and isinstance(geoms[k].move, Transition):
+                cap = min(cap, geoms[k].limits.cap_mm_per_s)
+        return min(cap, 1e300)
+
+    ends = [(end(b), end(b + 1)) for b in moving]
     blocks = arc_limits_many([g.follow for g in arcs], [g.length_mm for g in arcs], limits, ends)
     out = list(geoms)
     for b, g, block in zip(moving, arcs, blocks, strict=True):

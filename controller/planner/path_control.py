@@ -12,7 +12,7 @@ from dataclasses import dataclass, replace
 import numpy as np
 
 from gantry_sim.controller.config import PathSettings
-from gantry_sim.controller.moves import Dwell, Linear, Move
+from gantry_sim.controller.moves import Dwell, Linear, Move, PathMove
 
 __all__ = [
     "EPS_MM",
@@ -52,7 +52,7 @@ class Control:
     naive_cam_mm: float
 
 
-def control(move: Move, settings: PathSettings) -> Control:
+def control(move: PathMove, settings: PathSettings) -> Control:
     """``move``'s path control (its own, else the machine file's ``settings``)."""
     pc = getattr(move, "path", None)
     if pc is None:

@@ -7,7 +7,8 @@
    dwells before it and its program index (:func:`_entries`);
 2. G64 Q's merge of straight runs (:func:`~gantry_sim.controller.planner.path_control.merge_runs`,
    greedy from the first move on, runs of at most 256 moves);
-3. G64's corner blends (:func:`~gantry_sim.controller.planner.blend.blend_corners`), a stretch of
+3. G64's corner blends and G2 transitions
+   (:func:`~gantry_sim.controller.planner.blend.blend_corners`), a stretch of
    :data:`STRETCH_MOVES` merged moves at a time with :data:`CONTEXT_MOVES` moves of context
    either side: a move's result depends on the moves up to three either side of it only, so the
    stretches give the whole path's result move for move.
@@ -24,7 +25,17 @@ from array import array
 from collections.abc import Iterable, Iterator
 
 from gantry_sim.controller.config import PathSettings
-from gantry_sim.controller.moves import Arc, Dwell, Event, Linear, Move, Rapid, Spline, Stop
+from gantry_sim.controller.moves import (
+    Arc,
+    Dwell,
+    Event,
+    Linear,
+    Move,
+    PathMove,
+    Rapid,
+    Spline,
+    Stop,
+)
 from gantry_sim.controller.planner.blend import Blend, PathPlan, blend_corners, smoothing_budget
 from gantry_sim.controller.planner.path_control import (
     EPS_MM,
@@ -33,6 +44,8 @@ from gantry_sim.controller.planner.path_control import (
     control,
     merge_runs,
 )
+from gantry_sim.controller.planner.transition import TransitionMachine
+from gantry_sim.controller.planner.windows import WINDOW_MOVES
 from gantry_sim.controller.spill import SpilledList
 
 __all__ = ["CONTEXT_MOVES", "STRETCH_MOVES", "path_plan"]
@@ -50,6 +63,8 @@ def path_plan(
     chord_tolerance_mm: float,
     skip: frozenset[int] = frozenset(),
     jerk_mm_per_s3: float = math.inf,
+    machine: TransitionMachine | None = None,
+    sized: dict | None = None,
     *,
     stretch_moves: int = STRETCH_MOVES,
 ) -> PathPlan:
@@ -58,8 +73,15 @@ def path_plan(
     ``blend_junction``) are not blended (the planner found the exact stop faster there).
     ``jerk_mm_per_s3``: the machine's lowest axis jerk, to skip corners with an arc whose blend
     would be passed too slowly to pay
-    (:func:`~gantry_sim.controller.planner.corner_blend.arc_corner`)."""
-    stretch = _Stretcher(settings, chord_tolerance_mm, skip, jerk_mm_per_s3)
+    (:func:`~gantry_sim.controller.planner.corner_blend.arc_corner`). ``machine``: the
+    machine's limits and segmentation, to put G2 transitions at the G64 tangent junctions whose
+    curvature jumps (:mod:`~gantry_sim.controller.planner.transition`); None: none.
+    ``sized``: the transitions sized by an earlier call for the same program, by site, filled
+    here while the path has at most :data:`~gantry_sim.controller.planner.windows.WINDOW_MOVES`
+    moves (a path planned whole may be made again without its slow blends; a longer one is
+    made again at most once, and keeping every transition would hold about 1 KB each for the
+    whole path: beyond that it is emptied and no longer filled)."""
+    stretch = _Stretcher(settings, chord_tolerance_mm, skip, jerk_mm_per_s3, machine, sized)
     out = stretch.out
     merges: list[Merge] = []
     trailing: list[Dwell] = []
@@ -119,10 +141,13 @@ class _Stretcher:
         chord_tolerance_mm: float,
         skip: frozenset[int],
         jerk_mm_per_s3: float,
+        machine: TransitionMachine | None,
+        sized: dict | None,
     ) -> None:
         self.settings, self.skip = settings, skip
         self.chord_tolerance_mm, self.jerk_mm_per_s3 = chord_tolerance_mm, jerk_mm_per_s3
-        self.moves: SpilledList[Move] = SpilledList()
+        self.machine, self.sized = machine, sized
+        self.moves: SpilledList[PathMove] = SpilledList()
         self.blends: SpilledList[Blend] = SpilledList()
         self.smoothing = array("d")
         self.sources: SpilledList[tuple[int, int]] = SpilledList()
@@ -145,7 +170,14 @@ class _Stretcher:
         )
         skip = frozenset(j - first for j in self.skip if first < j < first + n)
         made = blend_corners(
-            local, self.settings, self.chord_tolerance_mm, skip, self.jerk_mm_per_s3
+            local,
+            self.settings,
+            self.chord_tolerance_mm,
+            skip,
+            self.jerk_mm_per_s3,
+            self.machine,
+            self.sized,
+            first,
         )
         out = self.out
         for k in range(lo - first, hi - first):
@@ -162,3 +194,6 @@ class _Stretcher:
                 self.smoothing.append(e)
                 self.sources.append(src)
             self.blends.extend(b.blends)
+        if self.sized is not None and len(self.moves) > WINDOW_MOVES:
+            self.sized.clear()  # a long path: not kept (see path_plan)
+            self.sized = None

@@ -20,7 +20,7 @@ import numpy as np
 
 from gantry_sim.controller.config import Limits
 from gantry_sim.controller.errors import PlannerFailure, PlanningError
-from gantry_sim.controller.moves import Arc
+from gantry_sim.controller.moves import Arc, Transition
 from gantry_sim.controller.planner.arc_batch import arc_deviation_many, piece_points_many
 from gantry_sim.controller.planner.arc_states import VertexStates, vertex_states_many
 from gantry_sim.controller.planner.cubic import CubicBuilder, Jerk3Run
@@ -40,6 +40,7 @@ from gantry_sim.controller.planner.ruckig_solver import (
     RuckigRejected,
     RuckigSolver,
 )
+from gantry_sim.controller.planner.transition_geometry import transition_deviation_many
 
 #: Largest distance of a piece next to a moving junction from the arc, in chord tolerances;
 #: beyond it the junction's speed is lowered and the program planned again. The check samples 25
@@ -325,22 +326,31 @@ def _end_deviations(
     mins: np.ndarray,
     first: np.ndarray,
 ) -> list[dict[int, float]]:
-    """:func:`_deviation` of each arc's end pieces next to a moving junction, in one batch
-    (splines: left to :func:`_deviation`)."""
+    """:func:`_deviation` of each arc's and transition's end pieces next to a moving junction,
+    a batch of each (splines: left to :func:`_deviation`)."""
     out: list[dict[int, float]] = [{} for _ in requests]
-    at: list[tuple[int, int]] = []  # (request, piece)
-    for i, ((g, _, s_in, s_out), st) in enumerate(zip(requests, states, strict=True)):
-        if isinstance(g.move, Arc):
-            n = st.durations.size
-            at += [(i, k) for k, moving in ((0, s_in.moving), (n - 1, s_out.moving)) if moving]
-    if not at:
-        return out
-    rows = np.array([first[i] + k for i, k in at], dtype=np.intp)
-    q = piece_points_many(
-        phases.p[rows], phases.v[rows], phases.a[rows], phases.j[rows], mins[rows]
-    )
-    arcs = [m for m in (requests[i][0].move for i, _ in at) if isinstance(m, Arc)]
-    dev = arc_deviation_many(arcs, q, [states[i].u[k] for i, k in at]).tolist()
-    for (i, k), d in zip(at, dev, strict=True):
-        out[i][k] = d
+    for kind in (Arc, Transition):
+        at: list[tuple[int, int]] = []  # (request, piece)
+        for i, ((g, _, s_in, s_out), st) in enumerate(zip(requests, states, strict=True)):
+            if isinstance(g.move, kind):
+                n = st.durations.size
+                at += [(i, k) for k, moving in ((0, s_in.moving), (n - 1, s_out.moving)) if moving]
+        if not at:
+            continue
+        rows = np.array([first[i] + k for i, k in at], dtype=np.intp)
+        q = piece_points_many(
+            phases.p[rows], phases.v[rows], phases.a[rows], phases.j[rows], mins[rows]
+        )
+        hints = [states[i].u[k] for i, k in at]
+        if kind is Arc:
+            arcs = [m for m in (requests[i][0].move for i, _ in at) if isinstance(m, Arc)]
+            dev = arc_deviation_many(arcs, q, hints).tolist()
+        else:
+            steps = [requests[i][0] for i, _ in at]
+            moves = [m for m in (g.move for g in steps) if isinstance(m, Transition)]
+            windows = [2.0 / max(g.u.size - 1, 1) for g in steps]
+            ends = [states[i].u[k + 1] for i, k in at]
+            dev = transition_deviation_many(moves, q, hints, windows, ends).tolist()
+        for (i, k), d in zip(at, dev, strict=True):
+            out[i][k] = d
     return out

@@ -47,6 +47,7 @@ from gantry_sim.controller.planner.path_stream import path_plan
 from gantry_sim.controller.planner.prepare import prepare, slow_blends
 from gantry_sim.controller.planner.result import Plan
 from gantry_sim.controller.planner.ruckig_solver import RuckigSolver
+from gantry_sim.controller.planner.transition import TransitionMachine
 from gantry_sim.controller.planner.travel import check_travel
 from gantry_sim.controller.planner.vertices import ChordVertices
 from gantry_sim.controller.planner.windows import WINDOW_MOVES, blends_to_skip, plan_path
@@ -124,19 +125,22 @@ def _plan_part(
     travel is checked) on ``machine``."""
     seg = machine.segmentation
     jerk = float(min(machine.limits.max_jerk_mm_per_s3))
-    path = path_plan(items, machine.path, seg.chord_tolerance_mm, jerk_mm_per_s3=jerk)
+    sizing = TransitionMachine(machine.limits, seg, feed_override_pct / 100.0)
+    sized: dict = {}  # transitions by site, for a path made again without some blends
+    path = path_plan(items, machine.path, seg.chord_tolerance_mm, frozenset(), jerk, sizing, sized)
     prepared = None
     if len(path.moves) <= WINDOW_MOVES:  # planned whole: the geometry is made once
         known: dict = {}
         prepared = prepare(path, machine, feed_override_pct, known)
         slow = slow_blends(path, prepared)
         if slow:  # those corners are faster as exact stops: plan them so
-            path = path_plan(items, machine.path, seg.chord_tolerance_mm, slow, jerk)
+            path = path_plan(items, machine.path, seg.chord_tolerance_mm, slow, jerk, sizing, sized)
             prepared = prepare(path, machine, feed_override_pct, known)
         del known
     elif path.blend_junction and (slow := blends_to_skip(path, machine, feed_override_pct)):
         del path  # made again without those blends: one path held at a time (1.3 KB a move)
-        path = path_plan(items, machine.path, seg.chord_tolerance_mm, slow, jerk)
+        path = path_plan(items, machine.path, seg.chord_tolerance_mm, slow, jerk, sizing, sized)
+    del sized
     solver = RuckigSolver(machine.limits)
     planned = plan_path(path, machine, feed_override_pct, arc_pieces, solver, prepared)
     end = np.array(program[-1].end if program else (0.0, 0.0, 0.0), dtype=float)

@@ -9,7 +9,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from gantry_sim.controller.errors import ConfigError
-from gantry_sim.controller.moves import Move
+from gantry_sim.controller.moves import Move, PathMove
 from gantry_sim.controller.planner.blend import Blend
 from gantry_sim.controller.planner.cubic import PiecewiseCubic
 from gantry_sim.controller.planner.path_control import Merge
@@ -38,7 +38,8 @@ class Plan:
         move_lines: read-only (m,) their program lines.
         end_mm: read-only (3,) the program's end point [mm].
         blends: every corner blended in G64 (line, deviation from the corner, tolerance).
-        path_moves: the moves the reference follows (blend arcs inserted, G64 Q merged).
+        path_moves: the moves the reference follows (blend arcs and transitions inserted, G64 Q
+            merged).
         move_sources: read-only (m, 2) per move of ``move_start_s``, the first and last index
             in ``moves`` it comes from (a dwell: the two moves it lies between; -1 for none):
             which program moves a sample is executing, for the contour error's search.
@@ -58,7 +59,7 @@ class Plan:
     move_lines: np.ndarray = field(repr=False)
     end_mm: np.ndarray = field(repr=False)
     blends: Sequence[Blend] = ()
-    path_moves: Sequence[Move] = ()
+    path_moves: Sequence[PathMove] = ()
     move_sources: np.ndarray = field(repr=False, default_factory=lambda: _no_sources())
     path_sources: np.ndarray = field(repr=False, default_factory=lambda: _no_sources())
     merges: tuple[Merge, ...] = ()

@@ -54,13 +54,18 @@ def write_npz_atomically(path: Path, arrays: dict) -> None:
 
 def deviation_summary(blends: Sequence[Any]) -> dict:
     """The G64 blends (or G64 Q merges): how many, the largest deviation from the programmed
-    corner (the merged-away points) [mm] and its line (null when none)."""
+    path (the merged-away points) [mm] and its line (null when none); for blends also how many
+    are G2 transitions at tangent junctions (``transitions``)."""
     worst = max(blends, key=lambda b: b.deviation_mm, default=None)
-    return {
+    out = {
         "count": len(blends),
         "max_deviation_mm": worst.deviation_mm if worst else 0.0,
         "max_deviation_line": worst.line if worst else None,
     }
+    kinds = [getattr(b, "kind", None) for b in blends]
+    if any(k is not None for k in kinds) or not blends:
+        out["transitions"] = kinds.count("transition")
+    return out
 
 
 def run(args: argparse.Namespace) -> int:
