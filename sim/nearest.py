@@ -35,6 +35,7 @@ from functools import cached_property
 
 import numpy as np
 
+from gantry_sim.controller.quintic_curve import QuinticCurve, nearest_points_on
 from gantry_sim.sim.move_table import MoveTable, move_table
 
 __all__ = [
@@ -214,10 +215,32 @@ def nearest_on_moves(tab: MoveTable, idx: np.ndarray, pts: np.ndarray) -> np.nda
         out[seg] = _nearest_on_segments(tab, idx[seg], pts[seg])
     if arc.size:
         out[arc] = _nearest_on_arcs(tab, idx[arc], pts[arc])
-    for j in np.unique(idx[is_spline]).tolist():
-        mine = np.flatnonzero(idx == j)
-        out[mine] = tab.curves[j].nearest_points(pts[mine])
+    spl = np.flatnonzero(is_spline)
+    if spl.size:
+        _nearest_on_curves(tab, idx[spl], pts[spl], out, spl)
     return out
+
+
+def _nearest_on_curves(
+    tab: MoveTable, idx: np.ndarray, pts: np.ndarray, out: np.ndarray, at: np.ndarray
+) -> None:
+    """``out[at]``: the nearest points on the curve rows ``idx`` of ``tab`` to ``pts``: the G2
+    transitions' all at once (:func:`~gantry_sim.controller.quintic_curve.nearest_points_on`),
+    each spline's points in one call (grouped by one sort, not one scan per spline)."""
+    rows, inverse = np.unique(idx, return_inverse=True)
+    quintic = np.array([isinstance(tab.curves[j], QuinticCurve) for j in rows.tolist()])
+    if quintic.any():
+        packed = np.stack([tab.curves[j].row for j in rows[quintic].tolist()])
+        slot = np.cumsum(quintic) - 1  # row k's place in ``packed`` (where quintic)
+        mine = np.flatnonzero(quintic[inverse])
+        out[at[mine]] = nearest_points_on(packed[slot[inverse[mine]]], pts[mine])
+    if quintic.all():
+        return
+    order = np.argsort(inverse, kind="stable")
+    bounds = np.searchsorted(inverse[order], np.arange(len(rows) + 1))
+    for k in np.flatnonzero(~quintic).tolist():
+        mine = order[bounds[k] : bounds[k + 1]]
+        out[at[mine]] = tab.curves[rows[k]].nearest_points(pts[mine])
 
 
 def nearest_on_move(move, pts: np.ndarray) -> np.ndarray:

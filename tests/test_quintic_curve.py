@@ -15,6 +15,7 @@ from gantry_sim.controller.quintic_curve import (
     derivatives,
     lengths_at,
     nearest_parameters,
+    nearest_points_on,
     power_coefficients,
 )
 
@@ -126,3 +127,18 @@ def test_a_curve_alone_has_the_numbers_of_a_batch():
     together = nearest_parameters(power_coefficients(ctrl), q, np.zeros(3), np.ones(3))
     for c, row, got in zip(batch, q, together, strict=True):
         np.testing.assert_array_equal(c.nearest(row), got)
+
+
+def test_nearest_points_of_many_curves_at_once_are_each_curves_own():
+    rng = np.random.default_rng(7)
+    ctrl = np.cumsum(rng.normal(size=(40, 6, 3)), axis=1)
+    curves = QuinticCurve.batch(ctrl)
+    which = rng.integers(0, 40, size=3000)
+    q = ctrl[which, 0] + rng.normal(scale=3.0, size=(3000, 3))
+    q[:5] = ctrl[which[:5], 0]  # at an end: the end control point exactly
+    rows = np.stack([c.row for c in curves])[which]
+    got = nearest_points_on(rows, q)
+    for j in range(40):
+        mine = np.flatnonzero(which == j)
+        assert np.array_equal(got[mine], curves[j].nearest_points(q[mine]))
+    assert np.array_equal(got[:5], ctrl[which[:5], 0])
