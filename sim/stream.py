@@ -29,6 +29,7 @@ from dataclasses import dataclass, replace
 import numpy as np
 
 from gantry_sim.controller.config import MachineConfig
+from gantry_sim.controller.heap import trim_heap
 from gantry_sim.controller.moves import Move
 from gantry_sim.controller.planner.result import Plan
 from gantry_sim.controller.trajectory import Trajectory
@@ -54,6 +55,8 @@ from gantry_sim.sim.trace import Trace
 STREAM_TICKS = 65536
 #: ticks kept at full rate in the decimated trace at most (about; plus each range's worst)
 DECIMATED_TICKS = 200_000
+#: Ranges between two trims of the C heap (controller/heap.py; the first after the first range).
+TRIM_RANGES = 32
 
 #: ``on_range(lo, piece, pos, force, analysis)``: one range's full-rate arrays
 OnRange = Callable[[int, Trajectory, np.ndarray, np.ndarray, ChunkAnalysis], object]
@@ -146,6 +149,8 @@ def stream_run(
             analyser.submit(job, rows.tables(piece, ctx.pos, lo - c0, pos))
             take(analyser.ready())
             lo += pos.shape[0]
+            if lo // range_ticks % TRIM_RANGES == 1:
+                trim_heap()  # the ranges' freed buffers, and the set-up's, back to the system
             t0 = time.perf_counter()
             ana_s += t0 - t1
         t1 = time.perf_counter()
