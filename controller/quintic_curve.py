@@ -250,9 +250,9 @@ NEAREST_BATCH = 8192
 
 def nearest_points_on(rows: np.ndarray, q: np.ndarray) -> np.ndarray:
     """Nearest points (n, 3) [mm] to ``q`` (n, 3) [mm], point i on the whole curve of packed
-    row ``rows[i]`` ((n, :data:`ROW`), :meth:`QuinticCurve.rows`): each point's numbers are
-    :meth:`QuinticCurve.nearest_points`' bit for bit (element-wise operations only), for
-    points of many curves in a few numpy calls instead of one call per curve."""
+    row ``rows[i]`` ((n, :data:`ROW`), :meth:`QuinticCurve.rows`), from
+    :data:`POINT_SEED_SAMPLES` seeds: the points of many curves in a few numpy calls, each
+    point's numbers its own (element-wise operations only), whatever the batch."""
     rows = np.asarray(rows, dtype=float).reshape(-1, ROW)
     q = np.asarray(q, dtype=float).reshape(-1, 3)
     out = np.empty_like(q)
@@ -432,5 +432,7 @@ class QuinticCurve:
         return nearest_parameters(self.coef[None], q, lo, hi, seeds)[0]
 
     def nearest_points(self, q: np.ndarray) -> np.ndarray:
-        """Nearest points (k, 3) [mm] on the whole curve to ``q`` (k, 3) [mm]."""
-        return self.points(self.nearest(q, seeds=POINT_SEED_SAMPLES))
+        """Nearest points (k, 3) [mm] on the whole curve to ``q`` (k, 3) [mm]
+        (:func:`nearest_points_on`)."""
+        q = np.asarray(q, dtype=float).reshape(-1, 3)
+        return nearest_points_on(np.broadcast_to(self.row, (len(q), ROW)), q)
