@@ -56,15 +56,20 @@ def deviation_summary(blends: Sequence[Any]) -> dict:
     """The G64 blends (or G64 Q merges): how many, the largest deviation from the programmed
     path (the merged-away points) [mm] and its line (null when none); for blends also how many
     are G2 transitions at tangent junctions (``transitions``)."""
-    worst = max(blends, key=lambda b: b.deviation_mm, default=None)
+    worst = None
+    kinds: dict[str | None, int] = {}
+    for b in blends:  # one pass: a long program's blends are read from disk
+        if worst is None or b.deviation_mm > worst.deviation_mm:
+            worst = b
+        kind = getattr(b, "kind", None)
+        kinds[kind] = kinds.get(kind, 0) + 1
     out = {
         "count": len(blends),
         "max_deviation_mm": worst.deviation_mm if worst else 0.0,
         "max_deviation_line": worst.line if worst else None,
     }
-    kinds = [getattr(b, "kind", None) for b in blends]
-    if any(k is not None for k in kinds) or not blends:
-        out["transitions"] = kinds.count("transition")
+    if set(kinds) != {None}:  # blends (which have kinds), or none at all
+        out["transitions"] = kinds.get("transition", 0)
     return out
 
 
