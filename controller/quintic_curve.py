@@ -87,14 +87,19 @@ def derivative_coefficients(coef: np.ndarray, order: int) -> np.ndarray:
 def evaluate(c: np.ndarray, t: np.ndarray) -> np.ndarray:
     """The polynomials with power coefficients ``c`` (..., d, 3) at ``t`` (..., k) -> (..., k, 3)
     (Horner's rule, element-wise)."""
-    x = np.asarray(t, dtype=float)[..., None]
+    x = np.asarray(t, dtype=float)[..., None, :]  # (..., 1, k)
     d = c.shape[-2]
     if d == 1:
-        return np.broadcast_to(c[..., 0:1, :], (*x.shape[:-1], 3)).copy()
-    y = c[..., d - 1 : d, :] * x
+        return np.broadcast_to(c[..., 0:1, :], (*x.shape[:-2], x.shape[-1], 3)).copy()
+    # the axes' rows (..., 3, k) in place, each a run of k numbers (5-8 x faster than rows of
+    # three points); the same operations in the same order
+    ct = np.swapaxes(c, -1, -2)
+    y = ct[..., d - 1 : d] * x
     for j in range(d - 2, 0, -1):
-        y = (y + c[..., j : j + 1, :]) * x
-    return y + c[..., 0:1, :]
+        y += ct[..., j : j + 1]
+        y *= x
+    y += ct[..., 0:1]
+    return np.ascontiguousarray(np.swapaxes(y, -1, -2))
 
 
 def derivatives(coef: np.ndarray, t: np.ndarray, order: int) -> list[np.ndarray]:

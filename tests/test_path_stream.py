@@ -132,3 +132,41 @@ def test_transitions_made_in_stretches_are_the_transitions_made_whole(stretch, m
         assert list(b.smoothing_mm) == list(whole.smoothing_mm)
         assert list(b.sources) == list(whole.sources) and list(b.blends) == list(whole.blends)
         assert b.stop_after == whole.stop_after and b.holds == whole.holds
+
+
+@pytest.mark.parametrize("workers", [2, 3])
+def test_stretches_blended_in_forked_waves_are_the_path_made_whole(workers, monkeypatch):
+    """Past the transitions kept for a path made again, stretches are blended a wave at a time,
+    one per process: the same path as one process makes, move for move."""
+    from gantry_sim.controller.planner import path_stream
+    from gantry_sim.controller.planner.transition import TransitionMachine
+
+    machine = load_machine_config(DEFAULT_MACHINE)
+    sizing = TransitionMachine(machine.limits, machine.segmentation)
+    tol = machine.segmentation.chord_tolerance_mm
+    jerk = float(min(machine.limits.max_jerk_mm_per_s3))
+    real, waves = path_stream.fork_map, []
+
+    def spy(fn, parts):  # type: ignore[no-untyped-def]
+        waves.append(len(parts))
+        return real(fn, parts)
+
+    for text in (_program(), _tangent_chain()):
+        items = tuple(interpret_events(text))
+        whole = path_plan(items, machine.path, tol, frozenset(), jerk, sizing, stretch_moves=10**6)
+        skip = frozenset(list(whole.blend_junction.values())[::4])
+        for s in (frozenset(), skip):
+            monkeypatch.setenv("GANTRY_PLAN_WORKERS", "1")
+            one = path_plan(items, machine.path, tol, s, jerk, sizing, stretch_moves=10**6)
+            monkeypatch.setenv("GANTRY_PLAN_WORKERS", str(workers))
+            monkeypatch.setattr(path_stream, "fork_map", spy)
+            waves.clear()
+            many = path_plan(items, machine.path, tol, s, jerk, sizing, stretch_moves=5)
+            monkeypatch.setattr(path_stream, "fork_map", real)
+            assert max(waves) == workers  # stretches went to children
+            assert list(many.moves) == list(one.moves)
+            assert many.stop_after == one.stop_after and many.holds == one.holds
+            assert list(many.smoothing_mm) == list(one.smoothing_mm)
+            assert list(many.sources) == list(one.sources)
+            assert many.blend_junction == one.blend_junction
+            assert list(many.blends) == list(one.blends) and list(many.merges) == list(one.merges)

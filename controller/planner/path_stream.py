@@ -25,6 +25,7 @@ from array import array
 from collections.abc import Iterable, Iterator
 
 from gantry_sim.controller.config import PathSettings
+from gantry_sim.controller.forked import fork_map, process_count
 from gantry_sim.controller.moves import (
     Arc,
     Dwell,
@@ -36,7 +37,13 @@ from gantry_sim.controller.moves import (
     Spline,
     Stop,
 )
-from gantry_sim.controller.planner.blend import Blend, PathPlan, blend_corners, smoothing_budget
+from gantry_sim.controller.planner.blend import (
+    Blend,
+    Blended,
+    PathPlan,
+    blend_corners,
+    smoothing_budget,
+)
 from gantry_sim.controller.planner.path_control import (
     EPS_MM,
     Merge,
@@ -87,15 +94,21 @@ def path_plan(
     trailing: list[Dwell] = []
     buffer: list[PathEntry] = []  # merged moves first .. first + len(buffer) - 1
     first = core = 0  # core: the first merged move not yet blended
+    spans: list[tuple[int, int]] = []  # stretches waiting for their wave
     for entry in merge_runs(_entries(items, settings, trailing), settings, merges):
         buffer.append(entry)
         if first + len(buffer) >= core + stretch_moves + CONTEXT_MOVES:
-            stretch.blend(buffer, first, core, core + stretch_moves)
+            spans.append((core, core + stretch_moves))
             core += stretch_moves
-            drop = max(0, core - CONTEXT_MOVES - first)
-            del buffer[:drop]
-            first += drop
-    stretch.blend(buffer, first, core, first + len(buffer))
+            if len(spans) >= stretch.wave():
+                stretch.blend(buffer, first, spans)
+                spans = []
+                drop = max(0, core - CONTEXT_MOVES - first)
+                del buffer[:drop]
+                first += drop
+    if core < first + len(buffer):
+        spans.append((core, first + len(buffer)))
+    stretch.blend(buffer, first, spans)
     if trailing:  # dwells after the last move
         out.holds[len(out.moves)] = trailing
     out.merges = merges
@@ -155,20 +168,36 @@ class _Stretcher:
             moves=self.moves, blends=self.blends, smoothing_mm=self.smoothing, sources=self.sources
         )
 
-    def blend(self, buffer: list[PathEntry], first: int, lo: int, hi: int) -> None:
-        """Blend merged moves ``lo`` .. ``hi - 1`` (``buffer``: merged moves ``first`` on, with
-        the context either side) and append what they become to the path."""
-        n = len(buffer)
+    def wave(self) -> int:
+        """Stretches blended at once: one per process (:func:`~gantry_sim.controller.forked.
+        process_count`) once no transitions are kept for a path made again (a child's would be
+        lost), else one."""
+        return 1 if self.sized is not None else process_count()
+
+    def blend(self, buffer: list[PathEntry], first: int, spans: list[tuple[int, int]]) -> None:
+        """Blend the stretches ``spans`` ((lo, hi): merged moves lo .. hi - 1; ``buffer``:
+        merged moves ``first`` on, with the context either side), each but the first in a
+        forked child (:func:`~gantry_sim.controller.forked.fork_map`), and append what they
+        become to the path, in order."""
+        for made in fork_map(lambda span: self._blended(buffer, first, *span), spans):
+            self._append(made)
+
+    def _blended(self, buffer: list[PathEntry], first: int, lo: int, hi: int) -> list[Blended]:
+        """What merged moves ``lo`` .. ``hi - 1`` become, blended with the
+        :data:`CONTEXT_MOVES` moves of ``buffer`` either side of them."""
+        a = max(first, lo - CONTEXT_MOVES)
+        part = buffer[a - first : min(len(buffer), hi + CONTEXT_MOVES - first)]
+        n = len(part)
         local = PathPlan(
-            moves=[e.move for e in buffer],
-            stop_after=[e.stop_after for e in buffer],
-            holds={k: e.holds for k, e in enumerate(buffer) if e.holds},
+            moves=[e.move for e in part],
+            stop_after=[e.stop_after for e in part],
+            holds={k: e.holds for k, e in enumerate(part) if e.holds},
             smoothing_mm=[
-                smoothing_budget(e.move, self.settings, self.chord_tolerance_mm) for e in buffer
+                smoothing_budget(e.move, self.settings, self.chord_tolerance_mm) for e in part
             ],
-            sources=[e.source for e in buffer],
+            sources=[e.source for e in part],
         )
-        skip = frozenset(j - first for j in self.skip if first < j < first + n)
+        skip = frozenset(j - a for j in self.skip if a < j < a + n)
         made = blend_corners(
             local,
             self.settings,
@@ -177,18 +206,24 @@ class _Stretcher:
             self.jerk_mm_per_s3,
             self.machine,
             self.sized,
-            first,
+            a,
         )
+        mine = made[lo - a : hi - a]
+        for b in mine:  # junctions counted in the whole path
+            b.blend_at = [None if at is None else at + a for at in b.blend_at]
+        return mine
+
+    def _append(self, made: list[Blended]) -> None:
+        """Append blended merged moves (``made``, in order) to the path."""
         out = self.out
-        for k in range(lo - first, hi - first):
-            b = made[k]
+        for b in made:
             if b.holds:
                 out.holds[len(self.moves)] = b.holds
             for m, stop, e, src, at in zip(
                 b.moves, b.stops, b.smoothing, b.sources, b.blend_at, strict=True
             ):
                 if at is not None:
-                    out.blend_junction[len(self.moves)] = at + first
+                    out.blend_junction[len(self.moves)] = at
                 self.moves.append(m)
                 out.stop_after.append(stop)
                 self.smoothing.append(e)
