@@ -285,6 +285,25 @@ ROW = 28 + CELLS
 BERNSTEIN = np.linalg.inv(POWER)
 
 
+def row_coefficients(rows: np.ndarray) -> np.ndarray:
+    """The power coefficients (m, 6, 3) of the curves of packed rows ``rows`` (m, :data:`ROW`)
+    (a view)."""
+    return rows[:, _COEF].reshape(rows.shape[0], 6, 3)
+
+
+def points_on_rows(rows: np.ndarray, t: np.ndarray) -> np.ndarray:
+    """C(t) (m, k, 3) [mm] of the curves of packed rows ``rows`` (m, :data:`ROW`) at their
+    parameters ``t`` (m, k): :meth:`QuinticCurve.points` of each, at once (element-wise: the
+    same numbers; t = 0 and 1 give the end points exactly)."""
+    t = np.asarray(t, dtype=float)
+    pts = evaluate(row_coefficients(rows), t)
+    ends = rows[:, _ENDS].reshape(rows.shape[0], 2, 1, 3)
+    for end, at in ((0, t <= 0.0), (1, t >= 1.0)):
+        if at.any():
+            pts[at] = np.broadcast_to(ends[:, end], pts.shape)[at]
+    return pts
+
+
 def end_frames(coef: np.ndarray) -> np.ndarray:
     """(T_start, k_start, T_end, k_end) (m, 4, 3) of the curves ``coef`` (m, 6, 3): unit
     tangents and curvature vectors [1/mm] at their ends."""

@@ -24,7 +24,7 @@ from typing import NamedTuple
 
 import numpy as np
 
-from gantry_sim.controller.arcs import frenet
+from gantry_sim.controller.arcs import frenet_many
 from gantry_sim.controller.config import Limits
 from gantry_sim.controller.moves import Arc, Rapid, Transition
 from gantry_sim.controller.planes import Vec3
@@ -150,12 +150,16 @@ def junction_caps(
     ]
     jerk = float(min(limits.max_jerk_mm_per_s3))
     dev = JUNCTION_DEVIATION_SHARE * chord_tolerance_mm
+    # every junction's kink and curvature jump at once (np.vecdot sums as np.dot does: the
+    # numbers of the junction-by-junction form)
+    t_out = np.array([g.tangent_out for g in geoms[:-1]], dtype=float).reshape(-1, 3)
+    t_in = np.array([g.tangent_in for g in geoms[1:]], dtype=float).reshape(-1, 3)
+    kinks = [math.acos(c) for c in np.clip(np.vecdot(t_out, t_in), -1.0, 1.0).tolist()]
     for b in range(1, n):
         g0, g1 = geoms[b - 1], geoms[b]
         if isinstance(g0.move, Rapid) or isinstance(g1.move, Rapid):
             continue
-        cos_k = float(np.clip(np.dot(g0.tangent_out, g1.tangent_in), -1.0, 1.0))
-        kink = math.acos(cos_k)
+        kink = kinks[b - 1]
         if not (g0.is_arc or g1.is_arc):
             if kink <= COLLINEAR_ANGLE_RAD:
                 caps[b] = math.inf
@@ -169,17 +173,23 @@ def junction_caps(
         else:
             straight = g1 if g0.is_arc else g0
             states[b] = JunctionState(straight.tangent_in, zero)
-        jump = float(np.linalg.norm(g0.curv_out - g1.curv_in))
+        jump = _norm(g0.curv_out - g1.curv_in)
         if g0.is_arc and g1.is_arc:  # the junction state takes the mean: each side smooths half
             jump *= 0.5
-        chords = [np.linalg.norm(g0.vertices[-1] - g0.vertices[-2])] if g0.is_arc else []
-        chords += [np.linalg.norm(g1.vertices[1] - g1.vertices[0])] if g1.is_arc else []
+        chords = [_norm(g0.vertices[-1] - g0.vertices[-2])] if g0.is_arc else []
+        chords += [_norm(g1.vertices[1] - g1.vertices[0])] if g1.is_arc else []
         own = [smoothing_mm[i] for i in (b - 1, b)] if smoothing_mm else []
         if own and min(own) > dev:  # both sides in G64: its tolerance is the budget
-            caps[b] = junction_cap(kink, jump, min(own), jerk, float(min(chords)), CHORD_FIT_BLEND)
+            caps[b] = junction_cap(kink, jump, min(own), jerk, min(chords), CHORD_FIT_BLEND)
         else:
-            caps[b] = junction_cap(kink, jump, dev, jerk, float(min(chords)))
+            caps[b] = junction_cap(kink, jump, dev, jerk, min(chords))
     return caps, states
+
+
+def _norm(v: np.ndarray) -> float:
+    """|v| of a (3,) vector, as np.linalg.norm gives it (the square root of its np.dot with
+    itself), at a fraction of the call's cost."""
+    return math.sqrt(float(np.dot(v, v)))
 
 
 def _piece_ok(
@@ -316,4 +326,5 @@ def _side_frames(sides: list[tuple[int, ArcGeometry, str]]) -> list[tuple[np.nda
     for i, (_, g, _) in enumerate(sides):
         if not isinstance(g.move, Arc | Transition):
             d1[i : i + 1], d2[i : i + 1] = g.derivatives(us[i])
-    return [frenet(d1[i], d2[i]) for i in range(len(sides))]
+    t, k = frenet_many(d1, d2)
+    return list(zip(t, k, strict=True))

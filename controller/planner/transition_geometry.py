@@ -28,6 +28,7 @@ from gantry_sim.controller.errors import ConfigError
 from gantry_sim.controller.moves import Transition
 from gantry_sim.controller.quintic_curve import (
     CELLS,
+    ROW,
     WINDOW_SEED_SAMPLES,
     derivative_coefficients,
     end_frames,
@@ -35,6 +36,8 @@ from gantry_sim.controller.quintic_curve import (
     lengths_at,
     nearest_parameters,
     parameters_at,
+    points_on_rows,
+    row_coefficients,
 )
 
 #: Largest turn of one chord [rad] (as segment.MAX_CHORD_SWEEP_RAD on arcs).
@@ -84,7 +87,8 @@ def transition_deviation_many(
     spread in time between the two), each point's search starts where its share of the
     piece puts it, instead of from samples."""
     hint, half = np.array(t_hint, dtype=float), np.array(window, dtype=float)
-    coef = np.array([m.curve.coef for m in moves], dtype=float).reshape(len(moves), 6, 3)
+    rows = np.array([m.curve.row for m in moves], dtype=float).reshape(len(moves), ROW)
+    coef = row_coefficients(rows)
     if t_next is None:
         lo, hi = np.maximum(hint - half, 0.0), np.minimum(hint + half, 1.0)
         t = nearest_parameters(coef, q, lo, hi, WINDOW_SEED_SAMPLES)
@@ -95,8 +99,7 @@ def transition_deviation_many(
         share = np.linspace(0.0, 1.0, q.shape[1])
         start = hint[:, None] + (nxt - hint)[:, None] * share[None, :]
         t = nearest_parameters(coef, q, lo, hi, t_start=start)
-    near = np.stack([m.curve.points(ti) for m, ti in zip(moves, t, strict=True)])
-    off = near - q
+    off = points_on_rows(rows, t) - q
     return np.sqrt((off * off).sum(axis=2)).max(axis=1)
 
 
