@@ -37,9 +37,17 @@ import warnings
 from collections.abc import Callable, Iterator, Sequence
 from contextlib import contextmanager
 from contextvars import ContextVar
-from typing import Any, TypeVar
+from typing import Any, Generic, TypeVar
 
-__all__ = ["MAX_PROCESSES", "MAX_RUNS", "fork_map", "fork_runs", "one_process", "process_count"]
+__all__ = [
+    "MAX_PROCESSES",
+    "MAX_RUNS",
+    "Background",
+    "fork_map",
+    "fork_runs",
+    "one_process",
+    "process_count",
+]
 
 T = TypeVar("T")
 R = TypeVar("R")
@@ -89,6 +97,35 @@ def fork_map(fn: Callable[[T], R], parts: Sequence[T]) -> list[R]:
         for pid, fd in pending:  # the parent failed: stop and reap the children still there
             _end(pid, fd)
     return out
+
+
+class Background(Generic[R]):
+    """``fn()`` computed in a forked child while this process goes on (see the module
+    docstring); :meth:`result` waits for it, or computes it here when the child failed, or
+    when :func:`process_count` is 1 (then nothing is forked: it is computed when asked for).
+    :meth:`close` stops a child whose result is no longer wanted."""
+
+    def __init__(self, fn: Callable[[], R]) -> None:
+        self._fn = fn
+        self._child = _start(_call, fn) if process_count() > 1 else None
+        self._result: tuple[R] | None = None
+
+    def result(self) -> R:
+        """The result (waiting for the child)."""
+        if self._result is None:
+            child, self._child = self._child, None
+            self._result = (self._fn() if child is None else _collect(_call, self._fn, child),)
+        return self._result[0]
+
+    def close(self) -> None:
+        """Stop and reap the child if its result was not taken."""
+        if self._child is not None:
+            child, self._child = self._child, None
+            _end(*child)
+
+
+def _call(fn: Callable[[], R]) -> R:
+    return fn()
 
 
 #: Bytes a child's result pipe holds, where the system allows (Linux: fs.pipe-max-size, 1 MiB

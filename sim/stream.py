@@ -21,6 +21,7 @@ tests/test_stream.py runs both.
 
 from __future__ import annotations
 
+import functools
 import time
 from collections import deque
 from collections.abc import Callable, Iterator, Sequence
@@ -29,6 +30,7 @@ from dataclasses import dataclass, replace
 import numpy as np
 
 from gantry_sim.controller.config import MachineConfig
+from gantry_sim.controller.forked import Background
 from gantry_sim.controller.heap import trim_heap
 from gantry_sim.controller.moves import Move
 from gantry_sim.controller.planner.result import Plan
@@ -120,7 +122,6 @@ def stream_run(
             yield ctx.slice(lo - c0, hi - c0)
 
     tally = ErrorTally(index, spill=True)  # the whole-run figures, in bounded memory
-    chord_um = chord_max_um(moves, planned.vertices)
     run = _Running(stride, limit)
     sim_s = ana_s = 0.0
     start = planned.sample_range(period, 0, 1).pos[0]
@@ -137,27 +138,35 @@ def stream_run(
     # the analysis lays out: no table of the whole program is made (28 MB each at 100,000
     # blocks: the program's, and the path's for the blend/planning split)
     rows = RowPicker(moves, planned.path_moves or moves, index, known_path_sources(planned))
-    analyser = make_analyser()
+    # the chords' largest error from their curves: a second of work at 10,000 arcs that needs
+    # nothing from the simulation, done meanwhile by a forked child (forked before the analysis
+    # worker starts: it holds none of the worker's pipes)
+    chord = Background(functools.partial(chord_max_um, moves, planned.vertices))
     try:
-        t0 = time.perf_counter()
-        for pos, force in simulate_pieces(gantry, machine, pieces(), start, on_ticks):
-            t1 = time.perf_counter()
-            sim_s += t1 - t0
-            c0, ctx = contexts.popleft()
-            piece = ctx.slice(lo - c0, lo - c0 + pos.shape[0])
-            job = RangeJob(lo, piece, ctx.pos, lo - c0, pos, force)
-            analyser.submit(job, rows.tables(piece, ctx.pos, lo - c0, pos))
-            take(analyser.ready())
-            lo += pos.shape[0]
-            if lo // range_ticks % TRIM_RANGES == 1:
-                trim_heap()  # the ranges' freed buffers, and the set-up's, back to the system
+        analyser = make_analyser()
+        try:
             t0 = time.perf_counter()
-            ana_s += t0 - t1
-        t1 = time.perf_counter()
-        take(analyser.ready(drain=True))
-        contour, blocks = tally_figures(tally)
+            for pos, force in simulate_pieces(gantry, machine, pieces(), start, on_ticks):
+                t1 = time.perf_counter()
+                sim_s += t1 - t0
+                c0, ctx = contexts.popleft()
+                piece = ctx.slice(lo - c0, lo - c0 + pos.shape[0])
+                job = RangeJob(lo, piece, ctx.pos, lo - c0, pos, force)
+                analyser.submit(job, rows.tables(piece, ctx.pos, lo - c0, pos))
+                take(analyser.ready())
+                lo += pos.shape[0]
+                if lo // range_ticks % TRIM_RANGES == 1:
+                    trim_heap()  # the ranges' freed buffers, and the set-up's, back to the system
+                t0 = time.perf_counter()
+                ana_s += t0 - t1
+            t1 = time.perf_counter()
+            take(analyser.ready(drain=True))
+            contour, blocks = tally_figures(tally)
+            chord_um = chord.result()
+        finally:
+            analyser.close()
     finally:
-        analyser.close()
+        chord.close()
         tally.values.close()
     parts = ErrorParts(chord_um, run.reference_max, run.tracking_max)
     empty = np.zeros(0)

@@ -13,7 +13,13 @@ import pytest
 import gantry_sim.controller.planner.chain_plan as chain_plan
 from gantry_sim.controller import forked
 from gantry_sim.controller.config import load_machine_config
-from gantry_sim.controller.forked import fork_map, fork_runs, one_process, process_count
+from gantry_sim.controller.forked import (
+    Background,
+    fork_map,
+    fork_runs,
+    one_process,
+    process_count,
+)
 from gantry_sim.controller.gcode.interpreter import parse_program
 from gantry_sim.controller.planner import plan
 from gantry_sim.models import DEFAULT_MACHINE
@@ -85,6 +91,50 @@ def test_a_failing_parent_part_leaves_no_child_behind() -> None:
 
     with pytest.raises(KeyError):
         fork_map(fn, [0, 1, 2])
+
+
+@linux
+def test_background_work_runs_in_a_child_while_this_process_goes_on(monkeypatch) -> None:
+    monkeypatch.setenv("GANTRY_PLAN_WORKERS", "2")
+    started = time.perf_counter()
+    job = Background(lambda: (time.sleep(0.3), os.getpid())[1])
+    assert time.perf_counter() - started < 0.25  # not waited for here
+    assert job.result() not in (os.getpid(), None)
+    assert job.result() == job.result()  # taken once, kept
+
+
+@linux
+def test_background_work_whose_child_dies_or_fails_is_done_here(monkeypatch) -> None:
+    monkeypatch.setenv("GANTRY_PLAN_WORKERS", "2")
+    parent = os.getpid()
+
+    def dies() -> int:
+        if os.getpid() != parent:
+            os._exit(7)
+        return 42
+
+    assert Background(dies).result() == 42
+
+    def fails() -> int:
+        raise ValueError(f"wrong in {'a child' if os.getpid() != parent else 'the parent'}")
+
+    with pytest.raises(ValueError, match="wrong in the parent"):  # the parent's own exception
+        Background(fails).result()
+
+
+@linux
+def test_background_work_not_taken_is_stopped_and_one_process_forks_nothing(monkeypatch) -> None:
+    monkeypatch.setenv("GANTRY_PLAN_WORKERS", "2")
+    job = Background(lambda: time.sleep(30))
+    assert len(_children()) >= 1
+    started = time.perf_counter()
+    job.close()  # killed and reaped (the autouse fixture checks no child is left)
+    assert time.perf_counter() - started < 5
+    monkeypatch.setenv("GANTRY_PLAN_WORKERS", "1")
+    calls: list[int] = []
+    job = Background(lambda: calls.append(os.getpid()) or len(calls))
+    assert calls == []  # computed when asked for, here
+    assert job.result() == 1 and calls == [os.getpid()]
 
 
 def _slow_square_and_pid(x: int) -> tuple[int, int]:
