@@ -47,9 +47,13 @@ def _closest_in_window(
     """Per point, the distance [mm] and nearest point on moves lo..hi (the first one on a tie;
     inf and the point itself when no distance is finite).
 
-    The move ``first`` (one of the window's) is measured first; another move of the window is
-    measured only where its box is not farther than that: a move it skips is strictly farther
-    than the best, so the result is that of measuring every move of the window.
+    One move of the window is measured first: the one whose box is nearest (``first``, one of
+    the window's, where its box is among the nearest; else the first such): a point inside
+    its own move's box measures that move first, wherever it lies in the window (a reference
+    point on an arc measures the arc, not the transition the window starts with). Another
+    move of the window is measured only where its box is not farther than that move: a move
+    it skips is strictly farther than the best, so the result is that of measuring every
+    move of the window.
     """
     counts = hi - lo + 1
     starts = np.concatenate([[0], np.cumsum(counts)[:-1]])
@@ -57,12 +61,13 @@ def _closest_in_window(
     move = lo[owner] + np.arange(int(counts.sum())) - starts[owner]
     dist = np.full(len(move), np.inf)
     near = np.empty((len(move), 3))
-    primary = starts + (first - lo)
-    rest = np.flatnonzero(move != first[owner])
+    box = box_distance(tab, move, pts[owner])
+    primary = _nearest_box(box, owner, starts, starts + (first - lo))
+    rest = np.flatnonzero(np.arange(len(move)) != primary[owner])
     for sel in (primary, None):
         if sel is None:
             bound = dist[primary][owner[rest]]
-            sel = rest[box_distance(tab, move[rest], pts[owner[rest]]) <= bound]
+            sel = rest[box[rest] <= bound]
         q = nearest_on_moves(tab, move[sel], pts[owner[sel]])
         d = np.linalg.norm(q - pts[owner[sel]], axis=1)
         dist[sel] = np.where(np.isnan(d), np.inf, d)
@@ -73,6 +78,20 @@ def _closest_in_window(
     nearest = np.array(pts, dtype=float, copy=True)
     nearest[owner[winner]] = near[winner]
     return best, nearest
+
+
+def _nearest_box(
+    box: np.ndarray, owner: np.ndarray, starts: np.ndarray, preferred: np.ndarray
+) -> np.ndarray:
+    """Per point (segment ``starts`` of ``box``, the box distances of its window's moves;
+    ``owner``: the point of each entry), the entry with the nearest box: ``preferred`` where
+    its box is among the nearest, else the first of them (a NaN box counts as infinitely
+    far)."""
+    key = np.where(np.isnan(box), np.inf, box)
+    low = key == np.minimum.reduceat(key, starts)[owner]
+    hit = np.flatnonzero(low)
+    first_low = hit[np.concatenate([[True], owner[hit][1:] != owner[hit][:-1]])]
+    return np.where(low[preferred], preferred, first_low)
 
 
 def _walk_out(tab, own, step, reach, pts, best, nearest) -> None:
