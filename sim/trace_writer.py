@@ -4,7 +4,9 @@ A streamed run (sim/stream.py) hands each range's full-rate arrays to :class:`Tr
 background thread appends them to one deflated member per array (sim.deflate_zip.DeflatedMember,
 the ``.npy`` header first, written for the run's known length; its bytes in an anonymous
 temporary file, gone with the process however it ends): zlib and the file writes release the
-GIL, so the deflating runs on a free core while the servo loop steps MuJoCo.
+GIL, so the deflating runs on a free core while the servo loop steps MuJoCo; the thread runs at
+background priority (controller.forked.lower_priority), so where no core is free the loop
+keeps its own.
 :meth:`TraceWriter.finish` ends the streams when the run ends; :meth:`TraceWriter.save` writes
 the zip around the deflated bytes (no second compression pass), straight into the output
 folder's staging (sim.report.write_outputs), so the trace is written to disk once as deflated
@@ -22,6 +24,7 @@ from typing import Any
 
 import numpy as np
 
+from gantry_sim.controller.forked import lower_priority
 from gantry_sim.controller.trajectory import Trajectory
 from gantry_sim.sim.contour import ChunkAnalysis
 from gantry_sim.sim.deflate_zip import DeflatedMember, write_zip
@@ -75,6 +78,7 @@ class TraceWriter:
         self.written += pos.shape[0]
 
     def _deflate(self) -> None:
+        lower_priority()  # the servo loop's core comes first: it waits for nothing here
         while (rows := self._queue.get()) is not None:
             if self._failed is not None:
                 continue  # drain: the run hears of it at its next range

@@ -14,9 +14,11 @@ import gantry_sim.controller.planner.chain_plan as chain_plan
 from gantry_sim.controller import forked
 from gantry_sim.controller.config import load_machine_config
 from gantry_sim.controller.forked import (
+    BACKGROUND_NICE,
     Background,
     fork_map,
     fork_runs,
+    lower_priority,
     one_process,
     process_count,
 )
@@ -135,6 +137,34 @@ def test_background_work_not_taken_is_stopped_and_one_process_forks_nothing(monk
     job = Background(lambda: calls.append(os.getpid()) or len(calls))
     assert calls == []  # computed when asked for, here
     assert job.result() == 1 and calls == [os.getpid()]
+
+
+@linux
+def test_background_work_yields_the_core_and_this_process_keeps_its_priority(monkeypatch) -> None:
+    import threading
+
+    monkeypatch.setenv("GANTRY_PLAN_WORKERS", "2")
+    mine = os.getpriority(os.PRIO_PROCESS, 0)
+    child = Background(lambda: os.getpriority(os.PRIO_PROCESS, 0)).result()
+    assert child >= BACKGROUND_NICE and child >= mine
+    parent = os.getpid()
+
+    def redone_here() -> int:
+        if os.getpid() != parent:
+            os._exit(3)
+        return os.getpriority(os.PRIO_PROCESS, 0)
+
+    assert Background(redone_here).result() == mine  # the parent's own priority, untouched
+    seen: list[int] = []
+
+    def in_thread() -> None:
+        lower_priority()
+        seen.append(os.getpriority(os.PRIO_PROCESS, 0))
+
+    t = threading.Thread(target=in_thread)
+    t.start()
+    t.join()
+    assert seen[0] >= BACKGROUND_NICE and os.getpriority(os.PRIO_PROCESS, 0) == mine
 
 
 def _slow_square_and_pid(x: int) -> tuple[int, int]:

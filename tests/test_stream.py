@@ -4,6 +4,8 @@ from __future__ import annotations
 
 import math
 import os
+import sys
+import time
 
 import numpy as np
 import pytest
@@ -378,3 +380,23 @@ def test_a_range_crosses_to_the_worker_with_the_moves_it_reaches():
         assert a.dtype == b.dtype and np.array_equal(a, b)
         assert b.flags.writeable or not a.flags.writeable
     assert max(sizes) < 20_000 and ref.nbytes > 40_000
+
+
+@pytest.mark.skipif(not sys.platform.startswith("linux"), reason="per-thread nice: Linux")
+def test_the_trace_is_deflated_at_background_priority():
+    """The deflating thread yields the core to the servo loop (controller.forked
+    .lower_priority); the loop's own thread keeps its priority."""
+    from gantry_sim.controller.forked import BACKGROUND_NICE
+    from gantry_sim.sim.trace_writer import TraceWriter
+
+    mine = os.getpriority(os.PRIO_PROCESS, 0)
+    writer = TraceWriter(0)
+    try:
+        tid = writer._thread.native_id
+        deadline = time.monotonic() + 10
+        while os.getpriority(os.PRIO_PROCESS, tid) < BACKGROUND_NICE:
+            assert time.monotonic() < deadline, "the deflating thread kept its priority"
+            time.sleep(0.01)
+        assert os.getpriority(os.PRIO_PROCESS, 0) == mine
+    finally:
+        writer.close()
