@@ -154,6 +154,7 @@ def run_program(
         check_lower_bound(items, machine, budget or Budget(), file, feed_override_pct)
         with stage("plan", len(items), "move", shown, known_size=False):
             planned = plan(items, machine, feed_override_pct=feed_override_pct)
+        del items, text  # the moves are on disk now (``moves``); the run needs neither
         check_budget(planned, machine, budget or Budget(), file)
         if planned.sample_count(machine.servo.period_s) > STREAM_ABOVE_TICKS:
             return _streamed(
