@@ -31,6 +31,7 @@ element-wise operations only: a curve's numbers do not depend on the batch it is
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from math import comb
 
 import numpy as np
@@ -283,6 +284,17 @@ _BOUNDS = slice(25 + CELLS, 28 + CELLS)
 ROW = 28 + CELLS
 #: Power to Bernstein basis (POWER's inverse): the control points of power coefficients.
 BERNSTEIN = np.linalg.inv(POWER)
+
+
+def packed_rows(packed: Sequence[bytes]) -> np.ndarray:
+    """The rows (m, :data:`ROW`) of curves kept as their rows' bytes (``Transition.row``), in
+    one array (the same numbers :meth:`QuinticCurve.from_row` reads)."""
+    return np.frombuffer(b"".join(packed), dtype=float).reshape(len(packed), ROW)
+
+
+def row_cells(rows: np.ndarray) -> np.ndarray:
+    """The quadrature cells' arc lengths (m, CELLS + 1) [mm] of packed rows (a view)."""
+    return rows[:, _CUM]
 
 
 def row_coefficients(rows: np.ndarray) -> np.ndarray:

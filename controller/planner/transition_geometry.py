@@ -27,16 +27,16 @@ import numpy as np
 from gantry_sim.controller.errors import ConfigError
 from gantry_sim.controller.moves import Transition
 from gantry_sim.controller.quintic_curve import (
-    CELLS,
-    ROW,
     WINDOW_SEED_SAMPLES,
     derivative_coefficients,
     end_frames,
     evaluate,
     lengths_at,
     nearest_parameters,
+    packed_rows,
     parameters_at,
     points_on_rows,
+    row_cells,
     row_coefficients,
 )
 
@@ -87,7 +87,7 @@ def transition_deviation_many(
     spread in time between the two), each point's search starts where its share of the
     piece puts it, instead of from samples."""
     hint, half = np.array(t_hint, dtype=float), np.array(window, dtype=float)
-    rows = np.array([m.curve.row for m in moves], dtype=float).reshape(len(moves), ROW)
+    rows = packed_rows([m.row for m in moves])
     coef = row_coefficients(rows)
     if t_next is None:
         lo, hi = np.maximum(hint - half, 0.0), np.minimum(hint + half, 1.0)
@@ -107,10 +107,10 @@ def _rows(moves: Sequence[Transition], values: Sequence[np.ndarray]) -> tuple[np
     """Per point of ``values[i]`` (on ``moves[i]``), stacked: its curve's coefficients
     (N, 6, 3), first derivative's coefficients (N, 5, 3) and cell lengths (N, CELLS + 1), and
     the value (N,)."""
-    curves = [m.curve for m in moves]
+    rows = packed_rows([m.row for m in moves])
     counts = [np.size(v) for v in values]
-    coef = np.repeat(np.array([c.coef for c in curves]).reshape(len(curves), 6, 3), counts, 0)
-    cum = np.repeat(np.array([c.cum for c in curves]).reshape(len(curves), CELLS + 1), counts, 0)
+    coef = np.repeat(row_coefficients(rows), counts, 0)
+    cum = np.repeat(row_cells(rows), counts, 0)
     flat = [np.asarray(v, dtype=float).ravel() for v in values]
     v = np.concatenate(flat) if flat else np.zeros(0)
     return coef, derivative_coefficients(coef, 1), cum, v
@@ -156,7 +156,7 @@ def transition_speed_rates_many(
 def transition_end_frames_many(moves: Sequence[Transition]) -> np.ndarray:
     """(T_start, k_start, T_end, k_end) (m, 4, 3) of each move's curve, in one batch (the
     numbers of ``move.curve.end_frames``)."""
-    coef = np.array([m.curve.coef for m in moves], dtype=float).reshape(len(moves), 6, 3)
+    coef = row_coefficients(packed_rows([m.row for m in moves]))
     return end_frames(coef)
 
 
