@@ -17,11 +17,9 @@ while timing.json keeps the measurements.
 
 from __future__ import annotations
 
-import functools
 import json
 import time
 from collections.abc import Iterator, Sequence
-from contextlib import contextmanager
 from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import IO, TYPE_CHECKING, Any
@@ -29,7 +27,6 @@ from typing import IO, TYPE_CHECKING, Any
 import numpy as np
 
 from gantry_sim.controller.config import Limits, MachineConfig
-from gantry_sim.controller.forked import Background
 from gantry_sim.controller.servo import AxisPlant
 from gantry_sim.sim.contour import Analysis, BlockError, ContourStats, ErrorParts
 from gantry_sim.sim.gates import Gates, Verdict
@@ -361,7 +358,6 @@ def write_outputs(
     with (
         atomic_output_dir(out_dir, last="report.json") as tmp,
         stage("write", len(files), "file", progress) as advance,
-        _path_plot(plots, tmp, moves, trace, report) as path_png,
     ):
         if not trace_npz:
             pass
@@ -378,12 +374,13 @@ def write_outputs(
                 force_N=trace.force_N,
             )
         advance(int(trace_npz))
-        if path_png is not None:
+        if plots:
             from gantry_sim.sim.error_plot import save_error_plot
+            from gantry_sim.sim.path_plot import save_path_plot
 
-            save_error_plot(tmp / "error.png", trace, report.contour_error_um, gates, moves)
+            save_path_plot(tmp / "path.png", moves, trace, report.program, report.contour_error_um)
             advance(1)
-            path_png.result()
+            save_error_plot(tmp / "error.png", trace, report.contour_error_um, gates, moves)
             advance(1)
         t1 = time.perf_counter()
         timing = {k: v for k, v in report.timing_s.items() if k not in ("write", "total")}
@@ -399,30 +396,6 @@ def write_outputs(
             report.write_json(out, deterministic)
         advance(2)
     return report
-
-
-@contextmanager
-def _path_plot(
-    plots: bool, tmp: Path, moves: Sequence[Move], trace: Trace, report: RunReport
-) -> Iterator[Background[None] | None]:
-    """path.png drawn by a forked child (controller.forked.Background) while this process
-    writes trace.npz and draws error.png (the two plots took 0.9 s of a 30,000-block run's
-    outputs, one after the other); None without plots. Stopped if the outputs fail."""
-    if not plots:
-        yield None
-        return
-    from gantry_sim.sim.path_plot import save_path_plot
-
-    png = tmp / "path.png"
-    job = Background(
-        functools.partial(
-            save_path_plot, png, moves, trace, report.program, report.contour_error_um
-        )
-    )
-    try:
-        yield job
-    finally:
-        job.close()
 
 
 def _indented(text: str, pad: str) -> str:
