@@ -27,6 +27,7 @@ from __future__ import annotations
 import contextlib
 import ctypes
 import functools
+import gc
 import os
 import pickle
 import select
@@ -147,6 +148,9 @@ def _call(fn: Callable[[], R]) -> R:
 
 def _call_in_background(fn: Callable[[], R]) -> R:
     lower_priority()  # in the child, off the critical path (not in the parent redoing it)
+    # no collection in the child: a full one writes to every tracked object of the parent's
+    # heap, copying its pages (the chords' child: 125 -> 111 MB private at 30,000 arcs)
+    gc.disable()
     return fn()
 
 

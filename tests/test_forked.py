@@ -147,6 +147,9 @@ def test_background_work_yields_the_core_and_this_process_keeps_its_priority(mon
     mine = os.getpriority(os.PRIO_PROCESS, 0)
     child = Background(lambda: os.getpriority(os.PRIO_PROCESS, 0)).result()
     assert child >= BACKGROUND_NICE and child >= mine
+    import gc
+
+    assert Background(gc.isenabled).result() is False and gc.isenabled()  # none in the child
     parent = os.getpid()
 
     def redone_here() -> int:
