@@ -265,14 +265,9 @@ def nearest_points_on(rows: np.ndarray, q: np.ndarray) -> np.ndarray:
     for lo in range(0, len(q), NEAREST_BATCH):
         r, qq = rows[lo : lo + NEAREST_BATCH], q[lo : lo + NEAREST_BATCH]
         n = len(qq)
-        coef = r[:, _COEF].reshape(n, 6, 3)
+        coef = row_coefficients(r)
         t = nearest_parameters(coef, qq[:, None, :], np.zeros(n), np.ones(n), POINT_SEED_SAMPLES)
-        pts = evaluate(coef, t)[:, 0]
-        ends = r[:, _ENDS].reshape(n, 2, 3)
-        first, last = t[:, 0] <= 0.0, t[:, 0] >= 1.0
-        pts[first] = ends[first, 0]
-        pts[last] = ends[last, 1]
-        out[lo : lo + n] = pts
+        out[lo : lo + n] = points_on_rows(r, t)[:, 0]
     return out
 
 
@@ -427,12 +422,7 @@ class QuinticCurve:
 
     def points(self, t: np.ndarray) -> np.ndarray:
         """C(t) (k, 3) [mm]; t = 0 and 1 give the end control points exactly."""
-        t = np.asarray(t, dtype=float)
-        pts = evaluate(self.coef, t)
-        ends = self.row[_ENDS].reshape(2, 3)
-        pts[t <= 0.0] = ends[0]
-        pts[t >= 1.0] = ends[1]
-        return pts
+        return points_on_rows(self.row[None], np.asarray(t, dtype=float)[None])[0]
 
     def speed(self, t: np.ndarray) -> np.ndarray:
         """|C'(t)| [mm per unit t] (k,)."""
