@@ -34,6 +34,7 @@ import select
 import signal
 import struct
 import sys
+import threading
 import warnings
 from collections.abc import Callable, Iterator, Sequence
 from contextlib import contextmanager
@@ -111,8 +112,6 @@ def lower_priority() -> None:
     """Give the calling thread (Linux: each thread has its own nice value) the priority of
     background work, :data:`BACKGROUND_NICE`; elsewhere, or where it is refused, nothing."""
     if sys.platform.startswith("linux"):
-        import threading
-
         with contextlib.suppress(OSError):
             os.setpriority(os.PRIO_PROCESS, threading.get_native_id(), BACKGROUND_NICE)
 
