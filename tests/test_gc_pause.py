@@ -54,3 +54,57 @@ def test_planning_runs_paused_and_restores_the_collector_even_when_it_fails(
     with pytest.raises(Exception, match="travel"):
         plan(parse_program("G21 G1 X100000 F600\nM2\n"), machine)
     assert gc.isenabled()
+
+
+def test_frozen_objects_are_out_of_reach_inside_and_back_after() -> None:
+    from gantry_sim.controller.gc_pause import gc_frozen
+
+    alive = [[] for _ in range(100)]
+    assert gc.get_freeze_count() == 0
+    with pytest.raises(RuntimeError), gc_frozen():
+        assert gc.get_freeze_count() >= len(alive)
+        assert gc.collect() >= 0 and gc.get_freeze_count() >= len(alive)  # a pass leaves them
+        raise RuntimeError("the run failed")
+    assert gc.get_freeze_count() == 0 and gc.isenabled()
+
+
+def _enabled_when_decoded() -> bool:
+    """Unpickled (controller.spill), whether the collector was running meanwhile."""
+    return gc.isenabled()
+
+
+class _Probe:
+    def __reduce__(self):
+        return (_enabled_when_decoded, ())
+
+
+def test_spilled_blocks_are_decoded_with_the_collector_paused() -> None:
+    from gantry_sim.controller.spill import SpilledList
+
+    items = SpilledList([_Probe() for _ in range(6)], block_items=2)
+    try:
+        assert gc.isenabled()
+        assert list(items)[:4] == [False] * 4  # the two closed blocks, read back from disk
+        assert gc.isenabled()
+    finally:
+        items.close()
+
+
+def test_a_streamed_run_keeps_the_collector_off_the_plan(monkeypatch) -> None:
+    """The streamed simulation and analysis run with the objects made before them frozen
+    (gc_frozen): the collector's passes walk the run's own objects only."""
+    from gantry_sim.sim import api, stream
+
+    frozen = []
+    real = stream.stream_run
+
+    def spy(*args, **kwargs):
+        frozen.append(gc.get_freeze_count())
+        return real(*args, **kwargs)
+
+    monkeypatch.setattr(stream, "stream_run", spy)
+    monkeypatch.setattr(api, "STREAM_ABOVE_TICKS", 0)
+    machine = load_machine_config(DEFAULT_MACHINE)
+    result = api.run_program("G21 G1 X2 F600\nM2\n", machine=machine)
+    assert result.streamed and len(frozen) == 1 and frozen[0] > 1000
+    assert gc.get_freeze_count() == 0
