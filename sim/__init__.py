@@ -23,10 +23,13 @@ entry point is :mod:`.api`):
     contour.py       contour error against the commanded geometry; chord/reference/tracking parts
     blend_parts.py   the reference part split into G64 blend deviation and planning
     report.py        RunReport (typed) -> report.json, timing.json; write_outputs (+ trace, plots)
+    json_text.py     json.dumps(indent=2)'s text, fast for report.json's flat per-block objects
     gates.py         error limits per kind / line range, cycle-time limit, the verdict
     compare.py       a run against a baseline report.json, block by block
     plots.py         the figure idiom (Figure + Agg, no pyplot, quiet) and the ballbar polar plot
     path_plot.py     path.png: the arcs' plane or three views, error x 1000, worst point
+    path_outline.py  path.png's commanded geometry (box, arc planes, polylines), no matplotlib
+    plot_prep.py     the plots' imports and outline, in a thread while the run simulates
     error_plot.py    error.png: per-bin band along the program, worst blocks, the gates
     search_plots.py  tune.png and the sweep plots (every point, faults marked, axes from 0)
     outdir.py        outputs never half-written (temporary sibling, then rename)

@@ -21,7 +21,6 @@ subclasses (GcodeError, ConfigError, PlanningError, SimulationError) carrying fi
 from __future__ import annotations
 
 import os
-import threading
 import time
 from collections.abc import Sequence
 from dataclasses import dataclass, field, replace
@@ -39,7 +38,10 @@ from gantry_sim.sim.report import RunReport
 from gantry_sim.sim.trace import Trace
 
 if TYPE_CHECKING:
+    from concurrent.futures import Future
+
     from gantry_sim.controller.moves import Move
+    from gantry_sim.sim.path_outline import Outline
     from gantry_sim.sim.trace_writer import TraceWriter
 
 #: runs longer than this [servo ticks] are streamed (sim.stream): the same numbers, in memory
@@ -62,6 +64,9 @@ class RunResult:
     run_report: RunReport
     trace: Trace
     moves: Sequence[Move]
+    #: path.png's commanded geometry, computed in a thread during the run (sim.path_outline);
+    #: None: computed where the plot is drawn
+    outline: Future[Outline | None] | None = field(default=None, repr=False, compare=False)
     #: a streamed run's full-rate trace, deflated in anonymous temporary files (the run is then
     #: too long to hold: :attr:`trace` is its decimated trace); ``full_trace.save(path)`` writes
     #: it as trace.npz. None when :attr:`trace` is complete, or with ``keep_trace=False``.
@@ -126,6 +131,7 @@ def run_program(
     from gantry_sim.sim.blend_parts import split_reference
     from gantry_sim.sim.contour import analyse
     from gantry_sim.sim.machine import load_gantry
+    from gantry_sim.sim.plot_prep import prepare_plots
     from gantry_sim.sim.program import interpret_program
     from gantry_sim.sim.report import build_report
     from gantry_sim.sim.runner import simulate
@@ -170,7 +176,7 @@ def run_program(
             )
         traj = planned.sample(machine.servo.period_s)
         t2 = time.perf_counter()
-        preload_plots()
+        drawing = prepare_plots(moves)
         gantry = load_gantry(machine)
         sim = simulate(gantry, machine, traj, progress=progress)
         t3 = time.perf_counter()
@@ -211,7 +217,7 @@ def run_program(
         analysis=result,
         timing=timing,
     )
-    return RunResult(run_report=report, trace=trace, moves=moves)
+    return RunResult(run_report=report, trace=trace, moves=moves, outline=drawing)
 
 
 def _streamed(
@@ -229,7 +235,9 @@ def _streamed(
     deflated as it comes (sim.trace_writer) unless ``keep_trace`` is False, a decimated trace
     kept."""
 
+    from gantry_sim.controller.gc_pause import gc_frozen
     from gantry_sim.sim.machine import load_gantry
+    from gantry_sim.sim.plot_prep import prepare_plots
     from gantry_sim.sim.report import build_streamed_report
     from gantry_sim.sim.stream import stream_run
     from gantry_sim.sim.trace_writer import TraceWriter
@@ -237,9 +245,9 @@ def _streamed(
     n = planned.sample_count(machine.servo.period_s)
     writer = TraceWriter(n) if keep_trace else None
     try:
-        preload_plots()
+        drawing = prepare_plots(moves)
         gantry = load_gantry(machine)
-        with stage("simulate+analyse", n, "tick", wanted(progress)) as advance:
+        with stage("simulate+analyse", n, "tick", wanted(progress)) as advance, gc_frozen():
             streamed = stream_run(
                 moves, planned, machine, gantry, on_range=writer, on_ticks=advance
             )
@@ -264,25 +272,9 @@ def _streamed(
         streamed=streamed,
         timing=timing,
     )
-    return RunResult(report, streamed.decimated, moves, full_trace=writer, streamed=True)
-
-
-def preload_plots() -> None:
-    """Import the plot modules (matplotlib: 0.3-0.7 s) in a background thread while the run
-    simulates: the compiled ticks run with the GIL released (sim/pd_ticks.py), so the import
-    takes the second core instead of the outputs' time after the run (write_run_outputs then
-    finds the modules loaded, or waits on the import lock for the rest). A run with no plots
-    wasted a thread's import; a failed import is met again, and raised, where the plots are
-    drawn."""
-
-    def load() -> None:
-        try:
-            import gantry_sim.sim.error_plot
-            import gantry_sim.sim.path_plot  # noqa: F401
-        except Exception:  # raised again by the import that needs it
-            pass
-
-    threading.Thread(target=load, name="gantry-plot-import", daemon=True).start()
+    return RunResult(
+        report, streamed.decimated, moves, outline=drawing, full_trace=writer, streamed=True
+    )
 
 
 def _program_text(program: str | os.PathLike[str], file: str | None) -> tuple[str, str]:
@@ -348,6 +340,7 @@ def write_run_outputs(
         gates=gates,
         started=started,
         full_trace=result.full_trace,
+        outline=result.outline,
         trace_npz=trace,
         progress=wanted(progress),
     )

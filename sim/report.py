@@ -30,13 +30,17 @@ from gantry_sim.controller.config import Limits, MachineConfig
 from gantry_sim.controller.servo import AxisPlant
 from gantry_sim.sim.contour import Analysis, BlockError, ContourStats, ErrorParts
 from gantry_sim.sim.gates import Gates, Verdict
+from gantry_sim.sim.json_text import indented
 from gantry_sim.sim.progress import stage
 from gantry_sim.sim.trace import Trace
 
 if TYPE_CHECKING:
+    from concurrent.futures import Future
+
     from gantry_sim.controller.moves import Move
     from gantry_sim.controller.planner.result import Plan
     from gantry_sim.controller.trajectory import Trajectory
+    from gantry_sim.sim.path_outline import Outline
     from gantry_sim.sim.runner import SimTrace
     from gantry_sim.sim.stream import StreamedRun
     from gantry_sim.sim.trace_writer import TraceWriter
@@ -190,7 +194,7 @@ class RunReport:
                 out.write("[")
                 for i, item in enumerate(self.blocks_json()):
                     out.write(",\n    " if i else "\n    ")
-                    out.write(_indented(json.dumps(item, indent=2), "    "))
+                    out.write(_indented(indented(item), "    "))
                 out.write("\n  ]")
             else:
                 out.write(_indented(json.dumps(head[key], indent=2), "  "))
@@ -330,6 +334,7 @@ def write_outputs(
     gates: Gates | None = None,
     started: float | None = None,
     full_trace: TraceWriter | None = None,
+    outline: Future[Outline | None] | None = None,
     trace_npz: bool = True,
     progress: bool = False,
 ) -> RunReport:
@@ -339,6 +344,7 @@ def write_outputs(
         trace: the arrays plotted, and written as trace.npz unless ``full_trace`` is given.
         full_trace: a streamed run's full-rate trace, deflated during the run (``trace`` is
             then its decimated one), written as trace.npz (sim.trace_writer).
+        outline: path.png's commanded geometry, computed during the run (sim.path_outline).
         plots: draw path.png and error.png.
         trace_npz: write trace.npz (False: ``--no-trace``; the plots still use ``trace``).
         progress: a bar on stderr over the files (sim.progress).
@@ -378,7 +384,10 @@ def write_outputs(
             from gantry_sim.sim.error_plot import save_error_plot
             from gantry_sim.sim.path_plot import save_path_plot
 
-            save_path_plot(tmp / "path.png", moves, trace, report.program, report.contour_error_um)
+            drawing = outline.result() if outline is not None else None
+            save_path_plot(
+                tmp / "path.png", moves, trace, report.program, report.contour_error_um, drawing
+            )
             advance(1)
             save_error_plot(tmp / "error.png", trace, report.contour_error_um, gates, moves)
             advance(1)

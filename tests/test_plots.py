@@ -5,6 +5,9 @@ point labelled, a fixed magnification; error.png an envelope with the gates draw
 from __future__ import annotations
 
 import math
+import os
+import sys
+import threading
 import time
 
 import numpy as np
@@ -134,3 +137,58 @@ def test_sweep_plots_mark_faulted_points_on_honest_axes():
     ax2 = by_error.axes[0]
     assert ax2.get_xlim()[0] == 0 and ax2.get_ylim()[0] == 0
     assert any("faulted (1)" in t.get_text() for t in by_error.texts)
+
+
+def test_the_outline_computed_during_the_run_is_what_the_plot_draws(circle):
+    """run_program computes path.png's commanded geometry in a thread during the run
+    (sim.path_outline); the figure drawn from it is the figure drawn from the moves."""
+    from gantry_sim.sim.path_outline import Outline, outline
+
+    assert circle.outline is not None
+    ready = circle.outline.result(timeout=30)
+    assert isinstance(ready, Outline)
+    again = outline(circle.moves)
+    for name in ("lo", "hi", "feed", "rapid"):
+        assert np.array_equal(getattr(ready, name), getattr(again, name), equal_nan=True)
+    assert (
+        (ready.planes, ready.pixel_mm) == (again.planes, again.pixel_mm) == ({"XY"}, again.pixel_mm)
+    )
+    rep = circle.run_report
+    figs = [
+        path_figure(circle.moves, circle.trace, "c.ngc", rep.contour_error_um, d)
+        for d in (ready, None)
+    ]
+    lines = [[(ln.get_xdata(), ln.get_ydata()) for ln in f.axes[0].lines] for f in figs]
+    assert len(lines[0]) == len(lines[1]) >= 3
+    for (x0, y0), (x1, y1) in zip(*lines, strict=True):
+        assert np.array_equal(x0, x1, equal_nan=True) and np.array_equal(y0, y1, equal_nan=True)
+
+
+@pytest.mark.skipif(not sys.platform.startswith("linux"), reason="per-thread nice: Linux")
+def test_the_outline_is_computed_at_background_priority(monkeypatch):
+    from gantry_sim.controller.forked import BACKGROUND_NICE
+    from gantry_sim.sim import path_outline, plot_prep
+
+    seen = []
+    real = path_outline.outline
+
+    def spy(moves):
+        seen.append(os.getpriority(os.PRIO_PROCESS, threading.get_native_id()))
+        return real(moves)
+
+    monkeypatch.setattr(path_outline, "outline", spy)
+    mine = os.getpriority(os.PRIO_PROCESS, 0)
+    assert plot_prep.prepare_plots(moves_of(CIRCLE)).result(timeout=30) is not None
+    assert plot_prep.prepare_plots(()).result(timeout=30) is None
+    assert seen == [max(mine, BACKGROUND_NICE)] and os.getpriority(os.PRIO_PROCESS, 0) == mine
+
+
+def test_an_error_in_the_outline_is_raised_where_the_plot_is_drawn(monkeypatch):
+    from gantry_sim.sim import path_outline, plot_prep
+
+    def broken(moves):
+        raise ValueError("broken outline")
+
+    monkeypatch.setattr(path_outline, "outline", broken)
+    with pytest.raises(ValueError, match="broken outline"):
+        plot_prep.prepare_plots(moves_of(CIRCLE)).result(timeout=30)
