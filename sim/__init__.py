@@ -14,6 +14,7 @@ entry point is :mod:`.api`):
     stateful_ticks.py  the ticks of a law with an integral term or backlash (Python)
     stream.py        a run range by range: sample, simulate, analyse; nothing kept per tick
     analysis_worker.py  a streamed run's range analysis, in a worker process
+    range_helper.py  a thread sampling the next range and handing over the last while it steps
     error_tally.py   whole-run figures (rms, p95, per block) from ranges, in bounded memory
     percentile.py    exact percentile of values kept in memory or spilled to a temporary file
     trace.py         Trace: the per-tick arrays of a run (trace.npz)

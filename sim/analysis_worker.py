@@ -104,6 +104,9 @@ class InlineAnalyser:
         self._done.clear()
         return out
 
+    def abort(self) -> None:
+        """Nothing runs elsewhere."""
+
     def close(self) -> None:
         self._done.clear()
 
@@ -172,6 +175,11 @@ class ProcessAnalyser:
         if isinstance(reply, str):
             raise RuntimeError(f"analysis worker failed: {reply}")
         return reply
+
+    def abort(self) -> None:
+        """Kill the worker (from any thread; the pipes stay open): a thread waiting for its
+        reply hears that it exited. :meth:`close` still closes the pipes."""
+        self._proc.kill()
 
     def close(self) -> None:
         """Stop the worker: its stdin closed, it ends (at once when it waits for a range; when

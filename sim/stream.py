@@ -25,6 +25,7 @@ import functools
 import time
 from collections import deque
 from collections.abc import Callable, Iterator, Sequence
+from concurrent.futures import Future
 from dataclasses import dataclass, replace
 
 import numpy as np
@@ -36,7 +37,7 @@ from gantry_sim.controller.moves import Move
 from gantry_sim.controller.planner.result import Plan
 from gantry_sim.controller.trajectory import Trajectory
 from gantry_sim.controller.units import UM_PER_MM
-from gantry_sim.sim.analysis_worker import RangeJob, Result, make_analyser
+from gantry_sim.sim.analysis_worker import ProcessAnalyser, RangeJob, Result, make_analyser
 from gantry_sim.sim.blend_parts import known_path_sources, with_planning_split
 from gantry_sim.sim.contour import (
     Analysis,
@@ -49,6 +50,7 @@ from gantry_sim.sim.contour import (
 from gantry_sim.sim.error_tally import ErrorTally
 from gantry_sim.sim.machine import Gantry
 from gantry_sim.sim.move_table import ProgramIndex
+from gantry_sim.sim.range_helper import Helper, InlineHelper, RangeHelper
 from gantry_sim.sim.range_rows import RowPicker
 from gantry_sim.sim.runner import simulate_pieces
 from gantry_sim.sim.trace import Trace
@@ -57,6 +59,9 @@ from gantry_sim.sim.trace import Trace
 STREAM_TICKS = 65536
 #: ticks kept at full rate in the decimated trace at most (about; plus each range's worst)
 DECIMATED_TICKS = 200_000
+#: simulated ranges waiting to be handed to the analysis at most (each holds its arrays: about
+#: 10 MB); beyond, the loop waits (the analysis is then slower than the simulation)
+HANDED_AHEAD = 2
 #: Ranges between two trims of the C heap (controller/heap.py; the first after the first range).
 TRIM_RANGES = 32
 
@@ -113,19 +118,14 @@ def stream_run(
     stride = max(1, n // DECIMATED_TICKS)
     limit = np.array([[-p.force_min_N, p.force_max_N] for p in gantry.plant]).min(axis=1)
 
-    def pieces() -> Iterator[Trajectory]:
-        for lo in range(0, n, range_ticks):
-            hi = min(n, lo + range_ticks)
-            c0, c1 = reference_context(lo, hi, n)
-            ctx = planned.sample_range(period, c0, c1)
-            contexts.append((c0, ctx))
-            yield ctx.slice(lo - c0, hi - c0)
-
     tally = ErrorTally(index, spill=True)  # the whole-run figures, in bounded memory
     run = _Running(stride, limit)
     sim_s = ana_s = 0.0
     start = planned.sample_range(period, 0, 1).pos[0]
-    lo = 0
+
+    def sampled(lo: int, hi: int) -> tuple[int, Trajectory]:
+        c0, c1 = reference_context(lo, hi, n)
+        return c0, planned.sample_range(period, c0, c1)
 
     def take(results: list[Result]) -> None:
         for job, part, planning_mm in results:
@@ -133,6 +133,12 @@ def stream_run(
                 on_range(job.lo, job.piece, job.pos, job.force, part)
             run.add(job, part, planning_mm)
             tally.add(job.piece.line, part.err_um, part.feed)
+
+    def hand_over(job: RangeJob) -> None:
+        analyser.submit(job, rows.tables(job.piece, job.context_pos, job.offset, job.pos))
+        take(analyser.ready())
+        if (job.lo + job.pos.shape[0]) // range_ticks % TRIM_RANGES == 1:
+            trim_heap()  # the ranges' freed buffers, and the set-up's, back to the system
 
     # each range goes to the analysis with the moves it reaches (sim.range_rows), whose tables
     # the analysis lays out: no table of the whole program is made (28 MB each at 100,000
@@ -144,26 +150,47 @@ def stream_run(
     chord = Background(functools.partial(chord_max_um, moves, planned.vertices))
     try:
         analyser = make_analyser()
+        # sampling and hand-over on a thread while the loop steps (sim.range_helper)
+        helper: Helper = RangeHelper() if isinstance(analyser, ProcessAnalyser) else InlineHelper()
+        handed: deque[Future[None]] = deque()  # the hand-overs not seen finished
+
+        def pieces() -> Iterator[Trajectory]:
+            bounds = [(lo, min(n, lo + range_ticks)) for lo in range(0, n, range_ticks)]
+            ahead = deque(helper.submit(sampled, *b) for b in bounds[:1])
+            for k, (lo, hi) in enumerate(bounds):
+                c0, ctx = ahead.popleft().result()
+                if k + 1 < len(bounds):  # the next range, sampled while this one steps
+                    ahead.append(helper.submit(sampled, *bounds[k + 1]))
+                contexts.append((c0, ctx))
+                yield ctx.slice(lo - c0, hi - c0)
+
         try:
+            lo = 0
             t0 = time.perf_counter()
             for pos, force in simulate_pieces(gantry, machine, pieces(), start, on_ticks):
                 t1 = time.perf_counter()
                 sim_s += t1 - t0
                 c0, ctx = contexts.popleft()
                 piece = ctx.slice(lo - c0, lo - c0 + pos.shape[0])
-                job = RangeJob(lo, piece, ctx.pos, lo - c0, pos, force)
-                analyser.submit(job, rows.tables(piece, ctx.pos, lo - c0, pos))
-                take(analyser.ready())
+                handed.append(
+                    helper.submit(hand_over, RangeJob(lo, piece, ctx.pos, lo - c0, pos, force))
+                )
+                # a failed hand-over stops the run here; at most HANDED_AHEAD ranges wait
+                while handed and (handed[0].done() or len(handed) > HANDED_AHEAD):
+                    handed.popleft().result()
                 lo += pos.shape[0]
-                if lo // range_ticks % TRIM_RANGES == 1:
-                    trim_heap()  # the ranges' freed buffers, and the set-up's, back to the system
                 t0 = time.perf_counter()
                 ana_s += t0 - t1
             t1 = time.perf_counter()
+            while handed:
+                handed.popleft().result()
             take(analyser.ready(drain=True))
             contour, blocks = tally_figures(tally)
             chord_um = chord.result()
         finally:
+            if handed:  # the run failed: a hand-over may wait for the worker's reply
+                analyser.abort()
+            helper.stop()
             analyser.close()
     finally:
         chord.close()

@@ -5,6 +5,7 @@ from __future__ import annotations
 import math
 import os
 import sys
+import threading
 import time
 
 import numpy as np
@@ -82,11 +83,15 @@ def test_streamed_run_equals_the_whole_program_run(machine, stateful, worker, te
             ff_velocity=[0.0] * 3,
             ff_acceleration=[0.0] * 3,
         )
-    reached = []
+    reached, threads = [], set()
     tables = RowPicker.tables
-    monkeypatch.setattr(
-        RowPicker, "tables", lambda *a: reached.append(len((t := tables(*a)).moves)) or t
-    )
+
+    def tables_spy(*a):
+        threads.add(threading.current_thread().name)
+        reached.append(len((t := tables(*a)).moves))
+        return t
+
+    monkeypatch.setattr(RowPicker, "tables", tables_spy)
     moves, planned = _planned(machine, text)
     gantry = load_gantry(machine)
     traj = planned.sample(machine.servo.period_s)
@@ -105,6 +110,10 @@ def test_streamed_run_equals_the_whole_program_run(machine, stateful, worker, te
         assert len(reached) == len(ranges) and max(reached) < len(moves) / 4
     in_process = isinstance(made[0], analysis_worker.ProcessAnalyser)
     assert in_process == (worker == "1" and os.name == "posix" and (os.cpu_count() or 1) >= 2)
+    # handed to the analysis by the helper thread beside a worker process, else by the loop's
+    assert [name.split("_")[0] for name in threads] == [
+        "gantry-range" if in_process else "MainThread"
+    ]
     got = streamed.analysis
     assert got.contour == whole.contour and got.parts == whole.parts
     assert got.blocks == whole.blocks and sum(b.ticks for b in got.blocks) > 0
@@ -150,6 +159,64 @@ def test_a_failure_in_the_analysis_worker_stops_the_run(machine):
     finally:
         worker.close()
     assert worker._proc.returncode is not None
+
+
+def _helper_threads():
+    return [t for t in threading.enumerate() if t.name.startswith("gantry-range")]
+
+
+@pytest.mark.skipif(os.name != "posix", reason="the worker process runs on POSIX systems")
+def test_a_run_that_fails_mid_run_stops_its_helper_and_worker(machine, monkeypatch):
+    """The simulation fails while the helper thread waits on the analysis: the run raises the
+    simulation's error, the worker is killed, the helper thread is gone."""
+    from gantry_sim.controller.errors import SimulationError
+    from gantry_sim.sim import analysis_worker
+
+    monkeypatch.setenv("GANTRY_ANALYSIS_WORKER", "1")
+    made = []
+    make = analysis_worker.make_analyser
+    monkeypatch.setattr(stream, "make_analyser", lambda *a: made.append(make(*a)) or made[-1])
+    tables = RowPicker.tables
+
+    def slow_tables(*a):
+        time.sleep(0.3)  # the hand-over is under way when the simulation fails
+        return tables(*a)
+
+    monkeypatch.setattr(RowPicker, "tables", slow_tables)
+    real = stream.simulate_pieces
+
+    def failing(*a, **k):
+        for k_range, item in enumerate(real(*a, **k)):
+            if k_range == 2:
+                raise SimulationError("diverged", line=3)
+            yield item
+
+    monkeypatch.setattr(stream, "simulate_pieces", failing)
+    moves, planned = _planned(machine)
+    with pytest.raises(SimulationError, match="diverged"):
+        stream_run(moves, planned, machine, load_gantry(machine), range_ticks=200)
+    if not isinstance(made[0], analysis_worker.ProcessAnalyser):
+        pytest.skip("one core: no worker, no helper thread")
+    assert made[0]._proc.returncode is not None and not _helper_threads()
+
+
+def test_a_failed_hand_over_stops_the_run(machine, monkeypatch):
+    """An error while a range is handed to the analysis (here: laying out its tables) reaches
+    the run, on the helper thread or not."""
+    tables = RowPicker.tables
+    calls = []
+
+    def broken(*a):
+        calls.append(1)
+        if len(calls) == 2:
+            raise ValueError("no tables for this range")
+        return tables(*a)
+
+    monkeypatch.setattr(RowPicker, "tables", broken)
+    moves, planned = _planned(machine)
+    with pytest.raises(ValueError, match="no tables"):
+        stream_run(moves, planned, machine, load_gantry(machine), range_ticks=200)
+    assert not _helper_threads()
 
 
 def test_run_program_streams_long_runs_with_the_same_outputs(machine, monkeypatch, tmp_path):
