@@ -176,8 +176,8 @@ def run_program(
             )
         traj = planned.sample(machine.servo.period_s)
         t2 = time.perf_counter()
+        gantry = load_gantry(machine)  # mujoco imported before the plots' thread imports
         drawing = prepare_plots(moves)
-        gantry = load_gantry(machine)
         sim = simulate(gantry, machine, traj, progress=progress)
         t3 = time.perf_counter()
         with stage("analyse", traj.t.size, "tick", shown, known_size=False):
@@ -245,8 +245,8 @@ def _streamed(
     n = planned.sample_count(machine.servo.period_s)
     writer = TraceWriter(n) if keep_trace else None
     try:
+        gantry = load_gantry(machine)  # mujoco imported before the plots' thread imports
         drawing = prepare_plots(moves)
-        gantry = load_gantry(machine)
         with stage("simulate+analyse", n, "tick", wanted(progress)) as advance, gc_frozen():
             streamed = stream_run(
                 moves, planned, machine, gantry, on_range=writer, on_ticks=advance
