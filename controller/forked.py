@@ -47,6 +47,7 @@ __all__ = [
     "Background",
     "fork_map",
     "fork_runs",
+    "in_one_process",
     "lower_priority",
     "one_process",
     "process_count",
@@ -71,11 +72,16 @@ def one_process() -> Iterator[None]:
         _ONE.reset(token)
 
 
+def in_one_process() -> bool:
+    """Inside :func:`one_process`: the caller runs one process per core already."""
+    return _ONE.get()
+
+
 def process_count() -> int:
     """Processes :func:`fork_map` may use: the cores this process may run on (at most
     :data:`MAX_PROCESSES`), or ``GANTRY_PLAN_WORKERS`` when set to a whole number; 1 inside
     :func:`one_process` and where fork is not available (not Linux)."""
-    if _ONE.get() or not sys.platform.startswith("linux"):
+    if in_one_process() or not sys.platform.startswith("linux"):
         return 1
     env = os.environ.get("GANTRY_PLAN_WORKERS", "").strip()
     if env.isdigit():

@@ -18,7 +18,8 @@ which runs the caller's main script again in the worker (a user's script without
 ``__main__`` guard would run twice). The worker ends when its stdin closes: when the run ends,
 or its process dies, whatever the cause.
 
-The worker is used where it can pay: a POSIX system, two or more cores, and
+The worker is used where it can pay: a POSIX system, two or more cores, not inside
+controller.forked.one_process (a sweep runs one point per core), and
 ``GANTRY_ANALYSIS_WORKER`` not set to 0. A failure in the worker is raised in the run as a
 RuntimeError carrying the worker's traceback (exit status 3 from the CLI).
 """
@@ -37,6 +38,7 @@ from typing import cast
 
 import numpy as np
 
+from gantry_sim.controller.forked import in_one_process
 from gantry_sim.controller.trajectory import Trajectory
 from gantry_sim.sim.blend_parts import planning_distance_mm
 from gantry_sim.sim.contour import ChunkAnalysis, analyse_chunk
@@ -242,6 +244,7 @@ def make_analyser() -> InlineAnalyser | ProcessAnalyser:
         os.environ.get("GANTRY_ANALYSIS_WORKER", "1") != "0"
         and os.name == "posix"
         and (os.cpu_count() or 1) >= 2
+        and not in_one_process()  # a sweep runs a point per core already
     )
     return ProcessAnalyser() if worker else InlineAnalyser()
 

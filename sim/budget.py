@@ -1,7 +1,7 @@
 """Bounds on the cost of a simulation, checked after planning and before anything is sampled.
 
 A simulation's memory grows with its servo ticks (about 0.6 MB per simulated second at the
-bundled 1 kHz servo; a run past 262,144 ticks is streamed, and what still grows is mostly the
+bundled 1 kHz servo; a run past 65,536 ticks is streamed, and what still grows is mostly the
 plan: 351 bytes a tick measured on 100,000 short G1, benchmarks/bench_run.py) and its wall time with
 its MuJoCo physics steps (about 300,000 per second on one core for the bundled model). A program
 such as ``G1 X1 F0.0001`` (600,000 s) or a machine file with a tiny physics timestep would run

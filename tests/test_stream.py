@@ -467,3 +467,39 @@ def test_the_trace_is_deflated_at_background_priority():
         assert os.getpriority(os.PRIO_PROCESS, 0) == mine
     finally:
         writer.close()
+
+
+def test_a_run_is_cut_into_eight_ranges_or_ranges_of_the_least_size(machine, monkeypatch):
+    """The last range's analysis is not overlapped by any simulation: a run is cut into
+    MIN_RANGES ranges at least (of MIN_RANGE_TICKS at least, STREAM_TICKS at most)."""
+    moves, planned = _planned(machine)
+    n = planned.sample_count(machine.servo.period_s)
+    gantry = load_gantry(machine)
+
+    def starts():
+        ranges = []
+        stream_run(moves, planned, machine, gantry, on_range=lambda lo, *a: ranges.append(lo))
+        return ranges
+
+    monkeypatch.setattr(stream, "MIN_RANGE_TICKS", 100)
+    size = -(-n // stream.MIN_RANGES)
+    assert starts() == list(range(0, n, size)) and len(starts()) == stream.MIN_RANGES
+    monkeypatch.setattr(stream, "MIN_RANGE_TICKS", n // 3)
+    assert starts() == list(range(0, n, n // 3))
+    monkeypatch.setattr(stream, "STREAM_TICKS", n // 5)
+    assert starts() == list(range(0, n, n // 5))
+
+
+def test_no_worker_process_inside_one_process(monkeypatch):
+    """A sweep runs one point per core (controller.forked.one_process): its streamed runs
+    analyse in their own process."""
+    from gantry_sim.controller.forked import one_process
+    from gantry_sim.sim import analysis_worker
+
+    monkeypatch.setenv("GANTRY_ANALYSIS_WORKER", "1")
+    with one_process():
+        analyser = analysis_worker.make_analyser()
+    try:
+        assert isinstance(analyser, analysis_worker.InlineAnalyser)
+    finally:
+        analyser.close()
