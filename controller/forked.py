@@ -116,10 +116,13 @@ BACKGROUND_NICE = 10
 
 def lower_priority() -> None:
     """Give the calling thread (Linux: each thread has its own nice value) the priority of
-    background work, :data:`BACKGROUND_NICE`; elsewhere, or where it is refused, nothing."""
+    background work, :data:`BACKGROUND_NICE`, unless it runs at a lower one already (a run
+    under ``nice -n 19`` keeps 19); elsewhere, or where it is refused, nothing."""
     if sys.platform.startswith("linux"):
+        tid = threading.get_native_id()
         with contextlib.suppress(OSError):
-            os.setpriority(os.PRIO_PROCESS, threading.get_native_id(), BACKGROUND_NICE)
+            nice = max(os.getpriority(os.PRIO_PROCESS, tid), BACKGROUND_NICE)
+            os.setpriority(os.PRIO_PROCESS, tid, nice)
 
 
 class Background(Generic[R]):

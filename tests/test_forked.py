@@ -170,6 +170,27 @@ def test_background_work_yields_the_core_and_this_process_keeps_its_priority(mon
     assert seen[0] >= BACKGROUND_NICE and os.getpriority(os.PRIO_PROCESS, 0) == mine
 
 
+@linux
+def test_background_work_never_raises_a_thread_s_priority() -> None:
+    """A thread already nicer than BACKGROUND_NICE (a run under ``nice -n 19``) keeps its
+    value: lower_priority only lowers."""
+    import threading
+
+    seen: list[int] = []
+
+    def in_thread() -> None:
+        tid = threading.get_native_id()
+        nicer = max(os.getpriority(os.PRIO_PROCESS, tid), BACKGROUND_NICE + 5)
+        os.setpriority(os.PRIO_PROCESS, tid, nicer)
+        lower_priority()
+        seen.extend((nicer, os.getpriority(os.PRIO_PROCESS, tid)))
+
+    t = threading.Thread(target=in_thread)
+    t.start()
+    t.join()
+    assert seen[0] == seen[1] > BACKGROUND_NICE
+
+
 def _slow_square_and_pid(x: int) -> tuple[int, int]:
     time.sleep(0.01)  # long enough that every process gets runs
     return x * x, os.getpid()
