@@ -68,15 +68,15 @@ class RunResult:
     run_report: RunReport
     trace: Trace
     moves: Sequence[Move]
-    #: path.png's commanded geometry, computed in a thread during the run (sim.path_outline);
-    #: None: computed where the plot is drawn
-    outline: Future[Outline | None] | None = field(default=None, repr=False, compare=False)
     #: a streamed run's full-rate trace, deflated in anonymous temporary files (the run is then
     #: too long to hold: :attr:`trace` is its decimated trace); ``full_trace.save(path)`` writes
     #: it as trace.npz. None when :attr:`trace` is complete, or with ``keep_trace=False``.
     full_trace: TraceWriter | None = field(default=None, repr=False, compare=False)
     #: the run was streamed (sim.stream): :attr:`trace` is decimated
     streamed: bool = False
+    #: path.png's commanded geometry, computed in a thread during the run (sim.path_outline);
+    #: None: computed where the plot is drawn
+    outline: Future[Outline | None] | None = field(default=None, repr=False, compare=False)
 
     @cached_property
     def report(self) -> dict:
