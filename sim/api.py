@@ -240,6 +240,7 @@ def _streamed(
     kept."""
 
     from gantry_sim.controller.gc_pause import gc_frozen
+    from gantry_sim.controller.heap import one_arena
     from gantry_sim.sim.machine import load_gantry
     from gantry_sim.sim.plot_prep import prepare_plots
     from gantry_sim.sim.report import build_streamed_report
@@ -247,6 +248,7 @@ def _streamed(
     from gantry_sim.sim.trace_writer import TraceWriter
 
     n = planned.sample_count(machine.servo.period_s)
+    one_arena()  # the run's threads on the main heap (controller/heap.py)
     writer = TraceWriter(n) if keep_trace else None
     try:
         gantry = load_gantry(machine)  # mujoco imported before the plots' thread imports

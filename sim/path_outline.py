@@ -109,7 +109,8 @@ class _Points:
             self.rows = grown
 
     def array(self) -> np.ndarray:
-        return self.rows[: self.n]
+        """The points, without the growth's spare rows (the outline is kept through the run)."""
+        return self.rows[: self.n].copy()
 
 
 def _polylines(moves: Sequence[Move], pixel_mm: float) -> tuple[np.ndarray, np.ndarray]:
