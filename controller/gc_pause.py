@@ -40,8 +40,12 @@ def gc_paused() -> Iterator[None]:
 @contextmanager
 def gc_frozen() -> Iterator[None]:
     """Every object alive on entry moved out of the collector's reach inside (``gc.freeze``:
-    reference counting still frees them); they are collected again after. Nested uses: the
-    inner one's exit gives back the outer one's objects too (as gc.unfreeze does)."""
+    reference counting still frees them); they are collected again after. Where objects are
+    frozen already on entry (the caller's own ``gc.freeze``, or an outer use), nothing is done:
+    ``gc.unfreeze`` would give back those too."""
+    if gc.get_freeze_count():
+        yield
+        return
     gc.freeze()
     try:
         yield

@@ -68,6 +68,19 @@ def test_frozen_objects_are_out_of_reach_inside_and_back_after() -> None:
     assert gc.get_freeze_count() == 0 and gc.isenabled()
 
 
+def test_a_caller_s_own_freeze_is_left_as_it_was() -> None:
+    from gantry_sim.controller.gc_pause import gc_frozen
+
+    gc.freeze()
+    try:
+        mine = gc.get_freeze_count()
+        with gc_frozen(), gc_frozen():
+            assert gc.get_freeze_count() == mine
+        assert gc.get_freeze_count() == mine
+    finally:
+        gc.unfreeze()
+
+
 def _enabled_when_decoded() -> bool:
     """Unpickled (controller.spill), whether the collector was running meanwhile."""
     return gc.isenabled()
