@@ -121,7 +121,7 @@ def frenet_many(d1: np.ndarray, d2: np.ndarray) -> tuple[np.ndarray, np.ndarray]
     power, as there)."""
     speed = np.sqrt(np.vecdot(d1, d1))
     t = d1 / speed[:, None]
-    square = np.array([s**2 for s in speed.tolist()], dtype=float).reshape(len(speed))
+    square = np.array([s**2 for s in speed.tolist()], dtype=float)
     return t, (d2 - np.vecdot(d2, t)[:, None] * t) / square[:, None]
 
 

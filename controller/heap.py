@@ -39,10 +39,6 @@ def _libc_function(name: str):  # -> the C function, or None
         return None
 
 
-def _malloc_trim():  # -> the C function, or None
-    return _libc_function("malloc_trim")
-
-
 def one_arena() -> bool:
     """Put every thread that allocates from now on on the main heap (``mallopt(M_ARENA_MAX,
     1)``), for the rest of the process: glibc fixes its bound on arenas the first time a thread
@@ -56,7 +52,7 @@ def one_arena() -> bool:
 
 def trim_heap() -> bool:
     """Give the C heap's free pages back to the system; True where that was possible."""
-    trim = _malloc_trim()
+    trim = _libc_function("malloc_trim")
     if trim is None:
         return False
     trim(0)

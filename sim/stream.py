@@ -162,11 +162,11 @@ def stream_run(
 
         def pieces() -> Iterator[Trajectory]:
             bounds = [(lo, min(n, lo + range_ticks)) for lo in range(0, n, range_ticks)]
-            ahead = deque(helper.submit(sampled, *b) for b in bounds[:1])
+            ahead: Future[tuple[int, Trajectory]] | None = None  # the next range's sampling
             for k, (lo, hi) in enumerate(bounds):
-                c0, ctx = ahead.popleft().result()
+                c0, ctx = (helper.submit(sampled, lo, hi) if ahead is None else ahead).result()
                 if k + 1 < len(bounds):  # the next range, sampled while this one steps
-                    ahead.append(helper.submit(sampled, *bounds[k + 1]))
+                    ahead = helper.submit(sampled, *bounds[k + 1])
                 contexts.append((c0, ctx))
                 yield ctx.slice(lo - c0, hi - c0)
 
