@@ -37,6 +37,7 @@ from gantry_sim.sim.trace import Trace
 if TYPE_CHECKING:
     from concurrent.futures import Future
 
+    from gantry_sim.controller.forked import Background
     from gantry_sim.controller.moves import Move
     from gantry_sim.controller.planner.result import Plan
     from gantry_sim.controller.trajectory import Trajectory
@@ -365,6 +366,7 @@ def write_outputs(
         atomic_output_dir(out_dir, last="report.json") as tmp,
         stage("write", len(files), "file", progress) as advance,
     ):
+        error_png = _error_plot_beside(tmp / "error.png", trace, report, gates, moves, plots)
         if not trace_npz:
             pass
         elif full_trace is not None:
@@ -380,16 +382,18 @@ def write_outputs(
                 force_N=trace.force_N,
             )
         advance(int(trace_npz))
-        if plots:
-            from gantry_sim.sim.error_plot import save_error_plot
+        if error_png is not None:
             from gantry_sim.sim.path_plot import save_path_plot
 
-            drawing = outline.result() if outline is not None else None
-            save_path_plot(
-                tmp / "path.png", moves, trace, report.program, report.contour_error_um, drawing
-            )
-            advance(1)
-            save_error_plot(tmp / "error.png", trace, report.contour_error_um, gates, moves)
+            try:
+                drawing = outline.result() if outline is not None else None
+                save_path_plot(
+                    tmp / "path.png", moves, trace, report.program, report.contour_error_um, drawing
+                )
+                advance(1)
+                error_png.result()
+            finally:
+                error_png.close()
             advance(1)
         t1 = time.perf_counter()
         timing = {k: v for k, v in report.timing_s.items() if k not in ("write", "total")}
@@ -405,6 +409,29 @@ def write_outputs(
             report.write_json(out, deterministic)
         advance(2)
     return report
+
+
+def _error_plot_beside(
+    path: Path,
+    trace: Trace,
+    report: RunReport,
+    gates: Gates | None,
+    moves: Sequence[Move],
+    plots: bool,
+) -> Background[None] | None:
+    """error.png drawn by a forked child while this process writes trace.npz and draws path.png
+    (controller.forked.Background: drawn here instead where nothing is forked, or when the child
+    fails); None without plots. The two figures took 0.30 and 0.15 s one after the other at
+    10,000 polylines, on one of two cores."""
+    if not plots:
+        return None
+    import functools
+
+    from gantry_sim.controller.forked import Background
+    from gantry_sim.sim.error_plot import save_error_plot
+
+    draw = functools.partial(save_error_plot, path, trace, report.contour_error_um, gates, moves)
+    return Background(draw)
 
 
 def _indented(text: str, pad: str) -> str:

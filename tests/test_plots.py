@@ -139,6 +139,44 @@ def test_sweep_plots_mark_faulted_points_on_honest_axes():
     assert any("faulted (1)" in t.get_text() for t in by_error.texts)
 
 
+@pytest.mark.skipif(not sys.platform.startswith("linux"), reason="forked children: Linux")
+def test_error_png_is_drawn_by_a_child_and_here_when_the_child_fails(circle, tmp_path, monkeypatch):
+    """write_outputs draws error.png in a forked child while it draws path.png; the same file
+    is drawn here with one process, or when the child dies."""
+    from gantry_sim.sim import error_plot
+    from gantry_sim.sim.api import write_run_outputs
+
+    real, here, log = error_plot.save_error_plot, os.getpid(), tmp_path / "pids"
+    die_in_child = []
+
+    def spy(path, *args, **kwargs):
+        with open(log, "a") as f:
+            f.write(f"{os.getpid()}\n")
+        if die_in_child and os.getpid() != here:
+            os._exit(3)
+        return real(path, *args, **kwargs)
+
+    def drawn_by(name):
+        log.write_text("")
+        write_run_outputs(circle, tmp_path / name)
+        return [int(p) for p in log.read_text().split()]
+
+    monkeypatch.setattr(error_plot, "save_error_plot", spy)
+    monkeypatch.setenv("GANTRY_PLAN_WORKERS", "2")
+    [child] = drawn_by("forked")
+    assert child != here
+    monkeypatch.setenv("GANTRY_PLAN_WORKERS", "1")
+    assert drawn_by("here") == [here]
+    monkeypatch.setenv("GANTRY_PLAN_WORKERS", "2")
+    die_in_child.append(True)
+    dead, redrawn = drawn_by("child died")
+    assert dead != here and redrawn == here
+    png = [
+        (tmp_path / name / "error.png").read_bytes() for name in ("forked", "here", "child died")
+    ]
+    assert png[0][:8] == b"\x89PNG\r\n\x1a\n" and png[0] == png[1] == png[2]
+
+
 def test_the_outline_computed_during_the_run_is_what_the_plot_draws(circle):
     """run_program computes path.png's commanded geometry in a thread during the run
     (sim.path_outline); the figure drawn from it is the figure drawn from the moves."""
