@@ -471,7 +471,8 @@ def test_the_trace_is_deflated_at_background_priority():
 
 def test_a_run_is_cut_into_eight_ranges_or_ranges_of_the_least_size(machine, monkeypatch):
     """The last range's analysis is not overlapped by any simulation: a run is cut into
-    MIN_RANGES ranges at least (of MIN_RANGE_TICKS at least, STREAM_TICKS at most)."""
+    MIN_RANGES ranges at least (of MIN_RANGE_TICKS at least, STREAM_TICKS at most), the last
+    of them in halves down to END_TICKS."""
     moves, planned = _planned(machine)
     n = planned.sample_count(machine.servo.period_s)
     gantry = load_gantry(machine)
@@ -481,6 +482,7 @@ def test_a_run_is_cut_into_eight_ranges_or_ranges_of_the_least_size(machine, mon
         stream_run(moves, planned, machine, gantry, on_range=lambda lo, *a: ranges.append(lo))
         return ranges
 
+    monkeypatch.setattr(stream, "END_TICKS", n)  # the last range kept whole
     monkeypatch.setattr(stream, "MIN_RANGE_TICKS", 100)
     size = -(-n // stream.MIN_RANGES)
     assert starts() == list(range(0, n, size)) and len(starts()) == stream.MIN_RANGES
@@ -488,6 +490,32 @@ def test_a_run_is_cut_into_eight_ranges_or_ranges_of_the_least_size(machine, mon
     assert starts() == list(range(0, n, n // 3))
     monkeypatch.setattr(stream, "STREAM_TICKS", n // 5)
     assert starts() == list(range(0, n, n // 5))
+    size = n // 4 + 1  # four ranges, the last of n - 3 size ticks, cut in 3 (END_TICKS n / 23)
+    monkeypatch.setattr(stream, "STREAM_TICKS", size)
+    monkeypatch.setattr(stream, "END_TICKS", n // 23)
+    last = n - 3 * size
+    half = last // 2
+    quarter = (last - half) // 2
+    assert starts() == [0, size, 2 * size, 3 * size, 3 * size + half, 3 * size + half + quarter]
+
+
+@pytest.mark.parametrize(
+    ("n", "size", "end", "sizes"),
+    [
+        (160_000, 40_000, 5_000, [40_000] * 3 + [20_000, 10_000, 5_000, 5_000]),
+        (150_001, 40_000, 5_000, [40_000] * 3 + [15_000, 7_500, 7_501]),
+        (100, 40, 10, [40, 40, 10, 10]),
+        (50, 40, 10, [40, 10]),
+        (19, 40, 10, [19]),
+        (20, 40, 10, [10, 10]),
+        (0, 40, 10, []),
+    ],
+)
+def test_range_bounds_cover_the_run_and_halve_its_last_range(n, size, end, sizes):
+    bounds = stream.range_bounds(n, size, end)
+    assert [hi - lo for lo, hi in bounds] == sizes
+    assert [lo for lo, _ in bounds[1:]] == [hi for _, hi in bounds[:-1]]
+    assert not bounds or (bounds[0][0], bounds[-1][1]) == (0, n)
 
 
 def test_no_worker_process_inside_one_process(monkeypatch):
