@@ -87,6 +87,9 @@ from gantry_sim.controller.moves import (
 )
 
 _PLANES: dict[int, Plane] = {170: "XY", 180: "XZ", 190: "YZ"}
+#: isinstance() classes as tuples: a ``Rapid | Linear`` union is built again at every call
+_STRAIGHT = (Rapid, Linear)
+_PATH_MOVES = (Rapid, Linear, Arc)
 #: non-modal codes whose axis words are theirs, not a motion's: G10, G28, G30, G92, G52.
 AXIS_NONMODAL = frozenset((100, 280, 300, 920, 520))
 
@@ -209,7 +212,8 @@ class Interpreter:
                 )
             if motion in (50, 51) and not any(a in w.values for a in "XY@^"):
                 raise GcodeError(f"{g_name(motion)} needs X or Y: all axes missing")
-            if motion not in (50, 51):  # rs274: G5/G5.1 leave the motion mode as it was
+            # rs274: G5/G5.1 leave the motion mode as it was
+            if motion not in (50, 51) and motion != s.motion:
                 s = evolve(s, motion=motion)
         elif axis_code:
             pass  # the axis words belong to G10/G28/G30/G92
@@ -248,7 +252,7 @@ class Interpreter:
                 raise GcodeError("G53 (machine coordinates) must be used with G0 or G1")
             if s.incremental:
                 raise GcodeError("G53 cannot be used in incremental distance mode (G91); use G90")
-        if motion is not None and motion not in CYCLES:
+        if motion is not None and motion not in CYCLES and cycle.initial is not None:
             cycle = evolve(cycle, initial=None)  # a series of cycles ends with another motion
         nurbs = self.nurbs
         if nonmodal == G5_3:  # before the motion, as rs274's modal group 0
@@ -348,8 +352,8 @@ class Interpreter:
             spindle=s.spindle,
             memory=cycle,
         )
-        moves.extend(m for m in items if self.events or isinstance(m, Rapid | Linear))
-        work = next((m.end for m in reversed(items) if isinstance(m, Rapid | Linear)), s.work)
+        moves.extend(m for m in items if self.events or isinstance(m, _STRAIGHT))
+        work = next((m.end for m in reversed(items) if isinstance(m, _STRAIGHT)), s.work)
         return evolve(s, position=end, work=work), cycle
 
     def _comp_motion(
@@ -514,7 +518,7 @@ class Interpreter:
     def _canon(self, s: ModalState, moves: list[Move | Event]) -> ModalState:
         """Where rs274's canonical layer has the tool after this block (``ModalState.canon``):
         the last motion's end, else the old place shifted by the change of G5x and G92."""
-        last = next((m for m in reversed(moves) if isinstance(m, Rapid | Linear | Arc)), None)
+        last = next((m for m in reversed(moves) if isinstance(m, _PATH_MOVES)), None)
         if last is not None:
             return evolve(s, canon=from_work(last.end, s.frame))
         old, new = self.state.frame, s.frame

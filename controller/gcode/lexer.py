@@ -40,6 +40,8 @@ _LINE_END = re.compile(r"\r\n|\r|\n")
 #: grbl's realtime characters (status, cycle start, feed hold, reset) and every character
 #: outside ASCII (grbl's serial layer drops each byte above 0x7F: its extended-ASCII realtime
 #: commands and anything else), taken out of a line before it is parsed.
+#: what strip_line drops outside comments
+_BLANKS = str.maketrans("", "", " \t\r")
 _REALTIME = re.compile("[?~!\x18\x80-\U0010ffff]")
 
 
@@ -105,6 +107,8 @@ def strip_line(raw: str) -> str:
     Raises:
         GcodeError: nested ``(`` inside a comment, or a comment left open.
     """
+    if "(" not in raw and ";" not in raw:  # most lines: no comment to find
+        return raw.translate(_BLANKS).upper()
     out: list[str] = []
     in_comment = False
     for ch in raw:

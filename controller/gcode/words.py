@@ -146,48 +146,14 @@ def check_words(w: Words, motion: int | None, dialect: Dialect) -> None:
         if letter in _OTHER_AXES and not (letter in ROTARY_AXES and v[letter] == 0.0):
             raise GcodeError(f"{letter} axis word on a 3-axis machine; allowed axes: X, Y, Z")
     arc = motion in (20, 30)
-    g10 = w.g.get("nonmodal") == 100
     cycle = dialect.canned_cycles and motion in _CYCLES
-    spline = bool(dialect.splines) and motion in (50, 51, 52)
-    uses = {
-        "I": arc or motion == 870 or (g10 and dialect.g10_rotation) or (spline and motion != 52),
-        "J": arc or motion == 870 or (g10 and dialect.g10_rotation) or (spline and motion != 52),
-        "K": arc or motion == 870,
-        "R": arc or (g10 and dialect.g10_rotation) or cycle or w.m.get("spindle") == 19,
-        "L": g10
-        or (spline and motion == 52)
-        or w.m.get("io") == 66
-        or (cycle and motion != 740)  # rs274: not with G74
-        or w.g.get("cutter_comp") in (411, 421),
-        "P": (arc and dialect.arc_p_allowed)
-        or (spline and motion in (50, 52))
-        or g10
-        or motion in (740, 820, 840, 860, 880, 890)
-        or w.g.get("nonmodal") == 40
-        or w.g.get("path_control") == 640
-        or w.m.get("io") in (62, 63, 64, 65, 66)
-        or w.m.get("override") in (50, 51, 52, 53)  # rs274: M50-M53 P (override on/off)
-        or w.m.get("spindle") == 19
-        or "user" in w.m,
-        "Q": w.g.get("path_control") == 640
-        or w.m.get("spindle") == 19
-        or (g10 and dialect.g10_rotation)
-        or motion in (730, 830)
-        or (spline and motion == 50)
-        or "user" in w.m
-        or w.m.get("tool_change") == 61
-        or w.m.get("io") in (66, 67, 68),
-        "E": w.m.get("io") in (66, 67, 68),
-        "H": w.g.get("tool_length") in (430, 432),
-        "D": (dialect.cutter_comp and w.g.get("cutter_comp") in (410, 411, 420, 421))
-        or w.g.get("spindle_mode") == 960,  # G96 D: the spindle's speed limit
-    }
     if cycle and any(a in v for a in ROTARY_AXES):
         a = next(a for a in ROTARY_AXES if a in v)
         raise GcodeError(f"cannot put an {a} in a canned cycle")
-    for letter in v:
-        if letter in dialect.ignored_letters or letter in "XYZFST@^$" + ROTARY_AXES:
-            continue
+    # the words only some codes take (most lines have none: X Y Z F S T)
+    taken = [k for k in v if k not in _ANY_CODE and k not in dialect.ignored_letters]
+    uses = _letter_uses(w, motion, dialect) if taken else {}
+    for letter in taken:
         if not uses.get(letter, False):
             need = {
                 "P": "G2, G3, G4, G10, G64, G82, G86, G88 or G89",
@@ -230,3 +196,48 @@ def check_words(w: Words, motion: int | None, dialect: Dialect) -> None:
         raise GcodeError("G4 (dwell) cannot share a line with G2 or G3: both use the P word")
     if w.g.get("nonmodal") == 40 and v.get("P", -1.0) < 0.0:
         raise GcodeError("G4 (dwell) needs a P word: the dwell time in seconds, >= 0")
+
+
+#: Letters every block may carry (axes, feed, spindle speed, tool; a rotary axis at 0).
+_ANY_CODE = frozenset("XYZFST@^$" + ROTARY_AXES)
+
+
+def _letter_uses(w: Words, motion: int | None, dialect: Dialect) -> dict[str, bool]:
+    """Whether a code of ``w`` (with ``motion``) takes each of the letters I J K R L P Q E H D."""
+    arc = motion in (20, 30)
+    cycle = dialect.canned_cycles and motion in _CYCLES
+    spline = bool(dialect.splines) and motion in (50, 51, 52)
+    g10 = w.g.get("nonmodal") == 100
+    return {
+        "I": arc or motion == 870 or (g10 and dialect.g10_rotation) or (spline and motion != 52),
+        "J": arc or motion == 870 or (g10 and dialect.g10_rotation) or (spline and motion != 52),
+        "K": arc or motion == 870,
+        "R": arc or (g10 and dialect.g10_rotation) or cycle or w.m.get("spindle") == 19,
+        "L": g10
+        or (spline and motion == 52)
+        or w.m.get("io") == 66
+        or (cycle and motion != 740)  # rs274: not with G74
+        or w.g.get("cutter_comp") in (411, 421),
+        "P": (arc and dialect.arc_p_allowed)
+        or (spline and motion in (50, 52))
+        or g10
+        or motion in (740, 820, 840, 860, 880, 890)
+        or w.g.get("nonmodal") == 40
+        or w.g.get("path_control") == 640
+        or w.m.get("io") in (62, 63, 64, 65, 66)
+        or w.m.get("override") in (50, 51, 52, 53)  # rs274: M50-M53 P (override on/off)
+        or w.m.get("spindle") == 19
+        or "user" in w.m,
+        "Q": w.g.get("path_control") == 640
+        or w.m.get("spindle") == 19
+        or (g10 and dialect.g10_rotation)
+        or motion in (730, 830)
+        or (spline and motion == 50)
+        or "user" in w.m
+        or w.m.get("tool_change") == 61
+        or w.m.get("io") in (66, 67, 68),
+        "E": w.m.get("io") in (66, 67, 68),
+        "H": w.g.get("tool_length") in (430, 432),
+        "D": (dialect.cutter_comp and w.g.get("cutter_comp") in (410, 411, 420, 421))
+        or w.g.get("spindle_mode") == 960,  # G96 D: the spindle's speed limit
+    }
