@@ -21,6 +21,10 @@ the subprocess reports:
   plus its children's private memory at one poll (benchmarks/memory_probe.py, every 0.1 s: a
   forked child's own resident set counts the pages it shares with its parent, and getrusage's
   RUSAGE_CHILDREN the run's resident set at the moment the worker was spawned);
+* the run's own memory: "start", the resident set when planning returned (the plan and the
+  moves the run holds), and "run", the largest resident set from there to the outputs written
+  (the VmHWM reset when planning returns, Linux /proc/self/clear_refs): what the streamed run
+  adds to what planning left, apart from the planner's own peak;
 * MuJoCo alone: the same model stepped open loop through the same motion -- the run's held
   forces replayed from the same initial state by ``mujoco.rollout`` (as bench_sim.py does), in
   pieces of REPLAY_STEPS physics steps; every stage's time is printed over it (a second table),
@@ -123,6 +127,28 @@ def _replay_s(gantry, start_mm, force) -> float:
     return wall
 
 
+def _proc_status_bytes(field: str) -> int | None:
+    """``field`` (VmRSS, VmHWM) of /proc/self/status [bytes]; None where there is none."""
+    try:
+        with open("/proc/self/status") as f:
+            for line in f:
+                if line.startswith(field + ":"):
+                    return int(line.split()[1]) * 1024
+    except OSError:
+        pass
+    return None
+
+
+def _reset_peak() -> bool:
+    """Reset this process' VmHWM to its resident set (Linux: /proc/self/clear_refs 5)."""
+    try:
+        with open("/proc/self/clear_refs", "w") as f:
+            f.write("5")
+        return True
+    except OSError:
+        return False
+
+
 def child(kind: str, blocks: int, baseline_rev: str | None) -> dict:
     """Run one program; return the measurements (see the module docstring)."""
     import numpy as np
@@ -141,6 +167,19 @@ def child(kind: str, blocks: int, baseline_rev: str | None) -> dict:
         return real_analyse(*args, **kwargs)
 
     contour.analyse = analyse
+    import importlib
+
+    plan_module = importlib.import_module("gantry_sim.controller.planner.plan")  # the module
+
+    real_plan = plan_module.plan
+
+    def plan(*args, **kwargs):  # the run's own peak starts where planning ends
+        planned = real_plan(*args, **kwargs)
+        captured["run_start_bytes"] = _proc_status_bytes("VmRSS")
+        captured["run_peak_reset"] = _reset_peak()
+        return planned
+
+    plan_module.plan = plan
     from gantry_sim.sim.api import run_program, write_run_outputs
     from gantry_sim.sim.budget import Budget
     from gantry_sim.sim.machine import load_gantry
@@ -158,6 +197,7 @@ def child(kind: str, blocks: int, baseline_rev: str | None) -> dict:
         write_run_outputs(result, Path(tmp) / "out")
         t2 = time.perf_counter()
         peak = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss * 1024
+        run_peak = _proc_status_bytes("VmHWM") if captured.get("run_peak_reset") else None
         children, tree_peak = tree.stop()
         with np.load(Path(tmp) / "out" / "trace.npz") as npz:  # every tick, streamed or not
             start, force = npz["ref"][0], npz["force_N"]
@@ -174,6 +214,8 @@ def child(kind: str, blocks: int, baseline_rev: str | None) -> dict:
         "write": t2 - t1,
         "wall": t2 - t0,
         "peak_bytes": peak,
+        "run_start_bytes": captured.get("run_start_bytes"),
+        "run_peak_bytes": run_peak,
         "children_bytes": children,
         "tree_bytes": max(peak, tree_peak),
     }
@@ -212,7 +254,8 @@ def _run_child(kind: str, blocks: int, baseline: str | None) -> dict:
 def _print_table(rows: list[dict]) -> None:
     print(
         f"{'program':<13}{'ticks':>9}{'cycle':>8} |{'parse':>7}{'plan':>8}{'sim':>8}"
-        f"{'analyse':>8}{'trace':>7}{'write':>7}{'wall':>8} |{'mujoco':>7} |{'peak MB':>8}{'child':>7}{'tree':>7} | "
+        f"{'analyse':>8}{'trace':>7}{'write':>7}{'wall':>8} |{'mujoco':>7} |{'peak MB':>8}{'child':>7}{'tree':>7}"
+        f"{'start':>7}{'run':>6} | "
         "analyse before -> after"
     )
     for r in rows:
@@ -229,8 +272,13 @@ def _print_table(rows: list[dict]) -> None:
             f"{_name(r):<13}{r['ticks']:>9}{r['cycle_s'] / 60:>7.1f}m |"
             + "".join(f"{r.get(k, 0.0):>{w}.2f}" for k, w in zip(STAGES, WIDTHS, strict=True))
             + f"{r['wall']:>8.1f} |{r['mujoco']:>7.2f} |{r['peak_bytes'] / 2**20:>8.0f}"
-            + f"{r['children_bytes'] / 2**20:>7.0f}{r['tree_bytes'] / 2**20:>7.0f} | {ba}"
+            + f"{r['children_bytes'] / 2**20:>7.0f}{r['tree_bytes'] / 2**20:>7.0f}"
+            + f"{_mb(r.get('run_start_bytes')):>7}{_mb(r.get('run_peak_bytes')):>6} | {ba}"
         )
+
+
+def _mb(n: int | None) -> str:
+    return "-" if n is None else f"{n / 2**20:.0f}"
 
 
 def _print_ratios(rows: list[dict]) -> None:
@@ -268,10 +316,15 @@ def _print_growth(rows: list[dict]) -> None:
             if b.get(k, 0.0) > 0 and a.get(k, 0.0) > 0
         }
         mem = (b["peak_bytes"] - a["peak_bytes"]) / max(1, b["ticks"] - a["ticks"])
+        run = ""
+        if a.get("run_peak_bytes") and b.get("run_peak_bytes"):
+            grew = (b["run_peak_bytes"] - a["run_peak_bytes"]) / 2**20
+            held = (b["run_start_bytes"] - a["run_start_bytes"]) / 2**20
+            run = f"; the run's own peak {grew:+.0f} MB, of which held from planning {held:+.0f} MB"
         print(
             f"  {kind:<6}"
             + " ".join(f"{k} {v:.2f}" for k, v in exps.items())
-            + f" | peak memory +{mem:.0f} bytes per tick"
+            + f" | peak memory +{mem:.0f} bytes per tick{run}"
         )
 
 
