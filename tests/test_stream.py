@@ -347,6 +347,8 @@ def test_the_worker_takes_ranges_larger_than_the_pipe_buffer():
         signal.alarm(0)
         signal.signal(signal.SIGALRM, previous)
         worker.close()
+    # every result was in: the worker is killed, not waited for while it tears down its heap
+    assert worker._proc.returncode == -signal.SIGKILL
     inline = analysis_worker.InlineAnalyser()
     for job, tables in jobs:
         inline.submit(job, tables)
