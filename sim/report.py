@@ -366,6 +366,10 @@ def write_outputs(
         atomic_output_dir(out_dir, last="report.json") as tmp,
         stage("write", len(files), "file", progress) as advance,
     ):
+        # the plots' thread (sim.plot_prep) has ended once its outline is there: nothing is
+        # being imported when error.png's child is forked (a module lock held by another thread
+        # at the fork would stay held in the child)
+        drawing = outline.result() if plots and outline is not None else None
         error_png = _error_plot_beside(tmp / "error.png", trace, report, gates, moves, plots)
         if not trace_npz:
             pass
@@ -386,7 +390,6 @@ def write_outputs(
             from gantry_sim.sim.path_plot import save_path_plot
 
             try:
-                drawing = outline.result() if outline is not None else None
                 save_path_plot(
                     tmp / "path.png", moves, trace, report.program, report.contour_error_um, drawing
                 )

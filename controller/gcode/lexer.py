@@ -37,11 +37,11 @@ O_KEYWORDS = (
 )
 # fmt: on
 _LINE_END = re.compile(r"\r\n|\r|\n")
+#: what strip_line drops outside comments
+_BLANKS = str.maketrans("", "", " \t\r")
 #: grbl's realtime characters (status, cycle start, feed hold, reset) and every character
 #: outside ASCII (grbl's serial layer drops each byte above 0x7F: its extended-ASCII realtime
 #: commands and anything else), taken out of a line before it is parsed.
-#: what strip_line drops outside comments
-_BLANKS = str.maketrans("", "", " \t\r")
 _REALTIME = re.compile("[?~!\x18\x80-\U0010ffff]")
 
 

@@ -27,6 +27,8 @@ _OTHER_AXES = "ABCUVW"
 ROTARY_AXES = "ABC"
 #: canned cycles (tenths): they take R and L (and P, Q, I/J/K as each needs).
 _CYCLES = frozenset((730, 740, 810, 820, 830, 840, 850, 860, 870, 880, 890))
+#: Letters every block may carry (axes, feed, spindle speed, tool; a rotary axis at 0).
+_ANY_CODE = frozenset("XYZFST@^$" + ROTARY_AXES)
 
 
 @dataclass(frozen=True)
@@ -196,10 +198,6 @@ def check_words(w: Words, motion: int | None, dialect: Dialect) -> None:
         raise GcodeError("G4 (dwell) cannot share a line with G2 or G3: both use the P word")
     if w.g.get("nonmodal") == 40 and v.get("P", -1.0) < 0.0:
         raise GcodeError("G4 (dwell) needs a P word: the dwell time in seconds, >= 0")
-
-
-#: Letters every block may carry (axes, feed, spindle speed, tool; a rotary axis at 0).
-_ANY_CODE = frozenset("XYZFST@^$" + ROTARY_AXES)
 
 
 def _letter_uses(w: Words, motion: int | None, dialect: Dialect) -> dict[str, bool]:
