@@ -26,8 +26,7 @@ import time
 from collections import deque
 from collections.abc import Callable, Iterator, Sequence
 from concurrent.futures import Future
-from dataclasses import dataclass
-from typing import NamedTuple
+from dataclasses import dataclass, fields
 
 import numpy as np
 
@@ -252,7 +251,7 @@ class _Running:
         self.stride, self.limit_N = stride, limit_N
         self.max_force, self.saturated = np.zeros(3), np.zeros(3, dtype=np.int64)
         self.reference_max = self.tracking_max = self.planning_mm = 0.0
-        self.kept: list[_Kept] = []
+        self.kept: list[Trace] = []
 
     def add(self, job: RangeJob, part: ChunkAnalysis, planning_mm: float) -> None:
         absf = np.abs(job.force)
@@ -267,47 +266,28 @@ class _Running:
         self.planning_mm = max(self.planning_mm, planning_mm)
 
 
-class _Kept(NamedTuple):
-    """The picked ticks of one range: what the decimated :class:`Trace` is made of."""
-
-    t: np.ndarray
-    ref: np.ndarray
-    pos: np.ndarray
-    line: np.ndarray
-    err_um: np.ndarray
-    nearest: np.ndarray
-    feed: np.ndarray
-    force_N: np.ndarray
-
-
-def _decimate(job: RangeJob, part: ChunkAnalysis, pick: np.ndarray) -> _Kept:
+def _decimate(job: RangeJob, part: ChunkAnalysis, pick: np.ndarray) -> Trace:
     """The ``pick``ed ticks of one range, as small copies (the range's arrays can be freed;
     the reference's speed, acceleration and sources are not kept: the plots do not draw them,
     and they were 16 MB of the 200,000 ticks kept)."""
     piece = job.piece
-    return _Kept(
+    return Trace(
         t=piece.t[pick],
         ref=piece.pos[pick],
         pos=job.pos[pick],
-        line=piece.line[pick],
+        line=piece.line[pick].astype(np.int64),
         err_um=part.err_um[pick],
         nearest=part.nearest[pick],
-        feed=part.feed[pick],
+        feed=part.feed[pick].astype(bool),
         force_N=job.force[pick],
     )
 
 
-def _join_decimated(kept: list[_Kept]) -> Trace:
-    def cat(arrays, shape):
-        return np.concatenate(arrays) if arrays else np.zeros(shape)
-
-    return Trace(
-        t=cat([k.t for k in kept], (0,)),
-        ref=cat([k.ref for k in kept], (0, 3)),
-        pos=cat([k.pos for k in kept], (0, 3)),
-        line=cat([k.line for k in kept], (0,)).astype(np.int64),
-        err_um=cat([k.err_um for k in kept], (0,)),
-        nearest=cat([k.nearest for k in kept], (0, 3)),
-        feed=cat([k.feed for k in kept], (0,)).astype(bool),
-        force_N=cat([k.force_N for k in kept], (0, 3)),
-    )
+def _join_decimated(kept: list[Trace]) -> Trace:
+    """The ranges' picked ticks as one :class:`Trace` (empty arrays when nothing was kept)."""
+    if not kept:
+        empty, rows = np.zeros(0), np.zeros((0, 3))
+        return Trace(
+            empty, rows, rows, empty.astype(np.int64), empty, rows, empty.astype(bool), rows
+        )
+    return Trace(*(np.concatenate([getattr(k, f.name) for k in kept]) for f in fields(Trace)))

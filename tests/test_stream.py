@@ -136,6 +136,12 @@ def test_streamed_run_equals_the_whole_program_run(machine, stateful, worker, te
     rows = np.searchsorted(traj.t, dec.t)
     assert np.array_equal(traj.t[rows], dec.t)
     assert np.array_equal(sim.pos[rows], dec.pos) and np.array_equal(whole.err_um[rows], dec.err_um)
+    assert np.array_equal(traj.pos[rows], dec.ref) and np.array_equal(traj.line[rows], dec.line)
+    assert np.array_equal(whole.nearest[rows], dec.nearest) and np.array_equal(
+        sim.force[rows], dec.force_N
+    )
+    assert np.array_equal(whole.feed[rows], dec.feed)
+    assert (dec.line.dtype, dec.feed.dtype) == (np.int64, np.bool_)
     assert dec.err_um.max() == whole.err_um.max()
 
 
