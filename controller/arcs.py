@@ -22,6 +22,7 @@ import numpy as np
 
 from gantry_sim.controller.moves import Arc
 from gantry_sim.controller.planes import PLANE_AXES
+from gantry_sim.controller.vector import norm
 
 
 class ArcFrame(NamedTuple):
@@ -110,7 +111,7 @@ def arc_length_mm(arc: Arc) -> float:
 def frenet(d1: np.ndarray, d2: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Unit tangent and curvature vector [1/mm] from a curve's first and second derivatives
     (3,) with respect to any parameter (e.g. :func:`arc_derivatives`)."""
-    speed = float(np.linalg.norm(d1))
+    speed = norm(d1)
     t = d1 / speed
     return t, (d2 - np.dot(d2, t) * t) / speed**2
 

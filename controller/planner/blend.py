@@ -53,6 +53,7 @@ from gantry_sim.controller.planner.transition import (
     size_transitions,
     transition_site,
 )
+from gantry_sim.controller.vector import norm
 
 #: Share of the chord tolerance the planner's reference may leave an arc by (the G61 promise);
 #: a blend keeps this much of the tolerance for it.
@@ -149,7 +150,7 @@ def smoothing_budget(m: Move, settings: PathSettings, chord_tolerance_mm: float)
 
 def _direction(m: PathMove) -> np.ndarray:
     d = np.asarray(m.end, float) - np.asarray(m.start, float)
-    return d / np.linalg.norm(d)
+    return d / norm(d)
 
 
 def blend_corners(
@@ -246,7 +247,7 @@ def blend_corners(
         end_pts.append(e_pt)
         # a curve by its length: a full circle or a closed spline ends where it starts
         straight = isinstance(m, Rapid | Linear)
-        keep.append((float(np.linalg.norm(e - a)) if straight else m.length_mm) > EPS_MM)
+        keep.append((norm(e - a) if straight else m.length_mm) > EPS_MM)
     out: list[Blended] = []
     sources = stretch.sources
     for i, m in enumerate(moves):
@@ -413,9 +414,9 @@ def _blend_arc(
     d0, d1 = _direction(m0), _direction(m1)
     corner = np.asarray(m0.end, float)
     half = 0.5 * phi
-    length = 0.5 * (float(np.linalg.norm(corner - p0)) + float(np.linalg.norm(p1 - corner)))
+    length = 0.5 * (norm(corner - p0) + norm(p1 - corner))
     radius = length / math.tan(half)
-    bis = (d1 - d0) / np.linalg.norm(d1 - d0)
+    bis = (d1 - d0) / norm(d1 - d0)
     center = corner + bis * (radius / math.cos(half))
     i1, i2, n = PLANE_AXES[plane]
     center[n] = p0[n]

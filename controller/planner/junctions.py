@@ -35,6 +35,7 @@ from gantry_sim.controller.planner.transition_geometry import (
     transition_derivatives_many,
     transition_lengths_many,
 )
+from gantry_sim.controller.vector import norm
 
 #: Tangent-direction change above which a junction involving an arc is a corner [rad] (1 degree).
 CORNER_ANGLE_RAD = math.radians(1.0)
@@ -169,27 +170,21 @@ def junction_caps(
             continue
         if g0.is_arc and g1.is_arc:
             d = g0.tangent_out + g1.tangent_in
-            states[b] = JunctionState(d / np.linalg.norm(d), 0.5 * (g0.curv_out + g1.curv_in))
+            states[b] = JunctionState(d / norm(d), 0.5 * (g0.curv_out + g1.curv_in))
         else:
             straight = g1 if g0.is_arc else g0
             states[b] = JunctionState(straight.tangent_in, zero)
-        jump = _norm(g0.curv_out - g1.curv_in)
+        jump = norm(g0.curv_out - g1.curv_in)
         if g0.is_arc and g1.is_arc:  # the junction state takes the mean: each side smooths half
             jump *= 0.5
-        chords = [_norm(g0.vertices[-1] - g0.vertices[-2])] if g0.is_arc else []
-        chords += [_norm(g1.vertices[1] - g1.vertices[0])] if g1.is_arc else []
+        chords = [norm(g0.vertices[-1] - g0.vertices[-2])] if g0.is_arc else []
+        chords += [norm(g1.vertices[1] - g1.vertices[0])] if g1.is_arc else []
         own = [smoothing_mm[i] for i in (b - 1, b)] if smoothing_mm else []
         if own and min(own) > dev:  # both sides in G64: its tolerance is the budget
             caps[b] = junction_cap(kink, jump, min(own), jerk, min(chords), CHORD_FIT_BLEND)
         else:
             caps[b] = junction_cap(kink, jump, dev, jerk, min(chords))
     return caps, states
-
-
-def _norm(v: np.ndarray) -> float:
-    """|v| of a (3,) vector, as np.linalg.norm gives it (the square root of its np.dot with
-    itself), at a fraction of the call's cost."""
-    return math.sqrt(float(np.dot(v, v)))
 
 
 def _piece_ok(

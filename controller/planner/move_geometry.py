@@ -50,6 +50,7 @@ from gantry_sim.controller.planner.transition_geometry import (
     transition_vertices_many,
 )
 from gantry_sim.controller.units import mm_per_min_to_mm_per_s
+from gantry_sim.controller.vector import norm
 
 #: The closed-form arc pieces (:mod:`gantry_sim.controller.planner.jerk3`) overshoot the vertex speed by about
 #: 5e-4 * phi^4 (phi: chord sweep [rad]); the arc's speed cap keeps twice that below the feed.
@@ -237,7 +238,7 @@ def _geometry(
     if not isinstance(move, Arc):
         verts = np.array([move.start, move.end], dtype=float)
         verts.setflags(write=False)
-        length = float(np.linalg.norm(verts[1] - verts[0]))
+        length = norm(verts[1] - verts[0])
         t = (verts[1] - verts[0]) / length if length > 0 else np.array([1.0, 0.0, 0.0])
         feed = (
             math.inf
@@ -254,12 +255,12 @@ def _geometry(
     t_out, k_out = frenet(d1[1], d2[1])
     frame = arc_frame(move)
     r_max = max(frame.r0_mm, frame.r1_mm)
-    speed_u = float(min(np.linalg.norm(d1[0]), np.linalg.norm(d1[1])))  # |dp/du| [mm]
+    speed_u = min(norm(d1[0]), norm(d1[1]))  # |dp/du| [mm]
     spiral = is_spiral(move)
     if spiral:
         length = float(spiral_length_at(move, np.array([1.0]))[0])
     else:
-        length = float(0.5 * (np.linalg.norm(d1[0]) + np.linalg.norm(d1[1])))
+        length = 0.5 * (norm(d1[0]) + norm(d1[1]))
     ang = move.angle
     curvature = r_max * ang * ang / speed_u**2
     dcurv = r_max * ang**3 / speed_u**3
