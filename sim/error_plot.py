@@ -136,11 +136,7 @@ def _label_worst(ax: Axes, tr: Trace) -> None:
         return
     lines = tr.line[feed]
     err = tr.err_um[feed]
-    order = np.lexsort((-err, lines))  # by line, worst first within each line
-    first = np.ones(order.size, dtype=bool)
-    first[1:] = lines[order][1:] != lines[order][:-1]
-    peaks = order[first]  # one sample per line: its worst
-    top = peaks[np.argsort(-err[peaks], kind="stable")[:WORST_LABELLED]]
+    top = worst_lines(lines, err, WORST_LABELLED)
     top = top[np.argsort(tr.t[feed[top]], kind="stable")]  # in time order: neighbours stagger
     for rank, k in enumerate(top):
         x, y = float(tr.t[feed[k]]), float(err[k])
@@ -154,3 +150,29 @@ def _label_worst(ax: Axes, tr: Trace) -> None:
             fontsize=7,
             color="tab:blue",
         )
+
+
+def worst_lines(lines: np.ndarray, err: np.ndarray, count: int) -> np.ndarray:
+    """Indices of the samples that peak the ``count`` lines with the largest error: per line its
+    largest ``err`` (the earliest sample of equal ones), the lines by that peak (the lower line
+    first among equal peaks), the largest first.
+
+    Only the samples near the top are sorted: the ``m`` largest errors (``np.argpartition``,
+    m = 64, 256, ... until enough lines peak above the m-th largest, so that no sample left out
+    can change the answer); sorting every sample by line took 0.06 s of error.png's 0.25 s at
+    348,317 ticks. NaN errors (none in a run) take the full sort."""
+    n = err.size
+    if n == 0 or count <= 0:
+        return np.zeros(0, dtype=np.intp)
+    if np.isnan(err).any():
+        m = n
+    else:
+        m = min(n, 64)
+    while True:
+        cand = np.arange(n) if m >= n else np.argpartition(-err, m - 1)[:m]
+        order = cand[np.lexsort((cand, lines[cand], -err[cand]))]  # by error, line, sample
+        _, first = np.unique(lines[order], return_index=True)  # each line's first: its peak
+        picked = order[np.sort(first)[:count]]
+        if m >= n or (picked.size == count and err[picked[-1]] > err[cand].min()):
+            return picked
+        m *= 4

@@ -12,6 +12,8 @@ import time
 
 import numpy as np
 import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
 from gantry_sim.controller.gcode.interpreter import interpret
 from gantry_sim.sim.api import run_program
@@ -96,6 +98,43 @@ def test_error_plot_is_an_envelope_with_gates_at_100k_blocks(circle):
     assert f"line {worst_line}" in [t.get_text() for t in ax.texts]
     assert ax.get_ylim()[0] == 0
     assert elapsed < 30  # generous: a correctness guard, the speed target is in benchmarks/
+
+
+def _worst_lines_by_sorting(lines, err, count):
+    """error.png's labelled lines by their definition: every sample sorted by line, then by
+    error (the earliest of equal ones first); each line's first; the lines by that peak."""
+    order = np.lexsort((-err, lines))
+    first = np.ones(order.size, dtype=bool)
+    first[1:] = lines[order][1:] != lines[order][:-1]
+    peaks = order[first]
+    return peaks[np.argsort(-err[peaks], kind="stable")[:count]]
+
+
+@settings(max_examples=300, deadline=None)
+@given(
+    st.lists(
+        st.tuples(st.integers(1, 40), st.sampled_from([0.0, 0.5, 1.0, 2.0, 3.5])), max_size=400
+    ),
+    st.lists(st.floats(0, 10, allow_nan=False), max_size=400),
+    st.integers(1, 8),
+)
+def test_the_worst_lines_are_those_a_full_sort_finds(tied, spread, count):
+    """The labelled samples (sim.error_plot.worst_lines, which sorts only the top errors) are
+    those of sorting every sample, ties included: many equal errors, and spread ones."""
+    from gantry_sim.sim.error_plot import worst_lines
+
+    lines = np.array(
+        [line for line, _ in tied] + [k % 7 + 1 for k in range(len(spread))], dtype=np.int64
+    )
+    err = np.array([e for _, e in tied] + spread, dtype=float)
+    got = worst_lines(lines, err, count)
+    assert np.array_equal(got, _worst_lines_by_sorting(lines, err, count))
+    rng = np.random.default_rng(len(tied))  # past the first candidate set: 64 samples
+    lines = rng.integers(1, 500, 5000)
+    err = rng.integers(0, 3, 5000).astype(float)  # three values: the top 64 cut ties
+    assert np.array_equal(
+        worst_lines(lines, err, count), _worst_lines_by_sorting(lines, err, count)
+    )
 
 
 def test_tune_plot_uses_the_feed_actually_run():
