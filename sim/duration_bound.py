@@ -65,6 +65,18 @@ def duration_lower_bound(
     from gantry_sim.controller.moves import Arc, Dwell, Limits, Linear, Rapid, Spline, Stop
     from gantry_sim.controller.planner.path_control import control, extends_run, starts_run
 
+    stops, motions, curves = (Dwell, Stop, Limits), (Rapid, Linear, Arc, Spline), (Linear, Arc)
+    straights = (Rapid, Linear)
+    controls: dict[int, tuple[object, Control]] = {}  # per path-control object: its Control
+
+    def control_of(m: Move) -> Control:
+        """``control(m, path)``, made once per path-control object (moves share theirs)."""
+        pc = getattr(m, "path", None)
+        hit = controls.get(id(pc))
+        if hit is None or hit[0] is not pc:
+            hit = controls[id(pc)] = (pc, control(m, path))
+        return hit[1]
+
     items = items if isinstance(items, Sequence) else list(items)  # read twice
     vmax = list(machine.limits.max_velocity_mm_per_s)
     accel_set = False
@@ -85,31 +97,31 @@ def duration_lower_bound(
     prev: _Prev | None = None  # the last feed move (Linear or Arc) of non-zero length
     path = machine.path
     for m in items:
-        if isinstance(m, Dwell | Stop | Limits):  # an exact stop (and the dwell's time)
+        if isinstance(m, stops):  # an exact stop (and the dwell's time)
             if isinstance(m, Limits) and m.code == "M205":  # J: the blend tolerance from here
                 j = dict(m.values).get("J", 0.0)
                 path = replace(path, tolerance_mm=j) if j > 0 else path
+                controls.clear()
             seconds = m.seconds if isinstance(m, Dwell) else 0.0
             total += stretch.close() + seconds
             if seconds:
                 per_line[m.line] = per_line.get(m.line, 0.0) + seconds
             prev, run = None, []
             continue
-        if not isinstance(m, Rapid | Linear | Arc | Spline):
+        if not isinstance(m, motions):
             continue
         length = m.length_mm
         if length <= EPS_MM:  # the planner drops it: no junction, no time
             continue
         feed = getattr(m, "feed_mm_per_min", None)
-        c = control(m, path) if isinstance(m, Linear | Arc) else None
-        straight = isinstance(m, Rapid | Linear)
-        d = [e - b for b, e in zip(m.start, m.end, strict=True)] if straight else None
-        if d is not None:
-            cap = min(
-                (v / abs(x) * length for v, x in zip(vmax, d, strict=True) if x), default=norm
-            )
-        else:
-            cap = norm
+        c = control_of(m) if isinstance(m, curves) else None
+        d = None
+        cap = norm
+        if isinstance(m, straights):
+            (x0, y0, z0), (x1, y1, z1) = m.start, m.end
+            d = [x1 - x0, y1 - y0, z1 - z0]
+            caps = [v / abs(x) * length for v, x in zip(vmax, d, strict=True) if x]
+            cap = min(caps) if caps else norm
         speed = cap if feed is None else min(cap, feed * scale / 60.0)
         t = length / speed if speed > 0 else 0.0
         here = None if c is None else _Prev(m.line, feed, speed, t, c, d, length, m.start)
@@ -117,7 +129,7 @@ def duration_lower_bound(
         if joins:
             run.append(m)
         else:
-            run = [m] if starts_run(m, path) else []
+            run = [m] if c is not None and starts_run(m, path) else []
         if joins and prev is not None and here is not None:  # a naive-CAM run takes m
             if prev.dropped:
                 stretch.extend_run(m.end)
@@ -177,7 +189,7 @@ def _blend_saving_mm(prev: _Prev, d: list[float] | None, length_mm: float) -> fl
         return 2.0 * p
     if prev.direction is None or d is None:
         return min(2.0 * p, prev.length + length_mm)
-    cos = sum(a * b for a, b in zip(prev.direction, d, strict=True)) / (prev.length * length_mm)
+    cos = _dot(prev.direction, d) / (prev.length * length_mm)
     phi = math.acos(max(-1.0, min(1.0, cos)))
     if phi <= 0.0:
         return 0.0
@@ -213,7 +225,7 @@ class _Stretch:
         :data:`REVERSAL_RAD` or more."""
         if self.last is None:
             return False
-        cos = sum(a * b for a, b in zip(self.last, d, strict=True)) / length_mm
+        cos = _dot(self.last, d) / length_mm
         return cos <= math.cos(REVERSAL_RAD)
 
     def start_run(self, start: Sequence[float], end: Sequence[float], speed: float) -> None:
@@ -273,3 +285,8 @@ def rest_to_rest_s(length_mm: float, speed_mm_per_s: float, acc_mm_per_s2: float
     if length_mm <= v * v / a:  # triangular: the speed is never reached
         return 2.0 * math.sqrt(length_mm / a)
     return length_mm / v + v / a
+
+
+def _dot(a: Sequence[float], b: Sequence[float]) -> float:
+    """a . b of two 3-vectors, summed as ``sum()`` sums them (from 0, left to right)."""
+    return 0 + a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
