@@ -19,6 +19,7 @@ from __future__ import annotations
 import io
 import queue
 import threading
+from collections.abc import Mapping
 from pathlib import Path
 from typing import Any
 
@@ -42,22 +43,48 @@ FIELDS: dict[str, tuple[tuple[int, ...], Any]] = {
 QUEUED_RANGES = 2
 
 
+def npy_member(name: str, shape: tuple[int, ...], dtype: Any) -> DeflatedMember:
+    """The member ``name.npy`` of an .npz, its ``.npy`` header for a C-ordered array of
+    ``shape`` and ``dtype`` written; the array's bytes are added after it."""
+    from numpy.lib import format as npy
+
+    member = DeflatedMember(f"{name}.npy")
+    header = {"descr": npy.dtype_to_descr(np.dtype(dtype)), "fortran_order": False}
+    head = io.BytesIO()
+    npy.write_array_header_1_0(head, header | {"shape": shape})
+    member.add(head.getvalue())
+    return member
+
+
+def save_npz(path: Path, arrays: Mapping[str, np.ndarray]) -> None:
+    """Write ``arrays`` to ``path`` as an .npz that ``numpy.load`` reads like one of
+    ``numpy.savez_compressed`` (same names, dtypes and values), deflated at the level of the
+    streamed run's trace (sim.deflate_zip.LEVEL, 1): savez_compressed's level 6 took 0.095 s
+    for 34,975 ticks, level 1 0.03-0.05 s, for a file 1.5 % larger."""
+    members: list[DeflatedMember] = []
+    try:
+        for name, values in arrays.items():
+            values = np.asarray(values, order="C")  # C order, 0-d kept
+            member = npy_member(name, values.shape, values.dtype)
+            members.append(member)
+            member.add(values.data.cast("B") if values.size else b"")
+        with open(path, "wb") as out:
+            write_zip(members, out)
+    finally:
+        for member in members:
+            member.release()
+
+
 class TraceWriter:
     """The trace of ``ticks`` servo ticks, deflated range by range."""
 
     def __init__(self, ticks: int) -> None:
-        from numpy.lib import format as npy
-
         self.ticks = ticks
         self.written = 0
-        self.members: dict[str, DeflatedMember] = {}
-        for name, (shape, dtype) in FIELDS.items():
-            member = DeflatedMember(f"{name}.npy")
-            header = {"descr": npy.dtype_to_descr(np.dtype(dtype)), "fortran_order": False}
-            head = io.BytesIO()
-            npy.write_array_header_1_0(head, header | {"shape": (ticks, *shape)})
-            member.add(head.getvalue())
-            self.members[name] = member
+        self.members: dict[str, DeflatedMember] = {
+            name: npy_member(name, (ticks, *shape), dtype)
+            for name, (shape, dtype) in FIELDS.items()
+        }
         self._queue: queue.Queue[dict[str, np.ndarray] | None] = queue.Queue(QUEUED_RANGES)
         self._failed: BaseException | None = None
         self._thread = threading.Thread(target=self._deflate, name="trace.npz", daemon=True)
