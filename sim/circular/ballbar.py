@@ -188,11 +188,12 @@ def write_ballbar_outputs(result: BallbarResult, out_dir: Path) -> None:
     ballbar.json removed first and moved in last (sim.outdir: old or new, never mixed).
     """
     from gantry_sim.sim.plots import save_polar_plot
+    from gantry_sim.sim.trace_writer import save_npz
 
     with atomic_output_dir(out_dir, last="ballbar.json") as tmp:
         (tmp / "ballbar.json").write_text(json.dumps(result.summary, indent=2) + "\n")
         (tmp / "ballbar.ngc").write_text(result.program.text)
         for d in DIRECTIONS:
             tr = direction_trace(result.run, result.program, d)
-            np.savez_compressed(tmp / f"trace_{d}.npz", t=tr["t"], ref=tr["ref"], pos=tr["pos"])
+            save_npz(tmp / f"trace_{d}.npz", {"t": tr["t"], "ref": tr["ref"], "pos": tr["pos"]})
         save_polar_plot(tmp / "polar.png", result.ccw, result.cw, result.summary)
