@@ -67,13 +67,15 @@ def duration_lower_bound(
 
     stops, motions, curves = (Dwell, Stop, Limits), (Rapid, Linear, Arc, Spline), (Linear, Arc)
     straights = (Rapid, Linear)
-    controls: dict[int, tuple[object, Control]] = {}  # per path-control object: its Control
+    # per path-control object (moves share theirs): the object, held so that its id stays its
+    # own while the moves read from disk come and go, and its Control
+    controls: dict[int, tuple[object, Control]] = {}
 
     def control_of(m: Move) -> Control:
-        """``control(m, path)``, made once per path-control object (moves share theirs)."""
+        """``control(m, path)``, made once per path-control object."""
         pc = getattr(m, "path", None)
         hit = controls.get(id(pc))
-        if hit is None or hit[0] is not pc:
+        if hit is None:
             hit = controls[id(pc)] = (pc, control(m, path))
         return hit[1]
 
