@@ -28,6 +28,7 @@ import math
 import random
 import re
 import subprocess
+import tempfile
 from pathlib import Path
 
 ROOT = Path(__file__).resolve().parent.parent
@@ -152,9 +153,16 @@ def nurbs_programs(rng: random.Random) -> dict[str, str]:
 
 
 def run_locked(args: list[str]) -> subprocess.CompletedProcess:
-    return subprocess.run(
-        ["flock", "/tmp/rs274.lock", *args], capture_output=True, text=True, timeout=120
-    )
+    """Run one LinuxCNC tool under the lock, in a scratch folder: rs274 and the gcode module
+    write their parameter file (rs274ngc.var and its .bak) into the working directory."""
+    with tempfile.TemporaryDirectory() as scratch:
+        return subprocess.run(
+            ["flock", "/tmp/rs274.lock", *args],
+            capture_output=True,
+            text=True,
+            timeout=120,
+            cwd=scratch,
+        )
 
 
 def to_work(move: dict) -> list[float]:
