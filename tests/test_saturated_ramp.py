@@ -87,6 +87,26 @@ def test_small_circle_from_rest_meets_the_cycle_time_target(machine):
     np.testing.assert_allclose(tr.pos[-1], moves[0].end, atol=1e-9)
 
 
+def test_short_arc_whose_ramps_leave_no_room_for_the_bridge_still_gets_its_ramps():
+    """An arc of 0.27 mm on R 0.21 from rest to rest (a rounded corner of a PrusaSlicer
+    arc-fitted print, Marlin's M201 X500 Y500, SHARE of it). The ramps' distance table leaves
+    out the 2 ms bridge between their peaks, 0.02 mm here: the peaks tried one grid step apart
+    all fell short by 0.006-0.014 mm and the arc got none (0.7 s spent). Each peak tried now
+    asks for the room the last one lacked."""
+    r, length = 0.2101523257068534, 0.26975739453650943
+    acc, jerk = (470.0, 470.0), (94000.0, 75200.0)
+    lims = tuple(
+        CircleLimits(2.9983497047781, -1.0, r, length, rev, acc, jerk) for rev in (False, True)
+    )
+    cap = 9.93838986366582
+    ph = saturated_profile(length, 0.0, 0.0, cap, lims)
+    assert ph is not None
+    _check_phases(ph.rows, length, 0.0, 0.0)
+    assert ph.rows[:, 2].max() <= cap * (1 + 1e-12)
+    # the constant-limit profile under the tangent's limits takes 0.0627 s on this arc
+    assert ph.duration_s < 0.055
+
+
 # --- Tiny arcs from rest: the saturated ramps cannot be assembled; the planner must fall back ---
 
 #: A 0.2 um arc on R 5 at F6000 (issue 15, defect 1): both ramps would be empty.

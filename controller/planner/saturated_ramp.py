@@ -35,6 +35,8 @@ from gantry_sim.controller.planner.ramp_bounds import RampLimits
 STEP_S = 2.5e-4
 #: Longest ramp [s] tried (a ramp whose jerk runs out crawls towards its end: a failure).
 MAX_RAMP_S = 2.0
+#: Peaks tried for the ramps of one arc (each a few hundredths of a second to build).
+PEAK_TRIES = 8
 #: Share of the plane's jerk and acceleration the ramps use (the point-by-point check that
 #: follows allows 0.97 of them; the rest absorbs the state's change within a step).
 SHARE = 0.94
@@ -143,8 +145,16 @@ def saturated_profile(
     top = min(cap, tables[0][0].max(), tables[1][0].max())
     grid = np.linspace(max(v_in, v_out), top, 400)
     need = sum(np.interp(grid, vp, d) for vp, d in tables)
-    fits = np.flatnonzero(need <= length_mm)
-    for idx in fits[::-1][:8]:  # the highest peak that fits once the ramps are exact
+    # the highest peak that fits once the ramps are exact: the table's distances leave out the
+    # bridge between the ramps' peaks (2 BRIDGE_S at about the peak speed, 7 % of an arc of 0.27
+    # mm at 10 mm/s), so where a peak falls short by some length, the next one tried is the
+    # highest whose table distance leaves that much more room
+    room, below = length_mm, grid.size
+    for _ in range(PEAK_TRIES):
+        fits = np.flatnonzero(need[:below] <= room)
+        if fits.size == 0:
+            return None
+        idx = below = int(fits[-1])
         peak = grid[idx]
         ramps = []
         for v0, lim in ((v_in, lim_up), (v_out, lim_dn)):
@@ -157,6 +167,7 @@ def saturated_profile(
         cruise = length_mm - up[2] - dn[2] - bridge[1]
         if cruise >= 0.0 and max(up[1], dn[1]) <= cap:
             return Profile1D(_assemble(up[0], bridge[0], dn[1], up[2] + bridge[1], dn[0], cruise))
+        room += min(cruise, 0.0)
     return None
 
 
