@@ -9,6 +9,7 @@ import numpy as np
 import pytest
 
 from gantry_sim.controller.gcode.interpreter import parse_program
+from gantry_sim.controller.planner import speedup
 from gantry_sim.controller.planner.limits import FollowGeometry, s_curve_time
 from gantry_sim.controller.planner.plan import plan
 from gantry_sim.controller.planner.ramp_bounds import CircleLimits, NormLimits
@@ -105,6 +106,29 @@ def test_short_arc_whose_ramps_leave_no_room_for_the_bridge_still_gets_its_ramps
     assert ph.rows[:, 2].max() <= cap * (1 + 1e-12)
     # the constant-limit profile under the tangent's limits takes 0.0627 s on this arc
     assert ph.duration_s < 0.055
+
+
+@pytest.mark.parametrize(("radius", "built"), [(5.0, True), (10.0, False)])
+def test_saturated_ramps_only_where_the_curvature_takes_half_the_limits(
+    machine, monkeypatch, radius, built
+):
+    """Full circles from rest at F6000 on the bundled machine: at the feed cap the curvature
+    takes 0.8 of Y's acceleration on R 5 and 0.4 on R 10. The saturated ramps (tenths of a
+    second each) are built on R 5 only; R 10 still gets the tangent's profile, faster than the
+    block's constant-limit profiles alone."""
+    moves = [arc(1, (radius, 0.0, 0.0), (0.0, 0.0, 0.0), 2 * math.pi, feed=6000.0)]
+    real = speedup.saturated_profile
+    calls = []
+
+    def counted(*args, **kwargs):
+        calls.append(args[0])
+        return real(*args, **kwargs)
+
+    monkeypatch.setattr(speedup, "saturated_profile", counted)
+    with_tangent = plan(moves, machine).duration_s
+    assert bool(calls) == built
+    monkeypatch.setattr(speedup, "saturated_candidates", lambda *a, **k: ())
+    assert with_tangent < plan(moves, machine).duration_s
 
 
 # --- Tiny arcs from rest: the saturated ramps cannot be assembled; the planner must fall back ---

@@ -171,6 +171,14 @@ def boosted_profile(
 #: also tries the saturated ramps (:mod:`gantry_sim.controller.planner.saturated_ramp`; a few tenths of a second).
 SATURATED_END_SHARE = 0.1
 SATURATED_MIN_USE = 0.25
+#: ... and the saturated ramps themselves only where that share is at least this (below it,
+#: the tangent's profile alone). What they save grows with the share, what they cost does not:
+#: on the 104 arcs from rest of a 20,000-line PrusaSlicer arc-fitted print in G61 (Marlin's
+#: M201 X500 Y500), the 61 where the curvature takes 0.25-0.5 (R 3-5, capped by the feed) cost
+#: 37.7 s of planning to save 0.67 s of a 1,992 s cycle, the 37 above 0.9 cost 6.1 s to save
+#: 0.44 s. The bundled machine's full R 10 circle from rest at F6000 (0.4) then runs 0.710 s
+#: instead of 0.703; R 1, 2 and 5 (0.8 and more) keep their ramps.
+SATURATED_RAMP_MIN_USE = 0.5
 #: Least time [s] the saturated ramps could save on an arc for them to be built (a blend arc of
 #: a polyline passed near rest could save microseconds, for 0.36 s of planning each: measured on
 #: 1,000 blended G1 moves, 13 of them took 4.7 s of a 5 s plan).
@@ -205,9 +213,10 @@ def saturated_candidates(
     On a plain circle: the profile under the tangent's per-axis limits
     (:func:`tangent_profile`, a few Ruckig calls) and the saturated ramps, which use each plane
     axis' own limits (:class:`CircleLimits`) and cost tenths of a second an arc (an arc-fitted
-    print has thousands of such arcs): they are built only where the tangent's profile peaks
-    above :data:`TANGENT_ENOUGH` of the curvature cap (below it the curvature takes too little
-    of the limits for them to gain much).
+    print has thousands of such arcs): they are built only where the curvature takes at least
+    :data:`SATURATED_RAMP_MIN_USE` of the limits at the cap and the tangent's profile peaks
+    above :data:`TANGENT_ENOUGH` of the curvature cap (elsewhere they gain too little for what
+    they cost).
     Elsewhere (an arc whose end radii differ, as rounded CAM output's do) the orientation-free
     bounds, checked by :func:`follow_ok`, only with ``try_spirals``: measured on 2,000 mixed CAM
     blocks, 41 such arcs cost 27 s of a 29 s plan and none passed the check, so the planner
@@ -229,7 +238,9 @@ def saturated_candidates(
         acc, jerk = (amax[i1], amax[i2]), (jmax[i1], jmax[i2])
         tang = tangent_profile(f, g.length_mm, v_in, v_out, cap, acc, jerk, solver)
         found = () if tang is None else (tang,)
-        if tang is not None and tang.rows[:, 2].max() <= TANGENT_ENOUGH * cap:
+        if use < SATURATED_RAMP_MIN_USE or (
+            tang is not None and tang.rows[:, 2].max() <= TANGENT_ENOUGH * cap
+        ):
             return found
         up, down = (
             CircleLimits(
