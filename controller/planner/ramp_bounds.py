@@ -88,19 +88,23 @@ class CircleLimits:
         s_pos = self.length_mm - dist if self.reverse else dist
         th = self.theta0 + self.sigma * s_pos / self.radius_mm
         sign = -self.sigma if self.reverse else self.sigma
-        tang = (-sign * np.sin(th), sign * np.cos(th))
-        norm = (-np.cos(th), -np.sin(th))
+        cos_t, sin_t = np.cos(th), np.sin(th)
         r = self.radius_mm
         c, n, an = v**3 / r**2, 3.0 * v * a / r, v * v / r
-        j_lo, j_hi, a_hi = (np.full(np.shape(v), x) for x in (-np.inf, np.inf, np.inf))
-        for t_i, n_i, jl, al in zip(tang, norm, self.jerk, self.acc, strict=True):
-            t_safe = np.where(np.abs(t_i) > 1e-12, t_i, 1e-12)
-            e1, e2 = (-jl - n_i * n) / t_safe, (jl - n_i * n) / t_safe
-            j_lo = np.maximum(j_lo, c + np.minimum(e1, e2))
-            j_hi = np.minimum(j_hi, c + np.maximum(e1, e2))
-            b1, b2 = (-al - n_i * an) / t_safe, (al - n_i * an) / t_safe
-            a_hi = np.minimum(a_hi, np.maximum(b1, b2))
-        return j_lo, j_hi, np.maximum(a_hi, 0.0)
+        # axis i: |t_i j_t + n_i (3 v a / r) - t_i c| <= jerk_i and |t_i a + n_i v^2/r| <=
+        # acc_i, solved for the tangential jerk j_t and acceleration a (t, n: the axis' share
+        # of the tangent and of the inward normal; a share below 1e-12 counts as 1e-12)
+        out = []
+        for t_i, n_i, jl, al in (
+            (-sign * sin_t, -cos_t, self.jerk[0], self.acc[0]),
+            (sign * cos_t, -sin_t, self.jerk[1], self.acc[1]),
+        ):
+            inv = 1.0 / np.where(np.abs(t_i) > 1e-12, t_i, 1e-12)
+            reach = np.abs(inv)
+            mid = c - n_i * n * inv
+            out.append((mid - jl * reach, mid + jl * reach, al * reach - n_i * an * inv))
+        (lo0, hi0, a0), (lo1, hi1, a1) = out
+        return np.maximum(lo0, lo1), np.minimum(hi0, hi1), np.maximum(np.minimum(a0, a1), 0.0)
 
     @property
     def acc_min(self) -> float:

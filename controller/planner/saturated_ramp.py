@@ -30,11 +30,10 @@ import numpy as np
 
 from gantry_sim.controller.planner.profile import Profile1D
 from gantry_sim.controller.planner.ramp_bounds import RampLimits
+from gantry_sim.controller.planner.ramp_family import RampFamily, advance
 
 #: Step [s] of the ramps' constant-jerk phases (the jerk follows the state at this rate).
 STEP_S = 2.5e-4
-#: Longest ramp [s] tried (a ramp whose jerk runs out crawls towards its end: a failure).
-MAX_RAMP_S = 2.0
 #: Peaks tried for the ramps of one arc (each a few hundredths of a second to build).
 PEAK_TRIES = 8
 #: Share of the plane's jerk and acceleration the ramps use (the point-by-point check that
@@ -42,73 +41,42 @@ PEAK_TRIES = 8
 SHARE = 0.94
 
 
-def _advance(h, s, v, a, j):
-    """State (s, v, a) after ``h`` [s] of constant jerk ``j`` from (s, v, a)."""
-    return s + h * (v + h * (0.5 * a + h * j / 6.0)), v + h * (a + 0.5 * h * j), a + h * j
+#: Switch times of each pass that refines a search between two up steps' starts, and passes.
+REFINE_POINTS = 33
+REFINE_PASSES = 3
 
 
-def _ramps(
-    v0: float, tau1: np.ndarray, lim: RampLimits, dt: float, rows: list | None = None
-) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Ramps from speed ``v0`` at a = 0, one per switch time in ``tau1`` [s], integrated together
-    under the bounds ``lim``. Returns (peak speed, distance, duration) arrays, NaN where the state
-    left no jerk to bring the acceleration back to 0. ``rows``: when given, the phases
-    (dur, s, v, a, j) of the first ramp are appended to it."""
-    n = tau1.size
-    v, a, s, t = np.full(n, v0), np.zeros(n), np.zeros(n), np.zeros(n)
-    live = np.ones(n, dtype=bool)
-    out_v, out_s, out_t = np.full(n, np.nan), np.full(n, np.nan), np.full(n, np.nan)
-    tiny = 1e-9 * lim.jerk_min
-    for _ in range(200000):
-        live &= t < MAX_RAMP_S
-        if not live.any():
-            break
-        j_lo, j_hi, a_hi = lim.bounds(s, v, a)
-        up = t < tau1
-        h = np.where(up, np.minimum(dt, tau1 - t), dt)
-        j = np.where(up, np.minimum(j_hi, np.maximum(a_hi - a, 0.0) / h), j_lo)
-        last = ~up & (a + j * h <= 0.0)
-        h = np.where(last, a / np.maximum(-j, tiny), h)
-        if rows is not None and live[0] and h[0] > 0:
-            rows.append((h[0], s[0], v[0], a[0], j[0]))
-        s_new, v_new, a_new = _advance(h, s, v, a, j)
-        bad = live & ((j_lo > j_hi) | (~up & (j >= -tiny)))
-        done = live & last & ~bad
-        out_v[done], out_s[done], out_t[done] = v_new[done], s_new[done], (t + h)[done]
-        live &= ~(done | bad)
-        a_new = np.where(last, 0.0, a_new)
-        s, v, a, t = (
-            np.where(live, x, y) for x, y in ((s_new, s), (v_new, v), (a_new, a), (t + h, t))
-        )
-    return out_v, out_s, out_t
-
-
-def _ramp_rows(v0: float, tau1: float, lim: RampLimits, dt: float) -> tuple[list, float, float]:
-    """The phases (dur, s-offset, v, a, j) of one ramp (see :func:`_ramps`), its peak speed and
-    its distance (NaN when it fails)."""
-    rows: list = []
-    vp, d, _ = _ramps(v0, np.array([tau1]), lim, dt, rows)
-    return rows, float(vp[0]), float(d[0])
-
-
-def _scan(
-    v0: float,
-    lim: RampLimits,
-    dt: float,
-    hi: float,
+def _search(
+    fam: RampFamily,
+    peaks: np.ndarray,
     keep: Callable[[np.ndarray], np.ndarray],
-) -> float:
-    """Largest switch time [s] in [0, hi] whose ramp's peak satisfies ``keep`` (4 scans of 33)."""
-    lo = 0.0
-    for _ in range(4):
-        tau = np.linspace(lo, hi, 33)
-        vp, _, _ = _ramps(v0, tau, lim, dt)
-        ok = np.flatnonzero(keep(vp))
-        if ok.size == 0:
-            return 0.0
-        i = ok[-1]
-        lo, hi = tau[i], tau[min(i + 1, tau.size - 1)]
-    return lo
+    seen: list[tuple[np.ndarray, np.ndarray, np.ndarray]] | None = None,
+) -> tuple[float, float, float]:
+    """Largest switch time [s] whose ramp's peak satisfies ``keep``, with that ramp's peak
+    [mm/s] and distance [mm]: the last of the family's step starts that does (``peaks``: their
+    ramps' peaks), refined towards the next one; (0, NaN, NaN) when none does. ``seen``: when
+    given, the (switch times, peaks, distances) of the ramps the refining made are appended."""
+    ok = np.flatnonzero(keep(peaks))
+    if ok.size == 0:
+        return 0.0, np.nan, np.nan
+    i = int(ok[-1])
+    grid = fam.grid
+    lo, hi = grid[i], grid[min(i + 1, grid.size - 1)]
+    found = (float(lo), float(peaks[i]), np.nan)
+    for _ in range(REFINE_PASSES):
+        if hi <= lo:
+            break
+        tau = np.linspace(lo, hi, REFINE_POINTS)
+        vp, d, _ = fam.ramps(tau)
+        if seen is not None:
+            seen.append((tau, vp, d))
+        sel = np.flatnonzero(keep(vp))
+        if sel.size == 0:
+            break
+        k = int(sel[-1])
+        found = (float(tau[k]), float(vp[k]), float(d[k]))
+        lo, hi = tau[k], tau[min(k + 1, tau.size - 1)]
+    return found
 
 
 def saturated_profile(
@@ -132,16 +100,22 @@ def saturated_profile(
     lim_up, lim_dn = limits
     acc, jerk = lim_up.acc_min, lim_up.jerk_min
     hi = 2.0 * (cap / jerk) ** 0.5 + 2.0 * cap / acc  # switch times beyond this overshoot cap
-    tables = []
+    ends, tables = [], []
     for v0, lim in ((v_in, lim_up), (v_out, lim_dn)):
-        edge = _scan(v0, lim, dt, hi, np.isfinite)
-        tau = edge * (1.0 - np.linspace(1.0, 0.0, 49) ** 2)  # denser near the edge
-        vp, d, _ = _ramps(v0, tau, lim, dt)
+        fam = RampFamily(v0, lim, dt, hi)
+        peaks, dist, _ = fam.ramps(fam.grid)  # every up step's start as a switch time
+        # the peak climbs steeply in the last step before the edge (the last switch time
+        # whose ramp still ends): the table takes the refining's ramps there too
+        seen = [(fam.grid, peaks, dist)]
+        _search(fam, peaks, np.isfinite, seen)
+        tau, vp, d = (np.concatenate(x) for x in zip(*seen, strict=True))
+        order = np.argsort(tau, kind="stable")
+        vp, d = vp[order], d[order]
         keep = np.isfinite(vp)
         if not keep.any():
             return None
-        vp, d = np.maximum.accumulate(vp[keep]), d[keep]
-        tables.append((vp, d))
+        tables.append((np.maximum.accumulate(vp[keep]), d[keep]))
+        ends.append((fam, peaks))
     top = min(cap, tables[0][0].max(), tables[1][0].max())
     grid = np.linspace(max(v_in, v_out), top, 400)
     need = sum(np.interp(grid, vp, d) for vp, d in tables)
@@ -149,19 +123,21 @@ def saturated_profile(
     # bridge between the ramps' peaks (2 BRIDGE_S at about the peak speed, 7 % of an arc of 0.27
     # mm at 10 mm/s), so where a peak falls short by some length, the next one tried is the
     # highest whose table distance leaves that much more room
-    room, below = length_mm, grid.size
+    room, below_idx = length_mm, grid.size
     for _ in range(PEAK_TRIES):
-        fits = np.flatnonzero(need[:below] <= room)
+        fits = np.flatnonzero(need[:below_idx] <= room)
         if fits.size == 0:
             return None
-        idx = below = int(fits[-1])
+        idx = below_idx = int(fits[-1])
         peak = grid[idx]
         ramps = []
-        for v0, lim in ((v_in, lim_up), (v_out, lim_dn)):
-            switch = _scan(v0, lim, dt, hi, _peak_at_most(peak))
-            ramps.append(_ramp_rows(v0, switch, lim, dt))
+        for fam, peaks in ends:
+            switch, _, _ = _search(fam, peaks, _peak_at_most(peak))
+            rows: list = []
+            vp1, d1, _ = fam.ramps(np.array([switch]), rows)
+            ramps.append((rows, float(vp1[0]), float(d1[0])))
         up, dn = ramps
-        if not (up[0] and dn[0]):
+        if not (up[0] and dn[0]) or not np.isfinite(up[2] + dn[2]):
             continue  # no ramp reaches this peak (too short an arc, or an end already there)
         bridge = _bridge(up[1], dn[1], up[2], jerk)
         cruise = length_mm - up[2] - dn[2] - bridge[1]
@@ -172,7 +148,7 @@ def saturated_profile(
 
 
 def _peak_at_most(peak: float) -> Callable[[np.ndarray], np.ndarray]:
-    """For :func:`_scan`: True where a ramp's peak speed is at most ``peak`` (False: failed)."""
+    """For :func:`_search`: True where a ramp's peak speed is at most ``peak`` (False: failed)."""
 
     def keep(vp: np.ndarray) -> np.ndarray:
         return np.nan_to_num(vp, nan=np.inf) <= peak
@@ -207,7 +183,7 @@ def _assemble(rows_up, bridge, v_peak, s_up, rows_dn, cruise):
     # A phase (h, s, v, a, j) of the ramp from the end speed, reversed, starts at its end state
     # with the tangential acceleration and velocity mirrored: v_end, -a_end, jerk j.
     h, s, v, a, j = dn.T
-    s_end, v_end, a_end = _advance(h, s, v, a, j)
+    s_end, v_end, a_end = advance(h, s, v, a, j)
     total_dn = s_end[0]
     s0 = s_up + cruise
     rows = [up]
