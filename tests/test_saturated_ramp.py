@@ -8,7 +8,9 @@ import math
 import numpy as np
 import pytest
 
-from gantry_sim.controller.gcode.interpreter import parse_program
+from gantry_sim.controller.gcode.dialects import with_segmentation_default
+from gantry_sim.controller.gcode.interpreter import interpret_events, parse_program
+from gantry_sim.controller.moves import Arc, Linear
 from gantry_sim.controller.planner import speedup
 from gantry_sim.controller.planner.limits import FollowGeometry, s_curve_time
 from gantry_sim.controller.planner.plan import plan
@@ -129,6 +131,42 @@ def test_saturated_ramps_only_where_the_curvature_takes_half_the_limits(
     assert bool(calls) == built
     monkeypatch.setattr(speedup, "saturated_candidates", lambda *a, **k: ())
     assert with_tangent < plan(moves, machine).duration_s
+
+
+#: Five lines of a Bambu Studio arc-fitted print under M201 X20000 Y20000: two G3 arcs whose
+#: junction (a kink of 0.25 degrees) offends round after round in G61 until it is a stop, so the
+#: first arc's end speed changes every round (16 rounds, then 3 of softened limits).
+BACKED_OFF = (
+    "M201 X20000 Y20000 Z500 E5000\nG1 F11541.081\nG1 X133.769 Y119.697 E.00132\n"
+    "G3 X124.271 Y116.215 I-7.386 J5.451 E2.08902\nG3 X126.393 Y115.969 I2.153 J9.284 E.09524\n"
+)
+
+
+def test_arc_next_to_a_junction_backed_off_round_by_round_builds_its_ramps_from_rest_only(
+    machine, monkeypatch
+):
+    """The saturated ramps (0.35 s each on this arc) were built again for each of the end
+    speeds the junction went through: 11 times, 4 s for five lines; and the ramps, made for an
+    end at rest, kept the pieces next to the moving junction off the arc, so it ended as a
+    stop. After the first round only an arc from and to rest tries them: the junction is
+    passed moving (at 18 mm/s)."""
+    monkeypatch.setenv("GANTRY_PLAN_WORKERS", "1")  # the calls are counted in this process
+    # Marlin's segmentation (fixed 1 mm chords), as `gantry plan --dialect marlin` runs it
+    machine = with_segmentation_default(machine.with_changes("path", mode="G61"), "marlin")
+    real = speedup.saturated_profile
+    ends = []
+
+    def counted(*args, **kwargs):
+        ends.append((args[1], args[2]))
+        return real(*args, **kwargs)
+
+    monkeypatch.setattr(speedup, "saturated_profile", counted)
+    items = list(interpret_events(BACKED_OFF, dialect="marlin"))
+    p = plan(items, machine)
+    assert all(v_in == v_out == 0.0 for v_in, v_out in ends)
+    moves = [m for m in items if isinstance(m, Arc | Linear) and m.length_mm > 1e-9]
+    _, vel, _ = p.curve.evaluate(np.array([p.move_start_s[len(moves) - 1]]))
+    assert np.linalg.norm(vel) > 1.0  # the junction between the arcs is not a stop
 
 
 # --- Tiny arcs from rest: the saturated ramps cannot be assembled; the planner must fall back ---

@@ -43,6 +43,9 @@ class ChainSetup:
     smoothing: list[float]
     boost_cache: dict
     blend_arcs: frozenset[int]
+    #: whether an arc whose ends are not both at rest may try the saturated ramps (the first
+    #: round only: see :func:`~gantry_sim.controller.planner.rounds.settle_chains`)
+    saturated_moving: bool = True
 
 
 @dataclass(frozen=True, eq=False)
@@ -123,7 +126,8 @@ def _prep_one(
                 limits,
                 setup.solver,
                 setup.boost_cache,
-                saturated=id(g.move) not in setup.blend_arcs,
+                saturated=id(g.move) not in setup.blend_arcs
+                and (setup.saturated_moving or v[k] == v[k + 1] == 0.0),
             )
             if stop - first == 1
             else ()
