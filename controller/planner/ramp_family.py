@@ -111,22 +111,25 @@ class RampFamily:
         n, dt, tiny = t.size, self.dt, self._tiny
         out_v, out_s, out_t = np.full(n, np.nan), np.full(n, np.nan), np.full(n, np.nan)
         live = ~dead
-        for _ in range(200000):
-            live &= t < MAX_RAMP_S
-            if not live.any():
-                break
-            j_lo, j_hi, _ = self.lim.bounds(s, v, a)
-            j = j_lo
-            last = a + j * dt <= 0.0
-            h = np.where(last, a / np.maximum(-j, tiny), dt)
-            if rows is not None and live[0] and h[0] > 0:
-                rows.append((h[0], s[0], v[0], a[0], j[0]))
-            s_new, v_new, a_new = advance(h, s, v, a, j)
-            bad = live & ((j_lo > j_hi) | (j >= -tiny))
-            done = live & last & ~bad
-            out_v[done], out_s[done], out_t[done] = v_new[done], s_new[done], (t + h)[done]
-            live &= ~(done | bad)
-            s, v, a, t = (
-                np.where(live, x, y) for x, y in ((s_new, s), (v_new, v), (a_new, a), (t + h, t))
-            )
+        # a lane that has ended keeps stepping with the others (one batch of array operations
+        # a step): only a live lane's results are kept, so its numbers are never read
+        with np.errstate(all="ignore"):
+            for _ in range(200000):
+                live &= t < MAX_RAMP_S
+                if not live.any():
+                    break
+                j_lo, j_hi, _ = self.lim.bounds(s, v, a)
+                j = j_lo
+                last = a + j * dt <= 0.0
+                h = np.where(last, a / np.maximum(-j, tiny), dt)
+                if rows is not None and live[0] and h[0] > 0:
+                    rows.append((h[0], s[0], v[0], a[0], j[0]))
+                s, v, a = advance(h, s, v, a, j)
+                t = t + h
+                bad = (j_lo > j_hi) | (j >= -tiny)
+                ended = live & (last | bad)
+                if ended.any():
+                    done = ended & last & ~bad
+                    out_v[done], out_s[done], out_t[done] = v[done], s[done], t[done]
+                    live &= ~ended
         return out_v, out_s, out_t
