@@ -118,11 +118,11 @@ def saturated_profile(
         ends.append((fam, peaks))
     top = min(cap, tables[0][0].max(), tables[1][0].max())
     grid = np.linspace(max(v_in, v_out), top, 400)
-    need = sum(np.interp(grid, vp, d) for vp, d in tables)
-    # the highest peak that fits once the ramps are exact: the table's distances leave out the
-    # bridge between the ramps' peaks (2 BRIDGE_S at about the peak speed, 7 % of an arc of 0.27
-    # mm at 10 mm/s), so where a peak falls short by some length, the next one tried is the
-    # highest whose table distance leaves that much more room
+    # the ramps' distances, and the bridge between their peaks: at least 2 BRIDGE_S at the
+    # peak speed (7 % of an arc of 0.27 mm at 10 mm/s)
+    need = sum(np.interp(grid, vp, d) for vp, d in tables) + 2.0 * BRIDGE_S * grid
+    # the highest peak that fits once the ramps are exact: where a peak falls short by some
+    # length, the next one tried is the highest whose estimate leaves that much more room
     room, below_idx = length_mm, grid.size
     for _ in range(PEAK_TRIES):
         fits = np.flatnonzero(need[:below_idx] <= room)
