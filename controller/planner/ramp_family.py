@@ -50,15 +50,13 @@ class RampFamily:
         as_: list[float] = []
         js: list[float] = []
         self.first_bad = None  # the first state whose bounds leave no jerk (None: none)
-        one = np.empty(1)
         while True:
             for col, x in ((ts, t), (ss, s), (vs, v), (as_, a)):
                 col.append(x)
             if t >= reach or t >= MAX_RAMP_S:
                 js.append(np.nan)
                 break
-            one[0] = s
-            j_lo, j_hi, a_hi = lim.bounds(one, np.array([v]), np.array([a]))
+            j_lo, j_hi, a_hi = lim.bounds(np.array([s]), np.array([v]), np.array([a]))
             if j_lo[0] > j_hi[0]:
                 self.first_bad = len(ts) - 1
                 js.append(np.nan)

@@ -51,18 +51,17 @@ def _search(
     peaks: np.ndarray,
     keep: Callable[[np.ndarray], np.ndarray],
     seen: list[tuple[np.ndarray, np.ndarray, np.ndarray]] | None = None,
-) -> tuple[float, float, float]:
-    """Largest switch time [s] whose ramp's peak satisfies ``keep``, with that ramp's peak
-    [mm/s] and distance [mm]: the last of the family's step starts that does (``peaks``: their
-    ramps' peaks), refined towards the next one; (0, NaN, NaN) when none does. ``seen``: when
-    given, the (switch times, peaks, distances) of the ramps the refining made are appended."""
+) -> float:
+    """Largest switch time [s] whose ramp's peak satisfies ``keep``: the last of the family's
+    step starts that does (``peaks``: their ramps' peaks), refined towards the next one; 0 when
+    none does. ``seen``: when given, the (switch times, peaks, distances) of the ramps the
+    refining made are appended to it."""
     ok = np.flatnonzero(keep(peaks))
     if ok.size == 0:
-        return 0.0, np.nan, np.nan
+        return 0.0
     i = int(ok[-1])
     grid = fam.grid
     lo, hi = grid[i], grid[min(i + 1, grid.size - 1)]
-    found = (float(lo), float(peaks[i]), np.nan)
     for _ in range(REFINE_PASSES):
         if hi <= lo:
             break
@@ -74,9 +73,8 @@ def _search(
         if sel.size == 0:
             break
         k = int(sel[-1])
-        found = (float(tau[k]), float(vp[k]), float(d[k]))
         lo, hi = tau[k], tau[min(k + 1, tau.size - 1)]
-    return found
+    return float(lo)
 
 
 def saturated_profile(
@@ -132,7 +130,7 @@ def saturated_profile(
         peak = grid[idx]
         ramps = []
         for fam, peaks in ends:
-            switch, _, _ = _search(fam, peaks, _peak_at_most(peak))
+            switch = _search(fam, peaks, _peak_at_most(peak))
             rows: list = []
             vp1, d1, _ = fam.ramps(np.array([switch]), rows)
             ramps.append((rows, float(vp1[0]), float(d1[0])))
