@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 
 from gantry_sim.controller.gcode.interpreter import interpret_events, parse_program
-from gantry_sim.controller.moves import Dwell, Linear, PathControl, Stop
+from gantry_sim.controller.moves import Arc, Dwell, Linear, PathControl, Stop
 from gantry_sim.controller.planner.plan import plan
 from tests.plan_helpers import assert_within_limits, polyline_distance
 
@@ -142,6 +142,43 @@ def test_blends_that_cannot_meet_keep_their_smoothing_share(machine):
     assert all(b.deviation_mm == pytest.approx(0.8 * budget, rel=1e-6) for b in p.blends)
     assert_within_limits(tr, machine, moves)
     assert polyline_distance(tr.pos[tr.line > 3], moves[1:]).max() <= 0.01
+
+
+#: A 3-D finishing raster in XZ (CAMotics' flower mold example, lines 2001-2011; G20, F20 in/min):
+#: small turns, each blended by a short arc whose junctions the look-ahead leaves a hair below
+#: the feed.
+FINISHING_RASTER = """G90 G20
+G0 X1.7151 Y0.4879 Z-0.2683
+G1 F20 X1.7348 Y0.4879 Z-0.2564
+G1 X1.7572 Y0.4879 Z-0.2507
+G1 X1.8050 Y0.4879 Z-0.2500
+G1 X1.8078 Y0.4879 Z-0.2430
+G1 X1.8219 Y0.4879 Z-0.1046
+G1 X1.8303 Y0.4879 Z-0.0603
+G1 X1.8444 Y0.4879 Z-0.0336
+G1 X1.8612 Y0.4879 Z-0.0181
+G1 X1.8865 Y0.4879 Z-0.0059
+G1 X1.9118 Y0.4879 Z-0.0007
+G1 X2.2490 Y0.4879 Z0.0000
+M2
+"""
+
+
+def test_blend_arcs_a_hair_below_the_feed_are_passed_at_their_junction_speed(machine):
+    """Each blend arc's profile used to bump from its junctions' speed (0.999 F) up to F and
+    back: its phase switches, 0.3 ms from the junctions, left the pieces there no time to
+    smooth the line-to-arc curvature jump, and the junctions were backed off round after round
+    to 0.73-0.90 F. A curved chain that close to its cap keeps its end speed."""
+    moves = parse_program(FINISHING_RASTER)
+    p, tr = _sample(moves, machine)
+    feed = 20 * 25.4 / 60
+    arcs = [k for k, m in enumerate(p.path_moves) if isinstance(m, Arc)]
+    assert len(arcs) == len(p.blends) == 9
+    at = p.move_start_s[arcs]
+    speeds = np.linalg.norm(p.curve.evaluate(at)[1], axis=1)
+    assert speeds.min() >= 0.99 * feed
+    assert_within_limits(tr, machine, moves)
+    assert polyline_distance(tr.pos[tr.line > 2], moves[1:]).max() <= 0.01
 
 
 def test_g64_q_merges_straight_moves_within_q(machine):
