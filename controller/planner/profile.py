@@ -10,6 +10,7 @@ read them.
 
 from __future__ import annotations
 
+import functools
 from dataclasses import dataclass
 
 import numpy as np
@@ -51,9 +52,9 @@ class Profile1D:
         """Tangential jerk of each phase (k,) [mm/s^3]."""
         return self.rows[:, 4]
 
-    @property
+    @functools.cached_property
     def duration_s(self) -> float:
-        """Total duration [s]."""
+        """Total duration [s] (the rows are never changed after the profile is made)."""
         return float(self.rows[:, 0].sum())
 
     def states_at(
@@ -64,15 +65,31 @@ class Profile1D:
         and each phase's jerk [mm/s^3] (k, 1): what a point-by-point check of following the
         path reads."""
         ph = self.rows
-        t = ph[:, :1] * np.linspace(0.0, 1.0, per_phase)[None, :]
+        t = ph[:, :1] * _fractions(per_phase)
         s0, v0, a0, j = ph[:, 1:2], ph[:, 2:3], ph[:, 3:4], ph[:, 4:5]
         s = s0 + t * (v0 + t * (0.5 * a0 + t * j / 6.0))
         return s, v0 + t * (a0 + 0.5 * t * j), a0 + t * j, j
+
+    def speeds_at(self, per_phase: int = 9) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """:meth:`states_at` without the arc length: speed, acceleration, jerk (the same
+        numbers; a check that needs no position is called hundreds of thousands of times)."""
+        ph = self.rows
+        t = ph[:, :1] * _fractions(per_phase)
+        v0, a0, j = ph[:, 2:3], ph[:, 3:4], ph[:, 4:5]
+        return v0 + t * (a0 + 0.5 * t * j), a0 + t * j, j
 
     def invert(self, s: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """Times [s], speeds [mm/s], tangential accelerations [mm/s^2] where the profile passes
         the arc lengths ``s`` [mm] (ascending)."""
         return invert_many([(self, s)])[0]
+
+
+@functools.cache
+def _fractions(count: int) -> np.ndarray:
+    """``count`` evenly spaced fractions of a phase, 0 and 1 included (read-only: shared)."""
+    out = np.linspace(0.0, 1.0, count)
+    out.flags.writeable = False
+    return out
 
 
 def invert_many(

@@ -52,10 +52,10 @@ def follow_ok(profile: Profile1D, fg: FollowGeometry, cap: float, amax, jmax) ->
     9 points of every phase instead of at their worst combination (speed-dependent limits)."""
     i1, i2, n = fg.plane_axes
     k, dk, sp = fg.curvature_per_mm, fg.dcurv_per_mm2, fg.sin_pitch
-    _, vv, acc, j = profile.states_at()
-    aa = np.abs(acc)
+    vv, acc, j = profile.speeds_at()
     if vv.max() > cap * (1.0 + 1e-12):  # Ruckig reaches its cap to rounding; cap < feed
         return False
+    aa = np.abs(acc)
     m = FOLLOW_MARGIN
     v2k = vv * vv * k
     if (aa * aa + v2k * v2k).max() > (m * min(amax[i1], amax[i2])) ** 2:
