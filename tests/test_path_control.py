@@ -10,6 +10,7 @@ import math
 import numpy as np
 import pytest
 
+from gantry_sim.controller.gcode.dialects import with_segmentation_default
 from gantry_sim.controller.gcode.interpreter import interpret_events, parse_program
 from gantry_sim.controller.moves import Arc, Dwell, Linear, PathControl, Stop
 from gantry_sim.controller.planner.plan import plan
@@ -179,6 +180,53 @@ def test_blend_arcs_a_hair_below_the_feed_are_passed_at_their_junction_speed(mac
     assert speeds.min() >= 0.99 * feed
     assert_within_limits(tr, machine, moves)
     assert polyline_distance(tr.pos[tr.line > 2], moves[1:]).max() <= 0.01
+
+
+#: A print's perimeter (Slic3r 1.2.0, cncjs' sample file lines 25-40, after its start code):
+#: 16 short G1 moves turning 8-15 degrees, blended under Marlin's M204 S130.
+PERIMETER = """G21
+G90
+M82
+G92 E0
+G1 Z0.350 F15000.000
+G1 X-0.036 Y14.223
+M204 S130
+M204 S130
+G1 X-11.690 Y14.193 E5.05973 F1080.000
+G1 X-12.984 Y14.023 E5.17842
+G1 X-14.655 Y13.575 E5.33566
+G1 X-15.861 Y13.076 E5.45435
+G1 X-17.358 Y12.211 E5.61158
+G1 X-18.394 Y11.417 E5.73027
+G1 X-19.617 Y10.193 E5.88758
+G1 X-20.411 Y9.158 E6.00627
+G1 X-21.276 Y7.660 E6.16349
+G1 X-21.776 Y6.454 E6.28218
+G1 X-22.223 Y4.784 E6.43942
+G1 X-22.393 Y3.490 E6.55811
+G1 X-22.393 Y1.760 E6.71539
+G1 X-22.223 Y0.466 E6.83408
+G1 X-21.789 Y-1.172 E6.98820
+"""
+
+
+def test_a_blend_arc_ramping_at_its_junction_drops_the_phase_switch_there(machine):
+    """Each blend arc's profile ramps its tangential acceleration at full jerk for the first
+    and last 1.2 ms (a bump towards the feed): the switches became vertices, and the piece
+    from the junction to the first had 1.2 ms to smooth the line-to-arc curvature jump
+    (Ruckig stretched it 250 times), so the junctions were backed off round after round to
+    0.49-0.60 F. An offending end is tried again without the switches near it: one closed
+    form from the junction to the next chord vertex, checked as every end piece is."""
+    machine = with_segmentation_default(machine, "marlin")
+    moves = list(interpret_events(PERIMETER, "marlin"))
+    p, tr = _sample(moves, machine)
+    arcs = [k for k, m in enumerate(p.path_moves) if isinstance(m, Arc)]
+    assert len(arcs) == len(p.blends) == 14
+    speeds = np.linalg.norm(p.curve.evaluate(p.move_start_s[arcs])[1], axis=1)
+    assert speeds.min() >= 0.75 * 1080.0 / 60.0
+    assert_within_limits(tr, machine, moves)
+    lines = [m for m in moves if isinstance(m, Linear)]
+    assert polyline_distance(tr.pos, lines).max() <= 0.01
 
 
 def test_g64_q_merges_straight_moves_within_q(machine):

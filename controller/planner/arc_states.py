@@ -27,6 +27,9 @@ from gantry_sim.controller.planner.transition_geometry import (
 
 #: Extra vertices at 1/2, 1/4, ... of the first (last) chord of an arc that starts (ends) at rest.
 STOP_REFINEMENT = 8
+#: A loose end (:func:`vertex_states_many`) drops the profile's phase switches within this many
+#: chords of it.
+LOOSE_END_CHORDS = 0.5
 
 
 @dataclass(frozen=True, eq=False)
@@ -58,6 +61,7 @@ def vertex_states(
 
 def vertex_states_many(
     requests: list[tuple[ArcGeometry, Profile1D, EndState, EndState]],
+    loose: list[tuple[bool, bool]] | None = None,
 ) -> list[VertexStates]:
     """Exact arc states where the reference passes through each arc ``g`` along its
     ``profile``, between its end states: the profiles are inverted in one vectorised solve.
@@ -66,12 +70,22 @@ def vertex_states_many(
     phase the motion is smooth), plus, next to a stop, points at 1/2, 1/4, ... of the end chord
     (there the speed grows like s^(2/3); a piece across the whole chord would start along a
     straight line).
+
+    ``loose``: per request, whether its start and its end drop the phase switches within
+    :data:`LOOSE_END_CHORDS` of a moving end. The piece next to a moving junction absorbs the
+    junction's jumps (of curvature: the acceleration's direction), and a phase switch a
+    millisecond from the junction left it a millisecond to do it: a blend arc of a Slic3r
+    print whose profile ramps its tangential acceleration at full jerk there needed 250 times
+    that. Without it the piece joins the junction to the next vertex in one closed form,
+    across the switch (the planner checks it against the limits, the feed and the arc as any
+    end piece). The planner tries it where the end offends with the switches kept.
     """
     geoms = [r[0] for r in requests]
     knots = _per_curve(geoms, [r[1].s[1:] for r in requests], "u_at", transition_parameters_many)
+    ends = loose or [(False, False)] * len(requests)
     fractions = [
-        _fractions(g, prof, s_in, s_out, kn)
-        for (g, prof, s_in, s_out), kn in zip(requests, knots, strict=True)
+        _fractions(g, s_in, s_out, kn, free)
+        for (g, _, s_in, s_out), kn, free in zip(requests, knots, ends, strict=True)
     ]
     inner = [u[1:-1] for u in fractions]
     lengths = _per_curve(geoms, inner, "s_at", transition_lengths_many)
@@ -155,13 +169,14 @@ def _derivatives(geoms: list[ArcGeometry], us: list[np.ndarray]) -> tuple[np.nda
 
 def _fractions(
     g: ArcGeometry,
-    profile: Profile1D,
     state_in: EndState,
     state_out: EndState,
     knots: np.ndarray,
+    loose: tuple[bool, bool] = (False, False),
 ) -> np.ndarray:
     """The parameters of the vertices (see :func:`vertex_states_many`); ``knots``: the
-    parameters where the profile switches phase (``g.u_at(profile.s[1:])``)."""
+    parameters where the profile switches phase (``g.u_at(profile.s[1:])``); ``loose``:
+    whether the start and the end drop those within :data:`LOOSE_END_CHORDS` of them."""
     # Each knot of the 1-D profile becomes a vertex: the nearest chord vertex moves onto it when
     # within a quarter chord (a piece much shorter than a chord would let rounding dominate its
     # jerk), or it is added. The reference only passes through exact arc states, so moving a
@@ -170,8 +185,10 @@ def _fractions(
     u = g.u.copy()
     snapped = np.zeros(m + 1, dtype=bool)
     extra = []
+    lo = LOOSE_END_CHORDS if loose[0] and state_in.moving else 0.0
+    hi = m - LOOSE_END_CHORDS if loose[1] and state_out.moving else m
     for uk in knots:
-        if not 0.0 < uk < 1.0:
+        if not 0.0 < uk < 1.0 or not lo <= uk * m <= hi:
             continue
         i = round(uk * m)
         if 0 < i < m and abs(uk * m - i) < 0.25 and not snapped[i]:

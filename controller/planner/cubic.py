@@ -103,10 +103,10 @@ class CubicBuilder:
     def add_jerk3(self, run: Jerk3Run) -> None:
         """Append closed-form pieces to every axis (a :class:`Jerk3Run` holds a copy of its
         pieces)."""
-        self._flush()
+        self.flush()
         self.segments.append(run)
 
-    def _flush(self) -> None:
+    def flush(self) -> None:
         """The phases added since the last segment, as one segment: per axis a (5, n) array
         (one array, not five, as a plan keeps tens of thousands of them until it is built),
         and where the axes have as many phases (all but some Ruckig pieces), one (3, 5, n)
@@ -127,7 +127,7 @@ class CubicBuilder:
 
     def chunk(self) -> Chunk:
         """The phases collected, segment by segment."""
-        self._flush()
+        self.flush()
         return tuple(self.segments)
 
 
