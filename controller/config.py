@@ -9,6 +9,7 @@ defaults, unknown sections or keys are errors that list the valid ones, and ever
 from __future__ import annotations
 
 import math
+import os
 import tomllib
 from collections.abc import Callable
 from dataclasses import dataclass, field
@@ -310,17 +311,22 @@ def _overlay(merged: dict[str, dict[str, Any]], data: dict[str, Any], path: Path
             merged[section][key] = value
 
 
-def load_machine_config(defaults: Path, override: Path | None = None) -> MachineConfig:
+def load_machine_config(
+    defaults: str | os.PathLike[str], override: str | os.PathLike[str] | None = None
+) -> MachineConfig:
     """Read the bundled defaults, lay ``override`` (a user's machine file) over them, validate.
 
     Args:
-        defaults: the complete machine file (every key set), e.g. models/gantry.toml.
+        defaults: the complete machine file (every key set), e.g. models/gantry.toml (a path
+            or a string).
         override: a machine file of the same format; keys it omits keep the defaults.
 
     Raises:
         ConfigError: unreadable file, unknown section/key, invalid value, or a missing key
             in ``defaults``; the message names the key and what is allowed.
     """
+    defaults = Path(defaults)
+    override = None if override is None else Path(override)
     merged: dict[str, dict[str, Any]] = {s: {} for s in SCHEMA}
     data = _read_toml(defaults)
     work = take_work_sections(data, str(defaults))

@@ -43,6 +43,16 @@ def test_override_keeps_omitted_keys(tmp_path, machine):
     assert cfg.source == str(path)
 
 
+def test_machine_files_may_be_given_as_strings(tmp_path):
+    """A script's ``load_machine_config("models/gantry.toml")`` used to fail with an
+    AttributeError (a str has no ``.parent``) when resolving the model path."""
+    path = _write(tmp_path, '[sim]\nmodel = "my.xml"\n')
+    as_str = load_machine_config(str(DEFAULT_MACHINE), str(path))
+    assert as_str == load_machine_config(DEFAULT_MACHINE, path)
+    assert as_str.sim.model == str(tmp_path / "my.xml")
+    assert load_machine_config(str(DEFAULT_MACHINE)) == load_machine_config(DEFAULT_MACHINE)
+
+
 def test_model_path_is_relative_to_the_machine_file(tmp_path):
     path = _write(tmp_path, '[sim]\nmodel = "my.xml"\n')
     cfg = load_machine_config(DEFAULT_MACHINE, path)
