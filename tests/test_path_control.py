@@ -183,14 +183,13 @@ def test_blend_arcs_a_hair_below_the_feed_are_passed_at_their_junction_speed(mac
 
 
 #: A print's perimeter (Slic3r 1.2.0, cncjs' sample file lines 25-40, after its start code):
-#: 16 short G1 moves turning 8-15 degrees, blended under Marlin's M204 S130.
+#: 15 short G1 moves turning 8-15 degrees, blended under Marlin's M204 S130.
 PERIMETER = """G21
 G90
 M82
 G92 E0
 G1 Z0.350 F15000.000
 G1 X-0.036 Y14.223
-M204 S130
 M204 S130
 G1 X-11.690 Y14.193 E5.05973 F1080.000
 G1 X-12.984 Y14.023 E5.17842
