@@ -228,6 +228,52 @@ def test_a_blend_arc_ramping_at_its_junction_drops_the_phase_switch_there(machin
     assert polyline_distance(tr.pos, lines).max() <= 0.01
 
 
+#: A relief raster's row in XZ (CAMotics' cameo example, N689-N699, F300): the blend arc at
+#: line 6 offends, and its try without the phase switches offends as much.
+RELIEF_ROW = """G21 G90 G17
+G0 Y-71.203 X1.875 Z-2.681
+G1 F300 X1.5 Z-3.025
+X1.125 Z-3.096
+X-1.875 Z-3.284
+X-2.25 Z-3.199
+X-2.625 Z-2.799
+X-3. Z-2.625
+X-3.375 Z-2.565
+X-4.5 Z-2.601
+X-4.875 Z-2.775
+X-5.25 Z-3.034
+X-7.875 Z-2.824
+M2
+"""
+
+
+def test_a_loose_try_that_is_no_better_leaves_the_plan_as_without_it(machine, monkeypatch):
+    """A loose try that offends as much as the first changes nothing: the junction is backed
+    off as without it, and the plan is the one made without loose tries, bit for bit."""
+    from gantry_sim.controller.planner import pieces
+
+    emitted = []
+    emit = pieces.MovePieces._emit
+
+    def counted(self, *args):
+        emitted.append(args[0].move.line)
+        return emit(self, *args)
+
+    monkeypatch.setattr(pieces.MovePieces, "_emit", counted)
+    moves = parse_program(RELIEF_ROW)
+    with_try = plan(moves, machine)
+    tried = list(emitted)
+    emitted.clear()
+    monkeypatch.setattr(pieces, "LOOSE_FEED_ROOM", 1.0)  # no profile is far enough below F
+    without = plan(moves, machine)
+    assert len(tried) == len(emitted) + 1  # one loose try, at line 6
+    assert sorted(tried) == sorted([*emitted, 6])
+    assert with_try.duration_s == without.duration_s
+    assert with_try.ruckig_piece_count == without.ruckig_piece_count
+    a, b = with_try.sample(0.0005), without.sample(0.0005)
+    assert np.array_equal(a.pos, b.pos) and np.array_equal(a.acc, b.acc)
+
+
 def test_g64_q_merges_straight_moves_within_q(machine):
     zig = "".join(f"G1 X{k} Y{0.001 * (k % 2):.3f}\n" for k in range(1, 11))
     merged = plan(parse_program("G21 G64 P0.01 Q0.002 F3000\n" + zig + "M2"), machine)
