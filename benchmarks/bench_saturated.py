@@ -55,19 +55,7 @@ def _case(radius: float, sweep_deg: float, start_deg: float, acc: tuple[float, f
     length = arc.length_mm
     k = 1.0 / radius
     cap = curvature_speed_cap(1000.0, k, k * k, min(acc), min(jerk), SHARE)
-    lims = tuple(
-        CircleLimits(
-            f.theta0_rad,
-            f.sigma,
-            radius,
-            length,
-            rev,
-            (SHARE * acc[0], SHARE * acc[1]),
-            (SHARE * jerk[0], SHARE * jerk[1]),
-        )
-        for rev in (False, True)
-    )
-    return length, cap, f, lims
+    return length, cap, f, CircleLimits.ends(f, length, acc, jerk, SHARE)
 
 
 def main() -> int:

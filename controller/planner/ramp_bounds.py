@@ -12,9 +12,12 @@ axis against its own limit along a plain circle (exact).
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import Protocol
+from typing import TYPE_CHECKING, Protocol
 
 import numpy as np
+
+if TYPE_CHECKING:
+    from gantry_sim.controller.arcs import ArcFrame
 
 
 class RampLimits(Protocol):
@@ -80,6 +83,26 @@ class CircleLimits:
     reverse: bool
     acc: tuple[float, float]
     jerk: tuple[float, float]
+
+    @classmethod
+    def ends(
+        cls,
+        frame: ArcFrame,
+        length_mm: float,
+        acc: tuple[float, float],
+        jerk: tuple[float, float],
+        share: float,
+    ) -> tuple[CircleLimits, CircleLimits]:
+        """The bounds of the ramp up from the start of the arc of ``frame`` (``length_mm``
+        long) and of the ramp back from its end, at ``share`` of the plane axes' acceleration
+        ``acc`` [mm/s^2] and jerk ``jerk`` [mm/s^3] limits."""
+        scaled_acc = (share * acc[0], share * acc[1])
+        scaled_jerk = (share * jerk[0], share * jerk[1])
+        up, down = (
+            cls(frame.theta0_rad, frame.sigma, frame.r0_mm, length_mm, rev, scaled_acc, scaled_jerk)
+            for rev in (False, True)
+        )
+        return up, down
 
     def bounds(
         self, dist: np.ndarray, v: np.ndarray, a: np.ndarray

@@ -242,19 +242,8 @@ def saturated_candidates(
             tang is not None and tang.rows[:, 2].max() <= TANGENT_ENOUGH * cap
         ):
             return found
-        up, down = (
-            CircleLimits(
-                f.theta0_rad,
-                f.sigma,
-                f.r0_mm,
-                g.length_mm,
-                rev,
-                (sh * acc[0], sh * acc[1]),
-                (sh * jerk[0], sh * jerk[1]),
-            )
-            for rev in (False, True)
-        )
-        sat = saturated_profile(g.length_mm, v_in, v_out, cap, (up, down))
+        ends = CircleLimits.ends(f, g.length_mm, acc, jerk, sh)
+        sat = saturated_profile(g.length_mm, v_in, v_out, cap, ends)
         if sat is not None:
             found = tuple(sorted((*found, sat), key=lambda p: p.duration_s))
         return found
