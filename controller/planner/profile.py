@@ -68,11 +68,11 @@ class Profile1D:
         t = ph[:, :1] * _fractions(per_phase)
         s0, v0, a0, j = ph[:, 1:2], ph[:, 2:3], ph[:, 3:4], ph[:, 4:5]
         s = s0 + t * (v0 + t * (0.5 * a0 + t * j / 6.0))
-        return s, v0 + t * (a0 + 0.5 * t * j), a0 + t * j, j
+        return (s, *self.speeds_at(per_phase))
 
     def speeds_at(self, per_phase: int = 9) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """:meth:`states_at` without the arc length: speed, acceleration, jerk (the same
-        numbers; a check that needs no position is called hundreds of thousands of times)."""
+        """:meth:`states_at` without the arc length: speed, acceleration, jerk (a check that
+        needs no position is called hundreds of thousands of times)."""
         ph = self.rows
         t = ph[:, :1] * _fractions(per_phase)
         v0, a0, j = ph[:, 2:3], ph[:, 3:4], ph[:, 4:5]
