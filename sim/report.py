@@ -380,8 +380,15 @@ def write_outputs(
         else:
             from gantry_sim.sim.trace_writer import save_npz
 
-            fields = {"t": trace.t, "ref": trace.ref, "pos": trace.pos, "line": trace.line}
-            save_npz(tmp / "trace.npz", fields | {"err_um": trace.err_um, "force_N": trace.force_N})
+            fields = {
+                "t": trace.t,
+                "ref": trace.ref,
+                "pos": trace.pos,
+                "line": trace.line,
+                "err_um": trace.err_um,
+                "force_N": trace.force_N,
+            }
+            save_npz(tmp / "trace.npz", fields)
         advance(int(trace_npz))
         if error_png is not None:
             from gantry_sim.sim.path_plot import save_path_plot
