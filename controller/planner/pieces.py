@@ -176,8 +176,6 @@ class MovePieces:
         if not any(loose_ends):
             return done
         loose = self.closed_form(g, used, state_in, state_out, loose=loose_ends)
-        if np.array_equal(loose.states.u, pieces.states.u):
-            return done  # there were none
         first = self._cut(mark)
         again = self._emit(g, loose, state_in, state_out, dev_max)
         if again[1] + again[2] < done[1] + done[2]:
