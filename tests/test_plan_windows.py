@@ -167,20 +167,34 @@ def test_slow_blends_are_judged_the_same_in_windows(monkeypatch, window):
 def test_a_window_sent_back_again_comes_back_wider_each_time(monkeypatch):
     """Each time the same window is sent back it is planned twice as wide as the last time
     (planning it at the same width again would give the same cut and the same refusal)."""
-    real = rounds.settle_chains
-    sizes: list[int] = []
+    real_settle, real_mark = windows.settle_chains, windows._mark
+    calls: list[tuple[int, bool]] = []  # (moves planned, refused) per call
+    kept: list[int] = []  # the calls whose window was kept
 
-    def refuse_every_second(active, caps, *args, **kwargs):
-        sizes.append(len(active))
-        settled = real(active, caps, *args, **kwargs)
-        if len(sizes) in (2, 4, 6):  # the probe after each kept window: refused
+    def refuse_probes(active, caps, *args, **kwargs):
+        settled = real_settle(active, caps, *args, **kwargs)
+        # a probe after a kept window (not the window sent back itself): refused, 3 at most
+        refuse = bool(kept) and sum(r for _, r in calls) < 3 and not (calls and calls[-1][1])
+        calls.append((len(active), refuse))
+        if refuse:
             settled.speeds[0] = 0.5 * settled.speeds[0] if settled.speeds[0] > 0 else -1.0
         return settled
 
+    def mark(out):
+        kept.append(len(calls) - 1)
+        return real_mark(out)
+
     whole, _, _ = _whole_and_windowed(_program(), monkeypatch, 16, 4)
-    monkeypatch.setattr(windows, "settle_chains", refuse_every_second)
+    monkeypatch.setattr(windows, "settle_chains", refuse_probes)
+    monkeypatch.setattr(windows, "_mark", mark)
     windowed = plan(interpret_events(_program()), load_machine_config(DEFAULT_MACHINE))
-    assert sizes[0] == 16 and sizes[2] == 32 and sizes[4] == 64 and sizes[6] == 128, sizes
+    refused = [i for i, (_, r) in enumerate(calls) if r]
+    assert len(refused) >= 2, calls
+    for i in refused:
+        before = calls[max(k for k in kept if k < i)][0]  # the window sent back
+        again = calls[i + 1][0]
+        last = i + 1 == len(calls) - 1  # the rest of the path, if narrower than twice
+        assert again == 2 * before or (last and before < again < 2 * before), calls
     _assert_same(whole, windowed)
 
 

@@ -9,8 +9,9 @@ from gantry_sim.controller.planner import segmented_curve as sc
 from gantry_sim.controller.planner.cubic import Jerk3Run, PiecewiseCubic
 from tests.plan_helpers import plan_with_chunks
 
-#: lines and corners (straight phases), tangent arcs with curvature jumps (closed-form pieces and
-#: Ruckig pieces), a helix, a dwell (a hold), a rapid
+#: lines and corners (straight phases), tangent arcs with curvature jumps (closed-form pieces and,
+#: in G61, where a line meets an arc with no G2 transition, a Ruckig piece), a helix, a dwell (a
+#: hold), a rapid
 PROGRAM = """G21 G17 G90 G64 P0.01 F3000
 G0 X0 Y0 Z0
 G1 X5
@@ -19,6 +20,10 @@ G1 X10.2 Y0.3
 G2 X14 Y4.1 I3.8 J0
 G3 X18 Y8.1 I0 J4
 G4 P0.2
+G61
+G1 X18 Y12
+G2 X22 Y16 I4 J0
+G64 P0.01
 G1 X20 Y5 F800
 G3 X20 Y5 Z-1 I-3 J0
 G0 Z5

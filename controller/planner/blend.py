@@ -37,6 +37,7 @@ import numpy as np
 from gantry_sim.controller.config import PathSettings
 from gantry_sim.controller.moves import Arc, Dwell, Linear, Move, PathMove, Rapid
 from gantry_sim.controller.planes import PLANE_AXES, Plane, Vec3, plane_of
+from gantry_sim.controller.planner.blend_types import Blend, Blended
 from gantry_sim.controller.planner.corner_blend import (
     ArcCorner,
     CornerCut,
@@ -46,6 +47,7 @@ from gantry_sim.controller.planner.corner_blend import (
     end_tangent,
     trimmed_arc,
 )
+from gantry_sim.controller.planner.corner_transitions import add_corner_transitions
 from gantry_sim.controller.planner.path_control import EPS_MM, Merge, control
 from gantry_sim.controller.planner.transition import (
     TransitionCut,
@@ -77,20 +79,6 @@ ABSORB_PER_MM = 2e-4
 MEET_SHARE = 0.99
 
 
-@dataclass(frozen=True, slots=True)
-class Blend:
-    """One blended junction: the program line of the move ending there, the blend's largest
-    distance from the programmed path [mm], the tolerance it was given [mm], and its kind:
-    "corner" (a blend arc) or "transition" (a G2 transition at a tangent junction,
-    :mod:`~gantry_sim.controller.planner.transition`). Slotted: a long program of tangent arcs
-    has one per junction."""
-
-    line: int
-    deviation_mm: float
-    tolerance_mm: float
-    kind: str = "corner"
-
-
 @dataclass
 class PathPlan:
     """What the planner follows.
@@ -120,23 +108,6 @@ class PathPlan:
     blend_junction: dict[int, int] = field(default_factory=dict)
     sources: Sequence[tuple[int, int]] = field(default_factory=list)
     merges: Sequence[Merge] = field(default_factory=list)
-
-
-@dataclass
-class Blended:
-    """What one move of a stretch becomes in the path (:func:`blend_corners`): the dwells at
-    the junction before it, its trimmed self (none where blends use it up) and the blend arc
-    or transition at its end, each with its stop, smoothing budget [mm] and program sources; ``blend_at``: per
-    move made, the junction a blend arc replaces (an index among the stretch's moves; None for
-    a trimmed move or a transition: not skipped); ``blends``: the blend at its end, if any."""
-
-    holds: list[Dwell] = field(default_factory=list)
-    moves: list[PathMove] = field(default_factory=list)
-    stops: list[bool] = field(default_factory=list)
-    smoothing: list[float] = field(default_factory=list)
-    sources: list[tuple[int, int]] = field(default_factory=list)
-    blend_at: list[int | None] = field(default_factory=list)
-    blends: list[Blend] = field(default_factory=list)
 
 
 def smoothing_budget(m: Move, settings: PathSettings, chord_tolerance_mm: float) -> float:
@@ -287,6 +258,8 @@ def blend_corners(
             made.sources.append(between)
             made.blend_at.append(None)
             made.blends.append(Blend(m.line, tc.deviation_mm, tol, "transition"))
+    if machine is not None and (any(use) or cuts):
+        add_corner_transitions(out, machine)
     return out
 
 

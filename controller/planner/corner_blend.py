@@ -262,8 +262,8 @@ def _v3(a: np.ndarray) -> tuple[float, float, float]:
 #: planner keeps its speed and smooths the kink (junctions.CORNER_ANGLE_RAD, the same 1 degree).
 ARC_CORNER_MIN_RAD = math.radians(1.0)
 #: A corner with an arc whose estimated blend speed is below this share of the feed is not
-#: searched for a blend (:func:`_worth_blending`; the planner keeps blends passed at half the
-#: neighbouring caps or more, prepare.BLEND_MIN_SPEED_SHARE).
+#: searched for a blend (:func:`_worth_blending`; the planner keeps only blends it estimates
+#: faster than an exact stop, prepare.slow_blends).
 ARC_BLEND_MIN_FEED_SHARE = 0.5
 
 

@@ -10,14 +10,16 @@ before and after its moves of interest gives them what the whole path gives them
 
 from __future__ import annotations
 
+import math
 from dataclasses import replace
 from typing import NamedTuple
 
 import numpy as np
 
 from gantry_sim.controller.config import MachineConfig
-from gantry_sim.controller.moves import Dwell
+from gantry_sim.controller.moves import Dwell, Transition
 from gantry_sim.controller.planner.blend import PathPlan
+from gantry_sim.controller.planner.blend_judge import blend_faster
 from gantry_sim.controller.planner.junctions import (
     JunctionState,
     feasible_junction_caps,
@@ -29,11 +31,7 @@ from gantry_sim.controller.planner.move_geometry import (
     move_geometries,
 )
 
-__all__ = ["BLEND_MIN_SPEED_SHARE", "Prepared", "prepare", "slow_blends", "sub_path"]
-
-#: A G64 blend is kept only where it can be entered at this share of its neighbours' speed caps
-#: (see :func:`slow_blends`).
-BLEND_MIN_SPEED_SHARE = 0.5
+__all__ = ["Prepared", "prepare", "slow_blends", "sub_path"]
 
 
 class Prepared(NamedTuple):
@@ -101,21 +99,32 @@ def prepare(
 
 
 def slow_blends(path: PathPlan, prepared: Prepared) -> frozenset[int]:
-    """Junctions whose blend would be passed below :data:`BLEND_MIN_SPEED_SHARE` of the
-    neighbouring moves' speed caps: there a jerk-limited pass of the blend arc (whose curvature
-    jumps from 0 to 1/R where it meets the straight moves) is not faster than an exact stop
-    (measured: a 90 degree corner at P0.01 passes at 1.4 of 50 mm/s and a 14 degree one at 11,
-    both slower overall than stopping), so those corners stay exact stops. A blend at either
-    end of the active moves is not judged (a stretch's neighbours are not known there)."""
+    """Junctions whose blend is estimated slower than an exact stop
+    (:func:`~gantry_sim.controller.planner.blend_judge.blend_faster`): a jerk-limited pass of
+    a sharp corner's blend is slow, and its path long against what the stop costs, so those
+    corners stay exact stops. A blend arc is judged with the G2 transitions at its ends
+    (:mod:`~gantry_sim.controller.planner.corner_transitions`), passed at the lowest cap among
+    them and the junctions between them, against the moves beyond them. A blend at either end of the
+    active moves is not judged (a stretch's neighbours are not known there)."""
     geoms, active, _, caps, *_ = prepared
     index = {id(g.move): b for b, g in enumerate(active)}
     slow = set()
     for k, junction in path.blend_junction.items():
         b = index.get(id(geoms[k].move))
-        if b is None or b == 0 or b + 1 >= len(active):
+        if b is None:
             continue
-        v = min(float(caps[b]), float(caps[b + 1]), active[b].limits.cap_mm_per_s)
-        cruise = min(active[b - 1].limits.cap_mm_per_s, active[b + 1].limits.cap_mm_per_s)
-        if not v >= BLEND_MIN_SPEED_SHARE * cruise:
+        lo, hi = b, b  # the blend arc with the G2 transitions at its ends
+        while lo > 0 and isinstance(active[lo - 1].move, Transition):
+            lo -= 1
+        while hi + 1 < len(active) and isinstance(active[hi + 1].move, Transition):
+            hi += 1
+        if lo == 0 or hi + 1 >= len(active):
+            continue
+        blend = active[lo : hi + 1]
+        inner = float(caps[lo + 1 : hi + 1].min()) if hi > lo else math.inf
+        v = min(inner, min(g.limits.cap_mm_per_s for g in blend))
+        ends = (float(caps[lo]), float(caps[hi + 1]))
+        length = sum(g.limits.length_mm for g in blend)
+        if not blend_faster(ends, v, length, active[lo - 1].limits, active[hi + 1].limits):
             slow.add(junction)
     return frozenset(slow)
