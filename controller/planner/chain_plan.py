@@ -26,7 +26,7 @@ from gantry_sim.controller.planner.chain_prep import ChainPrep, ChainSetup, chai
 from gantry_sim.controller.planner.cubic import Chunk
 from gantry_sim.controller.planner.limits import BlockLimits
 from gantry_sim.controller.planner.move_geometry import ArcGeometry
-from gantry_sim.controller.planner.pieces import MovePieces, Pieces
+from gantry_sim.controller.planner.pieces import MovePieces, Pieces, loose_patterns
 
 __all__ = [
     "BATCH_PIECES",
@@ -176,10 +176,29 @@ def _plan_batch(
         setup.arc_pieces,
         setup.solver,
     )
-    found = iter(maker.closed_forms(requests)) if setup.arc_pieces == "jerk3" else None
+    if setup.arc_pieces != "jerk3":
+        for (key, lim), prep in zip(batch, preps, strict=True):
+            out[key] = _plan_chain(setup, key[0], key[1], lim, speeds, prep)
+        return
+    firsts = maker.closed_forms(requests)
+    # the loose tries the arcs with one candidate may make, made beforehand all at once (one by
+    # one they were 37 % of planning a polyline whose corners are blend arcs of a chord or two)
+    fast_less = [not fast for prep in preps for _, _, fast, _, _ in prep.arcs]
+    tries: list[tuple[int, tuple[bool, bool]]] = []
+    for i, ((g, prof, s_in, s_out), one) in enumerate(zip(requests, fast_less, strict=True)):
+        if one:
+            tries.extend((i, ends) for ends in loose_patterns(g, prof, firsts[i], s_in, s_out))
+    made = maker.closed_forms([requests[i] for i, _ in tries], [ends for _, ends in tries])
+    loose: dict[int, dict[tuple[bool, bool], Pieces]] = {}
+    for (i, ends), pieces in zip(tries, made, strict=True):
+        loose.setdefault(i, {})[ends] = pieces
+    at = 0
     for (key, lim), prep in zip(batch, preps, strict=True):
-        first = None if found is None else {k: next(found) for k, *_ in prep.arcs}
-        out[key] = _plan_chain(setup, key[0], key[1], lim, speeds, prep, first)
+        idx = {k: at + n for n, (k, *_) in enumerate(prep.arcs)}
+        at += len(prep.arcs)
+        first = {k: firsts[i] for k, i in idx.items()}
+        tried = {k: loose[i] for k, i in idx.items() if i in loose}
+        out[key] = _plan_chain(setup, key[0], key[1], lim, speeds, prep, first, tried)
 
 
 #: Tries of a chain's profile with slower limits (each: :data:`SLOWER_CAP` of the speed cap,
@@ -198,17 +217,18 @@ def _plan_chain(
     speeds: np.ndarray,
     prep: ChainPrep | None = None,
     pre: dict[int, Pieces] | None = None,
+    pre_loose: dict[int, dict[tuple[bool, bool], Pieces]] | None = None,
 ) -> Chain:
     """The pieces of moves ``first..stop-1`` (one chain with the limits ``lim``) from
     ``speeds[first]`` to ``speeds[stop]`` [mm/s]; slower (:data:`SLOWER_TRIES`) while a piece
     inside an arc with no moving junction leaves the arc or exceeds the feed. ``prep`` and
     ``pre``: the chain's preparation for ``lim`` and the closed-form pieces of each arc's first
-    candidate, when already made."""
+    candidate, when already made; ``pre_loose``: loose tries of those, by arc and ends."""
     floor = max(float(speeds[first]), float(speeds[stop]))
     for _ in range(SLOWER_TRIES):
         if prep is None:
             prep = chain_prep(setup, first, stop, lim, speeds)
-        chain, off = _chain_pieces(setup, first, stop, prep, pre)
+        chain, off = _chain_pieces(setup, first, stop, prep, pre, pre_loose)
         if not off:
             break
         lim = replace(
@@ -217,12 +237,17 @@ def _plan_chain(
             acc_mm_per_s2=SLOWER_RAMP * lim.acc_mm_per_s2,
             jerk_mm_per_s3=SLOWER_RAMP * lim.jerk_mm_per_s3,
         )
-        prep, pre = None, None
+        prep, pre, pre_loose = None, None, None
     return chain
 
 
 def _chain_pieces(
-    setup: ChainSetup, first: int, stop: int, prep: ChainPrep, pre: dict[int, Pieces] | None
+    setup: ChainSetup,
+    first: int,
+    stop: int,
+    prep: ChainPrep,
+    pre: dict[int, Pieces] | None,
+    pre_loose: dict[int, dict[tuple[bool, bool], Pieces]] | None = None,
 ) -> tuple[Chain, int]:
     """One try of :func:`_plan_chain`: the chain, and how many pieces were off."""
     active = setup.active
@@ -238,7 +263,10 @@ def _chain_pieces(
             continue
         fast, s_in, s_out = arcs[k]
         known = None if pre is None else pre[k]
-        dur, bad_in, bad_out = pieces.arc(g, part, s_in, s_out, fast, setup.smoothing[b], known)
+        tried = None if pre_loose is None else pre_loose.get(k)
+        dur, bad_in, bad_out = pieces.arc(
+            g, part, s_in, s_out, fast, setup.smoothing[b], known, tried
+        )
         clock += dur
         bad |= {b} if bad_in else set()
         bad |= {b + 1} if bad_out else set()

@@ -117,6 +117,9 @@ def _prep_one(
         b, g = first + k, active[first + k]
         if not isinstance(g, ArcGeometry):
             continue
+        # no faster candidates for a G64 blend arc (a chord or two at a polyline's corner):
+        # on 3,000 polyline blocks whose corners all blend, they cost 3.0 of 13.5 s of
+        # planning and gained 0.15 % of the cycle
         fast = (
             boosted_profile(
                 g,
@@ -129,7 +132,7 @@ def _prep_one(
                 saturated=id(g.move) not in setup.blend_arcs
                 and (setup.saturated_moving or v[k] == v[k + 1] == 0.0),
             )
-            if stop - first == 1
+            if stop - first == 1 and id(g.move) not in setup.blend_arcs
             else ()
         )
         arcs.append(

@@ -131,13 +131,15 @@ class MovePieces:
         fast: Sequence[Profile1D] = (),
         dev_max_mm: float = 0.0,
         known: Pieces | None = None,
+        loose_known: dict[tuple[bool, bool], Pieces] | None = None,
     ) -> tuple[float, bool, bool]:
         """Pieces between the exact arc states at the vertices: of the first profile in ``fast``
         (faster candidates, fastest first) whose closed-form pieces all keep the limits, else of
         ``profile``. ``dev_max_mm``: the deviation allowed next to its junctions when larger than
         the default (a G64 blend arc's smoothing budget) [mm]. ``known``: the
         :meth:`closed_form` of the first candidate (``fast[0]``, else ``profile``), when
-        already made (:meth:`closed_forms`).
+        already made (:meth:`closed_forms`); ``loose_known``: its loose tries by ends, when
+        already made (:func:`loose_patterns`; with no ``fast`` only).
 
         Returns:
             (duration [s], bad_in, bad_out): bad_* when the piece next to a moving junction
@@ -168,14 +170,13 @@ class MovePieces:
         # the offending ends again without the profile's phase switches near them: where there
         # are some, an extra vertex within LOOSE_END_CHORDS of the end (most have none: 2,100
         # of 2,457 tries on a print made the same vertices again, 2.8 s of a 8.3 s plan)
-        m, u = g.u.size - 1, pieces.states.u
-        loose_ends = (
-            done[1] and 0.0 < u[1] * m < LOOSE_END_CHORDS,
-            done[2] and 0.0 < (1.0 - u[-2]) * m < LOOSE_END_CHORDS,
-        )
+        near = _near_switches(g, pieces)
+        loose_ends = (done[1] and near[0], done[2] and near[1])
         if not any(loose_ends):
             return done
-        loose = self.closed_form(g, used, state_in, state_out, loose=loose_ends)
+        loose = (loose_known or {}).get(loose_ends) or self.closed_form(
+            g, used, state_in, state_out, loose=loose_ends
+        )
         first = self._cut(mark)
         again = self._emit(g, loose, state_in, state_out, dev_max)
         if again[1] + again[2] < done[1] + done[2]:
@@ -383,6 +384,30 @@ def _piece_deviations(g: ArcGeometry, pieces: list[tuple[np.ndarray, float]]) ->
         return [g.deviation(q, uh) for q, uh in pieces]
     q = np.stack([q for q, _ in pieces])
     return arc_deviation_many([g.move] * len(pieces), q, [uh for _, uh in pieces]).tolist()
+
+
+def _near_switches(g: ArcGeometry, pieces: Pieces) -> tuple[bool, bool]:
+    """Whether ``pieces`` have a vertex other than the arc's own chord vertices (a profile's
+    phase switch) within :data:`LOOSE_END_CHORDS` of its start and of its end."""
+    m, u = g.u.size - 1, pieces.states.u
+    return 0.0 < u[1] * m < LOOSE_END_CHORDS, 0.0 < (1.0 - u[-2]) * m < LOOSE_END_CHORDS
+
+
+def loose_patterns(
+    g: ArcGeometry, profile: Profile1D, pieces: Pieces, state_in: EndState, state_out: EndState
+) -> list[tuple[bool, bool]]:
+    """The loose tries :meth:`MovePieces.arc` may make of an arc with the single candidate
+    ``profile`` (whose closed form is ``pieces``), by the ends they loosen: those next to a
+    moving junction with a phase switch near them, alone and together (which it makes depends
+    on which ends offend); none where the profile comes near the feed. For making them
+    beforehand, many arcs at once (:meth:`MovePieces.closed_forms`)."""
+    if float(profile.rows[:, 2].max()) >= (1.0 - LOOSE_FEED_ROOM) * g.feed_mm_per_s:
+        return []
+    near = _near_switches(g, pieces)
+    ends = (state_in.moving and near[0], state_out.moving and near[1])
+    if ends[0] and ends[1]:
+        return [(True, False), (False, True), (True, True)]
+    return [ends] if any(ends) else []
 
 
 def _deviation(g: ArcGeometry, pieces: Pieces, k: int) -> float:
