@@ -13,16 +13,25 @@ from hypothesis import strategies as st
 from gantry_sim.controller.gcode.interpreter import parse_program
 from gantry_sim.controller.planner import prepare
 from gantry_sim.controller.planner.blend_judge import (
-    STOP_GAIN_MIN,
     blend_faster,
     half_move_s,
     ramp_s,
 )
 from gantry_sim.controller.planner.limits import BlockLimits
 from gantry_sim.controller.planner.plan import plan
-from tests.test_corner_transitions import zigzag
 
 LIMITS = BlockLimits(10.0, 50.0, 3000.0, 100000.0)  # length, cap, acceleration, jerk
+
+
+def zigzag(turn_deg: float, feed: int = 3000, length_mm: float = 5.0) -> str:
+    """12 moves of ``length_mm`` from the origin, turning ``turn_deg`` back and forth in XY at
+    ``feed``, in G64 P0.01."""
+    out, x, y = ["G21 G90 G17 G64 P0.01", f"F{feed}"], 0.0, 0.0
+    for k in range(12):
+        th = math.radians(turn_deg / 2) * (1 if k % 2 == 0 else -1)
+        x, y = x + length_mm * math.cos(th), y + length_mm * math.sin(th)
+        out.append(f"G1 X{x:.4f} Y{y:.4f}")
+    return "\n".join([*out, "M2"]) + "\n"
 
 
 def test_ramps_in_closed_form():
@@ -57,7 +66,8 @@ def test_a_short_move_reaches_its_peak_within_its_half():
 
 
 def test_a_blend_at_rest_is_never_faster():
-    assert not blend_faster((0.0, 20.0), 20.0, 0.1, LIMITS, LIMITS)
+    blend = BlockLimits(0.1, 20.0, 3000.0, 100000.0)
+    assert not blend_faster((0.0, 20.0), blend, LIMITS, LIMITS)
 
 
 def _forced(monkeypatch, rule):
@@ -65,24 +75,31 @@ def _forced(monkeypatch, rule):
         monkeypatch.setattr(mod, "slow_blends", rule)
 
 
+#: The estimate's largest miss on 63 zigzags (blend_judge.py): blended, 1.7 % slower than
+#: the exact stops (2 mm moves turning 10 degrees at F3000).
+WORST_MISS = 0.02
+
+
 @pytest.mark.parametrize(
-    ("turn_deg", "feed"),
-    [(6, 3000), (14, 3000), (30, 3000), (18, 6000), (40, 1200), (14, 6000)],
+    ("turn_deg", "feed", "length_mm"),
+    [(6, 3000, 5), (14, 3000, 5), (30, 3000, 5), (18, 6000, 5), (40, 1200, 5), (10, 3000, 2)],
 )
-def test_the_planner_keeps_the_faster_of_blend_and_stop(machine, monkeypatch, turn_deg, feed):
+def test_the_planner_keeps_the_faster_of_blend_and_stop(
+    machine, monkeypatch, turn_deg, feed, length_mm
+):
     """Planned with the judge, with every blend kept, and with every corner an exact stop: the
-    judge's plan is the faster one, or a blend at most STOP_GAIN_MIN slower (the program asks
-    for blends)."""
-    moves = parse_program(zigzag(turn_deg, feed=feed))
+    judge's plan is one of the two, the faster one or within the estimate's miss of it."""
+    moves = parse_program(zigzag(turn_deg, feed, length_mm))
     judged = plan(moves, machine)
-    _forced(monkeypatch, lambda path, prepared: frozenset())
+    _forced(monkeypatch, lambda path, prepared, jerk: frozenset())
     blended = plan(moves, machine)
-    _forced(monkeypatch, lambda path, prepared: frozenset(path.blend_junction.values()))
+    _forced(monkeypatch, lambda path, prepared, jerk: frozenset(path.blend_junction.values()))
     stopped = plan(moves, machine)
     assert len(blended.blends) == 11 and not stopped.blends
     best = min(blended.duration_s, stopped.duration_s)
-    if judged.blends:
-        assert judged.duration_s == blended.duration_s
-        assert judged.duration_s <= (1 + STOP_GAIN_MIN) * best
-    else:
-        assert judged.duration_s == stopped.duration_s == best
+    assert judged.duration_s in (blended.duration_s, stopped.duration_s)
+    assert judged.duration_s <= (1 + WORST_MISS) * best
+    if stopped.duration_s < (1 - WORST_MISS) * blended.duration_s:
+        assert not judged.blends  # a stop clearly faster is taken
+    if blended.duration_s < (1 - WORST_MISS) * stopped.duration_s:
+        assert len(judged.blends) == 11  # and a blend clearly faster

@@ -141,10 +141,8 @@ def test_the_planning_part_searches_the_path_moves_of_each_sample(loop_run, mach
     by_moves = planning_distance_mm(tab, traj.line, traj.pos, feed, window)
     by_line = planning_distance_mm(tab, traj.line, traj.pos, feed)
     assert by_moves == by_line
-    # at most a program move and the blends at both its ends, each a blend arc with a G2
-    # transition either side (planner/corner_transitions.py): 7 path moves
-    assert np.all(window[:, 1] - window[:, 0] <= 6)
-    assert (window[:, 1] - window[:, 0]).max() > 4  # the corners' transitions are searched too
+    # at most a blend arc's corner (i, i + 1): moves i and i + 1 and the blends at their ends
+    assert np.all(window[:, 1] - window[:, 0] <= 4)
 
 
 def test_path_window_maps_program_moves_to_path_moves():

@@ -47,7 +47,6 @@ from gantry_sim.controller.planner.corner_blend import (
     end_tangent,
     trimmed_arc,
 )
-from gantry_sim.controller.planner.corner_transitions import add_corner_transitions
 from gantry_sim.controller.planner.path_control import EPS_MM, Merge, control
 from gantry_sim.controller.planner.transition import (
     TransitionCut,
@@ -258,8 +257,6 @@ def blend_corners(
             made.sources.append(between)
             made.blend_at.append(None)
             made.blends.append(Blend(m.line, tc.deviation_mm, tol, "transition"))
-    if machine is not None and (any(use) or cuts):
-        add_corner_transitions(out, machine)
     return out
 
 

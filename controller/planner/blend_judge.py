@@ -1,32 +1,32 @@
 """Is a G64 blend faster than an exact stop? An estimate of both passes' times.
 
-A blend lets the moves either side of a corner keep speed v (the lowest cap of the blend arc,
-its G2 transitions and their junctions) instead of stopping, but the blend itself is passed at
-most at v: a blend passed slowly over a long stretch of path can lose more than the stop it
-saves (a 30 degree turn of 5 mm moves at P0.01, F3000: passed at 9.3 mm/s it took 1.048 x the
-plan with exact stops; a 14 degree turn, at 20.2 mm/s, 0.937 x). No share of the feed decides
-this alone: a pass at 0.16 F gained 2 % between 2 mm moves at F6000 and lost 2 % between 20 mm
-moves, where a pass at 0.34 F lost at F1200.
+A blend lets the moves either side of a corner keep speed instead of stopping, but the blend
+arc itself is passed slowly where its curvature jumps from 0 to 1/R at its ends (a jerk-limited
+reference smooths that within the arc's first chord): a 14 degree turn of 5 mm moves at P0.01,
+F3000, passed at 9.8 mm/s, took 1.044 x the plan with exact stops. No share of the feed decides
+this alone: between 2 mm moves at F3000 a 6 degree corner's blend takes 0.85 x the stops' time,
+between 20 mm moves at F1200 a 40 degree corner's 1.01 x, and the rule that kept only blends
+entered at half the feed or more stopped at 2,120 of the 2,999 corners of a generated polyline
+(0.05-0.5 mm moves turning 0.5-5 degrees at F3000), whose cycle was then 105.15 s against
+48.30 s blended.
 
 The estimate, per side of the corner: the neighbouring move, from its junction with the blend
 to its middle, ramps from the junction speed to the highest speed it reaches there (its cap, or
 less on a short move), a symmetric jerk-limited ramp under its tangential acceleration and jerk
-(the 1-D profile the planner gives a move between two equal end speeds); the blend is passed at
-the lowest cap of its moves (the arc and its transitions) and the junctions between them, and
-entered and left at most at that speed and the caps of its junctions with the moves either
-side. With a stop, each side runs from rest over its half and the part of the blend's path it
-would have cut (half the blend's length). The blend is kept unless the stop's estimate is
-shorter by more than :data:`STOP_GAIN_MIN`.
+(the 1-D profile the planner gives a move between two equal end speeds); the blend arc likewise,
+each half from its junction towards its own cap (a blend of a fraction of a millimetre between
+two slow junctions never reaches it). The junction speeds are the caps the planner's pieces
+reach in the end (:func:`~gantry_sim.controller.planner.prepare.slow_blends`). With a stop,
+each side runs from rest over its half and the part of the blend's path it would have cut (half
+the blend's length). The blend is kept unless the stop's estimate is shorter by more than
+:data:`STOP_GAIN_MIN`.
 
 Measured (``plan()`` of 12 moves turning 6-40 degrees back and forth at P0.01, moves of 2, 5
 and 20 mm at F1200, F3000 and F6000: 63 programs, each planned with every blend kept and with
-every corner an exact stop, blending taking 0.53-1.14 x the stops' time): with no margin the
-estimate chose the faster plan on all 63; with :data:`STOP_GAIN_MIN` it keeps 4 blends that
-are 0.2-0.8 % slower than stopping. It takes each corner alone: where corners lie a fraction
-of a millimetre apart (a 3-D raster's), their speeds carry over, and a corner of CAMotics'
-flower mold estimated at 0.987 of its stop ran 0.04 % slower blended. A margin the other way
-does not pay: keeping only blends estimated at 0.99 (0.98) of the stop or less turned 2 (7) of
-the 63 into stops that were up to 0.8 % (1.8 %) slower.
+every corner an exact stop, blending taking 0.80-1.18 x the stops' time): the estimate chose
+the faster plan on 55; on the other 8 it blended where stopping was 0.1-1.7 % faster (without
+:data:`STOP_GAIN_MIN`, on 4, by the same 0.1-1.7 %). It takes each corner alone: where corners
+lie a fraction of a millimetre apart their speeds carry over.
 
 Conventions: mm, s; speeds mm/s, accelerations mm/s^2, jerks mm/s^3.
 """
@@ -85,22 +85,21 @@ def half_move_s(v: float, distance_mm: float, lim: BlockLimits) -> float:
 
 def blend_faster(
     ends_mm_per_s: tuple[float, float],
-    pass_mm_per_s: float,
-    blend_mm: float,
+    blend: BlockLimits,
     before: BlockLimits,
     after: BlockLimits,
 ) -> bool:
-    """Whether a blend of path length ``blend_mm`` passed at ``pass_mm_per_s`` (the lowest cap
-    of its moves and the junctions between them), entered and left at ``ends_mm_per_s`` (the
-    junction caps with the moves either side), between moves with the limits ``before`` and
-    ``after`` (as the blend left them), is estimated faster than an exact stop at the corner
-    (module docstring)."""
-    v_in, v_out = (min(v, pass_mm_per_s) for v in ends_mm_per_s)
+    """Whether a blend arc with the limits ``blend``, entered and left at ``ends_mm_per_s``
+    (the junction caps with the moves either side), between moves with the limits ``before``
+    and ``after`` (as the blend left them), is estimated faster than an exact stop at the
+    corner (module docstring)."""
+    v_in, v_out = (min(v, blend.cap_mm_per_s) for v in ends_mm_per_s)
     if min(v_in, v_out) <= 0.0:
         return False
-    half = 0.5 * blend_mm
+    half = 0.5 * blend.length_mm
     passing = (
-        blend_mm / pass_mm_per_s
+        half_move_s(v_in, half, blend)
+        + half_move_s(v_out, half, blend)
         + half_move_s(v_in, 0.5 * before.length_mm, before)
         + half_move_s(v_out, 0.5 * after.length_mm, after)
     )

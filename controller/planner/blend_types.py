@@ -1,6 +1,5 @@
 """The records of G64 blending: a blended junction (:class:`Blend`) and what one move of a stretch
-becomes (:class:`Blended`), shared by :mod:`~gantry_sim.controller.planner.blend` and
-:mod:`~gantry_sim.controller.planner.corner_transitions`."""
+becomes (:class:`Blended`, :func:`~gantry_sim.controller.planner.blend.blend_corners`)."""
 
 from __future__ import annotations
 
@@ -14,18 +13,15 @@ __all__ = ["Blend", "Blended"]
 @dataclass(frozen=True, slots=True)
 class Blend:
     """One blended junction: the program line of the move ending there, the blend's largest
-    distance from the programmed path [mm], the tolerance it was given [mm], its kind:
+    distance from the programmed path [mm], the tolerance it was given [mm], and its kind:
     "corner" (a blend arc) or "transition" (a G2 transition at a tangent junction,
-    :mod:`~gantry_sim.controller.planner.transition`), and for a corner how many G2
-    transitions its arc's ends got (0-2,
-    :mod:`~gantry_sim.controller.planner.corner_transitions`: their deviation is in the
-    corner's). Slotted: a long program of tangent arcs has one per junction."""
+    :mod:`~gantry_sim.controller.planner.transition`). Slotted: a long program of tangent arcs
+    has one per junction."""
 
     line: int
     deviation_mm: float
     tolerance_mm: float
     kind: str = "corner"
-    transitions: int = 0
 
 
 @dataclass

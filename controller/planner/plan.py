@@ -132,7 +132,7 @@ def _plan_part(
     if len(path.moves) <= WINDOW_MOVES:  # planned whole: the geometry is made once
         known: dict = {}
         prepared = prepare(path, machine, feed_override_pct, known)
-        slow = slow_blends(path, prepared)
+        slow = slow_blends(path, prepared, jerk)
         if slow:  # those corners are faster as exact stops: plan them so
             path = path_plan(items, machine.path, seg.chord_tolerance_mm, slow, jerk, sizing, sized)
             prepared = prepare(path, machine, feed_override_pct, known)

@@ -10,19 +10,19 @@ before and after its moves of interest gives them what the whole path gives them
 
 from __future__ import annotations
 
-import math
 from dataclasses import replace
 from typing import NamedTuple
 
 import numpy as np
 
 from gantry_sim.controller.config import MachineConfig
-from gantry_sim.controller.moves import Dwell, Transition
+from gantry_sim.controller.moves import Dwell
 from gantry_sim.controller.planner.blend import PathPlan
 from gantry_sim.controller.planner.blend_judge import blend_faster
 from gantry_sim.controller.planner.junctions import (
     JunctionState,
     feasible_junction_caps,
+    junction_cap,
     junction_caps,
 )
 from gantry_sim.controller.planner.move_geometry import (
@@ -30,6 +30,7 @@ from gantry_sim.controller.planner.move_geometry import (
     limits_for_junctions,
     move_geometries,
 )
+from gantry_sim.controller.planner.transition import CHORD_FIT_REACHED
 
 __all__ = ["Prepared", "prepare", "slow_blends", "sub_path"]
 
@@ -98,33 +99,56 @@ def prepare(
     return Prepared(geoms, active, where, caps, states, holds, smoothing, sources)
 
 
-def slow_blends(path: PathPlan, prepared: Prepared) -> frozenset[int]:
+def slow_blends(path: PathPlan, prepared: Prepared, jerk_mm_per_s3: float) -> frozenset[int]:
     """Junctions whose blend is estimated slower than an exact stop
     (:func:`~gantry_sim.controller.planner.blend_judge.blend_faster`): a jerk-limited pass of
     a sharp corner's blend is slow, and its path long against what the stop costs, so those
-    corners stay exact stops. A blend arc is judged with the G2 transitions at its ends
-    (:mod:`~gantry_sim.controller.planner.corner_transitions`), passed at the lowest cap among
-    them and the junctions between them, against the moves beyond them. A blend at either end of the
-    active moves is not judged (a stretch's neighbours are not known there)."""
-    geoms, active, _, caps, *_ = prepared
+    corners stay exact stops. The blend arc is entered and left at the junction caps the
+    planner's pieces reach in the end (:func:`_reached_cap`), with ``jerk_mm_per_s3`` the
+    machine's smallest axis jerk. A blend at either end of the active moves is not judged (a
+    stretch's neighbours are not known there)."""
+    geoms, active, _, caps, _, _, smoothing, _ = prepared
     index = {id(g.move): b for b, g in enumerate(active)}
     slow = set()
     for k, junction in path.blend_junction.items():
         b = index.get(id(geoms[k].move))
-        if b is None:
+        if b is None or b == 0 or b + 1 >= len(active):
             continue
-        lo, hi = b, b  # the blend arc with the G2 transitions at its ends
-        while lo > 0 and isinstance(active[lo - 1].move, Transition):
-            lo -= 1
-        while hi + 1 < len(active) and isinstance(active[hi + 1].move, Transition):
-            hi += 1
-        if lo == 0 or hi + 1 >= len(active):
-            continue
-        blend = active[lo : hi + 1]
-        inner = float(caps[lo + 1 : hi + 1].min()) if hi > lo else math.inf
-        v = min(inner, min(g.limits.cap_mm_per_s for g in blend))
-        ends = (float(caps[lo]), float(caps[hi + 1]))
-        length = sum(g.limits.length_mm for g in blend)
-        if not blend_faster(ends, v, length, active[lo - 1].limits, active[hi + 1].limits):
+        ends = (
+            _reached_cap(active, b, float(caps[b]), smoothing, jerk_mm_per_s3),
+            _reached_cap(active, b + 1, float(caps[b + 1]), smoothing, jerk_mm_per_s3),
+        )
+        if not blend_faster(ends, active[b].limits, active[b - 1].limits, active[b + 1].limits):
             slow.add(junction)
     return frozenset(slow)
+
+
+def _reached_cap(
+    active: list[MoveGeometry],
+    b: int,
+    cap: float,
+    smoothing: list[float],
+    jerk_mm_per_s3: float,
+) -> float:
+    """Junction ``b``'s speed cap [mm/s] as the rounds leave it where a curvature jump is
+    smoothed within a chord (``cap``: the first guess, at
+    :data:`~gantry_sim.controller.planner.junctions.CHORD_FIT_BLEND`; the pieces reach a fit of
+    about :data:`~gantry_sim.controller.planner.transition.CHORD_FIT_REACHED`, and a judge
+    taking the first guess kept blends of 14 and 30 degree corners that ran slower than exact
+    stops); ``cap`` itself where the curvature does not jump."""
+    g0, g1 = active[b - 1], active[b]
+    jump = float(np.linalg.norm(g0.curv_out - g1.curv_in))
+    if jump <= 0.0:
+        return cap
+    if g0.is_arc and g1.is_arc:  # each side smooths half (junctions.junction_caps)
+        jump *= 0.5
+    chords = [
+        float(np.linalg.norm(g.vertices[k] - g.vertices[k + sign]))
+        for g, k, sign in ((g0, -1, -1), (g1, 0, 1))
+        if g.is_arc
+    ]
+    budget = min(smoothing[b - 1], smoothing[b])
+    if not chords or budget <= 0.0:
+        return cap
+    reached = junction_cap(0.0, jump, budget, jerk_mm_per_s3, min(chords), CHORD_FIT_REACHED)
+    return min(cap, reached)

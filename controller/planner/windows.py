@@ -119,7 +119,7 @@ def blends_to_skip(
         inner = {k: j for k, j in stretch.blend_junction.items() if lo <= a + k < lo + WINDOW_MOVES}
         prepared = prepare(stretch, machine, feed_override_pct, {})
         stretch.blend_junction = inner
-        return slow_blends(stretch, prepared)
+        return slow_blends(stretch, prepared, float(min(machine.limits.max_jerk_mm_per_s3)))
 
     slow: set[int] = set()
     wave = process_count()

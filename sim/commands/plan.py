@@ -55,18 +55,14 @@ def write_npz_atomically(path: Path, arrays: dict) -> None:
 def deviation_summary(blends: Sequence[Any]) -> dict:
     """The G64 blends (or G64 Q merges): how many, the largest deviation from the programmed
     path (the merged-away points) [mm] and its line (null when none); for blends also how many
-    are G2 transitions at tangent junctions (``transitions``) and how many G2 transitions the
-    corners' blend arcs got at their ends (``corner_transitions``: counted with their
-    corners)."""
+    are G2 transitions at tangent junctions (``transitions``)."""
     worst = None
     kinds: dict[str | None, int] = {}
-    corner_transitions = 0
     for b in blends:  # one pass: a long program's blends are read from disk
         if worst is None or b.deviation_mm > worst.deviation_mm:
             worst = b
         kind = getattr(b, "kind", None)
         kinds[kind] = kinds.get(kind, 0) + 1
-        corner_transitions += getattr(b, "transitions", 0)
     out = {
         "count": len(blends),
         "max_deviation_mm": worst.deviation_mm if worst else 0.0,
@@ -74,7 +70,6 @@ def deviation_summary(blends: Sequence[Any]) -> dict:
     }
     if set(kinds) != {None}:  # blends (which have kinds), or none at all
         out["transitions"] = kinds.get("transition", 0)
-        out["corner_transitions"] = corner_transitions
     return out
 
 
