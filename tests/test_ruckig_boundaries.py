@@ -25,7 +25,7 @@ import pytest
 
 from gantry_sim.controller.gcode.dialects import with_segmentation_default
 from gantry_sim.controller.gcode.interpreter import interpret_events
-from gantry_sim.controller.moves import Linear, Rapid
+from gantry_sim.controller.moves import Arc, Linear, Rapid
 from gantry_sim.controller.planner.plan import plan
 from gantry_sim.controller.planner.ruckig_solver import RuckigSolver
 from tests.plan_helpers import assert_within_limits
@@ -189,3 +189,25 @@ def test_a_result_code_outside_the_bindings_enum_is_a_rejection(machine):
     # minimum_duration above 7,600 s: Ruckig's -101, then the time-optimal piece
     piece = solver.piece(start, end, 1e4)
     assert piece.duration_s < 1.0
+
+
+#: An ArcWelder Benchy (Slic3r 1.33.3, gcode-preview's example; lines 47-51, its first line's
+#: start at the origin): the blends of the corners at both ends of the second G3, each taking at
+#: most half of it, leave 0.1 um of it, whose end speeds are 4e-8 apart -- the most that length
+#: allows -- and Ruckig's profile over it went back along the path ("the speed profile would
+#: reverse", exit 2, once the judge kept both blends).
+ARC_SLIVER = """G1 F3000
+G1 X98.765 Y85.312 E18.53018
+G3 X118.890 Y96.415 I1.298 J21.438 E19.79726
+G3 X118.810 Y103.740 I-7.072 J3.586 E20.19493
+G3 X99.225 Y114.711 I-18.752 J-10.509 E21.42877
+"""
+
+
+def test_an_arc_left_a_sliver_between_two_blends_plans(machine):
+    items = list(interpret_events(ARC_SLIVER, "marlin"))
+    p = plan(items, machine)
+    path = list(p.path_moves)
+    assert len(p.blends) == 2 and min(m.length_mm for m in path) < 1e-3  # the sliver
+    moves = [m for m in items if isinstance(m, Linear | Arc)]
+    assert_within_limits(p.sample(machine.servo.period_s), machine, moves)

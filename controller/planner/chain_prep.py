@@ -145,8 +145,10 @@ def _prep_one(
 #: its faster end keeps to that end's speed (:func:`_chain_profile`).
 NEAR_CAP_SHARE = 0.01
 #: End speeds this close (a share of the larger) are one speed where the profile between them
-#: would reverse (:func:`_path_profile`).
-SAME_SPEED_SHARE = 1e-9
+#: would reverse (:func:`_path_profile`): 1e-9 covered a few nanometres of a blended line; 0.1 um
+#: of an ArcWelder arc left between the blends of its two corners (a Slic3r Benchy, line 61)
+#: had end speeds 4e-8 apart, the most its length allows, and Ruckig's profile went back.
+SAME_SPEED_SHARE = 1e-6
 #: The cap a profile that starts or ends at it is given again where Ruckig's profile would
 #: reverse, as a share above it (rounding: :func:`_path_profile`).
 CAP_HAIR = 1e-12
@@ -221,7 +223,8 @@ def _path_profile(
             # a few nanometres left of a blended line between its blends: the look-ahead's
             # end speeds differ in their last digits (3e-11 of 52 mm/s over 1.8 nm), which no
             # profile can change with zero acceleration at both ends (Ruckig's went back
-            # 52 mm/s and took 0.13 s); at one speed it is a cruise of 34 ns
+            # 52 mm/s and took 0.13 s); at one speed it is a cruise of 34 ns (the next block
+            # starts 1e-6 of the speed away at most: 5e-5 mm/s at 50 mm/s)
             return _path_profile(solver, move, lim, v_in, v_in)
         raise PlanningError(
             "the speed profile would reverse along the path", line=move.line
