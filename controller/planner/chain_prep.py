@@ -129,8 +129,7 @@ def _prep_one(
                 limits,
                 setup.solver,
                 setup.boost_cache,
-                saturated=id(g.move) not in setup.blend_arcs
-                and (setup.saturated_moving or v[k] == v[k + 1] == 0.0),
+                saturated=setup.saturated_moving or v[k] == v[k + 1] == 0.0,
             )
             if stop - first == 1 and id(g.move) not in setup.blend_arcs
             else ()

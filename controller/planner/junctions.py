@@ -174,17 +174,32 @@ def junction_caps(
         else:
             straight = g1 if g0.is_arc else g0
             states[b] = JunctionState(straight.tangent_in, zero)
-        jump = norm(g0.curv_out - g1.curv_in)
-        if g0.is_arc and g1.is_arc:  # the junction state takes the mean: each side smooths half
-            jump *= 0.5
-        chords = [norm(g0.vertices[-1] - g0.vertices[-2])] if g0.is_arc else []
-        chords += [norm(g1.vertices[1] - g1.vertices[0])] if g1.is_arc else []
         own = [smoothing_mm[i] for i in (b - 1, b)] if smoothing_mm else []
         if own and min(own) > dev:  # both sides in G64: its tolerance is the budget
-            caps[b] = junction_cap(kink, jump, min(own), jerk, min(chords), CHORD_FIT_BLEND)
+            caps[b] = smoothing_cap(g0, g1, kink, min(own), jerk, CHORD_FIT_BLEND)
         else:
-            caps[b] = junction_cap(kink, jump, dev, jerk, min(chords))
+            caps[b] = smoothing_cap(g0, g1, kink, dev, jerk, CHORD_FIT)
     return caps, states
+
+
+def smoothing_cap(
+    g0: MoveGeometry,
+    g1: MoveGeometry,
+    kink_rad: float,
+    deviation_mm: float,
+    jerk_mm_per_s3: float,
+    chord_fit: float,
+) -> float:
+    """:func:`junction_cap` of the tangent junction between ``g0`` and ``g1`` (one of them
+    curved) whose jumps are smoothed within ``deviation_mm`` and the chord next to it: the jump
+    of curvature between them (halved between two curves: the junction state takes the mean,
+    each side smooths half) and the shorter of their chords there."""
+    jump = norm(g0.curv_out - g1.curv_in)
+    if g0.is_arc and g1.is_arc:
+        jump *= 0.5
+    chords = [norm(g0.vertices[-1] - g0.vertices[-2])] if g0.is_arc else []
+    chords += [norm(g1.vertices[1] - g1.vertices[0])] if g1.is_arc else []
+    return junction_cap(kink_rad, jump, deviation_mm, jerk_mm_per_s3, min(chords), chord_fit)
 
 
 def _piece_ok(

@@ -165,7 +165,7 @@ class MovePieces:
         done = self._emit(g, pieces, state_in, state_out, dev_max)
         if self.pieces == "ruckig" or not (done[1] or done[2]):
             return done
-        if float(used.rows[:, 2].max()) >= (1.0 - LOOSE_FEED_ROOM) * g.feed_mm_per_s:
+        if _near_feed(g, used):
             return done  # a piece across a switch up to the feed passes it: no use trying
         # the offending ends again without the profile's phase switches near them: where there
         # are some, an extra vertex within LOOSE_END_CHORDS of the end (most have none: 2,100
@@ -386,6 +386,12 @@ def _piece_deviations(g: ArcGeometry, pieces: list[tuple[np.ndarray, float]]) ->
     return arc_deviation_many([g.move] * len(pieces), q, [uh for _, uh in pieces]).tolist()
 
 
+def _near_feed(g: ArcGeometry, profile: Profile1D) -> bool:
+    """Whether ``profile`` comes within :data:`LOOSE_FEED_ROOM` of the arc's feed (no loose
+    try then)."""
+    return float(profile.rows[:, 2].max()) >= (1.0 - LOOSE_FEED_ROOM) * g.feed_mm_per_s
+
+
 def _near_switches(g: ArcGeometry, pieces: Pieces) -> tuple[bool, bool]:
     """Whether ``pieces`` have a vertex other than the arc's own chord vertices (a profile's
     phase switch) within :data:`LOOSE_END_CHORDS` of its start and of its end."""
@@ -401,7 +407,7 @@ def loose_patterns(
     moving junction with a phase switch near them, alone and together (which it makes depends
     on which ends offend); none where the profile comes near the feed. For making them
     beforehand, many arcs at once (:meth:`MovePieces.closed_forms`)."""
-    if float(profile.rows[:, 2].max()) >= (1.0 - LOOSE_FEED_ROOM) * g.feed_mm_per_s:
+    if _near_feed(g, profile):
         return []
     near = _near_switches(g, pieces)
     ends = (state_in.moving and near[0], state_out.moving and near[1])

@@ -22,8 +22,8 @@ from gantry_sim.controller.planner.blend_judge import blend_faster
 from gantry_sim.controller.planner.junctions import (
     JunctionState,
     feasible_junction_caps,
-    junction_cap,
     junction_caps,
+    smoothing_cap,
 )
 from gantry_sim.controller.planner.move_geometry import (
     MoveGeometry,
@@ -135,20 +135,11 @@ def _reached_cap(
     :data:`~gantry_sim.controller.planner.junctions.CHORD_FIT_BLEND`; the pieces reach a fit of
     about :data:`~gantry_sim.controller.planner.transition.CHORD_FIT_REACHED`, and a judge
     taking the first guess kept blends of 14 and 30 degree corners that ran slower than exact
-    stops); ``cap`` itself where the curvature does not jump."""
-    g0, g1 = active[b - 1], active[b]
-    jump = float(np.linalg.norm(g0.curv_out - g1.curv_in))
-    if jump <= 0.0:
-        return cap
-    if g0.is_arc and g1.is_arc:  # each side smooths half (junctions.junction_caps)
-        jump *= 0.5
-    chords = [
-        float(np.linalg.norm(g.vertices[k] - g.vertices[k + sign]))
-        for g, k, sign in ((g0, -1, -1), (g1, 0, 1))
-        if g.is_arc
-    ]
+    stops); ``cap`` itself where nothing jumps. Junction ``b`` has the blend arc on one side."""
     budget = min(smoothing[b - 1], smoothing[b])
-    if not chords or budget <= 0.0:
+    if budget <= 0.0:
         return cap
-    reached = junction_cap(0.0, jump, budget, jerk_mm_per_s3, min(chords), CHORD_FIT_REACHED)
+    reached = smoothing_cap(
+        active[b - 1], active[b], 0.0, budget, jerk_mm_per_s3, CHORD_FIT_REACHED
+    )
     return min(cap, reached)
