@@ -309,7 +309,67 @@ def test_a_loose_try_that_is_no_better_leaves_the_plan_as_without_it(machine, mo
     assert np.array_equal(a.pos, b.pos) and np.array_equal(a.acc, b.acc)
 
 
-def test_g64_q_merges_straight_moves_within_q(machine):
+def _bent_polyline() -> str:
+    """60 G1 steps of 0.1-0.4 mm turning 1-6 degrees either way at F3000 (a CAM surface's
+    polyline), blended in G64 P0.01 with no naive-CAM merging."""
+    x = y = heading = 0.0
+    lines = ["G21 G90 G17 G64 P0.01 Q0 F3000", "G1 X0 Y0"]
+    for k in range(60):
+        heading += math.radians((1 + 5 * ((k * 7) % 11) / 10) * (1 if k % 9 < 5 else -1))
+        step = 0.1 + 0.3 * ((k * 5) % 13) / 12
+        x, y = x + step * math.cos(heading), y + step * math.sin(heading)
+        lines.append(f"G1 X{x:.4f} Y{y:.4f}")
+    return "\n".join([*lines, "M2"])
+
+
+def test_the_loose_tries_made_beforehand_hold_every_one_used_and_only_those_that_may_be(
+    machine, monkeypatch
+):
+    """A batch makes beforehand only the loose tries of the ends that can offend (an end
+    piece that goes to Ruckig or leaves the arc, or any other Ruckig piece): every try an arc
+    then uses was made beforehand (none is made on its own), and fewer are made than one per
+    moving end with a switch near it."""
+    from gantry_sim.controller.planner import chain_plan, pieces
+
+    made, alone = [], []
+    closed_forms, closed_form = pieces.MovePieces.closed_forms, pieces.MovePieces.closed_form
+    patterns = pieces.loose_patterns
+
+    def count_batch(self, requests, loose=None):
+        if loose is not None:
+            made.extend(loose)
+        return closed_forms(self, requests, loose)
+
+    def count_alone(self, g, profile, state_in, state_out, loose=(False, False)):
+        if any(loose):
+            alone.append(loose)
+        return closed_form(self, g, profile, state_in, state_out, loose)
+
+    every = []
+
+    def every_pattern(g, profile, pcs, s_in, s_out, dev_max_mm):
+        every.extend(patterns(g, profile, pcs, s_in, s_out, -1.0))  # as if every end offends
+        return patterns(g, profile, pcs, s_in, s_out, dev_max_mm)
+
+    monkeypatch.setattr(pieces.MovePieces, "closed_forms", count_batch)
+    monkeypatch.setattr(pieces.MovePieces, "closed_form", count_alone)
+    monkeypatch.setattr(chain_plan, "loose_patterns", every_pattern)
+    emitted = _emitted_lines(monkeypatch)
+    arc = pieces.MovePieces.arc
+    used = []
+
+    def tried(self, *args, **kwargs):  # an arc whose pieces are emitted twice: a loose try
+        before = len(emitted)
+        out = arc(self, *args, **kwargs)
+        used.extend([1] if len(emitted) - before > 1 else [])
+        return out
+
+    monkeypatch.setattr(pieces.MovePieces, "arc", tried)
+    for text in (RASTER_ROW, _bent_polyline()):
+        moves = parse_program(text)
+        assert any(isinstance(m, Arc) for m in plan(moves, machine).path_moves)
+    assert alone == []
+    assert 0 < len(used) <= len(made) < len(every)
     zig = "".join(f"G1 X{k} Y{0.001 * (k % 2):.3f}\n" for k in range(1, 11))
     merged = plan(parse_program("G21 G64 P0.01 Q0.002 F3000\n" + zig + "M2"), machine)
     plain = plan(parse_program("G21 G64 P0.01 Q0 F3000\n" + zig + "M2"), machine)

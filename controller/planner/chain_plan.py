@@ -183,11 +183,16 @@ def _plan_batch(
     firsts = maker.closed_forms(requests)
     # the loose tries the arcs with one candidate may make, made beforehand all at once (one by
     # one they were 37 % of planning a polyline whose corners are blend arcs of a chord or two)
-    fast_less = [not fast for prep in preps for _, _, fast, _, _ in prep.arcs]
+    single = [
+        (not fast, max(maker.dev_max, setup.smoothing[key[0] + k]))
+        for (key, _), prep in zip(batch, preps, strict=True)
+        for k, _, fast, _, _ in prep.arcs
+    ]
     tries: list[tuple[int, tuple[bool, bool]]] = []
-    for i, ((g, prof, s_in, s_out), one) in enumerate(zip(requests, fast_less, strict=True)):
+    for i, ((g, prof, s_in, s_out), (one, dev)) in enumerate(zip(requests, single, strict=True)):
         if one:
-            tries.extend((i, ends) for ends in loose_patterns(g, prof, firsts[i], s_in, s_out))
+            patterns = loose_patterns(g, prof, firsts[i], s_in, s_out, dev)
+            tries.extend((i, ends) for ends in patterns)
     made = maker.closed_forms([requests[i] for i, _ in tries], [ends for _, ends in tries])
     loose: dict[int, dict[tuple[bool, bool], Pieces]] = {}
     for (i, ends), pieces in zip(tries, made, strict=True):

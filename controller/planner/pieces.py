@@ -400,20 +400,54 @@ def _near_switches(g: ArcGeometry, pieces: Pieces) -> tuple[bool, bool]:
 
 
 def loose_patterns(
-    g: ArcGeometry, profile: Profile1D, pieces: Pieces, state_in: EndState, state_out: EndState
+    g: ArcGeometry,
+    profile: Profile1D,
+    pieces: Pieces,
+    state_in: EndState,
+    state_out: EndState,
+    dev_max_mm: float,
 ) -> list[tuple[bool, bool]]:
     """The loose tries :meth:`MovePieces.arc` may make of an arc with the single candidate
-    ``profile`` (whose closed form is ``pieces``), by the ends they loosen: those next to a
-    moving junction with a phase switch near them, alone and together (which it makes depends
-    on which ends offend); none where the profile comes near the feed. For making them
-    beforehand, many arcs at once (:meth:`MovePieces.closed_forms`)."""
+    ``profile`` (whose closed form is ``pieces``; ``dev_max_mm``: the deviation allowed next
+    to its moving junctions, as :meth:`MovePieces.arc` takes it), by the ends they loosen:
+    those that may offend (:func:`_may_offend`) with a phase switch near them, alone and
+    together (which it makes depends on which ends do offend); none where the profile comes
+    near the feed. For making them beforehand, many arcs at once
+    (:meth:`MovePieces.closed_forms`): every try the arc can need is among them, and no
+    other (most arcs of a polyline have switches near both ends and offend at neither: making
+    all three tries for each, two of three were never used, a tenth of planning)."""
     if _near_feed(g, profile):
         return []
     near = _near_switches(g, pieces)
-    ends = (state_in.moving and near[0], state_out.moving and near[1])
+    may = _may_offend(g, pieces, state_in.moving, state_out.moving, dev_max_mm)
+    ends = (may[0] and near[0], may[1] and near[1])
     if ends[0] and ends[1]:
         return [(True, False), (False, True), (True, True)]
     return [ends] if any(ends) else []
+
+
+def _may_offend(
+    g: ArcGeometry, pieces: Pieces, moving_in: bool, moving_out: bool, dev_max_mm: float
+) -> tuple[bool, bool]:
+    """Whether :meth:`MovePieces._emit` of ``pieces`` can find the start and the end
+    offending: an end next to a moving junction whose closed-form end piece goes to Ruckig
+    or leaves the arc by more than ``dev_max_mm``, or, for both moving ends, any other piece
+    that goes to Ruckig (one off the arc makes them both offend)."""
+    ok = pieces.ok
+    last = ok.size - 1
+    ends = [k for k, moving in ((0, moving_in), (last, moving_out)) if moving]
+    others = np.ones(ok.size, dtype=bool)
+    others[ends] = False
+    shared = bool((~ok[others]).any())
+
+    def may(k: int, moving: bool) -> bool:
+        if not moving:
+            return False
+        if shared or not ok[k]:
+            return True
+        return k not in pieces.end_dev_mm or pieces.end_dev_mm[k] > dev_max_mm
+
+    return may(0, moving_in), may(last, moving_out)
 
 
 def _deviation(g: ArcGeometry, pieces: Pieces, k: int) -> float:
