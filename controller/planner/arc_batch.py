@@ -76,6 +76,8 @@ def arc_deviation_many(arcs: Sequence[Arc], q: np.ndarray, u_hint: Sequence[floa
     """:meth:`gantry_sim.controller.planner.move_geometry.ArcGeometry.deviation` of the points
     ``q[i]`` (k, 3) near ``u_hint[i]`` from each arc, at once -> (m,) [mm]."""
     m, k = q.shape[0], q.shape[1]
+    if m and all(a is arcs[0] for a in arcs):
+        return _one_arc_deviation(arcs[0], q, u_hint)
     frames = [arc_frame(a) for a in arcs]
 
     def rows(values: list[float]) -> np.ndarray:
@@ -104,6 +106,27 @@ def arc_deviation_many(arcs: Sequence[Arc], q: np.ndarray, u_hint: Sequence[floa
     d_r = np.hypot(q1 - c1, q2 - c2) - (r0 + (r1 - r0) * u)
     d_n = qn - (h0 + (h1 - h0) * u)
     d_t = arc_overrun_mm(u, angle, r0, r1, h1 - h0)
+    return np.hypot(np.hypot(d_r, d_n), d_t).reshape(m, k).max(axis=1)
+
+
+def _one_arc_deviation(arc: Arc, q: np.ndarray, u_hint: Sequence[float]) -> np.ndarray:
+    """:func:`arc_deviation_many` of points all near one ``arc`` (a Ruckig piece's samples,
+    checked one arc at a time): its numbers are scalars, not rows (the same values)."""
+    m, k = q.shape[0], q.shape[1]
+    f = arc_frame(arc)
+    a1, a2, an = PLANE_AXES[arc.plane]
+    c1, c2 = float(arc.center[f.i1]), float(arc.center[f.i2])
+    hint = np.repeat(
+        np.array([f.theta0_rad + f.sigma * arc.angle * uh for uh in u_hint], dtype=float), k
+    )
+    pts = q.reshape(m * k, 3)
+    q1, q2, qn = pts[:, a1], pts[:, a2], pts[:, an]
+    th = np.arctan2(q2 - c2, q1 - c1)
+    th = th - 2.0 * np.pi * np.round((th - hint) / (2.0 * np.pi))
+    u = f.sigma * (th - f.theta0_rad) / arc.angle
+    d_r = np.hypot(q1 - c1, q2 - c2) - (f.r0_mm + (f.r1_mm - f.r0_mm) * u)
+    d_n = qn - (f.h0_mm + (f.h1_mm - f.h0_mm) * u)
+    d_t = arc_overrun_mm(u, arc.angle, f.r0_mm, f.r1_mm, f.h1_mm - f.h0_mm)
     return np.hypot(np.hypot(d_r, d_n), d_t).reshape(m, k).max(axis=1)
 
 
