@@ -97,20 +97,56 @@ def invert_many(
 ) -> list[tuple[np.ndarray, np.ndarray, np.ndarray]]:
     """:meth:`Profile1D.invert` for several (profile, arc lengths) at once: one vectorised
     solve over all of them (each number is computed exactly as alone, bit for bit: the solve is
-    element by element), so planning many arcs costs a few numpy calls, not a few hundred each."""
-    parts = []
-    for prof, s in queries:
-        keep = prof.rows[:, 0] > 0
-        dur, p, v, a, j = prof.rows[keep].T
-        t0 = np.concatenate(([0.0], np.cumsum(dur)[:-1]))
-        k = np.clip(np.searchsorted(p, s, side="right") - 1, 0, p.size - 1)
-        parts.append(np.stack([p[k], v[k], a[k], j[k], dur[k], t0[k], s]))
-    if not parts:
+    element by element), so planning many arcs costs a few numpy calls, not a few hundred each.
+
+    The profiles' phases are laid out as rows of one padded table (each row's cumulative start
+    times summed in the same order as one profile's ``np.cumsum``), and each arc length finds
+    its phase by counting its profile's phase starts at or below it (``np.searchsorted``'s
+    ``side="right"``), so no profile costs a call of its own."""
+    if not queries:
         return []
-    sizes = np.cumsum([x.shape[1] for x in parts])[:-1]
-    pk, vk, ak, jk, dk, t0k, s_all = np.concatenate(parts, axis=1)
-    t, vel, acc = _solve_tau(pk, vk, ak, jk, dk, t0k, s_all)
+    rows = [prof.rows for prof, _ in queries]
+    ss = [np.asarray(s, dtype=float).reshape(-1) for _, s in queries]
+    table = np.concatenate(rows)
+    owner = np.repeat(np.arange(len(rows)), [r.shape[0] for r in rows])
+    keep = table[:, 0] > 0
+    table, owner = table[keep], owner[keep]
+    kept = np.bincount(owner, minlength=len(rows))
+    counts = np.array([s.size for s in ss])
+    if np.any((kept == 0) & (counts > 0)):  # a profile of no time asked for a point
+        raise IndexError("invert_many: a profile without phases cannot be inverted")
+    width = max(int(kept.max()), 1)
+    if width * (len(rows) + int(counts.sum())) > WIDE_CELLS:  # one long profile: rows each
+        return [_invert_one(prof, s) for (prof, _), s in zip(queries, ss, strict=True)]
+    first = np.concatenate(([0], np.cumsum(kept)[:-1]))
+    col = np.arange(table.shape[0]) - first[owner]
+    grid = np.zeros((len(rows), width, 5))
+    grid[owner, col] = table
+    starts = np.full((len(rows), width), np.inf)  # padding: never at or below a query
+    starts[owner, col] = table[:, 1]
+    t0 = np.zeros((len(rows), width))
+    t0[:, 1:] = np.cumsum(grid[:, :-1, 0], axis=1)
+    s_all = np.concatenate(ss) if ss else np.zeros(0)
+    q = np.repeat(np.arange(len(rows)), counts)
+    k = (starts[q] <= s_all[:, None]).sum(axis=1) - 1
+    k = np.clip(k, 0, np.maximum(kept[q] - 1, 0))
+    dk, pk, vk, ak, jk = grid[q, k].T
+    t, vel, acc = _solve_tau(pk, vk, ak, jk, dk, t0[q, k], s_all)
+    sizes = np.cumsum(counts)[:-1]
     return list(zip(np.split(t, sizes), np.split(vel, sizes), np.split(acc, sizes), strict=True))
+
+
+#: Cells of :func:`invert_many`'s padded tables (profiles and arc lengths, by the most phases
+#: of one profile) above which each profile is inverted on its own (a few tens of MB).
+WIDE_CELLS = 2_000_000
+
+
+def _invert_one(prof: Profile1D, s: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """:meth:`Profile1D.invert` of one profile, with its own arrays (the same numbers)."""
+    dur, p, v, a, j = prof.rows[prof.rows[:, 0] > 0].T
+    t0 = np.concatenate(([0.0], np.cumsum(dur)[:-1]))
+    k = np.clip(np.searchsorted(p, s, side="right") - 1, 0, p.size - 1)
+    return _solve_tau(p[k], v[k], a[k], j[k], dur[k], t0[k], s)
 
 
 def _solve_tau(pk, vk, ak, jk, dk, t0k, s):

@@ -1,0 +1,74 @@
+"""Profiles inverted many at once (one padded table) give each profile's own inversion, bit for
+bit: where the reference passes an arc length (time, speed, acceleration) must not depend on
+which other arcs were planned in the same batch."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from gantry_sim.controller.planner import profile as profile_mod
+from gantry_sim.controller.planner.profile import Profile1D, invert_many
+
+
+def _profile(rng: np.random.Generator, phases: int) -> tuple[Profile1D, np.ndarray]:
+    """A profile of ``phases`` constant-jerk phases (some of no time) whose arc length never
+    goes back (as a planned profile's), and arc lengths along it (its ends, its phase starts,
+    points between and just outside)."""
+    dur = rng.uniform(0.0, 0.02, phases) * (rng.random(phases) > 0.2)
+    v0, a0 = rng.uniform(1.0, 50.0), 0.0
+    rows, s = [], 0.0
+    for d in dur:
+        j = rng.uniform(-2e4, 2e4)
+        rows.append((d, s, v0, a0, j))
+        s += abs(d * (v0 + d * (0.5 * a0 + d * j / 6.0)))
+        v0 = max(v0 + d * (a0 + 0.5 * d * j), 0.0)
+        a0 = a0 + d * j
+    table = np.array(rows)
+    starts = table[:, 1]
+    queries = np.concatenate((starts, rng.uniform(0.0, max(s, 1e-9), 6), [0.0, s, s + 1e-3, -1e-3]))
+    return Profile1D(table), np.sort(queries)
+
+
+def _one_by_one(queries):
+    return [invert_many([q])[0] for q in queries]
+
+
+@settings(max_examples=40, deadline=None)
+@given(sizes=st.lists(st.integers(1, 12), min_size=1, max_size=8), seed=st.integers(0, 2**31))
+def test_many_profiles_at_once_invert_as_each_alone(sizes, seed):
+    rng = np.random.default_rng(seed)
+    queries = [_profile(rng, n) for n in sizes]
+    queries = [(p, s) for p, s in queries if (p.rows[:, 0] > 0).any()]
+    if not queries:
+        return
+    together = invert_many(queries)
+    for (prof, s), got in zip(queries, together, strict=True):
+        want = profile_mod._invert_one(prof, s)  # the profile alone, its own arrays
+        for g, w in zip(got, want, strict=True):
+            assert np.array_equal(g, w)
+    assert all(
+        np.array_equal(g, w)
+        for a, b in zip(together, _one_by_one(queries), strict=True)
+        for g, w in zip(a, b, strict=True)
+    )
+
+
+def test_a_wide_table_is_inverted_profile_by_profile_with_the_same_numbers(monkeypatch):
+    rng = np.random.default_rng(7)
+    queries = [_profile(rng, n) for n in (3, 9, 5)]
+    together = invert_many(queries)
+    monkeypatch.setattr(profile_mod, "WIDE_CELLS", 0)
+    wide = invert_many(queries)
+    for a, b in zip(together, wide, strict=True):
+        for g, w in zip(a, b, strict=True):
+            assert np.array_equal(g, w)
+
+
+def test_a_profile_of_no_time_cannot_be_asked_for_a_point():
+    empty = Profile1D(np.array([[0.0, 0.0, 1.0, 0.0, 0.0]]))
+    assert invert_many([(empty, np.zeros(0))])[0][0].size == 0
+    with pytest.raises(IndexError):
+        invert_many([(empty, np.array([0.0]))])
