@@ -1,5 +1,7 @@
-"""The batched arc deviation: points checked against one arc give what the rows of a batch of
-arcs give, bit for bit (the planner checks a Ruckig piece's samples one arc at a time)."""
+"""Arcs in batches: the deviation of points checked against one arc gives what the rows of a
+batch of arcs give, and the points of many arcs at once are each arc's own, bit for bit (the
+planner checks a Ruckig piece's samples one arc at a time, and moves the vertices of a round's
+arcs all at once)."""
 
 from __future__ import annotations
 
@@ -11,9 +13,12 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from gantry_sim.controller.arcs import arc_points
+from gantry_sim.controller.config import load_machine_config
 from gantry_sim.controller.moves import Arc
 from gantry_sim.controller.planes import PLANE_AXES
-from gantry_sim.controller.planner.arc_batch import arc_deviation_many
+from gantry_sim.controller.planner.arc_batch import arc_deviation_many, arc_points_many
+from gantry_sim.controller.planner.move_geometry import move_geometry
+from gantry_sim.models import DEFAULT_MACHINE
 
 
 def _arc(plane: str, ccw: bool, radius: float, angle: float, rise: float, spiral: float) -> Arc:
@@ -62,3 +67,36 @@ def test_points_near_one_arc_give_the_rows_of_a_batch(
     copies = [dataclasses.replace(arc) for _ in range(pieces)]  # equal, not the same: rows
     assert np.array_equal(one, arc_deviation_many(copies, q, hints.tolist()))
     assert one.shape == (pieces,) and np.all(one >= 0.0)
+
+
+MACHINE = load_machine_config(DEFAULT_MACHINE)
+
+
+@settings(max_examples=40, deadline=None)
+@given(
+    arcs=st.lists(
+        st.tuples(
+            st.sampled_from(["XY", "XZ", "YZ"]),
+            st.booleans(),
+            st.floats(0.05, 200.0),
+            st.floats(0.01, 3.0 * math.pi),
+            st.floats(-5.0, 5.0),
+            st.floats(-1e-3, 1e-3),
+            st.integers(0, 6),
+        ),
+        min_size=1,
+        max_size=6,
+    ),
+    seed=st.integers(0, 2**31),
+)
+def test_points_of_many_arcs_at_once_are_each_arcs_own(arcs, seed):
+    """The vertices moved onto a profile's phase switches, for a batch of arcs at once: each
+    arc's points are its geometry's (u = 0 and 1: its start and end exactly)."""
+    rng = np.random.default_rng(seed)
+    moves = [_arc(*spec[:6]) for spec in arcs]
+    us = [np.sort(np.concatenate(([0.0, 1.0], rng.random(spec[6])))) for spec in arcs]
+    got = arc_points_many(moves, us)
+    for move, u, pts in zip(moves, us, got, strict=True):
+        geometry = move_geometry(move, MACHINE.limits, MACHINE.segmentation, 1.0)
+        assert np.array_equal(pts, geometry.points(u))
+        assert np.array_equal(pts[0], move.start) and np.array_equal(pts[-1], move.end)

@@ -58,6 +58,41 @@ def arc_end_derivatives_many(arcs: Sequence[Arc]) -> tuple[np.ndarray, np.ndarra
     return d1.reshape(-1, 2, 3), d2.reshape(-1, 2, 3)
 
 
+def arc_points_many(arcs: Sequence[Arc], us: Sequence[np.ndarray]) -> list[np.ndarray]:
+    """:meth:`~gantry_sim.controller.planner.move_geometry.ArcGeometry.points` of each arc at
+    its sweep fractions ``us[i]`` (k_i,), at once (each number as
+    :func:`~gantry_sim.controller.arcs.arc_points` gives it; u = 0 and 1: the start and the end
+    exactly) -> one (k_i, 3) array [mm] per arc."""
+    if not arcs:
+        return []
+    counts = [u.size for u in us]
+    frames = [arc_frame(a) for a in arcs]
+    u = np.concatenate(us).astype(float, copy=False)
+
+    def rows(values: list[float]) -> np.ndarray:
+        return np.repeat(np.array(values, dtype=float), counts)
+
+    sweep = rows([f.sigma * a.angle for a, f in zip(arcs, frames, strict=True)])
+    theta = rows([f.theta0_rad for f in frames]) + sweep * u
+    r0 = rows([f.r0_mm for f in frames])
+    r = r0 + rows([f.r1_mm - f.r0_mm for f in frames]) * u
+    h0 = rows([f.h0_mm for f in frames])
+    normal = h0 + rows([f.h1_mm - f.h0_mm for f in frames]) * u
+    at = np.arange(u.size)
+    axes = np.repeat(np.array([(f.i1, f.i2, f.n) for f in frames], dtype=np.intp), counts, 0)
+    out = np.empty((u.size, 3))
+    out[at, axes[:, 0]] = rows([float(a.center[f.i1]) for a, f in zip(arcs, frames, strict=True)])
+    out[at, axes[:, 0]] += r * np.cos(theta)
+    out[at, axes[:, 1]] = rows([float(a.center[f.i2]) for a, f in zip(arcs, frames, strict=True)])
+    out[at, axes[:, 1]] += r * np.sin(theta)
+    out[at, axes[:, 2]] = normal
+    ends = np.repeat(np.array([a.end for a in arcs], dtype=float), counts, 0)
+    starts = np.repeat(np.array([a.start for a in arcs], dtype=float), counts, 0)
+    out[u == 1.0] = ends[u == 1.0]
+    out[u == 0.0] = starts[u == 0.0]
+    return np.split(out, np.cumsum(counts)[:-1])
+
+
 def piece_points_many(
     ps: np.ndarray, vs: np.ndarray, as_: np.ndarray, js: np.ndarray, dur: np.ndarray
 ) -> np.ndarray:

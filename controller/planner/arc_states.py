@@ -13,7 +13,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from gantry_sim.controller.moves import Arc, Transition
-from gantry_sim.controller.planner.arc_batch import arc_derivatives_many
+from gantry_sim.controller.planner.arc_batch import arc_derivatives_many, arc_points_many
 from gantry_sim.controller.planner.junctions import EndState
 from gantry_sim.controller.planner.knots import union_sorted
 from gantry_sim.controller.planner.move_geometry import ArcGeometry
@@ -80,13 +80,17 @@ def vertex_states_many(
     across the switch (the planner checks it against the limits, the feed and the arc as any
     end piece). The planner tries it where the end offends with the switches kept.
     """
+    if not requests:
+        return []
     geoms = [r[0] for r in requests]
     knots = _per_curve(geoms, [r[1].s[1:] for r in requests], "u_at", transition_parameters_many)
     ends = loose or [(False, False)] * len(requests)
-    fractions = [
+    made = [
         _fractions(g, s_in, s_out, kn, free)
         for (g, _, s_in, s_out), kn, free in zip(requests, knots, ends, strict=True)
     ]
+    fractions = [u for u, _ in made]
+    moved = [changed for _, changed in made]
     inner = [u[1:-1] for u in fractions]
     lengths = _per_curve(geoms, inner, "s_at", transition_lengths_many)
     inverted = invert_many([(r[1], s) for r, s in zip(requests, lengths, strict=True)])
@@ -105,17 +109,52 @@ def vertex_states_many(
         lo += u.size
     vel_in = d1 * ud
     acc_in = d2 * ud * ud + d1 * udd
-    out = []
-    lo = 0
-    for (g, prof, s_in, s_out), u, inv in zip(requests, fractions, inverted, strict=True):
-        hi = lo + u.size - 2
-        vel = np.vstack([s_in.vel_mm_per_s, vel_in[lo:hi], s_out.vel_mm_per_s])
-        acc = np.vstack([s_in.acc_mm_per_s2, acc_in[lo:hi], s_out.acc_mm_per_s2])
-        times = np.concatenate(([0.0], inv[0], [prof.duration_s]))
-        verts = g.vertices if np.array_equal(u, g.u) else g.points(u)
-        out.append(VertexStates(u, verts, vel, acc, np.maximum(np.diff(times), 0.0)))
-        lo = hi
-    return out
+    # every arc's states in one table of rows: its end states first and last, the inner
+    # vertices' between (each arc gets views of its rows: the same numbers as its own arrays)
+    sizes = np.array([u.size for u in fractions], dtype=np.intp)
+    stop = np.cumsum(sizes)
+    first, last = stop - sizes, stop - 1
+    inside = np.ones(int(stop[-1]) if sizes.size else 0, dtype=bool)
+    inside[first], inside[last] = False, False
+    vel, acc, times = np.empty((inside.size, 3)), np.empty((inside.size, 3)), np.empty(inside.size)
+    vel[inside], acc[inside] = vel_in, acc_in
+    vel[first] = [r[2].vel_mm_per_s for r in requests]
+    vel[last] = [r[3].vel_mm_per_s for r in requests]
+    acc[first] = [r[2].acc_mm_per_s2 for r in requests]
+    acc[last] = [r[3].acc_mm_per_s2 for r in requests]
+    times[inside] = np.concatenate([inv[0] for inv in inverted]) if inverted else 0.0
+    times[first] = 0.0
+    times[last] = [r[1].duration_s for r in requests]
+    durations = np.maximum(np.diff(times), 0.0)  # across two arcs: never read
+    verts = _vertices(geoms, fractions, moved)
+    return [
+        VertexStates(u, pts, vel[a:b], acc[a:b], durations[a : b - 1])
+        for u, pts, a, b in zip(fractions, verts, first.tolist(), stop.tolist(), strict=True)
+    ]
+
+
+def _vertices(
+    geoms: list[ArcGeometry], fractions: list[np.ndarray], moved: list[bool]
+) -> list[np.ndarray]:
+    """The points of each curve at its vertex parameters ``fractions[i]``: its own chord
+    vertices where they are those (``moved[i]`` False: :func:`_fractions` changed none, or
+    made the same ones again), else the curve's points there (arcs: in one batch, the same
+    numbers as :meth:`ArcGeometry.points`)."""
+    out: list[np.ndarray | None] = []
+    arcs: list[int] = []
+    for i, (g, u, changed) in enumerate(zip(geoms, fractions, moved, strict=True)):
+        if not changed or np.array_equal(u, g.u):
+            out.append(g.vertices)
+        elif isinstance(g.move, Arc):
+            out.append(None)
+            arcs.append(i)
+        else:
+            out.append(g.points(u))
+    if arcs:
+        moves = [m for m in (geoms[i].move for i in arcs) if isinstance(m, Arc)]
+        for i, pts in zip(arcs, arc_points_many(moves, [fractions[i] for i in arcs]), strict=True):
+            out[i] = pts
+    return [p for p in out if p is not None]
 
 
 def _per_curve(
@@ -173,34 +212,45 @@ def _fractions(
     state_out: EndState,
     knots: np.ndarray,
     loose: tuple[bool, bool] = (False, False),
-) -> np.ndarray:
-    """The parameters of the vertices (see :func:`vertex_states_many`); ``knots``: the
-    parameters where the profile switches phase (``g.u_at(profile.s[1:])``); ``loose``:
-    whether the start and the end drop those within :data:`LOOSE_END_CHORDS` of them."""
+) -> tuple[np.ndarray, bool]:
+    """The parameters of the vertices (see :func:`vertex_states_many`), and whether they may
+    differ from the chord vertices' ``g.u``; ``knots``: the parameters where the profile
+    switches phase (``g.u_at(profile.s[1:])``); ``loose``: whether the start and the end drop
+    those within :data:`LOOSE_END_CHORDS` of them."""
     # Each knot of the 1-D profile becomes a vertex: the nearest chord vertex moves onto it when
     # within a quarter chord (a piece much shorter than a chord would let rounding dominate its
     # jerk), or it is added. The reference only passes through exact arc states, so moving a
     # vertex along the arc does not move the reference off the arc.
     m = g.u.size - 1
-    u = g.u.copy()
-    snapped = np.zeros(m + 1, dtype=bool)
-    extra = []
     lo = LOOSE_END_CHORDS if loose[0] and state_in.moving else 0.0
     hi = m - LOOSE_END_CHORDS if loose[1] and state_out.moving else m
-    for uk in knots:
+    snaps: dict[int, float] = {}
+    extra: list[float] = []
+    for uk in knots.tolist():  # Python floats: the same numbers, without a NumPy scalar each
         if not 0.0 < uk < 1.0 or not lo <= uk * m <= hi:
             continue
         i = round(uk * m)
-        if 0 < i < m and abs(uk * m - i) < 0.25 and not snapped[i]:
-            u[i], snapped[i] = uk, True
+        if 0 < i < m and abs(uk * m - i) < 0.25 and i not in snaps:
+            snaps[i] = uk
         elif abs(uk * m - i) > 1e-3:
             extra.append(uk)
+    if not snaps and not extra and state_in.moving and state_out.moving and isinstance(g.move, Arc):
+        return g.u.copy(), False  # an arc's u is arange(n + 1) / n: the steps below keep it
+    u = g.u.copy()
+    for i, uk in snaps.items():
+        u[i] = uk
     u = union_sorted(u, extra)
-    halves = 0.5 ** np.arange(1, STOP_REFINEMENT + 1)
     if not state_in.moving:
-        u = union_sorted(u, u[1] * halves)
+        u = union_sorted(u, u[1] * _HALVES)
     if not state_out.moving:
-        u = union_sorted(u, 1.0 - (1.0 - u[-2]) * halves)
-    u = u[np.concatenate(([True], np.diff(u) > 1e-12))]
+        u = union_sorted(u, 1.0 - (1.0 - u[-2]) * _HALVES)
+    apart = np.diff(u) > 1e-12
+    if not apart.all():  # (union_sorted gave a new array: changed in place below)
+        u = u[np.concatenate(([True], apart))]
     u[-1] = 1.0
-    return u
+    return u, True
+
+
+#: 1/2, 1/4, ... of the end chord next to a stop (:data:`STOP_REFINEMENT` of them).
+_HALVES = 0.5 ** np.arange(1, STOP_REFINEMENT + 1)
+_HALVES.flags.writeable = False
