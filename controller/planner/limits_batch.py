@@ -107,7 +107,7 @@ def _curved(
     j_t = np.sqrt(np.maximum(j_p * j_p - (3.0 * cap_m * a_t * k) ** 2, 0.0)) - cap_m**3 * dk
     sp = col(sin_p)
     pitched = sp > 0
-    with np.errstate(divide="ignore", invalid="ignore"):
+    with np.errstate(divide="ignore", invalid="ignore", over="ignore"):  # sp ~ 1e-310: inf
         a_t = np.where(pitched, np.minimum(a_t, col(amax_n) / sp), a_t)
         j_t = np.where(pitched, np.minimum(j_t, col(jmax_n) / sp), j_t)
     ok = (a_t > 0) & (j_t > 0)
