@@ -268,3 +268,23 @@ def test_slow_blends_judged_over_processes_are_the_ones_judged_in_one(monkeypatc
     assert len(waves) > 1 and max(waves) == 3, waves  # several waves of three processes
     assert len(whole.blends) < 69  # some corners were judged slow
     _assert_same(whole, windowed)
+
+
+def test_a_windows_blends_are_found_by_bisection_as_by_a_scan():
+    """PathPlan.blends_between gives the blend arcs of moves lo..hi-1 (keys from lo) that a
+    scan of the whole dict gives, and follows a dict replaced or grown since it last looked."""
+    from gantry_sim.controller.planner.blend import PathPlan
+
+    rng = np.random.default_rng(3)
+    path = PathPlan()
+    path.blend_junction = {int(k): int(k) + 7 for k in np.unique(rng.integers(0, 500, 120))}
+
+    def scan(lo, hi):
+        return {k - lo: j for k, j in path.blend_junction.items() if lo <= k < hi}
+
+    for lo, hi in [(0, 500), (0, 0), (17, 18), (100, 260), (499, 600), (250, 120)]:
+        assert path.blends_between(lo, hi) == scan(lo, hi)
+    path.blend_junction[700] = 1  # grown
+    assert path.blends_between(600, 800) == {100: 1} == scan(600, 800)
+    path.blend_junction = {5: 2}  # replaced
+    assert path.blends_between(0, 10) == {5: 2} == scan(0, 10)

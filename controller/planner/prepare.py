@@ -63,7 +63,7 @@ def sub_path(path: PathPlan, lo: int, hi: int, first_junction: int) -> PathPlan:
     out.holds = {j - lo: d for j, d in path.holds.items() if first_junction <= j <= last}
     out.smoothing_mm = path.smoothing_mm[lo:hi]
     out.sources = path.sources[lo:hi]
-    out.blend_junction = {k - lo: j for k, j in path.blend_junction.items() if lo <= k < hi}
+    out.blend_junction = path.blends_between(lo, hi)
     return out
 
 
