@@ -15,7 +15,7 @@ import pytest
 
 from gantry_sim.controller.config import load_machine_config
 from gantry_sim.controller.gcode.interpreter import interpret_events
-from gantry_sim.controller.planner import plan, rounds, segmented_curve, windows
+from gantry_sim.controller.planner import plan, rounds, segmented_curve, window_judge, windows
 from gantry_sim.models import DEFAULT_MACHINE
 from tests.plan_helpers import count_fork_map_parts
 
@@ -208,9 +208,9 @@ def test_the_next_window_is_prepared_while_the_chains_are_planned(monkeypatch):
     real_take, real_job = windows._Ahead.take, windows._Ahead.job
     machine = load_machine_config(DEFAULT_MACHINE)
 
-    def job(self, path, *args):
-        paths.append(path)
-        return real_job(self, path, *args)
+    def job(self, src, *args):
+        paths.append(src.path)
+        return real_job(self, src, *args)
 
     def take(self, key):
         got = real_take(self, key)
@@ -258,11 +258,13 @@ def test_a_window_whose_preparation_ahead_fails_is_prepared_again(monkeypatch):
 
 @pytest.mark.skipif(not sys.platform.startswith("linux"), reason="forks on Linux only")
 def test_slow_blends_judged_over_processes_are_the_ones_judged_in_one(monkeypatch):
-    """The windows of the slow-blend judgement go to forked processes, a wave at a time: the
-    corners found, and so the plan, are those of the whole program in one process."""
+    """Once a window finds a slow blend, the rest of the path is judged in stretches that go to
+    forked processes, a wave at a time: the corners found, and so the plan, are those of the
+    whole program in one process."""
     monkeypatch.setenv("GANTRY_PLAN_WORKERS", "1")
     whole, _, _ = _whole_and_windowed(_program(), monkeypatch, 25, 5)
-    waves = count_fork_map_parts(monkeypatch, windows)
+    monkeypatch.setattr(window_judge, "JUDGE_MOVES", 25)
+    waves = count_fork_map_parts(monkeypatch, window_judge)
     monkeypatch.setenv("GANTRY_PLAN_WORKERS", "3")
     windowed = plan(interpret_events(_program()), load_machine_config(DEFAULT_MACHINE))
     assert len(waves) > 1 and max(waves) == 3, waves  # several waves of three processes
@@ -288,3 +290,79 @@ def test_a_windows_blends_are_found_by_bisection_as_by_a_scan():
     assert path.blends_between(600, 800) == {100: 1} == scan(600, 800)
     path.blend_junction = {5: 2}  # replaced
     assert path.blends_between(0, 10) == {5: 2} == scan(0, 10)
+
+
+def _gentle_then_sharp(sharp_from: int) -> str:
+    """A polyline of 2-5 degree turns (every blend kept), with right angles (slow blends:
+    exact stops) every 7th move from move ``sharp_from`` on (none: past its end), in G64 P0.01
+    without naive-CAM merging."""
+    out = ["G21 G90 G17 G64 P0.01 Q0", "G0 X0 Y0 Z-1", "F2400"]
+    x = y = heading = 0.0
+    for k in range(150):
+        sharp = k >= sharp_from and k % 7 == 6
+        heading += math.radians(90.0 if sharp else 2.0 + 3.0 * ((k * 5) % 7) / 6)
+        length = 0.3 + 0.2 * (k % 3)
+        x, y = x + length * math.cos(heading), y + length * math.sin(heading)
+        out.append(f"G1 X{x:.4f} Y{y:.4f}")
+    return "\n".join([*out, "M2"]) + "\n"
+
+
+def _judged_up_front(monkeypatch) -> None:
+    """Make a long path's blends be judged all before planning (as before window_judge), and
+    the path made again at once where some are slow."""
+    init = window_judge.JudgedPath.__init__
+
+    def up_front(self, path, remake_path, machine, feed_override_pct):
+        if remake_path is not None and path.blend_junction:
+            slow = window_judge.blends_to_skip(path, machine, feed_override_pct)
+            path = remake_path(slow) if slow else path
+        init(self, path, None, machine, feed_override_pct)
+
+    monkeypatch.setattr(window_judge.JudgedPath, "__init__", up_front)
+
+
+@pytest.mark.parametrize("sharp_from", [1000, 120, 0])
+def test_blends_judged_as_the_windows_go_are_those_judged_first(monkeypatch, sharp_from):
+    """Each window judges its blends on its own preparation (window_judge.JudgedPath). Without
+    a slow blend nothing else is judged; at the first window with one (late or at once), the
+    rest of the path is judged and the path made again, once. The plan is the one of judging
+    every blend before planning, number for number."""
+    text = _gentle_then_sharp(sharp_from)
+    judged_apart = []
+    real = window_judge.blends_to_skip
+
+    def spy(path, machine, feed, start=0, stop=None):
+        judged_apart.append(start)
+        return real(path, machine, feed, start, stop)
+
+    monkeypatch.setattr(window_judge, "blends_to_skip", spy)
+    remade = []
+    remake = window_judge.JudgedPath.remake
+
+    def counted(self, found, judged_to):
+        remade.append((len(found), judged_to))
+        return remake(self, found, judged_to)
+
+    monkeypatch.setattr(window_judge.JudgedPath, "remake", counted)
+    judged: list[int] = []  # the junctions of the blends judged, as slow_blends gets them
+    slow_blends = window_judge.slow_blends
+
+    def each(path, prepared, jerk):
+        judged.extend(path.blend_junction.values())
+        return slow_blends(path, prepared, jerk)
+
+    monkeypatch.setattr(window_judge, "slow_blends", each)
+    _, windowed, probes = _whole_and_windowed(text, monkeypatch, 40, 8)
+    assert len(judged) == len(set(judged)) == 149  # every blend judged, once
+    assert len(probes) >= 4, probes
+    if sharp_from >= 150:
+        assert remade == [] and judged_apart == []
+        assert len(windowed.blends) == 149  # every corner blended
+    else:
+        assert len(remade) == 1 and judged_apart == [remade[0][1]] and remade[0][0] > 0
+        assert len(windowed.blends) < 149
+        if sharp_from > 100:  # found late: the windows before judged their own blends
+            assert remade[0][1] > 80
+    _judged_up_front(monkeypatch)
+    first = plan(interpret_events(text), load_machine_config(DEFAULT_MACHINE))
+    _assert_same(first, windowed)

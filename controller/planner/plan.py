@@ -32,7 +32,7 @@ raises :class:`PlanningError` naming the line: never a reference beyond the limi
 from __future__ import annotations
 
 import itertools
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 
 import numpy as np
 
@@ -42,6 +42,7 @@ from gantry_sim.controller.gc_pause import gc_paused
 from gantry_sim.controller.heap import trim_heap
 from gantry_sim.controller.moves import Arc, Event, Linear, Move, Rapid, Spline
 from gantry_sim.controller.moves import Limits as LimitsEvent
+from gantry_sim.controller.planner.blend import PathPlan
 from gantry_sim.controller.planner.limit_events import concatenate, split_at_limits
 from gantry_sim.controller.planner.path_stream import path_plan
 from gantry_sim.controller.planner.prepare import prepare, slow_blends
@@ -50,7 +51,8 @@ from gantry_sim.controller.planner.ruckig_solver import RuckigSolver
 from gantry_sim.controller.planner.transition import TransitionMachine
 from gantry_sim.controller.planner.travel import check_travel
 from gantry_sim.controller.planner.vertices import ChordVertices
-from gantry_sim.controller.planner.windows import WINDOW_MOVES, blends_to_skip, plan_path
+from gantry_sim.controller.planner.window_judge import JudgedPath
+from gantry_sim.controller.planner.windows import WINDOW_MOVES, plan_path
 from gantry_sim.controller.spill import SpilledList
 
 __all__ = ["Plan", "plan"]
@@ -129,6 +131,7 @@ def _plan_part(
     sized: dict = {}  # transitions by site, for a path made again without some blends
     path = path_plan(items, machine.path, seg.chord_tolerance_mm, frozenset(), jerk, sizing, sized)
     prepared = None
+    remake: Callable[[frozenset[int]], PathPlan] | None = None
     if len(path.moves) <= WINDOW_MOVES:  # planned whole: the geometry is made once
         known: dict = {}
         prepared = prepare(path, machine, feed_override_pct, known)
@@ -137,12 +140,19 @@ def _plan_part(
             path = path_plan(items, machine.path, seg.chord_tolerance_mm, slow, jerk, sizing, sized)
             prepared = prepare(path, machine, feed_override_pct, known)
         del known
-    elif path.blend_junction and (slow := blends_to_skip(path, machine, feed_override_pct)):
-        del path  # made again without those blends: one path held at a time (1.3 KB a move)
-        path = path_plan(items, machine.path, seg.chord_tolerance_mm, slow, jerk, sizing, sized)
+    elif path.blend_junction:  # judged window by window as they are planned (window_judge)
+
+        def remake(slow: frozenset[int], sized: dict = sized) -> PathPlan:
+            return path_plan(items, machine.path, seg.chord_tolerance_mm, slow, jerk, sizing, sized)
+
     del sized
     solver = RuckigSolver(machine.limits)
-    planned = plan_path(path, machine, feed_override_pct, arc_pieces, solver, prepared)
+    # the path is held by ``src`` alone while planned: made again, the old one is freed
+    src = JudgedPath(path, remake, machine, feed_override_pct)
+    del path, remake
+    planned = plan_path(src, machine, feed_override_pct, arc_pieces, solver, prepared)
+    path = src.path
+    del src
     end = np.array(program[-1].end if program else (0.0, 0.0, 0.0), dtype=float)
     move_start = np.frombuffer(planned.move_start_s, dtype=float).copy()
     lines = np.frombuffer(planned.lines, dtype=np.int64).copy()

@@ -46,21 +46,21 @@ from typing import NamedTuple
 import numpy as np
 
 from gantry_sim.controller.config import MachineConfig
-from gantry_sim.controller.forked import fork_map, process_count
+from gantry_sim.controller.forked import process_count
 from gantry_sim.controller.planner.blend import PathPlan
 from gantry_sim.controller.planner.limits import BlockLimits
 from gantry_sim.controller.planner.move_geometry import MoveGeometry
-from gantry_sim.controller.planner.prepare import Prepared, prepare, slow_blends, sub_path
+from gantry_sim.controller.planner.prepare import Prepared, prepare, sub_path
 from gantry_sim.controller.planner.rounds import Round, Settled, assemble, settle_chains
 from gantry_sim.controller.planner.ruckig_solver import RuckigSolver
 from gantry_sim.controller.planner.segmented_curve import CurveBuilder
+from gantry_sim.controller.planner.window_judge import JudgedPath
 
 __all__ = [
     "MARGIN_BRAKING",
     "MARGIN_MOVES",
     "WINDOW_MOVES",
     "Planned",
-    "blends_to_skip",
     "plan_path",
 ]
 
@@ -71,9 +71,6 @@ WINDOW_MOVES = 5_000
 MARGIN_MOVES = 250
 #: ... and this many braking distances (from the probe's fastest speed cap to rest) [1].
 MARGIN_BRAKING = 2.0
-#: Moves of context around a stretch judged for slow blends (a blend's speed cap depends on
-#: its neighbours' limits, which depend on their other junctions).
-BLEND_CONTEXT = 3
 
 
 @dataclass
@@ -102,44 +99,18 @@ class Planned:
     curve: CurveBuilder = field(default_factory=CurveBuilder)
 
 
-def blends_to_skip(
-    path: PathPlan, machine: MachineConfig, feed_override_pct: float
-) -> frozenset[int]:
-    """The junctions of a long ``path`` whose blends are too slow to keep
-    (:func:`~gantry_sim.controller.planner.prepare.slow_blends`), judged a window at a time
-    with :data:`BLEND_CONTEXT` moves of context either side; the windows are independent, so
-    they are judged over the cores (:func:`~gantry_sim.controller.forked.fork_map`, a wave of
-    one window per process: each holds one window's working set)."""
-    n = len(path.moves)
-    starts = sorted({k // WINDOW_MOVES * WINDOW_MOVES for k in path.blend_junction})
-
-    def judge(lo: int) -> frozenset[int]:
-        a, b = max(0, lo - BLEND_CONTEXT), min(n, lo + WINDOW_MOVES + BLEND_CONTEXT)
-        stretch = sub_path(path, a, b, a)
-        inner = {k: j for k, j in stretch.blend_junction.items() if lo <= a + k < lo + WINDOW_MOVES}
-        prepared = prepare(stretch, machine, feed_override_pct, {})
-        stretch.blend_junction = inner
-        return slow_blends(stretch, prepared, float(min(machine.limits.max_jerk_mm_per_s3)))
-
-    slow: set[int] = set()
-    wave = process_count()
-    for first in range(0, len(starts), wave):
-        for found in fork_map(judge, starts[first : first + wave]):
-            slow |= found
-    return frozenset(slow)
-
-
 def plan_path(
-    path: PathPlan,
+    src: JudgedPath,
     machine: MachineConfig,
     feed_override_pct: float,
     arc_pieces: str,
     solver: RuckigSolver,
     prepared: Prepared | None = None,
 ) -> Planned:
-    """Plan ``path`` (see the module docstring); ``prepared``: its :func:`prepare` when made
-    already (a path planned whole)."""
-    n = len(path.moves)
+    """Plan ``src.path`` (see the module docstring), judging its blends window by window while
+    ``src`` does (:mod:`~gantry_sim.controller.planner.window_judge`: at the first window with
+    a slow blend, ``src`` makes the path again and that window is planned again on it);
+    ``prepared``: its :func:`prepare` when made already (a path planned whole, judged)."""
     out = Planned()
     ahead = _Ahead()
     # per kept window: where it started, its size, and ``out`` before it
@@ -147,14 +118,22 @@ def plan_path(
     start, size = _Start(0, -1, 0.0), WINDOW_MOVES
     while True:
         lo, ctx, v_lo = start
+        n = len(src.path.moves)
         hi = min(n, lo + size)
         if prepared is not None and lo == 0 and hi == n:
-            pre, blend_arcs, base = prepared, _blend_arcs(path, prepared), 0
+            pre, blend_arcs, base = prepared, _blend_arcs(src.path, prepared), 0
         else:
             base = ctx if ctx >= 0 else lo
-            pre, blend_arcs = ahead.take((base, hi, ctx >= 0)) or _window_of(
-                path, base, hi, ctx >= 0, machine, feed_override_pct
+            upto = src.upto if src.judging else None
+            window = ahead.take((base, hi, ctx >= 0, upto)) or _window_of(
+                src, base, hi, ctx >= 0, machine, feed_override_pct, upto
             )
+            pre, blend_arcs, slow, judged_to = window
+            if slow:  # the path is made again without them: this window again, on it
+                src.remake(slow, judged_to)
+                ahead.drop()
+                continue
+            src.upto = max(src.upto, judged_to)
         caps = pre.caps.copy()
         caps[0] = v_lo
         settled = settle_chains(
@@ -166,7 +145,7 @@ def plan_path(
             arc_pieces,
             pre.smoothing,
             blend_arcs,
-            ahead.job(path, pre, base, hi, machine, feed_override_pct),
+            ahead.job(src, pre, base, hi, machine, feed_override_pct),
         )
         ahead.keep_now()  # the window before is kept by now (it may be taken back next)
         if settled.speeds[0] != v_lo and history:  # the window before must keep less speed
@@ -189,7 +168,7 @@ def plan_path(
             base + pre.path_index[c], base + pre.path_index[c - 1], float(settled.speeds[c])
         )
         size = WINDOW_MOVES
-        del settled, pre, caps, blend_arcs
+        del settled, pre, caps, blend_arcs, window
 
 
 class _Start(NamedTuple):
@@ -225,19 +204,30 @@ def _truncate(out: Planned, mark: _Mark) -> None:
     out.ruckig_pieces, out.duration_s = mark.ruckig_pieces, mark.duration_s
 
 
+#: A window prepared (:func:`_window_of`): its preparation, its G64 blend arcs, the slow blends
+#: it judged and the path move it judged them up to (None: not judged).
+Window = tuple[Prepared, frozenset[int], frozenset[int], int]
+
+
 def _window_of(
-    path: PathPlan,
+    src: JudgedPath,
     base: int,
     hi: int,
     context: bool,
     machine: MachineConfig,
     feed_override_pct: float,
-) -> tuple[Prepared, frozenset[int]]:
+    upto: int | None,
+) -> Window:
     """The window of path moves ``base:hi`` (the first one ``context``) prepared
-    (:func:`_window`), and its G64 blend arcs (:func:`_blend_arcs`)."""
-    stretch = sub_path(path, base, hi, base + context)
+    (:func:`_window`), its G64 blend arcs (:func:`_blend_arcs`), and, from path move ``upto``
+    on (None: none), the blends it judges slow
+    (:meth:`~gantry_sim.controller.planner.window_judge.JudgedPath.judge`)."""
+    stretch = sub_path(src.path, base, hi, base + context)
     pre = _window(stretch, machine, feed_override_pct, context)
-    return pre, _blend_arcs(stretch, pre)
+    slow, judged_to = frozenset[int](), upto if upto is not None else 0
+    if upto is not None:
+        slow, judged_to = src.judge(stretch, pre, base, hi, upto)
+    return pre, _blend_arcs(stretch, pre), slow, judged_to
 
 
 def _blend_arcs(stretch: PathPlan, pre: Prepared) -> frozenset[int]:
@@ -265,8 +255,8 @@ class _Ahead:
     raised where the window is prepared for use, in the order a plan without it meets it."""
 
     def __init__(self) -> None:
-        self._key: tuple[int, int, bool] | None = None
-        self._pre: tuple[Prepared, frozenset[int]] | None = None
+        self._key: tuple[int, int, bool, int | None] | None = None
+        self._pre: Window | None = None
         self._keep: Callable[[], None] | None = None
 
     def keep_later(self, keep: Callable[[], None]) -> None:
@@ -283,17 +273,20 @@ class _Ahead:
         if keep is not None:
             keep()
 
-    def take(self, key: tuple[int, int, bool]) -> tuple[Prepared, frozenset[int]] | None:
-        """The window prepared ahead for (first stretch move, stop, with context), and its
-        blend arcs (:func:`_window_of`), if that is the one prepared; either way nothing is
-        kept after."""
+    def take(self, key: tuple[int, int, bool, int | None]) -> Window | None:
+        """The window prepared ahead for (first stretch move, stop, with context, judged from)
+        (:func:`_window_of`), if that is the one prepared; either way nothing is kept after."""
         pre = self._pre if key == self._key else None
-        self._key, self._pre = None, None
+        self.drop()
         return pre
+
+    def drop(self) -> None:
+        """Forget the window prepared ahead (its path was made again)."""
+        self._key, self._pre = None, None
 
     def job(
         self,
-        path: PathPlan,
+        src: JudgedPath,
         pre: Prepared,
         base: int,
         hi: int,
@@ -303,8 +296,10 @@ class _Ahead:
         """For :func:`~gantry_sim.controller.planner.rounds.settle_chains`: from the first
         round's chain spans, the job preparing the window after the cut they give (None: the
         last window, no cut, or one process)."""
-        if hi >= len(path.moves) or process_count() <= 1:
+        n = len(src.path.moves)
+        if hi >= n or process_count() <= 1:
             return None
+        upto = src.upto if src.judging else None  # as the next window will judge
 
         def after(spans: list[tuple[int, int]]) -> Callable[[], object] | None:
             cut = _cut_at(pre.active, spans)
@@ -312,15 +307,15 @@ class _Ahead:
                 return None
             c = cut[1]
             ctx, lo = base + pre.path_index[c - 1], base + pre.path_index[c]
-            key = (ctx, min(len(path.moves), lo + WINDOW_MOVES), True)
+            key = (ctx, min(n, lo + WINDOW_MOVES), True, upto)
 
             def prepare_next() -> None:
                 self.keep_now()
                 try:
-                    self._pre = _window_of(path, ctx, key[1], True, machine, feed_override_pct)
+                    self._pre = _window_of(src, ctx, key[1], True, machine, feed_override_pct, upto)
                     self._key = key
                 except Exception:  # raised again where the window is prepared for use
-                    self._key, self._pre = None, None
+                    self.drop()
 
             return prepare_next
 
