@@ -127,3 +127,41 @@ def test_a_piece_longer_than_asked_carries_no_samples(machine):  # type: ignore[
     assert piece.positions is not None and piece.positions.shape == (25, 3)
     assert solver.piece(start, end, 0.0, 25, piece.duration_s).positions is not None
     assert solver.piece(start, end, 0.0, 25, 0.5 * piece.duration_s).positions is None
+
+
+@PLAN_PROPERTY_SETTINGS
+@given(
+    seed=st.integers(0, 2**31),
+    rows=st.integers(1, 12),
+    per_row_cap=st.booleans(),
+)
+def test_pieces_checked_together_are_checked_as_each_alone(seed, rows, per_row_cap):  # type: ignore[no-untyped-def]
+    # piece_limits_ok checks the speeds only of the pieces that keep the jerk and acceleration
+    # limits: the answer of a batch is each piece's own, whichever fail first
+    from gantry_sim.controller.planner.jerk3 import jerk3_pairs, piece_limits_ok
+
+    rng = np.random.default_rng(seed)  # about a third break the jerk, a fifth only the speeds
+    dur = rng.uniform(0.002, 0.03, rows)
+    v0 = rng.normal(0, 25, (rows, 3))
+    v1 = v0 + rng.normal(0, 1, (rows, 3)) * rng.uniform(0, 3, (rows, 1))
+    a0 = rng.normal(0, 50, (rows, 3))
+    a1 = a0 + rng.normal(0, 50, (rows, 3))
+    p0 = np.zeros((rows, 3))
+    p1 = 0.5 * (v0 + v1) * dur[:, None] + rng.normal(0, 1e-4, (rows, 3))
+    _, vs, as_, js = jerk3_pairs(p0, v0, a0, p1, v1, a1, dur)
+    lim = ((40.0, 40.0, 40.0), (900.0, 900.0, 900.0), (1e5, 8e4, 1e5))
+    cap = rng.uniform(20.0, 80.0, rows) if per_row_cap else 50.0
+    together = piece_limits_ok(vs, as_, js, dur, a1, *lim, cap)
+    alone = [
+        piece_limits_ok(
+            vs[i : i + 1],
+            as_[i : i + 1],
+            js[i : i + 1],
+            dur[i : i + 1],
+            a1[i : i + 1],
+            *lim,
+            cap[i : i + 1] if per_row_cap else cap,
+        )[0]
+        for i in range(rows)
+    ]
+    assert together.tolist() == alone

@@ -114,13 +114,32 @@ def piece_limits_ok(
     vmax, amax, jmax = (np.asarray(x, dtype=float) for x in (vmax, amax, jmax))
     ok = np.all(np.abs(js) <= jmax, axis=(1, 2))
     ok &= np.all(np.abs(as_) <= amax, axis=(1, 2)) & np.all(np.abs(a_end) <= amax, axis=1)
+    keep = np.flatnonzero(ok)
+    if keep.size < ok.size:  # the speeds of the pieces still ok only (row by row: the same)
+        cap = np.asarray(speed_cap, dtype=float)
+        cap = cap[keep] if cap.ndim else cap
+        ok[keep] = _speeds_ok(vs[keep], as_[keep], js[keep], dur[keep], vmax, cap)
+        return ok
+    return ok & _speeds_ok(vs, as_, js, dur, vmax, speed_cap)
+
+
+def _speeds_ok(
+    vs: np.ndarray,
+    as_: np.ndarray,
+    js: np.ndarray,
+    dur: np.ndarray,
+    vmax: np.ndarray,
+    speed_cap: np.ndarray | float,
+) -> np.ndarray:
+    """(n,) True where the pieces keep the axes' speed limits ``vmax`` and the path-speed cap
+    (see :func:`piece_limits_ok`)."""
     h = (dur / 3.0)[:, None, None]
     with np.errstate(divide="ignore", invalid="ignore"):
         tau = np.where(js != 0.0, -as_ / js, 0.0)
     tau = np.clip(tau, 0.0, h)
     v_stat = vs + tau * (as_ + 0.5 * tau * js)
     v_end = vs + h * (as_ + 0.5 * h * js)
-    ok &= np.all(np.abs(v_stat) <= vmax, axis=(1, 2)) & np.all(np.abs(v_end) <= vmax, axis=(1, 2))
+    ok = np.all(np.abs(v_stat) <= vmax, axis=(1, 2)) & np.all(np.abs(v_end) <= vmax, axis=(1, 2))
     cap2 = (np.asarray(speed_cap, dtype=float) ** 2).reshape(-1, 1)
     sampled = np.zeros(js.shape[:2])  # (n, 3 phases): the largest |v|^2 of the 5 points
     for f in np.linspace(0.0, 1.0, 5):

@@ -280,9 +280,9 @@ def _lower_caps(
         return
     idx = np.flatnonzero(~good)
     lo_i, hi_i = lo[idx], hi[idx]
+    sub = _subset(idx, p0, t0, k0, p1, t1, k1, length, feed)
     for _ in range(STEPS):
         mid = 0.5 * (lo_i + hi_i)
-        sub = _subset(idx, p0, t0, k0, p1, t1, k1, length, feed)
         okm = _piece_ok(
             sub[0],
             mid[:, None] * sub[1],
