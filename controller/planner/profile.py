@@ -101,8 +101,11 @@ def invert_many(
 
     The profiles' phases are laid out as rows of one padded table (each row's cumulative start
     times summed in the same order as one profile's ``np.cumsum``), and each arc length finds
-    its phase by counting its profile's phase starts at or below it (``np.searchsorted``'s
-    ``side="right"``), so no profile costs a call of its own."""
+    its phase by counting its profile's phase starts at or below it, so no profile costs a call
+    of its own. That count is ``np.searchsorted``'s ``side="right"`` where the starts never go
+    back; a profile whose starts do (a candidate that reverses, later refused) or that is asked
+    for NaN is inverted on its own, by ``np.searchsorted`` as before (a polyline of a Fusion
+    360 program planned 2e-6 of its time longer with the count)."""
     if not queries:
         return []
     rows = [prof.rows for prof, _ in queries]
@@ -133,7 +136,12 @@ def invert_many(
     dk, pk, vk, ak, jk = grid[q, k].T
     t, vel, acc = _solve_tau(pk, vk, ak, jk, dk, t0[q, k], s_all)
     sizes = np.cumsum(counts)[:-1]
-    return list(zip(np.split(t, sizes), np.split(vel, sizes), np.split(acc, sizes), strict=True))
+    out = list(zip(np.split(t, sizes), np.split(vel, sizes), np.split(acc, sizes), strict=True))
+    ordered = np.all(starts == np.maximum.accumulate(starts, axis=1), axis=1)  # NaN: not
+    asked_nan = np.bincount(q[np.isnan(s_all)], minlength=len(rows)) > 0
+    for i in np.flatnonzero(~ordered | asked_nan):
+        out[i] = _invert_one(queries[i][0], ss[i])
+    return out
 
 
 #: Cells of :func:`invert_many`'s padded tables (profiles and arc lengths, by the most phases
