@@ -69,13 +69,17 @@ def test_many_profiles_at_once_invert_as_each_alone(sizes, seed):
     )
 
 
-def test_a_wide_table_is_inverted_profile_by_profile_with_the_same_numbers(monkeypatch):
+def test_profiles_of_many_phases_are_inverted_alone_with_the_same_numbers(monkeypatch):
+    """A profile of more phases than the table takes (a long chain's) is inverted on its own,
+    the others in the table: each number as every profile alone gives it."""
     rng = np.random.default_rng(7)
-    queries = [_profile(rng, n) for n in (3, 9, 5)]
+    queries = [_profile(rng, n) for n in (3, 9, profile_mod.TABLE_PHASES + 8, 5)]
     together = invert_many(queries)
-    monkeypatch.setattr(profile_mod, "WIDE_CELLS", 0)
-    wide = invert_many(queries)
-    for a, b in zip(together, wide, strict=True):
+    for (prof, s), got in zip(queries, together, strict=True):
+        for g, w in zip(got, profile_mod._invert_one(prof, s), strict=True):
+            assert np.array_equal(g, w)
+    monkeypatch.setattr(profile_mod, "TABLE_PHASES", 0)  # every profile alone
+    for a, b in zip(together, invert_many(queries), strict=True):
         for g, w in zip(a, b, strict=True):
             assert np.array_equal(g, w)
 

@@ -105,48 +105,68 @@ def invert_many(
     of its own. That count is ``np.searchsorted``'s ``side="right"`` where the starts never go
     back; a profile whose starts do (a candidate that reverses, later refused) or that is asked
     for NaN is inverted on its own, by ``np.searchsorted`` as before (a polyline of a Fusion
-    360 program planned 2e-6 of its time longer with the count)."""
+    360 program planned 2e-6 of its time longer with the count), and so is a profile of more
+    than :data:`TABLE_PHASES` phases (the table is as wide as its widest profile)."""
     if not queries:
         return []
-    rows = [prof.rows for prof, _ in queries]
     ss = [np.asarray(s, dtype=float).reshape(-1) for _, s in queries]
-    table = np.concatenate(rows)
-    owner = np.repeat(np.arange(len(rows)), [r.shape[0] for r in rows])
-    keep = table[:, 0] > 0
-    table, owner = table[keep], owner[keep]
-    kept = np.bincount(owner, minlength=len(rows))
+    sizes = [prof.rows.shape[0] for prof, _ in queries]
+    owner = np.repeat(np.arange(len(queries)), sizes)
+    kept = np.bincount(
+        owner[np.concatenate([p.rows[:, 0] for p, _ in queries]) > 0], minlength=len(queries)
+    )
     counts = np.array([s.size for s in ss])
     if np.any((kept == 0) & (counts > 0)):  # a profile of no time asked for a point
         raise IndexError("invert_many: a profile without phases cannot be inverted")
+    out: list[tuple[np.ndarray, np.ndarray, np.ndarray] | None] = [None] * len(queries)
+    narrow = np.flatnonzero(kept <= TABLE_PHASES).tolist()
+    if narrow:
+        table = [(queries[i][0], ss[i]) for i in narrow]
+        for i, got in zip(narrow, _invert_table(table, kept[narrow], counts[narrow]), strict=True):
+            out[i] = got
+    return [
+        got if got is not None else _invert_one(queries[i][0], ss[i]) for i, got in enumerate(out)
+    ]
+
+
+#: Phases of a profile above which :func:`invert_many` inverts it on its own.
+TABLE_PHASES = 32
+
+
+def _invert_table(
+    queries: list[tuple[Profile1D, np.ndarray]], kept: np.ndarray, counts: np.ndarray
+) -> list[tuple[np.ndarray, np.ndarray, np.ndarray] | None]:
+    """:func:`invert_many` of profiles of ``kept`` phases of time (at most
+    :data:`TABLE_PHASES`, at least one where asked for a point) asked for ``counts`` arc lengths
+    each, in one padded table; None for those to invert on their own."""
+    table = np.concatenate([prof.rows for prof, _ in queries])
+    owner = np.repeat(np.arange(len(queries)), [prof.rows.shape[0] for prof, _ in queries])
+    keep = table[:, 0] > 0
+    table, owner = table[keep], owner[keep]
     width = max(int(kept.max()), 1)
-    if width * (len(rows) + int(counts.sum())) > WIDE_CELLS:  # one long profile: rows each
-        return [_invert_one(prof, s) for (prof, _), s in zip(queries, ss, strict=True)]
     first = np.concatenate(([0], np.cumsum(kept)[:-1]))
     col = np.arange(table.shape[0]) - first[owner]
-    grid = np.zeros((len(rows), width, 5))
+    grid = np.zeros((len(queries), width, 5))
     grid[owner, col] = table
-    starts = np.full((len(rows), width), np.inf)  # padding: never at or below a query
+    starts = np.full((len(queries), width), np.inf)  # padding: never at or below a query
     starts[owner, col] = table[:, 1]
-    t0 = np.zeros((len(rows), width))
+    t0 = np.zeros((len(queries), width))
     t0[:, 1:] = np.cumsum(grid[:, :-1, 0], axis=1)
-    s_all = np.concatenate(ss) if ss else np.zeros(0)
-    q = np.repeat(np.arange(len(rows)), counts)
+    s_all = np.concatenate([s for _, s in queries])
+    q = np.repeat(np.arange(len(queries)), counts)
     k = (starts[q] <= s_all[:, None]).sum(axis=1) - 1
     k = np.clip(k, 0, np.maximum(kept[q] - 1, 0))
     dk, pk, vk, ak, jk = grid[q, k].T
     t, vel, acc = _solve_tau(pk, vk, ak, jk, dk, t0[q, k], s_all)
-    sizes = np.cumsum(counts)[:-1]
-    out = list(zip(np.split(t, sizes), np.split(vel, sizes), np.split(acc, sizes), strict=True))
+    cuts = np.cumsum(counts)[:-1]
+    out: list[tuple[np.ndarray, np.ndarray, np.ndarray] | None] = list(
+        zip(np.split(t, cuts), np.split(vel, cuts), np.split(acc, cuts), strict=True)
+    )
     ordered = np.all(starts == np.maximum.accumulate(starts, axis=1), axis=1)  # NaN: not
-    asked_nan = np.bincount(q[np.isnan(s_all)], minlength=len(rows)) > 0
+    asked_nan = np.bincount(q[np.isnan(s_all)], minlength=len(queries)) > 0
     for i in np.flatnonzero(~ordered | asked_nan):
-        out[i] = _invert_one(queries[i][0], ss[i])
+        out[i] = None
     return out
-
-
-#: Cells of :func:`invert_many`'s padded tables (profiles and arc lengths, by the most phases
-#: of one profile) above which each profile is inverted on its own (a few tens of MB).
-WIDE_CELLS = 2_000_000
 
 
 def _invert_one(prof: Profile1D, s: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
