@@ -132,33 +132,58 @@ def _cut(m0, m1, s0: float, s1_max: float, plane: Plane):
     return x1, np.array(pa), np.array(ta), np.array(pb), np.array(tb), lam
 
 
-def _points(m: Linear | Arc, s: np.ndarray, from_end: bool) -> np.ndarray:
-    """Points (k, 3) of ``m`` at path distances ``s`` [mm] from its end (or start)."""
+_Sampler = Callable[[float], np.ndarray]
+
+
+def _sampler(m: Linear | Arc, from_end: bool) -> _Sampler:
+    """The function s -> points (:data:`CHECK_SAMPLES`, 3) of ``m`` at the path distances
+    ``np.linspace(0, s, CHECK_SAMPLES)`` [mm] from its end (or start), with what does not
+    depend on s made once (a corner's search asks for about 40 of them)."""
     if isinstance(m, Linear):
         a, b = np.asarray(m.start, float), np.asarray(m.end, float)
         d = (b - a) / np.linalg.norm(b - a)
-        return b - np.outer(s, d) if from_end else a + np.outer(s, d)
-    u = 1.0 - s / m.length_mm if from_end else s / m.length_mm
-    return arc_points(m, u)
+        if from_end:
+            return lambda s: b - np.outer(_spaced(s), d)
+        return lambda s: a + np.outer(_spaced(s), d)
+    length = m.length_mm
+    if from_end:
+        return lambda s: arc_points(m, 1.0 - _spaced(s) / length)
+    return lambda s: arc_points(m, _spaced(s) / length)
 
 
-def _deviation(m0, m1, s0, s1, center, radius, plane) -> float:
-    """Largest distance of the cut-away parts of ``m0`` and ``m1`` from the blend circle."""
+_STEPS = np.arange(CHECK_SAMPLES, dtype=float)
+_STEPS.flags.writeable = False
+
+
+def _spaced(s: float) -> np.ndarray:
+    """``np.linspace(0.0, s, CHECK_SAMPLES)``, the same numbers, without its generality: the
+    steps times s / (n - 1), plus 0, the last one s (its special case, a step that rounds to
+    0, left to it)."""
+    step = s / (CHECK_SAMPLES - 1)
+    if step == 0.0:
+        return np.linspace(0.0, s, CHECK_SAMPLES)
+    y = _STEPS * step
+    y += 0.0
+    y[-1] = s
+    return y
+
+
+def _deviation(
+    sample0: _Sampler, sample1: _Sampler, s0: float, s1: float, center, radius, plane
+) -> float:
+    """Largest distance of the cut-away parts of the two moves (``sample0`` of the first, from
+    its end; ``sample1`` of the second, from its start) from the blend circle."""
     i1, i2, _ = PLANE_AXES[plane]
-    q = np.vstack(
-        [
-            _points(m0, np.linspace(0.0, s0, CHECK_SAMPLES), True),
-            _points(m1, np.linspace(0.0, s1, CHECK_SAMPLES), False),
-        ]
-    )
+    q = np.vstack([sample0(s0), sample1(s1)])
     r = np.hypot(q[:, i1] - center[i1], q[:, i2] - center[i2])
     return float(np.max(np.abs(r - radius)))
 
 
-def _blend(m0, m1, s0, s1_max, plane):
+def _blend(m0, m1, s0, s1_max, plane, samplers: tuple[_Sampler, _Sampler]):
     """The blend that leaves ``m0`` ``s0`` mm before the corner, or None: (s1 [mm], its start
     and end points, centre, radius [mm], sweep [rad], True when counter-clockwise, its largest
-    distance from the cut-away path [mm])."""
+    distance from the cut-away path [mm]); ``samplers``: of ``m0`` from its end and ``m1``
+    from its start (:func:`_sampler`)."""
     found = _cut(m0, m1, s0, s1_max, plane)
     if found is None:
         return None
@@ -174,7 +199,7 @@ def _blend(m0, m1, s0, s1_max, plane):
     normal[i1], normal[i2] = -side * ta[i2], side * ta[i1]
     center = pa + radius * normal
     center[n] = pa[n]
-    dev = _deviation(m0, m1, s0, s1, center, radius, plane)
+    dev = _deviation(*samplers, s0, s1, center, radius, plane)
     return s1, pa, pb, center, radius, phi, cross > 0, dev
 
 
@@ -188,13 +213,14 @@ def corner_blend(
     s1_max = 0.5 * m1.length_mm
     best = None
     lo, hi = 0.0, s_max
-    top = _blend(m0, m1, hi, s1_max, plane)
+    samplers = (_sampler(m0, True), _sampler(m1, False))
+    top = _blend(m0, m1, hi, s1_max, plane, samplers)
     if top is not None and top[-1] <= budget_mm:
         best, lo = (hi, top), hi
     else:
         for _ in range(BISECTION_STEPS):
             mid = 0.5 * (lo + hi)
-            got = _blend(m0, m1, mid, s1_max, plane)
+            got = _blend(m0, m1, mid, s1_max, plane, samplers)
             if got is not None and got[-1] <= budget_mm:
                 best, lo = (mid, got), mid
             else:
