@@ -18,7 +18,7 @@ from gantry_sim.controller.moves import Arc
 from gantry_sim.controller.planes import PLANE_AXES
 from gantry_sim.controller.planner.arc_batch import arc_deviation_many, arc_points_many
 from gantry_sim.controller.planner.move_geometry import move_geometry
-from gantry_sim.controller.planner.segment import segment_arc
+from gantry_sim.controller.planner.segment import segment_arc, segment_count
 from gantry_sim.models import DEFAULT_MACHINE
 
 
@@ -100,7 +100,12 @@ def test_points_of_many_arcs_at_once_are_each_arcs_own(arcs, seed):
     for move, u, pts in zip(moves, us, got, strict=True):
         geometry = move_geometry(move, MACHINE.limits, MACHINE.segmentation, 1.0)
         assert np.array_equal(pts, geometry.points(u))
-        seg = MACHINE.segmentation  # the chords made in a batch are the arc's own
-        own = segment_arc(move, seg.method, seg.chord_tolerance_mm, seg.segment_length_mm)
+        seg = MACHINE.segmentation  # the chords made in a batch: at u = i / n, the ends exact
+        n = segment_count(move, seg.method, seg.chord_tolerance_mm, seg.segment_length_mm)
+        own = arc_points(move, np.arange(n + 1) / n)
+        own[0], own[-1] = move.start, move.end
         assert np.array_equal(geometry.vertices, own)
+        assert np.array_equal(
+            segment_arc(move, seg.method, seg.chord_tolerance_mm, seg.segment_length_mm), own
+        )
         assert np.array_equal(pts[0], move.start) and np.array_equal(pts[-1], move.end)

@@ -29,7 +29,6 @@ from gantry_sim.controller.planner.arc_batch import (
     ARC_ENDS,
     arc_end_derivatives_many,
     arc_overrun_mm,
-    arc_points_many,
 )
 from gantry_sim.controller.planner.limits import (
     BlockLimits,
@@ -37,7 +36,7 @@ from gantry_sim.controller.planner.limits import (
     straight_limits,
 )
 from gantry_sim.controller.planner.limits_batch import arc_limits_many
-from gantry_sim.controller.planner.segment import segment_arc, segment_count
+from gantry_sim.controller.planner.segment import segment_arc, segment_arcs
 from gantry_sim.controller.planner.spline_geometry import (
     curvature_bounds,
     spline_derivatives,
@@ -190,7 +189,13 @@ def move_geometries(
     (:func:`~gantry_sim.controller.planner.limits_batch.arc_limits_many`)."""
     arcs = [m for m in moves if isinstance(m, Arc)]
     ends = dict(zip(map(id, arcs), zip(*arc_end_derivatives_many(arcs), strict=True), strict=True))
-    chords = _arc_chords(arcs, seg)
+    chords = dict(
+        zip(
+            map(id, arcs),
+            segment_arcs(arcs, seg.method, seg.chord_tolerance_mm, seg.segment_length_mm),
+            strict=True,
+        )
+    )
     steps = [m for m in moves if isinstance(m, Transition)]
     steps_chords = transition_vertices_many(
         steps, seg.method, seg.chord_tolerance_mm, seg.segment_length_mm
@@ -219,32 +224,6 @@ def move_geometries(
     return geoms
 
 
-def _arc_chords(arcs: list[Arc], seg: Segmentation) -> dict[int, np.ndarray]:
-    """:func:`~gantry_sim.controller.planner.segment.segment_arc` of each arc, by id: their
-    points in one batch (:func:`~gantry_sim.controller.planner.arc_batch.arc_points_many`, the
-    same numbers)."""
-    out: dict[int, np.ndarray] = {}
-    batch: list[Arc] = []
-    fractions: list[np.ndarray] = []
-    size = 0
-    for k, arc in enumerate(arcs):
-        n = segment_count(arc, seg.method, seg.chord_tolerance_mm, seg.segment_length_mm)
-        batch.append(arc)
-        fractions.append(np.arange(n + 1) / n)
-        size += n + 1
-        if size >= CHORD_BATCH_POINTS or k == len(arcs) - 1:
-            for a, verts in zip(batch, arc_points_many(batch, fractions), strict=True):
-                verts.setflags(write=False)
-                out[id(a)] = verts
-            batch, fractions, size = [], [], 0
-    return out
-
-
-#: Chord vertices made in one batch by :func:`_arc_chords` (about 2 MB of points; each arc's
-#: vertices are a view of its batch's array, which lives as long as any of them).
-CHORD_BATCH_POINTS = 65_536
-
-
 #: Placeholder limits of a curve until :func:`move_geometries` sets them.
 _UNSET = BlockLimits(0.0, 0.0, 0.0, 0.0)
 
@@ -259,7 +238,7 @@ def _geometry(
 ) -> MoveGeometry:
     """:func:`move_geometry`, a curve's limits left :data:`_UNSET`; ``ends``: an arc's
     derivatives at its ends, ``chords`` its chord vertices, when made already
-    (``arc_batch.arc_end_derivatives_many``, :func:`_arc_chords`)."""
+    (``arc_batch.arc_end_derivatives_many``, ``segment.segment_arcs``)."""
     zero = np.zeros(3)
     if isinstance(move, Spline):
         return _spline_geometry(move, seg, feed_scale)
@@ -278,9 +257,11 @@ def _geometry(
         )
         block = straight_limits(t, length, feed, limits)
         return MoveGeometry(move, verts, length, t, t, zero, zero, block, feed)
-    if chords is None:
-        chords = segment_arc(move, seg.method, seg.chord_tolerance_mm, seg.segment_length_mm)
-    verts = chords
+    verts = (
+        chords
+        if chords is not None
+        else segment_arc(move, seg.method, seg.chord_tolerance_mm, seg.segment_length_mm)
+    )
     n = len(verts) - 1
     u = np.arange(n + 1) / n
     d1, d2 = ends if ends is not None else arc_derivatives(move, ARC_ENDS)

@@ -32,12 +32,14 @@ An absurd program (``G2 ... P1000000``) must not exhaust memory: an arc needing 
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 
 import numpy as np
 
-from gantry_sim.controller.arcs import arc_frame, arc_length_mm, arc_points
+from gantry_sim.controller.arcs import arc_frame, arc_length_mm
 from gantry_sim.controller.errors import ConfigError, PlanningError
 from gantry_sim.controller.moves import Arc, Spline
+from gantry_sim.controller.planner.arc_batch import arc_points_many
 from gantry_sim.controller.planner.spline_geometry import spline_points
 
 #: Upper bound on chords per arc (about 100 MB of planner state): beyond it the arc is refused.
@@ -96,12 +98,36 @@ def segment_arc(
     """
     if isinstance(arc, Spline):
         return segment_spline(arc, method, chord_tolerance_mm, segment_length_mm)
-    n = segment_count(arc, method, chord_tolerance_mm, segment_length_mm)
-    verts = arc_points(arc, np.arange(n + 1) / n)
-    verts[0] = arc.start
-    verts[-1] = arc.end
-    verts.setflags(write=False)
-    return verts
+    return segment_arcs([arc], method, chord_tolerance_mm, segment_length_mm)[0]
+
+
+def segment_arcs(
+    arcs: Sequence[Arc], method: str, chord_tolerance_mm: float, segment_length_mm: float
+) -> list[np.ndarray]:
+    """:func:`segment_arc` of each arc: their vertices made in batches of about
+    :data:`CHORD_BATCH_POINTS` (:func:`~gantry_sim.controller.planner.arc_batch.arc_points_many`,
+    each number as :func:`~gantry_sim.controller.arcs.arc_points` gives it; u = 0 and 1: the
+    start and the end exactly). Each arc's vertices are a read-only view of its batch's array,
+    which lives as long as any of them."""
+    out: list[np.ndarray] = []
+    batch: list[Arc] = []
+    fractions: list[np.ndarray] = []
+    size = 0
+    for k, arc in enumerate(arcs):
+        n = segment_count(arc, method, chord_tolerance_mm, segment_length_mm)
+        batch.append(arc)
+        fractions.append(np.arange(n + 1) / n)
+        size += n + 1
+        if size >= CHORD_BATCH_POINTS or k == len(arcs) - 1:
+            for verts in arc_points_many(batch, fractions):
+                verts.setflags(write=False)
+                out.append(verts)
+            batch, fractions, size = [], [], 0
+    return out
+
+
+#: Chord vertices made in one batch by :func:`segment_arcs` (about 2 MB of points).
+CHORD_BATCH_POINTS = 65_536
 
 
 #: points per chord where a spline chord's distance from the curve is measured
