@@ -110,22 +110,27 @@ def invert_many(
     if not queries:
         return []
     ss = [np.asarray(s, dtype=float).reshape(-1) for _, s in queries]
-    sizes = [prof.rows.shape[0] for prof, _ in queries]
-    owner = np.repeat(np.arange(len(queries)), sizes)
-    kept = np.bincount(
-        owner[np.concatenate([p.rows[:, 0] for p, _ in queries]) > 0], minlength=len(queries)
-    )
+    table = np.concatenate([prof.rows for prof, _ in queries])
+    owner = np.repeat(np.arange(len(queries)), [prof.rows.shape[0] for prof, _ in queries])
+    keep = table[:, 0] > 0
+    table, owner = table[keep], owner[keep]
+    kept = np.bincount(owner, minlength=len(queries))
     counts = np.array([s.size for s in ss])
     if np.any((kept == 0) & (counts > 0)):  # a profile of no time asked for a point
         raise IndexError("invert_many: a profile without phases cannot be inverted")
+    narrow = kept <= TABLE_PHASES
     out: list[tuple[np.ndarray, np.ndarray, np.ndarray] | None] = [None] * len(queries)
-    narrow = np.flatnonzero(kept <= TABLE_PHASES).tolist()
-    if narrow:
-        table = [(queries[i][0], ss[i]) for i in narrow]
-        for i, got in zip(narrow, _invert_table(table, kept[narrow], counts[narrow]), strict=True):
-            out[i] = got
+    at = np.flatnonzero(narrow)
+    if at.size:
+        rows = narrow[owner]  # the narrow profiles' phases, their owners renumbered in order
+        renumber = np.cumsum(narrow) - 1
+        got = _invert_table(
+            table[rows], renumber[owner[rows]], kept[at], counts[at], [ss[i] for i in at]
+        )
+        for i, inv in zip(at.tolist(), got, strict=True):
+            out[i] = inv
     return [
-        got if got is not None else _invert_one(queries[i][0], ss[i]) for i, got in enumerate(out)
+        inv if inv is not None else _invert_one(queries[i][0], ss[i]) for i, inv in enumerate(out)
     ]
 
 
@@ -134,26 +139,28 @@ TABLE_PHASES = 32
 
 
 def _invert_table(
-    queries: list[tuple[Profile1D, np.ndarray]], kept: np.ndarray, counts: np.ndarray
+    table: np.ndarray,
+    owner: np.ndarray,
+    kept: np.ndarray,
+    counts: np.ndarray,
+    ss: list[np.ndarray],
 ) -> list[tuple[np.ndarray, np.ndarray, np.ndarray] | None]:
-    """:func:`invert_many` of profiles of ``kept`` phases of time (at most
-    :data:`TABLE_PHASES`, at least one where asked for a point) asked for ``counts`` arc lengths
-    each, in one padded table; None for those to invert on their own."""
-    table = np.concatenate([prof.rows for prof, _ in queries])
-    owner = np.repeat(np.arange(len(queries)), [prof.rows.shape[0] for prof, _ in queries])
-    keep = table[:, 0] > 0
-    table, owner = table[keep], owner[keep]
+    """:func:`invert_many` of profiles whose phases of time are the rows of ``table``, in
+    order, row r of profile ``owner[r]``; ``kept``: each profile's count of them (at most
+    :data:`TABLE_PHASES`, at least one where asked for a point), asked for the ``counts`` arc
+    lengths ``ss``, in one padded table; None for those to invert on their own."""
+    n = kept.size
     width = max(int(kept.max()), 1)
     first = np.concatenate(([0], np.cumsum(kept)[:-1]))
     col = np.arange(table.shape[0]) - first[owner]
-    grid = np.zeros((len(queries), width, 5))
+    grid = np.zeros((n, width, 5))
     grid[owner, col] = table
-    starts = np.full((len(queries), width), np.inf)  # padding: never at or below a query
+    starts = np.full((n, width), np.inf)  # padding: never at or below a query
     starts[owner, col] = table[:, 1]
-    t0 = np.zeros((len(queries), width))
+    t0 = np.zeros((n, width))
     t0[:, 1:] = np.cumsum(grid[:, :-1, 0], axis=1)
-    s_all = np.concatenate([s for _, s in queries])
-    q = np.repeat(np.arange(len(queries)), counts)
+    s_all = np.concatenate(ss)
+    q = np.repeat(np.arange(n), counts)
     k = (starts[q] <= s_all[:, None]).sum(axis=1) - 1
     k = np.clip(k, 0, np.maximum(kept[q] - 1, 0))
     dk, pk, vk, ak, jk = grid[q, k].T
@@ -163,7 +170,7 @@ def _invert_table(
         zip(np.split(t, cuts), np.split(vel, cuts), np.split(acc, cuts), strict=True)
     )
     ordered = np.all(starts == np.maximum.accumulate(starts, axis=1), axis=1)  # NaN: not
-    asked_nan = np.bincount(q[np.isnan(s_all)], minlength=len(queries)) > 0
+    asked_nan = np.bincount(q[np.isnan(s_all)], minlength=n) > 0
     for i in np.flatnonzero(~ordered | asked_nan):
         out[i] = None
     return out
