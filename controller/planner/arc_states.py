@@ -96,8 +96,8 @@ def vertex_states_many(
     inverted = invert_many([(r[1], s) for r, s in zip(requests, lengths, strict=True)])
     d1, d2 = _derivatives(geoms, inner)
     speed_u = np.linalg.norm(d1, axis=1)
-    v_k = np.concatenate([inv[1] for inv in inverted]) if inverted else np.zeros(0)
-    a_k = np.concatenate([inv[2] for inv in inverted]) if inverted else np.zeros(0)
+    v_k = np.concatenate([inv[1] for inv in inverted])
+    a_k = np.concatenate([inv[2] for inv in inverted])
     ud = (v_k / speed_u)[:, None]
     udd = (a_k / speed_u)[:, None]
     rates = _per_curve(geoms, inner, "speed_rate", transition_speed_rates_many)
@@ -114,7 +114,7 @@ def vertex_states_many(
     sizes = np.array([u.size for u in fractions], dtype=np.intp)
     stop = np.cumsum(sizes)
     first, last = stop - sizes, stop - 1
-    inside = np.ones(int(stop[-1]) if sizes.size else 0, dtype=bool)
+    inside = np.ones(int(stop[-1]), dtype=bool)
     inside[first], inside[last] = False, False
     vel, acc, times = np.empty((inside.size, 3)), np.empty((inside.size, 3)), np.empty(inside.size)
     vel[inside], acc[inside] = vel_in, acc_in
@@ -122,7 +122,7 @@ def vertex_states_many(
     vel[last] = [r[3].vel_mm_per_s for r in requests]
     acc[first] = [r[2].acc_mm_per_s2 for r in requests]
     acc[last] = [r[3].acc_mm_per_s2 for r in requests]
-    times[inside] = np.concatenate([inv[0] for inv in inverted]) if inverted else 0.0
+    times[inside] = np.concatenate([inv[0] for inv in inverted])
     times[first] = 0.0
     times[last] = [r[1].duration_s for r in requests]
     durations = np.maximum(np.diff(times), 0.0)  # across two arcs: never read
@@ -140,21 +140,18 @@ def _vertices(
     vertices where they are those (``moved[i]`` False: :func:`_fractions` changed none, or
     made the same ones again), else the curve's points there (arcs: in one batch, the same
     numbers as :meth:`ArcGeometry.points`)."""
-    out: list[np.ndarray | None] = []
-    arcs: list[int] = []
-    for i, (g, u, changed) in enumerate(zip(geoms, fractions, moved, strict=True)):
-        if not changed or np.array_equal(u, g.u):
-            out.append(g.vertices)
-        elif isinstance(g.move, Arc):
-            out.append(None)
-            arcs.append(i)
-        else:
-            out.append(g.points(u))
-    if arcs:
-        moves = [m for m in (geoms[i].move for i in arcs) if isinstance(m, Arc)]
-        for i, pts in zip(arcs, arc_points_many(moves, [fractions[i] for i in arcs]), strict=True):
-            out[i] = pts
-    return [p for p in out if p is not None]
+    moved_to = [
+        i
+        for i, (g, u, changed) in enumerate(zip(geoms, fractions, moved, strict=True))
+        if changed and not np.array_equal(u, g.u)
+    ]
+    arcs = [i for i in moved_to if isinstance(geoms[i].move, Arc)]
+    moves = [m for m in (geoms[i].move for i in arcs) if isinstance(m, Arc)]
+    points = dict(zip(arcs, arc_points_many(moves, [fractions[i] for i in arcs]), strict=True))
+    for i in moved_to:
+        if i not in points:  # a spline's or a transition's
+            points[i] = geoms[i].points(fractions[i])
+    return [points.get(i, g.vertices) for i, g in enumerate(geoms)]
 
 
 def _per_curve(

@@ -184,7 +184,7 @@ def _plan_batch(
     # the loose tries the arcs with one candidate may make, made beforehand all at once (one by
     # one they were 37 % of planning a polyline whose corners are blend arcs of a chord or two)
     single = [
-        (not fast, max(maker.dev_max, setup.smoothing[key[0] + k]))
+        (not fast, maker.junction_deviation_mm(setup.smoothing[key[0] + k]))
         for (key, _), prep in zip(batch, preps, strict=True)
         for k, _, fast, _, _ in prep.arcs
     ]

@@ -108,6 +108,12 @@ class MovePieces:
         #: junction (lowering a junction's speed cannot help: the planner slows the profile).
         self.off_pieces = 0
 
+    def junction_deviation_mm(self, smoothing_mm: float) -> float:
+        """The deviation [mm] allowed the pieces next to an arc's moving junctions: the
+        default, or the arc's smoothing budget ``smoothing_mm`` (a G64 blend arc's) where
+        larger."""
+        return max(self.dev_max, smoothing_mm)
+
     def straight(self, g: MoveGeometry, profile: Profile1D) -> float:
         """The profile projected on the straight move; its duration [s]."""
         for i in range(3):
@@ -147,7 +153,7 @@ class MovePieces:
             needed Ruckig to stretch it beyond :data:`END_STRETCH_MAX` (the junction speed must
             then come down).
         """
-        dev_max = max(self.dev_max, dev_max_mm)
+        dev_max = self.junction_deviation_mm(dev_max_mm)
         pieces, used = None, profile
         for i, cand in enumerate(() if self.pieces == "ruckig" else fast):
             found = known if i == 0 and known is not None else None
@@ -419,7 +425,7 @@ def loose_patterns(
     if _near_feed(g, profile):
         return []
     near = _near_switches(g, pieces)
-    may = _may_offend(g, pieces, state_in.moving, state_out.moving, dev_max_mm)
+    may = _may_offend(pieces, state_in.moving, state_out.moving, dev_max_mm)
     ends = (may[0] and near[0], may[1] and near[1])
     if ends[0] and ends[1]:
         return [(True, False), (False, True), (True, True)]
@@ -427,7 +433,7 @@ def loose_patterns(
 
 
 def _may_offend(
-    g: ArcGeometry, pieces: Pieces, moving_in: bool, moving_out: bool, dev_max_mm: float
+    pieces: Pieces, moving_in: bool, moving_out: bool, dev_max_mm: float
 ) -> tuple[bool, bool]:
     """Whether :meth:`MovePieces._emit` of ``pieces`` can find the start and the end
     offending: an end next to a moving junction whose closed-form end piece goes to Ruckig

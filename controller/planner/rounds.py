@@ -112,8 +112,9 @@ def settle_chains(
     of 0.035 mm steps): the axes need that jerk plus the curvature's, and no lower junction
     speed frees it. ``blend_arcs``: ids of the G64 blend arcs among the moves (tolerance
     features: no faster candidate profiles, boosted or saturated, which cost far more than
-    they save them; :mod:`~gantry_sim.controller.planner.chain_prep`). ``ahead``: given the first round's chain spans, a job for this process to do
-    while other processes plan that round's chains (or None: see
+    they save them; :mod:`~gantry_sim.controller.planner.chain_prep`). ``ahead``: given the
+    first round's chain spans, a job for this process to do while other processes plan that
+    round's chains (or None: see
     :func:`~gantry_sim.controller.planner.chain_plan.plan_chains_forked`)."""
     setup = ChainSetup(active, states, machine, solver, arc_pieces, smoothing, {}, blend_arcs)
     blocks = [g.limits for g in active]

@@ -102,6 +102,7 @@ class JudgedPath:
         self._remake = remake_path if path.blend_junction else None
         self._machine = machine
         self._feed = feed_override_pct
+        self._jerk = float(min(machine.limits.max_jerk_mm_per_s3))
 
     @property
     def judging(self) -> bool:
@@ -125,8 +126,7 @@ class JudgedPath:
             gap = judge_stretch(self.path, upto, first, self._machine, self._feed)
         inner = {k: j for k, j in stretch.blend_junction.items() if first <= base + k < stop}
         judged = replace(stretch, blend_junction=inner)
-        jerk = float(min(self._machine.limits.max_jerk_mm_per_s3))
-        return gap | slow_blends(judged, pre, jerk), stop
+        return gap | slow_blends(judged, pre, self._jerk), stop
 
     def remake(self, found: frozenset[int], judged_to: int) -> None:
         """Judge the blends from path move ``judged_to`` on, and make the path again without

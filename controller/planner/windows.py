@@ -224,9 +224,9 @@ def _window_of(
     (:meth:`~gantry_sim.controller.planner.window_judge.JudgedPath.judge`)."""
     stretch = sub_path(src.path, base, hi, base + context)
     pre = _window(stretch, machine, feed_override_pct, context)
-    slow, judged_to = frozenset[int](), upto if upto is not None else 0
-    if upto is not None:
-        slow, judged_to = src.judge(stretch, pre, base, hi, upto)
+    if upto is None:
+        return pre, _blend_arcs(stretch, pre), frozenset(), 0
+    slow, judged_to = src.judge(stretch, pre, base, hi, upto)
     return pre, _blend_arcs(stretch, pre), slow, judged_to
 
 
