@@ -8,6 +8,13 @@ sizes kept), and :func:`write_zip` then writes the container around the deflated
 them. Every entry carries ZIP64 sizes and offsets (version 4.5), whatever its size, so the one
 path that writes multi-gigabyte traces is the one the tests read back with zipfile and numpy.
 
+The deflating is ISA-L's (``isal``, igzip at level 1): the same raw deflate stream that zlib
+writes and every zip reader reads, made about 4 x faster at the same size (6,000 ticks of
+traced polylines: 12 ms against 46 ms at zlib's level 1, 1.753 against 1.756 x smaller). On
+two cores the thread deflating a streamed run's trace shares the second core with the
+analysis worker, and what spills over takes the servo loop's time. Where ``isal`` cannot be
+imported, zlib deflates at its level 1, with the same arrays read back.
+
 A member's deflated bytes wait in an anonymous temporary file (``tempfile.TemporaryFile`` in
 ``$TMPDIR``: no name in any folder, so the system frees it when the process ends, however it
 ends: a sweep worker terminated mid-run leaves nothing behind).
@@ -19,9 +26,17 @@ import shutil
 import struct
 import tempfile
 import zlib
-from typing import BinaryIO
+from types import ModuleType
+from typing import Any, BinaryIO
 
-#: zlib level: 1, as trace.npz was written (fast; float data deflates little more at 9)
+_deflate_lib: ModuleType
+try:  # see the module docstring
+    from isal import isal_zlib as _deflate_lib
+except ImportError:  # pragma: no cover - isal is a dependency; a platform without its wheel
+    _deflate_lib = zlib
+
+#: deflate level: 1, as trace.npz was written (fast; float data deflates little more at 9);
+#: igzip's and zlib's level 1 give files within 1 % of each other's size
 LEVEL = 1
 _MAX32 = 0xFFFFFFFF
 _VERSION = 45  # ZIP64
@@ -36,11 +51,11 @@ class DeflatedMember:
         self.name = name
         self.crc, self.size, self.compressed = 0, 0, 0
         self._file: BinaryIO | None = tempfile.TemporaryFile()
-        self._deflate: zlib._Compress | None = zlib.compressobj(LEVEL, zlib.DEFLATED, -15)
+        self._deflate: Any = _deflate_lib.compressobj(LEVEL, zlib.DEFLATED, -15)
 
     def add(self, data: bytes | memoryview) -> None:
         assert self._deflate is not None, "member already finished"
-        self.crc = zlib.crc32(data, self.crc)
+        self.crc = _deflate_lib.crc32(data, self.crc)
         self.size += len(data)
         self._write(self._deflate.compress(data))
 

@@ -3,10 +3,10 @@
 A streamed run (sim/stream.py) hands each range's full-rate arrays to :class:`TraceWriter`. A
 background thread appends them to one deflated member per array (sim.deflate_zip.DeflatedMember,
 the ``.npy`` header first, written for the run's known length; its bytes in an anonymous
-temporary file, gone with the process however it ends): zlib and the file writes release the
-GIL, so the deflating runs on a free core while the servo loop steps MuJoCo; the thread runs at
-background priority (controller.forked.lower_priority), so where no core is free the loop
-keeps its own.
+temporary file, gone with the process however it ends): igzip (or zlib) and the file writes
+release the GIL, so the deflating runs on a free core while the servo loop steps MuJoCo; the
+thread runs at background priority (controller.forked.lower_priority), so where no core is
+free the loop keeps its own.
 :meth:`TraceWriter.finish` ends the streams when the run ends; :meth:`TraceWriter.save` writes
 the zip around the deflated bytes (no second compression pass), straight into the output
 folder's staging (sim.report.write_outputs), so the trace is written to disk once as deflated

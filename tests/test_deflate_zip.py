@@ -5,17 +5,31 @@ from __future__ import annotations
 import io
 import itertools
 import zipfile
+import zlib
 
 import numpy as np
 import pytest
 
+from gantry_sim.sim import deflate_zip
 from gantry_sim.sim.deflate_zip import DeflatedMember, write_zip
 
 
-def test_members_added_in_pieces_read_back_exactly(tmp_path, monkeypatch):
-    """... and their deflated bytes wait in anonymous files: nothing named in $TMPDIR."""
+def test_isal_deflates_where_installed():
+    """isal is a dependency: its igzip deflates (zlib only where it cannot be imported)."""
+    pytest.importorskip("isal")
+    assert deflate_zip._deflate_lib.__name__ == "isal.isal_zlib"
+
+
+@pytest.mark.parametrize("lib", ["isal", "zlib"])
+def test_members_added_in_pieces_read_back_exactly(tmp_path, monkeypatch, lib):
+    """... deflated by igzip or by zlib (where isal is missing), and their deflated bytes
+    wait in anonymous files: nothing named in $TMPDIR."""
     import tempfile
 
+    if lib == "isal":
+        monkeypatch.setattr(deflate_zip, "_deflate_lib", pytest.importorskip("isal.isal_zlib"))
+    else:
+        monkeypatch.setattr(deflate_zip, "_deflate_lib", zlib)
     monkeypatch.setattr(tempfile, "tempdir", str(tmp_path))
     rng = np.random.default_rng(0)
     data = {
@@ -93,3 +107,21 @@ def test_save_npz_reads_back_as_savez_compressed_does(tmp_path):
             assert (a.dtype, a.shape) == (b.dtype, b.shape) and np.array_equal(a, b), name
     with zipfile.ZipFile(tmp_path / "ours.npz") as z:
         assert z.testzip() is None
+
+
+def test_the_member_deflates_with_the_library_chosen(monkeypatch):
+    """Each library's own deflate stream (igzip's differs from zlib's), each inflating back."""
+    isal_zlib = pytest.importorskip("isal.isal_zlib")
+    data = np.random.default_rng(1).normal(size=20_000).round(3).tobytes()
+    streams = {}
+    for lib in (isal_zlib, zlib):
+        monkeypatch.setattr(deflate_zip, "_deflate_lib", lib)
+        m = DeflatedMember("x.bin")
+        m.add(data)
+        out = io.BytesIO()
+        m.copy_to(out)
+        streams[lib.__name__] = out.getvalue()
+        assert zlib.decompress(streams[lib.__name__], -15) == data
+        assert m.crc == zlib.crc32(data) and m.size == len(data)
+        m.release()
+    assert streams["isal.isal_zlib"] != streams["zlib"]
