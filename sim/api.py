@@ -41,6 +41,7 @@ if TYPE_CHECKING:
     from concurrent.futures import Future
 
     from gantry_sim.controller.moves import Move
+    from gantry_sim.sim.analysis_worker import ProcessAnalyser
     from gantry_sim.sim.path_outline import Outline
     from gantry_sim.sim.trace_writer import TraceWriter
 
@@ -132,6 +133,7 @@ def run_program(
     from gantry_sim.controller.moves import Arc, Linear, Rapid, Spline
     from gantry_sim.controller.planner.plan import plan
     from gantry_sim.controller.spill import SpilledList
+    from gantry_sim.sim.analysis_worker import early_worker
     from gantry_sim.sim.blend_parts import split_reference
     from gantry_sim.sim.contour import analyse
     from gantry_sim.sim.machine import load_gantry
@@ -145,6 +147,7 @@ def run_program(
     folders = [Path(p) for p in search_path]
     if isinstance(program, os.PathLike):
         folders.insert(0, Path(program).resolve().parent)
+    worker = early_worker(len(text))  # a long run's analysis worker, started while it parses
     try:
         machine = with_segmentation_default(machine, dialect)
         shown = wanted(progress)
@@ -177,7 +180,10 @@ def run_program(
                 progress,
                 {"parse": t1 - t0, "plan": time.perf_counter() - t1},
                 keep_trace,
+                worker,
             )
+        if worker is not None:  # not streamed: no worker (closed before the simulation)
+            worker.close()
         traj = planned.sample(machine.servo.period_s)
         t2 = time.perf_counter()
         gantry = load_gantry(machine)  # mujoco imported before the plots' thread imports
@@ -192,6 +198,9 @@ def run_program(
         if exc.file is None and exc.line is not None:
             exc.file = file
         raise
+    finally:
+        if worker is not None:  # (streamed, the run closed it already: closing is idempotent)
+            worker.close()
     timing: dict[str, float] = {
         "parse": t1 - t0,
         "plan": t2 - t1,
@@ -234,10 +243,12 @@ def _streamed(
     progress: bool | None,
     timing: dict[str, float],
     keep_trace: bool = True,
+    worker: ProcessAnalyser | None = None,
 ) -> RunResult:
     """run_program's path for long runs: sim.stream range by range, the full-rate trace
     deflated as it comes (sim.trace_writer) unless ``keep_trace`` is False, a decimated trace
-    kept."""
+    kept; ``worker``: the analysis worker started for it (sim.analysis_worker.early_worker; the
+    run closes it), or None: one is started now where it pays."""
 
     from gantry_sim.controller.gc_pause import gc_frozen
     from gantry_sim.controller.heap import one_arena
@@ -255,7 +266,7 @@ def _streamed(
         drawing = prepare_plots(moves)
         with stage("simulate+analyse", n, "tick", wanted(progress)) as advance, gc_frozen():
             streamed = stream_run(
-                moves, planned, machine, gantry, on_range=writer, on_ticks=advance
+                moves, planned, machine, gantry, on_range=writer, on_ticks=advance, worker=worker
             )
     except BaseException:
         if writer is not None:

@@ -115,12 +115,15 @@ def stream_run(
     range_ticks: int | None = None,
     on_range: OnRange | None = None,
     on_ticks: Callable[[int], object] | None = None,
+    worker: ProcessAnalyser | None = None,
 ) -> StreamedRun:
     """Sample, simulate and analyse ``planned`` ``range_ticks`` servo ticks at a time (default:
     an eighth of the run, within MIN_RANGE_TICKS..STREAM_TICKS).
 
     Raises SimulationError when the run diverges (as sim.runner.simulate). ``on_ticks(n)`` is
-    called as the simulation advances (a progress bar's update).
+    called as the simulation advances (a progress bar's update). ``worker``: a worker started
+    for this run (sim.analysis_worker.early_worker), closed here; None: one is made here
+    (sim.analysis_worker.make_analyser).
     """
     period = machine.servo.period_s
     n = planned.sample_count(period)
@@ -161,7 +164,7 @@ def stream_run(
     # worker starts: it holds none of the worker's pipes)
     chord = Background(functools.partial(chord_max_um, moves, planned.vertices))
     try:
-        analyser = make_analyser()
+        analyser = make_analyser() if worker is None else worker
         # sampling and hand-over on a thread while the loop steps (sim.range_helper)
         helper: Helper = RangeHelper() if isinstance(analyser, ProcessAnalyser) else InlineHelper()
         handed: deque[Future[None]] = deque()  # the hand-overs not seen finished
