@@ -184,6 +184,10 @@ def main(argv: Sequence[str] | None = None) -> int:
         sys.stdout = real_stdout
         if previous is not None:
             signal.signal(signal.SIGTERM, previous)
+        if "gantry_sim.sim.outdir" in sys.modules:  # only a command with --out imports it
+            from gantry_sim.sim.outdir import remove_new_empty_folders
+
+            remove_new_empty_folders()
 
 
 def _dispatch(args: argparse.Namespace, debug: bool) -> int:

@@ -20,6 +20,7 @@ raised as :class:`OutputError` naming the path: exit 2, never a traceback.
 
 from __future__ import annotations
 
+import contextlib
 import errno
 import json
 import os
@@ -61,14 +62,32 @@ def umask() -> int:
     return mask
 
 
+#: The folders :func:`ensure_dir` created in this process, parents first: a run that fails
+#: before writing its outputs leaves none of them behind (:func:`remove_new_empty_folders`).
+_CREATED: list[Path] = []
+
+
 def ensure_dir(out_dir: Path) -> None:
     """Create ``out_dir`` (and its parents) or raise OutputError saying why it cannot be."""
     try:
         if out_dir.exists() and not out_dir.is_dir():
             raise OutputError("--out must be a folder, but this is a file", file=str(out_dir))
+        missing = [p for p in (out_dir, *out_dir.parents) if not p.exists()]
         out_dir.mkdir(parents=True, exist_ok=True)
+        _CREATED.extend(reversed(missing))
     except OSError as exc:
         raise os_error(exc, out_dir, "cannot create the output folder") from None
+
+
+def remove_new_empty_folders() -> None:
+    """Remove the folders :func:`ensure_dir` created in this process that are still empty,
+    deepest first (``gantry`` calls it as it ends): a run that failed before writing, or was
+    interrupted, leaves no empty output folder it made; a folder with anything in it, or one
+    that was there before, stays."""
+    while _CREATED:
+        folder = _CREATED.pop()
+        with contextlib.suppress(OSError):
+            folder.rmdir()  # only an empty folder goes
 
 
 @contextmanager

@@ -242,6 +242,28 @@ def test_out_file_where_a_folder_is_needed_and_folder_where_a_file_is(tmp_path, 
     assert "report.json" in capsys.readouterr().err
 
 
+def test_a_failed_run_leaves_no_output_folder_it_made(tmp_path, capsys):
+    """The output folder (and its parents) made for a run that fails before writing goes
+    again; one that was there before stays, empty or not; a run that writes keeps its."""
+    bad = _program(tmp_path, "G21 G90\nG1 X2 Q F1200\nM2\n", "bad.ngc")
+    new = tmp_path / "new" / "a" / "b"
+    assert main(["run", bad, "--out", str(new)]) == 2
+    assert not (tmp_path / "new").exists()
+    # a ballbar refused by its simulation budget, after the folder was made for it
+    assert main(["ballbar", "--out", str(new), "--max-sim-s", "0.01"]) == 2
+    assert not (tmp_path / "new").exists()
+    there = tmp_path / "there"
+    there.mkdir()
+    assert main(["run", bad, "--out", str(there / "sub")]) == 2
+    assert there.is_dir() and not (there / "sub").exists()
+    assert main(["run", bad, "--out", str(there)]) == 2
+    assert there.is_dir()
+    capsys.readouterr()
+    good = _program(tmp_path, LINE, "good.ngc")
+    assert main(["run", good, "--out", str(new), "--no-plots"]) == 0
+    assert (new / "report.json").exists()
+
+
 @pytest.mark.skipif(os.geteuid() != 0, reason="creating a device node needs root")
 def test_plan_out_never_replaces_a_device_or_fifo(tmp_path):
     """Defect 3: as root, `plan --out /dev/null` turned the device node into a regular file
