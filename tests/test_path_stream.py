@@ -170,3 +170,49 @@ def test_stretches_blended_in_forked_waves_are_the_path_made_whole(workers, monk
             assert list(many.sources) == list(one.sources)
             assert many.blend_junction == one.blend_junction
             assert list(many.blends) == list(one.blends) and list(many.merges) == list(one.merges)
+
+
+def _arc_polygon(sides: int = 24, radius: float = 20.0, bulge: float = 40.0) -> str:
+    """A polygon whose sides are G3 arcs of radius ``bulge`` and lines in turn: every vertex
+    is a corner between an arc and a line that G64 P0.01 blends."""
+    out = ["G21 G90 G17 G64 P0.01", f"G0 X{radius:.4f} Y0", "F2400"]
+    for k in range(1, sides + 1):
+        a = 2 * math.pi * k / sides
+        x, y = radius * math.cos(a), radius * math.sin(a)
+        out.append(f"G3 X{x:.4f} Y{y:.4f} R{bulge:.4f}" if k % 2 else f"G1 X{x:.4f} Y{y:.4f}")
+    return "\n".join([*out, "M2"]) + "\n"
+
+
+@pytest.mark.parametrize("workers", [1, 2])
+def test_a_path_made_again_reuses_the_arc_corners_of_the_first(workers, monkeypatch):
+    """The arc corners' blends found while a path is made (in forked children too) are kept
+    by site (blend.CornerMemo); the path made again without some blends searches none of the
+    corners it still blends and is the path made without the memo, move for move."""
+    from gantry_sim.controller.planner import blend
+    from gantry_sim.controller.planner.blend import CornerMemo
+
+    machine = load_machine_config(DEFAULT_MACHINE)
+    items = tuple(interpret_events(_arc_polygon()))
+    tol = machine.segmentation.chord_tolerance_mm
+    jerk = float(min(machine.limits.max_jerk_mm_per_s3))
+    monkeypatch.setenv("GANTRY_PLAN_WORKERS", str(workers))
+    real, searched = blend.arc_corner, []
+
+    def spy(m0, m1, *args):  # type: ignore[no-untyped-def]
+        searched.append((m0, m1))
+        return real(m0, m1, *args)
+
+    monkeypatch.setattr(blend, "arc_corner", spy)
+    memo = CornerMemo()
+    first = path_plan(items, machine.path, tol, frozenset(), jerk, corners=memo, stretch_moves=5)
+    assert sum(c is not None for c in memo.known.values()) == len(first.blends) == 23
+    skip = frozenset(list(first.blend_junction.values())[::3])
+    searched.clear()
+    again = path_plan(items, machine.path, tol, skip, jerk, corners=memo, stretch_moves=5)
+    assert searched == []  # every arc corner's blend came from the memo
+    monkeypatch.setattr(blend, "arc_corner", real)
+    fresh = path_plan(items, machine.path, tol, skip, jerk, stretch_moves=10**6)
+    assert len(fresh.blends) == 23 - len(skip)
+    assert list(again.moves) == list(fresh.moves) and list(again.blends) == list(fresh.blends)
+    assert again.blend_junction == fresh.blend_junction
+    assert list(again.sources) == list(fresh.sources) and again.stop_after == fresh.stop_after

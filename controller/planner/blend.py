@@ -139,6 +139,47 @@ def _direction(m: PathMove) -> np.ndarray:
     return d / norm(d)
 
 
+class CornerMemo:
+    """The blends of a path's arc corners (:func:`~gantry_sim.controller.planner.corner_blend.
+    arc_corner`, or None: not blended) by site: the corner's junction among the program's
+    merged moves and its budget [mm]. The path made again without its slow blends
+    (:mod:`~gantry_sim.controller.planner.window_judge`) has the same merged moves, so a corner
+    it still blends is the same moves meeting with the same budget, and its blend is the first
+    path's: the search (about 40 candidate blends a corner, a tenth of planning a PrusaSlicer
+    print whose path is made twice) is made once.
+
+    ``known``: the entries of earlier calls; ``made``: those this view found (a forked child's
+    go back to the parent with its moves, :meth:`view` then :meth:`take`)."""
+
+    def __init__(self, known: dict[tuple[int, float], CornerCut | None] | None = None) -> None:
+        self.known: dict[tuple[int, float], CornerCut | None] = {} if known is None else known
+        self.made: dict[tuple[int, float], CornerCut | None] = {}
+
+    def view(self) -> CornerMemo:
+        """A memo reading this one's entries, with none made yet."""
+        return CornerMemo(self.known)
+
+    def take(self, made: dict[tuple[int, float], CornerCut | None]) -> None:
+        """Keep the entries a view made."""
+        self.known.update(made)
+
+    def cut(
+        self,
+        key: tuple[int, float],
+        m0: Linear | Arc,
+        m1: Linear | Arc,
+        corner: ArcCorner,
+        chord_tolerance_mm: float,
+        tangents: dict[int, tuple[np.ndarray, np.ndarray]],
+    ) -> CornerCut | None:
+        """The corner's blend: the known one, else searched and kept."""
+        if key in self.known:
+            return self.known[key]
+        if key not in self.made:
+            self.made[key] = arc_corner(m0, m1, corner, chord_tolerance_mm, tangents)
+        return self.made[key]
+
+
 def blend_corners(
     stretch: PathPlan,
     settings: PathSettings,
@@ -148,6 +189,7 @@ def blend_corners(
     machine: TransitionMachine | None = None,
     sized: dict | None = None,
     base: int = 0,
+    corners: CornerMemo | None = None,
 ) -> list[Blended]:
     """What each move of ``stretch`` (moves, stop_after, holds, smoothing_mm and sources set;
     G64 Q merged) becomes once its G64 corners are blended, and, with ``machine`` (its limits
@@ -157,7 +199,8 @@ def blend_corners(
     path is blended stretch by stretch
     (:func:`~gantry_sim.controller.planner.path_stream.path_plan`). ``sized``: transitions
     sized by an earlier call for the same program, by site (filled here; None: none kept);
-    ``base``: the index of the stretch's first move in the whole path, which keys them."""
+    ``base``: the index of the stretch's first move in the whole path, which keys them and
+    ``corners``' entries (the arc corners' blends of an earlier call; None: none kept)."""
     moves = list(stretch.moves)
     holds = stretch.holds
     n = len(moves)
@@ -176,7 +219,11 @@ def blend_corners(
         if isinstance(m0, Linear | Arc) and isinstance(m1, Linear | Arc) and budget > 0:
             if isinstance(m0, Arc) or isinstance(m1, Arc):
                 corner = ArcCorner(budget, GEOMETRY_SHARE, MAX_TURN_RAD, jerk_mm_per_s3)
-                cut = arc_corner(m0, m1, corner, chord_tolerance_mm, tangents)
+                if corners is None:
+                    cut = arc_corner(m0, m1, corner, chord_tolerance_mm, tangents)
+                else:
+                    site = (b + base, budget)
+                    cut = corners.cut(site, m0, m1, corner, chord_tolerance_mm, tangents)
                 if cut is not None:
                     cuts[b] = cut
                 elif machine is not None:

@@ -40,6 +40,7 @@ from gantry_sim.controller.moves import (
 from gantry_sim.controller.planner.blend import (
     Blend,
     Blended,
+    CornerMemo,
     PathPlan,
     blend_corners,
     smoothing_budget,
@@ -72,6 +73,7 @@ def path_plan(
     jerk_mm_per_s3: float = math.inf,
     machine: TransitionMachine | None = None,
     sized: dict | None = None,
+    corners: CornerMemo | None = None,
     *,
     stretch_moves: int = STRETCH_MOVES,
 ) -> PathPlan:
@@ -87,8 +89,11 @@ def path_plan(
     here while the path has at most :data:`~gantry_sim.controller.planner.windows.WINDOW_MOVES`
     moves (a path planned whole may be made again without its slow blends; a longer one is
     made again at most once, and keeping every transition would hold about 1 KB each for the
-    whole path: beyond that it is emptied and no longer filled)."""
-    stretch = _Stretcher(settings, chord_tolerance_mm, skip, jerk_mm_per_s3, machine, sized)
+    whole path: beyond that it is emptied and no longer filled). ``corners``: the arc corners'
+    blends of an earlier call for the same program, filled here (None: none kept)."""
+    stretch = _Stretcher(
+        settings, chord_tolerance_mm, skip, jerk_mm_per_s3, machine, sized, corners
+    )
     out = stretch.out
     merges: list[Merge] = []
     trailing: list[Dwell] = []
@@ -156,10 +161,11 @@ class _Stretcher:
         jerk_mm_per_s3: float,
         machine: TransitionMachine | None,
         sized: dict | None,
+        corners: CornerMemo | None,
     ) -> None:
         self.settings, self.skip = settings, skip
         self.chord_tolerance_mm, self.jerk_mm_per_s3 = chord_tolerance_mm, jerk_mm_per_s3
-        self.machine, self.sized = machine, sized
+        self.machine, self.sized, self.corners = machine, sized, corners
         self.moves: SpilledList[PathMove] = SpilledList()
         self.blends: SpilledList[Blend] = SpilledList()
         self.smoothing = array("d")
@@ -178,13 +184,18 @@ class _Stretcher:
         """Blend the stretches ``spans`` ((lo, hi): merged moves lo .. hi - 1; ``buffer``:
         merged moves ``first`` on, with the context either side), each but the first in a
         forked child (:func:`~gantry_sim.controller.forked.fork_map`), and append what they
-        become to the path, in order."""
-        for made in fork_map(lambda span: self._blended(buffer, first, *span), spans):
+        become to the path, in order (and keep the arc corners' blends they found)."""
+        for made, found in fork_map(lambda span: self._blended(buffer, first, *span), spans):
             self._append(made)
+            if self.corners is not None:
+                self.corners.take(found)
 
-    def _blended(self, buffer: list[PathEntry], first: int, lo: int, hi: int) -> list[Blended]:
+    def _blended(
+        self, buffer: list[PathEntry], first: int, lo: int, hi: int
+    ) -> tuple[list[Blended], dict]:
         """What merged moves ``lo`` .. ``hi - 1`` become, blended with the
-        :data:`CONTEXT_MOVES` moves of ``buffer`` either side of them."""
+        :data:`CONTEXT_MOVES` moves of ``buffer`` either side of them, and the arc corners'
+        blends found meanwhile (:class:`~gantry_sim.controller.planner.blend.CornerMemo`)."""
         a = max(first, lo - CONTEXT_MOVES)
         part = buffer[a - first : min(len(buffer), hi + CONTEXT_MOVES - first)]
         n = len(part)
@@ -198,6 +209,7 @@ class _Stretcher:
             sources=[e.source for e in part],
         )
         skip = frozenset(j - a for j in self.skip if a < j < a + n)
+        view = None if self.corners is None else self.corners.view()
         made = blend_corners(
             local,
             self.settings,
@@ -207,11 +219,12 @@ class _Stretcher:
             self.machine,
             self.sized,
             a,
+            view,
         )
         mine = made[lo - a : hi - a]
         for b in mine:  # junctions counted in the whole path
             b.blend_at = [None if at is None else at + a for at in b.blend_at]
-        return mine
+        return mine, {} if view is None else view.made
 
     def _append(self, made: list[Blended]) -> None:
         """Append blended merged moves (``made``, in order) to the path."""

@@ -42,7 +42,7 @@ from gantry_sim.controller.gc_pause import gc_paused
 from gantry_sim.controller.heap import trim_heap
 from gantry_sim.controller.moves import Arc, Event, Linear, Move, Rapid, Spline
 from gantry_sim.controller.moves import Limits as LimitsEvent
-from gantry_sim.controller.planner.blend import PathPlan
+from gantry_sim.controller.planner.blend import CornerMemo, PathPlan
 from gantry_sim.controller.planner.limit_events import concatenate, split_at_limits
 from gantry_sim.controller.planner.path_stream import path_plan
 from gantry_sim.controller.planner.prepare import prepare, slow_blends
@@ -129,7 +129,9 @@ def _plan_part(
     jerk = float(min(machine.limits.max_jerk_mm_per_s3))
     sizing = TransitionMachine(machine.limits, seg, feed_override_pct / 100.0)
     sized: dict = {}  # transitions by site, for a path made again without some blends
-    path = path_plan(items, machine.path, seg.chord_tolerance_mm, frozenset(), jerk, sizing, sized)
+    corners = CornerMemo()  # the arc corners' blends, likewise
+    tol = seg.chord_tolerance_mm
+    path = path_plan(items, machine.path, tol, frozenset(), jerk, sizing, sized, corners)
     prepared = None
     remake: Callable[[frozenset[int]], PathPlan] | None = None
     if len(path.moves) <= WINDOW_MOVES:  # planned whole: the geometry is made once
@@ -137,15 +139,17 @@ def _plan_part(
         prepared = prepare(path, machine, feed_override_pct, known)
         slow = slow_blends(path, prepared, jerk)
         if slow:  # those corners are faster as exact stops: plan them so
-            path = path_plan(items, machine.path, seg.chord_tolerance_mm, slow, jerk, sizing, sized)
+            path = path_plan(items, machine.path, tol, slow, jerk, sizing, sized, corners)
             prepared = prepare(path, machine, feed_override_pct, known)
         del known
     elif path.blend_junction:  # judged window by window as they are planned (window_judge)
 
-        def remake(slow: frozenset[int], sized: dict = sized) -> PathPlan:
-            return path_plan(items, machine.path, seg.chord_tolerance_mm, slow, jerk, sizing, sized)
+        def remake(
+            slow: frozenset[int], sized: dict = sized, corners: CornerMemo = corners
+        ) -> PathPlan:
+            return path_plan(items, machine.path, tol, slow, jerk, sizing, sized, corners)
 
-    del sized
+    del sized, corners
     solver = RuckigSolver(machine.limits)
     # the path is held by ``src`` alone while planned: made again, the old one is freed
     src = JudgedPath(path, remake, machine, feed_override_pct)
