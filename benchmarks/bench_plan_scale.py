@@ -11,8 +11,11 @@ planner's own: parse, then plan(). Printed per kind and size: parse and plan tim
 per second, chords, cycle time of the plan [s], peak RSS [MB] of the planning process, the
 private memory its forked children added at most [MB] (large rounds are planned over the cores,
 controller/forked.py; benchmarks/memory_probe.py) and the tree's peak [MB]: the largest of the
-process' own peak and its RSS plus its children's private memory at one poll; then the growth
-exponent b of plan time ~ blocks^b between the smallest and largest size (1: linear).
+process' own peak and its RSS plus its children's private memory at one poll; the CPU time of
+planning [s] in the process and in its forked children (steadier than the wall time on a shared
+machine, whose moment moved 100,000 polyline blocks' plan from 63 to 86 s on 2026-11-29; on 2
+cores the wall time is at least half their sum); then the growth exponent b of plan time ~
+blocks^b between the smallest and largest size (1: linear).
 ``GANTRY_PLAN_WORKERS=1`` plans in one process.
 """
 
@@ -46,8 +49,10 @@ def child(kind: str, blocks: int) -> dict:
     moves = parse_program(text)
     t1 = time.perf_counter()
     tree = TreeMemory()
+    cpu0, forks0 = time.process_time(), _children_cpu_s()
     p = plan(moves, machine)
     t2 = time.perf_counter()
+    cpu, forks_cpu = time.process_time() - cpu0, _children_cpu_s() - forks0
     forks, total = tree.stop()
     peak = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss * 1024
     return {
@@ -58,7 +63,15 @@ def child(kind: str, blocks: int) -> dict:
         "peak_mb": peak / 2**20,
         "forks_mb": forks / 2**20,
         "tree_mb": max(peak, total) / 2**20,
+        "cpu_s": cpu,
+        "forks_cpu_s": forks_cpu,
     }
+
+
+def _children_cpu_s() -> float:
+    """CPU time [s] (user + system) of this process' children that have ended."""
+    ch = resource.getrusage(resource.RUSAGE_CHILDREN)
+    return ch.ru_utime + ch.ru_stime
 
 
 def main() -> int:
@@ -73,7 +86,8 @@ def main() -> int:
     sizes = [int(x) for x in args.sizes.split(",")]
     print(
         f"{'kind':6s} {'blocks':>7s} {'parse s':>8s} {'plan s':>8s} {'blocks/s':>9s} "
-        f"{'chords':>9s} {'cycle s':>9s} {'peak MB':>8s} {'forks MB':>9s} {'tree MB':>8s}"
+        f"{'chords':>9s} {'cycle s':>9s} {'peak MB':>8s} {'forks MB':>9s} {'tree MB':>8s} "
+        f"{'cpu s':>7s} {'forks cpu s':>11s}"
     )
     for kind in args.kinds.split(","):
         rows = []
@@ -89,7 +103,8 @@ def main() -> int:
             print(
                 f"{kind:6s} {n:7d} {r['parse_s']:8.2f} {r['plan_s']:8.2f} "
                 f"{n / r['plan_s']:9.0f} {r['chords']:9d} {r['cycle_s']:9.1f} "
-                f"{r['peak_mb']:8.0f} {r['forks_mb']:9.0f} {r['tree_mb']:8.0f}",
+                f"{r['peak_mb']:8.0f} {r['forks_mb']:9.0f} {r['tree_mb']:8.0f} "
+                f"{r['cpu_s']:7.2f} {r['forks_cpu_s']:11.2f}",
                 flush=True,
             )
         if len(rows) > 1:
