@@ -139,6 +139,10 @@ def _direction(m: PathMove) -> np.ndarray:
     return d / norm(d)
 
 
+#: Arc corners' blends by site (junction among the merged moves, budget [mm]).
+CornerSites = dict[tuple[int, float], CornerCut | None]
+
+
 class CornerMemo:
     """The blends of a path's arc corners (:func:`~gantry_sim.controller.planner.corner_blend.
     arc_corner`, or None: not blended) by site: the corner's junction among the program's
@@ -151,15 +155,15 @@ class CornerMemo:
     ``known``: the entries of earlier calls; ``made``: those this view found (a forked child's
     go back to the parent with its moves, :meth:`view` then :meth:`take`)."""
 
-    def __init__(self, known: dict[tuple[int, float], CornerCut | None] | None = None) -> None:
-        self.known: dict[tuple[int, float], CornerCut | None] = {} if known is None else known
-        self.made: dict[tuple[int, float], CornerCut | None] = {}
+    def __init__(self, known: CornerSites | None = None) -> None:
+        self.known: CornerSites = {} if known is None else known
+        self.made: CornerSites = {}
 
     def view(self) -> CornerMemo:
         """A memo reading this one's entries, with none made yet."""
         return CornerMemo(self.known)
 
-    def take(self, made: dict[tuple[int, float], CornerCut | None]) -> None:
+    def take(self, made: CornerSites) -> None:
         """Keep the entries a view made."""
         self.known.update(made)
 

@@ -41,6 +41,7 @@ from gantry_sim.controller.planner.blend import (
     Blend,
     Blended,
     CornerMemo,
+    CornerSites,
     PathPlan,
     blend_corners,
     smoothing_budget,
@@ -192,7 +193,7 @@ class _Stretcher:
 
     def _blended(
         self, buffer: list[PathEntry], first: int, lo: int, hi: int
-    ) -> tuple[list[Blended], dict]:
+    ) -> tuple[list[Blended], CornerSites]:
         """What merged moves ``lo`` .. ``hi - 1`` become, blended with the
         :data:`CONTEXT_MOVES` moves of ``buffer`` either side of them, and the arc corners'
         blends found meanwhile (:class:`~gantry_sim.controller.planner.blend.CornerMemo`)."""
