@@ -74,10 +74,19 @@ def judge_stretch(
     n = len(path.moves)
     a, b = max(0, lo - BLEND_CONTEXT), min(n, hi + BLEND_CONTEXT)
     stretch = sub_path(path, a, b, a)
-    inner = {k: j for k, j in stretch.blend_junction.items() if lo <= a + k < hi}
     prepared = prepare(stretch, machine, feed_override_pct, {})
-    stretch.blend_junction = inner
-    return slow_blends(stretch, prepared, float(min(machine.limits.max_jerk_mm_per_s3)))
+    jerk = float(min(machine.limits.max_jerk_mm_per_s3))
+    return _slow_between(stretch, prepared, a, lo, hi, jerk)
+
+
+def _slow_between(
+    stretch: PathPlan, pre: Prepared, base: int, lo: int, hi: int, jerk_mm_per_s3: float
+) -> frozenset[int]:
+    """:func:`~gantry_sim.controller.planner.prepare.slow_blends` of the blend arcs of
+    ``stretch`` (path moves ``base`` on, prepared as ``pre``) at path moves ``lo`` ..
+    ``hi - 1`` only."""
+    inner = {k: j for k, j in stretch.blend_junction.items() if lo <= base + k < hi}
+    return slow_blends(replace(stretch, blend_junction=inner), pre, jerk_mm_per_s3)
 
 
 class JudgedPath:
@@ -124,9 +133,7 @@ class JudgedPath:
         gap: frozenset[int] = frozenset()
         if upto < first:  # (only where a window's margin is shorter than twice the context)
             gap = judge_stretch(self.path, upto, first, self._machine, self._feed)
-        inner = {k: j for k, j in stretch.blend_junction.items() if first <= base + k < stop}
-        judged = replace(stretch, blend_junction=inner)
-        return gap | slow_blends(judged, pre, self._jerk), stop
+        return gap | _slow_between(stretch, pre, base, first, stop, self._jerk), stop
 
     def remake(self, found: frozenset[int], judged_to: int) -> None:
         """Judge the blends from path move ``judged_to`` on, and make the path again without

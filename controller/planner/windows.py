@@ -224,10 +224,10 @@ def _window_of(
     (:meth:`~gantry_sim.controller.planner.window_judge.JudgedPath.judge`)."""
     stretch = sub_path(src.path, base, hi, base + context)
     pre = _window(stretch, machine, feed_override_pct, context)
+    arcs = _blend_arcs(stretch, pre)
     if upto is None:
-        return pre, _blend_arcs(stretch, pre), frozenset(), 0
-    slow, judged_to = src.judge(stretch, pre, base, hi, upto)
-    return pre, _blend_arcs(stretch, pre), slow, judged_to
+        return pre, arcs, frozenset(), 0
+    return pre, arcs, *src.judge(stretch, pre, base, hi, upto)
 
 
 def _blend_arcs(stretch: PathPlan, pre: Prepared) -> frozenset[int]:
