@@ -6,10 +6,12 @@ Expected values from ``rs274 -g`` (LinuxCNC 2.9) on the same lines.
 from __future__ import annotations
 
 import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
 from gantry_sim.controller.errors import GcodeError
 from gantry_sim.controller.gcode.interpreter import parse_program
-from gantry_sim.controller.gcode.lexer import lex, strip_line
+from gantry_sim.controller.gcode.lexer import Block, _lex_text, lex, lex_line, strip_line
 
 
 def ends(text: str) -> list[tuple[float, float, float]]:
@@ -58,3 +60,56 @@ def test_bad_values_are_gcode_errors(text: str) -> None:
     with pytest.raises(GcodeError) as info:
         parse_program(text + "\nM2\n")
     assert info.value.line == 1 and info.value.message
+
+
+def _general(raw: str, line: int = 1) -> Block | str:
+    """The general reader's block of ``raw`` (no plain-line shortcut), or its error."""
+    try:
+        return _lex_text(strip_line(raw), raw, line)
+    except GcodeError as exc:
+        return exc.message
+
+
+def _lexed(raw: str, line: int = 1) -> Block | str:
+    try:
+        return lex_line(raw, line)
+    except GcodeError as exc:
+        return exc.message
+
+
+@pytest.mark.parametrize(
+    "raw",
+    [
+        "G1 X0.2582 Y0.0115 F3000",
+        "g1x-.5y+1.z-0",
+        "N10 G0 X1",
+        "/N10.5.5 G1 X-1. Y.25",
+        "/",
+        "",
+        "X1.2.3",
+        "X.",
+        "X-",
+        "X--1",
+        "N G1",
+        "G1 X1" + "0" * 400,
+        "G1 X" + "9" * 301,
+        "G1 X" + "9" * 300 + ".5",
+        "O100 SUB",
+        "G1 X1 (c)",
+        "$0 M3",
+        "@1^90",
+    ],
+)
+def test_plain_lines_lex_as_the_general_reader_does(raw: str) -> None:
+    # lines of plain words take a shortcut (two regular expressions); its blocks, and the
+    # errors of lines it leaves to the general reader, must be the general reader's
+    assert _lexed(raw, 7) == _general(raw, 7)
+
+
+_PLAIN_CHARS = "GXYZNIJKFP0123456789.+-/ \tgxy"
+
+
+@given(st.text(alphabet=_PLAIN_CHARS, max_size=40))
+@settings(max_examples=400, deadline=None)
+def test_any_line_of_word_characters_lexes_as_the_general_reader_does(raw: str) -> None:
+    assert _lexed(raw) == _general(raw)
