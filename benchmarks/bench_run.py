@@ -27,7 +27,8 @@ the subprocess reports:
   adds to what planning left, apart from the planner's own peak;
 * MuJoCo alone: the same model stepped open loop through the same motion -- the run's held
   forces replayed from the same initial state by ``mujoco.rollout`` (as bench_sim.py does), in
-  pieces of REPLAY_STEPS physics steps; every stage's time is printed over it (a second table),
+  pieces of REPLAY_STEPS physics steps, with MuJoCo's profiler timers off as the run's servo
+  loop has them (sim/mujoco_lib.py); every stage's time is printed over it (a second table),
   and the end-to-end ratio with and without the planning stage (the planner's own benchmark
   owns planning);
 * before/after analysis: the analysis of THIS tree and that of git revision BASELINE_REV (the
@@ -108,6 +109,8 @@ def _replay_s(gantry, start_mm, force) -> float:
     import numpy as np
     from mujoco import rollout
 
+    from gantry_sim.sim.mujoco_lib import timers_off
+
     m = gantry.model
     d = mujoco.MjData(m)
     d.qpos[:] = gantry.joint_qpos_m(gantry.work_to_joint_mm(np.asarray(start_mm)[None])[0])
@@ -120,9 +123,10 @@ def _replay_s(gantry, start_mm, force) -> float:
         ctrl = np.zeros((min(ticks, len(force) - lo), m.nu))
         ctrl[:, list(gantry.actuator_id)] = force[lo : lo + ticks] / np.asarray(gantry.gear)
         ctrl = np.repeat(ctrl, gantry.substeps, axis=0)[None]
-        t0 = time.perf_counter()
-        states, _ = rollout.rollout(m, d, state[None], ctrl, nstep=ctrl.shape[1])
-        wall += time.perf_counter() - t0
+        with timers_off():  # as the servo loop steps (sim/mujoco_lib.py)
+            t0 = time.perf_counter()
+            states, _ = rollout.rollout(m, d, state[None], ctrl, nstep=ctrl.shape[1])
+            wall += time.perf_counter() - t0
         state = states[0, -1]
     return wall
 

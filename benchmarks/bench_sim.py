@@ -47,6 +47,7 @@ from gantry_sim.models import DEFAULT_MACHINE, GANTRY_XML
 from gantry_sim.sim import pd_ticks
 from gantry_sim.sim.api import run_program
 from gantry_sim.sim.machine import load_gantry
+from gantry_sim.sim.mujoco_lib import timers_off
 from gantry_sim.sim.pd_ticks import PURE_PYTHON_ENV
 from gantry_sim.sim.runner import simulate
 
@@ -66,7 +67,7 @@ def speed(machine: MachineConfig) -> None:
     traj = plan(moves, machine).sample(machine.servo.period_s)
     gantry = load_gantry(machine)
     steps = traj.t.size * gantry.substeps
-    loop, python, raw, rolled, replayed = [], [], [], [], []
+    loop, python, raw, rolled, replayed, timed = [], [], [], [], [], []
     for _ in range(REPEATS):  # interleaved, best of each: the machine may be loaded
         sim = simulate(gantry, machine, traj)
         loop.append(sim.wall_s)
@@ -77,14 +78,16 @@ def speed(machine: MachineConfig) -> None:
             del os.environ[PURE_PYTHON_ENV]
         assert np.array_equal(pure.pos, sim.pos) and np.array_equal(pure.force, sim.force)
         python.append(pure.wall_s)
-        rolled.append(_physics_only(gantry, traj, sim.force))
-        replayed.append(_replayed(gantry, traj, sim.force))
-        d = mujoco.MjData(gantry.model)
-        d.ctrl[gantry.actuator_id[2]] = -gantry.plant[2].gravity_load_N
-        t0 = time.perf_counter()
-        for _ in range(steps // 100):
-            mujoco.mj_step(gantry.model, d, 100)
-        raw.append((time.perf_counter() - t0) * steps / (steps // 100 * 100))
+        timed.append(_physics_only(gantry, traj, sim.force))  # the bindings' timers on
+        with timers_off():  # as the servo loop steps (sim/mujoco_lib.py)
+            rolled.append(_physics_only(gantry, traj, sim.force))
+            replayed.append(_replayed(gantry, traj, sim.force))
+            d = mujoco.MjData(gantry.model)
+            d.ctrl[gantry.actuator_id[2]] = -gantry.plant[2].gravity_load_N
+            t0 = time.perf_counter()
+            for _ in range(steps // 100):
+                mujoco.mj_step(gantry.model, d, 100)
+            raw.append((time.perf_counter() - t0) * steps / (steps // 100 * 100))
     sim_s, n = traj.duration_s, traj.t.size
     alone = min(min(rolled), min(replayed))
     print(f"1. speed ({sim_s:.1f} s simulated, {steps} physics steps, best of {REPEATS})")
@@ -104,6 +107,11 @@ def speed(machine: MachineConfig) -> None:
         f"mj_step(nsub) per tick {min(replayed) * 1e6 / n:.2f}; the faster counts)"
     )
     print(f"   ratio loop/MuJoCo alone: {alone / min(loop):.2f}   (aim >= 0.95)")
+    print(
+        f"   MuJoCo alone with the bindings' profiler timers on: {min(timed) * 1e6 / n:6.2f} "
+        f"us/tick (rollout), {min(timed) / min(rolled):.2f} x the time with them off: every "
+        "stepping above runs with them off, as the servo loop does (sim/mujoco_lib.py)"
+    )
     print(f"   ratio pure Python/MuJoCo alone: {alone / min(python):.2f}")
 
 

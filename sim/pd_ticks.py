@@ -18,10 +18,11 @@ import functools
 import importlib
 import os
 from collections.abc import Callable
-from pathlib import Path
 from typing import Any
 
 import numpy as np
+
+from gantry_sim.sim.mujoco_lib import libmujoco
 
 #: set to 1 to run the Python ticks even when the compiled ones are built
 PURE_PYTHON_ENV = "GANTRY_PURE_PYTHON"
@@ -44,24 +45,18 @@ def _libraries() -> tuple[Any, Any] | None:
         return None
     import mujoco
 
-    folder = Path(mujoco.__file__).parent
-    found = [
-        *folder.glob("libmujoco.so*"),
-        *folder.glob("libmujoco*.dylib"),
-        *folder.glob("mujoco.dll"),
-    ]
-    if not found or not hasattr(mujoco.MjData, "_address"):
+    lib = libmujoco()
+    if lib is None or not hasattr(mujoco.MjData, "_address"):
         return None
     ours = ctypes.CDLL(ext.__file__)
-    libmujoco = ctypes.CDLL(str(found[0]))
     ours.gantry_pd_ticks.argtypes = _ARGTYPES
     ours.gantry_pd_ticks.restype = ctypes.c_int
     ours.gantry_install_error_handler.argtypes = [_P]
     ours.gantry_last_error.restype = ctypes.c_char_p
-    slot = ctypes.c_void_p.in_dll(libmujoco, "mju_user_error")
+    slot = ctypes.c_void_p.in_dll(lib, "mju_user_error")
     if not ours.gantry_install_error_handler(ctypes.addressof(slot)):
         return None  # someone else handles MuJoCo's fatal errors: keep to the bindings' path
-    return ours, libmujoco
+    return ours, lib
 
 
 def available() -> bool:
@@ -86,11 +81,11 @@ def compiled_ticks(
     libs = None if pure_python else _libraries()
     if libs is None:
         return None
-    ours, libmujoco = libs
+    ours, lib = libs
     import mujoco
 
     model = gantry.model
-    step = ctypes.cast(libmujoco.mj_step, _P)
+    step = ctypes.cast(lib.mj_step, _P)
     c_long = np.dtype(f"i{ctypes.sizeof(ctypes.c_long)}")
     adr = np.asarray(gantry.qpos_adr, dtype=c_long)
     act = np.asarray(gantry.actuator_id, dtype=c_long)

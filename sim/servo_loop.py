@@ -26,6 +26,7 @@ import numpy as np
 from gantry_sim.controller.config import MachineConfig
 from gantry_sim.controller.servo import DiscretePD
 from gantry_sim.sim.machine import MM_PER_M, Gantry
+from gantry_sim.sim.mujoco_lib import timers_off
 from gantry_sim.sim.pd_ticks import compiled_ticks
 from gantry_sim.sim.stateful_ticks import StatefulTicks
 
@@ -78,6 +79,12 @@ class ServoLoop:
         """The next n ticks along the reference ``ref_joint_mm`` (n, 3) [mm, joint coordinates]
         with ``vel`` (n, 3) [mm/s] and ``acc`` (n, 3) [mm/s^2] -> (qpos (n, nq) at t_k [m or
         rad], held force (n, 3) per axis x, y, z [N])."""
+        with timers_off():  # MuJoCo's profiler reads the clock a few dozen times a step
+            return self._run(ref_joint_mm, vel, acc)
+
+    def _run(
+        self, ref_joint_mm: np.ndarray, vel: np.ndarray, acc: np.ndarray
+    ) -> tuple[np.ndarray, np.ndarray]:
         ref = np.asarray(ref_joint_mm, dtype=float).reshape(-1, 3)
         n = ref.shape[0]
         nq = self.gantry.model.nq
