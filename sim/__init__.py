@@ -11,6 +11,7 @@ entry point is :mod:`.api`):
     progress.py      per-stage progress bars on stderr (a terminal, or --progress)
     servo_loop.py    the servo loop around mj_step: one discrete PD tick, then physics substeps
     pd_ticks.py      the same PD ticks compiled (pd_ticks.c, optional at install), via ctypes
+    mujoco_lib.py    the bindings' libmujoco via ctypes; its profiler timers off while stepping
     stateful_ticks.py  the ticks of a law with an integral term or backlash (Python)
     stream.py        a run range by range: sample, simulate, analyse; nothing kept per tick
     analysis_worker.py  a streamed run's range analysis, in a worker process
