@@ -31,6 +31,7 @@ from gantry_sim.controller.gcode.lexer import (
     lex_line,
     split_lines,
     strip_line,
+    without_checksum,
     without_realtime,
 )
 from gantry_sim.controller.gcode.printer_codes import (
@@ -64,6 +65,7 @@ class Source:
     system_lines: bool = False
     own_lines: Callable[[str], str | None] | None = None
     realtime: bool = False
+    checksums: bool = False
     blocks: OrderedDict[int, Block | GcodeError] = field(default_factory=OrderedDict)
 
     def block(self, i: int) -> Block:
@@ -84,6 +86,8 @@ class Source:
 
     def _lex(self, i: int) -> Block:
         raw = without_realtime(self.lines[i]) if self.realtime else self.lines[i]
+        if self.checksums and "*" in raw:
+            raw = without_checksum(raw)
         kind = self.own_lines(raw) if self.own_lines is not None else None
         if kind == "quiet":
             return Block(i + 1, (), (), False, raw)
@@ -187,8 +191,9 @@ class Runner:
         owords: bool = True,
         own_lines: Callable[[str], str | None] | None = None,
         realtime: bool = False,
+        checksums: bool = False,
     ) -> None:
-        self.main = Source(file, split_lines(text), system_lines, own_lines, realtime)
+        self.main = Source(file, split_lines(text), system_lines, own_lines, realtime, checksums)
         self.owords = owords
         self.step = step
         self.params = params

@@ -98,6 +98,8 @@ class Dialect:
             above 0x7F out of the stream before a line is parsed (grbl's realtime commands:
             status, cycle start, feed hold, reset, and the extended-ASCII overrides), so they
             may stand anywhere in a line.
+        checksums: a ``*`` outside a comment ends the line (a host's checksum, ``N12 G1 X5*97``):
+            Marlin's parser cuts the line there (controller/gcode/lexer.py ``without_checksum``).
         g10_rotation: G10 L2 takes R (the XY rotation).
         coordinate_systems: how many of G54..G59.3 exist (grbl: 6).
         error_codes: (message fragment, firmware error number) pairs; the first match is
@@ -151,6 +153,7 @@ class Dialect:
     arc_needs_plane_axis_word: bool = False
     initial_motion: int | None = None
     realtime_characters: bool = False
+    checksums: bool = False
     g10_rotation: bool = True
     coordinate_systems: int = 9
     error_codes: tuple[tuple[str, int], ...] = ()
@@ -229,6 +232,7 @@ MARLIN = Dialect(
     own_lines="marlin",
     splines="marlin",
     g0_at_feed=True,
+    checksums=True,
 )
 
 LASERDYNE_ON_ARC_TOL_MM = 0.005

@@ -675,6 +675,7 @@ def interpret_events(
             owords=rules.language,
             own_lines=OWN_LINES.get(rules.own_lines),
             realtime=rules.realtime_characters,
+            checksums=rules.checksums,
         )
         runner.errors = errors
         runner.on_return = interp.sub_returned

@@ -152,6 +152,24 @@ def decode_program(data: bytes) -> str:
         return data.decode("latin-1")
 
 
+def without_checksum(raw: str) -> str:
+    """``raw`` as Marlin's parser reads it: cut at its first ``*`` outside a comment (the
+    checksum a host adds to a numbered line, ``N12 G1 X5 Y2*97``: GCodeParser::parse
+    "nullifies" the asterisk and what follows; a file printed from the SD card is read the
+    same way and its checksums are not checked)."""
+    in_comment = False
+    for k, ch in enumerate(raw):
+        if ch == ";":
+            return raw
+        if ch == "(":
+            in_comment = True
+        elif ch == ")":
+            in_comment = False
+        elif ch == "*" and not in_comment:
+            return raw[:k]
+    return raw
+
+
 def without_realtime(raw: str) -> str:
     """``raw`` as grbl's parser receives it: realtime characters taken out of the stream."""
     return _REALTIME.sub("", raw)
