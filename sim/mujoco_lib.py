@@ -16,6 +16,7 @@ from __future__ import annotations
 
 import ctypes
 import functools
+import threading
 from collections.abc import Iterator
 from contextlib import contextmanager
 from pathlib import Path
@@ -56,19 +57,33 @@ def _time_slot() -> Any | None:
         return None
 
 
+#: Threads inside :func:`timers_off` (loops of a sweep's threads may overlap) and the
+#: callback the first of them cleared, given back by the last to leave.
+_LOCK = threading.Lock()
+_inside = 0
+_saved: int | None = None
+
+
 @contextmanager
 def timers_off() -> Iterator[None]:
-    """MuJoCo's profiler timers off inside (``mjcb_time`` cleared, given back on leaving;
-    nothing is done where the global is not found or a Python time callback is set)."""
+    """MuJoCo's profiler timers off inside (``mjcb_time`` cleared, given back when the last
+    thread inside leaves; nothing is done where the global is not found or a Python time
+    callback is set)."""
     import mujoco
 
+    global _inside, _saved
     slot = _time_slot()
     if slot is None or mujoco.get_mjcb_time() is not None:
         yield
         return
-    saved = slot.value
-    slot.value = None
+    with _LOCK:
+        if _inside == 0:
+            _saved, slot.value = slot.value, None
+        _inside += 1
     try:
         yield
     finally:
-        slot.value = saved
+        with _LOCK:
+            _inside -= 1
+            if _inside == 0:
+                slot.value = _saved

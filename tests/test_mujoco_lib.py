@@ -4,6 +4,7 @@ nothing of the physics (sim/mujoco_lib.py)."""
 from __future__ import annotations
 
 import sys
+import threading
 
 import mujoco
 import numpy as np
@@ -57,6 +58,34 @@ def test_timers_given_back_when_the_body_raises() -> None:
     before = slot.value
     with pytest.raises(RuntimeError), timers_off():
         raise RuntimeError("stop")
+    assert slot.value == before
+
+
+def test_overlapping_threads_give_the_timers_back_when_the_last_one_leaves() -> None:
+    slot = _time_slot()
+    before = slot.value
+    first_in, second_in, first_out = threading.Event(), threading.Event(), threading.Event()
+    seen: list[int | None] = []
+
+    def first() -> None:
+        with timers_off():
+            first_in.set()
+            second_in.wait(5)
+        first_out.set()
+
+    def second() -> None:
+        first_in.wait(5)
+        with timers_off():
+            second_in.set()
+            first_out.wait(5)
+            seen.append(slot.value)  # the first thread has left: still off for this one
+
+    threads = [threading.Thread(target=first), threading.Thread(target=second)]
+    for t in threads:
+        t.start()
+    for t in threads:
+        t.join(10)
+    assert seen == [None]
     assert slot.value == before
 
 
