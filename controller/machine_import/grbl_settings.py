@@ -33,7 +33,9 @@ from pathlib import Path
 from gantry_sim.controller.errors import ConfigError
 from gantry_sim.controller.machine_import.common import Imported, Target, fit_travel, read_text
 
-_LINE = re.compile(r"^\$(\d+)\s*=\s*([^\s(]+)\s*(?:\(.*\))?\s*$")
+#: a setting line; possessive quantifiers: with the comment absent, two ``\s*`` in a row tried
+#: every split of a run of spaces (quadratic in its length) before refusing the line
+_LINE = re.compile(r"^\$(\d++)\s*+=\s*+([^\s(]++)\s*+(?:\(.*\))?\s*+$")
 _NOT_MAPPED = {
     0: "step pulse time", 1: "step idle delay", 2: "step port invert", 3: "direction invert",
     4: "step enable invert", 5: "limit pins invert", 6: "probe pin invert",

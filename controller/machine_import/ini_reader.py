@@ -17,7 +17,9 @@ from pathlib import Path
 from gantry_sim.controller.errors import ConfigError
 
 _SECTION = re.compile(r"^\[([^\]]+)\]\s*$")
-_KEY = re.compile(r"^([A-Za-z0-9_]+)\s*=\s*(.*?)\s*$")
+#: a key line; its value is group 2 stripped (``(.*?)\s*$`` tried every end of a run of
+#: spaces from every start in it: quadratic in the run's length)
+_KEY = re.compile(r"^([A-Za-z0-9_]++)\s*+=(.*)$")
 
 
 @dataclass(frozen=True)
@@ -100,7 +102,7 @@ def parse_ini(text: str, path: str, _depth: int = 0, _into: IniFile | None = Non
         elif section is None:
             raise ConfigError(f"not inside a [SECTION]: {line[:60]!r}", file=path, line=number)
         elif m := _KEY.match(line):
-            ini.sections[section].setdefault(m.group(1), (m.group(2), path, number))
+            ini.sections[section].setdefault(m.group(1), (m.group(2).strip(), path, number))
         else:
             ini.bad.setdefault(section, (line, path, number))
     if _depth == 0 and not ini.sections:

@@ -30,7 +30,11 @@ WORK_PARAMETERS = {
     "g28_mm": 5161,
     "g30_mm": 5181,
 }
-_PARAM_LINE = re.compile(r"^\s*(\d+)\s+([-+]?(?:\d+\.?\d*|\.\d+)(?:[eE][-+]?\d+)?)\s*$")
+#: a parameter line; possessive quantifiers (``*+``, ``++``): a line it refuses fails in linear
+#: time (``\d+\.?\d*`` splits a run of digits as many ways as it has digits)
+_PARAM_LINE = re.compile(
+    r"^\s*+(\d++)\s++([-+]?+(?:\d++(?:\.\d*+)?+|\.\d++)(?:[eE][-+]?+\d++)?+)\s*+$"
+)
 _SYSTEM_NAMES = ("G54", "G55", "G56", "G57", "G58", "G59", "G59.1", "G59.2", "G59.3")
 
 
