@@ -16,7 +16,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-from gantry_sim.controller.errors import ConfigError
+from gantry_sim.controller.errors import ConfigError, shown
 from gantry_sim.controller.machine_work import NO_WORK, WORK_SECTIONS, WorkSetup, take_work_sections
 from gantry_sim.controller.planes import Vec3
 
@@ -271,9 +271,7 @@ def _check(section: str, key: str, value: Any, file: str) -> Any:
     try:
         return keys[key](value)
     except ValueError as exc:
-        shown = repr(value)
-        shown = shown if len(shown) <= 40 else shown[:37] + "..."
-        raise ConfigError(f"[{section}] {key} = {shown}: must be {exc}", file=file) from None
+        raise ConfigError(f"[{section}] {key} = {shown(value)}: must be {exc}", file=file) from None
 
 
 def _read_toml(path: Path) -> dict[str, Any]:

@@ -63,3 +63,14 @@ class PlannerFailure(RuntimeError):
     def __init__(self, message: str, line: int) -> None:
         super().__init__(f"line {line}: {message}")
         self.line = line
+
+
+#: Characters of a value's repr a message quotes at most (:func:`shown`).
+SHOWN_CHARS = 40
+
+
+def shown(value: object, limit: int = SHOWN_CHARS) -> str:
+    """``repr(value)`` for an error message, cut to ``limit`` characters with ``...`` (a
+    hostile file's value may be a megabyte long)."""
+    text = repr(value)
+    return text if len(text) <= limit else text[: limit - 3] + "..."

@@ -23,7 +23,7 @@ import math
 from dataclasses import dataclass, replace
 from typing import Any
 
-from gantry_sim.controller.errors import ConfigError
+from gantry_sim.controller.errors import ConfigError, shown
 from gantry_sim.controller.gcode.parameters import (
     G28_HOME,
     G30_HOME,
@@ -110,7 +110,7 @@ def _vec(value: Any, where: str, file: str) -> Vec3:
     ok = ok and all(not isinstance(v, bool) and isinstance(v, (int, float)) for v in value)
     if not ok or not all(math.isfinite(v) and abs(v) < MAX_MM for v in value):
         raise ConfigError(
-            f"{where} = {value!r}: must be a list of 3 finite numbers [x, y, z] in mm, "
+            f"{where} = {shown(value)}: must be a list of 3 finite numbers [x, y, z] in mm, "
             f"each |v| < {MAX_MM:g}",
             file=file,
         )
@@ -122,7 +122,9 @@ def _number(value: Any, where: str, file: str, minimum: float | None) -> float:
     ok = ok and abs(value) < MAX_MM and (minimum is None or value >= minimum)
     if not ok:
         bound = "" if minimum is None else f", >= {minimum:g}"
-        raise ConfigError(f"{where} = {value!r}: must be a finite number [mm]{bound}", file=file)
+        raise ConfigError(
+            f"{where} = {shown(value)}: must be a finite number [mm]{bound}", file=file
+        )
     return float(value)
 
 

@@ -157,6 +157,18 @@ def test_include_and_continuation_lines(tmp_path):
             "expected a number",
         ),
         ("linuxcnc", "MAX_VELOCITY = 1\n", ":1: error:", "not inside a [SECTION]"),
+        (  # a megabyte of value: the message quotes 40 characters of it
+            "linuxcnc",
+            "[TRAJ]\nLINEAR_UNITS = mm" + " " * 10**6 + "x\n[AXIS_X]\nMAX_VELOCITY = 1\n",
+            ":2: error:",
+            "   ...: expected one of mm, metric",
+        ),
+        (
+            "linuxcnc",
+            "[AXIS_X]\nMAX_VELOCITY = 1" + "9" * 10**6 + "x\n",
+            ":2: error:",
+            "9...: expected a number",
+        ),
         ("linuxcnc", "[EMC]\n#INCLUDE nosuch.inc\n", ":2: error:", "#INCLUDE nosuch.inc"),
         ("linuxcnc", "[EMC]\nMACHINE = x\n", ": error:", "not a LinuxCNC machine configuration"),
     ],
@@ -167,6 +179,7 @@ def test_malformed_inputs_exit_2_with_file_and_line(tmp_path, capsys, fmt, text,
     assert main(["machine", "import", fmt, str(path)]) == 2
     err = capsys.readouterr().err
     assert f"{path}{where}" in err and what in err and "Traceback" not in err
+    assert len(err) < 500 + len(str(path))
 
 
 def test_unreadable_inputs_exit_2(tmp_path, capsys):

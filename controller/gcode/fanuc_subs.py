@@ -16,9 +16,7 @@ from gantry_sim.controller.gcode.lexer import Block
 
 #: a bare O-number line; possessive quantifiers: with no ``/`` or no comment, two ``\s*`` in a
 #: row tried every split of a run of spaces, quadratic in its length on every line searched
-_BARE_O = re.compile(
-    r"^\s*+/?+\s*+(?:[nN]\s*+\d++\s*+)?+[oO]\s*+(\d++)\s*+(?:\(.*\)|;.*)?\s*+$"
-)
+_BARE_O = re.compile(r"^\s*+/?+\s*+(?:[nN]\s*+\d++\s*+)?+[oO]\s*+(\d++)\s*+(?:\(.*\)|;.*)?\s*+$")
 
 
 def fanuc_code(block: Block) -> int | None:

@@ -14,7 +14,7 @@ import re
 from dataclasses import dataclass
 from pathlib import Path
 
-from gantry_sim.controller.errors import ConfigError
+from gantry_sim.controller.errors import ConfigError, shown
 
 _SECTION = re.compile(r"^\[([^\]]+)\]\s*$")
 #: a key line; its value is group 2 stripped (``(.*?)\s*$`` tried every end of a run of
@@ -47,7 +47,7 @@ class IniFile:
             value = math.nan
         if not math.isfinite(value):
             raise ConfigError(
-                f"[{section}] {key} = {text!r}: expected a number", file=file, line=line
+                f"[{section}] {key} = {shown(text)}: expected a number", file=file, line=line
             )
         return value
 

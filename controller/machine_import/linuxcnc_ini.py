@@ -31,7 +31,7 @@ import math
 import re
 from pathlib import Path
 
-from gantry_sim.controller.errors import ConfigError
+from gantry_sim.controller.errors import ConfigError, shown
 from gantry_sim.controller.machine_import.common import (
     AXES,
     Imported,
@@ -70,7 +70,7 @@ def _mm_per_unit(text: str, file: str, line: int) -> float:
         per_mm = math.nan
     if not (math.isfinite(per_mm) and per_mm > 0):
         raise ConfigError(
-            f"[TRAJ] LINEAR_UNITS = {text!r}: expected one of {', '.join(UNITS_MM)} or units per mm",
+            f"[TRAJ] LINEAR_UNITS = {shown(text)}: expected one of {', '.join(UNITS_MM)} or units per mm",
             file=file,
             line=line,
         )

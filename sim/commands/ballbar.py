@@ -14,7 +14,7 @@ import math
 import sys
 from pathlib import Path
 
-from gantry_sim.controller.errors import ConfigError
+from gantry_sim.controller.errors import ConfigError, shown
 from gantry_sim.sim.commands.common import (
     DEFAULT_OUT,
     add_budget,
@@ -95,7 +95,7 @@ def parse_centre(text: str | None, plane: str) -> tuple[float, float, float]:
         values = []
     if len(values) not in (2, 3) or not all(math.isfinite(v) for v in values):
         raise ConfigError(
-            f"{text!r} must be two numbers A,B (the {plane} plane's coordinates) or three X,Y,Z",
+            f"{shown(text)} must be two numbers A,B (the {plane} plane's coordinates) or three X,Y,Z",
             file="--centre",
         )
     if len(values) == 3:

@@ -6,6 +6,7 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
+from gantry_sim.controller.errors import shown
 from gantry_sim.controller.gcode.dialects import DIALECTS
 from gantry_sim.sim.program import read_program as read_program  # the commands read through it
 
@@ -49,7 +50,7 @@ def work_offset(text: str) -> tuple[float, float, float]:
         values = []
     if len(values) != 3 or not all(math.isfinite(v) and abs(v) < 1e6 for v in values):
         raise argparse.ArgumentTypeError(
-            f"expected X,Y,Z in mm (three finite numbers, |v| < 1e6), got {text!r}"
+            f"expected X,Y,Z in mm (three finite numbers, |v| < 1e6), got {shown(text)}"
         )
     return (values[0], values[1], values[2])
 
@@ -102,7 +103,7 @@ def positive_int(text: str) -> int:
     except ValueError:
         value = 0
     if value < 1:
-        raise argparse.ArgumentTypeError(f"expected an integer >= 1, got {text!r}")
+        raise argparse.ArgumentTypeError(f"expected an integer >= 1, got {shown(text)}")
     return value
 
 
