@@ -72,5 +72,10 @@ SHOWN_CHARS = 40
 def shown(value: object, limit: int = SHOWN_CHARS) -> str:
     """``repr(value)`` for an error message, cut to ``limit`` characters with ``...`` (a
     hostile file's value may be a megabyte long)."""
-    text = repr(value)
+    return cut(repr(value), limit)
+
+
+def cut(text: str, limit: int = SHOWN_CHARS) -> str:
+    """``text`` (a name, a word) for an error message, cut to ``limit`` characters with
+    ``...``."""
     return text if len(text) <= limit else text[: limit - 3] + "..."

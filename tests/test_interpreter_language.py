@@ -51,6 +51,21 @@ def test_huge_and_undefined_values_are_clean_errors(text: str) -> None:
     assert err.line == 1 and str(err).startswith("p.ngc:1: error: ")
 
 
+@pytest.mark.parametrize(
+    ("text", "quoted"),
+    [
+        ("G0 X" + "1." * 50_000, "bad number format '1.1.1."),
+        ("G0 X#<" + "b" * 100_000 + ">", "named parameter #<bbbb"),
+        ("o<" + "a" * 100_000 + "> call", "subroutine o<aaaa"),
+        ("o" + "7" * 300 + " sub x", "after o777"),
+    ],
+)
+def test_a_hostile_word_is_quoted_short(text: str, quoted: str) -> None:
+    # a megabyte-long word made a megabyte-long message: it is quoted to 40 characters
+    err = error_of(text + "\nM2\n")
+    assert len(str(err)) < 300 and quoted in str(err) and "..." in str(err)
+
+
 def test_deep_nesting_is_refused_not_a_recursion_error() -> None:
     err = error_of("G0 X" + "[" * 2000 + "1" + "]" * 2000 + "\nM2\n")
     assert "nested" in err.message

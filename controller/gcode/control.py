@@ -20,7 +20,7 @@ from collections.abc import Callable, Iterator
 from dataclasses import dataclass, field, replace
 from pathlib import Path
 
-from gantry_sim.controller.errors import GcodeError
+from gantry_sim.controller.errors import GcodeError, cut
 from gantry_sim.controller.gcode.expressions import evaluate
 from gantry_sim.controller.gcode.fanuc_subs import fanuc_code, find_program
 from gantry_sim.controller.gcode.lexer import (
@@ -518,7 +518,7 @@ class Runner:
                 found = path.is_file()
             except OSError as exc:  # a name longer than the file system allows, ...
                 raise GcodeError(
-                    f"subroutine o{_show(name[:40])}{'...' if len(name) > 40 else ''} cannot be "
+                    f"subroutine o{_show(cut(name))} cannot be "
                     f"looked up as a file in {folder}: {exc.strerror}"
                 ) from None
             if found:
@@ -530,12 +530,13 @@ class Runner:
                 sub_src = Source(str(path), split_lines(text))
                 at = sub_src.find(0, name, ("sub",))
                 if at is None:
-                    raise GcodeError(f"subroutine file {path} has no o<{name}> sub line")
+                    raise GcodeError(f"subroutine file {path} has no o<{cut(name)}> sub line")
                 self.subs[name] = (sub_src, at)
                 return sub_src, at
         where = ", ".join(str(p) for p in self.search_path) or "no search path"
         raise GcodeError(
-            f"subroutine o{_show(name)} not found: not defined in the program and no {name}.ngc "
+            f"subroutine o{_show(cut(name))} not found: not defined in the program and no "
+            f"{cut(name)}.ngc "
             f"in the subroutine path ({where}); add --subroutine-path DIR"
         )
 

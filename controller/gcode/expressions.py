@@ -18,7 +18,7 @@ import math
 import re
 from typing import Protocol
 
-from gantry_sim.controller.errors import GcodeError
+from gantry_sim.controller.errors import GcodeError, shown
 
 Tree = tuple
 
@@ -134,7 +134,9 @@ class Reader:
         self.pos = _NUMBER.match(self.text, start).end()  # type: ignore[union-attr]
         raw = self.text[start : self.pos]
         if raw.count(".") > 1:
-            raise GcodeError(f"bad number format {raw!r}; expected digits with at most one '.'")
+            raise GcodeError(
+                f"bad number format {shown(raw)}; expected digits with at most one '.'"
+            )
         if raw == ".":
             raise GcodeError("bad number format '.'; expected at least one digit")
         value = float(raw)

@@ -18,7 +18,7 @@ import re
 from collections.abc import Iterator
 from dataclasses import dataclass
 
-from gantry_sim.controller.errors import GcodeError
+from gantry_sim.controller.errors import GcodeError, cut
 from gantry_sim.controller.gcode.expressions import MAX_MAGNITUDE, Reader, Tree
 
 #: what a comment leaves in a stripped line: words may not be split by it (rs274: ``X(c)1`` is an
@@ -294,7 +294,7 @@ def _oword(reader: Reader) -> OWord | None:
             args.append(reader.expression())
         else:
             raise GcodeError(
-                f"unexpected {reader.peek()!r} after o{name} {keyword.lower()}; an O-word line "
+                f"unexpected {reader.peek()!r} after o{cut(name)} {keyword.lower()}; an O-word line "
                 "holds only its keyword and [bracketed] values"
             )
     return OWord(name, keyword.lower(), tuple(args))

@@ -12,7 +12,7 @@ from __future__ import annotations
 
 from collections.abc import Callable
 
-from gantry_sim.controller.errors import GcodeError
+from gantry_sim.controller.errors import GcodeError, cut
 
 #: rs274's parameter table: #1..#5601 can be read; #1..#5399 can be set (#5400+ are read-only).
 MAX_PARAMETER = 5601
@@ -94,7 +94,9 @@ class Parameters:
     def named(self, name: str) -> float:
         value = self._lookup(name)
         if value is None:
-            raise GcodeError(f"named parameter #<{name}> not defined; set it before reading it")
+            raise GcodeError(
+                f"named parameter #<{cut(name)}> not defined; set it before reading it"
+            )
         return value
 
     def exists(self, name: str) -> bool:
@@ -114,7 +116,7 @@ class Parameters:
     def set_named(self, name: str, value: float) -> None:
         if name.startswith("_"):
             if self.predefined(name) is not None:
-                raise GcodeError(f"#<{name}> is a read-only predefined parameter")
+                raise GcodeError(f"#<{cut(name)}> is a read-only predefined parameter")
             self.globals[name] = value
         else:
             self.scopes[-1][name] = value
