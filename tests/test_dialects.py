@@ -213,13 +213,14 @@ def test_marlin_cuts_a_line_at_its_checksum() -> None:
     # comment stays a comment; rs274 and grbl read '*' as a bad character
     text = (
         "G21 G90\nN1 G1 X10 Y5 F1200*89\nN2 G1 X12.5 Y5 *33 ; c*x\nN3 G1 X1 (a*b) Y2*12\n"
-        "N4 M117 hi*45\nN5 G1 X3*\nM2\n"
+        "N4 M117 hi*45\nN5 G1 X3*\nN6 G1 X4 (a;b) *7 Y9\nM2\n"
     )
-    plain = "G21 G90\nG1 X10 Y5 F1200\nG1 X12.5 Y5\nG1 X1 Y2\nM117 hi\nG1 X3\nM2\n"
+    plain = "G21 G90\nG1 X10 Y5 F1200\nG1 X12.5 Y5\nG1 X1 Y2\nM117 hi\nG1 X3\nG1 X4\nM2\n"
     assert [(m.line, m.end, m.feed_mm_per_min) for m in run(text, "marlin")] == [
         (m.line, m.end, m.feed_mm_per_min) for m in run(plain, "marlin")
     ] == [(2, (10.0, 5.0, 0.0), 1200.0), (3, (12.5, 5.0, 0.0), 1200.0),
-          (4, (1.0, 2.0, 0.0), 1200.0), (6, (3.0, 2.0, 0.0), 1200.0)]  # fmt: skip
+          (4, (1.0, 2.0, 0.0), 1200.0), (6, (3.0, 2.0, 0.0), 1200.0),
+          (7, (4.0, 2.0, 0.0), 1200.0)]  # fmt: skip
     for other in ("linuxcnc", "grbl"):
         err = error_of(text, other)
         assert err.line == 2 and "bad character '*'" in err.message

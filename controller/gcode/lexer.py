@@ -159,13 +159,13 @@ def without_checksum(raw: str) -> str:
     same way and its checksums are not checked)."""
     in_comment = False
     for k, ch in enumerate(raw):
-        if ch == ";":
-            return raw
-        if ch == "(":
+        if in_comment:
+            in_comment = ch != ")"
+        elif ch == "(":
             in_comment = True
-        elif ch == ")":
-            in_comment = False
-        elif ch == "*" and not in_comment:
+        elif ch == ";":
+            return raw
+        elif ch == "*":
             return raw[:k]
     return raw
 
