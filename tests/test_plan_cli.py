@@ -37,7 +37,7 @@ def test_plan_prints_the_contract_and_writes_the_trajectory(
     assert summary["servo_period_s"] == machine.servo.period_s
     assert summary["limits"] == machine.limits.to_json()
     data = np.load(out)
-    assert set(data.files) == {"t", "pos", "vel", "acc", "line"}
+    assert set(data.files) == {"t", "pos", "vel", "acc", "line", "feed_mm_per_min"}
     n = data["t"].size
     assert data["pos"].shape == data["vel"].shape == data["acc"].shape == (n, 3)
     assert np.allclose(np.diff(data["t"]), machine.servo.period_s)
@@ -45,6 +45,29 @@ def test_plan_prints_the_contract_and_writes_the_trajectory(
     assert np.array_equal(data["pos"][-1], [0.0, 30.0, 0.0]) and not data["vel"][-1].any()
     assert list(np.unique(data["line"])) == [2, 3, 4, 5, 6]
     assert not list(tmp_path.glob(".*"))  # no temporary file left behind
+
+
+def test_the_npz_gives_each_sample_the_feed_that_bounds_its_speed(write_program, tmp_path):
+    # a rapid, feeds of 300/3000/1200/6000 mm/min blended at their corners, a dwell, and a
+    # canned cycle whose rapids and feeds share its lines: the speed never passes the feed
+    # given, and rapids have none (a checker reading only "line" would take a G81's rapid for
+    # its feed move)
+    text = (
+        "G21 G90 G17 G64 P0.01\nG0 X0 Y0 Z5\nG1 Z-1 F300\nG1 X20 F3000\nG1 X40 Y3 F1200\n"
+        "G4 P0.2\nG1 X0 F6000\nG0 Z5\nG81 X10 Y10 Z-2 R1 F200\nX15\nG80\nM2\n"
+    )
+    out = tmp_path / "traj.npz"
+    assert main(["plan", str(write_program(text)), "--out", str(out)]) == 0
+    data = np.load(out)
+    feed, speed = data["feed_mm_per_min"], np.linalg.norm(data["vel"], axis=1)
+    fed = np.isfinite(feed)
+    assert set(np.unique(feed[fed])) == {200.0, 300.0, 1200.0, 3000.0, 6000.0}
+    assert (speed[fed] <= feed[fed] / 60.0 * (1 + 1e-12)).all()
+    assert speed[~fed].max() > 6000.0 / 60.0  # the rapids: faster than any feed
+    g81 = data["line"] == 9
+    assert np.isfinite(feed[g81]).any() and not np.isfinite(feed[g81]).all()
+    corner = (data["line"] == 4) & (feed == 1200.0)  # the blend into the slower move
+    assert corner.any() and (data["line"] == 4).sum() > corner.sum()
 
 
 def test_program_outside_travel_exits_2_with_line(write_program, tmp_path, capsys):

@@ -9,7 +9,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from gantry_sim.controller.errors import ConfigError
-from gantry_sim.controller.moves import Move, PathMove
+from gantry_sim.controller.moves import Move, PathMove, Rapid
 from gantry_sim.controller.planner.blend import Blend
 from gantry_sim.controller.planner.cubic import PiecewiseCubic
 from gantry_sim.controller.planner.path_control import Merge
@@ -68,6 +68,27 @@ class Plan:
         """The reference every ``period_s`` [s] from 0 to the end; the last sample is at rest at
         the program's end exactly (time ceil(duration / period) * period)."""
         return self.sample_range(period_s, 0, self.sample_count(period_s))
+
+    def feeds_mm_per_min(self, source: np.ndarray) -> np.ndarray:
+        """Per sample (``source`` (n, 2): :attr:`Trajectory.source`, the program moves each
+        sample comes from), the programmed feed [mm/min] that bounds its path speed: the
+        smallest feed of those moves (a blend between two moves runs at the smaller feed; a
+        dwell's samples, at rest, get the smaller of its two moves'); NaN where no feed applies
+        (a rapid, or no move)."""
+        feed = np.fromiter(
+            (np.nan if isinstance(m, Rapid) else m.feed_mm_per_min for m in self.moves),
+            dtype=float,
+            count=len(self.moves),
+        )
+        src = np.asarray(source, dtype=np.int64).reshape(-1, 2)
+        if not len(src):
+            return np.empty(0)
+        pairs, inverse = np.unique(src, axis=0, return_inverse=True)
+        per_pair = np.full(len(pairs), np.nan)
+        for k, (a, b) in enumerate(pairs.tolist()):
+            if 0 <= a <= b < len(feed):
+                per_pair[k] = feed[a : b + 1].min()  # NaN when one of them is a rapid
+        return per_pair[inverse.reshape(-1)]
 
     def sample_count(self, period_s: float) -> int:
         """How many samples :meth:`sample` takes every ``period_s`` [s]."""

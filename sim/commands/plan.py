@@ -36,7 +36,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         default=None,
         metavar="TRAJ.npz",
         help="write the reference sampled every servo period: arrays t, pos, vel, acc, line "
-        "(a new file, or a regular file that is replaced atomically)",
+        "and feed_mm_per_min (the programmed feed bounding each sample's path speed, NaN on "
+        "rapids) (a new file, or a regular file that is replaced atomically)",
     )
     add_budget(parser, steps=False)
 
@@ -104,7 +105,11 @@ def run(args: argparse.Namespace) -> int:
     period = machine.servo.period_s
     if args.out is not None:  # the samples' memory: the same bound as a simulation's
         check_budget(result, machine, Budget(budget.max_sim_s, float("inf")), file)
-        write_npz_atomically(args.out, result.sample(period).to_npz_dict())
+        traj = result.sample(period)
+        arrays = traj.to_npz_dict()
+        if traj.source is not None:
+            arrays["feed_mm_per_min"] = result.feeds_mm_per_min(traj.source)
+        write_npz_atomically(args.out, arrays)
     summary = {
         "duration_s": result.duration_s,
         "moves": len(result.moves),
