@@ -73,10 +73,14 @@ class Plan:
         """Per sample (``source`` (n, 2): :attr:`Trajectory.source`, the program moves each
         sample comes from), the programmed feed [mm/min] that bounds its path speed: the
         smallest feed of those moves (a blend between two moves runs at the smaller feed; a
-        dwell's samples, at rest, get the smaller of its two moves'); NaN where no feed applies
-        (a rapid, or no move)."""
+        dwell's samples, at rest, get the smaller of its two moves'); moves of no length (a
+        printer's E-only retraction) bound nothing; NaN where no feed applies (a rapid, or no
+        move)."""
         feed = np.fromiter(
-            (np.nan if isinstance(m, Rapid) else m.feed_mm_per_min for m in self.moves),
+            (
+                np.nan if isinstance(m, Rapid) else m.feed_mm_per_min if m.length_mm > 0 else np.inf
+                for m in self.moves
+            ),
             dtype=float,
             count=len(self.moves),
         )
@@ -88,6 +92,7 @@ class Plan:
         for k, (a, b) in enumerate(pairs.tolist()):
             if 0 <= a <= b < len(feed):
                 per_pair[k] = feed[a : b + 1].min()  # NaN when one of them is a rapid
+        per_pair[np.isinf(per_pair)] = np.nan  # only moves of no length
         return per_pair[inverse.reshape(-1)]
 
     def sample_count(self, period_s: float) -> int:
