@@ -19,7 +19,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-from gantry_sim.controller.errors import ConfigError
+from gantry_sim.controller.errors import ConfigError, shown
 from gantry_sim.sim.gates import MAX_LINES_LISTED
 
 #: default margins (``gantry compare --help``)
@@ -109,18 +109,18 @@ def _schema_problem(data: dict[str, Any]) -> str:
     number, each block an object with an integer line, a number max_error_um and time_s a
     number or null."""
     if not _number(data["cycle_time_s"]):
-        return f"cycle_time_s is {data['cycle_time_s']!r}, not a number [s]"
+        return f"cycle_time_s is {shown(data['cycle_time_s'])}, not a number [s]"
     if not isinstance(data["blocks"], list):
         return "blocks is not a list"
     for i, b in enumerate(data["blocks"]):
         if not isinstance(b, dict):
             return f"blocks[{i}] is not an object"
         if not (isinstance(b.get("line"), int) and not isinstance(b.get("line"), bool)):
-            return f"blocks[{i}].line is {b.get('line')!r}, not a line number"
+            return f"blocks[{i}].line is {shown(b.get('line'))}, not a line number"
         if not _number(b.get("max_error_um")):
-            return f"blocks[{i}].max_error_um is {b.get('max_error_um')!r}, not a number [um]"
+            return f"blocks[{i}].max_error_um is {shown(b.get('max_error_um'))}, not a number [um]"
         if b.get("time_s") is not None and not _number(b["time_s"]):
-            return f"blocks[{i}].time_s is {b['time_s']!r}, not a number [s] or null"
+            return f"blocks[{i}].time_s is {shown(b['time_s'])}, not a number [s] or null"
     return ""
 
 

@@ -138,6 +138,8 @@ GOOD = {"cycle_time_s": 1.0, "blocks": [{"line": 2, "kind": "linear", "max_error
         ({"cycle_time_s": "1", "blocks": []}, "not a number"),
         ({"cycle_time_s": 1.0, "blocks": [{"line": 2, "max_error_um": "big"}]}, "max_error_um"),
         ({"cycle_time_s": 1.0, "blocks": [{"line": 2.5, "max_error_um": 1.0}]}, ".line is 2.5"),
+        # a megabyte of value: quoted to 40 characters
+        ({"cycle_time_s": 1.0, "blocks": [{"line": "a" * 10**6}]}, ".line is 'aaaa"),
     ],
 )
 def test_a_report_of_the_wrong_shape_exits_2_naming_it(tmp_path, capsys, bad, fragment):
@@ -148,4 +150,5 @@ def test_a_report_of_the_wrong_shape_exits_2_naming_it(tmp_path, capsys, bad, fr
     assert main(["compare", str(good), str(wrong)]) == 2
     err = capsys.readouterr().err
     assert err.startswith(f"{wrong}: error: not a gantry report.json (") and fragment in err, err
+    assert len(err) < 200 + len(str(wrong))
     assert main(["compare", str(good), str(good)]) == 0
