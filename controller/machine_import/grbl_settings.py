@@ -30,7 +30,7 @@ import math
 import re
 from pathlib import Path
 
-from gantry_sim.controller.errors import ConfigError
+from gantry_sim.controller.errors import ConfigError, shown
 from gantry_sim.controller.machine_import.common import Imported, Target, fit_travel, read_text
 
 #: a setting line; possessive quantifiers: with the comment absent, two ``\s*`` in a row tried
@@ -82,7 +82,7 @@ def parse_settings(text: str, path: str) -> dict[int, tuple[float, int]]:
         m = _LINE.match(line)
         if m is None:
             raise ConfigError(
-                f"not a grbl setting line (expected $N=VALUE): {line[:60]!r}",
+                f"not a grbl setting line (expected $N=VALUE): {shown(line, 60)}",
                 file=path,
                 line=number,
             )

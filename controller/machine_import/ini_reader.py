@@ -100,7 +100,7 @@ def parse_ini(text: str, path: str, _depth: int = 0, _into: IniFile | None = Non
             section = m.group(1).strip()
             ini.sections.setdefault(section, {})
         elif section is None:
-            raise ConfigError(f"not inside a [SECTION]: {line[:60]!r}", file=path, line=number)
+            raise ConfigError(f"not inside a [SECTION]: {shown(line, 60)}", file=path, line=number)
         elif m := _KEY.match(line):
             ini.sections[section].setdefault(m.group(1), (m.group(2).strip(), path, number))
         else:

@@ -113,7 +113,7 @@ def import_linuxcnc(path: Path, target: Target) -> Imported:
         assumed.append("[TRAJ] LINEAR_UNITS not set: taken as mm")
     for name, (text, file, line) in ini.bad.items():
         assumed.append(
-            f"{file}:{line}: [{name}] {text[:40]!r} is not KEY = VALUE: skipped (as LinuxCNC does)"
+            f"{file}:{line}: [{name}] {shown(text)} is not KEY = VALUE: skipped (as LinuxCNC does)"
         )
     coords = _coordinates(ini)
     traj_v = ini.number("TRAJ", "MAX_LINEAR_VELOCITY")
