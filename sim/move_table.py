@@ -121,16 +121,17 @@ def move_table(moves: Sequence[PathMove], cum_len: np.ndarray | None = None) -> 
         turns[j] = math.ceil(mv.angle / (2.0 * math.pi))
         newton[j] = h1 != h0 or r1 != r0
         arc_boxes.append(_arc_box(mv, i1, i2, theta0, sigma, r0, r1))
-    if arc_rows:  # the arcs' fields and boxes written at once (min and max are exact)
-        at = np.array(arc_rows, dtype=np.intp)
-        for name, column in zip(_ARC_FIELDS, np.array(arc_cols).T, strict=True):
-            cols[name][at] = column
-        boxes = np.array(arc_boxes).reshape(-1, 2, 3)
-        box_lo[at] = np.minimum(box_lo[at], boxes[:, 0])
-        box_hi[at] = np.maximum(box_hi[at], boxes[:, 1])
+    arcs = np.array(arc_rows, dtype=np.intp)
+    is_arc = np.zeros(m, dtype=bool)
+    is_arc[arcs] = True
     arc_start = start.copy()
-    arcs = np.flatnonzero([isinstance(mv, Arc) for mv in moves])
-    if arcs.size:  # arc_points at u = 0, the same operations vectorised
+    if arcs.size:  # the arcs' fields and boxes written at once (min and max are exact)
+        for name, column in zip(_ARC_FIELDS, np.array(arc_cols).T, strict=True):
+            cols[name][arcs] = column
+        boxes = np.array(arc_boxes).reshape(-1, 2, 3)
+        box_lo[arcs] = np.minimum(box_lo[arcs], boxes[:, 0])
+        box_hi[arcs] = np.maximum(box_hi[arcs], boxes[:, 1])
+        # arc_points at u = 0, the same operations vectorised
         u0 = np.zeros(arcs.size)
         theta = cols["theta0"][arcs] + cols["s_angle"][arcs] * u0
         r = cols["r0"][arcs] + cols["dr"][arcs] * u0
@@ -143,7 +144,7 @@ def move_table(moves: Sequence[PathMove], cum_len: np.ndarray | None = None) -> 
     return MoveTable(
         line=np.array([mv.line for mv in moves], dtype=np.int64),
         feed=np.array([mv.kind != "rapid" for mv in moves], dtype=bool),
-        arc=np.array([isinstance(mv, Arc) for mv in moves], dtype=bool),
+        arc=is_arc,
         start=start,
         end=end,
         seg_d=seg_d,
