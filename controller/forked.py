@@ -45,6 +45,7 @@ __all__ = [
     "MAX_PROCESSES",
     "MAX_RUNS",
     "Background",
+    "RunsAhead",
     "fork_map",
     "fork_runs",
     "in_one_process",
@@ -60,6 +61,8 @@ R = TypeVar("R")
 MAX_PROCESSES = 4
 
 _ONE: ContextVar[bool] = ContextVar("gantry_one_process", default=False)
+#: Cores held by this process' :class:`RunsAhead` children still running.
+_held = 0
 
 
 @contextmanager
@@ -80,13 +83,14 @@ def in_one_process() -> bool:
 def process_count() -> int:
     """Processes :func:`fork_map` may use: the cores this process may run on (at most
     :data:`MAX_PROCESSES`), or ``GANTRY_PLAN_WORKERS`` when set to a whole number; 1 inside
-    :func:`one_process` and where fork is not available (not Linux)."""
+    :func:`one_process` and where fork is not available (not Linux); less one for each
+    :class:`RunsAhead` child still running (at least 1)."""
     if in_one_process() or not sys.platform.startswith("linux"):
         return 1
     env = os.environ.get("GANTRY_PLAN_WORKERS", "").strip()
     if env.isdigit():
-        return max(1, int(env))
-    return max(1, min(MAX_PROCESSES, len(os.sched_getaffinity(0))))
+        return max(1, int(env) - _held)
+    return max(1, min(MAX_PROCESSES, len(os.sched_getaffinity(0))) - _held)
 
 
 def fork_map(fn: Callable[[T], R], parts: Sequence[T]) -> list[R]:
@@ -187,55 +191,105 @@ def fork_runs(
     runs). The runs of a child that failed are
     computed here. ``fn`` must not depend on side effects of other runs; at most
     :data:`MAX_RUNS` runs."""
-    if len(runs) > MAX_RUNS:
-        raise ValueError(f"at most {MAX_RUNS} runs, got {len(runs)}")
-    children = min(processes, len(runs) + 1) - 1  # no child without a run to take
-    if children <= 0:
+    ahead = RunsAhead(fn, runs, processes, hold=False)
+    try:
         if before is not None:
             before()
-        return [fn(r) for r in runs]
-    read, write = os.pipe()
-    try:
-        os.write(write, b"".join(_INDEX.pack(i) for i in range(len(runs))))
+        return ahead.finish()
     finally:
-        os.close(write)  # the queue is all there: an empty pipe reads as its end
+        ahead.close()
 
-    def claims() -> Iterator[int]:
-        while claim := os.read(read, _INDEX.size):
+
+class RunsAhead(Generic[R]):
+    """:func:`fork_runs` started now and finished later: the children take runs from the
+    moment it is made, while this process goes on with other work, and :meth:`finish` has
+    this process take the runs still left, then gives every result (the runs of a child that
+    failed computed here). Meanwhile (``hold``) its children hold their cores:
+    :func:`process_count` counts them out. :meth:`close` stops children whose results are no
+    longer wanted. With ``processes`` 1 (or no run), nothing is forked and :meth:`finish`
+    computes every run."""
+
+    def __init__(
+        self, fn: Callable[[T], R], runs: Sequence[T], processes: int, *, hold: bool = True
+    ) -> None:
+        global _held
+        if len(runs) > MAX_RUNS:
+            raise ValueError(f"at most {MAX_RUNS} runs, got {len(runs)}")
+        self._fn: Callable[[Any], R] = fn
+        self._runs: Sequence[Any] = runs
+        self._streams: list[_Results] = []
+        self._read: int | None = None
+        self._held = 0
+        children = min(processes, len(runs) + 1) - 1  # no child without a run to take
+        if children <= 0:
+            return
+        read, write = os.pipe()
+        self._read = read
+        try:
+            os.write(write, b"".join(_INDEX.pack(i) for i in range(len(runs))))
+        finally:
+            os.close(write)  # the queue is all there: an empty pipe reads as its end
+
+        def serve(out: int) -> None:  # in a child: each run's result as soon as it is done
+            unsent = bytearray()  # what the pipe did not take yet: a child never waits on it
+            os.set_blocking(out, False)
+            for i in self._claims():
+                data = pickle.dumps((i, fn(runs[i])), protocol=pickle.HIGHEST_PROTOCOL)
+                unsent += _FRAME.pack(len(data))
+                unsent += data
+                with contextlib.suppress(BlockingIOError):
+                    while unsent:
+                        del unsent[: os.write(out, unsent)]
+            os.set_blocking(out, True)
+            while unsent:
+                del unsent[: os.write(out, unsent)]
+
+        if hold:  # before the forks: the children count themselves out too
+            self._held = children
+            _held += children
+        try:
+            for _ in range(children):
+                self._streams.append(_Results(*_fork(serve)))
+        except BaseException:
+            self.close()
+            raise
+
+    def _claims(self) -> Iterator[int]:
+        read = self._read
+        while read is not None and (claim := os.read(read, _INDEX.size)):
             yield _INDEX.unpack(claim)[0]
 
-    def serve(out: int) -> None:  # in a child: each run's result as soon as it is done
-        unsent = bytearray()  # what the pipe did not take yet: a child never waits on it
-        os.set_blocking(out, False)
-        for i in claims():
-            data = pickle.dumps((i, fn(runs[i])), protocol=pickle.HIGHEST_PROTOCOL)
-            unsent += _FRAME.pack(len(data))
-            unsent += data
-            with contextlib.suppress(BlockingIOError):
-                while unsent:
-                    del unsent[: os.write(out, unsent)]
-        os.set_blocking(out, True)
-        while unsent:
-            del unsent[: os.write(out, unsent)]
-
-    streams: list[_Results] = []
-    try:
-        for _ in range(children):
-            streams.append(_Results(*_fork(serve)))
-        if before is not None:
-            before()
+    def finish(self) -> list[R]:
+        """Every run's result, in order: this process takes the runs left, then waits for the
+        children's."""
+        fn, runs = self._fn, self._runs
         results: dict[int, R] = {}
-        for i in claims():
-            results[i] = fn(runs[i])
-            for stream in streams:
-                stream.poll()
+        try:
+            for i in self._claims():
+                results[i] = fn(runs[i])
+                for stream in self._streams:
+                    stream.poll()
+            self._release()
+            for stream in self._streams:
+                results.update(stream.finish())
+        finally:
+            self.close()
+        return [results[i] if i in results else fn(r) for i, r in enumerate(runs)]
+
+    def close(self) -> None:
+        """Close the queue, and stop and reap the children still there."""
+        self._release()
+        if self._read is not None:
+            os.close(self._read)
+            self._read = None
+        streams, self._streams = self._streams, []
         for stream in streams:
-            results.update(stream.finish())
-    finally:
-        os.close(read)
-        for stream in streams:  # the parent failed: stop and reap the children still there
             stream.end()
-    return [results[i] if i in results else fn(r) for i, r in enumerate(runs)]
+
+    def _release(self) -> None:
+        global _held
+        _held -= self._held
+        self._held = 0
 
 
 _FRAME = struct.Struct("<Q")
@@ -270,6 +324,7 @@ class _Results:
     def end(self) -> None:
         """Kill and reap the child if :meth:`finish` did not."""
         if not self.reaped:
+            self.reaped = True
             _end(self.pid, self.fd)
 
     def _read(self) -> None:

@@ -16,6 +16,7 @@ from gantry_sim.controller.config import load_machine_config
 from gantry_sim.controller.forked import (
     BACKGROUND_NICE,
     Background,
+    RunsAhead,
     fork_map,
     fork_runs,
     lower_priority,
@@ -285,6 +286,43 @@ def test_a_failing_job_of_this_process_leaves_no_child_behind() -> None:
 
     with pytest.raises(KeyError):
         fork_runs(_slow_square_and_pid, list(range(50)), 3, before)
+
+
+@linux
+def test_runs_ahead_go_on_while_this_process_works_and_hold_their_cores(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    """The children take runs from the start; this process takes the runs left only when it
+    finishes. Meanwhile process_count counts the children out (here and in them), and gives
+    them back when finished, or closed."""
+    monkeypatch.setenv("GANTRY_PLAN_WORKERS", "3")
+
+    def fn(x: int) -> tuple[int, int, int]:
+        time.sleep(0.01)
+        return x * x, os.getpid(), process_count()
+
+    ahead = RunsAhead(fn, list(range(30)), 3)
+    assert process_count() == 1
+    time.sleep(1.0)  # the children take every run meanwhile
+    out = ahead.finish()
+    assert process_count() == 3
+    assert [v for v, _, _ in out] == [x * x for x in range(30)]
+    assert os.getpid() not in {pid for _, pid, _ in out}
+    assert {n for _, _, n in out} == {1}  # a child counts the cores held too
+
+    slow = RunsAhead(_slow_square_and_pid, list(range(200)), 2)
+    assert process_count() == 2
+    slow.close()  # not wanted: stopped, reaped, the core given back
+    assert process_count() == 3
+    slow.close()  # twice is nothing
+
+
+@linux
+def test_runs_ahead_left_when_finished_are_taken_here_in_order() -> None:
+    ahead = RunsAhead(_slow_square_and_pid, list(range(40)), 2, hold=False)
+    out = ahead.finish()  # at once: both processes take runs
+    assert [v for v, _ in out] == [x * x for x in range(40)]
+    assert len({pid for _, pid in out}) == 2
 
 
 def test_runs_in_one_process_do_the_job_first_and_refuse_too_many_runs() -> None:

@@ -200,11 +200,11 @@ def test_a_window_sent_back_again_comes_back_wider_each_time(monkeypatch):
 
 @pytest.mark.skipif(not sys.platform.startswith("linux"), reason="forks on Linux only")
 def test_the_next_window_is_prepared_while_the_chains_are_planned(monkeypatch):
-    """Each window after the first is prepared while the window before plans its first round
-    (windows._Ahead): what is taken is what preparing it then gives, number for number, and
-    the plan is the whole program's."""
+    """Each window after the first is prepared ahead (windows._Ahead), and its first round
+    planned ahead by the other process: what is taken is what preparing it then gives, number
+    for number, with the chains of its first round, and the plan is the whole program's."""
     monkeypatch.setenv("GANTRY_PLAN_WORKERS", "2")
-    taken, paths = [], []
+    taken, paths, seeds = [], [], []
     real_take, real_job = windows._Ahead.take, windows._Ahead.job
     machine = load_machine_config(DEFAULT_MACHINE)
 
@@ -215,8 +215,9 @@ def test_the_next_window_is_prepared_while_the_chains_are_planned(monkeypatch):
     def take(self, key):
         got = real_take(self, key)
         if got is not None:
-            pre = got[0]
+            pre = got[0][0]
             taken.append(pre)
+            seeds.append(len(got[1]))
             path = paths[-1]  # the path being planned
             fresh = windows._window(
                 windows.sub_path(path, key[0], key[1], key[0] + 1), machine, 100.0, True
@@ -233,6 +234,35 @@ def test_the_next_window_is_prepared_while_the_chains_are_planned(monkeypatch):
     monkeypatch.setattr(windows._Ahead, "job", job)
     whole, windowed, probes = _whole_and_windowed(_program(), monkeypatch, 40, 8)
     assert len(probes) >= 4 and len(taken) >= len(probes) // 2, (len(taken), probes)
+    assert sum(n > 0 for n in seeds) >= len(seeds) // 2, seeds
+    _assert_same(whole, windowed)
+
+
+@pytest.mark.skipif(not sys.platform.startswith("linux"), reason="forks on Linux only")
+@pytest.mark.parametrize("guess", [0.8, 1.25])
+def test_a_first_round_planned_ahead_from_another_speed_gives_the_same_plan(monkeypatch, guess):
+    """The next window's first round is planned ahead from the speed the cut has in this
+    window's first round; where the window ends up starting otherwise, its first chains have
+    other keys and are planned again: the plan is still the whole program's."""
+    monkeypatch.setenv("GANTRY_PLAN_WORKERS", "2")
+    real_start, real_take = windows._Ahead._start, windows._Ahead.take
+    started, seeds = [], []
+
+    def start(self, window, key, v_start, machine):
+        started.append(v_start)
+        return real_start(self, window, key, guess * v_start, machine)
+
+    def take(self, key):
+        got = real_take(self, key)
+        if got is not None:
+            seeds.append(len(got[1]))
+        return got
+
+    monkeypatch.setattr(windows._Ahead, "_start", start)
+    monkeypatch.setattr(windows._Ahead, "take", take)
+    # its windows are cut where the feed changes, moving
+    whole, windowed, _ = _whole_and_windowed(_tangent_program(), monkeypatch, 20, 4)
+    assert any(v > 0 for v in started) and any(n > 0 for n in seeds), (started, seeds)
     _assert_same(whole, windowed)
 
 
@@ -245,7 +275,7 @@ def test_a_window_whose_preparation_ahead_fails_is_prepared_again(monkeypatch):
     failed = []
 
     def window_of(*args, **kwargs):
-        if sys._getframe(1).f_code.co_name == "prepare_next":
+        if sys._getframe(1).f_code.co_name == "_prepare":
             failed.append(True)
             raise RuntimeError("prepared ahead")
         return real(*args, **kwargs)

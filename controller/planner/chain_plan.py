@@ -21,7 +21,7 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
-from gantry_sim.controller.forked import fork_runs, process_count
+from gantry_sim.controller.forked import RunsAhead, fork_runs, process_count
 from gantry_sim.controller.planner.chain_prep import ChainPrep, ChainSetup, chain_prep, chain_preps
 from gantry_sim.controller.planner.cubic import Chunk
 from gantry_sim.controller.planner.limits import BlockLimits
@@ -33,6 +33,7 @@ __all__ = [
     "Chain",
     "ChainKey",
     "ChainSetup",
+    "ChainsAhead",
     "Chunk",
     "plan_chains",
     "plan_chains_forked",
@@ -114,6 +115,31 @@ def plan_chains_forked(
                 out.update(done)
             first, size, before = i + 1, 0, None
     return out
+
+
+class ChainsAhead:
+    """:func:`plan_chains` of ``todo`` started now over the forked children of
+    :func:`~gantry_sim.controller.forked.process_count` (they hold their cores meanwhile), and
+    finished by :meth:`finish`, where this process takes the chains left (the next window's
+    first round, planned while this process plans the rounds left of the window it is in:
+    :mod:`~gantry_sim.controller.planner.windows`)."""
+
+    def __init__(
+        self, setup: ChainSetup, todo: list[tuple[ChainKey, BlockLimits]], speeds: np.ndarray
+    ) -> None:
+        runs = _runs(todo, [_work(setup, key) for key, _ in todo])
+        self._ahead = RunsAhead(lambda run: plan_chains(setup, run, speeds), runs, process_count())
+
+    def finish(self) -> dict[ChainKey, Chain]:
+        """Every chain, by key."""
+        out: dict[ChainKey, Chain] = {}
+        for done in self._ahead.finish():
+            out.update(done)
+        return out
+
+    def close(self) -> None:
+        """Stop the children (the chains are no longer wanted)."""
+        self._ahead.close()
 
 
 #: A chain's planning work besides its pieces, in pieces (measured in the first round of

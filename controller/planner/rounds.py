@@ -18,7 +18,7 @@ from __future__ import annotations
 
 import bisect
 import itertools
-from collections.abc import Callable
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass, replace
 
 import numpy as np
@@ -45,6 +45,7 @@ __all__ = [
     "Round",
     "Settled",
     "assemble",
+    "first_round",
     "settle_chains",
 ]
 
@@ -97,7 +98,8 @@ def settle_chains(
     arc_pieces: str,
     smoothing: list[float],
     blend_arcs: frozenset[int] = frozenset(),
-    ahead: Callable[[list[tuple[int, int]]], Callable[[], object] | None] | None = None,
+    ahead: Callable[[list[tuple[int, int]], np.ndarray], Callable[[], object] | None] | None = None,
+    seed: Mapping[ChainKey, Chain] | None = None,
 ) -> Settled:
     """Plan the moves' chains (not yet assembled into a timeline: :func:`assemble`; a window of a
     long program keeps only a prefix of them, :mod:`~gantry_sim.controller.planner.windows`);
@@ -113,9 +115,14 @@ def settle_chains(
     speed frees it. ``blend_arcs``: ids of the G64 blend arcs among the moves (tolerance
     features: no faster candidate profiles, boosted or saturated, which cost far more than
     they save them; :mod:`~gantry_sim.controller.planner.chain_prep`). ``ahead``: given the
-    first round's chain spans, a job for this process to do while other processes plan that
-    round's chains (or None: see
-    :func:`~gantry_sim.controller.planner.chain_plan.plan_chains_forked`)."""
+    first round's chain spans and the speeds [mm/s] at their ends, a job for this process to do
+    while other processes plan that round's chains (or None: see
+    :func:`~gantry_sim.controller.planner.chain_plan.plan_chains_forked`).
+
+    ``seed``: chains planned already for these moves (by other processes, ahead:
+    :func:`first_round`; a chain's pieces depend on nothing but the chain, its limits and its
+    end speeds, so a chain of the same key is the same chain); they are used wherever a round
+    needs them."""
     setup = ChainSetup(active, states, machine, solver, arc_pieces, smoothing, {}, blend_arcs)
     blocks = [g.limits for g in active]
     cache: dict[ChainKey, Chain] = {}
@@ -123,23 +130,14 @@ def settle_chains(
     chain_memo: dict[tuple[int, int], BlockLimits] = {}  # chain_limits by span, across rounds
     softened: dict[int, int] = {}
     for rnd in itertools.count():
-        spans = chain_spans(blocks, caps)
-        chained = []
-        for span in spans:
-            lim = chain_memo.get(span)
-            if lim is None:
-                lim = chain_memo[span] = chain_limits(blocks[span[0] : span[1]])
-            chained.append(lim)
-        ends = [first for first, _ in spans] + [len(active)]
-        speeds = np.full(len(active) + 1, np.nan)
-        speeds[ends] = plan_junction_speeds(chained, caps[ends], reach_memo)
-        before = ahead(spans) if ahead is not None and rnd == 0 else None
+        spans, chained, speeds = _round_speeds(blocks, caps, chain_memo, reach_memo)
+        before = ahead(spans, speeds) if ahead is not None and rnd == 0 else None
         # after the first round, an arc's moving end is a junction being backed off, whose
         # speed changes round by round: the saturated ramps (tenths of a second) would be
         # built again each time (one arc of a Bambu Studio print in G61: 11 times, 7.1 s of a
         # 7.7 s plan), so there only an arc from and to rest tries them
         now = setup if rnd == 0 else replace(setup, saturated_moving=False)
-        chains, cache = _plan_round(now, spans, chained, speeds, cache, before)
+        chains, cache = _plan_round(now, spans, chained, speeds, cache, before, seed)
         bad: set[int] = set()
         for (first, stop), chain in zip(spans, chains, strict=True):
             if chain.bad:
@@ -159,6 +157,47 @@ def settle_chains(
         _soften(blocks, touched, cache, chain_memo)
         chains.clear()  # the chains replaced next round are freed before it plans new ones
     return Settled(setup, spans, chains, speeds)
+
+
+def _round_speeds(
+    blocks: list[BlockLimits],
+    caps: np.ndarray,
+    chain_memo: dict[tuple[int, int], BlockLimits],
+    reach_memo: dict,
+) -> tuple[list[tuple[int, int]], list[BlockLimits], np.ndarray]:
+    """A round's chains: their spans, their limits (memoised by span in ``chain_memo``) and the
+    look-ahead's speeds [mm/s] at their ends (NaN inside them) under the junction ``caps``."""
+    spans = chain_spans(blocks, caps)
+    chained = []
+    for span in spans:
+        lim = chain_memo.get(span)
+        if lim is None:
+            lim = chain_memo[span] = chain_limits(blocks[span[0] : span[1]])
+        chained.append(lim)
+    ends = [first for first, _ in spans] + [len(blocks)]
+    speeds = np.full(len(blocks) + 1, np.nan)
+    speeds[ends] = plan_junction_speeds(chained, caps[ends], reach_memo)
+    return spans, chained, speeds
+
+
+def first_round(
+    active: list[MoveGeometry],
+    caps: np.ndarray,
+    states: list[JunctionState],
+    machine: MachineConfig,
+    solver: RuckigSolver,
+    arc_pieces: str,
+    smoothing: list[float],
+    blend_arcs: frozenset[int] = frozenset(),
+) -> tuple[ChainSetup, list[tuple[ChainKey, BlockLimits]], np.ndarray]:
+    """What the first round of :func:`settle_chains` with the same arguments plans: its setup,
+    its chains (key, limits) and the speeds [mm/s] at their ends, to plan them ahead (the
+    chains planned are a seed of that call)."""
+    setup = ChainSetup(active, states, machine, solver, arc_pieces, smoothing, {}, blend_arcs)
+    spans, chained, speeds = _round_speeds([g.limits for g in active], caps, {}, {})
+    at = speeds.tolist()
+    keys = [(first, stop, at[first], at[stop]) for first, stop in spans]
+    return setup, list(zip(keys, chained, strict=True)), speeds
 
 
 def _soften(
@@ -197,20 +236,24 @@ def _plan_round(
     speeds: np.ndarray,
     cache: dict[ChainKey, Chain],
     before: Callable[[], object] | None = None,
+    seed: Mapping[ChainKey, Chain] | None = None,
 ) -> tuple[list[Chain], dict[ChainKey, Chain]]:
     """Every chain's pieces between the junction speeds ``speeds`` [mm/s] at the chains' ends,
     reusing ``cache``'s chains planned for the same speeds (the others are dropped from it
-    first, so a plan holds about one round's phases); returns the chains, in order, and the
-    cache of this round's chains. ``before``: a job of this process' own, done while other
-    processes plan the chains."""
+    first, so a plan holds about one round's phases) and ``seed``'s; returns the chains, in
+    order, and the cache of this round's chains. ``before``: a job of this process' own, done
+    while other processes plan the chains."""
     at = speeds.tolist()  # Python floats: the same numbers, without a NumPy scalar per chain
     keys = [(first, stop, at[first], at[stop]) for first, stop in spans]
     needed = set(keys)
     for key in [k for k in cache if k not in needed]:  # free them before planning new ones
         del cache[key]
-    todo = [(k, lim) for k, lim in zip(keys, chained, strict=True) if k not in cache]
+    known = seed or {}
+    todo = [
+        (k, lim) for k, lim in zip(keys, chained, strict=True) if k not in cache and k not in known
+    ]
     fresh = plan_chains_forked(setup, todo, speeds, before)
-    chains = [cache.get(key) or fresh[key] for key in keys]
+    chains = [cache.get(key) or known.get(key) or fresh[key] for key in keys]
     return chains, dict(zip(keys, chains, strict=True))
 
 

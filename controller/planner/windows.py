@@ -39,7 +39,7 @@ from __future__ import annotations
 import functools
 import math
 from array import array
-from collections.abc import Callable
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
 from typing import NamedTuple
 
@@ -48,10 +48,18 @@ import numpy as np
 from gantry_sim.controller.config import MachineConfig
 from gantry_sim.controller.forked import process_count
 from gantry_sim.controller.planner.blend import PathPlan
+from gantry_sim.controller.planner.chain_plan import Chain, ChainKey, ChainsAhead
+from gantry_sim.controller.planner.chains import chain_spans
 from gantry_sim.controller.planner.limits import BlockLimits
 from gantry_sim.controller.planner.move_geometry import MoveGeometry
 from gantry_sim.controller.planner.prepare import Prepared, prepare, sub_path
-from gantry_sim.controller.planner.rounds import Round, Settled, assemble, settle_chains
+from gantry_sim.controller.planner.rounds import (
+    Round,
+    Settled,
+    assemble,
+    first_round,
+    settle_chains,
+)
 from gantry_sim.controller.planner.ruckig_solver import RuckigSolver
 from gantry_sim.controller.planner.segmented_curve import CurveBuilder
 from gantry_sim.controller.planner.window_judge import JudgedPath
@@ -111,8 +119,24 @@ def plan_path(
     ``src`` does (:mod:`~gantry_sim.controller.planner.window_judge`: at the first window with
     a slow blend, ``src`` makes the path again and that window is planned again on it);
     ``prepared``: its :func:`prepare` when made already (a path planned whole, judged)."""
+    ahead = _Ahead(solver, arc_pieces)
+    try:
+        return _plan_windows(src, machine, feed_override_pct, arc_pieces, solver, prepared, ahead)
+    finally:
+        ahead.drop()  # a sidecar still planning (an error, or its window not used) is stopped
+
+
+def _plan_windows(
+    src: JudgedPath,
+    machine: MachineConfig,
+    feed_override_pct: float,
+    arc_pieces: str,
+    solver: RuckigSolver,
+    prepared: Prepared | None,
+    ahead: _Ahead,
+) -> Planned:
+    """:func:`plan_path`'s windows, with ``ahead``'s work beside them."""
     out = Planned()
-    ahead = _Ahead()
     # per kept window: where it started, its size, and ``out`` before it
     history: list[tuple[_Start, int, _Mark]] = []
     start, size = _Start(0, -1, 0.0), WINDOW_MOVES
@@ -120,14 +144,17 @@ def plan_path(
         lo, ctx, v_lo = start
         n = len(src.path.moves)
         hi = min(n, lo + size)
+        seed: Mapping[ChainKey, Chain] = {}
         if prepared is not None and lo == 0 and hi == n:
             pre, blend_arcs, base = prepared, _blend_arcs(src.path, prepared), 0
         else:
             base = ctx if ctx >= 0 else lo
             upto = src.upto if src.judging else None
-            window = ahead.take((base, hi, ctx >= 0, upto)) or _window_of(
-                src, base, hi, ctx >= 0, machine, feed_override_pct, upto
-            )
+            taken = ahead.take((base, hi, ctx >= 0, upto))
+            if taken is not None:
+                window, seed = taken
+            else:
+                window = _window_of(src, base, hi, ctx >= 0, machine, feed_override_pct, upto)
             pre, blend_arcs, slow, judged_to = window
             if slow:  # the path is made again without them: this window again, on it
                 src.remake(slow, judged_to)
@@ -146,7 +173,9 @@ def plan_path(
             pre.smoothing,
             blend_arcs,
             ahead.job(src, pre, base, hi, machine, feed_override_pct),
+            seed,
         )
+        del seed
         ahead.keep_now()  # the window before is kept by now (it may be taken back next)
         if settled.speeds[0] != v_lo and history:  # the window before must keep less speed
             start, used, mark = history.pop()
@@ -168,6 +197,9 @@ def plan_path(
             base + pre.path_index[c], base + pre.path_index[c - 1], float(settled.speeds[c])
         )
         size = WINDOW_MOVES
+        upto = src.upto if src.judging else None
+        following = (start.ctx, min(n, start.lo + WINDOW_MOVES), True, upto)
+        ahead.prepare_beyond(src, following, start.v_mm_per_s, machine, feed_override_pct)
         del settled, pre, caps, blend_arcs, window
 
 
@@ -237,32 +269,46 @@ def _blend_arcs(stretch: PathPlan, pre: Prepared) -> frozenset[int]:
 
 
 class _Ahead:
-    """Work of this process done while the other processes plan a window's first round: the
-    keeping of the window before (:meth:`keep_later`) and the next window's :func:`_window`,
-    prepared ahead.
+    """Work done beside a window's rounds: the keeping of the window before
+    (:meth:`keep_later`), the next windows' :func:`_window` prepared ahead, and the next
+    window's first round planned ahead by the other processes.
 
     A probe's cut is its last chain boundary with the margins after it (:func:`_cut`), and its
     rounds only add chain boundaries (a junction cap they lower may split a chain, never join
     two), and add them near offending junctions: the cut that the first round's chains give is
     nearly always the probe's own (every window of the generated programs of
-    ``benchmarks/programs.py`` at 20,000 blocks). So the window after that cut is prepared
-    then, by this process, while the forked children plan the round's chains
-    (:func:`~gantry_sim.controller.planner.chain_plan.plan_chains_forked`), and it is used only
-    when the next window is exactly that stretch: the same call of :func:`_window`, so the same
+    ``benchmarks/programs.py`` at 20,000 blocks). A window prepared ahead is used only when
+    the next window is exactly that stretch: the same call of :func:`_window`, so the same
     numbers bit for bit. Otherwise (another cut, a window sent back) it is dropped and the
-    window prepared as usual. Only where the chains are planned over several processes: in one
-    process it would just come earlier. The job never raises: an error in that stretch is
-    raised where the window is prepared for use, in the order a plan without it meets it."""
+    window prepared as usual. Preparing never raises here: an error in that stretch is raised
+    where the window is prepared for use, in the order a plan without it meets it.
 
-    def __init__(self) -> None:
-        self._key: tuple[int, int, bool, int | None] | None = None
-        self._pre: Window | None = None
+    The pipeline, window by window: at a window's first round (its cut known), the next
+    window's first round is started over the other processes
+    (:class:`~gantry_sim.controller.planner.chain_plan.ChainsAhead`, from the speed the cut
+    has in this first round; that window prepared now if it was not yet), while this process
+    plans the rounds left of its window (alone: the others hold their cores), keeps it, and
+    prepares the window after the next one (its cut is that of the next window's first round,
+    whose caps are known once this window's end speed is). The next window then takes the
+    chains planned ahead as its seed
+    (:func:`~gantry_sim.controller.planner.rounds.settle_chains`), with this process taking
+    the chains still left: a chain of the same key is the same chain, so the plan is the same
+    bit for bit, and where the window's start speed came out otherwise (a junction near the
+    cut backed off), the chains that speed reaches are planned then. Before, this process
+    was busy the whole plan while the other cores waited through the rounds after the first,
+    the look-ahead and the bookkeeping between them. Only where the chains are planned over
+    several processes: in one process it would just come earlier."""
+
+    def __init__(self, solver: RuckigSolver, arc_pieces: str) -> None:
+        self._solver, self._arc_pieces = solver, arc_pieces
+        self._ready: dict[tuple[int, int, bool, int | None], Window] = {}
+        self._chains: tuple[tuple[int, int, bool, int | None], ChainsAhead] | None = None
         self._keep: Callable[[], None] | None = None
 
     def keep_later(self, keep: Callable[[], None]) -> None:
         """Keep the window just planned (assemble its timeline, write its reference) while the
         next window's first round is planned by the other processes, or at once where there
-        are none (one process: nothing to overlap, and its chains freed sooner)."""
+        are none (one process, or the others busy with the next window already)."""
         self._keep = keep
         if process_count() <= 1:
             self.keep_now()
@@ -273,16 +319,29 @@ class _Ahead:
         if keep is not None:
             keep()
 
-    def take(self, key: tuple[int, int, bool, int | None]) -> Window | None:
+    def take(
+        self, key: tuple[int, int, bool, int | None]
+    ) -> tuple[Window, Mapping[ChainKey, Chain]] | None:
         """The window prepared ahead for (first stretch move, stop, with context, judged from)
-        (:func:`_window_of`), if that is the one prepared; either way nothing is kept after."""
-        pre = self._pre if key == self._key else None
-        self.drop()
-        return pre
+        (:func:`_window_of`), if that is one prepared, with the chains of its first round
+        planned ahead (this process plans those left); otherwise nothing prepared is kept."""
+        window = self._ready.pop(key, None)
+        if window is None:
+            self.drop()
+            return None
+        chains, self._chains = self._chains, None
+        if chains is not None and chains[0] != key:
+            chains[1].close()
+            chains = None
+        return window, ({} if chains is None else chains[1].finish())
 
     def drop(self) -> None:
-        """Forget the window prepared ahead (its path was made again)."""
-        self._key, self._pre = None, None
+        """Forget the windows prepared ahead (their path was made again, or a window was
+        sent back) and stop the planning of a first round ahead."""
+        self._ready.clear()
+        chains, self._chains = self._chains, None
+        if chains is not None:
+            chains[1].close()
 
     def job(
         self,
@@ -292,34 +351,113 @@ class _Ahead:
         hi: int,
         machine: MachineConfig,
         feed_override_pct: float,
-    ) -> Callable[[list[tuple[int, int]]], Callable[[], object] | None] | None:
+    ) -> Callable[[list[tuple[int, int]], np.ndarray], Callable[[], object] | None] | None:
         """For :func:`~gantry_sim.controller.planner.rounds.settle_chains`: from the first
-        round's chain spans, the job preparing the window after the cut they give (None: the
-        last window, no cut, or one process)."""
+        round's chain spans and speeds [mm/s], the job starting the next window's first round
+        (None: the last window, no cut, or one process)."""
         n = len(src.path.moves)
         if hi >= n or process_count() <= 1:
             return None
         upto = src.upto if src.judging else None  # as the next window will judge
 
-        def after(spans: list[tuple[int, int]]) -> Callable[[], object] | None:
-            cut = _cut_at(pre.active, spans)
+        def after(spans: list[tuple[int, int]], speeds: np.ndarray) -> Callable[[], object] | None:
+            cut = _next_key(pre, base, spans, n, upto)
             if cut is None:
                 return None
-            c = cut[1]
-            ctx, lo = base + pre.path_index[c - 1], base + pre.path_index[c]
-            key = (ctx, min(n, lo + WINDOW_MOVES), True, upto)
+            key, v_cut = cut[0], float(speeds[cut[1]])
 
-            def prepare_next() -> None:
+            def start_next() -> None:
                 self.keep_now()
-                try:
-                    self._pre = _window_of(src, ctx, key[1], True, machine, feed_override_pct, upto)
-                    self._key = key
-                except Exception:  # raised again where the window is prepared for use
-                    self.drop()
+                window = self._ready.get(key) or self._prepare(src, key, machine, feed_override_pct)
+                if window is not None and not window[2]:
+                    self._start(window, key, v_cut, machine)
 
-            return prepare_next
+            return start_next
 
         return after
+
+    def prepare_beyond(
+        self,
+        src: JudgedPath,
+        key: tuple[int, int, bool, int | None],
+        v_start: float,
+        machine: MachineConfig,
+        feed_override_pct: float,
+    ) -> None:
+        """Prepare the window after the next one (``key``, starting at ``v_start`` [mm/s]), if
+        that one is prepared, blends none of its corners slowly and is not the last."""
+        window = self._ready.get(key)
+        n = len(src.path.moves)
+        if window is None or window[2] or key[1] >= n or self._chains is None:
+            return  # (nothing planned ahead: the next window's first round prepares it)
+        pre = window[0]
+        caps = pre.caps.copy()
+        caps[0] = v_start
+        spans = chain_spans([g.limits for g in pre.active], caps)
+        upto = max(src.upto, window[3]) if src.judging else None
+        beyond = _next_key(pre, key[0], spans, n, upto)
+        if beyond is not None and beyond[0] not in self._ready:
+            self._prepare(src, beyond[0], machine, feed_override_pct)
+
+    def _prepare(
+        self,
+        src: JudgedPath,
+        key: tuple[int, int, bool, int | None],
+        machine: MachineConfig,
+        feed_override_pct: float,
+    ) -> Window | None:
+        try:
+            window = _window_of(src, key[0], key[1], True, machine, feed_override_pct, key[3])
+        except Exception:  # raised again where the window is prepared for use
+            return None
+        self._ready[key] = window
+        return window
+
+    def _start(
+        self,
+        window: Window,
+        key: tuple[int, int, bool, int | None],
+        v_start: float,
+        machine: MachineConfig,
+    ) -> None:
+        """Plan the first round of ``window`` from ``v_start`` [mm/s] over the other
+        processes."""
+        if self._chains is not None:
+            self._chains[1].close()
+            self._chains = None
+        pre, blend_arcs, _, _ = window
+        caps = pre.caps.copy()
+        caps[0] = v_start
+        setup, todo, speeds = first_round(
+            pre.active,
+            caps,
+            pre.states,
+            machine,
+            self._solver,
+            self._arc_pieces,
+            pre.smoothing,
+            blend_arcs,
+        )
+        self._chains = (key, ChainsAhead(setup, todo, speeds))
+
+
+def _next_key(
+    pre: Prepared,
+    base: int,
+    spans: list[tuple[int, int]],
+    n: int,
+    upto: int | None,
+) -> tuple[tuple[int, int, bool, int | None], int] | None:
+    """The key of the window after the cut that ``spans`` give a window (path moves from
+    ``base``, prepared as ``pre``; the path has ``n`` moves) -- its first stretch move (the
+    context), its stop, True, and the move its judging starts from -- and the cut's active
+    move; None: no cut."""
+    cut = _cut_at(pre.active, spans)
+    if cut is None:
+        return None
+    c = cut[1]
+    ctx, lo = base + pre.path_index[c - 1], base + pre.path_index[c]
+    return (ctx, min(n, lo + WINDOW_MOVES), True, upto), c
 
 
 def _window(
