@@ -236,6 +236,9 @@ def _truncate(out: Planned, mark: _Mark) -> None:
     out.ruckig_pieces, out.duration_s = mark.ruckig_pieces, mark.duration_s
 
 
+#: A window by (its first stretch move, its stop, whether the first is context, the path move
+#: its judging starts from or None).
+WindowKey = tuple[int, int, bool, int | None]
 #: A window prepared (:func:`_window_of`): its preparation, its G64 blend arcs, the slow blends
 #: it judged and the path move it judged them up to (None: not judged).
 Window = tuple[Prepared, frozenset[int], frozenset[int], int]
@@ -301,8 +304,8 @@ class _Ahead:
 
     def __init__(self, solver: RuckigSolver, arc_pieces: str) -> None:
         self._solver, self._arc_pieces = solver, arc_pieces
-        self._ready: dict[tuple[int, int, bool, int | None], Window] = {}
-        self._chains: tuple[tuple[int, int, bool, int | None], ChainsAhead] | None = None
+        self._ready: dict[WindowKey, Window] = {}
+        self._chains: tuple[WindowKey, ChainsAhead] | None = None
         self._keep: Callable[[], None] | None = None
 
     def keep_later(self, keep: Callable[[], None]) -> None:
@@ -319,9 +322,7 @@ class _Ahead:
         if keep is not None:
             keep()
 
-    def take(
-        self, key: tuple[int, int, bool, int | None]
-    ) -> tuple[Window, Mapping[ChainKey, Chain]] | None:
+    def take(self, key: WindowKey) -> tuple[Window, Mapping[ChainKey, Chain]] | None:
         """The window prepared ahead for (first stretch move, stop, with context, judged from)
         (:func:`_window_of`), if that is one prepared, with the chains of its first round
         planned ahead (this process plans those left); otherwise nothing prepared is kept."""
@@ -379,7 +380,7 @@ class _Ahead:
     def prepare_beyond(
         self,
         src: JudgedPath,
-        key: tuple[int, int, bool, int | None],
+        key: WindowKey,
         v_start: float,
         machine: MachineConfig,
         feed_override_pct: float,
@@ -402,7 +403,7 @@ class _Ahead:
     def _prepare(
         self,
         src: JudgedPath,
-        key: tuple[int, int, bool, int | None],
+        key: WindowKey,
         machine: MachineConfig,
         feed_override_pct: float,
     ) -> Window | None:
@@ -416,7 +417,7 @@ class _Ahead:
     def _start(
         self,
         window: Window,
-        key: tuple[int, int, bool, int | None],
+        key: WindowKey,
         v_start: float,
         machine: MachineConfig,
     ) -> None:
@@ -447,7 +448,7 @@ def _next_key(
     spans: list[tuple[int, int]],
     n: int,
     upto: int | None,
-) -> tuple[tuple[int, int, bool, int | None], int] | None:
+) -> tuple[WindowKey, int] | None:
     """The key of the window after the cut that ``spans`` give a window (path moves from
     ``base``, prepared as ``pre``; the path has ``n`` moves) -- its first stretch move (the
     context), its stop, True, and the move its judging starts from -- and the cut's active
