@@ -123,7 +123,7 @@ def plan_path(
     try:
         return _plan_windows(src, machine, feed_override_pct, arc_pieces, solver, prepared, ahead)
     finally:
-        ahead.drop()  # a sidecar still planning (an error, or its window not used) is stopped
+        ahead.drop()  # chains still planned ahead (an error, their window not used) stopped
 
 
 def _plan_windows(
