@@ -195,9 +195,14 @@ def first_round(
     chains planned are a seed of that call)."""
     setup = ChainSetup(active, states, machine, solver, arc_pieces, smoothing, {}, blend_arcs)
     spans, chained, speeds = _round_speeds([g.limits for g in active], caps, {}, {})
-    at = speeds.tolist()
-    keys = [(first, stop, at[first], at[stop]) for first, stop in spans]
-    return setup, list(zip(keys, chained, strict=True)), speeds
+    return setup, list(zip(_chain_keys(spans, speeds), chained, strict=True)), speeds
+
+
+def _chain_keys(spans: list[tuple[int, int]], speeds: np.ndarray) -> list[ChainKey]:
+    """Each chain's key: (first, stop, speed in, speed out [mm/s]), from the speeds at the
+    chains' ends."""
+    at = speeds.tolist()  # Python floats: the same numbers, without a NumPy scalar per chain
+    return [(first, stop, at[first], at[stop]) for first, stop in spans]
 
 
 def _soften(
@@ -243,8 +248,7 @@ def _plan_round(
     first, so a plan holds about one round's phases) and ``seed``'s; returns the chains, in
     order, and the cache of this round's chains. ``before``: a job of this process' own, done
     while other processes plan the chains."""
-    at = speeds.tolist()  # Python floats: the same numbers, without a NumPy scalar per chain
-    keys = [(first, stop, at[first], at[stop]) for first, stop in spans]
+    keys = _chain_keys(spans, speeds)
     needed = set(keys)
     for key in [k for k in cache if k not in needed]:  # free them before planning new ones
         del cache[key]

@@ -197,8 +197,7 @@ def _plan_windows(
             base + pre.path_index[c], base + pre.path_index[c - 1], float(settled.speeds[c])
         )
         size = WINDOW_MOVES
-        upto = src.upto if src.judging else None
-        following = (start.ctx, min(n, start.lo + WINDOW_MOVES), True, upto)
+        following = _key_after(start.ctx, start.lo, n, src.upto if src.judging else None)
         ahead.prepare_beyond(src, following, start.v_mm_per_s, machine, feed_override_pct)
         del settled, pre, caps, blend_arcs, window
 
@@ -457,8 +456,13 @@ def _next_key(
     if cut is None:
         return None
     c = cut[1]
-    ctx, lo = base + pre.path_index[c - 1], base + pre.path_index[c]
-    return (ctx, min(n, lo + WINDOW_MOVES), True, upto), c
+    return _key_after(base + pre.path_index[c - 1], base + pre.path_index[c], n, upto), c
+
+
+def _key_after(ctx: int, lo: int, n: int, upto: int | None) -> WindowKey:
+    """The key of the window that starts at path move ``lo`` after its context ``ctx``, on a
+    path of ``n`` moves, judging its blends from ``upto``."""
+    return (ctx, min(n, lo + WINDOW_MOVES), True, upto)
 
 
 def _window(
