@@ -200,6 +200,10 @@ def fork_runs(
         ahead.close()
 
 
+#: A :class:`RunsAhead` child's frame index for what its ``then`` sends (not a run's result).
+_EXTRA = -1
+
+
 class RunsAhead(Generic[R]):
     """:func:`fork_runs` started now and finished later: the children take runs from the
     moment it is made, while this process goes on with other work, and :meth:`finish` has
@@ -207,10 +211,24 @@ class RunsAhead(Generic[R]):
     failed computed here). Meanwhile (``hold``) its children hold their cores:
     :func:`process_count` counts them out. :meth:`close` stops children whose results are no
     longer wanted. With ``processes`` 1 (or no run), nothing is forked and :meth:`finish`
-    computes every run."""
+    computes every run.
+
+    ``then``: work a child goes on with once no run is left, for as long as this process does
+    not need it back: called as ``then(mine, send)`` with the results of the runs that child
+    computed (by index) and a function sending one object (pickled) to :attr:`extras`. When
+    :meth:`finish` has taken the runs left, it stops the children (``SIGUSR1``: a child in
+    ``then`` leaves it at once, between two sends, and one still on a run skips ``then``),
+    and :attr:`extras` gets what they sent, in order. Extras are optional results: a child
+    that failed gives none, and an error in ``then`` only ends it."""
 
     def __init__(
-        self, fn: Callable[[T], R], runs: Sequence[T], processes: int, *, hold: bool = True
+        self,
+        fn: Callable[[T], R],
+        runs: Sequence[T],
+        processes: int,
+        *,
+        hold: bool = True,
+        then: Callable[[dict[int, R], Callable[[object], None]], object] | None = None,
     ) -> None:
         global _held
         if len(runs) > MAX_RUNS:
@@ -220,6 +238,9 @@ class RunsAhead(Generic[R]):
         self._streams: list[_Results] = []
         self._read: int | None = None
         self._held = 0
+        #: what the children's ``then`` sent (after :meth:`finish`)
+        self.extras: list[object] = []
+        self._stoppable = then is not None
         children = min(processes, len(runs) + 1) - 1  # no child without a run to take
         if children <= 0:
             return
@@ -231,25 +252,25 @@ class RunsAhead(Generic[R]):
             os.close(write)  # the queue is all there: an empty pipe reads as its end
 
         def serve(out: int) -> None:  # in a child: each run's result as soon as it is done
-            unsent = bytearray()  # what the pipe did not take yet: a child never waits on it
-            os.set_blocking(out, False)
+            stop = _StopSignal.install() if then is not None else None
+            sender = _Sender(out)  # a child never waits on the pipe before it is done
+            mine: dict[int, R] = {}
             for i in self._claims():
-                data = pickle.dumps((i, fn(runs[i])), protocol=pickle.HIGHEST_PROTOCOL)
-                unsent += _FRAME.pack(len(data))
-                unsent += data
-                with contextlib.suppress(BlockingIOError):
-                    while unsent:
-                        del unsent[: os.write(out, unsent)]
-            os.set_blocking(out, True)
-            while unsent:
-                del unsent[: os.write(out, unsent)]
+                result = fn(runs[i])
+                if stop is not None:
+                    mine[i] = result
+                sender.send((i, result))
+            if stop is not None and then is not None:
+                stop.run(lambda: then(mine, lambda extra: stop.sending(sender, (_EXTRA, extra))))
+            sender.flush()
 
         if hold:  # before the forks: the children count themselves out too
             self._held = children
             _held += children
         try:
-            for _ in range(children):
-                self._streams.append(_Results(*_fork(serve)))
+            with _blocked(signal.SIGUSR1) if self._stoppable else contextlib.nullcontext():
+                for _ in range(children):
+                    self._streams.append(_Results(*_fork(serve)))
         except BaseException:
             self.close()
             raise
@@ -270,8 +291,12 @@ class RunsAhead(Generic[R]):
                 for stream in self._streams:
                     stream.poll()
             self._release()
+            if self._stoppable:  # every run is taken: the children's ``then`` ends here
+                for stream in self._streams:
+                    stream.stop()
             for stream in self._streams:
                 results.update(stream.finish())
+                self.extras.extend(stream.extras)
         finally:
             self.close()
         return [results[i] if i in results else fn(r) for i, r in enumerate(runs)]
@@ -295,6 +320,100 @@ class RunsAhead(Generic[R]):
 _FRAME = struct.Struct("<Q")
 
 
+class _Sender:
+    """A child's frames (pickled, behind their length) to its result pipe: as far as the pipe
+    takes them at each send, the rest kept and sent with the next, all of it by :meth:`flush`
+    (which waits for the pipe)."""
+
+    def __init__(self, out: int) -> None:
+        self.out = out
+        self.unsent = bytearray()
+        os.set_blocking(out, False)
+
+    def send(self, obj: object) -> None:
+        data = pickle.dumps(obj, protocol=pickle.HIGHEST_PROTOCOL)
+        self.unsent += _FRAME.pack(len(data))
+        self.unsent += data
+        with contextlib.suppress(BlockingIOError):
+            while self.unsent:
+                del self.unsent[: os.write(self.out, self.unsent)]
+
+    def flush(self) -> None:
+        os.set_blocking(self.out, True)
+        while self.unsent:
+            del self.unsent[: os.write(self.out, self.unsent)]
+
+
+class _Stopped(BaseException):
+    """Raised in a :class:`RunsAhead` child's ``then`` by the parent's stop (a BaseException:
+    no ``except Exception`` of the work it interrupts takes it)."""
+
+
+class _StopSignal:
+    """A child's stop (``SIGUSR1``, blocked in the parent around the fork so that it waits
+    for this handler): noted while the child computes its runs, raised as :class:`_Stopped`
+    inside :meth:`run`, except in the middle of a send (raised right after it)."""
+
+    def __init__(self) -> None:
+        self.stopped = False
+        self._raise = False
+        # raised where Python cannot pass it on (a __del__), the stop would be printed: the
+        # child writes nothing to stderr, and stops at its next send instead
+        sys.unraisablehook = lambda unraisable: None
+        signal.signal(signal.SIGUSR1, self._on_signal)
+        signal.pthread_sigmask(signal.SIG_UNBLOCK, {signal.SIGUSR1})
+
+    @classmethod
+    def install(cls) -> _StopSignal | None:
+        """The handler, or None where it cannot be had (the signal then stays blocked, and
+        the child skips ``then``)."""
+        try:
+            return cls()
+        except (ValueError, OSError):  # e.g. not the main thread
+            return None
+
+    def _on_signal(self, signum: int, frame: object) -> None:
+        self.stopped = True
+        if self._raise:
+            self._raise = False
+            raise _Stopped
+
+    def run(self, work: Callable[[], object]) -> None:
+        """``work()`` until it returns, fails or the stop comes (none of which is raised)."""
+        if self.stopped:
+            return
+        self._raise = True
+        try:
+            if self.stopped:  # (came between the check and the flag)
+                raise _Stopped
+            work()
+        except (_Stopped, Exception):
+            pass
+        finally:
+            self._raise = False
+
+    def sending(self, sender: _Sender, obj: object) -> None:
+        """``sender.send(obj)`` whole, the stop held back meanwhile."""
+        self._raise = False
+        try:
+            sender.send(obj)
+        finally:
+            self._raise = True
+        if self.stopped:
+            raise _Stopped
+
+
+@contextmanager
+def _blocked(signum: int) -> Iterator[None]:
+    """``signum`` blocked in this thread inside (a child forked meanwhile starts with it
+    blocked: it unblocks it once it has its handler)."""
+    old = signal.pthread_sigmask(signal.SIG_BLOCK, {signum})
+    try:
+        yield
+    finally:
+        signal.pthread_sigmask(signal.SIG_SETMASK, old)
+
+
 class _Results:
     """The results a :func:`fork_runs` child sends: frames of (run index, result), each
     pickled behind its length."""
@@ -303,7 +422,14 @@ class _Results:
         self.pid, self.fd = pid, fd
         self.buffer = bytearray()
         self.got: dict[int, object] = {}
+        self.extras: list[object] = []
         self.open, self.broken, self.reaped = True, False, False
+
+    def stop(self) -> None:
+        """Ask the child to stop (:class:`RunsAhead`'s ``then``) and send what it has."""
+        if not self.reaped:
+            with contextlib.suppress(ProcessLookupError):
+                os.kill(self.pid, signal.SIGUSR1)
 
     def poll(self) -> None:
         """Take in what has arrived, without waiting."""
@@ -318,6 +444,7 @@ class _Results:
         _, status = os.waitpid(self.pid, 0)
         self.reaped = True
         if self.broken or self.buffer or os.waitstatus_to_exitcode(status) != 0:
+            self.extras = []
             return {}
         return self.got
 
@@ -340,7 +467,10 @@ class _Results:
                 break
             try:
                 i, result = pickle.loads(bytes(buf[_FRAME.size : _FRAME.size + size]))
-                self.got[i] = result
+                if i == _EXTRA:
+                    self.extras.append(result)
+                else:
+                    self.got[i] = result
             except Exception:  # a broken result: its runs are computed again by the parent
                 self.open, self.broken = False, True
                 return

@@ -325,6 +325,63 @@ def test_runs_ahead_left_when_finished_are_taken_here_in_order() -> None:
     assert len({pid for _, pid in out}) == 2
 
 
+@linux
+def test_a_child_goes_on_with_then_until_finish_stops_it() -> None:
+    """A child that took every run goes on with ``then`` (given its own results) while this
+    process works; finish stops it at once, even in a ``then`` that never ends, and the
+    extras it sent arrive whole and in order."""
+
+    def endless(mine: dict[int, int], send) -> None:
+        send(("mine", sorted(mine.items())))
+        k = 0
+        while True:  # sends until stopped
+            send(("more", k))
+            k += 1
+            time.sleep(0.001)
+
+    ahead = RunsAhead(lambda x: x * x, list(range(6)), 2, then=endless)
+    time.sleep(0.5)
+    start = time.monotonic()
+    assert ahead.finish() == [x * x for x in range(6)]
+    assert time.monotonic() - start < 5.0  # (the stop does not wait for ``then`` to end)
+    assert ahead.extras[0] == ("mine", [(x, x * x) for x in range(6)])
+    more = [k for tag, k in ahead.extras[1:]]  # type: ignore[misc]
+    assert len(more) > 10 and more == list(range(len(more)))
+
+
+@linux
+def test_then_that_fails_or_ends_keeps_what_it_sent_and_the_runs() -> None:
+    def failing(mine: dict[int, int], send) -> None:
+        send("first")
+        raise RuntimeError("only ends then")
+
+    ahead = RunsAhead(lambda x: x + 1, list(range(5)), 2, then=failing)
+    time.sleep(0.3)
+    assert ahead.finish() == [1, 2, 3, 4, 5]
+    assert ahead.extras == ["first"]
+
+    ended = RunsAhead(lambda x: x + 1, list(range(5)), 2, then=lambda mine, send: send(len(mine)))
+    time.sleep(0.3)
+    assert ended.finish() == [1, 2, 3, 4, 5]
+    assert ended.extras == [5]
+
+
+@linux
+def test_a_child_stopped_on_its_runs_skips_then_and_finish_taken_at_once_has_them_all() -> None:
+    """finish right away: this process takes runs too, the child is stopped while it still
+    computes one, and ``then`` (given only the child's runs, if it runs at all) sends at most
+    that; every run's result is there."""
+
+    def then(mine: dict[int, tuple[int, int]], send) -> None:
+        send(sorted(mine))
+
+    ahead = RunsAhead(_slow_square_and_pid, list(range(40)), 2, then=then)
+    out = ahead.finish()
+    assert [v for v, _ in out] == [x * x for x in range(40)]
+    child_runs = [i for i, (_, pid) in enumerate(out) if pid != os.getpid()]
+    assert child_runs and ahead.extras in ([], [child_runs])
+
+
 def test_runs_in_one_process_do_the_job_first_and_refuse_too_many_runs() -> None:
     order: list[object] = []
     out = fork_runs(lambda x: order.append(x) or x, [1, 2], 1, lambda: order.append("job"))
