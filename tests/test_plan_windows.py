@@ -9,6 +9,7 @@ from __future__ import annotations
 import importlib
 import math
 import sys
+import time
 
 import numpy as np
 import pytest
@@ -263,6 +264,28 @@ def test_a_first_round_planned_ahead_from_another_speed_gives_the_same_plan(monk
     # its windows are cut where the feed changes, moving
     whole, windowed, _ = _whole_and_windowed(_tangent_program(), monkeypatch, 20, 4)
     assert any(v > 0 for v in started) and any(n > 0 for n in seeds), (started, seeds)
+    _assert_same(whole, windowed)
+
+
+@pytest.mark.skipif(not sys.platform.startswith("linux"), reason="forks on Linux only")
+def test_the_rounds_after_the_first_planned_ahead_are_taken_and_give_the_same_plan(monkeypatch):
+    """The process that planned a window's first round ahead goes on with its next rounds
+    until the window is taken (rounds.settle_onward): with time for it (the taking delayed),
+    the chains of those rounds come with the seed, and the plan is the whole program's."""
+    monkeypatch.setenv("GANTRY_PLAN_WORKERS", "2")
+    real_take = windows._Ahead.take
+    later_rounds = []
+
+    def take(self, key):
+        time.sleep(0.3)  # the other process plans the next rounds meanwhile
+        got = real_take(self, key)
+        if got is not None:
+            later_rounds.append(sum(not sat for _, _, sat in got[1]))
+        return got
+
+    monkeypatch.setattr(windows._Ahead, "take", take)
+    whole, windowed, _ = _whole_and_windowed(_program(), monkeypatch, 40, 8)
+    assert any(n > 0 for n in later_rounds), later_rounds
     _assert_same(whole, windowed)
 
 

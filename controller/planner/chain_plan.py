@@ -18,6 +18,7 @@ from __future__ import annotations
 
 from collections.abc import Callable
 from dataclasses import dataclass, replace
+from typing import cast
 
 import numpy as np
 
@@ -35,8 +36,10 @@ __all__ = [
     "ChainSetup",
     "ChainsAhead",
     "Chunk",
+    "SeedKey",
     "plan_chains",
     "plan_chains_forked",
+    "plan_chains_sending",
 ]
 
 
@@ -60,6 +63,9 @@ BATCH_PIECES = 20_000
 
 #: A chain by (first move, stop, speed in [mm/s], speed out [mm/s]).
 ChainKey = tuple[int, int, float, float]
+#: A chain planned elsewhere by everything its pieces depend on: its key, its limits (lowered
+#: where a round softened its moves) and the round's ``ChainSetup.saturated_moving``.
+SeedKey = tuple[ChainKey, BlockLimits, bool]
 
 
 def plan_chains(
@@ -117,24 +123,66 @@ def plan_chains_forked(
     return out
 
 
+def plan_chains_sending(
+    setup: ChainSetup,
+    todo: list[tuple[ChainKey, BlockLimits]],
+    speeds: np.ndarray,
+    send: Callable[[dict[SeedKey, Chain]], None],
+) -> dict[ChainKey, Chain]:
+    """:func:`plan_chains` in this process, run by run (:func:`_runs`), each run's chains
+    given to ``send`` as soon as they are planned, by :data:`SeedKey`."""
+    out: dict[ChainKey, Chain] = {}
+    sat = setup.saturated_moving
+    for run in _runs(todo, [_work(setup, key) for key, _ in todo]):
+        done = plan_chains(setup, run, speeds)
+        send({(key, lim, sat): done[key] for key, lim in run})
+        out.update(done)
+    return out
+
+
+#: What a child of :class:`ChainsAhead` does with the first round once it has planned all of
+#: it: given its chains (by :data:`SeedKey`) and a function sending more of them.
+Onward = Callable[[dict[SeedKey, Chain], Callable[[dict[SeedKey, Chain]], None]], object]
+
+
 class ChainsAhead:
     """:func:`plan_chains` of ``todo`` started now over the forked children of
     :func:`~gantry_sim.controller.forked.process_count` (they hold their cores meanwhile), and
     finished by :meth:`finish`, where this process takes the chains left (the next window's
     first round, planned while this process plans the rounds left of the window it is in:
-    :mod:`~gantry_sim.controller.planner.windows`)."""
+    :mod:`~gantry_sim.controller.planner.windows`). ``onward``: where one child planned the
+    whole of ``todo``, it goes on with ``onward`` (the window's next rounds) until
+    :meth:`finish` stops it, and the chains it sent come with the others."""
 
     def __init__(
-        self, setup: ChainSetup, todo: list[tuple[ChainKey, BlockLimits]], speeds: np.ndarray
+        self,
+        setup: ChainSetup,
+        todo: list[tuple[ChainKey, BlockLimits]],
+        speeds: np.ndarray,
+        onward: Onward | None = None,
     ) -> None:
         runs = _runs(todo, [_work(setup, key) for key, _ in todo])
-        self._ahead = RunsAhead(lambda run: plan_chains(setup, run, speeds), runs, process_count())
+        self._todo, self._sat = todo, setup.saturated_moving
 
-    def finish(self) -> dict[ChainKey, Chain]:
-        """Every chain, by key."""
-        out: dict[ChainKey, Chain] = {}
-        for done in self._ahead.finish():
-            out.update(done)
+        def then(mine: dict[int, dict[ChainKey, Chain]], send: Callable[[object], None]) -> None:
+            if onward is not None and len(mine) == len(runs):  # the whole first round is here
+                onward(self._seeds([mine[i] for i in range(len(runs))]), send)
+
+        self._ahead = RunsAhead(
+            lambda run: plan_chains(setup, run, speeds), runs, process_count(), then=then
+        )
+
+    def _seeds(self, results: list[dict[ChainKey, Chain]]) -> dict[SeedKey, Chain]:
+        done: dict[ChainKey, Chain] = {}
+        for chains in results:
+            done.update(chains)
+        return {(key, lim, self._sat): done[key] for key, lim in self._todo}
+
+    def finish(self) -> dict[SeedKey, Chain]:
+        """Every chain of the first round, and those planned onward, by :data:`SeedKey`."""
+        out = self._seeds(self._ahead.finish())
+        for extra in self._ahead.extras:
+            out.update(cast(dict[SeedKey, Chain], extra))  # what onward sent
         return out
 
     def close(self) -> None:

@@ -30,7 +30,9 @@ from gantry_sim.controller.planner.chain_plan import (
     ChainKey,
     ChainSetup,
     Chunk,
+    SeedKey,
     plan_chains_forked,
+    plan_chains_sending,
 )
 from gantry_sim.controller.planner.chains import chain_limits, chain_spans
 from gantry_sim.controller.planner.junctions import JunctionState
@@ -47,6 +49,7 @@ __all__ = [
     "assemble",
     "first_round",
     "settle_chains",
+    "settle_onward",
 ]
 
 #: Re-planning rounds that lower the offending junction caps by JUNCTION_BACKOFF; from then on
@@ -99,7 +102,8 @@ def settle_chains(
     smoothing: list[float],
     blend_arcs: frozenset[int] = frozenset(),
     ahead: Callable[[list[tuple[int, int]], np.ndarray], Callable[[], object] | None] | None = None,
-    seed: Mapping[ChainKey, Chain] | None = None,
+    seed: Mapping[SeedKey, Chain] | None = None,
+    plan_round: RoundPlanner = plan_chains_forked,
 ) -> Settled:
     """Plan the moves' chains (not yet assembled into a timeline: :func:`assemble`; a window of a
     long program keeps only a prefix of them, :mod:`~gantry_sim.controller.planner.windows`);
@@ -120,9 +124,11 @@ def settle_chains(
     :func:`~gantry_sim.controller.planner.chain_plan.plan_chains_forked`).
 
     ``seed``: chains planned already for these moves (by other processes, ahead:
-    :func:`first_round`; a chain's pieces depend on nothing but the chain, its limits and its
-    end speeds, so a chain of the same key is the same chain); they are used wherever a round
-    needs them."""
+    :func:`first_round`, :func:`settle_onward`; a chain's pieces depend on nothing but the
+    chain, its limits, its end speeds and whether the round lets its arcs try the saturated
+    ramps, so a chain of the same :data:`SeedKey` is the same chain); they are used wherever a
+    round needs them. ``plan_round``: plans a round's chains (:func:`settle_onward` sends
+    them as they come)."""
     setup = ChainSetup(active, states, machine, solver, arc_pieces, smoothing, {}, blend_arcs)
     blocks = [g.limits for g in active]
     cache: dict[ChainKey, Chain] = {}
@@ -137,7 +143,7 @@ def settle_chains(
         # built again each time (one arc of a Bambu Studio print in G61: 11 times, 7.1 s of a
         # 7.7 s plan), so there only an arc from and to rest tries them
         now = setup if rnd == 0 else replace(setup, saturated_moving=False)
-        chains, cache = _plan_round(now, spans, chained, speeds, cache, before, seed)
+        chains, cache = _plan_round(now, spans, chained, speeds, cache, before, seed, plan_round)
         bad: set[int] = set()
         for (first, stop), chain in zip(spans, chains, strict=True):
             if chain.bad:
@@ -157,6 +163,48 @@ def settle_chains(
         _soften(blocks, touched, cache, chain_memo)
         chains.clear()  # the chains replaced next round are freed before it plans new ones
     return Settled(setup, spans, chains, speeds)
+
+
+#: Plans a round's chains: (setup, chains to plan (key, limits), speeds [mm/s] at the chains'
+#: ends, a job of this process' own to do first or None) -> the chains by key.
+RoundPlanner = Callable[
+    [ChainSetup, list[tuple[ChainKey, BlockLimits]], np.ndarray, Callable[[], object] | None],
+    dict[ChainKey, Chain],
+]
+
+
+def settle_onward(
+    setup: ChainSetup, caps: np.ndarray
+) -> Callable[[dict[SeedKey, Chain], Callable[[dict[SeedKey, Chain]], None]], None]:
+    """For :class:`~gantry_sim.controller.planner.chain_plan.ChainsAhead`: given the chains of
+    the first round of :func:`settle_chains` with ``setup``'s moves and ``caps`` [mm/s] (as
+    :func:`first_round` gives it), the rounds after it, each chain sent as it is planned (the
+    process planning the window takes them as its seed: the same calls, so the same rounds
+    where it starts at the same speed)."""
+
+    def onward(seed: dict[SeedKey, Chain], send: Callable[[dict[SeedKey, Chain]], None]) -> None:
+        def plan_round(
+            now: ChainSetup,
+            todo: list[tuple[ChainKey, BlockLimits]],
+            speeds: np.ndarray,
+            before: Callable[[], object] | None,
+        ) -> dict[ChainKey, Chain]:
+            return plan_chains_sending(now, todo, speeds, send)
+
+        settle_chains(
+            setup.active,
+            caps.copy(),
+            setup.states,
+            setup.machine,
+            setup.solver,
+            setup.arc_pieces,
+            setup.smoothing,
+            setup.blend_arcs,
+            seed=seed,
+            plan_round=plan_round,
+        )
+
+    return onward
 
 
 def _round_speeds(
@@ -241,7 +289,8 @@ def _plan_round(
     speeds: np.ndarray,
     cache: dict[ChainKey, Chain],
     before: Callable[[], object] | None = None,
-    seed: Mapping[ChainKey, Chain] | None = None,
+    seed: Mapping[SeedKey, Chain] | None = None,
+    plan_round: RoundPlanner = plan_chains_forked,
 ) -> tuple[list[Chain], dict[ChainKey, Chain]]:
     """Every chain's pieces between the junction speeds ``speeds`` [mm/s] at the chains' ends,
     reusing ``cache``'s chains planned for the same speeds (the others are dropped from it
@@ -253,11 +302,18 @@ def _plan_round(
     for key in [k for k in cache if k not in needed]:  # free them before planning new ones
         del cache[key]
     known = seed or {}
-    todo = [
-        (k, lim) for k, lim in zip(keys, chained, strict=True) if k not in cache and k not in known
+    sat = setup.saturated_moving
+    seeded = [
+        known.get((k, lim, sat)) if k not in cache else None
+        for k, lim in zip(keys, chained, strict=True)
     ]
-    fresh = plan_chains_forked(setup, todo, speeds, before)
-    chains = [cache.get(key) or known.get(key) or fresh[key] for key in keys]
+    todo = [
+        (k, lim)
+        for k, lim, got in zip(keys, chained, seeded, strict=True)
+        if got is None and k not in cache
+    ]
+    fresh = plan_round(setup, todo, speeds, before)
+    chains = [cache.get(key) or got or fresh[key] for key, got in zip(keys, seeded, strict=True)]
     return chains, dict(zip(keys, chains, strict=True))
 
 

@@ -48,7 +48,7 @@ import numpy as np
 from gantry_sim.controller.config import MachineConfig
 from gantry_sim.controller.forked import process_count
 from gantry_sim.controller.planner.blend import PathPlan
-from gantry_sim.controller.planner.chain_plan import Chain, ChainKey, ChainsAhead
+from gantry_sim.controller.planner.chain_plan import Chain, ChainsAhead, SeedKey
 from gantry_sim.controller.planner.chains import chain_spans
 from gantry_sim.controller.planner.limits import BlockLimits
 from gantry_sim.controller.planner.move_geometry import MoveGeometry
@@ -59,6 +59,7 @@ from gantry_sim.controller.planner.rounds import (
     assemble,
     first_round,
     settle_chains,
+    settle_onward,
 )
 from gantry_sim.controller.planner.ruckig_solver import RuckigSolver
 from gantry_sim.controller.planner.segmented_curve import CurveBuilder
@@ -144,7 +145,7 @@ def _plan_windows(
         lo, ctx, v_lo = start
         n = len(src.path.moves)
         hi = min(n, lo + size)
-        seed: Mapping[ChainKey, Chain] = {}
+        seed: Mapping[SeedKey, Chain] = {}
         if prepared is not None and lo == 0 and hi == n:
             pre, blend_arcs, base = prepared, _blend_arcs(src.path, prepared), 0
         else:
@@ -291,12 +292,15 @@ class _Ahead:
     has in this first round; that window prepared now if it was not yet), while this process
     plans the rounds left of its window (alone: the others hold their cores), keeps it, and
     prepares the window after the next one (its cut is that of the next window's first round,
-    whose caps are known once this window's end speed is). The next window then takes the
+    whose caps are known once this window's end speed is). Where one other process planned
+    the whole first round, it goes on with that window's next rounds
+    (:func:`~gantry_sim.controller.planner.rounds.settle_onward`: the calls this process will
+    make, from the same speed) until the window is taken. The next window then takes the
     chains planned ahead as its seed
     (:func:`~gantry_sim.controller.planner.rounds.settle_chains`), with this process taking
-    the chains still left: a chain of the same key is the same chain, so the plan is the same
-    bit for bit, and where the window's start speed came out otherwise (a junction near the
-    cut backed off), the chains that speed reaches are planned then. Before, this process
+    the chains still left: a chain of the same seed key is the same chain, so the plan is the
+    same bit for bit, and where the window's start speed came out otherwise (a junction near
+    the cut backed off), the chains that speed reaches are planned then. Before, this process
     was busy the whole plan while the other cores waited through the rounds after the first,
     the look-ahead and the bookkeeping between them. Only where the chains are planned over
     several processes: in one process it would just come earlier."""
@@ -321,7 +325,7 @@ class _Ahead:
         if keep is not None:
             keep()
 
-    def take(self, key: WindowKey) -> tuple[Window, Mapping[ChainKey, Chain]] | None:
+    def take(self, key: WindowKey) -> tuple[Window, Mapping[SeedKey, Chain]] | None:
         """The window prepared ahead for (first stretch move, stop, with context, judged from)
         (:func:`_window_of`), if that is one prepared, with the chains of its first round
         planned ahead (this process plans those left); otherwise nothing prepared is kept."""
@@ -438,7 +442,7 @@ class _Ahead:
             pre.smoothing,
             blend_arcs,
         )
-        self._chains = (key, ChainsAhead(setup, todo, speeds))
+        self._chains = (key, ChainsAhead(setup, todo, speeds, settle_onward(setup, caps)))
 
 
 def _next_key(
