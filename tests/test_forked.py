@@ -367,6 +367,24 @@ def test_then_that_fails_or_ends_keeps_what_it_sent_and_the_runs() -> None:
 
 
 @linux
+def test_a_child_killed_in_then_gives_no_extras_and_its_runs_are_computed_here() -> None:
+    """A child that dies in ``then`` (e.g. killed for memory) is not trusted: what it sent
+    is dropped, and its runs are computed in this process."""
+    import signal
+
+    def dies(mine: dict[int, tuple[int, int]], send) -> None:
+        send("before")
+        os.kill(os.getpid(), signal.SIGKILL)
+
+    ahead = RunsAhead(_square_and_pid, list(range(6)), 2, then=dies)
+    time.sleep(0.5)
+    out = ahead.finish()
+    assert [v for v, _ in out] == [x * x for x in range(6)]
+    assert {pid for _, pid in out} == {os.getpid()}
+    assert ahead.extras == []
+
+
+@linux
 def test_a_child_stopped_on_its_runs_skips_then_and_finish_taken_at_once_has_them_all() -> None:
     """finish right away: this process takes runs too, the child is stopped while it still
     computes one, and ``then`` (given only the child's runs, if it runs at all) sends at most
