@@ -36,6 +36,7 @@ __all__ = [
     "ChainSetup",
     "ChainsAhead",
     "Chunk",
+    "Onward",
     "SeedKey",
     "plan_chains",
     "plan_chains_forked",

@@ -30,6 +30,7 @@ from gantry_sim.controller.planner.chain_plan import (
     ChainKey,
     ChainSetup,
     Chunk,
+    Onward,
     SeedKey,
     plan_chains_forked,
     plan_chains_sending,
@@ -173,9 +174,7 @@ RoundPlanner = Callable[
 ]
 
 
-def settle_onward(
-    setup: ChainSetup, caps: np.ndarray
-) -> Callable[[dict[SeedKey, Chain], Callable[[dict[SeedKey, Chain]], None]], None]:
+def settle_onward(setup: ChainSetup, caps: np.ndarray) -> Onward:
     """For :class:`~gantry_sim.controller.planner.chain_plan.ChainsAhead`: given the chains of
     the first round of :func:`settle_chains` with ``setup``'s moves and ``caps`` [mm/s] (as
     :func:`first_round` gives it), the rounds after it, each chain sent as it is planned (the
@@ -296,7 +295,7 @@ def _plan_round(
     reusing ``cache``'s chains planned for the same speeds (the others are dropped from it
     first, so a plan holds about one round's phases) and ``seed``'s; returns the chains, in
     order, and the cache of this round's chains. ``before``: a job of this process' own, done
-    while other processes plan the chains."""
+    while other processes plan the chains; ``plan_round``: plans the chains left."""
     keys = _chain_keys(spans, speeds)
     needed = set(keys)
     for key in [k for k in cache if k not in needed]:  # free them before planning new ones
