@@ -19,6 +19,7 @@ file), ``trajectory`` (the
 sampled reference), ``transmission`` (backlash), ``loop_figures`` (a position loop's figures)
 ``machine_import/`` (machine files from LinuxCNC INI files and grbl settings), ``gc_pause``
 (the cyclic collector paused while a long program is read and planned), ``heap`` (the C heap's
-free pages given back after planning) and ``spill`` (long sequences kept on disk in blocks: a
-long program's moves, path and reference).
+free pages given back after planning), ``spill`` (long sequences kept on disk in blocks: a
+long program's moves, path and reference), and ``forked`` and ``forked_runs`` (work over
+forked copies of this process: one result in the background, or many runs taken from a queue).
 """

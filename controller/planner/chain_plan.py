@@ -22,7 +22,8 @@ from typing import cast
 
 import numpy as np
 
-from gantry_sim.controller.forked import RunsAhead, fork_runs, process_count
+from gantry_sim.controller.forked import process_count
+from gantry_sim.controller.forked_runs import RunsAhead, fork_runs
 from gantry_sim.controller.planner.chain_prep import ChainPrep, ChainSetup, chain_prep, chain_preps
 from gantry_sim.controller.planner.cubic import Chunk
 from gantry_sim.controller.planner.limits import BlockLimits
@@ -96,7 +97,7 @@ def plan_chains_forked(
     before: Callable[[], object] | None = None,
 ) -> dict[ChainKey, Chain]:
     """:func:`plan_chains`, split over :func:`~gantry_sim.controller.forked.process_count`
-    processes (:func:`~gantry_sim.controller.forked.fork_runs`) when its work (:func:`_work`) is
+    processes (:func:`~gantry_sim.controller.forked_runs.fork_runs`) when its work (:func:`_work`) is
     at least :data:`FORK_WORK`, or when this process has a job of its own to do first
     (``before``, called once: the next window's preparation,
     :mod:`~gantry_sim.controller.planner.windows`), so that the other processes plan the chains
