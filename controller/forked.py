@@ -41,6 +41,8 @@ from typing import Generic, TypeVar
 __all__ = [
     "MAX_PROCESSES",
     "Background",
+    "end_child",
+    "fork_child",
     "fork_map",
     "give_back_cores",
     "hold_cores",
@@ -118,7 +120,7 @@ def fork_map(fn: Callable[[T], R], parts: Sequence[T]) -> list[R]:
             out.append(_collect(fn, part, pending.pop(0)))
     finally:
         for pid, fd in pending:  # the parent failed: stop and reap the children still there
-            _end(pid, fd)
+            end_child(pid, fd)
     return out
 
 
@@ -161,7 +163,7 @@ class Background(Generic[R]):
         """Stop and reap the child if its result was not taken."""
         if self._child is not None:
             child, self._child = self._child, None
-            _end(*child)
+            end_child(*child)
 
 
 def _call(fn: Callable[[], R]) -> R:
@@ -188,10 +190,10 @@ def _start(fn: Callable[[T], R], part: T) -> tuple[int, int]:
         with os.fdopen(fd, "wb", closefd=False) as out:
             pickle.dump(fn(part), out, protocol=pickle.HIGHEST_PROTOCOL)
 
-    return _fork(body)
+    return fork_child(body)
 
 
-def _fork(body: Callable[[int], object]) -> tuple[int, int]:
+def fork_child(body: Callable[[int], object]) -> tuple[int, int]:
     """A child calling ``body`` with the write end of a pipe, then leaving (see the module
     docstring); returns its pid and the read end. The pipe holds :data:`PIPE_BYTES` where the
     system allows (fewer system calls for a child sending results as they come)."""
@@ -254,7 +256,7 @@ def _collect(fn: Callable[[T], R], part: T, child: tuple[int, int]) -> R:
     return fn(part)
 
 
-def _end(pid: int, fd: int) -> None:
+def end_child(pid: int, fd: int) -> None:
     """Kill and reap a child, closing its pipe."""
     try:
         os.kill(pid, 9)

@@ -23,7 +23,7 @@ from collections.abc import Callable, Iterator, Sequence
 from contextlib import contextmanager
 from typing import Any, Generic, TypeVar
 
-from gantry_sim.controller.forked import _end, _fork, give_back_cores, hold_cores
+from gantry_sim.controller.forked import end_child, fork_child, give_back_cores, hold_cores
 
 __all__ = ["MAX_RUNS", "RunsAhead", "fork_runs"]
 
@@ -130,7 +130,7 @@ class RunsAhead(Generic[R]):
         try:
             with _blocked(signal.SIGUSR1) if self._stoppable else contextlib.nullcontext():
                 for _ in range(children):
-                    self._streams.append(_Results(*_fork(serve)))
+                    self._streams.append(_Results(*fork_child(serve)))
         except BaseException:
             self.close()
             raise
@@ -311,7 +311,7 @@ class _Results:
         """Kill and reap the child if :meth:`finish` did not."""
         if not self.reaped:
             self.reaped = True
-            _end(self.pid, self.fd)
+            end_child(self.pid, self.fd)
 
     def _read(self) -> None:
         chunk = os.read(self.fd, 1 << 20)
