@@ -134,12 +134,19 @@ def plan_chains_sending(
     """:func:`plan_chains` in this process, run by run (:func:`_runs`), each run's chains
     given to ``send`` as soon as they are planned, by :data:`SeedKey`."""
     out: dict[ChainKey, Chain] = {}
-    sat = setup.saturated_moving
     for run in _runs(todo, [_work(setup, key) for key, _ in todo]):
         done = plan_chains(setup, run, speeds)
-        send({(key, lim, sat): done[key] for key, lim in run})
+        send(_by_seed_key(run, done, setup.saturated_moving))
         out.update(done)
     return out
+
+
+def _by_seed_key(
+    todo: list[tuple[ChainKey, BlockLimits]], done: dict[ChainKey, Chain], sat: bool
+) -> dict[SeedKey, Chain]:
+    """The chains ``todo`` (key, limits) planned as ``done`` by :data:`SeedKey` (``sat``: the
+    round's ``ChainSetup.saturated_moving``)."""
+    return {(key, lim, sat): done[key] for key, lim in todo}
 
 
 #: What a child of :class:`ChainsAhead` does with the first round once it has planned all of
@@ -178,7 +185,7 @@ class ChainsAhead:
         done: dict[ChainKey, Chain] = {}
         for chains in results:
             done.update(chains)
-        return {(key, lim, self._sat): done[key] for key, lim in self._todo}
+        return _by_seed_key(self._todo, done, self._sat)
 
     def finish(self) -> dict[SeedKey, Chain]:
         """Every chain of the first round, and those planned onward, by :data:`SeedKey`."""

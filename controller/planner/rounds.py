@@ -49,6 +49,7 @@ __all__ = [
     "Settled",
     "assemble",
     "first_round",
+    "settle",
     "settle_chains",
     "settle_onward",
 ]
@@ -131,7 +132,19 @@ def settle_chains(
     round needs them. ``plan_round``: plans a round's chains (:func:`settle_onward` sends
     them as they come)."""
     setup = ChainSetup(active, states, machine, solver, arc_pieces, smoothing, {}, blend_arcs)
-    blocks = [g.limits for g in active]
+    return settle(setup, caps, ahead, seed, plan_round)
+
+
+def settle(
+    setup: ChainSetup,
+    caps: np.ndarray,
+    ahead: Callable[[list[tuple[int, int]], np.ndarray], Callable[[], object] | None] | None = None,
+    seed: Mapping[SeedKey, Chain] | None = None,
+    plan_round: RoundPlanner = plan_chains_forked,
+) -> Settled:
+    """:func:`settle_chains` of the moves, states and machine of ``setup`` (its ``boost_cache``
+    fresh, and ``saturated_moving`` set, as a new setup has them)."""
+    blocks = [g.limits for g in setup.active]
     cache: dict[ChainKey, Chain] = {}
     reach_memo: dict = {}
     chain_memo: dict[tuple[int, int], BlockLimits] = {}  # chain_limits by span, across rounds
@@ -190,18 +203,7 @@ def settle_onward(setup: ChainSetup, caps: np.ndarray) -> Onward:
         ) -> dict[ChainKey, Chain]:
             return plan_chains_sending(now, todo, speeds, send)
 
-        settle_chains(
-            setup.active,
-            caps.copy(),
-            setup.states,
-            setup.machine,
-            setup.solver,
-            setup.arc_pieces,
-            setup.smoothing,
-            setup.blend_arcs,
-            seed=seed,
-            plan_round=plan_round,
-        )
+        settle(replace(setup, boost_cache={}), caps.copy(), seed=seed, plan_round=plan_round)
 
     return onward
 
@@ -228,21 +230,13 @@ def _round_speeds(
 
 
 def first_round(
-    active: list[MoveGeometry],
-    caps: np.ndarray,
-    states: list[JunctionState],
-    machine: MachineConfig,
-    solver: RuckigSolver,
-    arc_pieces: str,
-    smoothing: list[float],
-    blend_arcs: frozenset[int] = frozenset(),
-) -> tuple[ChainSetup, list[tuple[ChainKey, BlockLimits]], np.ndarray]:
-    """What the first round of :func:`settle_chains` with the same arguments plans: its setup,
-    its chains (key, limits) and the speeds [mm/s] at their ends, to plan them ahead (the
-    chains planned are a seed of that call)."""
-    setup = ChainSetup(active, states, machine, solver, arc_pieces, smoothing, {}, blend_arcs)
-    spans, chained, speeds = _round_speeds([g.limits for g in active], caps, {}, {})
-    return setup, list(zip(_chain_keys(spans, speeds), chained, strict=True)), speeds
+    setup: ChainSetup, caps: np.ndarray
+) -> tuple[list[tuple[ChainKey, BlockLimits]], np.ndarray]:
+    """What the first round of :func:`settle` of ``setup`` and ``caps`` [mm/s] plans: its
+    chains (key, limits) and the speeds [mm/s] at their ends, to plan them ahead (the chains
+    planned are a seed of that call)."""
+    spans, chained, speeds = _round_speeds([g.limits for g in setup.active], caps, {}, {})
+    return list(zip(_chain_keys(spans, speeds), chained, strict=True)), speeds
 
 
 def _chain_keys(spans: list[tuple[int, int]], speeds: np.ndarray) -> list[ChainKey]:

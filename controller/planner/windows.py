@@ -48,7 +48,7 @@ import numpy as np
 from gantry_sim.controller.config import MachineConfig
 from gantry_sim.controller.forked import process_count
 from gantry_sim.controller.planner.blend import PathPlan
-from gantry_sim.controller.planner.chain_plan import Chain, ChainsAhead, SeedKey
+from gantry_sim.controller.planner.chain_plan import Chain, ChainsAhead, ChainSetup, SeedKey
 from gantry_sim.controller.planner.chains import chain_spans
 from gantry_sim.controller.planner.limits import BlockLimits
 from gantry_sim.controller.planner.move_geometry import MoveGeometry
@@ -432,16 +432,17 @@ class _Ahead:
         pre, blend_arcs, _, _ = window
         caps = pre.caps.copy()
         caps[0] = v_start
-        setup, todo, speeds = first_round(
+        setup = ChainSetup(
             pre.active,
-            caps,
             pre.states,
             machine,
             self._solver,
             self._arc_pieces,
             pre.smoothing,
+            {},
             blend_arcs,
         )
+        todo, speeds = first_round(setup, caps)
         self._chains = (key, ChainsAhead(setup, todo, speeds, settle_onward(setup, caps)))
 
 
