@@ -140,9 +140,11 @@ class RunsAhead(Generic[R]):
         while read is not None and (claim := os.read(read, _INDEX.size)):
             yield _INDEX.unpack(claim)[0]
 
-    def finish(self) -> list[R]:
+    def finish(self, meanwhile: Callable[[], object] | None = None) -> list[R]:
         """Every run's result, in order: this process takes the runs left, then waits for the
-        children's."""
+        children's. ``meanwhile``: called once every run is taken, the children stopped and
+        their cores given back, before their results are read (work for the cores they
+        leave, started while they send their last results)."""
         fn, runs = self._fn, self._runs
         results: dict[int, R] = {}
         try:
@@ -154,6 +156,8 @@ class RunsAhead(Generic[R]):
             if self._stoppable:  # every run is taken: the children's ``then`` ends here
                 for stream in self._streams:
                     stream.stop()
+            if meanwhile is not None:
+                meanwhile()
             for stream in self._streams:
                 results.update(stream.finish())
                 self.extras.extend(stream.extras)

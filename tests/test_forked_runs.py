@@ -171,6 +171,33 @@ def test_a_child_goes_on_with_then_until_finish_stops_it() -> None:
 
 
 @linux
+def test_meanwhile_runs_once_the_children_are_stopped_and_their_cores_given_back() -> None:
+    """finish's ``meanwhile`` comes after every run is taken and the children are told to
+    stop, with their cores counted back (a new child may be forked there), and before their
+    results are read: nothing sent meanwhile is lost."""
+    seen: list[tuple[int, int]] = []
+
+    def endless(mine: dict[int, int], send) -> None:
+        k = 0
+        while True:
+            send(k)
+            k += 1
+            time.sleep(0.001)
+
+    ahead = RunsAhead(lambda x: x * x, list(range(6)), 2, then=endless)
+    assert process_count() == 1
+    time.sleep(0.3)
+
+    def meanwhile() -> None:
+        seen.append((process_count(), len(ahead.extras)))
+        assert fork_runs(lambda x: x + 1, [1, 2, 3], 2) == [2, 3, 4]
+
+    assert ahead.finish(meanwhile) == [x * x for x in range(6)]
+    assert seen == [(2, 0)]  # once, the core back, nothing read yet
+    assert len(ahead.extras) > 10 and ahead.extras == list(range(len(ahead.extras)))
+
+
+@linux
 def test_then_that_fails_or_ends_keeps_what_it_sent_and_the_runs() -> None:
     def failing(mine: dict[int, int], send) -> None:
         send("first")

@@ -213,8 +213,8 @@ def test_the_next_window_is_prepared_while_the_chains_are_planned(monkeypatch):
         paths.append(src.path)
         return real_job(self, src, *args)
 
-    def take(self, key):
-        got = real_take(self, key)
+    def take(self, key, start_after=None):
+        got = real_take(self, key, start_after)
         if got is not None:
             pre = got[0][0]
             taken.append(pre)
@@ -253,8 +253,8 @@ def test_a_first_round_planned_ahead_from_another_speed_gives_the_same_plan(monk
         started.append(v_start)
         return real_start(self, window, key, guess * v_start, machine)
 
-    def take(self, key):
-        got = real_take(self, key)
+    def take(self, key, start_after=None):
+        got = real_take(self, key, start_after)
         if got is not None:
             seeds.append(len(got[1]))
         return got
@@ -276,9 +276,9 @@ def test_the_rounds_after_the_first_planned_ahead_are_taken_and_give_the_same_pl
     real_take = windows._Ahead.take
     later_rounds = []
 
-    def take(self, key):
+    def take(self, key, start_after=None):
         time.sleep(0.3)  # the other process plans the next rounds meanwhile
-        got = real_take(self, key)
+        got = real_take(self, key, start_after)
         if got is not None:
             later_rounds.append(sum(not sat for _, _, sat in got[1]))
         return got
@@ -286,6 +286,39 @@ def test_the_rounds_after_the_first_planned_ahead_are_taken_and_give_the_same_pl
     monkeypatch.setattr(windows._Ahead, "take", take)
     whole, windowed, _ = _whole_and_windowed(_program(), monkeypatch, 40, 8)
     assert any(n > 0 for n in later_rounds), later_rounds
+    _assert_same(whole, windowed)
+
+
+@pytest.mark.skipif(not sys.platform.startswith("linux"), reason="forks on Linux only")
+def test_the_window_after_the_next_starts_as_soon_as_the_next_is_taken(monkeypatch):
+    """When a window is taken, the first round of the one after it starts over the other
+    processes at once (windows._Ahead.start_after), before this process settles the window
+    taken, from the speed that window's first round gives its cut: its own first round then
+    starts nothing again, and the plan is the whole program's."""
+    monkeypatch.setenv("GANTRY_PLAN_WORKERS", "2")
+    real_start, real_take = windows._Ahead._start, windows._Ahead.take
+    events = []
+
+    def start(self, window, key, v_start, machine):
+        events.append(("start", key, v_start))
+        return real_start(self, window, key, v_start, machine)
+
+    def take(self, key, start_after=None):
+        events.append(("take", key, None))
+        got = real_take(self, key, start_after)
+        events.append(("taken", key, None))
+        return got
+
+    monkeypatch.setattr(windows._Ahead, "_start", start)
+    monkeypatch.setattr(windows._Ahead, "take", take)
+    whole, windowed, _ = _whole_and_windowed(_program(), monkeypatch, 40, 8)
+    starts = [(key, v) for kind, key, v in events if kind == "start"]
+    assert len(starts) >= 3 and len({key for key, _ in starts}) == len(starts), starts
+    inside, taking = 0, False
+    for kind, _, _ in events:
+        taking = kind == "take" or (taking and kind != "taken")
+        inside += kind == "start" and taking
+    assert inside >= len(starts) - 2, events  # all but the first one or two
     _assert_same(whole, windowed)
 
 

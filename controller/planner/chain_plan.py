@@ -187,9 +187,11 @@ class ChainsAhead:
             done.update(chains)
         return _by_seed_key(self._todo, done, self._sat)
 
-    def finish(self) -> dict[SeedKey, Chain]:
-        """Every chain of the first round, and those planned onward, by :data:`SeedKey`."""
-        out = self._seeds(self._ahead.finish())
+    def finish(self, meanwhile: Callable[[], object] | None = None) -> dict[SeedKey, Chain]:
+        """Every chain of the first round, and those planned onward, by :data:`SeedKey`;
+        ``meanwhile``: called once the children are stopped, before their chains are read
+        (:meth:`~gantry_sim.controller.forked_runs.RunsAhead.finish`)."""
+        out = self._seeds(self._ahead.finish(meanwhile))
         for extra in self._ahead.extras:
             out.update(cast(dict[SeedKey, Chain], extra))  # what onward sent
         return out

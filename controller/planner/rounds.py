@@ -49,6 +49,7 @@ __all__ = [
     "Settled",
     "assemble",
     "first_round",
+    "first_speeds",
     "settle",
     "settle_chains",
     "settle_onward",
@@ -237,6 +238,16 @@ def first_round(
     planned are a seed of that call)."""
     spans, chained, speeds = _round_speeds([g.limits for g in setup.active], caps, {}, {})
     return list(zip(_chain_keys(spans, speeds), chained, strict=True)), speeds
+
+
+def first_speeds(
+    blocks: list[BlockLimits], caps: np.ndarray
+) -> tuple[list[tuple[int, int]], np.ndarray]:
+    """The chains of the first round of :func:`settle` of moves of limits ``blocks`` under
+    the junction ``caps`` [mm/s]: their spans, and the look-ahead's speeds [mm/s] at their
+    ends (NaN inside them)."""
+    spans, _, speeds = _round_speeds(blocks, caps, {}, {})
+    return spans, speeds
 
 
 def _chain_keys(spans: list[tuple[int, int]], speeds: np.ndarray) -> list[ChainKey]:
