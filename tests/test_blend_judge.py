@@ -6,6 +6,7 @@ from __future__ import annotations
 import math
 import sys
 
+import numpy as np
 import pytest
 from hypothesis import given
 from hypothesis import strategies as st
@@ -13,8 +14,11 @@ from hypothesis import strategies as st
 from gantry_sim.controller.gcode.interpreter import parse_program
 from gantry_sim.controller.planner import prepare
 from gantry_sim.controller.planner.blend_judge import (
+    STOP_GAIN_MIN,
     blend_faster,
+    blend_faster_many,
     half_move_s,
+    half_move_s_many,
     ramp_s,
 )
 from gantry_sim.controller.planner.limits import BlockLimits
@@ -68,6 +72,53 @@ def test_a_short_move_reaches_its_peak_within_its_half():
 def test_a_blend_at_rest_is_never_faster():
     blend = BlockLimits(0.1, 20.0, 3000.0, 100000.0)
     assert not blend_faster((0.0, 20.0), blend, LIMITS, LIMITS)
+
+
+_speed = st.floats(0.0, 200.0) | st.sampled_from([0.0, 1e-12, 50.0])
+_limits = st.builds(
+    BlockLimits,
+    st.floats(0.0, 20.0) | st.sampled_from([0.0, 1e-6]),
+    st.floats(1e-3, 200.0) | st.sampled_from([50.0]),
+    st.floats(1.0, 1e5),
+    st.floats(10.0, 1e7),
+)
+
+
+@given(st.lists(st.tuples(_speed, st.floats(-1.0, 20.0), _limits), min_size=1, max_size=30))
+def test_the_estimates_at_once_are_each_estimate_bit_for_bit(cases):
+    v, d = (np.array([c[i] for c in cases]) for i in (0, 1))
+    lims = [c[2] for c in cases]
+    cap, acc, jerk = (
+        np.array([getattr(m, f) for m in lims])
+        for f in ("cap_mm_per_s", "acc_mm_per_s2", "jerk_mm_per_s3")
+    )
+    many = half_move_s_many(v, d, cap, acc, jerk)
+    one = [half_move_s(a, b, m) for a, b, m in zip(v.tolist(), d.tolist(), lims, strict=True)]
+    assert many.tolist() == one  # the same floats, not approximately
+
+
+def _blend_faster_one(ends, blend, before, after):
+    """The estimate of blend_judge's docstring, corner by corner in floats."""
+    v_in, v_out = (min(v, blend.cap_mm_per_s) for v in ends)
+    if min(v_in, v_out) <= 0.0:
+        return False
+    half = 0.5 * blend.length_mm
+    passing = (
+        half_move_s(v_in, half, blend)
+        + half_move_s(v_out, half, blend)
+        + half_move_s(v_in, 0.5 * before.length_mm, before)
+        + half_move_s(v_out, 0.5 * after.length_mm, after)
+    )
+    stopping = sum(half_move_s(0.0, 0.5 * lim.length_mm + half, lim) for lim in (before, after))
+    return passing <= (1.0 + STOP_GAIN_MIN) * stopping
+
+
+@given(st.lists(st.tuples(_speed, _speed, _limits, _limits, _limits), min_size=1, max_size=20))
+def test_the_corners_judged_at_once_are_each_corner_judged_alone(corners):
+    ends = [(a, b) for a, b, *_ in corners]
+    sides = [[c[k] for c in corners] for k in (2, 3, 4)]
+    many = blend_faster_many(ends, *sides).tolist()
+    assert many == [_blend_faster_one(e, *c[2:]) for e, c in zip(ends, corners, strict=True)]
 
 
 def _forced(monkeypatch, rule):

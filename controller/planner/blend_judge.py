@@ -34,10 +34,13 @@ Conventions: mm, s; speeds mm/s, accelerations mm/s^2, jerks mm/s^3.
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
+
+import numpy as np
 
 from gantry_sim.controller.planner.limits import BlockLimits
 
-__all__ = ["blend_faster", "ramp_s"]
+__all__ = ["blend_faster", "blend_faster_many", "half_move_s_many", "ramp_s"]
 
 #: Bisection steps finding the highest speed a short move reaches (to 6e-8 of its cap: 40 steps
 #: were 0.35 s of planning 3,000 polyline blocks).
@@ -94,15 +97,80 @@ def blend_faster(
     (the junction caps with the moves either side), between moves with the limits ``before``
     and ``after`` (as the blend left them), is estimated faster than an exact stop at the
     corner (module docstring)."""
-    v_in, v_out = (min(v, blend.cap_mm_per_s) for v in ends_mm_per_s)
-    if min(v_in, v_out) <= 0.0:
-        return False
-    half = 0.5 * blend.length_mm
-    passing = (
-        half_move_s(v_in, half, blend)
-        + half_move_s(v_out, half, blend)
-        + half_move_s(v_in, 0.5 * before.length_mm, before)
-        + half_move_s(v_out, 0.5 * after.length_mm, after)
-    )
-    stopping = sum(half_move_s(0.0, 0.5 * lim.length_mm + half, lim) for lim in (before, after))
-    return passing <= (1.0 + STOP_GAIN_MIN) * stopping
+    return bool(blend_faster_many([ends_mm_per_s], [blend], [before], [after])[0])
+
+
+def blend_faster_many(
+    ends_mm_per_s: Sequence[tuple[float, float]],
+    blends: Sequence[BlockLimits],
+    before: Sequence[BlockLimits],
+    after: Sequence[BlockLimits],
+) -> np.ndarray:
+    """:func:`blend_faster` of each corner, at once (bool array): the estimates of
+    :func:`half_move_s_many`, summed in the same order, so the same choices."""
+    n = len(blends)
+    if n == 0:
+        return np.zeros(0, dtype=bool)
+    ends = np.array(ends_mm_per_s, dtype=float).reshape(n, 2)
+    lims = np.array(
+        [
+            [m.length_mm, m.cap_mm_per_s, m.acc_mm_per_s2, m.jerk_mm_per_s3]
+            for side in (blends, before, after)
+            for m in side
+        ],
+        dtype=float,
+    ).reshape(3, n, 4)
+    blend, prev, nxt = lims
+    v_in = np.minimum(ends[:, 0], blend[:, 1])
+    v_out = np.minimum(ends[:, 1], blend[:, 1])
+    half = 0.5 * blend[:, 0]
+    zero = np.zeros(n)
+    # the six estimates of each corner, one call: v, distance, and the move's limits
+    v = np.concatenate((v_in, v_out, v_in, v_out, zero, zero))
+    d = np.concatenate(
+        (half, half, 0.5 * prev[:, 0], 0.5 * nxt[:, 0], 0.5 * prev[:, 0] + half,
+         0.5 * nxt[:, 0] + half)
+    )  # fmt: skip
+    lim = np.concatenate((blend, blend, prev, nxt, prev, nxt))
+    t = half_move_s_many(v, d, lim[:, 1], lim[:, 2], lim[:, 3]).reshape(6, n)
+    passing = t[0] + t[1] + t[2] + t[3]
+    stopping = t[4] + t[5]
+    return (np.minimum(v_in, v_out) > 0.0) & (passing <= (1.0 + STOP_GAIN_MIN) * stopping)
+
+
+def half_move_s_many(
+    v: np.ndarray, distance_mm: np.ndarray, cap: np.ndarray, acc: np.ndarray, jerk: np.ndarray
+) -> np.ndarray:
+    """:func:`half_move_s` of each element (speeds [mm/s], distances [mm], each move's speed
+    cap [mm/s], acceleration [mm/s^2] and jerk [mm/s^3]), with the same operations in the
+    same order (IEEE sums, products, quotients and square roots: the same numbers bit for
+    bit), the bisection run on all of them at once."""
+    with np.errstate(all="ignore"):  # the branches not taken are computed too
+        v = np.where(cap < v, cap, v)  # min(v, cap)
+        full = _ramp_mm_many(v, cap, acc, jerk)
+        cruise = _ramp_s_many(cap - v, acc, jerk) + (distance_mm - full) / cap
+        lo, hi = v.copy(), cap.copy()
+        for _ in range(PEAK_STEPS):
+            mid = 0.5 * (lo + hi)
+            below = _ramp_mm_many(v, mid, acc, jerk) <= distance_mm
+            lo = np.where(below, mid, lo)
+            hi = np.where(below, hi, mid)
+        reached = np.where(1e-9 > lo, 1e-9, lo)  # max(lo, 1e-9)
+        peak = (
+            _ramp_s_many(lo - v, acc, jerk)
+            + (distance_mm - _ramp_mm_many(v, lo, acc, jerk)) / reached
+        )
+        out = np.where(full <= distance_mm, cruise, peak)
+    return np.where(distance_mm <= 0.0, 0.0, out)
+
+
+def _ramp_s_many(dv: np.ndarray, acc: np.ndarray, jerk: np.ndarray) -> np.ndarray:
+    """:func:`ramp_s` of each element."""
+    short = 2.0 * np.sqrt(dv / jerk)
+    long = dv / acc + acc / jerk
+    return np.where(dv <= 0.0, 0.0, np.where(dv * jerk <= acc * acc, short, long))
+
+
+def _ramp_mm_many(v0: np.ndarray, v1: np.ndarray, acc: np.ndarray, jerk: np.ndarray) -> np.ndarray:
+    """:func:`_ramp_mm` of each element."""
+    return 0.5 * (v0 + v1) * _ramp_s_many(v1 - v0, acc, jerk)

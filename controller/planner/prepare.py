@@ -18,7 +18,7 @@ import numpy as np
 from gantry_sim.controller.config import MachineConfig
 from gantry_sim.controller.moves import Dwell
 from gantry_sim.controller.planner.blend import PathPlan
-from gantry_sim.controller.planner.blend_judge import blend_faster
+from gantry_sim.controller.planner.blend_judge import blend_faster_many
 from gantry_sim.controller.planner.junctions import (
     JunctionState,
     feasible_junction_caps,
@@ -101,7 +101,7 @@ def prepare(
 
 def slow_blends(path: PathPlan, prepared: Prepared, jerk_mm_per_s3: float) -> frozenset[int]:
     """Junctions whose blend is estimated slower than an exact stop
-    (:func:`~gantry_sim.controller.planner.blend_judge.blend_faster`): a jerk-limited pass of
+    (:func:`~gantry_sim.controller.planner.blend_judge.blend_faster_many`): a jerk-limited pass of
     a sharp corner's blend is slow, and its path long against what the stop costs, so those
     corners stay exact stops. The blend arc is entered and left at the junction caps the
     planner's pieces reach in the end (:func:`_reached_cap`), with ``jerk_mm_per_s3`` the
@@ -109,18 +109,25 @@ def slow_blends(path: PathPlan, prepared: Prepared, jerk_mm_per_s3: float) -> fr
     stretch's neighbours are not known there)."""
     geoms, active, _, caps, _, _, smoothing, _ = prepared
     index = {id(g.move): b for b, g in enumerate(active)}
-    slow = set()
+    judged: list[tuple[int, int]] = []  # (junction, the blend's active move)
     for k, junction in path.blend_junction.items():
         b = index.get(id(geoms[k].move))
-        if b is None or b == 0 or b + 1 >= len(active):
-            continue
-        ends = (
+        if b is not None and 0 < b < len(active) - 1:
+            judged.append((junction, b))
+    ends = [
+        (
             _reached_cap(active, b, float(caps[b]), smoothing, jerk_mm_per_s3),
             _reached_cap(active, b + 1, float(caps[b + 1]), smoothing, jerk_mm_per_s3),
         )
-        if not blend_faster(ends, active[b].limits, active[b - 1].limits, active[b + 1].limits):
-            slow.add(junction)
-    return frozenset(slow)
+        for _, b in judged
+    ]
+    faster = blend_faster_many(
+        ends,
+        [active[b].limits for _, b in judged],
+        [active[b - 1].limits for _, b in judged],
+        [active[b + 1].limits for _, b in judged],
+    )
+    return frozenset(j for (j, _), fast in zip(judged, faster.tolist(), strict=True) if not fast)
 
 
 def _reached_cap(
