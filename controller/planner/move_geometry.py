@@ -6,9 +6,11 @@ Curvature vectors k = d2p/ds2 [1/mm] (|k| = 1/R, pointing to the centre); tangen
 
 from __future__ import annotations
 
+import functools
 import math
 from collections.abc import Sequence
 from dataclasses import dataclass, replace
+from typing import NamedTuple
 
 import numpy as np
 
@@ -16,24 +18,22 @@ from gantry_sim.controller.arcs import (
     arc_derivatives,
     arc_frame,
     arc_points,
-    frenet,
+    frenet_many,
     is_spiral,
     spiral_fraction_at,
     spiral_length_at,
     spiral_speed_rate,
 )
 from gantry_sim.controller.config import Limits, Segmentation
-from gantry_sim.controller.moves import Arc, PathMove, Rapid, Spline, Transition
+from gantry_sim.controller.moves import Arc, Linear, PathMove, Rapid, Spline, Transition
 from gantry_sim.controller.planes import PLANE_AXES
 from gantry_sim.controller.planner.arc_batch import (
-    ARC_ENDS,
     arc_end_derivatives_many,
     arc_overrun_mm,
 )
 from gantry_sim.controller.planner.limits import (
     BlockLimits,
     FollowGeometry,
-    straight_limits,
 )
 from gantry_sim.controller.planner.limits_batch import arc_limits_many
 from gantry_sim.controller.planner.segment import segment_arc, segment_arcs
@@ -46,11 +46,9 @@ from gantry_sim.controller.planner.spline_geometry import (
 from gantry_sim.controller.planner.transition_geometry import (
     transition_deviation,
     transition_end_frames_many,
-    transition_vertices,
     transition_vertices_many,
 )
 from gantry_sim.controller.units import mm_per_min_to_mm_per_s
-from gantry_sim.controller.vector import norm
 
 #: The closed-form arc pieces (:mod:`gantry_sim.controller.planner.jerk3`) overshoot the vertex speed by about
 #: 5e-4 * phi^4 (phi: chord sweep [rad]); the arc's speed cap keeps twice that below the feed.
@@ -188,7 +186,13 @@ def move_geometries(
     """:func:`move_geometry` of each move; the curves' limits in one batch
     (:func:`~gantry_sim.controller.planner.limits_batch.arc_limits_many`)."""
     arcs = [m for m in moves if isinstance(m, Arc)]
-    ends = dict(zip(map(id, arcs), zip(*arc_end_derivatives_many(arcs), strict=True), strict=True))
+    d1, d2 = arc_end_derivatives_many(arcs)
+    tangents, curvatures = frenet_many(d1.reshape(-1, 3), d2.reshape(-1, 3))
+    speeds = np.sqrt(np.vecdot(d1, d1)).tolist()  # |dp/du| at both ends, as norm() gives it
+    ends = {
+        id(arc): _ArcEnds(tangents[2 * i : 2 * i + 2], curvatures[2 * i : 2 * i + 2], *speeds[i])
+        for i, arc in enumerate(arcs)
+    }
     chords = dict(
         zip(
             map(id, arcs),
@@ -202,10 +206,18 @@ def move_geometries(
     )
     frames = transition_end_frames_many(steps)
     verts = dict(zip(map(id, steps), zip(steps_chords, frames, strict=True), strict=True))
+    lines = [m for m in moves if isinstance(m, Linear | Rapid)]
+    straight = dict(
+        zip(map(id, lines), _straight_geometries(lines, limits, feed_scale), strict=True)
+    )
     geoms = [
         _transition_geometry(m, feed_scale, *verts[id(m)])
         if isinstance(m, Transition)
-        else _geometry(m, limits, seg, feed_scale, ends.get(id(m)), chords.get(id(m)))
+        else _spline_geometry(m, seg, feed_scale)
+        if isinstance(m, Spline)
+        else _arc_geometry(m, seg, feed_scale, ends[id(m)], chords[id(m)])
+        if isinstance(m, Arc)
+        else straight[id(m)]
         for m in moves
     ]
     for even in (False, True):  # arcs and splines; transitions (limits_batch._curved)
@@ -228,53 +240,89 @@ def move_geometries(
 _UNSET = BlockLimits(0.0, 0.0, 0.0, 0.0)
 
 
-def _geometry(
-    move: PathMove,
-    limits: Limits,
-    seg: Segmentation,
-    feed_scale: float,
-    ends: tuple[np.ndarray, np.ndarray] | None = None,
-    chords: np.ndarray | None = None,
-) -> MoveGeometry:
-    """:func:`move_geometry`, a curve's limits left :data:`_UNSET`; ``ends``: an arc's
-    derivatives at its ends, ``chords`` its chord vertices, when made already
-    (``arc_batch.arc_end_derivatives_many``, ``segment.segment_arcs``)."""
-    zero = np.zeros(3)
-    if isinstance(move, Spline):
-        return _spline_geometry(move, seg, feed_scale)
-    if isinstance(move, Transition):
-        verts = transition_vertices(move, seg.method, seg.chord_tolerance_mm, seg.segment_length_mm)
-        return _transition_geometry(move, feed_scale, verts, transition_end_frames_many([move])[0])
-    if not isinstance(move, Arc):
-        verts = np.array([move.start, move.end], dtype=float)
-        verts.setflags(write=False)
-        length = norm(verts[1] - verts[0])
-        t = (verts[1] - verts[0]) / length if length > 0 else np.array([1.0, 0.0, 0.0])
-        feed = (
-            math.inf
-            if isinstance(move, Rapid)
-            else mm_per_min_to_mm_per_s(move.feed_mm_per_min) * feed_scale
+#: A straight move's curvature: none (one read-only array for all of them).
+_NO_CURVATURE = np.zeros(3)
+_NO_CURVATURE.setflags(write=False)
+
+
+def _straight_geometries(
+    moves: Sequence[Linear | Rapid], limits: Limits, feed_scale: float
+) -> list[MoveGeometry]:
+    """:func:`_geometry` of each straight move, at once and with the same numbers: the
+    lengths are the square roots of ``np.vecdot`` (which sums as :func:`norm`'s dot does),
+    and the limits of :func:`~gantry_sim.controller.planner.limits.straight_limits` are IEEE
+    quotients and minima, taken per axis over all moves."""
+    if not moves:
+        return []
+    verts = np.array([(m.start, m.end) for m in moves], dtype=float).reshape(-1, 2, 3)
+    verts.setflags(write=False)
+    step = verts[:, 1] - verts[:, 0]
+    length = np.sqrt(np.vecdot(step, step))
+    moving = length > 0
+    with np.errstate(divide="ignore", over="ignore", invalid="ignore"):
+        tangent = np.where(moving[:, None], step / length[:, None], (1.0, 0.0, 0.0))
+        share = np.abs(tangent)
+        cap, acc, jerk = (
+            np.where(share != 0.0, np.asarray(per_axis, dtype=float) / share, math.inf).min(axis=1)
+            for per_axis in limits.per_axis()
         )
-        block = straight_limits(t, length, feed, limits)
-        return MoveGeometry(move, verts, length, t, t, zero, zero, block, feed)
-    verts = (
-        chords
-        if chords is not None
-        else segment_arc(move, seg.method, seg.chord_tolerance_mm, seg.segment_length_mm)
-    )
-    n = len(verts) - 1
+    feed = [
+        math.inf if isinstance(m, Rapid) else mm_per_min_to_mm_per_s(m.feed_mm_per_min) * feed_scale
+        for m in moves
+    ]
+    cap = np.where(cap < feed, cap, feed)  # min(feed, cap)
+    zero = _NO_CURVATURE
+    return [
+        MoveGeometry(m, v, d, t, t, zero, zero, BlockLimits(d, c, a, j), f)
+        for m, v, d, t, c, a, j, f in zip(
+            moves,
+            verts,
+            length.tolist(),
+            tangent,
+            cap.tolist(),
+            acc.tolist(),
+            jerk.tolist(),
+            feed,
+            strict=True,
+        )
+    ]
+
+
+class _ArcEnds(NamedTuple):
+    """An arc's unit tangents and curvature vectors [1/mm] at its start and end (rows), and
+    |dp/du| [mm] there (:func:`~gantry_sim.controller.arcs.frenet` of its end derivatives)."""
+
+    tangents: np.ndarray
+    curvatures: np.ndarray
+    speed_in_mm: float
+    speed_out_mm: float
+
+
+@functools.cache
+def _unit_steps(n: int) -> np.ndarray:
+    """The parameters of ``n`` equal chords, 0 .. 1 ((n + 1,), read-only: one array shared by
+    every arc of ``n`` chords)."""
     u = np.arange(n + 1) / n
-    d1, d2 = ends if ends is not None else arc_derivatives(move, ARC_ENDS)
-    t_in, k_in = frenet(d1[0], d2[0])
-    t_out, k_out = frenet(d1[1], d2[1])
+    u.setflags(write=False)
+    return u
+
+
+def _arc_geometry(
+    move: Arc, seg: Segmentation, feed_scale: float, ends: _ArcEnds, verts: np.ndarray
+) -> ArcGeometry:
+    """An arc's geometry, its limits left :data:`_UNSET`, from its ``ends`` and its chord
+    ``verts`` (made for all arcs at once by :func:`move_geometries`)."""
+    n = len(verts) - 1
+    u = _unit_steps(n)
+    (t_in, t_out), (k_in, k_out), speed_in, speed_out = ends
     frame = arc_frame(move)
     r_max = max(frame.r0_mm, frame.r1_mm)
-    speed_u = min(norm(d1[0]), norm(d1[1]))  # |dp/du| [mm]
+    speed_u = min(speed_in, speed_out)  # |dp/du| [mm]
     spiral = is_spiral(move)
     if spiral:
         length = float(spiral_length_at(move, np.array([1.0]))[0])
     else:
-        length = 0.5 * (norm(d1[0]) + norm(d1[1]))
+        length = 0.5 * (speed_in + speed_out)
     ang = move.angle
     curvature = r_max * ang * ang / speed_u**2
     dcurv = r_max * ang**3 / speed_u**3
