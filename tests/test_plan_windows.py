@@ -249,9 +249,9 @@ def test_a_first_round_planned_ahead_from_another_speed_gives_the_same_plan(monk
     real_start, real_take = windows._Ahead._start, windows._Ahead.take
     started, seeds = [], []
 
-    def start(self, window, key, v_start, machine):
+    def start(self, window, key, v_start, machine, ready=None):
         started.append(v_start)
-        return real_start(self, window, key, guess * v_start, machine)
+        return real_start(self, window, key, guess * v_start, machine, ready)
 
     def take(self, key, start_after=None):
         got = real_take(self, key, start_after)
@@ -293,32 +293,36 @@ def test_the_rounds_after_the_first_planned_ahead_are_taken_and_give_the_same_pl
 def test_the_window_after_the_next_starts_as_soon_as_the_next_is_taken(monkeypatch):
     """When a window is taken, the first round of the one after it starts over the other
     processes at once (windows._Ahead.start_after), before this process settles the window
-    taken, from the speed that window's first round gives its cut: its own first round then
-    starts nothing again, and the plan is the whole program's."""
+    taken, from the speed that window's first round gives its cut (that round made ready
+    while the window before settled: prepare_beyond): its own first round then starts
+    nothing again, and the plan is the whole program's."""
     monkeypatch.setenv("GANTRY_PLAN_WORKERS", "2")
     real_start, real_take = windows._Ahead._start, windows._Ahead.take
     events = []
 
-    def start(self, window, key, v_start, machine):
-        events.append(("start", key, v_start))
-        return real_start(self, window, key, v_start, machine)
+    def start(self, window, key, v_start, machine, ready=None):
+        events.append(("start", key, v_start, ready is not None))
+        return real_start(self, window, key, v_start, machine, ready)
 
     def take(self, key, start_after=None):
-        events.append(("take", key, None))
+        events.append(("take", key, None, False))
         got = real_take(self, key, start_after)
-        events.append(("taken", key, None))
+        events.append(("taken", key, None, False))
         return got
 
     monkeypatch.setattr(windows._Ahead, "_start", start)
     monkeypatch.setattr(windows._Ahead, "take", take)
     whole, windowed, _ = _whole_and_windowed(_program(), monkeypatch, 40, 8)
-    starts = [(key, v) for kind, key, v in events if kind == "start"]
+    starts = [(key, v) for kind, key, v, _ in events if kind == "start"]
     assert len(starts) >= 3 and len({key for key, _ in starts}) == len(starts), starts
-    inside, taking = 0, False
-    for kind, _, _ in events:
+    inside = ready = 0
+    taking = False
+    for kind, _, _, made in events:
         taking = kind == "take" or (taking and kind != "taken")
         inside += kind == "start" and taking
+        ready += kind == "start" and taking and made
     assert inside >= len(starts) - 2, events  # all but the first one or two
+    assert ready >= inside - 1, events  # its first round made while the next window settled
     _assert_same(whole, windowed)
 
 

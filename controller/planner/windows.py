@@ -48,8 +48,13 @@ import numpy as np
 from gantry_sim.controller.config import MachineConfig
 from gantry_sim.controller.forked import process_count
 from gantry_sim.controller.planner.blend import PathPlan
-from gantry_sim.controller.planner.chain_plan import Chain, ChainsAhead, ChainSetup, SeedKey
-from gantry_sim.controller.planner.chains import chain_spans
+from gantry_sim.controller.planner.chain_plan import (
+    Chain,
+    ChainKey,
+    ChainsAhead,
+    ChainSetup,
+    SeedKey,
+)
 from gantry_sim.controller.planner.limits import BlockLimits
 from gantry_sim.controller.planner.move_geometry import MoveGeometry
 from gantry_sim.controller.planner.prepare import Prepared, prepare, sub_path
@@ -157,8 +162,7 @@ def _plan_windows(
                 functools.partial(
                     ahead.start_after,
                     src,
-                    base=base,
-                    hi=hi,
+                    key=(base, hi, ctx >= 0, upto),
                     v_lo=v_lo,
                     machine=machine,
                     feed_override_pct=feed_override_pct,
@@ -330,6 +334,9 @@ class _Ahead:
         self._ready: dict[WindowKey, Window] = {}
         #: the window whose first round is planned ahead, from what speed [mm/s], and by whom
         self._chains: tuple[WindowKey, float, ChainsAhead] | None = None
+        #: for the next window (its key, entered at what speed [mm/s]): the window after it,
+        #: and that one's first round ready to start (:meth:`prepare_beyond`)
+        self._after: tuple[WindowKey, float, WindowKey, _FirstRound] | None = None
         self._keep: Callable[[], None] | None = None
 
     def keep_later(self, keep: Callable[[], None]) -> None:
@@ -374,6 +381,7 @@ class _Ahead:
         """Forget the windows prepared ahead (their path was made again, or a window was
         sent back) and stop the planning of a first round ahead."""
         self._ready.clear()
+        self._after = None
         chains, self._chains = self._chains, None
         if chains is not None:
             chains[2].close()
@@ -413,30 +421,44 @@ class _Ahead:
         self,
         src: JudgedPath,
         window: Window,
-        base: int,
-        hi: int,
+        key: WindowKey,
         v_lo: float,
         machine: MachineConfig,
         feed_override_pct: float,
     ) -> None:
-        """Start the first round of the window after ``window`` (path moves ``base:hi``,
-        entered at ``v_lo`` [mm/s]) over the other processes now, as the first round of
+        """Start the first round of the window after ``window`` (``key``, entered at ``v_lo``
+        [mm/s]) over the other processes now, as the first round of
         :func:`~gantry_sim.controller.planner.rounds.settle_chains` on ``window`` would
         (:meth:`job`: the same cut, from the same speed), so that they do not wait for this
-        process to read what they planned for ``window`` and to start that round. Nothing
-        where ``window`` blends a corner slowly (its path is made again) or is the last."""
-        pre, _, slow, judged_to = window
-        n = len(src.path.moves)
-        if slow or hi >= n or process_count() <= 1:
+        process to read what they planned for ``window`` and to start that round (ready since
+        :meth:`prepare_beyond` where it was entered at that speed). Nothing where ``window``
+        blends a corner slowly (its path is made again) or is the last."""
+        if window[2] or key[1] >= len(src.path.moves) or process_count() <= 1:
             return
+        after, self._after = self._after, None
+        beyond = None if after is None else self._ready.get(after[2])
+        if after is not None and beyond is not None and after[:2] == (key, v_lo):
+            self._start(beyond, after[2], after[3].v_start, machine, after[3])
+        else:
+            cut = self._cut_after(src, window, key, v_lo)
+            if cut is None:
+                return
+            self._start_next(src, cut[0], cut[1], machine, feed_override_pct)
+        self.keep_now()  # the window before, while the others plan
+
+    def _cut_after(
+        self, src: JudgedPath, window: Window, key: WindowKey, v_lo: float
+    ) -> tuple[WindowKey, float] | None:
+        """The key of the window after ``window`` (``key``, entered at ``v_lo`` [mm/s]) and
+        its start speed [mm/s], as the first round of ``window`` will find them (None: no
+        cut)."""
+        pre, _, _, judged_to = window
         caps = pre.caps.copy()
         caps[0] = v_lo
         spans, speeds = first_speeds([g.limits for g in pre.active], caps)
         upto = max(src.upto, judged_to) if src.judging else None
-        cut = _next_key(pre, base, spans, n, upto)
-        if cut is not None:
-            self._start_next(src, cut[0], float(speeds[cut[1]]), machine, feed_override_pct)
-            self.keep_now()  # the window before, while the others plan
+        cut = _next_key(pre, key[0], spans, len(src.path.moves), upto)
+        return None if cut is None else (cut[0], float(speeds[cut[1]]))
 
     def _start_next(
         self,
@@ -463,19 +485,20 @@ class _Ahead:
         feed_override_pct: float,
     ) -> None:
         """Prepare the window after the next one (``key``, starting at ``v_start`` [mm/s]), if
-        that one is prepared, blends none of its corners slowly and is not the last."""
+        that one is prepared, blends none of its corners slowly and is not the last, and make
+        its first round ready to start (:meth:`start_after`: when the next window is taken,
+        the other processes go on with it at once)."""
         window = self._ready.get(key)
         n = len(src.path.moves)
         if window is None or window[2] or key[1] >= n or self._chains is None:
             return  # (nothing planned ahead: the next window's first round prepares it)
-        pre = window[0]
-        caps = pre.caps.copy()
-        caps[0] = v_start
-        spans = chain_spans([g.limits for g in pre.active], caps)
-        upto = max(src.upto, window[3]) if src.judging else None
-        beyond = _next_key(pre, key[0], spans, n, upto)
-        if beyond is not None and beyond[0] not in self._ready:
-            self._prepare(src, beyond[0], machine, feed_override_pct)
+        cut = self._cut_after(src, window, key, v_start)
+        if cut is None:
+            return
+        beyond = self._ready.get(cut[0]) or self._prepare(src, cut[0], machine, feed_override_pct)
+        if beyond is not None and not beyond[2]:
+            ready = self._first_round(beyond, cut[1], machine)
+            self._after = (key, v_start, cut[0], ready)
 
     def _prepare(
         self,
@@ -497,12 +520,21 @@ class _Ahead:
         key: WindowKey,
         v_start: float,
         machine: MachineConfig,
+        ready: _FirstRound | None = None,
     ) -> None:
         """Plan the first round of ``window`` from ``v_start`` [mm/s] over the other
-        processes."""
+        processes (``ready``: that round, if made already from that speed)."""
         if self._chains is not None:
             self._chains[2].close()
             self._chains = None
+        if ready is None or ready.v_start != v_start:
+            ready = self._first_round(window, v_start, machine)
+        setup, caps, todo, speeds, _ = ready
+        ahead = ChainsAhead(setup, todo, speeds, settle_onward(setup, caps))
+        self._chains = (key, v_start, ahead)
+
+    def _first_round(self, window: Window, v_start: float, machine: MachineConfig) -> _FirstRound:
+        """The first round of ``window`` entered at ``v_start`` [mm/s], to plan ahead."""
         pre, blend_arcs, _, _ = window
         caps = pre.caps.copy()
         caps[0] = v_start
@@ -517,8 +549,19 @@ class _Ahead:
             blend_arcs,
         )
         todo, speeds = first_round(setup, caps)
-        ahead = ChainsAhead(setup, todo, speeds, settle_onward(setup, caps))
-        self._chains = (key, v_start, ahead)
+        return _FirstRound(setup, caps, todo, speeds, v_start)
+
+
+class _FirstRound(NamedTuple):
+    """A window's first round, ready to plan ahead: its chain setup, junction caps [mm/s]
+    (the first one the window's start speed ``v_start`` [mm/s]), chains (key, limits) and the
+    speeds [mm/s] at their ends (:func:`~gantry_sim.controller.planner.rounds.first_round`)."""
+
+    setup: ChainSetup
+    caps: np.ndarray
+    todo: list[tuple[ChainKey, BlockLimits]]
+    speeds: np.ndarray
+    v_start: float
 
 
 def _next_key(
