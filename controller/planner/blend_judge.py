@@ -121,8 +121,9 @@ def blend_faster_many(
         dtype=float,
     ).reshape(3, n, 4)
     blend, prev, nxt = lims
-    v_in = np.minimum(ends[:, 0], blend[:, 1])
-    v_out = np.minimum(ends[:, 1], blend[:, 1])
+    cap = blend[:, 1]
+    v_in = np.where(cap < ends[:, 0], cap, ends[:, 0])  # min(v, cap), as blend_faster takes it
+    v_out = np.where(cap < ends[:, 1], cap, ends[:, 1])
     half = 0.5 * blend[:, 0]
     zero = np.zeros(n)
     # the six estimates of each corner, one call: v, distance, and the move's limits
@@ -135,7 +136,7 @@ def blend_faster_many(
     t = half_move_s_many(v, d, lim[:, 1], lim[:, 2], lim[:, 3]).reshape(6, n)
     passing = t[0] + t[1] + t[2] + t[3]
     stopping = t[4] + t[5]
-    return (np.minimum(v_in, v_out) > 0.0) & (passing <= (1.0 + STOP_GAIN_MIN) * stopping)
+    return (v_in > 0.0) & (v_out > 0.0) & (passing <= (1.0 + STOP_GAIN_MIN) * stopping)
 
 
 def half_move_s_many(

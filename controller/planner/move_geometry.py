@@ -248,10 +248,11 @@ _NO_CURVATURE.setflags(write=False)
 def _straight_geometries(
     moves: Sequence[Linear | Rapid], limits: Limits, feed_scale: float
 ) -> list[MoveGeometry]:
-    """:func:`_geometry` of each straight move, at once and with the same numbers: the
-    lengths are the square roots of ``np.vecdot`` (which sums as :func:`norm`'s dot does),
-    and the limits of :func:`~gantry_sim.controller.planner.limits.straight_limits` are IEEE
-    quotients and minima, taken per axis over all moves."""
+    """Each straight move's geometry (its two vertices, length, unit tangent, no curvature,
+    :func:`~gantry_sim.controller.planner.limits.straight_limits` and feed [mm/s]), all at
+    once with the numbers of the move taken alone: the lengths are the square roots of
+    ``np.vecdot`` (which sums as :func:`~gantry_sim.controller.vector.norm`'s dot does), the
+    limits IEEE quotients and minima, taken per axis over all moves."""
     if not moves:
         return []
     verts = np.array([(m.start, m.end) for m in moves], dtype=float).reshape(-1, 2, 3)
