@@ -14,6 +14,7 @@ import time
 import numpy as np
 import pytest
 
+from benchmarks.programs import program
 from gantry_sim.controller.config import load_machine_config
 from gantry_sim.controller.gcode.interpreter import interpret_events
 from gantry_sim.controller.planner import plan, rounds, segmented_curve, window_judge, windows
@@ -97,6 +98,20 @@ def test_a_program_planned_in_windows_is_the_whole_program_plan(monkeypatch):
     assert len(probes) >= 4, probes
     assert max(probes) <= 80  # no window grew to the whole program
     assert windowed.curve.spilled_bytes > 0  # the reference went to the temporary file
+    _assert_same(whole, windowed)
+
+
+@pytest.mark.parametrize("window", [500, 800])
+def test_a_cut_whose_speed_came_down_in_later_rounds_gives_the_whole_program_plan(
+    monkeypatch, window
+):
+    """The generated polyline (benchmarks/programs.py, 1,500 blocks) in windows of 500 and
+    800 moves: at some cut the probe's speed came down over its rounds. A window that started
+    every round from the last of those speeds backed off the junctions just after the cut
+    otherwise than the whole program's rounds (the cycle differed by about 1e-5 s); it now
+    replays them (windows._replay), and the plan is the whole program's, number for number."""
+    whole, windowed, probes = _whole_and_windowed(program("poly", 1500), monkeypatch, window, 60)
+    assert len(probes) >= 3, probes
     _assert_same(whole, windowed)
 
 

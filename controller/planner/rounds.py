@@ -18,8 +18,8 @@ from __future__ import annotations
 
 import bisect
 import itertools
-from collections.abc import Callable, Mapping
-from dataclasses import dataclass, replace
+from collections.abc import Callable, Mapping, Sequence
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 
@@ -93,6 +93,11 @@ class Settled:
     spans: list[tuple[int, int]]
     chains: list[Chain]
     speeds: np.ndarray
+    #: per round, the look-ahead's speeds [mm/s] at the chains' ends (NaN inside them)
+    round_speeds: list[np.ndarray] = field(default_factory=list)
+    #: the first round's chain spans (rounds only add chain boundaries: each of these is a
+    #: boundary in every round)
+    first_spans: list[tuple[int, int]] = field(default_factory=list)
 
 
 def settle_chains(
@@ -107,6 +112,7 @@ def settle_chains(
     ahead: Callable[[list[tuple[int, int]], np.ndarray], Callable[[], object] | None] | None = None,
     seed: Mapping[SeedKey, Chain] | None = None,
     plan_round: RoundPlanner = plan_chains_forked,
+    starts: Sequence[float] | None = None,
 ) -> Settled:
     """Plan the moves' chains (not yet assembled into a timeline: :func:`assemble`; a window of a
     long program keeps only a prefix of them, :mod:`~gantry_sim.controller.planner.windows`);
@@ -133,7 +139,7 @@ def settle_chains(
     round needs them. ``plan_round``: plans a round's chains (:func:`settle_onward` sends
     them as they come)."""
     setup = ChainSetup(active, states, machine, solver, arc_pieces, smoothing, {}, blend_arcs)
-    return settle(setup, caps, ahead, seed, plan_round)
+    return settle(setup, caps, ahead, seed, plan_round, starts)
 
 
 def settle(
@@ -142,16 +148,27 @@ def settle(
     ahead: Callable[[list[tuple[int, int]], np.ndarray], Callable[[], object] | None] | None = None,
     seed: Mapping[SeedKey, Chain] | None = None,
     plan_round: RoundPlanner = plan_chains_forked,
+    starts: Sequence[float] | None = None,
 ) -> Settled:
     """:func:`settle_chains` of the moves, states and machine of ``setup`` (its ``boost_cache``
-    fresh, and ``saturated_moving`` set, as a new setup has them)."""
+    fresh, and ``saturated_moving`` set, as a new setup has them). ``starts``: the speed
+    [mm/s] at the first junction in each round (``caps[0]`` of round k is ``starts[k]``, the
+    last one from then on; the rounds go on at least as many times): a window of a long
+    program replays the rounds the window before gave its cut, so that its own rounds are
+    those of the whole program (:mod:`~gantry_sim.controller.planner.windows`)."""
     blocks = [g.limits for g in setup.active]
     cache: dict[ChainKey, Chain] = {}
     reach_memo: dict = {}
     chain_memo: dict[tuple[int, int], BlockLimits] = {}  # chain_limits by span, across rounds
     softened: dict[int, int] = {}
+    history: list[np.ndarray] = []
+    first_spans: list[tuple[int, int]] = []
     for rnd in itertools.count():
+        if starts:
+            caps[0] = starts[min(rnd, len(starts) - 1)]
         spans, chained, speeds = _round_speeds(blocks, caps, chain_memo, reach_memo)
+        history.append(speeds.copy())
+        first_spans = first_spans or spans
         before = ahead(spans, speeds) if ahead is not None and rnd == 0 else None
         # after the first round, an arc's moving end is a junction being backed off, whose
         # speed changes round by round: the saturated ramps (tenths of a second) would be
@@ -164,7 +181,7 @@ def settle(
             if chain.bad:
                 bad |= chain.bad
                 speeds[first + 1 : stop] = chain.inner_speeds
-        if not bad:
+        if not bad and (not starts or rnd >= len(starts) - 1):
             break
         touched: set[int] = set()  # moves whose limits were softened this round
         for b in sorted(bad):  # only moving junctions are ever bad: each stop makes one fewer
@@ -177,7 +194,7 @@ def settle(
                 caps[b] = 0.0
         _soften(blocks, touched, cache, chain_memo)
         chains.clear()  # the chains replaced next round are freed before it plans new ones
-    return Settled(setup, spans, chains, speeds)
+    return Settled(setup, spans, chains, speeds, history, first_spans)
 
 
 #: Plans a round's chains: (setup, chains to plan (key, limits), speeds [mm/s] at the chains'
