@@ -14,7 +14,6 @@ from hypothesis import strategies as st
 from gantry_sim.controller.gcode.interpreter import parse_program
 from gantry_sim.controller.planner import prepare
 from gantry_sim.controller.planner.blend_judge import (
-    STOP_GAIN_MIN,
     blend_faster,
     blend_faster_many,
     half_move_s,
@@ -97,28 +96,12 @@ def test_the_estimates_at_once_are_each_estimate_bit_for_bit(cases):
     assert many.tolist() == one  # the same floats, not approximately
 
 
-def _blend_faster_one(ends, blend, before, after):
-    """The estimate of blend_judge's docstring, corner by corner in floats."""
-    v_in, v_out = (min(v, blend.cap_mm_per_s) for v in ends)
-    if min(v_in, v_out) <= 0.0:
-        return False
-    half = 0.5 * blend.length_mm
-    passing = (
-        half_move_s(v_in, half, blend)
-        + half_move_s(v_out, half, blend)
-        + half_move_s(v_in, 0.5 * before.length_mm, before)
-        + half_move_s(v_out, 0.5 * after.length_mm, after)
-    )
-    stopping = sum(half_move_s(0.0, 0.5 * lim.length_mm + half, lim) for lim in (before, after))
-    return passing <= (1.0 + STOP_GAIN_MIN) * stopping
-
-
 @given(st.lists(st.tuples(_speed, _speed, _limits, _limits, _limits), min_size=1, max_size=20))
 def test_the_corners_judged_at_once_are_each_corner_judged_alone(corners):
     ends = [(a, b) for a, b, *_ in corners]
     sides = [[c[k] for c in corners] for k in (2, 3, 4)]
     many = blend_faster_many(ends, *sides).tolist()
-    assert many == [_blend_faster_one(e, *c[2:]) for e, c in zip(ends, corners, strict=True)]
+    assert many == [blend_faster(e, *c[2:]) for e, c in zip(ends, corners, strict=True)]
 
 
 def _forced(monkeypatch, rule):

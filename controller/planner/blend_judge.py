@@ -96,8 +96,21 @@ def blend_faster(
     """Whether a blend arc with the limits ``blend``, entered and left at ``ends_mm_per_s``
     (the junction caps with the moves either side), between moves with the limits ``before``
     and ``after`` (as the blend left them), is estimated faster than an exact stop at the
-    corner (module docstring)."""
-    return bool(blend_faster_many([ends_mm_per_s], [blend], [before], [after])[0])
+    corner (module docstring). The estimate's definition, corner by corner in floats: the
+    planner judges a window's corners at once with :func:`blend_faster_many`, which gives the
+    same choices (``tests/test_blend_judge.py`` compares them)."""
+    v_in, v_out = (min(v, blend.cap_mm_per_s) for v in ends_mm_per_s)
+    if min(v_in, v_out) <= 0.0:
+        return False
+    half = 0.5 * blend.length_mm
+    passing = (
+        half_move_s(v_in, half, blend)
+        + half_move_s(v_out, half, blend)
+        + half_move_s(v_in, 0.5 * before.length_mm, before)
+        + half_move_s(v_out, 0.5 * after.length_mm, after)
+    )
+    stopping = sum(half_move_s(0.0, 0.5 * lim.length_mm + half, lim) for lim in (before, after))
+    return passing <= (1.0 + STOP_GAIN_MIN) * stopping
 
 
 def blend_faster_many(
