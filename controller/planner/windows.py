@@ -166,12 +166,13 @@ def _plan_windows(
         else:
             base = ctx if ctx >= 0 else lo
             upto = src.upto if src.judging else None
+            key = (base, hi, ctx >= 0, upto)
             taken = ahead.take(
-                (base, hi, ctx >= 0, upto),
+                key,
                 functools.partial(
                     ahead.start_after,
                     src,
-                    key=(base, hi, ctx >= 0, upto),
+                    key=key,
                     v_lo=v_lo,
                     machine=machine,
                     feed_override_pct=feed_override_pct,
