@@ -2,20 +2,29 @@
 nearest-point search (sim/nearest.py) and the analysis (sim/contour.py).
 
 Every derived number is computed here exactly as controller.arcs computes it for one move (the
-same Python float operations in the same order), so the vectorised search gives, point for point,
-the numbers the one-move functions give. Coordinates [mm], angles [rad].
+same float operations on the same operands in the same order), so the vectorised search gives,
+point for point, the numbers the one-move functions give. Coordinates [mm], angles [rad].
+
+The table is built for all moves at once: numpy's +, -, *, / and % on float64 round as Python's
+float operations do, and the transcendental functions (atan2, hypot, cos, sin) are Python's
+``math`` ones, mapped over the rows' values (numpy's may round differently). The one-move
+definitions stay beside the batch forms as their test oracles (:func:`_arc_box`,
+tests/test_move_table_batch.py).
 """
 
 from __future__ import annotations
 
 import math
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
+from itertools import chain
+from operator import attrgetter
+from typing import NamedTuple, cast
 
 import numpy as np
 
-from gantry_sim.controller.arcs import arc_frame
-from gantry_sim.controller.moves import Arc, Move, PathMove, Spline, Transition
+from gantry_sim.controller.moves import Arc, Linear, Move, PathMove, Rapid, Spline, Transition
+from gantry_sim.controller.planes import PLANE_AXES
 
 #: slack added to every move's bounding box [mm] (rounding in the box, not geometry)
 BOX_SLACK_MM = 1e-9
@@ -90,60 +99,74 @@ def move_table(moves: Sequence[PathMove], cum_len: np.ndarray | None = None) -> 
     """Lay out ``moves`` (the interpreter's, in program order, or a plan's path) as a
     :class:`MoveTable`; ``cum_len`` (len(moves) + 1,) [mm]: the path length before each move
     when the moves are rows of a longer program (its :class:`ProgramIndex`'s), else counted
-    from their start."""
+    from their start (each move's ``length_mm``, as :func:`_lengths` computes it)."""
     m = len(moves)
-    start = np.array([mv.start for mv in moves], dtype=float).reshape(m, 3)
-    end = np.array([mv.end for mv in moves], dtype=float).reshape(m, 3)
+    start, end = _points(moves, "start"), _points(moves, "end")
     seg_d = end - start
-    length2 = np.array([float(d @ d) for d in seg_d])
+    # float(d @ d) of every row d: matmul of (m, 1, 3) by (m, 3, 1) runs, row by row, the very
+    # loop d @ d runs (numpy's dot of two 3-vectors, BLAS ddot, which may fuse multiply-adds,
+    # so the plain sum of the products, as einsum takes it, may differ in the last bit)
+    length2 = np.matmul(seg_d[:, None, :], seg_d[:, :, None]).reshape(m)
+    is_arc, is_spline, straight, feed = _classes(moves)
     axes = np.zeros((m, 3), dtype=np.intp)
     cols = {name: np.zeros(m) for name in _ARC_FIELDS}
     turns = np.zeros(m, dtype=np.intp)
     newton = np.zeros(m, dtype=bool)
     box_lo, box_hi = np.minimum(start, end), np.maximum(start, end)
-    arc_rows: list[int] = []  # per arc: its row, its fields, its box
-    arc_cols: list[tuple[float, ...]] = []
-    arc_boxes: list[tuple[float, ...]] = []
-    for j, mv in enumerate(moves):
-        if isinstance(mv, Spline | Transition):
-            lo_j, hi_j = _spline_box(mv)
-            box_lo[j] = np.minimum(box_lo[j], lo_j)
-            box_hi[j] = np.maximum(box_hi[j], hi_j)
-        if not isinstance(mv, Arc):
-            continue
-        i1, i2, n, theta0, sigma, r0, r1, h0, h1 = arc_frame(mv)
-        axes[j] = (i1, i2, n)
-        s_angle = sigma * mv.angle
-        dr = r1 - r0
-        row = (mv.center[i1], mv.center[i2], theta0, sigma, mv.angle, s_angle, r0, dr, h0)
-        arc_rows.append(j)
-        arc_cols.append((*row, h1 - h0, 2.0 * dr * s_angle))
-        turns[j] = math.ceil(mv.angle / (2.0 * math.pi))
-        newton[j] = h1 != h0 or r1 != r0
-        arc_boxes.append(_arc_box(mv, i1, i2, theta0, sigma, r0, r1))
-    arcs = np.array(arc_rows, dtype=np.intp)
-    is_arc = np.zeros(m, dtype=bool)
-    is_arc[arcs] = True
+    splines = np.flatnonzero(is_spline).tolist()
+    spline_moves = cast(list[Spline | Transition], [moves[j] for j in splines])
+    for j, mv in zip(splines, spline_moves, strict=True):  # rare: one at a time
+        lo_j, hi_j = _spline_box(mv)
+        box_lo[j] = np.minimum(box_lo[j], lo_j)
+        box_hi[j] = np.maximum(box_hi[j], hi_j)
+    arcs = np.flatnonzero(is_arc)
     arc_start = start.copy()
+    frames = None
     if arcs.size:  # the arcs' fields and boxes written at once (min and max are exact)
-        for name, column in zip(_ARC_FIELDS, np.array(arc_cols).T, strict=True):
-            cols[name][arcs] = column
-        boxes = np.array(arc_boxes).reshape(-1, 2, 3)
-        box_lo[arcs] = np.minimum(box_lo[arcs], boxes[:, 0])
-        box_hi[arcs] = np.maximum(box_hi[arcs], boxes[:, 1])
+        arc_moves = cast(list[Arc], [moves[j] for j in arcs.tolist()])
+        frames = _arc_frames(arc_moves, start[arcs], end[arcs])
+        i1, i2, _ = frames.axes.T
+        rows = np.arange(arcs.size)
+        s_angle = frames.sigma * frames.angle
+        dr = frames.r1 - frames.r0
+        values = {
+            "c1": frames.center[rows, i1],
+            "c2": frames.center[rows, i2],
+            "theta0": frames.theta0,
+            "sigma": frames.sigma,
+            "angle": frames.angle,
+            "s_angle": s_angle,
+            "r0": frames.r0,
+            "dr": dr,
+            "h0": frames.h0,
+            "dh": frames.h1 - frames.h0,
+            "k2": 2.0 * dr * s_angle,
+        }
+        for name in _ARC_FIELDS:
+            cols[name][arcs] = values[name]
+        axes[arcs] = frames.axes
+        turns[arcs] = _ceil(frames.angle / (2.0 * math.pi))
+        newton[arcs] = (frames.h1 != frames.h0) | (frames.r1 != frames.r0)
+        lo, hi = _arc_boxes(start[arcs], frames)
+        box_lo[arcs] = np.minimum(box_lo[arcs], lo)
+        box_hi[arcs] = np.maximum(box_hi[arcs], hi)
         # arc_points at u = 0, the same operations vectorised
         u0 = np.zeros(arcs.size)
         theta = cols["theta0"][arcs] + cols["s_angle"][arcs] * u0
         r = cols["r0"][arcs] + cols["dr"][arcs] * u0
-        rows = np.arange(arcs.size)
         at = arc_start[arcs]
         at[rows, axes[arcs, 0]] = cols["c1"][arcs] + r * np.cos(theta)
         at[rows, axes[arcs, 1]] = cols["c2"][arcs] + r * np.sin(theta)
         at[rows, axes[arcs, 2]] = cols["h0"][arcs] + cols["dh"][arcs] * u0
         arc_start[arcs] = at
+    if cum_len is None:
+        cum_len = np.concatenate([[0.0], np.cumsum(_lengths(moves, seg_d, straight, arcs, frames))])
+    curves: list[object] = [None] * m
+    for j, mv in zip(splines, spline_moves, strict=True):
+        curves[j] = mv.curve
     return MoveTable(
-        line=np.array([mv.line for mv in moves], dtype=np.int64),
-        feed=np.array([mv.kind != "rapid" for mv in moves], dtype=bool),
+        line=np.array(list(map(attrgetter("line"), moves)), dtype=np.int64),
+        feed=feed,
         arc=is_arc,
         start=start,
         end=end,
@@ -155,16 +178,61 @@ def move_table(moves: Sequence[PathMove], cum_len: np.ndarray | None = None) -> 
         box_lo=box_lo - BOX_SLACK_MM,
         box_hi=box_hi + BOX_SLACK_MM,
         arc_start=arc_start,
-        cum_len=_cum_len(moves) if cum_len is None else np.asarray(cum_len, dtype=float),
-        spline=np.array([isinstance(mv, Spline | Transition) for mv in moves], dtype=bool),
-        curves=tuple(mv.curve if isinstance(mv, Spline | Transition) else None for mv in moves),
+        cum_len=np.asarray(cum_len, dtype=float),
+        spline=is_spline,
+        curves=tuple(curves),
         **cols,
     )
 
 
-def _cum_len(moves: Sequence[PathMove]) -> np.ndarray:
-    """(len(moves) + 1,) path length [mm] before each move, and in all."""
-    return np.concatenate([[0.0], np.cumsum([mv.length_mm for mv in moves])])
+def _points(moves: Sequence[PathMove], name: str) -> np.ndarray:
+    """(len(moves), 3) every move's point ``name`` ("start" or "end") [mm]."""
+    coords = chain.from_iterable(map(attrgetter(name), moves))
+    return np.array(list(coords), dtype=float).reshape(len(moves), 3)
+
+
+def _classes(moves: Sequence[PathMove]) -> np.ndarray:
+    """(4, len(moves)) bool: per move whether it is an :class:`Arc`, a :class:`Spline` or
+    :class:`Transition`, a :class:`Linear` or :class:`Rapid`, and a feed move (its ``kind`` is
+    not "rapid"), each asked once per class (isinstance asks the same of an object's class:
+    moves do not fake theirs; ``kind`` is a class attribute)."""
+    types = cast(list[type[PathMove]], list(map(type, moves)))
+    code = {t: i for i, t in enumerate(dict.fromkeys(types))}  # the classes present
+    of_class = [
+        (
+            issubclass(t, Arc),
+            issubclass(t, Spline | Transition),
+            issubclass(t, Linear | Rapid),
+            t.kind != "rapid",
+        )
+        for t in code
+    ]
+    index = np.fromiter(map(code.__getitem__, types), dtype=np.intp, count=len(types))
+    return np.array(of_class, dtype=bool).reshape(-1, 4)[index].T
+
+
+def _lengths(
+    moves: Sequence[PathMove],
+    seg_d: np.ndarray,
+    straight: np.ndarray,
+    arcs: np.ndarray,
+    frames: _ArcFrames | None,
+) -> np.ndarray:
+    """(len(moves),) every move's ``length_mm`` [mm], the numbers controller/moves.py gives: a
+    straight move's math.dist(start, end) is math.hypot of its seg_d (both take |p - q| per
+    axis into the same norm), an arc's math.hypot(0.5 * (r0 + r1) * A, h1 - h0) with its
+    frame's numbers (Arc.length_mm's own), any other move's (a spline's) its own property."""
+    length = np.zeros(len(moves))
+    rows = np.flatnonzero(straight)
+    length[rows] = _map(math.hypot, *seg_d[rows].T)
+    if frames is not None:
+        in_plane = 0.5 * (frames.r0 + frames.r1) * frames.angle
+        length[arcs] = _map(math.hypot, in_plane, frames.h1 - frames.h0)
+    rest = ~straight
+    rest[arcs] = False
+    for j in np.flatnonzero(rest).tolist():
+        length[j] = moves[j].length_mm
+    return length
 
 
 @dataclass(frozen=True)
@@ -242,7 +310,8 @@ def _arc_box(
     between r0 and r1, so a point just before the end may lie beyond the end point: the box
     of the start, end and quadrant points widened by |r1 - r0| about the start missed it by
     38 nm on an R 34 arc of 1 degree whose radius shrank by 4 um). (lo x y z, hi x y z), in
-    Python floats (numpy's small arrays cost more than the arithmetic)."""
+    Python floats. The one-arc definition: :func:`move_table` takes every arc's at once from
+    :func:`_arc_boxes`, which gives these numbers."""
     radii = (r0, r1)
     lo, hi = list(arc.start), list(arc.start)
     c1, c2 = arc.center[i1], arc.center[i2]
@@ -258,6 +327,110 @@ def _arc_box(
             lo[i1], hi[i1] = min(lo[i1], v1), max(hi[i1], v1)
             lo[i2], hi[i2] = min(lo[i2], v2), max(hi[i2], v2)
     return (*lo, *hi)
+
+
+class _ArcFrames(NamedTuple):
+    """:func:`controller.arcs.arc_frame <gantry_sim.controller.arcs.arc_frame>` of k arcs, as
+    arrays, with the arcs' centres and sweeps."""
+
+    axes: np.ndarray  #: (k, 3) the plane's (first, second, normal) axis indices
+    center: np.ndarray  #: (k, 3) arc centre [mm]
+    angle: np.ndarray  #: (k,) sweep A [rad]
+    theta0: np.ndarray  #: (k,) polar angle of the start about the centre [rad]
+    sigma: np.ndarray  #: (k,) +1 counter-clockwise (G3), -1 clockwise (G2)
+    r0: np.ndarray  #: (k,) in-plane radius at the start [mm] (the programmed radius)
+    r1: np.ndarray  #: (k,) in-plane radius at the end [mm]
+    h0: np.ndarray  #: (k,) normal-axis coordinate at the start [mm]
+    h1: np.ndarray  #: (k,) normal-axis coordinate at the end [mm]
+
+
+#: each plane's row in _PLANE_AXES, PLANE_AXES as a (3, 3) array
+_PLANE_ROW = {plane: row for row, plane in enumerate(PLANE_AXES)}
+_PLANE_AXES = np.array(list(PLANE_AXES.values()), dtype=np.intp)
+
+
+def _arc_frames(arcs: Sequence[Arc], start: np.ndarray, end: np.ndarray) -> _ArcFrames:
+    """The frames of ``arcs`` (k >= 1), each number as controller.arcs._arc_frame computes it
+    (its differences of the arcs' float coordinates, taken here in numpy, round alike);
+    ``start``, ``end`` (k, 3): the arcs' start and end points [mm] as floats."""
+    k = len(arcs)
+    fields = map(attrgetter("plane", "direction", "center", "radius", "angle"), arcs)
+    plane, direction, center, radius, angle = zip(*fields, strict=True)
+    axes = _PLANE_AXES[np.fromiter(map(_PLANE_ROW.__getitem__, plane), dtype=np.intp, count=k)]
+    centre = np.array(list(chain.from_iterable(center)), dtype=float).reshape(k, 3)
+    rows = np.arange(k)
+    i1, i2, n = axes.T
+    c1, c2 = centre[rows, i1], centre[rows, i2]
+    return _ArcFrames(
+        axes=axes,
+        center=centre,
+        angle=np.array(angle, dtype=float),
+        theta0=_map(math.atan2, start[rows, i2] - c2, start[rows, i1] - c1),
+        sigma=np.array([1.0 if d == "ccw" else -1.0 for d in direction]),
+        r0=np.array(radius, dtype=float),
+        r1=_map(math.hypot, end[rows, i1] - c1, end[rows, i2] - c2),
+        h0=start[rows, n],
+        h1=end[rows, n],
+    )
+
+
+def _arc_boxes(start: np.ndarray, frames: _ArcFrames) -> tuple[np.ndarray, np.ndarray]:
+    """:func:`_arc_box` of k arcs at once, the same numbers: (k, 3) lo and hi [mm]; ``start``
+    (k, 3): the arcs' start points [mm], ``frames``: theirs.
+
+    _arc_box's ``min(lo, v)`` is v where v < lo, else lo (so the first of 0.0 and -0.0, and lo
+    beside a NaN): np.where(v < lo, v, lo) is that exactly (np.minimum is not, with signed
+    zeros or NaN); likewise max. A quadrant point counts only for the arcs whose sweep passes
+    it."""
+    rows = np.arange(len(start))
+    i1, i2 = frames.axes[:, 0], frames.axes[:, 1]
+    c1, c2 = frames.center[rows, i1], frames.center[rows, i2]
+    lo1 = hi1 = start[rows, i1]
+    lo2 = hi2 = start[rows, i2]
+    theta0, sigma, angle = frames.theta0, frames.sigma, frames.angle
+    theta1 = theta0 + sigma * angle
+    # (cos, sin, the arcs it counts for: None for all), in _arc_box's order
+    at: list[tuple[np.ndarray | int, np.ndarray | int, np.ndarray | None]] = [
+        (_map(math.cos, theta0), _map(math.sin, theta0), None),
+        (_map(math.cos, theta1), _map(math.sin, theta1), None),
+    ]
+    full = angle >= 2 * math.pi
+    # Python's float % is numpy's: fmod (exact), then + 2 pi where the signs differ
+    for phi, cos_k, sin_k in _QUADRANTS:
+        at.append((cos_k, sin_k, full | ((sigma * (phi - theta0)) % (2 * math.pi) <= angle)))
+    for cos_a, sin_a, counts in at:
+        for r in (frames.r0, frames.r1):
+            v1, v2 = c1 + r * cos_a, c2 + r * sin_a
+            lo1, hi1 = _take(v1 < lo1, counts, v1, lo1), _take(v1 > hi1, counts, v1, hi1)
+            lo2, hi2 = _take(v2 < lo2, counts, v2, lo2), _take(v2 > hi2, counts, v2, hi2)
+    lo, hi = start.copy(), start.copy()
+    lo[rows, i1], hi[rows, i1] = lo1, hi1
+    lo[rows, i2], hi[rows, i2] = lo2, hi2
+    return lo, hi
+
+
+def _take(
+    better: np.ndarray, counts: np.ndarray | None, new: np.ndarray, old: np.ndarray
+) -> np.ndarray:
+    """``new`` where it is ``better`` (and ``counts``, unless None), else ``old``."""
+    return np.where(better if counts is None else better & counts, new, old)
+
+
+def _ceil(x: np.ndarray) -> np.ndarray:
+    """math.ceil of every x, as integers: np.ceil rounds exactly (as every correct ceil does),
+    and so does the conversion of an integral float below 2**30; past that (or inf, NaN) the
+    Python ints, so the same numbers, or math.ceil's error."""
+    up = np.ceil(x)
+    if np.all(np.abs(up) < 2.0**30):
+        return up.astype(np.intp)
+    return np.array([math.ceil(v) for v in x.tolist()])
+
+
+def _map(func: Callable[..., float], *columns: np.ndarray) -> np.ndarray:
+    """``func`` (a ``math`` function) of the columns' values, row by row, as a float array: the
+    Python floats the one-move code computes."""
+    values = map(func, *(c.tolist() for c in columns))
+    return np.fromiter(values, dtype=float, count=len(columns[0]))
 
 
 def box_distance(tab: MoveTable, idx: np.ndarray, pts: np.ndarray) -> np.ndarray:
