@@ -54,34 +54,21 @@ def _dot_rows(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     return np.einsum("ij,ij->i", a, b)
 
 
-def _segment_projection(tab: MoveTable, idx: np.ndarray, pts: np.ndarray) -> np.ndarray:
-    """(q - a).d for points ``pts`` (n, 3) on segments ``idx`` (n,), one matrix-vector product
-    per segment over its points (in point order; a lone point is doubled, so that every point
-    takes the same BLAS kernel whatever else shares the call)."""
-    order = np.argsort(idx, kind="stable")
-    sorted_idx = idx[order]
-    cuts = np.flatnonzero(np.diff(sorted_idx)) + 1
-    starts = np.concatenate([[0], cuts]).tolist()
-    ends = np.concatenate([cuts, [len(idx)]]).tolist()
-    rel = pts[order]
-    out = np.empty(len(idx))
-    start, seg_d = tab.start, tab.seg_d
-    for s, e, j in zip(starts, ends, sorted_idx[starts].tolist(), strict=True):
-        if e - s == 1:
-            out[s] = ((np.repeat(rel[s : s + 1], 2, axis=0) - start[j]) @ seg_d[j])[0]
-        else:
-            out[s:e] = (rel[s:e] - start[j]) @ seg_d[j]
-    proj = np.empty(len(idx))
-    proj[order] = out
-    return proj
-
-
 def _nearest_on_segments(tab: MoveTable, idx: np.ndarray, pts: np.ndarray) -> np.ndarray:
-    length2 = tab.length2[idx]
+    """Nearest points on segments ``idx`` (n,) to ``pts`` (n, 3) [mm]: u = (q - a).d / d.d,
+    clipped to [0, 1] (0 on a segment of zero length). The projection is taken element by
+    element, ((x0 d0 + x1 d1) + x2 d2), so every point's number depends on that point and its
+    segment only, whatever else shares the call (a matrix product's kernel, and its rounding,
+    depends on the shape of the call)."""
+    start = np.take(tab.start, idx, axis=0)
+    seg_d = np.take(tab.seg_d, idx, axis=0)
+    rel = pts - start
+    proj = rel[:, 0] * seg_d[:, 0] + rel[:, 1] * seg_d[:, 1] + rel[:, 2] * seg_d[:, 2]
+    length2 = np.take(tab.length2, idx)
     zero = length2 == 0.0
-    u = _segment_projection(tab, idx, pts) / np.where(zero, 1.0, length2)
+    u = proj / np.where(zero, 1.0, length2)
     u = np.where(zero, 0.0, np.clip(u, 0.0, 1.0))
-    return tab.start[idx] + u[:, None] * tab.seg_d[idx]
+    return start + u[:, None] * seg_d
 
 
 @dataclass(frozen=True)
