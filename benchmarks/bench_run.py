@@ -195,7 +195,7 @@ def child(kind: str, blocks: int, baseline_rev: str | None) -> dict:
     # 100k arcs and mixed run 4 and 16 hours of machine time: past the default budget, which
     # asks a user to confirm such runs with --max-sim-s / --max-physics-steps
     big = Budget(max_sim_s=1e9, max_physics_steps=1e15)
-    result = run_program(text, file=f"{kind}_{blocks}.ngc", machine=machine, budget=big)
+    result = run_program(text, file=f"{kind}_{blocks}.ngc", machine=machine, budget=big, plots=True)
     t1 = time.perf_counter()
     with tempfile.TemporaryDirectory() as tmp:
         write_run_outputs(result, Path(tmp) / "out")

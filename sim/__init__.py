@@ -15,6 +15,7 @@ entry point is :mod:`.api`):
     stateful_ticks.py  the ticks of a law with an integral term or backlash (Python)
     stream.py        a run range by range: sample, simulate, analyse; nothing kept per tick
     analysis_worker.py  a streamed run's range analysis, in a worker process
+    worker_pipes.py  a run's helper processes: a fresh interpreter fed over stdin/stdout
     range_helper.py  a thread sampling the next range and handing over the last while it steps
     error_tally.py   whole-run figures (rms, p95, per block) from ranges, in bounded memory
     percentile.py    exact percentile of values kept in memory or spilled to a temporary file
@@ -31,7 +32,9 @@ entry point is :mod:`.api`):
     plots.py         the figure idiom (Figure + Agg, no pyplot, quiet) and the ballbar polar plot
     path_plot.py     path.png: the arcs' plane or three views, error x 1000, worst point
     path_outline.py  path.png's commanded geometry (box, arc planes, polylines), no matplotlib
-    plot_prep.py     the plots' imports and outline, in a thread while the run simulates
+    plot_prep.py     the plots' outline (and imports, if no plot worker), in a thread
+    plot_worker.py   a process that imports matplotlib during the run, then draws the plots
+    plot_files.py    path.png and error.png written beside the other outputs, there or here
     error_plot.py    error.png: per-bin band along the program, worst blocks, the gates
     search_plots.py  tune.png and the sweep plots (every point, faults marked, axes from 0)
     outdir.py        outputs never half-written (temporary sibling, then rename)

@@ -11,12 +11,8 @@ result, so the analysis of range k runs on the second core while the servo loop 
 range k + 1. The work is the same function on the same arrays: the figures are identical either
 way (tests/test_stream.py runs both).
 
-A fresh interpreter, not a fork: a forked worker shared the run's heap copy-on-write, and its
-allocations landing in the pages the planner had freed copied them one by one (1.4 GB private
-to the worker at 100,000 mixed blocks, growing with the program); nor multiprocessing's spawn,
-which runs the caller's main script again in the worker (a user's script without a
-``__main__`` guard would run twice). The worker ends when its stdin closes: when the run ends,
-or its process dies, whatever the cause.
+The worker is a fresh interpreter talked to over pipes (sim.worker_pipes says why); it ends
+when its stdin closes: when the run ends, or its process dies, whatever the cause.
 
 The worker is used where it can pay: a POSIX system, two or more cores, not inside
 controller.forked.one_process (a sweep runs one point per core), and
@@ -26,10 +22,6 @@ RuntimeError carrying the worker's traceback (exit status 3 from the CLI).
 
 from __future__ import annotations
 
-import os
-import pickle
-import subprocess
-import sys
 import traceback
 from collections import deque
 from dataclasses import dataclass
@@ -38,12 +30,19 @@ from typing import cast
 
 import numpy as np
 
-from gantry_sim.controller.forked import in_one_process
 from gantry_sim.controller.trajectory import Trajectory
 from gantry_sim.sim.blend_parts import planning_distance_mm
 from gantry_sim.sim.contour import ChunkAnalysis, analyse_chunk
 from gantry_sim.sim.move_table import move_table
 from gantry_sim.sim.range_rows import RangeTables
+from gantry_sim.sim.worker_pipes import (
+    EARLY_WORKER_CHARS,
+    Pipes,
+    recv_out_of_band,
+    send_out_of_band,
+    serve_stdio,
+)
+from gantry_sim.sim.worker_pipes import worker_wanted as worker_wanted_for
 
 
 @dataclass(frozen=True)
@@ -117,19 +116,8 @@ class ProcessAnalyser:
     """Analyses the ranges in a worker process, one range behind the simulation."""
 
     def __init__(self) -> None:
-        env = dict(os.environ, PYTHONPATH=os.pathsep.join(p for p in sys.path if p))
-        self._proc = subprocess.Popen(
-            [sys.executable, "-m", "gantry_sim.sim.analysis_worker"],
-            stdin=subprocess.PIPE,
-            stdout=subprocess.PIPE,
-            env=env,
-            start_new_session=True,  # a terminal's Ctrl-C goes to the run, which closes our stdin
-        )
-        assert self._proc.stdin is not None and self._proc.stdout is not None
-        self._out = Connection(os.dup(self._proc.stdin.fileno()), readable=False)
-        self._in = Connection(os.dup(self._proc.stdout.fileno()), writable=False)
-        self._proc.stdin.close()
-        self._proc.stdout.close()
+        self._pipes = Pipes("gantry_sim.sim.analysis_worker")
+        self._out, self._in = self._pipes.out, self._pipes.inp
         self._sent: deque[RangeJob] = deque()
         self._done: deque[Result] = deque()
         self._send_error: OSError | None = None
@@ -170,9 +158,10 @@ class ProcessAnalyser:
         try:
             reply = self._in.recv()
         except (EOFError, OSError):
-            self._proc.wait()
+            proc = self._pipes.proc
+            proc.wait()
             raise RuntimeError(
-                f"analysis worker exited (status {self._proc.returncode}) without its results"
+                f"analysis worker exited (status {proc.returncode}) without its results"
             ) from None
         if isinstance(reply, str):
             raise RuntimeError(f"analysis worker failed: {reply}")
@@ -181,49 +170,14 @@ class ProcessAnalyser:
     def abort(self) -> None:
         """Kill the worker (from any thread; the pipes stay open): a thread waiting for its
         reply hears that it exited. :meth:`close` still closes the pipes."""
-        self._proc.kill()
+        self._pipes.proc.kill()
 
     def close(self) -> None:
         """Stop the worker: its stdin closed, and killed (every result is in, so it has nothing
         left to do: waiting for its interpreter to tear down its heap took 0.05-0.07 s at the
         end of every run); when the run stopped with a range still out, it is terminated."""
-        self._out.close()
-        if self._sent:
-            self._proc.terminate()
-        else:
-            self._proc.kill()
-        try:
-            self._proc.wait(timeout=5)
-        except subprocess.TimeoutExpired:
-            self._proc.kill()
-            self._proc.wait()
-        self._in.close()
+        self._pipes.stop(kill=not self._sent)
         self._sent.clear()
-
-
-def send_out_of_band(conn: Connection, obj: object) -> None:
-    """Send ``obj`` pickled with its arrays' bytes out of band (pickle protocol 5): the pickle
-    without them, their sizes, then each array's own memory, so no pickled copy of the arrays
-    is ever made (at 100,000 moves the move tables are 57 MB, and pickling them in one piece
-    held 126 MB more while it ran; each range's arrays go the same way). :func:`recv_out_of_band`
-    reads it."""
-    buffers: list[pickle.PickleBuffer] = []
-    head = pickle.dumps(obj, protocol=5, buffer_callback=buffers.append)
-    views = [b.raw() for b in buffers]
-    conn.send((head, [v.nbytes for v in views]))
-    for v in views:
-        conn.send_bytes(v)
-
-
-def recv_out_of_band(conn: Connection) -> object:
-    """What :func:`send_out_of_band` sent; its arrays own writable memory of their own."""
-    head, sizes = conn.recv()
-    buffers = []
-    for size in sizes:
-        buf = bytearray(size)
-        conn.recv_bytes_into(buf)
-        buffers.append(buf)
-    return pickle.loads(head, buffers=buffers)
 
 
 def _serve(inp: Connection, out: Connection) -> None:
@@ -243,12 +197,7 @@ def _serve(inp: Connection, out: Connection) -> None:
 
 def worker_wanted() -> bool:
     """Whether a :class:`ProcessAnalyser` can pay here (see the module docstring)."""
-    return (
-        os.environ.get("GANTRY_ANALYSIS_WORKER", "1") != "0"
-        and os.name == "posix"
-        and (os.cpu_count() or 1) >= 2
-        and not in_one_process()  # a sweep runs a point per core already
-    )
+    return worker_wanted_for("GANTRY_ANALYSIS_WORKER")
 
 
 def make_analyser() -> InlineAnalyser | ProcessAnalyser:
@@ -256,13 +205,9 @@ def make_analyser() -> InlineAnalyser | ProcessAnalyser:
     return ProcessAnalyser() if worker_wanted() else InlineAnalyser()
 
 
-#: A program of this many characters at least gets its worker started before it is parsed
-#: (:func:`early_worker`).
-EARLY_WORKER_CHARS = 16_384
-
-
 def early_worker(program_chars: int) -> ProcessAnalyser | None:
-    """A worker started before a program of ``program_chars`` characters is parsed, for its run
+    """A worker started before a program of ``program_chars`` characters
+    (:data:`EARLY_WORKER_CHARS` or more) is parsed, for its run
     if it is streamed (sim.api.run_program closes it otherwise): the interpreter's start, about
     0.3-0.4 s of CPU, then runs on the second core while the program is parsed and planned,
     instead of beside the servo loop, where it took the loop's time (10,000 polyline blocks
@@ -275,6 +220,4 @@ def early_worker(program_chars: int) -> ProcessAnalyser | None:
 
 
 if __name__ == "__main__":  # the worker process (see ProcessAnalyser)
-    stdin, stdout = os.dup(0), os.dup(1)
-    os.dup2(2, 1)  # a stray print goes to stderr, not into the replies
-    _serve(Connection(stdin, writable=False), Connection(stdout, readable=False))
+    _serve(*serve_stdio())

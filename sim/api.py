@@ -43,6 +43,7 @@ if TYPE_CHECKING:
     from gantry_sim.controller.moves import Move
     from gantry_sim.sim.analysis_worker import ProcessAnalyser
     from gantry_sim.sim.path_outline import Outline
+    from gantry_sim.sim.plot_worker import PlotWorker
     from gantry_sim.sim.trace_writer import TraceWriter
 
 #: runs longer than this [servo ticks] are streamed (sim.stream): the same numbers, in memory
@@ -78,6 +79,9 @@ class RunResult:
     #: path.png's commanded geometry, computed in a thread during the run (sim.path_outline);
     #: None: computed where the plot is drawn
     outline: Future[Outline | None] | None = field(default=None, repr=False, compare=False)
+    #: the worker process that draws the plots (run_program(plots=True)), closed by
+    #: write_run_outputs (or when the result is garbage collected); None: drawn in this process
+    plotter: PlotWorker | None = field(default=None, repr=False, compare=False)
 
     @cached_property
     def report(self) -> dict:
@@ -97,6 +101,8 @@ def run_program(
     search_path: Sequence[os.PathLike[str]] = (),
     max_iterations: int = DEFAULT_MAX_ITERATIONS,
     keep_trace: bool = True,
+    plots: bool | None = None,
+    plot_worker: PlotWorker | None = None,
 ) -> RunResult:
     """Interpret, plan, simulate and analyse one program on ``machine``.
 
@@ -123,11 +129,62 @@ def run_program(
             writes no staging trace (gigabytes for hours of machine time); the result's
             ``trace`` is still there for the plots (a streamed run's is the decimated one),
             and nothing else changes.
+        plots: whether write_run_outputs will draw path.png and error.png. True: the process
+            that draws them starts now (sim.plot_worker: it imports matplotlib, 0.7-0.9 s of
+            CPU, on the second core while the run goes on; ``gantry run`` does, unless
+            ``--no-plots``). False: nothing of the plots is prepared (``--no-plots``). None:
+            not known; their outline and imports are prepared in a thread of this process
+            (sim.plot_prep). The plots are the same in every case, and drawn whenever asked.
+        plot_worker: the plots' worker, started by the caller before its own imports
+            (sim.plot_worker.early_plot_worker(program), as ``gantry run`` does); the run
+            closes it. Given, ``plots`` is True.
 
     Raises:
         GcodeError, ConfigError, PlanningError, SimulationError: with file and line;
         PlanningError also when the simulation would exceed ``budget``.
     """
+    from gantry_sim.sim.plot_worker import early_plot_worker
+
+    plotter = plot_worker
+    try:
+        if plotter is None and plots:
+            plotter = early_plot_worker(program)  # started now if short, else after the parse
+        return _run(
+            program,
+            file,
+            dialect,
+            machine,
+            feed_override_pct,
+            progress,
+            budget,
+            search_path,
+            max_iterations,
+            keep_trace,
+            plots is not False or plotter is not None,
+            plotter,
+        )
+    except BaseException:
+        if plotter is not None:
+            plotter.close()
+        raise
+
+
+def _run(
+    program: str | os.PathLike[str],
+    file: str | None,
+    dialect: str,
+    machine: MachineConfig,
+    feed_override_pct: float,
+    progress: bool | None,
+    budget: Budget | None,
+    search_path: Sequence[os.PathLike[str]],
+    max_iterations: int,
+    keep_trace: bool,
+    prepare_plots: bool,
+    plotter: PlotWorker | None,
+) -> RunResult:
+    """run_program's work; ``prepare_plots``: prepare the plots' outline (and imports, when
+    no ``plotter`` draws them) during the run."""
     from gantry_sim.controller.gc_pause import gc_paused
     from gantry_sim.controller.gcode.dialects import with_segmentation_default
     from gantry_sim.controller.moves import Arc, Linear, Rapid, Spline
@@ -137,7 +194,6 @@ def run_program(
     from gantry_sim.sim.blend_parts import split_reference
     from gantry_sim.sim.contour import analyse
     from gantry_sim.sim.machine import load_gantry
-    from gantry_sim.sim.plot_prep import prepare_plots
     from gantry_sim.sim.program import interpret_program
     from gantry_sim.sim.report import build_report
     from gantry_sim.sim.runner import simulate
@@ -164,6 +220,8 @@ def run_program(
             )
         moves = SpilledList(m for m in items if isinstance(m, Rapid | Linear | Arc | Spline))
         t1 = time.perf_counter()
+        if plotter is not None:
+            plotter.start()  # a long program's after its parse (sim.plot_worker)
         check_lower_bound(items, machine, budget or Budget(), file, feed_override_pct)
         with stage("plan", len(items), "move", shown, known_size=False):
             planned = plan(items, machine, feed_override_pct=feed_override_pct)
@@ -181,13 +239,15 @@ def run_program(
                 {"parse": t1 - t0, "plan": time.perf_counter() - t1},
                 keep_trace,
                 worker,
+                plotter,
+                prepare_plots,
             )
         if worker is not None:  # not streamed: no worker (closed before the simulation)
             worker.close()
         traj = planned.sample(machine.servo.period_s)
         t2 = time.perf_counter()
         gantry = load_gantry(machine)  # mujoco imported before the plots' thread imports
-        drawing = prepare_plots(moves)
+        drawing = _prepared_plots(moves, prepare_plots, plotter)
         sim = simulate(gantry, machine, traj, progress=progress)
         t3 = time.perf_counter()
         with stage("analyse", traj.t.size, "tick", shown, known_size=False):
@@ -230,7 +290,7 @@ def run_program(
         analysis=result,
         timing=timing,
     )
-    return RunResult(run_report=report, trace=trace, moves=moves, outline=drawing)
+    return RunResult(run_report=report, trace=trace, moves=moves, outline=drawing, plotter=plotter)
 
 
 def _streamed(
@@ -244,16 +304,18 @@ def _streamed(
     timing: dict[str, float],
     keep_trace: bool = True,
     worker: ProcessAnalyser | None = None,
+    plotter: PlotWorker | None = None,
+    prepare_plots: bool = True,
 ) -> RunResult:
     """run_program's path for long runs: sim.stream range by range, the full-rate trace
     deflated as it comes (sim.trace_writer) unless ``keep_trace`` is False, a decimated trace
     kept; ``worker``: the analysis worker started for it (sim.analysis_worker.early_worker; the
-    run closes it), or None: one is started now where it pays."""
+    run closes it), or None: one is started now where it pays; ``plotter``: the run's plot
+    worker, or None (drawn here); ``prepare_plots``: False for no plots."""
 
     from gantry_sim.controller.gc_pause import gc_frozen
     from gantry_sim.controller.heap import one_arena
     from gantry_sim.sim.machine import load_gantry
-    from gantry_sim.sim.plot_prep import prepare_plots
     from gantry_sim.sim.report import build_streamed_report
     from gantry_sim.sim.stream import stream_run
     from gantry_sim.sim.trace_writer import TraceWriter
@@ -263,7 +325,7 @@ def _streamed(
     writer = TraceWriter(n) if keep_trace else None
     try:
         gantry = load_gantry(machine)  # mujoco imported before the plots' thread imports
-        drawing = prepare_plots(moves)
+        drawing = _prepared_plots(moves, prepare_plots, plotter)
         with stage("simulate+analyse", n, "tick", wanted(progress)) as advance, gc_frozen():
             streamed = stream_run(
                 moves, planned, machine, gantry, on_range=writer, on_ticks=advance, worker=worker
@@ -290,8 +352,26 @@ def _streamed(
         timing=timing,
     )
     return RunResult(
-        report, streamed.decimated, moves, outline=drawing, full_trace=writer, streamed=True
+        report,
+        streamed.decimated,
+        moves,
+        outline=drawing,
+        full_trace=writer,
+        streamed=True,
+        plotter=plotter,
     )
+
+
+def _prepared_plots(
+    moves: Sequence[Move], prepare: bool, plotter: PlotWorker | None
+) -> Future[Outline | None] | None:
+    """The plots' outline (and imports, when no ``plotter`` draws them) prepared in a thread
+    (sim.plot_prep); None when not ``prepare`` (no plots)."""
+    if not prepare:
+        return None
+    from gantry_sim.sim.plot_prep import prepare_plots
+
+    return prepare_plots(moves, imports=plotter is None)
 
 
 def _program_text(program: str | os.PathLike[str], file: str | None) -> tuple[str, str]:
@@ -347,18 +427,26 @@ def write_run_outputs(
     """
     from gantry_sim.sim.report import write_outputs
 
-    report = write_outputs(
-        result.run_report,
-        result.trace,
-        result.moves,
-        Path(out_dir),
-        plots=plots,
-        deterministic=deterministic,
-        gates=gates,
-        started=started,
-        full_trace=result.full_trace,
-        outline=result.outline,
-        trace_npz=trace,
-        progress=wanted(progress),
-    )
+    plotter = result.plotter if plots else None
+    if result.plotter is not None and plotter is None:
+        result.plotter.close()  # no plots: nothing for it to do
+    try:
+        report = write_outputs(
+            result.run_report,
+            result.trace,
+            result.moves,
+            Path(out_dir),
+            plots=plots,
+            deterministic=deterministic,
+            gates=gates,
+            started=started,
+            full_trace=result.full_trace,
+            outline=result.outline,
+            trace_npz=trace,
+            progress=wanted(progress),
+            plotter=plotter,
+        )
+    finally:
+        if plotter is not None:
+            plotter.close()  # it draws one set of plots
     return replace(result, run_report=report)

@@ -6,9 +6,9 @@ Import only where a plot is drawn (matplotlib).
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from pathlib import Path
-from typing import TYPE_CHECKING
+from typing import IO, TYPE_CHECKING
 
 import numpy as np
 
@@ -50,8 +50,7 @@ def _envelope(
     return 0.5 * (edges[:-1] + edges[1:]), lo, hi, rms
 
 
-def _draw_gates(ax: Axes, gates: Gates, tr: Trace, moves: Sequence[Move]) -> None:
-    kinds = {mv.line: mv.kind for mv in moves}
+def _draw_gates(ax: Axes, gates: Gates, tr: Trace, kinds: Mapping[int, str]) -> None:
     for lim in gates.errors:
         if lim.lines is None and lim.kind is None:
             ax.axhline(lim.limit_um, color="tab:red", ls="--", lw=1.0, label=lim.label())
@@ -68,14 +67,15 @@ def _draw_gates(ax: Axes, gates: Gates, tr: Trace, moves: Sequence[Move]) -> Non
 
 @quiet
 def save_error_plot(
-    path: Path,
+    path: Path | IO[bytes],
     trace: Trace,
     contour: ContourStats,
     gates: Gates | None = None,
     moves: Sequence[Move] = (),
+    kinds: Mapping[int, str] | None = None,
 ) -> None:
     """Write :func:`error_figure` to ``path`` (error.png)."""
-    error_figure(trace, contour, gates, moves).savefig(path)
+    error_figure(trace, contour, gates, moves, kinds).savefig(path)
 
 
 def error_figure(
@@ -83,10 +83,12 @@ def error_figure(
     contour: ContourStats,
     gates: Gates | None = None,
     moves: Sequence[Move] = (),
+    kinds: Mapping[int, str] | None = None,
 ) -> Figure:
     """error.png: the contour error along the program as a per-bin min..max band and the RMS
     per bin (feed moves), the worst blocks labelled with their line, every error gate drawn; below, the
-    program line executed (its envelope)."""
+    program line executed (its envelope). A gate on a kind of move reads the kinds of the lines
+    from ``kinds`` ({line: kind}, sim.gates.Gates.line_kinds), or from ``moves`` when None."""
     tr = trace
     err = np.where(tr.feed, tr.err_um, np.nan)
     fig = _figure((12, 5.5), dpi=DPI)
@@ -110,7 +112,7 @@ def error_figure(
         tc, lo, hi, _ = _envelope(tr.t, tr.line.astype(float), ENVELOPE_BINS)
         ax2.fill_between(tc, lo, hi, color="k", step="mid", lw=0.8)
     if gates is not None:
-        _draw_gates(ax1, gates, tr, moves)
+        _draw_gates(ax1, gates, tr, gates.line_kinds(moves) if kinds is None else kinds)
     ax1.set_ylim(0, max(ax1.get_ylim()[1], 1e-3) * 1.12)  # room for the labels
     ax1.set_ylabel("contour error [um]")
     ax1.grid(alpha=0.25)

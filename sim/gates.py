@@ -59,12 +59,29 @@ class ErrorLimit:
         return f"--max-error-um {self.limit_um:g}"
 
 
+class LineKind(Protocol):
+    """A move's source line and kind ("linear", "arc", ...): controller.moves.Move."""
+
+    @property
+    def line(self) -> int: ...
+
+    @property
+    def kind(self) -> str: ...
+
+
 @dataclass(frozen=True)
 class Gates:
     """Every limit set for a run (empty: the run always passes)."""
 
     errors: tuple[ErrorLimit, ...] = ()
     max_cycle_time_s: float | None = None
+
+    def line_kinds(self, moves: Iterable[LineKind]) -> dict[int, str]:
+        """{line: the kind of its move} of ``moves`` for the limits on a kind of move (error.png
+        draws them where those moves run); {} when no limit names a kind."""
+        if all(lim.kind is None for lim in self.errors):
+            return {}
+        return {mv.line: mv.kind for mv in moves}
 
     def labels(self) -> list[str]:
         out = [e.label() for e in self.errors]

@@ -10,7 +10,7 @@ from __future__ import annotations
 
 from collections.abc import Sequence
 from pathlib import Path
-from typing import TYPE_CHECKING
+from typing import IO, TYPE_CHECKING
 
 import numpy as np
 
@@ -110,6 +110,19 @@ def save_path_plot(
     path_figure(moves, trace, program, contour, drawing).savefig(path)
 
 
+@quiet
+def save_outline_plot(
+    path: Path | IO[bytes],
+    drawing: Outline | None,
+    trace: Trace,
+    program: str,
+    contour: ContourStats,
+) -> None:
+    """Write :func:`outline_figure` to ``path`` (path.png): the same file as
+    :func:`save_path_plot` of the moves ``drawing`` outlines (None: no moves)."""
+    outline_figure(drawing, trace, program, contour).savefig(path)
+
+
 def path_figure(
     moves: Sequence[Move],
     trace: Trace,
@@ -117,14 +130,22 @@ def path_figure(
     contour: ContourStats,
     drawing: Outline | None = None,
 ) -> Figure:
-    """path.png: the commanded geometry (black feed moves, grey dashed rapids) and the traced
-    path (red) whose deviation from the nearest commanded point is magnified
-    :data:`ERROR_MAGNIFICATION` times, in the arcs' plane or as a three-view sheet
-    (:func:`choose_views`); the worst feed point is circled and labelled with its line.
-    ``drawing``: the outline of ``moves`` when already computed (sim.path_outline)."""
+    """path.png of ``moves`` (:func:`outline_figure`); ``drawing``: their outline when
+    already computed (sim.path_outline)."""
+    if len(moves) and drawing is None:
+        drawing = outline(moves)
+    return outline_figure(drawing if len(moves) else None, trace, program, contour)
+
+
+def outline_figure(
+    drawing: Outline | None, trace: Trace, program: str, contour: ContourStats
+) -> Figure:
+    """path.png: the commanded geometry ``drawing`` (black feed moves, grey dashed rapids; None:
+    no moves) and the traced path (red) whose deviation from the nearest commanded point is
+    magnified :data:`ERROR_MAGNIFICATION` times, in the arcs' plane or as a three-view sheet
+    (:func:`choose_views`); the worst feed point is circled and labelled with its line."""
     tr = trace
-    if moves:
-        drawing = outline(moves) if drawing is None else drawing
+    if drawing is not None:
         views = _views(drawing.lo, drawing.hi, drawing.planes)
         feed, rapid = drawing.feed, drawing.rapid
     else:

@@ -37,11 +37,11 @@ from gantry_sim.sim.trace import Trace
 if TYPE_CHECKING:
     from concurrent.futures import Future
 
-    from gantry_sim.controller.forked import Background
     from gantry_sim.controller.moves import Move
     from gantry_sim.controller.planner.result import Plan
     from gantry_sim.controller.trajectory import Trajectory
     from gantry_sim.sim.path_outline import Outline
+    from gantry_sim.sim.plot_worker import PlotWorker
     from gantry_sim.sim.runner import SimTrace
     from gantry_sim.sim.stream import StreamedRun
     from gantry_sim.sim.trace_writer import TraceWriter
@@ -338,6 +338,7 @@ def write_outputs(
     outline: Future[Outline | None] | None = None,
     trace_npz: bool = True,
     progress: bool = False,
+    plotter: PlotWorker | None = None,
 ) -> RunReport:
     """Write the run's files into a temporary folder, then move them in, report.json last.
 
@@ -349,6 +350,8 @@ def write_outputs(
         plots: draw path.png and error.png.
         trace_npz: write trace.npz (False: ``--no-trace``; the plots still use ``trace``).
         progress: a bar on stderr over the files (sim.progress).
+        plotter: the run's plot worker (sim.plot_worker), which then draws the plots while
+            the other files are written; None: drawn here (sim.plot_files).
         deterministic: wall-clock fields null in report.json (timing.json has them).
         gates: drawn on error.png.
         started: ``time.perf_counter()`` when the run started (the command's start); "total"
@@ -359,6 +362,7 @@ def write_outputs(
         ``files``.
     """
     from gantry_sim.sim.outdir import atomic_output_dir
+    from gantry_sim.sim.plot_files import Plots
 
     t0 = time.perf_counter()
     files = written_files(plots, trace_npz)
@@ -366,42 +370,20 @@ def write_outputs(
         atomic_output_dir(out_dir, last="report.json") as tmp,
         stage("write", len(files), "file", progress) as advance,
     ):
-        # the plots' thread (sim.plot_prep) has ended once its outline is there: nothing is
-        # being imported when error.png's child is forked (a module lock held by another thread
-        # at the fork would stay held in the child)
-        drawing = outline.result() if plots and outline is not None else None
-        error_png = (
-            _error_plot_beside(tmp / "error.png", trace, report, gates, moves) if plots else None
-        )
-        if not trace_npz:
-            pass
-        elif full_trace is not None:
-            full_trace.save(tmp / "trace.npz")
-        else:
-            from gantry_sim.sim.trace_writer import save_npz
-
-            fields = {
-                "t": trace.t,
-                "ref": trace.ref,
-                "pos": trace.pos,
-                "line": trace.line,
-                "err_um": trace.err_um,
-                "force_N": trace.force_N,
-            }
-            save_npz(tmp / "trace.npz", fields)
-        advance(int(trace_npz))
-        if error_png is not None:
-            from gantry_sim.sim.path_plot import save_path_plot
-
-            try:
-                save_path_plot(
-                    tmp / "path.png", moves, trace, report.program, report.contour_error_um, drawing
-                )
-                advance(1)
-                error_png.result()
-            finally:
-                error_png.close()
-            advance(1)
+        drawn = None
+        if plots:
+            drawn = Plots(
+                tmp, trace, report.program, report.contour_error_um, moves, outline, gates, plotter
+            )
+        try:
+            if trace_npz:
+                _write_trace_npz(tmp / "trace.npz", trace, full_trace)
+            advance(int(trace_npz))
+            if drawn is not None:
+                drawn.finish(advance)
+        finally:
+            if drawn is not None:
+                drawn.close()  # nothing draws into the folder once it is committed or removed
         t1 = time.perf_counter()
         timing = {k: v for k, v in report.timing_s.items() if k not in ("write", "total")}
         timing["write"] = t1 - t0
@@ -418,24 +400,22 @@ def write_outputs(
     return report
 
 
-def _error_plot_beside(
-    path: Path,
-    trace: Trace,
-    report: RunReport,
-    gates: Gates | None,
-    moves: Sequence[Move],
-) -> Background[None]:
-    """error.png drawn by a forked child while this process writes trace.npz and draws path.png
-    (controller.forked.Background: drawn here instead where nothing is forked, or when the child
-    fails). The two figures took 0.30 and 0.15 s one after the other at 10,000 polylines, on one
-    of two cores."""
-    import functools
+def _write_trace_npz(path: Path, trace: Trace, full_trace: TraceWriter | None) -> None:
+    """trace.npz: a streamed run's full-rate trace (deflated during the run), else ``trace``."""
+    if full_trace is not None:
+        full_trace.save(path)
+        return
+    from gantry_sim.sim.trace_writer import save_npz
 
-    from gantry_sim.controller.forked import Background
-    from gantry_sim.sim.error_plot import save_error_plot
-
-    draw = functools.partial(save_error_plot, path, trace, report.contour_error_um, gates, moves)
-    return Background(draw)
+    fields = {
+        "t": trace.t,
+        "ref": trace.ref,
+        "pos": trace.pos,
+        "line": trace.line,
+        "err_um": trace.err_um,
+        "force_N": trace.force_N,
+    }
+    save_npz(path, fields)
 
 
 def _indented(text: str, pad: str) -> str:

@@ -33,5 +33,12 @@ def write_program(tmp_path: Path):
 @pytest.fixture(autouse=True)
 def _work_in_tmp(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
     """Every test runs in its own temporary folder, so a command's default output folder
-    (./out) never lands in the checkout; tests name repository files through ROOT."""
+    (./out) never lands in the checkout; tests name repository files through ROOT.
+
+    The plots are drawn in the run's process (``GANTRY_PLOT_WORKER=0``, for the commands the
+    tests run as processes too): the suite's many runs in its own processes share one import of
+    matplotlib, where a plot worker per run imported it again (0.5-0.7 s of CPU each, about 35
+    s of the suite's). tests/test_plot_worker.py runs the worker, whose plots are these byte for
+    byte."""
     monkeypatch.chdir(tmp_path)
+    monkeypatch.setenv("GANTRY_PLOT_WORKER", "0")

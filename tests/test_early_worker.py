@@ -30,7 +30,7 @@ def workers(monkeypatch):
 
 
 def _ended(worker: analysis_worker.ProcessAnalyser) -> bool:
-    return worker._proc.poll() is not None
+    return worker._pipes.proc.poll() is not None
 
 
 def test_a_streamed_run_uses_the_worker_started_before_parsing(machine, monkeypatch, workers):

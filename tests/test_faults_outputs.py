@@ -70,7 +70,11 @@ def assert_whole_ballbar(out: Path) -> float | None:
 # leaves the new run and no debris. "replace:N" kills inside the commit, between its renames.
 
 
-def test_kill_9_at_each_phase_of_run(tmp_path):
+@pytest.mark.parametrize("plot_worker", ["0", "1"], ids=["plots-here", "plot-worker"])
+def test_kill_9_at_each_phase_of_run(tmp_path, monkeypatch, plot_worker):
+    """With the plot worker (sim.plot_worker), the killed run's worker ends too, having written
+    nothing (it sends the PNG files' bytes to the run, which writes them)."""
+    monkeypatch.setenv("GANTRY_PLOT_WORKER", plot_worker)
     out = tmp_path / "out"
     old, new = _program(tmp_path, CIRCLE, "old.ngc"), _program(tmp_path, LINE, "new.ngc")
     assert gantry("run", old, "--out", str(out)).returncode == 0
@@ -82,6 +86,23 @@ def test_kill_9_at_each_phase_of_run(tmp_path):
     assert gantry("run", old, "--out", str(out)).returncode == 0
     assert assert_whole_run(out) == "old.ngc"
     assert staging_left(out) == []
+    deadline = time.monotonic() + 30
+    while _plot_workers_in(tmp_path) and time.monotonic() < deadline:
+        time.sleep(0.1)
+    assert _plot_workers_in(tmp_path) == []
+
+
+def _plot_workers_in(folder: Path) -> list[int]:
+    """The plot worker processes working in ``folder`` (Linux /proc; [] elsewhere)."""
+    found = []
+    for proc in Path("/proc").glob("[0-9]*"):
+        try:
+            cmd = (proc / "cmdline").read_bytes()
+            if b"gantry_sim.sim.plot_worker" in cmd and (proc / "cwd").resolve() == folder:
+                found.append(int(proc.name))
+        except OSError:
+            continue
+    return found
 
 
 def test_kill_9_at_each_phase_of_ballbar_never_mixes_two_runs(tmp_path):

@@ -164,7 +164,7 @@ def test_a_failure_in_the_analysis_worker_stops_the_run(machine):
             worker.ready(drain=True)
     finally:
         worker.close()
-    assert worker._proc.returncode is not None
+    assert worker._pipes.proc.returncode is not None
 
 
 def _helper_threads():
@@ -203,7 +203,7 @@ def test_a_run_that_fails_mid_run_stops_its_helper_and_worker(machine, monkeypat
         stream_run(moves, planned, machine, load_gantry(machine), range_ticks=200)
     if not isinstance(made[0], analysis_worker.ProcessAnalyser):
         pytest.skip("one core: no worker, no helper thread")
-    assert made[0]._proc.returncode is not None and not _helper_threads()
+    assert made[0]._pipes.proc.returncode is not None and not _helper_threads()
 
 
 def test_a_failed_hand_over_stops_the_run(machine, monkeypatch):
@@ -354,7 +354,7 @@ def test_the_worker_takes_ranges_larger_than_the_pipe_buffer():
         signal.signal(signal.SIGALRM, previous)
         worker.close()
     # every result was in: the worker is killed, not waited for while it tears down its heap
-    assert worker._proc.returncode == -signal.SIGKILL
+    assert worker._pipes.proc.returncode == -signal.SIGKILL
     inline = analysis_worker.InlineAnalyser()
     for job, tables in jobs:
         inline.submit(job, tables)
@@ -420,7 +420,7 @@ def test_a_range_crosses_to_the_worker_with_the_moves_it_reaches():
     from multiprocessing import Pipe
 
     from gantry_sim.controller.trajectory import Trajectory
-    from gantry_sim.sim.analysis_worker import recv_out_of_band, send_out_of_band
+    from gantry_sim.sim.worker_pipes import recv_out_of_band, send_out_of_band
 
     text = "G21 G17\n" + "".join(f"G1 X{i % 97} Y{i % 89} F900\n" for i in range(3000))
     moves = tuple(interpret(text + "G2 I5 J5\nM2\n", "linuxcnc", "t"))

@@ -32,6 +32,7 @@ from gantry_sim.sim.commands.common import (
 )
 
 if TYPE_CHECKING:  # the CLI starts without numpy: sim.report is imported by run()
+    from gantry_sim.sim.plot_worker import PlotWorker
     from gantry_sim.sim.report import RunReport
 
 HELP = "plan, simulate and analyse a program; write report.json, trace.npz and plots"
@@ -144,6 +145,18 @@ def _summary(typed: RunReport, out_dir: Path, files: list[str]) -> str:
 
 def run(args: argparse.Namespace) -> int:
     started = time.perf_counter()
+    from gantry_sim.sim.plot_worker import early_plot_worker
+
+    # started before this command's imports, so that the worker's import overlaps them
+    plotter = None if args.no_plots else early_plot_worker(args.program)
+    try:
+        return _run(args, started, plotter)
+    finally:
+        if plotter is not None:
+            plotter.close()  # the run closed it, unless it failed before the run started
+
+
+def _run(args: argparse.Namespace, started: float, plotter: PlotWorker | None) -> int:
     from gantry_sim.controller.errors import ConfigError
     from gantry_sim.sim.api import run_program, with_verdict, write_run_outputs
     from gantry_sim.sim.compare import Margins, compare, format_table, load_report
@@ -174,6 +187,8 @@ def run(args: argparse.Namespace) -> int:
             search_path=search_path(args),
             max_iterations=max_iterations(args),
             keep_trace=not args.no_trace,
+            plots=not args.no_plots,
+            plot_worker=plotter,
         )
         comparison = None
         if baseline is not None:

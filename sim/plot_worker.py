@@ -1,0 +1,228 @@
+"""path.png and error.png drawn by a worker process that imports matplotlib while the run goes on.
+
+Why: importing the plot modules (matplotlib) takes 0.7-0.9 s of CPU in a fresh interpreter, a third to a half of a short
+``gantry run``. In the run's own process a thread importing them holds the interpreter lock
+against the run (sim.plot_prep: the bundled circle's analysis took 0.57 s instead of about
+0.02), and imported after the run they are on its critical path.
+
+Here ``python -m gantry_sim.sim.plot_worker`` is started when the run starts
+(:func:`early_plot_worker`: ``gantry run`` starts it before its own imports, unless
+``--no-plots``; sim.api.run_program(plots=True) when it is called). A
+program of sim.worker_pipes.EARLY_WORKER_CHARS or more gets it after its parse instead: beside
+the analysis worker starting there, it slowed the parse (10,000 polyline blocks parsed in
+0.66-0.94 s instead of 0.38-0.46). The worker imports the plot modules in a thread at background
+priority (controller.forked.lower_priority), on the second core while the run plans and
+simulates, then waits. When the outputs are written (sim.plot_files), the run sends it a
+:class:`PlotRequest` (the plotted trace, the figures, path.png's outline: about 60 bytes a
+plotted tick) and writes trace.npz while the worker draws path.png, and error.png in a child it
+forks (controller.forked.Background: matplotlib is imported already). The worker sends back the
+PNG files' bytes, and the run writes them: only the run's process writes into its output folder
+(sim.outdir), so a worker that outlives a run killed with ``kill -9`` writes nothing anywhere.
+
+The files are byte for byte the ones the run's own process draws (tests/test_plot_worker.py).
+If the worker fails in any way (it did not start, died, or a drawing raised), the run draws both
+files itself, as it does without a worker, so an error in a plot is raised with its own
+traceback. Used where a worker process pays (sim.worker_pipes.worker_wanted:
+``GANTRY_PLOT_WORKER`` not set to 0, a POSIX system with two or more cores, not inside a sweep's
+one-process-per-core workers). The worker ends when its stdin closes: after the outputs are
+written, when the run fails, when the result is garbage collected unwritten, or when the run's
+process ends, however.
+
+This module imports nothing heavy at import (a run starts the worker before its own imports).
+"""
+
+from __future__ import annotations
+
+import io
+import os
+import threading
+import traceback
+import weakref
+from dataclasses import dataclass
+from multiprocessing.connection import Connection
+from typing import TYPE_CHECKING
+
+from gantry_sim.sim.worker_pipes import (
+    EARLY_WORKER_CHARS,
+    Pipes,
+    recv_out_of_band,
+    send_out_of_band,
+    serve_stdio,
+    worker_wanted,
+)
+
+if TYPE_CHECKING:
+    from gantry_sim.sim.contour import ContourStats
+    from gantry_sim.sim.gates import Gates
+    from gantry_sim.sim.path_outline import Outline
+    from gantry_sim.sim.trace import Trace
+
+__all__ = ["PlotRequest", "PlotWorker", "draw", "early_plot_worker"]
+
+
+@dataclass(frozen=True)
+class PlotRequest:
+    """Everything path.png and error.png draw.
+
+    Attributes:
+        trace: the plotted trace (a streamed run's decimated one).
+        program: the program's name (path.png's title).
+        contour: the run's contour error figures [um].
+        drawing: path.png's commanded geometry (sim.path_outline; None: no moves).
+        gates: drawn on error.png.
+        kinds: {line: move kind} for the gates on a kind of move (sim.gates.Gates.line_kinds).
+    """
+
+    trace: Trace
+    program: str
+    contour: ContourStats
+    drawing: Outline | None
+    gates: Gates | None
+    kinds: dict[int, str]
+
+
+def draw(request: PlotRequest) -> tuple[bytes, bytes]:
+    """The PNG files' bytes (path.png, error.png): error.png drawn in a forked child
+    (controller.forked.Background; here where nothing is forked, or when the child failed)
+    while path.png is drawn here."""
+    import functools
+
+    from gantry_sim.controller.forked import Background
+
+    error_png = Background(functools.partial(_error_png, request))
+    try:
+        return _path_png(request), error_png.result()
+    finally:
+        error_png.close()
+
+
+def _path_png(r: PlotRequest) -> bytes:
+    from gantry_sim.sim.path_plot import save_outline_plot
+
+    out = io.BytesIO()
+    save_outline_plot(out, r.drawing, r.trace, r.program, r.contour)
+    return out.getvalue()
+
+
+def _error_png(r: PlotRequest) -> bytes:
+    from gantry_sim.sim.error_plot import save_error_plot
+
+    out = io.BytesIO()
+    save_error_plot(out, r.trace, r.contour, r.gates, kinds=r.kinds)
+    return out.getvalue()
+
+
+class PlotWorker:
+    """The run's side of the worker (see the module docstring): its process is started by
+    :meth:`start`."""
+
+    def __init__(self) -> None:
+        self._pipes: Pipes | None = None
+        self._stop: weakref.finalize | None = None
+        self._asked = False
+
+    def start(self) -> None:
+        """Start the worker process, unless it was started or closed already. A process that
+        cannot be started leaves the plots to be drawn by the run."""
+        if self._pipes is not None or self._asked:
+            return
+        try:
+            self._pipes = Pipes("gantry_sim.sim.plot_worker")
+        except OSError:
+            self._asked = True
+            return
+        # stopped when closed, or when garbage collected unused (an unwritten RunResult)
+        self._stop = weakref.finalize(self, self._pipes.stop)
+
+    def draw(self, request: PlotRequest) -> bool:
+        """Send ``request`` (once); False when the worker cannot take it (not started, closed,
+        gone, or asked before): then draw the plots here."""
+        if self._asked or self._pipes is None or self._stop is None or not self._stop.alive:
+            return False
+        self._asked = True
+        try:
+            send_out_of_band(self._pipes.out, request)
+        except OSError:
+            return False
+        return True
+
+    def wait(self) -> tuple[bytes, bytes] | None:
+        """The PNG files' bytes (path.png, error.png) drawn for the request sent (waits for
+        them); None: the worker failed (draw them here; a drawing that raised there raises here
+        too)."""
+        if self._pipes is None:
+            return None
+        try:
+            reply = self._pipes.inp.recv()
+        except (EOFError, OSError):
+            return None
+        return reply if isinstance(reply, tuple) else None
+
+    def close(self) -> None:
+        """Stop the worker (idempotent); a worker never started is not started after."""
+        self._asked = True
+        if self._stop is not None:
+            self._stop()
+
+
+def early_plot_worker(program: str | os.PathLike[str]) -> PlotWorker | None:
+    """A :class:`PlotWorker` for the run of ``program`` (its text, or its file) where one pays
+    (see the module docstring), else None; started now for a program of fewer than
+    EARLY_WORKER_CHARS characters (its imports overlap the run's own), else by the run after its
+    parse (:meth:`PlotWorker.start`)."""
+    if not worker_wanted("GANTRY_PLOT_WORKER"):
+        return None
+    worker = PlotWorker()
+    if _chars(program) < EARLY_WORKER_CHARS:
+        worker.start()
+    return worker
+
+
+def _chars(program: str | os.PathLike[str]) -> int:
+    """About the length of ``program`` in characters (a file's size in bytes; 0 when it cannot
+    be read: the run says why)."""
+    if isinstance(program, str):
+        return len(program)
+    try:
+        return os.stat(program).st_size
+    except (OSError, TypeError, ValueError):
+        return 0
+
+
+def _import_plot_modules() -> None:
+    from gantry_sim.controller.forked import lower_priority
+
+    lower_priority()
+    try:
+        import gantry_sim.sim.error_plot
+        import gantry_sim.sim.path_plot  # noqa: F401
+    except Exception:  # raised again by the drawing that needs it, and reported
+        pass
+
+
+def _serve(inp: Connection, out: Connection) -> None:
+    """The worker: import the plot modules in a thread, then draw each request received until
+    the input ends. The thread has ended before anything is drawn: a fork (error.png's child)
+    must not happen while another thread holds an import lock."""
+    imports = threading.Thread(target=_import_plot_modules, name="plot-imports", daemon=True)
+    imports.start()
+    try:
+        while True:
+            request = recv_out_of_band(inp)
+            imports.join()
+            reply: tuple[bytes, bytes] | str
+            try:
+                assert isinstance(request, PlotRequest)
+                reply = draw(request)
+            except Exception:
+                reply = traceback.format_exc(limit=-3).strip().replace("\n", " | ")
+            out.send(reply)
+    except (EOFError, OSError, KeyboardInterrupt):
+        pass  # the run ended, is gone or interrupted (OSError: a broken pipe): nobody to tell
+
+
+if __name__ == "__main__":  # the worker process (see PlotWorker)
+    # the module's own name, not __main__: the requests unpickle as its PlotRequest
+    from gantry_sim.sim.plot_worker import _serve as serve
+
+    serve(*serve_stdio())
