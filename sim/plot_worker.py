@@ -1,4 +1,5 @@
-"""path.png and error.png drawn by a worker process that imports matplotlib while the run goes on.
+"""path.png and error.png (and ``gantry ballbar``'s polar.png) drawn by a worker process that
+imports matplotlib while the run goes on.
 
 Why: importing the plot modules (matplotlib) takes 0.7-0.9 s of CPU in a fresh interpreter, a third to a half of a short
 ``gantry run``. In the run's own process a thread importing them holds the interpreter lock
@@ -18,6 +19,9 @@ plotted tick) and writes trace.npz while the worker draws path.png, and error.pn
 forks (controller.forked.Background: matplotlib is imported already). The worker sends back the
 PNG files' bytes, and the run writes them: only the run's process writes into its output folder
 (sim.outdir), so a worker that outlives a run killed with ``kill -9`` writes nothing anywhere.
+
+``gantry ballbar`` starts one too (:func:`started_plot_worker`) and sends it a
+:class:`PolarRequest` while it writes its traces (sim.circular.ballbar.write_ballbar_outputs).
 
 The files are byte for byte the ones the run's own process draws (tests/test_plot_worker.py).
 If the worker fails in any way (it did not start, died, or a drawing raised), the run draws both
@@ -40,7 +44,7 @@ import traceback
 import weakref
 from dataclasses import dataclass
 from multiprocessing.connection import Connection
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any
 
 from gantry_sim.sim.worker_pipes import (
     EARLY_WORKER_CHARS,
@@ -52,12 +56,13 @@ from gantry_sim.sim.worker_pipes import (
 )
 
 if TYPE_CHECKING:
+    from gantry_sim.sim.circular.figures import CircleAnalysis
     from gantry_sim.sim.contour import ContourStats
     from gantry_sim.sim.gates import Gates
     from gantry_sim.sim.path_outline import Outline
     from gantry_sim.sim.trace import Trace
 
-__all__ = ["PlotRequest", "PlotWorker", "draw", "early_plot_worker"]
+__all__ = ["PlotRequest", "PlotWorker", "PolarRequest", "early_plot_worker", "started_plot_worker"]
 
 
 @dataclass(frozen=True)
@@ -80,20 +85,41 @@ class PlotRequest:
     gates: Gates | None
     kinds: dict[int, str]
 
+    def render(self) -> tuple[bytes, bytes]:
+        """The PNG files' bytes (path.png, error.png): error.png drawn in a forked child
+        (controller.forked.Background; here where nothing is forked, or when the child failed)
+        while path.png is drawn here."""
+        import functools
 
-def draw(request: PlotRequest) -> tuple[bytes, bytes]:
-    """The PNG files' bytes (path.png, error.png): error.png drawn in a forked child
-    (controller.forked.Background; here where nothing is forked, or when the child failed)
-    while path.png is drawn here."""
-    import functools
+        from gantry_sim.controller.forked import Background
 
-    from gantry_sim.controller.forked import Background
+        error_png = Background(functools.partial(_error_png, self))
+        try:
+            return _path_png(self), error_png.result()
+        finally:
+            error_png.close()
 
-    error_png = Background(functools.partial(_error_png, request))
-    try:
-        return _path_png(request), error_png.result()
-    finally:
-        error_png.close()
+
+@dataclass(frozen=True)
+class PolarRequest:
+    """``gantry ballbar``'s polar.png (sim.plots.save_polar_plot): the two directions' circle
+    analyses and the summary (ballbar.json)."""
+
+    ccw: CircleAnalysis
+    cw: CircleAnalysis
+    summary: dict[str, Any]
+
+    def render(self) -> tuple[bytes]:
+        """polar.png's bytes."""
+        from gantry_sim.sim.plots import save_polar_plot
+
+        out = io.BytesIO()
+        save_polar_plot(out, self.ccw, self.cw, self.summary)
+        return (out.getvalue(),)
+
+
+#: what a worker draws
+Request = PlotRequest | PolarRequest
 
 
 def _path_png(r: PlotRequest) -> bytes:
@@ -134,7 +160,7 @@ class PlotWorker:
         # stopped when closed, or when garbage collected unused (an unwritten RunResult)
         self._stop = weakref.finalize(self, self._pipes.stop)
 
-    def draw(self, request: PlotRequest) -> bool:
+    def draw(self, request: Request) -> bool:
         """Send ``request`` (once); False when the worker cannot take it (not started, closed,
         gone, or asked before): then draw the plots here."""
         if self._asked or self._pipes is None or self._stop is None or not self._stop.alive:
@@ -146,8 +172,8 @@ class PlotWorker:
             return False
         return True
 
-    def wait(self) -> tuple[bytes, bytes] | None:
-        """The PNG files' bytes (path.png, error.png) drawn for the request sent (waits for
+    def wait(self) -> tuple[bytes, ...] | None:
+        """The PNG files' bytes drawn for the request sent (``request.render()``; waits for
         them); None: the worker failed (draw them here; a drawing that raised there raises here
         too)."""
         if self._pipes is None:
@@ -163,6 +189,16 @@ class PlotWorker:
         self._asked = True
         if self._stop is not None:
             self._stop()
+
+
+def started_plot_worker() -> PlotWorker | None:
+    """A :class:`PlotWorker` started now where one pays (see the module docstring), else
+    None."""
+    if not worker_wanted("GANTRY_PLOT_WORKER"):
+        return None
+    worker = PlotWorker()
+    worker.start()
+    return worker
 
 
 def early_plot_worker(program: str | os.PathLike[str]) -> PlotWorker | None:
@@ -210,10 +246,11 @@ def _serve(inp: Connection, out: Connection) -> None:
         while True:
             request = recv_out_of_band(inp)
             imports.join()
-            reply: tuple[bytes, bytes] | str
+            reply: tuple[bytes, ...] | str
             try:
-                assert isinstance(request, PlotRequest)
-                reply = draw(request)
+                if not isinstance(request, PlotRequest | PolarRequest):
+                    raise TypeError(f"not a plot request: {type(request).__name__}")
+                reply = request.render()
             except Exception:
                 reply = traceback.format_exc(limit=-3).strip().replace("\n", " | ")
             out.send(reply)

@@ -16,7 +16,7 @@ import logging
 import warnings
 from collections.abc import Callable, Mapping
 from pathlib import Path
-from typing import Any, ParamSpec, TypeVar
+from typing import IO, Any, ParamSpec, TypeVar
 
 # No noise on stderr: matplotlib logs at WARNING when its config or cache folder is not writable
 # or its font cache is rebuilt (at import), and warns on degenerate axes while drawing; neither
@@ -75,7 +75,7 @@ def _figure(figsize: tuple[float, float], dpi: float | None = None) -> Figure:
 
 
 def save_polar_plot(
-    path: Path, ccw: CircleAnalysis, cw: CircleAnalysis, summary: Mapping[str, Any]
+    path: Path | IO[bytes], ccw: CircleAnalysis, cw: CircleAnalysis, summary: Mapping[str, Any]
 ) -> None:
     """polar.png: the radial deviation of the CCW and CW traces, magnified, on a stated scale.
 

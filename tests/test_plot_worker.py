@@ -199,3 +199,33 @@ def test_gantry_run_starts_the_worker_first_and_no_plots_none(tmp_path, workers,
     assert main(["run", str(prog), "--out", str(tmp_path / "c"), "--feed-override", "0"]) == 2
     assert "--feed-override" in capsys.readouterr().err
     assert len(workers) == 2 and _ended(workers[1])
+
+
+def test_gantry_ballbar_draws_polar_png_in_the_worker(tmp_path, monkeypatch, workers, waits):
+    from gantry_sim.sim.cli import main
+
+    args = ["ballbar", "--radius", "5", "--feed", "2000", "--json"]
+    assert main([*args, "--out", str(tmp_path / "w")]) == 0
+    assert len(workers) == 1 and waits == [True] and _ended(workers[0])
+    monkeypatch.setenv("GANTRY_PLOT_WORKER", "0")
+    assert main([*args, "--out", str(tmp_path / "here")]) == 0
+    assert len(workers) == 1  # none made: drawn here
+    for name in ("polar.png", "ballbar.json"):
+        assert (tmp_path / "w" / name).read_bytes() == (tmp_path / "here" / name).read_bytes()
+
+
+def test_a_dead_worker_leaves_polar_png_to_the_command(machine, tmp_path, workers, waits):
+    from gantry_sim.sim.circular.ballbar import run_ballbar, write_ballbar_outputs
+
+    result = run_ballbar(machine, "XY", 5.0, 2000.0, plots_elsewhere=True)
+    assert result.run.plotter is None and result.run.outline is None  # nothing prepared
+    worker = plot_worker.started_plot_worker()
+    assert worker is not None
+    worker._pipes.proc.kill()  # type: ignore[union-attr]
+    write_ballbar_outputs(result, tmp_path / "a", worker)
+    worker.close()
+    write_ballbar_outputs(result, tmp_path / "b")
+    assert waits in ([False], [])
+    assert (tmp_path / "a" / "polar.png").read_bytes() == (
+        tmp_path / "b" / "polar.png"
+    ).read_bytes()

@@ -11,7 +11,7 @@ from __future__ import annotations
 import json
 from dataclasses import dataclass, replace
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
@@ -32,6 +32,9 @@ from gantry_sim.sim.circular.program import (
     circle_test_program,
 )
 from gantry_sim.sim.outdir import atomic_output_dir
+
+if TYPE_CHECKING:
+    from gantry_sim.sim.plot_worker import PlotWorker
 
 DIRECTIONS = ("ccw", "cw")
 #: fewest traced samples (servo periods) on the measured circle for meaningful figures
@@ -125,6 +128,7 @@ def run_ballbar(
     progress: bool = False,
     machine_label: str | None = None,
     budget: Any = None,
+    plots_elsewhere: bool = False,
 ) -> BallbarResult:
     """Simulate the ballbar program on ``machine`` and analyse both directions.
 
@@ -138,6 +142,9 @@ def run_ballbar(
         machine_label: how the test-conditions box names the machine (default: the name of
             the machine file it was read from).
         budget: the simulation's bounds (sim.budget.Budget; default Budget()).
+        plots_elsewhere: polar.png will be drawn by a plot worker (sim.plot_worker): nothing
+            of the plots is prepared in this process (matplotlib's import, otherwise begun in
+            a thread during the run).
 
     Raises:
         ConfigError: invalid plane/radius/feed, or a circle so short in time that it has fewer
@@ -153,7 +160,12 @@ def run_ballbar(
         # must not move it away from the centre the analysis uses
         bare = replace(machine, work=NO_WORK)
         run = run_program(
-            program.text, file="ballbar.ngc", machine=bare, progress=progress, budget=budget
+            program.text,
+            file="ballbar.ngc",
+            machine=bare,
+            progress=progress,
+            budget=budget,
+            plots=False if plots_elsewhere else None,
         )
     except GantryError as exc:
         raise option_error(exc, "ballbar.ngc", what, "--radius", "--feed", machine.source) from None
@@ -181,19 +193,30 @@ def run_ballbar(
     return BallbarResult(program, run, results["ccw"], results["cw"], summary)
 
 
-def write_ballbar_outputs(result: BallbarResult, out_dir: Path) -> None:
+def write_ballbar_outputs(
+    result: BallbarResult, out_dir: Path, plotter: PlotWorker | None = None
+) -> None:
     """Write ballbar.json, polar.png, ballbar.ngc, trace_cw.npz, trace_ccw.npz into ``out_dir``.
 
     The files are written to a staging folder first and committed only when all succeeded,
     ballbar.json removed first and moved in last (sim.outdir: old or new, never mixed).
+    ``plotter``: a plot worker (sim.plot_worker) that draws polar.png while the other files are
+    written (drawn here if it fails); None: drawn here.
     """
-    from gantry_sim.sim.plots import save_polar_plot
+    from gantry_sim.sim.plot_worker import PolarRequest
     from gantry_sim.sim.trace_writer import save_npz
 
+    sent = plotter is not None and plotter.draw(PolarRequest(result.ccw, result.cw, result.summary))
     with atomic_output_dir(out_dir, last="ballbar.json") as tmp:
         (tmp / "ballbar.json").write_text(json.dumps(result.summary, indent=2) + "\n")
         (tmp / "ballbar.ngc").write_text(result.program.text)
         for d in DIRECTIONS:
             tr = direction_trace(result.run, result.program, d)
             save_npz(tmp / f"trace_{d}.npz", {"t": tr["t"], "ref": tr["ref"], "pos": tr["pos"]})
-        save_polar_plot(tmp / "polar.png", result.ccw, result.cw, result.summary)
+        drawn = plotter.wait() if sent and plotter is not None else None
+        if drawn is not None:
+            (tmp / "polar.png").write_bytes(drawn[0])
+        else:
+            from gantry_sim.sim.plots import save_polar_plot
+
+            save_polar_plot(tmp / "polar.png", result.ccw, result.cw, result.summary)

@@ -13,6 +13,7 @@ import json
 import math
 import sys
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 from gantry_sim.controller.errors import ConfigError, shown
 from gantry_sim.sim.commands.common import (
@@ -22,6 +23,9 @@ from gantry_sim.sim.commands.common import (
     budget_from,
     load_machine,
 )
+
+if TYPE_CHECKING:
+    from gantry_sim.sim.plot_worker import PlotWorker
 
 HELP = (
     "circular test (virtual ballbar, ISO 230-4): run a full circle CCW and CW and report the "
@@ -107,6 +111,18 @@ def parse_centre(text: str | None, plane: str) -> tuple[float, float, float]:
 
 
 def run(args: argparse.Namespace) -> int:
+    from gantry_sim.sim.plot_worker import started_plot_worker
+
+    # polar.png's worker, started before this command's imports, which its import overlaps
+    plotter = started_plot_worker() if args.out is not None else None
+    try:
+        return _run(args, plotter)
+    finally:
+        if plotter is not None:
+            plotter.close()
+
+
+def _run(args: argparse.Namespace, plotter: PlotWorker | None) -> int:
     from gantry_sim.sim.circular.ballbar import run_ballbar, write_ballbar_outputs
     from gantry_sim.sim.circular.summary import format_summary, g_gate
     from gantry_sim.sim.outdir import prepare_output_dir
@@ -128,6 +144,7 @@ def run(args: argparse.Namespace) -> int:
         progress=sys.stderr.isatty(),
         machine_label=label,
         budget=budget,
+        plots_elsewhere=plotter is not None,
     )
     status = 0
     if args.max_g_um is not None:
@@ -137,7 +154,7 @@ def run(args: argparse.Namespace) -> int:
         for reason in gate["reasons"]:
             print(f"gantry ballbar: gate failed: {reason}", file=sys.stderr)
     if args.out is not None:
-        write_ballbar_outputs(result, args.out)
+        write_ballbar_outputs(result, args.out, plotter)
     human = args.summary or (not args.json and sys.stdout.isatty())
     if human:
         sys.stdout.write(format_summary(result.summary))
