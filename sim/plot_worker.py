@@ -1,17 +1,17 @@
 """path.png and error.png (and ``gantry ballbar``'s polar.png) drawn by a worker process that
 imports matplotlib while the run goes on.
 
-Why: importing the plot modules (matplotlib) takes 0.7-0.9 s of CPU in a fresh interpreter, a third to a half of a short
-``gantry run``. In the run's own process a thread importing them holds the interpreter lock
-against the run (sim.plot_prep: the bundled circle's analysis took 0.57 s instead of about
-0.02), and imported after the run they are on its critical path.
+Why: importing the plot modules (matplotlib) takes 0.7-0.9 s of CPU in a fresh interpreter, a
+third to a half of a short ``gantry run``. In the run's own process a thread importing them
+holds the interpreter lock against the run (sim.plot_prep: the bundled circle's analysis took
+0.57 s instead of about 0.02), and imported after the run they are on its critical path.
 
 Here ``python -m gantry_sim.sim.plot_worker`` is started when the run starts
 (:func:`early_plot_worker`: ``gantry run`` starts it before its own imports, unless
-``--no-plots``; sim.api.run_program(plots=True) when it is called). A
-program of sim.worker_pipes.EARLY_WORKER_CHARS or more gets it after its parse instead: beside
-the analysis worker starting there, it slowed the parse (10,000 polyline blocks parsed in
-0.66-0.94 s instead of 0.38-0.46). The worker imports the plot modules in a thread at background
+``--no-plots``; sim.api.run_program(plots=True) when it is called). A program of
+sim.worker_pipes.EARLY_WORKER_CHARS or more gets it after its parse instead: beside the
+analysis worker starting there, it slowed the parse (10,000 polyline blocks parsed in 0.66-0.94
+s instead of 0.38-0.46). The worker imports the plot modules in a thread at background
 priority (controller.forked.lower_priority), on the second core while the run plans and
 simulates, then waits. When the outputs are written (sim.plot_files), the run sends it a
 :class:`PlotRequest` (the plotted trace, the figures, path.png's outline: about 60 bytes a
@@ -238,17 +238,19 @@ def _import_plot_modules() -> None:
 
 def _serve(inp: Connection, out: Connection) -> None:
     """The worker: import the plot modules in a thread, then draw each request received until
-    the input ends. The thread has ended before anything is drawn: a fork (error.png's child)
-    must not happen while another thread holds an import lock."""
+    the input ends. The thread has ended before a request is read (unpickling it imports
+    modules too) and before anything is drawn: a fork (error.png's child) must not happen while
+    another thread holds an import lock."""
     imports = threading.Thread(target=_import_plot_modules, name="plot-imports", daemon=True)
     imports.start()
     try:
         while True:
-            request = recv_out_of_band(inp)
+            inp.poll(None)  # a request, or the end of the input
             imports.join()
+            request = recv_out_of_band(inp)
             reply: tuple[bytes, ...] | str
             try:
-                if not isinstance(request, PlotRequest | PolarRequest):
+                if not isinstance(request, Request):
                     raise TypeError(f"not a plot request: {type(request).__name__}")
                 reply = request.render()
             except Exception:
