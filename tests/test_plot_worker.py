@@ -75,6 +75,18 @@ def test_the_worker_draws_the_files_the_run_draws(machine, tmp_path, workers, wa
     assert all(png.startswith(b"\x89PNG") and len(png) > 10_000 for png in here.values())
 
 
+def test_a_streamed_run_hands_its_decimated_trace_to_the_worker(
+    machine, tmp_path, monkeypatch, workers, waits
+):
+    monkeypatch.setattr(api, "STREAM_ABOVE_TICKS", 0)  # the circle streamed, range by range
+    monkeypatch.setattr(plot_worker, "EARLY_WORKER_CHARS", 1)  # started after the parse
+    result = api.run_program(CIRCLE, file="c.ngc", machine=machine, plots=True)
+    assert result.streamed and result.plotter is workers[0]
+    api.write_run_outputs(result, tmp_path / "worker", deterministic=True, gates=GATES)
+    assert waits == [True] and _ended(workers[0])
+    assert _pngs(tmp_path / "worker") == _run(machine, tmp_path / "here", worker=False)
+
+
 def test_a_dead_worker_leaves_the_plots_to_the_run(machine, tmp_path, workers, waits):
     result = api.run_program(CIRCLE, file="c.ngc", machine=machine, plots=True)
     assert result.plotter is workers[0]
