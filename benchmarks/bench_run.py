@@ -7,7 +7,8 @@ wall time over MuJoCo alone stepping the same motion.
 
 Programs: benchmarks/programs.py (tangent arcs with S-bends, 0.05-0.5 mm G1 polylines, mixed
 G0/G1/G2/G3 contours with corners), seeded. Each program runs in a fresh subprocess, through the
-public API as ``gantry run`` does (run_program, then write_run_outputs into a temporary folder);
+public API as ``gantry run`` does (run_program with plots=True, so the plot worker imports
+matplotlib during the run, then write_run_outputs into a temporary folder);
 the subprocess reports:
 
 * stage times [s]: parse, plan, simulate, analyse, trace (report.json's timing_s; trace: a
