@@ -84,13 +84,15 @@ def serve_stdio() -> tuple[Connection, Connection]:
 
 def worker_wanted(env_var: str) -> bool:
     """Whether a worker process can pay here: ``env_var`` not set to 0, a POSIX system, two
-    or more cores, and not inside controller.forked.one_process (a sweep runs one point per
+    or more cores, an interpreter to start (``sys.executable``: not in every embedding
+    application), and not inside controller.forked.one_process (a sweep runs one point per
     core)."""
     from gantry_sim.controller.forked import in_one_process
 
     return (
         os.environ.get(env_var, "1") != "0"
         and os.name == "posix"
+        and bool(sys.executable)
         and (os.cpu_count() or 1) >= 2
         and not in_one_process()
     )

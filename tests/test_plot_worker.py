@@ -241,3 +241,11 @@ def test_a_dead_worker_leaves_polar_png_to_the_command(machine, tmp_path, worker
     assert (tmp_path / "a" / "polar.png").read_bytes() == (
         tmp_path / "b" / "polar.png"
     ).read_bytes()
+
+
+def test_no_worker_without_an_interpreter_to_start(monkeypatch):
+    """An application embedding Python may have no sys.executable: the plots are drawn here."""
+    monkeypatch.setenv("GANTRY_PLOT_WORKER", "1")
+    monkeypatch.setattr(worker_pipes.sys, "executable", "")
+    assert plot_worker.early_plot_worker(CIRCLE) is None
+    assert not worker_pipes.worker_wanted("GANTRY_ANALYSIS_WORKER")
