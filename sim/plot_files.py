@@ -67,6 +67,11 @@ class Plots:
         self._worker = worker if worker is not None and worker.draw(self._request) else None
         self._error_png = None if self._worker is not None else self._error_png_child()
 
+    @property
+    def elsewhere(self) -> bool:
+        """The plot worker took the request: this process only waits in :meth:`finish`."""
+        return self._worker is not None
+
     def _error_png_child(self) -> Background[None]:
         from gantry_sim.sim.error_plot import save_error_plot
 

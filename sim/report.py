@@ -46,6 +46,10 @@ if TYPE_CHECKING:
     from gantry_sim.sim.stream import StreamedRun
     from gantry_sim.sim.trace_writer import TraceWriter
 
+#: report.json's keys that the writing of the outputs fills in: after "blocks", so that the text
+#: up to there can be written while the plots are drawn (RunReport.write_json_start)
+LATE_KEYS = ("timing_s", "verdict", "files")
+
 #: files a run writes into its output folder (removed first by `gantry run`: no stale report)
 OUTPUT_FILES = ("report.json", "timing.json", "trace.npz", "path.png", "error.png")
 #: the plots among them (not written with ``plots=False``)
@@ -185,11 +189,31 @@ class RunReport:
     def write_json(self, out: IO[str], deterministic: bool = False) -> None:
         """Write report.json's text to ``out``: ``json.dump(self.to_json(deterministic), out,
         indent=2)`` and a newline, character for character, with the blocks written one at a
-        time (tests/test_report_json.py compares the two)."""
+        time (tests/test_report_json.py compares the two): :meth:`write_json_start` then
+        :meth:`write_json_end`."""
+        self.write_json_start(out, deterministic)
+        self.write_json_end(out, deterministic)
+
+    def write_json_start(self, out: IO[str], deterministic: bool = False) -> None:
+        """report.json's text up to its "blocks" (those included): nothing there depends on
+        the outputs' writing (:data:`LATE_KEYS` come after), so it can be written while the
+        plots are drawn elsewhere, and finished by :meth:`write_json_end` of this report with
+        its timing and files filled in."""
+        keys = list(self.to_json(deterministic, blocks=False))
+        self._write_keys(out, keys[: keys.index("blocks") + 1], len(keys), deterministic, True)
+
+    def write_json_end(self, out: IO[str], deterministic: bool = False) -> None:
+        """The rest of report.json's text after :meth:`write_json_start`."""
+        keys = list(self.to_json(deterministic, blocks=False))
+        self._write_keys(out, keys[keys.index("blocks") + 1 :], len(keys), deterministic, False)
+
+    def _write_keys(
+        self, out: IO[str], keys: list[str], count: int, deterministic: bool, first: bool
+    ) -> None:
         head = self.to_json(deterministic, blocks=False)
-        keys = list(head)
-        out.write("{\n")
-        for k, key in enumerate(keys):
+        if first:
+            out.write("{\n")
+        for key in keys:
             out.write(f"  {json.dumps(key)}: ")
             if key == "blocks" and self.blocks:
                 out.write("[")
@@ -199,8 +223,10 @@ class RunReport:
                 out.write("\n  ]")
             else:
                 out.write(_indented(json.dumps(head[key], indent=2), "  "))
-            out.write(",\n" if k + 1 < len(keys) else "\n")
-        out.write("}\n")
+            last = list(head).index(key) + 1 == count
+            out.write("\n" if last else ",\n")
+        if not first:
+            out.write("}\n")
 
     def timing_json(self) -> dict[str, Any]:
         """timing.json: the wall-clock fields of report.json, always measured."""
@@ -375,27 +401,36 @@ def write_outputs(
             drawn = Plots(
                 tmp, trace, report.program, report.contour_error_um, moves, outline, gates, plotter
             )
-        try:
-            if trace_npz:
-                _write_trace_npz(tmp / "trace.npz", trace, full_trace)
-            advance(int(trace_npz))
-            if drawn is not None:
-                drawn.finish(advance)
-        finally:
-            if drawn is not None:
-                drawn.close()  # nothing draws into the folder once it is committed or removed
-        t1 = time.perf_counter()
-        timing = {k: v for k, v in report.timing_s.items() if k not in ("write", "total")}
-        timing["write"] = t1 - t0
-        stages = sum(timing.values())
-        timing["total"] = (t1 - started) if started is not None else stages
-        report = replace(report, timing_s=timing, files=files)
-        (tmp / "timing.json").write_text(json.dumps(report.timing_json(), indent=2) + "\n")
         with (tmp / "report.json").open("w", encoding="utf-8") as out:
-            # streamed to the file block by block: json.dumps with indent lists every piece of
-            # the text first (about 1.3 KB a block, 130 MB at 100,000 blocks), and the blocks
-            # as dicts took 40 MB more
-            report.write_json(out, deterministic)
+            # written block by block: json.dumps with indent lists every piece of the text
+            # first (about 1.3 KB a block, 130 MB at 100,000 blocks), and the blocks as dicts
+            # took 40 MB more
+            started_json = False
+            try:
+                if trace_npz:
+                    _write_trace_npz(tmp / "trace.npz", trace, full_trace)
+                advance(int(trace_npz))
+                if drawn is not None and drawn.elsewhere:
+                    # this process waits for the plot worker: the report's text up to its
+                    # blocks meanwhile (0.11 s at 10,000 blocks)
+                    report.write_json_start(out, deterministic)
+                    started_json = True
+                if drawn is not None:
+                    drawn.finish(advance)
+            finally:
+                if drawn is not None:
+                    drawn.close()  # nothing draws into the folder once committed or removed
+            t1 = time.perf_counter()
+            timing = {k: v for k, v in report.timing_s.items() if k not in ("write", "total")}
+            timing["write"] = t1 - t0
+            stages = sum(timing.values())
+            timing["total"] = (t1 - started) if started is not None else stages
+            report = replace(report, timing_s=timing, files=files)
+            (tmp / "timing.json").write_text(json.dumps(report.timing_json(), indent=2) + "\n")
+            if started_json:
+                report.write_json_end(out, deterministic)
+            else:
+                report.write_json(out, deterministic)
         advance(2)
     return report
 

@@ -16,6 +16,7 @@ from gantry_sim.sim.plot_worker import PlotRequest, PlotWorker
 
 CIRCLE = "G21 G17 G90 G94\nG1 X5 F3000\nG3 I-5 J0\nG1 X0\nM2\n"
 #: a gate on a kind of move: error.png draws it where the arcs run (Gates.line_kinds)
+PNGS = ("path.png", "error.png")
 GATES = Gates(errors=(ErrorLimit(limit_um=2.0), ErrorLimit(limit_um=3.0, kind="arc")))
 
 
@@ -56,7 +57,9 @@ def _ended(worker: PlotWorker) -> bool:
 
 
 def _pngs(folder: Path) -> dict[str, bytes]:
-    return {name: (folder / name).read_bytes() for name in ("path.png", "error.png")}
+    """The plots, and report.json (written while the worker draws: RunReport.write_json_start;
+    the runs here are deterministic, so its text is the same)."""
+    return {name: (folder / name).read_bytes() for name in (*PNGS, "report.json")}
 
 
 def _run(machine, folder: Path, *, worker: bool, text: str = CIRCLE) -> dict[str, bytes]:
@@ -72,7 +75,8 @@ def test_the_worker_draws_the_files_the_run_draws(machine, tmp_path, workers, wa
     here = _run(machine, tmp_path / "here", worker=False)
     assert len(workers) == 1 and waits == [True]  # no worker asked for
     assert drawn == here
-    assert all(png.startswith(b"\x89PNG") and len(png) > 10_000 for png in here.values())
+    assert all(here[png].startswith(b"\x89PNG") and len(here[png]) > 10_000 for png in PNGS)
+    assert b'"write": null' in here["report.json"]  # deterministic: no wall-clock times
 
 
 def test_a_streamed_run_hands_its_decimated_trace_to_the_worker(

@@ -35,6 +35,30 @@ def test_written_block_by_block_as_json_dump_writes_it(reports, deterministic):
     assert len(reports[0].blocks) == 3 and not reports[1].blocks  # blocks, and none
 
 
+@pytest.mark.parametrize("deterministic", [False, True])
+def test_started_before_the_outputs_are_written_and_finished_after(reports, deterministic):
+    """write_json_start writes nothing the outputs' writing fills in (LATE_KEYS): finished by
+    the report with its timing, verdict and files, the text is that report's json.dump."""
+    from dataclasses import replace
+
+    from gantry_sim.sim.gates import Verdict
+    from gantry_sim.sim.report import LATE_KEYS
+
+    for report in reports:
+        keys = list(report.to_json())
+        assert all(keys.index(k) > keys.index("blocks") for k in LATE_KEYS)
+        later = replace(
+            report,
+            timing_s={**report.timing_s, "write": 0.25, "total": 9.5},
+            files=("report.json", "path.png"),
+            verdict=Verdict(passed=False, gates=("x",), failures=({"gate": "x"},)),
+        )
+        out = io.StringIO()
+        report.write_json_start(out, deterministic)
+        later.write_json_end(out, deterministic)
+        assert out.getvalue() == json.dumps(later.to_json(deterministic), indent=2) + "\n"
+
+
 def test_block_times_are_ticks_times_the_servo_period(reports):
     report = reports[0]
     times = report.block_time_s
