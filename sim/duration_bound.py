@@ -54,6 +54,7 @@ if TYPE_CHECKING:  # no numpy or config import when the CLI only builds its pars
 REVERSAL_RAD = math.radians(179.0)
 #: moves this short [mm] have no direction (the planner drops them)
 EPS_MM = 1e-9
+_COS_REVERSAL = math.cos(REVERSAL_RAD)
 
 
 def duration_lower_bound(
@@ -122,8 +123,7 @@ def duration_lower_bound(
         if isinstance(m, straights):
             (x0, y0, z0), (x1, y1, z1) = m.start, m.end
             d = [x1 - x0, y1 - y0, z1 - z0]
-            caps = [v / abs(x) * length for v, x in zip(vmax, d, strict=True) if x]
-            cap = min(caps) if caps else norm
+            cap = _straight_cap(vmax, d, length, norm)
         speed = cap if feed is None else min(cap, feed * scale / 60.0)
         t = length / speed if speed > 0 else 0.0
         here = None if c is None else _Prev(m.line, feed, speed, t, c, d, length, m.start)
@@ -131,7 +131,7 @@ def duration_lower_bound(
         if joins:
             run.append(m)
         else:
-            run = [m] if c is not None and starts_run(m, path) else []
+            run = [m] if c is not None and starts_run(m, path, c) else []
         if joins and prev is not None and here is not None:  # a naive-CAM run takes m
             if prev.dropped:
                 stretch.extend_run(m.end)
@@ -166,6 +166,20 @@ class _Prev:
     displacement (None: an arc), length and start point [mm], and whether a naive-CAM run took
     it (``dropped``)."""
 
+    __slots__ = (
+        "direction",
+        "dropped",
+        "feed",
+        "g64",
+        "length",
+        "line",
+        "p",
+        "q",
+        "speed",
+        "start",
+        "t",
+    )
+
     def __init__(
         self,
         line: int,
@@ -183,6 +197,18 @@ class _Prev:
         self.dropped = False
 
 
+def _straight_cap(vmax: list[float], d: list[float], length_mm: float, norm: float) -> float:
+    """The fastest speed [mm/s] along a straight move of displacement ``d`` and ``length_mm``
+    under the axis speeds ``vmax``: the least of ``v / |x| * length`` over the axes it moves
+    along (in X, Y, Z order), ``norm`` when it moves along none."""
+    cap = None
+    for v, x in zip(vmax, d, strict=True):
+        if x:
+            c = v / abs(x) * length_mm
+            cap = c if cap is None or c < cap else cap
+    return norm if cap is None else cap
+
+
 def _blend_saving_mm(prev: _Prev, d: list[float] | None, length_mm: float) -> float:
     """How much shorter [mm] a G64 blend of the corner after ``prev`` into a move of
     displacement ``d`` (None: an arc) and ``length_mm`` can make the path (module docstring)."""
@@ -198,8 +224,9 @@ def _blend_saving_mm(prev: _Prev, d: list[float] | None, length_mm: float) -> fl
     half = 0.5 * phi
     sec_less_1 = 1.0 / math.cos(half) - 1.0
     by_tolerance = p / sec_less_1 if sec_less_1 > 0 else math.inf
-    radius = min(by_tolerance, min(prev.length, length_mm) / math.tan(half))
-    return max(radius * (2.0 * math.tan(half) - phi), 0.0)
+    tan = math.tan(half)
+    radius = min(by_tolerance, min(prev.length, length_mm) / tan)
+    return max(radius * (2.0 * tan - phi), 0.0)
 
 
 class _Stretch:
@@ -228,7 +255,7 @@ class _Stretch:
         if self.last is None:
             return False
         cos = _dot(self.last, d) / length_mm
-        return cos <= math.cos(REVERSAL_RAD)
+        return cos <= _COS_REVERSAL
 
     def start_run(self, start: Sequence[float], end: Sequence[float], speed: float) -> None:
         """A naive-CAM run from ``start`` to ``end`` [mm] at most at ``speed`` [mm/s]."""
@@ -260,12 +287,15 @@ class _Stretch:
     def add(self, length_mm: float, t_s: float, d: list[float] | None) -> None:
         """A move of ``length_mm`` taking at least ``t_s``; ``d``: a straight move's
         displacement [mm] (None: a curve)."""
-        self._flush()
+        if self.run is not None:
+            self._flush()
         self.length += length_mm
         self.lengths.append(length_mm)
         self.times.append(t_s)
-        if d is not None or length_mm > EPS_MM:
-            self.last = None if d is None else [x / length_mm for x in d]
+        if d is not None:
+            self.last = [d[0] / length_mm, d[1] / length_mm, d[2] / length_mm]
+        elif length_mm > EPS_MM:
+            self.last = None
 
     def close(self) -> float:
         """The stretch's bound [s]; a new stretch starts."""

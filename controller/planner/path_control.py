@@ -114,11 +114,12 @@ def merge_runs(
         cur = nxt
 
 
-def starts_run(move: Move, settings: PathSettings) -> bool:
-    """True when a naive-CAM run may start at ``move``: a straight G64 move with Q > 0."""
+def starts_run(move: Move, settings: PathSettings, c: Control | None = None) -> bool:
+    """True when a naive-CAM run may start at ``move``: a straight G64 move with Q > 0;
+    ``c``: its :func:`control` under ``settings`` when the caller has it already."""
     if not isinstance(move, Linear):
         return False
-    c = control(move, settings)
+    c = control(move, settings) if c is None else c
     return c.mode == "G64" and c.naive_cam_mm > 0
 
 
