@@ -38,7 +38,7 @@ from gantry_sim.controller.planner.result import Plan
 from gantry_sim.controller.trajectory import Trajectory
 from gantry_sim.controller.units import UM_PER_MM
 from gantry_sim.sim.analysis_worker import ProcessAnalyser, RangeJob, Result, make_analyser
-from gantry_sim.sim.blend_parts import known_path_sources, with_planning_split
+from gantry_sim.sim.blend_parts import blend_max_um, known_path_sources, with_planning_split
 from gantry_sim.sim.contour import (
     Analysis,
     ChunkAnalysis,
@@ -159,10 +159,11 @@ def stream_run(
     # the analysis lays out: no table of the whole program is made (28 MB each at 100,000
     # blocks: the program's, and the path's for the blend/planning split)
     rows = RowPicker(moves, planned.path_moves or moves, index, known_path_sources(planned))
-    # the chords' largest error from their curves: a second of work at 10,000 arcs that needs
-    # nothing from the simulation, done meanwhile by a forked child (forked before the analysis
-    # worker starts: it holds none of the worker's pipes)
-    chord = Background(functools.partial(chord_max_um, moves, planned.vertices))
+    # the chords' largest error from their curves (a second of work at 10,000 arcs) and the
+    # plan's largest blend deviation (its blends read from disk: 0.03 s at 10,000 polyline
+    # blocks) need nothing from the simulation: done meanwhile by a forked child (forked before
+    # the analysis worker starts: it holds none of the worker's pipes)
+    chord = Background(functools.partial(_plan_figures_um, moves, planned))
     try:
         analyser = make_analyser() if worker is None else worker
         # sampling and hand-over on a thread while the loop steps (sim.range_helper)
@@ -201,7 +202,7 @@ def stream_run(
                 handed.popleft().result()
             take(analyser.ready(drain=True))
             contour, blocks = tally_figures(tally)
-            chord_um = chord.result()
+            chord_um, blend_um = chord.result()
         finally:
             if handed:  # the run failed: a hand-over may wait for the worker's reply
                 analyser.abort()
@@ -213,7 +214,7 @@ def stream_run(
     parts = ErrorParts(chord_um, run.reference_max, run.tracking_max)
     empty = np.zeros(0)
     analysis = Analysis(empty, np.zeros((0, 3)), empty.astype(bool), contour, parts, blocks)
-    analysis = with_planning_split(analysis, planned, run.planning_mm * UM_PER_MM)
+    analysis = with_planning_split(analysis, planned, run.planning_mm * UM_PER_MM, blend_um)
     ana_s += time.perf_counter() - t1
     return StreamedRun(
         analysis=analysis,
@@ -225,6 +226,12 @@ def stream_run(
         simulate_s=sim_s,
         analyse_s=ana_s,
     )
+
+
+def _plan_figures_um(moves: Sequence[Move], planned: Plan) -> tuple[float, float]:
+    """(the chords' largest error from their curves, the plan's largest blend deviation) [um]:
+    sim.contour.chord_max_um, sim.blend_parts.blend_max_um."""
+    return chord_max_um(moves, planned.vertices), blend_max_um(planned)
 
 
 def range_bounds(n: int, size: int, end: int | None = None) -> list[tuple[int, int]]:
