@@ -8,8 +8,8 @@ point for point, the numbers the one-move functions give. Coordinates [mm], angl
 The table is built for all moves at once: numpy's +, -, *, / and % on float64 round as Python's
 float operations do, and the transcendental functions (atan2, hypot, cos, sin) are Python's
 ``math`` ones, mapped over the rows' values (numpy's may round differently). The one-move
-definitions stay beside the batch forms as their test oracles (:func:`_arc_box`,
-tests/test_move_table_batch.py).
+definitions are the test's oracles (tests/test_move_table_batch.py keeps the loop this
+replaced, and the one-arc box).
 """
 
 from __future__ import annotations
@@ -300,35 +300,6 @@ _QUADRANTS = tuple(
 )
 
 
-def _arc_box(
-    arc: Arc, i1: int, i2: int, theta0: float, sigma: float, r0: float, r1: float
-) -> tuple[float, ...]:
-    """A box [mm] holding the arc (with its start and end: the caller's box has them too): in
-    the plane, the box of the annular sector the arc sweeps between its smaller and larger
-    radius -- the sector's extremes lie at its two end angles and at every quadrant angle
-    (theta = k pi / 2) the sweep passes, each at either radius (a spiral's radius goes
-    between r0 and r1, so a point just before the end may lie beyond the end point: the box
-    of the start, end and quadrant points widened by |r1 - r0| about the start missed it by
-    38 nm on an R 34 arc of 1 degree whose radius shrank by 4 um). (lo x y z, hi x y z), in
-    Python floats. The one-arc definition: :func:`move_table` takes every arc's at once from
-    :func:`_arc_boxes`, which gives these numbers."""
-    radii = (r0, r1)
-    lo, hi = list(arc.start), list(arc.start)
-    c1, c2 = arc.center[i1], arc.center[i2]
-    theta1 = theta0 + sigma * arc.angle
-    at = [(math.cos(theta0), math.sin(theta0)), (math.cos(theta1), math.sin(theta1))]
-    full = arc.angle >= 2 * math.pi
-    for phi, cos_k, sin_k in _QUADRANTS:
-        if full or (sigma * (phi - theta0)) % (2 * math.pi) <= arc.angle:
-            at.append((cos_k, sin_k))
-    for cos_a, sin_a in at:
-        for r in radii:
-            v1, v2 = c1 + r * cos_a, c2 + r * sin_a
-            lo[i1], hi[i1] = min(lo[i1], v1), max(hi[i1], v1)
-            lo[i2], hi[i2] = min(lo[i2], v2), max(hi[i2], v2)
-    return (*lo, *hi)
-
-
 class _ArcFrames(NamedTuple):
     """:func:`controller.arcs.arc_frame <gantry_sim.controller.arcs.arc_frame>` of k arcs, as
     arrays, with the arcs' centres and sweeps."""
@@ -375,10 +346,17 @@ def _arc_frames(arcs: Sequence[Arc], start: np.ndarray, end: np.ndarray) -> _Arc
 
 
 def _arc_boxes(start: np.ndarray, frames: _ArcFrames) -> tuple[np.ndarray, np.ndarray]:
-    """:func:`_arc_box` of k arcs at once, the same numbers: (k, 3) lo and hi [mm]; ``start``
-    (k, 3): the arcs' start points [mm], ``frames``: theirs.
+    """A box [mm] holding each of k arcs (with its start and end: the caller's box has them
+    too): in the plane, the box of the annular sector the arc sweeps between its smaller and
+    larger radius -- the sector's extremes lie at its two end angles and at every quadrant
+    angle (theta = k pi / 2) the sweep passes, each at either radius (a spiral's radius goes
+    between r0 and r1, so a point just before the end may lie beyond the end point: the box
+    of the start, end and quadrant points widened by |r1 - r0| about the start missed it by
+    38 nm on an R 34 arc of 1 degree whose radius shrank by 4 um). (k, 3) lo and hi [mm];
+    ``start`` (k, 3): the arcs' start points [mm], ``frames``: theirs. The same numbers as the
+    one-arc box taken in Python floats (tests/test_move_table_batch.py ``_arc_box``).
 
-    _arc_box's ``min(lo, v)`` is v where v < lo, else lo (so the first of 0.0 and -0.0, and lo
+    The one-arc box's ``min(lo, v)`` is v where v < lo, else lo (so the first of 0.0 and -0.0, and lo
     beside a NaN): np.where(v < lo, v, lo) is that exactly (np.minimum is not, with signed
     zeros or NaN); likewise max. A quadrant point counts only for the arcs whose sweep passes
     it."""
@@ -389,7 +367,7 @@ def _arc_boxes(start: np.ndarray, frames: _ArcFrames) -> tuple[np.ndarray, np.nd
     lo2 = hi2 = start[rows, i2]
     theta0, sigma, angle = frames.theta0, frames.sigma, frames.angle
     theta1 = theta0 + sigma * angle
-    # (cos, sin, the arcs it counts for: None for all), in _arc_box's order
+    # (cos, sin, the arcs it counts for: None for all), in the one-arc box's order
     at: list[tuple[np.ndarray | int, np.ndarray | int, np.ndarray | None]] = [
         (_map(math.cos, theta0), _map(math.sin, theta0), None),
         (_map(math.cos, theta1), _map(math.sin, theta1), None),

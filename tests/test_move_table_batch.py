@@ -17,15 +17,44 @@ from gantry_sim.controller.moves import Arc, Linear, PathMove, Rapid, Spline, Tr
 from gantry_sim.controller.planes import PLANE_AXES
 from gantry_sim.sim.move_table import (
     _ARC_FIELDS,
+    _QUADRANTS,
     BOX_SLACK_MM,
     MoveTable,
-    _arc_box,
     _arc_boxes,
     _arc_frames,
     _lengths,
     _spline_box,
     move_table,
 )
+
+
+def _arc_box(
+    arc: Arc, i1: int, i2: int, theta0: float, sigma: float, r0: float, r1: float
+) -> tuple[float, ...]:
+    """A box [mm] holding the arc (with its start and end: the caller's box has them too): in
+    the plane, the box of the annular sector the arc sweeps between its smaller and larger
+    radius -- the sector's extremes lie at its two end angles and at every quadrant angle
+    (theta = k pi / 2) the sweep passes, each at either radius (a spiral's radius goes
+    between r0 and r1, so a point just before the end may lie beyond the end point: the box
+    of the start, end and quadrant points widened by |r1 - r0| about the start missed it by
+    38 nm on an R 34 arc of 1 degree whose radius shrank by 4 um). (lo x y z, hi x y z), in
+    Python floats: the box sim/move_table.py took arc by arc, and the definition its
+    ``_arc_boxes`` must give bit for bit."""
+    radii = (r0, r1)
+    lo, hi = list(arc.start), list(arc.start)
+    c1, c2 = arc.center[i1], arc.center[i2]
+    theta1 = theta0 + sigma * arc.angle
+    at = [(math.cos(theta0), math.sin(theta0)), (math.cos(theta1), math.sin(theta1))]
+    full = arc.angle >= 2 * math.pi
+    for phi, cos_k, sin_k in _QUADRANTS:
+        if full or (sigma * (phi - theta0)) % (2 * math.pi) <= arc.angle:
+            at.append((cos_k, sin_k))
+    for cos_a, sin_a in at:
+        for r in radii:
+            v1, v2 = c1 + r * cos_a, c2 + r * sin_a
+            lo[i1], hi[i1] = min(lo[i1], v1), max(hi[i1], v1)
+            lo[i2], hi[i2] = min(lo[i2], v2), max(hi[i2], v2)
+    return (*lo, *hi)
 
 
 def _reference_table(moves: list[PathMove], cum_len: np.ndarray | None = None) -> MoveTable:
