@@ -1,19 +1,18 @@
 """A run's path.png and error.png, drawn while its other output files are written: by the run's
-plot worker (sim.plot_worker) when it has one, which sends their bytes back to be written here,
-else here (error.png in a forked child, controller.forked.Background, path.png in this process;
-the two took 0.30 and 0.15 s one after the other at 10,000 polylines, on one of two cores).
+plot worker (sim.plot_worker) when it has one, else here, the same drawing
+(sim.plot_worker.PlotRequest: error.png in a forked child, path.png in the drawing process; the
+two took 0.30 and 0.15 s one after the other at 10,000 polylines, on one of two cores); either
+way their bytes are written here.
 
 Import only where the plots are wanted.
 """
 
 from __future__ import annotations
 
-import functools
 from collections.abc import Callable, Sequence
 from concurrent.futures import Future
 from pathlib import Path
 
-from gantry_sim.controller.forked import Background
 from gantry_sim.controller.moves import Move
 from gantry_sim.sim.contour import ContourStats
 from gantry_sim.sim.gates import Gates
@@ -65,41 +64,25 @@ class Plots:
             kinds=gates.line_kinds(moves) if gates is not None else {},
         )
         self._worker = worker if worker is not None and worker.draw(self._request) else None
-        self._error_png = None if self._worker is not None else self._error_png_child()
+        # drawn here: error.png's child starts now, beside the writing of trace.npz
+        self._error_png = None if self._worker is not None else self._request.begin()
 
     @property
     def elsewhere(self) -> bool:
         """The plot worker took the request: this process only waits in :meth:`finish`."""
         return self._worker is not None
 
-    def _error_png_child(self) -> Background[None]:
-        from gantry_sim.sim.error_plot import save_error_plot
-
-        r = self._request
-        return Background(
-            functools.partial(
-                save_error_plot, self._error_png_path, r.trace, r.contour, r.gates, kinds=r.kinds
-            )
-        )
-
     def finish(self, advance: Callable[[int], object]) -> None:
-        """Wait until both files are written (drawn here if the worker failed); ``advance(k)``:
-        k more files written."""
+        """Wait until both files are written (drawn here if the worker failed: the same
+        sim.plot_worker.PlotRequest drawing); ``advance(k)``: k more files written."""
         drawn = self._worker.wait() if self._worker is not None else None
-        if drawn is not None:
-            self._path_png.write_bytes(drawn[0])
-            self._error_png_path.write_bytes(drawn[1])
-            advance(2)
-            return
-        from gantry_sim.sim.path_plot import save_outline_plot
-
-        error_png = self._error_png or self._error_png_child()
-        self._error_png = error_png
-        r = self._request
-        save_outline_plot(self._path_png, r.drawing, r.trace, r.program, r.contour)
-        advance(1)
-        error_png.result()
-        advance(1)
+        if drawn is None:
+            if self._error_png is None:
+                self._error_png = self._request.begin()
+            drawn = self._request.end(self._error_png)
+        self._path_png.write_bytes(drawn[0])
+        self._error_png_path.write_bytes(drawn[1])
+        advance(2)
 
     def close(self) -> None:
         """Stop error.png's child here, if any, and reap it: nothing writes into the folder

@@ -37,11 +37,13 @@ This module imports nothing heavy at import (a run starts the worker before its 
 
 from __future__ import annotations
 
+import functools
 import io
 import os
 import threading
 import traceback
 import weakref
+from collections.abc import Callable
 from dataclasses import dataclass
 from multiprocessing.connection import Connection
 from typing import TYPE_CHECKING, Any
@@ -56,6 +58,7 @@ from gantry_sim.sim.worker_pipes import (
 )
 
 if TYPE_CHECKING:
+    from gantry_sim.controller.forked import Background
     from gantry_sim.sim.circular.figures import CircleAnalysis
     from gantry_sim.sim.contour import ContourStats
     from gantry_sim.sim.gates import Gates
@@ -86,16 +89,29 @@ class PlotRequest:
     kinds: dict[int, str]
 
     def render(self) -> tuple[bytes, bytes]:
-        """The PNG files' bytes (path.png, error.png): error.png drawn in a forked child
-        (controller.forked.Background; here where nothing is forked, or when the child failed)
-        while path.png is drawn here."""
-        import functools
+        """The PNG files' bytes (path.png, error.png): :meth:`begin`, then :meth:`end`."""
+        return self.end(self.begin())
 
+    def begin(self) -> Background[bytes]:
+        """error.png's bytes drawn in a forked child (controller.forked.Background; drawn by
+        :meth:`end` where nothing is forked, or when the child failed). The plot module is
+        imported here, before the fork: a module lock that another thread (sim.plot_prep's)
+        held at the fork would stay held in the child, whose import would wait for ever."""
         from gantry_sim.controller.forked import Background
+        from gantry_sim.sim.error_plot import save_error_plot
 
-        error_png = Background(functools.partial(_error_png, self))
+        r = self
+        draw = functools.partial(_png, save_error_plot, r.trace, r.contour, r.gates, kinds=r.kinds)
+        return Background(draw)
+
+    def end(self, error_png: Background[bytes]) -> tuple[bytes, bytes]:
+        """path.png drawn here while error.png's child (:meth:`begin`) draws: both files'
+        bytes (path.png, error.png); the child is ended either way."""
+        from gantry_sim.sim.path_plot import save_outline_plot
+
         try:
-            return _path_png(self), error_png.result()
+            path_png = _png(save_outline_plot, self.drawing, self.trace, self.program, self.contour)
+            return path_png, error_png.result()
         finally:
             error_png.close()
 
@@ -113,28 +129,17 @@ class PolarRequest:
         """polar.png's bytes."""
         from gantry_sim.sim.plots import save_polar_plot
 
-        out = io.BytesIO()
-        save_polar_plot(out, self.ccw, self.cw, self.summary)
-        return (out.getvalue(),)
+        return (_png(save_polar_plot, self.ccw, self.cw, self.summary),)
 
 
 #: what a worker draws
 Request = PlotRequest | PolarRequest
 
 
-def _path_png(r: PlotRequest) -> bytes:
-    from gantry_sim.sim.path_plot import save_outline_plot
-
+def _png(save: Callable[..., None], *args: Any, **kwargs: Any) -> bytes:
+    """The bytes ``save(file, *args, **kwargs)`` writes (a plot module's ``save_*_plot``)."""
     out = io.BytesIO()
-    save_outline_plot(out, r.drawing, r.trace, r.program, r.contour)
-    return out.getvalue()
-
-
-def _error_png(r: PlotRequest) -> bytes:
-    from gantry_sim.sim.error_plot import save_error_plot
-
-    out = io.BytesIO()
-    save_error_plot(out, r.trace, r.contour, r.gates, kinds=r.kinds)
+    save(out, *args, **kwargs)
     return out.getvalue()
 
 

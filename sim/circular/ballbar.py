@@ -206,7 +206,8 @@ def write_ballbar_outputs(
     from gantry_sim.sim.plot_worker import PolarRequest
     from gantry_sim.sim.trace_writer import save_npz
 
-    sent = plotter is not None and plotter.draw(PolarRequest(result.ccw, result.cw, result.summary))
+    polar = PolarRequest(result.ccw, result.cw, result.summary)
+    sent = plotter is not None and plotter.draw(polar)
     with atomic_output_dir(out_dir, last="ballbar.json") as tmp:
         (tmp / "ballbar.json").write_text(json.dumps(result.summary, indent=2) + "\n")
         (tmp / "ballbar.ngc").write_text(result.program.text)
@@ -214,9 +215,4 @@ def write_ballbar_outputs(
             tr = direction_trace(result.run, result.program, d)
             save_npz(tmp / f"trace_{d}.npz", {"t": tr["t"], "ref": tr["ref"], "pos": tr["pos"]})
         drawn = plotter.wait() if sent and plotter is not None else None
-        if drawn is not None:
-            (tmp / "polar.png").write_bytes(drawn[0])
-        else:
-            from gantry_sim.sim.plots import save_polar_plot
-
-            save_polar_plot(tmp / "polar.png", result.ccw, result.cw, result.summary)
+        (tmp / "polar.png").write_bytes((drawn or polar.render())[0])
