@@ -199,20 +199,21 @@ class RunReport:
         the outputs' writing (:data:`LATE_KEYS` come after), so it can be written while the
         plots are drawn elsewhere, and finished by :meth:`write_json_end` of this report with
         its timing and files filled in."""
-        keys = list(self.to_json(deterministic, blocks=False))
-        self._write_keys(out, keys[: keys.index("blocks") + 1], len(keys), deterministic, True)
+        head = self.to_json(deterministic, blocks=False)
+        keys = list(head)
+        out.write("{\n")
+        self._write_keys(out, head, keys[: keys.index("blocks") + 1], keys[-1])
 
     def write_json_end(self, out: IO[str], deterministic: bool = False) -> None:
         """The rest of report.json's text after :meth:`write_json_start`."""
-        keys = list(self.to_json(deterministic, blocks=False))
-        self._write_keys(out, keys[keys.index("blocks") + 1 :], len(keys), deterministic, False)
-
-    def _write_keys(
-        self, out: IO[str], keys: list[str], count: int, deterministic: bool, first: bool
-    ) -> None:
         head = self.to_json(deterministic, blocks=False)
-        if first:
-            out.write("{\n")
+        keys = list(head)
+        self._write_keys(out, head, keys[keys.index("blocks") + 1 :], keys[-1])
+        out.write("}\n")
+
+    def _write_keys(self, out: IO[str], head: dict[str, Any], keys: list[str], last: str) -> None:
+        """The members ``keys`` of the object ``head`` (``last``: the object's last key), the
+        blocks one at a time."""
         for key in keys:
             out.write(f"  {json.dumps(key)}: ")
             if key == "blocks" and self.blocks:
@@ -223,10 +224,7 @@ class RunReport:
                 out.write("\n  ]")
             else:
                 out.write(_indented(json.dumps(head[key], indent=2), "  "))
-            last = list(head).index(key) + 1 == count
-            out.write("\n" if last else ",\n")
-        if not first:
-            out.write("}\n")
+            out.write("\n" if key == last else ",\n")
 
     def timing_json(self) -> dict[str, Any]:
         """timing.json: the wall-clock fields of report.json, always measured."""
