@@ -163,7 +163,7 @@ def stream_run(
     # plan's largest blend deviation (its blends read from disk: 0.03 s at 10,000 polyline
     # blocks) need nothing from the simulation: done meanwhile by a forked child (forked before
     # the analysis worker starts: it holds none of the worker's pipes)
-    chord = Background(functools.partial(_plan_figures_um, moves, planned))
+    plan_figures = Background(functools.partial(_plan_figures_um, moves, planned))
     try:
         analyser = make_analyser() if worker is None else worker
         # sampling and hand-over on a thread while the loop steps (sim.range_helper)
@@ -202,14 +202,14 @@ def stream_run(
                 handed.popleft().result()
             take(analyser.ready(drain=True))
             contour, blocks = tally_figures(tally)
-            chord_um, blend_um = chord.result()
+            chord_um, blend_um = plan_figures.result()
         finally:
             if handed:  # the run failed: a hand-over may wait for the worker's reply
                 analyser.abort()
             helper.stop()
             analyser.close()
     finally:
-        chord.close()
+        plan_figures.close()
         tally.values.close()
     parts = ErrorParts(chord_um, run.reference_max, run.tracking_max)
     empty = np.zeros(0)
