@@ -164,6 +164,9 @@ def test_grbl_needs_no_program_end_and_reads_system_lines_and_jogs() -> None:
     [
         ("G0 X#1", 1),
         ("G0 X[1+2]", 1),
+        ("# laser power 10%", 1),  # a '#' comment (no grbl has them): not a parameter's '='
+        ("#1", 1),
+        ("G0 X[1", 1),
         ("G1 X1", 22),
         ("G59.1", 20),
         ("G90.1", 20),

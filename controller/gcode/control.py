@@ -231,7 +231,7 @@ class Runner:
             i = f.index
             depth = len(self.frames)
             try:
-                block = f.source.block(i)
+                block = self._block(f.source, i)
                 if block.oword is not None:
                     if not self.owords:
                         raise GcodeError("O-words are not grbl features; grbl has no subroutines")
@@ -294,6 +294,22 @@ class Runner:
                 f"{o.keyword}); a runaway loop or recursion? Raise the bound with "
                 "--max-iterations if the program is right"
             )
+
+    def _block(self, source: Source, i: int) -> Block:
+        """Line ``i`` of ``source`` lexed. Where the program has no LinuxCNC language (grbl)
+        and a line it cannot lex holds a ``#`` or ``[`` outside comments (a parameter setting,
+        an expression, a ``#`` taken for a comment), the error says the dialect has none,
+        instead of what LinuxCNC's lexer expected next."""
+        try:
+            return source.block(i)
+        except GcodeError as exc:
+            if self.owords or not any(c in strip_line(source.lines[i]) for c in "#["):
+                raise
+            raise GcodeError(
+                "'#' parameters and [expressions] are not grbl features; grbl expects a "
+                "command letter followed by a number",
+                line=exc.line,
+            ) from None
 
     def _oword(self, f: Frame, o: OWord) -> None:
         src, i = f.source, f.index
