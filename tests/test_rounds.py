@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import importlib
 import math
+import random
 from pathlib import Path
 
 import numpy as np
@@ -103,3 +104,55 @@ def test_softened_moves_drop_the_chains_and_chain_limits_that_hold_them() -> Non
     assert blocks[3].acc_mm_per_s2 == rounds.SOFTEN * 1000.0
     assert blocks[3].jerk_mm_per_s3 == rounds.SOFTEN * 1e5
     assert blocks[2].acc_mm_per_s2 == 1000.0
+
+
+def _engraving(seed: int, curves: int = 10, size_mm: float = 0.05) -> str:
+    """``curves`` G5.1 curves at F100, each leaving along the last one's end tangent (to the
+    4 decimals written), 0.025-0.075 mm long and turning by up to 2 rad: the letters of a
+    small engraving. Their curvature changes severalfold along one chord."""
+    r = random.Random(seed)
+    x = y = 0.0
+    dx, dy = 1.0, 0.0
+    out = ["G21 G17 G90 G64", "G0 X0 Y0", "G1 Z-0.01 F100"]
+    for _ in range(curves):
+        a = r.uniform(0.2, 0.8) * size_mm
+        cx, cy = x + a * dx, y + a * dy
+        turn = math.atan2(dy, dx) + r.uniform(-2.0, 2.0)
+        reach = r.uniform(0.5, 1.5) * size_mm
+        ex, ey = cx + reach * math.cos(turn), cy + reach * math.sin(turn)
+        out.append(f"G5.1 X{ex:.4f} Y{ey:.4f} I{cx - x:.4f} J{cy - y:.4f}")
+        d = math.hypot(ex - cx, ey - cy)
+        dx, dy, x, y = (ex - cx) / d, (ey - cy) / d, ex, ey
+    return "\n".join([*out, "G0 Z1", "M2", ""])
+
+
+@pytest.mark.parametrize("seed", [0, 6, 37])
+def test_pieces_passing_the_feed_inside_a_curve_slow_its_profile_not_its_junctions(
+    seed: int, machine, monkeypatch: pytest.MonkeyPatch
+) -> None:  # type: ignore[no-untyped-def]
+    """The profile cruises just below the feed between the curves' junctions, and Ruckig's
+    pieces between chord vertices pass it there. Lowering the junctions' speeds left that
+    cruise where it was: they were backed off for MAX_ROUNDS rounds, softened, and became
+    exact stops (20-26 rounds on these programs). The chain's profile is slowed instead, and
+    the reference passes every junction between the curves moving."""
+    from tests.plan_helpers import assert_within_limits
+
+    calls: list[int] = []
+    real = rounds._plan_round
+
+    def spy(*args):  # type: ignore[no-untyped-def]
+        calls.append(1)
+        return real(*args)
+
+    monkeypatch.setattr(rounds, "_plan_round", spy)
+    moves = parse_program(_engraving(seed))
+    p = plan(moves, machine)
+    assert len(calls) <= 10
+    tr = p.sample(1e-4)
+    assert_within_limits(tr, machine, moves)
+    curves = [m for m in moves if m.kind == "spline"]
+    speed = np.linalg.norm(tr.vel, axis=1)
+    for m in curves[1:]:  # each junction between two curves: at its move's start
+        k = int(np.flatnonzero(np.asarray(p.move_lines) == m.line)[0])
+        at = round(float(p.move_start_s[k]) / tr.period_s)
+        assert speed[at] > 0.1 * m.feed_mm_per_min / 60.0, (m.line, speed[at])

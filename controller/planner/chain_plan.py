@@ -292,8 +292,9 @@ def _plan_batch(
 
 
 #: Tries of a chain's profile with slower limits (each: :data:`SLOWER_CAP` of the speed cap,
-#: :data:`SLOWER_RAMP` of the acceleration and jerk) when a Ruckig piece inside an arc with
-#: no moving junction left the arc or exceeded the feed.
+#: :data:`SLOWER_RAMP` of the acceleration and jerk) when a Ruckig piece inside an arc left the
+#: arc or exceeded the feed (next to a moving junction: while the cap is above the chain's
+#: ends, see :func:`_plan_chain`).
 SLOWER_TRIES = 6
 SLOWER_CAP = 0.995
 SLOWER_RAMP = 0.8
@@ -311,15 +312,22 @@ def _plan_chain(
 ) -> Chain:
     """The pieces of moves ``first..stop-1`` (one chain with the limits ``lim``) from
     ``speeds[first]`` to ``speeds[stop]`` [mm/s]; slower (:data:`SLOWER_TRIES`) while a piece
-    inside an arc with no moving junction leaves the arc or exceeds the feed. ``prep`` and
-    ``pre``: the chain's preparation for ``lim`` and the closed-form pieces of each arc's first
-    candidate, when already made; ``pre_loose``: loose tries of those, by arc and ends."""
+    inside an arc leaves the arc or exceeds the feed, where the arc has no moving junction, or
+    has one and the speed cap is still above the chain's end speeds. The junction is marked bad
+    too (its speed comes down next round) if the slower tries do not help. But a lower
+    junction speed leaves the profile cruising at the cap between the junctions, so where a
+    piece there exceeds the feed only a lower cap helps. In one engraving of G5.1 splines
+    (LinuxCNC's nc_files/systems.ngc), the Ruckig pieces between vertices of a profile
+    cruising at 0.9999 of the feed passed it by up to 0.8 %. Their junctions were backed off
+    over 16 rounds, softened, and became stops: 20 rounds in all. ``prep`` and ``pre``: the chain's preparation for ``lim`` and the
+    closed-form pieces of each arc's first candidate, when already made; ``pre_loose``: loose
+    tries of those, by arc and ends."""
     floor = max(float(speeds[first]), float(speeds[stop]))
     for _ in range(SLOWER_TRIES):
         if prep is None:
             prep = chain_prep(setup, first, stop, lim, speeds)
-        chain, off = _chain_pieces(setup, first, stop, prep, pre, pre_loose)
-        if not off:
+        chain, off, inner_off = _chain_pieces(setup, first, stop, prep, pre, pre_loose)
+        if not off and not (inner_off and lim.cap_mm_per_s > floor):
             break
         lim = replace(
             lim,
@@ -338,8 +346,9 @@ def _chain_pieces(
     prep: ChainPrep,
     pre: dict[int, Pieces] | None,
     pre_loose: dict[int, dict[tuple[bool, bool], Pieces]] | None = None,
-) -> tuple[Chain, int]:
-    """One try of :func:`_plan_chain`: the chain, and how many pieces were off."""
+) -> tuple[Chain, int, int]:
+    """One try of :func:`_plan_chain`: the chain, and how many pieces were off inside arcs
+    with no moving junction, and inside arcs with one (away from it)."""
     active = setup.active
     tol = setup.machine.segmentation.chord_tolerance_mm
     pieces = MovePieces(setup.machine.limits, tol, setup.arc_pieces, setup.solver)
@@ -368,4 +377,4 @@ def _chain_pieces(
         pieces.ruckig_pieces,
         prep.speeds[1:-1],
     )
-    return chain, pieces.off_pieces
+    return chain, pieces.off_pieces, pieces.inner_off_pieces

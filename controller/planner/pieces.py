@@ -107,6 +107,9 @@ class MovePieces:
         #: Ruckig pieces that left the arc or exceeded the feed on an arc with no moving
         #: junction (lowering a junction's speed cannot help: the planner slows the profile).
         self.off_pieces = 0
+        #: Such pieces inside an arc with a moving junction, away from it: that junction is
+        #: marked bad, and the planner first slows the profile where its ends leave it room.
+        self.inner_off_pieces = 0
 
     def junction_deviation_mm(self, smoothing_mm: float) -> float:
         """The deviation [mm] allowed the pieces next to an arc's moving junctions: the
@@ -191,26 +194,32 @@ class MovePieces:
         self._paste(first)
         return done
 
-    def _mark(self) -> tuple[int, int, int]:
+    def _mark(self) -> tuple[int, int, int, int]:
         """Where the output and the counters stand (:meth:`_cut` goes back there)."""
         self.out.flush()
-        return len(self.out.segments), self.ruckig_pieces, self.off_pieces
+        return len(self.out.segments), self.ruckig_pieces, self.off_pieces, self.inner_off_pieces
 
-    def _cut(self, mark: tuple[int, int, int]) -> tuple[list, int, int]:
+    def _cut(self, mark: tuple[int, int, int, int]) -> tuple[list, int, int, int]:
         """Take back what was added since ``mark``: its segments and counts, returned."""
         self.out.flush()
-        at, ruckig, off = mark
-        taken = (self.out.segments[at:], self.ruckig_pieces - ruckig, self.off_pieces - off)
+        at, ruckig, off, inner = mark
+        taken = (
+            self.out.segments[at:],
+            self.ruckig_pieces - ruckig,
+            self.off_pieces - off,
+            self.inner_off_pieces - inner,
+        )
         del self.out.segments[at:]
-        self.ruckig_pieces, self.off_pieces = ruckig, off
+        self.ruckig_pieces, self.off_pieces, self.inner_off_pieces = ruckig, off, inner
         return taken
 
-    def _paste(self, taken: tuple[list, int, int]) -> None:
+    def _paste(self, taken: tuple[list, int, int, int]) -> None:
         """Add back what :meth:`_cut` took."""
-        segments, ruckig, off = taken
+        segments, ruckig, off, inner = taken
         self.out.segments.extend(segments)
         self.ruckig_pieces += ruckig
         self.off_pieces += off
+        self.inner_off_pieces += inner
 
     def _emit(
         self,
@@ -291,9 +300,10 @@ class MovePieces:
             bad_in |= at_in and off
             bad_out |= at_out and off
             if off and not (at_in or at_out):
-                if mv_in or mv_out:  # their speeds must come down
-                    bad_in |= mv_in
+                if mv_in or mv_out:  # their speeds must come down, unless a slower profile
+                    bad_in |= mv_in  # helps (the planner tries that first)
                     bad_out |= mv_out
+                    self.inner_off_pieces += 1
                 else:  # no junction speed to lower: the profile must change
                     self.off_pieces += 1
         return total, bad_in, bad_out
