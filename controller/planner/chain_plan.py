@@ -292,9 +292,9 @@ def _plan_batch(
 
 
 #: Tries of a chain's profile with slower limits (each: :data:`SLOWER_CAP` of the speed cap,
-#: :data:`SLOWER_RAMP` of the acceleration and jerk) when a Ruckig piece inside an arc left the
-#: arc or exceeded the feed (next to a moving junction: while the cap is above the chain's
-#: ends, see :func:`_plan_chain`).
+#: and where the chain starts and ends at rest :data:`SLOWER_RAMP` of the acceleration and
+#: jerk) when a Ruckig piece inside an arc left the arc or exceeded the feed (next to a moving
+#: junction: while the cap is above the chain's ends, see :func:`_plan_chain`).
 SLOWER_TRIES = 6
 SLOWER_CAP = 0.995
 SLOWER_RAMP = 0.8
@@ -314,15 +314,17 @@ def _plan_chain(
     ``speeds[first]`` to ``speeds[stop]`` [mm/s]; slower (:data:`SLOWER_TRIES`) while a piece
     inside an arc leaves the arc or exceeds the feed, where the arc has no moving junction, or
     has one and the speed cap is still above the chain's end speeds. The junction is marked bad
-    too (its speed comes down next round) if the slower tries do not help. But a lower
-    junction speed leaves the profile cruising at the cap between the junctions, so where a
-    piece there exceeds the feed only a lower cap helps. In one engraving of G5.1 splines
-    (LinuxCNC's nc_files/systems.ngc), the Ruckig pieces between vertices of a profile
-    cruising at 0.9999 of the feed passed it by up to 0.8 %. Their junctions were backed off
-    over 16 rounds, softened, and became stops: 20 rounds in all. ``prep`` and ``pre``: the chain's preparation for ``lim`` and the
-    closed-form pieces of each arc's first candidate, when already made; ``pre_loose``: loose
-    tries of those, by arc and ends."""
+    too (its speed comes down next round) if the slower tries do not help: a lower junction
+    speed leaves the profile cruising at the cap between the junctions, so where a piece there
+    exceeds the feed only a lower cap helps (G5.1 glyphs at F100, LinuxCNC's
+    nc_files/systems.ngc: Ruckig's pieces between the vertices of a profile cruising at 0.9999
+    of the feed passed it by up to 0.8 %, and 44 junctions were backed off over 16 rounds).
+    A chain with a moving end keeps its acceleration and jerk: its end speeds may need all of
+    them. ``prep`` and ``pre``: the chain's preparation for ``lim`` and the closed-form pieces
+    of each arc's first candidate, when already made; ``pre_loose``: loose tries of those, by
+    arc and ends."""
     floor = max(float(speeds[first]), float(speeds[stop]))
+    ramp = 1.0 if floor > 0.0 else SLOWER_RAMP  # a moving end may need every bit of the ramp
     for _ in range(SLOWER_TRIES):
         if prep is None:
             prep = chain_prep(setup, first, stop, lim, speeds)
@@ -332,8 +334,8 @@ def _plan_chain(
         lim = replace(
             lim,
             cap_mm_per_s=max(SLOWER_CAP * lim.cap_mm_per_s, floor),
-            acc_mm_per_s2=SLOWER_RAMP * lim.acc_mm_per_s2,
-            jerk_mm_per_s3=SLOWER_RAMP * lim.jerk_mm_per_s3,
+            acc_mm_per_s2=ramp * lim.acc_mm_per_s2,
+            jerk_mm_per_s3=ramp * lim.jerk_mm_per_s3,
         )
         prep, pre, pre_loose = None, None, None
     return chain
