@@ -1,12 +1,16 @@
 """Bounds on the cost of a simulation, checked after planning and before anything is sampled.
 
-A simulation's memory grows with its servo ticks (about 0.6 MB per simulated second at the
-bundled 1 kHz servo; a run past 65,536 ticks is streamed, and what still grows is mostly the
-plan: 351 bytes a tick measured on 100,000 short G1, benchmarks/bench_run.py) and its wall time with
-its MuJoCo physics steps (about 300,000 per second on one core for the bundled model). A program
-such as ``G1 X1 F0.0001`` (600,000 s) or a machine file with a tiny physics timestep would run
-for hours and end in the out-of-memory killer; it is refused up front instead, with the figures
-and the option that raises the bound (``--max-sim-s``, ``--max-physics-steps``).
+A simulation's wall time grows with its servo ticks and MuJoCo physics steps (about 300,000
+steps per second on one core for the bundled model: a run takes about a second per two
+simulated minutes), and so does its trace.npz (15-40 kB per simulated second, deflated: 111 MB
+for 7,000 s of one slow move, 324 MB for a 8,430 s print; ``gantry plan --out`` writes 96 bytes
+a sample, uncompressed, 0.1 MB a second at 1 kHz). Its memory does not: a run past
+65,536 ticks is streamed (7,000 s of one slow move peaked at 253 MB for the process tree, 700 s
+at 238 MB); what grows is the plan, with the moves (about 0.7 kB a move, measured on 100,000
+short G1, benchmarks/bench_run.py). A program such as ``G1 X1 F0.0001`` (600,000 s) or a
+machine file with a tiny physics timestep would run for hours and fill the disk with its trace;
+it is refused up front instead, with the figures and the option that raises the bound
+(``--max-sim-s``, ``--max-physics-steps``).
 """
 
 from __future__ import annotations
@@ -107,8 +111,9 @@ def _check_duration(
     on_line = f" (the {moves} {at_least}{longest:.6g} s)" if line is not None else ""
     if duration > budget.max_sim_s:
         bound = (
-            f", beyond the bound of {budget.max_sim_s:g} s (memory grows by about 0.6 MB per "
-            f"simulated second); check the feeds (F is in mm/min), or pass --max-sim-s "
+            f", beyond the bound of {budget.max_sim_s:g} s (the time to simulate it and the "
+            f"trace written grow with it: about 1 s and 2-12 MB per 2 simulated minutes); check "
+            f"the feeds (F is in mm/min), or pass --max-sim-s "
             f"{above}{math.ceil(duration)} to simulate it anyway"
         )
         raise BudgetError(
@@ -122,9 +127,8 @@ def _check_duration(
         message = (
             f"simulating it takes {at_least}{ticks:.3g} servo ticks ({duration:.6g} s at "
             f"[servo] period_s = {machine.servo.period_s:g}), beyond the bound of "
-            f"{budget.max_sim_s * TICKS_PER_BUDGET_S:.3g} (--max-sim-s counts 1000 ticks, about "
-            f"0.6 MB of memory, per second); pass --max-sim-s {above}{need} to simulate it "
-            "anyway"
+            f"{budget.max_sim_s * TICKS_PER_BUDGET_S:.3g} (--max-sim-s counts 1000 ticks a "
+            f"second); pass --max-sim-s {above}{need} to simulate it anyway"
         )
         raise BudgetError(message, message, file=file)
     if steps > budget.max_physics_steps:

@@ -72,6 +72,31 @@ def test_the_npz_gives_each_sample_the_feed_that_bounds_its_speed(write_program,
     assert corner.any() and (data["line"] == 4).sum() > corner.sum()
 
 
+def test_the_npz_is_written_range_by_range_with_the_same_arrays(
+    write_program, tmp_path, machine, monkeypatch
+):
+    """sim.plan_samples: ranges of a few samples (the last one short) give the arrays of the
+    whole plan sampled at once, in numpy.savez's order and dtypes."""
+    import importlib
+
+    from gantry_sim.controller.gcode.interpreter import interpret_events
+    from gantry_sim.controller.planner import plan
+
+    samples = importlib.import_module("gantry_sim.sim.plan_samples")
+    monkeypatch.setattr(samples, "RANGE_SAMPLES", 397)
+    out = tmp_path / "traj.npz"
+    assert main(["plan", str(write_program(PROGRAM)), "--out", str(out)]) == 0
+    p = plan(list(interpret_events(PROGRAM)), machine)
+    whole = p.sample(machine.servo.period_s)
+    want = whole.to_npz_dict() | {"feed_mm_per_min": p.feeds_mm_per_min(whole.source)}
+    assert whole.t.size > 3 * 397 and whole.t.size % 397
+    data = np.load(out)
+    assert data.files == list(want)
+    for name, a in want.items():
+        assert data[name].dtype == a.dtype and np.array_equal(data[name], a, equal_nan=True)
+    assert not list(tmp_path.glob(".*"))
+
+
 def test_program_outside_travel_exits_2_with_line(write_program, tmp_path, capsys):
     path = write_program("G0 X0\nG1 Y250 F100\nM2\n")
     out = tmp_path / "t.npz"

@@ -42,17 +42,6 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     add_budget(parser, steps=False)
 
 
-def write_npz_atomically(path: Path, arrays: dict) -> None:
-    """Write ``arrays`` to ``path`` atomically (:func:`gantry_sim.sim.outdir.atomic_file`:
-    a new path or a regular file only, never a device such as /dev/null; the umask's mode)."""
-    import numpy as np
-
-    from gantry_sim.sim.outdir import atomic_file
-
-    with atomic_file(path, "wb") as fh:
-        np.savez(fh, **arrays)
-
-
 def deviation_summary(blends: Sequence[Any]) -> dict:
     """The G64 blends (or G64 Q merges): how many, the largest deviation from the programmed
     path (the merged-away points) [mm] and its line (null when none); for blends also how many
@@ -103,13 +92,11 @@ def run(args: argparse.Namespace) -> int:
     except GantryError as exc:
         raise exc.located(file) from None
     period = machine.servo.period_s
-    if args.out is not None:  # the samples' memory: the same bound as a simulation's
+    if args.out is not None:  # the file's size: the same bound as a simulation's
+        from gantry_sim.sim.plan_samples import write_samples_npz
+
         check_budget(result, machine, Budget(budget.max_sim_s, float("inf")), file)
-        traj = result.sample(period)
-        arrays = traj.to_npz_dict()
-        if traj.source is not None:
-            arrays["feed_mm_per_min"] = result.feeds_mm_per_min(traj.source)
-        write_npz_atomically(args.out, arrays)
+        write_samples_npz(args.out, result, period)
     summary = {
         "duration_s": result.duration_s,
         "moves": len(result.moves),
