@@ -128,6 +128,24 @@ def _silence_stdout() -> None:
         pass
 
 
+#: errno values of a write that found its file system full (never a bug in gantry-sim)
+_FULL = frozenset({errno.ENOSPC, errno.EDQUOT})
+
+
+def _full_temporary_folder(exc: OSError) -> str:
+    """The message for a file system found full by a write to an open file: the outputs are
+    written through paths (their errors name them), so this is a spill in the temporary
+    folder (the plan's blocks, the moves, the trace's deflated arrays, the percentile's
+    samples: sim.outdir, controller.spill, sim.deflate_zip, sim.percentile)."""
+    import tempfile
+
+    return (
+        f"{tempfile.gettempdir()}: error: {exc.strerror} (the file system is full): "
+        "gantry-sim spills a long run's data to the temporary folder while it runs; free "
+        "space there, or point TMPDIR at a folder with room"
+    )
+
+
 def _stdout_error(exc: OSError) -> int:
     _silence_stdout()
     if exc.errno == errno.EPIPE:
@@ -204,6 +222,10 @@ def _dispatch(args: argparse.Namespace, debug: bool) -> int:
     except OSError as exc:
         if exc.filename is not None:  # a file-system error on a path we were given
             print(f"{exc.filename}: error: {exc.strerror}", file=sys.stderr)
+            return EXIT_INPUT
+        if exc.errno in _FULL:  # writing an open file: the spills in the temporary folder
+            _flush_quietly()
+            print(_full_temporary_folder(exc), file=sys.stderr)
             return EXIT_INPUT
         return _internal_error(exc, debug)
     except KeyboardInterrupt:

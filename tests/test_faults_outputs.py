@@ -224,6 +224,30 @@ def test_full_file_system_is_a_clean_error_and_leaves_nothing_half_written(tmp_p
         assert [p.name for p in full.iterdir()] == ["filler"]
 
 
+def test_a_full_temporary_folder_is_a_clean_error_naming_it(tmp_path, capsys, monkeypatch):
+    """A run past 65,536 ticks spills (the trace's deflated arrays, the percentile's samples)
+    to the temporary folder, and plan --out spools its samples there: a full one is exit 2
+    naming it (it was an internal error, exit 3), and no output is left half-written."""
+    import tempfile
+
+    prog = _program(tmp_path, "G21 G90\nG0 X0 Y0\nG1 X7 F6\nM2\n", "p.ngc")  # 70 s
+    with tmpfs(tmp_path / "tmp", "64k") as full:
+        monkeypatch.setenv("TMPDIR", str(full))
+        monkeypatch.setattr(tempfile, "tempdir", str(full))
+        out = tmp_path / "run"
+        assert main(["run", prog, "--out", str(out), "--no-plots"]) == 2
+        err = capsys.readouterr().err
+        assert err.startswith(f"{full}: error: No space left on device"), err
+        assert "TMPDIR" in err and TRACEBACK not in err and len(err.strip().splitlines()) == 1
+        assert not out.exists() and staging_left(out) == []
+        traj = tmp_path / "t.npz"
+        assert main(["plan", prog, "--out", str(traj)]) == 2
+        err = capsys.readouterr().err
+        assert err.startswith(f"{full}: error: cannot spool the samples"), err
+        assert not traj.exists() and not list(tmp_path.glob(".t.npz*"))
+        assert list(full.iterdir()) == []
+
+
 def test_unwritable_folder_and_unreadable_machine_file(tmp_path):
     """Defect 4: permission errors (checked as an unprivileged user: root ignores the bits)."""
     prog = _program(tmp_path, LINE, "p.ngc")
