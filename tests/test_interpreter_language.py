@@ -139,6 +139,44 @@ M2
     ]
 
 
+def test_a_call_may_compute_its_o_number() -> None:
+    """rs274 reads a call's O number as any integer value: a parameter (LinuxCNC's
+    tests/interp/oword-bug315-p2) or an expression (tests/interp/m98m99/14-o-expression-call),
+    evaluated when the call runs."""
+    text = """o1 sub
+  G0 X1
+o1 endsub
+o2 sub
+  G0 X2 Y#1
+o2 endsub
+o100 sub
+  G0 X100
+o100 endsub
+#<sub> = 2
+o#<sub> call [5]
+#2 = 10
+O[#2 * 10] call
+#<sub> = 1.00001
+o#<sub> call
+M2
+"""
+    assert ends(text) == [(2.0, 5.0, 0.0), (100.0, 5.0, 0.0), (1.0, 5.0, 0.0)]
+
+
+@pytest.mark.parametrize(
+    ("text", "why"),
+    [
+        ("#1=1.5\no#1 call\nM2\n", "not an integer"),
+        ("#1=-1\no#1 call\nM2\n", "a whole number >= 0"),
+        ("#1=3\no#1 call\nM2\n", "o3 not found"),
+        ("#1=1\no#1 sub\no1 endsub\nM2\n", "supported with call only"),
+    ],
+)
+def test_a_computed_o_number_is_refused_where_rs274_refuses_it(text: str, why: str) -> None:
+    with pytest.raises(GcodeError, match=why):
+        parse_program(text)
+
+
 def test_runaway_loops_and_recursion_stop_with_their_line() -> None:
     err = error_of("o1 while [1]\no1 endwhile\nM2\n", max_iterations=1000)
     assert err.line == 1 and "more than 1000" in err.message

@@ -15,13 +15,14 @@ error on the line that went too far.
 
 from __future__ import annotations
 
+import math
 from collections import OrderedDict
 from collections.abc import Callable, Iterator
 from dataclasses import dataclass, field, replace
 from pathlib import Path
 
 from gantry_sim.controller.errors import GcodeError, cut
-from gantry_sim.controller.gcode.expressions import evaluate
+from gantry_sim.controller.gcode.expressions import Tree, evaluate
 from gantry_sim.controller.gcode.fanuc_subs import fanuc_code, find_program
 from gantry_sim.controller.gcode.lexer import (
     COMMENT,
@@ -453,6 +454,8 @@ class Runner:
             f.index = end  # do: test the condition; repeat: count this pass
 
     def _call(self, f: Frame, o: OWord) -> None:
+        if o.number is not None:
+            o = replace(o, name=self._computed_name(o.number), number=None)
         args = [evaluate(a, self.params) for a in o.args]
         if len(args) > 30:
             raise GcodeError(f"o{_show(o.name)} call with {len(args)} arguments; at most 30")
@@ -470,6 +473,14 @@ class Runner:
         self.params.globals["_value_returned"] = 0.0
         self.params.enter(args)
         self.frames.append(Frame(src, at + 1, sub=o.name))
+
+    def _computed_name(self, number: Tree) -> str:
+        """The O number ``number`` evaluates to now, as an O-word's name: rs274 reads it as
+        an integer value (:func:`whole_number`), and O numbers are not negative."""
+        value = evaluate(number, self.params)
+        if not math.isfinite(value) or value < 0:
+            raise GcodeError(f"O{value:g} call: an O number is a whole number >= 0")
+        return str(int(whole_number("O", value)))
 
     def _fanuc(self, f: Frame, block: Block, code: int) -> None:
         """M98 P<n> [L<count>] / M99 (controller/gcode/fanuc_subs.py); ``f.index`` is already

@@ -61,15 +61,19 @@ class OWord:
     """An O-word: ``o<name> keyword [arguments]``.
 
     Attributes:
-        name: the O number as digits without leading zeros (``"100"``) or the name, lower case.
+        name: the O number as digits without leading zeros (``"100"``) or the name, lower case
+            ("" where ``number`` computes it).
         keyword: one of :data:`O_KEYWORDS`, lower case (``"sub"``, ``"call"``, ...).
         args: the bracketed values after the keyword (call arguments, a condition, a repeat
             count, a return value).
+        number: the O number of a call computed when it runs (``o#<sub> call``,
+            ``o[#2 * 10] call``: rs274 reads an O number as any integer value), or None.
     """
 
     name: str
     keyword: str
     args: tuple[Tree, ...]
+    number: Tree | None = None
 
 
 @dataclass(frozen=True)
@@ -268,8 +272,11 @@ def _lex_text(text: str, raw: str, line: int) -> Block:
 def _oword(reader: Reader) -> OWord | None:
     """``O`` at ``reader.pos``: the O number or name, the keyword, its bracketed arguments."""
     reader.pos += 1
+    number = None
     if reader.peek() == "<":
         name = reader.name()
+    elif reader.peek() in ("#", "["):
+        name, number = "", reader.real_value()
     else:
         start = reader.pos
         while reader.peek().isdigit():
@@ -285,6 +292,11 @@ def _oword(reader: Reader) -> OWord | None:
             f"unknown O-word keyword after o{name}; expected one of: "
             + ", ".join(k.lower() for k in sorted(O_KEYWORDS))
         )
+    if number is not None and keyword != "CALL":
+        raise GcodeError(
+            "an O number given by a parameter or an [expression] is supported with call only; "
+            "other O-word lines need the number or <name> itself"
+        )
     reader.pos += len(keyword)
     args: list[Tree] = []
     while reader.pos < len(reader.text):
@@ -297,7 +309,7 @@ def _oword(reader: Reader) -> OWord | None:
                 f"unexpected {reader.peek()!r} after o{cut(name)} {keyword.lower()}; an O-word line "
                 "holds only its keyword and [bracketed] values"
             )
-    return OWord(name, keyword.lower(), tuple(args))
+    return OWord(name, keyword.lower(), tuple(args), number)
 
 
 def split_lines(text: str) -> list[str]:
