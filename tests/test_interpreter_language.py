@@ -99,6 +99,25 @@ def test_named_parameters_local_global_and_predefined() -> None:
     assert "not defined" in error_of("G0 X#<a>\nM2\n").message
 
 
+def test_exists_of_a_numbered_parameter_says_whether_the_number_is_one() -> None:
+    """rs274's read_bracketed_parameter: EXISTS[#n] is 1 where n (any integer value, read as
+    #n's index) is a parameter number, 1..5601 (LinuxCNC's tests/interp/exists: its expected
+    canonical calls, STRAIGHT_TRAVERSE(1, 0, 1) then (1, 0, 0)); EXISTS[##2] reads #2 for the
+    number, and ###2 reads #(#2) for it, which is an error where #2 is no parameter number."""
+    text = (
+        "#<a>=999\nG0 X EXISTS[#1] Y EXISTS[#99999] Z EXISTS[#<a>]\n"
+        "#1=2\n#2=99999\nG0 X EXISTS[##1] Y EXISTS[##2] Z EXISTS[#[2*1]]\nM2\n"
+    )
+    assert ends(text) == [(1.0, 0.0, 1.0), (1.0, 0.0, 1.0)]
+    for bad, why in [
+        ("G0 X EXISTS[1]\nM2\n", "EXISTS takes a parameter"),
+        ("G0 X EXISTS[#1+#2]\nM2\n", "EXISTS takes one parameter"),
+        ("#2=99999\nG0 X EXISTS[###2]\nM2\n", "parameter number 99999 out of range"),
+        ("G0 X EXISTS[#1.5]\nM2\n", "a parameter number is a whole number"),
+    ]:
+        assert why in error_of(bad).message, bad
+
+
 # O-words ------------------------------------------------------------------------------------
 def test_subroutines_with_arguments_return_values_and_loops() -> None:
     text = """o<sq> sub

@@ -5,7 +5,8 @@ the interpreter evaluates later against its parameters, because every parameter 
 sees the values from *before* that line's settings (rs274 semantics).
 
 Trees are nested tuples: ``("num", 1.5)``, ``("par", tree)`` (numbered ``#n``), ``("name", "x")``
-(named ``#<x>``, lower case), ``("exists", "x")``, ``("neg", tree)``, ``("fn", "SIN", tree)``,
+(named ``#<x>``, lower case), ``("exists", "x")``, ``("exists_n", tree)`` (``EXISTS[#n]``: 1 where
+n is a parameter number), ``("neg", tree)``, ``("fn", "SIN", tree)``,
 ``("atan", a, b)`` and ``("chain", values, ops)`` for ``[a op b op c ...]``, reduced by rs274's
 operator precedence when evaluated. Chains are evaluated without recursion, so an expression of
 any number of terms is fine; brackets, signs and ``#`` may nest at most :data:`MAX_NESTING` deep.
@@ -19,6 +20,7 @@ import re
 from typing import Protocol
 
 from gantry_sim.controller.errors import GcodeError, shown
+from gantry_sim.controller.gcode.parameters import INTEGER_TOL, MAX_PARAMETER
 
 Tree = tuple
 
@@ -107,15 +109,7 @@ class Reader:
                 if self.peek() != "[":
                     raise GcodeError(f"function {name} must be followed by [expression]")
                 if name == "EXISTS":
-                    self.pos += 1
-                    if not self.text.startswith("#<", self.pos):
-                        raise GcodeError("EXISTS takes a named parameter: EXISTS[#<name>]")
-                    self.pos += 1
-                    found = self.name()
-                    if self.peek() != "]":
-                        raise GcodeError("EXISTS takes one named parameter: EXISTS[#<name>]")
-                    self.pos += 1
-                    return ("exists", found)
+                    return self._exists()
                 arg = self.expression()
                 if name == "ATAN":
                     if self.peek() != "/":
@@ -128,6 +122,20 @@ class Reader:
         if not c:
             raise GcodeError("missing value at end of line; expected a number, #n or [expression]")
         raise GcodeError(f"bad value starting with {c!r}; expected a number, #n or [expression]")
+
+    def _exists(self) -> Tree:
+        """``EXISTS[#<name>]``, or ``EXISTS[#n]`` with n any integer value (rs274's
+        read_bracketed_parameter: ``EXISTS[#1]``, ``EXISTS[##2]``, ``EXISTS[#[1+1]]``), from
+        its ``[``."""
+        self.pos += 1
+        if self.peek() != "#":
+            raise GcodeError("EXISTS takes a parameter: EXISTS[#<name>] or EXISTS[#n]")
+        self.pos += 1
+        tree = ("exists", self.name()) if self.peek() == "<" else ("exists_n", self.real_value())
+        if self.peek() != "]":
+            raise GcodeError("EXISTS takes one parameter: EXISTS[#<name>] or EXISTS[#n]")
+        self.pos += 1
+        return tree
 
     def number(self) -> Tree:
         start = self.pos
@@ -196,11 +204,22 @@ def _evaluate(tree: Tree, params: ParameterReader) -> float:
         return params.named(tree[1])
     if kind == "exists":
         return float(params.exists(tree[1]))
+    if kind == "exists_n":
+        return float(_parameter_number(_evaluate(tree[1], params)))
     if kind == "atan":
         return math.degrees(math.atan2(_evaluate(tree[1], params), _evaluate(tree[2], params)))
     if kind == "fn":
         return _function(tree[1], _evaluate(tree[2], params))
     return _chain([_evaluate(v, params) for v in tree[1]], tree[2])
+
+
+def _parameter_number(value: float) -> bool:
+    """Whether ``value`` names a numbered parameter (rs274: 1 <= n < RS274NGC_MAX_PARAMETERS);
+    it must be a whole number, as rs274's read_integer_value reads it."""
+    n = round(value) if math.isfinite(value) else 0
+    if not math.isfinite(value) or abs(value - n) > INTEGER_TOL:
+        raise GcodeError(f"EXISTS[#{value:g}]: a parameter number is a whole number")
+    return 1 <= n <= MAX_PARAMETER
 
 
 def _chain(values: list[float], ops: tuple[str, ...]) -> float:

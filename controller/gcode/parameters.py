@@ -21,6 +21,8 @@ MAX_SETTABLE_PARAMETER = 5399
 SETTABLE_SYSTEM = frozenset((5599,))
 #: subroutine arguments #1..#30 are local to each call.
 ARGUMENTS = 30
+#: rs274's read_integer_value: a value within this of a whole number is that number
+INTEGER_TOL = 0.0001
 
 Predefined = Callable[[str], float | None]
 
@@ -58,7 +60,7 @@ def parameter_index(value: float) -> int:
             f"parameter number {value:g} out of range; allowed: integers 1..{MAX_PARAMETER}"
         )
     index = round(value)
-    if abs(value - index) > 1e-4 or not 1 <= index <= MAX_PARAMETER:
+    if abs(value - index) > INTEGER_TOL or not 1 <= index <= MAX_PARAMETER:
         raise GcodeError(
             f"parameter number {value:g} out of range; allowed: integers 1..{MAX_PARAMETER}"
         )

@@ -16,6 +16,7 @@ from gantry_sim.controller.gcode.dialects import LINUXCNC, Dialect
 from gantry_sim.controller.gcode.expressions import ParameterReader, evaluate
 from gantry_sim.controller.gcode.lexer import Block
 from gantry_sim.controller.gcode.parameters import (
+    INTEGER_TOL,
     MAX_PARAMETER,
     MAX_SETTABLE_PARAMETER,
     SETTABLE_SYSTEM,
@@ -60,10 +61,6 @@ def _m_list(dialect: Dialect | None) -> str:
     if dialect is None or dialect.m_codes is None:
         return f"allowed: {m_allowed()}"
     return m_accepted(dialect.name, dialect.m_codes)
-
-
-#: rs274's read_integer_value: a value within this of a whole number is that number
-INTEGER_TOL = 0.0001
 
 
 def whole_number(letter: str, value: float) -> float:
