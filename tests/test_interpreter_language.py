@@ -118,6 +118,30 @@ def test_exists_of_a_numbered_parameter_says_whether_the_number_is_one() -> None
         assert why in error_of(bad).message, bad
 
 
+def test_an_abort_comment_ends_the_program_with_its_message() -> None:
+    """rs274's convert_comment acts on a line's last ( ) comment: "(abort," (any case, after
+    blanks) ends the program with the rest as the error, parameters filled in as %f and an
+    unset name as ######; a ; comment and a skipped branch do nothing. The texts and lines
+    are rs274 2.9's (rs274 -g on the same programs; LinuxCNC's tests/interp/abort-hot-comment
+    too)."""
+    text = (
+        "G0 X1 (abort, first) (note)\nG0 X2 ; (abort, after semicolon)\n#1=3\n"
+        "o1 if [0]\n(abort, skipped)\no1 endif\nG0 X3 (note) (AbOrT,last #1 #<_nope>)\nM2\n"
+    )
+    err = error_of(text)
+    assert (err.line, err.message) == (7, "(abort,) ends the program here:last 3.000000 ######")
+    made = []
+    with pytest.raises(GcodeError):
+        made.extend(m.end[0] for m in interpret(text))
+    assert made == [1.0, 2.0]  # the moves before it
+    err = error_of("G0 X1\n( Abort, stop at #<_x>)\nG0 X2\nM2\n")
+    assert (err.line, err.message) == (2, "(abort,) ends the program here: stop at 1.000000")
+    assert ends("(abortx, not one)\nG0 X1\nM2\n") == [(1.0, 0.0, 0.0)]
+    assert [m.end for m in interpret_events("(abort, x)\nG0 X1\nM2\n", "grbl")] == [
+        (1.0, 0.0, 0.0)
+    ]  # LinuxCNC's alone
+
+
 # O-words ------------------------------------------------------------------------------------
 def test_subroutines_with_arguments_return_values_and_loops() -> None:
     text = """o<sq> sub

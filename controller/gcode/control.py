@@ -206,6 +206,9 @@ class Runner:
         self.frames: list[Frame] = [Frame(self.main, 0)]
         self.ended = False
         self.on_return: Callable[[int], None] | None = None  # M73's restore
+        #: called with every line run that holds a comment, comment-only lines too, before
+        #: anything else of it runs (LinuxCNC's ``(abort,``)
+        self.on_comment: Callable[[Block], None] | None = None
         self.errors: list[GcodeError] | None = None  # collect instead of raising (--all-errors)
         self.seen = False  # a line with content has been run
         self.percent_open = False
@@ -244,6 +247,8 @@ class Runner:
                     if f.source is self.main:
                         self.on_percent(block)
                     continue
+                if self.on_comment is not None and "(" in block.text:
+                    self.on_comment(block)
                 if block.empty:
                     continue
                 self.on_block(block)

@@ -123,6 +123,8 @@ class Dialect:
         last_word_wins: a letter given twice on a line, or two G (M) codes of one modal group,
             take the last one (g2core's parser stores each word as it reads it and checks
             neither); False: an error (rs274, grbl's error 25).
+        abort_comments: a line whose comment starts ``(abort,`` stops the program there with
+            that message, its parameters filled in (rs274's convert_comment).
     """
 
     name: str
@@ -166,6 +168,7 @@ class Dialect:
     integer_words: frozenset[str] = frozenset()
     g0_at_feed: bool = False
     last_word_wins: bool = False
+    abort_comments: bool = False
 
 
 _TOL_MM = 2 * 0.01 * math.sqrt(2.0)  # 0.028284 mm, rs274 CENTER_ARC_RADIUS_TOLERANCE_MM
@@ -190,6 +193,7 @@ LINUXCNC = Dialect(
     canned_cycles=True,
     cutter_comp=True,
     splines="linuxcnc",
+    abort_comments=True,
 )
 
 G2CORE = Dialect(

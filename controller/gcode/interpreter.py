@@ -25,6 +25,7 @@ from gantry_sim.controller.gcode.codes import (
     M_PROGRAM_END,
     g_name,
 )
+from gantry_sim.controller.gcode.comments import abort_message
 from gantry_sim.controller.gcode.comp_block import check_while_on, comp_move, switch
 from gantry_sim.controller.gcode.control import DEFAULT_MAX_ITERATIONS, MAX_ERRORS, Runner
 from gantry_sim.controller.gcode.coords import (
@@ -116,6 +117,13 @@ class Interpreter:
         self.cycle = CycleMemory()
         self.comp = CutterComp()
         self.nurbs = NurbsPoints()
+
+    def comment(self, block: Block) -> None:
+        """A line's ``(abort, message)`` comment ends the program there, as in rs274
+        (:mod:`~gantry_sim.controller.gcode.comments`)."""
+        message = abort_message(block.text, self.params)
+        if message is not None:
+            raise GcodeError(f"(abort,) ends the program here:{message}")
 
     def step(self, block: Block) -> tuple[list[Move | Event], bool]:
         """Validate ``block`` on a copy of the state, commit, return (moves, program ended)."""
@@ -679,6 +687,8 @@ def interpret_events(
         )
         runner.errors = errors
         runner.on_return = interp.sub_returned
+        if rules.abort_comments:
+            runner.on_comment = interp.comment
         yield from runner.run()
         if runner.ended or not rules.require_program_end:
             return
