@@ -14,8 +14,11 @@ built-in tool table (``tests/data/rs274/rs274_default_tools.tbl``, inches).
 from __future__ import annotations
 
 import argparse
+import itertools
+import resource
 import subprocess
 import sys
+import tempfile
 from pathlib import Path
 
 ROOT = Path(__file__).resolve().parent.parent
@@ -32,28 +35,56 @@ from gantry_sim.controller.gcode.tools import read_tool_table  # noqa: E402
 TOOLS = read_tool_table(ROOT / "tests" / "data" / "rs274" / "rs274_default_tools.tbl", 25.4)
 
 
+#: rs274's output read at most (a program looping for ever prints for ever: the whole of it was
+#: read into memory once, 24 GB, until the kernel killed the script)
+MAX_OUTPUT_BYTES = 64 << 20
+#: rs274's run time at most [s]
+RS274_S = 60
+
+
+def _cap_output() -> None:
+    """In rs274's process: files it writes stop at MAX_OUTPUT_BYTES (SIGXFSZ ends it)."""
+    resource.setrlimit(resource.RLIMIT_FSIZE, (MAX_OUTPUT_BYTES, MAX_OUTPUT_BYTES))
+
+
 def compare(path: Path) -> str:
     """One program -> "MATCH" or what differs."""
     try:
         text = path.read_bytes().decode("utf-8")
     except UnicodeDecodeError:
         return "not UTF-8"
-    proc = subprocess.run(
-        ["flock", regen.LOCK, "rs274", "-g", str(path)],
-        capture_output=True,
-        text=True,
-        cwd=path.parent,
-        timeout=300,
-    )
+    with tempfile.TemporaryFile() as out:
+        try:
+            # rs274 runs under timeout, inside the lock: killed, it frees the lock (a timeout
+            # of subprocess.run killed flock only, and the looping rs274 kept the lock)
+            rs274 = ["timeout", "-s", "KILL", str(RS274_S), "rs274", "-g", str(path)]
+            proc = subprocess.run(
+                ["flock", regen.LOCK, *rs274],
+                stdout=out,
+                stderr=subprocess.PIPE,
+                text=True,
+                cwd=path.parent,
+                timeout=900,  # includes waiting for the lock (another rs274 user)
+                preexec_fn=_cap_output,
+            )
+        except subprocess.TimeoutExpired:
+            return "the rs274 lock was held for over 900 s"
+        if proc.returncode == 137:
+            return f"rs274 ran over {RS274_S} s (a runaway loop?)"
+        if out.tell() >= MAX_OUTPUT_BYTES:
+            return f"rs274 wrote over {MAX_OUTPUT_BYTES >> 20} MB (a runaway loop?)"
+        out.seek(0)
+        stdout = out.read().decode("utf-8", "replace")
     try:
-        want, unit = regen.parse_canon(proc.stdout)
+        want, unit = regen.parse_canon(stdout)
     except RuntimeError as exc:
         return f"rs274 output not understood: {exc}"
     rs_error = regen.error_message(proc.stderr) if proc.returncode else None
     got: list[dict] = []
     error: GcodeError | None = None
     try:
-        for move in interpret(text, file=path.name, tools=TOOLS, search_path=(path.parent,)):
+        moves = interpret(text, file=path.name, tools=TOOLS, search_path=(path.parent,))
+        for move in itertools.islice(moves, len(want) + 1):  # one more tells a longer run
             got.append(move.to_json())
     except GcodeError as exc:
         error = exc
@@ -84,10 +115,9 @@ def main() -> int:
     args = ap.parse_args()
     results = {}
     for path in sorted(args.folder.rglob("*.ngc")):
-        if path.stat().st_size <= args.max_bytes:
+        if path.is_file() and path.stat().st_size <= args.max_bytes:
             results[path] = compare(path)
-    for path, result in results.items():
-        print(f"{path.relative_to(args.folder)}: {result}")
+            print(f"{path.relative_to(args.folder)}: {results[path]}", flush=True)
     matched = sum(r == "MATCH" for r in results.values())
     print(f"{matched} of {len(results)} programs match rs274", file=sys.stderr)
     return 0
