@@ -242,6 +242,21 @@ def test_subroutine_files_on_the_search_path(tmp_path) -> None:
     assert err.file == str(tmp_path / "bad.ngc") and err.line == 2
 
 
+def test_a_subroutine_defined_inside_another_is_refused(tmp_path) -> None:
+    """rs274: "Nested subroutine definition", on the inner sub's line, whether the outer one
+    is in the program (LinuxCNC's tests/interp/bad/nested.ngc: line 6) or in a file
+    (tests/interp/nested-sub-error)."""
+    text = "G21\n\nO1 sub\nG1 X0\n\n  O2 sub\n  G1 Y0\n  O2 endsub\n\nO1 endsub\nO1 call\nM30\n"
+    err = error_of(text)
+    assert err.line == 6 and "o2 sub inside the definition of o1" in err.message
+    (tmp_path / "outer.ngc").write_text(
+        "o<outer> sub\no100 sub\nG0 X1\no100 endsub\no100 call\no<outer> endsub\nM2\n"
+    )
+    err = error_of("o<outer> call\nM2\n", search_path=(tmp_path,))
+    assert (err.file, err.line) == (str(tmp_path / "outer.ngc"), 2), err
+    assert "o100 sub inside the definition of o<outer>" in err.message
+
+
 # coordinate systems -------------------------------------------------------------------------
 def test_offsets_place_moves_in_the_work_frame() -> None:
     # rs274 prints G0 X2 at program (2, 0) with G92 offset (1, 1): the tool goes to (3, 1).

@@ -115,12 +115,19 @@ class Source:
             return None
 
     def find(
-        self, start: int, name: str, keywords: tuple[str, ...], labels: Labels | None = None
+        self,
+        start: int,
+        name: str,
+        keywords: tuple[str, ...],
+        labels: Labels | None = None,
+        body_of: str | None = None,
     ) -> int | None:
         """The first line from ``start`` on with O-word ``name`` and one of ``keywords``;
         ``labels``: check the lines passed that open a construct with the same label (rs274,
         skipping a body, refuses those as duplicates; other labels in it are not recorded, so
-        an if and its else may each hold an ``o2 if``)."""
+        an if and its else may each hold an ``o2 if``). ``body_of``: the lines passed are the
+        body of subroutine ``body_of``, where rs274 refuses another ``sub`` line ("Nested
+        subroutine definition")."""
         i = start
         while i < len(self.lines):
             o = self.oword(i)
@@ -128,6 +135,13 @@ class Source:
                 return i
             if o is not None and labels is not None and o.name == name:
                 labels.note(self, i, o)
+            if o is not None and body_of is not None and o.keyword == "sub":
+                raise GcodeError(
+                    f"o{_show(o.name)} sub inside the definition of o{_show(body_of)}: "
+                    "subroutines cannot be nested; define it outside",
+                    file=self.name,
+                    line=i + 1,
+                )
             i += 1
         return None
 
@@ -322,7 +336,12 @@ class Runner:
         name, kw = o.name, o.keyword
         f.labels.note(src, i, o)
         if kw == "sub":
-            end = src.find(i + 1, name, ("endsub",))
+            if f.sub is not None:  # a subroutine's body run from a file, unscanned
+                raise GcodeError(
+                    f"o{_show(name)} sub inside the definition of o{_show(f.sub)}: "
+                    "subroutines cannot be nested; define it outside"
+                )
+            end = src.find(i + 1, name, ("endsub",), body_of=name)
             if end is None:
                 raise GcodeError(f"o{_show(name)} sub without o{_show(name)} endsub")
             known = self.subs.get(name)
