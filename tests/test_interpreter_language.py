@@ -345,6 +345,19 @@ def test_inverse_time_and_feed_per_revolution_become_path_speed() -> None:
     assert "zero spindle speed" in error_of("G95 G1 X10 F0.5\nM2\n").message
 
 
+def test_inverse_time_under_cutter_compensation_takes_the_programmed_length() -> None:
+    """rs274 2.9 (rs274 -g on this program): G93 F6 on a programmed 20 mm line is
+    SET_FEED_RATE(120) for the compensated line, F3 on 10 mm is 30, F4 on a quarter circle of
+    R10 is 62.8319; before, the compensated moves took F itself as mm/min (LinuxCNC's
+    tests/interp/inverse-time-with-comp)."""
+    text = (
+        "G21 G17 G90\nG0 X0 Y0\nG41.1 D4\nG93 G1 X20 F6\nG1 Y10 F3\n"
+        "G3 X10 Y20 I-10 J0 F4\nG94 G40 G1 X0 Y30 F600\nM2\n"
+    )
+    feeds = [m.feed_mm_per_min for m in parse_program(text) if m.kind != "rapid"]
+    assert [round(f, 4) for f in feeds] == [120.0, 30.0, 62.8319, 600.0]
+
+
 def test_dwell_and_stops_are_events_when_asked(tmp_path, capsys) -> None:
     from gantry_sim.sim.cli import main
 

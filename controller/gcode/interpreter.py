@@ -370,15 +370,22 @@ class Interpreter:
         """A G0/G1/G2/G3 under cutter compensation: its tool-centre path, released a block
         late (controller/gcode/comp_paths.py)."""
         programmed = None
+        fed = s  # the state whose feed the tool-centre moves take
         if motion == 10:
             self._require_feed(s, "a G1 move", w)
+            # G93/G95: the feed of the programmed move, from its own length (rs274's
+            # inverse_time_rate_straight), not the compensated path's
+            line = path_feed(Linear(w.line, s.position, end, s.feed_mm_per_min), s, w.values)
+            fed = evolve(s, feed_mm_per_min=line.feed_mm_per_min)
         elif motion in (20, 30):
             self._require_feed(s, "an arc", w)
             programmed = arc_move(w.line, w.values, s, end, motion == 30, self.dialect)
             if programmed is None:
                 return s
+            feed = path_feed(programmed, s, w.values).feed_mm_per_min
+            programmed = evolve(programmed, feed_mm_per_min=feed)
             end = programmed.end
-        released = comp_move(self.comp, motion, w.line, end, s, programmed, "R" in w.values)
+        released = comp_move(self.comp, motion, w.line, end, fed, programmed, "R" in w.values)
         moves.extend(released)
         return evolve(s, position=end, work=self.comp.released_end)
 
