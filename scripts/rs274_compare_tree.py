@@ -74,7 +74,9 @@ def compare(path: Path) -> str:
         if out.tell() >= MAX_OUTPUT_BYTES:
             return f"rs274 wrote over {MAX_OUTPUT_BYTES >> 20} MB (a runaway loop?)"
         out.seek(0)
-        stdout = out.read().decode("utf-8", "replace")
+        # (print,...) comments print to stdout among the canonical calls: not motions
+        lines = out.read().decode("utf-8", "replace").splitlines()
+        stdout = "\n".join(x for x in lines if regen.CANON_RE.match(x))
     try:
         want, unit = regen.parse_canon(stdout)
     except RuntimeError as exc:

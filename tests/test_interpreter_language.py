@@ -257,6 +257,16 @@ def test_a_subroutine_defined_inside_another_is_refused(tmp_path) -> None:
     assert "o100 sub inside the definition of o<outer>" in err.message
 
 
+def test_a_subroutine_after_the_closing_percent_is_not_read() -> None:
+    """rs274 reads nothing after a program's closing % line: a sub defined there is not
+    found (LinuxCNC's tests/interp/m98m99/11-main-program-oword: "Failed to find sub 'O2'
+    before EOF"); after M2, with no %, it is."""
+    after = "O2 sub\nG0 Z3\nO2 endsub\n"
+    err = error_of("%\nG0 X1\nO2 call\n%\n" + after)
+    assert err.line == 3 and "before its closing '%'" in err.message
+    assert ends("G0 X1\nO2 call\nM2\n" + after) == [(1.0, 0.0, 0.0), (1.0, 0.0, 3.0)]
+
+
 # coordinate systems -------------------------------------------------------------------------
 def test_offsets_place_moves_in_the_work_frame() -> None:
     # rs274 prints G0 X2 at program (2, 0) with G92 offset (1, 1): the tool goes to (3, 1).

@@ -121,16 +121,24 @@ class Source:
         keywords: tuple[str, ...],
         labels: Labels | None = None,
         body_of: str | None = None,
+        until_percent: bool = False,
     ) -> int | None:
         """The first line from ``start`` on with O-word ``name`` and one of ``keywords``;
         ``labels``: check the lines passed that open a construct with the same label (rs274,
         skipping a body, refuses those as duplicates; other labels in it are not recorded, so
         an if and its else may each hold an ``o2 if``). ``body_of``: the lines passed are the
         body of subroutine ``body_of``, where rs274 refuses another ``sub`` line ("Nested
-        subroutine definition")."""
+        subroutine definition"). ``until_percent``: the search ends at a ``%`` line (the end
+        of a program that opened with one: rs274 reads nothing after it)."""
         i = start
         while i < len(self.lines):
-            o = self.oword(i)
+            try:
+                block: Block | None = self.block(i)
+            except GcodeError:
+                block = None
+            if until_percent and block is not None and block.percent:
+                return None
+            o = None if block is None else block.oword
             if o is not None and o.name == name and o.keyword in keywords:
                 return i
             if o is not None and labels is not None and o.name == name:
@@ -558,7 +566,7 @@ class Runner:
         self.frames.append(Frame(f.source, found + 1, sub=str(number), fanuc=(found, count)))
 
     def _find_sub(self, src: Source, i: int, name: str) -> tuple[Source, int]:
-        at = src.find(i + 1, name, ("sub",))
+        at = src.find(i + 1, name, ("sub",), until_percent=src is self.main and self.percent_open)
         if at is not None:
             self.subs[name] = (src, at)
             self.searched.add((src, at))
@@ -585,10 +593,10 @@ class Runner:
                 self.subs[name] = (sub_src, at)
                 return sub_src, at
         where = ", ".join(str(p) for p in self.search_path) or "no search path"
+        closed = " before its closing '%' (nothing after it is read)" if self.percent_open else ""
         raise GcodeError(
-            f"subroutine o{_show(cut(name))} not found: not defined in the program and no "
-            f"{cut(name)}.ngc "
-            f"in the subroutine path ({where}); add --subroutine-path DIR"
+            f"subroutine o{_show(cut(name))} not found: not defined in the program{closed} and "
+            f"no {cut(name)}.ngc in the subroutine path ({where}); add --subroutine-path DIR"
         )
 
 
