@@ -331,7 +331,7 @@ class Runner:
         try:
             return source.block(i)
         except GcodeError as exc:
-            if self.owords or not any(c in strip_line(source.lines[i]) for c in "#["):
+            if self.owords or not any(c in _uncommented(source.lines[i]) for c in "#["):
                 raise
             raise GcodeError(
                 "'#' parameters and [expressions] are not grbl features; grbl expects a "
@@ -598,6 +598,15 @@ class Runner:
             f"subroutine o{_show(cut(name))} not found: not defined in the program{closed} and "
             f"no {cut(name)}.ngc in the subroutine path ({where}); add --subroutine-path DIR"
         )
+
+
+def _uncommented(raw: str) -> str:
+    """``raw`` without its comments (as :func:`strip_line` gives it; the raw line where that
+    fails: an unclosed or nested comment)."""
+    try:
+        return strip_line(raw)
+    except GcodeError:
+        return raw
 
 
 def _show(name: str) -> str:
