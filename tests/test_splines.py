@@ -106,6 +106,25 @@ def test_arc_length_and_its_inverse() -> None:
     assert np.abs(c.s_of_t(c.t_of_s(target)) - target).max() < 1e-10
 
 
+def test_the_inversions_kept_are_those_computed_afresh() -> None:
+    """SplineCurve.t_of_s keeps its last results (the planner asks for the same arc lengths
+    each time it plans a chain again): a kept result is the fresh one bit for bit, a caller
+    changing its copy changes nothing kept, and the oldest goes first when full."""
+    import importlib
+
+    (s,) = splines(HEAD + "G5 I3 J8 P-6 Q5 X9 Y1\nM2\n")
+    c = s.curve
+    curve_module = importlib.import_module("gantry_sim.controller.spline_curve")
+    x = np.linspace(0, c.length_mm, 9)
+    first = c.t_of_s(x)
+    first[:] = -1.0
+    again = c.t_of_s(x)
+    assert np.array_equal(again, c._t_of_s_new(x)) and (again >= 0.0).all()
+    for k in range(curve_module.T_OF_S_KEPT):
+        c.t_of_s(np.array([k * 1e-3]))
+    assert len(c._t_of_s) == curve_module.T_OF_S_KEPT and x.tobytes() not in c._t_of_s
+
+
 def test_nearest_points_beat_brute_force() -> None:
     (s,) = splines(HEAD + "G5 I3 J8 P-6 Q5 X9 Y1\nM2\n")
     rng = np.random.default_rng(3)
