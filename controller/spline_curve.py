@@ -41,9 +41,11 @@ ZERO_SPEED_SHARE = 1e-9
 #: t_of_s keeps its last results for arrays of at most T_OF_S_SIZE arc lengths, T_OF_S_KEPT of
 #: them per curve: the planner asks again for the same ones (a chord vertex's frame, a piece's
 #: search window) each time it plans the arc's chain again. On LinuxCNC's nc_files/systems.ngc
-#: (826 G5.1 curves) 3,678 of its 9,560 calls repeated an earlier one (2.6 s of inversions).
-T_OF_S_SIZE = 64
-T_OF_S_KEPT = 256
+#: (826 G5.1 curves) 3,678 of its 9,560 calls repeated an earlier one (2.6 s of inversions);
+#: 32 keep as many of them as 256 did, and at most about 14 kB a curve (a window of 5,000
+#: splines being planned: 70 MB at worst).
+T_OF_S_SIZE = 16
+T_OF_S_KEPT = 32
 
 
 class SplineCurve:
