@@ -135,8 +135,9 @@ _FULL = frozenset({errno.ENOSPC, errno.EDQUOT})
 def _full_temporary_folder(exc: OSError) -> str:
     """The message for a file system found full by a write to an open file: the outputs are
     written through paths (their errors name them), so this is a spill in the temporary
-    folder (the plan's blocks, the moves, the trace's deflated arrays, the percentile's
-    samples: sim.outdir, controller.spill, sim.deflate_zip, sim.percentile)."""
+    folder (the plan's blocks and the moves: controller.spill; the trace's deflated arrays:
+    sim.deflate_zip; the percentile's samples: sim.percentile; plan --out's spools:
+    sim.plan_samples)."""
     import tempfile
 
     return (
