@@ -3,8 +3,8 @@
 A simulation's wall time grows with its servo ticks and MuJoCo physics steps (about 300,000
 steps per second on one core for the bundled model: a run takes about a second per two
 simulated minutes), and so does its trace.npz (15-40 kB per simulated second, deflated: 111 MB
-for 7,000 s of one slow move, 324 MB for a 8,430 s print; ``gantry plan --out`` writes 96 bytes
-a sample, uncompressed, 0.1 MB a second at 1 kHz). Its memory does not: a run past
+for 7,000 s of one slow move, 324 MB for a 8,430 s print; ``gantry plan --out``'s file, deflated
+the same way, 19-34 kB a second on a pocket and a print). Its memory does not: a run past
 65,536 ticks is streamed (7,000 s of one slow move peaked at 253 MB for the process tree, 700 s
 at 238 MB); what grows is the plan, with the moves (about 0.7 kB a move, measured on 100,000
 short G1, benchmarks/bench_run.py). A program such as ``G1 X1 F0.0001`` (600,000 s) or a
@@ -112,7 +112,7 @@ def _check_duration(
     if duration > budget.max_sim_s:
         bound = (
             f", beyond the bound of {budget.max_sim_s:g} s (the time to simulate it and the "
-            f"trace written grow with it: about 1 s and 2-12 MB per 2 simulated minutes); check "
+            f"trace written grow with it: about 1 s and 2-5 MB per 2 simulated minutes); check "
             f"the feeds (F is in mm/min), or pass --max-sim-s "
             f"{above}{math.ceil(duration)} to simulate it anyway"
         )

@@ -22,6 +22,7 @@ ends: a sweep worker terminated mid-run leaves nothing behind).
 
 from __future__ import annotations
 
+import io
 import shutil
 import struct
 import tempfile
@@ -103,6 +104,20 @@ def _entry_fields(m: DeflatedMember, name: bytes, extra: bytes) -> bytes:
         len(name),
         len(extra),
     )
+
+
+def npy_member(name: str, shape: tuple[int, ...], dtype: Any) -> DeflatedMember:
+    """The member ``name.npy`` of an .npz, its ``.npy`` header for a C-ordered array of
+    ``shape`` and ``dtype`` written; the array's bytes are added after it."""
+    import numpy as np
+    from numpy.lib import format as npy
+
+    member = DeflatedMember(f"{name}.npy")
+    header = {"descr": npy.dtype_to_descr(np.dtype(dtype)), "fortran_order": False}
+    head = io.BytesIO()
+    npy.write_array_header_1_0(head, header | {"shape": shape})
+    member.add(head.getvalue())
+    return member
 
 
 def write_zip(members: list[DeflatedMember], out: BinaryIO) -> None:

@@ -16,7 +16,6 @@ members and once as trace.npz. ``numpy.load`` reads the result like one written 
 
 from __future__ import annotations
 
-import io
 import queue
 import threading
 from collections.abc import Mapping
@@ -28,7 +27,7 @@ import numpy as np
 from gantry_sim.controller.forked import lower_priority
 from gantry_sim.controller.trajectory import Trajectory
 from gantry_sim.sim.contour import ChunkAnalysis
-from gantry_sim.sim.deflate_zip import DeflatedMember, write_zip
+from gantry_sim.sim.deflate_zip import DeflatedMember, npy_member, write_zip
 
 #: trace.npz's arrays: name -> (shape per tick, dtype)
 FIELDS: dict[str, tuple[tuple[int, ...], Any]] = {
@@ -41,19 +40,6 @@ FIELDS: dict[str, tuple[tuple[int, ...], Any]] = {
 }
 #: ranges waiting for the deflating thread at most (each a few MB)
 QUEUED_RANGES = 2
-
-
-def npy_member(name: str, shape: tuple[int, ...], dtype: Any) -> DeflatedMember:
-    """The member ``name.npy`` of an .npz, its ``.npy`` header for a C-ordered array of
-    ``shape`` and ``dtype`` written; the array's bytes are added after it."""
-    from numpy.lib import format as npy
-
-    member = DeflatedMember(f"{name}.npy")
-    header = {"descr": npy.dtype_to_descr(np.dtype(dtype)), "fortran_order": False}
-    head = io.BytesIO()
-    npy.write_array_header_1_0(head, header | {"shape": shape})
-    member.add(head.getvalue())
-    return member
 
 
 def save_npz(path: Path, arrays: Mapping[str, np.ndarray]) -> None:

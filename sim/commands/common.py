@@ -73,7 +73,7 @@ def add_budget(parser: argparse.ArgumentParser, steps: bool = True) -> None:
     cost = (
         "a run takes about 1 s, and its trace.npz 2-5 MB, per 2 simulated minutes"
         if steps
-        else "--out writes about 0.1 MB per simulated second"
+        else "--out writes 20-40 kB per simulated second"
     )
     parser.add_argument(
         "--max-sim-s",
