@@ -39,7 +39,7 @@ def last_comment(raw: str) -> str | None:
 def abort_message(raw: str, params: ParameterReader) -> str | None:
     """The message of the source line ``raw``'s ``(abort, ...)`` comment with its parameters
     filled in, or None when its last comment is no abort."""
-    comment = last_comment(raw) if "(" in raw else None
+    comment = last_comment(raw)
     if comment is None:
         return None
     text = comment.lstrip()

@@ -108,11 +108,17 @@ class Source:
             return Block(i + 1, axes, (), False, raw, home=True)
         return lex_line(raw, i + 1, self.system_lines)
 
-    def oword(self, i: int) -> OWord | None:
+    def lexed(self, i: int) -> Block | None:
+        """Line ``i`` lexed, or None where it cannot be (searches pass over such lines; the
+        error is raised where the line runs)."""
         try:
-            return self.block(i).oword
+            return self.block(i)
         except GcodeError:
             return None
+
+    def oword(self, i: int) -> OWord | None:
+        block = self.lexed(i)
+        return None if block is None else block.oword
 
     def find(
         self,
@@ -132,10 +138,7 @@ class Source:
         of a program that opened with one: rs274 reads nothing after it)."""
         i = start
         while i < len(self.lines):
-            try:
-                block: Block | None = self.block(i)
-            except GcodeError:
-                block = None
+            block = self.lexed(i)
             if until_percent and block is not None and block.percent:
                 return None
             o = None if block is None else block.oword
@@ -144,12 +147,7 @@ class Source:
             if o is not None and labels is not None and o.name == name:
                 labels.note(self, i, o)
             if o is not None and body_of is not None and o.keyword == "sub":
-                raise GcodeError(
-                    f"o{_show(o.name)} sub inside the definition of o{_show(body_of)}: "
-                    "subroutines cannot be nested; define it outside",
-                    file=self.name,
-                    line=i + 1,
-                )
+                raise _nested(o.name, body_of, file=self.name, line=i + 1)
             i += 1
         return None
 
@@ -345,10 +343,7 @@ class Runner:
         f.labels.note(src, i, o)
         if kw == "sub":
             if f.sub is not None:  # a subroutine's body run from a file, unscanned
-                raise GcodeError(
-                    f"o{_show(name)} sub inside the definition of o{_show(f.sub)}: "
-                    "subroutines cannot be nested; define it outside"
-                )
+                raise _nested(name, f.sub)
             end = src.find(i + 1, name, ("endsub",), body_of=name)
             if end is None:
                 raise GcodeError(f"o{_show(name)} sub without o{_show(name)} endsub")
@@ -598,6 +593,16 @@ class Runner:
             f"subroutine o{_show(cut(name))} not found: not defined in the program{closed} and "
             f"no {cut(name)}.ngc in the subroutine path ({where}); add --subroutine-path DIR"
         )
+
+
+def _nested(inner: str, outer: str, file: str | None = None, line: int | None = None) -> GcodeError:
+    """rs274's "Nested subroutine definition": ``o<inner> sub`` within ``o<outer>``'s body."""
+    return GcodeError(
+        f"o{_show(inner)} sub inside the definition of o{_show(outer)}: subroutines cannot be "
+        "nested; define it outside",
+        file=file,
+        line=line,
+    )
 
 
 def _uncommented(raw: str) -> str:

@@ -375,8 +375,8 @@ class Interpreter:
             self._require_feed(s, "a G1 move", w)
             # G93/G95: the feed of the programmed move, from its own length (rs274's
             # inverse_time_rate_straight), not the compensated path's
-            line = path_feed(Linear(w.line, s.position, end, s.feed_mm_per_min), s, w.values)
-            fed = evolve(s, feed_mm_per_min=line.feed_mm_per_min)
+            straight = Linear(w.line, s.position, end, s.feed_mm_per_min)
+            fed = evolve(s, feed_mm_per_min=path_feed(straight, s, w.values).feed_mm_per_min)
         elif motion in (20, 30):
             self._require_feed(s, "an arc", w)
             programmed = arc_move(w.line, w.values, s, end, motion == 30, self.dialect)
