@@ -17,6 +17,8 @@ import tempfile
 from pathlib import Path
 from typing import Any
 
+import numpy as np
+
 from gantry_sim.sim.deflate_zip import DeflatedMember, npy_member, write_zip
 from gantry_sim.sim.outdir import atomic_file, os_error
 
@@ -40,7 +42,7 @@ def write_samples_npz(path: Path, plan: Any, period_s: float) -> None:
                 for name, a in arrays.items():
                     if name not in members:
                         members[name] = npy_member(name, (n, *a.shape[1:]), a.dtype)
-                    members[name].add(a.tobytes())  # C order
+                    members[name].add(np.ascontiguousarray(a).data.cast("B"))
             for member in members.values():
                 member.finish()  # its last deflated bytes spooled too
         except OSError as exc:  # the temporary folder ($TMPDIR) full or unwritable
