@@ -2,8 +2,9 @@
 
 A :class:`~gantry_sim.controller.moves.Limits` event splits the program there: the part before
 is planned with the limits in effect, the part after with the new ones, and the plans are
-joined end to end (each part ends and starts at rest, so the change is an exact stop; Marlin
-itself applies the change to the moves it plans next, without stopping). What is applied:
+joined end to end as they are planned (:class:`JoinedPlans`: each part ends and starts at rest,
+so the change is an exact stop; Marlin itself applies the change to the moves it plans next,
+without stopping). What is applied:
 
 * M201 X Y Z: the per-axis acceleration limits [mm/s^2];
 * M203 X Y Z: the per-axis velocity limits [mm/s];
@@ -24,9 +25,12 @@ import numpy as np
 
 from gantry_sim.controller.config import MachineConfig, Segmentation
 from gantry_sim.controller.errors import ConfigError, GcodeError
-from gantry_sim.controller.moves import Arc, Event, Limits, Linear, Move, Rapid, Spline
+from gantry_sim.controller.moves import Arc, Event, Limits, Linear, Move, PathMove, Rapid, Spline
+from gantry_sim.controller.planner.blend_types import Blend
 from gantry_sim.controller.planner.cubic import PiecewiseCubic
+from gantry_sim.controller.planner.path_control import Merge
 from gantry_sim.controller.planner.result import Plan
+from gantry_sim.controller.planner.segmented_curve import CurveBuilder, SegmentedCurve
 from gantry_sim.controller.planner.vertices import ChordVertices
 from gantry_sim.controller.spill import SpilledList
 
@@ -90,53 +94,91 @@ def split_at_limits(
     return out or [(carry, machine)]
 
 
-def concatenate(plans: Sequence[Plan], seg: Segmentation) -> Plan:
-    """The plans one after the other (each starts where, and at rest as, the one before ends);
-    ``seg``: the machine's segmentation (the same for every part), for the chord vertices."""
-    offsets = np.concatenate(([0.0], np.cumsum([p.duration_s for p in plans])[:-1]))
-    axes = []
-    for i in range(3):
-        cols = [p.curve.axes[i] for p in plans]
-        t0 = np.concatenate([c[0] + off for c, off in zip(cols, offsets, strict=True)])
-        rest = [np.concatenate([c[k] for c in cols]) for k in range(1, 5)]
-        axes.append(_frozen(t0, *rest))
+class JoinedPlans:
+    """The plans of a program's parts joined end to end as they are planned (each starts where,
+    and at rest as, the one before ends), in the memory of one part: each part's reference
+    goes into one :class:`~gantry_sim.controller.planner.segmented_curve.CurveBuilder` (to
+    disk as its blocks fill, so a long print's reference is never laid out in memory) and its
+    moves, path moves and blends into lists kept on disk; a part is not held once added.
 
-    def cat(name: str) -> tuple:
-        return tuple(x for p in plans for x in getattr(p, name))
+    The joined reference's phase start times are the running sums of all the phases'
+    durations, as one plan's are; its moves' start times are each part's plus the durations
+    of the parts before it."""
 
-    starts = np.concatenate([p.move_start_s + off for p, off in zip(plans, offsets, strict=True)])
-    lines = np.concatenate([p.move_lines for p in plans])
-    first = np.concatenate(([0], np.cumsum([len(p.moves) for p in plans])[:-1]))
+    def __init__(self, seg: Segmentation) -> None:
+        """``seg``: the machine's segmentation (the same for every part), for the chord
+        vertices."""
+        self._seg = seg
+        self._curve = CurveBuilder()
+        self._moves: SpilledList[Move] = SpilledList()
+        self._path_moves: SpilledList[PathMove] = SpilledList()
+        self._blends: SpilledList[Blend] = SpilledList()
+        self._merges: list[Merge] = []
+        self._starts: list[np.ndarray] = []
+        self._lines: list[np.ndarray] = []
+        self._move_sources: list[np.ndarray] = []
+        self._path_sources: list[np.ndarray] = []
+        self._duration_s = 0.0
+        self._segments = 0
+        self._ruckig = 0
+        self._last: Plan | None = None
 
-    def sources(name: str) -> np.ndarray:  # indices into each plan's moves -> into all
-        own = [getattr(p, name) for p in plans]
-        parts = [np.where(s >= 0, s + k, -1) for s, k in zip(own, first, strict=True)]
-        return np.concatenate(parts).reshape(-1, 2).astype(np.int64)
+    def add(self, plan: Plan) -> None:
+        """Join ``plan`` (a part's, from the planner: its reference a
+        :class:`~gantry_sim.controller.planner.segmented_curve.SegmentedCurve`) after the
+        parts added before."""
+        if not isinstance(plan.curve, SegmentedCurve):
+            raise TypeError(f"a part's reference must be a SegmentedCurve, not {plan.curve!r}")
+        for block in plan.curve.blocks():
+            self._curve.extend([block])
+        first = len(self._moves)  # sources index program moves, in both lists
+        self._starts.append(plan.move_start_s + self._duration_s)
+        self._lines.append(plan.move_lines)
+        self._move_sources.append(_shifted(plan.move_sources, first))
+        self._path_sources.append(_shifted(plan.path_sources, first))
+        self._moves.extend(plan.moves)
+        self._path_moves.extend(plan.path_moves)
+        self._blends.extend(plan.blends)
+        self._merges.extend(plan.merges)
+        self._duration_s += plan.duration_s
+        self._segments += plan.segment_count
+        self._ruckig += plan.ruckig_piece_count
+        # the last part's own fields (end, tolerance) are the joined plan's; its reference and
+        # lists are not kept
+        self._last = replace(plan, curve=PiecewiseCubic(()), moves=(), path_moves=(), blends=())
 
-    move_sources, path_sources = sources("move_sources"), sources("path_sources")
-    for arr in (starts, lines, move_sources, path_sources):
-        arr.setflags(write=False)
-    last = plans[-1]
-    moves = SpilledList(m for p in plans for m in p.moves)
-    return replace(
-        last,
-        moves=moves,
-        duration_s=float(sum(p.duration_s for p in plans)),
-        segment_count=sum(p.segment_count for p in plans),
-        vertices=ChordVertices(moves, seg),
-        ruckig_piece_count=sum(p.ruckig_piece_count for p in plans),
-        curve=PiecewiseCubic(tuple(axes)),
-        move_start_s=starts,
-        move_lines=lines,
-        blends=cat("blends"),
-        merges=cat("merges"),
-        path_moves=cat("path_moves"),
-        move_sources=move_sources,
-        path_sources=path_sources,
-    )
+    def finish(self) -> Plan:
+        """The joined plan (the joiner is left empty)."""
+        if self._last is None:
+            raise ValueError("no part was added")
+        arrays = (
+            np.concatenate(self._starts),
+            np.concatenate(self._lines),
+            np.concatenate(self._move_sources).reshape(-1, 2),
+            np.concatenate(self._path_sources).reshape(-1, 2),
+        )
+        for arr in arrays:
+            arr.setflags(write=False)
+        starts, lines, move_sources, path_sources = arrays
+        moves = self._moves
+        return replace(
+            self._last,
+            moves=moves,
+            duration_s=self._duration_s,
+            segment_count=self._segments,
+            vertices=ChordVertices(moves, self._seg),
+            ruckig_piece_count=self._ruckig,
+            curve=self._curve.finish(),
+            move_start_s=starts,
+            move_lines=lines,
+            blends=self._blends,
+            merges=tuple(self._merges),
+            path_moves=self._path_moves,
+            move_sources=move_sources,
+            path_sources=path_sources,
+        )
 
 
-def _frozen(*arrays: np.ndarray) -> tuple[np.ndarray, ...]:
-    for a in arrays:
-        a.setflags(write=False)
-    return arrays
+def _shifted(sources: np.ndarray, first: int) -> np.ndarray:
+    """(n, 2) indices into a part's moves as indices into all (-1: none, kept)."""
+    return np.where(sources >= 0, sources + first, -1).astype(np.int64)

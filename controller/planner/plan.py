@@ -43,7 +43,7 @@ from gantry_sim.controller.heap import trim_heap
 from gantry_sim.controller.moves import Arc, Event, Linear, Move, Rapid, Spline
 from gantry_sim.controller.moves import Limits as LimitsEvent
 from gantry_sim.controller.planner.blend import CornerMemo, PathPlan
-from gantry_sim.controller.planner.limit_events import concatenate, split_at_limits
+from gantry_sim.controller.planner.limit_events import JoinedPlans, split_at_limits
 from gantry_sim.controller.planner.path_stream import path_plan
 from gantry_sim.controller.planner.prepare import prepare, slow_blends
 from gantry_sim.controller.planner.result import Plan
@@ -103,17 +103,18 @@ def _plan(
 ) -> Plan:
     """:func:`plan` with its arguments checked: the travel of the whole program (its hint
     places all of it), then the program, or its parts where Marlin's M201-M205 change the
-    limits (each part from rest to rest, the travel the same)."""
+    limits (each part from rest to rest, the travel the same; joined as they come by
+    :class:`~gantry_sim.controller.planner.limit_events.JoinedPlans`)."""
     program = SpilledList(m for m in items if isinstance(m, Rapid | Linear | Arc | Spline))
     check_travel(program, machine.travel)
     if not any(isinstance(i, LimitsEvent) for i in items):
         return _plan_part(items, program, machine, feed_override_pct, arc_pieces)
-    parts = []
+    joined = JoinedPlans(machine.segmentation)
     for chunk, m in split_at_limits(items, machine):
         own = tuple(i for i in chunk if not isinstance(i, LimitsEvent))
         moves = SpilledList(i for i in own if isinstance(i, Rapid | Linear | Arc | Spline))
-        parts.append(_plan_part(own, moves, m, feed_override_pct, arc_pieces))
-    return concatenate(parts, machine.segmentation)
+        joined.add(_plan_part(own, moves, m, feed_override_pct, arc_pieces))
+    return joined.finish()
 
 
 def _plan_part(

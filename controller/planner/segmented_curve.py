@@ -24,6 +24,7 @@ from __future__ import annotations
 
 from array import array
 from collections import OrderedDict
+from collections.abc import Iterator
 from itertools import pairwise
 
 import numpy as np
@@ -164,6 +165,15 @@ class SegmentedCurve:
         """Phases per axis."""
         c = self._counts.sum(axis=1)
         return int(c[0]), int(c[1]), int(c[2])
+
+    def blocks(self) -> Iterator[Chunk]:
+        """The curve's segments, a block at a time in time order (each block's segments as one
+        :data:`~gantry_sim.controller.planner.cubic.Chunk`, fresh arrays holding the same
+        numbers): added to a :class:`CurveBuilder` one after the other, they make this curve
+        again, after whatever it holds (the plans of a program's parts joined:
+        :mod:`~gantry_sim.controller.planner.limit_events`)."""
+        for b in range(len(self._blocks)):
+            yield self._blocks[b].segments()
 
     def _block(self, axis: int, k: int) -> Phases:
         """Block ``self._first[axis][k]``'s phases on ``axis``: start time [s], p, v, a, j."""

@@ -1,0 +1,98 @@
+"""Marlin's limit changes: the parts' plans joined end to end (controller/planner/limit_events.py)."""
+
+from __future__ import annotations
+
+from dataclasses import replace
+
+import numpy as np
+import pytest
+
+from gantry_sim.controller.gcode.interpreter import interpret_events
+from gantry_sim.controller.moves import Limits
+from gantry_sim.controller.planner import segmented_curve
+from gantry_sim.controller.planner.limit_events import JoinedPlans, split_at_limits
+from gantry_sim.controller.planner.plan import plan
+from gantry_sim.controller.planner.segmented_curve import SegmentedCurve
+
+#: a small print's pattern: perimeters at two accelerations (PrusaSlicer's M204 P800 / P1000
+#: around its external perimeters), a travel, an M201 and an M205 J between them
+PROGRAM = (
+    "G21 G90\nM204 P1000\nG1 X5 Y0 F3000\nG1 X10 Y1\nG1 X15 Y3\n"
+    "M204 P800\nG1 X20 Y6 F1800\nG1 X25 Y8\nG1 X30 Y9\n"
+    "M201 X500 Y400\nG0 X40 Y10\nG1 X45 Y11 F1200\nG1 X50 Y13\n"
+    "M205 J0.02\nG1 X55 Y16\nG1 X60 Y18\nM204 P1000\nG1 X65 Y19\nG1 X70 Y19.5\nM2\n"
+)
+
+
+def _parts(machine):
+    items = list(interpret_events(PROGRAM, dialect="marlin"))
+    return items, [
+        plan([i for i in chunk if not isinstance(i, Limits)], m)
+        for chunk, m in split_at_limits(items, machine)
+    ]
+
+
+def _assert_parts_end_to_end(joined, parts) -> None:
+    """``joined`` runs ``parts`` one after the other: their references, moves and sources."""
+    assert isinstance(joined.curve, SegmentedCurve)
+    durations = [p.duration_s for p in parts]
+    assert joined.duration_s == sum(durations)
+    offsets = np.concatenate(([0.0], np.cumsum(durations)[:-1]))
+    for part, off in zip(parts, offsets, strict=True):
+        t = off + np.linspace(0.0, part.duration_s, 401)
+        got = joined.curve.evaluate(t)
+        want = part.curve.evaluate(t - off)
+        # phase start times are running sums across the parts (a few ulp of a second from each
+        # part's own plus its offset): position [mm], velocity [mm/s] and acceleration
+        # [mm/s^2] agree to what the jerk times such a slip gives
+        for g, w, tol in zip(got, want, (1e-9, 1e-7, 1e-4), strict=True):
+            assert np.abs(g - w).max() <= tol
+    starts = np.concatenate([p.move_start_s + o for p, o in zip(parts, offsets, strict=True)])
+    assert np.array_equal(joined.move_start_s, starts)
+    assert np.array_equal(joined.move_lines, np.concatenate([p.move_lines for p in parts]))
+    assert list(joined.moves) == [m for p in parts for m in p.moves]
+    first = np.concatenate(([0], np.cumsum([len(p.moves) for p in parts])[:-1]))
+    for name in ("move_sources", "path_sources"):
+        own = [getattr(p, name) for p in parts]
+        want = np.concatenate(
+            [np.where(s >= 0, s + k, -1) for s, k in zip(own, first, strict=True)]
+        )
+        assert np.array_equal(getattr(joined, name), want)
+    assert list(joined.path_moves) == [m for p in parts for m in p.path_moves]
+    assert list(joined.blends) == [b for p in parts for b in p.blends]
+    assert joined.segment_count == sum(p.segment_count for p in parts)
+    assert np.array_equal(joined.end_mm, parts[-1].end_mm)
+
+
+def test_the_joined_plan_runs_the_parts_one_after_the_other(machine):
+    items, parts = _parts(machine)
+    assert len(parts) == 5
+    assert [len(p.blends) for p in parts] == [2, 2, 2, 1, 1]  # every corner inside a part
+    joined = plan(items, machine)
+    _assert_parts_end_to_end(joined, parts)
+    tr = joined.sample(machine.servo.period_s)
+    assert np.array_equal(tr.pos[-1], [70.0, 19.5, 0.0])
+
+
+def test_a_long_prints_joined_reference_is_held_on_disk(machine, monkeypatch):
+    """Each part's blocks go to one builder as the parts are planned: its full blocks are
+    written out, and the parts' small blocks are packed together again (blocks that span
+    the parts' ends here)."""
+    monkeypatch.setattr(segmented_curve, "BLOCK_PHASES", 64)
+    items, parts = _parts(machine)
+    joined = plan(items, machine)
+    assert isinstance(joined.curve, SegmentedCurve)
+    assert joined.curve.spilled_bytes > 0
+    assert joined.curve.phase_counts == tuple(
+        int(sum(c)) for c in zip(*(p.curve.phase_counts for p in parts), strict=True)
+    )
+    _assert_parts_end_to_end(joined, parts)
+
+
+def test_a_joiner_takes_only_a_planners_parts(machine):
+    _, parts = _parts(machine)
+    joined = JoinedPlans(machine.segmentation)
+    with pytest.raises(ValueError, match="no part"):
+        joined.finish()
+    with pytest.raises(TypeError, match="SegmentedCurve"):
+        joined.add(replace(parts[0], curve=parts[0].curve.laid_out()))
