@@ -2,17 +2,21 @@
 
 from __future__ import annotations
 
+import importlib
 from dataclasses import replace
 
 import numpy as np
 import pytest
 
+from gantry_sim.controller.forked import one_process
 from gantry_sim.controller.gcode.interpreter import interpret_events
 from gantry_sim.controller.moves import Limits
 from gantry_sim.controller.planner import segmented_curve
 from gantry_sim.controller.planner.limit_events import JoinedPlans, split_at_limits
 from gantry_sim.controller.planner.plan import plan
 from gantry_sim.controller.planner.segmented_curve import SegmentedCurve
+
+plan_module = importlib.import_module("gantry_sim.controller.planner.plan")
 
 #: a small print's pattern: perimeters at two accelerations (PrusaSlicer's M204 P800 / P1000
 #: around its external perimeters), a travel, an M201 and an M205 J between them
@@ -96,3 +100,35 @@ def test_a_joiner_takes_only_a_planners_parts(machine):
         joined.finish()
     with pytest.raises(TypeError, match="SegmentedCurve"):
         joined.add(replace(parts[0], curve=parts[0].curve.laid_out()))
+
+
+@pytest.mark.parametrize("lone", [2, 10_000])
+def test_parts_planned_over_the_cores_are_those_of_one_process(machine, monkeypatch, lone):
+    """Batches of parts go to forked processes (controller/forked_runs.py), a part of
+    LONE_PART_MOVES or more is planned alone: the plan is the one process' bit for bit."""
+    items = list(interpret_events(PROGRAM, dialect="marlin"))
+    with one_process():
+        alone = plan(items, machine)
+    monkeypatch.setattr(plan_module, "PART_BATCH_MOVES", 5)  # batches of two parts
+    monkeypatch.setattr(plan_module, "LONE_PART_MOVES", lone)  # 2: the parts of 2 or 3 moves
+    monkeypatch.setenv("GANTRY_PLAN_WORKERS", "2")
+    batches: list[tuple[int, int]] = []  # (parts, processes) per batch
+    real = plan_module.fork_runs
+
+    def spy(fn, runs, processes, before=None):
+        batches.append((len(runs), processes))
+        return real(fn, runs, processes, before)
+
+    monkeypatch.setattr(plan_module, "fork_runs", spy)
+    shared = plan(items, machine)
+    # 5 parts of 3, 3, 3, 2, 2 moves
+    assert batches == ([] if lone == 2 else [(2, 2), (2, 2), (1, 2)])
+    t = np.linspace(0.0, alone.duration_s, 1999)
+    for a, b in zip(alone.curve.evaluate(t), shared.curve.evaluate(t), strict=True):
+        assert np.array_equal(a, b)
+    assert shared.duration_s == alone.duration_s
+    for name in ("move_start_s", "move_lines", "move_sources", "path_sources", "end_mm"):
+        assert np.array_equal(getattr(shared, name), getattr(alone, name))
+    assert list(shared.moves) == list(alone.moves)
+    assert list(shared.path_moves) == list(alone.path_moves)
+    assert list(shared.blends) == list(alone.blends)

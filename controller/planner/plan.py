@@ -32,12 +32,14 @@ raises :class:`PlanningError` naming the line: never a reference beyond the limi
 from __future__ import annotations
 
 import itertools
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Iterable, Iterator, Sequence
 
 import numpy as np
 
 from gantry_sim.controller.config import MachineConfig
 from gantry_sim.controller.errors import ConfigError
+from gantry_sim.controller.forked import one_process, process_count
+from gantry_sim.controller.forked_runs import MAX_RUNS, fork_runs
 from gantry_sim.controller.gc_pause import gc_paused
 from gantry_sim.controller.heap import trim_heap
 from gantry_sim.controller.moves import Arc, Event, Linear, Move, Rapid, Spline
@@ -55,7 +57,17 @@ from gantry_sim.controller.planner.window_judge import JudgedPath
 from gantry_sim.controller.planner.windows import WINDOW_MOVES, plan_path
 from gantry_sim.controller.spill import SpilledList
 
-__all__ = ["Plan", "plan"]
+__all__ = ["LONE_PART_MOVES", "PART_BATCH_MOVES", "Plan", "plan"]
+
+#: A program cut into parts by limit changes (Marlin's M204 around each layer's external
+#: perimeters: 2,088 parts of 31 moves on average in a PrusaSlicer Benchy) has its parts planned
+#: over the cores, each whole in one process (:func:`~gantry_sim.controller.forked_runs.fork_runs`),
+#: in batches of about this many moves (their plans, about 2 KB a move, come back pickled and
+#: are joined before the next batch: memory holds a batch, not the program) ...
+PART_BATCH_MOVES = 4_000
+#: ... except a part of this many moves or more, planned alone with the cores its own windows
+#: and rounds use (:mod:`~gantry_sim.controller.planner.windows`).
+LONE_PART_MOVES = 2_000
 
 
 def plan(
@@ -103,18 +115,58 @@ def _plan(
 ) -> Plan:
     """:func:`plan` with its arguments checked: the travel of the whole program (its hint
     places all of it), then the program, or its parts where Marlin's M201-M205 change the
-    limits (each part from rest to rest, the travel the same; joined as they come by
+    limits (each part from rest to rest, the travel the same: small parts in batches over the
+    cores, :func:`_batches`, joined as they come by
     :class:`~gantry_sim.controller.planner.limit_events.JoinedPlans`)."""
     program = SpilledList(m for m in items if isinstance(m, Rapid | Linear | Arc | Spline))
     check_travel(program, machine.travel)
     if not any(isinstance(i, LimitsEvent) for i in items):
         return _plan_part(items, program, machine, feed_override_pct, arc_pieces)
     joined = JoinedPlans(machine.segmentation)
-    for chunk, m in split_at_limits(items, machine):
-        own = tuple(i for i in chunk if not isinstance(i, LimitsEvent))
+
+    def plan_one(part: _Part) -> Plan:
+        own = tuple(i for i in part[0] if not isinstance(i, LimitsEvent))
         moves = SpilledList(i for i in own if isinstance(i, Rapid | Linear | Arc | Spline))
-        joined.add(_plan_part(own, moves, m, feed_override_pct, arc_pieces))
+        return _plan_part(own, moves, part[1], feed_override_pct, arc_pieces)
+
+    def plan_alone(part: _Part) -> Plan:
+        with one_process():  # one of the runs sharing the cores
+            return plan_one(part)
+
+    for lone, parts in _batches(split_at_limits(items, machine)):
+        if lone:  # its own windows and rounds use the cores
+            joined.add(plan_one(parts[0]))
+            continue
+        for planned in fork_runs(plan_alone, parts, process_count()):
+            joined.add(planned)
     return joined.finish()
+
+
+#: a program's part between limit changes: its moves and events, and the machine in effect
+_Part = tuple[list[Move | Event], MachineConfig]
+
+
+def _batches(parts: Iterable[_Part]) -> Iterator[tuple[bool, list[_Part]]]:
+    """The parts in order: (True, [part]) for a part of :data:`LONE_PART_MOVES` moves or more;
+    (False, batch) for consecutive smaller parts, :data:`PART_BATCH_MOVES` moves or so
+    together (at most :data:`~gantry_sim.controller.forked_runs.MAX_RUNS` parts)."""
+    batch: list[_Part] = []
+    size = 0
+    for part in parts:
+        count = sum(isinstance(i, Rapid | Linear | Arc | Spline) for i in part[0])
+        if count >= LONE_PART_MOVES:
+            if batch:
+                yield False, batch
+                batch, size = [], 0
+            yield True, [part]
+            continue
+        batch.append(part)
+        size += count
+        if size >= PART_BATCH_MOVES or len(batch) >= MAX_RUNS:
+            yield False, batch
+            batch, size = [], 0
+    if batch:
+        yield False, batch
 
 
 def _plan_part(
