@@ -8,6 +8,7 @@ from dataclasses import replace
 import numpy as np
 import pytest
 
+from gantry_sim.controller.errors import GcodeError
 from gantry_sim.controller.forked import one_process
 from gantry_sim.controller.gcode.interpreter import interpret_events
 from gantry_sim.controller.moves import Limits
@@ -132,3 +133,34 @@ def test_parts_planned_over_the_cores_are_those_of_one_process(machine, monkeypa
     assert list(shared.moves) == list(alone.moves)
     assert list(shared.path_moves) == list(alone.path_moves)
     assert list(shared.blends) == list(alone.blends)
+
+
+def test_events_of_a_part_without_moves_go_to_the_next_part(machine):
+    text = "G1 X1 F600\nM204 P500\nG4 P10\nM204 P600\nG1 X2\nM204 P700\nG4 P5\n"
+    items = list(interpret_events(text, dialect="marlin"))
+    parts = list(split_at_limits(items, machine))
+    assert [[i.line for i in chunk] for chunk, _ in parts] == [[1], [3, 5, 7]]
+    accs = [m.limits.max_acceleration_mm_per_s2 for _, m in parts]
+    assert accs[0] == machine.limits.max_acceleration_mm_per_s2
+    assert accs[1] == (600.0, 600.0, 600.0)  # the second part's machine: after M204 P600
+    only_events = list(interpret_events("M204 P500\nG4 P1\n", dialect="marlin"))
+    [(chunk, m)] = split_at_limits(only_events, machine)
+    assert [i.line for i in chunk] == [2] and m is machine
+
+
+def test_a_bad_limit_late_in_a_print_is_refused_before_any_part_is_planned(machine, monkeypatch):
+    planned: list[int] = []
+    real = plan_module._plan_part
+
+    def spy(items, *args, **kwargs):
+        planned.append(len(items))
+        return real(items, *args, **kwargs)
+
+    monkeypatch.setattr(plan_module, "_plan_part", spy)
+    monkeypatch.setattr(plan_module, "PART_BATCH_MOVES", 2)  # each part planned as it comes
+    text = PROGRAM.replace("M204 P1000\nG1 X65", "M204 S-100\nG1 X65")
+    items = list(interpret_events(text, dialect="marlin"))
+    with pytest.raises(GcodeError, match="M204 on this line") as err:
+        plan(items, machine)
+    assert err.value.line == text.splitlines().index("M204 S-100") + 1
+    assert planned == []

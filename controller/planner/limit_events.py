@@ -18,7 +18,7 @@ modelled: the machine file's jerk limits stay.
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Iterable, Iterator
 from dataclasses import replace
 
 import numpy as np
@@ -64,34 +64,62 @@ class _LimitState:
 
 
 def split_at_limits(
-    items: Sequence[Move | Event], machine: MachineConfig
-) -> list[tuple[list[Move | Event], MachineConfig]]:
+    items: Iterable[Move | Event], machine: MachineConfig
+) -> Iterator[tuple[list[Move | Event], MachineConfig]]:
     """The program cut at its Limits events: (items, machine in effect) per part with moves;
-    the events of a part without moves go to the next part (the last one's to the one before)."""
-    state = _LimitState(machine)
-    parts: list[tuple[list[Move | Event], MachineConfig]] = [([], machine)]
+    the events of a part without moves go to the next part (the last one's to the one before).
+
+    The parts are made as they are asked for (a long print's items are read from disk part by
+    part: memory holds a part, not the program), after a first pass over ``items`` that checks
+    every Limits event: a value the machine cannot take is refused before anything is planned.
+    """
+    check = _LimitState(machine)
     for item in items:
         if isinstance(item, Limits):
-            try:
-                parts.append(([], state.apply(item)))
-            except ConfigError as exc:  # the program's value, not the machine file's
-                raise GcodeError(
-                    f"{item.code} on this line would set the machine's {exc.message}",
-                    line=item.line,
-                ) from None
-        else:
-            parts[-1][0].append(item)
-    out: list[tuple[list[Move | Event], MachineConfig]] = []
+            _apply(check, item)
+    pending: tuple[list[Move | Event], MachineConfig] | None = None
     carry: list[Move | Event] = []
-    for chunk, m in parts:
+    for chunk, m in _cut(items, machine):
         if any(isinstance(i, Rapid | Linear | Arc | Spline) for i in chunk):
-            out.append((carry + chunk, m))
+            if pending is not None:
+                yield pending
+            pending = (carry + chunk, m)
             carry = []
         else:
             carry += chunk
-    if carry and out:
-        out[-1][0].extend(carry)
-    return out or [(carry, machine)]
+    if pending is None:
+        yield carry, machine
+        return
+    pending[0].extend(carry)
+    yield pending
+
+
+def _cut(
+    items: Iterable[Move | Event], machine: MachineConfig
+) -> Iterator[tuple[list[Move | Event], MachineConfig]]:
+    """The items between Limits events, each run with the machine in effect (the first with
+    ``machine``), without the events."""
+    state = _LimitState(machine)
+    chunk: list[Move | Event] = []
+    for item in items:
+        if isinstance(item, Limits):
+            yield chunk, state.machine
+            chunk = []
+            _apply(state, item)
+        else:
+            chunk.append(item)
+    yield chunk, state.machine
+
+
+def _apply(state: _LimitState, event: Limits) -> None:
+    """``state`` with ``event`` applied; a value the machine cannot take is the program's
+    error, on the event's line."""
+    try:
+        state.apply(event)
+    except ConfigError as exc:  # the program's value, not the machine file's
+        raise GcodeError(
+            f"{event.code} on this line would set the machine's {exc.message}", line=event.line
+        ) from None
 
 
 class JoinedPlans:
