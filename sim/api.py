@@ -223,8 +223,8 @@ def _run(
         if plotter is not None:
             plotter.start()  # a long program's after its parse (sim.plot_worker)
         check_lower_bound(items, machine, budget or Budget(), file, feed_override_pct)
-        with stage("plan", len(items), "move", shown, known_size=False):
-            planned = plan(items, machine, feed_override_pct=feed_override_pct)
+        with stage("plan", len(items), "move", shown, ticking=True) as advance:
+            planned = plan(items, machine, feed_override_pct=feed_override_pct, advance=advance)
         del items, text  # the moves are on disk now (``moves``); the run needs neither
         check_budget(planned, machine, budget or Budget(), file)
         if planned.sample_count(machine.servo.period_s) > STREAM_ABOVE_TICKS:

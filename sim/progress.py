@@ -4,8 +4,9 @@ write), with the rate and the ETA where the stage knows its size.
 Shown only when asked (``gantry run --progress``) or, by default, when stderr is a terminal;
 never on stdout (the summary or the ``--json`` object stays clean), so tests and pipes are quiet
 unless they ask. A bar appears only once its stage has run for PROGRESS_DELAY_S (short stages
-and short runs print nothing) and is erased when the stage ends (the terminal keeps the summary). Planning reports no progress of its own (the planner is one call):
-its bar shows the elapsed time, with no ETA.
+and short runs print nothing) and is erased when the stage ends (the terminal keeps the summary).
+Planning reports its progress in large steps (a long program's windows of 5,000 moves, a print's
+batches of parts): its bar is redrawn every second between them, so its elapsed time moves.
 """
 
 from __future__ import annotations
@@ -39,11 +40,17 @@ def _nothing(n: int = 1) -> None:
 
 @contextmanager
 def stage(
-    name: str, total: float | None, unit: str, enabled: bool, known_size: bool = True
+    name: str,
+    total: float | None,
+    unit: str,
+    enabled: bool,
+    known_size: bool = True,
+    ticking: bool = False,
 ) -> Iterator[Advance]:
     """A bar for stage ``name`` of ``total`` ``unit``s while the block runs; yields its
     ``advance``. ``known_size`` False: the stage cannot report its progress (only the elapsed
-    time is shown, and the bar completes at the end)."""
+    time is shown, and the bar completes at the end). ``ticking``: the bar is redrawn every
+    :attr:`_Ticker.TICK_S` even without updates (a stage whose updates come seconds apart)."""
     if not enabled:
         yield _nothing
         return
@@ -61,14 +68,14 @@ def stage(
         bar_format=fmt,
         unit_scale=unit == "tick",
     )
-    ticking = None if known_size else _Ticker(bar)
+    ticker = _Ticker(bar) if ticking or not known_size else None
     try:
         yield bar.update
         if not known_size:
             bar.update((total or 0) - bar.n)
     finally:
-        if ticking is not None:
-            ticking.stop()
+        if ticker is not None:
+            ticker.stop()
         bar.close()
 
 

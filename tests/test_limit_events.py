@@ -164,3 +164,16 @@ def test_a_bad_limit_late_in_a_print_is_refused_before_any_part_is_planned(machi
         plan(items, machine)
     assert err.value.line == text.splitlines().index("M204 S-100") + 1
     assert planned == []
+
+
+def test_a_prints_parts_report_their_progress_batch_by_batch(machine, monkeypatch):
+    monkeypatch.setattr(plan_module, "PART_BATCH_MOVES", 5)
+    items = list(interpret_events(PROGRAM, dialect="marlin"))
+    steps: list[int] = []
+    plan(items, machine, advance=steps.append)
+    assert sum(steps) == len(items)
+    # 5 parts of 3, 3, 3, 2, 2 moves in batches of two, two and one: their items, then
+    # the 5 limit events at the end
+    parts = [len(chunk) for chunk, _ in split_at_limits(items, machine)]
+    assert steps[:3] == [parts[0] + parts[1], parts[2] + parts[3], parts[4]]
+    assert steps[3:] == [len(items) - sum(parts)]

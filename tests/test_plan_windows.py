@@ -471,3 +471,19 @@ def test_blends_judged_as_the_windows_go_are_those_judged_first(monkeypatch, sha
     _judged_up_front(monkeypatch)
     first = plan(interpret_events(text), load_machine_config(DEFAULT_MACHINE))
     _assert_same(first, windowed)
+
+
+def test_a_long_plan_reports_its_progress_window_by_window(monkeypatch):
+    """plan(advance=...) gets the items planned as the windows are: increasing, in several
+    steps, adding up to all the items (a progress bar's updates: sim/progress.py)."""
+    events = tuple(interpret_events(_program()))
+    machine = load_machine_config(DEFAULT_MACHINE)
+    monkeypatch.setattr(windows, "WINDOW_MOVES", 40)
+    monkeypatch.setattr(plan_module, "WINDOW_MOVES", 40)
+    monkeypatch.setattr(windows, "MARGIN_MOVES", 8)
+    steps: list[int] = []
+    planned = plan(events, machine, advance=steps.append)
+    assert sum(steps) == len(events)
+    assert len(steps) >= 4 and min(steps) > 0  # one per window kept, the rest at the end
+    assert steps[-1] < len(events) / 2  # not all at the end
+    assert planned.duration_s == plan(events, machine).duration_s

@@ -67,3 +67,20 @@ def test_a_stage_without_updates_still_shows_its_elapsed_time(monkeypatch, capsy
     err = capsys.readouterr().err
     assert err.count("plan: 00:00 elapsed") >= 2
     assert not any(t.name == "gantry-progress" for t in threading.enumerate())
+
+
+def test_a_ticking_stage_is_redrawn_between_its_updates(monkeypatch, capsys):
+    """Planning reports in steps seconds apart (a window, a batch of a print's parts): its bar
+    shows its share and is redrawn meanwhile, so its elapsed time moves."""
+    import threading
+    import time
+
+    monkeypatch.setattr(progress, "PROGRESS_DELAY_S", 0.05)
+    monkeypatch.setattr(progress._Ticker, "TICK_S", 0.05)
+    with progress.stage("plan", 4, "move", True, ticking=True) as advance:
+        advance(1)
+        time.sleep(0.4)
+        advance(3)
+    err = capsys.readouterr().err
+    assert err.count("plan:  25%") >= 2  # redrawn while no update came
+    assert not any(t.name == "gantry-progress" for t in threading.enumerate())

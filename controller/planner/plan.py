@@ -76,6 +76,7 @@ def plan(
     *,
     feed_override_pct: float = 100.0,
     arc_pieces: str = "jerk3",
+    advance: Callable[[int], object] | None = None,
 ) -> Plan:
     """Plan ``moves`` on ``machine`` (see the module docstring).
 
@@ -89,6 +90,9 @@ def plan(
         feed_override_pct: scales every programmed feed (not rapids) [%], > 0.
         arc_pieces: "jerk3" (default: closed-form constant-jerk pieces, Ruckig where they would
             break a limit) or "ruckig" (every arc piece by Ruckig; kept for comparison).
+        advance: progress, in this process: called with how many more of ``moves`` (moves and
+            events) are planned, as a long program's windows and a print's parts are; the
+            calls add up to ``len(moves)`` when planning returns (a progress bar's update).
 
     Raises:
         ConfigError: a feed override that is not a finite number > 0.
@@ -100,11 +104,35 @@ def plan(
     if arc_pieces not in ("jerk3", "ruckig"):
         raise ConfigError(f"arc_pieces must be 'jerk3' or 'ruckig', got {arc_pieces!r}")
     items = moves if isinstance(moves, SpilledList) else tuple(moves)
+    done = _Done(advance)
     try:
         with gc_paused():  # see controller/gc_pause.py: 19-22 % of planning time
-            return _plan(items, machine, feed_override_pct, arc_pieces)
+            planned = _plan(items, machine, feed_override_pct, arc_pieces, done)
+        done.to(len(items))
+        return planned
     finally:
         trim_heap()  # planning's freed working set back to the system (controller/heap.py)
+
+
+class _Done:
+    """How many of the program's items are planned, reported to ``advance`` (when given) as
+    it grows: never backwards (a window planned again takes back nothing already reported)."""
+
+    def __init__(self, advance: Callable[[int], object] | None) -> None:
+        self._advance = advance
+        self.count = 0
+
+    def to(self, count: int) -> None:
+        if self._advance is not None and count > self.count:
+            self._advance(count - self.count)
+            self.count = count
+
+    def within(self, first: int, size: int) -> Callable[[float], object] | None:
+        """For the windows of a part of ``size`` items after the first ``first``: the share of
+        its path planned -> items planned (None without an ``advance``)."""
+        if self._advance is None:
+            return None
+        return lambda share: self.to(first + int(share * size))
 
 
 def _plan(
@@ -112,6 +140,7 @@ def _plan(
     machine: MachineConfig,
     feed_override_pct: float,
     arc_pieces: str,
+    done: _Done,
 ) -> Plan:
     """:func:`plan` with its arguments checked: the travel of the whole program (its hint
     places all of it), then the program, or its parts where Marlin's M201-M205 change the
@@ -121,24 +150,29 @@ def _plan(
     program = SpilledList(m for m in items if isinstance(m, Rapid | Linear | Arc | Spline))
     check_travel(program, machine.travel)
     if not any(isinstance(i, LimitsEvent) for i in items):
-        return _plan_part(items, program, machine, feed_override_pct, arc_pieces)
+        progress = done.within(0, len(items))
+        return _plan_part(items, program, machine, feed_override_pct, arc_pieces, progress)
     joined = JoinedPlans(machine.segmentation)
 
-    def plan_one(part: _Part) -> Plan:
+    def plan_one(part: _Part, progress: Callable[[float], object] | None = None) -> Plan:
         own = tuple(i for i in part[0] if not isinstance(i, LimitsEvent))
         moves = SpilledList(i for i in own if isinstance(i, Rapid | Linear | Arc | Spline))
-        return _plan_part(own, moves, part[1], feed_override_pct, arc_pieces)
+        return _plan_part(own, moves, part[1], feed_override_pct, arc_pieces, progress)
 
     def plan_alone(part: _Part) -> Plan:
-        with one_process():  # one of the runs sharing the cores
+        with one_process():  # one of the runs sharing the cores (no progress from a child)
             return plan_one(part)
 
+    first = 0  # the parts' items planned (without the limit events)
     for lone, parts in _batches(split_at_limits(items, machine)):
+        size = sum(len(chunk) for chunk, _ in parts)
         if lone:  # its own windows and rounds use the cores
-            joined.add(plan_one(parts[0]))
-            continue
-        for planned in fork_runs(plan_alone, parts, process_count()):
-            joined.add(planned)
+            joined.add(plan_one(parts[0], done.within(first, size)))
+        else:
+            for planned in fork_runs(plan_alone, parts, process_count()):
+                joined.add(planned)
+        first += size
+        done.to(first)
     return joined.finish()
 
 
@@ -175,9 +209,11 @@ def _plan_part(
     machine: MachineConfig,
     feed_override_pct: float,
     arc_pieces: str,
+    progress: Callable[[float], object] | None = None,
 ) -> Plan:
     """The plan of ``items`` (no limit changes among them; ``program``: their moves, whose
-    travel is checked) on ``machine``."""
+    travel is checked) on ``machine``; ``progress``: the share of its path planned, as its
+    windows are (:func:`~gantry_sim.controller.planner.windows.plan_path`)."""
     seg = machine.segmentation
     jerk = float(min(machine.limits.max_jerk_mm_per_s3))
     sizing = TransitionMachine(machine.limits, seg, feed_override_pct / 100.0)
@@ -207,7 +243,7 @@ def _plan_part(
     # the path is held by ``src`` alone while planned: made again, the old one is freed
     src = JudgedPath(path, remake, machine, feed_override_pct)
     del path, remake
-    planned = plan_path(src, machine, feed_override_pct, arc_pieces, solver, prepared)
+    planned = plan_path(src, machine, feed_override_pct, arc_pieces, solver, prepared, progress)
     path = src.path
     del src
     end = np.array(program[-1].end if program else (0.0, 0.0, 0.0), dtype=float)

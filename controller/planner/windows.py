@@ -129,14 +129,19 @@ def plan_path(
     arc_pieces: str,
     solver: RuckigSolver,
     prepared: Prepared | None = None,
+    progress: Callable[[float], object] | None = None,
 ) -> Planned:
     """Plan ``src.path`` (see the module docstring), judging its blends window by window while
     ``src`` does (:mod:`~gantry_sim.controller.planner.window_judge`: at the first window with
     a slow blend, ``src`` makes the path again and that window is planned again on it);
-    ``prepared``: its :func:`prepare` when made already (a path planned whole, judged)."""
+    ``prepared``: its :func:`prepare` when made already (a path planned whole, judged).
+    ``progress``: called with the share of the path planned (0 to 1) as each window is planned
+    (a window may still be planned again, so the share can come back)."""
     ahead = _Ahead(solver, arc_pieces)
     try:
-        return _plan_windows(src, machine, feed_override_pct, arc_pieces, solver, prepared, ahead)
+        return _plan_windows(
+            src, machine, feed_override_pct, arc_pieces, solver, prepared, ahead, progress
+        )
     finally:
         ahead.drop()  # chains still planned ahead (an error, their window not used) stopped
 
@@ -149,6 +154,7 @@ def _plan_windows(
     solver: RuckigSolver,
     prepared: Prepared | None,
     ahead: _Ahead,
+    progress: Callable[[float], object] | None = None,
 ) -> Planned:
     """:func:`plan_path`'s windows, with ``ahead``'s work beside them."""
     out = Planned()
@@ -221,6 +227,8 @@ def _plan_windows(
             return out
         ahead.keep_later(keep)
         start = _Start(base + pre.path_index[c], base + pre.path_index[c - 1], _replay(settled, c))
+        if progress is not None:
+            progress(start.lo / n)
         size = WINDOW_MOVES
         following = _key_after(start.ctx, start.lo, n, src.upto if src.judging else None)
         ahead.prepare_beyond(src, following, start.starts[0], machine, feed_override_pct)
