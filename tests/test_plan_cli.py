@@ -127,3 +127,16 @@ def test_a_marlin_limit_out_of_range_names_the_program_line(write_program, capsy
         err = capsys.readouterr().err
         assert err.startswith(f"{path}:2: error: {code} on this line would set"), err
         assert "gantry.toml" not in err and err.count("\n") == 1
+
+
+def test_plan_progress_goes_to_stderr_only_when_asked(write_program, capsys, monkeypatch):
+    from gantry_sim.sim import progress
+
+    monkeypatch.setattr(progress, "PROGRESS_DELAY_S", 0.0)  # the stages here are short
+    program = str(write_program(PROGRAM))
+    assert main(["plan", program, "--progress"]) == 0
+    got = capsys.readouterr()
+    assert json.loads(got.out)["moves"] == 5  # stdout is still the one JSON object
+    assert "parse: " in got.err and "plan: " in got.err and "/5 [" in got.err  # 5 moves
+    assert main(["plan", program]) == 0  # stderr is no terminal here: quiet
+    assert capsys.readouterr().err == ""

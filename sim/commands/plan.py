@@ -39,6 +39,13 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         "and feed_mm_per_min (the programmed feed bounding each sample's path speed, NaN on "
         "rapids) (a new file, or a regular file that is replaced atomically)",
     )
+    parser.add_argument(
+        "--progress",
+        action=argparse.BooleanOptionalAction,
+        default=None,
+        help="bars with ETA on stderr for parsing and planning a long program; default: only "
+        "when stderr is a terminal",
+    )
     add_budget(parser, steps=False)
 
 
@@ -69,6 +76,7 @@ def run(args: argparse.Namespace) -> int:
     from gantry_sim.sim.budget import Budget, check_budget, check_lower_bound
     from gantry_sim.sim.outdir import check_output_file
     from gantry_sim.sim.program import interpret_program
+    from gantry_sim.sim.progress import stage, wanted
 
     budget = budget_from(args)
     machine = program_machine(args)
@@ -76,19 +84,23 @@ def run(args: argparse.Namespace) -> int:
     file = str(args.program)
     if args.out is not None:
         check_output_file(args.out)  # before planning: a device or folder is refused now
+    shown = wanted(args.progress)
     try:
-        moves = interpret_program(
-            text,
-            dialect=args.dialect,
-            file=file,
-            machine=machine,
-            search_path=search_path(args),
-            max_iterations=max_iterations(args),
-            events=True,
-        )
+        with stage("parse", text.count("\n") + 1, "line", shown) as advance:
+            moves = interpret_program(
+                text,
+                dialect=args.dialect,
+                file=file,
+                machine=machine,
+                search_path=search_path(args),
+                max_iterations=max_iterations(args),
+                events=True,
+                advance=advance,
+            )
         if args.out is not None:  # before planning: far beyond the bound is refused now
             check_lower_bound(moves, machine, Budget(budget.max_sim_s, float("inf")), file)
-        result = plan(moves, machine)
+        with stage("plan", len(moves), "move", shown, ticking=True) as advance:
+            result = plan(moves, machine, advance=advance)
     except GantryError as exc:
         raise exc.located(file) from None
     period = machine.servo.period_s
