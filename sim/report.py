@@ -120,6 +120,8 @@ class RunReport:
             evaluation is applied).
         files: the files written into the output folder (empty until :func:`write_outputs`);
             trace.npz is missing when the run was asked not to write it (``--no-trace``).
+        limit_change_stops: Marlin limit changes planned as exact stops, which Marlin does not
+            make (their decelerations and accelerations are in ``cycle_time_s``).
     """
 
     program: str
@@ -138,6 +140,7 @@ class RunReport:
     timing_s: dict[str, float]
     verdict: Verdict = field(default_factory=Verdict)
     files: tuple[str, ...] = ()
+    limit_change_stops: int = 0
 
     def block(self, line: int) -> BlockError | None:
         """The block executing program line ``line``, or None when it is no feed block."""
@@ -176,6 +179,7 @@ class RunReport:
             "moves": self.moves,
             "segments": self.segments,
             "chord_tolerance_mm": self.chord_tolerance_mm,
+            "limit_change_stops": self.limit_change_stops,
             "sim": self.sim.to_json(deterministic),
             "timing_s": {k: None if deterministic else v for k, v in self.timing_s.items()},
             "verdict": self.verdict.to_json(),
@@ -329,6 +333,7 @@ def _report(
         limits=machine.limits,
         moves=len(planned.moves),
         segments=int(planned.segment_count),
+        limit_change_stops=int(planned.limit_change_stops),
         chord_tolerance_mm=float(planned.chord_tolerance_mm),
         sim=SimStats(
             physics_timestep_s=machine.sim.physics_timestep_s,

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import importlib
+import json
 from dataclasses import replace
 
 import numpy as np
@@ -177,3 +178,26 @@ def test_a_prints_parts_report_their_progress_batch_by_batch(machine, monkeypatc
     parts = [len(chunk) for chunk, _ in split_at_limits(items, machine)]
     assert steps[:3] == [parts[0] + parts[1], parts[2] + parts[3], parts[4]]
     assert steps[3:] == [len(items) - sum(parts)]
+
+
+def test_the_stops_at_limit_changes_are_counted_in_the_plan_and_the_run(machine, tmp_path, capsys):
+    """Each join of two parts is an exact stop Marlin does not make: `gantry plan` and `gantry
+    run` say how many (report.json "limit_change_stops", and the run's summary line)."""
+    from gantry_sim.sim.cli import main
+
+    items = list(interpret_events(PROGRAM, dialect="marlin"))
+    assert plan(items, machine).limit_change_stops == 4  # 5 parts
+    path = tmp_path / "print.gcode"
+    path.write_text(PROGRAM)
+    assert main(["plan", "--dialect", "marlin", str(path)]) == 0
+    assert json.loads(capsys.readouterr().out)["limit_change_stops"] == 4
+    out = tmp_path / "out"
+    assert main(["run", "--dialect", "marlin", "--no-plots", "--out", str(out), str(path)]) == 0
+    summary = capsys.readouterr().out.splitlines()[0]
+    assert summary.endswith("(with 4 exact stops at limit changes, which Marlin does not make)")
+    assert json.loads((out / "report.json").read_text())["limit_change_stops"] == 4
+    plain = tmp_path / "plain.gcode"  # no limit change: no stop, and nothing said
+    plain.write_text("G21 G90\nG1 X5 F3000\nG1 X10 Y1\nM2\n")
+    assert main(["run", "--dialect", "marlin", "--no-plots", "--out", str(out), str(plain)]) == 0
+    assert "limit changes" not in capsys.readouterr().out
+    assert json.loads((out / "report.json").read_text())["limit_change_stops"] == 0

@@ -149,6 +149,7 @@ class JoinedPlans:
         self._duration_s = 0.0
         self._segments = 0
         self._ruckig = 0
+        self._parts = 0
         self._last: Plan | None = None
 
     def add(self, plan: Plan) -> None:
@@ -171,6 +172,7 @@ class JoinedPlans:
         self._duration_s += plan.duration_s
         self._segments += plan.segment_count
         self._ruckig += plan.ruckig_piece_count
+        self._parts += 1
         # the last part's own fields (end, tolerance) are the joined plan's; its reference and
         # lists are not kept
         self._last = replace(plan, curve=PiecewiseCubic(()), moves=(), path_moves=(), blends=())
@@ -204,6 +206,7 @@ class JoinedPlans:
             path_moves=self._path_moves,
             move_sources=move_sources,
             path_sources=path_sources,
+            limit_change_stops=self._parts - 1,
         )
 
 

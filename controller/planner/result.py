@@ -46,6 +46,9 @@ class Plan:
         path_sources: read-only (p, 2) the same per move of ``path_moves``.
         merges: every G64 Q merge (line, largest distance of the merged-away programmed points
             from the merged line, Q).
+        limit_change_stops: Marlin limit changes (M201/M203/M204/M205) planned as exact stops
+            between the program's parts (:mod:`~gantry_sim.controller.planner.limit_events`;
+            Marlin itself does not stop there).
     """
 
     moves: Sequence[Move]
@@ -63,6 +66,7 @@ class Plan:
     move_sources: np.ndarray = field(repr=False, default_factory=lambda: _no_sources())
     path_sources: np.ndarray = field(repr=False, default_factory=lambda: _no_sources())
     merges: tuple[Merge, ...] = ()
+    limit_change_stops: int = 0
 
     def sample(self, period_s: float) -> Trajectory:
         """The reference every ``period_s`` [s] from 0 to the end; the last sample is at rest at

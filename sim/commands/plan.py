@@ -118,6 +118,7 @@ def run(args: argparse.Namespace) -> int:
         "limits": machine.limits.to_json(),
         "blends": deviation_summary(result.blends),
         "merges": deviation_summary(result.merges),
+        "limit_change_stops": result.limit_change_stops,
     }
     sys.stdout.write(json.dumps(summary) + "\n")
     return 0

@@ -120,9 +120,15 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 def _summary(typed: RunReport, out_dir: Path, files: list[str]) -> str:
     report, timing = typed.to_json(blocks=False), typed.timing_json()
     ce, parts, sim = report["contour_error_um"], report["parts_um"], report["sim"]
+    stops = report["limit_change_stops"]
     lines = [
         f"{report['program']} ({report['dialect']}): {report['moves']} moves, "
-        f"cycle time {report['cycle_time_s']:.3f} s",
+        f"cycle time {report['cycle_time_s']:.3f} s"
+        + (
+            f" (with {stops} exact stops at limit changes, which Marlin does not make)"
+            if stops
+            else ""
+        ),
         f"contour error: max {ce['max']:.3f} um, rms {ce['rms']:.3f} um, p95 {ce['p95']:.3f} um"
         " (feed moves)",
         f"  parts: chord {parts['chord_max']:.3f} um, reference {parts['reference_max']:.3f} um, "
