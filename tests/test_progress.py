@@ -55,17 +55,17 @@ def test_no_progress_wins_on_a_terminal(monkeypatch):
 
 
 def test_a_stage_without_updates_still_shows_its_elapsed_time(monkeypatch, capsys):
-    """The planner reports nothing while it runs: its bar is redrawn by a ticker once the
-    delay has passed, then erased."""
+    """A whole-trace analysis reports nothing while it runs: its bar is redrawn by a ticker once
+    the delay has passed, then erased."""
     import threading
     import time
 
     monkeypatch.setattr(progress, "PROGRESS_DELAY_S", 0.05)
     monkeypatch.setattr(progress._Ticker, "TICK_S", 0.05)
-    with progress.stage("plan", 3, "move", True, known_size=False):
+    with progress.stage("analyse", 3, "tick", True, known_size=False):
         time.sleep(0.4)
     err = capsys.readouterr().err
-    assert err.count("plan: 00:00 elapsed") >= 2
+    assert err.count("analyse: 00:00 elapsed") >= 2
     assert not any(t.name == "gantry-progress" for t in threading.enumerate())
 
 

@@ -66,7 +66,8 @@ class _LimitState:
 def split_at_limits(
     items: Iterable[Move | Event], machine: MachineConfig
 ) -> Iterator[tuple[list[Move | Event], MachineConfig]]:
-    """The program cut at its Limits events: (items, machine in effect) per part with moves;
+    """The program cut at its Limits events: (items, without the events; machine in effect)
+    per part with moves;
     the events of a part without moves go to the next part (the last one's to the one before).
 
     The parts are made as they are asked for (a long print's items are read from disk part by

@@ -155,7 +155,7 @@ def _plan(
     joined = JoinedPlans(machine.segmentation)
 
     def plan_one(part: _Part, progress: Callable[[float], object] | None = None) -> Plan:
-        own = tuple(i for i in part[0] if not isinstance(i, LimitsEvent))
+        own = tuple(part[0])  # split_at_limits leaves the limit events out
         moves = SpilledList(i for i in own if isinstance(i, Rapid | Linear | Arc | Spline))
         return _plan_part(own, moves, part[1], feed_override_pct, arc_pieces, progress)
 
