@@ -67,8 +67,8 @@ def split_at_limits(
     items: Iterable[Move | Event], machine: MachineConfig
 ) -> Iterator[tuple[list[Move | Event], MachineConfig]]:
     """The program cut at its Limits events: (items, without the events; machine in effect)
-    per part with moves;
-    the events of a part without moves go to the next part (the last one's to the one before).
+    per part with moves; the events of a part without moves go to the next part (the last
+    one's to the one before).
 
     The parts are made as they are asked for (a long print's items are read from disk part by
     part: memory holds a part, not the program), after a first pass over ``items`` that checks
