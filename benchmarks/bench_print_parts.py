@@ -6,11 +6,13 @@ parts' batches over the cores, and the planner's memory against the reference la
 
 Program (seeded, ``--dialect marlin``): layers 0.2 mm apart as a slicer writes them, each with
 the same six islands. On each island two perimeters of a wavy closed outline (R 3-8 mm, 0.3-1.2
-mm segments), the outer one under M204 P800 at F1500 and the inner one at P1000 and F2700
-(PrusaSlicer's pattern: an M204 before and after every external perimeter), then a zigzag infill
-at F4800, with G0 travels between (Marlin runs G0 as G1 at F9000 here). Every M204 cuts the plan
-into a part planned from rest to rest (controller/planner/limit_events.py): parts of 20-120
-moves, as in a PrusaSlicer Benchy (2,088 parts of 31 moves on average).
+mm segments), the outer one under M201 X800 Y800 at F1500 and the inner one under M201 X1000
+Y1000 at F2700, then a zigzag infill at F4800, with G0 travels between (Marlin runs G0 as G1 at
+F9000 here). Every M201 changes the machine and cuts the plan into a part planned from rest to
+rest (controller/planner/limit_events.py): parts of 20-120 moves. (PrusaSlicer writes M204
+P800 / P1000 around its external perimeters in this pattern; M204 is a path acceleration that
+cuts nothing, so M201 stands in for it here: the worst case of parts, 2,088 of 31 moves on
+average in a PrusaSlicer Benchy when M204 still cut them.)
 
 Each row plans the same program twice, each in a fresh subprocess: with
 ``GANTRY_PLAN_WORKERS=1`` (every part in one process, as before the parts were batched) and with
@@ -25,10 +27,12 @@ One run on 2026-11-29 (2 cores, other jobs running), ``--layers 3,30,100``:
 
 | layers | parts | moves | one process: wall / CPU [s] | batched: wall / CPU [s] | wall ratio | peak | laid out |
 |---|---|---|---|---|---|---|---|
-| 3 | 38 | 2,214 | 2.98 / 2.98 | 1.84 / 3.59 | 0.62 | 60 MB | 11 MB |
-| 30 | 362 | 22,190 | 34.34 / 31.29 | 16.89 / 32.33 | 0.49 | 130 MB | 113 MB |
-| 100 | 1,202 | 73,953 | 109.51 / 109.48 | 60.53 / 115.83 | 0.55 | 166 MB | 376 MB |
+| 3 | 38 | 2,214 | 4.16 / 4.15 | 1.95 / 3.70 | 0.47 | 60 MB | 11 MB |
+| 30 | 362 | 22,190 | 32.66 / 32.62 | 20.16 / 38.62 | 0.62 | 127 MB | 113 MB |
+| 100 | 1,202 | 73,953 | 101.71 / 100.69 | 64.21 / 123.11 | 0.63 | 140 MB | 376 MB |
 
+(The same prints with M204 P800 / P1000, as they were cut before M204 became a path
+acceleration, gave 0.62, 0.49 and 0.55 the same day.)
 The same plans bit for bit in every row.
 """
 
@@ -55,7 +59,7 @@ def print_program(layers: int, seed: int = 1) -> str:
     """The G-code of ``layers`` layers (see the module docstring)."""
     rng = random.Random(seed)
     islands = [(rng.uniform(-60, 60), rng.uniform(-40, 40), rng.uniform(3, 8)) for _ in range(6)]
-    out = ["G21", "G90", "M204 P1000", "G0 X0 Y0 Z0.2 F9000"]
+    out = ["G21", "G90", "M201 X1000 Y1000", "G0 X0 Y0 Z0.2 F9000"]
     for layer in range(layers):
         out.append(f"G0 Z{0.2 * (layer + 1):.2f} F9000")
         for cx, cy, radius in islands:
@@ -64,12 +68,12 @@ def print_program(layers: int, seed: int = 1) -> str:
                 pts = [(cx + x, cy + y) for x, y in _outline(radius - inset, lobes, wobble, rng)]
                 outer = ring == 0
                 out.append(f"G0 X{pts[0][0]:.3f} Y{pts[0][1]:.3f} F9000")
-                if outer:  # PrusaSlicer's pattern around an external perimeter
-                    out.append("M204 P800")
+                if outer:  # an axis acceleration change around each external perimeter
+                    out.append("M201 X800 Y800")
                 out.append(f"G1 X{pts[1][0]:.3f} Y{pts[1][1]:.3f} F{1500 if outer else 2700}")
                 out += [f"G1 X{x:.3f} Y{y:.3f}" for x, y in pts[2:] + pts[:1]]
                 if outer:
-                    out.append("M204 P1000")
+                    out.append("M201 X1000 Y1000")
             half = 0.6 * radius  # a zigzag infill inside
             out.append(f"G0 X{cx - half:.3f} Y{cy - half:.3f} F9000")
             for r in range(int(2 * half / 0.45)):

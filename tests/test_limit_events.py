@@ -12,7 +12,6 @@ import pytest
 from gantry_sim.controller.errors import GcodeError
 from gantry_sim.controller.forked import one_process
 from gantry_sim.controller.gcode.interpreter import interpret_events
-from gantry_sim.controller.moves import Limits
 from gantry_sim.controller.planner import segmented_curve
 from gantry_sim.controller.planner.limit_events import JoinedPlans, split_at_limits
 from gantry_sim.controller.planner.plan import plan
@@ -20,22 +19,19 @@ from gantry_sim.controller.planner.segmented_curve import SegmentedCurve
 
 plan_module = importlib.import_module("gantry_sim.controller.planner.plan")
 
-#: a small print's pattern: perimeters at two accelerations (PrusaSlicer's M204 P800 / P1000
-#: around its external perimeters), a travel, an M201 and an M205 J between them
+#: a program cut into parts by limit changes that change the machine: M201 (axis
+#: accelerations) four times and an M205 J between, a travel among them
 PROGRAM = (
-    "G21 G90\nM204 P1000\nG1 X5 Y0 F3000\nG1 X10 Y1\nG1 X15 Y3\n"
-    "M204 P800\nG1 X20 Y6 F1800\nG1 X25 Y8\nG1 X30 Y9\n"
+    "G21 G90\nM201 X2000 Y2000\nG1 X5 Y0 F3000\nG1 X10 Y1\nG1 X15 Y3\n"
+    "M201 X1500 Y1500\nG1 X20 Y6 F1800\nG1 X25 Y8\nG1 X30 Y9\n"
     "M201 X500 Y400\nG0 X40 Y10\nG1 X45 Y11 F1200\nG1 X50 Y13\n"
-    "M205 J0.02\nG1 X55 Y16\nG1 X60 Y18\nM204 P1000\nG1 X65 Y19\nG1 X70 Y19.5\nM2\n"
+    "M205 J0.02\nG1 X55 Y16\nG1 X60 Y18\nM201 X1000 Y1000\nG1 X65 Y19\nG1 X70 Y19.5\nM2\n"
 )
 
 
 def _parts(machine):
     items = list(interpret_events(PROGRAM, dialect="marlin"))
-    return items, [
-        plan([i for i in chunk if not isinstance(i, Limits)], m)
-        for chunk, m in split_at_limits(items, machine)
-    ]
+    return items, [plan(part.items, part.machine) for part in split_at_limits(items, machine)]
 
 
 def _assert_parts_end_to_end(joined, parts) -> None:
@@ -137,16 +133,16 @@ def test_parts_planned_over_the_cores_are_those_of_one_process(machine, monkeypa
 
 
 def test_events_of_a_part_without_moves_go_to_the_next_part(machine):
-    text = "G1 X1 F600\nM204 P500\nG4 P10\nM204 P600\nG1 X2\nM204 P700\nG4 P5\n"
+    text = "G1 X1 F600\nM201 X500\nG4 P10\nM201 X600\nG1 X2\nM201 X700\nG4 P5\n"
     items = list(interpret_events(text, dialect="marlin"))
     parts = list(split_at_limits(items, machine))
-    assert [[i.line for i in chunk] for chunk, _ in parts] == [[1], [3, 5, 7]]
-    accs = [m.limits.max_acceleration_mm_per_s2 for _, m in parts]
+    assert [[i.line for i in part.items] for part in parts] == [[1], [3, 5, 7]]
+    accs = [part.machine.limits.max_acceleration_mm_per_s2 for part in parts]
     assert accs[0] == machine.limits.max_acceleration_mm_per_s2
-    assert accs[1] == (600.0, 600.0, 600.0)  # the second part's machine: after M204 P600
-    only_events = list(interpret_events("M204 P500\nG4 P1\n", dialect="marlin"))
-    [(chunk, m)] = split_at_limits(only_events, machine)
-    assert [i.line for i in chunk] == [2] and m is machine
+    assert accs[1][0] == 600.0  # the second part's machine: after M201 X600
+    only_events = list(interpret_events("M201 X500\nG4 P1\n", dialect="marlin"))
+    [part] = split_at_limits(only_events, machine)
+    assert [i.line for i in part.items] == [2] and part.machine is machine
 
 
 def test_a_bad_limit_late_in_a_print_is_refused_before_any_part_is_planned(machine, monkeypatch):
@@ -159,7 +155,7 @@ def test_a_bad_limit_late_in_a_print_is_refused_before_any_part_is_planned(machi
 
     monkeypatch.setattr(plan_module, "_plan_part", spy)
     monkeypatch.setattr(plan_module, "PART_BATCH_MOVES", 2)  # each part planned as it comes
-    text = PROGRAM.replace("M204 P1000\nG1 X65", "M204 S-100\nG1 X65")
+    text = PROGRAM.replace("M201 X1000 Y1000\nG1 X65", "M204 S-100\nG1 X65")
     items = list(interpret_events(text, dialect="marlin"))
     with pytest.raises(GcodeError, match="M204 on this line") as err:
         plan(items, machine)
@@ -175,7 +171,7 @@ def test_a_prints_parts_report_their_progress_batch_by_batch(machine, monkeypatc
     assert sum(steps) == len(items)
     # 5 parts of 3, 3, 3, 2, 2 moves in batches of two, two and one: their items, then
     # the 5 limit events at the end
-    parts = [len(chunk) for chunk, _ in split_at_limits(items, machine)]
+    parts = [len(part.items) for part in split_at_limits(items, machine)]
     assert steps[:3] == [parts[0] + parts[1], parts[2] + parts[3], parts[4]]
     assert steps[3:] == [len(items) - sum(parts)]
 
@@ -201,3 +197,52 @@ def test_the_stops_at_limit_changes_are_counted_in_the_plan_and_the_run(machine,
     assert main(["run", "--dialect", "marlin", "--no-plots", "--out", str(out), str(plain)]) == 0
     assert "limit changes" not in capsys.readouterr().out
     assert json.loads((out / "report.json").read_text())["limit_change_stops"] == 0
+
+
+def _path_acceleration(tr, line: int) -> tuple[np.ndarray, np.ndarray]:
+    """The path speed [mm/s] and the acceleration along the path [mm/s^2] of the samples of
+    ``line``."""
+    sel = tr.line == line
+    speed = np.linalg.norm(tr.vel[sel], axis=1)
+    along = np.einsum("ij,ij->i", tr.acc[sel], tr.vel[sel]) / np.maximum(speed, 1e-12)
+    return speed, along
+
+
+def test_m204_sets_the_path_acceleration_of_the_moves_after_it_without_a_stop(machine):
+    """Marlin's M204 P (or S) is the path acceleration of the blocks it plans next (its
+    block->acceleration, limited per axis by M201): no part, no stop, and each straight move's
+    acceleration along the path within the P in effect, reached where it binds."""
+    text = "G21 G90\nM204 P1000\nG1 X20 F6000\nM204 P300\nG1 X40 Y1\nM204 S1000\nG1 X60 Y0\nM2\n"
+    items = list(interpret_events(text, dialect="marlin"))
+    planned = plan(items, machine)
+    assert planned.limit_change_stops == 0
+    tr = planned.sample(machine.servo.period_s / 10)
+    for line, cap in ((3, 1000.0), (5, 300.0), (7, 1000.0)):
+        speed, along = _path_acceleration(tr, line)
+        assert np.abs(along).max() <= cap * (1 + 1e-9), line
+        assert np.abs(along).max() >= 0.98 * cap, line  # the cap binds: the moves ramp at it
+    speed, _ = _path_acceleration(tr, 5)
+    assert speed.min() > 10.0  # no stop at either of its M204 lines
+    # the same program in the machine's own limits: faster, its moves' acceleration above 1000
+    without = "\n".join(x for x in text.splitlines() if not x.startswith("M204")) + "\n"
+    free = plan(list(interpret_events(without, dialect="marlin")), machine)
+    assert free.duration_s < planned.duration_s
+
+
+def test_m204_bounds_a_curves_acceleration_and_p0_caps_nothing(machine):
+    def arc(pre: str):
+        text = f"G21 G90\nG1 X10 F3000\n{pre}G2 X20 Y0 I5 J0\nG1 X30\nM2\n"
+        planned = plan(list(interpret_events(text, dialect="marlin")), machine)
+        tr = planned.sample(machine.servo.period_s / 10)
+        sel = tr.line == text.splitlines().index("G2 X20 Y0 I5 J0") + 1
+        return planned, np.linalg.norm(tr.vel[sel], axis=1), np.abs(tr.acc[sel])
+
+    free, _, free_acc = arc("")
+    capped, speed, acc = arc("M204 P200\n")
+    assert free_acc.max() > 1000.0  # R 5 at F3000: the centripetal acceleration alone is 500
+    assert acc.max() <= 200.0 * (1 + 1e-9)  # every axis within P on the arc
+    assert speed.max() <= np.sqrt(200.0 * 5.0)  # v^2 / R within P
+    zero, _, zero_acc = arc("M204 P0\n")  # P0 caps nothing
+    assert zero.duration_s == free.duration_s
+    assert np.array_equal(zero_acc, free_acc)
+    assert capped.limit_change_stops == zero.limit_change_stops == 0

@@ -76,12 +76,12 @@ def test_the_suggested_work_offset_is_an_option_that_parses(tmp_path, capsys):  
 
 
 def test_the_suggested_offset_places_a_program_planned_in_parts(tmp_path, capsys):  # type: ignore[no-untyped-def]
-    """Marlin's M204 splits the plan into parts (controller/planner/limit_events.py); the hint
+    """Marlin's M201 splits the plan into parts (controller/planner/limit_events.py); the hint
     is the whole program's, so the printed offset places all of it (it was the first part's:
     a LulzBot print's start code reached Y258, its end Y280, and the offset given for 258 left
     the end outside)."""
     prog = tmp_path / "p.gcode"
-    prog.write_text("G21 G90\nG1 X0 Y258 F3000\nM204 P500\nG1 Y100\nG1 Y280\n")
+    prog.write_text("G21 G90\nG1 X0 Y258 F3000\nM201 X500 Y500\nG1 Y100\nG1 Y280\n")
     assert main(["plan", str(prog), "--dialect", "marlin"]) == 2
     hint = re.search(r"place it with (--work-offset=\S+)", capsys.readouterr().err)
     assert hint is not None and hint.group(1) == "--work-offset=0,-80,0"

@@ -108,6 +108,9 @@ class PathPlan:
     blend_junction: dict[int, int] = field(default_factory=dict)
     sources: Sequence[tuple[int, int]] = field(default_factory=list)
     merges: Sequence[Merge] = field(default_factory=list)
+    #: per program move (the indices of ``sources``), Marlin's M204 path acceleration [mm/s^2]
+    #: in effect (inf: none); None: none anywhere (set by the planner, not by path_plan)
+    path_acc_mm_per_s2: Sequence[float] | None = None
     #: blend_junction's keys in order, for the dict (by id) and size they were taken from
     _blend_keys: tuple[int, int, list[int]] | None = field(
         default=None, init=False, repr=False, compare=False

@@ -1,25 +1,34 @@
 """Marlin's M201/M203/M204/M205 in a plan: the limits change from their line on.
 
-A :class:`~gantry_sim.controller.moves.Limits` event splits the program there: the part before
-is planned with the limits in effect, the part after with the new ones, and the plans are
-joined end to end as they are planned (:class:`JoinedPlans`: each part ends and starts at rest,
-so the change is an exact stop; Marlin itself applies the change to the moves it plans next,
-without stopping). What is applied:
+M204 P (or S, its older form) sets the path acceleration of the moves after it [mm/s^2], as
+Marlin's planner makes it each block's acceleration (limited per axis by M201): it cuts
+nothing. Each move runs under the value in effect on its line (:class:`Part`, per motion):
+the planner caps a straight move's acceleration along the path at it and chooses a curve's
+limits with every axis' acceleration capped at it
+(:func:`~gantry_sim.controller.planner.move_geometry.capped_geometries`); the junctions'
+pieces keep the machine's own per-axis limits. R and T (retract and travel acceleration) are
+not modelled: travels run under P too. M204 P0 caps nothing.
+
+The events that change the machine itself split the program there: the part before is planned
+with the limits in effect, the part after with the new ones, and the plans are joined end to
+end as they are planned (:class:`JoinedPlans`: each part ends and starts at rest, so the change
+is an exact stop, which Marlin does not make; a plan counts them,
+:attr:`~gantry_sim.controller.planner.result.Plan.limit_change_stops`):
 
 * M201 X Y Z: the per-axis acceleration limits [mm/s^2];
 * M203 X Y Z: the per-axis velocity limits [mm/s];
-* M204 P (or S, its older form): the acceleration of feed moves [mm/s^2], applied as a cap on
-  every axis' acceleration (min with M201's); R and T (retract, travel) are not modelled;
 * M205 J: the junction deviation [mm], which is the G64 blend tolerance (:mod:`.blend`).
 
 M205's X/Y/Z/E "jerk" (a junction speed jump in mm/s, not a jerk), B, S and T are not
-modelled: the machine file's jerk limits stay.
+modelled: the machine file's jerk limits stay, and the program is not cut there.
 """
 
 from __future__ import annotations
 
+import math
 from collections.abc import Iterable, Iterator
 from dataclasses import replace
+from typing import NamedTuple
 
 import numpy as np
 
@@ -38,37 +47,49 @@ _AXES = "XYZ"
 
 
 class _LimitState:
-    """The Marlin limits in effect: M201's per-axis accelerations, M204's path acceleration."""
+    """The Marlin limits in effect: the machine with M201's per-axis accelerations, M203's
+    velocities and M205 J's tolerance, and apart from it M204's path acceleration [mm/s^2]
+    (None: none)."""
 
     def __init__(self, machine: MachineConfig) -> None:
         self.machine = machine
-        self.axis_acc = list(machine.limits.max_acceleration_mm_per_s2)
         self.path_acc: float | None = None
 
-    def apply(self, event: Limits) -> MachineConfig:
+    def apply(self, event: Limits) -> bool:
+        """Apply ``event``; True when it changed the machine (a new part), False when it set
+        the path acceleration or nothing that is modelled."""
         values = dict(event.values)
         m = self.machine
         if event.code == "M201":
-            self.axis_acc = [values.get(a, v) for a, v in zip(_AXES, self.axis_acc, strict=True)]
-        elif event.code == "M203":
+            acc = m.limits.max_acceleration_mm_per_s2
+            new = [values.get(a, v) for a, v in zip(_AXES, acc, strict=True)]
+            self.machine = m.with_changes("limits", max_acceleration_mm_per_s2=new)
+            return True
+        if event.code == "M203":
             vel = m.limits.max_velocity_mm_per_s
-            new = tuple(values.get(a, v) for a, v in zip(_AXES, vel, strict=True))
-            m = m.with_changes("limits", max_velocity_mm_per_s=list(new))
-        elif event.code == "M204" and ("P" in values or "S" in values):
-            self.path_acc = values.get("P", values.get("S"))
-        elif event.code == "M205" and "J" in values and values["J"] > 0:
-            m = m.with_changes("path", tolerance_mm=values["J"])
-        acc = [min(a, self.path_acc) if self.path_acc else a for a in self.axis_acc]
-        self.machine = m.with_changes("limits", max_acceleration_mm_per_s2=acc)
-        return self.machine
+            new = [values.get(a, v) for a, v in zip(_AXES, vel, strict=True)]
+            self.machine = m.with_changes("limits", max_velocity_mm_per_s=new)
+            return True
+        if event.code == "M205" and "J" in values and values["J"] > 0:
+            self.machine = m.with_changes("path", tolerance_mm=values["J"])
+            return True
+        if event.code == "M204" and ("P" in values or "S" in values):
+            path = float(values.get("P", values.get("S", 0.0)))
+            if not (math.isfinite(path) and path >= 0.0):
+                raise ConfigError(
+                    f"path acceleration to {path:g} mm/s^2; it must be a number >= 0 (0: none)"
+                )
+            self.path_acc = path if path > 0.0 else None  # M204 P0 caps nothing
+        return False
 
 
-def split_at_limits(
-    items: Iterable[Move | Event], machine: MachineConfig
-) -> Iterator[tuple[list[Move | Event], MachineConfig]]:
-    """The program cut at its Limits events: (items, without the events; machine in effect)
-    per part with moves; the events of a part without moves go to the next part (the last
-    one's to the one before).
+def split_at_limits(items: Iterable[Move | Event], machine: MachineConfig) -> Iterator[Part]:
+    """The program cut where its Limits events change the machine (M201, M203, M205 J): per
+    part with moves, its items (without the events), the machine in effect and, per motion
+    among the items, the path acceleration [mm/s^2] in effect (M204 P or S; inf: none), which
+    does not cut the program (Marlin applies it to the moves it plans next, as the planner
+    does: :func:`~gantry_sim.controller.planner.prepare.prepare`). The events of a part without
+    moves go to the next part (the last one's to the one before).
 
     The parts are made as they are asked for (a long print's items are read from disk part by
     part: memory holds a part, not the program), after a first pass over ``items`` that checks
@@ -78,45 +99,60 @@ def split_at_limits(
     for item in items:
         if isinstance(item, Limits):
             _apply(check, item)
-    pending: tuple[list[Move | Event], MachineConfig] | None = None
+    pending: Part | None = None
     carry: list[Move | Event] = []
-    for chunk, m in _cut(items, machine):
-        if any(isinstance(i, Rapid | Linear | Arc | Spline) for i in chunk):
+    for chunk, m, acc in _cut(items, machine):
+        if acc:  # a motion among them
             if pending is not None:
                 yield pending
-            pending = (carry + chunk, m)
+            pending = Part(carry + chunk, m, acc)
             carry = []
         else:
             carry += chunk
     if pending is None:
-        yield carry, machine
+        yield Part(carry, machine, [])
         return
-    pending[0].extend(carry)
+    pending.items.extend(carry)
     yield pending
+
+
+class Part(NamedTuple):
+    """A program's part between changes of the machine's limits: its moves and events, the
+    machine in effect, and per motion among them (G0/G1/G2/G3/G5.x, in order) the path
+    acceleration [mm/s^2] that M204 sets (inf: none)."""
+
+    items: list[Move | Event]
+    machine: MachineConfig
+    path_acc_mm_per_s2: list[float]
 
 
 def _cut(
     items: Iterable[Move | Event], machine: MachineConfig
-) -> Iterator[tuple[list[Move | Event], MachineConfig]]:
-    """The items between Limits events, each run with the machine in effect (the first with
-    ``machine``), without the events."""
+) -> Iterator[tuple[list[Move | Event], MachineConfig, list[float]]]:
+    """The items between the Limits events that change the machine, each run with the machine
+    in effect (the first with ``machine``) and its motions' path accelerations, without the
+    events."""
     state = _LimitState(machine)
     chunk: list[Move | Event] = []
+    acc: list[float] = []
     for item in items:
         if isinstance(item, Limits):
-            yield chunk, state.machine
-            chunk = []
-            _apply(state, item)
+            before = state.machine
+            if _apply(state, item):
+                yield chunk, before, acc
+                chunk, acc = [], []
         else:
             chunk.append(item)
-    yield chunk, state.machine
+            if isinstance(item, Rapid | Linear | Arc | Spline):
+                acc.append(state.path_acc or math.inf)
+    yield chunk, state.machine, acc
 
 
-def _apply(state: _LimitState, event: Limits) -> None:
-    """``state`` with ``event`` applied; a value the machine cannot take is the program's
-    error, on the event's line."""
+def _apply(state: _LimitState, event: Limits) -> bool:
+    """:meth:`_LimitState.apply`; a value the machine cannot take is the program's error, on
+    the event's line."""
     try:
-        state.apply(event)
+        return state.apply(event)
     except ConfigError as exc:  # the program's value, not the machine file's
         raise GcodeError(
             f"{event.code} on this line would set the machine's {exc.message}", line=event.line

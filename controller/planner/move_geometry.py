@@ -388,10 +388,52 @@ def _transition_geometry(
     )
 
 
-def limits_for_junctions(
-    geoms: list[MoveGeometry], caps: np.ndarray, limits: Limits
+def path_acc_limits(limits: Limits, path_acc_mm_per_s2: float) -> Limits:
+    """``limits`` with every axis' acceleration capped at Marlin's M204 path acceleration
+    [mm/s^2] (inf: ``limits`` themselves): what a curve's own limits are chosen with under it
+    (a straight move's path acceleration is capped directly: :func:`capped_geometries`)."""
+    if not path_acc_mm_per_s2 < math.inf:
+        return limits
+    ax, ay, az = (min(a, path_acc_mm_per_s2) for a in limits.max_acceleration_mm_per_s2)
+    return replace(limits, max_acceleration_mm_per_s2=(ax, ay, az))
+
+
+def capped_geometries(
+    geoms: list[MoveGeometry], path_acc_mm_per_s2: Sequence[float], limits: Limits
 ) -> list[MoveGeometry]:
-    """``geoms`` with each arc's limits chosen for its junction caps ``caps`` [mm/s] (see
+    """``geoms`` with their limits under Marlin's M204 path acceleration [mm/s^2] per move (inf:
+    none): a straight move's acceleration along the path capped at it (as Marlin's block
+    acceleration), a curve's limits chosen again with every axis' acceleration capped at it
+    (its speed from curvature then keeps the centripetal acceleration within it, as Marlin's
+    segments and junction deviation do)."""
+    out = list(geoms)
+    curves: dict[tuple[float, bool], list[int]] = {}
+    for i, (g, acc) in enumerate(zip(geoms, path_acc_mm_per_s2, strict=True)):
+        if not acc < math.inf:
+            continue
+        if isinstance(g, ArcGeometry):
+            curves.setdefault((acc, isinstance(g.move, Transition)), []).append(i)
+        elif acc < g.limits.acc_mm_per_s2:
+            out[i] = replace(g, limits=replace(g.limits, acc_mm_per_s2=acc))
+    for (acc, even), at in curves.items():
+        arcs = [g for g in (geoms[i] for i in at) if isinstance(g, ArcGeometry)]
+        lim = path_acc_limits(limits, acc)
+        blocks = arc_limits_many(
+            [g.follow for g in arcs], [g.length_mm for g in arcs], lim, even=even
+        )
+        for i, g, block in zip(at, arcs, blocks, strict=True):
+            out[i] = replace(g, limits=block)
+    return out
+
+
+def limits_for_junctions(
+    geoms: list[MoveGeometry],
+    caps: np.ndarray,
+    limits: Limits,
+    path_acc_mm_per_s2: Sequence[float] | None = None,
+) -> list[MoveGeometry]:
+    """``geoms`` with each arc's limits chosen for its junction caps ``caps`` [mm/s] (and under
+    its M204 path acceleration ``path_acc_mm_per_s2`` [mm/s^2] per move: :func:`path_acc_limits`) (see
     :func:`gantry_sim.controller.planner.limits.arc_limits`: inside a tangent chain an arc need
     not ramp from rest, so it may cruise closer to its curvature cap). A transition keeps the
     limits :func:`move_geometries` chose (its junctions never bind: limits_batch._curved), and
@@ -417,8 +459,18 @@ def limits_for_junctions(
         return min(cap, 1e300)
 
     ends = [(end(b), end(b + 1)) for b in moving]
-    blocks = arc_limits_many([g.follow for g in arcs], [g.length_mm for g in arcs], limits, ends)
+    groups: dict[float, list[int]] = {}  # by M204 path acceleration: the arcs' places in moving
+    for k, b in enumerate(moving):
+        acc = math.inf if path_acc_mm_per_s2 is None else path_acc_mm_per_s2[b]
+        groups.setdefault(acc, []).append(k)
     out = list(geoms)
-    for b, g, block in zip(moving, arcs, blocks, strict=True):
-        out[b] = replace(g, limits=block)
+    for acc, ks in groups.items():
+        blocks = arc_limits_many(
+            [arcs[k].follow for k in ks],
+            [arcs[k].length_mm for k in ks],
+            path_acc_limits(limits, acc),
+            [ends[k] for k in ks],
+        )
+        for k, block in zip(ks, blocks, strict=True):
+            out[moving[k]] = replace(arcs[k], limits=block)
     return out

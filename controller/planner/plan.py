@@ -32,6 +32,7 @@ raises :class:`PlanningError` naming the line: never a reference beyond the limi
 from __future__ import annotations
 
 import itertools
+import math
 from collections.abc import Callable, Iterable, Iterator, Sequence
 
 import numpy as np
@@ -45,7 +46,7 @@ from gantry_sim.controller.heap import trim_heap
 from gantry_sim.controller.moves import Arc, Event, Linear, Move, Rapid, Spline
 from gantry_sim.controller.moves import Limits as LimitsEvent
 from gantry_sim.controller.planner.blend import CornerMemo, PathPlan
-from gantry_sim.controller.planner.limit_events import JoinedPlans, split_at_limits
+from gantry_sim.controller.planner.limit_events import JoinedPlans, Part, split_at_limits
 from gantry_sim.controller.planner.path_stream import path_plan
 from gantry_sim.controller.planner.prepare import prepare, slow_blends
 from gantry_sim.controller.planner.result import Plan
@@ -59,8 +60,8 @@ from gantry_sim.controller.spill import SpilledList
 
 __all__ = ["LONE_PART_MOVES", "PART_BATCH_MOVES", "Plan", "plan"]
 
-#: A program cut into parts by limit changes (Marlin's M204 around each layer's external
-#: perimeters: 2,088 parts of 31 moves on average in a PrusaSlicer Benchy) has its parts planned
+#: A program cut into parts by limit changes (Marlin's M201, M203 and M205 J: when M204 cut parts
+#: too, a PrusaSlicer Benchy was 2,088 parts of 31 moves on average) has its parts planned
 #: over the cores, each whole in one process (:func:`~gantry_sim.controller.forked_runs.fork_runs`),
 #: in batches of about this many moves (their plans, about 2 KB a move, come back pickled and
 #: are joined before the next batch: memory holds a batch, not the program) ...
@@ -154,18 +155,22 @@ def _plan(
         return _plan_part(items, program, machine, feed_override_pct, arc_pieces, progress)
     joined = JoinedPlans(machine.segmentation)
 
-    def plan_one(part: _Part, progress: Callable[[float], object] | None = None) -> Plan:
-        own = tuple(part[0])  # split_at_limits leaves the limit events out
+    def plan_one(part: Part, progress: Callable[[float], object] | None = None) -> Plan:
+        own = tuple(part.items)  # split_at_limits leaves the limit events out
         moves = SpilledList(i for i in own if isinstance(i, Rapid | Linear | Arc | Spline))
-        return _plan_part(own, moves, part[1], feed_override_pct, arc_pieces, progress)
+        acc = part.path_acc_mm_per_s2
+        path_acc = acc if any(a < math.inf for a in acc) else None
+        return _plan_part(
+            own, moves, part.machine, feed_override_pct, arc_pieces, progress, path_acc
+        )
 
-    def plan_alone(part: _Part) -> Plan:
+    def plan_alone(part: Part) -> Plan:
         with one_process():  # one of the runs sharing the cores (no progress from a child)
             return plan_one(part)
 
     first = 0  # the parts' items planned (without the limit events)
     for lone, parts in _batches(split_at_limits(items, machine)):
-        size = sum(len(chunk) for chunk, _ in parts)
+        size = sum(len(part.items) for part in parts)
         if lone:  # its own windows and rounds use the cores
             joined.add(plan_one(parts[0], done.within(first, size)))
         else:
@@ -176,18 +181,14 @@ def _plan(
     return joined.finish()
 
 
-#: a program's part between limit changes: its moves and events, and the machine in effect
-_Part = tuple[list[Move | Event], MachineConfig]
-
-
-def _batches(parts: Iterable[_Part]) -> Iterator[tuple[bool, list[_Part]]]:
+def _batches(parts: Iterable[Part]) -> Iterator[tuple[bool, list[Part]]]:
     """The parts in order: (True, [part]) for a part of :data:`LONE_PART_MOVES` moves or more;
     (False, batch) for consecutive smaller parts, :data:`PART_BATCH_MOVES` moves or so
     together (at most :data:`~gantry_sim.controller.forked_runs.MAX_RUNS` parts)."""
-    batch: list[_Part] = []
+    batch: list[Part] = []
     size = 0
     for part in parts:
-        count = sum(isinstance(i, Rapid | Linear | Arc | Spline) for i in part[0])
+        count = len(part.path_acc_mm_per_s2)  # one per motion
         if count >= LONE_PART_MOVES:
             if batch:
                 yield False, batch
@@ -210,17 +211,27 @@ def _plan_part(
     feed_override_pct: float,
     arc_pieces: str,
     progress: Callable[[float], object] | None = None,
+    path_acc: Sequence[float] | None = None,
 ) -> Plan:
     """The plan of ``items`` (no limit changes among them; ``program``: their moves, whose
     travel is checked) on ``machine``; ``progress``: the share of its path planned, as its
-    windows are (:func:`~gantry_sim.controller.planner.windows.plan_path`)."""
+    windows are (:func:`~gantry_sim.controller.planner.windows.plan_path`); ``path_acc``: per
+    motion of ``program``, Marlin's M204 path acceleration [mm/s^2] (inf: none; None: none
+    anywhere)."""
     seg = machine.segmentation
     jerk = float(min(machine.limits.max_jerk_mm_per_s3))
     sizing = TransitionMachine(machine.limits, seg, feed_override_pct / 100.0)
     sized: dict = {}  # transitions by site, for a path made again without some blends
     corners = CornerMemo()  # the arc corners' blends, likewise
     tol = seg.chord_tolerance_mm
-    path = path_plan(items, machine.path, tol, frozenset(), jerk, sizing, sized, corners)
+
+    def made(slow: frozenset[int], sized: dict = sized, corners: CornerMemo = corners) -> PathPlan:
+        """The path, with ``slow``'s blends left out (exact stops there)."""
+        out = path_plan(items, machine.path, tol, slow, jerk, sizing, sized, corners)
+        out.path_acc_mm_per_s2 = path_acc
+        return out
+
+    path = made(frozenset())
     prepared = None
     remake: Callable[[frozenset[int]], PathPlan] | None = None
     if len(path.moves) <= WINDOW_MOVES:  # planned whole: the geometry is made once
@@ -228,16 +239,11 @@ def _plan_part(
         prepared = prepare(path, machine, feed_override_pct, known)
         slow = slow_blends(path, prepared, jerk)
         if slow:  # those corners are faster as exact stops: plan them so
-            path = path_plan(items, machine.path, tol, slow, jerk, sizing, sized, corners)
+            path = made(slow)
             prepared = prepare(path, machine, feed_override_pct, known)
         del known
     elif path.blend_junction:  # judged window by window as they are planned (window_judge)
-
-        def remake(
-            slow: frozenset[int], sized: dict = sized, corners: CornerMemo = corners
-        ) -> PathPlan:
-            return path_plan(items, machine.path, tol, slow, jerk, sizing, sized, corners)
-
+        remake = made
     del sized, corners
     solver = RuckigSolver(machine.limits)
     # the path is held by ``src`` alone while planned: made again, the old one is freed

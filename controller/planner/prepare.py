@@ -10,6 +10,8 @@ before and after its moves of interest gives them what the whole path gives them
 
 from __future__ import annotations
 
+import math
+from collections.abc import Sequence
 from dataclasses import replace
 from typing import NamedTuple
 
@@ -27,6 +29,7 @@ from gantry_sim.controller.planner.junctions import (
 )
 from gantry_sim.controller.planner.move_geometry import (
     MoveGeometry,
+    capped_geometries,
     limits_for_junctions,
     move_geometries,
 )
@@ -64,6 +67,7 @@ def sub_path(path: PathPlan, lo: int, hi: int, first_junction: int) -> PathPlan:
     out.smoothing_mm = path.smoothing_mm[lo:hi]
     out.sources = path.sources[lo:hi]
     out.blend_junction = path.blends_between(lo, hi)
+    out.path_acc_mm_per_s2 = path.path_acc_mm_per_s2  # by program move: the same indices
     return out
 
 
@@ -90,13 +94,27 @@ def prepare(
         holds.setdefault(int(at[j]), []).extend(dwells)
     smoothing = [e for e, k in zip(path.smoothing_mm, keep, strict=True) if k]
     sources = [s for s, k in zip(path.sources, keep, strict=True) if k]
+    path_acc = _path_acc(path.path_acc_mm_per_s2, sources)
+    if path_acc is not None:  # Marlin's M204: each move's own limits under it
+        active = capped_geometries(active, path_acc, lim)
     caps, states = junction_caps(active, lim, seg.chord_tolerance_mm, smoothing)
     for b in stops | set(holds):
         caps[b] = 0.0
-    active = limits_for_junctions(active, caps, lim)
+    active = limits_for_junctions(active, caps, lim, path_acc)
     caps = feasible_junction_caps(active, caps, states, lim)
     where = [i for i, k in enumerate(keep) if k]
     return Prepared(geoms, active, where, caps, states, holds, smoothing, sources)
+
+
+def _path_acc(
+    by_program_move: Sequence[float] | None, sources: list[tuple[int, int]]
+) -> list[float] | None:
+    """Per active move, the M204 path acceleration [mm/s^2] it runs under: the smallest over
+    the program moves it comes from (a blend arc: the two of its junction); None when no
+    program move has one."""
+    if by_program_move is None:
+        return None
+    return [min(by_program_move[a : b + 1], default=math.inf) for a, b in sources]
 
 
 def slow_blends(path: PathPlan, prepared: Prepared, jerk_mm_per_s3: float) -> frozenset[int]:

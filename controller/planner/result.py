@@ -46,7 +46,7 @@ class Plan:
         path_sources: read-only (p, 2) the same per move of ``path_moves``.
         merges: every G64 Q merge (line, largest distance of the merged-away programmed points
             from the merged line, Q).
-        limit_change_stops: Marlin limit changes (M201/M203/M204/M205) planned as exact stops
+        limit_change_stops: Marlin limit changes (M201, M203, M205 J) planned as exact stops
             between the program's parts (:mod:`~gantry_sim.controller.planner.limit_events`;
             Marlin itself does not stop there).
     """

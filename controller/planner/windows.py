@@ -64,7 +64,7 @@ from gantry_sim.controller.planner.chain_plan import (
     SeedKey,
 )
 from gantry_sim.controller.planner.limits import BlockLimits
-from gantry_sim.controller.planner.move_geometry import MoveGeometry
+from gantry_sim.controller.planner.move_geometry import ArcGeometry, MoveGeometry
 from gantry_sim.controller.planner.prepare import Prepared, prepare, sub_path
 from gantry_sim.controller.planner.rounds import (
     Round,
@@ -316,8 +316,17 @@ def _window_of(
 
 def _blend_arcs(stretch: PathPlan, pre: Prepared) -> frozenset[int]:
     """The G64 blend arcs of a window, by id of its own moves (a path on disk reads back
-    copies)."""
-    return frozenset(id(pre.geoms[k].move) for k in stretch.blend_junction)
+    copies), and its curves under Marlin's M204 path acceleration: neither tries the faster
+    profiles (boosted, saturated), which take the axes' own limits, not the path's."""
+    arcs = {id(pre.geoms[k].move) for k in stretch.blend_junction}
+    acc = stretch.path_acc_mm_per_s2
+    if acc is not None:
+        arcs |= {
+            id(g.move)
+            for g, (a, b) in zip(pre.active, pre.sources, strict=True)
+            if isinstance(g, ArcGeometry) and min(acc[a : b + 1], default=math.inf) < math.inf
+        }
+    return frozenset(arcs)
 
 
 class _Ahead:
