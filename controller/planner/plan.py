@@ -168,8 +168,13 @@ def _plan(
         with one_process():  # one of the runs sharing the cores (no progress from a child)
             return plan_one(part)
 
+    cut = split_at_limits(items, machine)
+    head = next(cut)
+    after = next(cut, None)
+    if after is None:  # one part (M204 alone cuts nothing): nothing to join
+        return plan_one(head, done.within(0, len(items)))
     first = 0  # the parts' items planned (without the limit events)
-    for lone, parts in _batches(split_at_limits(items, machine)):
+    for lone, parts in _batches(itertools.chain((head, after), cut)):
         size = sum(len(part.items) for part in parts)
         if lone:  # its own windows and rounds use the cores
             joined.add(plan_one(parts[0], done.within(first, size)))
