@@ -83,6 +83,35 @@ class _LimitState:
         return False
 
 
+class LimitEvents(NamedTuple):
+    """What a program's Limits events do (:func:`read_limits`): whether one changes the machine
+    (so the program is planned in parts, :func:`split_at_limits`), and per motion of the
+    program the M204 path acceleration [mm/s^2] in effect (:func:`capping`)."""
+
+    cuts: bool
+    path_acc_mm_per_s2: list[float] | None
+
+
+def read_limits(items: Iterable[Move | Event], machine: MachineConfig) -> LimitEvents:
+    """One pass over ``items`` that checks every Limits event (a value the machine cannot take
+    is refused here, before anything is planned) and tells what they do."""
+    state = _LimitState(machine)
+    cuts = False
+    acc: list[float] = []
+    for item in items:
+        if isinstance(item, Limits):
+            cuts |= _apply(state, item)
+        elif isinstance(item, Rapid | Linear | Arc | Spline):
+            acc.append(state.path_acc or math.inf)
+    return LimitEvents(cuts, capping(acc))
+
+
+def capping(path_acc_mm_per_s2: list[float]) -> list[float] | None:
+    """Per motion the M204 path acceleration [mm/s^2] (inf: none), or None when none caps any
+    (the planner then leaves every move's limits as they are)."""
+    return path_acc_mm_per_s2 if any(a < math.inf for a in path_acc_mm_per_s2) else None
+
+
 def split_at_limits(items: Iterable[Move | Event], machine: MachineConfig) -> Iterator[Part]:
     """The program cut where its Limits events change the machine (M201, M203, M205 J): per
     part with moves, its items (without the events), the machine in effect and, per motion
@@ -92,13 +121,9 @@ def split_at_limits(items: Iterable[Move | Event], machine: MachineConfig) -> It
     moves go to the next part (the last one's to the one before).
 
     The parts are made as they are asked for (a long print's items are read from disk part by
-    part: memory holds a part, not the program), after a first pass over ``items`` that checks
-    every Limits event: a value the machine cannot take is refused before anything is planned.
+    part: memory holds a part, not the program); an event the machine cannot take raises when
+    it is reached (the planner checks them all first: :func:`read_limits`).
     """
-    check = _LimitState(machine)
-    for item in items:
-        if isinstance(item, Limits):
-            _apply(check, item)
     pending: Part | None = None
     carry: list[Move | Event] = []
     for chunk, m, acc in _cut(items, machine):

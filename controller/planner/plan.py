@@ -32,7 +32,6 @@ raises :class:`PlanningError` naming the line: never a reference beyond the limi
 from __future__ import annotations
 
 import itertools
-import math
 from collections.abc import Callable, Iterable, Iterator, Sequence
 
 import numpy as np
@@ -44,9 +43,14 @@ from gantry_sim.controller.forked_runs import MAX_RUNS, fork_runs
 from gantry_sim.controller.gc_pause import gc_paused
 from gantry_sim.controller.heap import trim_heap
 from gantry_sim.controller.moves import Arc, Event, Linear, Move, Rapid, Spline
-from gantry_sim.controller.moves import Limits as LimitsEvent
 from gantry_sim.controller.planner.blend import CornerMemo, PathPlan
-from gantry_sim.controller.planner.limit_events import JoinedPlans, Part, split_at_limits
+from gantry_sim.controller.planner.limit_events import (
+    JoinedPlans,
+    Part,
+    capping,
+    read_limits,
+    split_at_limits,
+)
 from gantry_sim.controller.planner.path_stream import path_plan
 from gantry_sim.controller.planner.prepare import prepare, slow_blends
 from gantry_sim.controller.planner.result import Plan
@@ -144,37 +148,40 @@ def _plan(
     done: _Done,
 ) -> Plan:
     """:func:`plan` with its arguments checked: the travel of the whole program (its hint
-    places all of it), then the program, or its parts where Marlin's M201-M205 change the
-    limits (each part from rest to rest, the travel the same: small parts in batches over the
-    cores, :func:`_batches`, joined as they come by
+    places all of it), then the program, with each move under the M204 path acceleration of
+    its line, or its parts where Marlin's M201, M203 or M205 J change the machine (each part
+    from rest to rest, the travel the same: small parts in batches over the cores,
+    :func:`_batches`, joined as they come by
     :class:`~gantry_sim.controller.planner.limit_events.JoinedPlans`)."""
     program = SpilledList(m for m in items if isinstance(m, Rapid | Linear | Arc | Spline))
     check_travel(program, machine.travel)
-    if not any(isinstance(i, LimitsEvent) for i in items):
+    limits = read_limits(items, machine)
+    if not limits.cuts:  # one part (the path ignores the events; M204 alone cuts nothing)
         progress = done.within(0, len(items))
-        return _plan_part(items, program, machine, feed_override_pct, arc_pieces, progress)
+        return _plan_part(
+            items,
+            program,
+            machine,
+            feed_override_pct,
+            arc_pieces,
+            progress,
+            limits.path_acc_mm_per_s2,
+        )
     joined = JoinedPlans(machine.segmentation)
 
     def plan_one(part: Part, progress: Callable[[float], object] | None = None) -> Plan:
-        own = tuple(part.items)  # split_at_limits leaves the limit events out
-        moves = SpilledList(i for i in own if isinstance(i, Rapid | Linear | Arc | Spline))
-        acc = part.path_acc_mm_per_s2
-        path_acc = acc if any(a < math.inf for a in acc) else None
+        moves = SpilledList(i for i in part.items if isinstance(i, Rapid | Linear | Arc | Spline))
+        path_acc = capping(part.path_acc_mm_per_s2)
         return _plan_part(
-            own, moves, part.machine, feed_override_pct, arc_pieces, progress, path_acc
+            part.items, moves, part.machine, feed_override_pct, arc_pieces, progress, path_acc
         )
 
     def plan_alone(part: Part) -> Plan:
         with one_process():  # one of the runs sharing the cores (no progress from a child)
             return plan_one(part)
 
-    cut = split_at_limits(items, machine)
-    head = next(cut)
-    after = next(cut, None)
-    if after is None:  # one part (M204 alone cuts nothing): nothing to join
-        return plan_one(head, done.within(0, len(items)))
     first = 0  # the parts' items planned (without the limit events)
-    for lone, parts in _batches(itertools.chain((head, after), cut)):
+    for lone, parts in _batches(split_at_limits(items, machine)):
         size = sum(len(part.items) for part in parts)
         if lone:  # its own windows and rounds use the cores
             joined.add(plan_one(parts[0], done.within(first, size)))

@@ -35,7 +35,7 @@ from gantry_sim.controller.planner.move_geometry import (
 )
 from gantry_sim.controller.planner.transition import CHORD_FIT_REACHED
 
-__all__ = ["Prepared", "prepare", "slow_blends", "sub_path"]
+__all__ = ["Prepared", "active_path_acc", "prepare", "slow_blends", "sub_path"]
 
 
 class Prepared(NamedTuple):
@@ -94,7 +94,7 @@ def prepare(
         holds.setdefault(int(at[j]), []).extend(dwells)
     smoothing = [e for e, k in zip(path.smoothing_mm, keep, strict=True) if k]
     sources = [s for s, k in zip(path.sources, keep, strict=True) if k]
-    path_acc = _path_acc(path.path_acc_mm_per_s2, sources)
+    path_acc = active_path_acc(path.path_acc_mm_per_s2, sources)
     if path_acc is not None:  # Marlin's M204: each move's own limits under it
         active = capped_geometries(active, path_acc, lim)
     caps, states = junction_caps(active, lim, seg.chord_tolerance_mm, smoothing)
@@ -106,7 +106,7 @@ def prepare(
     return Prepared(geoms, active, where, caps, states, holds, smoothing, sources)
 
 
-def _path_acc(
+def active_path_acc(
     by_program_move: Sequence[float] | None, sources: list[tuple[int, int]]
 ) -> list[float] | None:
     """Per active move, the M204 path acceleration [mm/s^2] it runs under: the smallest over

@@ -65,7 +65,7 @@ from gantry_sim.controller.planner.chain_plan import (
 )
 from gantry_sim.controller.planner.limits import BlockLimits
 from gantry_sim.controller.planner.move_geometry import ArcGeometry, MoveGeometry
-from gantry_sim.controller.planner.prepare import Prepared, prepare, sub_path
+from gantry_sim.controller.planner.prepare import Prepared, active_path_acc, prepare, sub_path
 from gantry_sim.controller.planner.rounds import (
     Round,
     Settled,
@@ -319,12 +319,12 @@ def _blend_arcs(stretch: PathPlan, pre: Prepared) -> frozenset[int]:
     copies), and its curves under Marlin's M204 path acceleration: neither tries the faster
     profiles (boosted, saturated), which take the axes' own limits, not the path's."""
     arcs = {id(pre.geoms[k].move) for k in stretch.blend_junction}
-    acc = stretch.path_acc_mm_per_s2
+    acc = active_path_acc(stretch.path_acc_mm_per_s2, pre.sources)
     if acc is not None:
         arcs |= {
             id(g.move)
-            for g, (a, b) in zip(pre.active, pre.sources, strict=True)
-            if isinstance(g, ArcGeometry) and min(acc[a : b + 1], default=math.inf) < math.inf
+            for g, a in zip(pre.active, acc, strict=True)
+            if isinstance(g, ArcGeometry) and a < math.inf
         }
     return frozenset(arcs)
 
