@@ -6,8 +6,11 @@ import math
 
 import numpy as np
 import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
 from gantry_sim.controller.config import Limits
+from gantry_sim.controller.planner.chains import chain_limits, chain_spans
 from gantry_sim.controller.planner.junctions import junction_cap
 from gantry_sim.controller.planner.limits import (
     BlockLimits,
@@ -15,7 +18,11 @@ from gantry_sim.controller.planner.limits import (
     arc_limits,
     s_curve_time,
 )
-from gantry_sim.controller.planner.lookahead import max_reachable_speed, plan_junction_speeds
+from gantry_sim.controller.planner.lookahead import (
+    junction_speeds_again,
+    max_reachable_speed,
+    plan_junction_speeds,
+)
 from gantry_sim.controller.planner.profile import Profile1D
 from gantry_sim.controller.planner.speedup import FOLLOW_MARGIN, follow_ok
 
@@ -111,3 +118,81 @@ def test_arc_inside_a_tangent_chain_cruises_closer_to_its_curvature_cap():
     chained = arc_limits(follow, length, limits, (math.inf, math.inf))
     assert alone.cap_mm_per_s < 0.9 * v_curv
     assert chained.cap_mm_per_s >= 0.98 * v_curv
+
+
+def _passes_oracle(blocks: list[BlockLimits], caps: np.ndarray) -> list[float]:
+    """The look-ahead's two passes written plainly: every value computed, nothing reused."""
+    v = [float(c) for c in caps]
+    for b, blk in enumerate(blocks):
+        v[b] = min(v[b], blk.cap_mm_per_s)
+        v[b + 1] = min(v[b + 1], blk.cap_mm_per_s)
+    shrink = 1.0 - 1e-9
+    for b in range(len(blocks) - 1, -1, -1):
+        blk = blocks[b]
+        reach = max_reachable_speed(
+            v[b + 1], blk.length_mm * shrink, blk.acc_mm_per_s2, blk.jerk_mm_per_s3
+        )
+        v[b] = min(v[b], reach)
+    for b, blk in enumerate(blocks):
+        reach = max_reachable_speed(
+            v[b], blk.length_mm * shrink, blk.acc_mm_per_s2, blk.jerk_mm_per_s3
+        )
+        v[b + 1] = min(v[b + 1], reach)
+    return v
+
+
+_move = st.builds(
+    BlockLimits,
+    st.sampled_from([0.01, 0.05, 0.3, 2.0, 10.0]),
+    st.sampled_from([20.0, 50.0, 100.0]),
+    st.sampled_from([1000.0, 3000.0]),
+    st.sampled_from([5e4, 1e5]),
+)
+# one round's change: (junction index (taken modulo the junctions), what happens to it)
+_change = st.tuples(
+    st.integers(0, 10_000), st.sampled_from(["back off", "stop", "raise", "soften"])
+)
+
+
+@given(
+    moves=st.lists(_move, min_size=0, max_size=30),
+    caps=st.lists(st.sampled_from([0.0, 5.0, 30.0, 80.0, math.inf]), min_size=31, max_size=31),
+    rounds=st.lists(st.lists(_change, max_size=4), min_size=1, max_size=6),
+)
+@settings(max_examples=300, deadline=None)
+def test_passes_again_are_the_passes_of_every_round(moves, caps, rounds):
+    """The planner's rounds lower junction caps (chains split where a cap falls below theirs),
+    replay a window's first speed (raised or lowered) and soften moves; the look-ahead
+    computed again from the round before's gives every round the passes' numbers, bit for
+    bit."""
+    n = len(moves)
+    junction_caps = np.array(caps[: n + 1])
+    junction_caps[0] = junction_caps[-1] = 0.0
+    memo: dict = {}
+    chain_memo: dict[tuple[int, int], BlockLimits] = {}
+    before = None
+    for changes in [[], *rounds]:
+        for at, what in changes:
+            b = at % (n + 1)
+            if what == "back off":
+                junction_caps[b] = 0.9 * min(junction_caps[b], 100.0)
+            elif what == "stop":
+                junction_caps[b] = 0.0
+            elif what == "raise":
+                junction_caps[0] = junction_caps[0] + 7.0
+            elif n:  # soften: the move is a new object, as the rounds make it
+                m = min(b, n - 1)
+                lim = moves[m]
+                moves[m] = BlockLimits(
+                    lim.length_mm,
+                    lim.cap_mm_per_s,
+                    0.7 * lim.acc_mm_per_s2,
+                    0.7 * lim.jerk_mm_per_s3,
+                )
+                chain_memo = {s: c for s, c in chain_memo.items() if not s[0] <= m < s[1]}
+        spans = chain_spans(moves, junction_caps)
+        chained = [chain_memo.setdefault(s, chain_limits(moves[s[0] : s[1]])) for s in spans]
+        ends = np.array([first for first, _ in spans] + [n])
+        got = junction_speeds_again(chained, junction_caps[ends], ends, memo, before)
+        assert got.speeds == _passes_oracle(chained, junction_caps[ends])
+        before = got

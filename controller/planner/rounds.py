@@ -38,7 +38,7 @@ from gantry_sim.controller.planner.chain_plan import (
 from gantry_sim.controller.planner.chains import chain_limits, chain_spans
 from gantry_sim.controller.planner.junctions import JunctionState
 from gantry_sim.controller.planner.limits import BlockLimits
-from gantry_sim.controller.planner.lookahead import plan_junction_speeds
+from gantry_sim.controller.planner.lookahead import Passes, junction_speeds_again
 from gantry_sim.controller.planner.move_geometry import MoveGeometry
 from gantry_sim.controller.planner.ruckig_solver import RuckigSolver
 
@@ -162,11 +162,12 @@ def settle(
     chain_memo: dict[tuple[int, int], BlockLimits] = {}  # chain_limits by span, across rounds
     softened: dict[int, int] = {}
     history: list[np.ndarray] = []
+    passes: Passes | None = None  # the round before's look-ahead
     first_spans: list[tuple[int, int]] = []
     for rnd in itertools.count():
         if starts:
             caps[0] = starts[min(rnd, len(starts) - 1)]
-        spans, chained, speeds = _round_speeds(blocks, caps, chain_memo, reach_memo)
+        spans, chained, speeds, passes = _round_speeds(blocks, caps, chain_memo, reach_memo, passes)
         history.append(speeds.copy())
         first_spans = first_spans or spans
         before = ahead(spans, speeds) if ahead is not None and rnd == 0 else None
@@ -231,9 +232,12 @@ def _round_speeds(
     caps: np.ndarray,
     chain_memo: dict[tuple[int, int], BlockLimits],
     reach_memo: dict,
-) -> tuple[list[tuple[int, int]], list[BlockLimits], np.ndarray]:
+    before: Passes | None = None,
+) -> tuple[list[tuple[int, int]], list[BlockLimits], np.ndarray, Passes]:
     """A round's chains: their spans, their limits (memoised by span in ``chain_memo``) and the
-    look-ahead's speeds [mm/s] at their ends (NaN inside them) under the junction ``caps``."""
+    look-ahead's speeds [mm/s] at their ends (NaN inside them) under the junction ``caps``,
+    and that look-ahead (computed again only where it can differ from ``before``, the round
+    before's: :func:`~gantry_sim.controller.planner.lookahead.junction_speeds_again`)."""
     spans = chain_spans(blocks, caps)
     chained = []
     for span in spans:
@@ -241,10 +245,11 @@ def _round_speeds(
         if lim is None:
             lim = chain_memo[span] = chain_limits(blocks[span[0] : span[1]])
         chained.append(lim)
-    ends = [first for first, _ in spans] + [len(blocks)]
+    ends = np.array([first for first, _ in spans] + [len(blocks)])
+    passes = junction_speeds_again(chained, caps[ends], ends, reach_memo, before)
     speeds = np.full(len(blocks) + 1, np.nan)
-    speeds[ends] = plan_junction_speeds(chained, caps[ends], reach_memo)
-    return spans, chained, speeds
+    speeds[ends] = passes.speeds
+    return spans, chained, speeds, passes
 
 
 def first_round(
@@ -253,7 +258,7 @@ def first_round(
     """What the first round of :func:`settle` of ``setup`` and ``caps`` [mm/s] plans: its
     chains (key, limits) and the speeds [mm/s] at their ends, to plan them ahead (the chains
     planned are a seed of that call)."""
-    spans, chained, speeds = _round_speeds([g.limits for g in setup.active], caps, {}, {})
+    spans, chained, speeds, _ = _round_speeds([g.limits for g in setup.active], caps, {}, {})
     return list(zip(_chain_keys(spans, speeds), chained, strict=True)), speeds
 
 
@@ -263,7 +268,7 @@ def first_speeds(
     """The chains of the first round of :func:`settle` of moves of limits ``blocks`` under
     the junction ``caps`` [mm/s]: their spans, and the look-ahead's speeds [mm/s] at their
     ends (NaN inside them)."""
-    spans, _, speeds = _round_speeds(blocks, caps, {}, {})
+    spans, _, speeds, _ = _round_speeds(blocks, caps, {}, {})
     return spans, speeds
 
 
