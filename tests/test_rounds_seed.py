@@ -11,6 +11,8 @@ import numpy as np
 from gantry_sim.controller.config import load_machine_config
 from gantry_sim.controller.gcode.interpreter import interpret_events
 from gantry_sim.controller.planner import rounds
+from gantry_sim.controller.planner.chain_batch import ChainBatch
+from gantry_sim.controller.planner.chains import Chain
 from gantry_sim.controller.planner.path_stream import path_plan
 from gantry_sim.controller.planner.prepare import prepare
 from gantry_sim.controller.planner.ruckig_solver import RuckigSolver
@@ -103,3 +105,50 @@ def test_a_chain_planned_with_other_limits_or_round_setup_is_not_taken() -> None
     wrong = {k: c for k, c in wrong.items() if k not in taken}
     _same(plain, _settle(seed=wrong))
     assert not {id(c) for c in _settle(seed=wrong).chains} & {id(c) for c in wrong.values()}
+
+
+def test_a_batch_of_chains_unpickles_to_the_same_chains() -> None:
+    """Every round's chains of a blended polyline (lines, blend arcs of closed-form and Ruckig
+    pieces, chains with bad junctions and with none) through pickle, as a forked child sends
+    them: the same keys in order and the same numbers."""
+    sent, _ = _seeds_of_every_round()
+    batch = ChainBatch(sent)
+    back = pickle.loads(pickle.dumps(batch, protocol=pickle.HIGHEST_PROTOCOL))
+    assert isinstance(back, ChainBatch) and list(back) == list(sent)
+    assert any(c.bad for c in sent.values()) and any(c.ruckig_pieces for c in sent.values())
+    for key, chain in sent.items():
+        got = back[key]
+        assert got.duration_s == chain.duration_s and got.starts_s == chain.starts_s
+        assert got.bad == chain.bad and got.ruckig_pieces == chain.ruckig_pieces
+        assert got.inner_speeds.dtype == chain.inner_speeds.dtype
+        np.testing.assert_array_equal(got.inner_speeds, chain.inner_speeds)
+        assert _arrays(got.chunk) == _arrays(chain.chunk)  # every phase, bit for bit
+
+
+def _arrays(chunk: tuple) -> list[tuple[str, tuple[int, ...], str, bytes]]:
+    """Each array of a chain's segments: its segment's kind, shape, type and bytes."""
+    out = []
+    for seg in chunk:
+        kind = type(seg).__name__
+        for a in (seg.rows,) if kind == "Jerk3Run" else seg if kind == "tuple" else (seg,):
+            out.append((kind, a.shape, a.dtype.str, a.tobytes()))
+    return out
+
+
+def test_a_batch_keeps_segments_of_per_axis_phases_and_empty_chains() -> None:
+    """A Ruckig piece whose axes switch jerk a different number of times is a segment of three
+    (5, n_i) arrays (planner/cubic.py); a batch may be empty."""
+    rng = np.random.default_rng(7)
+    axes = tuple(rng.normal(size=(5, n)) for n in (3, 7, 5))
+    whole = rng.normal(size=(3, 5, 4))
+    chains = {
+        (0, 1, 2.0, 3.0): Chain((axes, whole), 0.25, (0.0,), frozenset({1}), 1, np.array([])),
+        (1, 3, 3.0, 0.0): Chain((whole, axes), 0.5, (0.0, 0.125), frozenset(), 0, np.array([4.5])),
+    }
+    back = pickle.loads(pickle.dumps(ChainBatch(chains)))
+    for key, chain in chains.items():
+        assert _arrays(back[key].chunk) == _arrays(chain.chunk)
+        assert back[key].starts_s == chain.starts_s and back[key].bad == chain.bad
+        np.testing.assert_array_equal(back[key].inner_speeds, chain.inner_speeds)
+    empty = pickle.loads(pickle.dumps(ChainBatch()))
+    assert isinstance(empty, ChainBatch) and not empty

@@ -17,14 +17,16 @@ a bit.
 from __future__ import annotations
 
 from collections.abc import Callable
-from dataclasses import dataclass, replace
+from dataclasses import replace
 from typing import cast
 
 import numpy as np
 
 from gantry_sim.controller.forked import process_count
 from gantry_sim.controller.forked_runs import RunsAhead, fork_runs
+from gantry_sim.controller.planner.chain_batch import ChainBatch
 from gantry_sim.controller.planner.chain_prep import ChainPrep, ChainSetup, chain_prep, chain_preps
+from gantry_sim.controller.planner.chains import Chain
 from gantry_sim.controller.planner.cubic import Chunk
 from gantry_sim.controller.planner.limits import BlockLimits
 from gantry_sim.controller.planner.move_geometry import ArcGeometry
@@ -45,20 +47,6 @@ __all__ = [
 ]
 
 
-@dataclass(frozen=True, eq=False)
-class Chain:
-    """One chain's pieces: ``chunk``, its duration [s], each move's start [s] from the chain's
-    start, the junctions whose pieces failed, Ruckig pieces used, and the profile's speed
-    [mm/s] at the junctions inside the chain."""
-
-    chunk: Chunk
-    duration_s: float
-    starts_s: tuple[float, ...]
-    bad: frozenset[int]
-    ruckig_pieces: int
-    inner_speeds: np.ndarray
-
-
 #: Closed-form pieces computed in one vectorised batch (about this many pieces at most: the
 #: batch's arrays take about 1 kB per piece).
 BATCH_PIECES = 20_000
@@ -76,8 +64,9 @@ def plan_chains(
     """The chains ``todo`` (key (first, stop, speed in, speed out), limits), planned in batches
     of about :data:`BATCH_PIECES` pieces: the chains' profiles first, cut at their moves' ends
     all at once, then the closed-form pieces of the first candidate of every arc of the batch
-    at once, then each chain's pieces."""
-    out: dict[ChainKey, Chain] = {}
+    at once, then each chain's pieces. A :class:`ChainBatch`: sent from a forked child, it
+    pickles packed."""
+    out: ChainBatch[ChainKey] = ChainBatch()
     batch: list[tuple[ChainKey, BlockLimits]] = []
     size = 0
     for key, lim in todo:
@@ -146,7 +135,7 @@ def _by_seed_key(
 ) -> dict[SeedKey, Chain]:
     """The chains ``todo`` (key, limits) planned as ``done`` by :data:`SeedKey` (``sat``: the
     round's ``ChainSetup.saturated_moving``)."""
-    return {(key, lim, sat): done[key] for key, lim in todo}
+    return ChainBatch({(key, lim, sat): done[key] for key, lim in todo})
 
 
 #: What a child of :class:`ChainsAhead` does with the first round once it has planned all of

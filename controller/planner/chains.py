@@ -15,15 +15,32 @@ speed and tangential acceleration there.
 from __future__ import annotations
 
 from collections.abc import Sequence
+from dataclasses import dataclass
 
 import numpy as np
 
+from gantry_sim.controller.planner.cubic import Chunk
 from gantry_sim.controller.planner.knots import union_sorted
 from gantry_sim.controller.planner.limits import BlockLimits
 from gantry_sim.controller.planner.profile import Profile1D
 
 #: Relative difference of two speed caps [1] below which moves can share one profile.
 SAME_CAP_REL = 1e-9
+
+
+@dataclass(frozen=True, eq=False)
+class Chain:
+    """One chain's pieces, as :mod:`~gantry_sim.controller.planner.chain_plan` plans them:
+    ``chunk``, its duration [s], each move's start [s] from the chain's start, the junctions
+    whose pieces failed, Ruckig pieces used, and the profile's speed [mm/s] at the junctions
+    inside the chain."""
+
+    chunk: Chunk
+    duration_s: float
+    starts_s: tuple[float, ...]
+    bad: frozenset[int]
+    ruckig_pieces: int
+    inner_speeds: np.ndarray
 
 
 def chain_spans(blocks: Sequence[BlockLimits], caps: np.ndarray) -> list[tuple[int, int]]:
