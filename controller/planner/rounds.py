@@ -6,8 +6,9 @@ that profile projected on the line, arcs are joined through their exact vertex s
 (:class:`~gantry_sim.controller.planner.pieces.MovePieces`; the chains of a round are planned
 in batches by :mod:`~gantry_sim.controller.planner.chain_plan`). Where a piece next to a moving
 junction leaves the arc or needed Ruckig to stretch it (beyond
-:data:`~gantry_sim.controller.planner.pieces.END_STRETCH_MAX`), that junction's cap comes down (by
-:data:`JUNCTION_BACKOFF`, more each time) and the program is planned again (:func:`settle_chains`).
+:data:`~gantry_sim.controller.planner.pieces.END_STRETCH_MAX`), that junction's cap comes
+down (by :data:`JUNCTION_BACKOFF`, more each time) and the program is planned again
+(:func:`settle_chains`).
 
 Only what changed is planned again: a chain's pieces depend on nothing but the chain and the
 speeds at its two ends, so each round reuses the chains whose ends kept their speeds. The
@@ -126,10 +127,10 @@ def settle_chains(
     long program keeps only a prefix of them, :mod:`~gantry_sim.controller.planner.windows`);
     while pieces next to moving junctions leave the arc, lower those junctions' caps (``caps``
     [mm/s] is changed; the k-th time to :data:`JUNCTION_BACKOFF` ** k of the speed) and plan
-    again, at most :data:`MAX_ROUNDS` times; after that a junction still offending has its two moves' tangential acceleration and
-    jerk lowered by :data:`SOFTEN` (at most :data:`SOFTEN_TRIES` times), then becomes a stop,
-    round by round, until none offends: the plan kept never has a piece off its path next to a
-    moving junction (lowering one junction changes its neighbours' speeds, so a junction may
+    again, at most :data:`MAX_ROUNDS` times; after that a junction still offending has its two
+    moves' tangential acceleration and jerk lowered by :data:`SOFTEN` (at most
+    :data:`SOFTEN_TRIES` times), then becomes a stop, round by round, until none offends: the
+    plan kept never has a piece off its path next to a moving junction (lowering one junction changes its neighbours' speeds, so a junction may
     first offend in a late round). Softening helps where the chain's profile ends a ramp at its
     full tangential jerk right at a junction whose curvature changes (a blend arc of a polyline
     of 0.035 mm steps): the axes need that jerk plus the curvature's, and no lower junction
