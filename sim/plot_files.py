@@ -11,7 +11,10 @@ from __future__ import annotations
 
 from collections.abc import Callable, Sequence
 from concurrent.futures import Future
+from dataclasses import replace
 from pathlib import Path
+
+import numpy as np
 
 from gantry_sim.controller.moves import Move
 from gantry_sim.sim.contour import ContourStats
@@ -56,7 +59,7 @@ class Plots:
             done = outline(moves)
         self._path_png, self._error_png_path = folder / "path.png", folder / "error.png"
         self._request = PlotRequest(
-            trace=trace,
+            trace=drawn_fields(trace),
             program=program,
             contour=contour,
             drawing=done,
@@ -89,3 +92,11 @@ class Plots:
         after (the worker writes nowhere)."""
         if self._error_png is not None:
             self._error_png.close()
+
+
+def drawn_fields(trace: Trace) -> Trace:
+    """``trace`` with only what the plots draw: its reference and drive forces, which neither
+    plot reads, zero-length (0, 3), so that the request sent to the plot worker does not carry
+    them (48 bytes a tick: 9.6 MB of a streamed run's 200,000 plotted ticks)."""
+    none = np.empty((0, 3))
+    return replace(trace, ref=none, force_N=none)

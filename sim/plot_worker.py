@@ -73,7 +73,8 @@ class PlotRequest:
     """Everything path.png and error.png draw.
 
     Attributes:
-        trace: the plotted trace (a streamed run's decimated one).
+        trace: the plotted trace (a streamed run's decimated one; its reference and forces,
+            which no plot draws, left out: sim.plot_files.drawn_fields).
         program: the program's name (path.png's title).
         contour: the run's contour error figures [um].
         drawing: path.png's commanded geometry (sim.path_outline; None: no moves).

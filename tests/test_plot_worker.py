@@ -12,6 +12,8 @@ import pytest
 from gantry_sim.controller.errors import GcodeError
 from gantry_sim.sim import api, plot_worker, program, worker_pipes
 from gantry_sim.sim.gates import ErrorLimit, Gates
+from gantry_sim.sim.path_outline import outline
+from gantry_sim.sim.plot_files import drawn_fields
 from gantry_sim.sim.plot_worker import PlotRequest, PlotWorker
 
 CIRCLE = "G21 G17 G90 G94\nG1 X5 F3000\nG3 I-5 J0\nG1 X0\nM2\n"
@@ -253,3 +255,20 @@ def test_no_worker_without_an_interpreter_to_start(monkeypatch):
     monkeypatch.setattr(worker_pipes.sys, "executable", "")
     assert plot_worker.early_plot_worker(CIRCLE) is None
     assert not worker_pipes.worker_wanted("GANTRY_ANALYSIS_WORKER")
+
+
+def test_the_plots_draw_nothing_of_what_the_worker_is_not_sent(machine):
+    """The request leaves out the trace's reference and drive forces (48 bytes a tick); the
+    plots drawn without them are the plots of the whole trace, byte for byte."""
+    result = api.run_program(CIRCLE, file="c.ngc", machine=machine, plots=False)
+    whole = result.trace
+    slim = drawn_fields(whole)
+    assert slim.ref.shape == (0, 3) and slim.force_N.shape == (0, 3) and len(whole.ref) > 500
+    assert all(getattr(slim, f) is getattr(whole, f) for f in ("t", "pos", "line", "err_um"))
+
+    def drawn(trace):
+        return PlotRequest(
+            trace, "c.ngc", result.run_report.contour_error_um, outline(result.moves), GATES, {}
+        ).render()
+
+    assert drawn(slim) == drawn(whole)
