@@ -335,22 +335,20 @@ def _plan_round(
     order, and the cache of this round's chains. ``before``: a job of this process' own, done
     while other processes plan the chains; ``plan_round``: plans the chains left."""
     keys = _chain_keys(spans, speeds)
-    needed = set(keys)
-    for key in [k for k in cache if k not in needed]:  # free them before planning new ones
-        del cache[key]
     known = seed or {}
     sat = setup.saturated_moving
-    seeded = [
-        known.get((k, lim, sat)) if k not in cache else None
-        for k, lim in zip(keys, chained, strict=True)
-    ]
-    todo = [
-        (k, lim)
-        for k, lim, got in zip(keys, chained, seeded, strict=True)
-        if got is None and k not in cache
-    ]
+    found: list[Chain | None] = []  # each key looked up once (a round has thousands)
+    todo = []
+    for k, lim in zip(keys, chained, strict=True):
+        got = cache.get(k)
+        if got is None and known:
+            got = known.get((k, lim, sat))
+        if got is None:
+            todo.append((k, lim))
+        found.append(got)
+    cache.clear()  # the chains no longer needed are freed before new ones are planned
     fresh = plan_round(setup, todo, speeds, before)
-    chains = [cache.get(key) or got or fresh[key] for key, got in zip(keys, seeded, strict=True)]
+    chains = [fresh[k] if got is None else got for k, got in zip(keys, found, strict=True)]
     return chains, dict(zip(keys, chains, strict=True))
 
 
