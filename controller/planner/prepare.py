@@ -35,7 +35,7 @@ from gantry_sim.controller.planner.move_geometry import (
 )
 from gantry_sim.controller.planner.transition import CHORD_FIT_REACHED
 
-__all__ = ["Prepared", "active_path_acc", "prepare", "slow_blends", "sub_path"]
+__all__ = ["Prepared", "prepare", "slow_blends", "sub_path"]
 
 
 class Prepared(NamedTuple):
@@ -43,7 +43,8 @@ class Prepared(NamedTuple):
     the ones with length (zero-length moves dropped) and ``path_index`` their indices in the
     path;
     junction ``caps`` [mm/s] and ``states`` (len(active) + 1); dwells (``holds``), smoothing
-    budgets [mm] and program ``sources`` per active junction or move."""
+    budgets [mm] and program ``sources`` per active junction or move; per active move the
+    M204 path acceleration [mm/s^2] it runs under (inf: none; None: none anywhere)."""
 
     geoms: list[MoveGeometry]
     active: list[MoveGeometry]
@@ -53,6 +54,7 @@ class Prepared(NamedTuple):
     holds: dict[int, list[Dwell]]
     smoothing: list[float]
     sources: list[tuple[int, int]]
+    path_acc_mm_per_s2: list[float] | None = None
 
 
 def sub_path(path: PathPlan, lo: int, hi: int, first_junction: int) -> PathPlan:
@@ -94,7 +96,7 @@ def prepare(
         holds.setdefault(int(at[j]), []).extend(dwells)
     smoothing = [e for e, k in zip(path.smoothing_mm, keep, strict=True) if k]
     sources = [s for s, k in zip(path.sources, keep, strict=True) if k]
-    path_acc = active_path_acc(path.path_acc_mm_per_s2, sources)
+    path_acc = _active_path_acc(path.path_acc_mm_per_s2, sources)
     if path_acc is not None:  # Marlin's M204: each move's own limits under it
         active = capped_geometries(active, path_acc, lim)
     caps, states = junction_caps(active, lim, seg.chord_tolerance_mm, smoothing)
@@ -103,10 +105,10 @@ def prepare(
     active = limits_for_junctions(active, caps, lim, path_acc)
     caps = feasible_junction_caps(active, caps, states, lim)
     where = [i for i, k in enumerate(keep) if k]
-    return Prepared(geoms, active, where, caps, states, holds, smoothing, sources)
+    return Prepared(geoms, active, where, caps, states, holds, smoothing, sources, path_acc)
 
 
-def active_path_acc(
+def _active_path_acc(
     by_program_move: Sequence[float] | None, sources: list[tuple[int, int]]
 ) -> list[float] | None:
     """Per active move, the M204 path acceleration [mm/s^2] it runs under: the smallest over
@@ -125,7 +127,12 @@ def slow_blends(path: PathPlan, prepared: Prepared, jerk_mm_per_s3: float) -> fr
     planner's pieces reach in the end (:func:`_reached_cap`), with ``jerk_mm_per_s3`` the
     machine's smallest axis jerk. A blend at either end of the active moves is not judged (a
     stretch's neighbours are not known there)."""
-    geoms, active, _, caps, _, _, smoothing, _ = prepared
+    geoms, active, caps, smoothing = (
+        prepared.geoms,
+        prepared.active,
+        prepared.caps,
+        prepared.smoothing,
+    )
     index = {id(g.move): b for b, g in enumerate(active)}
     judged: list[tuple[int, int]] = []  # (junction, the blend's active move)
     for k, junction in path.blend_junction.items():

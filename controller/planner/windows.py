@@ -65,7 +65,7 @@ from gantry_sim.controller.planner.chain_plan import (
 )
 from gantry_sim.controller.planner.limits import BlockLimits
 from gantry_sim.controller.planner.move_geometry import ArcGeometry, MoveGeometry
-from gantry_sim.controller.planner.prepare import Prepared, active_path_acc, prepare, sub_path
+from gantry_sim.controller.planner.prepare import Prepared, prepare, sub_path
 from gantry_sim.controller.planner.rounds import (
     Round,
     Settled,
@@ -319,7 +319,7 @@ def _blend_arcs(stretch: PathPlan, pre: Prepared) -> frozenset[int]:
     copies), and its curves under Marlin's M204 path acceleration: neither tries the faster
     profiles (boosted, saturated), which take the axes' own limits, not the path's."""
     arcs = {id(pre.geoms[k].move) for k in stretch.blend_junction}
-    acc = active_path_acc(stretch.path_acc_mm_per_s2, pre.sources)
+    acc = pre.path_acc_mm_per_s2
     if acc is not None:
         arcs |= {
             id(g.move)
@@ -649,6 +649,7 @@ def _window(
         {b - 1: d for b, d in pre.holds.items() if b >= 1},
         pre.smoothing[1:],
         pre.sources[1:],
+        None if pre.path_acc_mm_per_s2 is None else pre.path_acc_mm_per_s2[1:],
     )
 
 
