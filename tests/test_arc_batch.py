@@ -1,5 +1,5 @@
 """Arcs in batches: the deviation of points checked against one arc gives what the rows of a
-batch of arcs give, and the points of many arcs at once are each arc's own, bit for bit (the
+batch of arcs give (and what the arc's geometry gives piece by piece), and the points of many arcs at once are each arc's own, bit for bit (the
 planner checks a Ruckig piece's samples one arc at a time, and moves the vertices of a round's
 arcs all at once)."""
 
@@ -16,7 +16,11 @@ from gantry_sim.controller.arcs import arc_points
 from gantry_sim.controller.config import load_machine_config
 from gantry_sim.controller.moves import Arc
 from gantry_sim.controller.planes import PLANE_AXES
-from gantry_sim.controller.planner.arc_batch import arc_deviation_many, arc_points_many
+from gantry_sim.controller.planner.arc_batch import (
+    arc_deviation_many,
+    arc_deviation_one,
+    arc_points_many,
+)
 from gantry_sim.controller.planner.move_geometry import move_geometry
 from gantry_sim.controller.planner.segment import segment_arc, segment_count
 from gantry_sim.models import DEFAULT_MACHINE
@@ -45,6 +49,9 @@ def _arc(plane: str, ccw: bool, radius: float, angle: float, rise: float, spiral
     )
 
 
+MACHINE = load_machine_config(DEFAULT_MACHINE)
+
+
 @settings(max_examples=60, deadline=None)
 @given(
     plane=st.sampled_from(["XY", "XZ", "YZ"]),
@@ -54,23 +61,26 @@ def _arc(plane: str, ccw: bool, radius: float, angle: float, rise: float, spiral
     rise=st.floats(-5.0, 5.0),
     spiral=st.floats(-1e-3, 1e-3),
     pieces=st.integers(1, 4),
+    inside=st.booleans(),
     seed=st.integers(0, 2**31),
 )
 def test_points_near_one_arc_give_the_rows_of_a_batch(
-    plane, ccw, radius, angle, rise, spiral, pieces, seed
+    plane, ccw, radius, angle, rise, spiral, pieces, inside, seed
 ):
     arc = _arc(plane, ccw, radius, angle, rise, spiral)
     rng = np.random.default_rng(seed)
     hints = rng.uniform(-0.1, 1.1, pieces)
     u = np.clip(hints[:, None] + rng.uniform(-0.05, 0.05, (pieces, 25)), -0.2, 1.2)
+    if inside:  # every point within the sweep: the overrun term is skipped
+        u = np.clip(u, 0.0, 1.0)
     q = np.stack([arc_points(arc, row) for row in u]) + rng.normal(0.0, 1e-3, (pieces, 25, 3))
-    one = arc_deviation_many([arc] * pieces, q, hints.tolist())
+    one = arc_deviation_one(arc, q, hints.tolist())
+    assert np.array_equal(one, arc_deviation_many([arc] * pieces, q, hints.tolist()))
     copies = [dataclasses.replace(arc) for _ in range(pieces)]  # equal, not the same: rows
     assert np.array_equal(one, arc_deviation_many(copies, q, hints.tolist()))
     assert one.shape == (pieces,) and np.all(one >= 0.0)
-
-
-MACHINE = load_machine_config(DEFAULT_MACHINE)
+    geometry = move_geometry(arc, MACHINE.limits, MACHINE.segmentation, 1.0)
+    assert one.tolist() == [geometry.deviation(row, h) for row, h in zip(q, hints, strict=True)]
 
 
 @settings(max_examples=40, deadline=None)

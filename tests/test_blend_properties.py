@@ -91,14 +91,3 @@ FEED_OVERSHOOT = (
 def test_a_blend_arc_of_a_cam_polyline_keeps_the_feed(machine):
     moves = parse_program(FEED_OVERSHOOT)
     assert_within_limits(plan(moves, machine).sample(machine.servo.period_s), machine, moves)
-
-
-@given(s=st.one_of(st.floats(0.0, 1e3), st.floats(0.0, 1e-300), st.just(5e-324)))
-def test_a_corner_search_samples_the_cut_away_path_as_linspace_does(s):
-    # corner_blend samples each cut-away part at linspace(0, s, CHECK_SAMPLES), about 40 times
-    # a corner; its own spacing must give those numbers (zero and subnormal steps included)
-    from gantry_sim.controller.planner import corner_blend
-
-    want = np.linspace(0.0, s, corner_blend.CHECK_SAMPLES)
-    got = corner_blend._spaced(s)
-    assert np.array_equal(got, want) and np.array_equal(np.signbit(got), np.signbit(want))

@@ -6,7 +6,7 @@ arc.
 
 from __future__ import annotations
 
-from collections.abc import Callable, Sequence
+from collections.abc import Sequence
 
 import numpy as np
 
@@ -110,40 +110,30 @@ def piece_points_many(
 def arc_deviation_many(arcs: Sequence[Arc], q: np.ndarray, u_hint: Sequence[float]) -> np.ndarray:
     """:meth:`gantry_sim.controller.planner.move_geometry.ArcGeometry.deviation` of the points
     ``q[i]`` (k, 3) near ``u_hint[i]`` from each arc, at once -> (m,) [mm]. Where every row
-    is of one arc (a Ruckig piece's samples, checked one arc at a time), its numbers are
-    scalars instead of repeated rows (the same values: building the rows was 136 us a call)."""
+    is of one arc (a Ruckig piece's samples, checked one arc at a time):
+    :func:`arc_deviation_one`."""
     m, k = q.shape[0], q.shape[1]
+    if m and all(a is arcs[0] for a in arcs):
+        return arc_deviation_one(arcs[0], q, u_hint)
     frames = [arc_frame(a) for a in arcs]
     pts = q.reshape(m * k, 3)
-    per_arc: Callable[[list[float]], float | np.ndarray]
-    if m and all(a is arcs[0] for a in arcs):
-        q1, q2, qn = (pts[:, i] for i in PLANE_AXES[arcs[0].plane])
+    axes = np.repeat(np.array([PLANE_AXES[a.plane] for a in arcs], dtype=np.intp), k, 0)
+    at = np.arange(m * k)
+    q1, q2, qn = pts[at, axes[:, 0]], pts[at, axes[:, 1]], pts[at, axes[:, 2]]
 
-        def per_arc(values: list[float]) -> float | np.ndarray:
-            return values[0]
-
-    else:
-        axes = np.repeat(np.array([PLANE_AXES[a.plane] for a in arcs], dtype=np.intp), k, 0)
-        at = np.arange(m * k)
-        q1, q2, qn = pts[at, axes[:, 0]], pts[at, axes[:, 1]], pts[at, axes[:, 2]]
-
-        def per_arc(values: list[float]) -> float | np.ndarray:
-            return np.repeat(np.array(values, dtype=float), k)
+    def per_arc(values: list[float]) -> np.ndarray:
+        return np.repeat(np.array(values, dtype=float), k)
 
     c1 = per_arc([float(a.center[f.i1]) for a, f in zip(arcs, frames, strict=True)])
     c2 = per_arc([float(a.center[f.i2]) for a, f in zip(arcs, frames, strict=True)])
     theta0 = per_arc([f.theta0_rad for f in frames])
     sigma = per_arc([f.sigma for f in frames])
     angle = per_arc([a.angle for a in arcs])
-    hint = np.repeat(  # per row always: one value per piece
-        np.array(
-            [
-                f.theta0_rad + f.sigma * a.angle * uh
-                for a, f, uh in zip(arcs, frames, u_hint, strict=True)
-            ],
-            dtype=float,
-        ),
-        k,
+    hint = per_arc(
+        [
+            f.theta0_rad + f.sigma * a.angle * uh
+            for a, f, uh in zip(arcs, frames, u_hint, strict=True)
+        ]
     )
     r0, r1 = per_arc([f.r0_mm for f in frames]), per_arc([f.r1_mm for f in frames])
     h0, h1 = per_arc([f.h0_mm for f in frames]), per_arc([f.h1_mm for f in frames])
@@ -154,6 +144,29 @@ def arc_deviation_many(arcs: Sequence[Arc], q: np.ndarray, u_hint: Sequence[floa
     d_n = qn - (h0 + (h1 - h0) * u)
     d_t = arc_overrun_mm(u, angle, r0, r1, h1 - h0)
     return np.hypot(np.hypot(d_r, d_n), d_t).reshape(m, k).max(axis=1)
+
+
+def arc_deviation_one(arc: Arc, q: np.ndarray, u_hint: Sequence[float]) -> np.ndarray:
+    """:func:`arc_deviation_many` of rows ``q`` (m, k, 3) all of one ``arc``, the same numbers:
+    the arc's numbers are scalars and the rows (m, k) arrays, so each step is one NumPy call
+    on the same elements (not the dozen calls and lists that repeat scalars per row), and the
+    overrun term is skipped where every point lies within the sweep (it is 0 there, and
+    hypot(x, 0) is |x| exactly)."""
+    f = arc_frame(arc)
+    c1, c2 = float(arc.center[f.i1]), float(arc.center[f.i2])
+    q1, q2, qn = q[:, :, f.i1], q[:, :, f.i2], q[:, :, f.n]
+    turn = f.sigma * arc.angle
+    hint = np.array([f.theta0_rad + turn * uh for uh in u_hint], dtype=float)[:, None]
+    th = np.arctan2(q2 - c2, q1 - c1)
+    th = th - 2.0 * np.pi * np.rint((th - hint) / (2.0 * np.pi))
+    u = f.sigma * (th - f.theta0_rad) / arc.angle
+    d = np.hypot(
+        np.hypot(q1 - c1, q2 - c2) - (f.r0_mm + (f.r1_mm - f.r0_mm) * u),
+        qn - (f.h0_mm + (f.h1_mm - f.h0_mm) * u),
+    )
+    if not (u.min() >= 0.0 and u.max() <= 1.0):  # (NaN too)
+        d = np.hypot(d, arc_overrun_mm(u, arc.angle, f.r0_mm, f.r1_mm, f.h1_mm - f.h0_mm))
+    return d.max(axis=1)
 
 
 def arc_overrun_mm(

@@ -26,6 +26,7 @@ from gantry_sim.controller.moves import Arc, Linear
 from gantry_sim.controller.planes import PLANE_AXES, Plane, plane_of
 from gantry_sim.controller.planner.arc_batch import arc_end_derivatives_many
 from gantry_sim.controller.planner.junctions import CHORD_FIT_BLEND
+from gantry_sim.controller.planner.spaced import spaced
 
 #: Bisection steps on the length cut from the first move, and secant steps on the second.
 BISECTION_STEPS = 20
@@ -143,29 +144,12 @@ def _sampler(m: Linear | Arc, from_end: bool) -> _Sampler:
         a, b = np.asarray(m.start, float), np.asarray(m.end, float)
         d = (b - a) / np.linalg.norm(b - a)
         if from_end:
-            return lambda s: b - np.outer(_spaced(s), d)
-        return lambda s: a + np.outer(_spaced(s), d)
+            return lambda s: b - np.outer(spaced(s, CHECK_SAMPLES), d)
+        return lambda s: a + np.outer(spaced(s, CHECK_SAMPLES), d)
     length = m.length_mm
     if from_end:
-        return lambda s: arc_points(m, 1.0 - _spaced(s) / length)
-    return lambda s: arc_points(m, _spaced(s) / length)
-
-
-_STEPS = np.arange(CHECK_SAMPLES, dtype=float)
-_STEPS.flags.writeable = False
-
-
-def _spaced(s: float) -> np.ndarray:
-    """``np.linspace(0.0, s, CHECK_SAMPLES)``, the same numbers, without its generality: the
-    steps times s / (n - 1), plus 0, the last one s (its special case, a step that rounds to
-    0, left to it)."""
-    step = s / (CHECK_SAMPLES - 1)
-    if step == 0.0:
-        return np.linspace(0.0, s, CHECK_SAMPLES)
-    y = _STEPS * step
-    y += 0.0
-    y[-1] = s
-    return y
+        return lambda s: arc_points(m, 1.0 - spaced(s, CHECK_SAMPLES) / length)
+    return lambda s: arc_points(m, spaced(s, CHECK_SAMPLES) / length)
 
 
 def _deviation(

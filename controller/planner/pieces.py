@@ -21,7 +21,11 @@ import numpy as np
 from gantry_sim.controller.config import Limits
 from gantry_sim.controller.errors import PlannerFailure, PlanningError
 from gantry_sim.controller.moves import Arc, Transition
-from gantry_sim.controller.planner.arc_batch import arc_deviation_many, piece_points_many
+from gantry_sim.controller.planner.arc_batch import (
+    arc_deviation_many,
+    arc_deviation_one,
+    piece_points_many,
+)
 from gantry_sim.controller.planner.arc_states import (
     LOOSE_END_CHORDS,
     VertexStates,
@@ -392,14 +396,14 @@ class MovePieces:
 
 def _piece_deviations(g: ArcGeometry, pieces: list[tuple[np.ndarray, float]]) -> list[float]:
     """:meth:`ArcGeometry.deviation` [mm] of each (points (k, 3), sweep fraction near them):
-    an arc's in one batch (:func:`arc_deviation_many`, the same numbers), a spline's one by
+    an arc's in one batch (:func:`arc_deviation_one`, the same numbers), a spline's one by
     one."""
     if not pieces:
         return []
     if not isinstance(g.move, Arc) or len({q.shape for q, _ in pieces}) > 1:
         return [g.deviation(q, uh) for q, uh in pieces]
     q = np.stack([q for q, _ in pieces])
-    return arc_deviation_many([g.move] * len(pieces), q, [uh for _, uh in pieces]).tolist()
+    return arc_deviation_one(g.move, q, [uh for _, uh in pieces]).tolist()
 
 
 def _near_feed(g: ArcGeometry, profile: Profile1D) -> bool:

@@ -26,6 +26,7 @@ import ruckig
 from gantry_sim.controller.config import Limits
 from gantry_sim.controller.planner.jerk3 import PiecePhases, jerk3_pairs
 from gantry_sim.controller.planner.profile import Profile1D
+from gantry_sim.controller.planner.spaced import spaced
 
 _OK = (ruckig.Result.Working, ruckig.Result.Finished)
 #: an axis whose piece moves less than this, this slowly (or that Ruckig finds no profile for
@@ -97,9 +98,9 @@ def _calculate(otg: ruckig.Ruckig, inp: ruckig.InputParameter, traj: ruckig.Traj
         raise RuckigRejected(f"{res}")
 
 
-def _phases(traj: ruckig.Trajectory, dof: int) -> AxisPhases:
-    """Constant-jerk phases of one DoF of a Ruckig trajectory (its brake phases first)."""
-    prof = traj.profiles[0][dof]
+def _phases(prof: ruckig.Profile) -> AxisPhases:
+    """Constant-jerk phases of one DoF's profile of a Ruckig trajectory (its brake phases first;
+    ``Trajectory.profiles`` copies every profile each time it is read: read it once)."""
     dur, p, v, a, j = list(prof.t), prof.p[:7], prof.v[:7], prof.a[:7], list(prof.j)
     brake = prof.brake
     if brake.duration > 0:
@@ -157,7 +158,7 @@ class RuckigSolver:
             except RuckigRejected:
                 if share == LIMIT_RETRY_SHARES[-1]:
                     raise
-        rows = np.array(_phases(self._tr1, 0), dtype=float).T
+        rows = np.array(_phases(self._tr1.profiles[0][0]), dtype=float).T
         if rows[:, 2].min() < -1e-9 * max(cap_mm_per_s, 1.0):
             raise ProfileReverses()
         return Profile1D(rows)
@@ -198,10 +199,11 @@ class RuckigSolver:
         dur = tr.duration
         if dur > sampled_within_s:
             samples = 0
-        phases = (_phases(tr, 0), _phases(tr, 1), _phases(tr, 2))
+        profs = tr.profiles[0]
+        phases = (_phases(profs[0]), _phases(profs[1]), _phases(profs[2]))
         if not samples:
             return RuckigPiece(dur, phases)
-        pos = [tr.at_time(t)[0] for t in np.linspace(0.0, dur, samples)]
+        pos = [tr.at_time(t)[0] for t in spaced(dur, samples).tolist()]
         return RuckigPiece(dur, phases, np.array(pos))
 
     def _piece_with_closed_form_axes(
@@ -337,18 +339,19 @@ def _assemble(
     """The piece of duration ``dur`` [s] whose ``tiny`` axes follow the closed-form phases
     ``closed`` and the others Ruckig's trajectory ``tr`` (None: every axis is tiny)."""
     h = dur / 3.0
+    profs = None if tr is None else tr.profiles[0]
     phases = tuple(
         ([h, h, h], *(closed[q][0, :, i].tolist() for q in range(4)))
-        if tiny[i] or tr is None
-        else _phases(tr, i)
+        if tiny[i] or profs is None
+        else _phases(profs[i])
         for i in range(3)
     )
     if not samples:
         return RuckigPiece(dur, phases)  # type: ignore[arg-type]
-    times = np.linspace(0.0, dur, samples)
+    times = spaced(dur, samples)
     pos = np.zeros((samples, 3))
     if tr is not None:
-        pos = np.array([tr.at_time(t)[0] for t in times])
+        pos = np.array([tr.at_time(t)[0] for t in times.tolist()])
     k = np.minimum((times / h).astype(int), 2)
     tau = times - k * h
     for i in np.flatnonzero(tiny):
