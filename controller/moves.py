@@ -62,8 +62,13 @@ def _motion_json(m: Rapid | Linear | Arc | Spline | Transition) -> dict:
 
 
 def _feed_json(m: Linear | Arc | Spline | Transition) -> dict:
-    """:func:`_motion_json` and the feed [mm/min] of a feed move."""
-    return _motion_json(m) | {"feed": float(m.feed_mm_per_min)}
+    """:func:`_motion_json` and the feed [mm/min] of a feed move (and, where an extruder is
+    followed, whether it extrudes)."""
+    out = _motion_json(m) | {"feed": float(m.feed_mm_per_min)}
+    extrudes = getattr(m, "extrudes", None)
+    if extrudes is not None:
+        out["extrudes"] = bool(extrudes)
+    return out
 
 
 @dataclass(frozen=True)
@@ -102,6 +107,9 @@ class Linear:
         feed_mm_per_min: programmed speed along the path [mm/min].
         path: the path control mode set by the program (None: none set, the machine file's
             default applies).
+        extrudes: Marlin: whether the line's E word moves the extruder (Marlin plans such a
+            move with the print acceleration, M204 P, and one that does not with the travel
+            acceleration, M204 T); None where no extruder is followed (the other dialects).
     """
 
     line: int
@@ -109,6 +117,7 @@ class Linear:
     end: Vec3
     feed_mm_per_min: float
     path: PathControl | None = None
+    extrudes: bool | None = None
 
     kind = "linear"
 
@@ -142,6 +151,9 @@ class Arc:
         turns: the P word (1 when absent).
         angle: total swept angle [rad], > 0 (a full circle is 2*pi; P2 on a half circle is 3*pi).
         path: the path control mode set by the program (None: the machine file's default).
+        extrudes: Marlin: whether the line's E word moves the extruder (Marlin plans such a
+            move with the print acceleration, M204 P, and one that does not with the travel
+            acceleration, M204 T); None where no extruder is followed (the other dialects).
     """
 
     line: int
@@ -155,6 +167,7 @@ class Arc:
     turns: int
     angle: float
     path: PathControl | None = None
+    extrudes: bool | None = None
 
     kind = "arc"
 
@@ -198,6 +211,9 @@ class Spline:
         degree: polynomial degree (3 for G5, 2 for G5.1, L - 1 for G5.2).
         knots: the knot vector (len(control_points) + degree + 1 values).
         path: the path control mode set by the program (None: the machine file's default).
+        extrudes: Marlin: whether the line's E word moves the extruder (Marlin plans such a
+            move with the print acceleration, M204 P, and one that does not with the travel
+            acceleration, M204 T); None where no extruder is followed (the other dialects).
     """
 
     line: int
@@ -210,6 +226,7 @@ class Spline:
     degree: int
     knots: tuple[float, ...]
     path: PathControl | None = None
+    extrudes: bool | None = None
 
     kind = "spline"
 

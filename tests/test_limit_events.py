@@ -246,3 +246,28 @@ def test_m204_bounds_a_curves_acceleration_and_p0_caps_nothing(machine):
     assert zero.duration_s == free.duration_s
     assert np.array_equal(zero_acc, free_acc)
     assert capped.limit_change_stops == zero.limit_change_stops == 0
+
+
+def test_m204_t_is_the_travel_acceleration_and_s_sets_both(machine):
+    """Marlin plans a move that extrudes with M204 P and a travel (no E movement) with T; S sets
+    both, T0 caps nothing, and a travel runs under P until a T (or S) is given."""
+    from gantry_sim.controller.planner.limit_events import read_limits
+
+    text = (
+        "G21 G90\nM83\nM204 P200\nG1 X20 E1 F6000\nG1 X0\n"  # lines 4, 5: P for both
+        "M204 P300 T1000\nG1 X20 E1\nG1 X0\n"  # 7: P, 8: T
+        "M204 P500\nG1 X20 E1\nG1 X0\n"  # 10: P, 11: T stays
+        "M204 S800\nG1 X20 E1\nG1 X0\n"  # 13, 14: S both
+        "M204 T0\nG1 X20 E1\nG1 X0\nM2\n"  # 16: P, 17: no cap
+    )
+    items = list(interpret_events(text, dialect="marlin"))
+    caps = {4: 200, 5: 200, 7: 300, 8: 1000, 10: 500, 11: 1000, 13: 800, 14: 800, 16: 800}
+    got = read_limits(items, machine).path_acc_mm_per_s2
+    assert got == [*caps.values(), np.inf]
+    planned = plan(items, machine)
+    tr = planned.sample(machine.servo.period_s / 10)
+    for line, cap in caps.items():  # each move from rest to rest (the reversals stop)
+        _, along = _path_acceleration(tr, line)
+        assert 0.98 * cap <= np.abs(along).max() <= cap * (1 + 1e-9), line
+    _, along = _path_acceleration(tr, 17)
+    assert np.abs(along).max() > 1000.0  # the machine's own limits

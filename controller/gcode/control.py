@@ -37,6 +37,7 @@ from gantry_sim.controller.gcode.lexer import (
 )
 from gantry_sim.controller.gcode.printer_codes import (
     marlin_dwell_seconds,
+    marlin_extruder,
     without_marlin_parameters,
 )
 from gantry_sim.controller.gcode.words import whole_number
@@ -95,6 +96,8 @@ class Source:
         if kind == "dwell":  # Marlin G4: the shared G4 with P in seconds
             seconds = marlin_dwell_seconds(raw)
             return Block(i + 1, (("G", ("num", 4.0)), ("P", ("num", seconds))), (), False, raw)
+        if kind == "extruder":  # Marlin M82/M83, G92 E: the extruder's mode or position
+            return Block(i + 1, (), (), False, raw, extruder=marlin_extruder(raw))
         if kind == "limits":
             try:
                 return replace(lex_line(raw, i + 1), limits=True)

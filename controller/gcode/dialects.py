@@ -16,7 +16,8 @@ The interpreter reads these fields and never tests a dialect's name. Sources (co
   segmentation default): the end point is not checked, the arc ends on the start-radius
   circle at the destination's angle; ``R`` with ``I``/``J`` is an error; F is modal with Marlin's
   default feed 1500 mm/min (feedrate_mm_s = 25 mm/s); P (ARC_P_CIRCLES) adds P complete circles;
-  E (extrusion) and S (laser power) words are accepted and ignored; an R too short for the chord
+  E (extrusion) words move no axis here, but tell which moves extrude (controller/gcode/
+  extruder.py), and S (laser power) is ignored; an R too short for the chord
   gives the semicircle (Marlin clamps the centre offset to zero).
 - ``grbl``: grbl 1.1's gcode.c (gnea/grbl): its G and M codes only (G38.x probing and G43.1 are
   refused here), no parameters, expressions or O-words, ``$`` system lines (``$J=`` jogs move as
@@ -71,7 +72,8 @@ class Dialect:
         default_feed_mm_per_min: feed before any F word, or None when F is required.
         g20_is_inch: G20 selects inches; False: G20 is something else and is refused.
         g20_refusal: the message for G20 when ``g20_is_inch`` is False.
-        ignored_letters: words accepted and ignored (Marlin's E and S).
+        ignored_letters: words accepted that move no axis and set nothing of the shared state
+            (Marlin's E, which its extruder reads, and S).
         min_radius_mm / min_radius_in: smaller radii are zero-radius arcs; also how far an R
             arc may fall short of reaching its end point [mm / inch].
         r_short_is_semicircle: an R too small to reach the end always gives the semicircle.
@@ -125,6 +127,8 @@ class Dialect:
             neither); False: an error (rs274, grbl's error 25).
         abort_comments: a line whose comment starts ``(abort,`` stops the program there with
             that message, its parameters filled in (rs274's convert_comment).
+        extruder: E words are followed as Marlin's extruder axis (M82/M83, G90/G91, G92 E):
+            each move tells whether it extrudes (controller/gcode/extruder.py).
     """
 
     name: str
@@ -169,6 +173,7 @@ class Dialect:
     g0_at_feed: bool = False
     last_word_wins: bool = False
     abort_comments: bool = False
+    extruder: bool = False
 
 
 _TOL_MM = 2 * 0.01 * math.sqrt(2.0)  # 0.028284 mm, rs274 CENTER_ARC_RADIUS_TOLERANCE_MM
@@ -237,6 +242,7 @@ MARLIN = Dialect(
     splines="marlin",
     g0_at_feed=True,
     checksums=True,
+    extruder=True,
 )
 
 LASERDYNE_ON_ARC_TOL_MM = 0.005

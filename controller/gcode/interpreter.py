@@ -41,6 +41,7 @@ from gantry_sim.controller.gcode.cutter_comp import CutterComp
 from gantry_sim.controller.gcode.dialect_checks import check_codes, check_jog, check_plain
 from gantry_sim.controller.gcode.dialects import Dialect, coded, get_dialect
 from gantry_sim.controller.gcode.expressions import evaluate
+from gantry_sim.controller.gcode.extruder import Extruder
 from gantry_sim.controller.gcode.feed_modes import check_feed_mode, path_feed
 from gantry_sim.controller.gcode.frames import Frame, add, from_work, sub, to_work
 from gantry_sim.controller.gcode.lexer import Block
@@ -110,6 +111,7 @@ class Interpreter:
             feed_mm_per_min=dialect.default_feed_mm_per_min or 0.0,
             pocket=self.table.first,
             motion=dialect.initial_motion,
+            extruder=Extruder() if dialect.extruder else None,
         )
         self.params = Parameters(self._predefined, lambda: self.state.scale)
         self.params.numbered[COORD_INDEX] = 1.0
@@ -138,6 +140,9 @@ class Interpreter:
             return self._printer_home(block), False
         if block.limits:
             return self._limits(block), False
+        if block.extruder is not None:
+            self._set_extruder(block.extruder)
+            return [], False
         w = read_words(block, self.params, d)
         s = self.state
         # Step 2: every code is one gantry-sim supports.
@@ -189,6 +194,8 @@ class Interpreter:
             s = select_system(s, self.params, SYSTEMS[w.g["coordinate_system"]])
         if "distance" in w.g:
             s = evolve(s, incremental=w.g["distance"] == 910)
+            if s.extruder is not None:  # Marlin: G90/G91 set E's mode too
+                s = evolve(s, extruder=s.extruder.with_mode(w.g["distance"] == 910))
         if "arc_distance" in w.g:
             s = evolve(s, arc_absolute=w.g["arc_distance"] == 901)
         if "path_control" in w.g:
@@ -250,6 +257,8 @@ class Interpreter:
             s = g10(s, self.params, w.values, d.coordinate_systems)
         elif nonmodal in (920, 921, 922, 923, 520):
             s = g92(s, self.params, nonmodal, w.values)
+            if nonmodal == 920 and s.extruder is not None and "E" in w.values:
+                s = evolve(s, extruder=s.extruder.at(w.values["E"] * s.scale))
         elif nonmodal in (281, 301):
             store_home(s, self.params, nonmodal)
         elif nonmodal in (280, 300):
@@ -262,6 +271,12 @@ class Interpreter:
                 raise GcodeError("G53 cannot be used in incremental distance mode (G91); use G90")
         if motion is not None and motion not in CYCLES and cycle.initial is not None:
             cycle = evolve(cycle, initial=None)  # a series of cycles ends with another motion
+        extrudes: bool | None = None
+        if s.extruder is not None and motion is not None:
+            e = w.values.get("E")
+            extrudes, ext = s.extruder.move(None if e is None else e * s.scale)
+            s = evolve(s, extruder=ext)
+        made = len(moves)
         nurbs = self.nurbs
         if nonmodal == G5_3:  # before the motion, as rs274's modal group 0
             s, cycle, nurbs = self._splines(w, s, G5_3, cycle, moves)
@@ -302,6 +317,11 @@ class Interpreter:
                 if arc is not None:
                     placed = path_feed(self._arc_to_work(arc, s), s, w.values)
                     s = self._emit(moves, s, placed, arc.end)  # arc.end: program frame
+        if extrudes is not None:  # Marlin: whether this block's move runs at P or T (M204)
+            moves[made:] = [
+                evolve(m, extrudes=extrudes) if isinstance(m, Linear | Arc | Spline) else m
+                for m in moves[made:]
+            ]
         s = self._modal_state(w.m.get("modal_state"), s)
         stop = w.m.get("stopping")
         if stop is not None and self.comp.side is not None:  # rs274 convert_stop: finish it
@@ -437,6 +457,16 @@ class Interpreter:
         placed = path_feed(move, s, w.values)
         s = self._emit(moves, s, placed, end)
         return s, cycle, NurbsPoints()
+
+    def _set_extruder(self, setting: tuple[str, float]) -> None:
+        """Marlin's M82/M83 and G92 E (:attr:`~gantry_sim.controller.gcode.lexer.Block.extruder`):
+        the extruder's mode or position; nothing moves."""
+        e = self.state.extruder
+        if e is None:
+            return
+        what, value = setting
+        e = e.with_mode(value != 0.0) if what == "relative" else e.at(value * self.state.scale)
+        self.state = evolve(self.state, extruder=e)
 
     @staticmethod
     def _emit(moves: list[Move | Event], s: ModalState, move: Move, end: Vec3) -> ModalState:

@@ -91,6 +91,9 @@ class Block:
         jog: a grbl ``$J=`` jog: its words move as G1 without changing the modal state.
         home: a Marlin G28: the named axes (all when none) go to the work origin.
         limits: a Marlin M201/M203/M204/M205 line (a :class:`~gantry_sim.controller.moves.Limits`).
+        extruder: a Marlin line that sets the extruder without moving it: ("relative", 1.0)
+            for M83, ("relative", 0.0) for M82, ("position", E) for ``G92 E`` (E in the
+            program's units).
     """
 
     line: int
@@ -102,6 +105,7 @@ class Block:
     jog: bool = False
     home: bool = False
     limits: bool = False
+    extruder: tuple[str, float] | None = None
 
     @property
     def empty(self) -> bool:
@@ -113,6 +117,7 @@ class Block:
             and self.oword is None
             and not self.home
             and not self.limits
+            and self.extruder is None
         )
 
 

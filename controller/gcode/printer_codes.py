@@ -59,9 +59,10 @@ MARLIN_REFUSED_G: dict[int, str] = {
 
 def marlin_line(raw: str) -> str | None:
     """What a Marlin line is before the shared step: "quiet" (accepted, no motion), "home" (G28),
-    "dwell" (G4 P<ms> or S<s>), "limits" (M201/M203/M204/M205), "parameters" (a G line with M
-    or T words, which Marlin reads as parameters the command ignores) or None (a shared G-code
-    line). GcodeError for a refused G code."""
+    "dwell" (G4 P<ms> or S<s>), "limits" (M201/M203/M204/M205), "extruder" (M82, M83, or G92
+    with E alone: :func:`marlin_extruder`), "parameters" (a G line with M or T words, which
+    Marlin reads as parameters the command ignores) or None (a shared G-code line). GcodeError
+    for a refused G code."""
     if _TEXT.match(raw):
         return "quiet"
     code = raw.split(";", 1)[0]
@@ -73,6 +74,8 @@ def marlin_line(raw: str) -> str | None:
     letter, number = head.group(1).upper(), head.group(2)
     if letter == "M" and number.lstrip("0") in ("201", "203", "204", "205"):
         return "limits"
+    if letter == "M" and number.lstrip("0") in ("82", "83"):
+        return "extruder"
     if letter in "MT":
         return "quiet"
     tenths = round(float(number) * 10)
@@ -85,13 +88,34 @@ def marlin_line(raw: str) -> str | None:
         return "quiet"
     if tenths in MARLIN_REFUSED_G:
         raise GcodeError(f"{MARLIN_REFUSED_G[tenths]} (Marlin G{number})")
-    if tenths in MARLIN_QUIET_G or (tenths == 920 and _E_ONLY.match(raw)):
+    if tenths == 920 and _E_ONLY.match(raw):
+        return "extruder" if _E_WORD.search(_PAREN.sub("", code[head.end() :])) else "quiet"
+    if tenths in MARLIN_QUIET_G:
         return "quiet"
     if tenths not in G_GROUPS:
         return "quiet"  # Marlin: unknown_command_warning(), and on (Bambu's G392, G380, ...)
     if _PARAMETER_MT.search(words):
         return "parameters"
     return None
+
+
+#: A ( ) comment (one left open runs to the end of the line).
+_PAREN = re.compile(r"\([^)]*\)?")
+#: An E word, and its value (none, or a sign alone: 0, as Marlin's parser reads it).
+_E_WORD = re.compile(r"E\s*([-+]?(?:\d+\.?\d*|\.\d+)?)", re.IGNORECASE)
+
+
+def marlin_extruder(raw: str) -> tuple[str, float]:
+    """An "extruder" line's setting (:attr:`~gantry_sim.controller.gcode.lexer.Block.extruder`):
+    ("relative", 1.0) for M83, ("relative", 0.0) for M82, ("position", E) for G92 E (its last
+    E word, in the program's units)."""
+    code = raw.split(";", 1)[0]
+    head = _HEAD.match(code)
+    assert head is not None  # marlin_line found it
+    if head.group(1).upper() == "M":
+        return ("relative", 1.0 if head.group(2).lstrip("0") == "83" else 0.0)
+    value = _E_WORD.findall(_PAREN.sub("", code[head.end() :]))[-1]
+    return ("position", float(value) if value.lstrip("+-") else 0.0)
 
 
 #: A line Marlin answers with "Unknown command": one that opens with neither a letter and a

@@ -7,6 +7,7 @@ import functools
 from dataclasses import dataclass
 from typing import Any, TypeVar
 
+from gantry_sim.controller.gcode.extruder import Extruder
 from gantry_sim.controller.gcode.frames import NO_OFFSETS, Frame
 from gantry_sim.controller.gcode.tools import Tool
 from gantry_sim.controller.moves import PathControl
@@ -79,6 +80,7 @@ class ModalState:
             the last motion's end, shifted by every later change of a G5x or G92 offset (not
             rotated). After a tool change rs274 takes its current point back from it.
         path: path control mode set by G61/G61.1/G64 (None until the program sets one).
+        extruder: Marlin's extruder mode and position (None: a dialect without one).
     """
 
     position: Vec3 = (0.0, 0.0, 0.0)
@@ -104,6 +106,7 @@ class ModalState:
     pocket: int = 0
     canon: Vec3 = (0.0, 0.0, 0.0)
     path: PathControl | None = None
+    extruder: Extruder | None = None
 
     @property
     def scale(self) -> float:

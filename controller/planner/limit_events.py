@@ -1,13 +1,17 @@
 """Marlin's M201/M203/M204/M205 in a plan: the limits change from their line on.
 
-M204 P (or S, its older form) sets the path acceleration of the moves after it [mm/s^2], as
-Marlin's planner makes it each block's acceleration (limited per axis by M201): it cuts
-nothing. Each move runs under the value in effect on its line (:class:`Part`, per motion):
-the planner caps a straight move's acceleration along the path at it and chooses a curve's
-limits with every axis' acceleration capped at it
+M204 sets the path acceleration of the moves after it [mm/s^2], as Marlin's planner makes it
+each block's acceleration (limited per axis by M201): P for the moves that extrude, T for the
+travels (the moves whose E word does not move the extruder, or that have none:
+:mod:`~gantry_sim.controller.gcode.extruder`), S (its older form) both; it cuts nothing. A
+travel runs under P while no T (or S) has been given (Marlin's own travel acceleration, a
+firmware setting, is not known here), and a move of another dialect, which follows no
+extruder, under P. Each move runs under the value in effect on its line (:class:`Part`, per
+motion): the planner caps a straight move's acceleration along the path at it and chooses a
+curve's limits with every axis' acceleration capped at it
 (:func:`~gantry_sim.controller.planner.move_geometry.capped_geometries`); the junctions'
-pieces keep the machine's own per-axis limits. R and T (retract and travel acceleration) are
-not modelled: travels run under P too. M204 P0 caps nothing.
+pieces keep the machine's own per-axis limits. R (retract acceleration) is not modelled: a
+move of E alone does not move the tool. M204 P0 (T0) caps nothing.
 
 The events that change the machine itself split the program there: the part before is planned
 with the limits in effect, the part after with the new ones, and the plans are joined end to
@@ -53,7 +57,16 @@ class _LimitState:
 
     def __init__(self, machine: MachineConfig) -> None:
         self.machine = machine
-        self.path_acc: float | None = None
+        self.path_acc: float | None = None  #: M204 P (or S): the moves that extrude
+        self.travel_acc: float | None = None  #: M204 T (or S): the travels
+        self.travel_set = False  #: a T or S was given (until then travels run under P)
+
+    def acc_for(self, move: Move) -> float:
+        """The path acceleration [mm/s^2] ``move`` runs under (inf: none): T for a travel once
+        one was given, else P."""
+        travel = getattr(move, "extrudes", None) is False and self.travel_set
+        acc = self.travel_acc if travel else self.path_acc
+        return math.inf if acc is None else acc
 
     def apply(self, event: Limits) -> bool:
         """Apply ``event``; True when it changed the machine (a new part), False when it set
@@ -73,14 +86,25 @@ class _LimitState:
         if event.code == "M205" and "J" in values and values["J"] > 0:
             self.machine = m.with_changes("path", tolerance_mm=values["J"])
             return True
-        if event.code == "M204" and ("P" in values or "S" in values):
-            path = float(values.get("P", values.get("S", 0.0)))
-            if not (math.isfinite(path) and path >= 0.0):
-                raise ConfigError(
-                    f"path acceleration to {path:g} mm/s^2; it must be a number >= 0 (0: none)"
-                )
-            self.path_acc = path if path > 0.0 else None  # M204 P0 caps nothing
+        if event.code == "M204":  # Marlin's M204(): S first, then P and T (and R) over it
+            for key in ("S", "P", "T"):
+                if key in values:
+                    cap = _path_acc(values[key])
+                    if key in "SP":
+                        self.path_acc = cap
+                    if key in "ST":
+                        self.travel_acc, self.travel_set = cap, True
         return False
+
+
+def _path_acc(value: float) -> float | None:
+    """An M204 value [mm/s^2] as a cap (None: 0, none), or ConfigError."""
+    acc = float(value)
+    if not (math.isfinite(acc) and acc >= 0.0):
+        raise ConfigError(
+            f"path acceleration to {acc:g} mm/s^2; it must be a number >= 0 (0: none)"
+        )
+    return acc if acc > 0.0 else None
 
 
 class LimitEvents(NamedTuple):
@@ -102,7 +126,7 @@ def read_limits(items: Iterable[Move | Event], machine: MachineConfig) -> LimitE
         if isinstance(item, Limits):
             cuts |= _apply(state, item)
         elif isinstance(item, Rapid | Linear | Arc | Spline):
-            acc.append(state.path_acc or math.inf)
+            acc.append(state.acc_for(item))
     return LimitEvents(cuts, capping(acc))
 
 
@@ -115,7 +139,7 @@ def capping(path_acc_mm_per_s2: list[float]) -> list[float] | None:
 def split_at_limits(items: Iterable[Move | Event], machine: MachineConfig) -> Iterator[Part]:
     """The program cut where its Limits events change the machine (M201, M203, M205 J): per
     part with moves, its items (without the events), the machine in effect and, per motion
-    among the items, the path acceleration [mm/s^2] in effect (M204 P or S; inf: none), which
+    among the items, the path acceleration [mm/s^2] in effect (M204 P, T or S; inf: none), which
     does not cut the program (Marlin applies it to the moves it plans next, as the planner
     does: :func:`~gantry_sim.controller.planner.prepare.prepare`). The events of a part without
     moves go to the next part (the last one's to the one before).
@@ -169,7 +193,7 @@ def _cut(
         else:
             chunk.append(item)
             if isinstance(item, Rapid | Linear | Arc | Spline):
-                acc.append(state.path_acc or math.inf)
+                acc.append(state.acc_for(item))
     yield chunk, state.machine, acc
 
 
