@@ -7,7 +7,11 @@ and 20 us to pickle and as long again to unpickle, an array at a time: about a t
 planning it. :class:`ChainBatch` is the dict of chains a run gives, and pickles as one flat
 array of all their segments' numbers and one array for each of their other numbers;
 unpickled, it is the same chains, bit for bit, each segment a view of that array. Kept in the
-process that planned them, it is a plain dict: nothing is packed.
+process that planned them, it is a plain dict: nothing is packed. It sorts segments as
+:class:`~gantry_sim.controller.planner.packed_block.PackedBlock` does
+(:func:`~gantry_sim.controller.planner.cubic.segment_kind`) but does not pack them with it:
+that gives each segment back as a fresh array, and a pickled round trip of 3,000 polyline chains
+took 24.7 us a chain with it against 11.0 us here.
 """
 
 from __future__ import annotations
@@ -18,7 +22,13 @@ from typing import Generic, TypeVar
 import numpy as np
 
 from gantry_sim.controller.planner.chains import Chain
-from gantry_sim.controller.planner.cubic import Jerk3Run, Segment
+from gantry_sim.controller.planner.cubic import (
+    SEGMENT_PER_AXIS,
+    SEGMENT_RUN,
+    Jerk3Run,
+    Segment,
+    segment_kind,
+)
 
 __all__ = ["ChainBatch"]
 
@@ -32,26 +42,13 @@ class ChainBatch(dict[K, Chain], Generic[K]):
         return (_unpack, (*_pack(list(self.values())), list(self.keys())))
 
 
-_RUN, _WHOLE, _PER_AXIS = 0, 1, 2  # a Jerk3Run; one (3, 5, n) array; three (5, n_i) arrays
-
-
 def _pack(chains: list[Chain]) -> tuple[object, ...]:
     """The chains' numbers: every closed-form run's rows and every (3, 5, n) segment's phases
     one after another in one flat array (per segment its kind and size), the rare per-axis
     segments as they are, and per chain its segments, duration [s], Ruckig pieces, move
     starts [s], speeds inside [mm/s] and bad junctions."""
     segments = [seg for c in chains for seg in c.chunk]
-    kinds = np.array(
-        [
-            _RUN
-            if isinstance(seg, Jerk3Run)
-            else _WHOLE
-            if isinstance(seg, np.ndarray)
-            else _PER_AXIS
-            for seg in segments
-        ],
-        dtype=np.int8,
-    )
+    kinds = np.array([segment_kind(seg) for seg in segments], dtype=np.int8)
     flat = [
         seg.rows.ravel() if isinstance(seg, Jerk3Run) else seg.ravel()
         for seg in segments
@@ -100,12 +97,12 @@ def _unpack(
     axis_segments = iter(per_axis)
     at = k = 0
     for kind in kinds.tolist():
-        if kind == _PER_AXIS:
+        if kind == SEGMENT_PER_AXIS:
             segments.append(next(axis_segments))
             continue
         end = ends[k]
         part = values[at:end]
-        if kind == _RUN:
+        if kind == SEGMENT_RUN:
             run = Jerk3Run.__new__(Jerk3Run)
             run.rows = part.reshape(-1, 19)
             segments.append(run)

@@ -86,6 +86,17 @@ Segment = tuple[np.ndarray, np.ndarray, np.ndarray] | np.ndarray | Jerk3Run
 #: The phases of a chain (or a dwell), segment by segment in time order.
 Chunk = tuple[Segment, ...]
 
+#: A :data:`Segment`'s kind, as the packers store it (:mod:`.packed_block`, :mod:`.chain_batch`):
+#: a :class:`Jerk3Run`, one (3, 5, n) array, three (5, n_i) arrays.
+SEGMENT_RUN, SEGMENT_WHOLE, SEGMENT_PER_AXIS = 0, 1, 2
+
+
+def segment_kind(seg: Segment) -> int:
+    """:data:`SEGMENT_RUN`, :data:`SEGMENT_WHOLE` or :data:`SEGMENT_PER_AXIS`."""
+    if isinstance(seg, Jerk3Run):
+        return SEGMENT_RUN
+    return SEGMENT_WHOLE if isinstance(seg, np.ndarray) else SEGMENT_PER_AXIS
+
 
 class CubicBuilder:
     """Collects phases per axis in time order, as the arrays (or sequences) given."""

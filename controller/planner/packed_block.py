@@ -17,7 +17,13 @@ from collections.abc import Sequence
 
 import numpy as np
 
-from gantry_sim.controller.planner.cubic import Jerk3Run, Segment
+from gantry_sim.controller.planner.cubic import (
+    SEGMENT_RUN,
+    SEGMENT_WHOLE,
+    Jerk3Run,
+    Segment,
+    segment_kind,
+)
 from gantry_sim.controller.planner.jerk3 import phase_starts
 
 __all__ = ["PackedBlock", "Phases"]
@@ -25,8 +31,6 @@ __all__ = ["PackedBlock", "Phases"]
 #: One axis' phases: start time [s], position [mm], velocity [mm/s], acceleration [mm/s^2],
 #: jerk [mm/s^3], arrays of equal length.
 Phases = tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]
-
-_RUN, _WHOLE, _PER_AXIS = 0, 1, 2  # a Jerk3Run; one (3, 5, n) array; three (5, n_i) arrays
 
 
 class PackedBlock:
@@ -40,16 +44,15 @@ class PackedBlock:
         runs: list[np.ndarray] = []
         other: list[list[np.ndarray]] = [[], [], []]
         for k, seg in enumerate(segments):
+            kinds[k] = segment_kind(seg)
             if isinstance(seg, Jerk3Run):
-                kinds[k] = _RUN
                 counts[k] = 3 * seg.rows.shape[0]
                 runs.append(seg.rows)
                 continue
-            kinds[k] = _WHOLE if isinstance(seg, np.ndarray) else _PER_AXIS
             for i in range(3):
                 counts[k, i] = seg[i].shape[1]
                 other[i].append(seg[i])
-        #: per segment: 0 a closed-form run, 1 one (3, 5, n) array, 2 three (5, n_i) arrays
+        #: per segment its kind (cubic.segment_kind)
         self.kinds = kinds
         #: (segments, 3) phases per segment and axis
         self.counts = counts
@@ -63,11 +66,11 @@ class PackedBlock:
 
     def segments(self) -> tuple[Segment, ...]:
         """The segments packed (fresh arrays holding the same numbers)."""
-        run_at = np.cumsum(self.counts[:, 0] * (self.kinds == _RUN) // 3)
-        other_at = np.cumsum(self.counts * (self.kinds != _RUN)[:, None], axis=0)
+        run_at = np.cumsum(self.counts[:, 0] * (self.kinds == SEGMENT_RUN) // 3)
+        other_at = np.cumsum(self.counts * (self.kinds != SEGMENT_RUN)[:, None], axis=0)
         out: list[Segment] = []
         for k, kind in enumerate(self.kinds.tolist()):
-            if kind == _RUN:
+            if kind == SEGMENT_RUN:
                 run = Jerk3Run.__new__(Jerk3Run)
                 m = int(self.counts[k, 0]) // 3
                 run.rows = self.runs[int(run_at[k]) - m : int(run_at[k])].copy()
@@ -77,7 +80,9 @@ class PackedBlock:
                 self.other[i][:, int(other_at[k, i] - self.counts[k, i]) : int(other_at[k, i])]
                 for i in range(3)
             )
-            out.append(np.stack((x, y, z)) if kind == _WHOLE else (x.copy(), y.copy(), z.copy()))
+            out.append(
+                np.stack((x, y, z)) if kind == SEGMENT_WHOLE else (x.copy(), y.copy(), z.copy())
+            )
         return tuple(out)
 
     def durations(self, axis: int) -> np.ndarray:
@@ -112,7 +117,7 @@ class PackedBlock:
 
     def _from_runs(self, axis: int) -> np.ndarray:
         """Per phase of ``axis`` in time order, whether a closed-form run holds it."""
-        return np.repeat(self.kinds == _RUN, self.counts[:, axis])
+        return np.repeat(self.kinds == SEGMENT_RUN, self.counts[:, axis])
 
 
 def _merged(from_runs: np.ndarray, run_values: np.ndarray, other_values: np.ndarray) -> np.ndarray:
