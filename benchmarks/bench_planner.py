@@ -213,6 +213,11 @@ def reference_error(p, moves, dt=1e-4):
     t = np.arange(0.0, p.duration_s, dt)
     pos, _, _ = p.curve.evaluate(t)
     k = np.clip(np.searchsorted(p.move_start_s, t, side="right") - 1, 0, None)
+    # a stop overlapped is an entry of its own (planner/stop_overlap.py): its samples cut the
+    # corner by design (its distance is a blend's, in Plan.blends), and the moves after it
+    # are one entry further on
+    overlap = np.searchsorted(p.move_start_s, p.overlaps_s[:, 0], side="right") - 1
+    k = np.where(np.isin(k, overlap), -1, k - np.searchsorted(overlap, k))
     active = [m for m in (p.path_moves or moves) if m.length_mm > 1e-9]
     worst = 0.0
     for b, m in enumerate(active):

@@ -50,7 +50,8 @@ class RangeJob:
     """One simulated range: ticks lo.. of the run; ``piece``: its reference; ``context_pos``:
     the reference positions around it (sim.contour.reference_context), piece.pos =
     context_pos[offset:offset+n] [mm]; ``pos``: the traced tool tip (n, 3) [mm];
-    ``force``: the held forces (n, 3) [N]."""
+    ``force``: the held forces (n, 3) [N]; ``overlap``: per tick, whether it lies in an
+    overlapped stop (sim.blend_parts.in_overlaps; None: none does)."""
 
     lo: int
     piece: Trajectory
@@ -58,6 +59,7 @@ class RangeJob:
     offset: int
     pos: np.ndarray
     force: np.ndarray
+    overlap: np.ndarray | None = None
 
 
 Result = tuple[RangeJob, ChunkAnalysis, float]
@@ -70,23 +72,27 @@ def analyse_range(
     pos: np.ndarray,
     context_pos: np.ndarray,
     offset: int,
+    overlap: np.ndarray | None = None,
 ) -> tuple[ChunkAnalysis, float]:
     """The contour analysis of ticks executing ``line`` (n,) and the program moves ``source``
     (n, 2) (Trajectory.source, or None) traced at ``pos`` (n, 3) [mm]
     (sim.contour.analyse_chunk), and the largest distance [mm] of their feed reference
-    samples from the path the planner followed (sim.blend_parts.planning_distance_mm), against
-    the moves ``tables`` holds (sim.range_rows: the rows the range reaches, laid out here)."""
+    samples from the path the planner followed (sim.blend_parts.planning_distance_mm; not
+    those where ``overlap`` (n,) is set: sim.blend_parts.in_overlaps), against the moves
+    ``tables`` holds (sim.range_rows: the rows the range reaches, laid out here)."""
     tab = move_table(tables.moves, tables.cum_len)
     if source is not None:
         source = np.where(source >= 0, source - tables.r0, source)
     part = analyse_chunk(tab, line, pos, context_pos, offset, source, tables.found)
     ref = context_pos[offset : offset + len(pos)]
     path_tab = move_table(tables.path_moves)
-    return part, planning_distance_mm(path_tab, line, ref, part.feed, tables.path_window)
+    feed = part.feed if overlap is None else part.feed & ~overlap
+    return part, planning_distance_mm(path_tab, line, ref, feed, tables.path_window)
 
 
 def _job_args(job: RangeJob, tables: RangeTables) -> tuple:
-    return (tables, job.piece.line, job.piece.source, job.pos, job.context_pos, job.offset)
+    piece = job.piece
+    return (tables, piece.line, piece.source, job.pos, job.context_pos, job.offset, job.overlap)
 
 
 class InlineAnalyser:

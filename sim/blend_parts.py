@@ -9,7 +9,9 @@ split (both [um], added to ``parts_um`` of report.json beside the existing keys)
   (from the corners they cut) and G64 Q merges (from the points they merge away); 0 with
   neither;
 * ``reference_planning_max``: how far the reference samples of the feed moves leave the path
-  the planner followed (the blended one): chords, junction smoothing, pieces.
+  the planner followed (the blended one): chords, junction smoothing, pieces. The samples of a
+  stop whose two moves' profiles overlap (``Plan.overlaps_s``) are left out: there the
+  reference cuts the corner by design, and that overlap's deviation is a blend's.
 """
 
 from __future__ import annotations
@@ -44,8 +46,22 @@ def split_reference(analysis: Analysis, planned: Plan, traj: Trajectory) -> Anal
     """``analysis`` with its parts split into blend and planning (see the module docstring)."""
     tab = move_table(planned.path_moves or planned.moves)
     window = path_windows(known_path_sources(planned), traj.source)
-    planning_mm = planning_distance_mm(tab, traj.line, traj.pos, analysis.feed, window)
+    feed = analysis.feed & ~in_overlaps(traj.t, planned.overlaps_s)
+    planning_mm = planning_distance_mm(tab, traj.line, traj.pos, feed, window)
     return with_planning_split(analysis, planned, planning_mm * UM_PER_MM)
+
+
+def in_overlaps(t: np.ndarray, overlaps_s: np.ndarray) -> np.ndarray:
+    """Per time ``t`` (n,) [s], whether it falls in one of the overlapped stops
+    ``overlaps_s`` ((k, 2) start and end [s], in order, not overlapping each other; a start
+    counts in, an end out)."""
+    t = np.asarray(t, dtype=float)
+    if not len(overlaps_s):
+        return np.zeros(t.shape, dtype=bool)
+    k = np.searchsorted(overlaps_s[:, 0], t, side="right") - 1
+    inside = k >= 0
+    inside[inside] = t[inside] < overlaps_s[k[inside], 1]
+    return inside
 
 
 def known_path_sources(planned: Plan) -> np.ndarray | None:
@@ -106,6 +122,7 @@ def with_planning_split(
 __all__ = [
     "BlendedParts",
     "blend_max_um",
+    "in_overlaps",
     "known_path_sources",
     "path_windows",
     "planning_distance_mm",

@@ -38,7 +38,12 @@ from gantry_sim.controller.planner.result import Plan
 from gantry_sim.controller.trajectory import Trajectory
 from gantry_sim.controller.units import UM_PER_MM
 from gantry_sim.sim.analysis_worker import ProcessAnalyser, RangeJob, Result, make_analyser
-from gantry_sim.sim.blend_parts import blend_max_um, known_path_sources, with_planning_split
+from gantry_sim.sim.blend_parts import (
+    blend_max_um,
+    in_overlaps,
+    known_path_sources,
+    with_planning_split,
+)
 from gantry_sim.sim.contour import (
     Analysis,
     ChunkAnalysis,
@@ -159,6 +164,7 @@ def stream_run(
     # the analysis lays out: no table of the whole program is made (28 MB each at 100,000
     # blocks: the program's, and the path's for the blend/planning split)
     rows = RowPicker(moves, planned.path_moves or moves, index, known_path_sources(planned))
+    overlaps = len(planned.overlaps_s) > 0  # stops overlapped: out of the planning split
     # the chords' largest error from their curves (a second of work at 10,000 arcs) and the
     # plan's largest blend deviation (its blends read from disk: 0.03 s at 10,000 polyline
     # blocks) need nothing from the simulation: done meanwhile by a forked child (forked before
@@ -188,9 +194,9 @@ def stream_run(
                 sim_s += t1 - t0
                 c0, ctx = contexts.popleft()
                 piece = ctx.slice(lo - c0, lo - c0 + pos.shape[0])
-                handed.append(
-                    helper.submit(hand_over, RangeJob(lo, piece, ctx.pos, lo - c0, pos, force))
-                )
+                lap = in_overlaps(piece.t, planned.overlaps_s) if overlaps else None
+                job = RangeJob(lo, piece, ctx.pos, lo - c0, pos, force, lap)
+                handed.append(helper.submit(hand_over, job))
                 # a failed hand-over stops the run here; at most HANDED_AHEAD ranges wait
                 while handed and (handed[0].done() or len(handed) > HANDED_AHEAD):
                     handed.popleft().result()

@@ -212,3 +212,12 @@ def assert_phases_within_limits(p, machine) -> None:
         assert v_top <= lim.max_velocity_mm_per_s[i] * (1 + REL), (i, v_top)
         assert a_top <= lim.max_acceleration_mm_per_s2[i] * (1 + REL), (i, a_top)
         assert np.abs(j).max() <= lim.max_jerk_mm_per_s3[i] * (1 + REL), i
+
+
+def move_entry_starts(p) -> np.ndarray:
+    """``p.move_start_s`` without the entries of stops overlapped (planner/stop_overlap.py:
+    an entry of their own between two moves), for a plan without dwells: each active path
+    move's start [s]."""
+    starts = np.asarray(p.move_start_s)
+    overlap = np.searchsorted(starts, p.overlaps_s[:, 0], side="right") - 1
+    return np.delete(starts, overlap)

@@ -14,7 +14,7 @@ from gantry_sim.controller.gcode.dialects import with_segmentation_default
 from gantry_sim.controller.gcode.interpreter import interpret_events, parse_program
 from gantry_sim.controller.moves import Arc, Dwell, Linear, PathControl, Stop
 from gantry_sim.controller.planner.plan import plan
-from tests.plan_helpers import assert_within_limits, polyline_distance
+from tests.plan_helpers import assert_within_limits, move_entry_starts, polyline_distance
 
 
 def _sample(moves, machine):
@@ -59,11 +59,18 @@ def test_g64_blends_a_corner_within_p_and_keeps_every_limit(machine):
     assert np.array_equal(tr.pos[-1], moves[-1].end)
 
 
-def test_a_sharp_corner_stays_an_exact_stop_where_a_blend_would_crawl(machine):
-    # 90 degrees within 0.01 mm: a jerk-limited blend passes at ~1.4 mm/s, slower than stopping
-    p = plan(parse_program("G21 G64 P0.01\nG1 X20 F3000\nG1 Y20\nM2"), machine)
-    assert not p.blends
-    assert _speed_at(p, p.move_start_s[1]) < 1e-6
+def test_a_sharp_corner_gets_no_blend_arc_where_it_would_crawl(machine):
+    # 90 degrees within 0.01 mm: a jerk-limited blend passes at ~1.4 mm/s, slower than
+    # stopping; the stop's two moves overlap instead (planner/stop_overlap.py), which the
+    # G61 plan of the same corner does not
+    text = "G21 G64 P0.01\nG1 X20 F3000\nG1 Y20\nM2"
+    p = plan(parse_program(text), machine)
+    assert [b.kind for b in p.blends] == ["overlap"]
+    assert not any(isinstance(m, Arc) for m in p.path_moves)
+    g61 = plan(parse_program(text.replace("G64 P0.01", "G61")), machine)
+    assert not g61.blends and _speed_at(g61, g61.move_start_s[1]) < 1e-6
+    tau = float(p.overlaps_s[0, 1] - p.overlaps_s[0, 0])
+    assert p.duration_s == pytest.approx(g61.duration_s - tau, abs=1e-12)
 
 
 def test_g61_stops_at_corners_and_g611_at_every_junction(machine):
@@ -220,8 +227,9 @@ def test_a_blend_arc_ramping_at_its_junction_drops_the_phase_switch_there(machin
     moves = list(interpret_events(PERIMETER, "marlin"))
     p, tr = _sample(moves, machine)
     arcs = [k for k, m in enumerate(p.path_moves) if isinstance(m, Arc)]
-    assert len(arcs) == len(p.blends) == 14
-    speeds = np.linalg.norm(p.curve.evaluate(p.move_start_s[arcs])[1], axis=1)
+    assert len(arcs) == sum(b.kind == "corner" for b in p.blends) == 14
+    starts = move_entry_starts(p)[arcs]
+    speeds = np.linalg.norm(p.curve.evaluate(starts)[1], axis=1)
     assert speeds.min() >= 0.75 * 1080.0 / 60.0
     assert_within_limits(tr, machine, moves)
     lines = [m for m in moves if isinstance(m, Linear)]
@@ -420,7 +428,11 @@ def test_g64_q_merges_report_how_far_they_leave_the_programmed_points(machine, t
     out = tmp_path / "o"
     assert main(["run", str(prog), "--out", str(out), "--no-plots", "--no-trace"]) == 0
     parts = json.loads((out / "report.json").read_text())["parts_um"]
-    assert parts["reference_blend_max"] == pytest.approx(1.5, abs=1e-6)
+    # the merges' 1.5 um, or the stops overlapped at the square corners of lines 12-14
+    # (planner/stop_overlap.py), whichever is larger
+    overlaps = [b.deviation_mm * 1000.0 for b in p.blends if b.kind == "overlap"]
+    assert len(overlaps) == 2
+    assert parts["reference_blend_max"] == pytest.approx(max([1.5, *overlaps]), abs=1e-6)
     assert parts["reference_max"] <= parts["reference_blend_max"] + parts["reference_planning_max"]
 
 
@@ -437,14 +449,17 @@ def test_gantry_plan_reports_the_merges(tmp_path, capsys):
     assert merges["max_deviation_mm"] == pytest.approx(0.001, abs=1e-9)
 
 
-def test_a_corner_outside_the_principal_planes_stays_an_exact_stop(machine):
+def test_a_corner_outside_the_principal_planes_gets_no_blend_arc(machine):
+    """No blend arc outside XY, XZ, YZ: the corner is a stop, whose two moves overlap
+    (planner/stop_overlap.py: they share only Z, a tenth of each move, so the jerks add
+    within its limit)."""
     moves = [
         Linear(1, (0.0, 0.0, 0.0), (10.0, 0.0, 1.0), 3000.0, PathControl("G64", 0.01)),
         Linear(2, (10.0, 0.0, 1.0), (10.0, 10.0, 2.0), 3000.0, PathControl("G64", 0.01)),
     ]
     p = plan(moves, machine)
-    assert not p.blends
-    assert _speed_at(p, p.move_start_s[1]) < 1e-6
+    assert [b.kind for b in p.blends] == ["overlap"]
+    assert not any(isinstance(m, Arc) for m in p.path_moves)
 
 
 def test_a_dwell_is_an_exact_stop_that_holds_still_for_its_time(machine):

@@ -81,7 +81,8 @@ def _whole_and_windowed(text: str, monkeypatch, window: int, margin: int):
 def _assert_same(a, b) -> None:
     assert a.duration_s == b.duration_s
     assert a.ruckig_piece_count == b.ruckig_piece_count
-    for name in ("move_start_s", "move_lines", "move_sources", "path_sources", "end_mm"):
+    names = ("move_start_s", "move_lines", "move_sources", "path_sources", "end_mm", "overlaps_s")
+    for name in names:
         np.testing.assert_array_equal(getattr(a, name), getattr(b, name), err_msg=name)
     for axis_a, axis_b in zip(a.curve.axes, b.curve.axes, strict=True):
         for col_a, col_b in zip(axis_a, axis_b, strict=True):
@@ -168,6 +169,27 @@ def test_a_chain_longer_than_the_window_widens_it_to_the_chain(monkeypatch):
     text += "G0 Z5\nM2\n"
     whole, windowed, probes = _whole_and_windowed(text, monkeypatch, 16, 4)
     assert max(probes) >= 80, probes
+    _assert_same(whole, windowed)
+
+
+def _pocket_program() -> str:
+    """A zigzag of X lines joined by 0.5 mm Y steps at right angles, in G64 P0.01: every
+    corner an exact stop (its blend arc slower) whose two moves share no axis, so each is
+    overlapped (planner/stop_overlap.py); every chain one move, so windows cut at them."""
+    out = ["G21 G90 G17 G64 P0.01", "G0 X0 Y0 Z-1", "G1 F2400"]
+    for k in range(40):
+        out.append(f"X{0.0 if k % 2 else 6.0 + 0.1 * (k % 3):.4f}")
+        out.append(f"Y{0.5 * (k + 1):.4f}")
+    return "\n".join([*out, "G0 Z5", "M2"]) + "\n"
+
+
+@pytest.mark.parametrize("window", [9, 14])
+def test_stops_overlapped_across_window_cuts_give_the_whole_program_plan(monkeypatch, window):
+    """A window cut at an overlapped stop holds its last chain back for the next window's
+    first (windows.Planned.pending): the plan is the whole program's, overlaps included."""
+    whole, windowed, probes = _whole_and_windowed(_pocket_program(), monkeypatch, window, 2)
+    assert len(whole.overlaps_s) >= 75  # 79 corners between lines
+    assert len(probes) >= 5, probes
     _assert_same(whole, windowed)
 
 

@@ -14,8 +14,9 @@ __all__ = ["Blend", "Blended"]
 class Blend:
     """One blended junction: the program line of the move ending there, the blend's largest
     distance from the programmed path [mm], the tolerance it was given [mm], and its kind:
-    "corner" (a blend arc) or "transition" (a G2 transition at a tangent junction,
-    :mod:`~gantry_sim.controller.planner.transition`). Slotted: a long program of tangent arcs
+    "corner" (a blend arc), "transition" (a G2 transition at a tangent junction,
+    :mod:`~gantry_sim.controller.planner.transition`) or "overlap" (an exact stop between two
+    lines whose profiles overlap, :mod:`~gantry_sim.controller.planner.stop_overlap`). Slotted: a long program of tangent arcs
     has one per junction."""
 
     line: int

@@ -232,6 +232,7 @@ class JoinedPlans:
         self._lines: list[np.ndarray] = []
         self._move_sources: list[np.ndarray] = []
         self._path_sources: list[np.ndarray] = []
+        self._overlaps: list[np.ndarray] = []
         self._duration_s = 0.0
         self._segments = 0
         self._ruckig = 0
@@ -248,6 +249,7 @@ class JoinedPlans:
             self._curve.extend([block])
         first = len(self._moves)  # sources index program moves, in both lists
         self._starts.append(plan.move_start_s + self._duration_s)
+        self._overlaps.append(plan.overlaps_s + self._duration_s)
         self._lines.append(plan.move_lines)
         self._move_sources.append(_shifted(plan.move_sources, first))
         self._path_sources.append(_shifted(plan.path_sources, first))
@@ -272,10 +274,11 @@ class JoinedPlans:
             np.concatenate(self._lines),
             np.concatenate(self._move_sources).reshape(-1, 2),
             np.concatenate(self._path_sources).reshape(-1, 2),
+            np.concatenate(self._overlaps).reshape(-1, 2),
         )
         for arr in arrays:
             arr.setflags(write=False)
-        starts, lines, move_sources, path_sources = arrays
+        starts, lines, move_sources, path_sources, overlaps = arrays
         moves = self._moves
         return replace(
             self._last,
@@ -292,6 +295,7 @@ class JoinedPlans:
             path_moves=self._path_moves,
             move_sources=move_sources,
             path_sources=path_sources,
+            overlaps_s=overlaps,
             limit_change_stops=self._parts - 1,
         )
 

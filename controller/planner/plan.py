@@ -43,7 +43,8 @@ from gantry_sim.controller.forked_runs import MAX_RUNS, fork_runs
 from gantry_sim.controller.gc_pause import gc_paused
 from gantry_sim.controller.heap import trim_heap
 from gantry_sim.controller.moves import Arc, Event, Linear, Move, Rapid, Spline
-from gantry_sim.controller.planner.blend import CornerMemo, PathPlan
+from gantry_sim.controller.planner.blend import REFERENCE_SHARE, CornerMemo, PathPlan
+from gantry_sim.controller.planner.blend_types import Blend
 from gantry_sim.controller.planner.limit_events import (
     JoinedPlans,
     Part,
@@ -274,8 +275,18 @@ def _plan_part(
     path_sources = np.fromiter(
         itertools.chain.from_iterable(path.sources), dtype=np.int64, count=2 * len(path.sources)
     ).reshape(-1, 2)
-    for arr in (end, move_start, lines, sources, path_sources):
+    overlaps_s = np.array([(o.start_s, o.start_s + o.tau_s) for o in planned.overlaps])
+    overlaps_s = overlaps_s.reshape(-1, 2)
+    for arr in (end, move_start, lines, sources, path_sources, overlaps_s):
         arr.setflags(write=False)
+    share = REFERENCE_SHARE * seg.chord_tolerance_mm
+    overlaps = [
+        Blend(o.line, o.deviation_mm, o.budget_mm + share, kind="overlap") for o in planned.overlaps
+    ]
+    blends = path.blends  # the path's (a list, or on disk), then the overlaps
+    if overlaps:
+        blends = blends if isinstance(blends, SpilledList | list) else list(blends)
+        blends.extend(overlaps)
     vertices = ChordVertices(program, seg)
     return Plan(
         moves=program,
@@ -288,11 +299,12 @@ def _plan_part(
         move_start_s=move_start,
         move_lines=lines,
         end_mm=end,
-        blends=path.blends,
+        blends=blends,
         merges=tuple(path.merges),
         path_moves=path.moves,
         move_sources=sources,
         path_sources=path_sources,
+        overlaps_s=overlaps_s,
     )
 
 

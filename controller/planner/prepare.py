@@ -11,15 +11,16 @@ before and after its moves of interest gives them what the whole path gives them
 from __future__ import annotations
 
 import math
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from dataclasses import replace
+from types import MappingProxyType
 from typing import NamedTuple
 
 import numpy as np
 
 from gantry_sim.controller.config import MachineConfig
-from gantry_sim.controller.moves import Dwell
-from gantry_sim.controller.planner.blend import PathPlan
+from gantry_sim.controller.moves import Dwell, Linear
+from gantry_sim.controller.planner.blend import MAX_TURN_RAD, PathPlan
 from gantry_sim.controller.planner.blend_judge import blend_faster_many
 from gantry_sim.controller.planner.junctions import (
     JunctionState,
@@ -35,7 +36,7 @@ from gantry_sim.controller.planner.move_geometry import (
 )
 from gantry_sim.controller.planner.transition import CHORD_FIT_REACHED
 
-__all__ = ["Prepared", "prepare", "slow_blends", "sub_path"]
+__all__ = ["Prepared", "prepare", "slow_blends", "stop_corners", "sub_path"]
 
 
 class Prepared(NamedTuple):
@@ -44,7 +45,10 @@ class Prepared(NamedTuple):
     path;
     junction ``caps`` [mm/s] and ``states`` (len(active) + 1); dwells (``holds``), smoothing
     budgets [mm] and program ``sources`` per active junction or move; per active move the
-    M204 path acceleration [mm/s^2] it runs under (inf: none; None: none anywhere)."""
+    M204 path acceleration [mm/s^2] it runs under (inf: none; None: none anywhere); and the
+    ``stop_corners``: junction -> G64 budget [mm] of each exact stop between two straight feed
+    moves that the path control would have blended (:func:`stop_corners`), where the two
+    moves' profiles may overlap (:mod:`~gantry_sim.controller.planner.stop_overlap`)."""
 
     geoms: list[MoveGeometry]
     active: list[MoveGeometry]
@@ -55,6 +59,7 @@ class Prepared(NamedTuple):
     smoothing: list[float]
     sources: list[tuple[int, int]]
     path_acc_mm_per_s2: list[float] | None = None
+    stop_corners: Mapping[int, float] = MappingProxyType({})
 
 
 def sub_path(path: PathPlan, lo: int, hi: int, first_junction: int) -> PathPlan:
@@ -105,7 +110,35 @@ def prepare(
     active = limits_for_junctions(active, caps, lim, path_acc)
     caps = feasible_junction_caps(active, caps, states, lim)
     where = [i for i, k in enumerate(keep) if k]
-    return Prepared(geoms, active, where, caps, states, holds, smoothing, sources, path_acc)
+    corners = stop_corners(active, caps, smoothing, stops | set(holds))
+    return Prepared(
+        geoms, active, where, caps, states, holds, smoothing, sources, path_acc, corners
+    )
+
+
+def stop_corners(
+    active: Sequence[MoveGeometry], caps: np.ndarray, smoothing: Sequence[float], exact: set[int]
+) -> dict[int, float]:
+    """Junction -> budget [mm] (the smaller of its two moves' ``smoothing``) of each stop
+    (``caps`` 0) between two straight feed moves in G64 (both budgets > 0) that the program
+    does not ask for (junctions ``exact``: G61.1, program stops, dwells), turning by less
+    than :data:`~gantry_sim.controller.planner.blend.MAX_TURN_RAD` (a reversal stays a
+    stop, as in LinuxCNC and grbl, and as sim.duration_bound counts it)."""
+    out = {}
+    for b in (np.flatnonzero(caps[1 : len(active)] == 0.0) + 1).tolist():
+        budget = min(smoothing[b - 1], smoothing[b])
+        if (
+            budget > 0.0
+            and b not in exact
+            and isinstance(active[b - 1].move, Linear)
+            and isinstance(active[b].move, Linear)
+            and float(active[b - 1].tangent_out @ active[b].tangent_in) > _COS_MAX_TURN
+        ):
+            out[b] = budget
+    return out
+
+
+_COS_MAX_TURN = math.cos(MAX_TURN_RAD)
 
 
 def _active_path_acc(

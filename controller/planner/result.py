@@ -49,6 +49,10 @@ class Plan:
         limit_change_stops: Marlin limit changes (M201, M203, M205 J) planned as exact stops
             between the program's parts (:mod:`~gantry_sim.controller.planner.limit_events`;
             Marlin itself does not stop there).
+        overlaps_s: read-only (k, 2) start and end [s] of each G64 stop whose two moves'
+            profiles overlap (:mod:`~gantry_sim.controller.planner.stop_overlap`; each is
+            also in ``blends``, kind "overlap"): there the reference cuts the corner, as a
+            blend does.
     """
 
     moves: Sequence[Move]
@@ -67,6 +71,7 @@ class Plan:
     path_sources: np.ndarray = field(repr=False, default_factory=lambda: _no_sources())
     merges: tuple[Merge, ...] = ()
     limit_change_stops: int = 0
+    overlaps_s: np.ndarray = field(repr=False, default_factory=lambda: _no_windows())
 
     def sample(self, period_s: float) -> Trajectory:
         """The reference every ``period_s`` [s] from 0 to the end; the last sample is at rest at
@@ -125,6 +130,12 @@ class Plan:
         return Trajectory(
             t=t, pos=pos, vel=vel, acc=acc, line=line, period_s=period_s, source=source
         )
+
+
+def _no_windows() -> np.ndarray:
+    out = np.zeros((0, 2))
+    out.setflags(write=False)
+    return out
 
 
 def _no_sources() -> np.ndarray:

@@ -19,6 +19,7 @@ from __future__ import annotations
 
 import bisect
 import itertools
+import math
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field, replace
 
@@ -42,6 +43,13 @@ from gantry_sim.controller.planner.limits import BlockLimits
 from gantry_sim.controller.planner.lookahead import Passes, junction_speeds_again
 from gantry_sim.controller.planner.move_geometry import MoveGeometry
 from gantry_sim.controller.planner.ruckig_solver import RuckigSolver
+from gantry_sim.controller.planner.stop_overlap import (
+    Overlapped,
+    Pending,
+    first_move_s,
+    last_move_s,
+    overlap_at,
+)
 
 __all__ = [
     "JUNCTION_BACKOFF",
@@ -77,11 +85,12 @@ SOFTEN_TRIES = 3
 
 @dataclass
 class Round:
-    """One planning round: the reference, its duration [s], each move's (and dwell's) start
-    time [s] and program line, the junctions whose neighbouring pieces left the arc (their
-    speed must come down), the Ruckig pieces used, and per move (and dwell) the first and
-    last of the planned moves it is (a move: its index twice) or lies between (a dwell at
-    junction b: b - 1 and b; -1 or the move count past either end)."""
+    """One planning round: the reference, its duration [s], each move's (and dwell's, and
+    overlapped stop's) start time [s] and program line, the junctions whose neighbouring
+    pieces left the arc (their speed must come down), the Ruckig pieces used, and per move
+    (and dwell, and overlap) the first and last of the planned moves it is (a move: its index
+    twice) or lies between (a dwell or an overlap at junction b: b - 1 and b; -1 or the move
+    count past either end)."""
 
     chunks: list[Chunk]
     duration_s: float
@@ -90,6 +99,11 @@ class Round:
     lines: list[int]
     ruckig_pieces: int
     entries: list[tuple[int, int]]
+    #: the stops overlapped (:mod:`~gantry_sim.controller.planner.stop_overlap`)
+    overlaps: list[Overlapped] = field(default_factory=list)
+    #: the last chain, held back for an overlap with the next window's first (its chunk is
+    #: not in ``chunks``)
+    pending: Pending | None = None
 
 
 @dataclass
@@ -359,12 +373,24 @@ def assemble(
     *,
     end_hold: bool,
     start_s: float = 0.0,
+    corners: Mapping[int, float] | None = None,
+    path_acc: Sequence[float] | None = None,
+    before: Pending | None = None,
+    hold_last: bool = False,
 ) -> Round:
     """The timeline of the first ``count`` chains of ``settled``: their phases in order, with
     the dwells of ``holds`` at their junctions (the one after the last chain only with
     ``end_hold``), each move's start time and line (once, for the round that is kept: the
     rounds before only needed their chains' failed junctions). Times count from ``start_s``
-    [s] (a window's: the one before it ended there), and ``duration_s`` is the end's."""
+    [s] (a window's: the one before it ended there), and ``duration_s`` is the end's.
+
+    At each stop of ``corners`` (junction -> the G64 budget [mm] there) the two chains'
+    profiles are overlapped where that keeps every limit
+    (:mod:`~gantry_sim.controller.planner.stop_overlap`; ``path_acc``: per move, Marlin's M204
+    path acceleration [mm/s^2], or None): the overlap is an entry of the timeline of its own
+    (lying between the two moves, as a dwell does) and the chains after it start earlier.
+    ``before``: the window before's last chain, held back for junction 0; ``hold_last``: hold
+    this window's last chain back likewise (:attr:`Round.pending`)."""
     setup = settled.setup
     spans, chains = settled.spans[:count], settled.chains[:count]
     chunks: list[Chunk] = []
@@ -373,6 +399,9 @@ def assemble(
     lines: list[int] = []
     entries: list[tuple[int, int]] = []
     bad: set[int] = set()
+    overlaps: list[Overlapped] = []
+    corners = corners or {}
+    last: Pending | None = before
 
     def hold(b: int) -> None:
         nonlocal clock
@@ -387,14 +416,39 @@ def assemble(
             clock += dw.seconds
 
     for (first, stop), chain in zip(spans, chains, strict=True):
+        chunk, tau = chain.chunk, 0.0
+        if last is not None and first in corners and first not in holds:
+            acc = math.inf if path_acc is None else path_acc[first]
+            met = Pending(chunk, first_move_s(chain), setup.active[first], acc)
+            cut = overlap_at(last, met, corners[first], setup.machine.limits)
+            if cut is not None:
+                ahead, chunk, found = cut
+                tau, line = found.tau_s, last.geometry.move.line
+                last = replace(last, chunk=ahead)
+                clock -= tau  # the chains from here on start tau earlier
+                starts.append(clock)
+                lines.append(line)
+                entries.append((first - 1, first))
+                overlaps.append(Overlapped(clock, tau, line, found.deviation_mm, corners[first]))
+        if last is not None:
+            chunks.append(last.chunk)
         hold(first)
         starts.extend(clock + t for t in chain.starts_s)
+        if tau > 0.0:  # the overlap's entry holds the first move's first tau seconds
+            starts[len(starts) - len(chain.starts_s)] = clock + tau
         lines.extend(g.move.line for g in setup.active[first:stop])
         entries.extend((b, b) for b in range(first, stop))
-        chunks.append(chain.chunk)
+        acc = math.inf if path_acc is None else path_acc[stop - 1]
+        last = Pending(chunk, last_move_s(chain, tau), setup.active[stop - 1], acc)
         clock += chain.duration_s
         bad |= chain.bad
         ruckig += chain.ruckig_pieces
+    pending = None
+    if last is not None:
+        if hold_last and spans:
+            pending = last
+        else:
+            chunks.append(last.chunk)
     if end_hold:
         hold(spans[-1][1] if spans else len(setup.active))
-    return Round(chunks, clock, starts, bad, lines, ruckig, entries)
+    return Round(chunks, clock, starts, bad, lines, ruckig, entries, overlaps, pending)

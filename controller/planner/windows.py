@@ -37,6 +37,11 @@ gives it, so the windows give the whole-program plan bit for bit: the generated 
 (``benchmarks/bench_plan_windows.py``), and ``tests/test_plan_windows.py``'s program in
 windows of 16-60 moves.
 
+A cut may fall at a G64 stop whose two moves' profiles overlap
+(:mod:`~gantry_sim.controller.planner.stop_overlap`): the window keeps its last chain back
+(:attr:`Planned.pending`: its timeline kept, its phases not yet written) and the next window
+overlaps it with its own first chain, as the whole program does at that stop.
+
 Each window's kept reference goes to a :class:`~gantry_sim.controller.planner.segmented_curve.CurveBuilder`,
 which writes its full blocks of segments to a temporary file (and reads them back when the
 window is sent back): the finished plan's reference is held on disk, not in memory.
@@ -77,6 +82,7 @@ from gantry_sim.controller.planner.rounds import (
 )
 from gantry_sim.controller.planner.ruckig_solver import RuckigSolver
 from gantry_sim.controller.planner.segmented_curve import CurveBuilder
+from gantry_sim.controller.planner.stop_overlap import Overlapped, Pending
 from gantry_sim.controller.planner.window_judge import JudgedPath
 
 __all__ = [
@@ -111,6 +117,10 @@ class Planned:
         sources: per active move, flattened pairs: the first and last program move it comes
             from.
         curve: the reference of the windows kept.
+        overlaps: the stops overlapped
+            (:mod:`~gantry_sim.controller.planner.stop_overlap`).
+        pending: the last window's last chain, held back for an overlap with the next
+            window's first (its timeline entries are kept; its phases not yet in ``curve``).
     """
 
     duration_s: float = 0.0
@@ -120,6 +130,8 @@ class Planned:
     entries: array = field(default_factory=lambda: array("q"))
     sources: array = field(default_factory=lambda: array("q"))
     curve: CurveBuilder = field(default_factory=CurveBuilder)
+    overlaps: list[Overlapped] = field(default_factory=list)
+    pending: Pending | None = None
 
 
 def plan_path(
@@ -224,6 +236,8 @@ def _plan_windows(
         keep = functools.partial(_assemble_and_keep, out, settled, pre, count, c, hi == n)
         if hi == n:
             keep()
+            if out.pending is not None:
+                raise AssertionError("the last window held a chain back")
             return out
         ahead.keep_later(keep)
         start = _Start(base + pre.path_index[c], base + pre.path_index[c - 1], _replay(settled, c))
@@ -269,11 +283,19 @@ class _Mark(NamedTuple):
     ruckig_pieces: int
     duration_s: float
     sources: int  # flattened: twice the moves
+    overlaps: int
+    pending: Pending | None
 
 
 def _mark(out: Planned) -> _Mark:
     return _Mark(
-        len(out.lines), len(out.curve), out.ruckig_pieces, out.duration_s, len(out.sources)
+        len(out.lines),
+        len(out.curve),
+        out.ruckig_pieces,
+        out.duration_s,
+        len(out.sources),
+        len(out.overlaps),
+        out.pending,
     )
 
 
@@ -283,6 +305,8 @@ def _truncate(out: Planned, mark: _Mark) -> None:
     del out.entries[2 * mark.entries :], out.sources[mark.sources :]
     out.curve.truncate(mark.chunks)
     out.ruckig_pieces, out.duration_s = mark.ruckig_pieces, mark.duration_s
+    del out.overlaps[mark.overlaps :]
+    out.pending = mark.pending
 
 
 #: A window by (its first stretch move, its stop, whether the first is context, the path move
@@ -650,6 +674,7 @@ def _window(
         pre.smoothing[1:],
         pre.sources[1:],
         None if pre.path_acc_mm_per_s2 is None else pre.path_acc_mm_per_s2[1:],
+        {b - 1: e for b, e in pre.stop_corners.items() if b >= 1},
     )
 
 
@@ -690,7 +715,17 @@ def _assemble_and_keep(
 ) -> None:
     """:func:`_keep` the timeline of the first ``count`` chains of ``settled`` (with the end's
     dwells when ``end``), its times counting from where ``out`` ends."""
-    kept = assemble(settled, pre.holds, count, end_hold=end, start_s=out.duration_s)
+    kept = assemble(
+        settled,
+        pre.holds,
+        count,
+        end_hold=end,
+        start_s=out.duration_s,
+        corners=pre.stop_corners,
+        path_acc=pre.path_acc_mm_per_s2,
+        before=out.pending,
+        hold_last=not end and c in pre.stop_corners,
+    )
     _keep(out, pre, kept, c)
 
 
@@ -705,4 +740,6 @@ def _keep(out: Planned, pre: Prepared, kept: Round, moves: int) -> None:
     out.entries.extend(k + base for pair in kept.entries for k in pair)
     out.ruckig_pieces += kept.ruckig_pieces
     out.duration_s = kept.duration_s  # counted from the path's start
+    out.overlaps.extend(kept.overlaps)
+    out.pending = kept.pending
     out.sources.extend(k for pair in pre.sources[:moves] for k in pair)

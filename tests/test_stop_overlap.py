@@ -1,0 +1,188 @@
+"""G64 stops between two straight moves passed with their profiles overlapped
+(controller/planner/stop_overlap.py): where, by how much, within which limits."""
+
+from __future__ import annotations
+
+import json
+
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from gantry_sim.controller.gcode.interpreter import interpret_events
+from gantry_sim.controller.planner import plan
+from gantry_sim.controller.planner.blend import REFERENCE_SHARE
+from gantry_sim.controller.planner.overlap_search import STEP_S
+
+HEAD = "G21 G90 G17 G64 P0.01\nG1 X5 F1200\n"
+SAMPLE_S = 1e-5  # fine samples of the reference around each overlap [s]
+
+
+def _plan(text: str, machine):
+    return plan(list(interpret_events(text)), machine)
+
+
+def _segment_distance(q: np.ndarray, a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    d = b - a
+    u = np.clip(((q - a) @ d) / (d @ d), 0.0, 1.0)
+    return np.linalg.norm(q - (a + np.outer(u, d)), axis=1)
+
+
+def _check_overlaps(p, machine, tolerance_mm: float = 0.01) -> None:
+    """Around every overlap, sampled every SAMPLE_S: each axis within its velocity, acceleration
+    and jerk (by differences) limits, the path speed within the smaller feed, the reference
+    within the budget (P less the reference's share) of the two programmed segments, and the
+    corner within it of the reference; the reference continuous in position across the
+    overlap's ends; each overlap recorded as a blend of kind "overlap" within P."""
+    vmax, amax, jmax = (np.asarray(x) for x in machine.limits.per_axis())
+    budget = tolerance_mm - REFERENCE_SHARE * machine.segmentation.chord_tolerance_mm
+    moves = list(p.moves)
+    k = np.searchsorted(p.move_start_s, p.overlaps_s[:, 0])
+    for (t0, t1), entry in zip(p.overlaps_s, k, strict=True):
+        a_idx, b_idx = p.move_sources[entry]
+        a, b = moves[a_idx], moves[b_idx]
+        assert b_idx == a_idx + 1
+        t = np.arange(max(t0 - 2e-3, 0.0), min(t1 + 2e-3, p.duration_s), SAMPLE_S)
+        pos, vel, acc = p.curve.evaluate(t)
+        assert (np.abs(vel) <= vmax * (1 + 1e-9)).all()
+        assert (np.abs(acc) <= amax * (1 + 1e-9)).all()
+        jerk = np.diff(acc, axis=0) / SAMPLE_S
+        assert (np.abs(jerk) <= jmax * (1 + 1e-6)).all()
+        # continuous: each step is the mean velocity times the step, to second order
+        steps = np.diff(pos, axis=0) - 0.5 * (vel[1:] + vel[:-1]) * SAMPLE_S
+        assert np.abs(steps).max() < 1e-9
+        inside = (t >= t0) & (t < t1)
+        feed = min(a.feed_mm_per_min, b.feed_mm_per_min) / 60.0
+        assert np.linalg.norm(vel[inside], axis=1).max() <= feed * (1 + 1e-9)
+        c = np.asarray(a.end, float)
+        off = np.minimum(
+            _segment_distance(pos[inside], np.asarray(a.start, float), c),
+            _segment_distance(pos[inside], c, np.asarray(b.end, float)),
+        )
+        assert off.max() <= budget + 1e-12
+        assert np.linalg.norm(pos[inside] - c, axis=1).min() <= budget + 1e-12
+    kinds = [bl for bl in p.blends if bl.kind == "overlap"]
+    assert len(kinds) == len(p.overlaps_s)
+    assert all(
+        0 < bl.deviation_mm <= bl.tolerance_mm == pytest.approx(tolerance_mm) for bl in kinds
+    )
+
+
+def test_a_stop_between_x_and_y_moves_overlaps_and_the_program_is_that_much_shorter(machine):
+    """The X move's stop and the Y move's start overlap by 10-20 ms (the ramps of a 20 mm/s
+    stop last about 32 ms): the cycle is the G61 one (the same stop, not overlapped) less
+    exactly that."""
+    g64 = _plan(HEAD + "G1 X5 Y5\nM2\n", machine)
+    g61 = _plan(HEAD.replace("G64 P0.01", "G61") + "G1 X5 Y5\nM2\n", machine)
+    assert g64.overlaps_s.shape == (1, 2) and len(g61.overlaps_s) == 0
+    tau = float(g64.overlaps_s[0, 1] - g64.overlaps_s[0, 0])
+    assert 0.010 <= tau <= 0.020
+    assert g61.duration_s - g64.duration_s == pytest.approx(tau, abs=1e-12)
+    assert g64.move_lines.tolist() == [2, 2, 3]  # the X move, the overlap (its line), Y
+    _check_overlaps(g64, machine)
+
+
+def test_the_overlap_is_the_longest_that_keeps_p(machine):
+    """Superposing the G61 plan's two profiles at its stop, as the overlap does: at the
+    length found the corner lies within the budget of the reference, two grid steps longer
+    it does not (at an X -> Y corner at F1200 the budget is what binds)."""
+    text = HEAD + "G1 X5 Y5\nM2\n"
+    g64 = _plan(text, machine)
+    g61 = _plan(text.replace("G64 P0.01", "G61"), machine)
+    tau = float(g64.overlaps_s[0, 1] - g64.overlaps_s[0, 0])
+    t_stop = float(g61.move_start_s[1])
+    corner = np.array([5.0, 0.0, 0.0])
+    budget = 0.01 - REFERENCE_SHARE * machine.segmentation.chord_tolerance_mm
+
+    def corner_distance(length_s: float) -> float:
+        t = np.linspace(0.0, length_s, 4001)
+        a = g61.curve.evaluate(t_stop - length_s + t)[0]
+        b = g61.curve.evaluate(t_stop + t)[0]
+        return float(np.linalg.norm(a + b - 2 * corner, axis=1).min())
+
+    assert corner_distance(tau) <= budget
+    assert corner_distance(tau + 2 * STEP_S) > budget
+
+
+@pytest.mark.parametrize(
+    "tail",
+    [
+        "G1 X9.33 Y2.5\n",  # a 30 degree turn: both moves' jerk lies along X, and adds
+        "G1 X10\n",  # straight on: no stop
+        "G4 P0.1\nG1 X5 Y5\n",  # a dwell at the corner: the program asks to stop
+        "M0\nG1 X5 Y5\n",  # a program stop likewise
+        "G61.1\nG1 X5 Y5\n",  # exact stop mode for the move after the corner
+        "G0 X5 Y5\n",  # a rapid: not a feed move
+        "G3 X7 Y2 I2 J0\n",  # an arc after the corner
+        "G1 X0\n",  # a reversal: a stop in LinuxCNC and grbl (and sim.duration_bound)
+    ],
+)
+def test_no_overlap_where_the_jerks_add_or_the_program_stops(machine, tail):
+    p = _plan(HEAD + tail + "M2\n", machine)
+    assert len(p.overlaps_s) == 0
+    assert not any(b.kind == "overlap" for b in p.blends)
+
+
+def test_a_pocket_of_right_angle_corners_and_plunges_keeps_every_limit(machine):
+    """Linking lines of 0.5 mm and less (shorter than the two overlaps at their ends could
+    take), plunges along Z (another axis, other limits) and corners between moves of other
+    feeds: every overlap keeps the limits and P, and no two overlaps share time."""
+    text = (
+        "G21 G90 G17 G64 P0.01\nG0 X0 Y0 Z1\nG1 Z-1 F300\nG1 X8 F1500\nG1 Y0.5\nG1 X0 F900\n"
+        "G1 Y0.55\nG1 X8\nG1 Z-1.4 F300\nG1 Y-3 F1500\nG1 X0 Y-3\nG0 Z5\nM2\n"
+    )
+    p = _plan(text, machine)
+    assert len(p.overlaps_s) >= 7
+    _check_overlaps(p, machine)
+    starts, ends = p.overlaps_s[:, 0], p.overlaps_s[:, 1]
+    assert (ends[:-1] <= starts[1:]).all()
+
+
+@settings(max_examples=25, deadline=None)
+@given(
+    first=st.sampled_from([(1, 0, 0), (-1, 0, 0), (0, 1, 0), (0, 0, -1)]),
+    second=st.sampled_from([(0, 1, 0), (0, -1, 0), (1, 0, 0), (0, 0, 1), (-1, 0, 0)]),
+    len_a=st.floats(0.05, 20.0),
+    len_b=st.floats(0.05, 20.0),
+    feeds=st.tuples(st.integers(100, 6000), st.integers(100, 6000)),
+    tolerance=st.sampled_from([0.002, 0.01, 0.05, 0.5]),
+)
+def test_any_axis_corner_overlapped_keeps_every_limit_and_its_tolerance(
+    machine, first, second, len_a, len_b, feeds, tolerance
+):
+    a_end = np.round(np.array(first, float) * len_a, 4)
+    b_end = np.round(a_end + np.array(second, float) * len_b, 4)
+    text = (
+        f"G21 G90 G64 P{tolerance}\nG1 X{a_end[0]} Y{a_end[1]} Z{a_end[2]} F{feeds[0]}\n"
+        f"G1 X{b_end[0]} Y{b_end[1]} Z{b_end[2]} F{feeds[1]}\nM2\n"
+    )
+    _check_overlaps(_plan(text, machine), machine, tolerance)
+
+
+def test_gantry_plan_counts_the_overlaps_and_the_run_reports_them_as_blends(
+    write_program, tmp_path, capsys
+):
+    from gantry_sim.sim.cli import main
+
+    prog = write_program(HEAD + "G1 X5 Y5\nG1 X0 Y5\nM2\n")
+    assert main(["plan", str(prog)]) == 0
+    blends = json.loads(capsys.readouterr().out)["blends"]
+    assert blends["count"] == blends["overlaps"] == 2 and blends["transitions"] == 0
+    assert 0 < blends["max_deviation_mm"] <= 0.01
+    assert main(["run", str(prog), "--out", str(tmp_path / "o"), "--no-plots"]) == 0
+    parts = json.loads((tmp_path / "o" / "report.json").read_text())["parts_um"]
+    assert parts["reference_blend_max"] == pytest.approx(blends["max_deviation_mm"] * 1000)
+    # the overlaps cut their corners by design: out of the planning part, which stays within
+    # 0.25 x the 1 um chord tolerance
+    assert parts["reference_planning_max"] < 0.25
+    assert parts["reference_max"] <= parts["reference_blend_max"] + 1e-9
+
+
+def test_planning_split_leaves_out_exactly_the_overlapped_samples():
+    from gantry_sim.sim.blend_parts import in_overlaps
+
+    windows = np.array([[1.0, 1.5], [2.0, 2.25]])
+    t = np.array([0.5, 1.0, 1.2, 1.5, 1.9, 2.0, 2.249, 2.25, 3.0])
+    assert in_overlaps(t, windows).tolist() == [0, 1, 1, 0, 0, 1, 1, 0, 0]
+    assert not in_overlaps(t, np.zeros((0, 2))).any()
