@@ -4,6 +4,7 @@
 from __future__ import annotations
 
 import json
+from itertools import pairwise
 
 import numpy as np
 import pytest
@@ -11,6 +12,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from gantry_sim.controller.gcode.interpreter import interpret_events
+from gantry_sim.controller.moves import Linear
 from gantry_sim.controller.planner import plan
 from gantry_sim.controller.planner.blend import REFERENCE_SHARE
 from gantry_sim.controller.planner.overlap_search import STEP_S
@@ -37,12 +39,8 @@ def _check_overlaps(p, machine, tolerance_mm: float = 0.01) -> None:
     overlap's ends; each overlap recorded as a blend of kind "overlap" within P."""
     vmax, amax, jmax = (np.asarray(x) for x in machine.limits.per_axis())
     budget = tolerance_mm - REFERENCE_SHARE * machine.segmentation.chord_tolerance_mm
-    moves = list(p.moves)
-    k = np.searchsorted(p.move_start_s, p.overlaps_s[:, 0])
-    for (t0, t1), entry in zip(p.overlaps_s, k, strict=True):
-        a_idx, b_idx = p.move_sources[entry]
-        a, b = moves[a_idx], moves[b_idx]
-        assert b_idx == a_idx + 1
+    for t0, t1 in p.overlaps_s:
+        a, b = _moves_at(p, t0, t1)
         t = np.arange(max(t0 - 2e-3, 0.0), min(t1 + 2e-3, p.duration_s), SAMPLE_S)
         pos, vel, acc = p.curve.evaluate(t)
         assert (np.abs(vel) <= vmax * (1 + 1e-9)).all()
@@ -67,6 +65,25 @@ def _check_overlaps(p, machine, tolerance_mm: float = 0.01) -> None:
     assert all(
         0 < bl.deviation_mm <= bl.tolerance_mm == pytest.approx(tolerance_mm) for bl in kinds
     )
+
+
+def _moves_at(p, t0: float, t1: float):
+    """The two straight path moves an overlap from ``t0`` to ``t1`` [s] joins: the pair of
+    consecutive ones whose first holds the reference at its start and whose second holds it
+    at its end (the path's moves: a G64 Q merge is one of them)."""
+    (start, end), _, _ = p.curve.evaluate(np.array([t0, t1]))
+    path = list(p.path_moves)
+    best, pair = np.inf, None
+    for a, b in pairwise(path):
+        if isinstance(a, Linear) and isinstance(b, Linear) and a.end == b.start:
+            sa = np.asarray(a.start, float)
+            ca = np.asarray(a.end, float)
+            off = _segment_distance(start[None], sa, ca)[0]
+            off += _segment_distance(end[None], ca, np.asarray(b.end, float))[0]
+            if off < best:
+                best, pair = off, (a, b)
+    assert pair is not None and best < 1e-9
+    return pair
 
 
 def test_a_stop_between_x_and_y_moves_overlaps_and_the_program_is_that_much_shorter(machine):
