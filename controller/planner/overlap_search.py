@@ -16,7 +16,8 @@ overlap of length tau (u only falls, w only grows). The reference is r = C - u d
 Each axis' velocity, acceleration and jerk are checked exactly on the overlap's constant-jerk
 phases (a phase of the sum starts at every phase start of either move inside it: the ends
 and, for the velocity, where the acceleration crosses 0), within :data:`LIMIT_REL`. The
-rest is checked on a grid: tau is a whole number n of steps of :func:`_step_s`, u and w are
+rest is checked on a grid: tau is a whole number n of steps (:data:`STEP_S`, longer where the
+search may reach beyond :data:`MAX_STEPS` of them), u and w are
 laid out every step from the stop once per corner (A's at s = k steps before its stop, B's k
 steps after its start: an overlap of n steps has u = U[n - i], w = W[i] at its i-th step), so
 trying a length costs a few array operations on n numbers and no evaluation. Between steps
