@@ -157,7 +157,7 @@ def state_at(rows: np.ndarray, dt: float) -> tuple[float, float, float, float]:
     )
 
 
-def _side(phases: Phases, tail: bool, corner: Corner) -> _Side:
+def _side(phases: Phases, tail: bool, corner: Corner, dirs: _Dirs) -> _Side:
     """:class:`_Side` of one move's laid-out ``phases`` (its ``tail`` up to the stop at
     ``corner``, or its head from it): each axis evaluated at the knots of all three (an
     axis' phase split at another's knot is the same cubic; a straight move's axes share
@@ -174,7 +174,7 @@ def _side(phases: Phases, tail: bool, corner: Corner) -> _Side:
         rows = np.empty((4, 3, knots.size))
         for i, (t0, ph) in enumerate(zip(starts, phases, strict=True)):
             rows[:, i] = _eval(t0, ph[1:5], knots)
-    d = corner.directions()[0 if tail else 1]
+    d = dirs.a if tail else dirs.b
     along = np.einsum("i,kin->kn", -d if tail else d, rows)
     along[0] += float(d @ corner.point_mm) if tail else -float(d @ corner.point_mm)
     return _Side(knots, rows, along)
@@ -270,13 +270,12 @@ def _check(
     deviation: float | None = None,
 ) -> Found | None:
     """The overlap of ``n`` steps if it keeps every check of the module docstring
-    (``deviation``: its :func:`_margin` deviation [mm], where that margin is known <= 0)."""
+    (``deviation``: its :func:`_margin` deviation [mm], where that margin is known <= 0 and
+    :func:`_axes_keep` known true)."""
     if deviation is None:
         margin, deviation = _margin(grid, n, corner, dirs)
-        if margin > 0.0:
+        if margin > 0.0 or not _axes_keep(grid, n, corner, dirs):
             return None
-    if not _axes_keep(grid, n, corner, dirs):
-        return None
     tau = n * grid.step_s
     h, _, v, a, j = merged = _merged(tail, head, tau, corner.point_mm)
     vlim, alim, jlim = corner.limits
@@ -290,14 +289,13 @@ def _check(
     return Found(tau, deviation, (phases[0], phases[1], phases[2]))
 
 
-def _reach_s(tail: _Side, head: _Side, corner: Corner, room_s: float) -> float:
+def _reach_s(tail: _Side, head: _Side, corner: Corner, dirs: _Dirs, room_s: float) -> float:
     """An overlap longer than this [s] (at most ``room_s``) leaves C farther than the budget:
     C's distance, |w dB - u dA|, is at least max(u, w) sqrt(1 - |cos|), and at the overlap's
     middle max(u, w) >= min(U(tau / 2), W(tau / 2)) (U, W: the two moves' distances from C
     that long before and after the stop), so U and W may not both pass
     budget / sqrt(1 - |cos|) within tau / 2."""
-    da, db = corner.directions()
-    spread = 1.0 - abs(float(da @ db))
+    spread = 1.0 - abs(dirs.cos)
     if spread <= 0.0:
         return room_s
     reach = corner.budget_mm / math.sqrt(spread)
@@ -377,12 +375,12 @@ def search(tail: Phases, head: Phases, corner: Corner, room_s: float) -> Found |
     first move's up to its stop at ``corner``, covering at least ``room_s``) and ``head`` (the
     second's from it, likewise) that keeps every check (see the module docstring); None where
     none does."""
-    a, b = _side(tail, True, corner), _side(head, False, corner)
-    grid = _grid(a, b, _reach_s(a, b, corner, room_s))
+    dirs = _Dirs.of(corner)
+    a, b = _side(tail, True, corner, dirs), _side(head, False, corner, dirs)
+    grid = _grid(a, b, _reach_s(a, b, corner, dirs, room_s))
     top = grid.a.shape[1] - 1  # steps
     if top < 1:
         return None
-    dirs = _Dirs.of(corner)
     lo, deviation = _longest_on_grid(grid, top, corner, dirs)
     if lo == 0:
         return None
@@ -396,10 +394,9 @@ def search(tail: Phases, head: Phases, corner: Corner, room_s: float) -> Found |
                 hi = mid
         if lo == 0:
             return None
-        known = None  # (its margin is checked again: it only grew with n so far)
+        found = _check(a, b, grid, lo, corner, dirs)  # (its margin checked again)
     else:
-        known = deviation
-    found = _check(a, b, grid, lo, corner, dirs, known)
+        found = _check(a, b, grid, lo, corner, dirs, deviation)
     if found is not None:
         return found
     best, lo, hi = None, 0, lo  # a limit breaks at hi
