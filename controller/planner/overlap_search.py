@@ -38,7 +38,17 @@ from typing import NamedTuple
 
 import numpy as np
 
-__all__ = ["LIMIT_REL", "MAX_STEPS", "STEP_S", "Corner", "Found", "Phases", "search"]
+__all__ = [
+    "LIMIT_REL",
+    "MAX_STEPS",
+    "STEP_S",
+    "Corner",
+    "Found",
+    "Phases",
+    "phase_starts_s",
+    "search",
+    "state_at",
+]
 
 #: Relative slack on the axis limits (the planner's pieces keep theirs to about 1e-12).
 LIMIT_REL = 1e-9
@@ -125,36 +135,36 @@ class _Grid(NamedTuple):
     b: np.ndarray
 
 
-def _starts(rows: np.ndarray) -> np.ndarray:
+def phase_starts_s(rows: np.ndarray) -> np.ndarray:
+    """The start times [s] of the phases ``rows`` (5, n) (rows: duration, p, v, a, j), from 0:
+    the running sum of the durations before each."""
     return np.concatenate(([0.0], np.cumsum(rows[0])[:-1]))
 
 
-def _eval(t0: np.ndarray, rows: np.ndarray, t: np.ndarray) -> np.ndarray:
-    """(4, ..., len(t)): the state and jerk of the phases ``t0`` (n,), ``rows`` (4, ..., n)
-    at times ``t`` [s] (the phase starting at a time owns it)."""
-    k = np.clip(np.searchsorted(t0, t, side="right") - 1, 0, t0.size - 1)
-    dt = t - t0[k]
-    p, v, a, j = rows[..., k]
-    return np.array(
-        (
-            p + dt * (v + dt * (0.5 * a + dt * j / 6.0)),
-            v + dt * (a + 0.5 * dt * j),
-            a + dt * j,
-            j,
-        )
-    )
-
-
-def state_at(rows: np.ndarray, dt: float) -> tuple[float, float, float, float]:
-    """Position, velocity, acceleration and jerk ``dt`` [s] into the phase whose start state
-    and jerk are ``rows`` (4,) (the formula of :func:`_eval`)."""
-    p, v, a, j = (float(x) for x in rows)
+def _advance(p, v, a, j, dt):
+    """Position, velocity, acceleration and jerk ``dt`` [s] into a phase of constant jerk ``j``
+    from ``p``, ``v``, ``a`` (scalars or arrays alike)."""
     return (
         p + dt * (v + dt * (0.5 * a + dt * j / 6.0)),
         v + dt * (a + 0.5 * dt * j),
         a + dt * j,
         j,
     )
+
+
+def _eval(t0: np.ndarray, rows: np.ndarray, t: np.ndarray) -> np.ndarray:
+    """(4, ..., len(t)): the state and jerk of the phases ``t0`` (n,), ``rows`` (4, ..., n)
+    at times ``t`` [s] (the phase starting at a time owns it)."""
+    k = np.clip(np.searchsorted(t0, t, side="right") - 1, 0, t0.size - 1)
+    p, v, a, j = rows[..., k]
+    return np.array(_advance(p, v, a, j, t - t0[k]))
+
+
+def state_at(rows: np.ndarray, dt: float) -> tuple[float, float, float, float]:
+    """Position, velocity, acceleration and jerk ``dt`` [s] into the phase whose start state
+    and jerk are ``rows`` (4,) (one phase: in Python floats, not arrays)."""
+    p, v, a, j = (float(x) for x in rows)
+    return _advance(p, v, a, j, dt)
 
 
 def _side(phases: Phases, tail: bool, corner: Corner, dirs: _Dirs) -> _Side:
@@ -164,10 +174,10 @@ def _side(phases: Phases, tail: bool, corner: Corner, dirs: _Dirs) -> _Side:
     their knots, and are taken as they are)."""
     h = phases[0][0]
     if all(ph.shape == phases[0].shape and np.array_equal(ph[0], h) for ph in phases[1:]):
-        knots = _starts(phases[0]) - (float(np.sum(h)) if tail else 0.0)
+        knots = phase_starts_s(phases[0]) - (float(np.sum(h)) if tail else 0.0)
         rows = np.stack([ph[1:5] for ph in phases], axis=1)
     else:
-        starts = [_starts(ph) for ph in phases]
+        starts = [phase_starts_s(ph) for ph in phases]
         if tail:
             starts = [t - float(np.sum(ph[0])) for t, ph in zip(starts, phases, strict=True)]
         knots = np.unique(np.concatenate(starts))

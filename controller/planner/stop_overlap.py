@@ -53,6 +53,7 @@ from gantry_sim.controller.planner.overlap_search import (
     Corner,
     Found,
     Phases,
+    phase_starts_s,
     search,
     state_at,
 )
@@ -187,13 +188,9 @@ def _head(chunk: Chunk, span_s: float) -> tuple[Phases, Chunk]:
     return _laid_out(chunk[:k]), chunk[k:]
 
 
-def _starts(rows: np.ndarray) -> np.ndarray:
-    return np.concatenate(([0.0], np.cumsum(rows[0])[:-1]))
-
-
 def _until(rows: np.ndarray, t_end: float) -> np.ndarray:
     """The phases ``rows`` up to time ``t_end`` [s] (the one it falls in shortened)."""
-    t0 = _starts(rows)
+    t0 = phase_starts_s(rows)
     keep = t0 < t_end
     out = rows[:, keep].copy()
     if out.shape[1]:
@@ -204,7 +201,7 @@ def _until(rows: np.ndarray, t_end: float) -> np.ndarray:
 def _from(rows: np.ndarray, t_start: float) -> np.ndarray:
     """The phases ``rows`` from time ``t_start`` [s] on (the one it falls in starting there,
     in its state at that time)."""
-    t0 = _starts(rows)
+    t0 = phase_starts_s(rows)
     ends = t0 + rows[0]
     k = min(int(np.searchsorted(ends, t_start, side="right")), rows.shape[1] - 1)
     out = rows[:, k:].copy()
