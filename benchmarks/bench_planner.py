@@ -216,7 +216,7 @@ def reference_error(p, moves, dt=1e-4):
     # a stop overlapped is an entry of its own (planner/stop_overlap.py): its samples cut the
     # corner by design (its distance is a blend's, in Plan.blends), and the moves after it
     # are one entry further on
-    overlap = np.searchsorted(p.move_start_s, p.overlaps_s[:, 0], side="right") - 1
+    overlap = p.overlap_entries()
     k = np.where(np.isin(k, overlap), -1, k - np.searchsorted(overlap, k))
     active = [m for m in (p.path_moves or moves) if m.length_mm > 1e-9]
     worst = 0.0

@@ -218,6 +218,4 @@ def move_entry_starts(p) -> np.ndarray:
     """``p.move_start_s`` without the entries of stops overlapped (planner/stop_overlap.py:
     an entry of their own between two moves), for a plan without dwells: each active path
     move's start [s]."""
-    starts = np.asarray(p.move_start_s)
-    overlap = np.searchsorted(starts, p.overlaps_s[:, 0], side="right") - 1
-    return np.delete(starts, overlap)
+    return np.delete(np.asarray(p.move_start_s), p.overlap_entries())

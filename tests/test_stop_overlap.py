@@ -97,6 +97,8 @@ def test_a_stop_between_x_and_y_moves_overlaps_and_the_program_is_that_much_shor
     assert 0.010 <= tau <= 0.020
     assert g61.duration_s - g64.duration_s == pytest.approx(tau, abs=1e-12)
     assert g64.move_lines.tolist() == [2, 2, 3]  # the X move, the overlap (its line), Y
+    assert g64.overlap_entries().tolist() == [1]
+    assert g64.move_start_s[1] == g64.overlaps_s[0, 0]
     _check_overlaps(g64, machine)
 
 

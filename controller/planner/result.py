@@ -104,6 +104,13 @@ class Plan:
         per_pair[np.isinf(per_pair)] = np.nan  # only moves of no length
         return per_pair[inverse.reshape(-1)]
 
+    def overlap_entries(self) -> np.ndarray:
+        """Indices into :attr:`move_start_s` (and :attr:`move_lines`, :attr:`move_sources`) of
+        the entries of the stops overlapped, one per row of :attr:`overlaps_s`, in order: an
+        overlap is an entry of its own between its two moves, so the moves after it are one
+        entry further on."""
+        return np.searchsorted(self.move_start_s, self.overlaps_s[:, 0], side="right") - 1
+
     def sample_count(self, period_s: float) -> int:
         """How many samples :meth:`sample` takes every ``period_s`` [s]."""
         if not period_s > 0:
