@@ -28,11 +28,11 @@ from gantry_sim.controller.gcode.interpreter import parse_program
 from gantry_sim.models import DEFAULT_MACHINE
 
 plan_module = importlib.import_module("gantry_sim.controller.planner.plan")
-windows = importlib.import_module("gantry_sim.controller.planner.windows")
+window_cut = importlib.import_module("gantry_sim.controller.planner.window_cut")
 
 
 def _plan(moves, machine, window: int):
-    plan_module.WINDOW_MOVES = windows.WINDOW_MOVES = window
+    plan_module.WINDOW_MOVES = window_cut.WINDOW_MOVES = window
     t0 = time.perf_counter()
     p = plan_module.plan(moves, machine)
     return p, time.perf_counter() - t0

@@ -18,7 +18,17 @@ import pytest
 from benchmarks.programs import program
 from gantry_sim.controller.config import load_machine_config
 from gantry_sim.controller.gcode.interpreter import interpret_events
-from gantry_sim.controller.planner import plan, rounds, segmented_curve, window_judge, windows
+from gantry_sim.controller.planner import (
+    plan,
+    rounds,
+    segmented_curve,
+    window_ahead,
+    window_cut,
+    window_judge,
+    window_prep,
+    windows,
+)
+from gantry_sim.controller.planner.prepare import sub_path
 from gantry_sim.models import DEFAULT_MACHINE
 from tests.plan_helpers import count_fork_map_parts
 
@@ -70,9 +80,9 @@ def _whole_and_windowed(text: str, monkeypatch, window: int, margin: int):
         return real(*args, **kwargs)
 
     monkeypatch.setattr(windows, "settle_chains", counted)
-    monkeypatch.setattr(windows, "WINDOW_MOVES", window)
+    monkeypatch.setattr(window_cut, "WINDOW_MOVES", window)
     monkeypatch.setattr(plan_module, "WINDOW_MOVES", window)
-    monkeypatch.setattr(windows, "MARGIN_MOVES", margin)
+    monkeypatch.setattr(window_cut, "MARGIN_MOVES", margin)
     # small blocks: the windows' reference goes to the temporary file, and a window sent back
     # takes back blocks written there
     monkeypatch.setattr(segmented_curve, "BLOCK_PHASES", 40)
@@ -283,12 +293,12 @@ def test_a_window_sent_back_again_comes_back_wider_each_time(monkeypatch):
 
 @pytest.mark.skipif(not sys.platform.startswith("linux"), reason="forks on Linux only")
 def test_the_next_window_is_prepared_while_the_chains_are_planned(monkeypatch):
-    """Each window after the first is prepared ahead (windows._Ahead), and its first round
+    """Each window after the first is prepared ahead (window_ahead.WindowsAhead), and its first round
     planned ahead by the other process: what is taken is what preparing it then gives, number
     for number, with the chains of its first round, and the plan is the whole program's."""
     monkeypatch.setenv("GANTRY_PLAN_WORKERS", "2")
     taken, paths, seeds = [], [], []
-    real_take, real_job = windows._Ahead.take, windows._Ahead.job
+    real_take, real_job = window_ahead.WindowsAhead.take, window_ahead.WindowsAhead.job
     machine = load_machine_config(DEFAULT_MACHINE)
 
     def job(self, src, *args):
@@ -302,8 +312,8 @@ def test_the_next_window_is_prepared_while_the_chains_are_planned(monkeypatch):
             taken.append(pre)
             seeds.append(len(got[1]))
             path = paths[-1]  # the path being planned
-            fresh = windows._window(
-                windows.sub_path(path, key[0], key[1], key[0] + 1), machine, 100.0, True
+            fresh = window_prep.prepare_window(
+                sub_path(path, key[0], key[1], key[0] + 1), machine, 100.0, True
             )
             np.testing.assert_array_equal(pre.caps, fresh.caps)
             assert pre.path_index == fresh.path_index and pre.sources == fresh.sources
@@ -313,8 +323,8 @@ def test_the_next_window_is_prepared_while_the_chains_are_planned(monkeypatch):
                 np.testing.assert_array_equal(a.curvature_per_mm, b.curvature_per_mm)
         return got
 
-    monkeypatch.setattr(windows._Ahead, "take", take)
-    monkeypatch.setattr(windows._Ahead, "job", job)
+    monkeypatch.setattr(window_ahead.WindowsAhead, "take", take)
+    monkeypatch.setattr(window_ahead.WindowsAhead, "job", job)
     whole, windowed, probes = _whole_and_windowed(_program(), monkeypatch, 40, 8)
     assert len(probes) >= 4 and len(taken) >= len(probes) // 2, (len(taken), probes)
     assert sum(n > 0 for n in seeds) >= len(seeds) // 2, seeds
@@ -328,7 +338,7 @@ def test_a_first_round_planned_ahead_from_another_speed_gives_the_same_plan(monk
     window's first round; where the window ends up starting otherwise, its first chains have
     other keys and are planned again: the plan is still the whole program's."""
     monkeypatch.setenv("GANTRY_PLAN_WORKERS", "2")
-    real_start, real_take = windows._Ahead._start, windows._Ahead.take
+    real_start, real_take = window_ahead.WindowsAhead._start, window_ahead.WindowsAhead.take
     started, seeds = [], []
 
     def start(self, window, key, v_start, machine, ready=None):
@@ -341,8 +351,8 @@ def test_a_first_round_planned_ahead_from_another_speed_gives_the_same_plan(monk
             seeds.append(len(got[1]))
         return got
 
-    monkeypatch.setattr(windows._Ahead, "_start", start)
-    monkeypatch.setattr(windows._Ahead, "take", take)
+    monkeypatch.setattr(window_ahead.WindowsAhead, "_start", start)
+    monkeypatch.setattr(window_ahead.WindowsAhead, "take", take)
     # its windows are cut where the feed changes, moving
     whole, windowed, _ = _whole_and_windowed(_tangent_program(), monkeypatch, 20, 4)
     assert any(v > 0 for v in started) and any(n > 0 for n in seeds), (started, seeds)
@@ -355,7 +365,7 @@ def test_the_rounds_after_the_first_planned_ahead_are_taken_and_give_the_same_pl
     until the window is taken (rounds.settle_onward): with time for it (the taking delayed),
     the chains of those rounds come with the seed, and the plan is the whole program's."""
     monkeypatch.setenv("GANTRY_PLAN_WORKERS", "2")
-    real_take = windows._Ahead.take
+    real_take = window_ahead.WindowsAhead.take
     later_rounds = []
 
     def take(self, key, start_after=None):
@@ -365,7 +375,7 @@ def test_the_rounds_after_the_first_planned_ahead_are_taken_and_give_the_same_pl
             later_rounds.append(sum(not sat for _, _, sat in got[1]))
         return got
 
-    monkeypatch.setattr(windows._Ahead, "take", take)
+    monkeypatch.setattr(window_ahead.WindowsAhead, "take", take)
     whole, windowed, _ = _whole_and_windowed(_program(), monkeypatch, 40, 8)
     assert any(n > 0 for n in later_rounds), later_rounds
     _assert_same(whole, windowed)
@@ -374,12 +384,12 @@ def test_the_rounds_after_the_first_planned_ahead_are_taken_and_give_the_same_pl
 @pytest.mark.skipif(not sys.platform.startswith("linux"), reason="forks on Linux only")
 def test_the_window_after_the_next_starts_as_soon_as_the_next_is_taken(monkeypatch):
     """When a window is taken, the first round of the one after it starts over the other
-    processes at once (windows._Ahead.start_after), before this process settles the window
+    processes at once (window_ahead.WindowsAhead.start_after), before this process settles the window
     taken, from the speed that window's first round gives its cut (that round made ready
     while the window before settled: prepare_beyond): its own first round then starts
     nothing again, and the plan is the whole program's."""
     monkeypatch.setenv("GANTRY_PLAN_WORKERS", "2")
-    real_start, real_take = windows._Ahead._start, windows._Ahead.take
+    real_start, real_take = window_ahead.WindowsAhead._start, window_ahead.WindowsAhead.take
     events = []
 
     def start(self, window, key, v_start, machine, ready=None):
@@ -392,8 +402,8 @@ def test_the_window_after_the_next_starts_as_soon_as_the_next_is_taken(monkeypat
         events.append(("taken", key, None, False))
         return got
 
-    monkeypatch.setattr(windows._Ahead, "_start", start)
-    monkeypatch.setattr(windows._Ahead, "take", take)
+    monkeypatch.setattr(window_ahead.WindowsAhead, "_start", start)
+    monkeypatch.setattr(window_ahead.WindowsAhead, "take", take)
     whole, windowed, _ = _whole_and_windowed(_program(), monkeypatch, 40, 8)
     starts = [(key, v) for kind, key, v, _ in events if kind == "start"]
     assert len(starts) >= 3 and len({key for key, _ in starts}) == len(starts), starts
@@ -413,7 +423,7 @@ def test_a_window_whose_preparation_ahead_fails_is_prepared_again(monkeypatch):
     """The job preparing the next window ahead never raises: the window is prepared where it
     is used (an error there is raised in the order a plan without the job meets it)."""
     monkeypatch.setenv("GANTRY_PLAN_WORKERS", "2")
-    real = windows._window_of
+    real = window_ahead.window_of
     failed = []
 
     def window_of(*args, **kwargs):
@@ -422,7 +432,7 @@ def test_a_window_whose_preparation_ahead_fails_is_prepared_again(monkeypatch):
             raise RuntimeError("prepared ahead")
         return real(*args, **kwargs)
 
-    monkeypatch.setattr(windows, "_window_of", window_of)
+    monkeypatch.setattr(window_ahead, "window_of", window_of)
     whole, windowed, _ = _whole_and_windowed(_program(), monkeypatch, 40, 8)
     assert failed
     _assert_same(whole, windowed)
@@ -545,9 +555,9 @@ def test_a_long_plan_reports_its_progress_window_by_window(monkeypatch):
     steps, adding up to all the items (a progress bar's updates: sim/progress.py)."""
     events = tuple(interpret_events(_program()))
     machine = load_machine_config(DEFAULT_MACHINE)
-    monkeypatch.setattr(windows, "WINDOW_MOVES", 40)
+    monkeypatch.setattr(window_cut, "WINDOW_MOVES", 40)
     monkeypatch.setattr(plan_module, "WINDOW_MOVES", 40)
-    monkeypatch.setattr(windows, "MARGIN_MOVES", 8)
+    monkeypatch.setattr(window_cut, "MARGIN_MOVES", 8)
     steps: list[int] = []
     planned = plan(events, machine, advance=steps.append)
     assert sum(steps) == len(events)

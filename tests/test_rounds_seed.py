@@ -1,4 +1,4 @@
-"""Chains planned elsewhere (a window's rounds planned ahead, planner/windows.py) are used only
+"""Chains planned elsewhere (a window's rounds planned ahead, planner/window_ahead.py) are used only
 where they are the chain a round needs: the same key, limits and round setup."""
 
 from __future__ import annotations

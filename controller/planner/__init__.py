@@ -38,6 +38,13 @@ The steps, in the order :func:`plan` runs them (module: its one job):
                       junction lowers that junction; only the chains whose ends changed are
                       planned again); ``chain_plan`` / ``chain_prep``: a round's chains in
                       vectorised batches
+   ``stop_overlap``   G64 stops between straight moves: the two moves' profiles overlapped
+                      (``overlap_search``: the longest overlap that keeps every limit and P)
+   ``windows``        a long program planned a window of moves at a time (``window_cut``:
+                      where a window is cut, and which comes next; ``window_prep``: a window
+                      prepared; ``window_ahead``: the next windows prepared, and their first
+                      round planned, by the other processes; ``window_judge``: slow blends
+                      judged window by window)
    ``plan``           the orchestration: path control, geometry, junctions, rounds -> Plan
 9. ``cubic``          constant-jerk phases per axis, sampled vectorised
    ``segmented_curve`` the plan's reference held as the planner's segments, laid out by block

@@ -54,7 +54,7 @@ from gantry_sim.controller.planner.path_control import (
     merge_runs,
 )
 from gantry_sim.controller.planner.transition import TransitionMachine
-from gantry_sim.controller.planner.windows import WINDOW_MOVES
+from gantry_sim.controller.planner.window_cut import WINDOW_MOVES
 from gantry_sim.controller.spill import SpilledList
 
 __all__ = ["CONTEXT_MOVES", "STRETCH_MOVES", "path_plan"]
@@ -87,7 +87,7 @@ def path_plan(
     machine's limits and segmentation, to put G2 transitions at the G64 tangent junctions whose
     curvature jumps (:mod:`~gantry_sim.controller.planner.transition`); None: none.
     ``sized``: the transitions sized by an earlier call for the same program, by site, filled
-    here while the path has at most :data:`~gantry_sim.controller.planner.windows.WINDOW_MOVES`
+    here while the path has at most :data:`~gantry_sim.controller.planner.window_cut.WINDOW_MOVES`
     moves (a path planned whole may be made again without its slow blends; a longer one is
     made again at most once, and keeping every transition would hold about 1 KB each for the
     whole path: beyond that it is emptied and no longer filled). ``corners``: the arc corners'

@@ -59,8 +59,9 @@ from gantry_sim.controller.planner.ruckig_solver import RuckigSolver
 from gantry_sim.controller.planner.transition import TransitionMachine
 from gantry_sim.controller.planner.travel import check_travel
 from gantry_sim.controller.planner.vertices import ChordVertices
+from gantry_sim.controller.planner.window_cut import WINDOW_MOVES
 from gantry_sim.controller.planner.window_judge import JudgedPath
-from gantry_sim.controller.planner.windows import WINDOW_MOVES, plan_path
+from gantry_sim.controller.planner.windows import plan_path
 from gantry_sim.controller.spill import SpilledList
 
 __all__ = ["LONE_PART_MOVES", "PART_BATCH_MOVES", "Plan", "plan"]
