@@ -131,7 +131,6 @@ def test_the_overlap_is_the_longest_that_keeps_p(machine):
         "G1 X10\n",  # straight on: no stop
         "G4 P0.1\nG1 X5 Y5\n",  # a dwell at the corner: the program asks to stop
         "M0\nG1 X5 Y5\n",  # a program stop likewise
-        "G61.1\nG1 X5 Y5\n",  # exact stop mode for the move after the corner
         "G0 X5 Y5\n",  # a rapid: not a feed move
         "G3 X7 Y2 I2 J0\n",  # an arc after the corner
         "G1 X0\n",  # a reversal: a stop in LinuxCNC and grbl (and sim.duration_bound)
@@ -141,6 +140,22 @@ def test_no_overlap_where_the_jerks_add_or_the_program_stops(machine, tail):
     p = _plan(HEAD + tail + "M2\n", machine)
     assert len(p.overlaps_s) == 0
     assert not any(b.kind == "overlap" for b in p.blends)
+
+
+@pytest.mark.parametrize("after", ["G61.1\n", "G61\n", "G64 P0.001\n"])
+def test_the_move_before_the_corner_governs_it(machine, after):
+    """As LinuxCNC's termination condition: the mode and P of the move before a junction
+    govern it, whatever the move after it sets. LinuxCNC 2.9 (its own planner, through
+    benchmarks/linuxcnc_peer.py's run_one, 2026-11-29) passed a corner between a G64 P0.01
+    move and a G61.1 one without stopping, and stopped when the G61.1 move came first."""
+    g64 = _plan(HEAD + "G1 X5 Y5\nM2\n", machine)
+    p = _plan(HEAD + after + "G1 X5 Y5\nM2\n", machine)
+    assert len(g64.overlaps_s) == 1
+    np.testing.assert_array_equal(p.overlaps_s, g64.overlaps_s)
+    assert [b.tolerance_mm for b in p.blends] == [b.tolerance_mm for b in g64.blends]
+    _check_overlaps(p, machine)
+    first = _plan(HEAD.replace("G64 P0.01", "G61.1") + "G64 P0.01\nG1 X5 Y5\nM2\n", machine)
+    assert len(first.overlaps_s) == 0
 
 
 def test_a_pocket_of_right_angle_corners_and_plunges_keeps_every_limit(machine):

@@ -119,14 +119,16 @@ def prepare(
 def stop_corners(
     active: Sequence[MoveGeometry], caps: np.ndarray, smoothing: Sequence[float], exact: set[int]
 ) -> dict[int, float]:
-    """Junction -> budget [mm] (the smaller of its two moves' ``smoothing``) of each stop
-    (``caps`` 0) between two straight feed moves in G64 (both budgets > 0) that the program
-    does not ask for (junctions ``exact``: G61.1, program stops, dwells), turning by less
-    than :data:`~gantry_sim.controller.planner.blend.MAX_TURN_RAD` (a reversal stays a
+    """Junction -> budget [mm] of each stop (``caps`` 0) between two straight feed moves whose
+    first is in G64 (its ``smoothing`` > 0: the mode and P of the move before a junction govern
+    it, as LinuxCNC's termination condition does, and as the corner blends take it: LinuxCNC
+    2.9 passes a corner between a G64 P0.01 move and a G61.1 one without stopping) that the
+    program does not ask for (junctions ``exact``: G61.1, program stops, dwells), turning by
+    less than :data:`~gantry_sim.controller.planner.blend.MAX_TURN_RAD` (a reversal stays a
     stop, as in LinuxCNC and grbl, and as sim.duration_bound counts it)."""
     out = {}
     for b in (np.flatnonzero(caps[1 : len(active)] == 0.0) + 1).tolist():
-        budget = min(smoothing[b - 1], smoothing[b])
+        budget = smoothing[b - 1]
         if (
             budget > 0.0
             and b not in exact
