@@ -79,11 +79,15 @@ class Rapid:
         line: 1-based source line.
         start: start point [mm].
         end: end point [mm].
+        path: the path control mode set by the program (None: none set, the machine file's
+            default applies); it governs the junction at the rapid's end, as a feed move's
+            does (LinuxCNC blends a corner between two rapids in G64).
     """
 
     line: int
     start: Vec3
     end: Vec3
+    path: PathControl | None = None
 
     kind = "rapid"
 

@@ -43,6 +43,21 @@ def test_interpreter_carries_g61_g611_and_g64_p_q_in_program_units():
     assert parse_program("G1 X1 F100\nM2")[0].path is None
 
 
+def test_every_motion_carries_the_programs_mode_rapids_cycles_and_compensation_too(machine):
+    """Rapids, a canned cycle's moves and cutter compensation's tool-centre moves carry the
+    program's path control as G1/G2/G3 do (they were planned in the machine file's default
+    G64: a G61 program's compensated square got four blends)."""
+    text = (
+        "G21 G90 G17 G61\nT1 M6\nG10 L1 P1 R1\nF600\nG0 X-5 Y-5\nG41 D1\nG1 X0 Y0\n"
+        "G1 X20\nG1 Y20\nG1 X0\nG1 Y0\nG40\nG0 X-10 Y-10\nG81 X5 Y5 Z-1 R2\nG80\nM2\n"
+    )
+    moves = parse_program(text)
+    kinds = {type(m).__name__ for m in moves}
+    assert kinds == {"Rapid", "Linear", "Arc"}
+    assert all(m.path == PathControl("G61") for m in moves)
+    assert not plan(moves, machine).blends
+
+
 def test_g64_blends_a_corner_within_p_and_keeps_every_limit(machine):
     moves = parse_program(_corner_program("G64 P0.01"))
     p, tr = _sample(moves, machine)

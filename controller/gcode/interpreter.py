@@ -338,6 +338,8 @@ class Interpreter:
             stop = w.m.get("stopping")
             if stop in (0, 1, 60):
                 moves.append(Stop(w.line, s.work, f"M{stop}"))
+        if s.path is not None:  # canned cycles' and cutter compensation's moves too
+            _set_path(moves, s.path)
         s = self._canon(s, moves)
         if tool_changed:
             s = after_tool_change(s)
@@ -470,7 +472,7 @@ class Interpreter:
 
     @staticmethod
     def _emit(moves: list[Move | Event], s: ModalState, move: Move, end: Vec3) -> ModalState:
-        if s.path is not None and not isinstance(move, Rapid):
+        if s.path is not None:
             move = evolve(move, path=s.path)
         moves.append(move)
         return evolve(s, position=end, work=move.end)
@@ -637,6 +639,19 @@ class Interpreter:
                 f"cannot make {what} with zero feed rate; set F (units per minute, > 0) on this "
                 "or an earlier line"
             )
+
+
+def _set_path(moves: list[Move | Event], path: PathControl) -> None:
+    """Give each motion of a block that has no path control of its own (a canned cycle's, the
+    tool-centre path of cutter compensation: neither passes through ``_emit``) the block's
+    ``path`` (a move released a block late under compensation keeps the mode it was made in:
+    rs274 refuses a mode change while compensation is on)."""
+    for k, m in enumerate(moves):
+        if isinstance(m, _MOTIONS) and m.path is None:
+            moves[k] = evolve(m, path=path)
+
+
+_MOTIONS = (Rapid, Linear, Arc, Spline)
 
 
 def path_control(code: int, v: dict[str, float], scale: float) -> PathControl:
