@@ -16,10 +16,12 @@ term (they may raise the acceleration). Dwells add their time.
 
 G64 shortens the path, and the bound takes that off:
 
-* a blend of a corner between two straight moves, turning by phi, within P of the corner: its
-  radius R has R (sec(phi/2) - 1) <= P and uses R tan(phi/2) of each move, at most the shorter
-  move, and it is R (2 tan(phi/2) - phi) shorter than the corner (up to 2 P as phi nears 180
-  degrees); a corner with an arc: at most 2 P, and at most the two moves' lengths;
+* a blend of a corner between two straight moves (feed moves or rapids: the planner may overlap
+  the stop between two of either, which it keeps within P as a blend), turning by phi, within
+  P of the corner: its radius R has R (sec(phi/2) - 1) <= P and uses R tan(phi/2) of each
+  move, at most the shorter move, and it is R (2 tan(phi/2) - phi) shorter than the corner (up
+  to 2 P as phi nears 180 degrees); a corner with an arc: at most 2 P, and at most the two
+  moves' lengths;
 * a G64 Q merge (LinuxCNC's naive-CAM detector) replaces a run of straight moves at one feed by
   the line from its start to its end, which can fold steps back along the line and remove a
   reversal: the runs are found by the planner's own rule
@@ -66,7 +68,8 @@ def duration_lower_bound(
     from gantry_sim.controller.moves import Arc, Dwell, Limits, Linear, Rapid, Spline, Stop
     from gantry_sim.controller.planner.path_control import control, extends_run, starts_run
 
-    stops, motions, curves = (Dwell, Stop, Limits), (Rapid, Linear, Arc, Spline), (Linear, Arc)
+    stops, motions = (Dwell, Stop, Limits), (Rapid, Linear, Arc, Spline)
+    governed = (Rapid, Linear, Arc)  # their mode governs the junction after them (G64: blended)
     straights = (Rapid, Linear)
     # per path-control object (moves share theirs): the object, held so that its id stays its
     # own while the moves read from disk come and go, and its Control
@@ -117,7 +120,7 @@ def duration_lower_bound(
         if length <= EPS_MM:  # the planner drops it: no junction, no time
             continue
         feed = getattr(m, "feed_mm_per_min", None)
-        c = control_of(m) if isinstance(m, curves) else None
+        c = control_of(m) if isinstance(m, governed) else None
         d = None
         cap = norm
         if isinstance(m, straights):

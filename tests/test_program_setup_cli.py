@@ -13,8 +13,10 @@ import pytest
 from gantry_sim.sim.cli import main
 
 #: a program whose motions live in a subroutine file; G43 H1 makes the tip read Z - length, so
-#: the rapid that names no Z goes down by tool 1's length (as rs274 does it)
-MAIN = "T1 M6\nG43 H1\nG0 X1\no<square> call [4]\nG49\nM2\n"
+#: the rapid that names no Z goes down by tool 1's length (as rs274 does it); G61, so that the
+#: reference passes through every programmed point (in G64 the corner between two rapids is
+#: cut within P)
+MAIN = "G61\nT1 M6\nG43 H1\nG0 X1\no<square> call [4]\nG49\nM2\n"
 SQUARE = "o<square> sub\nG0 X0 Y0 Z0\nG1 X#1 F1200\nG1 Y#1\nG1 X0\nG1 Y0\no<square> endsub\n"
 
 

@@ -12,7 +12,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from gantry_sim.controller.gcode.interpreter import interpret_events
-from gantry_sim.controller.moves import Linear
+from gantry_sim.controller.moves import Linear, Rapid
 from gantry_sim.controller.planner import plan
 from gantry_sim.controller.planner.blend import REFERENCE_SHARE
 from gantry_sim.controller.planner.overlap_search import STEP_S
@@ -51,7 +51,7 @@ def _check_overlaps(p, machine, tolerance_mm: float = 0.01) -> None:
         steps = np.diff(pos, axis=0) - 0.5 * (vel[1:] + vel[:-1]) * SAMPLE_S
         assert np.abs(steps).max() < 1e-9
         inside = (t >= t0) & (t < t1)
-        feed = min(a.feed_mm_per_min, b.feed_mm_per_min) / 60.0
+        feed = min(getattr(m, "feed_mm_per_min", np.inf) for m in (a, b)) / 60.0  # rapids: none
         assert np.linalg.norm(vel[inside], axis=1).max() <= feed * (1 + 1e-9)
         c = np.asarray(a.end, float)
         off = np.minimum(
@@ -68,14 +68,15 @@ def _check_overlaps(p, machine, tolerance_mm: float = 0.01) -> None:
 
 
 def _moves_at(p, t0: float, t1: float):
-    """The two straight path moves an overlap from ``t0`` to ``t1`` [s] joins: the pair of
-    consecutive ones whose first holds the reference at its start and whose second holds it
-    at its end (the path's moves: a G64 Q merge is one of them)."""
+    """The two straight path moves (feed moves or rapids) an overlap from ``t0`` to ``t1`` [s]
+    joins: the pair of consecutive ones whose first holds the reference at its start and whose
+    second holds it at its end (the path's moves: a G64 Q merge is one of them)."""
     (start, end), _, _ = p.curve.evaluate(np.array([t0, t1]))
     path = list(p.path_moves)
     best, pair = np.inf, None
     for a, b in pairwise(path):
-        if isinstance(a, Linear) and isinstance(b, Linear) and a.end == b.start:
+        straight = isinstance(a, Linear | Rapid) and isinstance(b, Linear | Rapid)
+        if straight and a.end == b.start:
             sa = np.asarray(a.start, float)
             ca = np.asarray(a.end, float)
             off = _segment_distance(start[None], sa, ca)[0]
@@ -131,7 +132,7 @@ def test_the_overlap_is_the_longest_that_keeps_p(machine):
         "G1 X10\n",  # straight on: no stop
         "G4 P0.1\nG1 X5 Y5\n",  # a dwell at the corner: the program asks to stop
         "M0\nG1 X5 Y5\n",  # a program stop likewise
-        "G0 X5 Y5\n",  # a rapid: not a feed move
+        "G0 X5 Y5\n",  # a feed move then a rapid: LinuxCNC 2.9 stops there
         "G3 X7 Y2 I2 J0\n",  # an arc after the corner
         "G1 X0\n",  # a reversal: a stop in LinuxCNC and grbl (and sim.duration_bound)
     ],
@@ -140,6 +141,40 @@ def test_no_overlap_where_the_jerks_add_or_the_program_stops(machine, tail):
     p = _plan(HEAD + tail + "M2\n", machine)
     assert len(p.overlaps_s) == 0
     assert not any(b.kind == "overlap" for b in p.blends)
+
+
+def test_a_rapid_then_a_feed_move_stays_a_stop(machine):
+    p = _plan("G21 G90 G17 G64 P0.01\nG0 X5\nG1 X5 Y5 F1200\nM2\n", machine)
+    assert len(p.overlaps_s) == 0
+
+
+RAPIDS = "G21 G90 G17 {mode}\nG0 X10\n{after}G0 X10 Y10\nG0 Z5\nG0 X0 Y0\nM2\n"
+
+
+def test_two_rapids_in_line_are_passed_through(machine):
+    """LinuxCNC 2.9 (benchmarks/linuxcnc_peer.py's run_one, 2026-11-29) passes the junction of
+    two rapids in line without stopping (G0 X10, G0 X20: 0.207 s, no period at rest): so does
+    the planner, in every mode, as one rapid of their length."""
+    one = _plan("G21 G90 G0 X20\nM2\n", machine)
+    for mode in ("G64 P0.01", "G61"):
+        two = _plan(f"G21 G90 {mode}\nG0 X10\nG0 X20\nM2\n", machine)
+        assert two.duration_s == pytest.approx(one.duration_s, abs=1e-9)
+        t = float(two.move_start_s[1])  # the junction
+        assert np.linalg.norm(two.curve.evaluate(np.array([t]))[1]) > 100.0  # mm/s
+
+
+@pytest.mark.parametrize(("after", "count"), [("", 3), ("G61.1\n", 1)])
+def test_a_stop_between_two_rapids_overlaps_in_g64(machine, after, count):
+    """LinuxCNC 2.9 blends a corner between two rapids in G64 (it stops between a rapid and a
+    feed move): here the stops between rapids that share no axis overlap, within P and every
+    limit, as between two feed moves; G61 keeps the stops. The mode of the rapid before a
+    corner governs it: after a G61.1 on the second rapid, only the first corner overlaps."""
+    g64 = _plan(RAPIDS.format(mode="G64 P0.01", after=after), machine)
+    g61 = _plan(RAPIDS.format(mode="G61", after=after), machine)
+    assert len(g64.overlaps_s) == count and len(g61.overlaps_s) == 0
+    taus = g64.overlaps_s[:, 1] - g64.overlaps_s[:, 0]
+    assert g61.duration_s - g64.duration_s == pytest.approx(taus.sum(), abs=1e-9)
+    _check_overlaps(g64, machine)
 
 
 @pytest.mark.parametrize("after", ["G61.1\n", "G61\n", "G64 P0.001\n"])

@@ -131,8 +131,17 @@ class PathPlan:
 def smoothing_budget(m: Move, settings: PathSettings, chord_tolerance_mm: float) -> float:
     """The deviation a G64 move's junction smoothing may use: P less the reference's share
     (0 in G61/G61.1 and for rapids: the planner's own budget)."""
+    if isinstance(m, Rapid):
+        return 0.0
+    return corner_budget_mm(m, settings, chord_tolerance_mm)
+
+
+def corner_budget_mm(m: Move, settings: PathSettings, chord_tolerance_mm: float) -> float:
+    """The deviation [mm] the junction after ``m`` (a feed move or a rapid: its mode and P
+    govern that junction) may take from the corner: P less the reference's share in G64, 0 in
+    G61 and G61.1."""
     c = control(m, settings)
-    if isinstance(m, Rapid) or c.mode != "G64":
+    if c.mode != "G64":
         return 0.0
     return max(c.tolerance_mm - REFERENCE_SHARE * chord_tolerance_mm, 0.0)
 

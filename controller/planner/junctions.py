@@ -138,7 +138,8 @@ def junction_caps(
     its ``smoothing_mm`` [mm] per move, when larger).
 
     Returns:
-        caps: (len(geoms) + 1,) [mm/s]; 0 at the program's start and end, at rapids and corners.
+        caps: (len(geoms) + 1,) [mm/s]; 0 at the program's start and end, at corners, and
+            between a rapid and a feed move (two rapids in line are passed through).
         states: per junction, the :class:`JunctionState`. Next to a straight move, its own
             direction and no curvature (straight moves are followed exactly); between two arcs,
             the mean of both sides.
@@ -158,9 +159,14 @@ def junction_caps(
     kinks = [math.acos(c) for c in np.clip(np.vecdot(t_out, t_in), -1.0, 1.0).tolist()]
     for b in range(1, n):
         g0, g1 = geoms[b - 1], geoms[b]
-        if isinstance(g0.move, Rapid) or isinstance(g1.move, Rapid):
-            continue
+        rapids = isinstance(g0.move, Rapid), isinstance(g1.move, Rapid)
         kink = kinks[b - 1]
+        if any(rapids):  # a rapid and a feed move: a stop, as LinuxCNC 2.9 makes it; two
+            # rapids in line are passed through (they may overlap at a corner: stop_overlap)
+            if all(rapids) and kink <= COLLINEAR_ANGLE_RAD:
+                caps[b] = math.inf
+                states[b] = JunctionState(g1.tangent_in, zero)
+            continue
         if not (g0.is_arc or g1.is_arc):
             if kink <= COLLINEAR_ANGLE_RAD:
                 caps[b] = math.inf

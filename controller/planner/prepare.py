@@ -19,8 +19,8 @@ from typing import NamedTuple
 import numpy as np
 
 from gantry_sim.controller.config import MachineConfig
-from gantry_sim.controller.moves import Dwell, Linear
-from gantry_sim.controller.planner.blend import MAX_TURN_RAD, PathPlan
+from gantry_sim.controller.moves import Dwell, Linear, Rapid
+from gantry_sim.controller.planner.blend import MAX_TURN_RAD, PathPlan, corner_budget_mm
 from gantry_sim.controller.planner.blend_judge import blend_faster_many
 from gantry_sim.controller.planner.junctions import (
     JunctionState,
@@ -110,30 +110,42 @@ def prepare(
     active = limits_for_junctions(active, caps, lim, path_acc)
     caps = feasible_junction_caps(active, caps, states, lim)
     where = [i for i, k in enumerate(keep) if k]
-    corners = stop_corners(active, caps, smoothing, stops | set(holds))
+    rapid_budget = [
+        corner_budget_mm(g.move, machine.path, seg.chord_tolerance_mm)
+        if isinstance(g.move, Rapid)
+        else 0.0
+        for g in active
+    ]
+    budgets = [max(a, b) for a, b in zip(smoothing, rapid_budget, strict=True)]
+    corners = stop_corners(active, caps, budgets, stops | set(holds))
     return Prepared(
         geoms, active, where, caps, states, holds, smoothing, sources, path_acc, corners
     )
 
 
 def stop_corners(
-    active: Sequence[MoveGeometry], caps: np.ndarray, smoothing: Sequence[float], exact: set[int]
+    active: Sequence[MoveGeometry], caps: np.ndarray, budgets: Sequence[float], exact: set[int]
 ) -> dict[int, float]:
-    """Junction -> budget [mm] of each stop (``caps`` 0) between two straight feed moves whose
-    first is in G64 (its ``smoothing`` > 0: the mode and P of the move before a junction govern
-    it, as LinuxCNC's termination condition does, and as the corner blends take it: LinuxCNC
-    2.9 passes a corner between a G64 P0.01 move and a G61.1 one without stopping) that the
-    program does not ask for (junctions ``exact``: G61.1, program stops, dwells), turning by
-    less than :data:`~gantry_sim.controller.planner.blend.MAX_TURN_RAD` (a reversal stays a
-    stop, as in LinuxCNC and grbl, and as sim.duration_bound counts it)."""
+    """Junction -> budget [mm] of each stop (``caps`` 0) between two straight feed moves, or
+    two rapids, whose first is in G64 (its ``budgets`` > 0: the G64 corner budget of each move,
+    :func:`~gantry_sim.controller.planner.blend.corner_budget_mm`; the mode and P of the move
+    before a junction govern it, as LinuxCNC's termination condition does, and as the corner
+    blends take it: LinuxCNC 2.9 passes a corner between a G64 P0.01 move and a G61.1 one, and
+    between two rapids, without stopping) that the program does not ask for (junctions
+    ``exact``: G61.1, program stops, dwells), turning by less than
+    :data:`~gantry_sim.controller.planner.blend.MAX_TURN_RAD` (a reversal stays a stop, as in
+    LinuxCNC and grbl, and as sim.duration_bound counts it). A rapid and a feed move stay a
+    stop (LinuxCNC 2.9 stops there)."""
     out = {}
     for b in (np.flatnonzero(caps[1 : len(active)] == 0.0) + 1).tolist():
-        budget = smoothing[b - 1]
+        budget = budgets[b - 1]
+        a, m = active[b - 1].move, active[b].move
+        same = isinstance(a, Linear) and isinstance(m, Linear)
+        same = same or (isinstance(a, Rapid) and isinstance(m, Rapid))
         if (
             budget > 0.0
             and b not in exact
-            and isinstance(active[b - 1].move, Linear)
-            and isinstance(active[b].move, Linear)
+            and same
             and float(active[b - 1].tangent_out @ active[b].tangent_in) > _COS_MAX_TURN
         ):
             out[b] = budget

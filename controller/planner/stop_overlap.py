@@ -26,9 +26,11 @@ window's first (:mod:`~gantry_sim.controller.planner.windows`), so the windows o
 the whole program does.
 
 Which stops (:func:`~gantry_sim.controller.planner.prepare.stop_corners`): between two
-straight feed moves in G64 with a budget, turning by less than 179 degrees (a reversal stays a
-stop, as in LinuxCNC and grbl); not where the program asks for a stop (G61, G61.1, a dwell,
-M0/M1/M60, a Marlin limit change), not next to a rapid or a curve.
+straight feed moves, or two rapids, the first in G64 with a budget (the move before a junction
+governs it, as in LinuxCNC), turning by less than 179 degrees (a reversal stays a stop, as in
+LinuxCNC and grbl); not where the program asks for a stop (G61, G61.1, a dwell, M0/M1/M60, a
+Marlin limit change), not between a rapid and a feed move (LinuxCNC 2.9 stops there, and
+blends two rapids), not next to a curve.
 
 The peer pocket of issue 12 (``benchmarks/bench_peer.py``) overlaps its 352 stops between
 lines by 11-15 ms each: 196.46 -> 191.15 s, 1.035 x LinuxCNC's time instead of 1.063.
@@ -43,7 +45,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from gantry_sim.controller.config import Limits
-from gantry_sim.controller.moves import Linear
+from gantry_sim.controller.moves import Linear, Rapid
 from gantry_sim.controller.planner.chains import Chain
 from gantry_sim.controller.planner.cubic import Chunk, Jerk3Run, Segment
 from gantry_sim.controller.planner.move_geometry import MoveGeometry
@@ -102,11 +104,13 @@ def overlap_at(
     a: Pending, b: Pending, budget_mm: float, limits: Limits
 ) -> tuple[Chunk, Chunk, Found] | None:
     """The longest overlap at the stop between chain end ``a`` and chain start ``b`` (both
-    straight feed moves, else none) within ``budget_mm`` [mm] and the machine's ``limits``:
+    straight feed moves or both rapids, else none) within ``budget_mm`` [mm] and the
+    machine's ``limits``:
     the two chunks cut for it (``a``'s up to the overlap, then the overlap; ``b``'s after it)
     and the overlap; None where none keeps them."""
     ma, mb = a.geometry.move, b.geometry.move
-    if not (isinstance(ma, Linear) and isinstance(mb, Linear)) or budget_mm <= 0.0:
+    same = isinstance(ma, Linear) and isinstance(mb, Linear)
+    if not (same or (isinstance(ma, Rapid) and isinstance(mb, Rapid))) or budget_mm <= 0.0:
         return None
     vmax, amax, jmax = (np.asarray(x, dtype=float) for x in limits.per_axis())
     if _jerks_add_past(a.chunk[-1], b.chunk[0], jmax):
