@@ -72,7 +72,8 @@ def test_dwells_and_g88_stop_are_events_in_their_place() -> None:
     dwells = [(e.line, e.position, e.seconds) for e in items if isinstance(e, Dwell)]
     assert dwells == [(3, (1.0, 0.0, -1.0), 0.5), (4, (2.0, 0.0, -1.0), 0.25)]
     stops = [e for e in items if isinstance(e, Stop)]
-    assert [(s.line, s.code) for s in stops] == [(4, "G88")]
+    # M3: LinuxCNC starts the spindle with motion stopped (controller/gcode/motion_waits.py)
+    assert [(s.line, s.code) for s in stops] == [(1, "M3"), (4, "G88")]
     # G88 leaves the tool at the bottom: the operator retracts by hand
     assert [m for m in items if isinstance(m, Rapid | Linear)][-1].end == (2.0, 0.0, -1.0)
 

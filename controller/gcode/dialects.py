@@ -129,6 +129,9 @@ class Dialect:
             that message, its parameters filled in (rs274's convert_comment).
         extruder: E words are followed as Marlin's extruder axis (M82/M83, G90/G91, G92 E):
             each move tells whether it extrudes (controller/gcode/extruder.py).
+        motion_waits: the machine commands LinuxCNC runs with motion stopped (spindle, coolant,
+            offsets, immediate outputs) make an exact stop before their block
+            (controller/gcode/motion_waits.py).
     """
 
     name: str
@@ -174,6 +177,7 @@ class Dialect:
     last_word_wins: bool = False
     abort_comments: bool = False
     extruder: bool = False
+    motion_waits: bool = False
 
 
 _TOL_MM = 2 * 0.01 * math.sqrt(2.0)  # 0.028284 mm, rs274 CENTER_ARC_RADIUS_TOLERANCE_MM
@@ -198,6 +202,7 @@ LINUXCNC = Dialect(
     canned_cycles=True,
     cutter_comp=True,
     splines="linuxcnc",
+    motion_waits=True,
     abort_comments=True,
 )
 

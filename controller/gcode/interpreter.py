@@ -46,6 +46,7 @@ from gantry_sim.controller.gcode.feed_modes import check_feed_mode, path_feed
 from gantry_sim.controller.gcode.frames import Frame, add, from_work, sub, to_work
 from gantry_sim.controller.gcode.lexer import Block
 from gantry_sim.controller.gcode.modal_save import restore
+from gantry_sim.controller.gcode.motion_waits import motion_wait
 from gantry_sim.controller.gcode.parameters import (
     COORD_INDEX,
     G28_HOME,
@@ -203,6 +204,11 @@ class Interpreter:
         dwell_held = w.g.get("nonmodal") == 40 and "P" in w.values and self.comp.holding
         if dwell_held:  # rs274 queues the dwell behind the held move: it waits where that ends
             self.comp.hold_dwell(w.line, w.values["P"])
+        # a command LinuxCNC runs with motion stopped: a stop before this block's motion
+        wait = motion_wait(w, self.state) if d.motion_waits and self.events else None
+        if wait is not None and self.comp.holding:  # behind the held move, as a G4
+            self.comp.hold_dwell(w.line, 0.0)
+            wait = None
         # G40/G41/G42, before the motion; G41/G42 read rs274's tool_table[find_tool_index(D)]:
         # D0 and no D are the spindle's entry
         released = switch(self.comp, w, s, partial(self.table.entry, s))
@@ -335,6 +341,8 @@ class Interpreter:
         if self.events:
             if nonmodal == 40 and "P" in w.values and not dwell_held:
                 moves.insert(0, Dwell(w.line, self.state.work, w.values["P"]))
+            if wait is not None:
+                moves.insert(0, Stop(w.line, self.state.work, wait))
             stop = w.m.get("stopping")
             if stop in (0, 1, 60):
                 moves.append(Stop(w.line, s.work, f"M{stop}"))

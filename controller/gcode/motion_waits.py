@@ -1,0 +1,76 @@
+"""The commands LinuxCNC runs only once motion has stopped: an exact stop before the block.
+
+LinuxCNC's task sends most machine commands that are not motions (the spindle, the coolant,
+tool length and coordinate offsets, immediate outputs) only once its motion queue has drained,
+so the tool comes to rest at the junction before the block that holds one, even between two
+moves in line in G64. The interpreter then puts a zero-time exact stop
+(:class:`~gantry_sim.controller.moves.Stop`, its ``code`` the command's) before the block's
+motion, where rs274 executes those commands (before the block's motion, RS274/NGC's order of
+execution); under cutter compensation it follows the move held back, as a G4 does.
+
+Measured on LinuxCNC 2.9's own planner (``benchmarks/linuxcnc_peer.py``'s ``run_one``,
+2026-11-29): in G64 P0.01 at F1200, ``M3 S500``, ``G1 X10``, then the code on a line of its own,
+then ``G1 X20``; periods of 1 ms at rest between the two moves:
+
+* at rest (3-115 periods): any S word (its value unchanged, or on the G1 line itself), M3, M4,
+  M5, M7, M8, M9, M64, M65, M66, M68, G43 H0, G43.1, G49, G92, G92.1, G55 (another coordinate
+  system), G10 L2 P1 and G10 L20 P1 (the active system's offsets), G4 P0;
+* passed at speed: F, M62, M63, M67 (outputs synchronised with motion), M48, M50, M70, G10 L2 P2
+  (a system not in use), G54 (the one in use), G18, G91, G61, G64 P0.02.
+
+An M6 tool change stops too (the machine changes the tool at rest). Not measured, so not made
+stops here: M61, M19, G10 L1/L10/L11 (tool table entries). The time LinuxCNC spends at rest (its
+I/O handshakes: 3-5 periods, 115 for M9) is not modelled: the stop takes no time.
+"""
+
+from __future__ import annotations
+
+from gantry_sim.controller.gcode.codes import g_name
+from gantry_sim.controller.gcode.coords import SYSTEMS
+from gantry_sim.controller.gcode.state import ModalState
+from gantry_sim.controller.gcode.words import Words
+
+__all__ = ["motion_wait"]
+
+#: M codes of the groups below that wait for motion: the spindle's on/off, every coolant code,
+#: the immediate outputs and the input wait (M62, M63, M67 go with the motion).
+_SPINDLE_M = frozenset((3, 4, 5))
+_IO_M = frozenset((64, 65, 66, 68))
+#: G52, G92, G92.1, G92.2, G92.3 (tenths): the offsets every system shares.
+_SHARED_OFFSETS = frozenset((520, 920, 921, 922, 923))
+
+
+def motion_wait(w: Words, before: ModalState) -> str | None:
+    """The first command of block ``w`` (read after ``before``, the state it starts from) that
+    LinuxCNC runs only with motion stopped, named as in the program ("S", "M8", "G43"...), or
+    None when the block has none (see the module docstring)."""
+    if "S" in w.values:
+        return "S"
+    spindle = w.m.get("spindle")
+    if spindle in _SPINDLE_M:
+        return f"M{spindle}"
+    if "coolant" in w.m:
+        return f"M{w.m['coolant']}"
+    if w.m.get("tool_change") == 6:
+        return "M6"
+    if w.m.get("io") in _IO_M:
+        return f"M{w.m['io']}"
+    if "tool_length" in w.g:
+        return g_name(w.g["tool_length"])
+    system = w.g.get("coordinate_system")
+    if system is not None and SYSTEMS[system] != before.coord_index:
+        return "G5x"
+    nonmodal = w.g.get("nonmodal")
+    if nonmodal in _SHARED_OFFSETS:
+        return "G92" if nonmodal != 520 else "G52"
+    if nonmodal == 100 and _sets_active_system(w, before):
+        return "G10"
+    return None
+
+
+def _sets_active_system(w: Words, before: ModalState) -> bool:
+    """G10 L2 or L20 on the system in use (P0 is the one in use)."""
+    if w.values.get("L") not in (2.0, 20.0):
+        return False
+    p = round(w.values.get("P", 0.0))
+    return p in (0, before.coord_index)
