@@ -113,3 +113,46 @@ def test_gantry_parse_lists_motions_only():
         return [(m.kind, m.start, m.end) for m in parse_program(text)]
 
     assert motions(HEAD + "M8\nS100\n" + TAIL) == motions(HEAD + TAIL)
+
+
+GRBL_HEAD = "G21 G90 G17\nF1200\nM3 S500\nG1 X10\n"
+
+
+@pytest.mark.parametrize(
+    ("code", "stops"),
+    [
+        ("M8", True),  # a coolant change
+        ("M7\nM7", True),  # (the first M7 stops; see the next case for the second)
+        ("M5", True),  # a spindle change
+        ("M4", True),
+        ("M3", False),  # the spindle on already: nothing changes, nothing syncs
+        ("S2000", True),  # a new S on a line of its own, the spindle on
+        ("S500", False),  # the same S
+        ("G1 X15 S600", False),  # S on a motion line: a laser's power (laser mode)
+        ("G92 X0", True),  # the work coordinate offsets change
+        ("G55", True),
+        ("G54", False),  # in use already
+        ("G10 L2 P2 X1", True),  # an EEPROM write, whatever the system
+        ("G28.1", True),
+        ("F600", False),
+    ],
+)
+def test_grbl_syncs_its_planner_where_its_source_does(machine, code, stops):
+    """grbl 1.1 empties its planner buffer before a change of spindle or coolant state, a new
+    S on a line without motion, G10/G28.1/G30.1 (EEPROM writes) and any change of the work
+    coordinate offsets (controller/gcode/motion_waits.py, read in gnea/grbl's source)."""
+    text = GRBL_HEAD + code + "\n" + TAIL
+    items = list(interpret_events(text, dialect="grbl"))
+    waits = [e for e in items if isinstance(e, Stop) and e.line >= 5]  # (line 3 starts M3)
+    assert bool(waits) == stops, waits
+    if stops:
+        assert waits[0].line == 5 and waits[0].position == (10.0, 0.0, 0.0)
+        assert sum(1 for e in waits if e.line == 6) == 0  # a second M7 changes nothing
+    p = plan(items, machine)
+    if stops:  # every move starts from rest (after G92 X0 the last one goes elsewhere)
+        assert len(p.move_start_s) == 2 and not np.any(p.curve.evaluate(p.move_start_s)[1])
+    else:  # the plan of the same moves without that line (F600: on the move's own line)
+        same = GRBL_HEAD + ("G1 X20 F600\nM2\n" if code == "F600" else TAIL)
+        assert (
+            p.duration_s == plan(list(interpret_events(same, dialect="grbl")), machine).duration_s
+        )

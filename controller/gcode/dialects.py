@@ -129,9 +129,9 @@ class Dialect:
             that message, its parameters filled in (rs274's convert_comment).
         extruder: E words are followed as Marlin's extruder axis (M82/M83, G90/G91, G92 E):
             each move tells whether it extrudes (controller/gcode/extruder.py).
-        motion_waits: the machine commands LinuxCNC runs with motion stopped (spindle, coolant,
-            offsets, immediate outputs) make an exact stop before their block
-            (controller/gcode/motion_waits.py).
+        motion_waits: whose rules say which machine commands the controller runs with motion
+            stopped (spindle, coolant, offsets, outputs), each an exact stop before its block
+            ("linuxcnc", "grbl"; "": none modelled; controller/gcode/motion_waits.py).
     """
 
     name: str
@@ -177,7 +177,7 @@ class Dialect:
     last_word_wins: bool = False
     abort_comments: bool = False
     extruder: bool = False
-    motion_waits: bool = False
+    motion_waits: str = ""
 
 
 _TOL_MM = 2 * 0.01 * math.sqrt(2.0)  # 0.028284 mm, rs274 CENTER_ARC_RADIUS_TOLERANCE_MM
@@ -202,7 +202,7 @@ LINUXCNC = Dialect(
     canned_cycles=True,
     cutter_comp=True,
     splines="linuxcnc",
-    motion_waits=True,
+    motion_waits="linuxcnc",
     abort_comments=True,
 )
 
@@ -331,6 +331,7 @@ GRBL = Dialect(
     coordinate_systems=6,
     error_codes=_GRBL_ERRORS,
     arc_tolerance_mm=0.002,
+    motion_waits="grbl",
 )
 
 DIALECTS: dict[str, Dialect] = {d.name: d for d in (LINUXCNC, G2CORE, MARLIN, LASERDYNE, GRBL)}

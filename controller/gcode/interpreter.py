@@ -205,7 +205,7 @@ class Interpreter:
         if dwell_held:  # rs274 queues the dwell behind the held move: it waits where that ends
             self.comp.hold_dwell(w.line, w.values["P"])
         # a command LinuxCNC runs with motion stopped: a stop before this block's motion
-        wait = motion_wait(w, self.state) if d.motion_waits and self.events else None
+        wait = motion_wait(w, self.state, d.motion_waits) if self.events else None
         if wait is not None and self.comp.holding:  # behind the held move, as a G4
             self.comp.hold_dwell(w.line, 0.0)
             wait = None

@@ -1,4 +1,4 @@
-"""The commands LinuxCNC runs only once motion has stopped: an exact stop before the block.
+"""The commands a controller runs only once motion has stopped: an exact stop before the block.
 
 LinuxCNC's task sends most machine commands that are not motions (the spindle, the coolant,
 tool length and coordinate offsets, immediate outputs) only once its motion queue has drained,
@@ -21,6 +21,19 @@ then ``G1 X20``; periods of 1 ms at rest between the two moves:
 An M6 tool change stops too (the machine changes the tool at rest). Not measured, so not made
 stops here: M61, M19, G10 L1/L10/L11 (tool table entries). The time LinuxCNC spends at rest (its
 I/O handshakes: 3-5 periods, 115 for M9) is not modelled: the stop takes no time.
+
+grbl 1.1 (read in its source, gnea/grbl ``gcode.c``, ``spindle_control.c``,
+``coolant_control.c``, ``system.c`` and ``config.h``) empties its planner buffer
+(``protocol_buffer_synchronize``) before a change of the spindle's state (M3, M4, M5, "even in
+laser mode"), of the coolant's (M7, M8, M9), before G10 L2/L20, G28.1 and G30.1 (their EEPROM
+writes, ``FORCE_BUFFER_SYNC_DURING_EEPROM_WRITE``), and before every change of the work
+coordinate offsets (G54-G59 to another system, G92, G92.1, G43.1 or G49 changing the tool
+length offset: ``FORCE_BUFFER_SYNC_DURING_WCO_CHANGE``; both options are on by default), and
+only where something changes (M3 while M3 is on passes). A new S with the spindle on syncs too,
+except on a line that moves in laser mode ($32 = 1): the ``grbl`` dialect takes an S on a line
+without motion as a stop and one on a motion line as a laser's power change, not a stop
+(programs that set S on their moves are laser programs; a spindle machine's programs change S
+on lines of their own).
 """
 
 from __future__ import annotations
@@ -32,6 +45,9 @@ from gantry_sim.controller.gcode.words import Words
 
 __all__ = ["motion_wait"]
 
+#: grbl's spindle state after an M3, M4, M5 (ModalState.spindle).
+_GRBL_SPINDLE = {3: 1, 4: -1, 5: 0}
+
 #: M codes of the groups below that wait for motion: the spindle's on/off, every coolant code,
 #: the immediate outputs and the input wait (M62, M63, M67 go with the motion).
 _SPINDLE_M = frozenset((3, 4, 5))
@@ -40,10 +56,15 @@ _IO_M = frozenset((64, 65, 66, 68))
 _SHARED_OFFSETS = frozenset((520, 920, 921, 922, 923))
 
 
-def motion_wait(w: Words, before: ModalState) -> str | None:
+def motion_wait(w: Words, before: ModalState, rules: str) -> str | None:
     """The first command of block ``w`` (read after ``before``, the state it starts from) that
-    LinuxCNC runs only with motion stopped, named as in the program ("S", "M8", "G43"...), or
-    None when the block has none (see the module docstring)."""
+    the controller runs only with motion stopped, named as in the program ("S", "M8",
+    "G43"...), or None when the block has none; ``rules``: whose ("linuxcnc", "grbl"; "": none
+    modelled). See the module docstring."""
+    if rules == "grbl":
+        return _grbl_wait(w, before)
+    if rules != "linuxcnc":
+        return None
     if "S" in w.values:
         return "S"
     spindle = w.m.get("spindle")
@@ -74,3 +95,31 @@ def _sets_active_system(w: Words, before: ModalState) -> bool:
         return False
     p = round(w.values.get("P", 0.0))
     return p in (0, before.coord_index)
+
+
+def _grbl_wait(w: Words, before: ModalState) -> str | None:
+    """:func:`motion_wait` by grbl 1.1's rules (module docstring)."""
+    moves = any(a in w.values for a in "XYZ")
+    if "S" in w.values and before.spindle != 0 and not moves and w.values["S"] != before.rpm:
+        return "S"
+    spindle = w.m.get("spindle")
+    if spindle in _GRBL_SPINDLE and _GRBL_SPINDLE[spindle] != before.spindle:
+        return f"M{spindle}"
+    coolant = w.m.get("coolant")
+    if coolant is not None:
+        mist = coolant == 7 or (before.mist and coolant == 8)
+        flood = coolant == 8 or (before.flood and coolant == 7)
+        if (mist, flood) != (before.mist, before.flood):
+            return f"M{coolant}"
+    nonmodal = w.g.get("nonmodal")
+    if nonmodal in (100, 281, 301, 920, 921):  # G10, G28.1, G30.1, G92, G92.1
+        return g_name(nonmodal)
+    system = w.g.get("coordinate_system")
+    if system is not None and SYSTEMS[system] != before.coord_index:
+        return "G5x"
+    length = w.g.get("tool_length")
+    if length == 490 and any(before.tool_offset_mm):
+        return "G49"
+    if length == 431 and w.values.get("Z", 0.0) * before.scale != before.tool_offset_mm[2]:
+        return "G43.1"
+    return None
