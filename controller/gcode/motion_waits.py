@@ -93,8 +93,7 @@ def _sets_active_system(w: Words, before: ModalState) -> bool:
     """G10 L2 or L20 on the system in use (P0 is the one in use)."""
     if w.values.get("L") not in (2.0, 20.0):
         return False
-    p = round(w.values.get("P", 0.0))
-    return p in (0, before.coord_index)
+    return w.values.get("P", 0.0) in (0.0, float(before.coord_index))  # (checked later)
 
 
 def _grbl_wait(w: Words, before: ModalState) -> str | None:
