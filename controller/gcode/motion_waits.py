@@ -13,13 +13,14 @@ Measured on LinuxCNC 2.9's own planner (``benchmarks/linuxcnc_peer.py``'s ``run_
 then ``G1 X20``; periods of 1 ms at rest between the two moves:
 
 * at rest (3-115 periods): any S word (its value unchanged, or on the G1 line itself), M3, M4,
-  M5, M7, M8, M9, M64, M65, M66, M68, G43 H0, G43.1, G49, G92, G92.1, G55 (another coordinate
-  system), G10 L2 P1 and G10 L20 P1 (the active system's offsets), G4 P0;
+  M5, M19, M7, M8, M9, M64, M65, M66, M68, G43 H0, G43.1, G49, G92, G92.1, G55 (another
+  coordinate system), G10 L2 P1 and G10 L20 P1 (the active system's offsets), G4 P0;
 * passed at speed: F, M62, M63, M67 (outputs synchronised with motion), M48, M50, M70, G10 L2 P2
   (a system not in use), G54 (the one in use), G18, G91, G61, G64 P0.02.
 
 An M6 tool change stops too (the machine changes the tool at rest). Not measured, so not made
-stops here: M61, M19, G10 L1/L10/L11 (tool table entries). The time LinuxCNC spends at rest (its
+stops here: T, M61, G10 L1/L10/L11 (tool table entries; the peer configuration has no tool
+changer to run them). The time LinuxCNC spends at rest (its
 I/O handshakes: 3-5 periods, 115 for M9) is not modelled: the stop takes no time.
 
 grbl 1.1 (read in its source, gnea/grbl ``gcode.c``, ``spindle_control.c``,
@@ -48,9 +49,9 @@ __all__ = ["motion_wait"]
 #: grbl's spindle state after an M3, M4, M5 (ModalState.spindle).
 _GRBL_SPINDLE = {3: 1, 4: -1, 5: 0}
 
-#: M codes of the groups below that wait for motion: the spindle's on/off, every coolant code,
-#: the immediate outputs and the input wait (M62, M63, M67 go with the motion).
-_SPINDLE_M = frozenset((3, 4, 5))
+#: M codes of the groups below that wait for motion: the spindle's on/off and orient, every
+#: coolant code, the immediate outputs and the input wait (M62, M63, M67 go with the motion).
+_SPINDLE_M = frozenset((3, 4, 5, 19))
 _IO_M = frozenset((64, 65, 66, 68))
 #: G52, G92, G92.1, G92.2, G92.3 (tenths): the offsets every system shares.
 _SHARED_OFFSETS = frozenset((520, 920, 921, 922, 923))
