@@ -25,7 +25,7 @@ if str(HERE.parent) not in sys.path:  # run as a script: import the sibling benc
 
 from benchmarks.peer_programs import MODES, OUT, modes, programs  # noqa: E402
 from gantry_sim.controller.config import load_machine_config  # noqa: E402
-from gantry_sim.controller.gcode.interpreter import parse_program  # noqa: E402
+from gantry_sim.controller.gcode.interpreter import interpret_events  # noqa: E402
 from gantry_sim.controller.planner import plan  # noqa: E402
 
 MACHINE = load_machine_config(HERE.parent / "models" / "gantry.toml")
@@ -50,7 +50,8 @@ def main() -> None:
             path = OUT / f"{name}.{tag}.ngc"
             text = path.read_text()
             t0 = time.perf_counter()
-            ours = plan(parse_program(text, file=path.name), MACHINE).duration_s
+            # with the events, as gantry plan has them (dwells, and the stops LinuxCNC makes)
+            ours = plan(list(interpret_events(text, file=path.name)), MACHINE).duration_s
             t_plan = time.perf_counter() - t0
             rec = peer["programs"].get(name, {}).get(tag)
             if rec is None:

@@ -211,7 +211,7 @@ def main() -> None:
     sys.path.insert(0, str(HERE.parent))
     from benchmarks.peer_programs import OUT, programs
     from gantry_sim.controller.config import load_machine_config
-    from gantry_sim.controller.gcode.interpreter import parse_program
+    from gantry_sim.controller.gcode.interpreter import interpret_events, parse_program
     from gantry_sim.controller.planner import plan
 
     machine = load_machine_config(HERE.parent / "models" / "gantry.toml")
@@ -225,7 +225,8 @@ def main() -> None:
         moves = parse_program(path.read_text(), file=path.name)
         floor, _ = path_floor(moves, machine.limits, p_mm)
         theirs = peer.get(name, {}).get("g64", {}).get("cycle_s", math.nan)
-        ours = plan(moves, machine).duration_s
+        # ours with the events, as gantry plan has them (the floor leaves their stops out)
+        ours = plan(list(interpret_events(path.read_text(), file=path.name)), machine).duration_s
         note = "  <- 1.00 x LinuxCNC out of reach" if floor > theirs else ""
         print(
             f"{name:12s} {theirs:12.3f} {floor:10.3f} {floor / theirs:9.3f} "

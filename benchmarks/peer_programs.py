@@ -25,6 +25,9 @@ Programs:
   between pockets, G1 plunge at F300.
 * ``s_chain``: 20 tangent R5 half circles alternating G3/G2 at F6000 (the curvature flips sign
   at every junction, the tangent does not).
+* ``drill``: a grid of 3 x 4 holes 12 mm apart, G81 3 mm deep from R1 at F300 (G99: back to R),
+  the spindle speed set anew before each row and coolant on around it: rapids between the
+  holes (their corners blend in G64), and machine commands LinuxCNC runs at rest.
 """
 
 from __future__ import annotations
@@ -64,6 +67,20 @@ def s_chain(n: int = 20, r: float = 5.0, feed: float = 6000.0) -> str:
         for k in range(n)
     ]
     return f"G21 G90 G17 {{mode}}\nG0 X{_num(x0)} Y0\nF{feed:g}\n{''.join(out)}M2\n"
+
+
+def drill(rows: int = 3, cols: int = 4, pitch: float = 12.0) -> str:
+    """``rows`` x ``cols`` G81 holes ``pitch`` mm apart, row by row, with S before each row."""
+    out = ["G0 Z5\n", "M3 S8000\n", "M8\n"]
+    for r in range(rows):
+        if r:
+            out.append(f"S{8000 + 1000 * r}\n")
+        for c in range(cols):
+            x, y = _num(pitch * c), _num(pitch * r)
+            out.append(f"G99 G81 X{x} Y{y} Z-3 R1 F300\n" if c == 0 else f"X{x} Y{y}\n")
+        out.append("G80\n")
+    out += ["G0 Z5\n", "M9\n", "M5\n"]
+    return f"G21 G90 G17 {{mode}}\n{''.join(out)}M2\n"
 
 
 def _ring(cx: float, cy: float, a: float, b: float, r: float) -> list[str]:
@@ -108,6 +125,7 @@ def programs() -> dict[str, str]:
         "surface": surface(2000),
         "pocket": pocket(),
         "s_chain": s_chain(),
+        "drill": drill(),
     }
 
 
