@@ -2,7 +2,8 @@
 
 * A corner (tangent direction turns by more than :data:`CORNER_ANGLE_RAD`, or by more than
   :data:`COLLINEAR_ANGLE_RAD` between two straight moves, which are followed exactly) is an exact
-  stop, as is every rapid's start and end and the program's start and end.
+  stop, as are the junctions between a rapid and a feed move (LinuxCNC 2.9 stops there) and the
+  program's start and end; two rapids in line are passed through.
 * A tangent junction keeps its speed, except that a jump of the velocity direction (a kink of
   angle d: velocity jump v d) or of the curvature (acceleration jump v^2 |k1 - k2|, e.g. line ->
   arc, arc -> arc of another radius) cannot be followed exactly with finite jerk: the pieces
