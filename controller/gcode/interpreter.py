@@ -346,7 +346,7 @@ class Interpreter:
             stop = w.m.get("stopping")
             if stop in (0, 1, 60):
                 moves.append(Stop(w.line, s.work, f"M{stop}"))
-        if s.path is not None:  # canned cycles' and cutter compensation's moves too
+        if s.path is not None:
             _set_path(moves, s.path)
         s = self._canon(s, moves)
         if tool_changed:
@@ -480,9 +480,7 @@ class Interpreter:
 
     @staticmethod
     def _emit(moves: list[Move | Event], s: ModalState, move: Move, end: Vec3) -> ModalState:
-        if s.path is not None:
-            move = evolve(move, path=s.path)
-        moves.append(move)
+        moves.append(move)  # (its path control: _set_path, once the block's moves are made)
         return evolve(s, position=end, work=move.end)
 
     def _arc_to_work(self, arc: Arc, s: ModalState) -> Arc:
@@ -606,6 +604,8 @@ class Interpreter:
         end = from_work((target[0], target[1], target[2]), frame)
         moves: list[Move | Event] = []
         self.state = self._emit(moves, s, Rapid(block.line, s.work, to_work(end, frame)), end)
+        if s.path is not None:
+            _set_path(moves, s.path)
         return moves
 
     def _jog(self, block: Block) -> tuple[list[Move | Event], bool]:
@@ -650,10 +650,10 @@ class Interpreter:
 
 
 def _set_path(moves: list[Move | Event], path: PathControl) -> None:
-    """Give each motion of a block that has no path control of its own (a canned cycle's, the
-    tool-centre path of cutter compensation: neither passes through ``_emit``) the block's
-    ``path`` (a move released a block late under compensation keeps the mode it was made in:
-    rs274 refuses a mode change while compensation is on)."""
+    """Give each motion of a block that has no path control of its own the block's ``path``:
+    its G0-G3 and splines, a canned cycle's moves and cutter compensation's tool-centre moves
+    alike (a move released a block late under compensation keeps the mode it was made in: rs274
+    refuses a mode change while compensation is on)."""
     for k, m in enumerate(moves):
         if isinstance(m, _MOTIONS) and m.path is None:
             moves[k] = evolve(m, path=path)
