@@ -136,7 +136,7 @@ def smoothing_budget(m: Move, settings: PathSettings, chord_tolerance_mm: float)
     return corner_budget_mm(m, settings, chord_tolerance_mm)
 
 
-def corner_budget_mm(m: Move, settings: PathSettings, chord_tolerance_mm: float) -> float:
+def corner_budget_mm(m: PathMove, settings: PathSettings, chord_tolerance_mm: float) -> float:
     """The deviation [mm] the junction after ``m`` (a feed move or a rapid: its mode and P
     govern that junction) may take from the corner: P less the reference's share in G64, 0 in
     G61 and G61.1."""

@@ -11,15 +11,16 @@ before and after its moves of interest gives them what the whole path gives them
 from __future__ import annotations
 
 import math
-from collections.abc import Mapping, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import replace
+from functools import partial
 from types import MappingProxyType
 from typing import NamedTuple
 
 import numpy as np
 
 from gantry_sim.controller.config import MachineConfig
-from gantry_sim.controller.moves import Dwell, Linear, Rapid
+from gantry_sim.controller.moves import Dwell, Linear, PathMove, Rapid
 from gantry_sim.controller.planner.blend import MAX_TURN_RAD, PathPlan, corner_budget_mm
 from gantry_sim.controller.planner.blend_judge import blend_faster_many
 from gantry_sim.controller.planner.junctions import (
@@ -110,24 +111,25 @@ def prepare(
     active = limits_for_junctions(active, caps, lim, path_acc)
     caps = feasible_junction_caps(active, caps, states, lim)
     where = [i for i, k in enumerate(keep) if k]
-    rapid_budget = [
-        corner_budget_mm(g.move, machine.path, seg.chord_tolerance_mm)
-        if isinstance(g.move, Rapid)
-        else 0.0
-        for g in active
-    ]
-    budgets = [max(a, b) for a, b in zip(smoothing, rapid_budget, strict=True)]
-    corners = stop_corners(active, caps, budgets, stops | set(holds))
+    corners = stop_corners(
+        active,
+        caps,
+        stops | set(holds),
+        partial(corner_budget_mm, settings=machine.path, chord_tolerance_mm=seg.chord_tolerance_mm),
+    )
     return Prepared(
         geoms, active, where, caps, states, holds, smoothing, sources, path_acc, corners
     )
 
 
 def stop_corners(
-    active: Sequence[MoveGeometry], caps: np.ndarray, budgets: Sequence[float], exact: set[int]
+    active: Sequence[MoveGeometry],
+    caps: np.ndarray,
+    exact: set[int],
+    budget_of: Callable[[PathMove], float],
 ) -> dict[int, float]:
     """Junction -> budget [mm] of each stop (``caps`` 0) between two straight feed moves, or
-    two rapids, whose first is in G64 (its ``budgets`` > 0: the G64 corner budget of each move,
+    two rapids, whose first is in G64 (its ``budget_of`` > 0: its G64 corner budget,
     :func:`~gantry_sim.controller.planner.blend.corner_budget_mm`; the mode and P of the move
     before a junction govern it, as LinuxCNC's termination condition does, and as the corner
     blends take it: LinuxCNC 2.9 passes a corner between a G64 P0.01 move and a G61.1 one, and
@@ -138,15 +140,14 @@ def stop_corners(
     stop (LinuxCNC 2.9 stops there)."""
     out = {}
     for b in (np.flatnonzero(caps[1 : len(active)] == 0.0) + 1).tolist():
-        budget = budgets[b - 1]
         a, m = active[b - 1].move, active[b].move
         same = isinstance(a, Linear) and isinstance(m, Linear)
         same = same or (isinstance(a, Rapid) and isinstance(m, Rapid))
         if (
-            budget > 0.0
+            same
             and b not in exact
-            and same
             and float(active[b - 1].tangent_out @ active[b].tangent_in) > _COS_MAX_TURN
+            and (budget := budget_of(a)) > 0.0
         ):
             out[b] = budget
     return out
