@@ -16,8 +16,9 @@ class Blend:
     distance from the programmed path [mm], the tolerance it was given [mm], and its kind:
     "corner" (a blend arc), "transition" (a G2 transition at a tangent junction,
     :mod:`~gantry_sim.controller.planner.transition`) or "overlap" (an exact stop between two
-    lines whose profiles overlap, :mod:`~gantry_sim.controller.planner.stop_overlap`). Slotted: a long program of tangent arcs
-    has one per junction."""
+    straight moves or two rapids whose profiles overlap,
+    :mod:`~gantry_sim.controller.planner.stop_overlap`). Slotted: a long program of tangent
+    arcs has one per junction."""
 
     line: int
     deviation_mm: float

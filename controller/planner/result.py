@@ -67,11 +67,11 @@ class Plan:
     end_mm: np.ndarray = field(repr=False)
     blends: Sequence[Blend] = ()
     path_moves: Sequence[PathMove] = ()
-    move_sources: np.ndarray = field(repr=False, default_factory=lambda: _no_sources())
-    path_sources: np.ndarray = field(repr=False, default_factory=lambda: _no_sources())
+    move_sources: np.ndarray = field(repr=False, default_factory=lambda: _no_pairs(np.int64))
+    path_sources: np.ndarray = field(repr=False, default_factory=lambda: _no_pairs(np.int64))
     merges: tuple[Merge, ...] = ()
     limit_change_stops: int = 0
-    overlaps_s: np.ndarray = field(repr=False, default_factory=lambda: _no_windows())
+    overlaps_s: np.ndarray = field(repr=False, default_factory=lambda: _no_pairs(float))
 
     def sample(self, period_s: float) -> Trajectory:
         """The reference every ``period_s`` [s] from 0 to the end; the last sample is at rest at
@@ -139,13 +139,8 @@ class Plan:
         )
 
 
-def _no_windows() -> np.ndarray:
-    out = np.zeros((0, 2))
-    out.setflags(write=False)
-    return out
-
-
-def _no_sources() -> np.ndarray:
-    out = np.zeros((0, 2), dtype=np.int64)
+def _no_pairs(dtype: type) -> np.ndarray:
+    """A read-only (0, 2) array: no rows of sources (int64) or of overlaps [s] (float)."""
+    out: np.ndarray = np.zeros((0, 2), dtype=dtype)
     out.setflags(write=False)
     return out
