@@ -92,13 +92,18 @@ def cycle_times(samples: np.ndarray) -> dict[str, float | int]:
     }
 
 
+#: Tools 1-99 in pockets 1-99, of zero length and diameter: what gantry-sim's machine without a
+#: [tools] table reads for every tool, so programs with T, M6, G43 H or G10 L1 run on both.
+PEER_TOOLS = "".join(f"T{n} P{n} Z0 D0 ;\n" for n in range(1, 100))
+
+
 def run_one(program: Path, timeout_s: float) -> dict[str, object]:
     with tempfile.TemporaryDirectory(prefix="linuxcnc_peer_") as tmp:
         work = Path(tmp)
         os.chmod(work, 0o755)  # the fallback user must reach fifo/ (mkdtemp makes it 0700)
         for f in CONFIG.iterdir():
             shutil.copy2(f, work / f.name)
-        (work / "peer.tbl").write_text("")
+        (work / "peer.tbl").write_text(PEER_TOOLS)
         (work / "fifo").mkdir()
         os.chmod(work / "fifo", 0o777)  # rtapi_app binds its socket as the fallback user
         (work / "out").mkdir()

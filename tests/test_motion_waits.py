@@ -36,9 +36,17 @@ STOPS = [
     "G55",
     "G10 L2 P1 X1",
     "G10 L20 P1 X1",
+    "T2 M6",
+    "G10 L1 P2 Z1",
+    "G10 L1 P2 R1",
+    "G10 L10 P2 Z1",
+    "G10 L11 P2 Z1",
 ]
 #: codes it passed at speed
-PASSES = ["F1200", "M62 P0", "M63 P0", "M67 E0 Q1", "M48", "M70", "G10 L2 P2 X1", "G54", "G17"]
+PASSES = [
+    *("F1200", "M62 P0", "M63 P0", "M67 E0 Q1", "M48", "M70", "G10 L2 P2 X1", "G54", "G17"),
+    *("T2", "M61 Q2"),
+]
 
 
 def _speed_at_x10(p) -> float:

@@ -18,10 +18,12 @@ then ``G1 X20``; periods of 1 ms at rest between the two moves:
 * passed at speed: F, M62, M63, M67 (outputs synchronised with motion), M48, M50, M70, G10 L2 P2
   (a system not in use), G54 (the one in use), G18, G91, G61, G64 P0.02.
 
-An M6 tool change stops too (the machine changes the tool at rest). Not measured, so not made
-stops here: T, M61, G10 L1/L10/L11 (tool table entries; the peer configuration has no tool
-changer to run them). The time LinuxCNC spends at rest (its
-I/O handshakes: 3-5 periods, 115 for M9) is not modelled: the stop takes no time.
+Measured the same way on 2026-11-30, with a tool table of T1-T99 in the peer configuration:
+``T2 M6`` (290 periods: the tool change), G10 L1 P2 Z1, G10 L1 P2 R1, G10 L10 P2 Z1 and G10 L11
+P2 Z1 (a tool table entry, of a tool not loaded: 10-13 periods) came to rest; ``T2`` (the tool
+prepared) and ``M61 Q2`` (the loaded tool's number set) passed at speed. The time LinuxCNC
+spends at rest (its I/O handshakes: 3-13 periods, 115 for M9, 290 for the tool change here, a
+real changer's seconds) is not modelled: the stop takes no time.
 
 grbl 1.1 (read in its source, gnea/grbl ``gcode.c``, ``spindle_control.c``,
 ``coolant_control.c``, ``system.c`` and ``config.h``) empties its planner buffer
@@ -55,6 +57,8 @@ _SPINDLE_M = frozenset((3, 4, 5, 19))
 _IO_M = frozenset((64, 65, 66, 68))
 #: G52, G92, G92.1, G92.2, G92.3 (tenths): the offsets every system shares.
 _SHARED_OFFSETS = frozenset((520, 920, 921, 922, 923))
+#: G10 L1, L10, L11: a tool table entry (any tool, loaded or not).
+_TOOL_TABLE_L = frozenset((1.0, 10.0, 11.0))
 
 
 def motion_wait(w: Words, before: ModalState, rules: str) -> str | None:
@@ -85,7 +89,7 @@ def motion_wait(w: Words, before: ModalState, rules: str) -> str | None:
     nonmodal = w.g.get("nonmodal")
     if nonmodal in _SHARED_OFFSETS:
         return "G92" if nonmodal != 520 else "G52"
-    if nonmodal == 100 and _sets_active_system(w, before):
+    if nonmodal == 100 and (w.values.get("L") in _TOOL_TABLE_L or _sets_active_system(w, before)):
         return "G10"
     return None
 
