@@ -36,6 +36,9 @@ NEAREST_STEPS = 8
 LOCAL_SAMPLES = 16
 #: point-sample pairs compared at once by the nearest-point seeding
 SEED_BLOCK = 1_000_000
+#: sample intervals searched again per point where they may hold a nearer point than the first
+#: search found (:meth:`SplineCurve._rivals`)
+RIVALS_KEPT = 8
 #: a speed |C'| below this share of L / (t range) counts as zero (a degenerate end)
 ZERO_SPEED_SHARE = 1e-9
 #: t_of_s keeps its last results for arrays of at most T_OF_S_SIZE arc lengths, T_OF_S_KEPT of
@@ -217,11 +220,70 @@ class SplineCurve:
         return out
 
     def nearest_points(self, q: np.ndarray) -> np.ndarray:
-        """Nearest points (m, 3) on the whole curve to ``q`` (m, 3) [mm]."""
+        """Nearest points (m, 3) on the whole curve to ``q`` (m, 3) [mm]: :meth:`nearest` from
+        the nearest of samples at 4 per grid cell, then from every other sample interval that
+        may hold a nearer point (:meth:`_seeds_and_rivals`), the nearest of all kept."""
+        lo, hi = self.nurbs.t_min, self.nurbs.t_max
         samples = 4 * (len(self.grid) - 1) + 1
-        seed = self.seeds(q, self.nurbs.t_min, self.nurbs.t_max, samples)
-        spacing = (self.nurbs.t_max - self.nurbs.t_min) / (samples - 1)
-        return self.nurbs.points(self.nearest(q, seed, spacing))
+        ts = np.linspace(lo, hi, samples)
+        spacing = (hi - lo) / (samples - 1)
+        seed, which, rival, bound = self._seeds_and_rivals(q, ts)
+        t = self.nearest(q, seed, spacing)
+        best = np.linalg.norm(self.nurbs.points(t) - q, axis=1)
+        open_ = bound < best[which] - 1e-12 * (1.0 + best[which])
+        which, rival = which[open_], rival[open_]
+        if which.size:
+            tr = self.nearest(q[which], rival, spacing)
+            dr = np.linalg.norm(self.nurbs.points(tr) - q[which], axis=1)
+            order = np.lexsort((dr, which))  # per point, its nearest rival first
+            first = order[np.r_[True, which[order][1:] != which[order][:-1]]]
+            nearer = dr[first] < best[which[first]]
+            t[which[first][nearer]] = tr[first][nearer]
+        return self.nurbs.points(t)
+
+    def _seeds_and_rivals(
+        self, q: np.ndarray, ts: np.ndarray
+    ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+        """Per point of ``q``, the nearest of the samples at ``ts`` (as :meth:`seeds`); and
+        (point index, seed t, bound [mm]) for the other sample intervals [ts[j], ts[j + 1]] that
+        may hold a point nearer than that sample: a point of the curve at arc length a from one
+        end of an interval of arc length h lies within its distance plus min(a, h - a) of a
+        sample, so none in the interval is nearer than the bound, the nearer end's distance less
+        h / 2. The caller searches those whose bound is below the distance its first search
+        found (a curve turning back on itself within microns, a G5 near a cusp, had points
+        seeded on the wrong pass, 56 um off): at most :data:`RIVALS_KEPT` per point, the lowest
+        bounds, each seeded at its nearer end; not the two intervals next to the seed, which the
+        first search covers."""
+        pts = self.nurbs.points(ts)
+        half = 0.5 * np.diff(self.s_of_t(ts))
+        seed = np.empty(len(q))
+        which: list[np.ndarray] = []
+        rivals: list[np.ndarray] = []
+        bounds: list[np.ndarray] = []
+        rows = max(1, SEED_BLOCK // len(ts))
+        for a in range(0, len(q), rows):
+            rel = q[a : a + rows, None, :] - pts[None, :, :]
+            d2 = np.einsum("ijk,ijk->ij", rel, rel)
+            b = np.argmin(d2, axis=1)
+            seed[a : a + rows] = ts[b]
+            d = np.sqrt(d2)
+            bound = np.minimum(d[:, :-1], d[:, 1:]) - half[None, :]
+            r = np.arange(len(d))
+            bound[r, np.maximum(b - 1, 0)] = np.inf  # searched from the seed
+            bound[r, np.minimum(b, len(half) - 1)] = np.inf
+            i, j = np.nonzero(bound < d[r, b][:, None])
+            if not i.size:
+                continue
+            keep = np.lexsort((bound[i, j], i))
+            i, j = i[keep], j[keep]
+            rank = np.arange(len(i)) - np.searchsorted(i, i)  # place within its point's run
+            i, j = i[rank < RIVALS_KEPT], j[rank < RIVALS_KEPT]
+            which.append(i + a)
+            rivals.append(ts[np.where(d[i, j] <= d[i, j + 1], j, j + 1)])
+            bounds.append(bound[i, j])
+        if not which:
+            return seed, np.empty(0, dtype=np.intp), np.empty(0), np.empty(0)
+        return seed, np.concatenate(which), np.concatenate(rivals), np.concatenate(bounds)
 
 
 def _gl_nodes(a: np.ndarray, b: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
