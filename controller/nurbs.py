@@ -168,3 +168,34 @@ class Nurbs:
         """C(u) (m, 3)."""
         h = self.poly(np.asarray(u, dtype=float))
         return h[:, :3] / h[:, 3:4]
+
+
+def split_bspline(
+    ctrl: np.ndarray, knots: np.ndarray, degree: int, u: float
+) -> tuple[tuple[np.ndarray, np.ndarray], tuple[np.ndarray, np.ndarray]]:
+    """The B-spline (``ctrl`` (n + 1, d), clamped ``knots``, ``degree`` p) cut at parameter
+    ``u`` (strictly inside its range) into two clamped B-splines, ((ctrl, knots) before u,
+    (ctrl, knots) after u), together the same curve: u is inserted (Boehm's algorithm, The NURBS
+    Book's A5.1 one knot at a time) until its multiplicity is p, so that the curve passes through
+    one control point there, which the two parts share (the last of the first, the first of the
+    second). Each part keeps the parameter range it had (the first [t_p, u], the second [u,
+    t_{n+1}]). For a NURBS, pass its homogeneous control points (w x, w y, w z, w)."""
+    q = np.asarray(ctrl, dtype=float)
+    t = np.asarray(knots, dtype=float)
+    p = degree
+    if not t[p] < u < t[len(q)]:
+        raise ValueError(f"cut at {u} outside the open range ({t[p]}, {t[len(q)]})")
+    for _ in range(p - int(np.count_nonzero(t == u))):
+        k = int(np.searchsorted(t, u, side="right")) - 1  # t[k] <= u < t[k + 1]
+        s = int(np.count_nonzero(t == u))
+        new = np.empty((len(q) + 1, q.shape[1]))
+        new[: k - p + 1] = q[: k - p + 1]
+        for i in range(k - p + 1, k - s + 1):
+            alpha = (u - t[i]) / (t[i + p] - t[i])
+            new[i] = alpha * q[i] + (1.0 - alpha) * q[i - 1]
+        new[k - s + 1 :] = q[k - s :]
+        q, t = new, np.insert(t, k + 1, u)
+    j = int(np.searchsorted(t, u, side="left"))  # the first knot u
+    first = (q[:j].copy(), np.concatenate([t[: j + p], [u]]))
+    second = (q[j - 1 :].copy(), np.concatenate([[u], t[j:]]))
+    return first, second

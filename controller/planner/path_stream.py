@@ -53,6 +53,7 @@ from gantry_sim.controller.planner.path_control import (
     control,
     merge_runs,
 )
+from gantry_sim.controller.planner.spline_split import split_slow_parts
 from gantry_sim.controller.planner.transition import TransitionMachine
 from gantry_sim.controller.planner.window_cut import WINDOW_MOVES
 from gantry_sim.controller.spill import SpilledList
@@ -101,7 +102,8 @@ def path_plan(
     buffer: list[PathEntry] = []  # merged moves first .. first + len(buffer) - 1
     first = core = 0  # core: the first merged move not yet blended
     spans: list[tuple[int, int]] = []  # stretches waiting for their wave
-    for entry in merge_runs(_entries(items, settings, trailing), settings, merges):
+    entries = _entries(items, settings, trailing, machine)
+    for entry in merge_runs(entries, settings, merges):
         buffer.append(entry)
         if first + len(buffer) >= core + stretch_moves + CONTEXT_MOVES:
             spans.append((core, core + stretch_moves))
@@ -122,11 +124,17 @@ def path_plan(
 
 
 def _entries(
-    items: Iterable[Move | Event], settings: PathSettings, trailing: list[Dwell]
+    items: Iterable[Move | Event],
+    settings: PathSettings,
+    trailing: list[Dwell],
+    machine: TransitionMachine | None = None,
 ) -> Iterator[PathEntry]:
     """The moves with length of ``items``, in order, each with the stop after it (G61.1, or a
     dwell or program stop before the next move), the dwells (of positive time) before it and its
-    index among the program's motions; the dwells after the last move go to ``trailing``."""
+    index among the program's motions; the dwells after the last move go to ``trailing``. With
+    ``machine``, a spline whose curvature varies a lot comes as consecutive parts of itself
+    (:func:`~gantry_sim.controller.planner.spline_split.split_slow_parts`), the stop after the
+    last, the dwells before the first."""
     index = -1  # of the item among the program's motions
     pending: PathEntry | None = None  # the last move, until what follows it is known
     holds: list[Dwell] = []
@@ -145,6 +153,11 @@ def _entries(
         if pending is not None:
             yield pending
         stop = control(item, settings).mode == "G61.1"
+        if isinstance(item, Spline) and machine is not None:
+            *inner, item = split_slow_parts(item, machine.limits, machine.feed_scale)
+            for part in inner:
+                yield PathEntry(part, False, holds, (index, index))
+                holds = []
         pending, holds = PathEntry(item, stop, holds, (index, index)), []
     if pending is not None:
         yield pending

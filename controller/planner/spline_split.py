@@ -1,0 +1,210 @@
+"""A spline whose curvature varies a lot, cut into parts planned at their own speeds.
+
+The planner caps a move's speed with one number per move: for an arc the curvature is the same
+everywhere, but a spline's varies along it, and its caps (``spline_geometry.curvature_bounds``:
+v^2 |k| <= a and v^3 |p'''| <= j with the largest |k| and |p'''| along the curve) come from its
+tightest point. A G5 whose control points make it turn sharply in one place (a near-cusp: it
+slows almost to a stop there and turns back on itself within microns) was followed at that
+point's speed over its whole length: a 35 mm cubic of LinuxCNC's G5 tests at 0.11 mm/s, 332 s,
+where the part outside the first and last tenth of a millimetre round its kink allows 25 mm/s.
+
+:func:`split_slow_parts` cuts such a spline into consecutive splines, together the same curve
+(knot insertion, :func:`~gantry_sim.controller.nurbs.split_bspline`: position, tangent and
+curvature continuous where they meet, so those junctions keep their speed in every path mode
+and the reference stays on the programmed curve as before), where the parts' own caps save
+time. The cap profile v(t) = min(F, sqrt(a / |k|), (j / |p'''|)^(1/3)) is sampled
+(:data:`SAMPLES_PER_SPAN` per knot span, finer where it changes fast; a, j: the smaller limits
+of X and Y, the splines' plane); the slowest sample's neighbourhood, where v < :data:`CORE_RATIO` times its speed,
+becomes a part of its own when the estimated time at the caps (length / the part's slowest
+sample) falls below :data:`KEEP_SHARE` of the uncut time, and the parts either side are cut
+the same way, at most :data:`MAX_PARTS` parts a spline, none shorter than
+:data:`MIN_PART_MM`. Each part is then planned as any spline (its bounds sampled along it
+alone). The parts keep the move's line, feed and path control; the path's ``sources`` map them
+all to the program's move. Near a zero-speed end (G5 ``I0 J0``) the curvature grows without
+bound and the planner follows the end chord piece by piece (spline_geometry's docstring): no
+cut is made within :data:`ZERO_SPEED_END_SHARE` of the length of such an end. NURBS with a weight
+<= 0 are not cut.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+
+import numpy as np
+
+from gantry_sim.controller.config import Limits
+from gantry_sim.controller.moves import Spline
+from gantry_sim.controller.nurbs import split_bspline
+from gantry_sim.controller.planner.spline_geometry import arc_length_derivatives
+
+__all__ = ["split_slow_parts"]
+
+#: cap profile samples per knot span, and where the cap changes by more than REFINE_RATIO
+#: between two samples, REFINE_SAMPLES more between them, for at most REFINE_ROUNDS rounds and
+#: MAX_SAMPLES samples
+SAMPLES_PER_SPAN = 1024
+REFINE_RATIO = 1.25
+REFINE_SAMPLES = 7
+REFINE_ROUNDS = 8
+MAX_SAMPLES = 65_536
+#: a part around the slowest sample reaches to where the cap is this many times its speed
+CORE_RATIO = 2.0
+#: a cut is kept where the parts' estimated time is at most this share of the uncut time
+KEEP_SHARE = 0.8
+MAX_PARTS = 32
+MIN_PART_MM = 1e-3
+#: no cut within this share of the length of a zero-speed end
+ZERO_SPEED_END_SHARE = 0.05
+
+
+def split_slow_parts(move: Spline, limits: Limits, feed_scale: float = 1.0) -> list[Spline]:
+    """``move`` as consecutive splines planned at their own caps (module docstring), or
+    ``[move]`` where cutting saves too little. ``feed_scale``: the feed override [1]."""
+    if min(move.weights) <= 0.0:
+        return [move]
+    curve = move.curve
+    nurbs = curve.nurbs
+    spans = len(np.unique(move.knots)) - 1
+    t = np.linspace(nurbs.t_min, nurbs.t_max, SAMPLES_PER_SPAN * max(spans, 1) + 1)
+    s, cap = _cap_profile(move, t, limits, feed_scale)
+    for _ in range(REFINE_ROUNDS):  # finer where the cap changes fast between two samples
+        lo, hi = np.minimum(cap[:-1], cap[1:]), np.maximum(cap[:-1], cap[1:])
+        steep = np.flatnonzero(np.isfinite(hi) & (hi > REFINE_RATIO * lo))
+        if not steep.size or len(t) + REFINE_SAMPLES * steep.size > MAX_SAMPLES:
+            break
+        inner = (np.arange(1, REFINE_SAMPLES + 1) / (REFINE_SAMPLES + 1))[None, :]
+        extra = (t[steep, None] + inner * (t[steep + 1] - t[steep])[:, None]).ravel()
+        t = np.union1d(t, extra)
+        s, cap = _cap_profile(move, t, limits, feed_scale)
+    length = s[-1]
+    if not length > 2.0 * MIN_PART_MM:
+        return [move]
+    cuts = _cuts(s, cap)
+    if not cuts:
+        return [move]
+    return _pieces(move, [float(t[i]) for i in cuts])
+
+
+def _cap_profile(
+    move: Spline, t: np.ndarray, limits: Limits, feed_scale: float
+) -> tuple[np.ndarray, np.ndarray]:
+    """Arc length [mm] (trapezoids of the speed) and the speed cap [mm/s] at parameters ``t``
+    (inf where no cut may be made: next to a zero-speed end)."""
+    curve = move.curve
+    vmax, amax, jmax = limits.per_axis()
+    feed = min(move.feed_mm_per_min / 60.0 * feed_scale, vmax[0], vmax[1])
+    a, j = min(amax[0], amax[1]), min(jmax[0], jmax[1])
+    _, d1, d2, d3 = curve.nurbs.derivatives(t, 3)
+    speed = np.linalg.norm(d1, axis=1)
+    s = np.concatenate([[0.0], np.cumsum(0.5 * (speed[1:] + speed[:-1]) * np.diff(t))])
+    cap = np.full(len(t), np.inf)
+    ok = ~curve.zero_speed(d1)
+    if ok.any():
+        _, p2, p3 = arc_length_derivatives(d1[ok], d2[ok], d3[ok])
+        with np.errstate(divide="ignore"):
+            k_cap = np.sqrt(a / np.linalg.norm(p2, axis=1))
+            dk_cap = np.cbrt(j / np.linalg.norm(p3, axis=1))
+        cap[ok] = np.minimum(feed, np.minimum(k_cap, dk_cap))
+    end = ZERO_SPEED_END_SHARE * s[-1]
+    if not ok[0]:
+        cap[s <= end] = np.inf
+    if not ok[-1]:
+        cap[s >= s[-1] - end] = np.inf
+    return s, cap
+
+
+def _cuts(s: np.ndarray, cap: np.ndarray) -> list[int]:
+    """Sample indices to cut at, in order: the part whose cut saves the most time is cut, until
+    no cut keeps :data:`KEEP_SHARE` or there are :data:`MAX_PARTS` parts (module docstring)."""
+    parts = [(0, len(s) - 1)]
+    while len(parts) < MAX_PARTS:
+        best, best_saving = None, 0.0
+        for k, (lo, hi) in enumerate(parts):
+            split = _split(s, cap, lo, hi)
+            if split is not None and split[1] > best_saving:
+                best, best_saving = (k, split[0]), split[1]
+        if best is None:
+            break
+        k, new = best
+        if len(parts) + len(new) - 1 > MAX_PARTS:
+            break
+        parts[k : k + 1] = new
+    return [lo for lo, _ in parts[1:]]
+
+
+def _split(
+    s: np.ndarray, cap: np.ndarray, lo: int, hi: int
+) -> tuple[list[tuple[int, int]], float] | None:
+    """Samples ``lo`` .. ``hi`` cut around their slowest sample (its part reaching to where the
+    cap is :data:`CORE_RATIO` times its speed, or their highest) and the time that saves [s],
+    or None where the parts would take more than :data:`KEEP_SHARE` of the uncut time."""
+    seg = cap[lo : hi + 1]
+    if not np.isfinite(seg).any():
+        return None
+    i = lo + int(np.argmin(seg))
+    slowest = cap[i]
+    top = float(np.max(seg[np.isfinite(seg)]))  # (the feed caps the profile)
+    if not top > slowest:
+        return None
+    fast = np.flatnonzero(seg >= min(CORE_RATIO * slowest, top)) + lo
+    before, after = fast[fast < i], fast[fast > i]
+    a = int(before[-1]) + 1 if before.size else lo
+    b = int(after[0]) - 1 if after.size else hi
+    a, b = _widened(s, a, b, lo, hi)
+    parts = [(x, y) for x, y in ((lo, a), (a, b), (b, hi)) if y > x]
+    if len(parts) < 2:
+        return None
+    whole = (s[hi] - s[lo]) / slowest
+    cut = sum((s[y] - s[x]) / np.min(cap[x : y + 1]) for x, y in parts)
+    if not cut <= KEEP_SHARE * whole:
+        return None
+    return parts, float(whole - cut)
+
+
+def _widened(s: np.ndarray, a: int, b: int, lo: int, hi: int) -> tuple[int, int]:
+    """The part ``a`` .. ``b`` widened within ``lo`` .. ``hi`` to at least
+    :data:`MIN_PART_MM`, and its ends moved onto ``lo`` / ``hi`` where they would leave a
+    part shorter than that there."""
+    while s[b] - s[a] < MIN_PART_MM and (a > lo or b < hi):
+        a, b = max(lo, a - 1), min(hi, b + 1)
+    if s[a] - s[lo] < MIN_PART_MM:
+        a = lo
+    if s[hi] - s[b] < MIN_PART_MM:
+        b = hi
+    return a, b
+
+
+def _pieces(move: Spline, cuts: list[float]) -> list[Spline]:
+    """``move`` cut at the parameters ``cuts`` (increasing, inside its range), each part a
+    :class:`Spline` with its own control points, weights and knots (homogeneous knot
+    insertion); the outer ends are the move's own, each inner end the point both parts share."""
+    w = np.asarray(move.weights, dtype=float)
+    rest = (
+        np.column_stack([np.asarray(move.control_points, dtype=float) * w[:, None], w]),
+        np.asarray(move.knots, dtype=float),
+    )
+    homogeneous = []
+    for u in cuts:
+        first, rest = split_bspline(*rest, move.degree, u)
+        homogeneous.append(first)
+    homogeneous.append(rest)
+    out: list[Spline] = []
+    start = move.start
+    for k, (q, knots) in enumerate(homogeneous):
+        ctrl = [(float(x), float(y), float(z)) for x, y, z in (q[:, :3] / q[:, 3:4]).tolist()]
+        last = k == len(homogeneous) - 1
+        ctrl[0] = start
+        end = move.end if last else ctrl[-1]
+        ctrl[-1] = end
+        out.append(
+            dataclasses.replace(
+                move,
+                start=start,
+                end=end,
+                control_points=tuple(ctrl),
+                weights=tuple(float(x) for x in q[:, 3]),
+                knots=tuple(float(x) for x in knots),
+            )
+        )
+        start = end
+    return out

@@ -1,0 +1,139 @@
+"""A spline whose curvature varies a lot is planned as parts of itself at their own speeds
+(controller/planner/spline_split.py, knot insertion in controller/nurbs.py), and the analysis
+finds the nearest point on a curve that passes close to itself twice (controller/spline_curve.py).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import itertools
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from gantry_sim.controller.gcode.interpreter import interpret_events, parse_program
+from gantry_sim.controller.moves import Spline
+from gantry_sim.controller.nurbs import Nurbs, linuxcnc_knots, split_bspline
+from gantry_sim.controller.planner import path_stream
+from gantry_sim.controller.planner.plan import plan
+from gantry_sim.controller.planner.spline_split import split_slow_parts
+from gantry_sim.sim.nearest import nearest_on_move
+from tests.plan_helpers import assert_phases_within_limits, assert_within_limits
+
+DATA = Path(__file__).resolve().parent / "data" / "rs274_splines" / "programs"
+
+#: A cubic whose control points P0 (0, 0), P1 (3, 3), P2 (0.1, 3), P3 (3, 0) make it slow almost
+#: to a stop near its middle and turn back on itself there (P2 at (0, 3): an exact cusp).
+NEAR_CUSP = "G21 G17 G90 {mode}\nG0 X0 Y0\nF1200\nG5 I3 J3 P-2.9 Q3 X3 Y0\nG1 X6\nM2\n"
+
+
+def _random_curve(
+    rng: np.random.Generator, trial: int
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, int]:
+    p = int(rng.integers(1, 5))
+    n = int(rng.integers(p + 1, p + 8))
+    ctrl = rng.normal(size=(n, 3))
+    w = rng.uniform(0.3, 3.0, n) if trial % 2 else np.ones(n)
+    if trial % 3:
+        knots = np.array(linuxcnc_knots(n, p + 1))
+    else:
+        inner = np.sort(rng.uniform(0.0, 1.0, n - p - 1))
+        knots = np.concatenate([np.zeros(p + 1), inner, np.ones(p + 1)])
+    return ctrl, w, knots, p
+
+
+def test_a_cut_b_spline_is_the_same_curve_in_two_parts() -> None:
+    rng = np.random.default_rng(7)
+    for trial in range(200):
+        ctrl, w, knots, p = _random_curve(rng, trial)
+        whole = Nurbs.build(ctrl, w, knots, p)
+        inner_knots = knots[(knots > whole.t_min) & (knots < whole.t_max)]
+        at_knot = trial % 4 == 0 and inner_knots.size
+        u = float(inner_knots[0]) if at_knot else float(rng.uniform(whole.t_min, whole.t_max))
+        (qa, ta), (qb, tb) = split_bspline(np.column_stack([ctrl * w[:, None], w]), knots, p, u)
+        assert np.array_equal(qa[-1], qb[0])  # one control point shared, on the curve at u
+        parts = [Nurbs.build(q[:, :3] / q[:, 3:], q[:, 3], t, p) for q, t in ((qa, ta), (qb, tb))]
+        assert (parts[0].t_min, parts[0].t_max) == (whole.t_min, u)
+        assert (parts[1].t_min, parts[1].t_max) == (u, whole.t_max)
+        at_u = whole.points(np.array([u]))[0]
+        assert np.allclose(
+            qa[-1, :3] / qa[-1, 3], at_u, rtol=0, atol=1e-12 * (1 + np.abs(at_u).max())
+        )
+        for part in parts:
+            uu = np.linspace(part.t_min, part.t_max, 41)[1:-1]  # (a knot's sides may differ)
+            for mine, theirs in zip(part.derivatives(uu, 3), whole.derivatives(uu, 3), strict=True):
+                scale = 1.0 + np.abs(theirs).max()
+                assert np.abs(mine - theirs).max() <= 1e-9 * scale, (trial, p, u)
+
+
+def test_a_cut_outside_the_open_range_is_refused() -> None:
+    knots = np.array(linuxcnc_knots(4, 4))
+    with pytest.raises(ValueError, match="outside"):
+        split_bspline(np.ones((4, 4)), knots, 3, float(knots[-1]))
+
+
+def test_a_near_cusp_is_planned_in_parts_at_their_own_speeds(machine, monkeypatch) -> None:
+    text = NEAR_CUSP.format(mode="G61")
+    items = list(interpret_events(text))
+    (spline,) = [m for m in items if isinstance(m, Spline)]
+    p = plan(items, machine)
+    parts = [m for m in p.path_moves if isinstance(m, Spline)]
+    assert len(parts) >= 5
+    assert parts[0].start == spline.start and parts[-1].end == spline.end
+    assert all(a.end == b.start for a, b in itertools.pairwise(parts))
+    assert {m.line for m in parts} == {spline.line}
+    (index,) = [k for k, m in enumerate(p.moves) if isinstance(m, Spline)]
+    mine = [k for k, m in enumerate(p.path_moves) if isinstance(m, Spline)]
+    assert np.all(np.asarray(p.path_sources)[mine] == index)
+    # uncut, the whole curve was followed at its slowest point's speed: 29 s instead of 0.75
+    monkeypatch.setattr(path_stream, "split_slow_parts", lambda move, *_: [move])
+    uncut = plan(items, machine)
+    assert p.duration_s < 0.05 * uncut.duration_s
+    traj = p.sample(1e-4)
+    assert_within_limits(traj, machine, [m for m in items if hasattr(m, "kind")])
+    assert_phases_within_limits(p, machine)
+    on = traj.pos[traj.line == spline.line]
+    deviation = np.linalg.norm(nearest_on_move(spline, on) - on, axis=1).max()
+    assert deviation <= 0.25 * machine.segmentation.chord_tolerance_mm
+
+
+def test_the_parts_of_a_g61_1_spline_meet_at_speed(machine) -> None:
+    """Exact stops at the program's junctions only: the parts are one programmed move."""
+    p = plan(list(interpret_events(NEAR_CUSP.format(mode="G61.1"))), machine)
+    starts = np.asarray(p.move_start_s)
+    lines = np.asarray(p.move_lines)
+    inner = starts[1:][(lines[1:] == 4) & (lines[:-1] == 4)]
+    assert inner.size >= 4
+    speed = np.linalg.norm(p.curve.evaluate(inner)[1], axis=1)
+    assert speed.min() > 0.0
+    at_program_junction = starts[1:][(lines[1:] == 5) & (lines[:-1] == 4)]
+    assert np.abs(p.curve.evaluate(at_program_junction)[1]).max() < 1e-12  # at rest
+
+
+def test_a_spline_of_even_curvature_is_not_cut(machine) -> None:
+    even = NEAR_CUSP.format(mode="").replace("I3 J3 P-2.9 Q3", "I0 J1.5 P0 Q1.5")  # an arch
+    (s,) = [m for m in parse_program(even) if isinstance(m, Spline)]
+    assert split_slow_parts(s, machine.limits) == [s]
+    # nor a NURBS with a weight of 0 or less (rs274's first G5.2 point without P)
+    (cusp,) = [m for m in parse_program(NEAR_CUSP.format(mode="")) if isinstance(m, Spline)]
+    assert len(split_slow_parts(cusp, machine.limits)) > 1
+    negative = dataclasses.replace(cusp, weights=(1.0, -0.5, 1.0, 1.0))
+    assert split_slow_parts(negative, machine.limits) == [negative]
+
+
+def test_the_nearest_point_of_a_curve_passing_close_to_itself_is_found() -> None:
+    """LinuxCNC G5 test data: the second G5 turns back near (9, 5) and passes 56 um from a
+    later part of itself; its points there were seeded on the wrong pass (gantry run reported
+    a 57 um contour error and a 56 um chord error on a 0.7 um reference)."""
+    text = (DATA / "gen_bezier_003.ngc").read_text()
+    s = [m for m in parse_program(text) if isinstance(m, Spline)][1]
+    c = s.curve
+    t = np.linspace(c.nurbs.t_min, c.nurbs.t_max, 301)
+    rng = np.random.default_rng(3)
+    q = c.nurbs.points(t) + rng.normal(scale=1e-3, size=(len(t), 3)) * [1.0, 1.0, 0.0]
+    found = np.linalg.norm(nearest_on_move(s, q) - q, axis=1)
+    dense = c.nurbs.points(np.linspace(c.nurbs.t_min, c.nurbs.t_max, 200_001))
+    brute = np.array([np.linalg.norm(dense - x, axis=1).min() for x in q])
+    assert np.all(found <= brute + 1e-9)  # (the samples' distances bound the true one above)
+    assert found.max() < 5e-3  # every point lies within 5 um of the curve
