@@ -123,7 +123,7 @@ def run_one(program: Path, timeout_s: float) -> dict[str, object]:
         samples = np.loadtxt(work / "out" / "samples.txt", ndmin=2)
     if run["overruns"] or run["errors"]:
         raise RuntimeError(f"{program.name}: {run}")
-    return {**cycle_times(samples), "wall_s": round(run["wall_s"], 3)}
+    return {**cycle_times(samples), "wall_s": round(run["wall_s"], 3), "resumes": run["resumes"]}
 
 
 def main() -> None:

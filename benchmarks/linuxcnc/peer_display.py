@@ -12,7 +12,8 @@ up, and shuts LinuxCNC down when it returns. It runs under Debian's /usr/bin/pyt
 
 Steps: estop reset, machine on, home all joints (they home where they stand, at 0), auto mode,
 open the program; start halsampler and enable the sampler; run; poll stat every 1 ms until the
-interpreter is idle and motion is in position; disable the sampler, let halsampler drain, stop.
+interpreter is idle and motion is in position, resuming at once where the program pauses (M0,
+M1, M60); disable the sampler, let halsampler drain, stop.
 """
 
 import json
@@ -32,6 +33,22 @@ def wait(stat, cond, timeout_s, what):
             return
         time.sleep(0.001)
     raise SystemExit(f"peer_display: timed out waiting for {what}")
+
+
+def run_to_end(stat, cmd, timeout_s):
+    """Wait for the program's end, resuming at once wherever it pauses (M0, M1, M60: an operator
+    pressing cycle start without a wait); returns how many times it resumed."""
+    t_end, resumes = time.monotonic() + timeout_s, 0
+    while time.monotonic() < t_end:
+        stat.poll()
+        if stat.interp_state == linuxcnc.INTERP_IDLE and stat.inpos and stat.queue == 0:
+            return resumes
+        if stat.interp_state == linuxcnc.INTERP_PAUSED or stat.paused:
+            cmd.auto(linuxcnc.AUTO_RESUME)
+            resumes += 1
+            time.sleep(0.005)  # (task takes the resume before stat shows it)
+        time.sleep(0.001)
+    raise SystemExit("peer_display: timed out waiting for program end")
 
 
 def halcmd(*args):
@@ -62,12 +79,7 @@ def main():
         t0 = time.monotonic()
         cmd.auto(linuxcnc.AUTO_RUN, 0)
         wait(stat, lambda s: s.interp_state != linuxcnc.INTERP_IDLE, 10, "program start")
-        wait(
-            stat,
-            lambda s: s.interp_state == linuxcnc.INTERP_IDLE and s.inpos and s.queue == 0,
-            3600,
-            "program end",
-        )
+        resumes = run_to_end(stat, cmd, 3600)
         wall_s = time.monotonic() - t0
         time.sleep(0.1)
         halcmd("setp", "sampler.0.enable", "0")
@@ -76,11 +88,21 @@ def main():
         sampler.terminate()
         sampler.wait()
     overruns = int(halcmd("getp", "sampler.0.overruns"))
-    msgs = []
+    msgs, notes = [], []
     while (e := errors.poll()) is not None:
-        msgs.append(e[1])
+        # the program's own (MSG, ...) comments come as display texts, not as errors
+        (msgs if e[0] in (linuxcnc.NML_ERROR, linuxcnc.OPERATOR_ERROR) else notes).append(e[1])
     with open(os.path.join(out, "run.json"), "w") as f:
-        json.dump({"wall_s": wall_s, "overruns": overruns, "errors": msgs}, f)
+        json.dump(
+            {
+                "wall_s": wall_s,
+                "overruns": overruns,
+                "errors": msgs,
+                "messages": notes,
+                "resumes": resumes,
+            },
+            f,
+        )
     cmd.state(linuxcnc.STATE_OFF)
     return 0
 
