@@ -64,6 +64,11 @@ class SplineCurve:
         self.cum = np.concatenate([[0.0], np.cumsum(lengths)])
         #: t_of_s's results by its arc lengths' bytes (see :data:`T_OF_S_KEPT`)
         self._t_of_s: dict[bytes, np.ndarray] = {}
+        #: chord counts found by :func:`~gantry_sim.controller.planner.segment.
+        #: spline_segment_count`, by (method, chord tolerance, segment length): the planner's
+        #: path and the plan's chord vertices ask for the same move's, and a curve near a cusp
+        #: needs thousands of chords, found in seconds
+        self.chord_counts: dict[tuple[str, float, float], int] = {}
 
     def __getstate__(self) -> dict:
         return {**self.__dict__, "_t_of_s": {}}  # results kept are not worth carrying

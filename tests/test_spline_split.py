@@ -15,7 +15,7 @@ import pytest
 from gantry_sim.controller.gcode.interpreter import interpret_events, parse_program
 from gantry_sim.controller.moves import Spline
 from gantry_sim.controller.nurbs import Nurbs, linuxcnc_knots, split_bspline
-from gantry_sim.controller.planner import path_stream
+from gantry_sim.controller.planner import path_stream, spline_split
 from gantry_sim.controller.planner.plan import plan
 from gantry_sim.controller.planner.spline_split import split_slow_parts
 from gantry_sim.sim.nearest import nearest_on_move
@@ -114,12 +114,12 @@ def test_the_parts_of_a_g61_1_spline_meet_at_speed(machine) -> None:
 def test_a_spline_of_even_curvature_is_not_cut(machine) -> None:
     even = NEAR_CUSP.format(mode="").replace("I3 J3 P-2.9 Q3", "I0 J1.5 P0 Q1.5")  # an arch
     (s,) = [m for m in parse_program(even) if isinstance(m, Spline)]
-    assert split_slow_parts(s, machine.limits) == [s]
+    assert split_slow_parts(s, machine.limits, machine.segmentation) == [s]
     # nor a NURBS with a weight of 0 or less (rs274's first G5.2 point without P)
     (cusp,) = [m for m in parse_program(NEAR_CUSP.format(mode="")) if isinstance(m, Spline)]
-    assert len(split_slow_parts(cusp, machine.limits)) > 1
+    assert len(split_slow_parts(cusp, machine.limits, machine.segmentation)) > 1
     negative = dataclasses.replace(cusp, weights=(1.0, -0.5, 1.0, 1.0))
-    assert split_slow_parts(negative, machine.limits) == [negative]
+    assert split_slow_parts(negative, machine.limits, machine.segmentation) == [negative]
 
 
 def test_the_nearest_point_of_a_curve_passing_close_to_itself_is_found() -> None:
@@ -137,3 +137,62 @@ def test_the_nearest_point_of_a_curve_passing_close_to_itself_is_found() -> None
     brute = np.array([np.linalg.norm(dense - x, axis=1).min() for x in q])
     assert np.all(found <= brute + 1e-9)  # (the samples' distances bound the true one above)
     assert found.max() < 5e-3  # every point lies within 5 um of the curve
+
+
+#: A random NURBS (a fuzz's find) with a loop far smaller than the chord tolerance: with parts
+#: of at least 1 um, one cut around the loop found, its bounds sampled along it alone, the spike
+#: of curvature there that the uncut move's samples miss, and crawled 8.2 s over 1 um (the
+#: whole program 9.9 s; uncut 7.6 s).
+TINY_LOOP = """G21 G17 G90
+G0 X0 Y0
+F3000
+G5 P-14.0460 Q6.9135 X-0.8431 Y-19.3059
+G5.2 X-0.8573 Y-19.3255 P0.835 L3
+X-0.8417 Y-19.3261 P2.983
+X-0.7970 Y-19.2565 P3.937
+X-0.8600 Y-19.3175 P4.513
+X-0.8025 Y-19.3271 P1
+G5.3
+G5 I2.2977 J18.3856 P13.5796 Q-6.0264 X-10.9884 Y-21.4121
+M2
+"""
+
+
+def test_a_tiny_loop_does_not_make_a_part_crawl(machine, monkeypatch) -> None:
+    items = list(interpret_events(TINY_LOOP))
+    p = plan(items, machine)
+    monkeypatch.setattr(path_stream, "split_slow_parts", lambda move, *_: [move])
+    assert p.duration_s < 0.5 * plan(items, machine).duration_s  # 1.7 s against 7.6
+
+
+def test_a_cut_is_kept_only_where_the_planners_own_caps_gain(machine, monkeypatch) -> None:
+    (s,) = [m for m in parse_program(NEAR_CUSP.format(mode="")) if isinstance(m, Spline)]
+    args = (machine.limits, machine.segmentation)
+    assert len(split_slow_parts(s, *args)) > 1
+    planner_cap = spline_split._planner_cap
+
+    def slower_parts(move, *rest):  # the planner's bounds find what the profile missed
+        cap = planner_cap(move, *rest)
+        return cap if move is s else cap / 1000.0
+
+    monkeypatch.setattr(spline_split, "_planner_cap", slower_parts)
+    assert split_slow_parts(s, *args) == [s]
+    # a part the planner would refuse (a cap of 0: reversing at a cusp) keeps it whole
+    monkeypatch.setattr(spline_split, "_planner_cap", lambda move, *r: 1.0 if move is s else 0.0)
+    assert split_slow_parts(s, *args) == [s]
+
+
+def test_traverse_s_is_the_s_curve_rest_to_rest_time_on_one_stretch() -> None:
+    from gantry_sim.controller.planner.limits import s_curve_time
+    from gantry_sim.controller.planner.spline_split import traverse_s
+
+    acc, jerk = 2500.0, 80000.0
+    for cap in (1.0, 20.0, 200.0):
+        ramp = s_curve_time(cap, acc, jerk)
+        long = 10.0 * cap * ramp  # long enough to cruise
+        assert traverse_s([long], [cap], acc, jerk) == pytest.approx(long / cap + ramp, rel=1e-12)
+    # two stretches at one cap run as one; a slower middle one costs its ramps
+    assert traverse_s([5.0, 5.0], [20.0, 20.0], acc, jerk) == pytest.approx(
+        traverse_s([10.0], [20.0], acc, jerk), rel=1e-12
+    )
+    assert traverse_s([5.0, 0.1, 5.0], [20.0, 1.0, 20.0], acc, jerk) > 10.1 / 20.0 + 0.1

@@ -154,7 +154,9 @@ def _entries(
             yield pending
         stop = control(item, settings).mode == "G61.1"
         if isinstance(item, Spline) and machine is not None:
-            *inner, item = split_slow_parts(item, machine.limits, machine.feed_scale)
+            *inner, item = split_slow_parts(
+                item, machine.limits, machine.segmentation, machine.feed_scale
+            )
             for part in inner:
                 yield PathEntry(part, False, holds, (index, index))
                 holds = []

@@ -159,6 +159,17 @@ def spline_segment_count(
         raise ConfigError(f"segmentation method {method!r} is unknown; valid: chord, fixed")
     if not (chord_tolerance_mm > 0 and segment_length_mm > 0):
         raise ConfigError("chord_tolerance_mm and segment_length_mm must be > 0")
+    key = (method, chord_tolerance_mm, segment_length_mm)
+    found = spline.curve.chord_counts.get(key)
+    if found is None:
+        found = spline.curve.chord_counts[key] = _chord_count(spline, *key)
+    return found
+
+
+def _chord_count(
+    spline: Spline, method: str, chord_tolerance_mm: float, segment_length_mm: float
+) -> int:
+    """:func:`spline_segment_count`, searched."""
     tol = SPLINE_TOLERANCE_SHARE * chord_tolerance_mm
     length = spline.length_mm
     n_min = max(math.floor(length / segment_length_mm), 1) if method == "fixed" else 1

@@ -11,31 +11,48 @@ where the part outside the first and last tenth of a millimetre round its kink a
 :func:`split_slow_parts` cuts such a spline into consecutive splines, together the same curve
 (knot insertion, :func:`~gantry_sim.controller.nurbs.split_bspline`: position, tangent and
 curvature continuous where they meet, so those junctions keep their speed in every path mode
-and the reference stays on the programmed curve as before), where the parts' own caps save
-time. The cap profile v(t) = min(F, sqrt(a / |k|), (j / |p'''|)^(1/3)) is sampled
-(:data:`SAMPLES_PER_SPAN` per knot span, finer where it changes fast; a, j: the smaller limits
-of X and Y, the splines' plane); the slowest sample's neighbourhood, where v < :data:`CORE_RATIO` times its speed,
-becomes a part of its own when the estimated time at the caps (length / the part's slowest
-sample) falls below :data:`KEEP_SHARE` of the uncut time, and the parts either side are cut
-the same way, at most :data:`MAX_PARTS` parts a spline, none shorter than
-:data:`MIN_PART_MM`. Each part is then planned as any spline (its bounds sampled along it
-alone). The parts keep the move's line, feed and path control; the path's ``sources`` map them
-all to the program's move. Near a zero-speed end (G5 ``I0 J0``) the curvature grows without
-bound and the planner follows the end chord piece by piece (spline_geometry's docstring): no
-cut is made within :data:`ZERO_SPEED_END_SHARE` of the length of such an end. NURBS with a weight
-<= 0 are not cut.
+and the reference stays on the programmed curve as before):
+
+1. The cap profile v(t) = min(F, sqrt(a / |k|), (j / |p'''|)^(1/3)) is sampled
+   (:data:`SAMPLES_PER_SPAN` per knot span, finer where it changes fast; a, j: the smaller
+   limits of X and Y, the splines' plane).
+2. Greedily, the part whose cut saves the most is cut around its slowest sample: that sample's
+   neighbourhood, to where v reaches :data:`CORE_RATIO` times its speed (or the part's highest),
+   becomes a part of its own, when the time at the sampled caps (length / the slowest sample)
+   falls to :data:`KEEP_SHARE` of the part's; at most :data:`MAX_PARTS` parts, none shorter
+   than :data:`MIN_PART_MM`.
+3. The cut is kept only where the parts' time at the caps the planner itself gives each (its
+   bounds, sampled per chord and per knot span), with the ramps between them
+   (:func:`traverse_s`, from rest to rest), is at most :data:`KEEP_SHARE` of the uncut move's.
+   Sampled along a short part, the bounds may find a spike of curvature that the profile and
+   the uncut move's samples missed (a loop far smaller than the chord tolerance, which the
+   reference, within the tolerance of the curve, cuts), and a part around it would crawl (a
+   random NURBS: 8.2 s for 1 um, where the uncut move took 0.76 s); a part the planner would
+   refuse as reversing at a cusp keeps the move uncut, as before.
+
+Each part is then planned as any spline. The parts keep the move's line, feed and path control;
+the path's ``sources`` map them all to the program's move. Near a zero-speed end (G5 ``I0 J0``)
+the curvature grows without bound and the planner follows the end chord piece by piece
+(spline_geometry's docstring): no cut is made within :data:`ZERO_SPEED_END_SHARE` of the length
+of such an end. NURBS with a weight <= 0 are not cut.
 """
 
 from __future__ import annotations
 
 import dataclasses
+import itertools
+import math
 
 import numpy as np
 
-from gantry_sim.controller.config import Limits
+from gantry_sim.controller.config import Limits, Segmentation
+from gantry_sim.controller.errors import PlanningError
 from gantry_sim.controller.moves import Spline
 from gantry_sim.controller.nurbs import split_bspline
-from gantry_sim.controller.planner.spline_geometry import arc_length_derivatives
+from gantry_sim.controller.planner.limits import s_curve_time
+from gantry_sim.controller.planner.lookahead import max_reachable_speed
+from gantry_sim.controller.planner.segment import spline_segment_count
+from gantry_sim.controller.planner.spline_geometry import arc_length_derivatives, curvature_bounds
 
 __all__ = ["split_slow_parts"]
 
@@ -52,14 +69,18 @@ CORE_RATIO = 2.0
 #: a cut is kept where the parts' estimated time is at most this share of the uncut time
 KEEP_SHARE = 0.8
 MAX_PARTS = 32
-MIN_PART_MM = 1e-3
+MIN_PART_MM = 5e-3
 #: no cut within this share of the length of a zero-speed end
 ZERO_SPEED_END_SHARE = 0.05
 
 
-def split_slow_parts(move: Spline, limits: Limits, feed_scale: float = 1.0) -> list[Spline]:
+def split_slow_parts(
+    move: Spline, limits: Limits, segmentation: Segmentation, feed_scale: float = 1.0
+) -> list[Spline]:
     """``move`` as consecutive splines planned at their own caps (module docstring), or
-    ``[move]`` where cutting saves too little. ``feed_scale``: the feed override [1]."""
+    ``[move]`` where cutting saves too little. ``segmentation``: the machine's chords (the
+    uncut move's caps are the planner's, from bounds sampled per chord); ``feed_scale``: the
+    feed override [1]."""
     if min(move.weights) <= 0.0:
         return [move]
     curve = move.curve
@@ -82,7 +103,78 @@ def split_slow_parts(move: Spline, limits: Limits, feed_scale: float = 1.0) -> l
     cuts = _cuts(s, cap)
     if not cuts:
         return [move]
-    return _pieces(move, [float(t[i]) for i in cuts])
+    parts = _pieces(move, [float(t[i]) for i in cuts])
+    _, amax, jmax = limits.per_axis()
+    ramps = (min(amax[0], amax[1]), min(jmax[0], jmax[1]))
+    caps = [_planner_cap(p, limits, segmentation, feed_scale) for p in parts]
+    cut_s = traverse_s([p.length_mm for p in parts], caps, *ramps)
+    whole_s = traverse_s([length], [_planner_cap(move, limits, segmentation, feed_scale)], *ramps)
+    return parts if cut_s <= KEEP_SHARE * whole_s else [move]
+
+
+def traverse_s(
+    lengths_mm: list[float], caps_mm_per_s: list[float], acc: float, jerk: float
+) -> float:
+    """Time [s] to run consecutive stretches of ``lengths_mm`` from rest to rest, each at most
+    at its cap, speed changes as S-curves under ``acc`` [mm/s^2] and ``jerk`` [mm/s^3]: the
+    junction speeds by a forward and a backward pass of the reachable speeds, then each stretch
+    up to the highest speed whose ramps fit in it (bisection), cruising between them. An
+    estimate (each stretch alone, its ramps from zero acceleration): inf where a cap is 0."""
+    if min(caps_mm_per_s) <= 0.0:
+        return math.inf
+    n = len(lengths_mm)
+    w = [0.0] + [min(a, b) for a, b in itertools.pairwise(caps_mm_per_s)] + [0.0]
+    for k in range(1, n + 1):
+        w[k] = min(w[k], max_reachable_speed(w[k - 1], lengths_mm[k - 1], acc, jerk))
+    for k in range(n - 1, 0, -1):
+        w[k] = min(w[k], max_reachable_speed(w[k + 1], lengths_mm[k], acc, jerk))
+    return sum(
+        _stretch_s(length, cap, w[k], w[k + 1], acc, jerk)
+        for k, (length, cap) in enumerate(zip(lengths_mm, caps_mm_per_s, strict=True))
+    )
+
+
+def _stretch_s(length: float, cap: float, v0: float, v1: float, acc: float, jerk: float) -> float:
+    """Time [s] over ``length`` [mm] from ``v0`` to ``v1`` [mm/s], at most ``cap``."""
+
+    def ramp(a: float, b: float) -> tuple[float, float]:  # (time, distance) of an S-curve
+        t = s_curve_time(b - a, acc, jerk)
+        return t, 0.5 * (a + b) * t
+
+    def fits(v: float) -> bool:
+        return ramp(v0, v)[1] + ramp(v, v1)[1] <= length
+
+    top = cap
+    if not fits(top):
+        low = max(v0, v1)
+        for _ in range(60):
+            mid = 0.5 * (low + top)
+            low, top = (mid, top) if fits(mid) else (low, mid)
+        top = low
+    (t_up, d_up), (t_down, d_down) = ramp(v0, top), ramp(top, v1)
+    cruise = max(length - d_up - d_down, 0.0)
+    return t_up + t_down + (cruise / top if top > 0.0 else 0.0)
+
+
+def _planner_cap(
+    move: Spline, limits: Limits, segmentation: Segmentation, feed_scale: float
+) -> float:
+    """A spline's speed cap [mm/s] from the bounds the planner takes (sampled per chord of its
+    segmentation, :func:`~gantry_sim.controller.planner.spline_geometry.curvature_bounds`;
+    its chord count is kept on the curve for the planner); 0 where the planner refuses it as
+    reversing at a cusp."""
+    vmax, amax, jmax = limits.per_axis()
+    feed = min(move.feed_mm_per_min / 60.0 * feed_scale, vmax[0], vmax[1])
+    chords = spline_segment_count(
+        move, segmentation.method, segmentation.chord_tolerance_mm, segmentation.segment_length_mm
+    )
+    try:
+        k, dk = curvature_bounds(move, chords)
+    except PlanningError:
+        return 0.0
+    a, j = min(amax[0], amax[1]), min(jmax[0], jmax[1])
+    with np.errstate(divide="ignore"):
+        return float(min(feed, np.sqrt(a / k), np.cbrt(j / dk)))
 
 
 def _cap_profile(
