@@ -288,3 +288,33 @@ def test_a_g5_of_no_length_plans_without_numpy_warnings(machine) -> None:  # typ
         warnings.simplefilter("error")
         p = plan_moves(moves, machine)
     assert p.duration_s == 0.0 and len(p.moves) == 1
+
+
+def test_a_hook_next_to_a_zero_speed_start_gets_its_chords(machine) -> None:
+    """A first G5 without I J starts with zero speed and here turns back within 7 um of its
+    start (a fuzz's find): 16 equal-arc-length samples on one chord missed the hook, the whole
+    curve was the "end chord" whose bounds are left out, and the exact states there broke the
+    acceleration limit (an internal error). The chord count now also samples the parameter."""
+    from gantry_sim.controller.gcode.interpreter import interpret_events
+    from gantry_sim.controller.planner.plan import plan
+    from tests.plan_helpers import assert_phases_within_limits, assert_within_limits
+
+    text = (
+        "G21 G17 G90\nG0 X0 Y0\nF600\nG1 X0.023 Y0.0261\nG5 P0.4704 Q0.0581 X-0.371 Y-0.0238\nM2\n"
+    )
+    (s,) = splines(text)
+    verts = segment_spline(s, "chord", 0.001, 1.0)
+    assert len(verts) > 2
+    t = np.linspace(s.curve.nurbs.t_min, s.curve.nurbs.t_max, 20_001)
+    on = s.curve.nurbs.points(t)
+    a, b = verts[:-1], verts[1:]  # every point within the tolerance of some chord
+    d = b - a
+    u = np.clip(
+        np.einsum("mij,ij->mi", on[:, None, :] - a[None], d) / np.einsum("ij,ij->i", d, d), 0, 1
+    )
+    near = a[None] + u[:, :, None] * d[None]
+    assert np.linalg.norm(on[:, None, :] - near, axis=2).min(axis=1).max() <= 0.001
+    items = list(interpret_events(text))
+    p = plan(items, machine)
+    assert_within_limits(p.sample(1e-4), machine, [m for m in items if hasattr(m, "kind")])
+    assert_phases_within_limits(p, machine)

@@ -137,18 +137,35 @@ SPLINE_TOLERANCE_SHARE = 0.95
 
 
 def chord_deviation_mm(spline: Spline, n: int) -> float:
-    """Largest distance [mm] of the curve from its n equal-arc-length chords (sampled)."""
+    """Largest distance [mm] of the curve from its n equal-arc-length chords (sampled: at
+    equal arc lengths, and where an end has zero speed, at equal steps of the parameter too)."""
     k = CHECK_SAMPLES
     sigma = np.arange(n * k + 1) / (n * k)
     pts = spline_points(spline, sigma)
     a = pts[:-1:k][:, None, :]  # chord starts (n, 1, 3)
     b = pts[k::k][:, None, :]
     inner = pts[: n * k].reshape(n, k, 3)
+    worst = _chord_distances(inner, a, b).max()
+    c = spline.curve
+    t_ends = np.array([c.nurbs.t_min, c.nurbs.t_max])
+    if c.zero_speed(c.nurbs.derivatives(t_ends, 1)[1]).any():
+        # the curvature grows without bound there (like s^-1/2): a hook next to such an end,
+        # microns long, fell between the arc-length samples, and its one chord left it out
+        t = np.linspace(c.nurbs.t_min, c.nurbs.t_max, n * k + 1)
+        chord = np.minimum((c.s_of_t(t) / c.length_mm * n).astype(np.intp), n - 1)
+        q = c.nurbs.points(t)[:, None, :]
+        worst = max(worst, _chord_distances(q, a[chord], b[chord]).max())
+    return float(np.sqrt(worst))
+
+
+def _chord_distances(q: np.ndarray, a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """Squared distances [mm^2] (m, k) of points ``q`` (m, k, 3) from the segments ``a`` ..
+    ``b`` (each (m, 1, 3))."""
     d = b - a
     dd = np.einsum("ijk,ijk->ij", d, d)
-    u = np.clip(np.einsum("ijk,ijk->ij", inner - a, d) / np.where(dd > 0, dd, 1.0), 0.0, 1.0)
-    off = inner - (a + u[:, :, None] * d)
-    return float(np.sqrt(np.einsum("ijk,ijk->ij", off, off).max()))
+    u = np.clip(np.einsum("ijk,ijk->ij", q - a, d) / np.where(dd > 0, dd, 1.0), 0.0, 1.0)
+    off = q - (a + u[:, :, None] * d)
+    return np.einsum("ijk,ijk->ij", off, off)
 
 
 def spline_segment_count(
