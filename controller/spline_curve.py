@@ -37,7 +37,7 @@ LOCAL_SAMPLES = 16
 #: point-sample pairs compared at once by the nearest-point seeding
 SEED_BLOCK = 1_000_000
 #: sample intervals searched again per point where they may hold a nearer point than the first
-#: search found (:meth:`SplineCurve._rivals`)
+#: search found (:meth:`SplineCurve._seeds_and_rivals`)
 RIVALS_KEPT = 8
 #: a speed |C'| below this share of L / (t range) counts as zero (a degenerate end)
 ZERO_SPEED_SHARE = 1e-9
