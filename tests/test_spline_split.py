@@ -17,6 +17,7 @@ from gantry_sim.controller.moves import Spline
 from gantry_sim.controller.nurbs import Nurbs, linuxcnc_knots, split_bspline
 from gantry_sim.controller.planner import path_stream, spline_split
 from gantry_sim.controller.planner.plan import plan
+from gantry_sim.controller.planner.segment import spline_segment_count
 from gantry_sim.controller.planner.spline_split import split_slow_parts
 from gantry_sim.sim.nearest import nearest_on_move
 from tests.plan_helpers import assert_phases_within_limits, assert_within_limits
@@ -196,3 +197,31 @@ def test_traverse_s_is_the_s_curve_rest_to_rest_time_on_one_stretch() -> None:
         traverse_s([10.0], [20.0], acc, jerk), rel=1e-12
     )
     assert traverse_s([5.0, 0.1, 5.0], [20.0, 1.0, 20.0], acc, jerk) > 10.1 / 20.0 + 0.1
+
+
+#: A G5 without I J (its start has zero speed), then two G5.1 (a fuzz's find, G61.1).
+ZERO_SPEED_START = """G21 G17 G90 G61.1
+G0 X0 Y0
+F1500
+G5 P0.0513 Q-0.1611 X-0.0562 Y0.0287
+G5.1 I-0.2360 J0.1557 X-0.4842 Y0.0896
+G5.1 I0.0237 J-0.0365 X-0.5086 Y0.0556
+M2
+"""
+
+
+def test_no_part_with_a_zero_speed_end_is_one_chord_long(machine, monkeypatch) -> None:
+    """The planner follows such a chord state by state and caps the junction at its other end
+    by the end's unbounded curvature: cut there, the G5 ran at 0.01 mm/s through that junction
+    and the program took 0.274 s against 0.264 s uncut."""
+    items = list(interpret_events(ZERO_SPEED_START))
+    p = plan(items, machine)
+    parts = [m for m in p.path_moves if isinstance(m, Spline) and m.line == 4]
+    assert len(parts) > 1
+    seg = machine.segmentation
+    first = spline_segment_count(
+        parts[0], seg.method, seg.chord_tolerance_mm, seg.segment_length_mm
+    )
+    assert first >= 2
+    monkeypatch.setattr(path_stream, "split_slow_parts", lambda move, *_: [move])
+    assert p.duration_s < 0.9 * plan(items, machine).duration_s  # 0.221 s against 0.264
