@@ -104,14 +104,18 @@ def split_slow_parts(
     cuts = _cuts(s, cap)
     if not cuts:
         return [move]
-    parts = _ends_kept(move, [float(t[i]) for i in cuts], segmentation)
-    if len(parts) < 2:
-        return [move]
     _, amax, jmax = limits.per_axis()
     ramps = (min(amax[0], amax[1]), min(jmax[0], jmax[1]))
-    caps = [_planner_cap(p, limits, segmentation, feed_scale) for p in parts]
-    cut_s = traverse_s([p.length_mm for p in parts], caps, *ramps)
-    whole_s = traverse_s([length], [_planner_cap(move, limits, segmentation, feed_scale)], *ramps)
+    try:
+        parts = _ends_kept(move, [float(t[i]) for i in cuts], segmentation)
+        if len(parts) < 2:
+            return [move]
+        caps = [_planner_cap(p, limits, segmentation, feed_scale) for p in parts]
+        cut_s = traverse_s([p.length_mm for p in parts], caps, *ramps)
+        whole_cap = _planner_cap(move, limits, segmentation, feed_scale)
+    except PlanningError:  # (a part needing more chords than the planner makes): left whole,
+        return [move]  # for the planner to take or refuse as before
+    whole_s = traverse_s([length], [whole_cap], *ramps)
     return parts if cut_s <= KEEP_SHARE * whole_s else [move]
 
 
