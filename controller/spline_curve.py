@@ -144,6 +144,14 @@ class SplineCurve:
         return t
 
     @cached_property
+    def zero_speed_ends(self) -> tuple[bool, bool]:
+        """Whether the curve's start and its end have zero speed (a G5 whose first or last
+        offset is 0: its curvature grows without bound there)."""
+        ends = np.array([self.nurbs.t_min, self.nurbs.t_max])
+        start, end = self.zero_speed(self.nurbs.derivatives(ends, 1)[1]).tolist()
+        return bool(start), bool(end)
+
+    @cached_property
     def end_frames(self) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
         """(T_start, k_start, T_end, k_end): unit tangents and curvature vectors [1/mm]; at a
         zero-speed end both are taken a hair (1e-6 of the parameter range) inside."""

@@ -7,6 +7,7 @@ from __future__ import annotations
 
 import dataclasses
 import itertools
+import weakref
 from pathlib import Path
 
 import numpy as np
@@ -177,10 +178,34 @@ def test_a_cut_is_kept_only_where_the_planners_own_caps_gain(machine, monkeypatc
         return cap if move is s else cap / 1000.0
 
     monkeypatch.setattr(spline_split, "_planner_cap", slower_parts)
+    monkeypatch.setattr(spline_split, "_PARTS", weakref.WeakKeyDictionary())  # (made anew)
     assert split_slow_parts(s, *args) == [s]
     # a part the planner would refuse (a cap of 0: reversing at a cusp) keeps it whole
     monkeypatch.setattr(spline_split, "_planner_cap", lambda move, *r: 1.0 if move is s else 0.0)
+    monkeypatch.setattr(spline_split, "_PARTS", weakref.WeakKeyDictionary())
     assert split_slow_parts(s, *args) == [s]
+
+
+def test_a_splines_parts_are_made_once(machine, monkeypatch) -> None:
+    """The planner makes its path again where blends are slower than stops: the parts are
+    kept, not cut again (each time, the profile and the parts' bounds)."""
+    monkeypatch.setattr(spline_split, "_PARTS", weakref.WeakKeyDictionary())
+    made = []
+    make = spline_split._made_parts
+    monkeypatch.setattr(spline_split, "_made_parts", lambda *a: made.append(a) or make(*a))
+    (s,) = [m for m in parse_program(NEAR_CUSP.format(mode="")) if isinstance(m, Spline)]
+    args = (machine.limits, machine.segmentation)
+    first = split_slow_parts(s, *args)
+    assert len(first) > 1 and split_slow_parts(s, *args) is first and len(made) == 1
+    (even,) = [
+        m
+        for m in parse_program(
+            NEAR_CUSP.format(mode="").replace("I3 J3 P-2.9 Q3", "I0 J1.5 P0 Q1.5")
+        )
+        if isinstance(m, Spline)
+    ]
+    assert split_slow_parts(even, *args) == [even] == split_slow_parts(even, *args)
+    assert len(made) == 2
 
 
 def test_traverse_s_is_the_s_curve_rest_to_rest_time_on_one_stretch() -> None:

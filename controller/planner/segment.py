@@ -147,8 +147,7 @@ def chord_deviation_mm(spline: Spline, n: int) -> float:
     inner = pts[: n * k].reshape(n, k, 3)
     worst = _chord_distances(inner, a, b).max()
     c = spline.curve
-    t_ends = np.array([c.nurbs.t_min, c.nurbs.t_max])
-    if c.zero_speed(c.nurbs.derivatives(t_ends, 1)[1]).any():
+    if any(c.zero_speed_ends):
         # the curvature grows without bound there (like s^-1/2): a hook next to such an end,
         # microns long, fell between the arc-length samples, and its one chord left it out
         t = np.linspace(c.nurbs.t_min, c.nurbs.t_max, n * k + 1)

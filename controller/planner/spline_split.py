@@ -43,6 +43,7 @@ from __future__ import annotations
 import dataclasses
 import itertools
 import math
+import weakref
 
 import numpy as np
 
@@ -54,6 +55,7 @@ from gantry_sim.controller.planner.limits import s_curve_time
 from gantry_sim.controller.planner.lookahead import max_reachable_speed
 from gantry_sim.controller.planner.segment import spline_segment_count
 from gantry_sim.controller.planner.spline_geometry import arc_length_derivatives, curvature_bounds
+from gantry_sim.controller.units import mm_per_min_to_mm_per_s
 
 __all__ = ["split_slow_parts"]
 
@@ -81,7 +83,26 @@ def split_slow_parts(
     """``move`` as consecutive splines planned at their own caps (module docstring), or
     ``[move]`` where cutting saves too little. ``segmentation``: the machine's chords (the
     uncut move's caps are the planner's, from bounds sampled per chord); ``feed_scale``: the
-    feed override [1]."""
+    feed override [1]. The parts are kept per move (the planner makes its path again where
+    it finds blends slower than stops, and would cut every spline again)."""
+    key = (limits, segmentation, feed_scale)
+    kept = _PARTS.setdefault(move, {})
+    if key not in kept:
+        parts = _made_parts(move, limits, segmentation, feed_scale)
+        kept[key] = parts if len(parts) > 1 else None  # (not the move itself: a weak key)
+    return kept[key] or [move]
+
+
+#: per spline move, its parts by (limits, segmentation, feed scale); None: left whole
+_PARTS: weakref.WeakKeyDictionary[Spline, dict[tuple, list[Spline] | None]] = (
+    weakref.WeakKeyDictionary()
+)
+
+
+def _made_parts(
+    move: Spline, limits: Limits, segmentation: Segmentation, feed_scale: float
+) -> list[Spline]:
+    """:func:`split_slow_parts`, made."""
     if min(move.weights) <= 0.0:
         return [move]
     curve = move.curve
@@ -104,8 +125,7 @@ def split_slow_parts(
     cuts = _cuts(s, cap)
     if not cuts:
         return [move]
-    _, amax, jmax = limits.per_axis()
-    ramps = (min(amax[0], amax[1]), min(jmax[0], jmax[1]))
+    ramps = _plane_limits(move, limits, feed_scale)[1:]
     try:
         parts = _ends_kept(move, [float(t[i]) for i in cuts], segmentation)
         if len(parts) < 2:
@@ -124,8 +144,7 @@ def _ends_kept(move: Spline, cuts: list[float], segmentation: Segmentation) -> l
     zero-speed end one chord long: the planner follows that chord state by state and caps the
     junction at its other end by the end's unbounded curvature (a 31 um part of a G5 without
     I J: 0.01 mm/s there, its spline 7 % slower cut than whole)."""
-    c = move.curve
-    zero = c.zero_speed(c.nurbs.derivatives(np.array([c.nurbs.t_min, c.nurbs.t_max]), 1)[1])
+    zero = move.curve.zero_speed_ends
 
     def one_chord(part: Spline) -> bool:
         method, tol, length = (
@@ -196,8 +215,7 @@ def _planner_cap(
     segmentation, :func:`~gantry_sim.controller.planner.spline_geometry.curvature_bounds`;
     its chord count is kept on the curve for the planner); 0 where the planner refuses it as
     reversing at a cusp."""
-    vmax, amax, jmax = limits.per_axis()
-    feed = min(move.feed_mm_per_min / 60.0 * feed_scale, vmax[0], vmax[1])
+    feed, a, j = _plane_limits(move, limits, feed_scale)
     chords = spline_segment_count(
         move, segmentation.method, segmentation.chord_tolerance_mm, segmentation.segment_length_mm
     )
@@ -205,9 +223,16 @@ def _planner_cap(
         k, dk = curvature_bounds(move, chords)
     except PlanningError:
         return 0.0
-    a, j = min(amax[0], amax[1]), min(jmax[0], jmax[1])
     with np.errstate(divide="ignore"):
         return float(min(feed, np.sqrt(a / k), np.cbrt(j / dk)))
+
+
+def _plane_limits(move: Spline, limits: Limits, feed_scale: float) -> tuple[float, float, float]:
+    """(speed cap [mm/s]: the feed under the override and the X and Y velocity limits;
+    acceleration [mm/s^2]; jerk [mm/s^3]): the smaller limits of X and Y, the splines' plane."""
+    vmax, amax, jmax = limits.per_axis()
+    feed = mm_per_min_to_mm_per_s(move.feed_mm_per_min) * feed_scale
+    return min(feed, vmax[0], vmax[1]), min(amax[0], amax[1]), min(jmax[0], jmax[1])
 
 
 def _cap_profile(
@@ -216,9 +241,7 @@ def _cap_profile(
     """Arc length [mm] (trapezoids of the speed) and the speed cap [mm/s] at parameters ``t``
     (inf where no cut may be made: next to a zero-speed end)."""
     curve = move.curve
-    vmax, amax, jmax = limits.per_axis()
-    feed = min(move.feed_mm_per_min / 60.0 * feed_scale, vmax[0], vmax[1])
-    a, j = min(amax[0], amax[1]), min(jmax[0], jmax[1])
+    feed, a, j = _plane_limits(move, limits, feed_scale)
     _, d1, d2, d3 = curve.nurbs.derivatives(t, 3)
     speed = np.linalg.norm(d1, axis=1)
     s = np.concatenate([[0.0], np.cumsum(0.5 * (speed[1:] + speed[:-1]) * np.diff(t))])
