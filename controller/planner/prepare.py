@@ -20,7 +20,7 @@ from typing import NamedTuple
 import numpy as np
 
 from gantry_sim.controller.config import MachineConfig
-from gantry_sim.controller.moves import Dwell, Linear, PathMove, Rapid
+from gantry_sim.controller.moves import Dwell, PathMove
 from gantry_sim.controller.planner.blend import MAX_TURN_RAD, PathPlan, corner_budget_mm
 from gantry_sim.controller.planner.blend_judge import blend_faster_many
 from gantry_sim.controller.planner.junctions import (
@@ -35,6 +35,7 @@ from gantry_sim.controller.planner.move_geometry import (
     limits_for_junctions,
     move_geometries,
 )
+from gantry_sim.controller.planner.stop_overlap import overlappable
 from gantry_sim.controller.planner.transition import CHORD_FIT_REACHED
 
 __all__ = ["Prepared", "prepare", "slow_blends", "stop_corners", "sub_path"]
@@ -140,11 +141,9 @@ def stop_corners(
     stop (LinuxCNC 2.9 stops there)."""
     out = {}
     for b in (np.flatnonzero(caps[1 : len(active)] == 0.0) + 1).tolist():
-        a, m = active[b - 1].move, active[b].move
-        same = isinstance(a, Linear) and isinstance(m, Linear)
-        same = same or (isinstance(a, Rapid) and isinstance(m, Rapid))
+        a = active[b - 1].move
         if (
-            same
+            overlappable(a, active[b].move)
             and b not in exact
             and float(active[b - 1].tangent_out @ active[b].tangent_in) > _COS_MAX_TURN
             and (budget := budget_of(a)) > 0.0

@@ -45,7 +45,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from gantry_sim.controller.config import Limits
-from gantry_sim.controller.moves import Linear, Rapid
+from gantry_sim.controller.moves import Linear, PathMove, Rapid
 from gantry_sim.controller.planner.chains import Chain
 from gantry_sim.controller.planner.cubic import Chunk, Jerk3Run, Segment
 from gantry_sim.controller.planner.move_geometry import MoveGeometry
@@ -100,6 +100,15 @@ def last_move_s(chain: Chain, taken_s: float = 0.0) -> float:
     return chain.duration_s - chain.starts_s[-1] - (taken_s if alone else 0.0)
 
 
+def overlappable(first: PathMove, second: PathMove) -> bool:
+    """Whether a stop between ``first`` and ``second`` may overlap their profiles: both
+    straight feed moves, or both rapids (a rapid and a feed move meet at rest, as in LinuxCNC
+    2.9; a curve's end is not straight)."""
+    return (isinstance(first, Linear) and isinstance(second, Linear)) or (
+        isinstance(first, Rapid) and isinstance(second, Rapid)
+    )
+
+
 def overlap_at(
     a: Pending, b: Pending, budget_mm: float, limits: Limits
 ) -> tuple[Chunk, Chunk, Found] | None:
@@ -109,8 +118,7 @@ def overlap_at(
     the two chunks cut for it (``a``'s up to the overlap, then the overlap; ``b``'s after it)
     and the overlap; None where none keeps them."""
     ma, mb = a.geometry.move, b.geometry.move
-    same = isinstance(ma, Linear) and isinstance(mb, Linear)
-    if not (same or (isinstance(ma, Rapid) and isinstance(mb, Rapid))) or budget_mm <= 0.0:
+    if not overlappable(ma, mb) or budget_mm <= 0.0:
         return None
     vmax, amax, jmax = (np.asarray(x, dtype=float) for x in limits.per_axis())
     if _jerks_add_past(a.chunk[-1], b.chunk[0], jmax):
