@@ -349,6 +349,32 @@ def test_marlin_g28_homes_named_axes_and_g92_sets_the_position() -> None:
         assert "not" in error_of(code + "\n", "marlin").message
 
 
+def test_grbl_and_g2core_read_comments_as_their_firmware_does() -> None:
+    # grbl's protocol.c and g2core's _normalize_gcode_block skip a "(" comment up to its first
+    # ")" or the line's end, a "(" inside it being text; g2core also ends a line at "%" (a "%"
+    # line is an empty line) and skips a line opening with "/" (block delete always on); a "%"
+    # line is nothing to grbl (error 1 from the firmware, dropped by the senders); rs274
+    # refuses an open or nested comment (the TinyG test programs have "(" lines left open)
+    text = (
+        "%\nG21 G90\n( ASSUMPTIONS\nG1 X1 F100 (open (nested\n/G1 X5\nG1 X2 ; c\n%\n"
+        "G1 Y1 (a (b) c)\n"
+    )
+    lines = text.replace("(a (b) c)", "(a b c)")
+    grbl = [(m.line, m.end) for m in run(lines, "grbl")]
+    assert grbl == [(4, (1.0, 0.0, 0.0)), (5, (5.0, 0.0, 0.0)), (6, (2.0, 0.0, 0.0)),
+                    (8, (2.0, 1.0, 0.0))]  # fmt: skip
+    g2core = [(m.line, m.end) for m in run(lines + "G1 X7 % c\n", "g2core")]
+    assert g2core == [(4, (1.0, 0.0, 0.0)), (6, (2.0, 0.0, 0.0)), (8, (2.0, 1.0, 0.0)),
+                      (9, (7.0, 1.0, 0.0))]  # fmt: skip
+    # after its first ")" a comment is over: " c)" is read as words, in both firmwares
+    for dialect in ("grbl", "g2core"):
+        assert error_of(text, dialect).line == 8
+    assert "unclosed comment" in error_of(lines + "M2\n", "linuxcnc").message
+    assert "nested comment" in error_of("G1 X1 F1 (a (b)\nM2\n", "linuxcnc").message
+    assert "'%'" in error_of("G1 X1 F1\n%\n", "linuxcnc").message
+    assert "'%'" in error_of("G1 X1 F1 % c\n", "grbl").message  # only alone on its line
+
+
 def test_g2core_json_lines_and_homing_codes_move_nothing() -> None:
     text = '{"xvm":1000}\n{sr:n}\nG28.2 X0 Y0\nG28.3 X0\nG0 X1\n'
     assert [(m.line, m.end) for m in run(text, "g2core")] == [(5, (1.0, 0.0, 0.0))]

@@ -29,6 +29,7 @@ from gantry_sim.controller.gcode.lexer import (
     Block,
     OWord,
     decode_program,
+    firmware_comments,
     lex_line,
     split_lines,
     strip_line,
@@ -68,6 +69,7 @@ class Source:
     own_lines: Callable[[str], str | None] | None = None
     realtime: bool = False
     checksums: bool = False
+    comments: str = ""
     blocks: OrderedDict[int, Block | GcodeError] = field(default_factory=OrderedDict)
 
     def block(self, i: int) -> Block:
@@ -90,6 +92,8 @@ class Source:
         raw = without_realtime(self.lines[i]) if self.realtime else self.lines[i]
         if self.checksums and "*" in raw:
             raw = without_checksum(raw)
+        if self.comments:
+            raw = firmware_comments(raw, self.comments)
         kind = self.own_lines(raw) if self.own_lines is not None else None
         if kind == "quiet":
             return Block(i + 1, (), (), False, raw)
@@ -216,8 +220,14 @@ class Runner:
         own_lines: Callable[[str], str | None] | None = None,
         realtime: bool = False,
         checksums: bool = False,
+        comments: str = "",
+        percent_delimits: bool = True,
     ) -> None:
-        self.main = Source(file, split_lines(text), system_lines, own_lines, realtime, checksums)
+        self.main = Source(
+            file, split_lines(text), system_lines, own_lines, realtime, checksums, comments
+        )
+        #: a ``%`` line opens and ends the program (rs274); False: it is nothing
+        self.percent_delimits = percent_delimits
         self.owords = owords
         self.step = step
         self.params = params
@@ -267,7 +277,7 @@ class Runner:
                     continue
                 f.index += 1
                 if block.percent:
-                    if f.source is self.main:
+                    if f.source is self.main and self.percent_delimits:
                         self.on_percent(block)
                     continue
                 if self.on_comment is not None and "(" in block.text:
@@ -584,7 +594,7 @@ class Runner:
                 except OSError as exc:
                     raise GcodeError(f"cannot read subroutine file {path}: {exc}") from None
                 text = decode_program(data)
-                sub_src = Source(str(path), split_lines(text))
+                sub_src = Source(str(path), split_lines(text), comments=self.main.comments)
                 at = sub_src.find(0, name, ("sub",))
                 if at is None:
                     raise GcodeError(f"subroutine file {path} has no o<{cut(name)}> sub line")

@@ -129,6 +129,13 @@ class Dialect:
             that message, its parameters filled in (rs274's convert_comment).
         extruder: E words are followed as Marlin's extruder axis (M82/M83, G90/G91, G92 E):
             each move tells whether it extrudes (controller/gcode/extruder.py).
+        firmware_comments: whose line reader takes the comments (controller/gcode/lexer.py
+            ``firmware_comments``): ``"grbl"`` and ``"g2core"`` end a comment left open at the
+            line's end and take a ``(`` inside one as text; g2core also ends a line at ``%``
+            and skips a line opening with ``/``; ``""``: rs274's reader (both are errors).
+        percent_delimits: a ``%`` line opens and ends the program (rs274); False: a ``%`` line
+            is nothing (grbl answers it with error 1 and goes on, and the senders that stream
+            CAM files drop it; g2core reads it as a comment).
         motion_waits: whose rules say which machine commands the controller runs with motion
             stopped (spindle, coolant, offsets, outputs), each an exact stop before its block
             ("linuxcnc", "grbl"; "": none modelled; controller/gcode/motion_waits.py).
@@ -177,6 +184,8 @@ class Dialect:
     last_word_wins: bool = False
     abort_comments: bool = False
     extruder: bool = False
+    firmware_comments: str = ""
+    percent_delimits: bool = True
     motion_waits: str = ""
 
 
@@ -224,6 +233,8 @@ G2CORE = Dialect(
     system_lines=True,
     own_lines="g2core",
     last_word_wins=True,
+    firmware_comments="g2core",
+    percent_delimits=False,
 )
 
 MARLIN = Dialect(
@@ -331,6 +342,8 @@ GRBL = Dialect(
     coordinate_systems=6,
     error_codes=_GRBL_ERRORS,
     arc_tolerance_mm=0.002,
+    firmware_comments="grbl",
+    percent_delimits=False,
     motion_waits="grbl",
 )
 

@@ -744,6 +744,8 @@ def interpret_events(
             own_lines=OWN_LINES.get(rules.own_lines),
             realtime=rules.realtime_characters,
             checksums=rules.checksums,
+            comments=rules.firmware_comments,
+            percent_delimits=rules.percent_delimits,
         )
         runner.errors = errors
         runner.on_return = interp.sub_returned

@@ -150,6 +150,40 @@ def strip_line(raw: str) -> str:
     return "".join(out).upper()
 
 
+def firmware_comments(raw: str, rules: str) -> str:
+    """``raw`` with its comments as a firmware's line reader takes them, for :func:`strip_line`.
+
+    ``rules``: ``"grbl"`` (grbl 1.1's serial layer, protocol.c) or ``"g2core"`` (its
+    ``_normalize_gcode_block``). Both read a ``(`` comment up to its first ``)`` or to the end
+    of the line, a ``(`` inside it being text, and end the line at a ``;`` outside a comment
+    (rs274 refuses a comment left open or holding a ``(``). g2core also ends the line at a
+    ``%`` (so a ``%`` line is an empty line, not a program delimiter) and skips a line whose
+    first character is ``/`` (its block delete is always on: ``gc_gcode_parser`` returns
+    before parsing such a line). The comment is returned closed, with no ``(`` inside.
+    """
+    g2core = rules == "g2core"
+    if g2core and raw.startswith("/"):
+        return ""
+    if "(" not in raw and not (g2core and "%" in raw):
+        return raw
+    out: list[str] = []
+    in_comment = False
+    for ch in raw:
+        if in_comment:
+            if ch == ")":
+                in_comment = False
+            elif ch == "(":
+                continue
+        elif ch == "(":
+            in_comment = True
+        elif ch == ";" or (g2core and ch == "%"):
+            break
+        out.append(ch)
+    if in_comment:
+        out.append(")")
+    return "".join(out)
+
+
 def decode_program(data: bytes) -> str:
     """A program file's bytes as text: UTF-8, else each byte as its Latin-1 character (CAM
     posts write comments such as "(Fräser 8 mm)" in a one-byte code page; controllers read
