@@ -211,3 +211,37 @@ def test_an_arc_left_a_sliver_between_two_blends_plans(machine):
     assert len(p.blends) == 2 and min(m.length_mm for m in path) < 1e-3  # the sliver
     moves = [m for m in items if isinstance(m, Linear | Arc)]
     assert_within_limits(p.sample(machine.servo.period_s), machine, moves)
+
+
+#: LinuxCNC's nc_files/3D_Chips.ngc (G64 P0.1, F far above the axis speeds), six of its moves,
+#: planned on a machine file that lifts the jerk limit to 5e6-1e7 mm/s^3 (how a user compares
+#: with LinuxCNC's planner, which has none): the end piece of a blend arc lasts 35 us, in which
+#: Z cannot turn the 331 mm/s^2 the arc asks of it, and Ruckig rejects the piece even alone.
+#: That junction now comes down as for a stretched piece; it was an internal error (exit 3).
+CHIPS_FRAGMENT = """G21 G90 G64 P0.1
+G1 Y-11.763 Z-20.858 F4500000
+G1 Y-13.763 Z-23.774
+G1 Y-14.763 Z-25.912
+G1 Y-15.638 Z-29.046
+G1 Y-15.685 Z-29.295
+G1 Y-15.88 Z-30.5
+M2
+"""
+
+
+@pytest.mark.parametrize("jerk", [5e6, 1e7])
+def test_an_end_piece_no_jerk_limited_piece_joins_slows_its_junction(jerk, tmp_path):
+    from gantry_sim.controller.config import load_machine_config
+    from gantry_sim.models import DEFAULT_MACHINE
+    from tests.plan_helpers import assert_phases_within_limits
+
+    lifted = tmp_path / "lifted.toml"
+    lifted.write_text(f"[limits]\nmax_jerk_mm_per_s3 = [{jerk}, {jerk}, {jerk}]\n")
+    machine = load_machine_config(DEFAULT_MACHINE, lifted)
+    items = list(interpret_events(CHIPS_FRAGMENT))
+    p = plan(items, machine)
+    assert_phases_within_limits(p, machine)
+    tr = p.sample(machine.servo.period_s)
+    assert_within_limits(tr, machine, [m for m in items if isinstance(m, Linear)])
+    assert max(b.deviation_mm for b in p.blends) <= 0.1
+    assert np.allclose(tr.pos[-1], p.end_mm, atol=1e-9) and not tr.vel[-1].any()

@@ -282,9 +282,26 @@ class MovePieces:
             # a piece next to a moving junction that Ruckig stretched beyond END_STRETCH_MAX
             # makes that junction bad whatever its shape: it needs no samples, nor checks
             stretch_s = mins[k] * END_STRETCH_MAX + 1e-9
-            piece = self.ruckig_piece(
-                g, start, end, mins[k], stretch_s if at_in or at_out else math.inf
-            )
+            try:
+                piece = self.ruckig_piece(
+                    g, start, end, mins[k], stretch_s if at_in or at_out else math.inf
+                )
+            except PlannerFailure:
+                if not (at_in or at_out) or phases is None:
+                    raise
+                # no piece joins these states at all (under a jerk limit of some 1e6 mm/s^3 an
+                # end piece lasts tens of microseconds, in which an axis cannot turn the
+                # acceleration the arc asks of it): as a piece stretched without end, the
+                # junction is bad and comes down; the closed form holds its place meanwhile
+                # (a round with a bad junction is planned again, so it is never kept)
+                ps, vs, as_, js = phases
+                run = (ps[k : k + 1, 0], vs[k : k + 1, 0], as_[k : k + 1, 0], js[k : k + 1])
+                self.out.add_jerk3(Jerk3Run(mins[k : k + 1] / 3.0, *run))
+                total += float(mins[k])
+                bad_in |= at_in
+                bad_out |= at_out
+                k += 1
+                continue
             d = piece.duration_s
             total += d
             stretched = d > stretch_s
