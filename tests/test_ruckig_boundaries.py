@@ -245,3 +245,66 @@ def test_an_end_piece_no_jerk_limited_piece_joins_slows_its_junction(jerk, tmp_p
     assert_within_limits(tr, machine, [m for m in items if isinstance(m, Linear)])
     assert max(b.deviation_mm for b in p.blends) <= 0.1
     assert np.allclose(tr.pos[-1], p.end_mm, atol=1e-9) and not tr.vel[-1].any()
+
+
+#: Two pieces of a helix (R 0.1 mm, from pcb2gcode's milldrill output) on a machine file whose
+#: Z runs at its top speed of 1.3254 mm/s there (a sweep of random machine files): vertex
+#: states on the very edge of Z's limits, which Ruckig refused (an internal error before).
+EDGE_LIMITS = {
+    "max_velocity_mm_per_s": (6040.637608667723, 4033.757913744136, 1.325439570460722),
+    "max_acceleration_mm_per_s2": (1686.3043886403577, 40522.866768349726, 139.25509899311436),
+    "max_jerk_mm_per_s3": (75895.99753682944, 4926522.306193437, 324.7755249620459),
+}
+EDGE_PIECES = {
+    # the end velocity of Z is 2e-16 mm/s beyond its limit (put back onto it, the piece took
+    # 0.37 s)
+    "rounded beyond": (
+        (
+            [130.15317575866354, -90.09976687691905, 0.21558217391304346],
+            [-2.8339244418396197, 0.19384574237116198, -1.3186021599477136],
+            [0.9770213601777931, 80.80874868800694, -2.1074266719121164],
+        ),
+        (
+            [130.13494463791324, -90.0968102723408, 0.20699635578724135],
+            [-2.7642001150277395, 0.7153996480710034, -1.3254395704607222],
+            [20.426631819887977, 78.92553229290891, -2.9917596295608754e-15],
+        ),
+        0.006488871574169233,
+    ),
+    # Z reaches its velocity limit exactly on the way to the end state ("will inevitably
+    # have reached"): 1e-11 more room gave a detour of 0.36 s, 1e-10 the 2 ms piece
+    "on the edge": (
+        (
+            [130.25935150209315, -89.98862990625236, 0.005289518728744946],
+            [0.32464751606591996, -2.8367592288898456, -1.325439570460722],
+            [-80.99729498951491, -9.26958141480878, 0.0],
+        ),
+        (
+            [130.25983784952936, -89.99430756630706, 0.00264389801952164],
+            [0.16245530944631498, -2.8492538718317713, -1.3247923831704582],
+            [-81.39383525786936, -3.2418254857381936, 0.6483680928982533],
+        ),
+        0.001996357616461497,
+    ),
+}
+
+
+@pytest.mark.parametrize("name", sorted(EDGE_PIECES))
+def test_a_piece_on_the_edge_of_an_axis_limits_is_planned(name, machine):
+    import dataclasses
+
+    from gantry_sim.controller.planner.ruckig_solver import ROUNDING_BEYOND_LIMIT
+
+    limits = dataclasses.replace(machine.limits, **EDGE_LIMITS)
+    first, last, chord_s = EDGE_PIECES[name]
+    start, end = (tuple(np.array(x) for x in s) for s in (first, last))
+    piece = RuckigSolver(limits).piece(start, end, chord_s, samples=20)
+    assert piece.duration_s == pytest.approx(chord_s, rel=1e-9)
+    room = 1.0 + 1.01 * ROUNDING_BEYOND_LIMIT
+    for i, phases in enumerate(piece.phases):
+        dur, _p, v, a, j = (np.asarray(x, dtype=float) for x in phases)
+        vmax, amax, jmax = (x[i] * room for x in EDGE_LIMITS.values())
+        assert dur.sum() == pytest.approx(piece.duration_s, rel=1e-12)
+        assert np.all(np.abs(j) <= jmax) and np.all(np.abs(a) <= amax), i
+        assert np.all(np.abs(v) <= vmax), i
+        assert _end_state(phases) == pytest.approx((end[0][i], end[1][i], end[2][i]), abs=1e-9)
