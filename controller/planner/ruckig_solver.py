@@ -43,7 +43,7 @@ TINY_AXIS_MM_PER_S2 = 10.0
 #: longer by about the same share.
 LIMIT_RETRY_SHARES = (1e-9, 1e-6)
 #: How far [share of a limit] a piece whose states lie on the edge of the limits may pass them,
-#: where Ruckig refuses it under the limits themselves (RuckigSolver._calculate_on_the_edge;
+#: where Ruckig refuses it under the limits themselves (_calculate_to_the_edge;
 #: 1e-11 and less gave one such piece a detour of 0.36 s instead of its 2 ms).
 ROUNDING_BEYOND_LIMIT = 1e-10
 #: Doublings of a piece's duration tried for an axis planned in closed form beside Ruckig's
@@ -100,6 +100,31 @@ def _calculate(otg: ruckig.Ruckig, inp: ruckig.InputParameter, traj: ruckig.Traj
         raise RuckigRejected(f"Ruckig result {str(exc).split(' ', 1)[0]}") from None
     if res not in _OK:
         raise RuckigRejected(f"{res}")
+
+
+def _calculate_to_the_edge(
+    otg: ruckig.Ruckig, inp: ruckig.InputParameter, traj: ruckig.Trajectory
+) -> None:
+    """:func:`_calculate`; where Ruckig refuses, again under limits raised by
+    :data:`ROUNDING_BEYOND_LIMIT` (restored after). Where a state lies on the edge of what an
+    axis can do, to the last bit (its velocity or acceleration beyond the limit by rounding,
+    or reaching the velocity limit exactly on the way to the target), Ruckig refuses the
+    piece; with the state put back onto the limit it took a detour fifty times as long. A hair
+    more room gives the piece the states describe."""
+    try:
+        _calculate(otg, inp, traj)
+        return
+    except RuckigRejected:
+        pass
+    limits = inp.max_velocity, inp.max_acceleration, inp.max_jerk
+    raised = 1.0 + ROUNDING_BEYOND_LIMIT
+    inp.max_velocity, inp.max_acceleration, inp.max_jerk = (
+        [x * raised for x in lim] for lim in limits
+    )
+    try:
+        _calculate(otg, inp, traj)
+    finally:
+        inp.max_velocity, inp.max_acceleration, inp.max_jerk = limits
 
 
 def _phases(prof: ruckig.Profile) -> AxisPhases:
@@ -191,18 +216,15 @@ class RuckigSolver:
         inp.target_acceleration = end[2].tolist()
         inp.minimum_duration = float(min_duration_s)
         try:
-            _calculate(self._otg3, inp, tr)
+            _calculate_to_the_edge(self._otg3, inp, tr)
         except RuckigRejected:
+            inp.minimum_duration = None
             try:
-                self._calculate_on_the_edge()
+                _calculate(self._otg3, inp, tr)
             except RuckigRejected:
-                inp.minimum_duration = None
-                try:
-                    _calculate(self._otg3, inp, tr)
-                except RuckigRejected:
-                    return self._piece_with_closed_form_axes(
-                        start, end, min_duration_s, samples, sampled_within_s
-                    )
+                return self._piece_with_closed_form_axes(
+                    start, end, min_duration_s, samples, sampled_within_s
+                )
         dur = tr.duration
         if dur > sampled_within_s:
             samples = 0
@@ -212,24 +234,6 @@ class RuckigSolver:
             return RuckigPiece(dur, phases)
         pos = [tr.at_time(t)[0] for t in spaced(dur, samples).tolist()]
         return RuckigPiece(dur, phases, np.array(pos))
-
-    def _calculate_on_the_edge(self) -> None:
-        """The 3-DoF piece of the input set, under limits raised by
-        :data:`ROUNDING_BEYOND_LIMIT` (restored after). Where a state lies on the edge of what
-        an axis can do, to the last bit (its velocity beyond the limit by rounding, or
-        reaching it exactly on the way to the target), Ruckig refuses the piece; with the
-        state put back onto the limit it took a detour fifty times as long. A hair more room
-        gives the piece the states describe. Raises RuckigRejected as :func:`_calculate`."""
-        inp = self._in3
-        limits = inp.max_velocity, inp.max_acceleration, inp.max_jerk
-        raised = 1.0 + ROUNDING_BEYOND_LIMIT
-        inp.max_velocity, inp.max_acceleration, inp.max_jerk = (
-            [x * raised for x in lim] for lim in limits
-        )
-        try:
-            _calculate(self._otg3, inp, self._tr3)
-        finally:
-            inp.max_velocity, inp.max_acceleration, inp.max_jerk = limits
 
     def _piece_with_closed_form_axes(
         self,
@@ -297,12 +301,12 @@ class RuckigSolver:
         inp.enabled = [not bool(t) for t in tiny]
         try:
             inp.minimum_duration = float(min_duration_s)
-            _calculate(self._otg3, inp, tr)
+            _calculate_to_the_edge(self._otg3, inp, tr)
             closed, ok = closed_form(tr.duration)
             if not ok:  # longer, so that the tiny axes keep their limits (the caller sees it)
                 longer = self._closed_form_duration(tr.duration, closed_form)
                 inp.minimum_duration = longer
-                _calculate(self._otg3, inp, tr)
+                _calculate_to_the_edge(self._otg3, inp, tr)
                 closed, ok = closed_form(tr.duration)
         finally:
             inp.enabled = [True, True, True]
@@ -330,7 +334,7 @@ class RuckigSolver:
         )
         inp.max_velocity, inp.max_acceleration, inp.max_jerk = [vmax], [amax], [jmax]
         try:
-            _calculate(self._otg1, inp, self._tr1)
+            _calculate_to_the_edge(self._otg1, inp, self._tr1)
         except RuckigRejected:
             return False
         return True
