@@ -220,7 +220,7 @@ class RuckigSolver:
         except RuckigRejected:
             inp.minimum_duration = None
             try:
-                _calculate(self._otg3, inp, tr)
+                _calculate_to_the_edge(self._otg3, inp, tr)
             except RuckigRejected:
                 return self._piece_with_closed_form_axes(
                     start, end, min_duration_s, samples, sampled_within_s
