@@ -164,24 +164,25 @@ def firmware_comments(raw: str, rules: str) -> str:
     g2core = rules == "g2core"
     if g2core and raw.startswith("/"):
         return ""
-    if "(" not in raw and not (g2core and "%" in raw):
+    if "(" not in raw and ";" not in raw and not (g2core and "%" in raw):
         return raw
-    out: list[str] = []
-    in_comment = False
-    for ch in raw:
-        if in_comment:
-            if ch == ")":
-                in_comment = False
-            elif ch == "(":
-                continue
-        elif ch == "(":
-            in_comment = True
-        elif ch == ";" or (g2core and ch == "%"):
-            break
-        out.append(ch)
-    if in_comment:
-        out.append(")")
-    return "".join(out)
+    kept = _FIRMWARE_LINE[rules].match(raw)
+    return _OPEN_COMMENT.sub(_closed, kept.group() if kept else "")
+
+
+#: what a firmware reads of a line: words and comments, a comment running to its first ``)``
+#: or the line's end, up to the first ``;`` (g2core: or ``%``) outside a comment
+_FIRMWARE_LINE = {
+    "grbl": re.compile(r"(?:[^(;]|\([^)]*\)?)*"),
+    "g2core": re.compile(r"(?:[^(;%]|\([^)]*\)?)*"),
+}
+#: a comment, closed or left open at the line's end
+_OPEN_COMMENT = re.compile(r"\(([^)]*)\)?")
+
+
+def _closed(comment: re.Match[str]) -> str:
+    """A firmware's comment as rs274 reads one: closed, with no ``(`` inside."""
+    return "(" + comment.group(1).replace("(", "") + ")"
 
 
 def decode_program(data: bytes) -> str:
