@@ -330,3 +330,53 @@ def test_a_piece_on_the_edge_of_an_axis_limits_is_planned(name, machine):
         assert np.all(np.abs(j) <= jmax) and np.all(np.abs(a) <= amax), i
         assert np.all(np.abs(v) <= vmax), i
         assert _end_state(phases) == pytest.approx((end[0][i], end[1][i], end[2][i]), abs=1e-9)
+
+
+#: A block of examples/spline.ngc (a G5.2 curve) on a machine file with X at 31 mm/s^2 and
+#: 3.2e6 mm/s^3: the look-ahead gives it the most change of speed its length allows, and
+#: Ruckig's profile went back along the path instead (its direct ramp overshot the length by
+#: rounding): "the speed profile would reverse", exit 2, on a valid machine file.
+EDGE_RAMP = {
+    "limits": (2.2914792086575213, 5.625688347626885, 4.419640382429309, 3238889.8521359414),
+    "speeds": (0.011940109347338156, 4.500571455258577),
+}
+
+
+def test_a_ramp_on_the_edge_of_a_block_length_is_the_direct_one():
+    from gantry_sim.controller.planner.chain_prep import EDGE_ACC_SHARE, _direct_ramp
+    from gantry_sim.controller.planner.limits import BlockLimits
+
+    lim = BlockLimits(*EDGE_RAMP["limits"])
+    v_in, v_out = EDGE_RAMP["speeds"]
+    prof = _direct_ramp(lim, v_in, v_out)
+    assert prof is not None
+    dur, s, v, a, j = prof.rows.T
+    end = _end_state((dur, s, v, a, j))
+    assert end[0] == pytest.approx(lim.length_mm, rel=1e-12)
+    assert end[1] == pytest.approx(v_out, rel=1e-12) and end[2] == pytest.approx(0.0, abs=1e-9)
+    assert np.all(np.diff(s) > 0) and np.all(v > 0)  # forward all along
+    assert np.all(np.abs(a) <= lim.acc_mm_per_s2 * (1 + EDGE_ACC_SHARE))
+    assert np.all(np.abs(j) <= lim.jerk_mm_per_s3) and np.all(v <= lim.cap_mm_per_s)
+    # a change the length does not allow, or no change, is not made up
+    assert _direct_ramp(lim, v_in, 2 * v_out) is None and _direct_ramp(lim, v_in, v_in) is None
+
+
+def test_a_spline_on_a_machine_of_extreme_jerk_to_acceleration_plans(tmp_path):
+    from pathlib import Path
+
+    from gantry_sim.controller.config import load_machine_config
+    from gantry_sim.models import DEFAULT_MACHINE
+    from tests.plan_helpers import assert_phases_within_limits
+
+    extreme = tmp_path / "extreme.toml"
+    extreme.write_text(
+        "[limits]\nmax_velocity_mm_per_s = [9158.321, 987.562, 4.76]\n"
+        "max_acceleration_mm_per_s2 = [31.33, 642148.24, 6712.34]\n"
+        "max_jerk_mm_per_s3 = [3239139, 23814215, 52574]\n"
+        "[path]\ntolerance_mm = 0.00018464103399664568\n"
+    )
+    machine = load_machine_config(DEFAULT_MACHINE, extreme)
+    root = Path(__file__).resolve().parent.parent
+    items = list(interpret_events((root / "examples" / "spline.ngc").read_text()))
+    p = plan(items, machine)
+    assert_phases_within_limits(p, machine)

@@ -9,6 +9,7 @@ and its end states. :mod:`~gantry_sim.controller.planner.chain_plan` makes the p
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
 import numpy as np
@@ -148,6 +149,9 @@ NEAR_CAP_SHARE = 0.01
 #: of an ArcWelder arc left between the blends of its two corners (a Slic3r Benchy, line 61)
 #: had end speeds 4e-8 apart, the most its length allows, and Ruckig's profile went back.
 SAME_SPEED_SHARE = 1e-6
+#: How far [share] the acceleration of a direct ramp over a block's exact length may pass the
+#: limit, and its end position and speed may miss (rounding: :func:`_direct_ramp`).
+EDGE_ACC_SHARE = 1e-9
 #: The cap a profile that starts or ends at it is given again where Ruckig's profile would
 #: reverse, as a share above it (rounding: :func:`_path_profile`).
 CAP_HAIR = 1e-12
@@ -225,6 +229,46 @@ def _path_profile(
             # 52 mm/s and took 0.13 s); at one speed it is a cruise of 34 ns (the next block
             # starts 1e-6 of the speed away at most: 5e-5 mm/s at 50 mm/s)
             return _path_profile(solver, move, lim, v_in, v_in)
+        ramp = _direct_ramp(lim, v_in, v_out)
+        if ramp is not None:
+            return ramp
         raise PlanningError(
             "the speed profile would reverse along the path", line=move.line
         ) from None
+
+
+def _direct_ramp(lim: BlockLimits, v_in: float, v_out: float) -> Profile1D | None:
+    """One jerk-limited ramp from ``v_in`` to ``v_out`` [mm/s] over exactly the block's length,
+    where the look-ahead gave the block the most change of speed its length allows and Ruckig's
+    profile went back along the path instead (its direct ramp overshot the length by rounding:
+    on a machine file with 31 mm/s^2 and 3.2e6 mm/s^3 on X, a G5.2 ramping from 0.012 to 4.5
+    mm/s over 2.29 mm at 4.42 mm/s^2). The ramp's acceleration is the one whose ramp covers
+    the length exactly (within :data:`EDGE_ACC_SHARE` of the limit); None where there is none
+    (another shape of profile, or a change the length does not allow)."""
+    dv, length = abs(v_out - v_in), lim.length_mm
+    mean = 0.5 * (v_in + v_out)
+    jerk = lim.jerk_mm_per_s3
+    if dv == 0.0 or mean <= 0.0 or max(v_in, v_out) > lim.cap_mm_per_s:
+        return None
+    # a trapezoidal ramp of peak acceleration a covers mean (dv / a + a / j): the smaller root
+    # of a^2 / j - q a + dv = 0, in the form without cancellation
+    q = length / mean
+    disc = q * q - 4.0 * dv / jerk
+    if disc < 0.0:
+        return None
+    acc = 2.0 * dv / (q + math.sqrt(disc))
+    if not 0.0 < acc <= lim.acc_mm_per_s2 * (1.0 + EDGE_ACC_SHARE) or dv * jerk < acc * acc:
+        return None
+    acc = min(acc, lim.acc_mm_per_s2)
+    sign = 1.0 if v_out > v_in else -1.0
+    t_jerk, t_flat = acc / jerk, dv / acc - acc / jerk
+    rows = []
+    s, v, a = 0.0, v_in, 0.0
+    for dur, j in ((t_jerk, sign * jerk), (t_flat, 0.0), (t_jerk, -sign * jerk)):
+        rows.append((dur, s, v, a, j))
+        s += dur * (v + dur * (0.5 * a + dur * j / 6.0))
+        v += dur * (a + 0.5 * dur * j)
+        a += dur * j
+    if abs(s - length) > EDGE_ACC_SHARE * length or abs(v - v_out) > EDGE_ACC_SHARE * dv:
+        return None
+    return Profile1D(np.array(rows, dtype=float))
