@@ -144,3 +144,36 @@ def test_a_block_leaving_its_cap_for_its_lowest_reachable_speed_does_not_reverse
     assert s[-1] + dur[-1] * (v[-1] + dur[-1] * (0.5 * a[-1] + dur[-1] * j[-1] / 6)) == (
         pytest.approx(lim.length_mm, rel=1e-9)
     )
+
+
+#: The end of a Fusion 360 helical bore (grbl post, R 0.25 mm): its last arc ends 0.14 um off
+#: the start radius, a helical spiral whose pitch changes along it, so Z takes v^2 |h''| of
+#: acceleration besides a_t sin(pitch). On a machine whose slow Z (50 mm/s^2) bounds the
+#: helix' tangential acceleration, a vertex state passed Z's limit by 2e-4 of it, and Ruckig
+#: refused the piece: an internal error (exit 3).
+SPIRAL_BORE_END = (
+    "G21 G90 G17\nG0 X134.56 Y62 Z-12.75\nG1 F250\n"
+    "G3 X134.06 Y62 Z-13.25 I-0.25 J0\nX134.072 Y61.923 Z-13.3 I0.25 J0\nM30\n"
+)
+
+
+@pytest.mark.parametrize("z_jerk", [3000.0, 20000.0])
+def test_a_helical_spiral_under_a_slow_z_keeps_its_acceleration(z_jerk, tmp_path):
+    from gantry_sim.controller.config import load_machine_config
+    from gantry_sim.controller.gcode.dialects import with_segmentation_default
+    from gantry_sim.controller.gcode.interpreter import interpret_events
+    from gantry_sim.models import DEFAULT_MACHINE
+    from tests.plan_helpers import assert_phases_within_limits
+
+    slow_z = tmp_path / "slow_z.toml"
+    slow_z.write_text(
+        "[limits]\nmax_velocity_mm_per_s = [500.0, 400.0, 50.0]\n"
+        "max_acceleration_mm_per_s2 = [3000.0, 2500.0, 50.0]\n"
+        f"max_jerk_mm_per_s3 = [100000.0, 80000.0, {z_jerk}]\n"
+    )
+    machine = with_segmentation_default(load_machine_config(DEFAULT_MACHINE, slow_z), "grbl")
+    items = list(interpret_events(SPIRAL_BORE_END, "grbl"))
+    p = plan(items, machine)
+    assert_phases_within_limits(p, machine)
+    tr = p.sample(machine.servo.period_s)
+    assert_within_limits(tr, machine, [m for m in items if isinstance(m, Arc)])

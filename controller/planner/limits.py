@@ -92,6 +92,7 @@ def arc_limits(
     if sin_pitch > 0:
         cap = min(cap, vmax[n] / sin_pitch)
     k, dk = follow.curvature_per_mm, follow.dcurv_per_mm2
+    kn = follow.normal_curvature_per_mm if sin_pitch > 0 else 0.0
     # Every (margin, share) pair at once, margins outer: the first pair of least cost wins.
     margins = np.array(CURVATURE_MARGINS[:1] if k == 0 and dk == 0 else CURVATURE_MARGINS)
     shares = np.array(JERK_SHARES[:1] if k == 0 else JERK_SHARES)
@@ -100,6 +101,9 @@ def arc_limits(
         cap_m = np.minimum(cap_m, np.sqrt(margins * a_pl / k))
     if dk > 0:
         cap_m = np.minimum(cap_m, (margins * j_pl / dk) ** (1.0 / 3.0))
+    if kn > 0:
+        with np.errstate(over="ignore"):  # kn ~1e-310: no cap from it
+            cap_m = np.minimum(cap_m, np.sqrt(margins * amax[n] / kn))
     a_max = np.sqrt(np.maximum(a_pl * a_pl - (cap_m * cap_m * k) ** 2, 0.0))[:, None]
     j_left = (j_pl - cap_m**3 * dk)[:, None]
     cap_c = cap_m[:, None]
@@ -109,7 +113,7 @@ def arc_limits(
         a_t = np.broadcast_to(a_max, (margins.size, shares.size))
     j_t = np.sqrt(np.maximum(j_pl * j_pl - (3.0 * cap_c * a_t * k) ** 2, 0.0)) - cap_c**3 * dk
     if sin_pitch > 0:
-        a_t = np.minimum(a_t, amax[n] / sin_pitch)
+        a_t = np.minimum(a_t, (amax[n] - cap_c * cap_c * kn) / sin_pitch)
         j_t = np.minimum(j_t, jmax[n] / sin_pitch)
     ok = (a_t > 0) & (j_t > 0)
     # margin < 1 leaves acceleration and jerk to the tangential terms: some pair always fits
@@ -136,6 +140,10 @@ class FollowGeometry:
         curvature_per_mm: largest |p''| = 1/R [1/mm].
         dcurv_per_mm2: largest |p'''| [1/mm^2].
         feed_cap_mm_per_s: the feed (after override, less the closed-form pieces' margin) [mm/s].
+        normal_curvature_per_mm: largest |p''_n|, the curvature vector's normal-axis component
+            [1/mm]: 0 on a helix, whose pitch is constant; on a helical spiral (an end radius
+            off the start's, as CAM posts round them) the pitch changes with the radius, and
+            the normal axis takes v^2 |p''_n| of acceleration besides a_t |T_n|.
     """
 
     plane_axes: tuple[int, int, int]
@@ -143,6 +151,7 @@ class FollowGeometry:
     curvature_per_mm: float
     dcurv_per_mm2: float
     feed_cap_mm_per_s: float
+    normal_curvature_per_mm: float = 0.0
 
     def speed_cap(self, vmax) -> float:
         """Path-speed cap from the feed and the axis velocities alone [mm/s]."""

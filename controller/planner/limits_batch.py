@@ -74,7 +74,7 @@ def _curved(
     whose ramps run on the lowest limits of its moves; the cheapest pair of a cruise, the
     least tangential acceleration, made a chain of arcs ramp at a fifth of their own."""
     vmax, amax, jmax = limits.per_axis()
-    a_pl, j_pl, cap, sin_p, amax_n, jmax_n = [], [], [], [], [], []
+    a_pl, j_pl, cap, sin_p, amax_n, jmax_n, k_n = [], [], [], [], [], [], []
     for f in follows:
         i1, i2, nrm = f.plane_axes
         sin_pitch = f.sin_pitch
@@ -88,6 +88,7 @@ def _curved(
         sin_p.append(sin_pitch)
         amax_n.append(amax[nrm])
         jmax_n.append(jmax[nrm])
+        k_n.append(f.normal_curvature_per_mm if sin_pitch > 0 else 0.0)
 
     def col(values: list[float]) -> np.ndarray:
         return np.array(values, dtype=float)[:, None, None]
@@ -101,6 +102,9 @@ def _curved(
     with np.errstate(divide="ignore", invalid="ignore"):
         by_jerk = (margins * j_p / dk) ** (1.0 / 3.0)
     cap_m = np.where(dk > 0, np.minimum(cap_m, by_jerk), cap_m)
+    kn = col(k_n)  # a helical spiral's normal curvature: v^2 kn of the normal axis' acceleration
+    with np.errstate(divide="ignore", over="ignore"):  # kn 0 or ~1e-310: no cap from it
+        cap_m = np.where(kn > 0, np.minimum(cap_m, np.sqrt(margins * col(amax_n) / kn)), cap_m)
     a_max = np.sqrt(np.maximum(a_p * a_p - (cap_m * cap_m * k) ** 2, 0.0))
     j_left = j_p - cap_m**3 * dk
     a_t = np.minimum(a_max, shares * j_left / (3.0 * cap_m * k))
@@ -108,7 +112,7 @@ def _curved(
     sp = col(sin_p)
     pitched = sp > 0
     with np.errstate(divide="ignore", invalid="ignore", over="ignore"):  # sp ~ 1e-310: inf
-        a_t = np.where(pitched, np.minimum(a_t, col(amax_n) / sp), a_t)
+        a_t = np.where(pitched, np.minimum(a_t, (col(amax_n) - cap_m * cap_m * kn) / sp), a_t)
         j_t = np.where(pitched, np.minimum(j_t, col(jmax_n) / sp), j_t)
     ok = (a_t > 0) & (j_t > 0)
     assert ok.any(axis=(1, 2)).all(), "arc_limits found no (cap, a_t, j_t): limits must be > 0"

@@ -327,7 +327,11 @@ def _arc_geometry(
     ang = move.angle
     curvature = r_max * ang * ang / speed_u**2
     dcurv = r_max * ang**3 / speed_u**3
-    sin_pitch = abs(frame.h1_mm - frame.h0_mm) / speed_u
+    rise = abs(frame.h1_mm - frame.h0_mm)
+    sin_pitch = rise / speed_u
+    # a helical spiral: h is linear in u and |dp/du| is not, so h'' along the path is
+    # -rise dr r ang^2 / |dp/du|^4 (dr: the change of radius), bounded at r_max and speed_u
+    normal_curvature = rise * abs(frame.r1_mm - frame.r0_mm) * r_max * ang * ang / speed_u**4
     feed = mm_per_min_to_mm_per_s(move.feed_mm_per_min) * feed_scale
     follow = FollowGeometry(
         PLANE_AXES[move.plane],
@@ -335,6 +339,7 @@ def _arc_geometry(
         curvature,
         dcurv,
         feed * (1.0 - FEED_MARGIN_PER_PHI4 * (ang / n) ** 4 - FEED_MARGIN_REL),
+        normal_curvature,
     )
     return ArcGeometry(
         move, verts, length, t_in, t_out, k_in, k_out, _UNSET, feed, u, follow, spiral
