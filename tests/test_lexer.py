@@ -122,3 +122,34 @@ _PLAIN_CHARS = "GXYZNIJKFP0123456789.+-/ \tgxy*E"
 @settings(max_examples=400, deadline=None)
 def test_any_line_of_word_characters_lexes_as_the_general_reader_does(raw: str) -> None:
     assert _lexed(raw) == _general(raw)
+
+
+_COMMENT_CHARS = "G1X2(;)%/ ab"
+
+
+@given(st.text(alphabet=_COMMENT_CHARS, max_size=30), st.sampled_from(["grbl", "g2core"]))
+@settings(max_examples=400, deadline=None)
+def test_firmware_comments_leave_what_rs274_reads_and_keep_the_words(raw: str, rules: str):
+    from gantry_sim.controller.gcode.lexer import firmware_comments
+
+    kept = firmware_comments(raw, rules)
+    # every comment closed and holding no "(": rs274's reader never refuses a comment of it
+    try:
+        strip_line(kept)
+    except GcodeError as exc:
+        pytest.fail(f"{raw!r} -> {kept!r}: {exc}")
+    # outside the comments, the words up to the first ";" (g2core: or "%") are the line's own
+    words, depth = [], False
+    for ch in raw:
+        if depth:
+            depth = ch != ")"
+        elif ch == "(":
+            depth = True
+        elif ch == ";" or (rules == "g2core" and ch == "%"):
+            break
+        else:
+            words.append(ch)
+    if rules == "g2core" and raw.startswith("/"):
+        words = []  # g2core's block delete
+    want = "".join(words).replace(" ", "").upper()
+    assert strip_line(kept).replace("(", "") == want, (raw, kept)
