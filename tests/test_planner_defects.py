@@ -147,31 +147,45 @@ def test_a_block_leaving_its_cap_for_its_lowest_reachable_speed_does_not_reverse
 
 
 #: The end of a Fusion 360 helical bore (grbl post, R 0.25 mm): its last arc ends 0.14 um off
-#: the start radius, a helical spiral whose pitch changes along it, so Z takes v^2 |h''| of
-#: acceleration besides a_t sin(pitch). On a machine whose slow Z (50 mm/s^2) bounds the
-#: helix' tangential acceleration, a vertex state passed Z's limit by 2e-4 of it, and Ruckig
-#: refused the piece: an internal error (exit 3).
+#: the start radius, a helical spiral whose pitch changes along it. On a machine whose slow Z
+#: (50 mm/s^2) bounds the helix' tangential acceleration, Z also takes v^2 |h''| and a vertex
+#: passed Z's limit by 2e-4; on one whose Y (1.3 mm/s) bounds its speed, the tangent's in-plane
+#: share is largest at the larger radius, and a vertex passed Y's speed by 1e-6. Ruckig refused
+#: both pieces: internal errors (exit 3).
 SPIRAL_BORE_END = (
     "G21 G90 G17\nG0 X134.56 Y62 Z-12.75\nG1 F250\n"
     "G3 X134.06 Y62 Z-13.25 I-0.25 J0\nX134.072 Y61.923 Z-13.3 I0.25 J0\nM30\n"
 )
+SPIRAL_MACHINES = {
+    "slow Z, Z jerk 3000": (
+        "max_velocity_mm_per_s = [500.0, 400.0, 50.0]\n"
+        "max_acceleration_mm_per_s2 = [3000.0, 2500.0, 50.0]\n"
+        "max_jerk_mm_per_s3 = [100000.0, 80000.0, 3000.0]\n"
+    ),
+    "slow Z, Z jerk 20000": (
+        "max_velocity_mm_per_s = [500.0, 400.0, 50.0]\n"
+        "max_acceleration_mm_per_s2 = [3000.0, 2500.0, 50.0]\n"
+        "max_jerk_mm_per_s3 = [100000.0, 80000.0, 20000.0]\n"
+    ),
+    "Y slower than the feed": (
+        "max_velocity_mm_per_s = [350.3519287805477, 1.3005230983463, 274.6005247277922]\n"
+        "max_acceleration_mm_per_s2 = [635429.9700252097, 23.82218826656252, 15318.0886631587]\n"
+        "max_jerk_mm_per_s3 = [13277379.649239589, 36497.93780204063, 63605.17734285773]\n"
+    ),
+}
 
 
-@pytest.mark.parametrize("z_jerk", [3000.0, 20000.0])
-def test_a_helical_spiral_under_a_slow_z_keeps_its_acceleration(z_jerk, tmp_path):
+@pytest.mark.parametrize("name", sorted(SPIRAL_MACHINES))
+def test_a_helical_spiral_keeps_the_axis_limits_that_bound_it(name, tmp_path):
     from gantry_sim.controller.config import load_machine_config
     from gantry_sim.controller.gcode.dialects import with_segmentation_default
     from gantry_sim.controller.gcode.interpreter import interpret_events
     from gantry_sim.models import DEFAULT_MACHINE
     from tests.plan_helpers import assert_phases_within_limits
 
-    slow_z = tmp_path / "slow_z.toml"
-    slow_z.write_text(
-        "[limits]\nmax_velocity_mm_per_s = [500.0, 400.0, 50.0]\n"
-        "max_acceleration_mm_per_s2 = [3000.0, 2500.0, 50.0]\n"
-        f"max_jerk_mm_per_s3 = [100000.0, 80000.0, {z_jerk}]\n"
-    )
-    machine = with_segmentation_default(load_machine_config(DEFAULT_MACHINE, slow_z), "grbl")
+    file = tmp_path / "machine.toml"
+    file.write_text("[limits]\n" + SPIRAL_MACHINES[name])
+    machine = with_segmentation_default(load_machine_config(DEFAULT_MACHINE, file), "grbl")
     items = list(interpret_events(SPIRAL_BORE_END, "grbl"))
     p = plan(items, machine)
     assert_phases_within_limits(p, machine)

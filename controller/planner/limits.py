@@ -85,10 +85,9 @@ def arc_limits(
     i1, i2, n = follow.plane_axes
     vmax, amax, jmax = limits.per_axis()
     sin_pitch, feed_mm_per_s = follow.sin_pitch, follow.feed_cap_mm_per_s
-    cos_pitch = math.sqrt(max(0.0, 1.0 - sin_pitch * sin_pitch))
     a_pl = min(amax[i1], amax[i2])
     j_pl = min(jmax[i1], jmax[i2])
-    cap = min(feed_mm_per_s, min(vmax[i1], vmax[i2]) / max(cos_pitch, 1e-12))
+    cap = min(feed_mm_per_s, min(vmax[i1], vmax[i2]) / max(follow.plane_share, 1e-12))
     if sin_pitch > 0:
         cap = min(cap, vmax[n] / sin_pitch)
     k, dk = follow.curvature_per_mm, follow.dcurv_per_mm2
@@ -144,6 +143,9 @@ class FollowGeometry:
             [1/mm]: 0 on a helix, whose pitch is constant; on a helical spiral (an end radius
             off the start's, as CAM posts round them) the pitch changes with the radius, and
             the normal axis takes v^2 |p''_n| of acceleration besides a_t |T_n|.
+        plane_share_max: largest in-plane share of the tangent, sqrt(1 - T_n^2) where the pitch
+            is least (a helical spiral's larger radius end), or None: sqrt(1 - sin_pitch^2), a
+            helix' (:attr:`plane_share`).
     """
 
     plane_axes: tuple[int, int, int]
@@ -152,13 +154,21 @@ class FollowGeometry:
     dcurv_per_mm2: float
     feed_cap_mm_per_s: float
     normal_curvature_per_mm: float = 0.0
+    plane_share_max: float | None = None
+
+    @property
+    def plane_share(self) -> float:
+        """The largest in-plane share of the tangent: the plane axes' speeds are at most
+        v times this."""
+        if self.plane_share_max is not None:
+            return self.plane_share_max
+        return math.sqrt(max(0.0, 1.0 - self.sin_pitch * self.sin_pitch))
 
     def speed_cap(self, vmax) -> float:
         """Path-speed cap from the feed and the axis velocities alone [mm/s]."""
         i1, i2, n = self.plane_axes
         sp = self.sin_pitch
-        cp = math.sqrt(max(0.0, 1.0 - sp * sp))
-        cap = min(self.feed_cap_mm_per_s, min(vmax[i1], vmax[i2]) / max(cp, 1e-12))
+        cap = min(self.feed_cap_mm_per_s, min(vmax[i1], vmax[i2]) / max(self.plane_share, 1e-12))
         return min(cap, vmax[n] / sp) if sp > 0 else cap
 
 

@@ -11,7 +11,6 @@ transient of half a gigabyte, the planner's largest.
 
 from __future__ import annotations
 
-import math
 from collections.abc import Sequence
 
 import numpy as np
@@ -78,8 +77,7 @@ def _curved(
     for f in follows:
         i1, i2, nrm = f.plane_axes
         sin_pitch = f.sin_pitch
-        cos_pitch = math.sqrt(max(0.0, 1.0 - sin_pitch * sin_pitch))
-        c = min(f.feed_cap_mm_per_s, min(vmax[i1], vmax[i2]) / max(cos_pitch, 1e-12))
+        c = min(f.feed_cap_mm_per_s, min(vmax[i1], vmax[i2]) / max(f.plane_share, 1e-12))
         if sin_pitch > 0:
             c = min(c, vmax[nrm] / sin_pitch)
         a_pl.append(min(amax[i1], amax[i2]))

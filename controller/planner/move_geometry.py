@@ -332,6 +332,10 @@ def _arc_geometry(
     # a helical spiral: h is linear in u and |dp/du| is not, so h'' along the path is
     # -rise dr r ang^2 / |dp/du|^4 (dr: the change of radius), bounded at r_max and speed_u
     normal_curvature = rise * abs(frame.r1_mm - frame.r0_mm) * r_max * ang * ang / speed_u**4
+    # and its in-plane share is largest where |dp/du| is (its larger radius end)
+    plane_share = None
+    if spiral and rise > 0:
+        plane_share = math.sqrt(max(0.0, 1.0 - (rise / max(speed_in, speed_out)) ** 2))
     feed = mm_per_min_to_mm_per_s(move.feed_mm_per_min) * feed_scale
     follow = FollowGeometry(
         PLANE_AXES[move.plane],
@@ -340,6 +344,7 @@ def _arc_geometry(
         dcurv,
         feed * (1.0 - FEED_MARGIN_PER_PHI4 * (ang / n) ** 4 - FEED_MARGIN_REL),
         normal_curvature,
+        plane_share,
     )
     return ArcGeometry(
         move, verts, length, t_in, t_out, k_in, k_out, _UNSET, feed, u, follow, spiral
