@@ -22,6 +22,7 @@ from gantry_sim.controller.planner.junctions import EndState, JunctionState
 from gantry_sim.controller.planner.limits import BlockLimits
 from gantry_sim.controller.planner.move_geometry import ArcGeometry, MoveGeometry
 from gantry_sim.controller.planner.profile import Profile1D, invert_many
+from gantry_sim.controller.planner.ramp_family import advance
 from gantry_sim.controller.planner.ruckig_solver import (
     ProfileReverses,
     RuckigRejected,
@@ -266,9 +267,7 @@ def _direct_ramp(lim: BlockLimits, v_in: float, v_out: float) -> Profile1D | Non
     s, v, a = 0.0, v_in, 0.0
     for dur, j in ((t_jerk, sign * jerk), (t_flat, 0.0), (t_jerk, -sign * jerk)):
         rows.append((dur, s, v, a, j))
-        s += dur * (v + dur * (0.5 * a + dur * j / 6.0))
-        v += dur * (a + 0.5 * dur * j)
-        a += dur * j
+        s, v, a = advance(dur, s, v, a, j)
     if abs(s - length) > EDGE_ACC_SHARE * length or abs(v - v_out) > EDGE_ACC_SHARE * dv:
         return None
     return Profile1D(np.array(rows, dtype=float))

@@ -250,8 +250,7 @@ class MovePieces:
         bad_in = bad_out = False
         phases = pieces.phases  # None only in "ruckig" mode, where no piece is ok
         if ok.all() and phases is not None:
-            ps, vs, as_, js = phases
-            self.out.add_jerk3(Jerk3Run(mins / 3.0, ps[:, 0], vs[:, 0], as_[:, 0], js))
+            self._add_closed(phases, mins, 0, n)
             off_at = {k: _deviation(g, pieces, k) > dev_max for k in set(ends)}
             bad_in = mv_in and off_at[0]
             bad_out = mv_out and off_at[n - 1]
@@ -265,9 +264,7 @@ class MovePieces:
                 e = k + 1
                 while e < n and ok[e]:
                     e += 1
-                ps, vs, as_, js = phases
-                run = (ps[k:e, 0], vs[k:e, 0], as_[k:e, 0], js[k:e])
-                self.out.add_jerk3(Jerk3Run(mins[k:e] / 3.0, *run))
+                self._add_closed(phases, mins, k, e)
                 for x in mins[k:e].tolist():  # summed in order, as piece by piece
                     total += x
                 for c in {k, e - 1} & set(ends):
@@ -294,9 +291,7 @@ class MovePieces:
                 # acceleration the arc asks of it): as a piece stretched without end, the
                 # junction is bad and comes down; the closed form holds its place meanwhile
                 # (a round with a bad junction is planned again, so it is never kept)
-                ps, vs, as_, js = phases
-                run = (ps[k : k + 1, 0], vs[k : k + 1, 0], as_[k : k + 1, 0], js[k : k + 1])
-                self.out.add_jerk3(Jerk3Run(mins[k : k + 1] / 3.0, *run))
+                self._add_closed(phases, mins, k, k + 1)
                 total += float(mins[k])
                 bad_in |= at_in
                 bad_out |= at_out
@@ -328,6 +323,15 @@ class MovePieces:
                 else:  # no junction speed to lower: the profile must change
                     self.off_pieces += 1
         return total, bad_in, bad_out
+
+    def _add_closed(
+        self, phases: tuple[np.ndarray, ...], mins: np.ndarray, first: int, stop: int
+    ) -> None:
+        """Add the closed-form pieces ``first`` .. ``stop`` - 1 (``phases``: the pieces'
+        phase starts and jerks; ``mins``: their durations [s], three phases each)."""
+        ps, vs, as_, js = phases
+        run = (ps[first:stop, 0], vs[first:stop, 0], as_[first:stop, 0], js[first:stop])
+        self.out.add_jerk3(Jerk3Run(mins[first:stop] / 3.0, *run))
 
     def closed_form(
         self,

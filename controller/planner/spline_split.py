@@ -145,20 +145,11 @@ def _ends_kept(move: Spline, cuts: list[float], segmentation: Segmentation) -> l
     junction at its other end by the end's unbounded curvature (a 31 um part of a G5 without
     I J: 0.01 mm/s there, its spline 7 % slower cut than whole)."""
     zero = move.curve.zero_speed_ends
-
-    def one_chord(part: Spline) -> bool:
-        method, tol, length = (
-            segmentation.method,
-            segmentation.chord_tolerance_mm,
-            segmentation.segment_length_mm,
-        )
-        return spline_segment_count(part, method, tol, length) < 2
-
     parts = _pieces(move, cuts)
-    while len(parts) > 1 and zero[0] and one_chord(parts[0]):
+    while len(parts) > 1 and zero[0] and _chords(parts[0], segmentation) < 2:
         cuts = cuts[1:]
         parts = _pieces(move, cuts) if cuts else [move]
-    while len(parts) > 1 and zero[1] and one_chord(parts[-1]):
+    while len(parts) > 1 and zero[1] and _chords(parts[-1], segmentation) < 2:
         cuts = cuts[:-1]
         parts = _pieces(move, cuts) if cuts else [move]
     return parts
@@ -216,15 +207,19 @@ def _planner_cap(
     its chord count is kept on the curve for the planner); 0 where the planner refuses it as
     reversing at a cusp."""
     feed, a, j = _plane_limits(move, limits, feed_scale)
-    chords = spline_segment_count(
-        move, segmentation.method, segmentation.chord_tolerance_mm, segmentation.segment_length_mm
-    )
     try:
-        k, dk = curvature_bounds(move, chords)
+        k, dk = curvature_bounds(move, _chords(move, segmentation))
     except PlanningError:
         return 0.0
     with np.errstate(divide="ignore"):
         return float(min(feed, np.sqrt(a / k), np.cbrt(j / dk)))
+
+
+def _chords(move: Spline, segmentation: Segmentation) -> int:
+    """The chords the planner gives ``move`` under ``segmentation`` (kept on its curve)."""
+    return spline_segment_count(
+        move, segmentation.method, segmentation.chord_tolerance_mm, segmentation.segment_length_mm
+    )
 
 
 def _plane_limits(move: Spline, limits: Limits, feed_scale: float) -> tuple[float, float, float]:
