@@ -196,3 +196,23 @@ def test_passes_again_are_the_passes_of_every_round(moves, caps, rounds):
         got = junction_speeds_again(chained, junction_caps[ends], ends, memo, before)
         assert got.speeds == _passes_oracle(chained, junction_caps[ends])
         before = got
+
+
+@pytest.mark.parametrize("sin_pitch", [0.0, 0.3, 0.54])
+@pytest.mark.parametrize("normal_curvature", [0.0, 2.3e-3, 0.5])
+@pytest.mark.parametrize("plane_share", [None, 0.9])
+def test_the_batched_arc_limits_are_the_single_arcs_own(sin_pitch, normal_curvature, plane_share):
+    # limits_batch._curved repeats arc_limits in arrays (for curved arcs): the same numbers,
+    # helices and helical spirals (normal curvature, in-plane share) included, on a machine
+    # whose slow Z bounds them
+    from gantry_sim.controller.planner.limits_batch import _curved
+
+    limits = Limits((500.0, 400.0, 50.0), (3000.0, 2500.0, 50.0), (1e5, 8e4, 3000.0))
+    follows = [
+        FollowGeometry((0, 1, 2), sin_pitch, k, 1.1 * k * k, 60.0, normal_curvature, plane_share)
+        for k in (0.5, 4.0)
+    ]
+    ends = [(0.0, 0.0), (5.0, 20.0)]
+    batch = _curved(follows, [0.09, 3.0], limits, ends)
+    for f, length, e, b in zip(follows, [0.09, 3.0], ends, batch, strict=True):
+        assert arc_limits(f, length, limits, e) == b
