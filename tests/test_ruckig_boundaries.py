@@ -255,6 +255,29 @@ HELIX_LIMITS = {
     "max_acceleration_mm_per_s2": (1686.3043886403577, 40522.866768349726, 139.25509899311436),
     "max_jerk_mm_per_s3": (75895.99753682944, 4926522.306193437, 324.7755249620459),
 }
+#: A machine file of the same sweep whose Y (2.3 mm/s) and Z (2.2 mm/s, 25 mm/s^2) bound a
+#: helical drill (R 0.5 mm at F600, :data:`HELIX_DRILL`).
+SLOW_YZ_LIMITS = {
+    "max_velocity_mm_per_s": (3667.5258882898365, 2.313408774694165, 2.203281896409974),
+    "max_acceleration_mm_per_s2": (237707.07045050585, 5526.280248063079, 25.316214325188735),
+    "max_jerk_mm_per_s3": (7524700.1120844465, 98722346.56322655, 1669893.8311319286),
+}
+HELIX_DRILL = """G21 G90 G17
+G0 Z2
+G0 X130.66 Y-100.16
+G1 Z0.29167 F300
+G1 F600
+G2 X130.66 Y-100.16 Z0 I-0.5 J0
+G2 X130.66 Y-100.16 Z-0.29167 I-0.5 J0
+G2 X130.66 Y-100.16 Z-0.58333 I-0.5 J0
+G2 X130.66 Y-100.16 Z-0.875 I-0.5 J0
+G2 X130.66 Y-100.16 Z-1.16667 I-0.5 J0
+G2 X130.66 Y-100.16 Z-1.45833 I-0.5 J0
+G2 X130.66 Y-100.16 Z-1.75 I-0.5 J0
+G2 X130.66 Y-100.16 I-0.5 J0
+G1 Z1.5 F300
+M2
+"""
 EDGE_PIECES = {
     # Z at its top speed: the end velocity is 2e-16 mm/s beyond its limit (put back onto it,
     # the piece took 0.37 s)
@@ -308,6 +331,39 @@ EDGE_PIECES = {
         ),
         0.001604200687646469,
     ),
+    # Y 3e-5 mm/s below its top speed (2.31 mm/s) while X barely moves: Y's and Z's
+    # time-optimal pieces are a few ns shorter than the chord, and Ruckig cannot stretch Y's
+    # to the chord's time ("error in step 2"); every axis now follows the closed form
+    "not synchronised near the top speed": (
+        SLOW_YZ_LIMITS,
+        (
+            [130.6599928296826, -100.15732226476986, -1.4580814025283835],
+            [0.01238939235539678, -2.3133755989438947, -0.21477284856020706],
+            [-10.703566819520482, -0.057323457951482144, 2.2954838981781824e-12],
+        ),
+        (
+            [130.65999327322308, -100.15740640564985, -1.4580892141299342],
+            [0.01197434568387129, -2.308415073789956, -0.2143121253099959],
+            [-12.07220649171311, 272.63265009831275, 25.316214325188742],
+        ),
+        3.6397483785810536e-05,
+    ),
+    # the same machine: Z ends 5e-15 mm/s^2 beyond its acceleration limit, and the closed
+    # form checked the limit itself
+    "closed form, acceleration rounded beyond": (
+        SLOW_YZ_LIMITS,
+        (
+            [130.45955287926358, -95.0636270795243, -1.7474652646367315],
+            [0.12625752631954779, -2.3099608645775005, -0.35796702061506164],
+            [-17.8129457777117, -0.9736175641960347, 0.0],
+        ),
+        (
+            [130.45955565255898, -95.06367789780762, -1.747473139742107],
+            [0.12576770836254528, -2.3081847855951914, -0.3576884759883539],
+            [-26.686894893282226, 162.39793516590217, 25.31621432518874],
+        ),
+        2.200523531115106e-05,
+    ),
 }
 
 
@@ -330,6 +386,22 @@ def test_a_piece_on_the_edge_of_an_axis_limits_is_planned(name, machine):
         assert np.all(np.abs(j) <= jmax) and np.all(np.abs(a) <= amax), i
         assert np.all(np.abs(v) <= vmax), i
         assert _end_state(phases) == pytest.approx((end[0][i], end[1][i], end[2][i]), abs=1e-9)
+
+
+def test_a_helix_bound_by_a_slow_y_and_z_plans_within_their_limits(machine):
+    import dataclasses
+
+    from tests.plan_helpers import assert_phases_within_limits
+
+    slow = dataclasses.replace(
+        machine, limits=dataclasses.replace(machine.limits, **SLOW_YZ_LIMITS)
+    )
+    items = list(interpret_events(HELIX_DRILL))
+    p = plan(items, slow)  # an internal error before (Ruckig "error in step 2")
+    assert_phases_within_limits(p, slow)
+    tr = p.sample(slow.servo.period_s)
+    assert_within_limits(tr, slow, [m for m in items if isinstance(m, Linear)])
+    assert np.allclose(tr.pos[-1], p.end_mm, atol=1e-9) and not tr.vel[-1].any()
 
 
 #: A block of examples/spline.ngc (a G5.2 curve) on a machine file with X at 31 mm/s^2 and

@@ -18,6 +18,7 @@ else. Never ``intermediate_positions`` (the free Ruckig would send them to a clo
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 from dataclasses import dataclass
 
 import numpy as np
@@ -252,8 +253,11 @@ class RuckigSolver:
         which must keep its limits. Where it would not (the others' piece is short, and the
         axis must still change its acceleration), the piece is made longer: the shortest
         duration the closed-form axes fit in (:meth:`_closed_form_duration`), which the caller
-        sees as a stretched piece and answers by slowing the junction. Raises RuckigRejected
-        when no axis can be taken out or that fails too."""
+        sees as a stretched piece and answers by slowing the junction. Where Ruckig cannot
+        synchronise the axes it plans to the others' time (an axis a hair below its top
+        speed whose time-optimal piece is 16 ns shorter than the piece: "error in step 2"),
+        or no axis is tiny, every axis follows the closed form (:meth:`_every_axis_closed`).
+        Raises RuckigRejected when that fails too."""
         p0, v0, a0 = start
         p1, v1, a1 = end
         tiny = (
@@ -270,34 +274,10 @@ class RuckigSolver:
                 (p0[i], v0[i], a0[i]), (p1[i], v1[i], a1[i]), vmax[i], amax[i], jmax[i]
             )
         if not tiny.any():
-            raise RuckigRejected("no piece, and no axis to plan on its own")
-        lim = vmax[tiny], amax[tiny], jmax[tiny]
-
-        def closed_form(duration_s: float):
-            """The closed-form axes' piece over ``duration_s``, and whether it keeps their
-            velocity (bounded from each phase's start), acceleration and jerk limits."""
-            c = jerk3_pairs(
-                p0[None], v0[None], a0[None], p1[None], v1[None], a1[None], np.array([duration_s])
-            )
-            h = duration_s / 3.0
-            v, a, j = (np.abs(x[0][:, tiny]) for x in (c.v, c.a, c.j))
-            ok = (
-                np.all(v + h * a + 0.5 * h * h * j <= lim[0])
-                and np.all(a <= lim[1])
-                and np.all(np.abs(c.a[0][:, tiny] + h * c.j[0][:, tiny]) <= lim[1])
-                and np.all(j <= lim[2])
-            )
-            return c, bool(ok)
-
+            return self._every_axis_closed(start, end, min_duration_s, samples, sampled_within_s)
+        closed_form = _closed_form_fit(start, end, tiny, vmax, amax, jmax)
         if tiny.all():  # every axis in closed form: no Ruckig piece sets the duration
-            dur = max(float(min_duration_s), 1e-9)
-            closed, ok = closed_form(dur)
-            if not ok:
-                dur = self._closed_form_duration(dur, closed_form)
-                closed, ok = closed_form(dur)
-            if not ok:
-                raise RuckigRejected("no piece: no closed-form piece keeps the limits")
-            return _assemble(dur, closed, tiny, None, samples if dur <= sampled_within_s else 0)
+            return self._every_axis_closed(start, end, min_duration_s, samples, sampled_within_s)
         inp.enabled = [not bool(t) for t in tiny]
         try:
             inp.minimum_duration = float(min_duration_s)
@@ -308,12 +288,40 @@ class RuckigSolver:
                 inp.minimum_duration = longer
                 _calculate_to_the_edge(self._otg3, inp, tr)
                 closed, ok = closed_form(tr.duration)
+        except RuckigRejected:  # the other axes not synchronised: none from Ruckig
+            return self._every_axis_closed(start, end, min_duration_s, samples, sampled_within_s)
         finally:
             inp.enabled = [True, True, True]
         if not ok:
             raise RuckigRejected("no piece: an axis planned in closed form would exceed its limits")
         dur = tr.duration
         return _assemble(dur, closed, tiny, tr, samples if dur <= sampled_within_s else 0)
+
+    def _every_axis_closed(
+        self,
+        start: tuple[np.ndarray, np.ndarray, np.ndarray],
+        end: tuple[np.ndarray, np.ndarray, np.ndarray],
+        min_duration_s: float,
+        samples: int,
+        sampled_within_s: float,
+    ) -> RuckigPiece:
+        """The piece with every axis on the closed-form three-phase constant-jerk piece
+        between its states, over ``min_duration_s`` [s] (at least 1 ns) or the shortest
+        longer duration whose piece keeps every axis' limits (velocity bounded from each
+        phase's start, acceleration at the phases' ends, jerk). Raises RuckigRejected when
+        none does."""
+        inp = self._in3
+        every = np.ones(3, dtype=bool)
+        lim = (np.asarray(x) for x in (inp.max_velocity, inp.max_acceleration, inp.max_jerk))
+        closed_form = _closed_form_fit(start, end, every, *lim)
+        dur = max(float(min_duration_s), 1e-9)
+        closed, ok = closed_form(dur)
+        if not ok:
+            dur = self._closed_form_duration(dur, closed_form)
+            closed, ok = closed_form(dur)
+        if not ok:
+            raise RuckigRejected("no piece: no closed-form piece keeps the limits")
+        return _assemble(dur, closed, every, None, samples if dur <= sampled_within_s else 0)
 
     def _axis_plans(
         self,
@@ -356,6 +364,46 @@ class RuckigSolver:
             mid = 0.5 * (lo + hi)
             lo, hi = (lo, mid) if closed_form(mid)[1] else (mid, hi)
         return hi
+
+
+def _closed_form_fit(
+    start: tuple[np.ndarray, np.ndarray, np.ndarray],
+    end: tuple[np.ndarray, np.ndarray, np.ndarray],
+    axes: np.ndarray,
+    vmax: np.ndarray,
+    amax: np.ndarray,
+    jmax: np.ndarray,
+) -> Callable[[float], tuple[PiecePhases, bool]]:
+    """``closed_form(duration_s)``: the closed-form three-phase constant-jerk piece from state
+    ``start`` to ``end`` (position [mm], velocity [mm/s], acceleration [mm/s^2], each (3,))
+    over ``duration_s`` [s], and whether it keeps the limits of the ``axes`` (bool (3,)):
+    velocity (at each phase's ends and where its acceleration crosses zero), acceleration
+    (at each phase's ends: it is linear in between) and jerk, each to
+    :data:`ROUNDING_BEYOND_LIMIT` of the limit (a state may lie beyond it by rounding, as
+    :func:`_calculate_to_the_edge` allows Ruckig's)."""
+    p0, v0, a0 = start
+    p1, v1, a1 = end
+    raised = 1.0 + ROUNDING_BEYOND_LIMIT
+    lim = vmax[axes] * raised, amax[axes] * raised, jmax[axes] * raised
+
+    def closed_form(duration_s: float) -> tuple[PiecePhases, bool]:
+        c = jerk3_pairs(
+            p0[None], v0[None], a0[None], p1[None], v1[None], a1[None], np.array([duration_s])
+        )
+        h = duration_s / 3.0
+        v, a, j = (x[0][:, axes] for x in (c.v, c.a, c.j))  # (3 phases, axes)
+        with np.errstate(divide="ignore", invalid="ignore"):
+            t = np.clip(np.where(j != 0.0, -a / j, 0.0), 0.0, h)  # the speed's extremum
+        speeds = [v, v + a * t + 0.5 * j * t * t, v + a * h + 0.5 * j * h * h]
+        ok = (
+            all(np.all(np.abs(x) <= lim[0]) for x in speeds)
+            and np.all(np.abs(a) <= lim[1])
+            and np.all(np.abs(a + h * j) <= lim[1])
+            and np.all(np.abs(j) <= lim[2])
+        )
+        return c, bool(ok)
+
+    return closed_form
 
 
 def _assemble(
