@@ -16,6 +16,7 @@ from gantry_sim.controller.planner.limits import (
     BlockLimits,
     FollowGeometry,
     arc_limits,
+    arc_limits_many,
     s_curve_time,
 )
 from gantry_sim.controller.planner.lookahead import (
@@ -200,19 +201,45 @@ def test_passes_again_are_the_passes_of_every_round(moves, caps, rounds):
 
 @pytest.mark.parametrize("sin_pitch", [0.0, 0.3, 0.54])
 @pytest.mark.parametrize("normal_curvature", [0.0, 2.3e-3, 0.5])
-@pytest.mark.parametrize("plane_share", [None, 0.9])
-def test_the_batched_arc_limits_are_the_single_arcs_own(sin_pitch, normal_curvature, plane_share):
-    # limits_batch._curved repeats arc_limits in arrays (for curved arcs): the same numbers,
-    # helices and helical spirals (normal curvature, in-plane share) included, on a machine
-    # whose slow Z bounds them
-    from gantry_sim.controller.planner.limits_batch import _curved
-
-    limits = Limits((500.0, 400.0, 50.0), (3000.0, 2500.0, 50.0), (1e5, 8e4, 3000.0))
+@pytest.mark.parametrize("plane_share", [None, math.sqrt(1 - 0.1**2)])
+def test_arc_limits_keep_every_axis_bound_on_helices_and_spirals(
+    sin_pitch, normal_curvature, plane_share
+):
+    # on a machine whose slow Z bounds them: the normal axis takes a_t sin(pitch) + v^2 k_n of
+    # acceleration and j_t sin(pitch) of jerk (a helical spiral's pitch changes with its
+    # radius: k_n), the plane's axes the terms of the module docstring, and the in-plane share
+    # of the speed is at most plane_share (a spiral's, where its pitch is least; Y's speed
+    # bounds the wider arc); batched and alone, the same limits
+    limits = Limits((500.0, 30.0, 50.0), (3000.0, 2500.0, 50.0), (1e5, 8e4, 3000.0))
     follows = [
         FollowGeometry((0, 1, 2), sin_pitch, k, 1.1 * k * k, 60.0, normal_curvature, plane_share)
         for k in (0.5, 4.0)
     ]
-    ends = [(0.0, 0.0), (5.0, 20.0)]
-    batch = _curved(follows, [0.09, 3.0], limits, ends)
-    for f, length, e, b in zip(follows, [0.09, 3.0], ends, batch, strict=True):
+    lengths, ends = [0.09, 3.0], [(0.0, 0.0), (5.0, 20.0)]
+    batch = arc_limits_many(follows, lengths, limits, ends)
+    share = plane_share if plane_share is not None else math.sqrt(1 - sin_pitch**2)
+    room = 1 + 1e-12
+    for f, length, e, b in zip(follows, lengths, ends, batch, strict=True):
         assert arc_limits(f, length, limits, e) == b
+        v, a_t, j_t = b.cap_mm_per_s, b.acc_mm_per_s2, b.jerk_mm_per_s3
+        k, dk = f.curvature_per_mm, f.dcurv_per_mm2
+        assert a_t > 0 and j_t > 0 and v <= 60.0
+        assert v * share <= 30.0 * room and v * sin_pitch <= 50.0 * room
+        assert math.hypot(a_t, v * v * k) <= 2500.0 * room
+        assert math.hypot(j_t + v**3 * dk, 3 * v * a_t * k) <= 8e4 * room
+        assert a_t * sin_pitch + v * v * normal_curvature * (sin_pitch > 0) <= 50.0 * room
+        assert j_t * sin_pitch <= 3000.0 * room
+
+
+@pytest.mark.parametrize("dcurv", [0.0, 2.0])
+def test_a_straight_arc_gets_the_plane_s_acceleration(dcurv):
+    # no curvature (a degenerate arc): no cap from it, a_t the plane's, and the first margin
+    # wherever no rate of curvature bounds the speed either
+    limits = Limits((500.0, 400.0, 200.0), (3000.0, 2500.0, 3000.0), (1e5, 8e4, 1e5))
+    b = arc_limits(FollowGeometry((0, 1, 2), 0.0, 0.0, dcurv, 60.0), 3.0, limits)
+    assert b.acc_mm_per_s2 == 2500.0
+    if dcurv == 0.0:
+        assert b.cap_mm_per_s == 60.0 and b.jerk_mm_per_s3 == 8e4
+    else:
+        assert b.cap_mm_per_s <= (0.99 * 8e4 / dcurv) ** (1 / 3)
+        assert b.jerk_mm_per_s3 == pytest.approx(8e4 - b.cap_mm_per_s**3 * dcurv, rel=1e-12)

@@ -16,8 +16,8 @@ The steps, in the order :func:`plan` runs them (module: its one job):
 1. ``travel``         refuse moves that leave the machine's travel (arcs: their quadrant points)
 2. ``segment``        arcs -> chord vertices ("chord": grbl's sagitta rule, "fixed": Marlin's)
 3. ``move_geometry``  per move: vertices, end tangents and curvatures, its 1-D limits
-   ``limits``         (leaf) what a move may do: BlockLimits, FollowGeometry, the curvature caps
-   ``limits_batch``   the arcs' limits in one vectorised batch; ``spline_geometry``: a spline
+   ``limits``         (leaf) what a move may do: BlockLimits, FollowGeometry, the curvature caps,
+                      the arcs' limits in vectorised batches; ``spline_geometry``: a spline
                       taken as a curve by its arc-length fraction; ``transition_geometry``: a
                       transition's chords, points and derivatives (many at once)
 4. ``junctions``      speed caps and JunctionStates between moves; caps the pieces can take

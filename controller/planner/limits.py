@@ -20,6 +20,7 @@ bounded through their :class:`FollowGeometry` (:func:`arc_limits`, :func:`curvat
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 from dataclasses import dataclass
 
 import numpy as np
@@ -30,6 +31,11 @@ from gantry_sim.controller.config import Limits
 #: term given to the tangential acceleration's 3 v a_t / R term (see :func:`arc_limits`).
 CURVATURE_MARGINS = (0.99, 0.97, 0.94, 0.9, 0.85, 0.8, 0.7, 0.6, 0.5)
 JERK_SHARES = (0.2, 0.35, 0.5, 0.65, 0.8)
+#: Arcs per batch of :func:`arc_limits_many`: each arc's table is 45 numbers in some thirty
+#: temporary arrays (about 10 KB an arc), which for a whole 100,000-block program made a
+#: transient of half a gigabyte, the planner's largest; at 4,096 the temporaries stay near
+#: 40 MB, and a batch is still long enough for numpy's per-call cost not to count.
+BATCH_ARCS = 4096
 
 
 @dataclass(frozen=True, slots=True)
@@ -80,53 +86,111 @@ def arc_limits(
     and v^3/R^2 <= j, and what the centripetal terms leave of the acceleration and jerk is split
     between a_t and j_t (:data:`JERK_SHARES`): the pair is chosen that minimises L/cap plus the
     time lost ramping between the end speeds and the cap (cruise fast on long arcs and inside
-    tangent chains, keep ramps short on short arcs between stops).
+    tangent chains, keep ramps short on short arcs between stops). One arc of
+    :func:`arc_limits_many`.
     """
-    i1, i2, n = follow.plane_axes
+    return arc_limits_many([follow], [length_mm], limits, [ends_mm_per_s])[0]
+
+
+def arc_limits_many(
+    follows: Sequence[FollowGeometry],
+    lengths_mm: Sequence[float],
+    limits: Limits,
+    ends_mm_per_s: Sequence[tuple[float, float]] | None = None,
+    even: bool = False,
+) -> list[BlockLimits]:
+    """``[arc_limits(f, length, limits, ends) ...]`` for each arc (``ends``: (0, 0) when
+    ``ends_mm_per_s`` is None), computed in arrays :data:`BATCH_ARCS` arcs at a time: every
+    (margin, share) pair of every arc at once, a few numpy calls for the batch instead of
+    about forty per arc. ``even``: the choice for G2 transitions instead (the cruise cap and
+    the most even shares, :func:`_arc_batch`)."""
+    n = len(follows)
+    ends = [(0.0, 0.0)] * n if ends_mm_per_s is None else list(ends_mm_per_s)
+    out: list[BlockLimits] = []
+    for k in range(0, n, BATCH_ARCS):
+        stop = min(n, k + BATCH_ARCS)
+        out += _arc_batch(
+            list(follows[k:stop]), list(lengths_mm[k:stop]), limits, ends[k:stop], even
+        )
+    return out
+
+
+def _arc_batch(
+    follows: list[FollowGeometry],
+    lengths_mm: list[float],
+    limits: Limits,
+    ends: list[tuple[float, float]],
+    even: bool = False,
+) -> list[BlockLimits]:
+    """One batch of :func:`arc_limits_many` (all margins and shares tried; an arc without
+    curvature has no curvature cap, and its tangential acceleration is the plane's). ``even``:
+    of the first margin's pairs (the highest cap), the share whose tangential acceleration
+    and jerk are the most even shares of the plane's (the largest of their smaller share), not
+    the cheapest: a G2 transition's junctions never bind, so it always cruises inside a chain,
+    whose ramps run on the lowest limits of its moves; the cheapest pair of a cruise, the
+    least tangential acceleration, made a chain of arcs ramp at a fifth of their own."""
     vmax, amax, jmax = limits.per_axis()
-    sin_pitch, feed_mm_per_s = follow.sin_pitch, follow.feed_cap_mm_per_s
-    a_pl = min(amax[i1], amax[i2])
-    j_pl = min(jmax[i1], jmax[i2])
-    cap = min(feed_mm_per_s, min(vmax[i1], vmax[i2]) / max(follow.plane_share, 1e-12))
-    if sin_pitch > 0:
-        cap = min(cap, vmax[n] / sin_pitch)
-    k, dk = follow.curvature_per_mm, follow.dcurv_per_mm2
-    kn = follow.normal_curvature_per_mm if sin_pitch > 0 else 0.0
-    # Every (margin, share) pair at once, margins outer: the first pair of least cost wins.
-    margins = np.array(CURVATURE_MARGINS[:1] if k == 0 and dk == 0 else CURVATURE_MARGINS)
-    shares = np.array(JERK_SHARES[:1] if k == 0 else JERK_SHARES)
-    cap_m = np.full(margins.shape, cap)
-    if k > 0:
-        cap_m = np.minimum(cap_m, np.sqrt(margins * a_pl / k))
-    if dk > 0:
-        cap_m = np.minimum(cap_m, (margins * j_pl / dk) ** (1.0 / 3.0))
-    if kn > 0:
-        with np.errstate(over="ignore"):  # kn ~1e-310: no cap from it
-            cap_m = np.minimum(cap_m, np.sqrt(margins * amax[n] / kn))
-    a_max = np.sqrt(np.maximum(a_pl * a_pl - (cap_m * cap_m * k) ** 2, 0.0))[:, None]
-    j_left = (j_pl - cap_m**3 * dk)[:, None]
-    cap_c = cap_m[:, None]
-    if k > 0:
-        a_t = np.minimum(a_max, shares[None, :] * j_left / (3.0 * cap_c * k))
-    else:
-        a_t = np.broadcast_to(a_max, (margins.size, shares.size))
-    j_t = np.sqrt(np.maximum(j_pl * j_pl - (3.0 * cap_c * a_t * k) ** 2, 0.0)) - cap_c**3 * dk
-    if sin_pitch > 0:
-        a_t = np.minimum(a_t, (amax[n] - cap_c * cap_c * kn) / sin_pitch)
-        j_t = np.minimum(j_t, jmax[n] / sin_pitch)
+    a_pl, j_pl, cap, sin_p, amax_n, jmax_n, k_n = [], [], [], [], [], [], []
+    for f in follows:
+        i1, i2, nrm = f.plane_axes
+        a_pl.append(min(amax[i1], amax[i2]))
+        j_pl.append(min(jmax[i1], jmax[i2]))
+        cap.append(f.speed_cap(vmax))
+        sin_p.append(f.sin_pitch)
+        amax_n.append(amax[nrm])
+        jmax_n.append(jmax[nrm])
+        k_n.append(f.normal_curvature_per_mm if f.sin_pitch > 0 else 0.0)
+
+    def col(values: list[float]) -> np.ndarray:
+        return np.array(values, dtype=float)[:, None, None]
+
+    a_p, j_p, k = col(a_pl), col(j_pl), col([f.curvature_per_mm for f in follows])
+    dk = col([f.dcurv_per_mm2 for f in follows])
+    margins = np.array(CURVATURE_MARGINS)[None, :, None]
+    shares = np.array(JERK_SHARES)[None, None, :]
+    cap_m = np.broadcast_to(col(cap), (len(follows), margins.size, 1))
+    # a straight "arc" (k 0): no cap from k, and a_t is the plane's whatever the share (every
+    # pair then costs the same, and the first wins)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        cap_m = np.where(k > 0, np.minimum(cap_m, np.sqrt(margins * a_p / k)), cap_m)
+        by_jerk = (margins * j_p / dk) ** (1.0 / 3.0)
+    cap_m = np.where(dk > 0, np.minimum(cap_m, by_jerk), cap_m)
+    kn = col(k_n)  # a helical spiral's normal curvature: v^2 kn of the normal axis' acceleration
+    with np.errstate(divide="ignore", over="ignore"):  # kn 0 or ~1e-310: no cap from it
+        cap_m = np.where(kn > 0, np.minimum(cap_m, np.sqrt(margins * col(amax_n) / kn)), cap_m)
+    a_max = np.sqrt(np.maximum(a_p * a_p - (cap_m * cap_m * k) ** 2, 0.0))
+    j_left = j_p - cap_m**3 * dk
+    with np.errstate(divide="ignore", invalid="ignore"):
+        a_t = np.where(k > 0, np.minimum(a_max, shares * j_left / (3.0 * cap_m * k)), a_max)
+    j_t = np.sqrt(np.maximum(j_p * j_p - (3.0 * cap_m * a_t * k) ** 2, 0.0)) - cap_m**3 * dk
+    sp = col(sin_p)
+    pitched = sp > 0
+    with np.errstate(divide="ignore", invalid="ignore", over="ignore"):  # sp ~ 1e-310: inf
+        a_t = np.where(pitched, np.minimum(a_t, (col(amax_n) - cap_m * cap_m * kn) / sp), a_t)
+        j_t = np.where(pitched, np.minimum(j_t, col(jmax_n) / sp), j_t)
     ok = (a_t > 0) & (j_t > 0)
     # margin < 1 leaves acceleration and jerk to the tangential terms: some pair always fits
-    assert ok.any(), "arc_limits found no (cap, a_t, j_t): limits must be > 0"
+    assert ok.any(axis=(1, 2)).all(), "arc_limits found no (cap, a_t, j_t): limits must be > 0"
     a_s, j_s = np.where(ok, a_t, 1.0), np.where(ok, j_t, 1.0)
-    cost = length_mm / cap_c
-    for v_end in ends_mm_per_s:  # a ramp from v to the cap loses (cap - v) / (2 cap)
-        dv = np.maximum(cap_c - v_end, 0.0)
+    cost = col(lengths_mm) / cap_m
+    for side in (0, 1):  # a ramp from v to the cap loses (cap - v) / (2 cap) of its time
+        dv = np.maximum(cap_m - col([e[side] for e in ends]), 0.0)
         ramp = np.where(dv * j_s >= a_s * a_s, dv / a_s + a_s / j_s, 2.0 * np.sqrt(dv / j_s))
-        cost = cost + ramp * dv / (2.0 * cap_c)
+        cost = cost + ramp * dv / (2.0 * cap_m)
     cost = np.where(ok, cost, np.inf)
-    m, sh = np.unravel_index(int(np.argmin(cost)), cost.shape)
-    cap, a_t_best, j_t_best = float(cap_m[m]), float(a_t[m, sh]), float(j_t[m, sh])
-    return BlockLimits(length_mm, cap, a_t_best, j_t_best)
+    best = cost.reshape(len(follows), -1).argmin(axis=1)  # the first pair of least cost
+    m, sh = np.unravel_index(best, cost.shape[1:])
+    if even:
+        even_share = np.minimum(a_t[:, 0, :] / a_p[:, 0, :], j_t[:, 0, :] / j_p[:, 0, :])
+        sh = np.where(ok[:, 0, :], even_share, -np.inf).argmax(axis=1)
+        m = np.zeros_like(sh)
+    rows = np.arange(len(follows))
+    caps = cap_m[rows, m, 0].tolist()
+    a_best, j_best = a_t[rows, m, sh].tolist(), j_t[rows, m, sh].tolist()
+    return [
+        BlockLimits(length, c, a, j)
+        for length, c, a, j in zip(lengths_mm, caps, a_best, j_best, strict=True)
+    ]
 
 
 @dataclass(frozen=True, slots=True)

@@ -34,8 +34,8 @@ from gantry_sim.controller.planner.arc_batch import (
 from gantry_sim.controller.planner.limits import (
     BlockLimits,
     FollowGeometry,
+    arc_limits_many,
 )
-from gantry_sim.controller.planner.limits_batch import arc_limits_many
 from gantry_sim.controller.planner.segment import segment_arc, segment_arcs
 from gantry_sim.controller.planner.spline_geometry import (
     curvature_bounds,
@@ -184,7 +184,7 @@ def move_geometries(
     moves: Sequence[PathMove], limits: Limits, seg: Segmentation, feed_scale: float
 ) -> list[MoveGeometry]:
     """:func:`move_geometry` of each move; the curves' limits in one batch
-    (:func:`~gantry_sim.controller.planner.limits_batch.arc_limits_many`)."""
+    (:func:`~gantry_sim.controller.planner.limits.arc_limits_many`)."""
     arcs = [m for m in moves if isinstance(m, Arc)]
     d1, d2 = arc_end_derivatives_many(arcs)
     tangents, curvatures = frenet_many(d1.reshape(-1, 3), d2.reshape(-1, 3))
@@ -220,7 +220,7 @@ def move_geometries(
         else straight[id(m)]
         for m in moves
     ]
-    for even in (False, True):  # arcs and splines; transitions (limits_batch._curved)
+    for even in (False, True):  # arcs and splines; transitions (limits._arc_batch)
         at = [
             i
             for i, g in enumerate(geoms)
@@ -446,7 +446,7 @@ def limits_for_junctions(
     its M204 path acceleration ``path_acc_mm_per_s2`` [mm/s^2] per move: :func:`path_acc_limits`) (see
     :func:`gantry_sim.controller.planner.limits.arc_limits`: inside a tangent chain an arc need
     not ramp from rest, so it may cruise closer to its curvature cap). A transition keeps the
-    limits :func:`move_geometries` chose (its junctions never bind: limits_batch._curved), and
+    limits :func:`move_geometries` chose (its junctions never bind: limits._arc_batch), and
     an arc beside one takes its speed cap as that junction's: a junction that does not bind
     is still passed no faster than the transition (an arc between two slower transitions
     chose the cruise limits of an unbounded junction, 1 % of its jerk, and the chain could not

@@ -51,7 +51,7 @@ circle; a curve joining two arcs of nearly the same radius needs no length to be
 smooth as they are, and cut as long as its room allowed it ate the arcs whole: a spiral of
 quarter arcs R 1-11 at F6000 ran 1 % slower than with the chord smoothing): the rest stays
 for the profile's tangential jerk (a transition within a chain sets the chain's jerk, and its
-limits are chosen for that: limits_batch._curved); but no longer than the tolerance allows (its
+limits are chosen for that: limits._arc_batch); but no longer than the tolerance allows (its
 measured deviation within P less the reference's share,
 :data:`~gantry_sim.controller.planner.blend.REFERENCE_SHARE` of the chord tolerance), and at
 most :data:`LENGTH_SHARE` of either move's room (its length less a corner blend's cut at its
