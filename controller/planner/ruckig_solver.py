@@ -47,6 +47,10 @@ LIMIT_RETRY_SHARES = (1e-9, 1e-6)
 #: where Ruckig refuses it under the limits themselves (_calculate_to_the_edge;
 #: 1e-11 and less gave one such piece a detour of 0.36 s instead of its 2 ms).
 ROUNDING_BEYOND_LIMIT = 1e-10
+
+#: The state at either end of a piece: position [mm], velocity [mm/s] and acceleration
+#: [mm/s^2], each (3,).
+State = tuple[np.ndarray, np.ndarray, np.ndarray]
 #: Doublings of a piece's duration tried for an axis planned in closed form beside Ruckig's
 #: (see RuckigSolver._piece_with_closed_form_axes), then bisection steps on that duration.
 CLOSED_FORM_DOUBLINGS = 40
@@ -266,18 +270,16 @@ class RuckigSolver:
             & (np.maximum(np.abs(a0), np.abs(a1)) < TINY_AXIS_MM_PER_S2)
         )
         inp, tr = self._in3, self._tr3
-        vmax, amax, jmax = (
-            np.asarray(x) for x in (inp.max_velocity, inp.max_acceleration, inp.max_jerk)
-        )
+        vmax, amax, jmax = self._limits3()
         for i in np.flatnonzero(~tiny):
             tiny[i] = not self._axis_plans(
                 (p0[i], v0[i], a0[i]), (p1[i], v1[i], a1[i]), vmax[i], amax[i], jmax[i]
             )
         if not tiny.any():
-            return self._every_axis_closed(start, end, min_duration_s, samples, sampled_within_s)
+            return self._every_axis_closed(start, end, min_duration_s, (samples, sampled_within_s))
         closed_form = _closed_form_fit(start, end, tiny, vmax, amax, jmax)
         if tiny.all():  # every axis in closed form: no Ruckig piece sets the duration
-            return self._every_axis_closed(start, end, min_duration_s, samples, sampled_within_s)
+            return self._every_axis_closed(start, end, min_duration_s, (samples, sampled_within_s))
         inp.enabled = [not bool(t) for t in tiny]
         try:
             inp.minimum_duration = float(min_duration_s)
@@ -289,7 +291,7 @@ class RuckigSolver:
                 _calculate_to_the_edge(self._otg3, inp, tr)
                 closed, ok = closed_form(tr.duration)
         except RuckigRejected:  # the other axes not synchronised: none from Ruckig
-            return self._every_axis_closed(start, end, min_duration_s, samples, sampled_within_s)
+            return self._every_axis_closed(start, end, min_duration_s, (samples, sampled_within_s))
         finally:
             inp.enabled = [True, True, True]
         if not ok:
@@ -298,22 +300,15 @@ class RuckigSolver:
         return _assemble(dur, closed, tiny, tr, samples if dur <= sampled_within_s else 0)
 
     def _every_axis_closed(
-        self,
-        start: tuple[np.ndarray, np.ndarray, np.ndarray],
-        end: tuple[np.ndarray, np.ndarray, np.ndarray],
-        min_duration_s: float,
-        samples: int,
-        sampled_within_s: float,
+        self, start: State, end: State, min_duration_s: float, samples: tuple[int, float]
     ) -> RuckigPiece:
         """The piece with every axis on the closed-form three-phase constant-jerk piece
         between its states, over ``min_duration_s`` [s] (at least 1 ns) or the shortest
-        longer duration whose piece keeps every axis' limits (velocity bounded from each
-        phase's start, acceleration at the phases' ends, jerk). Raises RuckigRejected when
-        none does."""
-        inp = self._in3
+        longer duration whose piece keeps every axis' limits (as :func:`_closed_form_fit`
+        checks them); ``samples``: how many positions to return with it, if it lasts at most
+        how long [s]. Raises RuckigRejected when none does."""
         every = np.ones(3, dtype=bool)
-        lim = (np.asarray(x) for x in (inp.max_velocity, inp.max_acceleration, inp.max_jerk))
-        closed_form = _closed_form_fit(start, end, every, *lim)
+        closed_form = _closed_form_fit(start, end, every, *self._limits3())
         dur = max(float(min_duration_s), 1e-9)
         closed, ok = closed_form(dur)
         if not ok:
@@ -321,7 +316,15 @@ class RuckigSolver:
             closed, ok = closed_form(dur)
         if not ok:
             raise RuckigRejected("no piece: no closed-form piece keeps the limits")
-        return _assemble(dur, closed, every, None, samples if dur <= sampled_within_s else 0)
+        return _assemble(dur, closed, every, None, samples[0] if dur <= samples[1] else 0)
+
+    def _limits3(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """The 3-DoF input's velocity, acceleration and jerk limits, as arrays (3,)."""
+        inp = self._in3
+        vmax, amax, jmax = (
+            np.asarray(x) for x in (inp.max_velocity, inp.max_acceleration, inp.max_jerk)
+        )
+        return vmax, amax, jmax
 
     def _axis_plans(
         self,
@@ -367,8 +370,8 @@ class RuckigSolver:
 
 
 def _closed_form_fit(
-    start: tuple[np.ndarray, np.ndarray, np.ndarray],
-    end: tuple[np.ndarray, np.ndarray, np.ndarray],
+    start: State,
+    end: State,
     axes: np.ndarray,
     vmax: np.ndarray,
     amax: np.ndarray,
