@@ -110,11 +110,16 @@ def _check_duration(
     moves = "moves on this line alone take" if at_least else "move on this line alone takes"
     on_line = f" (the {moves} {at_least}{longest:.6g} s)" if line is not None else ""
     if duration > budget.max_sim_s:
+        # (a feed of 1e-320 mm/min makes the time infinite: no bound simulates that)
+        anyway = (
+            f", or pass --max-sim-s {above}{math.ceil(duration)} to simulate it anyway"
+            if math.isfinite(duration)
+            else ""
+        )
         bound = (
             f", beyond the bound of {budget.max_sim_s:g} s (the time to simulate it and the "
             f"trace written grow with it: about 1 s and 2-5 MB per 2 simulated minutes); check "
-            f"the feeds (F is in mm/min), or pass --max-sim-s "
-            f"{above}{math.ceil(duration)} to simulate it anyway"
+            f"the feeds (F is in mm/min){anyway}"
         )
         raise BudgetError(
             f"the program takes {at_least}{duration:.6g} s of simulated time{on_line}{bound}",

@@ -66,6 +66,7 @@ def duration_lower_bound(
     module docstring), and the line whose moves take longest at their speeds with that time
     [s] (a canned cycle's line makes many moves); (0, None, 0) without moves or dwells."""
     from gantry_sim.controller.moves import Arc, Dwell, Limits, Linear, Rapid, Spline, Stop
+    from gantry_sim.controller.planner.magnitudes import check_magnitudes
     from gantry_sim.controller.planner.path_control import control, extends_run, starts_run
 
     stops, motions = (Dwell, Stop, Limits), (Rapid, Linear, Arc, Spline)
@@ -87,6 +88,7 @@ def duration_lower_bound(
     vmax = list(machine.limits.max_velocity_mm_per_s)
     accel_set = False
     for e in items:  # a Marlin M203 may raise an axis' speed: the fastest ever set bounds it
+        check_magnitudes(e)  # as the planner will, before numbers of 1e300 overflow here
         if isinstance(e, Limits) and e.code == "M203":
             for axis, value in e.values:
                 if axis in "XYZ" and math.isfinite(value):

@@ -86,7 +86,8 @@ def valid_programs(draw, max_moves: int = 4) -> str:
         kind = draw(st.sampled_from(["G0", "G1", "arc"]))
         if kind == "arc" and math.hypot(*at) < 60:
             line, at = draw(_arc(at))
-        else:
+        else:  # (an arc drawn too far out for its radius is a G1: "arc" is no code)
+            kind = "G1" if kind == "arc" else kind
             at = (draw(_coord), draw(_coord))
             feed = f" F{draw(_feed)}" if kind == "G1" else ""
             line = f"{kind} X{at[0]} Y{at[1]}{feed}"

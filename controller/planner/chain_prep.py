@@ -24,6 +24,7 @@ from gantry_sim.controller.planner.move_geometry import ArcGeometry, MoveGeometr
 from gantry_sim.controller.planner.profile import Profile1D, invert_many
 from gantry_sim.controller.planner.ramp_family import advance
 from gantry_sim.controller.planner.ruckig_solver import (
+    RUCKIG_MAX_DURATION_S,
     ProfileReverses,
     RuckigRejected,
     RuckigSolver,
@@ -199,6 +200,14 @@ def _path_profile(
             lim.length_mm, v_in, v_out, lim.cap_mm_per_s, lim.acc_mm_per_s2, lim.jerk_mm_per_s3
         )
     except RuckigRejected as exc:
+        cruise_s = lim.length_mm / lim.cap_mm_per_s if lim.cap_mm_per_s > 0 else math.inf
+        if cruise_s > RUCKIG_MAX_DURATION_S:  # a feed of 1e-300: the program's, not ours
+            raise PlanningError(
+                f"at this line's feed the {move.kind} move takes {cruise_s:.4g} s; a "
+                f"jerk-limited profile can last at most {RUCKIG_MAX_DURATION_S:g} s where "
+                "Ruckig finds none (its numerical limit): raise the F",
+                line=move.line,
+            ) from None
         raise PlannerFailure(
             f"no speed profile along this {move.kind} move fits the machine's limits "
             f"(Ruckig: {exc.reason})",

@@ -97,12 +97,19 @@ class _LimitState:
         return False
 
 
+#: The M204 accelerations accepted besides 0 [mm/s^2]: the machine file's range for its axes'
+#: (a path acceleration of 1e-45 left no profile Ruckig could plan: an internal error)
+PATH_ACC_RANGE = (1.0, 1e6)
+
+
 def _path_acc(value: float) -> float | None:
     """An M204 value [mm/s^2] as a cap (None: 0, none), or ConfigError."""
     acc = float(value)
-    if not (math.isfinite(acc) and acc >= 0.0):
+    lo, hi = PATH_ACC_RANGE
+    if not (acc == 0.0 or lo <= acc <= hi):
         raise ConfigError(
-            f"path acceleration to {acc:g} mm/s^2; it must be a number >= 0 (0: none)"
+            f"path acceleration to {acc:g} mm/s^2; it must be 0 (none) or within {lo:g}..{hi:g} "
+            "mm/s^2, as the machine file's accelerations"
         )
     return acc if acc > 0.0 else None
 

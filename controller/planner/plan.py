@@ -52,6 +52,7 @@ from gantry_sim.controller.planner.limit_events import (
     read_limits,
     split_at_limits,
 )
+from gantry_sim.controller.planner.magnitudes import check_magnitudes
 from gantry_sim.controller.planner.path_stream import path_plan
 from gantry_sim.controller.planner.prepare import prepare, slow_blends
 from gantry_sim.controller.planner.result import Plan
@@ -155,7 +156,9 @@ def _plan(
     from rest to rest, the travel the same: small parts in batches over the cores,
     :func:`_batches`, joined as they come by
     :class:`~gantry_sim.controller.planner.limit_events.JoinedPlans`)."""
-    program = SpilledList(m for m in items if isinstance(m, Rapid | Linear | Arc | Spline))
+    program = SpilledList(
+        check_magnitudes(m) for m in items if isinstance(m, Rapid | Linear | Arc | Spline)
+    )
     check_travel(program, machine.travel)
     limits = read_limits(items, machine)
     if not limits.cuts:  # one part (the path ignores the events; M204 alone cuts nothing)

@@ -1,0 +1,95 @@
+"""Numbers no machine can follow (a hostile-input sweep's finds): each is refused with exit 2 on
+its line, in one line of stderr, by `gantry plan` and `gantry run` alike; they ended in internal
+errors (exit 3) before, from overflow to infinity and NaN in the geometry or from Ruckig finding
+no profile at all."""
+
+from __future__ import annotations
+
+import pytest
+
+from gantry_sim.controller.errors import PlanningError
+from gantry_sim.controller.gcode.interpreter import parse_program
+from gantry_sim.controller.moves import Spline
+from gantry_sim.controller.planner.magnitudes import (
+    MAX_COORDINATE_MM,
+    MAX_TURNS,
+    WEIGHT_RANGE,
+    check_magnitudes,
+)
+from gantry_sim.sim.cli import main
+
+HEAD = "G21 G90 G17\nG0 X0 Y0 Z0\nF600\n"
+BIG = "1" + "0" * 300  # 1e300, spelled as G-code spells numbers (no exponent)
+TINY = "0." + "0" * 299 + "1"  # 1e-300
+
+#: program -> (dialect, the line refused, a fragment of the message)
+CASES = {
+    "huge coordinate": (HEAD + f"G1 X{BIG}\nM2\n", "linuxcnc", 4, "reaches 1e+300 mm"),
+    "huge arc radius": (
+        HEAD + f"G2 X10 Y0 R{BIG}\nM2\n",
+        "linuxcnc",
+        4,
+        "centre X is not a finite",
+    ),
+    "huge G91 arc": (HEAD + f"G91\nG2 X{BIG} Y0 R{BIG}\nM2\n", "grbl", 5, "reaches 1e+300 mm"),
+    "huge NURBS weight": (
+        HEAD + "G5.2 X0 Y1 P1 L3\nX2 Y2 P100000000000000000000\nX4 Y0 P1\nG5.3\nM2\n",
+        "linuxcnc",
+        7,
+        "spline weight 1e+20",
+    ),
+    "huge helix turns": (HEAD + f"G2 X0 Y0 Z-2 I5 J0 P{BIG}\nM2\n", "linuxcnc", 4, "turns"),
+    "tiny feed": (HEAD + f"F{TINY}\nG1 X5\nM2\n", "linuxcnc", 5, "raise the F"),
+    "tiny inverse-time feed": (HEAD + f"G93\nG1 X5 F{TINY}\nM2\n", "linuxcnc", 5, "raise the F"),
+    "tiny Marlin path acceleration": (
+        HEAD + f"M204 P{TINY}\nG1 X5\nM2\n",
+        "marlin",
+        4,
+        "must be 0 (none) or within 1..1e+06",
+    ),
+}
+
+
+@pytest.mark.parametrize("command", ["plan", "run"])
+@pytest.mark.parametrize("name", sorted(CASES))
+def test_a_number_no_machine_follows_is_refused_on_its_line(
+    name, command, write_program, tmp_path, capsys
+):
+    text, dialect, line, fragment = CASES[name]
+    path = write_program(text)
+    out = ["--out", str(tmp_path / "out"), "--no-plots"] if command == "run" else []
+    status = main([command, "--dialect", dialect, str(path), *out])
+    err = capsys.readouterr().err
+    assert status == 2, err
+    assert err.count("\n") == 1 and err.startswith(f"{path}:{line}: error: "), err
+    if command == "run" and fragment == "raise the F":
+        fragment = "of simulated time"  # the run's simulated-time bound refuses it first
+    assert fragment in err
+
+
+def test_the_interpreter_still_reads_what_rs274_reads():
+    # `gantry parse` shows the program as rs274 makes it; the planner refuses the numbers
+    (arc,) = [m for m in parse_program(HEAD + f"G2 X0 Y0 Z-2 I5 J0 P{BIG}\nM2\n") if m.line == 4]
+    assert arc.turns > MAX_TURNS
+    (far,) = [m for m in parse_program(HEAD + f"G1 X{BIG}\nM2\n") if m.line == 4]
+    assert far.end[0] == 1e300
+
+
+def test_the_bounds_themselves():
+    (ok,) = [m for m in parse_program(HEAD + "G1 X1000000000\nM2\n") if m.line == 4]
+    assert ok.end[0] == MAX_COORDINATE_MM and check_magnitudes(ok) is ok
+    (beyond,) = [m for m in parse_program(HEAD + "G1 X1000000001\nM2\n") if m.line == 4]
+    with pytest.raises(PlanningError, match="reaches 1e\\+09 mm"):
+        check_magnitudes(beyond)
+    lo, hi = WEIGHT_RANGE
+    spline = HEAD + "G5.2 X0 Y1 P1 L3\nX2 Y2 P{w}\nX4 Y0 P1\nG5.3\nM2\n"
+    for w, refused in ((lo, False), (hi, False), (lo / 2, True), (2 * hi, True)):
+        program = spline.format(w=f"{w:.12f}".rstrip("0"))
+        (s,) = [m for m in parse_program(program) if isinstance(m, Spline)]
+        if refused:
+            with pytest.raises(PlanningError, match="spline weight"):
+                check_magnitudes(s)
+        else:
+            assert check_magnitudes(s) is s
+    (helix,) = [m for m in parse_program(HEAD + f"G2 I5 Z-2 P{MAX_TURNS}\nM2\n") if m.line == 4]
+    assert check_magnitudes(helix) is helix
