@@ -208,6 +208,10 @@ def test_grbl_starts_in_g0_and_takes_realtime_characters_out() -> None:
     ]
     assert "no motion mode" in error_of("G21 G91\nZ2\nM2\n", "linuxcnc").message  # rs274
     assert "bad character '?'" in error_of("G21\n?\nM2\n", "linuxcnc").message
+    # g2core's serial layer takes '!' (a Synthetos feed-hold test ends with it): refused here,
+    # naming it (nothing in a program resumes a hold)
+    held = error_of("G21\nG1 X1 F100\n!\nM2\n", "g2core")
+    assert held.line == 3 and "real-time command" in held.message
 
 
 def test_marlin_cuts_a_line_at_its_checksum() -> None:

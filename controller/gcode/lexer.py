@@ -301,8 +301,15 @@ def _lex_text(text: str, raw: str, line: int) -> Block:
             raise GcodeError("'%' is only allowed alone on a line, opening and closing a program")
         if ch not in WORD_LETTERS:
             what = "N (line numbers must open the line)" if ch == "N" else repr(ch)
+            realtime = (
+                " ('!', '~' and '?' are grbl's and g2core's real-time commands: feed hold, "
+                "resume and status, which a sender issues; they are not G-code)"
+                if ch in "!~?"
+                else ""
+            )
             raise GcodeError(
                 f"bad character {what}; a line holds words: a letter A-Z followed by a value"
+                + realtime
             )
         reader.pos += 1
         words.append((ch, reader.real_value()))
