@@ -81,6 +81,11 @@ def test_the_bounds_themselves():
     (beyond,) = [m for m in parse_program(HEAD + "G1 X1000000001\nM2\n") if m.line == 4]
     with pytest.raises(PlanningError, match="reaches 1e\\+09 mm"):
         check_magnitudes(beyond)
+    # coordinates each within the bound whose magnitudes sum beyond it pass
+    (wide,) = [
+        m for m in parse_program(HEAD + "G0 X-600000000\nG1 X600000000\nM2\n") if m.line == 5
+    ]
+    assert check_magnitudes(wide) is wide
     lo, hi = WEIGHT_RANGE
     spline = HEAD + "G5.2 X0 Y1 P1 L3\nX2 Y2 P{w}\nX4 Y0 P1\nG5.3\nM2\n"
     for w, refused in ((lo, False), (hi, False), (lo / 2, True), (2 * hi, True)):

@@ -28,6 +28,7 @@ from gantry_sim.controller.planner.ruckig_solver import (
     ProfileReverses,
     RuckigRejected,
     RuckigSolver,
+    too_slow_for_ruckig,
 )
 from gantry_sim.controller.planner.speedup import boosted_profile
 
@@ -201,13 +202,8 @@ def _path_profile(
         )
     except RuckigRejected as exc:
         cruise_s = lim.length_mm / lim.cap_mm_per_s if lim.cap_mm_per_s > 0 else math.inf
-        if cruise_s > RUCKIG_MAX_DURATION_S:  # a feed of 1e-300: the program's, not ours
-            raise PlanningError(
-                f"at this line's feed the {move.kind} move takes {cruise_s:.4g} s; a "
-                f"jerk-limited profile can last at most {RUCKIG_MAX_DURATION_S:g} s where "
-                "Ruckig finds none (its numerical limit): raise the F",
-                line=move.line,
-            ) from None
+        if cruise_s > RUCKIG_MAX_DURATION_S:  # a feed of 1e-300, where Ruckig finds none
+            raise too_slow_for_ruckig(f"the {move.kind} move", cruise_s, move.line) from None
         raise PlannerFailure(
             f"no speed profile along this {move.kind} move fits the machine's limits "
             f"(Ruckig: {exc.reason})",

@@ -19,7 +19,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from gantry_sim.controller.config import Limits
-from gantry_sim.controller.errors import PlannerFailure, PlanningError
+from gantry_sim.controller.errors import PlannerFailure
 from gantry_sim.controller.moves import Arc, Transition
 from gantry_sim.controller.planner.arc_batch import (
     arc_deviation_many,
@@ -47,6 +47,7 @@ from gantry_sim.controller.planner.ruckig_solver import (
     RuckigPiece,
     RuckigRejected,
     RuckigSolver,
+    too_slow_for_ruckig,
 )
 from gantry_sim.controller.planner.transition_geometry import transition_deviation_many
 
@@ -396,11 +397,8 @@ class MovePieces:
         :attr:`out`, with :data:`PIECE_SAMPLES` samples to check it if it lasts at most
         ``sampled_within_s`` [s]."""
         if min_duration_s > RUCKIG_MAX_DURATION_S:
-            raise PlanningError(
-                f"at this line's feed one piece of its path (between two chord vertices) takes "
-                f"{min_duration_s:.4g} s; a jerk-limited piece can last at most "
-                f"{RUCKIG_MAX_DURATION_S:g} s (Ruckig's numerical limit): raise the F",
-                line=g.move.line,
+            raise too_slow_for_ruckig(
+                "one piece of its path (between two chord vertices)", min_duration_s, g.move.line
             )
         try:
             piece = self.solver.piece(start, end, min_duration_s, PIECE_SAMPLES, sampled_within_s)

@@ -25,6 +25,7 @@ import numpy as np
 import ruckig
 
 from gantry_sim.controller.config import Limits
+from gantry_sim.controller.errors import PlanningError
 from gantry_sim.controller.planner.jerk3 import PiecePhases, jerk3_pairs
 from gantry_sim.controller.planner.profile import Profile1D
 from gantry_sim.controller.planner.spaced import spaced
@@ -146,6 +147,16 @@ def _phases(prof: ruckig.Profile) -> AxisPhases:
 #: The longest trajectory Ruckig computes [s]: above it a multi-DoF calculation returns
 #: ErrorTrajectoryDuration (-101; ruckig/calculator_target.hpp, ``duration > 7.6e3``).
 RUCKIG_MAX_DURATION_S = 7.6e3
+
+
+def too_slow_for_ruckig(what: str, duration_s: float, line: int) -> PlanningError:
+    """The error for ``what`` (a piece, a move) lasting ``duration_s`` [s] at its line's feed,
+    beyond :data:`RUCKIG_MAX_DURATION_S`: the program's feed, not the planner, is at fault."""
+    return PlanningError(
+        f"at this line's feed {what} takes {duration_s:.4g} s; a jerk-limited profile can last "
+        f"at most {RUCKIG_MAX_DURATION_S:g} s (Ruckig's numerical limit): raise the F",
+        line=line,
+    )
 
 
 class RuckigSolver:
@@ -275,11 +286,9 @@ class RuckigSolver:
             tiny[i] = not self._axis_plans(
                 (p0[i], v0[i], a0[i]), (p1[i], v1[i], a1[i]), vmax[i], amax[i], jmax[i]
             )
-        if not tiny.any():
+        if tiny.all() or not tiny.any():  # no Ruckig piece to set the duration, or none made
             return self._every_axis_closed(start, end, min_duration_s, (samples, sampled_within_s))
         closed_form = _closed_form_fit(start, end, tiny, vmax, amax, jmax)
-        if tiny.all():  # every axis in closed form: no Ruckig piece sets the duration
-            return self._every_axis_closed(start, end, min_duration_s, (samples, sampled_within_s))
         inp.enabled = [not bool(t) for t in tiny]
         try:
             inp.minimum_duration = float(min_duration_s)
