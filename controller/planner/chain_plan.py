@@ -202,6 +202,10 @@ CHAIN_WORK = 8
 FORK_WORK = 10_000
 WAVE_WORK = 100_000
 RUN_WORK = 2_000
+#: An arc of more chords than this has its closed-form pieces made when its chain is planned,
+#: not with its batch's: a batch's are held until its last chain is planned (a chain of ten
+#: 6,000-turn helices held all their 6 million pieces at once).
+BATCH_ARC_CHORDS = 16_384
 
 
 def _runs(
@@ -254,7 +258,9 @@ def _plan_batch(
         for (key, lim), prep in zip(batch, preps, strict=True):
             out[key] = _plan_chain(setup, key[0], key[1], lim, speeds, prep)
         return
-    firsts = maker.closed_forms(requests)
+    # a large arc's pieces are made when its chain is planned, one arc at a time
+    small = [i for i, r in enumerate(requests) if r[0].u.size <= BATCH_ARC_CHORDS]
+    firsts = dict(zip(small, maker.closed_forms([requests[i] for i in small]), strict=True))
     # the loose tries the arcs with one candidate may make, made beforehand all at once (one by
     # one they were 37 % of planning a polyline whose corners are blend arcs of a chord or two)
     single = [
@@ -263,7 +269,8 @@ def _plan_batch(
         for k, _, fast, _, _ in prep.arcs
     ]
     tries: list[tuple[int, tuple[bool, bool]]] = []
-    for i, ((g, prof, s_in, s_out), (one, dev)) in enumerate(zip(requests, single, strict=True)):
+    for i in small:
+        (g, prof, s_in, s_out), (one, dev) = requests[i], single[i]
         if one:
             patterns = loose_patterns(g, prof, firsts[i], s_in, s_out, dev)
             tries.extend((i, ends) for ends in patterns)
@@ -275,7 +282,7 @@ def _plan_batch(
     for (key, lim), prep in zip(batch, preps, strict=True):
         idx = {k: at + n for n, (k, *_) in enumerate(prep.arcs)}
         at += len(prep.arcs)
-        first = {k: firsts[i] for k, i in idx.items()}
+        first = {k: firsts[i] for k, i in idx.items() if i in firsts}
         tried = {k: loose[i] for k, i in idx.items() if i in loose}
         out[key] = _plan_chain(setup, key[0], key[1], lim, speeds, prep, first, tried)
 
@@ -310,7 +317,7 @@ def _plan_chain(
     of the feed passed it by up to 0.8 %, and 44 junctions were backed off over 16 rounds).
     A chain with a moving end keeps its acceleration and jerk: its end speeds may need all of
     them. ``prep`` and ``pre``: the chain's preparation for ``lim`` and the closed-form pieces
-    of each arc's first candidate, when already made; ``pre_loose``: loose tries of those, by
+    of its arcs' first candidates, by arc, where already made (not a large arc's); ``pre_loose``: loose tries of those, by
     arc and ends."""
     floor = max(float(speeds[first]), float(speeds[stop]))
     ramp = 1.0 if floor > 0.0 else SLOWER_RAMP  # a moving end may need every bit of the ramp
@@ -352,7 +359,7 @@ def _chain_pieces(
             clock += pieces.straight(g, part)
             continue
         fast, s_in, s_out = arcs[k]
-        known = None if pre is None else pre[k]
+        known = None if pre is None else pre.get(k)
         tried = None if pre_loose is None else pre_loose.get(k)
         dur, bad_in, bad_out = pieces.arc(
             g, part, s_in, s_out, fast, setup.smoothing[b], known, tried

@@ -72,6 +72,10 @@ END_STRETCH_MAX = 1.02
 LOOSE_FEED_ROOM = 2e-3
 #: Samples of a Ruckig piece checked against the arc (its speed is checked exactly against the feed).
 PIECE_SAMPLES = 25
+#: closed-form pieces made and checked at once (their temporaries take about 1 KB a piece: a
+#: chain of ten 6,000-turn helices, 6 million chords, held 7 GB at once); the numbers are the
+#: same whatever the block (each piece is its own row)
+PIECE_BLOCK = 16_384
 
 
 @dataclass(frozen=True, eq=False)
@@ -371,11 +375,8 @@ class MovePieces:
         feed = np.repeat([r[0].feed_mm_per_s for r in requests], counts)
         ok = mins > 1e-9
         safe = np.where(ok, mins, 1.0)
-        nxt = start + 1
-        phases = jerk3_pairs(pos[start], vel[start], acc[start], pos[nxt], vel[nxt], acc[nxt], safe)
-        ok &= piece_limits_ok(
-            phases.v, phases.a, phases.j, safe, acc[nxt], *self.limits.per_axis(), feed
-        )
+        phases, kept = pieces_between(pos, vel, acc, start, safe, self.limits, feed)
+        ok &= kept
         stop = np.cumsum(counts)
         devs = _end_deviations(requests, states, phases, mins, stop - counts)
         out = []
@@ -411,6 +412,36 @@ class MovePieces:
         for i in range(3):
             self.out.add(i, *piece.phases[i])
         return piece
+
+
+def pieces_between(
+    pos: np.ndarray,
+    vel: np.ndarray,
+    acc: np.ndarray,
+    start: np.ndarray,
+    dur: np.ndarray,
+    limits: Limits,
+    feed: np.ndarray,
+) -> tuple[PiecePhases, np.ndarray]:
+    """The closed-form pieces from the states ``start`` to ``start + 1`` (indices (n,) into the
+    stacked states ``pos``, ``vel``, ``acc`` (m, 3) [mm], [mm/s], [mm/s^2]) lasting ``dur``
+    (n,) [s], and (n,) whether each keeps every axis' ``limits`` and its ``feed`` (n,) [mm/s]
+    (:func:`~gantry_sim.controller.planner.jerk3.jerk3_pairs`,
+    :func:`~gantry_sim.controller.planner.jerk3.piece_limits_ok`): :data:`PIECE_BLOCK` pieces
+    at a time, each piece its own row, so any block gives the same numbers."""
+    n = dur.size
+    phases = PiecePhases(*(np.empty((n, 3, 3)) for _ in range(4)))
+    ok = np.empty(n, dtype=bool)
+    for lo in range(0, n, PIECE_BLOCK):
+        hi = min(n, lo + PIECE_BLOCK)
+        a, b = start[lo:hi], start[lo:hi] + 1
+        block = jerk3_pairs(pos[a], vel[a], acc[a], pos[b], vel[b], acc[b], dur[lo:hi])
+        for whole, part in zip(phases, block, strict=True):
+            whole[lo:hi] = part
+        ok[lo:hi] = piece_limits_ok(
+            block.v, block.a, block.j, dur[lo:hi], acc[b], *limits.per_axis(), feed[lo:hi]
+        )
+    return phases, ok
 
 
 def _piece_deviations(g: ArcGeometry, pieces: list[tuple[np.ndarray, float]]) -> list[float]:
