@@ -14,7 +14,7 @@ from __future__ import annotations
 
 from collections.abc import Callable, Iterable, Iterator, Sequence
 from pathlib import Path
-from typing import Any, Literal, overload
+from typing import Any, BinaryIO, Literal, overload
 
 from gantry_sim.controller.config import MachineConfig
 from gantry_sim.controller.errors import GantryError, GcodeError
@@ -119,11 +119,20 @@ def _other_refused_lines(text: str, dialect: str, file: str, kwargs: dict[str, A
     return max(len(errors) - 1, 0)
 
 
+#: the largest program read [bytes] (a slicer's longest prints are a few hundred MB; a
+#: stream that never ends, such as ``/dev/zero`` or ``yes``, is refused here)
+MAX_PROGRAM_BYTES = 2 << 30
+#: a stream (a pipe, ``/dev/stdin``) is read this many bytes at a time, each checked
+READ_CHUNK_BYTES = 1 << 20
+
+
 def read_program(path: Path) -> str:
-    """Read a G-code program as text (UTF-8, else Latin-1); unreadable files and files with
-    NUL bytes are a GcodeError."""
+    """Read a G-code program as text (UTF-8, else Latin-1): a file, or a stream such as
+    ``/dev/stdin`` read a chunk at a time. Unreadable files, files with NUL bytes and programs
+    of more than :data:`MAX_PROGRAM_BYTES` are a GcodeError."""
     try:
-        data = path.read_bytes()
+        with path.open("rb") as f:
+            data = _read_checked(f, path)
     except FileNotFoundError:
         raise GcodeError("program file not found", file=str(path)) from None
     except IsADirectoryError:
@@ -132,9 +141,24 @@ def read_program(path: Path) -> str:
         ) from None
     except OSError as exc:
         raise GcodeError(f"cannot read program: {exc.strerror}", file=str(path)) from None
-    if b"\x00" in data:
-        raise GcodeError("not a G-code text file (it contains NUL bytes)", file=str(path))
     return decode_program(data)
+
+
+def _read_checked(f: BinaryIO, path: Path) -> bytes:
+    """The bytes of the open program ``f``: refused at the first NUL byte or past
+    :data:`MAX_PROGRAM_BYTES`, before the rest is read."""
+    chunks: list[bytes] = []
+    size = 0
+    while chunk := f.read(READ_CHUNK_BYTES):
+        if b"\x00" in chunk:
+            raise GcodeError("not a G-code text file (it contains NUL bytes)", file=str(path))
+        size += len(chunk)
+        if size > MAX_PROGRAM_BYTES:
+            raise GcodeError(
+                f"program larger than {MAX_PROGRAM_BYTES >> 30} GiB; split it", file=str(path)
+            )
+        chunks.append(chunk)
+    return b"".join(chunks)
 
 
 def _advancing(items: Iterable, advance: Callable[[int], object]) -> Iterator:

@@ -5,9 +5,11 @@ from __future__ import annotations
 import json
 import math
 import time
+from pathlib import Path
 
 import pytest
 
+from gantry_sim.sim import program
 from gantry_sim.sim.cli import main
 
 
@@ -64,6 +66,9 @@ def test_parse_error_exits_2_with_file_and_line(write_program, capsys) -> None:
         (b"G0 X" + b"-" * 1_000_000 + b"1\nM2\n", "nested more than"),
         (b"G0 X1e400\nM2\n", "E word"),
         (b"\x1b[31m\nM2\n", "bad character"),
+        # the abort comment is the last of 600,000 on the line: each comment searched the
+        # rest of the line for a ";" (27 s at 800,000)
+        (b"G0 X1" + b" (c)" * 600_000 + b" (abort, at the end)\nM2\n", "at the end"),
     ],
 )
 def test_bad_input_is_a_clear_error_fast(tmp_path, capsys, content: bytes, fragment: str) -> None:
@@ -75,6 +80,32 @@ def test_bad_input_is_a_clear_error_fast(tmp_path, capsys, content: bytes, fragm
     err = capsys.readouterr().err
     assert err.startswith(f"{path}") and ": error: " in err and fragment in err
     assert "Traceback" not in err
+
+
+@pytest.mark.skipif(not Path("/dev/zero").exists(), reason="no /dev/zero here")
+def test_an_endless_stream_is_refused_at_its_first_chunk(capsys) -> None:
+    assert main(["parse", "/dev/zero"]) == 2
+    assert (
+        capsys.readouterr().err
+        == "/dev/zero: error: not a G-code text file (it contains NUL bytes)\n"
+    )
+
+
+def test_a_stream_is_checked_chunk_by_chunk(tmp_path, monkeypatch, capsys) -> None:
+    """A NUL byte after the first chunk, and a program past the size bound, are refused as
+    they are read (the bound made small here: the real one is 2 GiB)."""
+    monkeypatch.setattr(program, "READ_CHUNK_BYTES", 16)
+    path = tmp_path / "late.ngc"
+    path.write_bytes(b"G0 X1\n" * 30 + b"\x00\nM2\n")
+    assert main(["parse", str(path)]) == 2
+    assert "NUL bytes" in capsys.readouterr().err
+    path.write_bytes(b"".join(b"G0 X%d\n" % i for i in range(30)) + b"M2\n")
+    assert main(["parse", str(path)]) == 0  # read whole from its chunks
+    rows = [json.loads(line) for line in capsys.readouterr().out.splitlines()]
+    assert [r["end"][0] for r in rows] == list(range(30))
+    monkeypatch.setattr(program, "MAX_PROGRAM_BYTES", 100)
+    assert main(["parse", str(path)]) == 2
+    assert "program larger than" in capsys.readouterr().err
 
 
 def test_huge_p_is_one_move_and_instant(write_program, capsys) -> None:

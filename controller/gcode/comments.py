@@ -25,8 +25,10 @@ def last_comment(raw: str) -> str | None:
     none); a ``;`` outside a comment ends the line."""
     found = None
     at = 0
-    while True:
-        semicolon = raw.find(";", at)
+    semicolon = raw.find(";")  # looked for again only once passed (a line of 800,000
+    while True:  # comments and no ";" took 26 s when each comment searched the rest of it)
+        if 0 <= semicolon < at:
+            semicolon = raw.find(";", at)
         start = raw.find("(", at)
         if start < 0 or 0 <= semicolon < start:
             return found
