@@ -287,6 +287,27 @@ def test_out_file_where_a_folder_is_needed_and_folder_where_a_file_is(tmp_path, 
     assert "report.json" in capsys.readouterr().err
 
 
+def test_an_empty_path_is_refused_not_taken_for_the_current_folder(tmp_path, capsys, monkeypatch):
+    """``--out "$OUT"`` with OUT unset: every command refuses it (exit 2) and writes nothing
+    into the folder it runs in."""
+    prog = _program(tmp_path, LINE, "p.ngc")
+    here = tmp_path / "here"
+    here.mkdir()
+    monkeypatch.chdir(here)
+    commands = (["run", prog], ["ballbar"], ["tune"], ["sweep", prog], ["plan", prog])
+    for cmd in commands:
+        with pytest.raises(SystemExit) as exc:
+            main([*cmd, "--out", ""])
+        assert exc.value.code == 2
+        assert "expected a path, got an empty one" in capsys.readouterr().err
+    for cmd in (["run", ""], ["plan", ""], ["compare", "", prog], ["run", prog, "--machine", ""]):
+        with pytest.raises(SystemExit) as exc:
+            main(cmd)
+        assert exc.value.code == 2
+        assert "expected a path, got an empty one" in capsys.readouterr().err
+    assert list(here.iterdir()) == []
+
+
 def test_a_failed_run_leaves_no_output_folder_it_made(tmp_path, capsys):
     """The output folder (and its parents) made for a run that fails before writing goes
     again; one that was there before stays, empty or not; a run that writes keeps its."""

@@ -12,7 +12,6 @@ import dataclasses
 import json
 import math
 import sys
-from pathlib import Path
 from typing import TYPE_CHECKING
 
 from gantry_sim.controller.errors import ConfigError, shown
@@ -22,6 +21,7 @@ from gantry_sim.sim.commands.common import (
     add_machine,
     budget_from,
     load_machine,
+    path_arg,
 )
 
 if TYPE_CHECKING:
@@ -67,7 +67,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     add_machine(parser)
     parser.add_argument(
         "--out",
-        type=Path,
+        type=path_arg,
         default=DEFAULT_OUT,
         metavar="DIR",
         help="write ballbar.json, polar.png, ballbar.ngc, trace_cw.npz, trace_ccw.npz here "

@@ -24,7 +24,7 @@ def add_dialect(parser: argparse.ArgumentParser) -> None:
 def add_machine(parser: argparse.ArgumentParser) -> None:
     parser.add_argument(
         "--machine",
-        type=Path,
+        type=path_arg,
         default=None,
         metavar="FILE",
         help="machine file (TOML) laid over the bundled models/gantry.toml",
@@ -101,6 +101,14 @@ def budget_from(args: argparse.Namespace):
     return Budget(args.max_sim_s, getattr(args, "max_physics_steps", DEFAULT_MAX_PHYSICS_STEPS))
 
 
+def path_arg(text: str) -> Path:
+    """A file or folder path (argparse type); an empty one is refused, not taken for the
+    current folder (``--out "$OUT"`` with OUT unset wrote a run's files among the user's)."""
+    if not text.strip():
+        raise argparse.ArgumentTypeError("expected a path, got an empty one")
+    return Path(text)
+
+
 def positive_int(text: str) -> int:
     """An integer >= 1 (argparse type)."""
     try:
@@ -117,7 +125,7 @@ def add_program_setup(parser: argparse.ArgumentParser) -> None:
     add_work_offset(parser)
     parser.add_argument(
         "--tool-table",
-        type=Path,
+        type=path_arg,
         default=None,
         metavar="FILE",
         help="LinuxCNC tool.tbl, lengths in mm (replaces the machine file's [tools]); without "
@@ -125,7 +133,7 @@ def add_program_setup(parser: argparse.ArgumentParser) -> None:
     )
     parser.add_argument(
         "--subroutine-path",
-        type=Path,
+        type=path_arg,
         action="append",
         default=[],
         metavar="DIR",

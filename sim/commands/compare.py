@@ -12,9 +12,9 @@ import json
 import math
 import sys
 from dataclasses import asdict
-from pathlib import Path
 
 from gantry_sim.controller.errors import ConfigError
+from gantry_sim.sim.commands.common import path_arg
 
 HELP = (
     "compare a run's report.json with a baseline's block by block; exit 1 when a block's "
@@ -33,8 +33,8 @@ MARGINS = (
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
-    parser.add_argument("baseline", type=Path, help="baseline report.json or its folder")
-    parser.add_argument("run", type=Path, help="the run's report.json or its folder")
+    parser.add_argument("baseline", type=path_arg, help="baseline report.json or its folder")
+    parser.add_argument("run", type=path_arg, help="the run's report.json or its folder")
     for option, default, metavar, what in MARGINS:
         parser.add_argument(
             option,

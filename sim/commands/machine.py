@@ -19,7 +19,7 @@ import json
 import sys
 from pathlib import Path
 
-from gantry_sim.sim.commands.common import add_machine, load_machine
+from gantry_sim.sim.commands.common import add_machine, load_machine, path_arg
 
 HELP = "show the effective machine; import LinuxCNC INI or grbl $$ settings as a machine file"
 
@@ -34,10 +34,10 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     show.add_argument("--json", action="store_true", help="print one JSON object instead")
     imp = sub.add_parser("import", help="write a machine file from a LinuxCNC INI or grbl $$ dump")
     imp.add_argument("format", choices=("linuxcnc", "grbl"), help="what FILE is")
-    imp.add_argument("file", type=Path, metavar="FILE", help="LinuxCNC .ini or grbl $$ output")
+    imp.add_argument("file", type=path_arg, metavar="FILE", help="LinuxCNC .ini or grbl $$ output")
     imp.add_argument(
         "--out",
-        type=Path,
+        type=path_arg,
         default=None,
         metavar="FILE",
         help="machine file to write (default: stdout)",

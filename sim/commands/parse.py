@@ -5,13 +5,13 @@ from __future__ import annotations
 import argparse
 import json
 import sys
-from pathlib import Path
 
 from gantry_sim.sim.commands.common import (
     add_dialect,
     add_machine,
     add_program_setup,
     max_iterations,
+    path_arg,
     program_machine,
     read_program,
     search_path,
@@ -21,7 +21,7 @@ HELP = "interpret a G-code program and print its motions as JSON Lines"
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
-    parser.add_argument("program", type=Path, help="G-code program (.ngc)")
+    parser.add_argument("program", type=path_arg, help="G-code program (.ngc)")
     add_dialect(parser)
     add_machine(parser)
     add_program_setup(parser)

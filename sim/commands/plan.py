@@ -7,7 +7,6 @@ import argparse
 import json
 import sys
 from collections.abc import Sequence
-from pathlib import Path
 from typing import Any
 
 from gantry_sim.sim.commands.common import (
@@ -17,6 +16,7 @@ from gantry_sim.sim.commands.common import (
     add_program_setup,
     budget_from,
     max_iterations,
+    path_arg,
     program_machine,
     read_program,
     search_path,
@@ -26,13 +26,13 @@ HELP = "plan a G-code program (segmentation, look-ahead, Ruckig) and print its s
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
-    parser.add_argument("program", type=Path, help="G-code program (.ngc)")
+    parser.add_argument("program", type=path_arg, help="G-code program (.ngc)")
     add_dialect(parser)
     add_machine(parser)
     add_program_setup(parser)
     parser.add_argument(
         "--out",
-        type=Path,
+        type=path_arg,
         default=None,
         metavar="TRAJ.npz",
         help="write the reference sampled every servo period: arrays t, pos, vel, acc, line "

@@ -26,6 +26,7 @@ from gantry_sim.sim.commands.common import (
     add_program_setup,
     budget_from,
     max_iterations,
+    path_arg,
     program_machine,
     read_program,
     search_path,
@@ -39,13 +40,13 @@ HELP = "plan, simulate and analyse a program; write report.json, trace.npz and p
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
-    parser.add_argument("program", type=Path, help="G-code program (.ngc)")
+    parser.add_argument("program", type=path_arg, help="G-code program (.ngc)")
     add_dialect(parser)
     add_machine(parser)
     add_program_setup(parser)
     parser.add_argument(
         "--out",
-        type=Path,
+        type=path_arg,
         default=DEFAULT_OUT,
         metavar="DIR",
         help=f"output folder (default: ./{DEFAULT_OUT}); created if needed",
@@ -81,7 +82,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     )
     parser.add_argument(
         "--baseline",
-        type=Path,
+        type=path_arg,
         default=None,
         metavar="REPORT",
         help="gate: compare with an earlier report.json (or its folder) block by block, as "

@@ -11,7 +11,6 @@ import argparse
 import shlex
 import signal
 import sys
-from pathlib import Path
 
 from gantry_sim.controller.errors import ConfigError
 from gantry_sim.sim.commands.common import (
@@ -22,6 +21,7 @@ from gantry_sim.sim.commands.common import (
     add_program_setup,
     budget_from,
     max_iterations,
+    path_arg,
     program_machine,
     read_program,
     search_path,
@@ -50,7 +50,7 @@ def _floats(option: str, unit: str):
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
-    parser.add_argument("program", type=Path, help="G-code program (.ngc)")
+    parser.add_argument("program", type=path_arg, help="G-code program (.ngc)")
     parser.add_argument(
         "--feed-override",
         type=_floats("--feed-override", "%"),
@@ -90,7 +90,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     add_program_setup(parser)
     parser.add_argument(
         "--out",
-        type=Path,
+        type=path_arg,
         default=DEFAULT_OUT,
         metavar="DIR",
         help=f"write sweep.csv and the plots here (default: ./{DEFAULT_OUT}; a rerun resumes "

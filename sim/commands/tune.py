@@ -9,7 +9,6 @@ from __future__ import annotations
 import argparse
 import json
 import sys
-from pathlib import Path
 
 from gantry_sim.controller.errors import ConfigError
 from gantry_sim.sim.commands.common import (
@@ -18,6 +17,7 @@ from gantry_sim.sim.commands.common import (
     add_machine,
     budget_from,
     load_machine,
+    path_arg,
 )
 
 HELP = (
@@ -68,7 +68,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     add_machine(parser)
     parser.add_argument(
         "--out",
-        type=Path,
+        type=path_arg,
         default=DEFAULT_OUT,
         metavar="DIR",
         help=f"write tune.json and tune.png here (default: ./{DEFAULT_OUT})",
