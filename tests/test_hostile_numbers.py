@@ -5,6 +5,8 @@ no profile at all."""
 
 from __future__ import annotations
 
+import json
+
 import pytest
 
 from gantry_sim.controller.errors import PlanningError
@@ -98,3 +100,30 @@ def test_the_bounds_themselves():
             assert check_magnitudes(s) is s
     (helix,) = [m for m in parse_program(HEAD + f"G2 I5 Z-2 P{MAX_TURNS}\nM2\n") if m.line == 4]
     assert check_magnitudes(helix) is helix
+
+
+HUGE_FEED = "1" + "0" * 160  # F 1e160 mm/min: its square in mm/s overflowed to infinity
+BEYOND = HEAD + "G1 X10\nG2 X20 R5\nG5 I2 J2 P-2 Q2 X30 Y0\nG1 X40 Y5\nM2\n"
+
+
+def _cycle_s(args: list[str], capsys) -> float:
+    assert main(args) == 0
+    out, err = capsys.readouterr()
+    assert err == ""
+    return json.loads(out)["duration_s" if args[0] == "plan" else "cycle_time_s"]
+
+
+def test_a_feed_beyond_any_axis_is_planned_at_the_axes_speeds(
+    write_program, tmp_path, capsys, recwarn
+):
+    """A feed no axis reaches (a program's F of 160 digits, a feed override of 1e308 %) plans
+    and runs as a feed just above the axes' speeds does: no overflow, no warning."""
+    huge, fast = (write_program(BEYOND.replace("F600", f"F{f}")) for f in (HUGE_FEED, "100000"))
+    assert _cycle_s(["plan", str(huge)], capsys) == _cycle_s(["plan", str(fast)], capsys)
+    run = ["--out", str(tmp_path / "out"), "--no-plots", "--no-trace", "--json"]
+    at_top = _cycle_s(["run", str(fast), *run], capsys)
+    assert _cycle_s(["run", str(huge), *run], capsys) == at_top
+    slow = write_program(BEYOND)  # F600, at 1e308 % and at 1e5 % (F 600,000 mm/min)
+    assert _cycle_s(["run", str(slow), *run, "--feed-override", "1e308"], capsys) == at_top
+    assert _cycle_s(["run", str(slow), *run, "--feed-override", "1e5"], capsys) == at_top
+    assert not [w for w in recwarn if issubclass(w.category, RuntimeWarning)]

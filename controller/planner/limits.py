@@ -26,6 +26,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from gantry_sim.controller.config import Limits
+from gantry_sim.controller.units import mm_per_min_to_mm_per_s
 
 #: Fractions of the curvature speed caps tried, and shares of the jerk left by the centripetal
 #: term given to the tangential acceleration's 3 v a_t / R term (see :func:`arc_limits`).
@@ -53,6 +54,18 @@ class BlockLimits:
     cap_mm_per_s: float
     acc_mm_per_s2: float
     jerk_mm_per_s3: float
+
+
+#: the highest path feed planned [mm/s]: a feed above it (``F`` of 160 digits, or a feed
+#: override of 1e308 %) is this one. No axis reaches it, so it changes no plan, and its
+#: square stays a finite number (the feed checks square it).
+MAX_PATH_FEED_MM_PER_S = 1e9
+
+
+def path_feed_mm_per_s(feed_mm_per_min: float, feed_scale: float) -> float:
+    """A feed move's path-speed cap [mm/s]: its programmed feed [mm/min] times the feed
+    override ``feed_scale`` (1: 100 %), at most :data:`MAX_PATH_FEED_MM_PER_S`."""
+    return min(mm_per_min_to_mm_per_s(feed_mm_per_min) * feed_scale, MAX_PATH_FEED_MM_PER_S)
 
 
 def straight_limits(

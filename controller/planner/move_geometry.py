@@ -35,6 +35,7 @@ from gantry_sim.controller.planner.limits import (
     BlockLimits,
     FollowGeometry,
     arc_limits_many,
+    path_feed_mm_per_s,
 )
 from gantry_sim.controller.planner.segment import segment_arc, segment_arcs
 from gantry_sim.controller.planner.spline_geometry import (
@@ -48,7 +49,6 @@ from gantry_sim.controller.planner.transition_geometry import (
     transition_end_frames_many,
     transition_vertices_many,
 )
-from gantry_sim.controller.units import mm_per_min_to_mm_per_s
 
 #: The closed-form arc pieces (:mod:`gantry_sim.controller.planner.jerk3`) overshoot the vertex speed by about
 #: 5e-4 * phi^4 (phi: chord sweep [rad]); the arc's speed cap keeps twice that below the feed.
@@ -268,7 +268,7 @@ def _straight_geometries(
             for per_axis in limits.per_axis()
         )
     feed = [
-        math.inf if isinstance(m, Rapid) else mm_per_min_to_mm_per_s(m.feed_mm_per_min) * feed_scale
+        math.inf if isinstance(m, Rapid) else path_feed_mm_per_s(m.feed_mm_per_min, feed_scale)
         for m in moves
     ]
     cap = np.where(cap < feed, cap, feed)  # min(feed, cap)
@@ -336,7 +336,7 @@ def _arc_geometry(
     plane_share = None
     if spiral and rise > 0:
         plane_share = math.sqrt(max(0.0, 1.0 - (rise / max(speed_in, speed_out)) ** 2))
-    feed = mm_per_min_to_mm_per_s(move.feed_mm_per_min) * feed_scale
+    feed = path_feed_mm_per_s(move.feed_mm_per_min, feed_scale)
     follow = FollowGeometry(
         PLANE_AXES[move.plane],
         min(sin_pitch, 1.0),
@@ -360,7 +360,7 @@ def _spline_geometry(move: Spline, seg: Segmentation, feed_scale: float) -> ArcG
     t_in, k_in, t_out, k_out = curve.end_frames
     length = curve.length_mm
     curvature, dcurv = curvature_bounds(move, n)
-    feed = mm_per_min_to_mm_per_s(move.feed_mm_per_min) * feed_scale
+    feed = path_feed_mm_per_s(move.feed_mm_per_min, feed_scale)
     sweep = curvature * length / n  # the most a chord turns [rad]
     follow = FollowGeometry(
         (0, 1, 2),
@@ -384,7 +384,7 @@ def _transition_geometry(
     t_in, k_in, t_out, k_out = frames
     length = curve.length_mm
     curvature, dcurv = curve.bounds
-    feed = mm_per_min_to_mm_per_s(move.feed_mm_per_min) * feed_scale
+    feed = path_feed_mm_per_s(move.feed_mm_per_min, feed_scale)
     sweep = curvature * curve.speed_max / n  # the most a chord turns [rad]
     follow = FollowGeometry(
         PLANE_AXES[move.plane],

@@ -51,11 +51,10 @@ from gantry_sim.controller.config import Limits, Segmentation
 from gantry_sim.controller.errors import PlanningError
 from gantry_sim.controller.moves import Spline
 from gantry_sim.controller.nurbs import split_bspline
-from gantry_sim.controller.planner.limits import s_curve_time
+from gantry_sim.controller.planner.limits import path_feed_mm_per_s, s_curve_time
 from gantry_sim.controller.planner.lookahead import max_reachable_speed
 from gantry_sim.controller.planner.segment import spline_segment_count
 from gantry_sim.controller.planner.spline_geometry import arc_length_derivatives, curvature_bounds
-from gantry_sim.controller.units import mm_per_min_to_mm_per_s
 
 __all__ = ["split_slow_parts"]
 
@@ -229,7 +228,7 @@ def _plane_limits(move: Spline, limits: Limits, feed_scale: float) -> tuple[floa
     """(speed cap [mm/s]: the feed under the override and the X and Y velocity limits;
     acceleration [mm/s^2]; jerk [mm/s^3]): the smaller limits of X and Y, the splines' plane."""
     vmax, amax, jmax = limits.per_axis()
-    feed = mm_per_min_to_mm_per_s(move.feed_mm_per_min) * feed_scale
+    feed = path_feed_mm_per_s(move.feed_mm_per_min, feed_scale)
     return min(feed, vmax[0], vmax[1]), min(amax[0], amax[1]), min(jmax[0], jmax[1])
 
 

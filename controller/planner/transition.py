@@ -92,7 +92,7 @@ from gantry_sim.controller.moves import Arc, Linear, Transition
 from gantry_sim.controller.planes import PLANE_AXES, Plane
 from gantry_sim.controller.planner.corner_blend import ARC_CORNER_MIN_RAD, in_plane
 from gantry_sim.controller.planner.junctions import junction_cap
-from gantry_sim.controller.planner.limits import curvature_speed_cap
+from gantry_sim.controller.planner.limits import curvature_speed_cap, path_feed_mm_per_s
 from gantry_sim.controller.planner.segment import segment_count
 from gantry_sim.controller.quintic_curve import (
     BOUND_SAMPLES,
@@ -103,7 +103,6 @@ from gantry_sim.controller.quintic_curve import (
     nearest_parameters,
     power_coefficients,
 )
-from gantry_sim.controller.units import mm_per_min_to_mm_per_s
 
 #: Share of the plane's jerk the transition's curvature change may take at the target speed.
 JERK_SHARE = 0.25
@@ -424,8 +423,9 @@ class _Batch:
             lim.append((min(vmax[i1], vmax[i2]), min(amax[i1], amax[i2]), min(jmax[i1], jmax[i2])))
         self.plane_limits = np.array(lim, dtype=float).reshape(len(sites), 3)
         feed = [
-            mm_per_min_to_mm_per_s(min(s.first.feed_mm_per_min, s.second.feed_mm_per_min))
-            * machine.feed_scale
+            path_feed_mm_per_s(
+                min(s.first.feed_mm_per_min, s.second.feed_mm_per_min), machine.feed_scale
+            )
             for s in sites
         ]
         self.feed = np.minimum(np.array(feed, dtype=float), self.plane_limits[:, 0])
@@ -588,7 +588,7 @@ def move_speed_cap(m: Linear | Arc, machine: TransitionMachine) -> float:
     axis speeds along it; an arc also its curvature caps v^2/R and v^3/R^2 against its plane's
     acceleration and jerk (at :data:`CAP_MARGIN`, with its smaller radius)."""
     vmax, amax, jmax = machine.limits.per_axis()
-    feed = mm_per_min_to_mm_per_s(m.feed_mm_per_min) * machine.feed_scale
+    feed = path_feed_mm_per_s(m.feed_mm_per_min, machine.feed_scale)
     if isinstance(m, Linear):
         d = np.subtract(m.end, m.start) / m.length_mm
         return min([feed] + [v / abs(x) for v, x in zip(vmax, d.tolist(), strict=True) if x])
