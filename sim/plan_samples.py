@@ -28,8 +28,9 @@ RANGE_SAMPLES = 262_144
 
 def write_samples_npz(path: Path, plan: Any, period_s: float) -> None:
     """Write ``plan``'s reference sampled every ``period_s`` [s] to ``path`` atomically
-    (:func:`gantry_sim.sim.outdir.atomic_file`): the arrays t, pos, vel, acc, line and, where
-    the samples have source moves, feed_mm_per_min (``Plan.feeds_mm_per_min``)."""
+    (:func:`gantry_sim.sim.outdir.atomic_file`): the arrays t, pos, vel, acc, line and
+    feed_mm_per_min (``Plan.feeds_mm_per_min``; NaN where no feed bounds a sample, such as a
+    program without moves)."""
     n = plan.sample_count(period_s)
     members: dict[str, DeflatedMember] = {}
     try:
@@ -37,8 +38,11 @@ def write_samples_npz(path: Path, plan: Any, period_s: float) -> None:
             for k0 in range(0, n, RANGE_SAMPLES):
                 tr = plan.sample_range(period_s, k0, k0 + RANGE_SAMPLES)
                 arrays = tr.to_npz_dict()
-                if tr.source is not None:
-                    arrays["feed_mm_per_min"] = plan.feeds_mm_per_min(tr.source)
+                arrays["feed_mm_per_min"] = (
+                    np.full(len(arrays["t"]), np.nan)  # no move: no feed bounds the samples
+                    if tr.source is None
+                    else plan.feeds_mm_per_min(tr.source)
+                )
                 for name, a in arrays.items():
                     if name not in members:
                         members[name] = npy_member(name, (n, *a.shape[1:]), a.dtype)

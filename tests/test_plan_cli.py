@@ -72,6 +72,16 @@ def test_the_npz_gives_each_sample_the_feed_that_bounds_its_speed(write_program,
     assert corner.any() and (data["line"] == 4).sum() > corner.sum()
 
 
+def test_a_program_without_moves_has_every_array_too(write_program, tmp_path):
+    # nothing moves (a program of parameters only): the file has the arrays of any plan (a
+    # checker reading feed_mm_per_min found none)
+    out = tmp_path / "traj.npz"
+    assert main(["plan", str(write_program("G21 G90\n#1 = 5\nM2\n")), "--out", str(out)]) == 0
+    data = np.load(out)
+    assert data.files == ["t", "pos", "vel", "acc", "line", "feed_mm_per_min"]
+    assert data["t"].tolist() == [0.0] and np.isnan(data["feed_mm_per_min"]).all()
+
+
 def test_the_npz_is_written_range_by_range_with_the_same_arrays(
     write_program, tmp_path, machine, monkeypatch
 ):
