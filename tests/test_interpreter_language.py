@@ -79,6 +79,13 @@ def test_bare_cr_is_a_line_end() -> None:
     assert error_of("G0 X1\rG0 G1 X2\rM2").line == 2
 
 
+def test_cr_cr_lf_is_one_line_end() -> None:
+    # line ends converted twice (a PyCAM file): LinuxCNC, editors and grep count one line each
+    assert [m.line for m in parse_program("G0 X1\r\r\nG0 X2\r\r\nG0 X3\r\r\nM2\r\r\n")] == [1, 2, 3]
+    assert error_of("G21\r\r\nG0 X1\r\r\nG0 G1 X2\r\r\nM2\r\r\n").line == 3
+    assert [m.line for m in parse_program("G0 X1\r\rG0 X2\nM2\n")] == [1, 3]  # bare CRs: two
+
+
 # issue 15 #15: a UTF-8 byte order mark opens the file ---------------------------------------
 def test_utf8_bom_is_accepted(tmp_path) -> None:
     from gantry_sim.sim.cli import main

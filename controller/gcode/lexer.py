@@ -36,7 +36,10 @@ O_KEYWORDS = (
     "WHILE", "BREAK", "ELSE", "CALL", "SUB", "DO", "IF",
 )
 # fmt: on
-_LINE_END = re.compile(r"\r\n|\r|\n")
+#: a line ends at LF, at CRs then LF (CR LF, and the CR CR LF of a file whose line ends were
+#: converted twice: LinuxCNC counts that as one line end, and so do editors and grep), or at a
+#: bare CR
+_LINE_END = re.compile(r"\r*\n|\r")
 #: what strip_line drops outside comments
 _BLANKS = str.maketrans("", "", " \t\r")
 #: grbl's realtime characters (status, cycle start, feed hold, reset) and every character
@@ -360,7 +363,7 @@ def _oword(reader: Reader) -> OWord | None:
 
 
 def split_lines(text: str) -> list[str]:
-    """The source lines: a leading BOM dropped, split at LF, CR LF or a bare CR."""
+    """The source lines: a leading BOM dropped, split at LF, CRs then LF, or a bare CR."""
     lines = _LINE_END.split(text.removeprefix("\ufeff"))
     if lines and lines[-1] == "":
         lines.pop()

@@ -19,6 +19,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from gantry_sim.controller.errors import GcodeError
+from gantry_sim.controller.gcode.lexer import split_lines
 
 _WORD = re.compile(r"([A-Z])\s*([-+]?(?:\d+\.?\d*|\.\d+))")
 
@@ -44,7 +45,7 @@ def parse_tool_table(
 ) -> dict[int, Tool]:
     """``tool.tbl`` text -> tools by number; GcodeError (file, line) on a bad line."""
     tools: dict[int, Tool] = {}
-    for k, raw in enumerate(text.splitlines(), 1):
+    for k, raw in enumerate(split_lines(text), 1):  # lines counted as a program's
         body = raw.split(";", 1)[0].strip().upper()
         if not body:
             continue
