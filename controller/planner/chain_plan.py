@@ -317,8 +317,8 @@ def _plan_chain(
     of the feed passed it by up to 0.8 %, and 44 junctions were backed off over 16 rounds).
     A chain with a moving end keeps its acceleration and jerk: its end speeds may need all of
     them. ``prep`` and ``pre``: the chain's preparation for ``lim`` and the closed-form pieces
-    of its arcs' first candidates, by arc, where already made (not a large arc's); ``pre_loose``: loose tries of those, by
-    arc and ends."""
+    of its arcs' first candidates, by arc, where already made (not a large arc's);
+    ``pre_loose``: loose tries of those, by arc and ends."""
     floor = max(float(speeds[first]), float(speeds[stop]))
     ramp = 1.0 if floor > 0.0 else SLOWER_RAMP  # a moving end may need every bit of the ramp
     for _ in range(SLOWER_TRIES):
