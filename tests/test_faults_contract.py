@@ -200,6 +200,15 @@ def test_far_beyond_the_bound_is_refused_before_planning(tmp_path, capsys, no_pl
             + "M2\n",
             "linuxcnc",
         ),
+        # arcs capped by their curvature (|a| >= v^2 k): small circles, helices in G18 and
+        # a steep one, an arc between lines in G19
+        (
+            "G21 G90 G17 F3000\nG0 X0.05 Y0\n" + "G2 X0.05 Y0 I-0.05 J0 P3\n" * 3 + "M2\n",
+            "linuxcnc",
+        ),
+        ("G21 G90 G18 F6000\nG0 X1 Z0\nG2 X1 Z0 I-1 K0 Y-2 P4\nM2\n", "linuxcnc"),
+        ("G21 G90 G17 F6000\nG0 X0.2 Y0\nG3 X0.2 Y0 I-0.2 J0 Z-20 P2\nM2\n", "linuxcnc"),
+        ("G21 G90 G19 G64 P0.01 F4000\nG0 Y0 Z0\nG1 Y5\nG2 Y7 Z2 J0 K2\nG1 Z6\nM2\n", "linuxcnc"),
         # the same with Q: naive-CAM runs count for nothing
         (
             "G21 G90 G64 P0.01 Q0.01\n"
@@ -239,6 +248,20 @@ def test_reversals_bound_each_move_by_a_rest_to_rest_run(machine):
     bound, _, _ = duration_lower_bound(list(interpret_events(square)), machine)
     speed = math.hypot(*machine.limits.max_velocity_mm_per_s)
     assert bound == pytest.approx(rest_to_rest_s(100.0, speed, acc))
+
+
+def test_small_circles_are_refused_before_planning(tmp_path, capsys, no_planning):  # type: ignore[no-untyped-def]
+    """10,000 circles of R 0.05 mm, 100 turns each: 15.8 million chords and 53,901 s of
+    motion, which at F3000 looked like 1,000 s. Planned for 194 s at 11 GB before the run
+    refused them; their curvature bounds them at 19,948 s before planning."""
+    prog = tmp_path / "tiny.ngc"
+    prog.write_text(
+        "G21 G90 G17 F3000\nG0 X0.05 Y0\n" + "G2 X0.05 Y0 I-0.05 J0 P100\n" * 10000 + "M2\n"
+    )
+    out = tmp_path / "o"
+    assert main(["run", str(prog), "--out", str(out), "--no-plots"]) == 2
+    err = capsys.readouterr().err
+    assert "takes at least 19948" in err and err.count("\n") == 1
 
 
 @pytest.mark.parametrize(
