@@ -175,20 +175,23 @@ def _curvature_time_s(
     k = R / (R^2 + c^2), and |a| <= ``acc_mm_per_s2`` (the norm of the axes' limits), so
     v <= sqrt(acc / k). Counted on the arc less a quarter turn at each end, where a G64
     blend or transition may replace it, and only where the arc cannot be cut across within
-    the blend tolerance (R > 2 ``tolerance_mm``); a spiral (its end off its radius) gets none.
-    (10,000 circles of R 0.05 mm and 100 turns each were planned for 194 s at 11 GB before a
-    run refused their 53,901 s; they are now refused first.)"""
-    from gantry_sim.controller.planes import PLANE_AXES
-
-    r = arc.radius
-    i, j, n = PLANE_AXES[arc.plane]
-    end_r = math.hypot(arc.end[i] - arc.center[i], arc.end[j] - arc.center[j])
-    if not math.isfinite(acc_mm_per_s2) or abs(end_r - r) > 1e-9 * r or r <= 2 * tolerance_mm:
-        return 0.0
+    the blend tolerance (R > 2 ``tolerance_mm``); a spiral (the planner's
+    :func:`~gantry_sim.controller.arcs.is_spiral`) gets none, and an arc within its rounding
+    of a circle the smaller curvature of its two radii. (10,000 circles of R 0.05 mm and 100
+    turns each were planned for 194 s at 11 GB before a run refused their 53,901 s; they are
+    now refused first.)"""
     middle = length_mm * max(0.0, arc.angle - math.pi) / arc.angle
-    rise = (arc.end[n] - arc.start[n]) / arc.angle  # [mm/rad]
-    cap = math.sqrt(acc_mm_per_s2 * (r * r + rise * rise) / r)
-    if middle <= 0.0 or not cap < speed_mm_per_s:
+    if middle <= 0.0 or not math.isfinite(acc_mm_per_s2) or arc.radius <= 2 * tolerance_mm:
+        return 0.0  # (most arcs of CAM output turn by less than half a turn)
+    from gantry_sim.controller.arcs import arc_frame, is_spiral
+
+    if is_spiral(arc):
+        return 0.0
+    f = arc_frame(arc)
+    rise = (f.h1_mm - f.h0_mm) / arc.angle  # [mm/rad]
+    curvature = min(r / (r * r + rise * rise) for r in (f.r0_mm, f.r1_mm))
+    cap = math.sqrt(acc_mm_per_s2 / curvature)
+    if not cap < speed_mm_per_s:
         return 0.0
     return middle / cap - middle / speed_mm_per_s
 
