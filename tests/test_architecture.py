@@ -4,6 +4,7 @@ the controller testable without MuJoCo, and the import graph a tree a reader can
 from __future__ import annotations
 
 import ast
+import functools
 import subprocess
 import sys
 import tomllib
@@ -30,8 +31,10 @@ def _sources() -> list[Path]:
     return sorted(p for d in PACKAGES for p in (ROOT / d).rglob("*.py"))
 
 
-def _imports(path: Path) -> set[str]:
-    """Every module ``path`` imports, anywhere in the file (type-only imports included)."""
+@functools.cache
+def _imports(path: Path) -> frozenset[str]:
+    """Every module ``path`` imports, anywhere in the file (type-only imports included); each
+    file is parsed once for all the rules."""
     tree = ast.parse(path.read_text(), filename=str(path))
     names: set[str] = set()
     for node in ast.walk(tree):
@@ -40,7 +43,7 @@ def _imports(path: Path) -> set[str]:
         elif isinstance(node, ast.ImportFrom) and node.module and node.level == 0:
             names.add(node.module)
             names.update(f"{node.module}.{alias.name}" for alias in node.names)
-    return names
+    return frozenset(names)
 
 
 def _tops(path: Path) -> set[str]:

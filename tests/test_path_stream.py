@@ -3,12 +3,14 @@ moves, stops, dwells, smoothing budgets, sources, blends and merges, whatever th
 
 from __future__ import annotations
 
+import functools
 import math
 
 import pytest
 
 from gantry_sim.controller.config import load_machine_config
 from gantry_sim.controller.gcode.interpreter import interpret_events
+from gantry_sim.controller.planner.blend import PathPlan
 from gantry_sim.controller.planner.path_stream import path_plan
 from gantry_sim.models import DEFAULT_MACHINE
 
@@ -47,16 +49,26 @@ def _program() -> str:
     return "\n".join(out) + "\n"
 
 
+@functools.cache
+def _made_whole() -> tuple[PathPlan, PathPlan, frozenset[int]]:
+    """The program's path made in one stretch, and again with every fifth blend skipped (the
+    junctions skipped): made once for all the stretch sizes compared with them."""
+    machine = load_machine_config(DEFAULT_MACHINE)
+    items = tuple(interpret_events(_program()))
+    tol = machine.segmentation.chord_tolerance_mm
+    whole = path_plan(items, machine.path, tol, stretch_moves=10**6)
+    skip = frozenset(list(whole.blend_junction.values())[::5])
+    return whole, path_plan(items, machine.path, tol, skip, stretch_moves=10**6), skip
+
+
 @pytest.mark.parametrize("stretch", [1, 2, 3, 5, 8, 13, 64])
 def test_a_path_made_in_stretches_is_the_path_made_whole(stretch):
     machine = load_machine_config(DEFAULT_MACHINE)
     items = tuple(interpret_events(_program()))
     tol = machine.segmentation.chord_tolerance_mm
-    whole = path_plan(items, machine.path, tol, stretch_moves=10**6)
+    whole, skipped, skip = _made_whole()
     assert len(whole.blends) > 50 and len(whole.merges) >= 2 and len(whole.holds) >= 3
-    skip = frozenset(list(whole.blend_junction.values())[::5])
-    for s in (frozenset(), skip):
-        a = path_plan(items, machine.path, tol, s, stretch_moves=10**6)
+    for s, a in ((frozenset(), whole), (skip, skipped)):
         b = path_plan(items, machine.path, tol, s, stretch_moves=stretch)
         assert list(b.moves) == list(a.moves)
         assert b.stop_after == a.stop_after and b.holds == a.holds

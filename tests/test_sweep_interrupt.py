@@ -16,9 +16,10 @@ from pathlib import Path
 import pytest
 from test_faults_sweep import _children, _gone
 
-# 240 s simulated at 100 %: the 200 % and 150 % points take about 1-3 s of computing each, the
-# 60 % points about 3-8 s (idle or loaded machine), so the slow pair is running when Ctrl-C comes.
-PROGRAM = "G21 G90\nG0 X-200\nG1 X200 F100\nM2\n"
+# 96 s simulated at 100 %: the 60 % points simulate 160 s, at least 1 s of computing after the
+# quick pair (48 and 64 s) on a fast machine and about 2-4 s on a loaded one, so the slow pair is
+# running when Ctrl-C comes; the rerun computes them again, so they are kept no longer.
+PROGRAM = "G21 G90\nG0 X-80\nG1 X80 F100\nM2\n"
 GRID = "200,150,60,61"
 
 
