@@ -32,7 +32,7 @@ window_cut = importlib.import_module("gantry_sim.controller.planner.window_cut")
 
 
 def _plan(moves, machine, window: int):
-    plan_module.WINDOW_MOVES = window_cut.WINDOW_MOVES = window
+    window_cut.WINDOW_MOVES = window
     t0 = time.perf_counter()
     p = plan_module.plan(moves, machine)
     return p, time.perf_counter() - t0

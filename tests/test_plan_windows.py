@@ -6,7 +6,6 @@ the plan of each is compared with the same program planned whole, number for num
 
 from __future__ import annotations
 
-import importlib
 import math
 import random
 import sys
@@ -31,9 +30,6 @@ from gantry_sim.controller.planner import (
 from gantry_sim.controller.planner.prepare import sub_path
 from gantry_sim.models import DEFAULT_MACHINE
 from tests.plan_helpers import count_fork_map_parts
-
-# the module, not the function the package re-exports under the same name
-plan_module = importlib.import_module("gantry_sim.controller.planner.plan")
 
 
 def _program() -> str:
@@ -81,7 +77,6 @@ def _whole_and_windowed(text: str, monkeypatch, window: int, margin: int):
 
     monkeypatch.setattr(windows, "settle_chains", counted)
     monkeypatch.setattr(window_cut, "WINDOW_MOVES", window)
-    monkeypatch.setattr(plan_module, "WINDOW_MOVES", window)
     monkeypatch.setattr(window_cut, "MARGIN_MOVES", margin)
     # small blocks: the windows' reference goes to the temporary file, and a window sent back
     # takes back blocks written there
@@ -181,6 +176,63 @@ def test_a_chain_longer_than_the_window_widens_it_to_the_chain(monkeypatch):
     whole, windowed, probes = _whole_and_windowed(text, monkeypatch, 16, 4)
     assert max(probes) >= 80, probes
     _assert_same(whole, windowed)
+
+
+def _circles_program() -> str:
+    """Full circles of R 5 (158 chords each at the bundled 1 um), each after a short line, in
+    G64 P0.01: few moves, many chords."""
+    out = ["G21 G90 G17 G64 P0.01", "G0 X-100 Y0 Z-1", "F3000"]
+    for k in range(24):
+        x = -100.0 + 12.0 * (k + 1)
+        out += [f"G1 X{x:.4f} Y0", f"G2 X{x:.4f} Y0 I5 J0"]
+    return "\n".join([*out, "G0 Z5", "M2"]) + "\n"
+
+
+def test_a_window_holds_the_moves_whose_chords_fit_its_budget(monkeypatch):
+    """Arcs of many chords fill a window before its moves do: each probe (but one sent back
+    wider) holds at most WINDOW_CHORDS chords past its first move, a window cut short keeps a
+    quarter of its moves as margin, and the plan is the whole program's, number for number."""
+    events = tuple(interpret_events(_circles_program()))
+    machine = load_machine_config(DEFAULT_MACHINE)
+    whole = plan(events, machine)
+    seg = machine.segmentation
+    chords = [window_cut.chord_count(m, seg) for m in whole.path_moves]
+    assert sum(chords) > 3_000 and max(chords) == 158
+    probes: list[tuple[int, int]] = []  # (first path move, moves) of each probe
+    real = windows.window_of
+
+    def counted(src, base, hi, context, *args, **kwargs):
+        probes.append((base + context, hi - base - context))
+        return real(src, base, hi, context, *args, **kwargs)
+
+    monkeypatch.setattr(windows, "window_of", counted)
+    monkeypatch.setattr(window_cut, "WINDOW_CHORDS", 1_000)
+    monkeypatch.setenv("GANTRY_PLAN_WORKERS", "1")  # every window prepared here, counted
+    windowed = plan(events, machine)
+    assert len(probes) >= 4, probes
+    for lo, size in probes[:-1]:
+        held = sum(chords[lo : lo + size])
+        assert held - chords[lo] <= 1_000 < held + chords[lo + size], (lo, size, held)
+    _assert_same(whole, windowed)
+
+
+def test_window_stop_counts_chords_and_grows_with_the_window():
+    """window_stop: the moves before the first one past the chord budget (one at least); a
+    window sent back twice as wide gets twice the budget; lines count one chord."""
+    machine = load_machine_config(DEFAULT_MACHINE)
+    seg = machine.segmentation
+    moves = [m for m in interpret_events(_circles_program()) if hasattr(m, "end")]
+    circles = [k for k, m in enumerate(moves) if window_cut.chord_count(m, seg) > 1]
+    assert [window_cut.chord_count(moves[k], seg) for k in circles[:2]] == [158, 158]
+    first = circles[0]
+    with pytest.MonkeyPatch.context() as mp:
+        mp.setattr(window_cut, "WINDOW_CHORDS", 300)
+        assert window_cut.window_stop(moves, first, 5_000, seg) == first + 2  # 158 + 1 + 158 > 300
+        assert window_cut.window_stop(moves, first, 10_000, seg) == first + 6  # 635 > 600
+        mp.setattr(window_cut, "WINDOW_CHORDS", 10)
+        assert window_cut.window_stop(moves, first, 5_000, seg) == first + 1  # one move at least
+        assert window_cut.window_stop(moves, len(moves) - 1, 5_000, seg) == len(moves)
+    assert window_cut.window_stop(moves, 0, 5_000, seg) == len(moves)  # all 3,818 chords fit
 
 
 def _pocket_program() -> str:
@@ -556,7 +608,6 @@ def test_a_long_plan_reports_its_progress_window_by_window(monkeypatch):
     events = tuple(interpret_events(_program()))
     machine = load_machine_config(DEFAULT_MACHINE)
     monkeypatch.setattr(window_cut, "WINDOW_MOVES", 40)
-    monkeypatch.setattr(plan_module, "WINDOW_MOVES", 40)
     monkeypatch.setattr(window_cut, "MARGIN_MOVES", 8)
     steps: list[int] = []
     planned = plan(events, machine, advance=steps.append)

@@ -43,6 +43,7 @@ from gantry_sim.controller.forked_runs import MAX_RUNS, fork_runs
 from gantry_sim.controller.gc_pause import gc_paused
 from gantry_sim.controller.heap import trim_heap
 from gantry_sim.controller.moves import Arc, Event, Linear, Move, Rapid, Spline
+from gantry_sim.controller.planner import window_cut
 from gantry_sim.controller.planner.blend import REFERENCE_SHARE, CornerMemo, PathPlan
 from gantry_sim.controller.planner.blend_types import Blend
 from gantry_sim.controller.planner.limit_events import (
@@ -60,7 +61,6 @@ from gantry_sim.controller.planner.ruckig_solver import RuckigSolver
 from gantry_sim.controller.planner.transition import TransitionMachine
 from gantry_sim.controller.planner.travel import check_travel
 from gantry_sim.controller.planner.vertices import ChordVertices
-from gantry_sim.controller.planner.window_cut import WINDOW_MOVES
 from gantry_sim.controller.planner.window_judge import JudgedPath
 from gantry_sim.controller.planner.windows import plan_path
 from gantry_sim.controller.spill import SpilledList
@@ -251,7 +251,8 @@ def _plan_part(
     path = made(frozenset())
     prepared = None
     remake: Callable[[frozenset[int]], PathPlan] | None = None
-    if len(path.moves) <= WINDOW_MOVES:  # planned whole: the geometry is made once
+    first = window_cut.window_stop(path.moves, 0, window_cut.WINDOW_MOVES, seg)
+    if first == len(path.moves):  # one window: planned whole, its geometry made once
         known: dict = {}
         prepared = prepare(path, machine, feed_override_pct, known)
         slow = slow_blends(path, prepared, jerk)

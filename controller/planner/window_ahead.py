@@ -151,7 +151,7 @@ class WindowsAhead:
         upto = src.upto if src.judging else None  # as the next window will judge
 
         def after(spans: list[tuple[int, int]], speeds: np.ndarray) -> Callable[[], object] | None:
-            cut = next_key(pre, base, spans, n, upto)
+            cut = next_key(pre, base, spans, src.window_stop, upto)
             if cut is None:
                 return None
             key, v_cut = cut[0], float(speeds[cut[1]])
@@ -204,7 +204,7 @@ class WindowsAhead:
         caps[0] = v_lo
         spans, speeds = first_speeds([g.limits for g in pre.active], caps)
         upto = max(src.upto, judged_to) if src.judging else None
-        cut = next_key(pre, key[0], spans, len(src.path.moves), upto)
+        cut = next_key(pre, key[0], spans, src.window_stop, upto)
         return None if cut is None else (cut[0], float(speeds[cut[1]]))
 
     def _start_next(

@@ -1,40 +1,58 @@
-"""Where a window of a long program is cut, and which window comes after it.
+"""Where a window of a long program ends and is cut, and which window comes after it.
 
-A probe planned over path moves [lo, hi) keeps its chains up to its last chain boundary of the
-first round that leaves at least :data:`MARGIN_MOVES` moves and :data:`MARGIN_BRAKING` braking
+A window of path moves [lo, hi) holds :data:`WINDOW_MOVES` moves, or fewer where their chords
+pass :data:`WINDOW_CHORDS` (:func:`window_stop`: planning's memory grows with the chords, and
+an arc of many turns has thousands). A probe planned over it keeps its chains up to its last
+chain boundary of the first round that leaves at least :data:`MARGIN_MOVES` moves (a quarter
+of the window's, in a window of fewer than four times that) and :data:`MARGIN_BRAKING` braking
 distances before hi (step 2 of :mod:`~gantry_sim.controller.planner.windows`); the next window
 starts there, with the move before it as context, and is known by its :data:`WindowKey`.
 
 The window's size and margins are read from this module only: a test or benchmark that plans
-in smaller windows sets them here (and ``plan.WINDOW_MOVES``, which decides whether a path is
-planned whole).
+in smaller windows sets them here (a path whose first window is the whole of it is planned
+whole: :func:`window_stop`).
 """
 
 from __future__ import annotations
 
 import math
+from collections.abc import Callable, Sequence
 
 import numpy as np
 
+from gantry_sim.controller.config import Segmentation
+from gantry_sim.controller.moves import Arc, Spline
 from gantry_sim.controller.planner.limits import BlockLimits
 from gantry_sim.controller.planner.move_geometry import MoveGeometry
 from gantry_sim.controller.planner.prepare import Prepared
 from gantry_sim.controller.planner.rounds import Settled
+from gantry_sim.controller.planner.segment import segment_count
 
 __all__ = [
     "MARGIN_BRAKING",
     "MARGIN_MOVES",
+    "WINDOW_CHORDS",
     "WINDOW_MOVES",
     "WindowKey",
+    "chord_count",
     "cut",
     "cut_at",
     "key_after",
     "next_key",
+    "window_stop",
 ]
 
 #: Path moves planned at a time (a path up to this long is planned whole): about 50 MB of
 #: planning's working set.
 WINDOW_MOVES = 5_000
+#: ... and chords (a straight move is one): planning holds about 0.2 KB a chord, so a window
+#: stays within about 500 MB in this process however many turns its arcs make (1,000 circles
+#: of R 0.05 and 100 turns, 1.6 million chords, are planned whole at 364 MB; 10,000 of them
+#: took 2.1 GB in windows of 5,000 moves, 1.1 GB in these). A window cut short costs the
+#: probe's margin planned again (half a million chords took 1.3-1.4 x as long on those 1,000
+#: circles). Moves of generated CAM programs have 1-30 chords: this binds only on arcs of
+#: hundreds of chords.
+WINDOW_CHORDS = 2_000_000
 #: Moves of a probe after the kept part, at least ...
 MARGIN_MOVES = 250
 #: ... and this many braking distances (from the probe's fastest speed cap to rest) [1].
@@ -64,9 +82,10 @@ def cut_at(active: list[MoveGeometry], spans: list[tuple[int, int]]) -> tuple[in
     behind = np.concatenate((np.cumsum(lengths[::-1])[::-1], [0.0]))  # path length to the end
     braking = np.array([braking_mm(g.limits) for g in active] + [0.0])
     needed = MARGIN_BRAKING * np.maximum.accumulate(braking[::-1])[::-1]  # from here on
+    margin = min(MARGIN_MOVES, len(active) // 4)  # a window cut short by its chords keeps 3/4
     for k in range(len(spans) - 1, 0, -1):
         first = spans[k][0]
-        if len(active) - first >= MARGIN_MOVES and behind[first] >= needed[first]:
+        if len(active) - first >= margin and behind[first] >= needed[first]:
             return k, first
     return None
 
@@ -83,21 +102,49 @@ def next_key(
     pre: Prepared,
     base: int,
     spans: list[tuple[int, int]],
-    n: int,
+    stop: Callable[[int, int], int],
     upto: int | None,
 ) -> tuple[WindowKey, int] | None:
     """The key of the window after the cut that ``spans`` give a window (path moves from
-    ``base``, prepared as ``pre``; the path has ``n`` moves) -- its first stretch move (the
-    context), its stop, True, and the move its judging starts from -- and the cut's active
-    move; None: no cut."""
+    ``base``, prepared as ``pre``; ``stop``: :func:`window_stop` on the path) -- its first
+    stretch move (the context), its stop, True, and the move its judging starts from -- and the
+    cut's active move; None: no cut."""
     at = cut_at(pre.active, spans)
     if at is None:
         return None
     c = at[1]
-    return key_after(base + pre.path_index[c - 1], base + pre.path_index[c], n, upto), c
+    return key_after(base + pre.path_index[c - 1], base + pre.path_index[c], stop, upto), c
 
 
-def key_after(ctx: int, lo: int, n: int, upto: int | None) -> WindowKey:
-    """The key of the window that starts at path move ``lo`` after its context ``ctx``, on a
-    path of ``n`` moves, judging its blends from ``upto``."""
-    return (ctx, min(n, lo + WINDOW_MOVES), True, upto)
+def key_after(ctx: int, lo: int, stop: Callable[[int, int], int], upto: int | None) -> WindowKey:
+    """The key of the window that starts at path move ``lo`` after its context ``ctx``
+    (``stop``: :func:`window_stop` on the path), judging its blends from ``upto``."""
+    return (ctx, stop(lo, WINDOW_MOVES), True, upto)
+
+
+def window_stop(moves: Sequence[object], lo: int, size: int, seg: Segmentation) -> int:
+    """Where a window of ``size`` path moves (:data:`WINDOW_MOVES`, or more for a window sent
+    back wider) starting at path move ``lo`` of ``moves`` stops: ``lo + size``, the path's
+    end, or the first move whose chords (:func:`chord_count`) take the window's past
+    :data:`WINDOW_CHORDS` x ``size`` / :data:`WINDOW_MOVES` (a window has one move at least)."""
+    hi = min(len(moves), lo + size)
+    budget = WINDOW_CHORDS * size / WINDOW_MOVES
+    total = 0
+    for k, move in enumerate(moves[lo:hi]):
+        total += chord_count(move, seg)
+        if total > budget and k > 0:
+            return lo + k
+    return hi
+
+
+def chord_count(move: object, seg: Segmentation) -> int:
+    """The chords of a path move as the planner segments it: an arc's by ``seg``; a spline's
+    where this copy of it was counted already (the count is a search, made when the window is
+    prepared; 1 otherwise); a straight move or a G2 transition (a few chords within one
+    junction's tolerance) 1."""
+    if isinstance(move, Arc):
+        return segment_count(move, seg.method, seg.chord_tolerance_mm, seg.segment_length_mm)
+    if isinstance(move, Spline):
+        key = (seg.method, seg.chord_tolerance_mm, seg.segment_length_mm)
+        return int(move.curve.chord_counts.get(key, 1))
+    return 1

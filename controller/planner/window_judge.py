@@ -27,6 +27,7 @@ from gantry_sim.controller.config import MachineConfig
 from gantry_sim.controller.forked import fork_map, process_count
 from gantry_sim.controller.planner.blend import PathPlan
 from gantry_sim.controller.planner.prepare import Prepared, prepare, slow_blends, sub_path
+from gantry_sim.controller.planner.window_cut import window_stop
 
 __all__ = ["BLEND_CONTEXT", "JUDGE_MOVES", "JudgedPath", "blends_to_skip", "judge_stretch"]
 
@@ -112,6 +113,16 @@ class JudgedPath:
         self._machine = machine
         self._feed = feed_override_pct
         self._jerk = float(min(machine.limits.max_jerk_mm_per_s3))
+        self._stops: dict[tuple[int, int], int] = {}  # window_stop's, of this path
+
+    def window_stop(self, lo: int, size: int) -> int:
+        """Where the window of ``size`` moves from path move ``lo`` stops
+        (:func:`~gantry_sim.controller.planner.window_cut.window_stop`), counted once."""
+        stop = self._stops.get((lo, size))
+        if stop is None:
+            seg = self._machine.segmentation
+            stop = self._stops[lo, size] = window_stop(self.path.moves, lo, size, seg)
+        return stop
 
     @property
     def judging(self) -> bool:
@@ -145,3 +156,4 @@ class JudgedPath:
         del self.path  # the old path freed before the new one is made
         self.path = remake(slow)
         self._remake = None
+        self._stops.clear()

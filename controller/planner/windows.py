@@ -155,7 +155,7 @@ def _plan_windows(
         lo, ctx, starts = start
         v_lo = starts[0]  # (its first round's)
         n = len(src.path.moves)
-        hi = min(n, lo + size)
+        hi = src.window_stop(lo, size)
         seed: Mapping[SeedKey, Chain] = {}
         if prepared is not None and lo == 0 and hi == n:
             pre, arcs, base = prepared, blend_arcs(src.path, prepared), 0
@@ -222,7 +222,8 @@ def _plan_windows(
         if progress is not None:
             progress(start.lo / n)
         size = window_cut.WINDOW_MOVES
-        following = window_cut.key_after(start.ctx, start.lo, n, src.upto if src.judging else None)
+        upto = src.upto if src.judging else None
+        following = window_cut.key_after(start.ctx, start.lo, src.window_stop, upto)
         ahead.prepare_beyond(src, following, start.starts[0], machine, feed_override_pct)
         del settled, pre, caps, arcs, window
 
