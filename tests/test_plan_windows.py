@@ -27,6 +27,7 @@ from gantry_sim.controller.planner import (
     window_prep,
     windows,
 )
+from gantry_sim.controller.planner.path_stream import path_plan
 from gantry_sim.controller.planner.prepare import sub_path
 from gantry_sim.models import DEFAULT_MACHINE
 from tests.plan_helpers import count_fork_map_parts
@@ -214,6 +215,37 @@ def test_a_window_holds_the_moves_whose_chords_fit_its_budget(monkeypatch):
         held = sum(chords[lo : lo + size])
         assert held - chords[lo] <= 1_000 < held + chords[lo + size], (lo, size, held)
     _assert_same(whole, windowed)
+
+
+def test_blends_are_judged_in_stretches_whose_chords_fit_a_window(monkeypatch):
+    """blends_to_skip judges a long path's blends in stretches from a blend on, bounded by
+    chords as the windows are: the slow blends found are those of stretches of moves alone."""
+    machine = load_machine_config(DEFAULT_MACHINE)
+    seg = machine.segmentation
+    path = path_plan(
+        tuple(interpret_events(_circles_program())), machine.path, seg.chord_tolerance_mm
+    )
+    assert len(path.blend_junction) >= 40  # the corners into and out of every circle
+    spans: list[tuple[int, int]] = []
+    real = window_judge.judge_stretch
+
+    def spy(path, lo, hi, *args):
+        spans.append((lo, hi))
+        return real(path, lo, hi, *args)
+
+    monkeypatch.setattr(window_judge, "judge_stretch", spy)
+    monkeypatch.setenv("GANTRY_PLAN_WORKERS", "1")  # judged here, spied
+    by_moves = window_judge.blends_to_skip(path, machine, 100.0)
+    assert len(spans) == 1
+    spans.clear()
+    monkeypatch.setattr(window_cut, "WINDOW_CHORDS", 1_000)
+    assert window_judge.blends_to_skip(path, machine, 100.0) == by_moves
+    assert len(spans) >= 4 and spans[-1][1] == len(path.moves)
+    chords = [window_cut.chord_count(m, seg) for m in path.moves]
+    blends = {k for k in path.blend_junction}
+    for (lo, hi), (nxt, _) in zip(spans, [*spans[1:], (len(path.moves), 0)], strict=True):
+        assert lo in blends and sum(chords[lo + 1 : hi]) <= 1_000 and hi <= nxt
+        assert not blends & set(range(hi, nxt))  # every blend in a stretch
 
 
 def test_window_stop_counts_chords_and_grows_with_the_window():

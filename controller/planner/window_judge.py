@@ -46,22 +46,27 @@ def blends_to_skip(
     stop: int | None = None,
 ) -> frozenset[int]:
     """The junctions of the blend arcs of ``path`` at moves ``start`` .. ``stop - 1`` (the
-    path's end: None) whose blends are too slow to keep (:func:`judge_stretch`),
-    :data:`JUDGE_MOVES` moves at a time; the stretches are independent, so they are judged over
-    the cores (:func:`~gantry_sim.controller.forked.fork_map`, a wave of one stretch per
-    process: each holds one stretch's working set)."""
+    path's end: None) whose blends are too slow to keep (:func:`judge_stretch`), in stretches
+    of :data:`JUDGE_MOVES` moves from a blend on, or fewer where their chords pass a window's
+    (:func:`~gantry_sim.controller.planner.window_cut.window_stop`); the stretches are
+    independent, so they are judged over the cores
+    (:func:`~gantry_sim.controller.forked.fork_map`, a wave of one stretch per process: each
+    holds one stretch's working set)."""
     stop = len(path.moves) if stop is None else min(stop, len(path.moves))
-    starts = sorted(
-        {start + k // JUDGE_MOVES * JUDGE_MOVES for k in path.blends_between(start, stop)}
-    )
+    blends = sorted(start + k for k in path.blends_between(start, stop))
+    stretches: list[tuple[int, int]] = []
+    for k in blends:
+        if not stretches or k >= stretches[-1][1]:  # the first blend after the last stretch
+            hi = window_stop(path.moves, k, JUDGE_MOVES, machine.segmentation)
+            stretches.append((k, min(stop, hi)))
 
-    def judge(lo: int) -> frozenset[int]:
-        return judge_stretch(path, lo, min(stop, lo + JUDGE_MOVES), machine, feed_override_pct)
+    def judge(span: tuple[int, int]) -> frozenset[int]:
+        return judge_stretch(path, *span, machine, feed_override_pct)
 
     slow: set[int] = set()
     wave = process_count()
-    for first in range(0, len(starts), wave):
-        for found in fork_map(judge, starts[first : first + wave]):
+    for first in range(0, len(stretches), wave):
+        for found in fork_map(judge, stretches[first : first + wave]):
             slow |= found
     return frozenset(slow)
 
