@@ -109,6 +109,14 @@ def test_marlin_rules() -> None:
     assert "E word" in error_of("G0 X1 E3\nM2", "linuxcnc").message
 
 
+def test_marlin_ignores_the_axis_letters_its_default_build_lacks() -> None:
+    """MakerBot files write their extruders as A and B: Marlin's G0/G1 read X Y Z E F and its
+    parser takes any letter, so the move runs and the letter is ignored (LinuxCNC refuses)."""
+    moves = run("G1 X1 F600 A1.5\nG1 X2 B2 C1\nG2 X4 I1 A2\nG1 Y1 U1 V2 W3", "marlin")
+    assert [m.end for m in moves] == [(1, 0, 0), (2, 0, 0), (4, 0, 0), (4, 1, 0)]
+    assert "A axis word on a 3-axis machine" in error_of("G1 X1 F600 A1.5\nM2", "linuxcnc").message
+
+
 # --- Laserdyne (seed 004) -----------------------------------------------------------------------
 
 

@@ -73,7 +73,8 @@ class Dialect:
         g20_is_inch: G20 selects inches; False: G20 is something else and is refused.
         g20_refusal: the message for G20 when ``g20_is_inch`` is False.
         ignored_letters: words accepted that move no axis and set nothing of the shared state
-            (Marlin's E, which its extruder reads, and S).
+            (Marlin's E, which its extruder reads, S, and the axis letters its default build
+            lacks: A B C U V W).
         min_radius_mm / min_radius_in: smaller radii are zero-radius arcs; also how far an R
             arc may fall short of reaching its end point [mm / inch].
         r_short_is_semicircle: an R too small to reach the end always gives the semicircle.
@@ -247,7 +248,9 @@ MARLIN = Dialect(
     default_feed_mm_per_min=1500.0,
     g20_is_inch=True,
     g20_refusal="",
-    ignored_letters=frozenset("ES"),
+    # E and S, and the axes its default build has not (G0/G1 read X Y Z E F only; its parser
+    # takes any letter: MakerBot files write their extruders as A and B)
+    ignored_letters=frozenset("ESABCUVW"),
     min_radius_mm=1e-6,
     min_radius_in=1e-6 / 25.4,
     r_short_is_semicircle=True,

@@ -142,7 +142,11 @@ def check_words(w: Words, motion: int | None, dialect: Dialect) -> None:
     v = w.values
     for letter in v:
         # a rotary word that leaves its axis at 0 (the posts' "A0.") moves nothing: accepted
-        if letter in _OTHER_AXES and not (letter in ROTARY_AXES and v[letter] == 0.0):
+        if (
+            letter in _OTHER_AXES
+            and letter not in dialect.ignored_letters
+            and not (letter in ROTARY_AXES and v[letter] == 0.0)
+        ):
             raise GcodeError(f"{letter} axis word on a 3-axis machine; allowed axes: X, Y, Z")
     arc = motion in (20, 30)
     cycle = dialect.canned_cycles and motion in _CYCLES
