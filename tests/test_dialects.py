@@ -86,13 +86,29 @@ def test_marlin_ij_and_r_forms_give_the_same_arc() -> None:
 
 
 def test_marlin_does_not_check_the_end_point() -> None:
-    # The arc ends at the destination's angle on the start-radius circle.
-    (_, arc) = run("G0 X9 Y6\nG3 X3 Y7 I-4 J-3", "marlin")
+    # Seed 002: the end point is not error-checked, the arc ends based on the destination's
+    # angle, and the move ends at the given XYZ (plan_arc buffers its last segment to the
+    # target): the arc turns on the start-radius circle, then a straight move, same line.
+    (_, arc, rest) = run("G0 X9 Y6\nG3 X3 Y7 Z-1 I-4 J-3\nG1 Y10", "marlin")[:3]
     c = (5.0, 3.0)
     assert math.hypot(arc.end[0] - c[0], arc.end[1] - c[1]) == pytest.approx(5.0)
     assert math.atan2(arc.end[1] - 3, arc.end[0] - 5) == pytest.approx(math.atan2(4, -2))
+    assert arc.end[2] == -1.0  # the helix is done on the circle
+    assert isinstance(rest, Linear) and rest.line == arc.line == 2
+    assert rest.start == arc.end and rest.end == (3.0, 7.0, -1.0)
+    assert run("G0 X9 Y6\nG3 X3 Y7 Z-1 I-4 J-3\nG1 Y10", "marlin")[3].start == (3.0, 7.0, -1.0)
     with pytest.raises(GcodeError):
         run("F1\nG0 X9 Y6\nG3 X3 Y7 I-4 J-3", "linuxcnc")
+
+
+def test_marlin_ends_a_spiral_at_an_end_point_off_its_circle_by_rounding() -> None:
+    # Within 0.005 mm of the start circle (a slicer's rounding) the arc ends at the end point,
+    # a spiral within that of Marlin's circle and last segment: no sliver of a straight move.
+    (_, arc) = run("G0 X9 Y6\nG3 X2.003 Y7.001 I-4 J-3", "marlin")
+    assert arc.end == (2.003, 7.001, 0.0) and arc.radius == pytest.approx(5.0)
+    (_, far, rest) = run("G0 X9 Y6\nG3 X2.01 Y7 I-4 J-3", "marlin")
+    assert math.hypot(far.end[0] - 5.0, far.end[1] - 3.0) == pytest.approx(5.0)
+    assert isinstance(rest, Linear) and rest.end == (2.01, 7.0, 0.0)
 
 
 def test_marlin_rules() -> None:

@@ -4,7 +4,7 @@ Numbered checks, in rs274's order (grbl first asks for an axis word of the plane
 number of turns; (3) no offset of the plane's normal axis; (4) R format: a plane axis word is
 given, the end differs from the start, |R| reaches the end; IJK format: the offsets the dialect
 requires are present, neither radius is zero, the end lies on the arc within the dialect's
-tolerance (or, Marlin, is moved onto it). Lengths are compared in the program's units, so the
+tolerance (or, Marlin, is moved onto it, and a straight move added to it). Lengths are compared in the program's units, so the
 inch tolerances apply to G20 programs exactly as rs274 applies them.
 """
 
@@ -27,6 +27,10 @@ from gantry_sim.controller.planes import AXES, PLANE_AXES
 
 _OFFSETS = "IJK"
 P_INTEGER_TOL = 0.001  # rs274: |P - round(P)| above this is "P value not an integer"
+#: Marlin: an end point off the start circle by at most this [mm] ends a spiral there (within
+#: this of Marlin's circle and last segment); beyond it the arc keeps its circle and a straight
+#: move goes on to the end point, as Marlin's plan_arc buffers its last segment to the target.
+MARLIN_SPIRAL_MM = 0.005
 
 
 def _turns(v: dict[str, float], d: Dialect) -> int:
@@ -124,7 +128,9 @@ def arc_move(
                 f"zero-radius arc (start radius {r0:.4f}, end radius {r1:.4f}); the centre must "
                 f"be at least {min_r:g} from the start and end points"
             )
-        if d.project_end_on_arc:
+        if d.project_end_on_arc and abs(r1 - r0) * unit > MARLIN_SPIRAL_MM:
+            # the arc turns on its start circle to the destination's angle; the move still
+            # ends at the destination (the interpreter adds Marlin's last, straight, segment)
             k = r0 / r1
             pe = (centre[0] + (pe[0] - centre[0]) * k, centre[1] + (pe[1] - centre[1]) * k)
         elif d.radius_check is not None:

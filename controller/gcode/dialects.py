@@ -14,7 +14,9 @@ The interpreter reads these fields and never tests a dialect's name. Sources (co
   0.005 mm (0.0005 in) and 0.1 % of the radius.
 - ``marlin``: Marlin's G2/G3 page (segments of MM_PER_ARC_SEGMENT = 1 mm, the dialect's
   segmentation default): the end point is not checked, the arc ends on the start-radius
-  circle at the destination's angle; ``R`` with ``I``/``J`` is an error; F is modal with Marlin's
+  circle at the destination's angle and the move at the destination (plan_arc's last segment
+  goes to the target: a straight move is added, or the arc is a spiral when the end is within
+  ``arc_block.MARLIN_SPIRAL_MM`` of the circle); ``R`` with ``I``/``J`` is an error; F is modal with Marlin's
   default feed 1500 mm/min (feedrate_mm_s = 25 mm/s); P (ARC_P_CIRCLES) adds P complete circles;
   E (extrusion) words move no axis here, but tell which moves extrude (controller/gcode/
   extruder.py), and S (laser power) is ignored; an R too short for the chord
@@ -66,7 +68,8 @@ class Dialect:
             (False: it moves nothing, g2core).
         radius_check: centre-format end point tolerance, or None for no check.
         project_end_on_arc: the arc ends on the start-radius circle at the destination's angle
-            (Marlin); the move's end point is that projection.
+            (Marlin), and a straight move on to the destination (a spiral there when the end
+            is within ``arc_block.MARLIN_SPIRAL_MM`` of the circle).
         both_offsets_required: IJK arcs need both in-plane offsets even in G91.1 (Laserdyne).
         p_adds_circles: P counts extra full circles (Marlin) instead of total turns (LinuxCNC).
         default_feed_mm_per_min: feed before any F word, or None when F is required.

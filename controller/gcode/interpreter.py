@@ -323,6 +323,9 @@ class Interpreter:
                 if arc is not None:
                     placed = path_feed(self._arc_to_work(arc, s), s, w.values)
                     s = self._emit(moves, s, placed, arc.end)  # arc.end: program frame
+                    if arc.end != end:  # Marlin: its last segment goes on to the end point
+                        rest = Linear(w.line, s.work, to_work(end, s.frame), s.feed_mm_per_min)
+                        s = self._emit(moves, s, path_feed(rest, s, w.values), end)
         if extrudes is not None:  # Marlin: whether this block's move runs at P or T (M204)
             moves[made:] = [
                 evolve(m, extrudes=extrudes) if isinstance(m, Linear | Arc | Spline) else m
