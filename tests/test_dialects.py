@@ -8,6 +8,7 @@ import math
 import pytest
 
 from gantry_sim.controller.errors import GcodeError
+from gantry_sim.controller.gcode import lexer
 from gantry_sim.controller.gcode.dialects import DIALECTS, MARLIN, get_dialect
 from gantry_sim.controller.gcode.interpreter import parse_program
 from gantry_sim.controller.moves import Arc, Linear, Rapid
@@ -123,6 +124,18 @@ def test_marlin_rules() -> None:
     (short,) = run("G2 X10 R2", "marlin")  # R too short: Marlin takes the half circle
     assert short.center == pytest.approx((5.0, 0.0, 0.0))
     assert "E word" in error_of("G0 X1 E3\nM2", "linuxcnc").message
+
+
+def test_marlin_reads_nested_and_open_comments_without_error() -> None:
+    """Skeinforge writes "(<setting> ... Jump_Space_(mm): 2.0 </setting>)": Marlin skips such
+    a comment (rs274 refuses it); a comment left open runs to the line's end."""
+    text = (
+        "(<setting> comb Running_Jump_Space_(mm): 2.0 </setting>)\n"
+        "G1 X1 F600 (a (b) c)\nG1 X2 (open\nG1 X3 (a) Y2 (b) ; done\n"
+    )
+    assert [m.end for m in run(text, "marlin")] == [(1, 0, 0), (2, 0, 0), (3, 2, 0)]
+    assert "nested comment" in error_of(text + "M2", "linuxcnc").message
+    assert lexer.firmware_comments("G1 (a (b) c) X1 (d", "marlin") == "G1 (a b c) X1 (d)"
 
 
 def test_marlin_ignores_the_axis_letters_its_default_build_lacks() -> None:

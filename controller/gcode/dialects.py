@@ -136,7 +136,8 @@ class Dialect:
         firmware_comments: whose line reader takes the comments (controller/gcode/lexer.py
             ``firmware_comments``): ``"grbl"`` and ``"g2core"`` end a comment left open at the
             line's end and take a ``(`` inside one as text; g2core also ends a line at ``%``
-            and skips a line opening with ``/``; ``""``: rs274's reader (both are errors).
+            and skips a line opening with ``/``; ``"marlin"`` nests them, a comment left open
+            running to the line's end; ``""``: rs274's reader (both are errors).
         percent_delimits: a ``%`` line opens and ends the program (rs274); False: a ``%`` line
             is nothing (grbl answers it with error 1 and goes on, and the senders that stream
             CAM files drop it; g2core reads it as a comment).
@@ -265,6 +266,10 @@ MARLIN = Dialect(
     g0_at_feed=True,
     checksums=True,
     extruder=True,
+    # queue.cpp process_stream_char (PAREN_COMMENTS) and GCodeParser::parse: a comment left
+    # open or holding a ( is no error (lexer._balanced_comments); its default build reads no
+    # ( comments and skips a line that opens with one as an unknown command
+    firmware_comments="marlin",
 )
 
 LASERDYNE_ON_ARC_TOL_MM = 0.005

@@ -156,14 +156,16 @@ def strip_line(raw: str) -> str:
 def firmware_comments(raw: str, rules: str) -> str:
     """``raw`` with its comments as a firmware's line reader takes them, for :func:`strip_line`.
 
-    ``rules``: ``"grbl"`` (grbl 1.1's serial layer, protocol.c) or ``"g2core"`` (its
-    ``_normalize_gcode_block``). Both read a ``(`` comment up to its first ``)`` or to the end
+    ``rules``: ``"grbl"`` (grbl 1.1's serial layer, protocol.c), ``"g2core"`` (its
+    ``_normalize_gcode_block``) or ``"marlin"`` (:func:`_balanced_comments`). Both read a ``(`` comment up to its first ``)`` or to the end
     of the line, a ``(`` inside it being text, and end the line at a ``;`` outside a comment
     (rs274 refuses a comment left open or holding a ``(``). g2core also ends the line at a
     ``%`` (so a ``%`` line is an empty line, not a program delimiter) and skips a line whose
     first character is ``/`` (its block delete is always on: ``gc_gcode_parser`` returns
     before parsing such a line). The comment is returned closed, with no ``(`` inside.
     """
+    if rules == "marlin":
+        return _balanced_comments(raw) if "(" in raw else raw
     g2core = rules == "g2core"
     if g2core and raw.startswith("/"):
         return ""
@@ -181,6 +183,33 @@ _FIRMWARE_LINE = {
 }
 #: a comment, closed or left open at the line's end
 _OPEN_COMMENT = re.compile(r"\(([^)]*)\)?")
+
+
+def _balanced_comments(raw: str) -> str:
+    """``raw`` with its ``(`` comments read as nesting (Marlin): a ``(`` inside a comment opens
+    one more level, the comment ends at the ``)`` that closes the first, or at the line's end;
+    a ``;`` outside a comment ends the line. Marlin's PAREN_COMMENTS reader ends a comment at
+    its first ``)``, and its parser skips what follows that is no word of the command (a ``)``,
+    a letter with no value): the same words and motion on every line whose parentheses
+    balance. Each comment is returned closed, with no parenthesis inside."""
+    out: list[str] = []
+    depth = 0
+    for ch in raw:
+        if depth:
+            if ch in "()":
+                depth += 1 if ch == "(" else -1
+                if depth == 0:
+                    out.append(")")
+            else:
+                out.append(ch)
+        elif ch == "(":
+            depth = 1
+            out.append("(")
+        elif ch == ";":
+            break
+        else:
+            out.append(ch)
+    return "".join(out) + (")" if depth else "")
 
 
 def _closed(comment: re.Match[str]) -> str:
