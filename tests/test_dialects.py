@@ -136,6 +136,7 @@ def test_marlin_reads_nested_and_open_comments_without_error() -> None:
     assert [m.end for m in run(text, "marlin")] == [(1, 0, 0), (2, 0, 0), (3, 2, 0)]
     assert "nested comment" in error_of(text + "M2", "linuxcnc").message
     assert lexer.firmware_comments("G1 (a (b) c) X1 (d", "marlin") == "G1 (a b c) X1 (d)"
+    assert lexer.firmware_comments("G1 X1 ) Y2", "marlin") == "G1 X1  Y2"  # a stray ) skipped
 
 
 def test_marlin_ignores_the_axis_letters_its_default_build_lacks() -> None:

@@ -165,7 +165,7 @@ def firmware_comments(raw: str, rules: str) -> str:
     before parsing such a line). The comment is returned closed, with no ``(`` inside.
     """
     if rules == "marlin":
-        return _balanced_comments(raw) if "(" in raw else raw
+        return _balanced_comments(raw) if "(" in raw or ")" in raw else raw
     g2core = rules == "g2core"
     if g2core and raw.startswith("/"):
         return ""
@@ -188,10 +188,11 @@ _OPEN_COMMENT = re.compile(r"\(([^)]*)\)?")
 def _balanced_comments(raw: str) -> str:
     """``raw`` with its ``(`` comments read as nesting (Marlin): a ``(`` inside a comment opens
     one more level, the comment ends at the ``)`` that closes the first, or at the line's end;
-    a ``;`` outside a comment ends the line. Marlin's PAREN_COMMENTS reader ends a comment at
-    its first ``)``, and its parser skips what follows that is no word of the command (a ``)``,
-    a letter with no value): the same words and motion on every line whose parentheses
-    balance. Each comment is returned closed, with no parenthesis inside."""
+    a ``;`` outside a comment ends the line; a ``)`` outside one is dropped. Marlin's
+    PAREN_COMMENTS reader ends a comment at its first ``)``, and its parser skips what follows
+    that is no word of the command (a ``)``, a letter with no value): the same words and motion
+    on every line whose parentheses balance. Each comment is returned closed, with no
+    parenthesis inside."""
     out: list[str] = []
     depth = 0
     for ch in raw:
@@ -207,7 +208,7 @@ def _balanced_comments(raw: str) -> str:
             out.append("(")
         elif ch == ";":
             break
-        else:
+        elif ch != ")":  # a stray ) is no word: the parser skips it
             out.append(ch)
     return "".join(out) + (")" if depth else "")
 
