@@ -65,17 +65,9 @@ def segment_count(
         raise ConfigError(f"segmentation method {method!r} is unknown; valid: chord, fixed")
     if not (chord_tolerance_mm > 0 and segment_length_mm > 0):
         raise ConfigError("chord_tolerance_mm and segment_length_mm must be > 0")
-    theta = arc.angle
     frame = arc_frame(arc)
     r = max(frame.r0_mm, frame.r1_mm)
-    n_sweep = math.ceil(theta / MAX_CHORD_SWEEP_RAD - 1e-12)
-    if method == "chord":
-        tol = chord_tolerance_mm
-        n = 1 if r <= tol else math.ceil(theta * r / (2.0 * math.sqrt(tol * (2.0 * r - tol))))
-    else:
-        n_min = math.ceil(MIN_CIRCLE_SEGMENTS * theta / (2.0 * math.pi) - 1e-9)
-        n = max(math.floor(arc_length_mm(arc) / segment_length_mm), n_min)
-    n = max(n, n_sweep, 1)
+    n = chords_of_sweep(arc, r, method, chord_tolerance_mm, segment_length_mm)
     if n > MAX_SEGMENTS_PER_ARC:
         raise PlanningError(
             f"arc needs {n} segments ({method} segmentation); at most {MAX_SEGMENTS_PER_ARC} "
@@ -83,6 +75,24 @@ def segment_count(
             line=arc.line,
         )
     return n
+
+
+def chords_of_sweep(
+    arc: Arc, r_mm: float, method: str, chord_tolerance_mm: float, segment_length_mm: float
+) -> int:
+    """:func:`segment_count`'s chords of ``arc`` at radius ``r_mm`` (the larger of its end
+    radii there; its start radius, ``arc.radius``, is the frame-free estimate the planner's
+    windows take), unchecked."""
+    theta = arc.angle
+    n_sweep = math.ceil(theta / MAX_CHORD_SWEEP_RAD - 1e-12)
+    if method == "chord":
+        tol = chord_tolerance_mm
+        r = r_mm
+        n = 1 if r <= tol else math.ceil(theta * r / (2.0 * math.sqrt(tol * (2.0 * r - tol))))
+    else:
+        n_min = math.ceil(MIN_CIRCLE_SEGMENTS * theta / (2.0 * math.pi) - 1e-9)
+        n = max(math.floor(arc_length_mm(arc) / segment_length_mm), n_min)
+    return max(n, n_sweep, 1)
 
 
 def segment_arc(

@@ -26,7 +26,7 @@ from gantry_sim.controller.planner.limits import BlockLimits
 from gantry_sim.controller.planner.move_geometry import MoveGeometry
 from gantry_sim.controller.planner.prepare import Prepared
 from gantry_sim.controller.planner.rounds import Settled
-from gantry_sim.controller.planner.segment import segment_count
+from gantry_sim.controller.planner.segment import chords_of_sweep
 
 __all__ = [
     "MARGIN_BRAKING",
@@ -138,12 +138,15 @@ def window_stop(moves: Sequence[object], lo: int, size: int, seg: Segmentation) 
 
 
 def chord_count(move: object, seg: Segmentation) -> int:
-    """The chords of a path move as the planner segments it: an arc's by ``seg``; a spline's
-    where this copy of it was counted already (the count is a search, made when the window is
-    prepared; 1 otherwise); a straight move or a G2 transition (a few chords within one
-    junction's tolerance) 1."""
+    """The chords of a path move as the planner segments it: an arc's by ``seg`` at its start
+    radius (a spiral's larger end radius may add a few; its frame costs 5 x the rest: 33 ms
+    for a window of 5,000 arcs); a spline's where this copy of it was counted already (the
+    count is a search, made when the window is prepared; 1 otherwise); a straight move or a G2
+    transition (a few chords within one junction's tolerance) 1."""
     if isinstance(move, Arc):
-        return segment_count(move, seg.method, seg.chord_tolerance_mm, seg.segment_length_mm)
+        return chords_of_sweep(
+            move, move.radius, seg.method, seg.chord_tolerance_mm, seg.segment_length_mm
+        )
     if isinstance(move, Spline):
         key = (seg.method, seg.chord_tolerance_mm, seg.segment_length_mm)
         return int(move.curve.chord_counts.get(key, 1))
