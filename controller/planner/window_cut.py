@@ -15,7 +15,9 @@ whole: :func:`window_stop`).
 
 from __future__ import annotations
 
+import bisect
 import math
+from array import array
 from collections.abc import Callable, Sequence
 
 import numpy as np
@@ -33,6 +35,7 @@ __all__ = [
     "MARGIN_MOVES",
     "WINDOW_CHORDS",
     "WINDOW_MOVES",
+    "ChordCounts",
     "WindowKey",
     "chord_count",
     "cut",
@@ -126,15 +129,33 @@ def window_stop(moves: Sequence[object], lo: int, size: int, seg: Segmentation) 
     """Where a window of ``size`` path moves (:data:`WINDOW_MOVES`, or more for a window sent
     back wider) starting at path move ``lo`` of ``moves`` stops: ``lo + size``, the path's
     end, or the first move whose chords (:func:`chord_count`) take the window's past
-    :data:`WINDOW_CHORDS` x ``size`` / :data:`WINDOW_MOVES` (a window has one move at least)."""
-    hi = min(len(moves), lo + size)
-    budget = WINDOW_CHORDS * size / WINDOW_MOVES
-    total = 0
-    for k, move in enumerate(moves[lo:hi]):
-        total += chord_count(move, seg)
-        if total > budget and k > 0:
-            return lo + k
-    return hi
+    :data:`WINDOW_CHORDS` x ``size`` / :data:`WINDOW_MOVES` (a window has one move at least).
+    Once; :class:`ChordCounts` for many windows of one path."""
+    return ChordCounts(moves, seg).stop(lo, size)
+
+
+class ChordCounts:
+    """:func:`window_stop` on the moves of one path, their chords counted once, in order, as
+    far as a window reaches (a path on disk decodes each of its blocks once for it)."""
+
+    def __init__(self, moves: Sequence[object], seg: Segmentation) -> None:
+        self._moves = moves
+        self._seg = seg
+        self._before = array("q", [0])  # chords of the moves before each index
+
+    def stop(self, lo: int, size: int) -> int:
+        """:func:`window_stop` of the window of ``size`` moves from ``lo``."""
+        hi = min(len(self._moves), lo + size)
+        before = self._before
+        if len(before) <= hi:
+            seg, total = self._seg, before[-1]
+            for move in self._moves[len(before) - 1 : hi]:
+                total += chord_count(move, seg)
+                before.append(total)
+        limit = before[lo] + WINDOW_CHORDS * size / WINDOW_MOVES
+        # the first move past the budget, the window's first not counted (one move at least)
+        past = bisect.bisect_right(before, limit, lo + 2, hi + 1)
+        return past - 1 if past <= hi else hi
 
 
 def chord_count(move: object, seg: Segmentation) -> int:

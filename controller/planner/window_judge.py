@@ -27,7 +27,7 @@ from gantry_sim.controller.config import MachineConfig
 from gantry_sim.controller.forked import fork_map, process_count
 from gantry_sim.controller.planner.blend import PathPlan
 from gantry_sim.controller.planner.prepare import Prepared, prepare, slow_blends, sub_path
-from gantry_sim.controller.planner.window_cut import window_stop
+from gantry_sim.controller.planner.window_cut import ChordCounts
 
 __all__ = ["BLEND_CONTEXT", "JUDGE_MOVES", "JudgedPath", "blends_to_skip", "judge_stretch"]
 
@@ -54,11 +54,11 @@ def blends_to_skip(
     holds one stretch's working set)."""
     stop = len(path.moves) if stop is None else min(stop, len(path.moves))
     blends = sorted(start + k for k in path.blends_between(start, stop))
+    chords = ChordCounts(path.moves, machine.segmentation)
     stretches: list[tuple[int, int]] = []
     for k in blends:
         if not stretches or k >= stretches[-1][1]:  # the first blend after the last stretch
-            hi = window_stop(path.moves, k, JUDGE_MOVES, machine.segmentation)
-            stretches.append((k, min(stop, hi)))
+            stretches.append((k, min(stop, chords.stop(k, JUDGE_MOVES))))
 
     def judge(span: tuple[int, int]) -> frozenset[int]:
         return judge_stretch(path, *span, machine, feed_override_pct)
@@ -118,16 +118,13 @@ class JudgedPath:
         self._machine = machine
         self._feed = feed_override_pct
         self._jerk = float(min(machine.limits.max_jerk_mm_per_s3))
-        self._stops: dict[tuple[int, int], int] = {}  # window_stop's, of this path
+        self._chords = ChordCounts(path.moves, machine.segmentation)
 
     def window_stop(self, lo: int, size: int) -> int:
         """Where the window of ``size`` moves from path move ``lo`` stops
-        (:func:`~gantry_sim.controller.planner.window_cut.window_stop`), counted once."""
-        stop = self._stops.get((lo, size))
-        if stop is None:
-            seg = self._machine.segmentation
-            stop = self._stops[lo, size] = window_stop(self.path.moves, lo, size, seg)
-        return stop
+        (:func:`~gantry_sim.controller.planner.window_cut.window_stop`; each move's chords
+        counted once)."""
+        return self._chords.stop(lo, size)
 
     @property
     def judging(self) -> bool:
@@ -161,4 +158,4 @@ class JudgedPath:
         del self.path  # the old path freed before the new one is made
         self.path = remake(slow)
         self._remake = None
-        self._stops.clear()
+        self._chords = ChordCounts(self.path.moves, self._machine.segmentation)
