@@ -1,11 +1,13 @@
 """One G2/G3 block -> an :class:`~controller.moves.Arc`, validated under a dialect's rules.
 
-Numbered checks, in rs274's order (grbl first asks for an axis word of the plane): (1) a centre is given (IJK or R, not both); (2) P is a whole
-number of turns; (3) no offset of the plane's normal axis; (4) R format: a plane axis word is
-given, the end differs from the start, |R| reaches the end; IJK format: the offsets the dialect
-requires are present, neither radius is zero, the end lies on the arc within the dialect's
-tolerance (or, Marlin, is moved onto it, and a straight move added to it). Lengths are compared in the program's units, so the
-inch tolerances apply to G20 programs exactly as rs274 applies them.
+Numbered checks, in rs274's order (grbl first asks for an axis word of the plane): (1) a
+centre is given (IJK or R, not both); (2) P is a whole number of turns; (3) no offset of the
+plane's normal axis; (4) R format: a plane axis word is given, the end differs from the start,
+|R| reaches the end; IJK format: the offsets the dialect requires are present, neither radius
+is zero, the end lies on the arc within the dialect's tolerance (or, Marlin, the arc ends on
+its circle and the interpreter adds a straight move to the end point). Lengths are compared in
+the program's units, so the inch tolerances apply to G20 programs exactly as rs274 applies
+them.
 """
 
 from __future__ import annotations

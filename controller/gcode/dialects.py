@@ -16,10 +16,10 @@ The interpreter reads these fields and never tests a dialect's name. Sources (co
   segmentation default): the end point is not checked, the arc ends on the start-radius
   circle at the destination's angle and the move at the destination (plan_arc's last segment
   goes to the target: a straight move is added, or the arc is a spiral when the end is within
-  ``arc_block.MARLIN_SPIRAL_MM`` of the circle); ``R`` with ``I``/``J`` is an error; F is modal with Marlin's
-  default feed 1500 mm/min (feedrate_mm_s = 25 mm/s); P (ARC_P_CIRCLES) adds P complete circles;
-  E (extrusion) words move no axis here, but tell which moves extrude (controller/gcode/
-  extruder.py), and S (laser power) is ignored; an R too short for the chord
+  ``arc_block.MARLIN_SPIRAL_MM`` of the circle); ``R`` with ``I``/``J`` is an error; F is
+  modal with Marlin's default feed 1500 mm/min (feedrate_mm_s = 25 mm/s); P (ARC_P_CIRCLES)
+  adds P complete circles; E (extrusion) words move no axis here, but tell which moves extrude
+  (controller/gcode/extruder.py), and S (laser power) is ignored; an R too short for the chord
   gives the semicircle (Marlin clamps the centre offset to zero).
 - ``grbl``: grbl 1.1's gcode.c (gnea/grbl): its G and M codes only (G38.x probing and G43.1 are
   refused here), no parameters, expressions or O-words, ``$`` system lines (``$J=`` jogs move as

@@ -157,12 +157,13 @@ def firmware_comments(raw: str, rules: str) -> str:
     """``raw`` with its comments as a firmware's line reader takes them, for :func:`strip_line`.
 
     ``rules``: ``"grbl"`` (grbl 1.1's serial layer, protocol.c), ``"g2core"`` (its
-    ``_normalize_gcode_block``) or ``"marlin"`` (:func:`_balanced_comments`). Both read a ``(`` comment up to its first ``)`` or to the end
-    of the line, a ``(`` inside it being text, and end the line at a ``;`` outside a comment
-    (rs274 refuses a comment left open or holding a ``(``). g2core also ends the line at a
-    ``%`` (so a ``%`` line is an empty line, not a program delimiter) and skips a line whose
-    first character is ``/`` (its block delete is always on: ``gc_gcode_parser`` returns
-    before parsing such a line). The comment is returned closed, with no ``(`` inside.
+    ``_normalize_gcode_block``) or ``"marlin"`` (comments nest: :func:`_balanced_comments`).
+    grbl and g2core read a ``(`` comment up to its first ``)`` or to the end of the line, a
+    ``(`` inside it being text, and end the line at a ``;`` outside a comment (rs274 refuses a
+    comment left open or holding a ``(``). g2core also ends the line at a ``%`` (so a ``%``
+    line is an empty line, not a program delimiter) and skips a line whose first character is
+    ``/`` (its block delete is always on: ``gc_gcode_parser`` returns before parsing such a
+    line). The comment is returned closed, with no ``(`` inside.
     """
     if rules == "marlin":
         return _balanced_comments(raw) if "(" in raw or ")" in raw else raw

@@ -86,8 +86,7 @@ def chords_of_sweep(
     theta = arc.angle
     n_sweep = math.ceil(theta / MAX_CHORD_SWEEP_RAD - 1e-12)
     if method == "chord":
-        tol = chord_tolerance_mm
-        r = r_mm
+        r, tol = r_mm, chord_tolerance_mm
         n = 1 if r <= tol else math.ceil(theta * r / (2.0 * math.sqrt(tol * (2.0 * r - tol))))
     else:
         n_min = math.ceil(MIN_CIRCLE_SEGMENTS * theta / (2.0 * math.pi) - 1e-9)
