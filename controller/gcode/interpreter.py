@@ -211,14 +211,16 @@ class Interpreter:
             wait = None
         # G40/G41/G42, before the motion; G41/G42 read rs274's tool_table[find_tool_index(D)]:
         # D0 and no D are the spindle's entry
-        released = switch(self.comp, w, s, partial(self.table.entry, s))
+        released = (
+            switch(self.comp, w, s, partial(self.table.entry, s)) if "cutter_comp" in w.g else []
+        )
         cycle = self.cycle
         if "retract" in w.g:
             cycle = evolve(cycle, retract_to_r=w.g["retract"] == 990)
         # Step 5: which motion this block makes, if any.
         nonmodal = w.g.get("nonmodal")
         axis_code = nonmodal in AXIS_NONMODAL
-        has_axes = any(a in w.values for a in "XYZ@^ABC")  # A/B/C: only 0 gets this far
+        has_axes = not _AXIS_LETTERS.isdisjoint(w.values)  # A/B/C: only 0 gets this far
         motion = w.g.get("motion")
         if motion == 800:
             if has_axes and not axis_code:
@@ -574,9 +576,9 @@ class Interpreter:
     def _canon(self, s: ModalState, moves: list[Move | Event]) -> ModalState:
         """Where rs274's canonical layer has the tool after this block (``ModalState.canon``):
         the last motion's end, else the old place shifted by the change of G5x and G92."""
-        last = next((m for m in reversed(moves) if isinstance(m, _PATH_MOVES)), None)
-        if last is not None:
-            return evolve(s, canon=from_work(last.end, s.frame))
+        for last in reversed(moves):
+            if isinstance(last, _PATH_MOVES):
+                return evolve(s, canon=from_work(last.end, s.frame))
         old, new = self.state.frame, s.frame
         if old == new:
             return s
@@ -629,8 +631,8 @@ class Interpreter:
 
     def _refresh_system_parameters(self) -> None:
         """#5420-#5422: the current X Y Z in program units (stored in mm)."""
-        x, y, z = self.state.position
-        self.params.numbered.update({POSITION: x, POSITION + 1: y, POSITION + 2: z})
+        numbered, (x, y, z) = self.params.numbered, self.state.position
+        numbered[POSITION], numbered[POSITION + 1], numbered[POSITION + 2] = x, y, z
 
     @staticmethod
     def _end_point(v: dict[str, float], s: ModalState) -> Vec3:
@@ -663,6 +665,8 @@ def _set_path(moves: list[Move | Event], path: PathControl) -> None:
 
 
 _MOTIONS = (Rapid, Linear, Arc, Spline)
+#: the words that move an axis (A/B/C: only a word of 0 gets as far as the motion)
+_AXIS_LETTERS = frozenset("XYZ@^ABC")
 
 
 def path_control(code: int, v: dict[str, float], scale: float) -> PathControl:

@@ -13,7 +13,12 @@ from dataclasses import dataclass
 from gantry_sim.controller.errors import GcodeError
 from gantry_sim.controller.gcode.codes import G_GROUPS, M_GROUPS, g_name, m_accepted, m_allowed
 from gantry_sim.controller.gcode.dialects import LINUXCNC, Dialect
-from gantry_sim.controller.gcode.expressions import ParameterReader, evaluate
+from gantry_sim.controller.gcode.expressions import (
+    MAX_MAGNITUDE,
+    ParameterReader,
+    Tree,
+    evaluate,
+)
 from gantry_sim.controller.gcode.lexer import Block
 from gantry_sim.controller.gcode.parameters import (
     INTEGER_TOL,
@@ -77,6 +82,20 @@ def whole_number(letter: str, value: float) -> float:
     return float(low)
 
 
+def _number(tree: Tree, params: ParameterReader) -> float:
+    """``evaluate(tree, params)``, with a plain number (most words) read at once."""
+    kind = tree[0]
+    if kind == "num":
+        value = tree[1]
+    elif kind == "neg" and tree[1][0] == "num":
+        value = -tree[1][1]
+    else:
+        return evaluate(tree, params)
+    if -MAX_MAGNITUDE <= value <= MAX_MAGNITUDE:
+        return value
+    return evaluate(tree, params)  # raises, saying why
+
+
 def read_words(block: Block, params: ParameterReader, dialect: Dialect | None = None) -> Words:
     """Step 1: evaluate the block's values (with parameters as they were before the line);
     ``dialect``: whose M codes an unknown one's message lists and whose integer words are
@@ -87,7 +106,7 @@ def read_words(block: Block, params: ParameterReader, dialect: Dialect | None = 
     r_before_arc_code = False
     last_wins = dialect is not None and dialect.last_word_wins
     for letter, tree in block.words:
-        value = evaluate(tree, params)
+        value = _number(tree, params)
         if letter == "G":
             code = _code(value, True)
             group = None if code is None else G_GROUPS.get(code)
