@@ -209,9 +209,10 @@ def feed_samples(
 
 def block_stats(tab: MoveTable, line: np.ndarray, err_um: np.ndarray) -> tuple[BlockError, ...]:
     """Per feed line in program order: its largest and rms error over the samples executing it
-    (0 when none do), and their count (sim.error_tally: linear in the samples)."""
+    (0 when none do), and their count (sim.error_tally: linear in the samples). Every sample
+    counts; a run's own table counts only its feed samples (:class:`ErrorTally`)."""
     tally = ErrorTally(tab, spill=False)
-    tally.add(line, err_um, np.zeros(np.shape(line), dtype=bool))
+    tally.add(line, err_um, np.ones(np.shape(line), dtype=bool))
     return tally_figures(tally)[1]
 
 

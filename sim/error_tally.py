@@ -3,7 +3,8 @@
 :class:`ErrorTally` takes consecutive ranges of ticks (each tick's program line, contour error
 [um] and feed flag) and gives, at the end, what report.json needs of them: the statistics over
 the feed ticks (largest, rms, exact 95th percentile) and per feed block its largest and rms
-error and its tick count. It holds per block a few numbers, the ticks of at most one tile, and
+error and its tick count, over the block's feed ticks (a canned cycle's line runs rapids too:
+they count in neither). It holds per block a few numbers, the ticks of at most one tile, and
 the feed ticks' errors for the percentile -- in memory for a run analysed at once, in an
 anonymous temporary file for a streamed one (sim.percentile.ValueSpill: 8 bytes a feed tick on
 disk, none in memory).
@@ -86,7 +87,7 @@ class ErrorTally:
         if not self._sorted_lines.size:
             return
         at = np.minimum(np.searchsorted(self._sorted_lines, line), self._sorted_lines.size - 1)
-        mine = self._sorted_lines[at] == line
+        mine = (self._sorted_lines[at] == line) & feed
         block, e = self._block_of[at[mine]], err[mine]
         if not block.size:
             return
