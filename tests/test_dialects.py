@@ -294,10 +294,19 @@ def test_grbl_arcs_homing_and_offsets() -> None:
     # a K word on a G17 arc is consumed and ignored; 0.004 mm radius mismatch is within 0.005 mm
     arc = run("G2 X2.004 Y0 I1 K5 F100\n", "grbl")[0]
     assert isinstance(arc, Arc) and arc.end == (2.004, 0.0, 0.0)
-    # G28 with axis words: the intermediate point, then every axis to the stored point
-    moves = run("G0 X5 Y5 Z5\nG28.1\nG0 X1 Y1 Z1\nG28 X2\nG28\n", "grbl")
-    assert [m.end for m in moves[2:]] == [(2.0, 1.0, 1.0), (5.0, 5.0, 5.0), (5.0, 5.0, 5.0)]
-    assert [m.line for m in moves[2:]] == [4, 4, 5]  # no intermediate move without axis words
+    # G28 with axis words: the intermediate point, then the named axes to the stored point
+    # (grbl 1.1's gcode.c: "Move only the axes specified in secondary move"); without axis
+    # words every axis goes there, with no intermediate move
+    moves = run("G0 X5 Y5 Z5\nG28.1\nG0 X1 Y1 Z1\nG28 X2\nG28\nG28 G91 Z0\n", "grbl")
+    assert [m.end for m in moves[2:5]] == [(2.0, 1.0, 1.0), (5.0, 1.0, 1.0), (5.0, 5.0, 5.0)]
+    assert [m.line for m in moves[2:5]] == [4, 4, 5]
+    # Fusion 360's grbl post: `G28 G91 Z0` lifts Z alone to its home
+    lift = run("G0 X5 Y5 Z5\nG28.1\nG0 X1 Y1 Z1\nG28 G91 Z0\n", "grbl")
+    assert [m.end for m in lift[2:]] == [(1.0, 1.0, 1.0), (1.0, 1.0, 5.0)]
+    # g2core sends every axis home after the move through the words' point
+    g2 = run("G0 X5 Y5 Z5\nG28.1\nG0 X1 Y1 Z1\nG28 X2\nG28\n", "g2core")
+    assert [m.end for m in g2[2:]] == [(2.0, 1.0, 1.0), (5.0, 5.0, 5.0), (5.0, 5.0, 5.0)]
+    assert [m.line for m in g2[2:]] == [4, 4, 5]
     assert run("G10 L20 P1 X0\nG0 X1\n", "grbl")[0].end == (1.0, 0.0, 0.0)
     assert get_dialect("grbl").arc_tolerance_mm == 0.002
 
@@ -464,3 +473,61 @@ def test_marlin_limit_changes_are_events_from_their_line_on() -> None:
     }
     assert got[3]["values"] == {"J": 0.02}
     assert [m.kind for m in run(text, "marlin")] == ["linear", "linear"]  # motions only
+
+
+# --- a sixth collection of real programs (2026-11-30): what each firmware lets through -------
+
+
+def test_g2core_runs_blocks_rs274_refuses_as_g2core_runs_them() -> None:
+    # synthetos/g2 gcode_circles2.h: G92 takes the axis words, G0 only sets the mode
+    moves = run("g21 g90\ng0 x5\ng92 g0 x0 y0 z0\ng1 x10 f100\nm2\n", "g2core")
+    assert [(m.line, m.start, m.end) for m in moves[1:]] == [(4, (5.0, 0.0, 0.0), (15.0, 0.0, 0.0))]
+    assert "both use the axis words" in error_of("G92 G0 X0\nM2\n", "linuxcnc").message
+    # gcode_mudflap.h (SuperCam): axis words before any motion code move nothing
+    moves = run("g21 g90 f100\nx10 y5\ng1 x20\nm2\n", "g2core")
+    assert [(m.line, m.start, m.end) for m in moves] == [(3, (0.0, 0.0, 0.0), (20.0, 0.0, 0.0))]
+    assert "no motion mode" in error_of("G21 F100\nX10\nM2\n", "linuxcnc").message
+    # cncjs full-circle-without-xyz: a modal G2 line with no centre or radius moves nothing
+    moves = run("g21 g90 f100\ng2 i5\nx5\ng1 y5\nm2\n", "g2core")
+    assert [m.line for m in moves] == [2, 4] and moves[1].start == (0.0, 0.0, 0.0)
+    assert "no centre" in error_of("G21 F100\nG2 I5\nX5\nM2\n", "linuxcnc").message
+
+
+def test_g2core_g28_3_sets_the_origin_where_the_tool_is() -> None:
+    # TinyG's own ArcTests: the named axes read the words' values without moving
+    moves = run(
+        "g21 g90\ng0 x150 y150 z-25\ng28.3 x0 y0 z0\ng0 x10\ng28.3 y7\ng0 y8\nm2\n", "g2core"
+    )
+    assert [(m.line, m.end) for m in moves] == [
+        (2, (150.0, 150.0, -25.0)),
+        (4, (160.0, 150.0, -25.0)),
+        (6, (160.0, 151.0, -25.0)),
+    ]
+
+
+def test_marlin_waits_for_its_moves_at_m400_and_ignores_g92_of_other_axes() -> None:
+    from gantry_sim.controller.gcode.interpreter import interpret_events
+    from gantry_sim.controller.moves import Dwell
+
+    text = "G21\nG1 X10 F600\nM400\nG1 X20\nM0\nG1 X30\nM84\nG92 U0\nG1 X40\nM117 hi\n"
+    items = list(interpret_events(text, dialect="marlin"))
+    assert [(i.line, i.seconds) for i in items if isinstance(i, Dwell)] == [
+        (3, 0.0),
+        (5, 0.0),
+        (7, 0.0),
+    ]
+    assert [m.end[0] for m in items if isinstance(m, Linear)] == [10.0, 20.0, 30.0, 40.0]
+
+
+def test_grbl_line_buffer_and_feed_after_inverse_time() -> None:
+    # 79 characters kept (spaces and comments are not kept) are read, 80 are error 11
+    words = "G1X1.0000000000000000000000000000000000000Y1.000000000000000000000000000000F100"
+    assert len(words) == 79
+    assert run(words + " (a comment of any length " + "c" * 100 + ")\n", "grbl")
+    err = error_of("G1 X0 F100\n" + words + "0\n", "grbl")
+    assert err.line == 2 and "(grbl error 11)" in err.message
+    # G94 after G93 leaves the feed undefined (error 22 at the next G1 without F); G94 after
+    # G94 keeps it, as does G93 from G94 (whose every move has its F)
+    assert "(grbl error 22)" in error_of("G1 X1 F100\nG93 G1 X2 F10\nG94\nG1 X3\n", "grbl").message
+    assert run("G1 X1 F100\nG94\nG1 X3\n", "grbl")[-1].feed_mm_per_min == 100.0
+    assert run("G1 X1 F100\nG93 G1 X2 F10\nG94 G1 X3 F50\n", "grbl")[-1].feed_mm_per_min == 50.0

@@ -21,8 +21,14 @@ from gantry_sim.controller.planner.magnitudes import (
 from gantry_sim.sim.cli import main
 
 HEAD = "G21 G90 G17\nG0 X0 Y0 Z0\nF600\n"
-BIG = "1" + "0" * 300  # 1e300, spelled as G-code spells numbers (no exponent)
-TINY = "0." + "0" * 299 + "1"  # 1e-300
+#: 1e300 and 1e-300 as LinuxCNC's language writes them (G-code numbers have no exponent, and
+#: a literal of 301 digits would make a line longer than LinuxCNC reads)
+BIG = "[10**300]"
+TINY = "[1/10**300]"
+#: a number beyond any machine that grbl reads (no expressions; lines of 79 characters)
+GRBL_BIG = "1" + "0" * 15
+#: 1e-300 written out, for Marlin (no expressions, no limit on a line here)
+TINY_DIGITS = "0." + "0" * 299 + "1"
 
 #: program -> (dialect, the line refused, a fragment of the message)
 CASES = {
@@ -33,7 +39,12 @@ CASES = {
         4,
         "centre X is not a finite",
     ),
-    "huge G91 arc": (HEAD + f"G91\nG2 X{BIG} Y0 R{BIG}\nM2\n", "grbl", 5, "reaches 1e+300 mm"),
+    "huge G91 arc": (
+        HEAD + f"G91\nG2 X{GRBL_BIG} Y0 R{GRBL_BIG}\nM2\n",
+        "grbl",
+        5,
+        "reaches 1e+15 mm",
+    ),
     "huge NURBS weight": (
         HEAD + "G5.2 X0 Y1 P1 L3\nX2 Y2 P100000000000000000000\nX4 Y0 P1\nG5.3\nM2\n",
         "linuxcnc",
@@ -44,7 +55,7 @@ CASES = {
     "tiny feed": (HEAD + f"F{TINY}\nG1 X5\nM2\n", "linuxcnc", 5, "raise the F"),
     "tiny inverse-time feed": (HEAD + f"G93\nG1 X5 F{TINY}\nM2\n", "linuxcnc", 5, "raise the F"),
     "tiny Marlin path acceleration": (
-        HEAD + f"M204 P{TINY}\nG1 X5\nM2\n",
+        HEAD + f"M204 P{TINY_DIGITS}\nG1 X5\nM2\n",
         "marlin",
         4,
         "must be 0 (none) or within 1..1e+06",

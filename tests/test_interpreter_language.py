@@ -24,11 +24,28 @@ def error_of(text: str, **kw) -> GcodeError:
 
 
 # issue 15 #5: no RecursionError, OverflowError or ValueError from any value -----------------
+#: a dialect that reads the LinuxCNC language with rs274's reader but no limit on a line's
+#: length (LinuxCNC refuses a line of more than 252 characters before reading it)
+UNLIMITED = "laserdyne"
+
+
 def test_an_expression_of_thousands_of_terms_evaluates() -> None:
     terms = "+".join(["1"] * 5000)
-    assert ends(f"G0 X[{terms}]\nM2\n") == [(5000.0, 0.0, 0.0)]
+    text = f"G0 X[{terms}]\nM2\n"
+    assert [m.end for m in parse_program(text, dialect=UNLIMITED)] == [(5000.0, 0.0, 0.0)]
     mixed = "-".join(["2"] * 3001)  # left to right: 2 - 2 - ... = 2 - 3000 * 2
-    assert ends(f"G0 Y[{mixed}]\nM2\n") == [(0.0, -5998.0, 0.0)]
+    moves = parse_program(f"G0 Y[{mixed}]\nM2\n", dialect=UNLIMITED)
+    assert [m.end for m in moves] == [(0.0, -5998.0, 0.0)]
+    assert "LinuxCNC reads at most 252" in error_of(text).message
+
+
+def test_a_line_of_252_characters_is_read_and_253_refused() -> None:
+    # measured: rs274 -g of LinuxCNC 2.9 reads a line of 252 characters and refuses 253
+    # ("Command too long"), comments counted
+    pad = 252 - len("G0 X1 ()")
+    assert ends(f"G0 X1 ({'c' * pad})\nM2\n") == [(1.0, 0.0, 0.0)]
+    err = error_of(f"G0 X1\nG0 X2 ({'c' * (pad + 1)})\nM2\n")
+    assert err.line == 2 and "line of 253 characters" in err.message
 
 
 @pytest.mark.parametrize(
@@ -62,12 +79,13 @@ def test_huge_and_undefined_values_are_clean_errors(text: str) -> None:
 )
 def test_a_hostile_word_is_quoted_short(text: str, quoted: str) -> None:
     # a megabyte-long word made a megabyte-long message: it is quoted to 40 characters
-    err = error_of(text + "\nM2\n")
+    err = error_of(text + "\nM2\n", dialect=UNLIMITED)
     assert len(str(err)) < 300 and quoted in str(err) and "..." in str(err)
+    assert len(str(error_of(text + "\nM2\n"))) < 300  # LinuxCNC: the line is too long
 
 
 def test_deep_nesting_is_refused_not_a_recursion_error() -> None:
-    err = error_of("G0 X" + "[" * 2000 + "1" + "]" * 2000 + "\nM2\n")
+    err = error_of("G0 X" + "[" * 2000 + "1" + "]" * 2000 + "\nM2\n", dialect=UNLIMITED)
     assert "nested" in err.message
 
 
@@ -461,7 +479,7 @@ def test_a_subroutine_name_too_long_for_a_file_is_refused_on_its_line(tmp_path, 
 
     prog = tmp_path / "p.ngc"
     prog.write_text("G1 X1 F100\no<" + "a" * 300 + "> call\nM2\n")
-    assert main(["parse", str(prog)]) == 2
+    assert main(["parse", "--dialect", "laserdyne", str(prog)]) == 2
     err = capsys.readouterr().err
     assert err.startswith(f"{prog}:2: error: subroutine o<aaaa") and "File name too long" in err
 

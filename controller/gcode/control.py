@@ -31,12 +31,14 @@ from gantry_sim.controller.gcode.lexer import (
     decode_program,
     firmware_comments,
     lex_line,
+    line_too_long,
     split_lines,
     strip_line,
     without_checksum,
     without_realtime,
 )
 from gantry_sim.controller.gcode.printer_codes import (
+    as_g92,
     marlin_dwell_seconds,
     marlin_extruder,
     without_marlin_parameters,
@@ -70,6 +72,7 @@ class Source:
     realtime: bool = False
     checksums: bool = False
     comments: str = ""
+    line_limit: str = ""  # whose line length limit applies (lexer.line_too_long)
     blocks: OrderedDict[int, Block | GcodeError] = field(default_factory=OrderedDict)
 
     def block(self, i: int) -> Block:
@@ -90,6 +93,10 @@ class Source:
 
     def _lex(self, i: int) -> Block:
         raw = without_realtime(self.lines[i]) if self.realtime else self.lines[i]
+        if self.line_limit:
+            too_long = line_too_long(raw, self.line_limit)
+            if too_long is not None:
+                raise GcodeError(too_long)
         if self.checksums and "*" in raw:
             raw = without_checksum(raw)
         if self.comments:
@@ -97,8 +104,10 @@ class Source:
         kind = self.own_lines(raw) if self.own_lines is not None else None
         if kind == "quiet":
             return Block(i + 1, (), (), False, raw)
-        if kind == "dwell":  # Marlin G4: the shared G4 with P in seconds
-            seconds = marlin_dwell_seconds(raw)
+        if kind == "set_origin":  # g2core G28.3
+            return lex_line(as_g92(raw), i + 1, self.system_lines)
+        if kind in ("dwell", "wait"):  # Marlin G4: the shared G4 with P in seconds; M400...
+            seconds = marlin_dwell_seconds(raw) if kind == "dwell" else 0.0
             return Block(i + 1, (("G", ("num", 4.0)), ("P", ("num", seconds))), (), False, raw)
         if kind == "extruder":  # Marlin M82/M83, G92 E: the extruder's mode or position
             return Block(i + 1, (), (), False, raw, extruder=marlin_extruder(raw))
@@ -162,6 +171,21 @@ class Source:
 OPENERS = ("if", "while", "do", "repeat")
 
 
+def _opened(f: Frame, o: OWord, kinds: tuple[str, ...]) -> None:
+    """The construct ``o`` (a closing or inner line run) belongs to was opened at this call
+    level by one of ``kinds``, as rs274 looks its label up (control_find_oword)."""
+    known = f.labels.lines.get(o.name)
+    line = f"o{_show(o.name)} {o.keyword}"
+    if known is None:
+        opener = " or ".join(f"o{_show(o.name)} {k}" for k in kinds)
+        raise GcodeError(f"undefined O-word label: {line} with no {opener} open before it")
+    if known[2] not in kinds:
+        raise GcodeError(
+            f"no matching label: {line} does not close or belong to the o{_show(o.name)} "
+            f"{known[2]} on line {known[1] + 1} (it belongs to {' or '.join(kinds)})"
+        )
+
+
 @dataclass
 class Labels:
     """Control labels of one call level: each may open a construct on one line only (rs274:
@@ -222,9 +246,17 @@ class Runner:
         checksums: bool = False,
         comments: str = "",
         percent_delimits: bool = True,
+        line_limit: str = "",
     ) -> None:
         self.main = Source(
-            file, split_lines(text), system_lines, own_lines, realtime, checksums, comments
+            file,
+            split_lines(text),
+            system_lines,
+            own_lines,
+            realtime,
+            checksums,
+            comments,
+            line_limit,
         )
         #: a ``%`` line opens and ends the program (rs274); False: it is nothing
         self.percent_delimits = percent_delimits
@@ -373,11 +405,9 @@ class Runner:
         elif kw in ("endsub", "return"):
             if f.sub is None:
                 raise GcodeError(f"o{_show(name)} {kw} outside a subroutine")
-            if o.args:
-                self.params.globals["_value"] = self._value(o)
-                self.params.globals["_value_returned"] = 1.0
-            else:
-                self.params.globals["_value"] = 0.0
+            if len(o.args) > 1:
+                raise GcodeError(f"o{_show(name)} {kw} returns one [value] at most")
+            self._returned(self._value(o) if o.args else None)
             level = self.params.level
             self.params.leave()
             self.frames.pop()
@@ -388,11 +418,15 @@ class Runner:
         elif kw == "if":
             f.index = i + 1 if self._value(o) != 0.0 else self._next_branch(src, i, name)
         elif kw in ("elseif", "else"):
+            _opened(f, o, ("if",))
+            if kw == "elseif":
+                self._value(o)  # rs274 reads the condition, then skips: its errors count
             end = src.find(i + 1, name, ("endif",))
             if end is None:
                 raise GcodeError(f"o{_show(name)} {kw} without o{_show(name)} endif")
             f.index = end + 1  # a branch was taken: skip the rest
         elif kw == "endif":
+            _opened(f, o, ("if",))
             f.index = i + 1
         elif kw == "do":
             self._tick(o)
@@ -401,6 +435,7 @@ class Runner:
         elif kw == "while":
             self._while(f, o)
         elif kw == "endwhile":
+            _opened(f, o, ("while",))
             loop = self._loop(f, o, ("while",))
             f.loops.pop()
             f.index = loop.start
@@ -412,6 +447,7 @@ class Runner:
                 f.loops.append(Loop(name, "repeat", i, count))
                 f.index = i + 1
         elif kw == "endrepeat":
+            _opened(f, o, ("repeat",))
             loop = self._loop(f, o, ("repeat",))
             loop.remaining -= 1
             if loop.remaining > 0:
@@ -421,7 +457,15 @@ class Runner:
                 f.loops.pop()
                 f.index = i + 1
         elif kw in ("break", "continue"):
+            _opened(f, o, ("while", "do"))
             self._break_continue(f, o)
+
+    def _returned(self, value: float | None) -> None:
+        """A subroutine returns (endsub, return, M99): ``#<_value>`` is its value (0 without
+        one) and ``#<_value_returned>`` says whether it gave one, as rs274 sets them at every
+        return (a call leaves both as they were)."""
+        self.params.globals["_value"] = 0.0 if value is None else value
+        self.params.globals["_value_returned"] = 0.0 if value is None else 1.0
 
     def _next_branch(self, src: Source, i: int, name: str) -> int:
         """After a false condition at line ``i``: the line to run next."""
@@ -510,7 +554,6 @@ class Runner:
         self._tick(o)
         src, at = found
         f.index += 1
-        self.params.globals["_value_returned"] = 0.0
         self.params.enter(args)
         self.frames.append(Frame(src, at + 1, sub=o.name))
 
@@ -539,6 +582,7 @@ class Runner:
                 f.fanuc, f.index, f.loops = (at, left - 1), at + 1, []
                 return
             passed = {i: self.params.numbered.get(i, 0.0) for i in range(1, 31)}
+            self._returned(None)
             self.params.leave()
             self.params.numbered.update(passed)  # M98: #1..#30 are the caller's, not restored
             self.frames.pop()
@@ -594,7 +638,12 @@ class Runner:
                 except OSError as exc:
                     raise GcodeError(f"cannot read subroutine file {path}: {exc}") from None
                 text = decode_program(data)
-                sub_src = Source(str(path), split_lines(text), comments=self.main.comments)
+                sub_src = Source(
+                    str(path),
+                    split_lines(text),
+                    comments=self.main.comments,
+                    line_limit=self.main.line_limit,
+                )
                 at = sub_src.find(0, name, ("sub",))
                 if at is None:
                     raise GcodeError(f"subroutine file {path} has no o<{cut(name)}> sub line")

@@ -9,6 +9,7 @@ way rs274 does it (see :mod:`gantry_sim.controller.gcode.frames`).
 
 from __future__ import annotations
 
+import math
 from dataclasses import replace
 
 from gantry_sim.controller.errors import GcodeError
@@ -64,8 +65,21 @@ def select_system(s: ModalState, p: Parameters, index: int) -> ModalState:
     return replace(s, frame=frame, position=position, coord_index=index)
 
 
-def g10(s: ModalState, p: Parameters, v: dict[str, float], systems: int = 9) -> ModalState:
-    """G10 L2 (set a system's origin, R its XY rotation) and L20 (origin so the point reads v)."""
+def rs274_system_number(p_word: float) -> tuple[bool, int]:
+    """(accepted, the system number) of G10 L2/L20's P as rs274 reads it: its check refuses a
+    P more than 0.0001 above the whole number nearest to it (check_g_codes), and the system
+    is P + 0.0001 truncated (convert_setup): P1.5 is system 1, P1.3 is refused."""
+    nearest = math.trunc(p_word + 0.5) if p_word >= 0 else math.trunc(p_word - 0.5)
+    used = math.trunc(p_word + 0.0001)
+    return (p_word + 0.0001) - nearest <= 0.0002 and 0 <= nearest <= 9, used
+
+
+def g10(
+    s: ModalState, p: Parameters, v: dict[str, float], systems: int = 9, rs274_p: bool = True
+) -> ModalState:
+    """G10 L2 (set a system's origin, R its XY rotation) and L20 (origin so the point reads v).
+    ``rs274_p``: P is read as rs274 reads it (:func:`rs274_system_number`); else P must be a
+    whole number (grbl)."""
     if "L" not in v:
         raise GcodeError("G10 needs an L word: L2 or L20 (coordinate systems)")
     if "P" not in v:
@@ -75,7 +89,10 @@ def g10(s: ModalState, p: Parameters, v: dict[str, float], systems: int = 9) -> 
     level, number = round(v["L"]), round(v["P"])
     if level not in (2, 20):
         raise GcodeError(f"G10 L{v['L']:g} is not supported; use L2 or L20")
-    if abs(v["P"] - number) > 1e-4 or not 0 <= number <= systems:
+    whole = abs(v["P"] - number) <= 1e-4
+    if rs274_p:
+        whole, number = rs274_system_number(v["P"])
+    if not whole or not 0 <= number <= systems:
         raise GcodeError(
             f"G10 P{v['P']:g}: P must be one of the {systems} coordinate systems 1..{systems} "
             "or 0 (the current)"

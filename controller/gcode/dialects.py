@@ -91,7 +91,11 @@ class Dialect:
         g_codes / m_codes: the codes (G in tenths) the controller knows; None: LinuxCNC's.
         letters: the word letters the controller knows; None: LinuxCNC's.
         system_lines: ``$`` lines are system commands (grbl); ``$J=`` is a jog.
-        home_all_axes: G28/G30 send every axis home, axis words only add a first move (grbl).
+        home_all_axes: G28/G30 send every axis home, axis words only add a first move (g2core's
+            _goto_stored_position); False: with axis words only the named axes go home (rs274,
+            and grbl 1.1's gcode.c: "Move only the axes specified in secondary move").
+        home_first_move: G28/G30 always make their first move, to the axis words' point, even
+            with none (a move of length 0: rs274); False: only with axis words (grbl, g2core).
         arc_p_allowed: P (turns) is an arc word.
         off_plane_offset_ignored: an offset word of the plane's normal axis on an arc is
             consumed and ignored (grbl) instead of an error.
@@ -144,6 +148,17 @@ class Dialect:
         motion_waits: whose rules say which machine commands the controller runs with motion
             stopped (spindle, coolant, offsets, outputs), each an exact stop before its block
             ("linuxcnc", "grbl"; "": none modelled; controller/gcode/motion_waits.py).
+        feed_mode_clears_feed: whose rule sets the feed to 0 at a feed mode word, before the
+            line's F is read: ``"linuxcnc"``, every G94 and G95 (rs274's convert_feed_mode,
+            even in the mode already in effect); ``"grbl"``, G94 after G93 (the feed is
+            undefined after leaving inverse time); ``""``: the feed is kept.
+        permissive_blocks: blocks rs274 refuses that g2core's parser lets through run as it runs
+            them (gcode_parser.cpp, canonical_machine.cpp, plan_arc.cpp): a G92/G10/G28/G30
+            beside G0-G3 takes the axis words and the motion code only sets the mode; axis
+            words with no motion mode (g2core starts with motion cancelled) move nothing; a
+            line continuing a modal G2/G3 with no centre offset or radius moves nothing.
+        line_limit: whose longest line applies (controller/gcode/lexer.py ``line_too_long``:
+            ``"linuxcnc"`` 252 characters, ``"grbl"`` 79 kept in its line buffer); ``""``: none.
     """
 
     name: str
@@ -169,6 +184,7 @@ class Dialect:
     letters: frozenset[str] | None = None
     system_lines: bool = False
     home_all_axes: bool = False
+    home_first_move: bool = True
     arc_p_allowed: bool = True
     off_plane_offset_ignored: bool = False
     arc_needs_plane_axis_word: bool = False
@@ -192,6 +208,9 @@ class Dialect:
     firmware_comments: str = ""
     percent_delimits: bool = True
     motion_waits: str = ""
+    feed_mode_clears_feed: str = ""
+    line_limit: str = ""
+    permissive_blocks: bool = False
 
 
 _TOL_MM = 2 * 0.01 * math.sqrt(2.0)  # 0.028284 mm, rs274 CENTER_ARC_RADIUS_TOLERANCE_MM
@@ -217,6 +236,8 @@ LINUXCNC = Dialect(
     cutter_comp=True,
     splines="linuxcnc",
     motion_waits="linuxcnc",
+    feed_mode_clears_feed="linuxcnc",
+    line_limit="linuxcnc",
     abort_comments=True,
 )
 
@@ -238,6 +259,9 @@ G2CORE = Dialect(
     system_lines=True,
     own_lines="g2core",
     last_word_wins=True,
+    home_all_axes=True,
+    home_first_move=False,
+    permissive_blocks=True,
     firmware_comments="g2core",
     percent_delimits=False,
 )
@@ -320,7 +344,7 @@ _GRBL_ERRORS = (
     ("neither", 32), ("ends where it starts", 33), ("radius to end of arc", 33),
     ("too small to reach", 34), ("has no centre", 35), ("missing", 35),
     ("with no code that uses it", 36), ("axis word on a 3-axis machine", 20),
-    ("axis words with no motion mode", 31),
+    ("axis words with no motion mode", 31), ("max characters per line", 11),
 )
 # fmt: on
 GRBL = Dialect(
@@ -343,7 +367,6 @@ GRBL = Dialect(
     m_codes=frozenset((0, 1, 2, 30, 3, 4, 5, 7, 8, 9, 56)),
     letters=frozenset("FGIJKLMNPRSTXYZ"),
     system_lines=True,
-    home_all_axes=True,
     arc_p_allowed=False,
     off_plane_offset_ignored=True,
     arc_needs_plane_axis_word=True,
@@ -356,6 +379,9 @@ GRBL = Dialect(
     firmware_comments="grbl",
     percent_delimits=False,
     motion_waits="grbl",
+    feed_mode_clears_feed="grbl",
+    home_first_move=False,
+    line_limit="grbl",
 )
 
 DIALECTS: dict[str, Dialect] = {d.name: d for d in (LINUXCNC, G2CORE, MARLIN, LASERDYNE, GRBL)}

@@ -257,8 +257,8 @@ def _function(name: str, x: float) -> float:
                 return float(math.ceil(x))
             case "LN":
                 return math.log(x)
-            case "ROUND":
-                return float(math.floor(x + 0.5))
+            case "ROUND":  # rs274: (int)(x + 0.5), or - 0.5 below 0: halves away from zero
+                return _c_int(x + (-0.5 if x < 0.0 else 0.5))
             case "SIN":
                 return math.sin(math.radians(x))
             case "SQRT":
@@ -267,6 +267,14 @@ def _function(name: str, x: float) -> float:
                 return math.tan(math.radians(x))
     except (ValueError, OverflowError):
         raise GcodeError(f"{name}[{x:g}] is out of the function's domain") from None
+
+
+def _c_int(x: float) -> float:
+    """C's ``(int) x`` as rs274 computes it on x86-64: truncated toward zero; a value beyond
+    a 32-bit int gives INT_MIN there (the processor's "integer indefinite")."""
+    if -2147483649.0 < x < 2147483648.0:
+        return float(math.trunc(x))
+    return -2147483648.0
 
 
 def _binary(op: str, a: float, b: float) -> float:

@@ -15,6 +15,7 @@ from gantry_sim.controller.gcode.state import ModalState
 from gantry_sim.controller.moves import Arc, Linear, Spline
 
 INVERSE_TIME = 930
+UNITS_PER_MINUTE = 940
 PER_REVOLUTION = 950
 
 

@@ -42,7 +42,12 @@ from gantry_sim.controller.gcode.dialect_checks import check_codes, check_jog, c
 from gantry_sim.controller.gcode.dialects import Dialect, coded, get_dialect
 from gantry_sim.controller.gcode.expressions import evaluate
 from gantry_sim.controller.gcode.extruder import Extruder
-from gantry_sim.controller.gcode.feed_modes import check_feed_mode, path_feed
+from gantry_sim.controller.gcode.feed_modes import (
+    INVERSE_TIME,
+    UNITS_PER_MINUTE,
+    check_feed_mode,
+    path_feed,
+)
 from gantry_sim.controller.gcode.frames import Frame, add, from_work, sub, to_work
 from gantry_sim.controller.gcode.lexer import Block
 from gantry_sim.controller.gcode.modal_save import restore
@@ -144,6 +149,11 @@ class Interpreter:
         if block.extruder is not None:
             self._set_extruder(block.extruder)
             return [], False
+        for (kind, target), _ in block.settings:
+            if kind == "name" and not self.params.exists(target):
+                # rs274 adds a name as it reads the setting (add_named_param): the line reads
+                # it as 0 until the settings are made, after the line
+                self.params.set_named(target, 0.0)
         w = read_words(block, self.params, d)
         s = self.state
         # Step 2: every code is one gantry-sim supports.
@@ -168,16 +178,19 @@ class Interpreter:
                 raise GcodeError(
                     f"{g_name(code)} is not supported: {d.name} has no cutter radius compensation"
                 )
-        # Step 3: feed (in the units in effect BEFORE this block's G20/G21, as rs274 does).
+        # Step 3: feed mode, then feed (in the units in effect BEFORE this block's G20/G21, as
+        # rs274 does).
+        if "feed_mode" in w.g:
+            s = evolve(s, feed_mode=w.g["feed_mode"], feed_mm_per_min=_feed_at_mode(s, w, d))
         if "F" in w.values:
             if w.values["F"] < 0.0:
                 raise GcodeError("negative F word; the feed must be >= 0 (units per minute)")
             s = evolve(s, feed_mm_per_min=w.values["F"] * s.scale)
         s, tool_changed = tool_words(s, w, self.table)
-        if "feed_mode" in w.g:
-            s = evolve(s, feed_mode=w.g["feed_mode"])
         if "S" in w.values and "S" not in d.ignored_letters:
             s = evolve(s, rpm=w.values["S"])
+        if "spindle_mode" in w.g:
+            s = evolve(s, css=w.g["spindle_mode"] == 960)
         if "spindle" in w.m:
             s = evolve(s, spindle={3: 1, 4: -1, 5: 0, 19: 0}[w.m["spindle"]])  # M19: stopped
         if "coolant" in w.m:
@@ -228,7 +241,9 @@ class Interpreter:
             s, motion = evolve(s, motion=None), None
             cycle = evolve(cycle, initial=None)
         elif motion is not None:
-            if nonmodal is not None and axis_code and has_axes:
+            if nonmodal is not None and axis_code and has_axes and d.permissive_blocks:
+                s, motion = evolve(s, motion=motion), None  # g2core: G92 takes the words
+            elif nonmodal is not None and axis_code and has_axes:
                 raise GcodeError(
                     f"{g_name(nonmodal)} and {g_name(motion)} both use the axis words; put them "
                     "on separate lines"
@@ -236,7 +251,7 @@ class Interpreter:
             if motion in (50, 51) and not any(a in w.values for a in "XY@^"):
                 raise GcodeError(f"{g_name(motion)} needs X or Y: all axes missing")
             # rs274: G5/G5.1 leave the motion mode as it was
-            if motion not in (50, 51) and motion != s.motion:
+            if motion is not None and motion not in (50, 51) and motion != s.motion:
                 s = evolve(s, motion=motion)
         elif axis_code:
             pass  # the axis words belong to G10/G28/G30/G92
@@ -244,10 +259,14 @@ class Interpreter:
             motion = s.motion  # rs274: a centre word alone continues a modal G2/G3
         elif has_axes and w.g.get("tool_length") == 431:
             pass  # the axis words are G43.1's offsets
+        elif has_axes and s.motion is None and d.permissive_blocks:
+            pass  # g2core starts with motion cancelled: axis words alone move nothing
         elif has_axes:
             if s.motion is None:
                 raise GcodeError("axis words with no motion mode; put G0, G1, G2 or G3 first")
             motion = s.motion
+            if motion in (20, 30) and d.permissive_blocks:
+                motion = None  # g2core: a modal arc with no centre or radius moves nothing
         check_words(w, motion, d)
         if d.r_needs_arc_code_first and w.r_before_arc_code:
             raise GcodeError(
@@ -262,7 +281,7 @@ class Interpreter:
         if nonmodal == 100 and round(w.values.get("L", 0)) in (1, 10, 11) and d.g10_rotation:
             s = set_tool_entry(s, self.params, w.values, self.table)
         elif nonmodal == 100:
-            s = g10(s, self.params, w.values, d.coordinate_systems)
+            s = g10(s, self.params, w.values, d.coordinate_systems, d.language)
         elif nonmodal in (920, 921, 922, 923, 520):
             s = g92(s, self.params, nonmodal, w.values)
             if nonmodal == 920 and s.extruder is not None and "E" in w.values:
@@ -509,7 +528,7 @@ class Interpreter:
     ) -> ModalState:
         """G28 / G30: rapid through the axis words' point (if any) to the stored point."""
         axes = {a for a in "XYZ" if a in v}
-        if axes or not self.dialect.home_all_axes:
+        if axes or self.dialect.home_first_move:
             mid = self._end_point(v, s)  # rs274 always makes the first move, even of length 0
             s = self._emit(moves, s, Rapid(line, s.work, to_work(mid, s.frame)), mid)
         if self.dialect.home_all_axes:
@@ -627,7 +646,9 @@ class Interpreter:
         return moves, False
 
     def _predefined(self, name: str) -> float | None:
-        return predefined(name, self.state, self.params, self.line)
+        return predefined(
+            name, self.state, self.params, self.line, self.cycle.retract_to_r, self.comp.side
+        )
 
     def _refresh_system_parameters(self) -> None:
         """#5420-#5422: the current X Y Z in program units (stored in mm)."""
@@ -652,6 +673,18 @@ class Interpreter:
                 f"cannot make {what} with zero feed rate; set F (units per minute, > 0) on this "
                 "or an earlier line"
             )
+
+
+def _feed_at_mode(s: ModalState, w: Words, d: Dialect) -> float:
+    """The feed [mm/min] once block ``w``'s G93/G94/G95 is set, before its F is read
+    (:attr:`~gantry_sim.controller.gcode.dialects.Dialect.feed_mode_clears_feed`)."""
+    mode = w.g["feed_mode"]
+    rule = d.feed_mode_clears_feed
+    if (rule == "linuxcnc" and mode != INVERSE_TIME) or (
+        rule == "grbl" and mode == UNITS_PER_MINUTE and s.feed_mode == INVERSE_TIME
+    ):
+        return 0.0
+    return s.feed_mm_per_min
 
 
 def _set_path(moves: list[Move | Event], path: PathControl) -> None:
@@ -753,6 +786,7 @@ def interpret_events(
             checksums=rules.checksums,
             comments=rules.firmware_comments,
             percent_delimits=rules.percent_delimits,
+            line_limit=rules.line_limit,
         )
         runner.errors = errors
         runner.on_return = interp.sub_returned

@@ -248,6 +248,47 @@ def without_checksum(raw: str) -> str:
     return raw
 
 
+#: rs274 reads a line with ``fgets`` into LINELEN (255) bytes: a line of 253 characters or
+#: more, its line end counted, is "Command too long" (measured: 252 pass)
+LINUXCNC_MAX_LINE = 252
+#: grbl 1.1's line buffer (LINE_BUFFER_SIZE 80, less its NUL) holds the characters it keeps:
+#: not spaces, control characters, ``/`` or comments (protocol.c)
+GRBL_MAX_LINE = 79
+
+
+def line_too_long(raw: str, rule: str) -> str | None:
+    """Why the controller of ``rule`` ("linuxcnc", "grbl"; "": no limit) refuses line ``raw``
+    (without its line end; grbl's realtime characters already taken out) for its length, or
+    None."""
+    if rule == "linuxcnc" and len(raw) > LINUXCNC_MAX_LINE:
+        return (
+            f"line of {len(raw)} characters: LinuxCNC reads at most {LINUXCNC_MAX_LINE} "
+            "('Command too long'); split it, or shorten its comment"
+        )
+    if rule == "grbl":
+        kept = _grbl_kept(raw)
+        if kept > GRBL_MAX_LINE:
+            return (
+                f"line of {kept} characters without spaces and comments: grbl's line buffer "
+                f"holds {GRBL_MAX_LINE} (max characters per line exceeded)"
+            )
+    return None
+
+
+def _grbl_kept(raw: str) -> int:
+    """How many characters of ``raw`` grbl's protocol loop keeps in its line buffer."""
+    kept, comment = 0, ""
+    for ch in raw:
+        if comment:
+            if comment == "(" and ch == ")":
+                comment = ""
+        elif ch == "(" or ch == ";":
+            comment = ch
+        elif ch > " " and ch != "/":
+            kept += 1
+    return kept
+
+
 def without_realtime(raw: str) -> str:
     """``raw`` as grbl's parser receives it: realtime characters taken out of the stream."""
     return _REALTIME.sub("", raw)

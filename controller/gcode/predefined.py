@@ -14,21 +14,28 @@ _SYSTEMS = (540.0, 550.0, 560.0, 570.0, 580.0, 590.0, 591.0, 592.0, 593.0)
 #: names that read 0 in a 3-axis, non-lathe, override-free simulation
 _ZERO = (
     "_a", "_b", "_c", "_u", "_v", "_w", "_abs_a", "_abs_b", "_abs_c", "_abs_u", "_abs_v",
-    "_abs_w", "_ccomp", "_spindle_css_mode", "_lathe_diameter_mode", "_adaptive_feed",
-    "_current_pocket", "_selected_pocket", "_remap_level", "_task", "_retract_old_z",
-    "_retract_r_plane",
+    "_abs_w", "_lathe_diameter_mode", "_adaptive_feed", "_current_pocket", "_selected_pocket",
+    "_remap_level", "_task",
 )  # fmt: skip
 _ONE = (
     "_lathe_radius_mode",
-    "_spindle_rpm_mode",
     "_speed_override",
     "_feed_override",
     "_feed_hold",
 )
 
 
-def predefined(name: str, s: ModalState, p: Parameters, line: int) -> float | None:
-    """The value of predefined parameter ``name`` (lower case), or None when it is not one."""
+def predefined(
+    name: str,
+    s: ModalState,
+    p: Parameters,
+    line: int,
+    retract_to_r: bool = True,
+    comp_side: str | None = None,
+) -> float | None:
+    """The value of predefined parameter ``name`` (lower case), or None when it is not one.
+    ``retract_to_r``: G99 in effect (G98: False); ``comp_side``: cutter compensation's side,
+    "left" (G41), "right" (G42) or None (G40)."""
     scale = s.scale
     match name:
         case "_vmajor":
@@ -63,8 +70,18 @@ def predefined(name: str, s: ModalState, p: Parameters, line: int) -> float | No
             return float(s.arc_absolute)
         case "_spindle_on":
             return float(s.spindle != 0)
-        case "_spindle_cw":
-            return float(s.spindle >= 0)
+        case "_spindle_cw":  # rs274: the spindle turning clockwise (M3), not merely not M4
+            return float(s.spindle == 1)
+        case "_spindle_css_mode":
+            return float(s.css)
+        case "_spindle_rpm_mode":
+            return float(not s.css)
+        case "_ccomp":
+            return {"left": 410.0, "right": 420.0}.get(comp_side or "", 400.0)
+        case "_retract_r_plane":
+            return float(retract_to_r)
+        case "_retract_old_z":
+            return float(not retract_to_r)
         case "_mist":
             return float(s.mist)
         case "_flood":

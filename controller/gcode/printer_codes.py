@@ -18,9 +18,12 @@ zero: a curve of no length; Cura's Anycubic start code has one); M and T words a
 command are its parameters, which it ignores (``G90 M107`` is G90).
 
 g2core: a line opening with ``{`` is a JSON configuration or status request (no motion), and so
-are M100 (JSON in a G-code line), M100.1 and M101 (wait for inputs); G28.2/G28.3 (homing / set
-position) and G28.4 are accepted without motion (G28.3 sets no offset
-here: the work frame starts at the machine file's origin).
+are M100 (JSON in a G-code line), M100.1 and M101 (wait for inputs); G28.2 (homing) and G28.4
+are accepted without motion. G28.3 (set the absolute origin) makes the named axes read the
+words' values where the tool is, without moving it (canonical_machine.cpp
+``cm_set_absolute_origin``): it runs as a G92 with the same words, the one offset that shifts
+every later position without moving the tool (a later G92.1 clears it, where g2core's origin
+stays).
 """
 
 from __future__ import annotations
@@ -33,8 +36,16 @@ from gantry_sim.controller.gcode.codes import G_GROUPS
 #: M codes with free text after them (M117 message, M118 serial echo, SD file names).
 _TEXT = re.compile(r"^\s*(?:N\d+\s*)?M\s*0*(117|118|23|28|30|32|33|928)(?!\d)", re.IGNORECASE)
 _HEAD = re.compile(r"^\s*(?:N\d+\s*)?([GMT])\s*([0-9]+(?:\.[0-9]+)?)", re.IGNORECASE)
-_E_ONLY = re.compile(r"^\s*(?:N\d+\s*)?G\s*0*92\s*(?:E[-+0-9.]*\s*)*(?:[;(].*)?$", re.IGNORECASE)
+#: G92 with no X, Y or Z word: E and the axes Marlin's default build lacks (A B C U V W, which it
+#: ignores) set nothing of the tool's position (``G92 U0``: a food printer's extruder)
+_E_ONLY = re.compile(
+    r"^\s*(?:N\d+\s*)?G\s*0*92\s*(?:[EABCUVW][-+0-9.]*\s*)*(?:[;(].*)?$", re.IGNORECASE
+)
 
+#: Marlin M codes that wait for the moves buffered before them to end (each calls
+#: ``planner.synchronize()``): M0/M1 (stop), M18/M84 (steppers off), M226 (wait for a pin),
+#: M400 (finish moves). Each is an exact stop, of no time.
+MARLIN_SYNC_M = frozenset((0.0, 1.0, 18.0, 84.0, 226.0, 400.0))
 #: Marlin G codes (tenths) accepted with no tool motion here.
 MARLIN_QUIET_G = frozenset(
     (40, 100, 110, 290, 291, 292, 293, 300, 310, 320, 330, 340, 350, 600, 760)
@@ -59,8 +70,9 @@ MARLIN_REFUSED_G: dict[int, str] = {
 
 def marlin_line(raw: str) -> str | None:
     """What a Marlin line is before the shared step: "quiet" (accepted, no motion), "home" (G28),
-    "dwell" (G4 P<ms> or S<s>), "limits" (M201/M203/M204/M205), "extruder" (M82, M83, or G92
-    with E alone: :func:`marlin_extruder`), "parameters" (a G line with M or T words, which
+    "dwell" (G4 P<ms> or S<s>), "wait" (an M code of :data:`MARLIN_SYNC_M`), "limits"
+    (M201/M203/M204/M205), "extruder" (M82, M83, or G92 with E alone:
+    :func:`marlin_extruder`), "parameters" (a G line with M or T words, which
     Marlin reads as parameters the command ignores) or None (a shared G-code line). GcodeError
     for a refused G code."""
     if _TEXT.match(raw):
@@ -76,6 +88,8 @@ def marlin_line(raw: str) -> str | None:
         return "limits"
     if letter == "M" and number.lstrip("0") in ("82", "83"):
         return "extruder"
+    if letter == "M" and float(number) in MARLIN_SYNC_M:
+        return "wait"
     if letter in "MT":
         return "quiet"
     tenths = round(float(number) * 10)
@@ -152,11 +166,22 @@ _G2CORE_QUIET = re.compile(
 )
 
 
+_G2CORE_SET_ORIGIN = re.compile(r"^(\s*(?:N\d+\s*)?)G\s*0*28\s*\.\s*3(?!\d)", re.IGNORECASE)
+
+
 def g2core_line(raw: str) -> str | None:
-    """ "quiet" for a g2core JSON line or G28.2/G28.3/G28.4; None otherwise."""
+    """ "quiet" for a g2core JSON line or G28.2/G28.4, "set_origin" for G28.3; None
+    otherwise."""
+    if _G2CORE_SET_ORIGIN.match(raw):
+        return "set_origin"
     if raw.lstrip().startswith("{") or _G2CORE_QUIET.match(raw):
         return "quiet"
     return None
+
+
+def as_g92(raw: str) -> str:
+    """A g2core G28.3 line written as the G92 it runs as (:func:`g2core_line`)."""
+    return _G2CORE_SET_ORIGIN.sub(lambda m: m.group(1) + "G92", raw, count=1)
 
 
 #: the dialects' ``own_lines`` rule sets

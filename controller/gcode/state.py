@@ -81,6 +81,7 @@ class ModalState:
             rotated). After a tool change rs274 takes its current point back from it.
         path: path control mode set by G61/G61.1/G64 (None until the program sets one).
         extruder: Marlin's extruder mode and position (None: a dialect without one).
+        css: G96 (constant surface speed) in effect; False: G97 (constant rpm).
     """
 
     position: Vec3 = (0.0, 0.0, 0.0)
@@ -107,6 +108,7 @@ class ModalState:
     canon: Vec3 = (0.0, 0.0, 0.0)
     path: PathControl | None = None
     extruder: Extruder | None = None
+    css: bool = False
 
     @property
     def scale(self) -> float:

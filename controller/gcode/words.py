@@ -212,12 +212,33 @@ def check_words(w: Words, motion: int | None, dialect: Dialect) -> None:
         raise GcodeError("M61 needs a Q word >= 0: the tool number now in the spindle")
     if w.m.get("io") in (62, 63, 64, 65) and "P" not in v:
         raise GcodeError(f"M{w.m['io']} needs a P word: the digital output number")
+    if w.m.get("io") == 66:
+        _check_wait_input(v)
+    if w.g.get("spindle_mode") == 960 and "S" not in v:
+        raise GcodeError("S word missing with G96: G96 sets the surface speed from S")
     if w.m.get("io") in (67, 68) and ("E" not in v or "Q" not in v):
         raise GcodeError(f"M{w.m['io']} needs E (the analog output) and Q (its value)")
     if w.g.get("nonmodal") == 40 and arc:
         raise GcodeError("G4 (dwell) cannot share a line with G2 or G3: both use the P word")
     if w.g.get("nonmodal") == 40 and v.get("P", -1.0) < 0.0:
         raise GcodeError("G4 (dwell) needs a P word: the dwell time in seconds, >= 0")
+
+
+def _check_wait_input(v: dict[str, float]) -> None:
+    """M66's words, as rs274's convert_m checks them: P (a digital input) or E (an analog
+    one), not both; L (the wait type) above 0 needs a timeout Q > 0 and a digital input."""
+    if "P" in v and "E" in v:
+        raise GcodeError("M66 with both P and E: wait for a digital (P) or an analog (E) input")
+    wait = round(v.get("L", 0.0))
+    if wait > 0 and v.get("Q", -1.0) <= 0.0:
+        raise GcodeError(
+            f"M66 L{wait} with no timeout: a wait type other than L0 (immediate) needs Q > 0 "
+            "(the timeout in seconds)"
+        )
+    if "E" in v and wait != 0:
+        raise GcodeError("M66 E (an analog input) takes only L0 (immediate)")
+    if ("P" not in v and "E" not in v) or round(v.get("P", v.get("E", 0.0))) < 0:
+        raise GcodeError("M66 needs a P word (digital input) or an E word (analog input), >= 0")
 
 
 def _letter_uses(w: Words, motion: int | None, dialect: Dialect) -> dict[str, bool]:
