@@ -149,12 +149,7 @@ class Interpreter:
         if block.extruder is not None:
             self._set_extruder(block.extruder)
             return [], False
-        for (kind, target), _ in block.settings:
-            if kind == "name" and not self.params.exists(target):
-                # rs274 adds a name as it reads the setting (add_named_param): the line reads
-                # it as 0 until the settings are made, after the line
-                self.params.set_named(target, 0.0)
-        w = read_words(block, self.params, d)
+        w = read_words(block, self.params, d, self._create_named)
         s = self.state
         # Step 2: every code is one gantry-sim supports.
         check_codes(w, d)
@@ -644,6 +639,12 @@ class Interpreter:
             done = self.state
             self.state = evolve(saved, position=done.position, work=done.work)
         return moves, False
+
+    def _create_named(self, name: str) -> None:
+        """rs274 adds a named parameter as it reads its setting (add_named_param): the rest
+        of the line reads a new one as 0; the value is set after the line."""
+        if not self.params.exists(name):
+            self.params.set_named(name, 0.0)
 
     def _predefined(self, name: str) -> float | None:
         return predefined(

@@ -97,6 +97,8 @@ class Block:
         extruder: a Marlin line that sets the extruder without moving it: ("relative", 1.0)
             for M83, ("relative", 0.0) for M82, ("position", E) for ``G92 E`` (E in the
             program's units).
+        settings_at: per setting, how many of ``words`` come before it on the line (empty:
+            every setting after the words).
     """
 
     line: int
@@ -109,6 +111,7 @@ class Block:
     home: bool = False
     limits: bool = False
     extruder: tuple[str, float] | None = None
+    settings_at: tuple[int, ...] = ()
 
     @property
     def empty(self) -> bool:
@@ -353,6 +356,7 @@ def _lex_text(text: str, raw: str, line: int) -> Block:
             raise GcodeError("N must be followed by a line number")
     words: list[tuple[str, Tree]] = []
     settings: list[tuple[Tree, Tree]] = []
+    settings_at: list[int] = []
     while reader.pos < len(text):
         ch = reader.peek()
         if ch == COMMENT:
@@ -367,6 +371,7 @@ def _lex_text(text: str, raw: str, line: int) -> Block:
                 raise GcodeError("expected '=' after #n at the start of a parameter setting")
             reader.pos += 1
             settings.append((target, reader.real_value()))
+            settings_at.append(len(words))
             continue
         if ch == "O":
             if words or settings:
@@ -388,7 +393,7 @@ def _lex_text(text: str, raw: str, line: int) -> Block:
             )
         reader.pos += 1
         words.append((ch, reader.real_value()))
-    return Block(line, tuple(words), tuple(settings), False, raw)
+    return Block(line, tuple(words), tuple(settings), False, raw, settings_at=tuple(settings_at))
 
 
 def _oword(reader: Reader) -> OWord | None:

@@ -8,6 +8,7 @@ once and must have a code on the line (or the modal motion) that uses it.
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 from dataclasses import dataclass
 
 from gantry_sim.controller.errors import GcodeError
@@ -96,16 +97,35 @@ def _number(tree: Tree, params: ParameterReader) -> float:
     return evaluate(tree, params)  # raises, saying why
 
 
-def read_words(block: Block, params: ParameterReader, dialect: Dialect | None = None) -> Words:
+def read_words(
+    block: Block,
+    params: ParameterReader,
+    dialect: Dialect | None = None,
+    create: Callable[[str], None] | None = None,
+) -> Words:
     """Step 1: evaluate the block's values (with parameters as they were before the line);
     ``dialect``: whose M codes an unknown one's message lists and whose integer words are
-    read as rs274 reads them (default LinuxCNC's)."""
+    read as rs274 reads them (default LinuxCNC's). ``create``: called with the name of each
+    ``#<name>=`` setting where the line's reading reaches it, before the words after it are
+    read (rs274's add_named_param: the rest of the line reads a new name as 0)."""
+    at = block.settings_at or (len(block.words),) * len(block.settings)
+    settings: list[tuple[int | str, float]] = []
+    done = 0  # settings read so far
+
+    def read_settings_before(k: int) -> None:
+        nonlocal done
+        while done < len(block.settings) and at[done] <= k:
+            settings.append(_setting(block.settings[done], params, create))
+            done += 1
+
     g: dict[str, int] = {}
     m: dict[str, int] = {}
     values: dict[str, float] = {}
     r_before_arc_code = False
     last_wins = dialect is not None and dialect.last_word_wins
-    for letter, tree in block.words:
+    for k, (letter, tree) in enumerate(block.words):
+        if done < len(block.settings):
+            read_settings_before(k)
         value = _number(tree, params)
         if letter == "G":
             code = _code(value, True)
@@ -141,19 +161,26 @@ def read_words(block: Block, params: ParameterReader, dialect: Dialect | None = 
             if letter in (dialect or LINUXCNC).integer_words:
                 value = whole_number(letter, value)
             values[letter] = value
-    settings: list[tuple[int | str, float]] = []
-    for (kind, target), value_tree in block.settings:
-        if kind == "name":
-            settings.append((target, evaluate(value_tree, params)))
-            continue
-        index = parameter_index(evaluate(target, params))
-        if index > MAX_SETTABLE_PARAMETER and index not in SETTABLE_SYSTEM:
-            raise GcodeError(
-                f"parameter #{index} is read-only (system parameters #{MAX_SETTABLE_PARAMETER + 1}.."
-                f"#{MAX_PARAMETER}); set #1..#{MAX_SETTABLE_PARAMETER}"
-            )
-        settings.append((index, evaluate(value_tree, params)))
+    read_settings_before(len(block.words))
     return Words(block.line, g, m, values, tuple(settings), r_before_arc_code)
+
+
+def _setting(
+    setting: tuple[Tree, Tree], params: ParameterReader, create: Callable[[str], None] | None
+) -> tuple[int | str, float]:
+    """One ``#target=value`` of a line: (the parameter's number or name, the value)."""
+    (kind, target), value_tree = setting
+    if kind == "name":
+        if create is not None:
+            create(target)
+        return target, evaluate(value_tree, params)
+    index = parameter_index(evaluate(target, params))
+    if index > MAX_SETTABLE_PARAMETER and index not in SETTABLE_SYSTEM:
+        raise GcodeError(
+            f"parameter #{index} is read-only (system parameters #{MAX_SETTABLE_PARAMETER + 1}.."
+            f"#{MAX_PARAMETER}); set #1..#{MAX_SETTABLE_PARAMETER}"
+        )
+    return index, evaluate(value_tree, params)
 
 
 def check_words(w: Words, motion: int | None, dialect: Dialect) -> None:
