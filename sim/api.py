@@ -29,7 +29,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING
 
 from gantry_sim.controller.config import MachineConfig
-from gantry_sim.controller.errors import GantryError, GcodeError
+from gantry_sim.controller.errors import GantryError, GcodeError, PlanningError
 from gantry_sim.controller.gcode.control import DEFAULT_MAX_ITERATIONS
 from gantry_sim.sim.budget import Budget, check_budget, check_lower_bound
 from gantry_sim.sim.gates import Gates, Verdict
@@ -194,7 +194,7 @@ def _run(
     from gantry_sim.sim.blend_parts import split_reference
     from gantry_sim.sim.contour import analyse
     from gantry_sim.sim.machine import load_gantry
-    from gantry_sim.sim.program import interpret_program
+    from gantry_sim.sim.program import checked_placement, interpret_program
     from gantry_sim.sim.report import build_report
     from gantry_sim.sim.runner import simulate
 
@@ -224,7 +224,17 @@ def _run(
             plotter.start()  # a long program's after its parse (sim.plot_worker)
         check_lower_bound(items, machine, budget or Budget(), file, feed_override_pct)
         with stage("plan", len(items), "move", shown, ticking=True) as advance:
-            planned = plan(items, machine, feed_override_pct=feed_override_pct, advance=advance)
+            try:
+                planned = plan(items, machine, feed_override_pct=feed_override_pct, advance=advance)
+            except PlanningError as exc:
+                raise checked_placement(
+                    exc,
+                    text,
+                    dialect=dialect,
+                    machine=machine,
+                    search_path=folders,
+                    max_iterations=max_iterations,
+                ) from None
         del items, text  # the moves are on disk now (``moves``); the run needs neither
         check_budget(planned, machine, budget or Budget(), file)
         if planned.sample_count(machine.servo.period_s) > STREAM_ABOVE_TICKS:

@@ -7,17 +7,19 @@ files (the program's own first, then ``--subroutine-path``), and the bound on lo
 A refused program stops at its first refused line, as before; when other lines are refused too,
 the error says how many and that ``gantry parse --all-errors`` lists them all, so a user fixes a
 program in one pass. :func:`read_program` reads a program file as text, for the commands and the
-Python API alike.
+Python API alike. :func:`checked_placement` tries the work offset a travel error suggests before
+the user is told to use it.
 """
 
 from __future__ import annotations
 
+import re
 from collections.abc import Callable, Iterable, Iterator, Sequence
 from pathlib import Path
 from typing import Any, BinaryIO, Literal, overload
 
 from gantry_sim.controller.config import MachineConfig
-from gantry_sim.controller.errors import GantryError, GcodeError
+from gantry_sim.controller.errors import GantryError, GcodeError, PlanningError
 from gantry_sim.controller.gcode.control import DEFAULT_MAX_ITERATIONS, MAX_ERRORS
 from gantry_sim.controller.gcode.lexer import decode_program
 from gantry_sim.controller.moves import Event, Move
@@ -104,6 +106,52 @@ def interpret_program(
                 "the same options lists them all)"
             )
         raise
+
+
+#: the work offset a travel error suggests (controller/planner/travel.py ``placement_hint``)
+_SUGGESTED = re.compile(r"; moved by ([^ ]+) mm it fits: place it with --work-offset=.*$")
+
+
+def checked_placement(
+    exc: GantryError,
+    text: str,
+    *,
+    dialect: str,
+    machine: MachineConfig,
+    search_path: Sequence[Path] = (),
+    max_iterations: int = DEFAULT_MAX_ITERATIONS,
+) -> GantryError:
+    """``exc``, where it suggests a work offset that would not place the program, with the
+    suggestion replaced by why. The program is read again with the offset added to G54's
+    origin and its moves checked against the travel: a program that sets its origin from where
+    the tool stands (G92, G10 L20, g2core's G28.3; the tool starts at the work origin) or
+    moves in machine coordinates (G53) does not move with G54."""
+    from gantry_sim.controller.gcode.interpreter import interpret
+    from gantry_sim.controller.planner.travel import check_travel
+
+    found = _SUGGESTED.search(exc.message) if isinstance(exc, PlanningError) else None
+    if found is None:
+        return exc
+    shift = [float(v) for v in found.group(1).split(",")]
+    g54 = machine.work.systems_mm[0]
+    work = machine.work.placed((g54[0] + shift[0], g54[1] + shift[1], g54[2] + shift[2]))
+    kwargs: dict[str, Any] = {
+        "search_path": tuple(search_path),
+        "max_iterations": max_iterations,
+        "tools": work.tool_table(),
+        "parameters": work.parameters(),
+    }
+    try:
+        check_travel(SpilledList(interpret(text, dialect, "<program>", **kwargs)), machine.travel)
+        return exc  # placed so, it fits
+    except GantryError:
+        pass
+    exc.message = exc.message[: found.start()] + (
+        "; a work offset does not place it: moved by one, not all of its moves move (a G92, "
+        "G10 L20 or G28.3 sets its origin from where the tool stands, which is the work origin "
+        "when the program starts; G53 moves stay in machine coordinates)"
+    )
+    return exc
 
 
 def _other_refused_lines(text: str, dialect: str, file: str, kwargs: dict[str, Any]) -> int:

@@ -86,3 +86,25 @@ def test_the_suggested_offset_places_a_program_planned_in_parts(tmp_path, capsys
     hint = re.search(r"place it with (--work-offset=\S+)", capsys.readouterr().err)
     assert hint is not None and hint.group(1) == "--work-offset=0,-80,0"
     assert main(["plan", str(prog), "--dialect", "marlin", hint.group(1)]) == 0
+
+
+@pytest.mark.parametrize("command", ["plan", "run"])
+def test_no_offset_is_suggested_where_the_program_sets_its_origin_from_the_tool(
+    command, write_program, tmp_path, capsys
+):
+    """A gSender insole job (`G10 L20 P1 ... `) and a dxf2gcode file (`G92 X0 Y0`) set their
+    origin from where the tool stands, which a work offset does not move: the offset the hint
+    suggested failed the same way again. Set after a move, the origin moves with G54 and the
+    hint holds."""
+    out = ["--out", str(tmp_path / "o"), "--no-plots"] if command == "run" else []
+    for setting in ("G10 L20 P1 X0 Y0 Z0", "G92 X0 Y0"):
+        prog = write_program(f"G21 G90\n{setting}\nG0 X0 Y-250\nM2\n")
+        assert main([command, str(prog), *out]) == 2
+        err = capsys.readouterr().err
+        assert "Y-250.0000, outside the machine's travel" in err
+        assert "a work offset does not place it" in err and "--work-offset=" not in err
+    prog = write_program("G21 G90\nG0 X10 Y10\nG92 X0 Y0\nG0 Y-250\nM2\n")
+    assert main([command, str(prog), *out]) == 2
+    hint = re.search(r"place it with (--work-offset=\S+)", capsys.readouterr().err)
+    assert hint is not None and hint.group(1) == "--work-offset=0,40,0"
+    assert main([command, str(prog), hint.group(1), *out]) == 0

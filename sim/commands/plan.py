@@ -77,7 +77,7 @@ def run(args: argparse.Namespace) -> int:
     from gantry_sim.controller.planner.plan import plan
     from gantry_sim.sim.budget import Budget, check_budget, check_lower_bound
     from gantry_sim.sim.outdir import check_output_file
-    from gantry_sim.sim.program import interpret_program
+    from gantry_sim.sim.program import checked_placement, interpret_program
     from gantry_sim.sim.progress import stage, wanted
 
     budget = budget_from(args)
@@ -104,6 +104,14 @@ def run(args: argparse.Namespace) -> int:
         with stage("plan", len(moves), "move", shown, ticking=True) as advance:
             result = plan(moves, machine, advance=advance)
     except GantryError as exc:
+        exc = checked_placement(
+            exc,
+            text,
+            dialect=args.dialect,
+            machine=machine,
+            search_path=search_path(args),
+            max_iterations=max_iterations(args),
+        )
         raise exc.located(file) from None
     period = machine.servo.period_s
     if args.out is not None:  # the file's size: the same bound as a simulation's
