@@ -161,6 +161,13 @@ class Source:
             if o is not None and o.name == name and o.keyword in keywords:
                 return i
             if o is not None and labels is not None and o.name == name:
+                if o.keyword in _CLOSERS:  # rs274 reads it while skipping: another construct's
+                    raise GcodeError(
+                        f"no matching label: o{_show(name)} {o.keyword} does not close the "
+                        f"o{_show(name)} construct being skipped (it ends at o{_show(name)} "
+                        f"{' or '.join(keywords)})",
+                        line=i + 1,
+                    )
                 labels.note(self, i, o)
             if o is not None and body_of is not None and o.keyword == "sub":
                 raise _nested(o.name, body_of, file=self.name, line=i + 1)
@@ -169,6 +176,8 @@ class Source:
 
 
 OPENERS = ("if", "while", "do", "repeat")
+#: lines that close (or continue) one kind of construct
+_CLOSERS = ("endif", "else", "elseif", "endwhile", "endrepeat")
 
 
 def _opened(f: Frame, o: OWord, kinds: tuple[str, ...]) -> None:
