@@ -76,7 +76,12 @@ from gantry_sim.controller.gcode.splines import (
 )
 from gantry_sim.controller.gcode.state import ModalState, evolve
 from gantry_sim.controller.gcode.tool_entries import set_tool_entry
-from gantry_sim.controller.gcode.tool_offsets import ToolTable, after_tool_change, tool_words
+from gantry_sim.controller.gcode.tool_offsets import (
+    ToolTable,
+    after_tool_change,
+    tool_parameters,
+    tool_words,
+)
 from gantry_sim.controller.gcode.tools import Tool
 from gantry_sim.controller.gcode.words import Words, check_words, read_words
 from gantry_sim.controller.moves import (
@@ -370,6 +375,10 @@ class Interpreter:
         s = self._canon(s, moves)
         if tool_changed:
             s = after_tool_change(s)
+        if w.m.get("tool_change") == 6 and s.selected_tool > 0:
+            # rs274: M6 sets #5400-#5413 (M61 does not; after T0 M6 rs274 -g keeps them)
+            loaded = self.table.lookup(s.selected_tool) or Tool(s.selected_tool, 0.0)
+            self.params.numbered.update(tool_parameters(loaded))
         self.state = s
         self.cycle = cycle
         self.nurbs = nurbs

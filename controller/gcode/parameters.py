@@ -32,8 +32,9 @@ G30_HOME = 5181  # 5181-5183: G30 stored X Y Z
 G92_ENABLED = 5210  # 1 while a G92 offset is applied
 G92_OFFSET = 5211  # 5211-5213: G92 offset X Y Z
 COORD_INDEX = 5220  # active system, 1 (G54) .. 9 (G59.3)
-TOOL_NUMBER = 5400
-TOOL_OFFSET = 5401  # 5401-5403: tool offset X Y Z
+TOOL_NUMBER = 5400  # the tool M6 loaded (0: none)
+TOOL_OFFSET = 5401  # 5401-5409: its offsets X Y Z A B C U V W
+TOOL_DIAMETER = 5410  # then its front angle, back angle and orientation (5411-5413)
 POSITION = 5420  # 5420-5422: current X Y Z (program frame)
 
 
@@ -49,6 +50,7 @@ LENGTH_PARAMETERS = frozenset(
     | {G92_OFFSET + i for i in range(3)}
     | {g5x_base(k) + i for k in range(1, 10) for i in range(3)}
     | {TOOL_OFFSET + i for i in range(3)}
+    | {TOOL_DIAMETER}
     | {POSITION + i for i in range(3)}
 )
 

@@ -27,6 +27,7 @@ from dataclasses import replace
 
 from gantry_sim.controller.errors import GcodeError
 from gantry_sim.controller.gcode.frames import rotate
+from gantry_sim.controller.gcode.parameters import TOOL_DIAMETER, TOOL_NUMBER, TOOL_OFFSET
 from gantry_sim.controller.gcode.state import ModalState
 from gantry_sim.controller.gcode.tools import Tool
 from gantry_sim.controller.gcode.words import Words
@@ -155,3 +156,14 @@ def _whole(value: float, letter: str) -> int:
     if number < 0:
         raise GcodeError(f"negative {letter} word; tool numbers are >= 0")
     return number
+
+
+def tool_parameters(tool: Tool) -> dict[int, float]:
+    """#5400-#5413 once M6 has loaded ``tool``, as rs274's set_tool_parameters sets them;
+    lengths in mm (read in the program's units)."""
+    values = dict.fromkeys(range(TOOL_NUMBER, TOOL_NUMBER + 14), 0.0)
+    values[TOOL_NUMBER] = float(tool.number)
+    for i, offset in enumerate(tool.offset_mm):
+        values[TOOL_OFFSET + i] = offset
+    values[TOOL_DIAMETER] = tool.diameter_mm
+    return values
