@@ -116,7 +116,9 @@ class Interpreter:
         self.dialect = dialect
         self.table = ToolTable(tools)
         self.search_path: tuple[Path, ...] = ()
-        self.saved: dict[int, tuple[ModalState, bool]] = {}
+        #: per subroutine level: the state M70/M73 saved, whether it is restored at the
+        #: return (M73), whether it is valid (M71 invalidates it)
+        self.saved: dict[int, tuple[ModalState, bool, bool]] = {}
         self.events = events
         self.state = ModalState(
             feed_mm_per_min=dialect.default_feed_mm_per_min or 0.0,
@@ -191,8 +193,13 @@ class Interpreter:
             s = evolve(s, rpm=w.values["S"])
         if "spindle_mode" in w.g:
             s = evolve(s, css=w.g["spindle_mode"] == 960)
+        if "override" in w.m and w.m["override"] != 56:
+            s = evolve(s, overrides=_overrides(s, w.m["override"], w.values, self.comp.side))
         if "spindle" in w.m:
             s = evolve(s, spindle={3: 1, 4: -1, 5: 0, 19: 0}[w.m["spindle"]])  # M19: stopped
+        # M70-M73 (rs274's convert_m: after the spindle's codes, before coolant and the G
+        # codes of this block, so "M72 G20" ends in G20 and "M70 G20" saves the units before)
+        s = self._modal_state(w.m.get("modal_state"), s)
         if "coolant" in w.m:
             c = w.m["coolant"]
             s = evolve(s, mist=c == 7 or (s.mist and c == 8), flood=c == 8 or (s.flood and c == 7))
@@ -352,7 +359,6 @@ class Interpreter:
                 evolve(m, extrudes=extrudes) if isinstance(m, Linear | Arc | Spline) else m
                 for m in moves[made:]
             ]
-        s = self._modal_state(w.m.get("modal_state"), s)
         stop = w.m.get("stopping")
         if stop is not None and self.comp.side is not None:  # rs274 convert_stop: finish it
             if self.comp.active and not self.comp.first:
@@ -580,20 +586,22 @@ class Interpreter:
         """M70 save, M71 invalidate, M72 restore, M73 save and restore at the subroutine's
         return (controller/gcode/modal_save.py), per subroutine level."""
         level = self.params.level
-        if code in (70, 73):
-            self.saved[level] = (s, code == 73)
-        elif code == 71:
-            self.saved.pop(level, None)
+        old = self.saved.get(level)
+        if code in (70, 73):  # rs274 sets flags: an M70 after an M73 still restores at return
+            on_return = (old is not None and old[1]) or (code == 73 and level > 0)
+            self.saved[level] = (s, on_return, True)
+        elif code == 71 and old is not None:
+            self.saved[level] = (old[0], old[1], False)
         elif code == 72:
-            if level not in self.saved:
+            if old is None or not old[2]:
                 raise GcodeError("M72 with no state saved by M70 or M73 at this level")
-            s = restore(self.saved[level][0], s, self.params)
+            s = restore(old[0], s, self.params)
         return s
 
     def sub_returned(self, level: int) -> None:
         """A subroutine at ``level`` returned: an M73 there restores its saved state."""
         saved = self.saved.pop(level, None)
-        if saved is not None and saved[1]:
+        if saved is not None and saved[1] and saved[2]:
             self.state = restore(saved[0], self.state, self.params)
 
     def _canon(self, s: ModalState, moves: list[Move | Event]) -> ModalState:
@@ -685,6 +693,29 @@ class Interpreter:
             )
 
 
+def _overrides(
+    s: ModalState, code: int, v: dict[str, float], comp_side: str | None
+) -> tuple[float, float, float, float]:
+    """M48-M53 as rs274's convert_m sets them: M48 / M49 turn the feed and speed overrides on
+    / off; M50 (feed override), M51 (speed override), M52 (adaptive feed) and M53 (feed hold)
+    turn theirs on unless P is 0 (no P: on). Refused with cutter compensation on."""
+    if comp_side is not None:
+        raise GcodeError(f"cannot switch overrides (M{code}) with cutter radius compensation on")
+    feed, speed, adaptive, hold = s.overrides
+    on = 0.0 if v.get("P", -1.0) == 0.0 else 1.0
+    if code in (48, 49):
+        feed = speed = 1.0 if code == 48 else 0.0
+    elif code == 50:
+        feed = on
+    elif code == 51:
+        speed = on
+    elif code == 52:
+        adaptive = on
+    else:
+        hold = on
+    return (feed, speed, adaptive, hold)
+
+
 def _feed_at_mode(s: ModalState, w: Words, d: Dialect) -> float:
     """The feed [mm/min] once block ``w``'s G93/G94/G95 is set, before its F is read
     (:attr:`~gantry_sim.controller.gcode.dialects.Dialect.feed_mode_clears_feed`)."""
@@ -719,9 +750,8 @@ def path_control(code: int, v: dict[str, float], scale: float) -> PathControl:
     if code != 640:
         return PathControl("G61" if code == 610 else "G61.1")
     p, q = v.get("P"), v.get("Q")
-    for letter, value in (("P", p), ("Q", q)):
-        if value is not None and value < 0:
-            raise GcodeError(f"G64 {letter} must be >= 0, got {value:g}")
+    # rs274 takes a negative P or Q as 0 (its canonical call prints a tolerance of 0)
+    p, q = (None if x is None else max(x, 0.0) for x in (p, q))
     if q is None:
         q = p  # rs274: G64 P without Q sets the naive-CAM tolerance to P (SET_NAIVECAM_TOLERANCE)
     return PathControl("G64", None if p is None else p * scale, None if q is None else q * scale)

@@ -54,7 +54,7 @@ _REALTIME = re.compile("[?~!\x18]|[^\x00-\x7f]")  # [\x80-\U0010ffff] took 5 ms 
 #: linear in its length (with ``[0-9]+\.?[0-9]*`` a digit run splits as many ways as it has
 #: digits, and a line of 30 such words ending in ``*``, a printer's checksum, took d^30 tries).
 _PLAIN_LINE = re.compile(
-    r"/?+(?:N[0-9.]++)?+((?:[A-MP-Z@^$][+-]?+(?:[0-9]++(?:\.[0-9]*+)?+|\.[0-9]++))*+)"
+    r"/?+(?:N[0-9]++(?:\.[0-9]++)?+)?+((?:[A-MP-Z@^$][+-]?+(?:[0-9]++(?:\.[0-9]*+)?+|\.[0-9]++))*+)"
 )
 _PLAIN_WORD = re.compile(r"([A-MP-Z@^$])([+-]?)([0-9.]+)")
 
@@ -347,13 +347,22 @@ def _lex_text(text: str, raw: str, line: int) -> Block:
     reader = Reader(text)
     if reader.peek() == "/":
         reader.pos += 1
-    if reader.peek() == "N":
+    if reader.peek() == "N":  # rs274: digits, and a decimal part of one digit or more
         reader.pos += 1
         start = reader.pos
-        while reader.peek() and reader.peek() in "0123456789.":
+        while reader.peek().isdigit():
             reader.pos += 1
         if reader.pos == start:
             raise GcodeError("N must be followed by a line number")
+        if reader.peek() == ".":
+            reader.pos += 1
+            if not reader.peek().isdigit():
+                raise GcodeError(
+                    "bad line number: N takes digits and, after a '.', at least one more "
+                    "(N10, N10.5)"
+                )
+            while reader.peek().isdigit():
+                reader.pos += 1
     words: list[tuple[str, Tree]] = []
     settings: list[tuple[Tree, Tree]] = []
     settings_at: list[int] = []

@@ -17,8 +17,10 @@ from gantry_sim.controller.errors import GcodeError, cut
 #: rs274's parameter table: #1..#5601 can be read; #1..#5399 can be set (#5400+ are read-only).
 MAX_PARAMETER = 5601
 MAX_SETTABLE_PARAMETER = 5399
-#: read-only range exceptions rs274 lets a program set (#5599: the (DEBUG,) output flag)
-SETTABLE_SYSTEM = frozenset((5599,))
+#: read-only range exceptions rs274 lets a program set (#5599: the (DEBUG,) output flag;
+#: #5600, #5601: the toolchanger fault and its reason)
+SETTABLE_SYSTEM = frozenset((5599, 5600, 5601))
+TOOLCHANGER_FAULT = frozenset((5600, 5601))
 #: subroutine arguments #1..#30 are local to each call.
 ARGUMENTS = 30
 #: rs274's read_integer_value: a value within this of a whole number is that number
@@ -114,7 +116,11 @@ class Parameters:
 
     # writing -------------------------------------------------------------------------------
     def set_number(self, index: int, value: float) -> None:
-        """Set ``#index`` to ``value`` in program units."""
+        """Set ``#index`` to ``value`` in program units (#5600/#5601, the toolchanger's
+        fault and reason, take the setting and read 0 after it, as rs274 -g does: its
+        toolchanger refreshes them)."""
+        if index in TOOLCHANGER_FAULT:
+            return
         self.numbered[index] = value * self.scale() if index in LENGTH_PARAMETERS else value
 
     def set_named(self, name: str, value: float) -> None:

@@ -14,15 +14,12 @@ _SYSTEMS = (540.0, 550.0, 560.0, 570.0, 580.0, 590.0, 591.0, 592.0, 593.0)
 #: names that read 0 in a 3-axis, non-lathe, override-free simulation
 _ZERO = (
     "_a", "_b", "_c", "_u", "_v", "_w", "_abs_a", "_abs_b", "_abs_c", "_abs_u", "_abs_v",
-    "_abs_w", "_lathe_diameter_mode", "_adaptive_feed", "_current_pocket", "_selected_pocket",
+    "_abs_w", "_lathe_diameter_mode", "_current_pocket", "_selected_pocket",
     "_remap_level", "_task",
 )  # fmt: skip
-_ONE = (
-    "_lathe_radius_mode",
-    "_speed_override",
-    "_feed_override",
-    "_feed_hold",
-)
+_ONE = ("_lathe_radius_mode",)
+#: M48-M53's switches, in the order of ModalState.overrides
+_OVERRIDES = ("_feed_override", "_speed_override", "_adaptive_feed", "_feed_hold")
 
 
 def predefined(
@@ -102,6 +99,8 @@ def predefined(
             return float(p.level)
         case "_g92_enabled":
             return p.mm(G92_ENABLED)
+    if name in _OVERRIDES:
+        return s.overrides[_OVERRIDES.index(name)]
     if name in _ZERO:
         return 0.0
     if name in _ONE:
