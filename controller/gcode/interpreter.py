@@ -664,14 +664,17 @@ class Interpreter:
             self.params.set_named(name, 0.0)
 
     def _predefined(self, name: str) -> float | None:
+        comp = self.comp
+        centre = comp.current if comp.active and not comp.first else None
         return predefined(
-            name, self.state, self.params, self.line, self.cycle.retract_to_r, self.comp.side
+            name, self.state, self.params, self.line, self.cycle.retract_to_r, comp.side, centre
         )
 
     def _refresh_system_parameters(self) -> None:
         """#5420-#5422: the current X Y Z in program units (stored in mm)."""
         numbered, (x, y, z) = self.params.numbered, self.state.position
         numbered[POSITION], numbered[POSITION + 1], numbered[POSITION + 2] = x, y, z
+        self.params.position_locked = self.comp.side is not None
 
     @staticmethod
     def _end_point(v: dict[str, float], s: ModalState) -> Vec3:

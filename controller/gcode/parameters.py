@@ -79,6 +79,8 @@ class Parameters:
     ) -> None:
         self.numbered: dict[int, float] = {}  # lengths in LENGTH_PARAMETERS are in mm
         self.scale = scale
+        #: cutter compensation is on: rs274 refuses to read #5420-#5428 then
+        self.position_locked = False
         self.globals: dict[str, float] = {
             "_value": 0.0,
             "_value_returned": 0.0,
@@ -90,6 +92,11 @@ class Parameters:
     # reading -------------------------------------------------------------------------------
     def number(self, index: float) -> float:
         i = parameter_index(index)
+        if self.position_locked and POSITION <= i <= POSITION + 8:
+            raise GcodeError(
+                f"cannot read the current position (#{i}) with cutter radius compensation on "
+                "(rs274 refuses it); read it after G40"
+            )
         value = self.numbered.get(i, 0.0)
         return value / self.scale() if i in LENGTH_PARAMETERS else value
 

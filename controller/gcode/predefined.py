@@ -8,6 +8,7 @@ from __future__ import annotations
 
 from gantry_sim.controller.gcode.parameters import COORD_INDEX, G92_ENABLED, Parameters
 from gantry_sim.controller.gcode.state import ModalState
+from gantry_sim.controller.planes import Vec3
 
 _PLANES = {"XY": 170.0, "XZ": 180.0, "YZ": 190.0}
 _SYSTEMS = (540.0, 550.0, 560.0, 570.0, 580.0, 590.0, 591.0, 592.0, 593.0)
@@ -29,10 +30,12 @@ def predefined(
     line: int,
     retract_to_r: bool = True,
     comp_side: str | None = None,
+    comp_centre: Vec3 | None = None,
 ) -> float | None:
     """The value of predefined parameter ``name`` (lower case), or None when it is not one.
     ``retract_to_r``: G99 in effect (G98: False); ``comp_side``: cutter compensation's side,
-    "left" (G41), "right" (G42) or None (G40)."""
+    "left" (G41), "right" (G42) or None (G40); ``comp_centre``: under compensation, the tool
+    centre [mm, program frame], which rs274 reads as ``#<_x>`` and ``#<_y>``."""
     scale = s.scale
     match name:
         case "_vmajor":
@@ -88,7 +91,10 @@ def predefined(
         case "_rpm":
             return s.rpm
         case "_x" | "_y" | "_z":
-            return s.position["xyz".index(name[1])] / scale
+            i = "xyz".index(name[1])
+            if comp_centre is not None and i < 2:
+                return comp_centre[i] / scale
+            return s.position[i] / scale
         case "_abs_x" | "_abs_y" | "_abs_z":
             return s.work["xyz".index(name[-1])] / scale
         case "_current_tool":
