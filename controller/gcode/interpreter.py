@@ -331,10 +331,12 @@ class Interpreter:
             else:
                 end = self._end_point(w.values, s)
             if motion in (20, 30) and self.comp.arc_not_allowed:
-                raise GcodeError(
+                exc = GcodeError(
                     "the move just after exiting cutter compensation mode must be straight, "
                     "not an arc"
                 )
+                exc.partial = tuple(moves)  # type: ignore[attr-defined]  # G40 released them
+                raise exc
             if motion in (0, 10):
                 self.comp.arc_not_allowed = False
             if self.comp.active:
