@@ -19,7 +19,8 @@ MAX_PARAMETER = 5601
 MAX_SETTABLE_PARAMETER = 5399
 #: read-only range exceptions rs274 lets a program set (#5599: the (DEBUG,) output flag;
 #: #5600, #5601: the toolchanger fault and its reason)
-SETTABLE_SYSTEM = frozenset((5599, 5600, 5601))
+DEBUG_OUTPUT = 5599
+SETTABLE_SYSTEM = frozenset((DEBUG_OUTPUT, 5600, 5601))
 TOOLCHANGER_FAULT = frozenset((5600, 5601))
 #: subroutine arguments #1..#30 are local to each call.
 ARGUMENTS = 30
@@ -77,7 +78,8 @@ class Parameters:
     def __init__(
         self, predefined: Predefined | None = None, scale: Callable[[], float] = lambda: 1.0
     ) -> None:
-        self.numbered: dict[int, float] = {}  # lengths in LENGTH_PARAMETERS are in mm
+        # lengths in LENGTH_PARAMETERS are in mm; #5599 (print (DEBUG,) comments) starts at 1
+        self.numbered: dict[int, float] = {DEBUG_OUTPUT: 1.0}
         self.scale = scale
         #: cutter compensation is on: rs274 refuses to read #5420-#5428 then
         self.position_locked = False
