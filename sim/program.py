@@ -15,6 +15,7 @@ from __future__ import annotations
 
 import re
 from collections.abc import Callable, Iterable, Iterator, Sequence
+from dataclasses import replace
 from pathlib import Path
 from typing import Any, BinaryIO, Literal, overload
 
@@ -126,7 +127,6 @@ def checked_placement(
     origin and its moves checked against the travel: a program that sets its origin from where
     the tool stands (G92, G10 L20, g2core's G28.3; the tool starts at the work origin) or
     moves in machine coordinates (G53) does not move with G54."""
-    from gantry_sim.controller.gcode.interpreter import interpret
     from gantry_sim.controller.planner.travel import check_travel
 
     found = _SUGGESTED.search(exc.message) if isinstance(exc, PlanningError) else None
@@ -135,14 +135,17 @@ def checked_placement(
     shift = [float(v) for v in found.group(1).split(",")]
     g54 = machine.work.systems_mm[0]
     work = machine.work.placed((g54[0] + shift[0], g54[1] + shift[1], g54[2] + shift[2]))
-    kwargs: dict[str, Any] = {
-        "search_path": tuple(search_path),
-        "max_iterations": max_iterations,
-        "tools": work.tool_table(),
-        "parameters": work.parameters(),
-    }
+    placed = replace(machine, work=work)
     try:
-        check_travel(SpilledList(interpret(text, dialect, "<program>", **kwargs)), machine.travel)
+        moves = interpret_program(
+            text,
+            dialect=dialect,
+            file="<program>",
+            machine=placed,
+            search_path=search_path,
+            max_iterations=max_iterations,
+        )
+        check_travel(moves, machine.travel)
         return exc  # placed so, it fits
     except GantryError:
         pass
