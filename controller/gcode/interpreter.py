@@ -122,6 +122,7 @@ class Interpreter:
         self.events = events
         self.state = ModalState(
             feed_mm_per_min=dialect.default_feed_mm_per_min or 0.0,
+            feed_number=dialect.default_feed_mm_per_min or 0.0,
             pocket=self.table.first,
             motion=dialect.initial_motion,
             extruder=Extruder() if dialect.extruder else None,
@@ -183,11 +184,13 @@ class Interpreter:
         # Step 3: feed mode, then feed (in the units in effect BEFORE this block's G20/G21, as
         # rs274 does).
         if "feed_mode" in w.g:
-            s = evolve(s, feed_mode=w.g["feed_mode"], feed_mm_per_min=_feed_at_mode(s, w, d))
+            feed = _feed_at_mode(s, w, d)
+            number = s.feed_number if feed == s.feed_mm_per_min else 0.0
+            s = evolve(s, feed_mode=w.g["feed_mode"], feed_mm_per_min=feed, feed_number=number)
         if "F" in w.values:
             if w.values["F"] < 0.0:
                 raise GcodeError("negative F word; the feed must be >= 0 (units per minute)")
-            s = evolve(s, feed_mm_per_min=w.values["F"] * s.scale)
+            s = evolve(s, feed_mm_per_min=w.values["F"] * s.scale, feed_number=w.values["F"])
         s, tool_changed = tool_words(s, w, self.table)
         if "S" in w.values and "S" not in d.ignored_letters:
             s = evolve(s, rpm=w.values["S"])

@@ -25,6 +25,7 @@ def restore(saved: ModalState, now: ModalState, params: Parameters) -> ModalStat
         arc_absolute=saved.arc_absolute,
         feed_mode=saved.feed_mode,
         feed_mm_per_min=saved.feed_mm_per_min,
+        feed_number=saved.feed_number,
         rpm=saved.rpm,
         spindle=saved.spindle,
         mist=saved.mist,

@@ -86,8 +86,8 @@ def predefined(
             return float(s.mist)
         case "_flood":
             return float(s.flood)
-        case "_feed":
-            return s.feed_mm_per_min / scale
+        case "_feed":  # rs274: the number as the F word gave it, whatever the units since
+            return s.feed_number
         case "_rpm":
             return s.rpm
         case "_x" | "_y" | "_z":

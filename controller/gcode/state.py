@@ -82,6 +82,8 @@ class ModalState:
         path: path control mode set by G61/G61.1/G64 (None until the program sets one).
         extruder: Marlin's extruder mode and position (None: a dialect without one).
         css: G96 (constant surface speed) in effect; False: G97 (constant rpm).
+        feed_number: the feed as rs274 holds it, the last F read, in the units it was written
+            in (``#<_feed>``; 0 after G94/G95, which clear the feed).
         overrides: M48-M53's switches, 1.0 on and 0.0 off: feed override, spindle speed
             override, adaptive feed, feed hold (rs274's start: on, on, off, on).
     """
@@ -111,6 +113,7 @@ class ModalState:
     path: PathControl | None = None
     extruder: Extruder | None = None
     css: bool = False
+    feed_number: float = 0.0
     overrides: tuple[float, float, float, float] = (1.0, 1.0, 0.0, 1.0)
 
     @property
