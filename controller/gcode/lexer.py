@@ -340,6 +340,17 @@ def _plain_words(text: str) -> tuple[tuple[str, Tree], ...] | None:
     return tuple(words)
 
 
+_DIGITS = re.compile(r"[0-9]*")
+
+
+def _digits_end(text: str, pos: int) -> int:
+    """Where the run of ASCII digits from ``pos`` ends (``str.isdigit`` takes other scripts'
+    digits and superscripts too)."""
+    found = _DIGITS.match(text, pos)
+    assert found is not None  # [0-9]* matches everywhere
+    return found.end()
+
+
 def _lex_text(text: str, raw: str, line: int) -> Block:
     """The general reader: any stripped line ``text`` (of source line ``raw``)."""
     if text == "%":
@@ -350,19 +361,17 @@ def _lex_text(text: str, raw: str, line: int) -> Block:
     if reader.peek() == "N":  # rs274: digits, and a decimal part of one digit or more
         reader.pos += 1
         start = reader.pos
-        while reader.peek().isdigit():
-            reader.pos += 1
+        reader.pos = _digits_end(text, reader.pos)
         if reader.pos == start:
             raise GcodeError("N must be followed by a line number")
         if reader.peek() == ".":
-            reader.pos += 1
-            if not reader.peek().isdigit():
+            after = _digits_end(text, reader.pos + 1)
+            if after == reader.pos + 1:
                 raise GcodeError(
                     "bad line number: N takes digits and, after a '.', at least one more "
                     "(N10, N10.5)"
                 )
-            while reader.peek().isdigit():
-                reader.pos += 1
+            reader.pos = after
     words: list[tuple[str, Tree]] = []
     settings: list[tuple[Tree, Tree]] = []
     settings_at: list[int] = []
