@@ -13,14 +13,13 @@ the user is told to use it.
 
 from __future__ import annotations
 
-import re
 from collections.abc import Callable, Iterable, Iterator, Sequence
 from dataclasses import replace
 from pathlib import Path
 from typing import Any, BinaryIO, Literal, overload
 
 from gantry_sim.controller.config import MachineConfig
-from gantry_sim.controller.errors import GantryError, GcodeError, PlanningError
+from gantry_sim.controller.errors import GantryError, GcodeError
 from gantry_sim.controller.gcode.control import DEFAULT_MAX_ITERATIONS, MAX_ERRORS
 from gantry_sim.controller.gcode.lexer import decode_program
 from gantry_sim.controller.moves import Event, Move
@@ -109,10 +108,6 @@ def interpret_program(
         raise
 
 
-#: the work offset a travel error suggests (controller/planner/travel.py ``placement_hint``)
-_SUGGESTED = re.compile(r"; moved by ([^ ]+) mm it fits: place it with --work-offset=.*$")
-
-
 def checked_placement(
     exc: GantryError,
     text: str,
@@ -127,12 +122,11 @@ def checked_placement(
     origin and its moves checked against the travel: a program that sets its origin from where
     the tool stands (G92, G10 L20, g2core's G28.3; the tool starts at the work origin) or
     moves in machine coordinates (G53) does not move with G54."""
-    from gantry_sim.controller.planner.travel import check_travel
+    from gantry_sim.controller.planner.travel import TravelError, check_travel
 
-    found = _SUGGESTED.search(exc.message) if isinstance(exc, PlanningError) else None
-    if found is None:
+    if not isinstance(exc, TravelError) or exc.offset_mm is None:
         return exc
-    shift = [float(v) for v in found.group(1).split(",")]
+    shift = exc.offset_mm
     g54 = machine.work.systems_mm[0]
     work = machine.work.placed((g54[0] + shift[0], g54[1] + shift[1], g54[2] + shift[2]))
     placed = replace(machine, work=work)
@@ -149,11 +143,7 @@ def checked_placement(
         return exc  # placed so, it fits
     except GantryError:
         pass
-    exc.message = exc.message[: found.start()] + (
-        "; a work offset does not place it: moved by one, not all of its moves move (a G92, "
-        "G10 L20 or G28.3 sets its origin from where the tool stands, which is the work origin "
-        "when the program starts; G53 moves stay in machine coordinates)"
-    )
+    exc.offset_does_not_place()
     return exc
 
 

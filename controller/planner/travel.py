@@ -16,11 +16,43 @@ from gantry_sim.controller.arcs import arc_frame, arc_points
 from gantry_sim.controller.config import Travel
 from gantry_sim.controller.errors import PlanningError
 from gantry_sim.controller.moves import Arc, Move, Spline
-from gantry_sim.controller.planes import AXES, PLANE_AXES
+from gantry_sim.controller.planes import AXES, PLANE_AXES, Vec3
 from gantry_sim.controller.planner.spline_geometry import spline_extent_points
 
 #: Rounding allowance at the travel limits [mm].
 SLACK_MM = 1e-9
+
+
+class TravelError(PlanningError):
+    """A move leaves the machine's travel. ``offset_mm``: the work offset [mm] the message
+    suggests, which would place the program within the travel were its moves to follow G54
+    (None: no offset is suggested)."""
+
+    def __init__(self, where: str, extent: str, offset_mm: Vec3 | None, line: int) -> None:
+        self._where_and_extent = f"{where}; {extent}"
+        self.offset_mm = offset_mm
+        super().__init__(self._where_and_extent + _suggestion(offset_mm), line=line)
+
+    def offset_does_not_place(self) -> None:
+        """The suggested offset was tried and leaves the program outside all the same (it
+        sets its origin from where the tool stands, or moves in machine coordinates): the
+        message says so instead of suggesting it."""
+        self.offset_mm = None
+        self.message = self._where_and_extent + (
+            "; a work offset does not place it: moved by one, not all of its moves move (a G92, "
+            "G10 L20 or G28.3 sets its origin from where the tool stands, which is the work "
+            "origin when the program starts; G53 moves stay in machine coordinates)"
+        )
+
+
+def _suggestion(offset_mm: Vec3 | None) -> str:
+    if offset_mm is None:
+        return ""
+    offset = ",".join(f"{d:g}" for d in offset_mm)
+    return (
+        f"; moved by {offset} mm it fits: place it with --work-offset={offset} (or the "
+        "machine file's [work] g54_mm), added to any work offset already in effect"
+    )
 
 
 def extent_points(move: Move) -> np.ndarray:
@@ -62,11 +94,13 @@ def check_travel(moves: Sequence[Move], travel: Travel) -> None:
             elif maxs[i] > hi[i] + SLACK_MM:
                 bad = maxs[i]
             if bad is not None:
-                raise PlanningError(
+                extent, offset_mm = placement(moves, lo, hi)
+                raise TravelError(
                     f"{move.kind} move reaches {AXES[i]}{bad:.4f}, outside the machine's travel: "
-                    f"{AXES[i]} must stay within {lo[i]:g}..{hi[i]:g} mm (work coordinates); "
-                    + placement_hint(moves, lo, hi),
-                    line=move.line,
+                    f"{AXES[i]} must stay within {lo[i]:g}..{hi[i]:g} mm (work coordinates)",
+                    extent,
+                    offset_mm,
+                    move.line,
                 )
 
 
@@ -114,8 +148,9 @@ def _boxes_leave(moves: Sequence[Move], lo: np.ndarray, hi: np.ndarray) -> np.nd
     return out
 
 
-def placement_hint(moves: Sequence[Move], lo: np.ndarray, hi: np.ndarray) -> str:
-    """The program's extent [mm, work frame] and the shift that would fit it in ``lo``..``hi``.
+def placement(moves: Sequence[Move], lo: np.ndarray, hi: np.ndarray) -> tuple[str, Vec3 | None]:
+    """The program's extent [mm, work frame] in words, and the shift [mm] that would fit it in
+    ``lo``..``hi`` (None where it is longer than the travel, which the words then say).
 
     The first move's start is where the machine rests before the program, which a work offset
     does not move, so it is left out of the extent.
@@ -132,9 +167,5 @@ def placement_hint(moves: Sequence[Move], lo: np.ndarray, hi: np.ndarray) -> str
         shift.append(math.ceil(d * 1e3) / 1e3 if d > 0 else math.floor(d * 1e3) / 1e3)
     text = f"the program spans {extent} mm (work frame)"
     if too_long:
-        return f"{text}; it cannot be placed within the travel: it is {', '.join(too_long)}"
-    offset = ",".join(f"{d:g}" for d in shift)
-    return (
-        f"{text}; moved by {offset} mm it fits: place it with --work-offset={offset} (or the "
-        "machine file's [work] g54_mm), added to any work offset already in effect"
-    )
+        return f"{text}; it cannot be placed within the travel: it is {', '.join(too_long)}", None
+    return text, (shift[0], shift[1], shift[2])
