@@ -14,6 +14,7 @@ from __future__ import annotations
 from collections.abc import Iterator, Mapping
 from functools import partial
 from pathlib import Path
+from typing import NamedTuple
 
 from gantry_sim.controller.errors import GcodeError
 from gantry_sim.controller.gcode.arc_block import arc_move, from_where_it_is, turned_plane
@@ -116,9 +117,8 @@ class Interpreter:
         self.dialect = dialect
         self.table = ToolTable(tools)
         self.search_path: tuple[Path, ...] = ()
-        #: per subroutine level: the state M70/M73 saved, whether it is restored at the
-        #: return (M73), whether it is valid (M71 invalidates it)
-        self.saved: dict[int, tuple[ModalState, bool, bool]] = {}
+        #: per subroutine level: what M70/M73 saved
+        self.saved: dict[int, _Saved] = {}
         self.events = events
         self.state = ModalState(
             feed_mm_per_min=dialect.default_feed_mm_per_min or 0.0,
@@ -184,9 +184,9 @@ class Interpreter:
         # Step 3: feed mode, then feed (in the units in effect BEFORE this block's G20/G21, as
         # rs274 does).
         if "feed_mode" in w.g:
-            feed = _feed_at_mode(s, w, d)
-            number = s.feed_number if feed == s.feed_mm_per_min else 0.0
-            s = evolve(s, feed_mode=w.g["feed_mode"], feed_mm_per_min=feed, feed_number=number)
+            s = evolve(s, feed_mode=w.g["feed_mode"])
+            if _clears_feed(self.state.feed_mode, w.g["feed_mode"], d):
+                s = evolve(s, feed_mm_per_min=0.0, feed_number=0.0)
         if "F" in w.values:
             if w.values["F"] < 0.0:
                 raise GcodeError("negative F word; the feed must be >= 0 (units per minute)")
@@ -593,21 +593,21 @@ class Interpreter:
         level = self.params.level
         old = self.saved.get(level)
         if code in (70, 73):  # rs274 sets flags: an M70 after an M73 still restores at return
-            on_return = (old is not None and old[1]) or (code == 73 and level > 0)
-            self.saved[level] = (s, on_return, True)
+            on_return = (old is not None and old.on_return) or (code == 73 and level > 0)
+            self.saved[level] = _Saved(s, on_return, True)
         elif code == 71 and old is not None:
-            self.saved[level] = (old[0], old[1], False)
+            self.saved[level] = old._replace(valid=False)
         elif code == 72:
-            if old is None or not old[2]:
+            if old is None or not old.valid:
                 raise GcodeError("M72 with no state saved by M70 or M73 at this level")
-            s = restore(old[0], s, self.params)
+            s = restore(old.state, s, self.params)
         return s
 
     def sub_returned(self, level: int) -> None:
         """A subroutine at ``level`` returned: an M73 there restores its saved state."""
         saved = self.saved.pop(level, None)
-        if saved is not None and saved[1] and saved[2]:
-            self.state = restore(saved[0], self.state, self.params)
+        if saved is not None and saved.on_return and saved.valid:
+            self.state = restore(saved.state, self.state, self.params)
 
     def _canon(self, s: ModalState, moves: list[Move | Event]) -> ModalState:
         """Where rs274's canonical layer has the tool after this block (``ModalState.canon``):
@@ -701,6 +701,14 @@ class Interpreter:
             )
 
 
+class _Saved(NamedTuple):
+    """What M70/M73 saved at one call level (rs274's context flags beside the state)."""
+
+    state: ModalState
+    on_return: bool  # M73 (at a subroutine's level): restored at its return
+    valid: bool  # M71 clears it; M72 needs it
+
+
 def _overrides(
     s: ModalState, code: int, v: dict[str, float], comp_side: str | None
 ) -> tuple[float, float, float, float]:
@@ -724,16 +732,14 @@ def _overrides(
     return (feed, speed, adaptive, hold)
 
 
-def _feed_at_mode(s: ModalState, w: Words, d: Dialect) -> float:
-    """The feed [mm/min] once block ``w``'s G93/G94/G95 is set, before its F is read
+def _clears_feed(before: int, mode: int, d: Dialect) -> bool:
+    """Whether a G93/G94/G95 word (``mode``; ``before``: the mode it replaces) sets the feed
+    to 0 before the line's F is read
     (:attr:`~gantry_sim.controller.gcode.dialects.Dialect.feed_mode_clears_feed`)."""
-    mode = w.g["feed_mode"]
     rule = d.feed_mode_clears_feed
-    if (rule == "linuxcnc" and mode != INVERSE_TIME) or (
-        rule == "grbl" and mode == UNITS_PER_MINUTE and s.feed_mode == INVERSE_TIME
-    ):
-        return 0.0
-    return s.feed_mm_per_min
+    return (rule == "linuxcnc" and mode != INVERSE_TIME) or (
+        rule == "grbl" and mode == UNITS_PER_MINUTE and before == INVERSE_TIME
+    )
 
 
 def _set_path(moves: list[Move | Event], path: PathControl) -> None:

@@ -110,22 +110,16 @@ def read_words(
     read (rs274's add_named_param: the rest of the line reads a new name as 0)."""
     at = block.settings_at or (len(block.words),) * len(block.settings)
     settings: list[tuple[int | str, float]] = []
-    done = 0  # settings read so far
-
-    def read_settings_before(k: int) -> None:
-        nonlocal done
-        while done < len(block.settings) and at[done] <= k:
-            settings.append(_setting(block.settings[done], params, create))
-            done += 1
-
+    done = 0  # settings read so far (the line is read in order: words and settings)
     g: dict[str, int] = {}
     m: dict[str, int] = {}
     values: dict[str, float] = {}
     r_before_arc_code = False
     last_wins = dialect is not None and dialect.last_word_wins
     for k, (letter, tree) in enumerate(block.words):
-        if done < len(block.settings):
-            read_settings_before(k)
+        while done < len(at) and at[done] <= k:
+            settings.append(_setting(block.settings[done], params, create))
+            done += 1
         value = _number(tree, params)
         if letter == "G":
             code = _code(value, True)
@@ -161,7 +155,7 @@ def read_words(
             if letter in (dialect or LINUXCNC).integer_words:
                 value = whole_number(letter, value)
             values[letter] = value
-    read_settings_before(len(block.words))
+    settings += [_setting(x, params, create) for x in block.settings[done:]]
     return Words(block.line, g, m, values, tuple(settings), r_before_arc_code)
 
 
