@@ -20,8 +20,8 @@ MAX_SETTABLE_PARAMETER = 5399
 #: read-only range exceptions rs274 lets a program set (#5599: the (DEBUG,) output flag;
 #: #5600, #5601: the toolchanger fault and its reason)
 DEBUG_OUTPUT = 5599
-SETTABLE_SYSTEM = frozenset((DEBUG_OUTPUT, 5600, 5601))
 TOOLCHANGER_FAULT = frozenset((5600, 5601))
+SETTABLE_SYSTEM = frozenset((DEBUG_OUTPUT,)) | TOOLCHANGER_FAULT
 #: subroutine arguments #1..#30 are local to each call.
 ARGUMENTS = 30
 #: rs274's read_integer_value: a value within this of a whole number is that number
