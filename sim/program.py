@@ -185,6 +185,10 @@ def read_program(path: Path) -> str:
     return decode_program(data)
 
 
+#: the byte-order marks of UTF-16 text (little- and big-endian), as Windows tools write it
+_UTF16_BOMS = (b"\xff\xfe", b"\xfe\xff")
+
+
 def _read_checked(f: BinaryIO, path: Path) -> bytes:
     """The bytes of the open program ``f``: refused at the first NUL byte or past
     :data:`MAX_PROGRAM_BYTES`, before the rest is read."""
@@ -192,6 +196,12 @@ def _read_checked(f: BinaryIO, path: Path) -> bytes:
     size = 0
     while chunk := f.read(READ_CHUNK_BYTES):
         if b"\x00" in chunk:
+            if not size and chunk[:2] in _UTF16_BOMS:
+                raise GcodeError(
+                    "the program is UTF-16 text (it starts with a UTF-16 byte-order mark); "
+                    "G-code is read as ASCII, UTF-8 or Latin-1: save it as UTF-8",
+                    file=str(path),
+                )
             raise GcodeError("not a G-code text file (it contains NUL bytes)", file=str(path))
         size += len(chunk)
         if size > MAX_PROGRAM_BYTES:

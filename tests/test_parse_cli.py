@@ -69,6 +69,9 @@ _MEGABYTE_LINES = [
         (b"", "no program end", "linuxcnc"),
         (b"\x00\x01\x02garbage", "NUL bytes", "linuxcnc"),
         (b"\xff\xfe\xfa binary", "bad character", "linuxcnc"),  # read as Latin-1: not words
+        # as Windows PowerShell's `>` writes a program: UTF-16 with its byte-order mark
+        ("G21\nG1 X1 F600\nM2\n".encode("utf-16"), "UTF-16 text", "linuxcnc"),
+        ("G21\nG1 X1 F600\nM2\n".encode("utf-16-be").join([b"\xfe\xff", b""]), "UTF-16", "grbl"),
         (b"G0 Xnan\nM2\n", "bad value", "linuxcnc"),
         (b"G0 X1e400\nM2\n", "E word", "linuxcnc"),
         (b"\x1b[31m\nM2\n", "bad character", "linuxcnc"),
