@@ -197,26 +197,39 @@ def test_grbl_needs_no_program_end_and_reads_system_lines_and_jogs() -> None:
     assert "bad value starting with 'H'" in error_of("$H\n", "linuxcnc").message
 
 
+# The codes are grbl 1.1h's own answers: gnea/grbl's gcode.c built for the host, each line fed
+# to gc_execute_line (session 62's differential run against gantry-sim's grbl dialect).
 @pytest.mark.parametrize(
     ("text", "code"),
     [
-        ("G0 X#1", 1),
-        ("G0 X[1+2]", 1),
+        ("G0 X#1", 2),  # read_float finds no number after X
+        ("G0 X[1+2]", 2),
         ("# laser power 10%", 1),  # a '#' comment (no grbl has them): not a parameter's '='
-        ("#1", 1),
-        ("G0 X[1", 1),
+        ("#1", 1),  # a '#' where a word's letter is expected
         ("G1 X1", 22),
-        ("G59.1", 20),
+        ("G59.1", 23),  # G59 is grbl's: its decimal part is "not an integer"
+        ("G1.5 X1", 23),
+        ("M3.5", 23),
+        ("G28.2", 20),  # G28's other decimal parts are unsupported commands
+        ("G61.1", 20),
         ("G90.1", 20),
         ("o100 sub", 20),
         ("G0 A1", 20),
         ("M100", 20),
-        ("G0 G1 X1", 21),
+        ("G5 G1 X1", 20),  # the first word decides: G5 is not grbl's
+        ("G0 G1 X1", 24),  # two axis commands, before the modal group
+        ("G28 G92", 24),
+        ("G92 X1 G0 X2", 24),
+        ("G0 X1 G80", 21),  # rs274 ignores the G80; grbl's modal group 1 holds both
         ("G0 X1 X2", 25),
-        ("G2 X1 I1 P2 F10", 36),
-        ("G10 L2 P1 R30", 36),
+        ("G4 P-1", 4),
+        ("T-1", 4),
+        ("G2 X2 I1 P2 F10", 36),
+        ("G2 X10 R5 K1 F10", 36),  # the R format consumes no offset word
+        ("G2 X10 R5 I5 F10", 36),
         ("G10 L2 P7 X1", 29),
-        ("G10 P1 X1", 28),
+        ("G10 P1 X1", 20),  # L0: unsupported
+        ("G10 X1", 28),  # neither L nor P
         ("G2 X2.1 I1 F10", 33),
         ("G2 X3 R1 F10", 34),
         ("G2 I-1.1 F300", 26),  # grbl traces no full circle from offsets alone (gcode.c)
@@ -232,6 +245,30 @@ def test_grbl_refuses_what_grbl_refuses_with_its_error_number(text: str, code: i
     assert err.line == text.count("\n") + 1, err.message
     assert err.message.endswith(f"(grbl error {code})"), err.message
     assert "M48" not in err.message  # an M code's message lists grbl's codes, not LinuxCNC's
+
+
+def test_grbl_reads_feed_arcs_g53_and_g10_as_grbl_does() -> None:
+    """Each against grbl 1.1h's own gcode.c and motion_control.c, built for the host."""
+    # F is converted in the units the line selects (rs274: the units before the line)
+    assert run("G20 G1 X1 F10\n", "grbl")[0].feed_mm_per_min == 254.0
+    assert run("G20\nG21 G1 X1 F10\n", "grbl")[0].feed_mm_per_min == 10.0
+    assert run("G20 G1 X1 F10\nM2\n", "linuxcnc")[0].feed_mm_per_min == 10.0
+    assert run("$J=G20 X1 F10\n", "grbl")[0].feed_mm_per_min == 254.0
+    assert run("G93\n$J=X10 F100\n", "grbl")[0].feed_mm_per_min == 100.0  # a jog is G94
+    # mc_arc: a travel within ARC_ANGULAR_TRAVEL_EPSILON (5e-7 rad) of zero is a full circle
+    ccw, cw = run("G0 X100\nG3 X100 Y0.00004 I-100 F100\nG2 X100 Y0 I-100\n", "grbl")[1:]
+    assert ccw.angle == pytest.approx(2 * math.pi + 4e-7, abs=1e-12)
+    assert cw.angle == pytest.approx(2 * math.pi + 4e-7, abs=1e-12)
+    far = run("G0 X100\nG3 X100 Y0.0002 I-100 F100\n", "grbl")[1]
+    assert far.angle == pytest.approx(2e-6, rel=1e-6)  # beyond it: the short arc
+    # the 0.1 % of the radius check is of the start radius (200.2001 against 200: 0.10005 %)
+    assert "grbl error 33" in error_of("G0 X400\nG2 X400.2001 I-200 F100\n", "grbl").message
+    # G53 takes machine coordinates in G91 too; rs274 refuses it
+    assert run("G91\nG53 G0 X1\n", "grbl")[0].end == (1.0, 0.0, 0.0)
+    assert "G91" in error_of("G91\nG53 G0 X1\nM2\n", "linuxcnc").message
+    # G10's P is cut to its whole part, and is the system in effect when absent
+    moves = run("G10 L2 P1.5 X5\nG0 X0\nG55\nG10 L2 X7\nG0 X0\n", "grbl")
+    assert [m.end for m in moves] == [(5.0, 0.0, 0.0), (7.0, 0.0, 0.0)]
 
 
 def test_grbl_starts_in_g0_and_takes_realtime_characters_out() -> None:

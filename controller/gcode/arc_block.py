@@ -90,6 +90,12 @@ def arc_move(
         raise GcodeError(
             f"arc has no centre; give offsets {o1}/{o2} (centre format) or R (radius format)"
         )
+    if has_r and d.off_plane_offset_ignored and any(o in v for o in _OFFSETS):
+        # grbl's radius format consumes R only: an I, J or K is an unused word (gcode.c)
+        raise GcodeError(
+            "I/J/K word on a radius-format (R) arc: the R format uses no offset words; use "
+            "either R or the offsets"
+        )
     if has_r and has_ijk:
         raise GcodeError("R mixed with I/J/K on one arc; use either R or the offsets, not both")
     turns = _turns(v, d)  # Step 2
@@ -166,6 +172,8 @@ def _check_radius(r0: float, r1: float, inch: bool, d: Dialect) -> None:
     assert rc is not None
     tol, cap = (rc.abs_tol_in, rc.abs_max_in) if inch else (rc.abs_tol_mm, rc.abs_max_mm)
     abs_err, rel_err = radius_mismatch(r0, r1)
+    if rc.rel_to_start:
+        rel_err = abs_err / r0
     if abs_err > cap or (abs_err > tol and rel_err > rc.rel_tol):
         unit = "in" if inch else "mm"
         raise GcodeError(

@@ -74,7 +74,7 @@ def swept_angle(
 
     Args:
         turns: full or partial revolutions (LinuxCNC's P, >= 1): adds (turns - 1) * 2*pi.
-        fuzz: a partial angle below this [rad] counts as a full circle.
+        fuzz: a partial angle up to this [rad] counts as a full circle (plus the partial).
     """
     a0 = math.atan2(start[1] - centre[1], start[0] - centre[0])
     a1 = math.atan2(end[1] - centre[1], end[0] - centre[0])
@@ -82,7 +82,7 @@ def swept_angle(
     partial = math.fmod(partial, 2.0 * math.pi)
     if partial < 0.0:
         partial += 2.0 * math.pi
-    if partial < fuzz:
+    if partial <= fuzz:
         partial += 2.0 * math.pi
     return partial + 2.0 * math.pi * (turns - 1)
 

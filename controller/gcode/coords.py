@@ -75,26 +75,38 @@ def rs274_system_number(p_word: float) -> tuple[bool, int]:
 
 
 def g10(
-    s: ModalState, p: Parameters, v: dict[str, float], systems: int = 9, rs274_p: bool = True
+    s: ModalState,
+    p: Parameters,
+    v: dict[str, float],
+    systems: int = 9,
+    rs274_p: bool = True,
+    p_truncated: bool = False,
 ) -> ModalState:
     """G10 L2 (set a system's origin, R its XY rotation) and L20 (origin so the point reads v).
     ``rs274_p``: P is read as rs274 reads it (:func:`rs274_system_number`); else P must be a
-    whole number (grbl)."""
+    whole number. ``p_truncated`` (grbl's gcode.c): P is cut to its whole part and is 0 (the
+    system in effect) when absent; only a G10 with neither L nor P is refused for a missing
+    word."""
+    if p_truncated and "L" not in v and "P" in v:
+        raise GcodeError("G10 without L is not supported; use L2 or L20")
     if "L" not in v:
         raise GcodeError("G10 needs an L word: L2 or L20 (coordinate systems)")
-    if "P" not in v:
+    if "P" not in v and not p_truncated:
         raise GcodeError(
             "G10 needs a P word: the coordinate system, 1 (G54) .. 9 (G59.3), 0 current"
         )
-    level, number = round(v["L"]), round(v["P"])
+    p_value = v.get("P", 0.0)
+    level, number = round(v["L"]), round(p_value)
     if level not in (2, 20):
         raise GcodeError(f"G10 L{v['L']:g} is not supported; use L2 or L20")
-    whole = abs(v["P"] - number) <= 1e-4
-    if rs274_p:
-        whole, number = rs274_system_number(v["P"])
+    whole = abs(p_value - number) <= 1e-4
+    if p_truncated:
+        whole, number = True, math.trunc(p_value)
+    elif rs274_p:
+        whole, number = rs274_system_number(p_value)
     if not whole or not 0 <= number <= systems:
         raise GcodeError(
-            f"G10 P{v['P']:g}: P must be one of the {systems} coordinate systems 1..{systems} "
+            f"G10 P{p_value:g}: P must be one of the {systems} coordinate systems 1..{systems} "
             "or 0 (the current)"
         )
     index = number or s.coord_index

@@ -7,10 +7,11 @@ message that names the word.
 
 from __future__ import annotations
 
+import math
 import re
 
 from gantry_sim.controller.errors import GcodeError
-from gantry_sim.controller.gcode.codes import M_GROUPS, g_name, m_accepted
+from gantry_sim.controller.gcode.codes import G_GROUPS, M_GROUPS, g_name, m_accepted
 from gantry_sim.controller.gcode.dialects import Dialect
 from gantry_sim.controller.gcode.lexer import COMMENT, Block, strip_line
 from gantry_sim.controller.gcode.words import Words
@@ -28,11 +29,25 @@ def _plain(tree: tuple) -> bool:
 
 def check_plain(block: Block, d: Dialect) -> None:
     """No parameters or expressions (a dialect without LinuxCNC's language), and one sign at
-    most before a number (grbl's read_float: ``X+-1`` is error 2, a bad number format)."""
-    if block.settings or not all(_plain(t) for _, t in block.words):
+    most before a number (grbl's read_float: ``X+-1`` is error 2, a bad number format). The
+    first offence on the line wins, as grbl reads left to right: a ``#`` where a word's letter
+    is expected (error 1), a word whose value is not a number (``X#1``, ``X[1+2]``: error 2)."""
+    bad = next((k for k, (_, t) in enumerate(block.words) if not _plain(t)), None)
+    setting = (
+        (block.settings_at[0] if block.settings_at else len(block.words))
+        if (block.settings)
+        else None
+    )
+    if setting is not None and (bad is None or setting <= bad):
         raise GcodeError(
             f"'#' parameters and [expressions] are not {d.name} features; {d.name} expects a "
             "command letter followed by a number"
+        )
+    if bad is not None:
+        letter = block.words[bad][0]
+        raise GcodeError(
+            f"bad number format after {letter}: {letter} takes a plain number ('#' parameters "
+            f"and [expressions] are LinuxCNC's, {d.name} has none)"
         )
     signs = _SIGNS.search(strip_line(block.text).replace(COMMENT, ""))
     if signs is not None:
@@ -40,6 +55,82 @@ def check_plain(block: Block, d: Dialect) -> None:
             f"bad number format '{signs.group()}...': {d.name} reads one sign (+ or -) at most "
             "before a number"
         )
+    if d.read_order == "grbl":
+        _check_grbl_read_order(block, d)
+
+
+#: grbl's axis commands (gcode.c): G0-G3 and G38.x, and G10, G28, G30, G92 (not G28.1, G30.1,
+#: G92.1); two on one line are error 24
+_GRBL_AXIS_COMMANDS = frozenset((0, 10, 20, 30, 382, 383, 384, 385, 100, 280, 300, 920))
+#: codes whose other decimal parts grbl refuses as unsupported (error 20), not as "not an
+#: integer" (23): G28.x, G30.x, G38.x, G43.x, G61.x, G90.x, G91.x, G92.x
+_GRBL_OTHER_DECIMALS_UNSUPPORTED = frozenset((280, 300, 380, 430, 610, 900, 910, 920))
+
+
+def _wholes(codes: frozenset[int]) -> frozenset[int]:
+    """The whole parts (in tenths) of G codes given in tenths: G38.2 -> G38."""
+    return frozenset(c - c % 10 for c in codes)
+
+
+#: words grbl refuses negative as it reads them (gcode.c: error 4)
+_GRBL_NOT_NEGATIVE = "FNPST"
+
+
+def _check_grbl_read_order(block: Block, d: Dialect) -> None:
+    """grbl's checks made word by word as it reads a line (gcode.c ``gc_execute_line``, step
+    1), so that the first offending word names the error: a G or M code grbl does not know
+    (error 20; a decimal part grbl refuses, G28.2, G61.1, G91.2, also 20), a known code with a
+    decimal part (G1.5, G59.1, M3.5: "command value not integer", error 23), a second axis
+    command (``G0 G1``, ``G92 X1 G0``, ``G28 G92``: error 24, before the modal group), a second
+    code of a modal group (``G0 X1 G80``: error 21), a negative F, P, S or T (error 4). A
+    repeated letter stops the reading: read_words names it (error 25)."""
+    assert d.g_codes is not None and d.m_codes is not None
+    axis_command = False
+    groups: dict[str, int] = {}
+    letters: set[str] = set()
+    for letter, tree in block.words:
+        value = tree[1] if tree[0] == "num" else -tree[1][1]
+        if letter in "GM":
+            g = letter == "G"
+            # gcode.c: int_value = trunc(value), mantissa = round(100 * (value - int_value))
+            int_value = math.trunc(value)
+            mantissa = round(100 * (value - int_value))
+            whole = int_value * 10 if g else int_value
+            code = whole + mantissa // 10 if g and mantissa % 10 == 0 else whole
+            known = d.g_codes if g else d.m_codes
+            name = g_name(code) if code in known and (g or not mantissa) else f"{letter}{value:g}"
+            if value < 0 or whole not in (_wholes(known) if g else known):
+                raise GcodeError(f"{name} is not supported: {d.name} has no {name}")
+            if code not in known or (not g and mantissa):
+                if whole in _GRBL_OTHER_DECIMALS_UNSUPPORTED:
+                    raise GcodeError(f"{name} is not supported: {d.name} has no {name}")
+                whole_name = g_name(whole) if g else f"M{whole}"
+                raise GcodeError(
+                    f"{name} is not a {d.name} code: {whole_name} takes no decimal part "
+                    "(command value not integer)"
+                )
+            if g and code in _GRBL_AXIS_COMMANDS:
+                if axis_command:
+                    raise GcodeError(
+                        f"axis command conflict: {name} and another of G0-G3, G10, G28, G30, "
+                        f"G38.x, G92 on one line; {d.name} takes one per line"
+                    )
+                axis_command = True
+            group = (G_GROUPS if g else M_GROUPS)[code]
+            if letter + group in groups:
+                first = groups[letter + group]
+                names = (g_name(first), name) if g else (f"M{first}", name)
+                raise GcodeError(
+                    f"two {letter} codes from one modal group on a line ({names[0]} and "
+                    f"{names[1]}); use one {group.replace('_', ' ')} code per line"
+                )
+            groups[letter + group] = code
+        elif letter in letters:
+            return
+        else:
+            letters.add(letter)
+            if letter in _GRBL_NOT_NEGATIVE and value < 0.0:
+                raise GcodeError(f"negative {letter} word; {letter} must be >= 0 on {d.name}")
 
 
 _SIGNS = re.compile(r"[+-][+-]+")

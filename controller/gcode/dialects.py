@@ -21,13 +21,16 @@ The interpreter reads these fields and never tests a dialect's name. Sources (co
   adds P complete circles; E (extrusion) words move no axis here, but tell which moves extrude
   (controller/gcode/extruder.py), and S (laser power) is ignored; an R too short for the chord
   gives the semicircle (Marlin clamps the centre offset to zero).
-- ``grbl``: grbl 1.1's gcode.c (gnea/grbl): its G and M codes only (G38.x probing and G43.1 are
-  refused here), no parameters, expressions or O-words, ``$`` system lines (``$J=`` jogs move as
+- ``grbl``: grbl 1.1's gcode.c (gnea/grbl): its G and M codes only (G38.x probing is refused
+  here), no parameters, expressions or O-words, ``$`` system lines (``$J=`` jogs move as
   G1 in their own modes), six coordinate systems, G10 L2/L20 without R, G28/G30 send every axis
   home, no program end needed; an offset arc is refused when its radii differ by more than
   0.005 mm and (more than 0.5 mm or 0.1 % of the radius), always in mm; an R arc must reach its
   end exactly; a K word on a G17 arc (any offset off the plane) is consumed and ignored; P is
   not an arc word; default arc tolerance $12 = 0.002 mm. Errors carry grbl's numbered codes.
+  Checked against grbl 1.1h itself (gcode.c and motion_control.c built for the host, lines fed
+  to gc_execute_line): F in the line's own units, a near-zero arc travel (5e-7 rad) is a full
+  circle, G53 ignores G91, G10's P is truncated, and the first offending word names the error.
 - ``laserdyne``: Prima Power Laserdyne's note: both centre offsets of the plane are required,
   the end point must lie on the arc (checked here to 0.005 mm, a documented choice: 0.0002 in,
   twice the rounding of a 4-decimal inch program), G20 means plane rotation and is refused.
@@ -47,8 +50,9 @@ class RadiusCheck:
     """When the end point's radius may differ from the start's (centre-format arcs).
 
     Refuse when ``abs_err > abs_max`` or (``abs_err > abs_tol`` and ``abs_err / r > rel_tol``),
-    r the larger of the two radii. Lengths are in the program's units at the time: ``*_mm`` in
-    G21, ``*_in`` in G20 [inch].
+    r the larger of the two radii (``rel_to_start``: the start's radius, as grbl's gcode.c
+    takes it). Lengths are in the program's units at the time: ``*_mm`` in G21, ``*_in`` in
+    G20 [inch].
     """
 
     abs_tol_mm: float
@@ -56,6 +60,7 @@ class RadiusCheck:
     abs_tol_in: float
     abs_max_in: float
     rel_tol: float
+    rel_to_start: bool = False
 
 
 @dataclass(frozen=True)
@@ -85,8 +90,10 @@ class Dialect:
         r_needs_arc_code_first: R is an arc radius only after G2/G3 on the same line
             (Laserdyne: otherwise R means "Repeat", which is refused).
         max_p: the largest P word allowed, or None (Marlin: 100, ``WITHIN(circles_to_do, 0, 100)``).
-        zero_angle_fuzz: a swept angle below this [rad] is a full circle (end == start up to
-            rounding; a 1e-6 rad arc of R10000 is an arc, as rs274 outputs it).
+        zero_angle_fuzz: a swept angle up to this [rad] is a full circle more (end == start up
+            to rounding; a 1e-6 rad arc of R10000 is an arc, as rs274 outputs it; grbl's
+            ARC_ANGULAR_TRAVEL_EPSILON, 5e-7 rad, makes ``G3 X100 Y0.00004 I-100`` from X100 Y0
+            a full circle and 4e-7 rad more).
         language: numbered/named parameters, [expressions] and O-words are part of the dialect.
         g_codes / m_codes: the codes (G in tenths) the controller knows; None: LinuxCNC's.
         letters: the word letters the controller knows; None: LinuxCNC's.
@@ -157,6 +164,16 @@ class Dialect:
             beside G0-G3 takes the axis words and the motion code only sets the mode; axis
             words with no motion mode (g2core starts with motion cancelled) move nothing; a
             line continuing a modal G2/G3 with no centre offset or radius moves nothing.
+        feed_in_line_units: F is read in the units this line selects (grbl's gcode.c converts
+            F after taking the line's G20/G21: ``G20 G1 X1 F10`` is 254 mm/min); False: in the
+            units in effect before the line (rs274: that line's F is 10 mm/min).
+        jog_units_per_minute: a ``$J=`` jog's F is units per minute even under G93 (grbl).
+        g10_p_truncated: G10's P is cut to its whole part (``P1.5`` is G54) and is 0, the
+            system in effect, when absent (grbl's gcode.c); False: rs274's reading.
+        read_order: whose word-by-word checks name a line's first error (``"grbl"``:
+            controller/gcode/dialect_checks.py, gcode.c's reading loop); ``""``: none.
+        g53_absolute_in_g91: G53's axis words are machine coordinates in G91 too (grbl's
+            gcode.c applies no distance mode under G53); False: G53 in G91 is refused (rs274).
         line_limit: whose longest line applies (controller/gcode/lexer.py ``line_too_long``:
             ``"linuxcnc"`` 252 characters, ``"grbl"`` 79 kept in its line buffer); ``""``: none.
     """
@@ -210,6 +227,11 @@ class Dialect:
     motion_waits: str = ""
     feed_mode_clears_feed: str = ""
     line_limit: str = ""
+    feed_in_line_units: bool = False
+    jog_units_per_minute: bool = False
+    g53_absolute_in_g91: bool = False
+    read_order: str = ""
+    g10_p_truncated: bool = False
     permissive_blocks: bool = False
 
 
@@ -325,16 +347,16 @@ LASERDYNE = Dialect(
 )
 
 # fmt: off
-#: grbl 1.1's codes (gcode.c) that gantry-sim runs; G38.2-G38.5 and G43.1 are grbl's too but are
-#: refused here (probing, dynamic tool length), G93 is refused in every dialect.
+#: grbl 1.1's codes (gcode.c); G38.2-G38.5 (probing) are refused where they are read.
 _GRBL_G = frozenset((
     0, 10, 20, 30, 40, 100, 170, 180, 190, 200, 210, 280, 281, 300, 301, 382, 383, 384, 385,
     400, 431, 490, 530, 540, 550, 560, 570, 580, 590, 610, 800, 900, 910, 911, 920, 921, 930, 940,
 ))
 #: grbl's status codes (report.c / the grbl 1.1 wiki "Error codes"), matched on our messages.
 _GRBL_ERRORS = (
+    ("takes no decimal part", 23), ("axis command conflict", 24),
     ("expects a command letter", 1), ("not grbl features", 20), ("bad number format", 2),
-    ("bad number format", 2), ("bad character", 1), ("bad value", 1), ("negative", 4),
+    ("bad number format", 2), ("bad character", 1), ("bad value", 2), ("negative", 4),
     ("unknown g code", 20), ("unsupported m code", 20), ("is not supported", 20),
     ("two g codes from one modal group", 21),
     ("two m codes from one modal group", 21), ("zero feed rate", 22),
@@ -342,7 +364,8 @@ _GRBL_ERRORS = (
     ("g10 needs", 28),
     ("dwell) needs a p", 28), ("coordinate systems", 29), ("g53", 30), ("g80", 31),
     ("neither", 32), ("ends where it starts", 33), ("radius to end of arc", 33),
-    ("too small to reach", 34), ("has no centre", 35), ("missing", 35),
+    ("too small to reach", 34), ("has no centre", 35), ("missing value", 2),
+    ("f word missing", 22), ("uses no offset words", 36),
     ("with no code that uses it", 36), ("axis word on a 3-axis machine", 20),
     ("axis words with no motion mode", 31), ("max characters per line", 11),
 )
@@ -350,7 +373,7 @@ _GRBL_ERRORS = (
 GRBL = Dialect(
     name="grbl",
     explicit_end_full_circle=True,
-    radius_check=RadiusCheck(0.005, 0.5, 0.005 / 25.4, 0.5 / 25.4, 0.001),
+    radius_check=RadiusCheck(0.005, 0.5, 0.005 / 25.4, 0.5 / 25.4, 0.001, rel_to_start=True),
     project_end_on_arc=False,
     both_offsets_required=False,
     p_adds_circles=False,
@@ -382,6 +405,12 @@ GRBL = Dialect(
     feed_mode_clears_feed="grbl",
     home_first_move=False,
     line_limit="grbl",
+    zero_angle_fuzz=5e-7,
+    feed_in_line_units=True,
+    jog_units_per_minute=True,
+    g53_absolute_in_g91=True,
+    read_order="grbl",
+    g10_p_truncated=True,
 )
 
 DIALECTS: dict[str, Dialect] = {d.name: d for d in (LINUXCNC, G2CORE, MARLIN, LASERDYNE, GRBL)}

@@ -99,6 +99,7 @@ from gantry_sim.controller.moves import (
     Stop,
     Vec3,
 )
+from gantry_sim.controller.units import MM_PER_INCH
 
 _PLANES: dict[int, Plane] = {170: "XY", 180: "XZ", 190: "YZ"}
 #: isinstance() classes as tuples: a ``Rapid | Linear`` union is built again at every call
@@ -190,7 +191,10 @@ class Interpreter:
         if "F" in w.values:
             if w.values["F"] < 0.0:
                 raise GcodeError("negative F word; the feed must be >= 0 (units per minute)")
-            s = evolve(s, feed_mm_per_min=w.values["F"] * s.scale, feed_number=w.values["F"])
+            scale = s.scale
+            if d.feed_in_line_units and "units" in w.g:
+                scale = MM_PER_INCH if w.g["units"] == 200 else 1.0
+            s = evolve(s, feed_mm_per_min=w.values["F"] * scale, feed_number=w.values["F"])
         s, tool_changed = tool_words(s, w, self.table)
         if "S" in w.values and "S" not in d.ignored_letters:
             s = evolve(s, rpm=w.values["S"])
@@ -291,7 +295,7 @@ class Interpreter:
         if nonmodal == 100 and round(w.values.get("L", 0)) in (1, 10, 11) and d.g10_rotation:
             s = set_tool_entry(s, self.params, w.values, self.table)
         elif nonmodal == 100:
-            s = g10(s, self.params, w.values, d.coordinate_systems, d.language)
+            s = g10(s, self.params, w.values, d.coordinate_systems, d.language, d.g10_p_truncated)
         elif nonmodal in (920, 921, 922, 923, 520):
             s = g92(s, self.params, nonmodal, w.values)
             if nonmodal == 920 and s.extruder is not None and "E" in w.values:
@@ -304,7 +308,7 @@ class Interpreter:
         if machine_coords:
             if motion not in (0, 10):
                 raise GcodeError("G53 (machine coordinates) must be used with G0 or G1")
-            if s.incremental:
+            if s.incremental and not d.g53_absolute_in_g91:
                 raise GcodeError("G53 cannot be used in incremental distance mode (G91); use G90")
         if motion is not None and motion not in CYCLES and cycle.initial is not None:
             cycle = evolve(cycle, initial=None)  # a series of cycles ends with another motion
@@ -654,6 +658,8 @@ class Interpreter:
         saved = self.state
         w = read_words(block, self.params, self.dialect)
         check_jog(w)
+        if self.dialect.jog_units_per_minute and saved.feed_mode == 930:
+            self.state = evolve(saved, feed_mode=940)  # grbl's jog: F in units per minute
         g1 = Block(block.line, (("G", ("num", 1.0)), *block.words), (), False, block.text)
         try:
             moves, _ = self.step(g1)
@@ -869,7 +875,7 @@ def interpret_events(
 def _finish(errors: list[GcodeError], rules: Dialect | None, file: str) -> None:
     """Give each collected error its file and the dialect's error number."""
     for exc in errors:
-        if rules is not None and rules.error_codes and not exc.message.endswith(")"):
+        if rules is not None and rules.error_codes and f"({rules.name} error " not in exc.message:
             exc.message = coded(exc.message, rules)
         exc.located(file)
 
