@@ -20,7 +20,7 @@ from typing import Any, BinaryIO, Literal, overload
 
 from gantry_sim.controller.config import MachineConfig
 from gantry_sim.controller.errors import GantryError, GcodeError
-from gantry_sim.controller.gcode.control import DEFAULT_MAX_ITERATIONS, MAX_ERRORS
+from gantry_sim.controller.gcode.control import DEFAULT_MAX_ITERATIONS
 from gantry_sim.controller.gcode.lexer import decode_program
 from gantry_sim.controller.moves import Event, Move
 from gantry_sim.controller.spill import SpilledList
@@ -98,9 +98,9 @@ def interpret_program(
     except GcodeError as exc:
         if "--max-iterations" in exc.message:
             raise  # the loop bound: a second pass would repeat the runaway loop's work
-        others = _other_refused_lines(text, dialect, file, kwargs)
+        others, whole = _other_refused_lines(text, dialect, file, kwargs)
         if others:
-            at_least = "at least " if others >= MAX_ERRORS - 1 else ""
+            at_least = "" if whole else "at least "
             exc.message += (
                 f" ({at_least}{others} more line(s) refused; `gantry parse --all-errors` with "
                 "the same options lists them all)"
@@ -147,17 +147,36 @@ def checked_placement(
     return exc
 
 
-def _other_refused_lines(text: str, dialect: str, file: str, kwargs: dict[str, Any]) -> int:
-    """How many lines besides the first are refused (the whole program, refused lines skipped)."""
+#: O-word loop repetitions and calls the count of further refused lines may make: past a
+#: refused line its parameter settings are not made, so a loop whose counter depended on one
+#: may never end (a program reading an unset ``#<_td>``: 1,000,000 repetitions, minutes of
+#: work, to count two lines the loop's runaway itself refuses)
+COUNT_MAX_ITERATIONS = 10_000
+
+
+def _other_refused_lines(
+    text: str, dialect: str, file: str, kwargs: dict[str, Any]
+) -> tuple[int, bool]:
+    """How many lines besides the first are refused (the whole program, refused lines
+    skipped), and whether that is all of them: the count stops at
+    :data:`~gantry_sim.controller.gcode.control.MAX_ERRORS` refused
+    lines and at :data:`COUNT_MAX_ITERATIONS` loop repetitions."""
     from gantry_sim.controller.gcode.interpreter import interpret
 
     errors: list[GcodeError] = []
+    bounded = dict(kwargs)
+    bounded["max_iterations"] = min(
+        kwargs.get("max_iterations", DEFAULT_MAX_ITERATIONS), COUNT_MAX_ITERATIONS
+    )
     try:
-        for _ in interpret(text, dialect, file, errors=errors, **kwargs):
+        for _ in interpret(text, dialect, file, errors=errors, **bounded):
             pass
     except GantryError:
-        pass  # more than MAX_ERRORS: the count so far
-    return max(len(errors) - 1, 0)
+        return max(len(errors) - 1, 0), False  # the bound on errors or on loops: so far
+    for k, exc in enumerate(errors):
+        if "--max-iterations" in exc.message:  # what follows a loop stopped is its debris
+            return max(k - 1, 0), False
+    return max(len(errors) - 1, 0), True
 
 
 #: the largest program read [bytes] (a slicer's longest prints are a few hundred MB; a

@@ -102,6 +102,27 @@ def test_refused_program_says_how_to_list_every_refused_line(write_program, tmp_
     assert err.startswith(f"{one}:2: error: ") and "--all-errors" not in err
 
 
+def test_the_count_of_refused_lines_stops_at_a_loop_the_refusal_made_endless(
+    write_program, capsys
+):
+    """Past a refused setting the count reads its parameter as never set: a loop counting by
+    it never ends. The count stops at COUNT_MAX_ITERATIONS, not at --max-iterations (a real
+    program reading an unset #<_td> took minutes of `gantry plan` to report line 2)."""
+    from gantry_sim.sim import program
+
+    text = (
+        "G21 G90 F600\n#<step> = [#<_td> * 0.4]\n#<r> = 0\no100 while [#<r> LT 5]\n"
+        "G1 X#<r>\n#<r> = [#<r> + #<step>]\no100 endwhile\nM2\n"
+    )
+    path = write_program(text)
+    assert program.COUNT_MAX_ITERATIONS < 1_000_000  # the default --max-iterations
+    assert main(["plan", str(path)]) == 2
+    err = capsys.readouterr().err.strip()
+    assert err.startswith(f"{path}:2: error: ") and "_td" in err
+    # the count stopped at the loop bound; the loop's own refusals after it are not counted
+    assert "_td> not defined; set it before reading it\n" in err + "\n"
+
+
 def test_run_program_searches_the_programs_folder_then_search_path(setup_files, machine):
     from dataclasses import replace
 
