@@ -5,6 +5,7 @@ Expected values from ``rs274 -g`` (LinuxCNC 2.9) on the same lines.
 
 from __future__ import annotations
 
+import numpy as np
 import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
@@ -51,6 +52,22 @@ def test_parameters_and_expressions_match_rs274() -> None:
     got = ends(text)
     want = [(2, 0, 0), (14, 64, 1), (0.5, 45, -1), (-5, -3, 3), (1, 2, 3), (10, 2, 3)]
     assert got == [pytest.approx(w) for w in want]
+
+
+@pytest.mark.skipif(
+    np.finfo(np.longdouble).nmant <= 52, reason="this platform's long double is a double"
+)
+def test_degrees_go_through_long_double_pi_as_in_rs274() -> None:
+    """rs274 computes cos((x * M_PIl) / 180.0) in long double: COS[90] is -2.5e-20, and a
+    program raising it to a small power (lagun-linuxcnc's spquircle_boss.ngc) lands where
+    LinuxCNC lands. Expected values: `rs274 -g` of LinuxCNC 2.9 on these lines."""
+    text = (
+        "G1 X[ABS[COS[90]]**0.075] Y[ABS[SIN[180]]**0.075] Z[ABS[TAN[180]]**0.075] F100\n"
+        "G1 X[ATAN[1]/[1]] Y[ACOS[0]] Z[ASIN[1]]\nG1 X[COS[60]] Y[SIN[30]] Z[TAN[45]]\n"
+    )
+    got = ends(text)
+    want = [(0.0339, 0.0357, 0.0357), (45, 90, 90), (0.5, 0.5, 1)]
+    assert got == [pytest.approx(w, abs=5e-5) for w in want]
 
 
 @pytest.mark.parametrize(

@@ -15,9 +15,13 @@ Trig functions work in degrees, as in rs274.
 
 from __future__ import annotations
 
+import functools
 import math
 import re
-from typing import Protocol
+from typing import TYPE_CHECKING, Protocol
+
+if TYPE_CHECKING:
+    import numpy as np
 
 from gantry_sim.controller.errors import GcodeError, shown
 from gantry_sim.controller.gcode.parameters import INTEGER_TOL, MAX_PARAMETER
@@ -44,6 +48,37 @@ _NUMBER = re.compile(r"[0-9.]*")
 MAX_NESTING = 64  # brackets, signs and # per value: deeper is refused (no recursion blow-up)
 #: the largest magnitude a number or result may have; beyond it values are refused as not finite
 MAX_MAGNITUDE = 1e300
+
+
+#: rs274 turns degrees into radians and back through C's long double M_PIl
+#: (interp_execute.cc: ``cos((x * M_PIl) / 180.0)`` calls cosl; ``(r * 180.0) / M_PIl``), so
+#: COS[90] is -2.5e-20, not the 6.1e-17 of double arithmetic (on x86-64 Linux, where long
+#: double has 64 mantissa bits; where it is a double, the two agree)
+@functools.cache
+def _long_double() -> tuple[type[np.longdouble], np.longdouble, np.longdouble]:
+    """numpy's long double type, M_PIl and 180 in it (numpy imported at the first use: the
+    lexer is imported by every ``gantry`` command, ``--version`` too)."""
+    import numpy
+
+    ld = numpy.longdouble
+    return ld, ld("3.14159265358979323846264338327950288"), ld(180.0)
+
+
+def _radians_l(degrees: float) -> np.longdouble:
+    ld, pi, half_turn = _long_double()
+    return ld(degrees) * pi / half_turn
+
+
+def _degrees_l(radians: float) -> float:
+    ld, pi, half_turn = _long_double()
+    return float(ld(radians) * half_turn / pi)
+
+
+def _trig(name: str, degrees: float) -> float:
+    """COS, SIN or TAN of ``degrees`` as rs274 computes them (long double)."""
+    import numpy
+
+    return float(getattr(numpy, name)(_radians_l(degrees)))
 
 
 class ParameterReader(Protocol):
@@ -207,7 +242,7 @@ def _evaluate(tree: Tree, params: ParameterReader) -> float:
     if kind == "exists_n":
         return float(_parameter_number(_evaluate(tree[1], params)))
     if kind == "atan":
-        return math.degrees(math.atan2(_evaluate(tree[1], params), _evaluate(tree[2], params)))
+        return _degrees_l(math.atan2(_evaluate(tree[1], params), _evaluate(tree[2], params)))
     if kind == "fn":
         return _function(tree[1], _evaluate(tree[2], params))
     return _chain([_evaluate(v, params) for v in tree[1]], tree[2])
@@ -244,11 +279,11 @@ def _function(name: str, x: float) -> float:
             case "ABS":
                 return abs(x)
             case "ACOS":
-                return math.degrees(math.acos(x))
+                return _degrees_l(math.acos(x))
             case "ASIN":
-                return math.degrees(math.asin(x))
+                return _degrees_l(math.asin(x))
             case "COS":
-                return math.cos(math.radians(x))
+                return _trig("cos", x)
             case "EXP":
                 return math.exp(x)
             case "FIX":
@@ -260,11 +295,11 @@ def _function(name: str, x: float) -> float:
             case "ROUND":  # rs274: (int)(x + 0.5), or - 0.5 below 0: halves away from zero
                 return _c_int(x + (-0.5 if x < 0.0 else 0.5))
             case "SIN":
-                return math.sin(math.radians(x))
+                return _trig("sin", x)
             case "SQRT":
                 return math.sqrt(x)
             case _:
-                return math.tan(math.radians(x))
+                return _trig("tan", x)
     except (ValueError, OverflowError):
         raise GcodeError(f"{name}[{x:g}] is out of the function's domain") from None
 
