@@ -433,8 +433,13 @@ def test_marlin_g28_homes_named_axes_and_g92_sets_the_position() -> None:
         (4, "linear", (5.0, 0.0, 0.0)),
         (6, "linear", (6.0, 0.0, 0.0)),  # G92 X0 at X5: X1 is 6 in the work frame
     ]
-    for code in ("G12", "G27", "G61"):
+    for code in ("G12", "G27", "G60\nG61"):
         assert "not" in error_of(code + "\n", "marlin").message
+    # with no position saved (no G60) Marlin's G61 returns at once: a CAM post's "exact path"
+    # G61 in a laser file (blackjetrock's front_panel_62mm_name_recess_only.gcode) moves nothing
+    moves = run("G21\nG90\nG61\nG1 X10 F600\nG60\nG1 X12\n", "marlin")
+    assert [(m.line, m.end) for m in moves] == [(4, (10.0, 0.0, 0.0)), (6, (12.0, 0.0, 0.0))]
+    assert error_of("G60\nG1 X10 F600\nG61 X Y\n", "marlin").line == 3
 
 
 def test_grbl_and_g2core_read_comments_as_their_firmware_does() -> None:

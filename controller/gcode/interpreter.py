@@ -841,7 +841,7 @@ def interpret_events(
             max_iterations,
             system_lines=rules.system_lines,
             owords=rules.language,
-            own_lines=OWN_LINES.get(rules.own_lines),
+            own_lines=OWN_LINES[rules.own_lines]() if rules.own_lines else None,
             realtime=rules.realtime_characters,
             checksums=rules.checksums,
             comments=rules.firmware_comments,

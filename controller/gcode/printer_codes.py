@@ -7,7 +7,8 @@ of Marlin's own that do not move the tool are accepted (G4 dwell in P ms or S s,
 retract, G29-G35 and G76 probing and calibration, G60 save position, G80, G92 with E alone);
 G28 homes the named axes (all when none) to the machine file's work origin; the ones that move
 in ways this machine does not model are refused with a reason (G6 direct stepper,
-G12 nozzle clean, G26 mesh print, G27 park, G42 mesh point, G61 restore position, G38 probe).
+G12 nozzle clean, G26 mesh print, G27 park, G42 mesh point, G61 restore position after a G60,
+G38 probe; a G61 before any G60 does nothing, as in Marlin).
 A bare ``G26`` is skipped: Marlin's default configuration leaves G26_MESH_VALIDATION off (an
 unknown command there), and LulzBot's Marlin clears a failed probe with it (every LulzBot
 Cura start code opens with it); the mesh validation print takes parameters.
@@ -29,6 +30,7 @@ stays).
 from __future__ import annotations
 
 import re
+from collections.abc import Callable
 
 from gantry_sim.controller.errors import GcodeError
 from gantry_sim.controller.gcode.codes import G_GROUPS
@@ -185,7 +187,35 @@ def as_g92(raw: str) -> str:
 
 
 #: the dialects' ``own_lines`` rule sets
-OWN_LINES = {"marlin": marlin_line, "g2core": g2core_line}
+class MarlinLines:
+    """:func:`marlin_line` with the one state it needs: whether a G60 has saved a position.
+    A G61 before any G60 does nothing, as Marlin's G61 returns when its slot holds no saved
+    position (gcode/feature/pause/G61.cpp); CAM posts write LinuxCNC's G61 (exact path) into
+    laser and printer files. After a G60 it would move there: refused, as before."""
+
+    def __init__(self) -> None:
+        self.saved = False
+
+    def __call__(self, raw: str) -> str | None:
+        head = _HEAD.match(raw.split(";", 1)[0])
+        if head is not None and head.group(1).upper() == "G" and not _TEXT.match(raw):
+            tenths = round(float(head.group(2)) * 10)
+            if tenths == 600:
+                self.saved = True
+            elif tenths == 610 and not self.saved:
+                return "quiet"
+        return marlin_line(raw)
+
+
+def _g2core_lines() -> Callable[[str], str | None]:
+    return g2core_line
+
+
+#: each dialect's own line reader, made afresh for every program (Marlin's holds G60's state)
+OWN_LINES: dict[str, Callable[[], Callable[[str], str | None]]] = {
+    "marlin": MarlinLines,
+    "g2core": _g2core_lines,
+}
 
 
 _DWELL_WORD = re.compile(r"([PS])\s*([0-9]*\.?[0-9]+)", re.IGNORECASE)
