@@ -209,26 +209,56 @@ _UTF16_BOMS = (b"\xff\xfe", b"\xfe\xff")
 
 
 def _read_checked(f: BinaryIO, path: Path) -> bytes:
-    """The bytes of the open program ``f``: refused at the first NUL byte or past
-    :data:`MAX_PROGRAM_BYTES`, before the rest is read."""
+    """The bytes of the open program ``f``, without the NUL bytes that may pad its end (a
+    file copied in blocks, a TinyG sample with two after its closing ``%``): refused at a
+    byte after a NUL (naming the NUL's line), past :data:`MAX_NUL_PADDING_BYTES` of padding
+    (``/dev/zero``: at the first chunk) or past :data:`MAX_PROGRAM_BYTES`, before the rest
+    is read."""
     chunks: list[bytes] = []
     size = 0
+    padding = 0  # NUL bytes since the first one
     while chunk := f.read(READ_CHUNK_BYTES):
-        if b"\x00" in chunk:
+        if padding:
+            if chunk.count(0) != len(chunk):
+                raise _nul_error(b"".join(chunks), path)
+            padding += len(chunk)
+        elif (nul := chunk.find(0)) >= 0:
             if not size and chunk[:2] in _UTF16_BOMS:
                 raise GcodeError(
                     "the program is UTF-16 text (it starts with a UTF-16 byte-order mark); "
                     "G-code is read as ASCII, UTF-8 or Latin-1: save it as UTF-8",
                     file=str(path),
                 )
+            tail = chunk[nul:]
+            if tail.count(0) != len(tail):
+                raise _nul_error(b"".join([*chunks, chunk[:nul]]), path)
+            chunks.append(chunk[:nul])
+            size += nul
+            padding = len(tail)
+        else:
+            size += len(chunk)
+            chunks.append(chunk)
+        if padding > MAX_NUL_PADDING_BYTES:
             raise GcodeError("not a G-code text file (it contains NUL bytes)", file=str(path))
-        size += len(chunk)
         if size > MAX_PROGRAM_BYTES:
             raise GcodeError(
                 f"program larger than {MAX_PROGRAM_BYTES >> 30} GiB; split it", file=str(path)
             )
-        chunks.append(chunk)
     return b"".join(chunks)
+
+
+#: NUL bytes accepted as padding after a program's last character
+MAX_NUL_PADDING_BYTES = 64 << 10
+
+
+def _nul_error(before: bytes, path: Path) -> GcodeError:
+    """A NUL byte with text after it: the file is not G-code text; the line of the first NUL."""
+    return GcodeError(
+        "not a G-code text file (it contains NUL bytes; only padding after the program's "
+        "last character is ignored)",
+        file=str(path),
+        line=before.count(b"\n") + 1,
+    )
 
 
 def _advancing(items: Iterable, advance: Callable[[int], object]) -> Iterator:

@@ -104,6 +104,21 @@ def test_an_endless_stream_is_refused_at_its_first_chunk(capsys) -> None:
     )
 
 
+def test_nul_padding_after_the_program_is_ignored_and_a_nul_inside_named_by_line(
+    tmp_path, capsys
+) -> None:
+    """synthetos/TinyG's gcode_samples/_untested/DIASQU.txt ends with two NUL bytes after its
+    closing '%': rs274 runs it. A NUL with text after it is refused on its line."""
+    path = tmp_path / "padded.ngc"
+    path.write_bytes(b"%\nG21 G90\nG1 X10 F100\n%\n\x00\x00")
+    assert main(["parse", str(path)]) == 0
+    assert json.loads(capsys.readouterr().out)["end"] == [10.0, 0.0, 0.0]
+    path.write_bytes(b"G21 G90\nG1 X10 F100\nG1 X\x002\nM2\n")
+    assert main(["parse", str(path)]) == 2
+    err = capsys.readouterr().err
+    assert err.startswith(f"{path}:3: error: not a G-code text file (it contains NUL bytes")
+
+
 def test_a_stream_is_checked_chunk_by_chunk(tmp_path, monkeypatch, capsys) -> None:
     """A NUL byte after the first chunk, and a program past the size bound, are refused as
     they are read (the bound made small here: the real one is 2 GiB)."""
