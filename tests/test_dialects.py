@@ -10,7 +10,7 @@ import pytest
 from gantry_sim.controller.errors import GcodeError
 from gantry_sim.controller.gcode import lexer
 from gantry_sim.controller.gcode.dialects import DIALECTS, MARLIN, get_dialect
-from gantry_sim.controller.gcode.interpreter import parse_program
+from gantry_sim.controller.gcode.interpreter import interpret_events, parse_program
 from gantry_sim.controller.moves import Arc, Linear, Rapid
 
 
@@ -266,6 +266,15 @@ def test_grbl_reads_feed_arcs_g53_and_g10_as_grbl_does() -> None:
     # G53 takes machine coordinates in G91 too; rs274 refuses it
     assert run("G91\nG53 G0 X1\n", "grbl")[0].end == (1.0, 0.0, 0.0)
     assert "G91" in error_of("G91\nG53 G0 X1\nM2\n", "linuxcnc").message
+    # M2/M30: an exact stop, G1 G17 G90 G94 G54 M5 M9, and the stream goes on (gcode.c step 21)
+    text = "G55\nG10 L2 P1 X10\nG91 G0 X1 F100\nM30\nX2\nG2 X4 I1\n"
+    moves = list(interpret_events(text, dialect="grbl"))
+    assert [(m.line, m.kind) for m in moves] == [
+        (1, "stop"), (2, "stop"), (3, "rapid"), (4, "stop"), (5, "linear"), (6, "arc")
+    ]  # fmt: skip
+    assert moves[4].end == (12.0, 0.0, 0.0)  # G90 in G54, whose origin G10 set at X10
+    assert moves[4].feed_mm_per_min == 100.0  # F stays
+    assert len(run("G1 X1 F100\nM2\nX2\nM2\n", "linuxcnc")) == 1  # rs274: M2 ends it
     # G10's P is cut to its whole part, and is the system in effect when absent
     moves = run("G10 L2 P1.5 X5\nG0 X0\nG55\nG10 L2 X7\nG0 X0\n", "grbl")
     assert [m.end for m in moves] == [(5.0, 0.0, 0.0), (7.0, 0.0, 0.0)]

@@ -170,6 +170,9 @@ class Dialect:
         jog_units_per_minute: a ``$J=`` jog's F is units per minute even under G93 (grbl).
         g10_p_truncated: G10's P is cut to its whole part (``P1.5`` is G54) and is 0, the
             system in effect, when absent (grbl's gcode.c); False: rs274's reading.
+        program_end_continues: M2/M30 reset some modes and the program goes on with the next
+            line (grbl 1.1, whose senders stream every line of a file; gcode.c step 21); False:
+            M2/M30 end the program (rs274).
         read_order: whose word-by-word checks name a line's first error (``"grbl"``:
             controller/gcode/dialect_checks.py, gcode.c's reading loop); ``""``: none.
         g53_absolute_in_g91: G53's axis words are machine coordinates in G91 too (grbl's
@@ -231,6 +234,7 @@ class Dialect:
     jog_units_per_minute: bool = False
     g53_absolute_in_g91: bool = False
     read_order: str = ""
+    program_end_continues: bool = False
     g10_p_truncated: bool = False
     permissive_blocks: bool = False
 
@@ -410,6 +414,7 @@ GRBL = Dialect(
     jog_units_per_minute=True,
     g53_absolute_in_g91=True,
     read_order="grbl",
+    program_end_continues=True,
     g10_p_truncated=True,
 )
 

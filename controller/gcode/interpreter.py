@@ -402,7 +402,12 @@ class Interpreter:
                 self.params.set_named(target, value)
             else:
                 self.params.set_number(target, value)
-        return moves, w.m.get("stopping") in M_PROGRAM_END
+        ended = w.m.get("stopping") in M_PROGRAM_END
+        if ended and d.program_end_continues:
+            moves.append(Stop(w.line, self.state.work, f"M{w.m['stopping']}"))
+            self.state = _grbl_program_end(self.state, self.params)
+            return moves, False
+        return moves, ended
 
     def _cycle(
         self, w: Words, s: ModalState, motion: int, cycle: CycleMemory, moves: list[Move | Event]
@@ -736,6 +741,17 @@ def _overrides(
     else:
         hold = on
     return (feed, speed, adaptive, hold)
+
+
+def _grbl_program_end(s: ModalState, params: Parameters) -> ModalState:
+    """grbl 1.1's M2/M30 (gcode.c, step 21): the planner empties (an exact stop), then G1, G17,
+    G90, G94, G54, M5 and M9; F, S, T, G20/G21, G91.1, the G92 offset and the tool length
+    offset stay. grbl then reads the next line: the stream goes on."""
+    s = evolve(
+        s, motion=10, plane="XY", incremental=False, feed_mode=940, spindle=0, mist=False,
+        flood=False,
+    )  # fmt: skip
+    return select_system(s, params, SYSTEMS[540])
 
 
 def _clears_feed(before: int, mode: int, d: Dialect) -> bool:
