@@ -168,5 +168,7 @@ def test_firmware_comments_leave_what_rs274_reads_and_keep_the_words(raw: str, r
             words.append(ch)
     if rules == "g2core" and raw.startswith("/"):
         words = []  # g2core's block delete
+    if rules == "grbl":
+        words = [ch for ch in words if ch != "/"]  # grbl's protocol.c drops every '/'
     want = "".join(words).replace(" ", "").upper()
     assert strip_line(kept).replace("(", "") == want, (raw, kept)

@@ -170,6 +170,11 @@ def firmware_comments(raw: str, rules: str) -> str:
     """
     if rules == "marlin":
         return _balanced_comments(raw) if "(" in raw or ")" in raw else raw
+    if rules == "grbl":
+        # protocol.c passes on neither comments, '/' (no block delete), spaces nor control
+        # characters: what is left is one run of characters ("X-(c)4" is X-4, "X/2" X2)
+        kept = _FIRMWARE_LINE["grbl"].match(raw)
+        return _GRBL_DROPPED.sub("", _OPEN_COMMENT.sub("", kept.group() if kept else ""))
     g2core = rules == "g2core"
     if g2core and raw.startswith("/"):
         return ""
@@ -187,6 +192,8 @@ _FIRMWARE_LINE = {
 }
 #: a comment, closed or left open at the line's end
 _OPEN_COMMENT = re.compile(r"\(([^)]*)\)?")
+#: what grbl's serial layer drops from a line besides its comments
+_GRBL_DROPPED = re.compile(r"[\x00-\x20/]+")
 
 
 def _balanced_comments(raw: str) -> str:
