@@ -230,6 +230,15 @@ def test_grbl_needs_no_program_end_and_reads_system_lines_and_jogs() -> None:
         ("G10 L2 P7 X1", 29),
         ("G10 P1 X1", 20),  # L0: unsupported
         ("G10 X1", 28),  # neither L nor P
+        ("G10 L2 P1", 26),  # no axis word to set
+        ("G92", 26),
+        ("G80\nG28 X1", 31),  # grbl's strict G80: no axis word even for G28, G92, G10, G43.1
+        ("T256", 38),
+        ("G43.1", 37),  # G43.1 takes Z alone
+        ("G43.1 Z1 G0 X1", 24),  # and is an axis command
+        ("G0 X1 %", 1),
+        ("N-1 G0 X1", 4),
+        ("G2 X1 I0 J0 F10", 33),  # a centre on the start: the end's radius is off by 1 mm
         ("G2 X2.1 I1 F10", 33),
         ("G2 X3 R1 F10", 34),
         ("G2 I-1.1 F300", 26),  # grbl traces no full circle from offsets alone (gcode.c)
@@ -275,6 +284,11 @@ def test_grbl_reads_feed_arcs_g53_and_g10_as_grbl_does() -> None:
     assert moves[4].end == (12.0, 0.0, 0.0)  # G90 in G54, whose origin G10 set at X10
     assert moves[4].feed_mm_per_min == 100.0  # F stays
     assert len(run("G1 X1 F100\nM2\nX2\nM2\n", "linuxcnc")) == 1  # rs274: M2 ends it
+    # protocol.c drops comments, '/', spaces and control characters before gcode.c reads
+    ends = [m.end[0] for m in run("G0 X-(c)4\nG0 X/2\nG0 X 1 0\nG0 X\x0c3\n", "grbl")]
+    assert ends == [-4.0, 2.0, 10.0, 3.0]
+    # a G4's P beside an arc is the dwell's (grbl's arcs take no P; rs274 refuses the line)
+    assert [m.kind for m in run("G4 P0.5 G2 X2 I1 F100\n", "grbl")] == ["arc"]
     # G10's P is cut to its whole part, and is the system in effect when absent
     moves = run("G10 L2 P1.5 X5\nG0 X0\nG55\nG10 L2 X7\nG0 X0\n", "grbl")
     assert [m.end for m in moves] == [(5.0, 0.0, 0.0), (7.0, 0.0, 0.0)]

@@ -102,9 +102,7 @@ def test_refused_program_says_how_to_list_every_refused_line(write_program, tmp_
     assert err.startswith(f"{one}:2: error: ") and "--all-errors" not in err
 
 
-def test_the_count_of_refused_lines_stops_at_a_loop_the_refusal_made_endless(
-    write_program, capsys
-):
+def test_the_count_of_refused_lines_stops_at_a_loop_the_refusal_made_endless(write_program, capsys):
     """Past a refused setting the count reads its parameter as never set: a loop counting by
     it never ends. The count stops at COUNT_MAX_ITERATIONS, not at --max-iterations (a real
     program reading an unset #<_td> took minutes of `gantry plan` to report line 2)."""

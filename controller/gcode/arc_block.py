@@ -36,8 +36,9 @@ MARLIN_SPIRAL_MM = 0.005
 
 
 def _turns(v: dict[str, float], d: Dialect) -> int:
-    """Step 2: the Arc's turns (>= 1) from the P word."""
-    if "P" not in v:
+    """Step 2: the Arc's turns (>= 1) from the P word (grbl's arcs take no P: a G4's P on the
+    line is the dwell's)."""
+    if "P" not in v or not d.arc_p_allowed:
         return 1
     p = v["P"]
     whole = round(p)

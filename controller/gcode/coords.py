@@ -95,6 +95,8 @@ def g10(
         raise GcodeError(
             "G10 needs a P word: the coordinate system, 1 (G54) .. 9 (G59.3), 0 current"
         )
+    if p_truncated and not any(a in v for a in _AXES):
+        raise GcodeError(f"G10 L{v['L']:g} with no axis word: give the axes to set")
     p_value = v.get("P", 0.0)
     level, number = round(v["L"]), round(p_value)
     if level not in (2, 20):

@@ -59,9 +59,11 @@ def check_plain(block: Block, d: Dialect) -> None:
         _check_grbl_read_order(block, d)
 
 
-#: grbl's axis commands (gcode.c): G0-G3 and G38.x, and G10, G28, G30, G92 (not G28.1, G30.1,
-#: G92.1); two on one line are error 24
-_GRBL_AXIS_COMMANDS = frozenset((0, 10, 20, 30, 382, 383, 384, 385, 100, 280, 300, 920))
+#: grbl's axis commands (gcode.c): G0-G3 and G38.x, G10, G28, G30, G92 (not G28.1, G30.1,
+#: G92.1) and G43.1; two on one line are error 24
+_GRBL_AXIS_COMMANDS = frozenset((0, 10, 20, 30, 382, 383, 384, 385, 100, 280, 300, 920, 431))
+#: grbl's largest tool number (MAX_TOOL_NUMBER, a byte)
+_GRBL_MAX_TOOL = 255
 #: codes whose other decimal parts grbl refuses as unsupported (error 20), not as "not an
 #: integer" (23): G28.x, G30.x, G38.x, G43.x, G61.x, G90.x, G91.x, G92.x
 _GRBL_OTHER_DECIMALS_UNSUPPORTED = frozenset((280, 300, 380, 430, 610, 900, 910, 920))
@@ -131,6 +133,12 @@ def _check_grbl_read_order(block: Block, d: Dialect) -> None:
             letters.add(letter)
             if letter in _GRBL_NOT_NEGATIVE and value < 0.0:
                 raise GcodeError(f"negative {letter} word; {letter} must be >= 0 on {d.name}")
+            if letter == "T" and value > _GRBL_MAX_TOOL:
+                raise GcodeError(
+                    f"T{value:g} is above {d.name}'s largest tool number, {_GRBL_MAX_TOOL}"
+                )
+    if groups.get("Gtool_length") == 431 and letters & set("XYZ") != {"Z"}:
+        raise GcodeError("G43.1 on grbl takes a Z word (the tool length offset) and no other axis")
 
 
 _SIGNS = re.compile(r"[+-][+-]+")

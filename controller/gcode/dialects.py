@@ -173,6 +173,8 @@ class Dialect:
         program_end_continues: M2/M30 reset some modes and the program goes on with the next
             line (grbl 1.1, whose senders stream every line of a file; gcode.c step 21); False:
             M2/M30 end the program (rs274).
+        strict_g80: no axis word while G80 (motion off) is in effect, not even for G10, G28,
+            G30, G92 or G43.1 (grbl's "strict" G80 error 31); False: those take their words.
         read_order: whose word-by-word checks name a line's first error (``"grbl"``:
             controller/gcode/dialect_checks.py, gcode.c's reading loop); ``""``: none.
         g53_absolute_in_g91: G53's axis words are machine coordinates in G91 too (grbl's
@@ -235,6 +237,7 @@ class Dialect:
     g53_absolute_in_g91: bool = False
     read_order: str = ""
     program_end_continues: bool = False
+    strict_g80: bool = False
     g10_p_truncated: bool = False
     permissive_blocks: bool = False
 
@@ -372,6 +375,9 @@ _GRBL_ERRORS = (
     ("f word missing", 22), ("uses no offset words", 36),
     ("with no code that uses it", 36), ("axis word on a 3-axis machine", 20),
     ("axis words with no motion mode", 31), ("max characters per line", 11),
+    ("g92 needs at least one axis word", 26), ("largest tool number", 38),
+    ("g43.1 on grbl", 37), ("zero-radius arc", 33), ("'%' is only allowed", 1),
+    ("n must be followed", 4),
 )
 # fmt: on
 GRBL = Dialect(
@@ -415,6 +421,7 @@ GRBL = Dialect(
     g53_absolute_in_g91=True,
     read_order="grbl",
     program_end_continues=True,
+    strict_g80=True,
     g10_p_truncated=True,
 )
 

@@ -281,6 +281,10 @@ class Interpreter:
             motion = s.motion
             if motion in (20, 30) and d.permissive_blocks:
                 motion = None  # g2core: a modal arc with no centre or radius moves nothing
+        if d.strict_g80 and has_axes and s.motion is None:
+            # grbl 1.1 (gcode.c, G80 errors): with motion off even G28, G92, G10 or G43.1 may
+            # not carry axis words
+            raise GcodeError("axis words with G80 (motion off) in effect; use G0, G1, G2 or G3")
         check_words(w, motion, d)
         if d.r_needs_arc_code_first and w.r_before_arc_code:
             raise GcodeError(

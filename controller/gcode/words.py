@@ -239,7 +239,7 @@ def check_words(w: Words, motion: int | None, dialect: Dialect) -> None:
         raise GcodeError("S word missing with G96: G96 sets the surface speed from S")
     if w.m.get("io") in (67, 68) and ("E" not in v or "Q" not in v):
         raise GcodeError(f"M{w.m['io']} needs E (the analog output) and Q (its value)")
-    if w.g.get("nonmodal") == 40 and arc:
+    if w.g.get("nonmodal") == 40 and arc and dialect.arc_p_allowed:
         raise GcodeError("G4 (dwell) cannot share a line with G2 or G3: both use the P word")
     if w.g.get("nonmodal") == 40 and v.get("P", -1.0) < 0.0:
         raise GcodeError("G4 (dwell) needs a P word: the dwell time in seconds, >= 0")
