@@ -283,6 +283,7 @@ def test_grbl_reads_feed_arcs_g53_and_g10_as_grbl_does() -> None:
     ]  # fmt: skip
     assert moves[4].end == (12.0, 0.0, 0.0)  # G90 in G54, whose origin G10 set at X10
     assert moves[4].feed_mm_per_min == 100.0  # F stays
+    assert [m.kind for m in run(text, "grbl")] == ["rapid", "linear", "arc"]  # motions alone
     assert len(run("G1 X1 F100\nM2\nX2\nM2\n", "linuxcnc")) == 1  # rs274: M2 ends it
     # protocol.c drops comments, '/', spaces and control characters before gcode.c reads
     ends = [m.end[0] for m in run("G0 X-(c)4\nG0 X/2\nG0 X 1 0\nG0 X\x0c3\n", "grbl")]

@@ -408,7 +408,8 @@ class Interpreter:
                 self.params.set_number(target, value)
         ended = w.m.get("stopping") in M_PROGRAM_END
         if ended and d.program_end_continues:
-            moves.append(Stop(w.line, self.state.work, f"M{w.m['stopping']}"))
+            if self.events:
+                moves.append(Stop(w.line, self.state.work, f"M{w.m['stopping']}"))
             self.state = _grbl_program_end(self.state, self.params)
             return moves, False
         return moves, ended
