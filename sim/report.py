@@ -122,6 +122,9 @@ class RunReport:
             trace.npz is missing when the run was asked not to write it (``--no-trace``).
         limit_change_stops: Marlin limit changes planned as exact stops, which Marlin does not
             make (their decelerations and accelerations are in ``cycle_time_s``).
+        program_limits: where Marlin's M201/M203 changed the limits, per part of the program
+            the first line of its first motion and the limits it ran under (empty: ``limits``
+            throughout).
     """
 
     program: str
@@ -141,6 +144,7 @@ class RunReport:
     verdict: Verdict = field(default_factory=Verdict)
     files: tuple[str, ...] = ()
     limit_change_stops: int = 0
+    program_limits: tuple[tuple[int, Limits], ...] = ()
 
     def block(self, line: int) -> BlockError | None:
         """The block executing program line ``line``, or None when it is no feed block."""
@@ -180,6 +184,7 @@ class RunReport:
             "segments": self.segments,
             "chord_tolerance_mm": self.chord_tolerance_mm,
             "limit_change_stops": self.limit_change_stops,
+            "program_limits": program_limits_json(self.program_limits),
             "sim": self.sim.to_json(deterministic),
             "timing_s": {k: None if deterministic else v for k, v in self.timing_s.items()},
             "verdict": self.verdict.to_json(),
@@ -334,6 +339,7 @@ def _report(
         moves=len(planned.moves),
         segments=int(planned.segment_count),
         limit_change_stops=int(planned.limit_change_stops),
+        program_limits=planned.part_limits,
         chord_tolerance_mm=float(planned.chord_tolerance_mm),
         sim=SimStats(
             physics_timestep_s=machine.sim.physics_timestep_s,
@@ -460,3 +466,9 @@ def _indented(text: str, pad: str) -> str:
     """``text`` (a JSON value, indented from column 0) with every line after its first indented
     by ``pad``: the value as json.dump writes it at that depth."""
     return text.replace("\n", "\n" + pad)
+
+
+def program_limits_json(parts: Sequence[tuple[int, Limits]]) -> list[dict[str, Any]]:
+    """report.json's and ``gantry plan``'s "program_limits": per part, "from_line" and the
+    limits it ran under."""
+    return [{"from_line": line, **limits.to_json()} for line, limits in parts]

@@ -97,7 +97,7 @@ def test_a_joiner_takes_only_a_planners_parts(machine):
     with pytest.raises(ValueError, match="no part"):
         joined.finish()
     with pytest.raises(TypeError, match="SegmentedCurve"):
-        joined.add(replace(parts[0], curve=parts[0].curve.laid_out()))
+        joined.add(replace(parts[0], curve=parts[0].curve.laid_out()), machine.limits)
 
 
 @pytest.mark.parametrize("lone", [2, 10_000])
@@ -186,17 +186,30 @@ def test_the_stops_at_limit_changes_are_counted_in_the_plan_and_the_run(machine,
     path = tmp_path / "print.gcode"
     path.write_text(PROGRAM)
     assert main(["plan", "--dialect", "marlin", str(path)]) == 0
-    assert json.loads(capsys.readouterr().out)["limit_change_stops"] == 4
+    planned = json.loads(capsys.readouterr().out)
+    assert planned["limit_change_stops"] == 4
+    # the limits each part ran under, from its first motion's line (M205 J changes no limit)
+    assert [
+        (p["from_line"], p["max_acceleration_mm_per_s2"][:2]) for p in planned["program_limits"]
+    ] == [(3, [2000, 2000]), (7, [1500, 1500]), (11, [500, 400]), (15, [500, 400]),
+          (18, [1000, 1000])]  # fmt: skip
+    assert planned["limits"]["max_acceleration_mm_per_s2"] == list(
+        machine.limits.max_acceleration_mm_per_s2
+    )  # the machine file's, as before
     out = tmp_path / "out"
     assert main(["run", "--dialect", "marlin", "--no-plots", "--out", str(out), str(path)]) == 0
     summary = capsys.readouterr().out.splitlines()[0]
     assert summary.endswith("(with 4 exact stops at limit changes, which Marlin does not make)")
     assert json.loads((out / "report.json").read_text())["limit_change_stops"] == 4
+    assert (
+        json.loads((out / "report.json").read_text())["program_limits"] == planned["program_limits"]
+    )
     plain = tmp_path / "plain.gcode"  # no limit change: no stop, and nothing said
     plain.write_text("G21 G90\nG1 X5 F3000\nG1 X10 Y1\nM2\n")
     assert main(["run", "--dialect", "marlin", "--no-plots", "--out", str(out), str(plain)]) == 0
     assert "limit changes" not in capsys.readouterr().out
     assert json.loads((out / "report.json").read_text())["limit_change_stops"] == 0
+    assert json.loads((out / "report.json").read_text())["program_limits"] == []
 
 
 def _path_acceleration(tr, line: int) -> tuple[np.ndarray, np.ndarray]:

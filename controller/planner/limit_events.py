@@ -36,6 +36,7 @@ from typing import NamedTuple
 
 import numpy as np
 
+from gantry_sim.controller.config import Limits as AxisLimits
 from gantry_sim.controller.config import MachineConfig, Segmentation
 from gantry_sim.controller.errors import ConfigError, GcodeError
 from gantry_sim.controller.moves import Arc, Event, Limits, Linear, Move, PathMove, Rapid, Spline
@@ -244,14 +245,17 @@ class JoinedPlans:
         self._segments = 0
         self._ruckig = 0
         self._parts = 0
+        self._part_limits: list[tuple[int, AxisLimits]] = []
         self._last: Plan | None = None
 
-    def add(self, plan: Plan) -> None:
+    def add(self, plan: Plan, limits: AxisLimits) -> None:
         """Join ``plan`` (a part's, from the planner: its reference a
-        :class:`~gantry_sim.controller.planner.segmented_curve.SegmentedCurve`) after the
-        parts added before."""
+        :class:`~gantry_sim.controller.planner.segmented_curve.SegmentedCurve`), planned with
+        ``limits``, after the parts added before."""
         if not isinstance(plan.curve, SegmentedCurve):
             raise TypeError(f"a part's reference must be a SegmentedCurve, not {plan.curve!r}")
+        first_line = int(plan.move_lines[0]) if len(plan.move_lines) else 0
+        self._part_limits.append((first_line, limits))
         for block in plan.curve.blocks():
             self._curve.extend([block])
         first = len(self._moves)  # sources index program moves, in both lists
@@ -304,6 +308,7 @@ class JoinedPlans:
             path_sources=path_sources,
             overlaps_s=overlaps,
             limit_change_stops=self._parts - 1,
+            part_limits=tuple(self._part_limits),
         )
 
 

@@ -189,10 +189,12 @@ def _plan(
     for lone, parts in _batches(split_at_limits(items, machine)):
         size = sum(len(part.items) for part in parts)
         if lone:  # its own windows and rounds use the cores
-            joined.add(plan_one(parts[0], done.within(first, size)))
+            joined.add(plan_one(parts[0], done.within(first, size)), parts[0].machine.limits)
         else:
-            for planned in fork_runs(plan_alone, parts, process_count()):
-                joined.add(planned)
+            for part, planned in zip(
+                parts, fork_runs(plan_alone, parts, process_count()), strict=True
+            ):
+                joined.add(planned, part.machine.limits)
         first += size
         done.to(first)
     return joined.finish()

@@ -8,6 +8,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from gantry_sim.controller.config import Limits
 from gantry_sim.controller.errors import ConfigError
 from gantry_sim.controller.moves import Move, PathMove, Rapid
 from gantry_sim.controller.planner.blend import Blend
@@ -49,6 +50,9 @@ class Plan:
         limit_change_stops: Marlin limit changes (M201, M203, M205 J) planned as exact stops
             between the program's parts (:mod:`~gantry_sim.controller.planner.limit_events`;
             Marlin itself does not stop there).
+        part_limits: for a program that Marlin's M201/M203 cut into parts, per part the
+            first program line of its first motion and the per-axis limits it was planned
+            with (the machine file's, as the program changed them); empty for one part.
         overlaps_s: read-only (k, 2) start and end [s] of each G64 stop whose two moves'
             profiles overlap (:mod:`~gantry_sim.controller.planner.stop_overlap`; each is
             also in ``blends``, kind "overlap"): there the reference cuts the corner, as a
@@ -71,6 +75,7 @@ class Plan:
     path_sources: np.ndarray = field(repr=False, default_factory=lambda: _no_pairs(np.int64))
     merges: tuple[Merge, ...] = ()
     limit_change_stops: int = 0
+    part_limits: tuple[tuple[int, Limits], ...] = ()
     overlaps_s: np.ndarray = field(repr=False, default_factory=lambda: _no_pairs(float))
 
     def sample(self, period_s: float) -> Trajectory:

@@ -79,6 +79,7 @@ def run(args: argparse.Namespace) -> int:
     from gantry_sim.sim.outdir import check_output_file
     from gantry_sim.sim.program import checked_placement, interpret_program
     from gantry_sim.sim.progress import stage, wanted
+    from gantry_sim.sim.report import program_limits_json
 
     budget = budget_from(args)
     machine = program_machine(args)
@@ -129,6 +130,7 @@ def run(args: argparse.Namespace) -> int:
         "blends": deviation_summary(result.blends),
         "merges": deviation_summary(result.merges),
         "limit_change_stops": result.limit_change_stops,
+        "program_limits": program_limits_json(result.part_limits),
     }
     sys.stdout.write(json.dumps(summary) + "\n")
     return 0

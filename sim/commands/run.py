@@ -135,6 +135,19 @@ def _summary(typed: RunReport, out_dir: Path, files: list[str]) -> str:
         f"  parts: chord {parts['chord_max']:.3f} um, reference {parts['reference_max']:.3f} um, "
         f"tracking {parts['tracking_max']:.3f} um (max each)",
     ]
+    if typed.program_limits:  # Marlin's M201/M203
+        acc = [
+            max(lim.max_acceleration_mm_per_s2[i] for _, lim in typed.program_limits)
+            for i in range(3)
+        ]
+        vel = [
+            max(lim.max_velocity_mm_per_s[i] for _, lim in typed.program_limits) for i in range(3)
+        ]
+        lines.append(
+            f"  limits set by the program (M201/M203, {len(typed.program_limits)} part(s)): up to "
+            f"{'/'.join(f'{a:g}' for a in acc)} mm/s^2, {'/'.join(f'{v:g}' for v in vel)} mm/s "
+            "(X/Y/Z)"
+        )
     worst = typed.worst_block()
     if worst is not None:
         lines.append(
