@@ -91,13 +91,10 @@ def arc_move(
         raise GcodeError(
             f"arc has no centre; give offsets {o1}/{o2} (centre format) or R (radius format)"
         )
-    if has_r and d.off_plane_offset_ignored and any(o in v for o in _OFFSETS):
-        # grbl's radius format consumes R only: an I, J or K is an unused word (gcode.c)
-        raise GcodeError(
-            "I/J/K word on a radius-format (R) arc: the R format uses no offset words; use "
-            "either R or the offsets"
-        )
-    if has_r and has_ijk:
+    # grbl's radius format consumes R only: an I, J or K is an unused word (gcode.c), found
+    # after the radius' own checks
+    unused_offsets = has_r and d.off_plane_offset_ignored and any(o in v for o in _OFFSETS)
+    if has_r and has_ijk and not unused_offsets:
         raise GcodeError("R mixed with I/J/K on one arc; use either R or the offsets, not both")
     turns = _turns(v, d)  # Step 2
     # Step 3: offsets must belong to the plane (grbl consumes and ignores the other one).
@@ -121,6 +118,11 @@ def arc_move(
         if v["R"] == 0.0 and d.r_short_is_semicircle:
             raise GcodeError("R0 gives no arc; R is the arc radius, non-zero")
         centre = centre_from_radius(ps, pe, v["R"], ccw, min_r, d.r_short_is_semicircle)
+        if unused_offsets:
+            raise GcodeError(
+                "I/J/K word on a radius-format (R) arc: the R format uses no offset words; use "
+                "either R or the offsets"
+            )
     else:
         need_both = s.arc_absolute or d.both_offsets_required
         for o in (o1, o2):

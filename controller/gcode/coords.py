@@ -97,6 +97,8 @@ def g10(
         )
     if p_truncated and not any(a in v for a in _AXES):
         raise GcodeError(f"G10 L{v['L']:g} with no axis word: give the axes to set")
+    if p_truncated and "R" in v:
+        raise GcodeError("G10 L2 R (a rotated coordinate system) is not supported")
     p_value = v.get("P", 0.0)
     level, number = round(v["L"]), round(p_value)
     if level not in (2, 20):

@@ -60,8 +60,8 @@ def check_plain(block: Block, d: Dialect) -> None:
 
 
 #: grbl's axis commands (gcode.c): G0-G3 and G38.x, G10, G28, G30, G92 (not G28.1, G30.1,
-#: G92.1) and G43.1; two on one line are error 24
-_GRBL_AXIS_COMMANDS = frozenset((0, 10, 20, 30, 382, 383, 384, 385, 100, 280, 300, 920, 431))
+#: G92.1), G43.1 and G49; two on one line are error 24
+_GRBL_AXIS_COMMANDS = frozenset((0, 10, 20, 30, 382, 383, 384, 385, 100, 280, 300, 920, 431, 490))
 #: grbl's largest tool number (MAX_TOOL_NUMBER, a byte)
 _GRBL_MAX_TOOL = 255
 #: codes whose other decimal parts grbl refuses as unsupported (error 20), not as "not an
@@ -127,8 +127,8 @@ def _check_grbl_read_order(block: Block, d: Dialect) -> None:
                     f"{names[1]}); use one {group.replace('_', ' ')} code per line"
                 )
             groups[letter + group] = code
-        elif letter in letters:
-            return
+        elif letter in letters or (d.letters is not None and letter not in d.letters):
+            return  # read_words names a repeated letter, check_codes an unknown one
         else:
             letters.add(letter)
             if letter in _GRBL_NOT_NEGATIVE and value < 0.0:

@@ -272,7 +272,11 @@ def _letter_uses(w: Words, motion: int | None, dialect: Dialect) -> dict[str, bo
         "I": arc or motion == 870 or (g10 and dialect.g10_rotation) or (spline and motion != 52),
         "J": arc or motion == 870 or (g10 and dialect.g10_rotation) or (spline and motion != 52),
         "K": arc or motion == 870,
-        "R": arc or (g10 and dialect.g10_rotation) or cycle or w.m.get("spindle") == 19,
+        # grbl's G10 reads R to refuse it (error 20: controller/gcode/coords.py g10)
+        "R": arc
+        or (g10 and (dialect.g10_rotation or dialect.g10_p_truncated))
+        or cycle
+        or w.m.get("spindle") == 19,
         "L": g10
         or (spline and motion == 52)
         or w.m.get("io") == 66
