@@ -209,6 +209,7 @@ def test_grbl_needs_no_program_end_and_reads_system_lines_and_jogs() -> None:
         ("G1 X1", 22),
         ("G59.1", 23),  # G59 is grbl's: its decimal part is "not an integer"
         ("G1.5 X1", 23),
+        ("G1.05 X1", 23),  # a decimal part no code has: not read as G1
         ("M3.5", 23),
         ("G28.2", 20),  # G28's other decimal parts are unsupported commands
         ("G61.1", 20),

@@ -98,7 +98,11 @@ def _check_grbl_read_order(block: Block, d: Dialect) -> None:
             int_value = math.trunc(value)
             mantissa = round(100 * (value - int_value))
             whole = int_value * 10 if g else int_value
-            code = whole + mantissa // 10 if g and mantissa % 10 == 0 else whole
+            # a G code in tenths (G28.1: mantissa 10); -1: a decimal part no code has (G1.05)
+            if g:
+                code = whole + mantissa // 10 if mantissa % 10 == 0 and mantissa < 100 else -1
+            else:
+                code = whole
             known = d.g_codes if g else d.m_codes
             name = g_name(code) if code in known and (g or not mantissa) else f"{letter}{value:g}"
             if value < 0 or whole not in (_wholes(known) if g else known):
@@ -115,7 +119,7 @@ def _check_grbl_read_order(block: Block, d: Dialect) -> None:
                 if axis_command:
                     raise GcodeError(
                         f"axis command conflict: {name} and another of G0-G3, G10, G28, G30, "
-                        f"G38.x, G92 on one line; {d.name} takes one per line"
+                        f"G38.x, G43.1, G49, G92 on one line; {d.name} takes one per line"
                     )
                 axis_command = True
             group = (G_GROUPS if g else M_GROUPS)[code]

@@ -186,7 +186,6 @@ def as_g92(raw: str) -> str:
     return _G2CORE_SET_ORIGIN.sub(lambda m: m.group(1) + "G92", raw, count=1)
 
 
-#: the dialects' ``own_lines`` rule sets
 class MarlinLines:
     """:func:`marlin_line` with the one state it needs: whether a G60 has saved a position.
     A G61 before any G60 does nothing, as Marlin's G61 returns when its slot holds no saved
