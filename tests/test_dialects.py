@@ -314,6 +314,15 @@ def test_grbl_starts_in_g0_and_takes_realtime_characters_out() -> None:
     assert held.line == 3 and "real-time command" in held.message
 
 
+def test_marlin_reads_line_numbers_of_any_length() -> None:
+    """Marlin's parser skips N and its digits. An N of two digits or more made the line look
+    like "N1" and a stray "0" (a line Marlin skips), so numbered lines did not move (found by
+    running Marlin bugfix-2.1.x's own parser on the host)."""
+    text = "G21 G90\nG1 X1 Y1 F1200\nN10 G1 X2 Y2\nN12345 G1 X3\nN7 G1 X4\nN10 PRINT_START\n"
+    moves = run(text, "marlin")
+    assert [(m.line, m.end[0]) for m in moves] == [(2, 1.0), (3, 2.0), (4, 3.0), (5, 4.0)]
+
+
 def test_marlin_cuts_a_line_at_its_checksum() -> None:
     # Marlin's GCodeParser::parse nullifies the '*' of a host's checksum and what follows
     # (N12 G1 X5*97, as OctoPrint and Pronterface send and some saved files keep); a '*' in a

@@ -137,8 +137,9 @@ def marlin_extruder(raw: str) -> tuple[str, float]:
 #: A line Marlin answers with "Unknown command": one that opens with neither a letter and a
 #: value nor a comment (a stray number, ``% text``, a Klipper macro such as ``PRINT_START
 #: BED=60``). A line of bare axis words (``X10 Y5``), a block delete ``/``, a parameter
-#: setting ``#`` and a lone ``%`` are left to the shared step.
-_NOT_A_COMMAND = re.compile(r"^\s*(?:N\d+\s*)?(?:[^A-Za-z(\s/#%]|%.*\S|[A-Za-z][A-Za-z_])")
+#: setting ``#`` and a lone ``%`` are left to the shared step. The line number is taken whole
+#: (an atomic group): ``N10 G1`` is not ``N1`` and a stray ``0``.
+_NOT_A_COMMAND = re.compile(r"^\s*(?>N\d+\s*)?(?:[^A-Za-z(\s/#%]|%.*\S|[A-Za-z][A-Za-z_])")
 #: Any word (a letter and a value).
 _WORD = re.compile(r"[A-Z]\s*[-+]?[.\d]", re.IGNORECASE)
 #: An M or T word after a G command: a parameter to Marlin, which that command ignores.
