@@ -244,7 +244,6 @@ class JoinedPlans:
         self._duration_s = 0.0
         self._segments = 0
         self._ruckig = 0
-        self._parts = 0
         self._part_limits: list[tuple[int, AxisLimits]] = []
         self._last: Plan | None = None
 
@@ -271,7 +270,6 @@ class JoinedPlans:
         self._duration_s += plan.duration_s
         self._segments += plan.segment_count
         self._ruckig += plan.ruckig_piece_count
-        self._parts += 1
         # the last part's own fields (end, tolerance) are the joined plan's; its reference and
         # lists are not kept
         self._last = replace(plan, curve=PiecewiseCubic(()), moves=(), path_moves=(), blends=())
@@ -307,7 +305,6 @@ class JoinedPlans:
             move_sources=move_sources,
             path_sources=path_sources,
             overlaps_s=overlaps,
-            limit_change_stops=self._parts - 1,
             part_limits=tuple(self._part_limits),
         )
 

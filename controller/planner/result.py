@@ -48,7 +48,7 @@ class Plan:
         merges: every G64 Q merge (line, largest distance of the merged-away programmed points
             from the merged line, Q).
         limit_change_stops: Marlin limit changes (M201, M203, M205 J) planned as exact stops
-            between the program's parts (:mod:`~gantry_sim.controller.planner.limit_events`;
+            between the program's parts (the joins of ``part_limits``) (:mod:`~gantry_sim.controller.planner.limit_events`;
             Marlin itself does not stop there).
         part_limits: for a program that Marlin's M201/M203 cut into parts, per part the
             first program line of its first motion and the per-axis limits it was planned
@@ -74,9 +74,13 @@ class Plan:
     move_sources: np.ndarray = field(repr=False, default_factory=lambda: _no_pairs(np.int64))
     path_sources: np.ndarray = field(repr=False, default_factory=lambda: _no_pairs(np.int64))
     merges: tuple[Merge, ...] = ()
-    limit_change_stops: int = 0
     part_limits: tuple[tuple[int, Limits], ...] = ()
     overlaps_s: np.ndarray = field(repr=False, default_factory=lambda: _no_pairs(float))
+
+    @property
+    def limit_change_stops(self) -> int:
+        """The joins between the parts of ``part_limits``: one exact stop each."""
+        return max(len(self.part_limits) - 1, 0)
 
     def sample(self, period_s: float) -> Trajectory:
         """The reference every ``period_s`` [s] from 0 to the end; the last sample is at rest at
