@@ -7,6 +7,7 @@ message that names the word.
 
 from __future__ import annotations
 
+import functools
 import math
 import re
 
@@ -33,11 +34,9 @@ def check_plain(block: Block, d: Dialect) -> None:
     first offence on the line wins, as grbl reads left to right: a ``#`` where a word's letter
     is expected (error 1), a word whose value is not a number (``X#1``, ``X[1+2]``: error 2)."""
     bad = next((k for k, (_, t) in enumerate(block.words) if not _plain(t)), None)
-    setting = (
-        (block.settings_at[0] if block.settings_at else len(block.words))
-        if (block.settings)
-        else None
-    )
+    setting = None  # the word index of the first '#' setting
+    if block.settings:
+        setting = block.settings_at[0] if block.settings_at else len(block.words)
     if setting is not None and (bad is None or setting <= bad):
         raise GcodeError(
             f"'#' parameters and [expressions] are not {d.name} features; {d.name} expects a "
@@ -69,6 +68,7 @@ _GRBL_MAX_TOOL = 255
 _GRBL_OTHER_DECIMALS_UNSUPPORTED = frozenset((280, 300, 380, 430, 610, 900, 910, 920))
 
 
+@functools.cache
 def _wholes(codes: frozenset[int]) -> frozenset[int]:
     """The whole parts (in tenths) of G codes given in tenths: G38.2 -> G38."""
     return frozenset(c - c % 10 for c in codes)

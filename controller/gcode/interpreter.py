@@ -387,8 +387,8 @@ class Interpreter:
             if wait is not None:
                 moves.insert(0, Stop(w.line, self.state.work, wait))
             stop = w.m.get("stopping")
-            if stop in (0, 1, 60):
-                moves.append(Stop(w.line, s.work, f"M{stop}"))
+            if stop in (0, 1, 60) or (stop in M_PROGRAM_END and d.program_end_continues):
+                moves.append(Stop(w.line, s.work, f"M{stop}"))  # grbl: M2/M30 stop, go on
         if s.path is not None:
             _set_path(moves, s.path)
         s = self._canon(s, moves)
@@ -408,8 +408,6 @@ class Interpreter:
                 self.params.set_number(target, value)
         ended = w.m.get("stopping") in M_PROGRAM_END
         if ended and d.program_end_continues:
-            if self.events:
-                moves.append(Stop(w.line, self.state.work, f"M{w.m['stopping']}"))
             self.state = _grbl_program_end(self.state, self.params)
             return moves, False
         return moves, ended

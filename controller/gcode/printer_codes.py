@@ -49,9 +49,7 @@ _E_ONLY = re.compile(
 #: M400 (finish moves). Each is an exact stop, of no time.
 MARLIN_SYNC_M = frozenset((0.0, 1.0, 18.0, 84.0, 226.0, 400.0))
 #: Marlin G codes (tenths) accepted with no tool motion here.
-MARLIN_QUIET_G = frozenset(
-    (40, 100, 110, 290, 291, 292, 293, 300, 310, 320, 330, 340, 350, 600, 760)
-)
+MARLIN_QUIET_G = frozenset((40, 100, 110, 290, 291, 292, 293, 300, 310, 320, 330, 340, 350, 760))
 #: Marlin G codes (tenths) accepted with no motion when they come with no word: a bare G5
 #: (every parameter defaults to zero: a curve of no length) and a bare G26 (LulzBot's "clear
 #: probe fail"; Marlin's default configuration has no G26; with words it is the mesh
@@ -64,7 +62,6 @@ MARLIN_REFUSED_G: dict[int, str] = {
     260: "G26 (mesh validation print) is not supported",
     270: "G27 (park the nozzle) moves to a firmware-configured point gantry-sim does not know",
     420: "G42 (move to a mesh point) needs the printer's mesh, which gantry-sim does not have",
-    610: "G61 (return to a saved position) is not supported",
     **dict.fromkeys((382, 383, 384, 385), "probing moves (G38.x) are not supported"),
     4250: "G425 (backlash calibration) is not supported",
 }
@@ -75,8 +72,9 @@ def marlin_line(raw: str) -> str | None:
     "dwell" (G4 P<ms> or S<s>), "wait" (an M code of :data:`MARLIN_SYNC_M`), "limits"
     (M201/M203/M204/M205), "extruder" (M82, M83, or G92 with E alone:
     :func:`marlin_extruder`), "parameters" (a G line with M or T words, which
-    Marlin reads as parameters the command ignores) or None (a shared G-code line). GcodeError
-    for a refused G code."""
+    Marlin reads as parameters the command ignores), "save" (G60) and "restore" (G61), which
+    :class:`MarlinLines` reads, or None (a shared G-code line). GcodeError for a refused G
+    code."""
     if _TEXT.match(raw):
         return "quiet"
     code = raw.split(";", 1)[0]
@@ -97,6 +95,8 @@ def marlin_line(raw: str) -> str | None:
     tenths = round(float(number) * 10)
     if tenths == 280:
         return "home"
+    if tenths in (600, 610):  # G60 save, G61 restore: MarlinLines keeps the saved state
+        return "save" if tenths == 600 else "restore"
     if tenths == 40:
         return "dwell"
     words = code[head.end() :]
@@ -197,14 +197,12 @@ class MarlinLines:
         self.saved = False
 
     def __call__(self, raw: str) -> str | None:
-        head = _HEAD.match(raw.split(";", 1)[0])
-        if head is not None and head.group(1).upper() == "G" and not _TEXT.match(raw):
-            tenths = round(float(head.group(2)) * 10)
-            if tenths == 600:
-                self.saved = True
-            elif tenths == 610 and not self.saved:
-                return "quiet"
-        return marlin_line(raw)
+        kind = marlin_line(raw)
+        if kind == "save":
+            self.saved = True
+        elif kind == "restore" and self.saved:
+            raise GcodeError("G61 (return to a saved position) is not supported (Marlin G61)")
+        return "quiet" if kind in ("save", "restore") else kind
 
 
 def _g2core_lines() -> Callable[[str], str | None]:
