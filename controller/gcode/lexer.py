@@ -171,10 +171,7 @@ def firmware_comments(raw: str, rules: str) -> str:
     if rules == "marlin":
         return _balanced_comments(raw) if "(" in raw or ")" in raw else raw
     if rules == "grbl":
-        # protocol.c passes on neither comments, '/' (no block delete), spaces nor control
-        # characters: what is left is one run of characters ("X-(c)4" is X-4, "X/2" X2)
-        kept = _FIRMWARE_LINE["grbl"].match(raw)
-        return _GRBL_DROPPED.sub("", _OPEN_COMMENT.sub("", kept.group() if kept else ""))
+        return grbl_line(raw)
     g2core = rules == "g2core"
     if g2core and raw.startswith("/"):
         return ""
@@ -194,6 +191,14 @@ _FIRMWARE_LINE = {
 _OPEN_COMMENT = re.compile(r"\(([^)]*)\)?")
 #: what grbl's serial layer drops from a line besides its comments
 _GRBL_DROPPED = re.compile(r"[\x00-\x20/]+")
+
+
+def grbl_line(raw: str) -> str:
+    """``raw`` as grbl's protocol.c passes it to gcode.c: without its comments (``(`` to the
+    first ``)`` or the line's end, ``;`` to the line's end), ``/`` (no block delete), spaces
+    and control characters, one run of characters (``X-(c)4`` is X-4, ``X/2`` X2)."""
+    kept = _FIRMWARE_LINE["grbl"].match(raw)
+    return _GRBL_DROPPED.sub("", _OPEN_COMMENT.sub("", kept.group() if kept else ""))
 
 
 def _balanced_comments(raw: str) -> str:
@@ -276,27 +281,13 @@ def line_too_long(raw: str, rule: str) -> str | None:
             "('Command too long'); split it, or shorten its comment"
         )
     if rule == "grbl":
-        kept = _grbl_kept(raw)
+        kept = len(grbl_line(raw))
         if kept > GRBL_MAX_LINE:
             return (
                 f"line of {kept} characters without spaces and comments: grbl's line buffer "
                 f"holds {GRBL_MAX_LINE} (max characters per line exceeded)"
             )
     return None
-
-
-def _grbl_kept(raw: str) -> int:
-    """How many characters of ``raw`` grbl's protocol loop keeps in its line buffer."""
-    kept, comment = 0, ""
-    for ch in raw:
-        if comment:
-            if comment == "(" and ch == ")":
-                comment = ""
-        elif ch == "(" or ch == ";":
-            comment = ch
-        elif ch > " " and ch != "/":
-            kept += 1
-    return kept
 
 
 def without_realtime(raw: str) -> str:
