@@ -61,7 +61,7 @@ def _made_whole() -> tuple[PathPlan, PathPlan, frozenset[int]]:
     return whole, path_plan(items, machine.path, tol, skip, stretch_moves=10**6), skip
 
 
-@pytest.mark.parametrize("stretch", [1, 2, 3, 5, 8, 13, 64])
+@pytest.mark.parametrize("stretch", [1, 3, 5, 13, 64])  # below, at and above a blend's reach
 def test_a_path_made_in_stretches_is_the_path_made_whole(stretch):
     machine = load_machine_config(DEFAULT_MACHINE)
     items = tuple(interpret_events(_program()))

@@ -67,9 +67,26 @@ def _program() -> str:
 
 def _whole_and_windowed(text: str, monkeypatch, window: int, margin: int):
     events = tuple(interpret_events(text))
-    machine = load_machine_config(DEFAULT_MACHINE)
-    whole = plan(events, machine)
-    probes = []
+    whole = plan(events, load_machine_config(DEFAULT_MACHINE))
+    return (whole, *_windowed(events, monkeypatch, window, margin))
+
+
+def _plan_whole(text: str):
+    return plan(tuple(interpret_events(text)), load_machine_config(DEFAULT_MACHINE))
+
+
+def _windowed(events: tuple, monkeypatch, window: int, margin: int):
+    """The plan of ``events`` in windows of ``window`` moves, and the sizes of the runs of
+    chains the windows settled (one per probe)."""
+    probes = _small_windows(monkeypatch, window, margin)
+    return plan(events, load_machine_config(DEFAULT_MACHINE)), probes
+
+
+def _small_windows(monkeypatch, window: int, margin: int) -> list[int]:
+    """From here on the planner plans windows of ``window`` moves with ``margin`` planned
+    again, and writes the reference to the temporary file in small blocks; returns the list
+    the sizes of the runs of chains the windows settle go to (one per probe)."""
+    probes: list[int] = []
     real = windows.settle_chains
 
     def counted(*args, **kwargs):
@@ -82,7 +99,7 @@ def _whole_and_windowed(text: str, monkeypatch, window: int, margin: int):
     # small blocks: the windows' reference goes to the temporary file, and a window sent back
     # takes back blocks written there
     monkeypatch.setattr(segmented_curve, "BLOCK_PHASES", 40)
-    return whole, plan(events, machine), probes
+    return probes
 
 
 def _assert_same(a, b) -> None:
@@ -109,16 +126,18 @@ def test_a_program_planned_in_windows_is_the_whole_program_plan(monkeypatch):
     _assert_same(whole, windowed)
 
 
-@pytest.mark.parametrize("window", [500, 800])
-def test_a_cut_whose_speed_came_down_in_later_rounds_gives_the_whole_program_plan(
-    monkeypatch, window
-):
+def test_a_cut_whose_speed_came_down_in_later_rounds_gives_the_whole_program_plan(monkeypatch):
     """The generated polyline (benchmarks/programs.py, 1,500 blocks) in windows of 500 and
     800 moves: at some cut the probe's speed came down over its rounds. A window that started
     every round from the last of those speeds backed off the junctions just after the cut
     otherwise than the whole program's rounds (the cycle differed by about 1e-5 s); it now
-    replays them (windows._replay), and the plan is the whole program's, number for number."""
-    whole, windowed, probes = _whole_and_windowed(program("poly", 1500), monkeypatch, window, 60)
+    replays them (windows._replay), and the plan is the whole program's, number for number.
+    (One test for both sizes: the whole program is planned once.)"""
+    text = program("poly", 1500)
+    whole, windowed, probes = _whole_and_windowed(text, monkeypatch, 500, 60)
+    assert len(probes) >= 3, probes
+    _assert_same(whole, windowed)
+    windowed, probes = _windowed(tuple(interpret_events(text)), monkeypatch, 800, 60)
     assert len(probes) >= 3, probes
     _assert_same(whole, windowed)
 
@@ -160,7 +179,8 @@ def test_a_window_whose_next_start_cannot_be_kept_is_planned_again_wider(monkeyp
             settled.speeds[0] = 0.5 * settled.speeds[0] if settled.speeds[0] > 0 else -1.0
         return settled
 
-    whole, _, _ = _whole_and_windowed(_program(), monkeypatch, 40, 8)
+    whole = _plan_whole(_program())
+    _small_windows(monkeypatch, 40, 8)
     monkeypatch.setattr(windows, "settle_chains", refuse_second_start)
     windowed = plan(interpret_events(_program()), load_machine_config(DEFAULT_MACHINE))
     assert calls["n"] >= 4
@@ -361,7 +381,8 @@ def test_a_window_sent_back_again_comes_back_wider_each_time(monkeypatch):
         kept.append(len(calls) - 1)
         return real_mark(out)
 
-    whole, _, _ = _whole_and_windowed(_program(), monkeypatch, 16, 4)
+    whole = _plan_whole(_program())
+    _small_windows(monkeypatch, 16, 4)
     monkeypatch.setattr(windows, "settle_chains", refuse_probes)
     monkeypatch.setattr(windows, "_mark", mark)
     windowed = plan(interpret_events(_program()), load_machine_config(DEFAULT_MACHINE))
@@ -528,7 +549,8 @@ def test_slow_blends_judged_over_processes_are_the_ones_judged_in_one(monkeypatc
     forked processes, a wave at a time: the corners found, and so the plan, are those of the
     whole program in one process."""
     monkeypatch.setenv("GANTRY_PLAN_WORKERS", "1")
-    whole, _, _ = _whole_and_windowed(_program(), monkeypatch, 25, 5)
+    whole = _plan_whole(_program())
+    _small_windows(monkeypatch, 25, 5)
     monkeypatch.setattr(window_judge, "JUDGE_MOVES", 25)
     waves = count_fork_map_parts(monkeypatch, window_judge)
     monkeypatch.setenv("GANTRY_PLAN_WORKERS", "3")
@@ -618,7 +640,7 @@ def test_blends_judged_as_the_windows_go_are_those_judged_first(monkeypatch, sha
         return slow_blends(path, prepared, jerk)
 
     monkeypatch.setattr(window_judge, "slow_blends", each)
-    _, windowed, probes = _whole_and_windowed(text, monkeypatch, 40, 8)
+    windowed, probes = _windowed(tuple(interpret_events(text)), monkeypatch, 40, 8)
     assert len(judged) == len(set(judged)) == 149  # every blend judged, once
     assert len(probes) >= 4, probes
     if sharp_from >= 150:
