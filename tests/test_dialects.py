@@ -458,6 +458,44 @@ def test_marlin_g0_is_a_g1_at_the_modal_feed() -> None:
     assert isinstance(run("G0 X10\nM2\n", "linuxcnc")[0], Rapid)
 
 
+#: A program and the feed [mm/min] Marlin gives each of its moves' planner blocks: Marlin
+#: bugfix-2.1.x (thinkyhead/Marlin 3639c90e, default configuration, host build whose
+#: Planner::buffer_line printed MMS_SCALED(feedrate_mm_s) * 60, in float32), 2026-11-30.
+M220_PROGRAM = (
+    "G21 G90\nG1 X10 F600\nM220 S50\nG1 X20\nG0 X30\nG2 X40 I5 F1200\nM220 B\n"
+    "M220 S200\nG1 X50\nM220 R\nG1 X60\nM220 S75.9\nG1 X90\nG1 X5 F0\nG1 X6 F-5\n"
+    "G5 I5 J5 P-5 Q-5 X20 Y10\n"
+)
+M220_MARLIN_FEEDS = {
+    2: 599.999939,
+    4: 299.999969,
+    5: 299.999969,
+    6: 599.999939,
+    9: 2399.99976,
+    11: 599.999939,
+    13: 899.999939,
+    14: 899.999939,
+    15: 899.999939,
+    16: 899.999939,
+}
+
+
+def test_marlin_m220_scales_the_feed_of_every_move_after_it() -> None:
+    """M220 S sets the percentage (read as a whole number), B backs up the one in effect, R
+    restores it; the F words stay as written (line 6's F1200 at 50 % is 600). An F of 0 or
+    less is passed over (line 14, 15), as Marlin reads F only above 0."""
+    moves = run(M220_PROGRAM, "marlin")
+    got = {m.line: m.feed_mm_per_min for m in moves}
+    assert got.keys() == M220_MARLIN_FEEDS.keys()
+    for line, feed in M220_MARLIN_FEEDS.items():
+        assert got[line] == pytest.approx(feed, rel=1e-6), line
+    for bad in ("M220 S0", "M220 S-10", "M220 S40000"):
+        assert "feed percentage must be 1 to 32767" in error_of(f"{bad}\nG1 X1\n", "marlin").message
+    assert run("M220\nM220 B R\nG1 X1 F600\n", "marlin")[0].feed_mm_per_min == 600.0
+    with pytest.raises(GcodeError, match="negative F"):
+        run("G1 X1 F-5\nM2\n", "linuxcnc")
+
+
 def test_marlin_g28_homes_named_axes_and_g92_sets_the_position() -> None:
     moves = run("G1 X3 Y4 Z5 F100\nG28 X\nG28\nG1 X5\nG92 X0\nG1 X1\n", "marlin")
     assert [(m.line, m.kind, m.end) for m in moves] == [

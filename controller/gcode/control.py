@@ -41,6 +41,7 @@ from gantry_sim.controller.gcode.printer_codes import (
     as_g92,
     marlin_dwell_seconds,
     marlin_extruder,
+    marlin_feed_percent,
     without_marlin_parameters,
 )
 from gantry_sim.controller.gcode.words import whole_number
@@ -111,6 +112,8 @@ class Source:
             return Block(i + 1, (("G", ("num", 4.0)), ("P", ("num", seconds))), (), False, raw)
         if kind == "extruder":  # Marlin M82/M83, G92 E: the extruder's mode or position
             return Block(i + 1, (), (), False, raw, extruder=marlin_extruder(raw))
+        if kind == "feed_percent":  # Marlin M220
+            return Block(i + 1, (), (), False, raw, feed_percent=marlin_feed_percent(raw))
         if kind == "limits":
             try:
                 return replace(lex_line(raw, i + 1), limits=True)

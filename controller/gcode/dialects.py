@@ -179,6 +179,10 @@ class Dialect:
             controller/gcode/dialect_checks.py, gcode.c's reading loop); ``""``: none.
         g53_absolute_in_g91: G53's axis words are machine coordinates in G91 too (grbl's
             gcode.c applies no distance mode under G53); False: G53 in G91 is refused (rs274).
+        positive_feed_only: an F of 0 or less is passed over and the feed in effect kept
+            (Marlin's get_destination_from_command reads F only when it is above 0); False:
+            F0 sets a feed of 0, which no feed move takes, and a negative F is an error
+            (rs274).
         line_limit: whose longest line applies (controller/gcode/lexer.py ``line_too_long``:
             ``"linuxcnc"`` 252 characters, ``"grbl"`` 79 kept in its line buffer); ``""``: none.
     """
@@ -238,6 +242,7 @@ class Dialect:
     read_order: str = ""
     program_end_continues: bool = False
     strict_g80: bool = False
+    positive_feed_only: bool = False
     g10_p_truncated: bool = False
     permissive_blocks: bool = False
 
@@ -323,6 +328,7 @@ MARLIN = Dialect(
     # open or holding a ( is no error (lexer._balanced_comments); its default build reads no
     # ( comments and skips a line that opens with one as an unknown command
     firmware_comments="marlin",
+    positive_feed_only=True,
 )
 
 LASERDYNE_ON_ARC_TOL_MM = 0.005

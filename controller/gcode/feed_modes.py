@@ -35,9 +35,12 @@ def check_feed_mode(s: ModalState, what: str, v: dict[str, float]) -> None:
 def path_feed(
     move: Linear | Arc | Spline, s: ModalState, v: dict[str, float]
 ) -> Linear | Arc | Spline:
-    """``move`` with its path speed [mm/min] for the feed mode in effect."""
+    """``move`` with its path speed [mm/min] for the feed mode in effect, and Marlin's M220
+    percentage."""
     if s.feed_mode == INVERSE_TIME:
         return replace(move, feed_mm_per_min=move.length_mm * v["F"])
     if s.feed_mode == PER_REVOLUTION:
         return replace(move, feed_mm_per_min=s.feed_mm_per_min * s.rpm)
+    if s.feed_percent[0] != 100:
+        return replace(move, feed_mm_per_min=move.feed_mm_per_min * (0.01 * s.feed_percent[0]))
     return move

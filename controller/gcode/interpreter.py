@@ -64,7 +64,7 @@ from gantry_sim.controller.gcode.parameters import (
 )
 from gantry_sim.controller.gcode.polar import polar_end_point
 from gantry_sim.controller.gcode.predefined import predefined
-from gantry_sim.controller.gcode.printer_codes import OWN_LINES
+from gantry_sim.controller.gcode.printer_codes import FEED_PERCENT_MAX, OWN_LINES
 from gantry_sim.controller.gcode.splines import (
     G5_2,
     G5_3,
@@ -158,6 +158,9 @@ class Interpreter:
         if block.extruder is not None:
             self._set_extruder(block.extruder)
             return [], False
+        if block.feed_percent is not None:
+            self._set_feed_percent(*block.feed_percent)
+            return [], False
         w = read_words(block, self.params, d, self._create_named)
         s = self.state
         # Step 2: every code is one gantry-sim supports.
@@ -188,7 +191,7 @@ class Interpreter:
             s = evolve(s, feed_mode=w.g["feed_mode"])
             if _clears_feed(self.state.feed_mode, w.g["feed_mode"], d):
                 s = evolve(s, feed_mm_per_min=0.0, feed_number=0.0)
-        if "F" in w.values:
+        if "F" in w.values and not (d.positive_feed_only and w.values["F"] <= 0.0):
             if w.values["F"] < 0.0:
                 raise GcodeError("negative F word; the feed must be >= 0 (units per minute)")
             scale = s.scale
@@ -528,6 +531,22 @@ class Interpreter:
         what, value = setting
         e = e.with_mode(value != 0.0) if what == "relative" else e.at(value * self.state.scale)
         self.state = evolve(self.state, extruder=e)
+
+    def _set_feed_percent(self, restore: bool, backup: bool, percent: int | None) -> None:
+        """Marlin's M220 (:attr:`~gantry_sim.controller.gcode.lexer.Block.feed_percent`): R
+        restores the backed-up percentage, B backs up the one in effect, S sets it."""
+        now, saved = self.state.feed_percent
+        new = saved if restore else now
+        if backup:
+            saved = now
+        if percent is not None:
+            if not 1 <= percent <= FEED_PERCENT_MAX:
+                raise GcodeError(
+                    f"M220 S{percent}: the feed percentage must be 1 to {FEED_PERCENT_MAX} "
+                    "(Marlin would plan the moves after it at no speed, or backwards)"
+                )
+            new = percent
+        self.state = evolve(self.state, feed_percent=(new, saved))
 
     @staticmethod
     def _emit(moves: list[Move | Event], s: ModalState, move: Move, end: Vec3) -> ModalState:

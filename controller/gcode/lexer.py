@@ -97,6 +97,8 @@ class Block:
         extruder: a Marlin line that sets the extruder without moving it: ("relative", 1.0)
             for M83, ("relative", 0.0) for M82, ("position", E) for ``G92 E`` (E in the
             program's units).
+        feed_percent: a Marlin M220 (:func:`~gantry_sim.controller.gcode.printer_codes.
+            marlin_feed_percent`): (restore, back up, the new percentage or None).
         settings_at: per setting, how many of ``words`` come before it on the line (empty:
             every setting after the words).
     """
@@ -112,6 +114,7 @@ class Block:
     limits: bool = False
     extruder: tuple[str, float] | None = None
     settings_at: tuple[int, ...] = ()
+    feed_percent: tuple[bool, bool, int | None] | None = None
 
     @property
     def empty(self) -> bool:
@@ -124,6 +127,7 @@ class Block:
             and not self.home
             and not self.limits
             and self.extruder is None
+            and self.feed_percent is None
         )
 
 

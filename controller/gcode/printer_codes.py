@@ -71,7 +71,7 @@ def marlin_line(raw: str) -> str | None:
     """What a Marlin line is before the shared step: "quiet" (accepted, no motion), "home" (G28),
     "dwell" (G4 P<ms> or S<s>), "wait" (an M code of :data:`MARLIN_SYNC_M`), "limits"
     (M201/M203/M204/M205), "extruder" (M82, M83, or G92 with E alone:
-    :func:`marlin_extruder`), "parameters" (a G line with M or T words, which
+    :func:`marlin_extruder`), "feed_percent" (M220: :func:`marlin_feed_percent`), "parameters" (a G line with M or T words, which
     Marlin reads as parameters the command ignores), "save" (G60) and "restore" (G61), which
     :class:`MarlinLines` reads, or None (a shared G-code line). GcodeError for a refused G
     code."""
@@ -90,6 +90,8 @@ def marlin_line(raw: str) -> str | None:
         return "extruder"
     if letter == "M" and float(number) in MARLIN_SYNC_M:
         return "wait"
+    if letter == "M" and number.lstrip("0") == "220":
+        return "feed_percent"
     if letter in "MT":
         return "quiet"
     tenths = round(float(number) * 10)
@@ -132,6 +134,30 @@ def marlin_extruder(raw: str) -> tuple[str, float]:
         return ("relative", 1.0 if head.group(2).lstrip("0") == "83" else 0.0)
     value = _E_WORD.findall(_PAREN.sub("", code[head.end() :]))[-1]
     return ("position", float(value) if value.lstrip("+-") else 0.0)
+
+
+#: A parameter as Marlin's parser reads it: a letter, spaces, and the value if one follows.
+_PARAMETER = re.compile(r"([A-Z])\s*([-+]?(?:\d+\.?\d*|\.\d+))?", re.IGNORECASE)
+#: strtol's reading of a number: its sign and whole part (none: 0)
+_WHOLE = re.compile(r"[-+]?\d*")
+#: Marlin keeps M220's percentage in an int16_t
+FEED_PERCENT_MAX = 32767
+
+
+def marlin_feed_percent(raw: str) -> tuple[bool, bool, int | None]:
+    """An M220 line (gcode/config/M220.cpp): (R, restore the percentage backed up; B, back up
+    the one in effect before this line; S, the new percentage, or None). As Marlin reads them:
+    R first, then B, then S; S is read as a whole number (``strtol``: ``S75.9`` is 75), a
+    letter's presence is enough for R and B. The percentage scales the feed of every G0, G1,
+    G2, G3 and G5 that follows (motion.h ``MMS_SCALED``), not homing."""
+    code = raw.split(";", 1)[0]
+    head = _HEAD.match(code)
+    assert head is not None  # marlin_line found it
+    words = {m.group(1).upper(): m.group(2) for m in _PARAMETER.finditer(code[head.end() :])}
+    s = words.get("S")
+    whole = None if s is None else _WHOLE.match(s)
+    percent = None if whole is None else int(whole.group().rstrip("+-") or 0)
+    return "R" in words, "B" in words, percent
 
 
 #: A line Marlin answers with "Unknown command": one that opens with neither a letter and a

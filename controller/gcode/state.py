@@ -86,6 +86,8 @@ class ModalState:
             in (``#<_feed>``; 0 after G94/G95, which clear the feed).
         overrides: M48-M53's switches, 1.0 on and 0.0 off: feed override, spindle speed
             override, adaptive feed, feed hold (rs274's start: on, on, off, on).
+        feed_percent: Marlin's M220: the percentage every feed move's speed is scaled by
+            (its F stays as written), and the one ``M220 B`` backed up.
     """
 
     position: Vec3 = (0.0, 0.0, 0.0)
@@ -115,6 +117,7 @@ class ModalState:
     css: bool = False
     feed_number: float = 0.0
     overrides: tuple[float, float, float, float] = (1.0, 1.0, 0.0, 1.0)
+    feed_percent: tuple[int, int] = (100, 100)
 
     @property
     def scale(self) -> float:
