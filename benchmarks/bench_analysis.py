@@ -89,18 +89,20 @@ def main() -> int:
         for name in names:
             parts[name].append(0.0)
         t0 = time.process_time()
-        for tables, line, source, pos, ctx, offset in jobs:
+        for tables, line, source, pos, ctx, offset, overlap in jobs:
             tab = timed("program table", move_table, tables.moves, tables.cum_len)
-            src = np.where(source >= 0, source - tables.r0, source)
+            src = None if source is None else np.where(source >= 0, source - tables.r0, source)
             ref = ctx[offset : offset + len(pos)]
             feed = timed("feed", contour.feed_samples, tab, line, src, tables.found)
             lag = contour.LAG_REACH * np.linalg.norm(pos - ref, axis=1)
             timed("traced", distance_to_moves, tab, line, pos, lag, src)
-            timed("reference", distance_to_moves, tab, line[feed], ref[feed], window=src[feed])
+            own = None if src is None else src[feed]
+            timed("reference", distance_to_moves, tab, line[feed], ref[feed], window=own)
             window = contour.TRACKING_WINDOW
             timed("tracking", max_distance_to_polyline_near, ctx, pos, window, feed, shift=offset)
             path = timed("path table", move_table, tables.path_moves)
-            timed("path", planning_distance_mm, path, line, ref, feed, tables.path_window)
+            kept = feed if overlap is None else feed & ~overlap
+            timed("path", planning_distance_mm, path, line, ref, kept, tables.path_window)
         parts["whole"].append(time.process_time() - t0)
     print(f"{args.kind} {args.blocks}: {len(jobs)} ranges, {ticks} ticks")
     print(f"the run's simulate stage: {simulate_s:.2f} s")
