@@ -69,12 +69,15 @@ def condense(events: list[dict]) -> dict | str:
                 length = math.dist(before, e["end"])
                 m["feed"] = e["feed"] * length if e.get("inverse_time") else e["feed"]
         else:
-            if e.get("inverse_time"):
-                return "an arc in G93 (mc_arc multiplies F by its segment count)"
+            feed = e["feed"]
+            if e.get("inverse_time"):  # mc_arc: the segments run at F times their count
+                if not e["segments"]:
+                    return "a G93 arc of no segment (one inverse-time line to its end)"
+                feed = e["feed"] * e["segments"]
             m.update(
                 kind="arc", direction=e["dir"], plane=_PLANES[tuple(e["plane"])],
                 center=[e["centre"][0], e["centre"][1], e["centre"][2] - tlo],
-                radius=e["radius"], angle=abs(e["angular_travel"]), feed=e["feed"],
+                radius=e["radius"], angle=abs(e["angular_travel"]), feed=feed,
             )  # fmt: skip
         before = e["end"]
         motions.append(m)

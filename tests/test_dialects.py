@@ -496,6 +496,18 @@ def test_marlin_m220_scales_the_feed_of_every_move_after_it() -> None:
         run("G1 X1 F-5\nM2\n", "linuxcnc")
 
 
+def test_grbl_runs_a_g93_arc_at_f_times_its_segments() -> None:
+    """grbl 1.1h (gnea/grbl bfb67f0 built for the host, 2026-11-30) cuts `G2 X10 I5` into 55
+    segments at $12 = 0.002 mm and plans them at 3 x 55 = 165 mm/min (mc_arc); an arc of no
+    segment is one inverse-time line, done in 1/F minutes; LinuxCNC runs F times the length."""
+    text = "G21 G90\nG93 G2 X10 I5 F3\nG2 X10.0005 I0.00025 F2\nG3 X20 Z2 I5 F4\n"
+    feeds = [m.feed_mm_per_min for m in run(text, "grbl")]
+    assert feeds[0] == 165.0 and feeds[2] == 220.0  # the helix: 55 segments too
+    assert feeds[1] == pytest.approx(2 * math.pi * 0.00025)
+    linuxcnc = run("G21 G90\nG93 G2 X10 I5 F3\nM2\n", "linuxcnc")[0]
+    assert linuxcnc.feed_mm_per_min == pytest.approx(3 * 5 * math.pi)
+
+
 def test_marlin_g28_homes_named_axes_and_g92_sets_the_position() -> None:
     moves = run("G1 X3 Y4 Z5 F100\nG28 X\nG28\nG1 X5\nG92 X0\nG1 X1\n", "marlin")
     assert [(m.line, m.kind, m.end) for m in moves] == [

@@ -179,6 +179,9 @@ class Dialect:
             controller/gcode/dialect_checks.py, gcode.c's reading loop); ``""``: none.
         g53_absolute_in_g91: G53's axis words are machine coordinates in G91 too (grbl's
             gcode.c applies no distance mode under G53); False: G53 in G91 is refused (rs274).
+        g93_arc_per_segment: a G93 arc runs at its F times the segments it is cut into at
+            ``arc_tolerance_mm`` [mm/min] (grbl 1.1's mc_arc: :func:`~gantry_sim.controller.
+            gcode.feed_modes.grbl_inverse_time_arc`); False: at F times its length (rs274).
         positive_feed_only: an F of 0 or less is passed over and the feed in effect kept
             (Marlin's get_destination_from_command reads F only when it is above 0); False:
             F0 sets a feed of 0, which no feed move takes, and a negative F is an error
@@ -243,6 +246,7 @@ class Dialect:
     program_end_continues: bool = False
     strict_g80: bool = False
     positive_feed_only: bool = False
+    g93_arc_per_segment: bool = False
     g10_p_truncated: bool = False
     permissive_blocks: bool = False
 
@@ -428,6 +432,7 @@ GRBL = Dialect(
     read_order="grbl",
     program_end_continues=True,
     strict_g80=True,
+    g93_arc_per_segment=True,
     g10_p_truncated=True,
 )
 

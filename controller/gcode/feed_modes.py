@@ -8,6 +8,7 @@ speed is F (units per revolution) times the spindle speed S, and a feed move wit
 
 from __future__ import annotations
 
+import math
 from dataclasses import replace
 
 from gantry_sim.controller.errors import GcodeError
@@ -44,3 +45,16 @@ def path_feed(
     if s.feed_percent[0] != 100:
         return replace(move, feed_mm_per_min=move.feed_mm_per_min * (0.01 * s.feed_percent[0]))
     return move
+
+
+def grbl_inverse_time_arc(arc: Arc, f_per_min: float, tolerance_mm: float) -> Arc:
+    """``arc`` (G93, F ``f_per_min`` [1/min]) as grbl 1.1 runs it: motion_control.c's mc_arc
+    multiplies the inverse-time F by its segment count (``floor(|angle * radius / 2| /
+    sqrt(tol * (2 radius - tol)))``, tol its $12 arc tolerance [mm]) and plans the segments
+    at that many mm/min, the inverse-time flag cleared: F x segments, not F x length. An arc
+    of no segment is one inverse-time line there: F x length, as :func:`path_feed` gives."""
+    if 2.0 * arc.radius <= tolerance_mm:
+        return arc
+    chord_rise = math.sqrt(tolerance_mm * (2.0 * arc.radius - tolerance_mm))
+    segments = math.floor(abs(0.5 * arc.angle * arc.radius) / chord_rise)
+    return replace(arc, feed_mm_per_min=f_per_min * segments) if segments else arc

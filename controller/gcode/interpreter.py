@@ -47,6 +47,7 @@ from gantry_sim.controller.gcode.feed_modes import (
     INVERSE_TIME,
     UNITS_PER_MINUTE,
     check_feed_mode,
+    grbl_inverse_time_arc,
     path_feed,
 )
 from gantry_sim.controller.gcode.frames import Frame, add, from_work, sub, to_work
@@ -366,6 +367,9 @@ class Interpreter:
                 arc = arc_move(w.line, w.values, s, end, motion == 30, d)
                 if arc is not None:
                     placed = path_feed(self._arc_to_work(arc, s), s, w.values)
+                    grbl_g93 = d.g93_arc_per_segment and s.feed_mode == INVERSE_TIME
+                    if grbl_g93 and isinstance(placed, Arc) and d.arc_tolerance_mm:
+                        placed = grbl_inverse_time_arc(placed, w.values["F"], d.arc_tolerance_mm)
                     s = self._emit(moves, s, placed, arc.end)  # arc.end: program frame
                     if arc.end != end:  # Marlin: its last segment goes on to the end point
                         rest = Linear(w.line, s.work, to_work(end, s.frame), s.feed_mm_per_min)
