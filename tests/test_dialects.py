@@ -311,7 +311,7 @@ def test_grbl_starts_in_g0_and_takes_realtime_characters_out() -> None:
     # g2core's serial layer takes '!' (a Synthetos feed-hold test ends with it): refused here,
     # naming it (nothing in a program resumes a hold)
     held = error_of("G21\nG1 X1 F100\n!\nM2\n", "g2core")
-    assert held.line == 3 and "real-time command" in held.message
+    assert held.line == 3 and "feedhold" in held.message
 
 
 def test_marlin_reads_line_numbers_of_any_length() -> None:
@@ -573,6 +573,23 @@ def test_marlin_g4_dwells_in_milliseconds_or_seconds() -> None:
 def test_g2core_m100_and_text_mode_lines_move_nothing() -> None:
     text = "$xvm=1000\nM100 ({xvm:1000})\nM100.1 ({zvm:100})\nM101 ({in1:1})\nG0 X1\n"
     assert [(m.line, m.end) for m in run(text, "g2core")] == [(5, (1.0, 0.0, 0.0))]
+
+
+def test_g2core_single_character_controls_and_status_lines_move_nothing() -> None:
+    """g2core's xio splits ``~`` (cycle start) off a line's start and reads the rest as the
+    next line; after blanks the control takes the line; ``?``, ``H`` and ``h`` open text-mode
+    lines (a status report, help). A feedhold, ``!``, is refused wherever it stands, naming
+    why (synthetos/tg_pytest's feedhold-multi-line.nc ends with one)."""
+    text = "G21 G90 F600\n~\n?\nH\nh\n~~G1 X5\n  ~G1 X9\nG1 X6\n"
+    assert [(m.line, m.end) for m in run(text, "g2core")] == [
+        (6, (5.0, 0.0, 0.0)),
+        (8, (6.0, 0.0, 0.0)),
+    ]
+    for held in ("!", "~!G1 X5", "  !"):
+        refused = error_of(f"G1 X1 F100\n{held}\nG1 X2\n", "g2core")
+        assert refused.line == 2 and "feedhold" in refused.message and "sender" in refused.message
+    assert "real-time commands" in error_of("G1 X3 ~\n", "g2core").message  # not at the start
+    assert "real-time commands" in error_of("~\nM2\n", "linuxcnc").message
 
 
 def test_unsupported_codes_say_why() -> None:

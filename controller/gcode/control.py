@@ -38,6 +38,7 @@ from gantry_sim.controller.gcode.lexer import (
     without_realtime,
 )
 from gantry_sim.controller.gcode.printer_codes import (
+    after_controls,
     as_g92,
     marlin_dwell_seconds,
     marlin_extruder,
@@ -103,6 +104,9 @@ class Source:
         if self.comments:
             raw = firmware_comments(raw, self.comments)
         kind = self.own_lines(raw) if self.own_lines is not None else None
+        while kind == "controls":  # g2core: !, ~ at the line's start are lines of their own
+            raw = after_controls(raw)
+            kind = self.own_lines(raw) if self.own_lines is not None else None
         if kind == "quiet":
             return Block(i + 1, (), (), False, raw)
         if kind == "set_origin":  # g2core G28.3

@@ -24,7 +24,13 @@ are accepted without motion. G28.3 (set the absolute origin) makes the named axe
 words' values where the tool is, without moving it (canonical_machine.cpp
 ``cm_set_absolute_origin``): it runs as a G92 with the same words, the one offset that shifts
 every later position without moving the tool (a later G92.1 clears it, where g2core's origin
-stays).
+stays). A line opening with ``?``, ``$``, ``H`` or ``h`` is a text-mode command (status report,
+settings, help: controller.cpp ``_dispatch_kernel``), no motion. ``~`` (cycle start) and ENQ are
+single-character controls: at a line's very start each is split off as a line of its own and
+what follows is read as the next line (xio.cpp ``_scanBuffer``); after blanks, the control takes
+the whole line. A ``!`` (feedhold) there is refused: g2core acts on it when it arrives, ahead
+of the moves queued before it, and holds until the operator's cycle start, so where the machine
+stops depends on the sender's timing, which a file does not give.
 """
 
 from __future__ import annotations
@@ -198,14 +204,36 @@ _G2CORE_QUIET = re.compile(
 _G2CORE_SET_ORIGIN = re.compile(r"^(\s*(?:N\d+\s*)?)G\s*0*28\s*\.\s*3(?!\d)", re.IGNORECASE)
 
 
+#: g2core's single-character controls run through here: cycle start, enquiry (module
+#: docstring; a feedhold, ``!``, is refused)
+G2CORE_CONTROLS = "~\x05"
+_FEEDHOLD = (
+    "'!' is g2core's feedhold: it acts when the controller receives it, ahead of the moves "
+    "queued before it, and holds until the operator's cycle start ('~'), so where the machine "
+    "stops depends on the sender's timing; remove it to simulate the program"
+)
+
+
 def g2core_line(raw: str) -> str | None:
-    """ "quiet" for a g2core JSON line or G28.2/G28.4, "set_origin" for G28.3; None
-    otherwise."""
+    """ "quiet" for a g2core JSON or text-mode line, G28.2/G28.4, or a control after blanks;
+    "controls" for a line opening with single-character controls (:func:`after_controls`);
+    "set_origin" for G28.3; None otherwise."""
+    if raw.lstrip(" \t" + G2CORE_CONTROLS)[:1] == "!":
+        raise GcodeError(_FEEDHOLD)
+    if raw[:1] and raw[0] in G2CORE_CONTROLS:
+        return "controls"
     if _G2CORE_SET_ORIGIN.match(raw):
         return "set_origin"
-    if raw.lstrip().startswith("{") or _G2CORE_QUIET.match(raw):
+    head = raw.lstrip(" \t")[:1]
+    if (head and head in "{?$Hh" + G2CORE_CONTROLS) or _G2CORE_QUIET.match(raw):
         return "quiet"
     return None
+
+
+def after_controls(raw: str) -> str:
+    """A "controls" line (:func:`g2core_line`) less the controls that open it: the line g2core
+    reads after them."""
+    return raw.lstrip(G2CORE_CONTROLS)
 
 
 def as_g92(raw: str) -> str:
