@@ -79,6 +79,8 @@ def run_point(
                 machine=machine_for(machine, point),
                 feed_override_pct=point.feed_override_pct,
                 budget=budget,
+                keep_trace=False,  # a point writes no trace.npz and draws no plots:
+                plots=False,  # neither is prepared (matplotlib's import, the deflating)
                 **_setup_kwargs(setup),
             )
     except (SimulationError, BudgetError) as exc:
