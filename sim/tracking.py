@@ -82,6 +82,19 @@ def _blocked(seg: _Padded, pts: np.ndarray, shift: int, offsets) -> np.ndarray:
     return best
 
 
+def _lag_offsets(
+    path: np.ndarray, pts: np.ndarray, ks: np.ndarray, w: int, shift: int
+) -> np.ndarray:
+    """Per sample k of ``ks``: -(how many path segments pts[k] lies behind its own vertex),
+    estimated as its distance from that vertex over the length of the segment that ends
+    there, within 0 .. -(w - 1) (so that segments j - 1 and j lie in the searched window)."""
+    own = ks + shift
+    ahead = np.linalg.norm(pts[ks] - path[own], axis=1)
+    step = np.linalg.norm(path[own] - path[np.maximum(own - 1, 0)], axis=1)
+    lag = np.divide(ahead, step, out=np.zeros_like(ahead), where=step > 0)
+    return -np.minimum(np.rint(lag), w - 1).astype(np.intp)
+
+
 def distance_to_polyline_near(path: np.ndarray, pts: np.ndarray, window: int) -> np.ndarray:
     """Distance [mm] from pts[k] to the polyline ``path`` near its k-th vertex (see the module
     docstring); both (n, 3) sampled at the same instants (the reference and the trace). One
@@ -103,7 +116,9 @@ def max_distance_to_polyline_near(
     last (fewer only where the whole path ends), which gives the whole path's figures.
 
     A sample's distance is at most that to the two segments meeting at its own vertex (j = -1,
-    0); samples are searched in full in decreasing order of that bound, MAX_BATCH at a time,
+    0), and at most that to the two meeting at the vertex it lags behind (:func:`_lag_offsets`:
+    a trace that follows the path some ticks late is far from its own vertex but near that
+    one); samples are searched in full in decreasing order of that bound, MAX_BATCH at a time,
     until no bound left exceeds the largest full distance found.
     """
     ks = np.flatnonzero(select)
@@ -121,6 +136,9 @@ def max_distance_to_polyline_near(
         return best
 
     bound = _blocked(seg, pts, shift, (-1, 0))[ks]
+    lagged = ks + (w + shift) + _lag_offsets(path, pts, ks, w, shift)
+    p = [np.ascontiguousarray(pts[ks, i]) for i in range(3)]
+    _min_dist2(seg, p, lambda j: lagged + j, (-1, 0), bound, np.empty((3, ks.size)))
     found = -np.inf
     while ks.size:
         if ks.size > MAX_BATCH:

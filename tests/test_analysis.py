@@ -109,3 +109,26 @@ def test_the_largest_tracking_distance_equals_the_full_search(monkeypatch, batch
     for sel in (select, np.ones(len(t), dtype=bool), select & (np.arange(len(t)) != 2000)):
         assert tracking.max_distance_to_polyline_near(path, pts, 50, sel) == full[sel].max()
     assert tracking.max_distance_to_polyline_near(path, pts, 50, np.zeros(len(t), bool)) == 0.0
+
+
+@pytest.mark.parametrize("batch", [3, 4096])
+def test_a_trace_lagging_its_reference_is_measured_as_the_full_search(monkeypatch, batch):
+    """A trace that follows the reference 0-70 ticks late (beyond the window too), at speeds
+    from a stop to fast, on a piece of a longer path (``shift``): the largest distance is the
+    full search's, to the last bit."""
+    from gantry_sim.sim import tracking
+
+    monkeypatch.setattr(tracking, "MAX_BATCH", batch)
+    rng = np.random.default_rng(2)
+    n, w, shift = 4000, 50, 51
+    s = np.cumsum(np.abs(np.sin(np.linspace(0, 9, n + 2 * shift + 1))) * 0.01)  # speed varies
+    path = np.column_stack([np.cos(s), np.sin(2 * s), 0.05 * s])
+    lag = (35 + 35 * np.sin(np.linspace(0, 20, n))).astype(int)
+    pts = path[shift + np.arange(n) - lag] + rng.normal(scale=1e-6, size=(n, 3))
+    piece = path[shift - w : shift + n + w + 1]  # pts[k] at its vertex k + w, the window whole
+    padded = np.concatenate([np.zeros((w, 3)), pts, np.zeros((w + 1, 3))])
+    full = distance_to_polyline_near(piece, padded, w)[w : w + n]
+    assert np.count_nonzero(full[lag >= w] > 1e-3) > 100  # beyond the window: far
+    select = rng.random(n) < 0.8
+    got = tracking.max_distance_to_polyline_near(path, pts, w, select, shift=shift)
+    assert got == full[select].max()
