@@ -508,6 +508,21 @@ def test_grbl_runs_a_g93_arc_at_f_times_its_segments() -> None:
     assert linuxcnc.feed_mm_per_min == pytest.approx(3 * 5 * math.pi)
 
 
+def test_marlin_moves_nothing_for_an_arc_ending_on_its_start_ray() -> None:
+    """Marlin's plan_arc returns when ATAN2 of the start and end radius vectors is exactly 0
+    (the end straight out from the start, off the circle): nothing moves and the position stays
+    (Marlin bugfix-2.1.x built for the host, 2026-11-30: ``G2 X20 Y0 I-10`` from X10 buffers no
+    line, and the next move starts at X10; Printrun's arc_test.gcode opens with four such
+    helices). An end within 1e-6 mm of the start (NEAR) is a full circle."""
+    moves = run("G1 X10 F600\nG2 X20 Y0 I-10 J0\nG91\nG3 X5 I-10\nG1 X5\n", "marlin")
+    assert [(m.line, m.start, m.end) for m in moves] == [
+        (1, (0.0, 0.0, 0.0), (10.0, 0.0, 0.0)),
+        (5, (10.0, 0.0, 0.0), (15.0, 0.0, 0.0)),
+    ]
+    near = run("G1 X10 F600\nG2 X10.0000004 Y0.0000003 I-10\n", "marlin")[1]
+    assert isinstance(near, Arc) and near.angle == 2 * math.pi
+
+
 def test_marlin_g28_homes_named_axes_and_g92_sets_the_position() -> None:
     moves = run("G1 X3 Y4 Z5 F100\nG28 X\nG28\nG1 X5\nG92 X0\nG1 X1\n", "marlin")
     assert [(m.line, m.kind, m.end) for m in moves] == [

@@ -13,6 +13,7 @@ them.
 from __future__ import annotations
 
 import math
+import struct
 from dataclasses import replace
 
 from gantry_sim.controller.errors import GcodeError
@@ -33,6 +34,36 @@ P_INTEGER_TOL = 0.001  # rs274: |P - round(P)| above this is "P value not an int
 #: this of Marlin's circle and last segment); beyond it the arc keeps its circle and a straight
 #: move goes on to the end point, as Marlin's plan_arc buffers its last segment to the target.
 MARLIN_SPIRAL_MM = 0.005
+
+
+#: Marlin's NEAR(): per plane axis, an end within this of the start [mm] is the start (a full
+#: circle)
+MARLIN_NEAR_MM = 1e-6
+
+
+def _f32(x: float) -> float:
+    """``x`` rounded to float32 (Marlin's float: each operation below rounds its result)."""
+    return float(struct.unpack("f", struct.pack("f", x))[0])
+
+
+def marlin_arc_start(
+    start_mm: tuple[float, float], end_mm: tuple[float, float], offset_mm: tuple[float, float]
+) -> str | None:
+    """How Marlin's plan_arc (gcode/motion/G2_G3.cpp) opens an arc in centre format, in its
+    float32 arithmetic [mm]: "full" when the end is NEAR() the start on both plane axes (a full
+    circle); "none" when ``ATAN2(cross, dot)`` of the start and end radius vectors is exactly 0,
+    the end on the start's ray (an end off the circle, straight out from the start): plan_arc
+    returns and nothing moves, the position staying where it was; else None. An end at the
+    centre (both products 0, where Marlin's result hangs on its rounding) is left to the
+    arc."""
+    (sp, sq), (ep, eq) = (_f32(v) for v in start_mm), (_f32(v) for v in end_mm)
+    if abs(_f32(sp - ep)) < MARLIN_NEAR_MM and abs(_f32(sq - eq)) < MARLIN_NEAR_MM:
+        return "full"
+    ra, rb = -_f32(offset_mm[0]), -_f32(offset_mm[1])
+    rt_x, rt_y = _f32(ep - _f32(sp - ra)), _f32(eq - _f32(sq - rb))
+    cross = _f32(_f32(ra * rt_y) - _f32(rb * rt_x))
+    dot = _f32(_f32(ra * rt_x) + _f32(rb * rt_y))
+    return "none" if cross == 0.0 and dot > 0.0 else None  # dot 0: the end at the centre
 
 
 def _turns(v: dict[str, float], d: Dialect) -> int:
@@ -58,7 +89,9 @@ def _turns(v: dict[str, float], d: Dialect) -> int:
 def arc_move(
     line: int, v: dict[str, float], s: ModalState, end: Vec3, ccw: bool, d: Dialect
 ) -> Arc | None:
-    """The arc of one block, or None when the dialect makes it move nothing (g2core).
+    """The arc of one block, or None when the dialect makes it move nothing (g2core: an end
+    equal to the start; Marlin: an end on the start's ray, which also leaves the position where
+    it was).
 
     Args:
         line: source line.
@@ -132,6 +165,13 @@ def arc_move(
                     f"{o} word missing: {why} in the {s.plane} plane need both {o1} and {o2}"
                 )
         centre = centre_from_offsets(ps, (v.get(o1, 0.0), v.get(o2, 0.0)), s.arc_absolute)
+        if d.project_end_on_arc:  # Marlin: its NEAR() full circle, and an arc of angle 0
+            offset = ((centre[0] - ps[0]) * unit, (centre[1] - ps[1]) * unit)
+            opening = marlin_arc_start((start[i1], start[i2]), (end[i1], end[i2]), offset)
+            if opening == "none":
+                return None
+            if opening == "full":
+                pe = ps
         r0 = math.hypot(ps[0] - centre[0], ps[1] - centre[1])
         r1 = math.hypot(pe[0] - centre[0], pe[1] - centre[1])
         if r0 < min_r or r1 < min_r:
