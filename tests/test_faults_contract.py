@@ -158,10 +158,11 @@ def test_a_program_of_600000_simulated_seconds_is_refused_at_once(tmp_path, caps
 
 
 def test_far_beyond_the_bound_is_refused_before_planning(tmp_path, capsys, no_planning):
-    """A canned cycle of 51,000 pecks (150,000 moves; Q0.0001 makes ten times as many, minutes
-    and gigabytes to plan) is refused from its moves alone; the planner is never called."""
+    """A canned cycle of 5,100 pecks at F10 (15,300 moves, 2.6 hours; Q0.0001 at a high feed
+    makes a million moves, minutes and gigabytes to plan) is refused from its moves alone; the
+    planner is never called."""
     pecks = tmp_path / "pecks.ngc"
-    pecks.write_text("G0 Z5\nG83 X1 Y1 Z-50 R1 Q0.001 F100000\nM2\n")
+    pecks.write_text("G0 Z5\nG83 X1 Y1 Z-50 R1 Q0.01 F10\nM2\n")
     assert main(["run", str(pecks), "--out", str(tmp_path / "o"), "--no-plots"]) == 2
     err = capsys.readouterr().err
     found = re.match(
