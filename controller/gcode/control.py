@@ -104,7 +104,7 @@ class Source:
         if self.comments:
             raw = firmware_comments(raw, self.comments)
         kind = self.own_lines(raw) if self.own_lines is not None else None
-        while kind == "controls":  # g2core: !, ~ at the line's start are lines of their own
+        while kind == "controls":  # g2core: a ~ opening the line is a line of its own
             raw = after_controls(raw)
             kind = self.own_lines(raw) if self.own_lines is not None else None
         if kind == "quiet":

@@ -77,10 +77,10 @@ def marlin_line(raw: str) -> str | None:
     """What a Marlin line is before the shared step: "quiet" (accepted, no motion), "home" (G28),
     "dwell" (G4 P<ms> or S<s>), "wait" (an M code of :data:`MARLIN_SYNC_M`), "limits"
     (M201/M203/M204/M205), "extruder" (M82, M83, or G92 with E alone:
-    :func:`marlin_extruder`), "feed_percent" (M220: :func:`marlin_feed_percent`), "parameters" (a G line with M or T words, which
-    Marlin reads as parameters the command ignores), "save" (G60) and "restore" (G61), which
-    :class:`MarlinLines` reads, or None (a shared G-code line). GcodeError for a refused G
-    code."""
+    :func:`marlin_extruder`), "feed_percent" (M220: :func:`marlin_feed_percent`),
+    "parameters" (a G line with M or T words, which Marlin reads as parameters the command
+    ignores), "save" (G60) and "restore" (G61), which :class:`MarlinLines` reads, or None (a
+    shared G-code line). GcodeError for a refused G code."""
     if _TEXT.match(raw):
         return "quiet"
     code = raw.split(";", 1)[0]
