@@ -523,6 +523,24 @@ def test_marlin_moves_nothing_for_an_arc_ending_on_its_start_ray() -> None:
     assert isinstance(near, Arc) and near.angle == 2 * math.pi
 
 
+def test_marlin_runs_one_command_a_line() -> None:
+    """Marlin reads a line's first command and the rest as its parameters: G20, G21, G90 and
+    G91 read none (``G90 X10`` moves nothing, ``G91 G0 Z5`` is a G91 alone, ``G21 G91`` a G21
+    alone), and a G word after a motion's G is ignored (``G0 G90 X20`` goes 20 further in G91).
+    Marlin bugfix-2.1.x built for the host (2026-11-30) buffers exactly these lines."""
+    text = (
+        "G21\nG1 X5 F600\nG90 X10\nG91 G0 Z5\nG21 G91\nG1 X1\nG0 G90 X20\nG1 X30 G91\n"
+        "G90 (absolute) ; comment\nG1 X0\n"
+    )
+    assert [(m.line, m.end) for m in run(text, "marlin")] == [
+        (2, (5.0, 0.0, 0.0)),
+        (6, (6.0, 0.0, 0.0)),
+        (7, (26.0, 0.0, 0.0)),
+        (8, (56.0, 0.0, 0.0)),
+        (10, (0.0, 0.0, 0.0)),
+    ]
+
+
 def test_marlin_g28_homes_named_axes_and_g92_sets_the_position() -> None:
     moves = run("G1 X3 Y4 Z5 F100\nG28 X\nG28\nG1 X5\nG92 X0\nG1 X1\n", "marlin")
     assert [(m.line, m.kind, m.end) for m in moves] == [

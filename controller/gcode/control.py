@@ -40,6 +40,7 @@ from gantry_sim.controller.gcode.lexer import (
 from gantry_sim.controller.gcode.printer_codes import (
     after_controls,
     as_g92,
+    marlin_command_alone,
     marlin_dwell_seconds,
     marlin_extruder,
     marlin_feed_percent,
@@ -123,7 +124,9 @@ class Source:
                 return replace(lex_line(raw, i + 1), limits=True)
             except GcodeError:  # Marlin reads what it can and ignores the rest
                 return Block(i + 1, (), (), False, raw)
-        if kind == "parameters":  # Marlin: M and T words after a G command are ignored
+        if kind == "command_alone":  # Marlin: G20, G21, G90, G91 read no word
+            return lex_line(marlin_command_alone(raw), i + 1, self.system_lines)
+        if kind == "parameters":  # Marlin: G, M and T words after a G command are ignored
             return lex_line(without_marlin_parameters(raw), i + 1, self.system_lines)
         if kind == "home":  # Marlin G28 [X] [Y] [Z]: bare axis letters name the axes to home
             text = strip_line(raw).split(COMMENT, 1)[0]

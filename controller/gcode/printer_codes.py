@@ -15,8 +15,10 @@ Cura start code opens with it); the mesh validation print takes parameters.
 A line that opens with no command (a stray number, ``% text``, a Klipper macro) or with a G
 code Marlin does not know (``G392``: gcode.cpp's ``default: unknown_command_warning()``) gets
 Marlin's "Unknown command" and is skipped, and so is a bare ``G5`` (every parameter defaults to
-zero: a curve of no length; Cura's Anycubic start code has one); M and T words after a G
-command are its parameters, which it ignores (``G90 M107`` is G90).
+zero: a curve of no length; Cura's Anycubic start code has one); G, M and T words after a G
+command are its parameters, which it ignores (``G90 M107`` is G90, ``G0 G90 X20`` a G0 to X20
+in the distance mode in effect); G20, G21, G90 and G91 read no word at all (``G91 G0 Z5`` is a
+G91 alone, ``G90 X10`` moves nothing): Marlin runs one command a line.
 
 g2core: a line opening with ``{`` is a JSON configuration or status request (no motion), and so
 are M100 (JSON in a G-code line), M100.1 and M101 (wait for inputs); G28.2 (homing) and G28.4
@@ -61,6 +63,9 @@ MARLIN_QUIET_G = frozenset((40, 100, 110, 290, 291, 292, 293, 300, 310, 320, 330
 #: probe fail"; Marlin's default configuration has no G26; with words it is the mesh
 #: validation print, refused below).
 MARLIN_BARE_QUIET_G = frozenset((50, 260))
+#: Marlin G codes (tenths) that read no word: G20, G21, G90, G91 (the rest of a line is theirs
+#: to ignore: :func:`marlin_command_alone`).
+MARLIN_NO_WORDS_G = frozenset((200, 210, 900, 910))
 #: Marlin G codes refused, with why.
 MARLIN_REFUSED_G: dict[int, str] = {
     60: "G6 (direct stepper moves) is not supported",
@@ -78,9 +83,10 @@ def marlin_line(raw: str) -> str | None:
     "dwell" (G4 P<ms> or S<s>), "wait" (an M code of :data:`MARLIN_SYNC_M`), "limits"
     (M201/M203/M204/M205), "extruder" (M82, M83, or G92 with E alone:
     :func:`marlin_extruder`), "feed_percent" (M220: :func:`marlin_feed_percent`),
-    "parameters" (a G line with M or T words, which Marlin reads as parameters the command
-    ignores), "save" (G60) and "restore" (G61), which :class:`MarlinLines` reads, or None (a
-    shared G-code line). GcodeError for a refused G code."""
+    "parameters" (a G line with G, M or T words, which Marlin reads as parameters the command
+    ignores), "command_alone" (G20, G21, G90 or G91 with words: :func:`marlin_command_alone`),
+    "save" (G60) and "restore" (G61), which :class:`MarlinLines` reads, or None (a shared G-code
+    line). GcodeError for a refused G code."""
     if _TEXT.match(raw):
         return "quiet"
     code = raw.split(";", 1)[0]
@@ -118,9 +124,21 @@ def marlin_line(raw: str) -> str | None:
         return "quiet"
     if tenths not in G_GROUPS:
         return "quiet"  # Marlin: unknown_command_warning(), and on (Bambu's G392, G380, ...)
-    if _PARAMETER_MT.search(words):
+    if tenths in MARLIN_NO_WORDS_G and _WORD.search(_PAREN.sub("", words)):
+        return "command_alone"
+    if _PARAMETER_GMT.search(words):
         return "parameters"
     return None
+
+
+def marlin_command_alone(raw: str) -> str:
+    """A "command_alone" line (:func:`marlin_line`) cut after its command: Marlin runs one
+    command a line, and G20, G21, G90 and G91 read none of the words after them (``G91 G0 Z5``
+    is a G91 alone, ``G90 X10`` moves nothing)."""
+    code = raw.split(";", 1)[0]
+    head = _HEAD.match(code)
+    assert head is not None  # marlin_line found it
+    return code[: head.end()]
 
 
 #: A ( ) comment (one left open runs to the end of the line).
@@ -175,21 +193,21 @@ _NOT_A_COMMAND = re.compile(r"^\s*(?>N\d+\s*)?(?:[^A-Za-z(\s/#%]|%.*\S|[A-Za-z][
 #: Any word (a letter and a value).
 _WORD = re.compile(r"[A-Z]\s*[-+]?[.\d]", re.IGNORECASE)
 #: An M or T word after a G command: a parameter to Marlin, which that command ignores.
-_PARAMETER_MT = re.compile(r"[MT]\s*[-+]?(?:\d+\.?\d*|\.\d+)", re.IGNORECASE)
+_PARAMETER_GMT = re.compile(r"[GMT]\s*[-+]?(?:\d+\.?\d*|\.\d+)", re.IGNORECASE)
 
 
-#: A ( ) comment, kept as it is, or an M or T word outside one.
-_COMMENT_OR_MT = re.compile(r"\([^)]*\)?|" + _PARAMETER_MT.pattern, re.IGNORECASE)
+#: A ( ) comment, kept as it is, or a G, M or T word outside one.
+_COMMENT_OR_GMT = re.compile(r"\([^)]*\)?|" + _PARAMETER_GMT.pattern, re.IGNORECASE)
 
 
 def without_marlin_parameters(raw: str) -> str:
-    """A G line without its M and T words (see :func:`marlin_line`'s "parameters"), each
-    replaced by an empty comment (a word boundary: ``F100 M3.5.5`` must not become ``F100.5``);
-    comments are kept as they are."""
+    """A G line without the G, M and T words after its command (see :func:`marlin_line`'s
+    "parameters"), each replaced by an empty comment (a word boundary: ``F100 M3.5.5`` must not
+    become ``F100.5``); comments are kept as they are."""
     code, sep, comment = raw.partition(";")
     head = _HEAD.match(code)
     start = head.end() if head is not None else 0
-    rest = _COMMENT_OR_MT.sub(
+    rest = _COMMENT_OR_GMT.sub(
         lambda m: m.group() if m.group().startswith("(") else "()", code[start:]
     )
     return code[:start] + rest + sep + comment
