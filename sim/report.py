@@ -120,8 +120,9 @@ class RunReport:
             evaluation is applied).
         files: the files written into the output folder (empty until :func:`write_outputs`);
             trace.npz is missing when the run was asked not to write it (``--no-trace``).
-        limit_change_stops: Marlin limit changes planned as exact stops, which Marlin does not
-            make (their decelerations and accelerations are in ``cycle_time_s``).
+        limit_change_stops (a property, from ``program_limits``): Marlin limit changes planned
+            as exact stops, which Marlin does not make (their decelerations and accelerations
+            are in ``cycle_time_s``).
         program_limits: where Marlin's M201/M203 changed the limits, per part of the program
             the first line of its first motion and the limits it ran under (empty: ``limits``
             throughout).
@@ -143,8 +144,12 @@ class RunReport:
     timing_s: dict[str, float]
     verdict: Verdict = field(default_factory=Verdict)
     files: tuple[str, ...] = ()
-    limit_change_stops: int = 0
     program_limits: tuple[tuple[int, Limits], ...] = ()
+
+    @property
+    def limit_change_stops(self) -> int:
+        """The joins between the parts of ``program_limits``: one exact stop each."""
+        return max(len(self.program_limits) - 1, 0)
 
     def block(self, line: int) -> BlockError | None:
         """The block executing program line ``line``, or None when it is no feed block."""
@@ -338,7 +343,6 @@ def _report(
         limits=machine.limits,
         moves=len(planned.moves),
         segments=int(planned.segment_count),
-        limit_change_stops=int(planned.limit_change_stops),
         program_limits=planned.part_limits,
         chord_tolerance_mm=float(planned.chord_tolerance_mm),
         sim=SimStats(

@@ -34,11 +34,17 @@ def check_feed_mode(s: ModalState, what: str, v: dict[str, float]) -> None:
 
 
 def path_feed(
-    move: Linear | Arc | Spline, s: ModalState, v: dict[str, float]
+    move: Linear | Arc | Spline,
+    s: ModalState,
+    v: dict[str, float],
+    arc_segments_mm: float | None = None,
 ) -> Linear | Arc | Spline:
     """``move`` with its path speed [mm/min] for the feed mode in effect, and Marlin's M220
-    percentage."""
+    percentage. ``arc_segments_mm``: an arc in G93 runs at F times the segments it is cut into
+    at this tolerance [mm] (grbl: :func:`grbl_inverse_time_arc`); None: F times its length."""
     if s.feed_mode == INVERSE_TIME:
+        if arc_segments_mm is not None and isinstance(move, Arc):
+            return grbl_inverse_time_arc(move, v["F"], arc_segments_mm)
         return replace(move, feed_mm_per_min=move.length_mm * v["F"])
     if s.feed_mode == PER_REVOLUTION:
         return replace(move, feed_mm_per_min=s.feed_mm_per_min * s.rpm)
@@ -52,9 +58,9 @@ def grbl_inverse_time_arc(arc: Arc, f_per_min: float, tolerance_mm: float) -> Ar
     multiplies the inverse-time F by its segment count (``floor(|angle * radius / 2| /
     sqrt(tol * (2 radius - tol)))``, tol its $12 arc tolerance [mm]) and plans the segments
     at that many mm/min, the inverse-time flag cleared: F x segments, not F x length. An arc
-    of no segment is one inverse-time line there: F x length, as :func:`path_feed` gives."""
-    if 2.0 * arc.radius <= tolerance_mm:
-        return arc
-    chord_rise = math.sqrt(tolerance_mm * (2.0 * arc.radius - tolerance_mm))
-    segments = math.floor(abs(0.5 * arc.angle * arc.radius) / chord_rise)
-    return replace(arc, feed_mm_per_min=f_per_min * segments) if segments else arc
+    of no segment is one inverse-time line there, done in 1/F minutes: F x length."""
+    segments = 0
+    if 2.0 * arc.radius > tolerance_mm:
+        chord_rise = math.sqrt(tolerance_mm * (2.0 * arc.radius - tolerance_mm))
+        segments = math.floor(abs(0.5 * arc.angle * arc.radius) / chord_rise)
+    return replace(arc, feed_mm_per_min=f_per_min * (segments or arc.length_mm))

@@ -47,7 +47,6 @@ from gantry_sim.controller.gcode.feed_modes import (
     INVERSE_TIME,
     UNITS_PER_MINUTE,
     check_feed_mode,
-    grbl_inverse_time_arc,
     path_feed,
 )
 from gantry_sim.controller.gcode.frames import Frame, add, from_work, sub, to_work
@@ -366,10 +365,8 @@ class Interpreter:
                 self._require_feed(s, "an arc", w)
                 arc = arc_move(w.line, w.values, s, end, motion == 30, d)
                 if arc is not None:
-                    placed = path_feed(self._arc_to_work(arc, s), s, w.values)
-                    grbl_g93 = d.g93_arc_per_segment and s.feed_mode == INVERSE_TIME
-                    if grbl_g93 and isinstance(placed, Arc) and d.arc_tolerance_mm:
-                        placed = grbl_inverse_time_arc(placed, w.values["F"], d.arc_tolerance_mm)
+                    per_segment = d.arc_tolerance_mm if d.g93_arc_per_segment else None
+                    placed = path_feed(self._arc_to_work(arc, s), s, w.values, per_segment)
                     s = self._emit(moves, s, placed, arc.end)  # arc.end: program frame
                     if arc.end != end:  # Marlin: its last segment goes on to the end point
                         rest = Linear(w.line, s.work, to_work(end, s.frame), s.feed_mm_per_min)
@@ -689,8 +686,8 @@ class Interpreter:
         saved = self.state
         w = read_words(block, self.params, self.dialect)
         check_jog(w)
-        if self.dialect.jog_units_per_minute and saved.feed_mode == 930:
-            self.state = evolve(saved, feed_mode=940)  # grbl's jog: F in units per minute
+        if self.dialect.jog_units_per_minute and saved.feed_mode == INVERSE_TIME:
+            self.state = evolve(saved, feed_mode=UNITS_PER_MINUTE)  # grbl's jog: F per minute
         g1 = Block(block.line, (("G", ("num", 1.0)), *block.words), (), False, block.text)
         try:
             moves, _ = self.step(g1)

@@ -131,13 +131,20 @@ def marlin_line(raw: str) -> str | None:
     return None
 
 
+def _command(raw: str) -> tuple[str, re.Match[str]]:
+    """A Marlin line that :func:`marlin_line` sorted: its text before any ``;`` comment, and
+    the match of its command (:data:`_HEAD`)."""
+    code = raw.split(";", 1)[0]
+    head = _HEAD.match(code)
+    assert head is not None  # marlin_line found it
+    return code, head
+
+
 def marlin_command_alone(raw: str) -> str:
     """A "command_alone" line (:func:`marlin_line`) cut after its command: Marlin runs one
     command a line, and G20, G21, G90 and G91 read none of the words after them (``G91 G0 Z5``
     is a G91 alone, ``G90 X10`` moves nothing)."""
-    code = raw.split(";", 1)[0]
-    head = _HEAD.match(code)
-    assert head is not None  # marlin_line found it
+    code, head = _command(raw)
     return code[: head.end()]
 
 
@@ -151,9 +158,7 @@ def marlin_extruder(raw: str) -> tuple[str, float]:
     """An "extruder" line's setting (:attr:`~gantry_sim.controller.gcode.lexer.Block.extruder`):
     ("relative", 1.0) for M83, ("relative", 0.0) for M82, ("position", E) for G92 E (its last
     E word, in the program's units)."""
-    code = raw.split(";", 1)[0]
-    head = _HEAD.match(code)
-    assert head is not None  # marlin_line found it
+    code, head = _command(raw)
     if head.group(1).upper() == "M":
         return ("relative", 1.0 if head.group(2).lstrip("0") == "83" else 0.0)
     value = _E_WORD.findall(_PAREN.sub("", code[head.end() :]))[-1]
@@ -174,9 +179,7 @@ def marlin_feed_percent(raw: str) -> tuple[bool, bool, int | None]:
     R first, then B, then S; S is read as a whole number (``strtol``: ``S75.9`` is 75), a
     letter's presence is enough for R and B. The percentage scales the feed of every G0, G1,
     G2, G3 and G5 that follows (motion.h ``MMS_SCALED``), not homing."""
-    code = raw.split(";", 1)[0]
-    head = _HEAD.match(code)
-    assert head is not None  # marlin_line found it
+    code, head = _command(raw)
     words = {m.group(1).upper(): m.group(2) for m in _PARAMETER.finditer(code[head.end() :])}
     s = words.get("S")
     whole = None if s is None else _WHOLE.match(s)

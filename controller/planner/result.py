@@ -47,9 +47,10 @@ class Plan:
         path_sources: read-only (p, 2) the same per move of ``path_moves``.
         merges: every G64 Q merge (line, largest distance of the merged-away programmed points
             from the merged line, Q).
-        limit_change_stops: Marlin limit changes (M201, M203, M205 J) planned as exact stops
-            between the program's parts (the joins of ``part_limits``) (:mod:`~gantry_sim.controller.planner.limit_events`;
-            Marlin itself does not stop there).
+        limit_change_stops (a property): Marlin limit changes (M201, M203, M205 J) planned as
+            exact stops between the program's parts, the joins of ``part_limits``
+            (:mod:`~gantry_sim.controller.planner.limit_events`; Marlin itself does not stop
+            there).
         part_limits: for a program that Marlin's M201/M203 cut into parts, per part the
             first program line of its first motion and the per-axis limits it was planned
             with (the machine file's, as the program changed them); empty for one part.
