@@ -57,6 +57,7 @@ from __future__ import annotations
 import argparse
 import json
 import math
+import os
 import resource
 import subprocess
 import sys
@@ -250,7 +251,10 @@ def child(kind: str, blocks: int, baseline_rev: str | None) -> dict:
 def _run_child(kind: str, blocks: int, baseline: str | None) -> dict:
     cmd = [sys.executable, __file__, "--child", kind, str(blocks)]
     cmd += ["--baseline-rev", baseline] if baseline else ["--no-baseline"]
-    res = subprocess.run(cmd, capture_output=True, text=True, cwd=ROOT)
+    # as `gantry run` sets it (sim/cli.py): without it `import mujoco` probes for GLFW, 0.1 s
+    # that no run of the command pays
+    env = {**os.environ, "MUJOCO_GL": os.environ.get("MUJOCO_GL", "disable")}
+    res = subprocess.run(cmd, capture_output=True, text=True, cwd=ROOT, env=env)
     if res.returncode != 0:
         raise SystemExit(f"{kind} {blocks}: failed\n{res.stderr[-3000:]}")
     return json.loads(res.stdout.strip().splitlines()[-1])

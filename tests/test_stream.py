@@ -278,6 +278,29 @@ def _cli_run(tmp_path, name, flags, capsys):
     )
 
 
+def test_a_streamed_runs_stages_add_up_to_its_set_up_too(machine, monkeypatch):
+    """The model's load (and the rest of the set-up before the first range) counts in a
+    streamed run's "simulate" stage, as in the whole-program run's: the stages add up to the
+    total. (The load is slowed by a known 0.3 s here: it must show in "simulate".)"""
+    from gantry_sim.sim import api
+    from gantry_sim.sim import machine as machine_module
+
+    real = machine_module.load_gantry
+
+    def slow_load(*args, **kwargs):
+        time.sleep(0.3)
+        return real(*args, **kwargs)
+
+    monkeypatch.setattr(machine_module, "load_gantry", slow_load)
+    monkeypatch.setattr(api, "STREAM_ABOVE_TICKS", 0)
+    run = api.run_program(PROGRAM, machine=machine, plots=False)
+    timing = run.run_report.timing_s
+    assert run.streamed
+    assert timing["simulate"] >= 0.3
+    stages = sum(v for k, v in timing.items() if k != "total")
+    assert timing["total"] == pytest.approx(stages, rel=1e-9)
+
+
 @pytest.mark.parametrize("streamed", [False, True])
 def test_no_trace_writes_everything_but_trace_npz(streamed, monkeypatch, tmp_path, capsys):
     """--no-trace: no trace.npz (and no staging trace in a streamed run); report.json lists
