@@ -62,6 +62,7 @@ from gantry_sim.controller.gcode.parameters import (
     Parameters,
     g5x_base,
 )
+from gantry_sim.controller.gcode.plain_block import plain_dialect, plain_motion
 from gantry_sim.controller.gcode.polar import polar_end_point
 from gantry_sim.controller.gcode.predefined import predefined
 from gantry_sim.controller.gcode.printer_codes import FEED_PERCENT_MAX, OWN_LINES
@@ -134,6 +135,8 @@ class Interpreter:
         self.cycle = CycleMemory()
         self.comp = CutterComp()
         self.nurbs = NurbsPoints()
+        #: plain motion blocks take :meth:`_plain_step` (controller/gcode/plain_block.py)
+        self.plain = plain_dialect(dialect)
 
     def comment(self, block: Block) -> None:
         """A line's ``(abort, message)`` comment ends the program there, as in rs274
@@ -149,6 +152,10 @@ class Interpreter:
         d = self.dialect
         if not d.language:
             check_plain(block, d)
+        if self.plain:
+            plain = self._plain_step(block)
+            if plain is not None:
+                return plain, False
         if block.jog:
             return self._jog(block)
         if block.home:
@@ -358,11 +365,11 @@ class Interpreter:
             elif motion == 0 and not d.g0_at_feed:
                 s = self._emit(moves, s, Rapid(w.line, s.work, to_work(end, s.frame)), end)
             elif motion in (0, 10):  # G1, or a G0 where the controller moves it as one
-                self._require_feed(s, "a G1 move", w)
+                self._require_feed(s, "a G1 move", w.values)
                 move = Linear(w.line, s.work, to_work(end, s.frame), s.feed_mm_per_min)
                 s = self._emit(moves, s, path_feed(move, s, w.values), end)
             else:
-                self._require_feed(s, "an arc", w)
+                self._require_feed(s, "an arc", w.values)
                 arc = arc_move(w.line, w.values, s, end, motion == 30, d)
                 if arc is not None:
                     per_segment = d.arc_tolerance_mm if d.g93_arc_per_segment else None
@@ -416,6 +423,55 @@ class Interpreter:
             return moves, False
         return moves, ended
 
+    def _plain_step(self, block: Block) -> list[Move | Event] | None:
+        """:meth:`step` of a plain motion block (controller/gcode/plain_block.py) in a state
+        where nothing else applies (cutter compensation off, no extruder): the general step's
+        statements for such a block, in its order; None for any other block (the general step
+        runs it, and says what is wrong with it)."""
+        if (
+            block.settings
+            or block.jog
+            or block.home
+            or block.limits
+            or block.extruder is not None
+            or block.feed_percent is not None
+        ):
+            return None
+        read = plain_motion(block.words)
+        comp, s, d = self.comp, self.state, self.dialect
+        if read is None or comp.side is not None or comp.holding or s.extruder is not None:
+            return None
+        motion, v = read
+        if motion is None and not _PLAIN_AXES.isdisjoint(v):
+            motion = s.motion  # axis words alone: the modal motion
+            if motion not in (0, 10):
+                return None
+        feed = v.get("F")
+        if feed is not None and not (d.positive_feed_only and feed <= 0.0):
+            if feed < 0.0:
+                return None
+            s = evolve(s, feed_mm_per_min=feed * s.scale, feed_number=feed)
+        moves: list[Move | Event] = []
+        cycle = self.cycle
+        if motion is not None:
+            if motion != s.motion:
+                s = evolve(s, motion=motion)
+            if cycle.initial is not None:
+                cycle = evolve(cycle, initial=None)  # a series of cycles ends with a motion
+            end = self._end_point(v, s)
+            comp.arc_not_allowed = False
+            if motion == 0 and not d.g0_at_feed:
+                s = self._emit(moves, s, Rapid(block.line, s.work, to_work(end, s.frame)), end)
+            else:
+                self._require_feed(s, "a G1 move", v)
+                move = Linear(block.line, s.work, to_work(end, s.frame), s.feed_mm_per_min)
+                s = self._emit(moves, s, path_feed(move, s, v), end)
+        if s.path is not None:
+            _set_path(moves, s.path)
+        self.state = self._canon(s, moves)
+        self.cycle = cycle
+        return moves
+
     def _cycle(
         self, w: Words, s: ModalState, motion: int, cycle: CycleMemory, moves: list[Move | Event]
     ) -> tuple[ModalState, CycleMemory]:
@@ -457,13 +513,13 @@ class Interpreter:
         programmed = None
         fed = s  # the state whose feed the tool-centre moves take
         if motion == 10:
-            self._require_feed(s, "a G1 move", w)
+            self._require_feed(s, "a G1 move", w.values)
             # G93/G95: the feed of the programmed move, from its own length (rs274's
             # inverse_time_rate_straight), not the compensated path's
             straight = Linear(w.line, s.position, end, s.feed_mm_per_min)
             fed = evolve(s, feed_mm_per_min=path_feed(straight, s, w.values).feed_mm_per_min)
         elif motion in (20, 30):
-            self._require_feed(s, "an arc", w)
+            self._require_feed(s, "an arc", w.values)
             programmed = arc_move(w.line, w.values, s, end, motion == 30, self.dialect)
             if programmed is None:
                 return s
@@ -496,7 +552,7 @@ class Interpreter:
         marlin = self.dialect.splines == "marlin"
         v = {"I": 0.0, "J": 0.0, "P": 0.0, "Q": 0.0, **w.values} if marlin else w.values
         if code != G5_3:
-            self._require_feed(s, "a spline", w)
+            self._require_feed(s, "a spline", w.values)
             check_spline_block(code, v, s, comp_on=False, marlin=marlin)
         end = self._end_point(v, s) if code != G5_3 else s.position
         move, ij, end = spline_block(
@@ -516,7 +572,7 @@ class Interpreter:
                     "G5.3 under inverse time (G93) is not supported: give the NURBS a feed "
                     "in units per minute (G94)"
                 )
-            self._require_feed(s, "a NURBS (G5.3)", w)
+            self._require_feed(s, "a NURBS (G5.3)", w.values)
             s = evolve(s, motion=None)
         cycle = evolve(cycle, ijk=(ij[0], ij[1], cycle.ijk[2]))
         placed = path_feed(move, s, w.values)
@@ -726,8 +782,10 @@ class Interpreter:
                 end[i] = s.position[i] + value if s.incremental else value
         return (end[0], end[1], end[2])
 
-    def _require_feed(self, s: ModalState, what: str, w: Words) -> None:
-        check_feed_mode(s, what, w.values)
+    @staticmethod
+    def _require_feed(s: ModalState, what: str, values: dict[str, float]) -> None:
+        """The feed a feed move needs (the block's words ``values``): GcodeError if none."""
+        check_feed_mode(s, what, values)
         if s.feed_mm_per_min <= 0.0:
             raise GcodeError(
                 f"cannot make {what} with zero feed rate; set F (units per minute, > 0) on this "
@@ -798,6 +856,8 @@ def _set_path(moves: list[Move | Event], path: PathControl) -> None:
 
 
 _MOTIONS = (Rapid, Linear, Arc, Spline)
+#: the axis words of a plain motion block
+_PLAIN_AXES = frozenset("XYZ")
 #: the words that move an axis (A/B/C: only a word of 0 gets as far as the motion)
 _AXIS_LETTERS = frozenset("XYZ@^ABC")
 

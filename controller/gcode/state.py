@@ -24,11 +24,11 @@ def evolve(obj: T, /, **changes: Any) -> T:
     cached property, or a name that is not one of their fields go through
     ``dataclasses.replace`` (which checks)."""
     cls = type(obj)
-    plain = _PLAIN.get(cls)
-    if plain is None:
-        plain = _PLAIN[cls] = _is_plain(cls)
+    fields = _PLAIN.get(cls)
+    if fields is None:
+        fields = _PLAIN[cls] = _plain_fields(cls)
     d = getattr(obj, "__dict__", None)
-    if not plain or d is None or not changes.keys() <= d.keys():
+    if not fields or d is None or not changes.keys() <= fields:
         return dataclasses.replace(obj, **changes)  # type: ignore[type-var]
     new = object.__new__(cls)
     new.__dict__.update(d)
@@ -36,17 +36,22 @@ def evolve(obj: T, /, **changes: Any) -> T:
     return new
 
 
-_PLAIN: dict[type, bool] = {}
+#: per class, its field names where it is plain (below), else an empty set
+_PLAIN: dict[type, frozenset[str]] = {}
 
 
-def _is_plain(cls: type) -> bool:
-    """A dataclass whose instances hold their fields and nothing else in ``__dict__``, with
-    no ``__post_init__`` and every field set by ``__init__``."""
+def _plain_fields(cls: type) -> frozenset[str]:
+    """The field names of a dataclass whose instances hold their fields and nothing else in
+    ``__dict__``, with no ``__post_init__`` and every field set by ``__init__``; an empty set
+    for any other class."""
     if not dataclasses.is_dataclass(cls) or hasattr(cls, "__post_init__"):
-        return False
+        return frozenset()
     if any(isinstance(v, functools.cached_property) for k in cls.__mro__ for v in vars(k).values()):
-        return False
-    return all(f.init for f in dataclasses.fields(cls))
+        return frozenset()
+    fields = dataclasses.fields(cls)
+    if not all(f.init for f in fields):
+        return frozenset()
+    return frozenset(f.name for f in fields)
 
 
 @dataclass(frozen=True)
