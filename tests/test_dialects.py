@@ -541,6 +541,29 @@ def test_marlin_runs_one_command_a_line() -> None:
     ]
 
 
+def test_marlin_runs_nothing_of_a_line_its_first_g_does_not_move() -> None:
+    """G17-G19, G54-G59 and G80 read no word either (``G17 G2 X10 I5`` sets the plane and
+    moves nothing), and a G code Marlin does not have (LinuxCNC's G40, G43, G52, G64, G81,
+    G93, G94...) is an "Unknown command": nothing of its line runs, not even an F. Marlin
+    bugfix-2.1.x built for the host, default configuration and with CNC_WORKSPACE_PLANES
+    (2026-11-30), buffers exactly these moves; a Fusion 360 post's ``G17 G2 ... I26.987 F3048``
+    (richcreations/Ghettotator) was refused for its I word."""
+    lines = [
+        "G40", "G43 H1", "G93", "G81 X1 Y1 Z-1 R1 F100", "G7", "G94 G1 X10",
+        "G17 G2 X10 Y0 I5", "G54 X10", "G52 X5", "G41 D1", "G18 G1 X7", "G80 G1 X3",
+        "G59 X3", "G64 P0.1 G1 X4", "G40 G0 X9 Y9", "G98 X2", "G95 G1 Y3",
+    ]  # fmt: skip
+    text = "G21\nG90\nG1 X0 Y0 F1000\n" + "".join(
+        f"{line}\nG1 X{k} Y{k % 3}\n" for k, line in enumerate(lines, start=1)
+    )
+    moves = run(text, "marlin")
+    assert [(m.line, m.end) for m in moves] == [(3, (0.0, 0.0, 0.0))] + [
+        (3 + 2 * k, (float(k), float(k % 3), 0.0)) for k in range(1, len(lines) + 1)
+    ]
+    assert {m.feed_mm_per_min for m in moves} == {1000.0}
+    assert {m.kind for m in moves} == {"linear"}
+
+
 def test_marlin_g28_homes_named_axes_and_g92_sets_the_position() -> None:
     moves = run("G1 X3 Y4 Z5 F100\nG28 X\nG28\nG1 X5\nG92 X0\nG1 X1\n", "marlin")
     assert [(m.line, m.kind, m.end) for m in moves] == [

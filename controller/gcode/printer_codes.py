@@ -63,9 +63,20 @@ MARLIN_QUIET_G = frozenset((40, 100, 110, 290, 291, 292, 293, 300, 310, 320, 330
 #: probe fail"; Marlin's default configuration has no G26; with words it is the mesh
 #: validation print, refused below).
 MARLIN_BARE_QUIET_G = frozenset((50, 260))
-#: Marlin G codes (tenths) that read no word: G20, G21, G90, G91 (the rest of a line is theirs
-#: to ignore: :func:`marlin_command_alone`).
-MARLIN_NO_WORDS_G = frozenset((200, 210, 900, 910))
+#: Marlin G codes (tenths) that read no word: G17-G19, G20, G21, G54-G59.3, G80, G90, G91 (the
+#: rest of a line is theirs to ignore: :func:`marlin_command_alone`; each handler reads no
+#: parameter, and only G53 runs a second command of a line, parser.cpp's ``chain``).
+MARLIN_NO_WORDS_G = frozenset(
+    (170, 180, 190, 200, 210, 540, 550, 560, 570, 580, 590, 591, 592, 593, 800, 900, 910)
+)
+#: The G commands of Marlin's dispatch (gcode.cpp ``process_parsed_command``, bugfix-2.1.x,
+#: whole numbers; some only in builds with their feature). A line opening with any other G
+#: (LinuxCNC's G40, G43, G52, G64, G81, G93, G94...) is an "Unknown command": Marlin runs
+#: nothing of it, neither the code nor a motion after it.
+MARLIN_G_COMMANDS = frozenset((
+    0, 1, 2, 3, 4, 5, 6, 10, 11, 12, 17, 18, 19, 20, 21, 26, 27, 28, 29, 30, 31, 32, 33, 34, 35,
+    38, 42, 53, 54, 55, 56, 57, 58, 59, 60, 61, 76, 80, 90, 91, 92, 425, 800,
+))  # fmt: skip
 #: Marlin G codes refused, with why.
 MARLIN_REFUSED_G: dict[int, str] = {
     60: "G6 (direct stepper moves) is not supported",
@@ -84,7 +95,8 @@ def marlin_line(raw: str) -> str | None:
     (M201/M203/M204/M205), "extruder" (M82, M83, or G92 with E alone:
     :func:`marlin_extruder`), "feed_percent" (M220: :func:`marlin_feed_percent`),
     "parameters" (a G line with G, M or T words, which Marlin reads as parameters the command
-    ignores), "command_alone" (G20, G21, G90 or G91 with words: :func:`marlin_command_alone`),
+    ignores), "command_alone" (a G of :data:`MARLIN_NO_WORDS_G` with words:
+    :func:`marlin_command_alone`),
     "save" (G60) and "restore" (G61), which :class:`MarlinLines` reads, or None (a shared G-code
     line). GcodeError for a refused G code."""
     if _TEXT.match(raw):
@@ -106,6 +118,8 @@ def marlin_line(raw: str) -> str | None:
         return "feed_percent"
     if letter in "MT":
         return "quiet"
+    if int(float(number)) not in MARLIN_G_COMMANDS:
+        return "quiet"  # Marlin: unknown_command_warning(), and on to the next line
     tenths = round(float(number) * 10)
     if tenths == 280:
         return "home"
@@ -142,8 +156,9 @@ def _command(raw: str) -> tuple[str, re.Match[str]]:
 
 def marlin_command_alone(raw: str) -> str:
     """A "command_alone" line (:func:`marlin_line`) cut after its command: Marlin runs one
-    command a line, and G20, G21, G90 and G91 read none of the words after them (``G91 G0 Z5``
-    is a G91 alone, ``G90 X10`` moves nothing)."""
+    command a line, and G17-G19, G20, G21, G54-G59, G80, G90 and G91 read none of the words
+    after them (``G91 G0 Z5`` is a G91 alone, ``G90 X10`` and ``G17 G2 X10 I5`` move
+    nothing)."""
     code, head = _command(raw)
     return code[: head.end()]
 
