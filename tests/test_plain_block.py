@@ -12,7 +12,7 @@ from hypothesis import strategies as st
 from gantry_sim.controller.errors import GcodeError
 from gantry_sim.controller.gcode.dialects import DIALECTS, get_dialect
 from gantry_sim.controller.gcode.interpreter import Interpreter, interpret_events
-from gantry_sim.controller.gcode.plain_block import plain_dialect, plain_motion
+from gantry_sim.controller.gcode.plain_block import plain_letters, plain_motion
 from gantry_sim.controller.gcode.tools import Tool
 
 TOOLS = {1: Tool(1, 10.0, 2.0), 2: Tool(2, 25.0, 6.0)}
@@ -23,12 +23,13 @@ _feed = st.sampled_from(["100", "1500", "0", "-5", "0.5", "3000"])
 
 @st.composite
 def _plain(draw: st.DrawFn) -> str:
-    """A block of G0 / G1 / none with X, Y, Z, F words (now and then one that is not plain)."""
+    """A block of G0 / G1 / none with X, Y, Z, F and E words (now and then one that is not
+    plain)."""
     words = []
     g = draw(st.sampled_from(["", "G0", "G1", "G00", "G01", "G1.0", "G0 G1", "G-0"]))
     if g:
         words.append(g)
-    for letter in draw(st.lists(st.sampled_from("XYZXF"), max_size=4)):
+    for letter in draw(st.lists(st.sampled_from("XYZXFE"), max_size=4)):
         words.append(letter + draw(_feed if letter == "F" else _coord))
     words = draw(st.permutations(words))
     return " ".join(words)
@@ -82,6 +83,10 @@ _OTHER = [
     "G1 E5 X1",
     "G1 X1 F100 E2",
     "G92 E0",
+    "G92 E2.5",
+    "M82",
+    "M83",
+    "G1 E-1 F2400",
     "$J=G91 X1 F100",
     "N10 G1 X2",
     "G1 X1 (comment) Y2",
@@ -138,12 +143,19 @@ def test_plain_blocks_take_the_plain_step(monkeypatch):
     # G21 G90, T1 M6, G41, G40 and M2 are not plain; G1 X5 runs under compensation
     assert [line for line, plain in taken if plain] == [2, 3, 4, 9]
     assert [line for line, _ in taken] == list(range(1, 11))
-    assert [n for n in sorted(DIALECTS) if plain_dialect(get_dialect(n))] == [
-        "g2core",
-        "grbl",
-        "laserdyne",
-        "linuxcnc",
-    ]
+    taken.clear()  # a printer's lines: E words, and a G92 E (not plain)
+    text = "G21\nG1 X1 Y2 E0.5 F1800\nX2 E1\nG92 E0\nG0 X5 F6000\n"
+    moves = list(interpret_events(text, "marlin", "t.gcode"))
+    assert [line for line, plain in taken if plain] == [2, 3, 5]
+    assert [m.extrudes for m in moves] == [True, True, False]
+    letters = {n: "".join(sorted(plain_letters(get_dialect(n)))) for n in DIALECTS}
+    assert letters == {
+        "g2core": "FXYZ",
+        "grbl": "FXYZ",
+        "laserdyne": "FXYZ",
+        "linuxcnc": "FXYZ",
+        "marlin": "EFXYZ",
+    }
 
 
 @pytest.mark.parametrize(
@@ -157,8 +169,9 @@ def test_plain_blocks_take_the_plain_step(monkeypatch):
         ((("G", ("num", 0.0)), ("G", ("num", 1.0))), None),  # two G
         ((("X", ("par", ("num", 1.0))),), None),  # a parameter
         ((("S", ("num", 100.0)),), None),  # another letter
+        ((("E", ("num", 1.0)),), None),  # E, in a dialect with no extruder
         ((("X", ("num", 2e300)),), None),  # beyond MAX_MAGNITUDE: the general step says why
     ],
 )
 def test_plain_motion_reads_only_plain_blocks(words, read):
-    assert plain_motion(words) == read
+    assert plain_motion(words, frozenset("XYZF")) == read

@@ -14,7 +14,7 @@ from __future__ import annotations
 from collections.abc import Iterator, Mapping
 from functools import partial
 from pathlib import Path
-from typing import NamedTuple
+from typing import Any, NamedTuple
 
 from gantry_sim.controller.errors import GcodeError
 from gantry_sim.controller.gcode.arc_block import arc_move, from_where_it_is, turned_plane
@@ -62,7 +62,7 @@ from gantry_sim.controller.gcode.parameters import (
     Parameters,
     g5x_base,
 )
-from gantry_sim.controller.gcode.plain_block import plain_dialect, plain_motion
+from gantry_sim.controller.gcode.plain_block import plain_letters, plain_motion
 from gantry_sim.controller.gcode.polar import polar_end_point
 from gantry_sim.controller.gcode.predefined import predefined
 from gantry_sim.controller.gcode.printer_codes import FEED_PERCENT_MAX, OWN_LINES
@@ -135,8 +135,9 @@ class Interpreter:
         self.cycle = CycleMemory()
         self.comp = CutterComp()
         self.nurbs = NurbsPoints()
-        #: plain motion blocks take :meth:`_plain_step` (controller/gcode/plain_block.py)
-        self.plain = plain_dialect(dialect)
+        #: the letters of plain motion blocks, which take :meth:`_plain_step`
+        #: (controller/gcode/plain_block.py; none: every block takes the general step)
+        self.plain = plain_letters(dialect)
 
     def comment(self, block: Block) -> None:
         """A line's ``(abort, message)`` comment ends the program there, as in rs274
@@ -425,9 +426,9 @@ class Interpreter:
 
     def _plain_step(self, block: Block) -> list[Move | Event] | None:
         """:meth:`step` of a plain motion block (controller/gcode/plain_block.py) in a state
-        where nothing else applies (cutter compensation off, no extruder): the general step's
-        statements for such a block, in its order; None for any other block (the general step
-        runs it, and says what is wrong with it)."""
+        where nothing else applies (cutter compensation off): what the general step does with
+        such a block, its state changed in two copies instead of its five or six; None for any
+        other block (the general step runs it, and says what is wrong with it)."""
         if (
             block.settings
             or block.jog
@@ -437,40 +438,48 @@ class Interpreter:
             or block.feed_percent is not None
         ):
             return None
-        read = plain_motion(block.words)
+        read = plain_motion(block.words, self.plain)
         comp, s, d = self.comp, self.state, self.dialect
-        if read is None or comp.side is not None or comp.holding or s.extruder is not None:
+        if read is None or comp.side is not None or comp.holding:
             return None
         motion, v = read
         if motion is None and not _PLAIN_AXES.isdisjoint(v):
             motion = s.motion  # axis words alone: the modal motion
             if motion not in (0, 10):
                 return None
+        changes: dict[str, Any] = {}
         feed = v.get("F")
         if feed is not None and not (d.positive_feed_only and feed <= 0.0):
             if feed < 0.0:
                 return None
-            s = evolve(s, feed_mm_per_min=feed * s.scale, feed_number=feed)
-        moves: list[Move | Event] = []
-        cycle = self.cycle
-        if motion is not None:
-            if motion != s.motion:
-                s = evolve(s, motion=motion)
-            if cycle.initial is not None:
-                cycle = evolve(cycle, initial=None)  # a series of cycles ends with a motion
-            end = self._end_point(v, s)
-            comp.arc_not_allowed = False
-            if motion == 0 and not d.g0_at_feed:
-                s = self._emit(moves, s, Rapid(block.line, s.work, to_work(end, s.frame)), end)
-            else:
-                self._require_feed(s, "a G1 move", v)
-                move = Linear(block.line, s.work, to_work(end, s.frame), s.feed_mm_per_min)
-                s = self._emit(moves, s, path_feed(move, s, v), end)
-        if s.path is not None:
-            _set_path(moves, s.path)
-        self.state = self._canon(s, moves)
-        self.cycle = cycle
-        return moves
+            changes.update(feed_mm_per_min=feed * s.scale, feed_number=feed)
+        if motion is None:  # an F alone
+            self.state = evolve(s, **changes) if changes else s
+            return []
+        if motion != s.motion:
+            changes["motion"] = motion
+        extrudes: bool | None = None
+        if s.extruder is not None:  # Marlin: whether the move runs at M204 P or T
+            e = v.get("E")
+            extrudes, changes["extruder"] = s.extruder.move(None if e is None else e * s.scale)
+        if changes:
+            s = evolve(s, **changes)
+        if self.cycle.initial is not None:
+            self.cycle = evolve(self.cycle, initial=None)  # a series of cycles ends here
+        end = self._end_point(v, s)
+        comp.arc_not_allowed = False
+        move: Rapid | Linear
+        if motion == 0 and not d.g0_at_feed:
+            move = Rapid(block.line, s.work, to_work(end, s.frame), s.path)
+        else:
+            self._require_feed(s, "a G1 move", v)
+            move = Linear(
+                block.line, s.work, to_work(end, s.frame), s.feed_mm_per_min, s.path, extrudes
+            )
+            move = path_feed(move, s, v)  # type: ignore[assignment]  # a Linear stays one
+        # _emit, then _canon: the tool at the move's end, and rs274's canonical point there
+        self.state = evolve(s, position=end, work=move.end, canon=from_work(move.end, s.frame))
+        return [move]
 
     def _cycle(
         self, w: Words, s: ModalState, motion: int, cycle: CycleMemory, moves: list[Move | Event]
