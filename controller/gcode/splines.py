@@ -27,14 +27,15 @@ curve onto the curve of the mapped control points). Z stays at the current heigh
 from __future__ import annotations
 
 from dataclasses import dataclass
-
-import numpy as np
+from typing import TYPE_CHECKING
 
 from gantry_sim.controller.errors import GcodeError
 from gantry_sim.controller.gcode.frames import to_work
 from gantry_sim.controller.gcode.state import ModalState
 from gantry_sim.controller.moves import Spline, Vec3
-from gantry_sim.controller.nurbs import linuxcnc_knots
+
+if TYPE_CHECKING:
+    import numpy as np
 
 G5, G5_1, G5_2, G5_3 = 50, 51, 52, 53
 #: the spline motion codes (G5.3 is non-modal: it ends a G5.2 curve)
@@ -143,6 +144,10 @@ def spline_move(
     feed_mm_per_min: float,
 ) -> Spline:
     """The :class:`Spline` through program-frame control ``points`` placed in the work frame."""
+    import numpy as np
+
+    from gantry_sim.controller.nurbs import linuxcnc_knots  # numpy: only where splines are
+
     work = (s.work, *(to_work(p, s.frame) for p in points[1:]))
     knots = linuxcnc_knots(len(points), order)
     _check_weights(np.array(weights), knots, order - 1)
@@ -164,6 +169,8 @@ def _check_weights(weights: np.ndarray, knots: tuple[float, ...], degree: int) -
     finite only while the weighted sum W(t) stays positive (sampled densely)."""
     if (weights > 0).all():
         return
+    import numpy as np
+
     from gantry_sim.controller.nurbs import BSpline
 
     w = BSpline(weights[:, None], np.array(knots), degree)
