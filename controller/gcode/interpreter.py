@@ -51,6 +51,14 @@ from gantry_sim.controller.gcode.feed_modes import (
 )
 from gantry_sim.controller.gcode.frames import Frame, add, from_work, sub, to_work
 from gantry_sim.controller.gcode.lexer import Block
+from gantry_sim.controller.gcode.modal_codes import (
+    clears_feed,
+    grbl_program_end,
+    overrides,
+    path_control,
+    set_extruder,
+    set_feed_percent,
+)
 from gantry_sim.controller.gcode.modal_save import restore
 from gantry_sim.controller.gcode.motion_waits import motion_wait
 from gantry_sim.controller.gcode.parameters import (
@@ -65,7 +73,7 @@ from gantry_sim.controller.gcode.parameters import (
 from gantry_sim.controller.gcode.plain_block import plain_letters, plain_motion
 from gantry_sim.controller.gcode.polar import polar_end_point
 from gantry_sim.controller.gcode.predefined import predefined
-from gantry_sim.controller.gcode.printer_codes import FEED_PERCENT_MAX, OWN_LINES
+from gantry_sim.controller.gcode.printer_codes import OWN_LINES
 from gantry_sim.controller.gcode.splines import (
     G5_2,
     G5_3,
@@ -164,10 +172,10 @@ class Interpreter:
         if block.limits:
             return self._limits(block), False
         if block.extruder is not None:
-            self._set_extruder(block.extruder)
+            self.state = set_extruder(self.state, block.extruder)
             return [], False
         if block.feed_percent is not None:
-            self._set_feed_percent(*block.feed_percent)
+            self.state = set_feed_percent(self.state, *block.feed_percent)
             return [], False
         w = read_words(block, self.params, d, self._create_named)
         s = self.state
@@ -197,7 +205,7 @@ class Interpreter:
         # rs274 does).
         if "feed_mode" in w.g:
             s = evolve(s, feed_mode=w.g["feed_mode"])
-            if _clears_feed(self.state.feed_mode, w.g["feed_mode"], d):
+            if clears_feed(self.state.feed_mode, w.g["feed_mode"], d):
                 s = evolve(s, feed_mm_per_min=0.0, feed_number=0.0)
         if "F" in w.values and not (d.positive_feed_only and w.values["F"] <= 0.0):
             if w.values["F"] < 0.0:
@@ -212,7 +220,7 @@ class Interpreter:
         if "spindle_mode" in w.g:
             s = evolve(s, css=w.g["spindle_mode"] == 960)
         if "override" in w.m and w.m["override"] != 56:
-            s = evolve(s, overrides=_overrides(s, w.m["override"], w.values, self.comp.side))
+            s = evolve(s, overrides=overrides(s, w.m["override"], w.values, self.comp.side))
         if "spindle" in w.m:
             s = evolve(s, spindle={3: 1, 4: -1, 5: 0, 19: 0}[w.m["spindle"]])  # M19: stopped
         # M70-M73 (rs274's convert_m: after the spindle's codes, before coolant and the G
@@ -420,7 +428,7 @@ class Interpreter:
                 self.params.set_number(target, value)
         ended = w.m.get("stopping") in M_PROGRAM_END
         if ended and d.program_end_continues:
-            self.state = _grbl_program_end(self.state, self.params)
+            self.state = grbl_program_end(self.state, self.params)
             return moves, False
         return moves, ended
 
@@ -587,32 +595,6 @@ class Interpreter:
         placed = path_feed(move, s, w.values)
         s = self._emit(moves, s, placed, end)
         return s, cycle, NurbsPoints()
-
-    def _set_extruder(self, setting: tuple[str, float]) -> None:
-        """Marlin's M82/M83 and G92 E (:attr:`~gantry_sim.controller.gcode.lexer.Block.extruder`):
-        the extruder's mode or position; nothing moves."""
-        e = self.state.extruder
-        if e is None:
-            return
-        what, value = setting
-        e = e.with_mode(value != 0.0) if what == "relative" else e.at(value * self.state.scale)
-        self.state = evolve(self.state, extruder=e)
-
-    def _set_feed_percent(self, restore: bool, backup: bool, percent: int | None) -> None:
-        """Marlin's M220 (:attr:`~gantry_sim.controller.gcode.lexer.Block.feed_percent`): R
-        restores the backed-up percentage, B backs up the one in effect, S sets it."""
-        now, saved = self.state.feed_percent
-        new = saved if restore else now
-        if backup:
-            saved = now
-        if percent is not None:
-            if not 1 <= percent <= FEED_PERCENT_MAX:
-                raise GcodeError(
-                    f"M220 S{percent}: the feed percentage must be 1 to {FEED_PERCENT_MAX} "
-                    "(Marlin would plan the moves after it at no speed, or backwards)"
-                )
-            new = percent
-        self.state = evolve(self.state, feed_percent=(new, saved))
 
     @staticmethod
     def _emit(moves: list[Move | Event], s: ModalState, move: Move, end: Vec3) -> ModalState:
@@ -810,50 +792,6 @@ class _Saved(NamedTuple):
     valid: bool  # M71 clears it; M72 needs it
 
 
-def _overrides(
-    s: ModalState, code: int, v: dict[str, float], comp_side: str | None
-) -> tuple[float, float, float, float]:
-    """M48-M53 as rs274's convert_m sets them: M48 / M49 turn the feed and speed overrides on
-    / off; M50 (feed override), M51 (speed override), M52 (adaptive feed) and M53 (feed hold)
-    turn theirs on unless P is 0 (no P: on). Refused with cutter compensation on."""
-    if comp_side is not None:
-        raise GcodeError(f"cannot switch overrides (M{code}) with cutter radius compensation on")
-    feed, speed, adaptive, hold = s.overrides
-    on = 0.0 if v.get("P", -1.0) == 0.0 else 1.0
-    if code in (48, 49):
-        feed = speed = 1.0 if code == 48 else 0.0
-    elif code == 50:
-        feed = on
-    elif code == 51:
-        speed = on
-    elif code == 52:
-        adaptive = on
-    else:
-        hold = on
-    return (feed, speed, adaptive, hold)
-
-
-def _grbl_program_end(s: ModalState, params: Parameters) -> ModalState:
-    """grbl 1.1's M2/M30 (gcode.c, step 21): the planner empties (an exact stop), then G1, G17,
-    G90, G94, G54, M5 and M9; F, S, T, G20/G21, G91.1, the G92 offset and the tool length
-    offset stay. grbl then reads the next line: the stream goes on."""
-    s = evolve(
-        s, motion=10, plane="XY", incremental=False, feed_mode=940, spindle=0, mist=False,
-        flood=False,
-    )  # fmt: skip
-    return select_system(s, params, SYSTEMS[540])
-
-
-def _clears_feed(before: int, mode: int, d: Dialect) -> bool:
-    """Whether a G93/G94/G95 word (``mode``; ``before``: the mode it replaces) sets the feed
-    to 0 before the line's F is read
-    (:attr:`~gantry_sim.controller.gcode.dialects.Dialect.feed_mode_clears_feed`)."""
-    rule = d.feed_mode_clears_feed
-    return (rule == "linuxcnc" and mode != INVERSE_TIME) or (
-        rule == "grbl" and mode == UNITS_PER_MINUTE and before == INVERSE_TIME
-    )
-
-
 def _set_path(moves: list[Move | Event], path: PathControl) -> None:
     """Give each motion of a block that has no path control of its own the block's ``path``:
     its G0-G3 and splines, a canned cycle's moves and cutter compensation's tool-centre moves
@@ -869,20 +807,6 @@ _MOTIONS = (Rapid, Linear, Arc, Spline)
 _PLAIN_AXES = frozenset("XYZ")
 #: the words that move an axis (A/B/C: only a word of 0 gets as far as the motion)
 _AXIS_LETTERS = frozenset("XYZ@^ABC")
-
-
-def path_control(code: int, v: dict[str, float], scale: float) -> PathControl:
-    """G61 (610), G61.1 (611) or G64 (640) with its P (tolerance) and Q (naive-CAM) words in
-    program units times ``scale`` [mm per unit]; a P without Q is also the Q, as LinuxCNC 2.9's
-    rs274 does (a G64 with neither leaves both to the machine file)."""
-    if code != 640:
-        return PathControl("G61" if code == 610 else "G61.1")
-    p, q = v.get("P"), v.get("Q")
-    # rs274 takes a negative P or Q as 0 (its canonical call prints a tolerance of 0)
-    p, q = (None if x is None else max(x, 0.0) for x in (p, q))
-    if q is None:
-        q = p  # rs274: G64 P without Q sets the naive-CAM tolerance to P (SET_NAIVECAM_TOLERANCE)
-    return PathControl("G64", None if p is None else p * scale, None if q is None else q * scale)
 
 
 def interpret(
