@@ -10,7 +10,7 @@ import pytest
 
 from gantry_sim.controller.errors import GcodeError
 from gantry_sim.controller.gcode.canned_cycles import MAX_CYCLE_STEPS
-from gantry_sim.controller.gcode.interpreter import interpret, interpret_events
+from gantry_sim.controller.gcode.interpreter import interpret, interpret_events, parse_program
 from gantry_sim.controller.moves import Dwell, Linear, Rapid, Stop
 
 
@@ -105,9 +105,15 @@ def test_words_only_the_cycle_uses_are_refused_elsewhere() -> None:
 
 
 def test_dialects_without_canned_cycles_refuse_them() -> None:
-    for dialect in ("grbl", "g2core", "marlin"):
+    for dialect in ("grbl", "g2core"):
         message = error_of("G81 X1 Z-1 R1 F10\nM2\n", dialect).message
         assert "G81 is not supported" in message and dialect in message
+    # Marlin answers "Unknown command" and goes on: the line does nothing (its F neither)
+    got = parse_program("G1 X2 F100\nG81 X1 Z-1 R1 F10\nG1 X3\n", "marlin")
+    assert [(m.line, m.end, m.feed_mm_per_min) for m in got] == [
+        (1, (2.0, 0.0, 0.0), 100.0),
+        (3, (3.0, 0.0, 0.0), 100.0),
+    ]
 
 
 def test_g95_cycle_feeds_are_f_per_revolution_times_s() -> None:

@@ -544,14 +544,16 @@ def test_marlin_runs_one_command_a_line() -> None:
 def test_marlin_runs_nothing_of_a_line_its_first_g_does_not_move() -> None:
     """G17-G19, G54-G59 and G80 read no word either (``G17 G2 X10 I5`` sets the plane and
     moves nothing), and a G code Marlin does not have (LinuxCNC's G40, G43, G52, G64, G81,
-    G93, G94...) is an "Unknown command": nothing of its line runs, not even an F. Marlin
+    G93, G94...) is an "Unknown command": nothing of its line runs, not even an F; so is a
+    "%" line, and a G53 with no command to chain moves nothing either. Marlin
     bugfix-2.1.x built for the host, default configuration and with CNC_WORKSPACE_PLANES
     (2026-11-30), buffers exactly these moves; a Fusion 360 post's ``G17 G2 ... I26.987 F3048``
     (richcreations/Ghettotator) was refused for its I word."""
     lines = [
         "G40", "G43 H1", "G93", "G81 X1 Y1 Z-1 R1 F100", "G7", "G94 G1 X10",
         "G17 G2 X10 Y0 I5", "G54 X10", "G52 X5", "G41 D1", "G18 G1 X7", "G80 G1 X3",
-        "G59 X3", "G64 P0.1 G1 X4", "G40 G0 X9 Y9", "G98 X2", "G95 G1 Y3",
+        "G59 X3", "G64 P0.1 G1 X4", "G40 G0 X9 Y9", "G98 X2", "G95 G1 Y3", "%", "G53",
+        "G53 X10",
     ]  # fmt: skip
     text = "G21\nG90\nG1 X0 Y0 F1000\n" + "".join(
         f"{line}\nG1 X{k} Y{k % 3}\n" for k, line in enumerate(lines, start=1)
@@ -562,6 +564,26 @@ def test_marlin_runs_nothing_of_a_line_its_first_g_does_not_move() -> None:
     ]
     assert {m.feed_mm_per_min for m in moves} == {1000.0}
     assert {m.kind for m in moves} == {"linear"}
+
+
+def test_marlin_drops_the_subcode_of_a_command_that_reads_none() -> None:
+    """Marlin's dispatch reads a G command's number alone (its subcode only for G38 and G59):
+    G92.1 X5 is a G92 X5, G91.1 a G91, G90.1 a G90, G1.5 a G1, G61.1 a G61 (nothing saved:
+    nothing moves), G28.1 X homes X. Marlin bugfix-2.1.x built for the host (no Z raise after
+    homing, 2026-11-30) buffers exactly these moves."""
+    text = (
+        "G21\nG90\nG1 X10 Y5 F1000\nG92.1 X5\nG1 X6\nG91.1\nG1 X1 Y1\nG90.1\n"
+        "G1.5 X3 Y3\nG61.1\nG1 X4\nG28.1 X\nG1 Y7\n"
+    )
+    assert [(m.line, m.kind, m.end) for m in run(text, "marlin")] == [
+        (3, "linear", (10.0, 5.0, 0.0)),
+        (5, "linear", (11.0, 5.0, 0.0)),  # X6 after G92 X5 at X10
+        (7, "linear", (12.0, 6.0, 0.0)),
+        (9, "linear", (8.0, 3.0, 0.0)),
+        (11, "linear", (9.0, 3.0, 0.0)),
+        (12, "rapid", (0.0, 3.0, 0.0)),
+        (13, "linear", (0.0, 7.0, 0.0)),  # homing cleared X's G92 shift
+    ]
 
 
 def test_marlin_g28_homes_named_axes_and_g92_sets_the_position() -> None:

@@ -44,6 +44,7 @@ from gantry_sim.controller.gcode.printer_codes import (
     marlin_dwell_seconds,
     marlin_extruder,
     marlin_feed_percent,
+    marlin_without_subcode,
     without_marlin_parameters,
 )
 from gantry_sim.controller.gcode.words import whole_number
@@ -105,8 +106,9 @@ class Source:
         if self.comments:
             raw = firmware_comments(raw, self.comments)
         kind = self.own_lines(raw) if self.own_lines is not None else None
-        while kind == "controls":  # g2core: a ~ opening the line is a line of its own
-            raw = after_controls(raw)
+        while kind in ("controls", "subcode"):
+            # g2core: a ~ opening the line is a line of its own; Marlin drops G91.1's .1
+            raw = after_controls(raw) if kind == "controls" else marlin_without_subcode(raw)
             kind = self.own_lines(raw) if self.own_lines is not None else None
         if kind == "quiet":
             return Block(i + 1, (), (), False, raw)

@@ -151,7 +151,7 @@ class Dialect:
             running to the line's end; ``""``: rs274's reader (both are errors).
         percent_delimits: a ``%`` line opens and ends the program (rs274); False: a ``%`` line
             is nothing (grbl answers it with error 1 and goes on, and the senders that stream
-            CAM files drop it; g2core reads it as a comment).
+            CAM files drop it; g2core reads it as a comment; Marlin: "Unknown command").
         motion_waits: whose rules say which machine commands the controller runs with motion
             stopped (spindle, coolant, offsets, outputs), each an exact stop before its block
             ("linuxcnc", "grbl"; "": none modelled; controller/gcode/motion_waits.py).
@@ -333,6 +333,8 @@ MARLIN = Dialect(
     # ( comments and skips a line that opens with one as an unknown command
     firmware_comments="marlin",
     positive_feed_only=True,
+    # a "%" line is an "Unknown command" to Marlin (GCodeParser::parse), and on to the next
+    percent_delimits=False,
 )
 
 LASERDYNE_ON_ARC_TOL_MM = 0.005

@@ -77,6 +77,11 @@ MARLIN_G_COMMANDS = frozenset((
     0, 1, 2, 3, 4, 5, 6, 10, 11, 12, 17, 18, 19, 20, 21, 26, 27, 28, 29, 30, 31, 32, 33, 34, 35,
     38, 42, 53, 54, 55, 56, 57, 58, 59, 60, 61, 76, 80, 90, 91, 92, 425, 800,
 ))  # fmt: skip
+#: Marlin G commands whose subcode means something (G38.2-G38.5 probing, G59.1-G59.3): every
+#: other command drops it (parser.cpp reads the code number alone, or the subcode where
+#: USE_GCODE_SUBCODES is on, which only these handlers read; the default build's G92.1 is a
+#: G92).
+MARLIN_SUBCODE_G = frozenset((38, 59))
 #: Marlin G codes refused, with why.
 MARLIN_REFUSED_G: dict[int, str] = {
     60: "G6 (direct stepper moves) is not supported",
@@ -97,7 +102,8 @@ def marlin_line(raw: str) -> str | None:
     "parameters" (a G line with G, M or T words, which Marlin reads as parameters the command
     ignores), "command_alone" (a G of :data:`MARLIN_NO_WORDS_G` with words:
     :func:`marlin_command_alone`),
-    "save" (G60) and "restore" (G61), which :class:`MarlinLines` reads, or None (a shared G-code
+    "save" (G60) and "restore" (G61), which :class:`MarlinLines` reads, "subcode" (a G whose
+    subcode Marlin drops: :func:`marlin_without_subcode`), or None (a shared G-code
     line). GcodeError for a refused G code."""
     if _TEXT.match(raw):
         return "quiet"
@@ -118,8 +124,11 @@ def marlin_line(raw: str) -> str | None:
         return "feed_percent"
     if letter in "MT":
         return "quiet"
-    if int(float(number)) not in MARLIN_G_COMMANDS:
+    whole = int(float(number))
+    if whole not in MARLIN_G_COMMANDS:
         return "quiet"  # Marlin: unknown_command_warning(), and on to the next line
+    if "." in number and whole not in MARLIN_SUBCODE_G:
+        return "subcode"  # G91.1 is G91, G1.5 a G1, G28.1 a G28: marlin_without_subcode
     tenths = round(float(number) * 10)
     if tenths == 280:
         return "home"
@@ -136,6 +145,10 @@ def marlin_line(raw: str) -> str | None:
         return "extruder" if _E_WORD.search(_PAREN.sub("", code[head.end() :])) else "quiet"
     if tenths in MARLIN_QUIET_G:
         return "quiet"
+    if tenths == 530 and not _PARAMETER_GMT.search(words):
+        # G53 with no command to chain (parser.cpp ``chain``): the default build has no G53;
+        # with CNC_COORDINATE_SYSTEMS it leaves the workspace offsets, and nothing moves
+        return "quiet"
     if tenths not in G_GROUPS:
         return "quiet"  # Marlin: unknown_command_warning(), and on (Bambu's G392, G380, ...)
     if tenths in MARLIN_NO_WORDS_G and _WORD.search(_PAREN.sub("", words)):
@@ -143,6 +156,13 @@ def marlin_line(raw: str) -> str | None:
     if _PARAMETER_GMT.search(words):
         return "parameters"
     return None
+
+
+def marlin_without_subcode(raw: str) -> str:
+    """A "subcode" line (:func:`marlin_line`) with its command's subcode dropped, as Marlin
+    runs it: ``G91.1`` is a G91, ``G1.5 X3`` a G1, ``G28.1`` homes."""
+    _, head = _command(raw)
+    return raw[: head.start(2)] + str(int(float(head.group(2)))) + raw[head.end(2) :]
 
 
 def _command(raw: str) -> tuple[str, re.Match[str]]:
