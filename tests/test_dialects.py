@@ -113,7 +113,8 @@ def test_marlin_ends_a_spiral_at_an_end_point_off_its_circle_by_rounding() -> No
 
 
 def test_marlin_rules() -> None:
-    assert "R mixed" in error_of("G0 X9 Y6\nG3 X2 Y7 R5 I1", "marlin").message
+    # G2_G3.cpp reads R first: the I of an arc with a radius is ignored
+    assert run("G0 X9 Y6\nG3 X2 Y7 R5 I1", "marlin") == run("G0 X9 Y6\nG3 X2 Y7 R5", "marlin")
     assert "neither X nor Y" in error_of("G2 R5", "marlin").message
     assert "ends where it starts" in error_of("G2 X0 Y0 R5", "marlin").message
     (arc,) = run("G2 I20 J20 E3 S100", "marlin")  # seed: complete circle; E and S ignored
@@ -399,19 +400,20 @@ def test_marlin_printer_codes_are_accepted_without_motion() -> None:
 def test_marlin_skips_lines_it_does_not_know_and_ignores_m_t_words_after_g() -> None:
     """Marlin answers a line with no command "Unknown command" and goes on, and reads the M and
     T words of a G line as parameters the command ignores (found in real printer files: a stray
-    "1", a "% text" banner, Klipper macros, "G90 M107")."""
+    "1", a "% text" banner, Klipper macros, "G90 M107"); a block delete "/", a "#" and a line
+    opening with a tab are unknown commands too (its reader skips spaces only), and "Y#1" is a
+    Y with no value: no Y move (the host-built oracle buffers these moves, the zero-length one
+    too)."""
     text = (
         "G21\n1\n% print start\nPRINT_START BED=60 EXTRUDER=210\nEXCLUDE_OBJECT_DEFINE NAME=a\n"
-        "G90 M107\nG1 X5 F600 T1 ; M3 in a comment\n/G1 X7\n#1=2\nG1 Y#1\n"
+        "G90 M107\nG1 X5 F600 T1 ; M3 in a comment\n/G1 X7\n#1=2\nG1 Y#1\n\tG1 X9\n"
     )
     moves = run(text, "marlin")
-    assert [(m.line, m.end) for m in moves] == [
-        (7, (5.0, 0.0, 0.0)),
-        (8, (7.0, 0.0, 0.0)),
-        (10, (7.0, 2.0, 0.0)),
-    ]
-    # the M word leaves a word boundary (not F100.5), and a comment's M is the comment's
-    assert error_of("G21\nG1 X1 F100 M3.5.5\n", "marlin").line == 2
+    assert [(m.line, m.end) for m in moves] == [(7, (5.0, 0.0, 0.0)), (10, (5.0, 0.0, 0.0))]
+    # the M word is a parameter G1 does not read (M3.5.5 is no F100.5), and a comment's M is
+    # the comment's
+    moves = run("G21\nG1 X1 F100 M3.5.5\n", "marlin")
+    assert [(m.end, m.feed_mm_per_min) for m in moves] == [((1.0, 0.0, 0.0), 100.0)]
     moves = run("G21\nG1 X1 (M3 note) F100 M5\n", "marlin")
     assert [(m.end, m.feed_mm_per_min) for m in moves] == [((1.0, 0.0, 0.0), 100.0)]
     # a line of bare axis words is still the shared step's: no motion mode yet, refused
@@ -584,6 +586,35 @@ def test_marlin_drops_the_subcode_of_a_command_that_reads_none() -> None:
         (12, "rapid", (0.0, 3.0, 0.0)),
         (13, "linear", (0.0, 7.0, 0.0)),  # homing cleared X's G92 shift
     ]
+
+
+def test_marlin_reads_a_motions_parameters_as_its_parser_does() -> None:
+    """GCodeParser::parse keeps one value a letter, its last occurrence's, none where that has
+    no number (``G00 Z8.0000 F``, Estlcam 11's line, keeps the feed; ``G1 X14 X`` moves no X),
+    ends a value where its number ends (``Y1 0`` is Y1), and a command reads only its own
+    parameters (I, J, R on a G1, K on an XY arc, S T H D L are ignored; an arc's R wins over
+    I and J, and a valueless R leaves them). The host-built oracle buffers exactly these moves
+    (2026-11-30); each line was refused before."""
+    text = (
+        "G21\nG90\nG00 Z8.0000 F\nG1 X5 F600 F1200\nG1 X6 I2 J3 R4\nG2 X10 Y0 I2 K3\n"
+        "G1 X12 Y1 0\nG1 X13 E\nG1 X14 X\nG1 X15 Y2 S100 T1 H3 D2 L1\nG2 X20 Y2 R I2.5 J0\n"
+        "G1 X21 F\n"
+    )
+    moves = run(text, "marlin")
+    assert [(m.line, m.end, m.feed_mm_per_min) for m in moves] == [
+        (3, (0.0, 0.0, 8.0), 1500.0),  # Marlin's feed before any F
+        (4, (5.0, 0.0, 8.0), 1200.0),
+        (5, (6.0, 0.0, 8.0), 1200.0),
+        (6, (10.0, 0.0, 8.0), 1200.0),
+        (7, (12.0, 1.0, 8.0), 1200.0),
+        (8, (13.0, 1.0, 8.0), 1200.0),
+        (9, (13.0, 1.0, 8.0), 1200.0),
+        (10, (15.0, 2.0, 8.0), 1200.0),
+        (11, (20.0, 2.0, 8.0), 1200.0),
+        (12, (21.0, 2.0, 8.0), 1200.0),
+    ]
+    assert moves[3].center == pytest.approx((8.0, 0.0, 8.0))  # I2: K3 ignored
+    assert moves[8].center == pytest.approx((17.5, 2.0, 8.0))  # R with no value: I J
 
 
 def test_marlin_g28_homes_named_axes_and_g92_sets_the_position() -> None:

@@ -44,6 +44,7 @@ from gantry_sim.controller.gcode.printer_codes import (
     marlin_dwell_seconds,
     marlin_extruder,
     marlin_feed_percent,
+    marlin_motion,
     marlin_without_subcode,
     without_marlin_parameters,
 )
@@ -128,6 +129,8 @@ class Source:
                 return Block(i + 1, (), (), False, raw)
         if kind == "command_alone":  # Marlin: G20, G21, G90, G91 read no word
             return lex_line(marlin_command_alone(raw), i + 1, self.system_lines)
+        if kind == "motion":  # Marlin: G0-G3, G5, G92 read as its parser reads them
+            return lex_line(marlin_motion(raw), i + 1, self.system_lines)
         if kind == "parameters":  # Marlin: G, M and T words after a G command are ignored
             return lex_line(without_marlin_parameters(raw), i + 1, self.system_lines)
         if kind == "home":  # Marlin G28 [X] [Y] [Z]: bare axis letters name the axes to home

@@ -335,6 +335,8 @@ MARLIN = Dialect(
     positive_feed_only=True,
     # a "%" line is an "Unknown command" to Marlin (GCodeParser::parse), and on to the next
     percent_delimits=False,
+    # G2_G3.cpp reads the plane's two offsets only (I J in G17): a K there is ignored
+    off_plane_offset_ignored=True,
 )
 
 LASERDYNE_ON_ARC_TOL_MM = 0.005

@@ -102,7 +102,8 @@ def marlin_line(raw: str) -> str | None:
     "parameters" (a G line with G, M or T words, which Marlin reads as parameters the command
     ignores), "command_alone" (a G of :data:`MARLIN_NO_WORDS_G` with words:
     :func:`marlin_command_alone`),
-    "save" (G60) and "restore" (G61), which :class:`MarlinLines` reads, "subcode" (a G whose
+    "motion" (G0-G3, G5, G92: :func:`marlin_motion`), "save" (G60) and "restore" (G61),
+    which :class:`MarlinLines` reads, "subcode" (a G whose
     subcode Marlin drops: :func:`marlin_without_subcode`), or None (a shared G-code
     line). GcodeError for a refused G code."""
     if _TEXT.match(raw):
@@ -153,6 +154,13 @@ def marlin_line(raw: str) -> str | None:
         return "quiet"  # Marlin: unknown_command_warning(), and on (Bambu's G392, G380, ...)
     if tenths in MARLIN_NO_WORDS_G and _WORD.search(_PAREN.sub("", words)):
         return "command_alone"
+    if tenths in _MOTION_READS:
+        # most printer lines need no reading of Marlin's own: the shared step reads them alike
+        if tenths <= 10 and _PLAIN_G01_WORDS.fullmatch(words):
+            letters = words.translate(_NOT_LETTERS)
+            if len(set(letters)) == len(letters):  # no letter twice
+                return None
+        return "motion"
     if _PARAMETER_GMT.search(words):
         return "parameters"
     return None
@@ -163,6 +171,56 @@ def marlin_without_subcode(raw: str) -> str:
     runs it: ``G91.1`` is a G91, ``G1.5 X3`` a G1, ``G28.1`` homes."""
     _, head = _command(raw)
     return raw[: head.start(2)] + str(int(float(head.group(2)))) + raw[head.end(2) :]
+
+
+#: The parameters each Marlin command of a "motion" line reads, by its code in tenths:
+#: G0/G1 (get_destination_from_command: the axes, E, F), G2/G3 (and I, J, K, R, P:
+#: G2_G3.cpp), G5 (I, J, P, Q: G5.cpp), G92 (the axes and E). Every other word of the line is
+#: set by the parser and read by no one (``G1 X5 I2 S100 T1``: a G1 X5).
+_MOTION_READS = {
+    0: "XYZEF",
+    10: "XYZEF",
+    20: "XYZEFIJKRP",
+    30: "XYZEFIJKRP",
+    50: "XYZEFIJPQ",
+    920: "XYZE",
+}
+#: The words of a G0/G1 line that Marlin and the shared step read alike: X Y Z E F, each with
+#: a number, spaces between (a repeated letter is checked apart); anything else is read by
+#: :func:`marlin_motion`.
+_PLAIN_G01_WORDS = re.compile(r"(?: *[XYZEF] *[-+]?(?:\d+\.?\d*|\.\d+))* *")
+_NOT_LETTERS = str.maketrans("", "", "0123456789.+- ")
+#: One step of GCodeParser::parse's parameter loop (parser.cpp, FASTER_GCODE_PARSER): a letter,
+#: the spaces after it and the run of [0-9.+-] there (its value, if it is a number), then
+#: spaces; or any other character, then such a run and spaces (passed over).
+_MARLIN_STEP = re.compile(r"([A-Za-z]) *([0-9.+-]*) *|.[0-9.+-]* *", re.DOTALL)
+#: valid_float: a value starts [-+]?.?[0-9]; value_float: strtof's number from there (it stops
+#: at a space, E or X, as Marlin cuts it before calling strtof)
+_MARLIN_VALUE = re.compile(r"[-+]?(?:\d+\.?\d*|\.\d+)")
+
+
+def marlin_motion(raw: str) -> str:
+    """A "motion" line (:func:`marlin_line`) as Marlin reads it, written as the shared step
+    reads it: its command, then each parameter the command reads with the value of its last
+    occurrence (Marlin's parser keeps one pointer a letter, the last one set), left out where
+    that occurrence has no value (``G0 Z8 F`` keeps the feed; ``G1 X5 X`` moves no X) and,
+    on an arc with a radius, its I, J and K (G2_G3.cpp reads R first). A value ends where its
+    number does: ``Y1 0`` is Y1, ``X1.5.5`` X1.5. ``( )`` comments are dropped, as the
+    PAREN_COMMENTS build's reader drops them (the default build reads their words)."""
+    code, head = _command(raw)
+    tenths = round(float(head.group(2)) * 10)
+    reads = _MOTION_READS[tenths]
+    params: dict[str, str | None] = {}
+    # ( ) comments (closed by lexer.firmware_comments) as PAREN_COMMENTS' reader drops them
+    for step in _MARLIN_STEP.finditer(_PAREN.sub("", code[head.end() :])):
+        letter = step.group(1)
+        if letter is not None:
+            value = _MARLIN_VALUE.match(step.group(2))
+            params[letter.upper()] = value.group() if value else None
+    if params.get("R") is not None:
+        params.update(dict.fromkeys("IJK"))
+    words = " ".join(f"{k}{v}" for k, v in params.items() if v is not None and k in reads)
+    return f"{head.group()} {words}"
 
 
 def _command(raw: str) -> tuple[str, re.Match[str]]:
@@ -224,10 +282,11 @@ def marlin_feed_percent(raw: str) -> tuple[bool, bool, int | None]:
 
 #: A line Marlin answers with "Unknown command": one that opens with neither a letter and a
 #: value nor a comment (a stray number, ``% text``, a Klipper macro such as ``PRINT_START
-#: BED=60``). A line of bare axis words (``X10 Y5``), a block delete ``/``, a parameter
-#: setting ``#`` and a lone ``%`` are left to the shared step. The line number is taken whole
-#: (an atomic group): ``N10 G1`` is not ``N1`` and a stray ``0``.
-_NOT_A_COMMAND = re.compile(r"^\s*(?>N\d+\s*)?(?:[^A-Za-z(\s/#%]|%.*\S|[A-Za-z][A-Za-z_])")
+#: BED=60``, a block delete ``/`` or a ``#``, which Marlin has not, or a tab: its reader skips
+#: spaces only, GCodeParser::parse). A line of bare axis words (``X10 Y5``) and a lone ``%``
+#: are left to the shared step. The line number is taken whole (an atomic group): ``N10 G1``
+#: is not ``N1`` and a stray ``0``.
+_NOT_A_COMMAND = re.compile(r"^ *(?>N\d+ *)?(?:[^A-Za-z( %]|%.*\S|[A-Za-z][A-Za-z_])")
 #: Any word (a letter and a value).
 _WORD = re.compile(r"[A-Z]\s*[-+]?[.\d]", re.IGNORECASE)
 #: An M or T word after a G command: a parameter to Marlin, which that command ignores.
