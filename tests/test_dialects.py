@@ -45,11 +45,33 @@ def test_g2core_explicit_end_equal_to_start_moves_nothing() -> None:
 
 
 def test_g2core_radius_mismatch_thresholds() -> None:
-    # Seed 000: more than 0.5 mm, or more than 0.005 mm AND 0.1 % of the radius.
+    """plan_arc.cpp refuses an end radius more than 1.0 mm from the start's (plan_arc.h
+    ARC_RADIUS_ERROR_MAX; its 0.5 is commented out), or more than 0.005 mm AND 0.1 % of the
+    start radius, in mm whatever the units (it converts first); and an R below 0.1 mm
+    (MIN_ARC_RADIUS). (The wiki says 0.5 mm.)"""
     assert run("F10\nG2 X2.004 I1", "g2core")
     assert error_of("F10\nG2 X2.006 I1", "g2core").line == 2
-    assert run("F10\nG2 X2000.4 I1000", "g2core")  # 0.04 %, below 0.5 mm
-    assert error_of("F10\nG2 X2000.6 I1000", "g2core").line == 2
+    assert run("F10\nG2 X2000.6 I1000", "g2core")  # 0.03 %, below 1.0 mm
+    assert run("F10\nG3 X1000 Y1000.8 I1000", "g2core")  # 0.8 mm: 0.08 % of R 1000
+    assert error_of("F10\nG2 X4001.2 I2000", "g2core").line == 2  # 1.2 mm: 0.06 %, over 1.0
+    # G20: 0.0003 in is 0.00762 mm, over 0.005 mm and 0.3 % of R 0.1 in
+    assert error_of("G20 F10\nG2 X0.2003 I0.1", "g2core").line == 2
+    assert error_of("F10\nG2 X0.1 R0.05", "g2core").line == 2
+    assert run("F10\nG2 X0.1 R0.1", "g2core")
+
+
+def test_g2core_reads_what_its_normalizer_and_canonical_machine_leave() -> None:
+    """gcode_parser.cpp's _normalize_gcode_block copies letters, digits, - and . only (a U+2028
+    an editor left in bantamtools/omctest's ReorderingWords.nc, a +, a #: dropped); a bare G92
+    turns the G92 offsets back on (cm_set_g92_offsets, as G92.3: omctest's G92 tests); a block
+    started in G93 takes F 0 unless it has one, so the G94 after G93 leaves no feed."""
+    moves = run("G21 G90\nG1 X10 F600\n\u2028G1 X+20 Y#5\n", "g2core")
+    assert [m.end for m in moves] == [(10.0, 0.0, 0.0), (20.0, 5.0, 0.0)]
+    moves = run("G21 G90\nG1 X10 F600\nG92 X0\nG92.2\nG92\nG1 X5\n", "g2core")
+    assert moves[-1].end == (15.0, 0.0, 0.0)
+    assert error_of("G92\nM2\n", "linuxcnc").line == 1
+    refused = error_of("G21\nG1 X1 F600\nG93\nG1 X2 F2\nG94\nG1 X3\n", "g2core")
+    assert refused.line == 6 and "zero feed" in refused.message
 
 
 def test_g2core_takes_the_last_of_repeated_words() -> None:
@@ -697,7 +719,8 @@ def test_g2core_single_character_controls_and_status_lines_move_nothing() -> Non
     for held in ("!", "~!G1 X5", "  !"):
         refused = error_of(f"G1 X1 F100\n{held}\nG1 X2\n", "g2core")
         assert refused.line == 2 and "feedhold" in refused.message and "sender" in refused.message
-    assert "real-time commands" in error_of("G1 X3 ~\n", "g2core").message  # not at the start
+    # not at the start, a ~ is part of the G-code line, whose normalizer drops it
+    assert [m.end for m in run("G1 X3 F100 ~\n", "g2core")] == [(3.0, 0.0, 0.0)]
     assert "real-time commands" in error_of("~\nM2\n", "linuxcnc").message
 
 

@@ -150,6 +150,11 @@ def arc_move(
             )
         if v["R"] == 0.0 and d.r_short_is_semicircle:
             raise GcodeError("R0 gives no arc; R is the arc radius, non-zero")
+        if abs(v["R"]) * unit < d.min_r_word_mm:
+            raise GcodeError(
+                f"R{v['R']:g} is below {d.name}'s smallest arc radius, {d.min_r_word_mm:g} mm "
+                "(MIN_ARC_RADIUS)"
+            )
         centre = centre_from_radius(ps, pe, v["R"], ccw, min_r, d.r_short_is_semicircle)
         if unused_offsets:
             raise GcodeError(

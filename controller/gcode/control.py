@@ -40,6 +40,7 @@ from gantry_sim.controller.gcode.lexer import (
 from gantry_sim.controller.gcode.printer_codes import (
     after_controls,
     as_g92,
+    g2core_characters,
     marlin_command_alone,
     marlin_dwell_seconds,
     marlin_extruder,
@@ -129,6 +130,8 @@ class Source:
                 return Block(i + 1, (), (), False, raw)
         if kind == "command_alone":  # Marlin: G20, G21, G90, G91 read no word
             return lex_line(marlin_command_alone(raw), i + 1, self.system_lines)
+        if kind == "characters":  # g2core: the characters its normalizer drops left out
+            return lex_line(g2core_characters(raw), i + 1, self.system_lines)
         if kind == "motion":  # Marlin: G0-G3, G5, G92 read as its parser reads them
             return lex_line(marlin_motion(raw), i + 1, self.system_lines)
         if kind == "parameters":  # Marlin: G, M and T words after a G command are ignored

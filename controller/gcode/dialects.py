@@ -158,12 +158,15 @@ class Dialect:
         feed_mode_clears_feed: whose rule sets the feed to 0 at a feed mode word, before the
             line's F is read: ``"linuxcnc"``, every G94 and G95 (rs274's convert_feed_mode,
             even in the mode already in effect); ``"grbl"``, G94 after G93 (the feed is
-            undefined after leaving inverse time); ``""``: the feed is kept.
+            undefined after leaving inverse time; g2core too); ``""``: the feed is kept.
+        min_r_word_mm: an R word (radius-format arc) below this [mm, whatever the units] is
+            refused (g2core's MIN_ARC_RADIUS); 0: none.
         permissive_blocks: blocks rs274 refuses that g2core's parser lets through run as it runs
             them (gcode_parser.cpp, canonical_machine.cpp, plan_arc.cpp): a G92/G10/G28/G30
             beside G0-G3 takes the axis words and the motion code only sets the mode; axis
             words with no motion mode (g2core starts with motion cancelled) move nothing; a
-            line continuing a modal G2/G3 with no centre offset or radius moves nothing.
+            line continuing a modal G2/G3 with no centre offset or radius moves nothing; a G92
+            with no axis word turns the G92 offsets back on (cm_set_g92_offsets: as G92.3).
         feed_in_line_units: F is read in the units this line selects (grbl's gcode.c converts
             F after taking the line's G20/G21: ``G20 G1 X1 F10`` is 254 mm/min); False: in the
             units in effect before the line (rs274: that line's F is 10 mm/min).
@@ -249,6 +252,7 @@ class Dialect:
     g93_arc_per_segment: bool = False
     g10_p_truncated: bool = False
     permissive_blocks: bool = False
+    min_r_word_mm: float = 0.0
 
 
 _TOL_MM = 2 * 0.01 * math.sqrt(2.0)  # 0.028284 mm, rs274 CENTER_ARC_RADIUS_TOLERANCE_MM
@@ -282,7 +286,9 @@ LINUXCNC = Dialect(
 G2CORE = Dialect(
     name="g2core",
     explicit_end_full_circle=False,
-    radius_check=RadiusCheck(0.005, 0.5, 0.0005, 0.05, 0.001),
+    # plan_arc.h: ARC_RADIUS_ERROR_MAX 1.0 mm (its 0.5 commented out), MIN 0.005 mm, 0.1 % of
+    # the start radius, compared in mm whatever the units (plan_arc.cpp converts first)
+    radius_check=RadiusCheck(0.005, 1.0, 0.005 / 25.4, 1.0 / 25.4, 0.001, rel_to_start=True),
     project_end_on_arc=False,
     both_offsets_required=False,
     p_adds_circles=False,
@@ -302,6 +308,10 @@ G2CORE = Dialect(
     permissive_blocks=True,
     firmware_comments="g2core",
     percent_delimits=False,
+    # a block started in G93 takes F 0 unless it gives one (gcode_parser.cpp): the G94 after
+    # G93 leaves no feed
+    feed_mode_clears_feed="grbl",
+    min_r_word_mm=0.1,  # plan_arc.h MIN_ARC_RADIUS
 )
 
 MARLIN = Dialect(

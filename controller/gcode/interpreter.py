@@ -320,6 +320,8 @@ class Interpreter:
         elif nonmodal == 100:
             s = g10(s, self.params, w.values, d.coordinate_systems, d.language, d.g10_p_truncated)
         elif nonmodal in (920, 921, 922, 923, 520):
+            if nonmodal == 920 and d.permissive_blocks and _AXIS_LETTERS.isdisjoint(w.values):
+                nonmodal = 923  # g2core: a bare G92 turns the G92 offsets back on
             s = g92(s, self.params, nonmodal, w.values)
             if nonmodal == 920 and s.extruder is not None and "E" in w.values:
                 s = evolve(s, extruder=s.extruder.at(w.values["E"] * s.scale))

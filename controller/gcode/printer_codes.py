@@ -332,7 +332,8 @@ _FEEDHOLD = (
 def g2core_line(raw: str) -> str | None:
     """ "quiet" for a g2core JSON or text-mode line, G28.2/G28.4, or a control after blanks;
     "controls" for a line opening with single-character controls (:func:`after_controls`);
-    "set_origin" for G28.3; None otherwise."""
+    "set_origin" for G28.3; "characters" for a G-code line holding a character g2core drops
+    (:func:`g2core_characters`); None otherwise."""
     if raw.lstrip(" \t" + G2CORE_CONTROLS)[:1] == "!":
         raise GcodeError(_FEEDHOLD)
     if raw[:1] and raw[0] in G2CORE_CONTROLS:
@@ -342,7 +343,23 @@ def g2core_line(raw: str) -> str | None:
     head = raw.lstrip(" \t")[:1]
     if (head and head in "{?$Hh" + G2CORE_CONTROLS) or _G2CORE_QUIET.match(raw):
         return "quiet"
+    if _G2CORE_DROPPED.search(_PAREN.sub("", raw)):
+        return "characters"
     return None
+
+
+#: What g2core's _normalize_gcode_block (gcode_parser.cpp) copies of a G-code line outside
+#: its comments: letters, digits, "-" and "."; blanks end a word; anything else is dropped
+#: (a "+", a "#", a U+2028 LINE SEPARATOR some editors leave in a file).
+_G2CORE_DROPPED = re.compile(r"[^A-Za-z0-9.\- \t\r\n\f\v()]")  # isspace() of C: ASCII
+_G2CORE_COMMENT_OR_DROPPED = re.compile(r"\([^)]*\)?|" + _G2CORE_DROPPED.pattern)
+
+
+def g2core_characters(raw: str) -> str:
+    """A "characters" line (:func:`g2core_line`; its comments closed by
+    lexer.firmware_comments) as g2core parses it: the characters its normalizer drops left out
+    (``X+5`` is X5), its comments kept."""
+    return _G2CORE_COMMENT_OR_DROPPED.sub(lambda m: m.group() if m.group()[0] == "(" else "", raw)
 
 
 def after_controls(raw: str) -> str:
