@@ -209,10 +209,11 @@ def _balanced_comments(raw: str) -> str:
     """``raw`` with its ``(`` comments read as nesting (Marlin): a ``(`` inside a comment opens
     one more level, the comment ends at the ``)`` that closes the first, or at the line's end;
     a ``;`` outside a comment ends the line; a ``)`` outside one is dropped. Marlin's
-    PAREN_COMMENTS reader ends a comment at its first ``)``, and its parser skips what follows
-    that is no word of the command (a ``)``, a letter with no value): the same words and motion
-    on every line whose parentheses balance. Each comment is returned closed, with no
-    parenthesis inside."""
+    PAREN_COMMENTS reader ends a comment at its first ``)``, and its parser reads what follows
+    it as words: the same motion on a line whose parentheses balance unless the text after an
+    inner ``)`` holds a letter the command reads (``E1 (a (b) one)``: Marlin's parser keeps
+    the last E, of no value, and the move does not extrude; here it does). Each comment is
+    returned closed, with no parenthesis inside."""
     out: list[str] = []
     depth = 0
     for ch in raw:
