@@ -116,7 +116,7 @@ def _run(text: str, dialect: str) -> tuple[list, tuple[str, int | None] | None]:
 
 
 @pytest.mark.parametrize("dialect", sorted(DIALECTS))
-@settings(max_examples=60, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@settings(max_examples=30, deadline=None, suppress_health_check=[HealthCheck.too_slow])
 @given(text=_program())
 def test_the_plain_step_is_the_general_steps(dialect, text):
     fast = _run(text, dialect)
