@@ -67,6 +67,10 @@ def test_g2core_reads_what_its_normalizer_and_canonical_machine_leave() -> None:
     started in G93 takes F 0 unless it has one, so the G94 after G93 leaves no feed."""
     moves = run("G21 G90\nG1 X10 F600\n\u2028G1 X+20 Y#5\n", "g2core")
     assert [m.end for m in moves] == [(10.0, 0.0, 0.0), (20.0, 5.0, 0.0)]
+    # _verify_checksum ends the line at its first *, before normalizing (not X597; and in a
+    # comment too, which then runs to the line's end)
+    moves = run("G21 F600\nN1 G1 X5*97\nN2 G1 Y2 (a*b) X3\n", "g2core")
+    assert [m.end for m in moves] == [(5.0, 0.0, 0.0), (5.0, 2.0, 0.0)]
     moves = run("G21 G90\nG1 X10 F600\nG92 X0\nG92.2\nG92\nG1 X5\n", "g2core")
     assert moves[-1].end == (15.0, 0.0, 0.0)
     assert error_of("G92\nM2\n", "linuxcnc").line == 1

@@ -76,7 +76,7 @@ class Source:
     system_lines: bool = False
     own_lines: Callable[[str], str | None] | None = None
     realtime: bool = False
-    checksums: bool = False
+    checksums: str = ""
     comments: str = ""
     line_limit: str = ""  # whose line length limit applies (lexer.line_too_long)
     blocks: OrderedDict[int, Block | GcodeError] = field(default_factory=OrderedDict)
@@ -103,8 +103,8 @@ class Source:
             too_long = line_too_long(raw, self.line_limit)
             if too_long is not None:
                 raise GcodeError(too_long)
-        if self.checksums and "*" in raw:
-            raw = without_checksum(raw)
+        if self.checksums and "*" in raw:  # g2core: the first * anywhere
+            raw = without_checksum(raw) if self.checksums == "marlin" else raw.split("*", 1)[0]
         if self.comments:
             raw = firmware_comments(raw, self.comments)
         kind = self.own_lines(raw) if self.own_lines is not None else None
@@ -270,7 +270,7 @@ class Runner:
         owords: bool = True,
         own_lines: Callable[[str], str | None] | None = None,
         realtime: bool = False,
-        checksums: bool = False,
+        checksums: str = "",
         comments: str = "",
         percent_delimits: bool = True,
         line_limit: str = "",

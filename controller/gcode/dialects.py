@@ -115,8 +115,10 @@ class Dialect:
             above 0x7F out of the stream before a line is parsed (grbl's realtime commands:
             status, cycle start, feed hold, reset, and the extended-ASCII overrides), so they
             may stand anywhere in a line.
-        checksums: a ``*`` outside a comment ends the line (a host's checksum, ``N12 G1 X5*97``):
-            Marlin's parser cuts the line there (controller/gcode/lexer.py ``without_checksum``).
+        checksums: whose rule ends a line at a ``*`` (a host's checksum, ``N12 G1 X5*97``):
+            ``"marlin"``, its first ``*`` outside a comment (GCodeParser::parse; lexer.py
+            ``without_checksum``); ``"g2core"``, its first ``*`` anywhere (gcode_parser.cpp
+            ``_verify_checksum``, before the line is normalized); ``""``: none.
         g10_rotation: G10 L2 takes R (the XY rotation).
         coordinate_systems: how many of G54..G59.3 exist (grbl: 6).
         error_codes: (message fragment, firmware error number) pairs; the first match is
@@ -222,7 +224,7 @@ class Dialect:
     arc_needs_plane_axis_word: bool = False
     initial_motion: int | None = None
     realtime_characters: bool = False
-    checksums: bool = False
+    checksums: str = ""
     g10_rotation: bool = True
     coordinate_systems: int = 9
     error_codes: tuple[tuple[str, int], ...] = ()
@@ -312,6 +314,7 @@ G2CORE = Dialect(
     # G93 leaves no feed
     feed_mode_clears_feed="grbl",
     min_r_word_mm=0.1,  # plan_arc.h MIN_ARC_RADIUS
+    checksums="g2core",
 )
 
 MARLIN = Dialect(
@@ -336,7 +339,7 @@ MARLIN = Dialect(
     own_lines="marlin",
     splines="marlin",
     g0_at_feed=True,
-    checksums=True,
+    checksums="marlin",
     extruder=True,
     # queue.cpp process_stream_char (PAREN_COMMENTS) and GCodeParser::parse: a comment left
     # open or holding a ( is no error (lexer._balanced_comments); its default build reads no
