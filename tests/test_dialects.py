@@ -619,12 +619,13 @@ def test_marlin_reads_a_motions_parameters_as_its_parser_does() -> None:
     no number (``G00 Z8.0000 F``, Estlcam 11's line, keeps the feed; ``G1 X14 X`` moves no X),
     ends a value where its number ends (``Y1 0`` is Y1), and a command reads only its own
     parameters (I, J, R on a G1, K on an XY arc, S T H D L are ignored; an arc's R wins over
-    I and J, and a valueless R leaves them). The host-built oracle buffers exactly these moves
+    I and J, and a valueless R leaves them; a G92 left with nothing reports the position).
+    The host-built oracle buffers exactly these moves
     (2026-11-30); each line was refused before."""
     text = (
         "G21\nG90\nG00 Z8.0000 F\nG1 X5 F600 F1200\nG1 X6 I2 J3 R4\nG2 X10 Y0 I2 K3\n"
         "G1 X12 Y1 0\nG1 X13 E\nG1 X14 X\nG1 X15 Y2 S100 T1 H3 D2 L1\nG2 X20 Y2 R I2.5 J0\n"
-        "G1 X21 F\n"
+        "G1 X21 F\nG92 S5\n"
     )
     moves = run(text, "marlin")
     assert [(m.line, m.end, m.feed_mm_per_min) for m in moves] == [

@@ -220,6 +220,8 @@ def marlin_motion(raw: str) -> str:
     if params.get("R") is not None:
         params.update(dict.fromkeys("IJK"))
     words = " ".join(f"{k}{v}" for k, v in params.items() if v is not None and k in reads)
+    if tenths == 920 and not words:
+        return ""  # a G92 of no axis and no E reports the position; nothing changes
     return f"{head.group()} {words}"
 
 
