@@ -66,6 +66,22 @@ DEFAULT_MAX_ITERATIONS = 1_000_000
 LEXED_LINES_KEPT = 8192
 
 
+#: Own-line kinds (printer_codes) whose line is classified again once rewritten: g2core's
+#: controls split off a line's start, Marlin's subcode dropped (G91.1 is a G91).
+_READ_AGAIN: dict[str, Callable[[str], str]] = {
+    "controls": after_controls,
+    "subcode": marlin_without_subcode,
+}
+#: Own-line kinds read by the shared lexer once rewritten as the controller reads them.
+_REWRITTEN: dict[str, Callable[[str], str]] = {
+    "set_origin": as_g92,  # g2core G28.3: a G92 of its words
+    "command_alone": marlin_command_alone,  # Marlin: G17-G21, G54-G59, G80, G90, G91 read no word
+    "characters": g2core_characters,  # g2core: the characters its normalizer drops left out
+    "motion": marlin_motion,  # Marlin: G0-G3, G5, G92 read as its parser reads them
+    "parameters": without_marlin_parameters,  # Marlin: G, M, T words after a G command
+}
+
+
 @dataclass(eq=False)
 class Source:
     """One file's lines, lexed on first use (a lexing error is raised only when the line runs);
@@ -108,14 +124,14 @@ class Source:
         if self.comments:
             raw = firmware_comments(raw, self.comments)
         kind = self.own_lines(raw) if self.own_lines is not None else None
-        while kind in ("controls", "subcode"):
-            # g2core: a ~ opening the line is a line of its own; Marlin drops G91.1's .1
-            raw = after_controls(raw) if kind == "controls" else marlin_without_subcode(raw)
+        while kind is not None and kind in _READ_AGAIN:
+            raw = _READ_AGAIN[kind](raw)
             kind = self.own_lines(raw) if self.own_lines is not None else None
         if kind == "quiet":
             return Block(i + 1, (), (), False, raw)
-        if kind == "set_origin":  # g2core G28.3
-            return lex_line(as_g92(raw), i + 1, self.system_lines)
+        rewrite = _REWRITTEN.get(kind) if kind is not None else None
+        if rewrite is not None:
+            return lex_line(rewrite(raw), i + 1, self.system_lines)
         if kind in ("dwell", "wait"):  # Marlin G4: the shared G4 with P in seconds; M400...
             seconds = marlin_dwell_seconds(raw) if kind == "dwell" else 0.0
             return Block(i + 1, (("G", ("num", 4.0)), ("P", ("num", seconds))), (), False, raw)
@@ -128,14 +144,6 @@ class Source:
                 return replace(lex_line(raw, i + 1), limits=True)
             except GcodeError:  # Marlin reads what it can and ignores the rest
                 return Block(i + 1, (), (), False, raw)
-        if kind == "command_alone":  # Marlin: G20, G21, G90, G91 read no word
-            return lex_line(marlin_command_alone(raw), i + 1, self.system_lines)
-        if kind == "characters":  # g2core: the characters its normalizer drops left out
-            return lex_line(g2core_characters(raw), i + 1, self.system_lines)
-        if kind == "motion":  # Marlin: G0-G3, G5, G92 read as its parser reads them
-            return lex_line(marlin_motion(raw), i + 1, self.system_lines)
-        if kind == "parameters":  # Marlin: G, M and T words after a G command are ignored
-            return lex_line(without_marlin_parameters(raw), i + 1, self.system_lines)
         if kind == "home":  # Marlin G28 [X] [Y] [Z]: bare axis letters name the axes to home
             text = strip_line(raw).split(COMMENT, 1)[0]
             axes = tuple((a, ("num", 0.0)) for a in "XYZ" if a in text[text.find("28") :])

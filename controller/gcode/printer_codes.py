@@ -151,7 +151,7 @@ def marlin_line(raw: str) -> str | None:
         # with CNC_COORDINATE_SYSTEMS it leaves the workspace offsets, and nothing moves
         return "quiet"
     if tenths not in G_GROUPS:
-        return "quiet"  # Marlin: unknown_command_warning(), and on (Bambu's G392, G380, ...)
+        return "quiet"  # a subcode it does not know (G38.6) or G800, its parser's debug
     if tenths in MARLIN_NO_WORDS_G and _WORD.search(_PAREN.sub("", words)):
         return "command_alone"
     if tenths in _MOTION_READS:
