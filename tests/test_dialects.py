@@ -614,6 +614,35 @@ def test_marlin_drops_the_subcode_of_a_command_that_reads_none() -> None:
     ]
 
 
+def test_line_numbers_are_read_as_each_controller_reads_them() -> None:
+    """Marlin's GCodeParser::parse skips an N followed by a digit or a sign, then digits and
+    spaces (``N-3 G1 X2`` is a G1; ``N5.5 G1 X4`` leaves ``.5 G1 X4``, an unknown command);
+    the host-built Marlin (2026-11-30) buffers exactly these moves. g2core's parser reads N as
+    a word anywhere, the last one kept (gcode_parser.cpp ``case 'N'``); rs274 takes one only
+    where it opens the line (grbl's rule, also anywhere, is in tests/data/grbl/corpus.jsonl:
+    the ``lineno_*`` programs)."""
+    text = (
+        "G21\nG90\nG1 X1 F600\nN-3 G1 X2\nN+4 G1 X3\nN5.5 G1 X4\nN6G1X5\nN7 M117 hi\n"
+        "N-8 G92 X0\nG1 X1 N9\nN-\n"
+    )
+    assert [(m.line, m.end) for m in run(text, "marlin")] == [
+        (3, (1.0, 0.0, 0.0)),
+        (4, (2.0, 0.0, 0.0)),
+        (5, (3.0, 0.0, 0.0)),
+        (7, (5.0, 0.0, 0.0)),
+        (10, (6.0, 0.0, 0.0)),  # X1 after G92 X0 at X5
+    ]
+    g2 = "G21 G90 F600\nG1 X1 N5\nN-5 G1 X2\nN5 N6 G1 X3\nN7\n"
+    assert [(m.line, m.end) for m in run(g2, "g2core")] == [
+        (2, (1.0, 0.0, 0.0)),
+        (3, (2.0, 0.0, 0.0)),
+        (4, (3.0, 0.0, 0.0)),
+    ]
+    refused = error_of("G1 X1 F100 N5\nM2\n", "linuxcnc")
+    assert refused.line == 1 and "line numbers must open the line" in refused.message
+    assert "N must be followed" in error_of("N-3 G1 X1 F100\nM2\n", "linuxcnc").message
+
+
 def test_marlin_reads_a_motions_parameters_as_its_parser_does() -> None:
     """GCodeParser::parse keeps one value a letter, its last occurrence's, none where that has
     no number (``G00 Z8.0000 F``, Estlcam 11's line, keeps the feed; ``G1 X14 X`` moves no X),

@@ -46,6 +46,7 @@ from gantry_sim.controller.gcode.printer_codes import (
     marlin_extruder,
     marlin_feed_percent,
     marlin_motion,
+    marlin_without_line_number,
     marlin_without_subcode,
     without_marlin_parameters,
 )
@@ -71,6 +72,7 @@ LEXED_LINES_KEPT = 8192
 _READ_AGAIN: dict[str, Callable[[str], str]] = {
     "controls": after_controls,
     "subcode": marlin_without_subcode,
+    "line_number": marlin_without_line_number,
 }
 #: Own-line kinds read by the shared lexer once rewritten as the controller reads them.
 _REWRITTEN: dict[str, Callable[[str], str]] = {
@@ -95,6 +97,7 @@ class Source:
     checksums: str = ""
     comments: str = ""
     line_limit: str = ""  # whose line length limit applies (lexer.line_too_long)
+    line_number_words: bool = False  # N is a word anywhere on a line (lexer.lex_line)
     blocks: OrderedDict[int, Block | GcodeError] = field(default_factory=OrderedDict)
 
     def block(self, i: int) -> Block:
@@ -131,7 +134,7 @@ class Source:
             return Block(i + 1, (), (), False, raw)
         rewrite = _REWRITTEN.get(kind) if kind is not None else None
         if rewrite is not None:
-            return lex_line(rewrite(raw), i + 1, self.system_lines)
+            return lex_line(rewrite(raw), i + 1, self.system_lines, self.line_number_words)
         if kind in ("dwell", "wait"):  # Marlin G4: the shared G4 with P in seconds; M400...
             seconds = marlin_dwell_seconds(raw) if kind == "dwell" else 0.0
             return Block(i + 1, (("G", ("num", 4.0)), ("P", ("num", seconds))), (), False, raw)
@@ -148,7 +151,7 @@ class Source:
             text = strip_line(raw).split(COMMENT, 1)[0]
             axes = tuple((a, ("num", 0.0)) for a in "XYZ" if a in text[text.find("28") :])
             return Block(i + 1, axes, (), False, raw, home=True)
-        return lex_line(raw, i + 1, self.system_lines)
+        return lex_line(raw, i + 1, self.system_lines, self.line_number_words)
 
     def lexed(self, i: int) -> Block | None:
         """Line ``i`` lexed, or None where it cannot be (searches pass over such lines; the
@@ -282,6 +285,7 @@ class Runner:
         comments: str = "",
         percent_delimits: bool = True,
         line_limit: str = "",
+        line_number_words: bool = False,
     ) -> None:
         self.main = Source(
             file,
@@ -292,6 +296,7 @@ class Runner:
             checksums,
             comments,
             line_limit,
+            line_number_words=line_number_words,
         )
         #: a ``%`` line opens and ends the program (rs274); False: it is nothing
         self.percent_delimits = percent_delimits
@@ -678,6 +683,7 @@ class Runner:
                     split_lines(text),
                     comments=self.main.comments,
                     line_limit=self.main.line_limit,
+                    line_number_words=self.main.line_number_words,
                 )
                 at = sub_src.find(0, name, ("sub",))
                 if at is None:

@@ -63,6 +63,8 @@ def check_plain(block: Block, d: Dialect) -> None:
 _GRBL_AXIS_COMMANDS = frozenset((0, 10, 20, 30, 382, 383, 384, 385, 100, 280, 300, 920, 431, 490))
 #: grbl's largest tool number (MAX_TOOL_NUMBER, a byte)
 _GRBL_MAX_TOOL = 255
+#: grbl's largest line number (MAX_LINE_NUMBER, config.h), compared with N's truncated value
+_GRBL_MAX_LINE_NUMBER = 10_000_000
 #: codes whose other decimal parts grbl refuses as unsupported (error 20), not as "not an
 #: integer" (23): G28.x, G30.x, G38.x, G43.x, G61.x, G90.x, G91.x, G92.x
 _GRBL_OTHER_DECIMALS_UNSUPPORTED = frozenset((280, 300, 380, 430, 610, 900, 910, 920))
@@ -84,8 +86,9 @@ def _check_grbl_read_order(block: Block, d: Dialect) -> None:
     (error 20; a decimal part grbl refuses, G28.2, G61.1, G91.2, also 20), a known code with a
     decimal part (G1.5, G59.1, M3.5: "command value not integer", error 23), a second axis
     command (``G0 G1``, ``G92 X1 G0``, ``G28 G92``: error 24, before the modal group), a second
-    code of a modal group (``G0 X1 G80``: error 21), a negative F, P, S or T (error 4). A
-    repeated letter stops the reading: read_words names it (error 25)."""
+    code of a modal group (``G0 X1 G80``: error 21), a negative F, N, P, S or T (error 4). A
+    repeated letter stops the reading: read_words names it (error 25). Then the first check of
+    step 3: an N above grbl's largest line number (error 27)."""
     assert d.g_codes is not None and d.m_codes is not None
     axis_command = False
     groups: dict[str, int] = {}
@@ -141,6 +144,13 @@ def _check_grbl_read_order(block: Block, d: Dialect) -> None:
                 raise GcodeError(
                     f"T{value:g} is above {d.name}'s largest tool number, {_GRBL_MAX_TOOL}"
                 )
+    line_number = next((tree for letter, tree in block.words if letter == "N"), None)
+    if line_number is not None and line_number[0] == "num":  # a negative one is error 4
+        if math.trunc(line_number[1]) > _GRBL_MAX_LINE_NUMBER:
+            raise GcodeError(
+                f"invalid line number N{line_number[1]:.10g}: {d.name} takes line numbers up "
+                f"to {_GRBL_MAX_LINE_NUMBER:,}"
+            )
     if groups.get("Gtool_length") == 431 and letters & set("XYZ") != {"Z"}:
         raise GcodeError("G43.1 on grbl takes a Z word (the tool length offset) and no other axis")
 
@@ -165,14 +175,14 @@ def check_codes(w: Words, d: Dialect) -> None:
 
 
 def check_jog(w: Words) -> None:
-    """A grbl ``$J=`` line: only G20/G21, G90/G91, G53, X/Y/Z and a required F."""
+    """A grbl ``$J=`` line: only G20/G21, G90/G91, G53, X/Y/Z, N and a required F."""
     for code in w.g.values():
         if code not in _JOG_G:
             raise GcodeError(f"{g_name(code)} is not supported in a $J= jog (G20/21, G90/91, G53)")
     if w.m:
         raise GcodeError("M codes are not supported in a $J= jog")
     for letter in w.values:
-        if letter not in "XYZF":
+        if letter not in "XYZFN":
             raise GcodeError(f"{letter} word with no code that uses it in a $J= jog")
     if "F" not in w.values or w.values["F"] <= 0.0:
         raise GcodeError("a $J= jog needs its own F (units per minute, > 0): zero feed rate")

@@ -193,6 +193,9 @@ class Dialect:
             (rs274).
         line_limit: whose longest line applies (controller/gcode/lexer.py ``line_too_long``:
             ``"linuxcnc"`` 252 characters, ``"grbl"`` 79 kept in its line buffer); ``""``: none.
+        line_number_words: N is a word read anywhere on the line, as grbl's gcode.c and
+            g2core's parser read it (a number, truncated; a second N is a repeated word); False:
+            an N line number may only open the line (rs274).
     """
 
     name: str
@@ -255,6 +258,7 @@ class Dialect:
     g10_p_truncated: bool = False
     permissive_blocks: bool = False
     min_r_word_mm: float = 0.0
+    line_number_words: bool = False
 
 
 _TOL_MM = 2 * 0.01 * math.sqrt(2.0)  # 0.028284 mm, rs274 CENTER_ARC_RADIUS_TOLERANCE_MM
@@ -303,6 +307,7 @@ G2CORE = Dialect(
     r_short_is_semicircle=False,
     require_program_end=False,
     system_lines=True,
+    line_number_words=True,
     own_lines="g2core",
     last_word_wins=True,
     home_all_axes=True,
@@ -404,7 +409,7 @@ _GRBL_ERRORS = (
     ("axis words with no motion mode", 31), ("max characters per line", 11),
     ("g92 needs at least one axis word", 26), ("largest tool number", 38),
     ("g43.1 on grbl", 37), ("zero-radius arc", 33), ("'%' is only allowed", 1),
-    ("n must be followed", 4),
+    ("invalid line number", 27),
 )
 # fmt: on
 GRBL = Dialect(
@@ -427,6 +432,7 @@ GRBL = Dialect(
     m_codes=frozenset((0, 1, 2, 30, 3, 4, 5, 7, 8, 9, 56)),
     letters=frozenset("FGIJKLMNPRSTXYZ"),
     system_lines=True,
+    line_number_words=True,
     arc_p_allowed=False,
     off_plane_offset_ignored=True,
     arc_needs_plane_axis_word=True,

@@ -881,6 +881,7 @@ def interpret_events(
             comments=rules.firmware_comments,
             percent_delimits=rules.percent_delimits,
             line_limit=rules.line_limit,
+            line_number_words=rules.line_number_words,
         )
         runner.errors = errors
         runner.on_return = interp.sub_returned

@@ -300,34 +300,38 @@ def without_realtime(raw: str) -> str:
     return _REALTIME.sub("", raw)
 
 
-def lex_line(raw: str, line: int, system_lines: bool = False) -> Block:
+def lex_line(
+    raw: str, line: int, system_lines: bool = False, line_number_words: bool = False
+) -> Block:
     """Lex one source line into a :class:`Block` (GcodeError carries ``line``).
 
     ``system_lines``: a line opening with ``$`` is a system command (grbl): no words, except a
-    ``$J=`` jog, whose words are lexed as a block with ``jog`` set.
+    ``$J=`` jog, whose words are lexed as a block with ``jog`` set. ``line_number_words``: an
+    ``N`` anywhere on the line is a word ``("N", value)`` (grbl, g2core), not rs274's line
+    number, which only opens a line and is dropped.
     """
     try:
         if system_lines and raw.lstrip().startswith("$"):
             text = strip_line(raw)
             if text.startswith("$J="):
-                block = _lex(raw[raw.index("=") + 1 :], line)
+                block = _lex(raw[raw.index("=") + 1 :], line, line_number_words)
                 return Block(line, block.words, block.settings, False, raw, None, True)
             return Block(line, (), (), False, raw)
-        return _lex(raw, line)
+        return _lex(raw, line, line_number_words)
     except GcodeError as exc:
         if exc.line is None:
             exc.line = line
         raise
 
 
-def _lex(raw: str, line: int) -> Block:
+def _lex(raw: str, line: int, line_number_words: bool = False) -> Block:
     text = strip_line(raw)
-    plain = _PLAIN_LINE.fullmatch(text)
+    plain = None if line_number_words and "N" in text else _PLAIN_LINE.fullmatch(text)
     if plain is not None:
         words = _plain_words(plain.group(1))
         if words is not None:
             return Block(line, words, (), False, raw)
-    return _lex_text(text, raw, line)
+    return _lex_text(text, raw, line, line_number_words)
 
 
 def _plain_words(text: str) -> tuple[tuple[str, Tree], ...] | None:
@@ -354,14 +358,16 @@ def _digits_end(text: str, pos: int) -> int:
     return found.end()
 
 
-def _lex_text(text: str, raw: str, line: int) -> Block:
-    """The general reader: any stripped line ``text`` (of source line ``raw``)."""
+def _lex_text(text: str, raw: str, line: int, line_number_words: bool = False) -> Block:
+    """The general reader: any stripped line ``text`` (of source line ``raw``);
+    ``line_number_words``: as :func:`lex_line`."""
     if text == "%":
         return Block(line, (), (), True, raw)
     reader = Reader(text)
     if reader.peek() == "/":
         reader.pos += 1
-    if reader.peek() == "N":  # rs274: digits, and a decimal part of one digit or more
+    if reader.peek() == "N" and not line_number_words:
+        # rs274: digits, and a decimal part of one digit or more
         reader.pos += 1
         start = reader.pos
         reader.pos = _digits_end(text, reader.pos)
@@ -400,6 +406,10 @@ def _lex_text(text: str, raw: str, line: int) -> Block:
             return Block(line, (), (), False, raw, _oword(reader))
         if ch == "%":
             raise GcodeError("'%' is only allowed alone on a line, opening and closing a program")
+        if ch == "N" and line_number_words:
+            reader.pos += 1
+            words.append((ch, reader.real_value()))
+            continue
         if ch not in WORD_LETTERS:
             what = "N (line numbers must open the line)" if ch == "N" else repr(ch)
             realtime = (

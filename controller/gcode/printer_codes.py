@@ -104,8 +104,11 @@ def marlin_line(raw: str) -> str | None:
     :func:`marlin_command_alone`),
     "motion" (G0-G3, G5, G92: :func:`marlin_motion`), "save" (G60) and "restore" (G61),
     which :class:`MarlinLines` reads, "subcode" (a G whose
-    subcode Marlin drops: :func:`marlin_without_subcode`), or None (a shared G-code
-    line). GcodeError for a refused G code."""
+    subcode Marlin drops: :func:`marlin_without_subcode`), "line_number" (a signed line
+    number, which Marlin skips as it skips N10: :func:`marlin_without_line_number`), or None
+    (a shared G-code line). GcodeError for a refused G code."""
+    if _SIGNED_LINE_NUMBER.match(raw):
+        return "line_number"
     if _TEXT.match(raw):
         return "quiet"
     code = raw.split(";", 1)[0]
@@ -164,6 +167,18 @@ def marlin_line(raw: str) -> str | None:
     if _PARAMETER_GMT.search(words):
         return "parameters"
     return None
+
+
+#: A line number with a sign, ``N-3``: GCodeParser::parse skips an N followed by a digit or
+#: a sign, then digits and spaces (the shared lexer's N takes digits only).
+_SIGNED_LINE_NUMBER = re.compile(r" *[Nn][-+][0-9]* *")
+
+
+def marlin_without_line_number(raw: str) -> str:
+    """A "line_number" line (:func:`marlin_line`) without its signed line number and the
+    spaces after it, as Marlin's parser goes on from there: ``N-3 G1 X2`` is a G1."""
+    found = _SIGNED_LINE_NUMBER.match(raw)
+    return raw if found is None else raw[found.end() :]
 
 
 def marlin_without_subcode(raw: str) -> str:

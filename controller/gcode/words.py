@@ -34,8 +34,9 @@ _OTHER_AXES = "ABCUVW"
 ROTARY_AXES = "ABC"
 #: canned cycles (tenths): they take R and L (and P, Q, I/J/K as each needs).
 _CYCLES = frozenset((730, 740, 810, 820, 830, 840, 850, 860, 870, 880, 890))
-#: Letters every block may carry (axes, feed, spindle speed, tool; a rotary axis at 0).
-_ANY_CODE = frozenset("XYZFST@^$" + ROTARY_AXES)
+#: Letters every block may carry (axes, feed, spindle speed, tool; a rotary axis at 0; N, a
+#: line number read as a word by the dialects whose lexer does so, grbl and g2core).
+_ANY_CODE = frozenset("XYZFSTN@^$" + ROTARY_AXES)
 
 
 @dataclass(frozen=True)
