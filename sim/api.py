@@ -222,19 +222,19 @@ def _run(
         t1 = time.perf_counter()
         if plotter is not None:
             plotter.start()  # a long program's after its parse (sim.plot_worker)
-        check_lower_bound(items, machine, budget or Budget(), file, feed_override_pct)
-        with stage("plan", len(items), "move", shown, ticking=True) as advance:
-            try:
+        try:  # the bound's check may find the program leaving the travel first
+            check_lower_bound(items, machine, budget or Budget(), file, feed_override_pct)
+            with stage("plan", len(items), "move", shown, ticking=True) as advance:
                 planned = plan(items, machine, feed_override_pct=feed_override_pct, advance=advance)
-            except PlanningError as exc:
-                raise checked_placement(
-                    exc,
-                    text,
-                    dialect=dialect,
-                    machine=machine,
-                    search_path=folders,
-                    max_iterations=max_iterations,
-                ) from None
+        except PlanningError as exc:
+            raise checked_placement(
+                exc,
+                text,
+                dialect=dialect,
+                machine=machine,
+                search_path=folders,
+                max_iterations=max_iterations,
+            ) from None
         del items, text  # the moves are on disk now (``moves``); the run needs neither
         check_budget(planned, machine, budget or Budget(), file)
         if planned.sample_count(machine.servo.period_s) > STREAM_ABOVE_TICKS:

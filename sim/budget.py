@@ -87,9 +87,20 @@ def check_lower_bound(
     feed_override_pct: float = 100.0,
 ) -> None:
     """Raise the error of :func:`check_budget` before planning when even
-    :func:`duration_lower_bound` exceeds ``budget`` (the plan would be refused after it)."""
+    :func:`duration_lower_bound` exceeds ``budget`` (the plan would be refused after it).
+
+    A program beyond the bound that also leaves the machine's travel is refused for the
+    travel (PlanningError, as planning would refuse it): an option lifts the bound, none
+    makes the program fit, so that is the first thing to tell. ``items`` is read again then,
+    so it must be a sequence or a list kept on disk, not an iterator."""
     duration, line, longest = duration_lower_bound(items, machine, feed_override_pct)
-    _check_duration(duration, line, longest, machine, budget, file, "at least ")
+    try:
+        _check_duration(duration, line, longest, machine, budget, file, "at least ")
+    except BudgetError:
+        from gantry_sim.controller.planner.travel import check_program_travel
+
+        check_program_travel(items, machine.travel)
+        raise
 
 
 def _check_duration(

@@ -60,6 +60,28 @@ def test_the_suggested_offset_places_the_program(write_program, tmp_path, capsys
     assert report["moves"] == 5
 
 
+@pytest.mark.parametrize("command", ["plan", "run"])
+def test_a_program_beyond_the_cost_bound_and_the_travel_is_told_the_travel_first(
+    command, write_program, tmp_path, capsys
+):  # type: ignore[no-untyped-def]
+    """--max-sim-s lifts the cost bound; nothing lifts the travel, so a program past both
+    (a real one: X680 on a 600 mm machine, then hours at a slow feed) is told the travel's
+    line first. Within the travel, the bound's refusal stands."""
+    out = ["--out", str(tmp_path / ("x.npz" if command == "plan" else "run"))]
+    if command == "run":
+        out.append("--no-plots")
+    prog = write_program("G21 G90\nG0 X400\nG1 X0 F1\nM2\n")
+    assert main([command, str(prog), *out]) == 2
+    err = capsys.readouterr().err
+    assert err.startswith(f"{prog}:2: error: rapid move reaches X400.0000, outside the machine")
+    assert "--work-offset=-100,0,0" in err and "simulated time" not in err
+    inside = write_program("G21 G90\nG0 X200\nG1 X0 F1\nM2\n")
+    assert main([command, str(inside), *out]) == 2
+    err = capsys.readouterr().err
+    assert err.startswith(f"{inside}:3: error: the program takes at least 12000.4 s")
+    assert not (tmp_path / "x.npz").exists() and not (tmp_path / "run").exists()
+
+
 def test_the_suggested_work_offset_is_an_option_that_parses(tmp_path, capsys):  # type: ignore[no-untyped-def]
     """The hint must work as printed: "--work-offset -100,0,0" is read by argparse as an option
     with no value ("expected one argument"); "--work-offset=-100,0,0" is not."""

@@ -8,16 +8,18 @@ the arc (slight spirals included) by :func:`gantry_sim.controller.arcs.arc_point
 from __future__ import annotations
 
 import math
-from collections.abc import Sequence
+from collections.abc import Iterable, Sequence
 
 import numpy as np
 
 from gantry_sim.controller.arcs import arc_frame, arc_points
 from gantry_sim.controller.config import Travel
 from gantry_sim.controller.errors import PlanningError
-from gantry_sim.controller.moves import Arc, Move, Spline
+from gantry_sim.controller.moves import Arc, Linear, Move, Rapid, Spline
 from gantry_sim.controller.planes import AXES, PLANE_AXES, Vec3
+from gantry_sim.controller.planner.magnitudes import check_magnitudes
 from gantry_sim.controller.planner.spline_geometry import spline_extent_points
+from gantry_sim.controller.spill import SpilledList
 
 #: Rounding allowance at the travel limits [mm].
 SLACK_MM = 1e-9
@@ -102,6 +104,17 @@ def check_travel(moves: Sequence[Move], travel: Travel) -> None:
                     offset_mm,
                     move.line,
                 )
+
+
+def check_program_travel(items: Iterable[object], travel: Travel) -> None:
+    """The checks :func:`~gantry_sim.controller.planner.plan.plan` makes first, alone: every
+    move's numbers within their bounds (:func:`~gantry_sim.controller.planner.magnitudes.
+    check_magnitudes`), then the whole program within ``travel`` (:func:`check_travel`);
+    PlanningError with the line. ``items``: the interpreter's moves and events."""
+    moves = SpilledList(
+        check_magnitudes(m) for m in items if isinstance(m, Rapid | Linear | Arc | Spline)
+    )
+    check_travel(moves, travel)
 
 
 #: Relative and absolute padding [mm] of an arc's box (:func:`_may_leave`) over rounding.
