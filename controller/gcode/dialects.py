@@ -30,7 +30,8 @@ The interpreter reads these fields and never tests a dialect's name. Sources (co
   not an arc word; default arc tolerance $12 = 0.002 mm. Errors carry grbl's numbered codes.
   Checked against grbl 1.1h itself (gcode.c and motion_control.c built for the host, lines fed
   to gc_execute_line): F in the line's own units, a near-zero arc travel (5e-7 rad) is a full
-  circle, G53 ignores G91, G10's P is truncated, and the first offending word names the error.
+  circle, G53 ignores G91, G10's P is truncated, an N word may stand anywhere on a line (up to
+  10,000,000), and the first offending word names the error.
 - ``laserdyne``: Prima Power Laserdyne's note: both centre offsets of the plane are required,
   the end point must lie on the arc (checked here to 0.005 mm, a documented choice: 0.0002 in,
   twice the rounding of a 4-decimal inch program), G20 means plane rotation and is refused.
