@@ -643,6 +643,26 @@ def test_line_numbers_are_read_as_each_controller_reads_them() -> None:
     assert "N must be followed" in error_of("N-3 G1 X1 F100\nM2\n", "linuxcnc").message
 
 
+def test_o_words_are_linuxcncs_alone() -> None:
+    """Marlin's parser takes G, M and T as command letters: an O-word line is an "Unknown
+    command" and the lines between them run, the host-built Marlin (2026-11-30) buffering
+    exactly these moves; g2core's parser has no case for O (STAT_GCODE_COMMAND_UNSUPPORTED),
+    grbl's neither (error 20: tests/data/grbl/corpus.jsonl, the ``oword_*`` programs)."""
+    text = (
+        "G21\nG90\nG1 X1 F600\nO100 sub\nG1 X2\nO100 endsub\nO1001\no100 call\nG1 X3\n"
+        "N5 O7\nO100 if [1]\nG1 X4\n"
+    )
+    assert [(m.line, m.end[0]) for m in run(text, "marlin")] == [
+        (3, 1.0),
+        (5, 2.0),
+        (9, 3.0),
+        (12, 4.0),
+    ]
+    for dialect, line in (("g2core", 4), ("grbl", 4)):
+        refused = error_of(text, dialect)
+        assert refused.line == line and "an O word is not supported" in refused.message
+
+
 def test_marlin_reads_a_motions_parameters_as_its_parser_does() -> None:
     """GCodeParser::parse keeps one value a letter, its last occurrence's, none where that has
     no number (``G00 Z8.0000 F``, Estlcam 11's line, keeps the feed; ``G1 X14 X`` moves no X),

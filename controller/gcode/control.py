@@ -26,7 +26,9 @@ from gantry_sim.controller.gcode.expressions import Tree, evaluate
 from gantry_sim.controller.gcode.fanuc_subs import fanuc_code, find_program
 from gantry_sim.controller.gcode.lexer import (
     COMMENT,
+    RS274_LEX,
     Block,
+    LexRules,
     OWord,
     decode_program,
     firmware_comments,
@@ -91,13 +93,12 @@ class Source:
 
     name: str
     lines: list[str]
-    system_lines: bool = False
+    lex_rules: LexRules = RS274_LEX
     own_lines: Callable[[str], str | None] | None = None
     realtime: bool = False
     checksums: str = ""
     comments: str = ""
     line_limit: str = ""  # whose line length limit applies (lexer.line_too_long)
-    line_number_words: bool = False  # N is a word anywhere on a line (lexer.lex_line)
     blocks: OrderedDict[int, Block | GcodeError] = field(default_factory=OrderedDict)
 
     def block(self, i: int) -> Block:
@@ -134,7 +135,7 @@ class Source:
             return Block(i + 1, (), (), False, raw)
         rewrite = _REWRITTEN.get(kind) if kind is not None else None
         if rewrite is not None:
-            return lex_line(rewrite(raw), i + 1, self.system_lines, self.line_number_words)
+            return lex_line(rewrite(raw), i + 1, self.lex_rules)
         if kind in ("dwell", "wait"):  # Marlin G4: the shared G4 with P in seconds; M400...
             seconds = marlin_dwell_seconds(raw) if kind == "dwell" else 0.0
             return Block(i + 1, (("G", ("num", 4.0)), ("P", ("num", seconds))), (), False, raw)
@@ -151,7 +152,7 @@ class Source:
             text = strip_line(raw).split(COMMENT, 1)[0]
             axes = tuple((a, ("num", 0.0)) for a in "XYZ" if a in text[text.find("28") :])
             return Block(i + 1, axes, (), False, raw, home=True)
-        return lex_line(raw, i + 1, self.system_lines, self.line_number_words)
+        return lex_line(raw, i + 1, self.lex_rules)
 
     def lexed(self, i: int) -> Block | None:
         """Line ``i`` lexed, or None where it cannot be (searches pass over such lines; the
@@ -277,7 +278,7 @@ class Runner:
         params,  # Parameters
         search_path: tuple[Path, ...] = (),
         max_iterations: int = DEFAULT_MAX_ITERATIONS,
-        system_lines: bool = False,
+        lex_rules: LexRules = RS274_LEX,
         owords: bool = True,
         own_lines: Callable[[str], str | None] | None = None,
         realtime: bool = False,
@@ -285,18 +286,16 @@ class Runner:
         comments: str = "",
         percent_delimits: bool = True,
         line_limit: str = "",
-        line_number_words: bool = False,
     ) -> None:
         self.main = Source(
             file,
             split_lines(text),
-            system_lines,
+            lex_rules,
             own_lines,
             realtime,
             checksums,
             comments,
             line_limit,
-            line_number_words=line_number_words,
         )
         #: a ``%`` line opens and ends the program (rs274); False: it is nothing
         self.percent_delimits = percent_delimits
@@ -341,9 +340,7 @@ class Runner:
             depth = len(self.frames)
             try:
                 block = self._block(f.source, i)
-                if block.oword is not None:
-                    if not self.owords:
-                        raise GcodeError("O-words are not grbl features; grbl has no subroutines")
+                if block.oword is not None:  # (a reader without O-words refused it: LexRules)
                     self.seen = True
                     self._oword(f, block.oword)
                     continue
@@ -410,12 +407,22 @@ class Runner:
         """Line ``i`` of ``source`` lexed. Where the program has no LinuxCNC language (grbl)
         and a line it cannot lex holds a ``#`` or ``[`` outside comments (a parameter setting,
         an expression, a ``#`` taken for a comment), the error says the dialect has none,
-        instead of what LinuxCNC's lexer expected next."""
+        instead of what LinuxCNC's lexer expected next: where a word's letter belongs, grbl
+        expects a command letter (error 1); after a letter, a number (``Z#GMAZ``, a sender's
+        placeholder: bad number format, error 2)."""
         try:
             return source.block(i)
         except GcodeError as exc:
-            if self.owords or not any(c in _uncommented(source.lines[i]) for c in "#["):
+            text = _uncommented(source.lines[i])
+            first = min((k for k in (text.find("#"), text.find("[")) if k >= 0), default=-1)
+            if self.owords or first < 0:
                 raise
+            if first > 0 and text[first - 1].isalpha():
+                raise GcodeError(
+                    f"bad number format after {text[first - 1].upper()}: grbl reads a plain "
+                    "number ('#' parameters and [expressions] are LinuxCNC's, grbl has none)",
+                    line=exc.line,
+                ) from None
             raise GcodeError(
                 "'#' parameters and [expressions] are not grbl features; grbl expects a "
                 "command letter followed by a number",
@@ -683,7 +690,7 @@ class Runner:
                     split_lines(text),
                     comments=self.main.comments,
                     line_limit=self.main.line_limit,
-                    line_number_words=self.main.line_number_words,
+                    lex_rules=self.main.lex_rules,
                 )
                 at = sub_src.find(0, name, ("sub",))
                 if at is None:

@@ -86,7 +86,8 @@ def _check_grbl_read_order(block: Block, d: Dialect) -> None:
     (error 20; a decimal part grbl refuses, G28.2, G61.1, G91.2, also 20), a known code with a
     decimal part (G1.5, G59.1, M3.5: "command value not integer", error 23), a second axis
     command (``G0 G1``, ``G92 X1 G0``, ``G28 G92``: error 24, before the modal group), a second
-    code of a modal group (``G0 X1 G80``: error 21), a negative F, N, P, S or T (error 4). A
+    code of a modal group (``G0 X1 G80``: error 21), a negative F, N, P, S or T (error 4), a
+    word of LinuxCNC's ``@``, ``^`` or ``$``, which are no letters to grbl (error 1). A
     repeated letter stops the reading: read_words names it (error 25). Then the first check of
     step 3: an N above grbl's largest line number (error 27)."""
     assert d.g_codes is not None and d.m_codes is not None
@@ -134,6 +135,11 @@ def _check_grbl_read_order(block: Block, d: Dialect) -> None:
                     f"{names[1]}); use one {group.replace('_', ' ')} code per line"
                 )
             groups[letter + group] = code
+        elif not letter.isalpha():  # LinuxCNC's @ ^ $: no letter to grbl's reader (error 1)
+            raise GcodeError(
+                f"bad character {letter!r}; {d.name} expects a command letter A-Z followed by "
+                "a number"
+            )
         elif letter in letters or (d.letters is not None and letter not in d.letters):
             return  # read_words names a repeated letter, check_codes an unknown one
         else:

@@ -197,6 +197,9 @@ class Dialect:
         line_number_words: N is a word read anywhere on the line, as grbl's gcode.c and
             g2core's parser read it (a number, truncated; a second N is a repeated word); False:
             an N line number may only open the line (rs274).
+        o_words: O-words (program numbers, subroutines, control flow) are read (rs274); False:
+            an O is refused where it stands, as a letter the controller does not support
+            (grbl's error 20, g2core's STAT_GCODE_COMMAND_UNSUPPORTED).
     """
 
     name: str
@@ -260,6 +263,7 @@ class Dialect:
     permissive_blocks: bool = False
     min_r_word_mm: float = 0.0
     line_number_words: bool = False
+    o_words: bool = True
 
 
 _TOL_MM = 2 * 0.01 * math.sqrt(2.0)  # 0.028284 mm, rs274 CENTER_ARC_RADIUS_TOLERANCE_MM
@@ -309,6 +313,7 @@ G2CORE = Dialect(
     require_program_end=False,
     system_lines=True,
     line_number_words=True,
+    o_words=False,
     own_lines="g2core",
     last_word_wins=True,
     home_all_axes=True,
@@ -434,6 +439,7 @@ GRBL = Dialect(
     letters=frozenset("FGIJKLMNPRSTXYZ"),
     system_lines=True,
     line_number_words=True,
+    o_words=False,
     arc_p_allowed=False,
     off_plane_offset_ignored=True,
     arc_needs_plane_axis_word=True,

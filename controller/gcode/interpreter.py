@@ -50,7 +50,7 @@ from gantry_sim.controller.gcode.feed_modes import (
     path_feed,
 )
 from gantry_sim.controller.gcode.frames import Frame, add, from_work, sub, to_work
-from gantry_sim.controller.gcode.lexer import Block
+from gantry_sim.controller.gcode.lexer import Block, LexRules
 from gantry_sim.controller.gcode.modal_codes import (
     clears_feed,
     grbl_program_end,
@@ -873,7 +873,7 @@ def interpret_events(
             interp.params,
             search_path,
             max_iterations,
-            system_lines=rules.system_lines,
+            lex_rules=LexRules(rules.system_lines, rules.line_number_words, rules.o_words),
             owords=rules.language,
             own_lines=OWN_LINES[rules.own_lines]() if rules.own_lines else None,
             realtime=rules.realtime_characters,
@@ -881,7 +881,6 @@ def interpret_events(
             comments=rules.firmware_comments,
             percent_delimits=rules.percent_delimits,
             line_limit=rules.line_limit,
-            line_number_words=rules.line_number_words,
         )
         runner.errors = errors
         runner.on_return = interp.sub_returned

@@ -9,7 +9,8 @@ line, and a line that is just ``%`` is a program delimiter. Word values are expr
 Line ends are ``\n``, ``\r\n`` and a bare ``\r`` (old Mac files; never merged into one line, a
 documented difference from ``rs274 -g``, which reads a bare CR as a space). A UTF-8 byte order
 mark at the start of the text is dropped. An O-word line (``o100 sub``, ``o<name> call [1]``)
-carries its :class:`OWord` and nothing else.
+carries its :class:`OWord` and nothing else. :class:`LexRules` holds what a firmware's reader
+takes otherwise (grbl, g2core).
 """
 
 from __future__ import annotations
@@ -28,6 +29,30 @@ COMMENT = "("
 #: letters rs274 reads as words (O-words are read separately, N only opens a line).
 #: @ ^: polar radius and angle; $: LinuxCNC 2.8+'s spindle selection ($0; $-1 all spindles)
 WORD_LETTERS = frozenset("ABCDEFGHIJKLMPQRSTUVWXYZ@^$")
+
+
+@dataclass(frozen=True)
+class LexRules:
+    """How a controller's line reader differs from rs274's (the defaults).
+
+    Attributes:
+        system_lines: a line opening with ``$`` is a system command (grbl): no words, except a
+            ``$J=`` jog, whose words are lexed as a block with ``jog`` set.
+        line_number_words: an ``N`` anywhere on the line is a word ``("N", value)`` (grbl's
+            and g2core's parsers), not rs274's line number, which only opens a line and is
+            dropped.
+        o_words: an ``O`` is an O-word (program number, subroutine, control flow: rs274);
+            False: the reader has none, and an ``O`` is refused where it stands (grbl reads
+            it as a letter it does not support: error 20).
+    """
+
+    system_lines: bool = False
+    line_number_words: bool = False
+    o_words: bool = True
+
+
+#: rs274's reader
+RS274_LEX = LexRules()
 
 #: O-word keywords, longest first so that ENDSUB is not read as END... or ELSEIF as ELSE.
 # fmt: off
@@ -300,38 +325,31 @@ def without_realtime(raw: str) -> str:
     return _REALTIME.sub("", raw)
 
 
-def lex_line(
-    raw: str, line: int, system_lines: bool = False, line_number_words: bool = False
-) -> Block:
-    """Lex one source line into a :class:`Block` (GcodeError carries ``line``).
-
-    ``system_lines``: a line opening with ``$`` is a system command (grbl): no words, except a
-    ``$J=`` jog, whose words are lexed as a block with ``jog`` set. ``line_number_words``: an
-    ``N`` anywhere on the line is a word ``("N", value)`` (grbl, g2core), not rs274's line
-    number, which only opens a line and is dropped.
-    """
+def lex_line(raw: str, line: int, rules: LexRules = RS274_LEX) -> Block:
+    """Lex one source line into a :class:`Block` (GcodeError carries ``line``), read by
+    ``rules``."""
     try:
-        if system_lines and raw.lstrip().startswith("$"):
+        if rules.system_lines and raw.lstrip().startswith("$"):
             text = strip_line(raw)
             if text.startswith("$J="):
-                block = _lex(raw[raw.index("=") + 1 :], line, line_number_words)
+                block = _lex(raw[raw.index("=") + 1 :], line, rules)
                 return Block(line, block.words, block.settings, False, raw, None, True)
             return Block(line, (), (), False, raw)
-        return _lex(raw, line, line_number_words)
+        return _lex(raw, line, rules)
     except GcodeError as exc:
         if exc.line is None:
             exc.line = line
         raise
 
 
-def _lex(raw: str, line: int, line_number_words: bool = False) -> Block:
+def _lex(raw: str, line: int, rules: LexRules = RS274_LEX) -> Block:
     text = strip_line(raw)
-    plain = None if line_number_words and "N" in text else _PLAIN_LINE.fullmatch(text)
+    plain = None if rules.line_number_words and "N" in text else _PLAIN_LINE.fullmatch(text)
     if plain is not None:
         words = _plain_words(plain.group(1))
         if words is not None:
             return Block(line, words, (), False, raw)
-    return _lex_text(text, raw, line, line_number_words)
+    return _lex_text(text, raw, line, rules)
 
 
 def _plain_words(text: str) -> tuple[tuple[str, Tree], ...] | None:
@@ -358,15 +376,15 @@ def _digits_end(text: str, pos: int) -> int:
     return found.end()
 
 
-def _lex_text(text: str, raw: str, line: int, line_number_words: bool = False) -> Block:
-    """The general reader: any stripped line ``text`` (of source line ``raw``);
-    ``line_number_words``: as :func:`lex_line`."""
+def _lex_text(text: str, raw: str, line: int, rules: LexRules = RS274_LEX) -> Block:
+    """The general reader: any stripped line ``text`` (of source line ``raw``), read by
+    ``rules``."""
     if text == "%":
         return Block(line, (), (), True, raw)
     reader = Reader(text)
     if reader.peek() == "/":
         reader.pos += 1
-    if reader.peek() == "N" and not line_number_words:
+    if reader.peek() == "N" and not rules.line_number_words:
         # rs274: digits, and a decimal part of one digit or more
         reader.pos += 1
         start = reader.pos
@@ -400,13 +418,20 @@ def _lex_text(text: str, raw: str, line: int, line_number_words: bool = False) -
             settings.append((target, reader.real_value()))
             settings_at.append(len(words))
             continue
+        if ch == "O" and not rules.o_words:
+            reader.pos += 1
+            reader.real_value()  # a value must follow, as after any letter
+            raise GcodeError(
+                "an O word is not supported: O-words (program numbers, subroutines, loops) "
+                "belong to LinuxCNC's language; this dialect has none"
+            )
         if ch == "O":
             if words or settings:
                 raise GcodeError("an O-word must open its line (after an optional N number)")
             return Block(line, (), (), False, raw, _oword(reader))
         if ch == "%":
             raise GcodeError("'%' is only allowed alone on a line, opening and closing a program")
-        if ch == "N" and line_number_words:
+        if ch == "N" and rules.line_number_words:
             reader.pos += 1
             words.append((ch, reader.real_value()))
             continue

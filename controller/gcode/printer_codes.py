@@ -300,10 +300,12 @@ def marlin_feed_percent(raw: str) -> tuple[bool, bool, int | None]:
 #: A line Marlin answers with "Unknown command": one that opens with neither a letter and a
 #: value nor a comment (a stray number, ``% text``, a Klipper macro such as ``PRINT_START
 #: BED=60``, a block delete ``/`` or a ``#``, which Marlin has not, or a tab: its reader skips
-#: spaces only, GCodeParser::parse). A line of bare axis words (``X10 Y5``) and a lone ``%``
-#: are left to the shared step. The line number is taken whole (an atomic group): ``N10 G1``
-#: is not ``N1`` and a stray ``0``.
-_NOT_A_COMMAND = re.compile(r"^ *(?>N\d+ *)?(?:[^A-Za-z( %]|%.*\S|[A-Za-z][A-Za-z_])")
+#: spaces only, GCodeParser::parse), or an O-word (LinuxCNC's ``o100 sub``, ``o100 endsub``,
+#: a program number ``O1001``: Marlin's command letters are G, M and T, and the lines between
+#: them run). A line of bare axis words (``X10 Y5``) and a lone ``%`` are left to the shared
+#: step. The line number is taken whole (an atomic group): ``N10 G1`` is not ``N1`` and a stray
+#: ``0``.
+_NOT_A_COMMAND = re.compile(r"^ *(?>N\d+ *)?(?:[^A-Za-z( %]|%.*\S|[A-Za-z][A-Za-z_]|[Oo])")
 #: Any word (a letter and a value).
 _WORD = re.compile(r"[A-Z]\s*[-+]?[.\d]", re.IGNORECASE)
 #: An M or T word after a G command: a parameter to Marlin, which that command ignores.
