@@ -470,7 +470,11 @@ DIALECTS: dict[str, Dialect] = {d.name: d for d in (LINUXCNC, G2CORE, MARLIN, LA
 
 
 def coded(message: str, d: Dialect) -> str:
-    """``message`` with the dialect's firmware error number appended, when one matches."""
+    """``message`` with the dialect's firmware error number appended, when one matches; in a
+    dialect without LinuxCNC's language, a value is a number alone (the shared reader's
+    message also offers ``#n`` and ``[expression]``)."""
+    if not d.language:
+        message = message.replace("expected a number, #n or [expression]", "expected a number")
     low = message.lower()
     for fragment, code in d.error_codes:
         if fragment in low:
