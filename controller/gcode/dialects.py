@@ -399,7 +399,10 @@ _GRBL_G = frozenset((
 ))
 #: grbl's status codes (report.c / the grbl 1.1 wiki "Error codes"), matched on our messages.
 _GRBL_ERRORS = (
+    # a second '.' after a number: grbl's read_float ends the number there, and '.' is no
+    # command letter
     ("takes no decimal part", 23), ("axis command conflict", 24),
+    ("a second '.' after the number", 1),
     ("expects a command letter", 1), ("not grbl features", 20), ("bad number format", 2),
     ("bad number format", 2), ("bad character", 1), ("bad value", 2), ("negative", 4),
     ("unknown g code", 20), ("unsupported m code", 20), ("is not supported", 20),

@@ -177,6 +177,12 @@ class Reader:
         self.pos = _NUMBER.match(self.text, start).end()  # type: ignore[union-attr]
         raw = self.text[start : self.pos]
         if raw.count(".") > 1:
+            number = raw[: raw.index(".", raw.index(".") + 1)]
+            if any(c.isdigit() for c in number):  # grbl reads the number and stops there
+                raise GcodeError(
+                    f"bad number format {shown(raw)}: a second '.' after the number {number}; "
+                    "expected digits with at most one '.'"
+                )
             raise GcodeError(
                 f"bad number format {shown(raw)}; expected digits with at most one '.'"
             )
