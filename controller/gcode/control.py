@@ -377,8 +377,15 @@ class Runner:
             self.ended = ended
 
     def on_percent(self, block: Block) -> None:
-        """A ``%`` line of the main program: opens it (first line) or ends it."""
+        """A ``%`` line of the main program: opens it (its first line that is not blank: rs274's
+        Interp::open, so not after a comment or an O number) or ends it."""
         if not self.seen:
+            if any(line.strip() for line in self.main.lines[: block.line - 1]):
+                raise GcodeError(
+                    "'%' opens a program only as its first line that is not blank (a comment "
+                    "or a program number before it makes the '%' a bad character to rs274); "
+                    "move it to the top, or remove it"
+                )
             self.percent_open = self.seen = True
         elif self.percent_open:
             self.ended = True
