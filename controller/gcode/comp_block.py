@@ -20,6 +20,16 @@ from gantry_sim.controller.gcode.words import Words
 from gantry_sim.controller.moves import Arc, Dwell, Move, Vec3
 
 _SIDES = {410: "left", 411: "left", 420: "right", 421: "right"}
+#: rs274's refusals of M62-M68 while compensation is on (interp_convert.cc convert_m)
+_IO_REFUSED = {
+    62: "set a motion digital output",
+    63: "set a motion digital output",
+    64: "set an auxiliary digital output",
+    65: "set an auxiliary digital output",
+    66: "wait for a digital input",
+    67: "set a motion analog output",
+    68: "set an auxiliary analog output",
+}
 
 
 def check_while_on(comp: CutterComp, w: Words, old: ModalState) -> None:
@@ -52,6 +62,13 @@ def check_while_on(comp: CutterComp, w: Words, old: ModalState) -> None:
         raise GcodeError("cannot change axis offsets (G92) with cutter radius compensation on")
     if nonmodal == 530:
         raise GcodeError("cannot use G53 with cutter radius compensation on")
+    if nonmodal in (281, 301):
+        raise GcodeError(
+            f"cannot set a reference point ({g_name(nonmodal)}) with cutter radius compensation on"
+        )
+    io = w.m.get("io")
+    if io is not None:
+        raise GcodeError(f"cannot {_IO_REFUSED[io]} (M{io}) with cutter radius compensation on")
 
 
 def switch(

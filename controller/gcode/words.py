@@ -212,8 +212,8 @@ def check_words(w: Words, motion: int | None, dialect: Dialect) -> None:
                     "E": "a code that takes E (none here; G-code numbers have no exponent, so 1e3 reads as 1 then an E word)",
                 }[letter]
             raise GcodeError(f"{letter} word with no code that uses it; {letter} needs {need}")
-    if w.m.get("spindle") == 19 and "P" in v and round(v["P"]) not in (0, 1, 2):
-        raise GcodeError("P value must be 0, 1 or 2 with M19 (the direction to orient in)")
+    if w.m.get("spindle") == 19:
+        _check_orient(v)
     if "$" in v:
         spindle_code = w.m.get("spindle") is not None or w.m.get("override") == 51
         if not (spindle_code or "S" in v or w.g.get("feed_mode") == 950 or "spindle_mode" in w.g):
@@ -238,12 +238,29 @@ def check_words(w: Words, motion: int | None, dialect: Dialect) -> None:
         _check_wait_input(v)
     if w.g.get("spindle_mode") == 960 and "S" not in v:
         raise GcodeError("S word missing with G96: G96 sets the surface speed from S")
-    if w.m.get("io") in (67, 68) and ("E" not in v or "Q" not in v):
-        raise GcodeError(f"M{w.m['io']} needs E (the analog output) and Q (its value)")
+    if w.m.get("io") in (67, 68) and ("E" not in v or round(v["E"]) < 0):
+        # rs274's convert_m: Q is optional (its value is then -1)
+        raise GcodeError(
+            f"invalid analog index with M{w.m['io']}: E (the analog output, >= 0) is required"
+        )
     if w.g.get("nonmodal") == 40 and arc and dialect.arc_p_allowed:
         raise GcodeError("G4 (dwell) cannot share a line with G2 or G3: both use the P word")
     if w.g.get("nonmodal") == 40 and v.get("P", -1.0) < 0.0:
         raise GcodeError("G4 (dwell) needs a P word: the dwell time in seconds, >= 0")
+
+
+def _check_orient(v: dict[str, float]) -> None:
+    """M19's words, as rs274's check_other_codes and convert_m check them: R (the angle) within
+    0..360 degrees, Q (the time out) above 0, P (the direction) within 0.001 of 0, 1 or 2."""
+    if "R" in v and not 0.0 <= v["R"] <= 360.0:
+        raise GcodeError("R value must be within 0..360 with M19 (the angle to orient to)")
+    if "Q" in v and v["Q"] <= 0.0:
+        raise GcodeError("Q word with M19 requires a value > 0 (the time out, in seconds)")
+    if "P" in v:
+        if abs(v["P"] - round(v["P"])) >= 0.001:
+            raise GcodeError("P value not an integer with M19 (the direction to orient in)")
+        if round(v["P"]) not in (0, 1, 2):
+            raise GcodeError("P value must be 0, 1 or 2 with M19 (the direction to orient in)")
 
 
 def _check_wait_input(v: dict[str, float]) -> None:
