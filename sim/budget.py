@@ -99,7 +99,7 @@ def check_lower_bound(
     except BudgetError:
         from gantry_sim.controller.planner.travel import check_program_travel
 
-        check_program_travel(items, machine.travel)
+        check_program_travel(items, machine.travel, machine.work.systems_mm[0])
         raise
 
 

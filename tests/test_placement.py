@@ -60,6 +60,18 @@ def test_the_suggested_offset_places_the_program(write_program, tmp_path, capsys
     assert report["moves"] == 5
 
 
+def test_the_suggestion_after_a_work_offset_is_g54s_whole_origin(write_program, capsys):
+    """--work-offset sets G54's origin: a program still outside with one given is told the
+    origin that places it (the given one moved), not the shift alone, which alternated
+    between two offsets neither of which fitted (a 108,052-line LightBurn raster)."""
+    prog = write_program("G21 G90\nG0 X350 Y250\nM2\n")
+    assert main(["plan", str(prog), "--work-offset=-50,0,0"]) == 2
+    err = capsys.readouterr().err
+    assert "moved by 0,-50,0 mm it fits: place it with --work-offset=-50,-50,0 " in err
+    assert "where it is -50,0,0 now" in err
+    assert main(["plan", str(prog), "--work-offset=-50,-50,0"]) == 0
+
+
 @pytest.mark.parametrize("command", ["plan", "run"])
 def test_a_program_beyond_the_cost_bound_and_the_travel_is_told_the_travel_first(
     command, write_program, tmp_path, capsys

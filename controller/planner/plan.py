@@ -159,7 +159,7 @@ def _plan(
     program = SpilledList(
         check_magnitudes(m) for m in items if isinstance(m, Rapid | Linear | Arc | Spline)
     )
-    check_travel(program, machine.travel)
+    check_travel(program, machine.travel, machine.work.systems_mm[0])
     limits = read_limits(items, machine)
     if not limits.cuts:  # one part (the path ignores the events; M204 alone cuts nothing)
         progress = done.within(0, len(items))

@@ -21,19 +21,24 @@ from gantry_sim.controller.planner.magnitudes import check_magnitudes
 from gantry_sim.controller.planner.spline_geometry import spline_extent_points
 from gantry_sim.controller.spill import SpilledList
 
+#: G54's origin when the machine file and the options leave it [mm]
+_ORIGIN: Vec3 = (0.0, 0.0, 0.0)
 #: Rounding allowance at the travel limits [mm].
 SLACK_MM = 1e-9
 
 
 class TravelError(PlanningError):
-    """A move leaves the machine's travel. ``offset_mm``: the work offset [mm] the message
-    suggests, which would place the program within the travel were its moves to follow G54
-    (None: no offset is suggested)."""
+    """A move leaves the machine's travel. ``offset_mm``: the shift [mm] that would place the
+    program within the travel were its moves to follow G54 (None: no shift is suggested);
+    the message suggests G54's origin moved by it, ``g54_mm`` + ``offset_mm``, as the
+    ``--work-offset`` to give (the option sets G54's origin, it adds to nothing)."""
 
-    def __init__(self, where: str, extent: str, offset_mm: Vec3 | None, line: int) -> None:
+    def __init__(
+        self, where: str, extent: str, offset_mm: Vec3 | None, line: int, g54_mm: Vec3 = _ORIGIN
+    ) -> None:
         self._where_and_extent = f"{where}; {extent}"
         self.offset_mm = offset_mm
-        super().__init__(self._where_and_extent + _suggestion(offset_mm), line=line)
+        super().__init__(self._where_and_extent + _suggestion(offset_mm, g54_mm), line=line)
 
     def offset_does_not_place(self) -> None:
         """The suggested offset was tried and leaves the program outside all the same (it
@@ -47,13 +52,15 @@ class TravelError(PlanningError):
         )
 
 
-def _suggestion(offset_mm: Vec3 | None) -> str:
+def _suggestion(offset_mm: Vec3 | None, g54_mm: Vec3) -> str:
     if offset_mm is None:
         return ""
-    offset = ",".join(f"{d:g}" for d in offset_mm)
+    shift = ",".join(f"{d:g}" for d in offset_mm)
+    origin = ",".join(f"{g + d:g}" for g, d in zip(g54_mm, offset_mm, strict=True))
+    now = "" if g54_mm == _ORIGIN else f", where it is {','.join(f'{g:g}' for g in g54_mm)} now"
     return (
-        f"; moved by {offset} mm it fits: place it with --work-offset={offset} (or the "
-        "machine file's [work] g54_mm), added to any work offset already in effect"
+        f"; moved by {shift} mm it fits: place it with --work-offset={origin} (G54's origin "
+        f"in the machine's work frame{now}; or the machine file's [work] g54_mm)"
     )
 
 
@@ -77,8 +84,9 @@ def extent_points(move: Move) -> np.ndarray:
     return np.vstack(pts)
 
 
-def check_travel(moves: Sequence[Move], travel: Travel) -> None:
-    """Raise :class:`PlanningError` (with the line) for the first move leaving ``travel``.
+def check_travel(moves: Sequence[Move], travel: Travel, g54_mm: Vec3 = _ORIGIN) -> None:
+    """Raise :class:`PlanningError` (with the line) for the first move leaving ``travel``;
+    ``g54_mm``: G54's origin the program ran with [mm] (its suggestion is that moved).
 
     Each move's exact extent (:func:`extent_points`) is only computed where a box around it
     (:func:`_may_leave`), made for all moves in a few array operations, reaches past the
@@ -103,10 +111,11 @@ def check_travel(moves: Sequence[Move], travel: Travel) -> None:
                     extent,
                     offset_mm,
                     move.line,
+                    g54_mm,
                 )
 
 
-def check_program_travel(items: Iterable[object], travel: Travel) -> None:
+def check_program_travel(items: Iterable[object], travel: Travel, g54_mm: Vec3 = _ORIGIN) -> None:
     """The checks :func:`~gantry_sim.controller.planner.plan.plan` makes first, alone: every
     move's numbers within their bounds (:func:`~gantry_sim.controller.planner.magnitudes.
     check_magnitudes`), then the whole program within ``travel`` (:func:`check_travel`);
@@ -114,7 +123,7 @@ def check_program_travel(items: Iterable[object], travel: Travel) -> None:
     moves = SpilledList(
         check_magnitudes(m) for m in items if isinstance(m, Rapid | Linear | Arc | Spline)
     )
-    check_travel(moves, travel)
+    check_travel(moves, travel, g54_mm)
 
 
 #: Relative and absolute padding [mm] of an arc's box (:func:`_may_leave`) over rounding.
