@@ -103,6 +103,8 @@ def g10(
     level, number = round(v["L"]), round(p_value)
     if level not in (2, 20):
         raise GcodeError(f"G10 L{v['L']:g} is not supported; use L2 or L20")
+    if rs274_p and ("I" in v or "J" in v):  # rs274's check_g_codes (I J are L1's tool words)
+        raise GcodeError(f"I J words not allowed with G10 L{level}: it sets a coordinate system")
     whole = abs(p_value - number) <= 1e-4
     if p_truncated:
         whole, number = True, math.trunc(p_value)
