@@ -144,6 +144,12 @@ GRBL_HEAD = "G21 G90 G17\nF1200\nM3 S500\nG1 X10\n"
         ("G10 L2 P2 X1", True),  # an EEPROM write, whatever the system
         ("G28.1", True),
         ("F600", False),
+        # laser mode, M3: a line without motion that leaves G1/G2/G3 (or comes back) syncs so
+        # the power follows (gcode.c GC_PARSER_LASER_FORCE_SYNC; the host-built grbl 1.1h
+        # with its syncs reported agreed on 11 such programs, 2026-11-30)
+        ("G0", True),
+        ("G80", True),
+        ("G1", False),
     ],
 )
 def test_grbl_syncs_its_planner_where_its_source_does(machine, code, stops):

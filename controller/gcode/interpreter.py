@@ -467,6 +467,8 @@ class Interpreter:
             self.state = evolve(s, **changes) if changes else s
             return []
         if motion != s.motion:
+            if d.motion_waits == "grbl" and s.spindle == 1 and _PLAIN_AXES.isdisjoint(v):
+                return None  # a laser's power change may wait for motion (motion_waits.py)
             changes["motion"] = motion
         extrudes: bool | None = None
         if s.extruder is not None:  # Marlin: whether the move runs at M204 P or T

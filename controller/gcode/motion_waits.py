@@ -36,7 +36,10 @@ only where something changes (M3 while M3 is on passes). A new S with the spindl
 except on a line that moves in laser mode ($32 = 1): the ``grbl`` dialect takes an S on a line
 without motion as a stop and one on a motion line as a laser's power change, not a stop
 (programs that set S on their moves are laser programs; a spindle machine's programs change S
-on lines of their own).
+on lines of their own). In laser mode, with the spindle on in M3 (constant power), a line that
+moves nothing in its motion mode and changes the mode between G1/G2/G3 and any other (a bare
+``G0`` between two cuts) syncs too, so that the power follows (gcode.c's
+``GC_PARSER_LASER_FORCE_SYNC``).
 """
 
 from __future__ import annotations
@@ -50,6 +53,10 @@ __all__ = ["motion_wait"]
 
 #: grbl's spindle state after an M3, M4, M5 (ModalState.spindle).
 _GRBL_SPINDLE = {3: 1, 4: -1, 5: 0}
+#: grbl's motion modes that light a laser (G1, G2, G3), and its non-modal axis commands (G10,
+#: G28, G30, G92: a line's axis words go to them, not to the motion mode)
+_GRBL_POWERED = frozenset((10, 20, 30))
+_GRBL_AXIS_NONMODAL = frozenset((100, 280, 300, 920))
 
 #: M codes of the groups below that wait for motion: the spindle's on/off and orient, every
 #: coolant code, the immediate outputs and the input wait (M62, M63, M67 go with the motion).
@@ -106,6 +113,11 @@ def _grbl_wait(w: Words, before: ModalState) -> str | None:
     moves = any(a in w.values for a in "XYZ")
     if "S" in w.values and before.spindle != 0 and not moves and w.values["S"] != before.rpm:
         return "S"
+    motion = w.g.get("motion", before.motion)
+    axis_command = w.g.get("nonmodal") in _GRBL_AXIS_NONMODAL or "tool_length" in w.g
+    if before.spindle == 1 and not (moves and not axis_command):  # M3, no motion on the line
+        if (before.motion in _GRBL_POWERED) != (motion in _GRBL_POWERED):
+            return g_name(motion) if motion is not None else "G80"
     spindle = w.m.get("spindle")
     if spindle in _GRBL_SPINDLE and _GRBL_SPINDLE[spindle] != before.spindle:
         return f"M{spindle}"
