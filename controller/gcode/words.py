@@ -200,7 +200,8 @@ def check_words(w: Words, motion: int | None, dialect: Dialect) -> None:
     for letter in taken:
         if not uses.get(letter, False):
             need = {
-                "P": "G2, G3, G4, G10, G64, G82, G86, G88 or G89",
+                "P": "G2, G3, G4, G5, G5.2, G10, G64, G76, G82, G86, G88, G89, M19, M50-M53, "
+                "M62-M66, M98 or a user M code (M100-M199)",
                 "Q": "G64, G73 or G83",
                 "H": "G43 or G43.2",
                 "R": "G2, G3 or a canned cycle",
