@@ -875,7 +875,9 @@ def interpret_events(
             interp.params,
             search_path,
             max_iterations,
-            lex_rules=LexRules(rules.system_lines, rules.line_number_words, rules.o_words),
+            lex_rules=LexRules(
+                rules.system_lines, rules.line_number_words, rules.o_words, rules.language
+            ),
             owords=rules.language,
             own_lines=OWN_LINES[rules.own_lines]() if rules.own_lines else None,
             realtime=rules.realtime_characters,

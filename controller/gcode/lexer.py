@@ -44,11 +44,15 @@ class LexRules:
         o_words: an ``O`` is an O-word (program number, subroutine, control flow: rs274);
             False: the reader has none, and an ``O`` is refused where it stands (grbl reads
             it as a letter it does not support: error 20).
+        symbol_words: ``@``, ``^`` and ``$`` are word letters (LinuxCNC's polar radius and
+            angle, spindle selection); False: bad characters, as grbl's reader takes them
+            (error 1: it reads letters A-Z only).
     """
 
     system_lines: bool = False
     line_number_words: bool = False
     o_words: bool = True
+    symbol_words: bool = True
 
 
 #: rs274's reader
@@ -435,7 +439,7 @@ def _lex_text(text: str, raw: str, line: int, rules: LexRules = RS274_LEX) -> Bl
             reader.pos += 1
             words.append((ch, reader.real_value()))
             continue
-        if ch not in WORD_LETTERS:
+        if ch not in WORD_LETTERS or (not rules.symbol_words and not ch.isalpha()):
             what = "N (line numbers must open the line)" if ch == "N" else repr(ch)
             realtime = (
                 " ('!', '~' and '?' are grbl's and g2core's real-time commands: feed hold, "
