@@ -643,6 +643,23 @@ def test_line_numbers_are_read_as_each_controller_reads_them() -> None:
     assert "N must be followed" in error_of("N-3 G1 X1 F100\nM2\n", "linuxcnc").message
 
 
+def test_marlin_skips_a_command_letter_without_its_number() -> None:
+    """GCodeParser::parse takes G, M or T as a command only with a digit after its spaces: a
+    slicer script's unfilled ``T[next_extruder]`` (PrusaSlicer's tool-change template), ``T``,
+    ``T?``, ``T-1``, ``M[x]``, ``G{x} X9`` are unknown commands and the next lines run; the
+    host-built Marlin (2026-11-30) buffers exactly these moves."""
+    text = (
+        "G21\nG90\nG1 X1 F600\nT[next_extruder]\nG1 X2\nT\nT?\nT-1\nM[x]\nG{x} X9\nG1 X3\n"
+        "M 104 S0\nG 1 X4\nT 0\n"
+    )
+    assert [(m.line, m.end[0]) for m in run(text, "marlin")] == [
+        (3, 1.0),
+        (5, 2.0),
+        (11, 3.0),
+        (13, 4.0),
+    ]
+
+
 def test_o_words_are_linuxcncs_alone() -> None:
     """Marlin's parser takes G, M and T as command letters: an O-word line is an "Unknown
     command" and the lines between them run, the host-built Marlin (2026-11-30) buffering

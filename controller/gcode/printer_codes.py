@@ -302,10 +302,13 @@ def marlin_feed_percent(raw: str) -> tuple[bool, bool, int | None]:
 #: BED=60``, a block delete ``/`` or a ``#``, which Marlin has not, or a tab: its reader skips
 #: spaces only, GCodeParser::parse), or an O-word (LinuxCNC's ``o100 sub``, ``o100 endsub``,
 #: a program number ``O1001``: Marlin's command letters are G, M and T, and the lines between
-#: them run). A line of bare axis words (``X10 Y5``) and a lone ``%`` are left to the shared
-#: step. The line number is taken whole (an atomic group): ``N10 G1`` is not ``N1`` and a stray
-#: ``0``.
-_NOT_A_COMMAND = re.compile(r"^ *(?>N\d+ *)?(?:[^A-Za-z( %]|%.*\S|[A-Za-z][A-Za-z_]|[Oo])")
+#: them run), or a G, M or T with no code number after its spaces (a slicer's unfilled
+#: ``T[next_extruder]``, ``G{x}``, ``T-1``: GCodeParser::parse takes digits only). A line of
+#: bare axis words (``X10 Y5``) and a lone ``%`` are left to the shared step. The line number is
+#: taken whole (an atomic group): ``N10 G1`` is not ``N1`` and a stray ``0``.
+_NOT_A_COMMAND = re.compile(
+    r"^ *(?>N\d+ *)?(?:[^A-Za-z( %]|%.*\S|[A-Za-z][A-Za-z_]|[Oo]|[GgMmTt] *+(?![0-9]))"
+)
 #: Any word (a letter and a value).
 _WORD = re.compile(r"[A-Z]\s*[-+]?[.\d]", re.IGNORECASE)
 #: An M or T word after a G command: a parameter to Marlin, which that command ignores.
