@@ -122,6 +122,9 @@ def test_named_parameters_local_global_and_predefined() -> None:
     )
     assert ends(text) == [(2.0, 5.0, 0.0), (2.0, 5.0, 50.8), (1.0, 5.0, 50.8)]
     assert "not defined" in error_of("G0 X#<a>\nM2\n").message
+    # a millimetre machine's, as LinuxCNC defines it from [TRAJ]LINEAR_UNITS (QtDragon's tool
+    # probe macro reads it; rs274 -g run without an INI file reads -1)
+    assert ends("G20\nG0 X#<_metric_machine>\nM2\n") == [(25.4, 0.0, 0.0)]
 
 
 def test_exists_of_a_numbered_parameter_says_whether_the_number_is_one() -> None:

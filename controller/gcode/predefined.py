@@ -18,7 +18,10 @@ _ZERO = (
     "_abs_w", "_lathe_diameter_mode", "_current_pocket", "_selected_pocket",
     "_remap_level", "_task",
 )  # fmt: skip
-_ONE = ("_lathe_radius_mode",)
+#: names that read 1; ``_metric_machine``: the simulated machine's units are millimetres, as a
+#: LinuxCNC machine's whose [TRAJ]LINEAR_UNITS is mm (init_named_parameters; rs274 -g run
+#: without an INI file reads -1)
+_ONE = ("_lathe_radius_mode", "_metric_machine")
 #: M48-M53's switches, in the order of ModalState.overrides
 _OVERRIDES = ("_feed_override", "_speed_override", "_adaptive_feed", "_feed_hold")
 
