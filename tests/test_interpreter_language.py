@@ -269,6 +269,20 @@ def test_subroutine_files_on_the_search_path(tmp_path) -> None:
     assert err.file == str(tmp_path / "bad.ngc") and err.line == 2
 
 
+def test_the_lines_read_while_seeking_a_subroutine_are_checked(tmp_path) -> None:
+    """rs274 reads every line it passes over (read_text): a nested comment in a subroutine
+    file's header, before its ``sub`` line, is refused there (a Mazak retrofit's M6 remap
+    file), naming that file; a line whose words are bad, passed over, is not."""
+    (tmp_path / "tc.ngc").write_text(
+        "(header)\n( (ATC doc) notes )\no<tc> sub\nG0 X1\no<tc> endsub\n"
+    )
+    err = error_of("o<tc> call\nM2\n", search_path=(tmp_path,))
+    assert (err.file, err.line) == (str(tmp_path / "tc.ngc"), 2) and "nested comment" in err.message
+    (tmp_path / "ok.ngc").write_text("G0 $$ Q)\no<ok> sub\nG0 X1\no<ok> endsub\n")
+    moves = list(interpret("o<ok> call\nM2\n", search_path=(tmp_path,)))
+    assert [m.end for m in moves] == [(1.0, 0.0, 0.0)]
+
+
 def test_a_subroutine_defined_inside_another_is_refused(tmp_path) -> None:
     """rs274: "Nested subroutine definition", on the inner sub's line, whether the outer one
     is in the program (LinuxCNC's tests/interp/bad/nested.ngc: line 6) or in a file

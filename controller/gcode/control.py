@@ -16,6 +16,7 @@ error on the line that went too far.
 from __future__ import annotations
 
 import math
+import re
 from collections import OrderedDict
 from collections.abc import Callable, Iterator
 from dataclasses import dataclass, field, replace
@@ -30,6 +31,7 @@ from gantry_sim.controller.gcode.lexer import (
     Block,
     LexRules,
     OWord,
+    TextError,
     decode_program,
     firmware_comments,
     lex_line,
@@ -122,7 +124,7 @@ class Source:
         if self.line_limit:
             too_long = line_too_long(raw, self.line_limit)
             if too_long is not None:
-                raise GcodeError(too_long)
+                raise TextError(too_long)
         if self.checksums and "*" in raw:  # g2core: the first * anywhere
             raw = without_checksum(raw) if self.checksums == "marlin" else raw.split("*", 1)[0]
         if self.comments:
@@ -155,11 +157,18 @@ class Source:
         return lex_line(raw, i + 1, self.lex_rules)
 
     def lexed(self, i: int) -> Block | None:
-        """Line ``i`` lexed, or None where it cannot be (searches pass over such lines; the
-        error is raised where the line runs)."""
+        """Line ``i`` lexed, or None where its words cannot be read (searches pass over such
+        lines, as rs274 does not parse the lines it skips: the error is raised where the line
+        runs). Its text refused (:class:`~gantry_sim.controller.gcode.lexer.TextError`) or an
+        O-word line refused is raised here: rs274 reads every line it passes over, and reads
+        each O-word line to find the one it seeks."""
         try:
             return self.block(i)
-        except GcodeError:
+        except GcodeError as exc:
+            if isinstance(exc, TextError) or _O_LINE.match(self.lines[i]):
+                if exc.file is None:
+                    exc.file = self.name
+                raise
             return None
 
     def oword(self, i: int) -> OWord | None:
@@ -204,6 +213,9 @@ class Source:
             i += 1
         return None
 
+
+#: an O-word line: ``o100 ...``, after an optional block delete and line number
+_O_LINE = re.compile(r"\s*/?\s*(?:[Nn][0-9.\s]*)?[Oo]")
 
 OPENERS = ("if", "while", "do", "repeat")
 #: lines that close (or continue) one kind of construct
@@ -459,8 +471,6 @@ class Runner:
         elif kw in ("endsub", "return"):
             if f.sub is None:
                 raise GcodeError(f"o{_show(name)} {kw} outside a subroutine")
-            if len(o.args) > 1:
-                raise GcodeError(f"o{_show(name)} {kw} returns one [value] at most")
             self._returned(self._value(o) if o.args else None)
             level = self.params.level
             self.params.leave()

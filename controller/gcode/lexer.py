@@ -31,6 +31,13 @@ COMMENT = "("
 WORD_LETTERS = frozenset("ABCDEFGHIJKLMPQRSTUVWXYZ@^$")
 
 
+class TextError(GcodeError):
+    """A line's text refused as rs274's read_text refuses it (too long, a comment nested or left
+    open): on every line it reads, also the lines it passes over (a branch not taken, a
+    subroutine's body at its definition, the lines searched for a subroutine), where the
+    line's words are never parsed."""
+
+
 @dataclass(frozen=True)
 class LexRules:
     """How a controller's line reader differs from rs274's (the defaults).
@@ -65,6 +72,10 @@ O_KEYWORDS = (
     "WHILE", "BREAK", "ELSE", "CALL", "SUB", "DO", "IF",
 )
 # fmt: on
+#: the [values] each O-word keyword takes at most (rs274's read_o: one condition or count, a
+#: returned value; a call any number); the others take none ("Unexpected character after
+#: O-word")
+_O_VALUES_MAX = {"IF": 1, "ELSEIF": 1, "WHILE": 1, "REPEAT": 1, "RETURN": 1, "ENDSUB": 1}
 #: a line ends at LF, at CRs then LF (CR LF, and the CR CR LF of a file whose line ends were
 #: converted twice: LinuxCNC counts that as one line end, and so do editors and grep), or at a
 #: bare CR
@@ -175,7 +186,7 @@ def strip_line(raw: str) -> str:
             if ch == ")":
                 in_comment = False
             elif ch == "(":
-                raise GcodeError("nested comment found; a comment ( ... ) cannot contain '('")
+                raise TextError("nested comment found; a comment ( ... ) cannot contain '('")
             continue
         if ch == "(":
             in_comment = True
@@ -185,7 +196,7 @@ def strip_line(raw: str) -> str:
         elif ch not in " \t\r":
             out.append(ch)
     if in_comment:
-        raise GcodeError("unclosed comment found; close it with ')' on the same line")
+        raise TextError("unclosed comment found; close it with ')' on the same line")
     return "".join(out).upper()
 
 
@@ -496,6 +507,13 @@ def _oword(reader: Reader) -> OWord | None:
                 f"unexpected {reader.peek()!r} after o{cut(name)} {keyword.lower()}; an O-word line "
                 "holds only its keyword and [bracketed] values"
             )
+    most = _O_VALUES_MAX.get(keyword, 0) if keyword != "CALL" else len(args)
+    if len(args) > most:
+        takes = "none" if most == 0 else "one at most"
+        raise GcodeError(
+            f"unexpected [value] after o{cut(name)} {keyword.lower()}: {keyword.lower()} takes "
+            f"{takes} (rs274: Unexpected character after O-word)"
+        )
     return OWord(name, keyword.lower(), tuple(args), number)
 
 
