@@ -214,6 +214,9 @@ class Source:
         return None
 
 
+#: the words an M98 line may carry, which rs274 reads as a block's and moves nothing with: P
+#: and L, a G code, axis words, M codes, F, S, T (others, Q, H, R, I, J, K..., no code takes)
+_M98_WORDS = frozenset("PLGMFSTNXYZABCUVW")
 #: an O-word line: ``o100 ...``, after an optional block delete and line number
 _O_LINE = re.compile(r"\s*/?\s*(?:[Nn][0-9.\s]*)?[Oo]")
 
@@ -632,10 +635,21 @@ class Runner:
     def _fanuc(self, f: Frame, block: Block, code: int) -> None:
         """M98 P<n> [L<count>] / M99 (controller/gcode/fanuc_subs.py); ``f.index`` is already
         past the line."""
+        others = [letter for letter, _ in block.words[1:]]
         if code == 99:
             if f.fanuc is None and len(self.frames) == 1:
+                if "P" in others:  # rs274 reads it as a block: no code here takes P
+                    raise GcodeError(
+                        "P word with no code that uses it on M99 (other controls' M99 P returns "
+                        "to a line; LinuxCNC's does not)"
+                    )
                 self.ended = True  # rs274 -g: M99 in the main program ends it
                 return
+            if others and f.fanuc is not None:
+                raise GcodeError(
+                    f"unexpected {others[0]} word after M99: M99 ends a subprogram and takes "
+                    "no word (rs274: Unexpected character after O-word)"
+                )
             if f.fanuc is None:
                 raise GcodeError(
                     "M99 in an o-word subroutine; 'O.... endsub' or 'O.... return' must follow "
@@ -654,6 +668,11 @@ class Runner:
         words = dict(block.words[1:])
         if "P" not in words:
             raise GcodeError("found M98 with no P word: the number of the O subprogram to call")
+        unused = next((k for k in others if k not in _M98_WORDS), None)
+        if unused is not None:
+            raise GcodeError(
+                f"{unused} word with no code that uses it on M98 (P the subprogram, L the count)"
+            )
         p = evaluate(words["P"], self.params)
         number = round(p)
         if abs(p - number) > 0.0001:
