@@ -658,6 +658,16 @@ def test_marlin_skips_a_command_letter_without_its_number() -> None:
         (11, 3.0),
         (13, 4.0),
     ]
+    # a line that opens with a parameter letter: P, I, S... are unknown commands to Marlin;
+    # bare axis, E and F words take the modal motion (GCODE_MOTION_MODES; Marlin's default
+    # build answers "Unknown command"), read as its parser reads a value (none in [x])
+    bare = "G21\nG90\nG1 X1 F600\nX10 Y5\nE[x]\nP5\nS100\nX[x] Y7\nG1 X2\n"
+    assert [(m.line, m.end) for m in run(bare, "marlin")] == [
+        (3, (1.0, 0.0, 0.0)),
+        (4, (10.0, 5.0, 0.0)),
+        (8, (10.0, 7.0, 0.0)),
+        (9, (2.0, 7.0, 0.0)),
+    ]
 
 
 def test_o_words_are_linuxcncs_alone() -> None:

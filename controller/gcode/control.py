@@ -45,6 +45,7 @@ from gantry_sim.controller.gcode.printer_codes import (
     after_controls,
     as_g92,
     g2core_characters,
+    marlin_bare_motion,
     marlin_command_alone,
     marlin_dwell_seconds,
     marlin_extruder,
@@ -84,6 +85,7 @@ _REWRITTEN: dict[str, Callable[[str], str]] = {
     "command_alone": marlin_command_alone,  # Marlin: G17-G21, G54-G59, G80, G90, G91 read no word
     "characters": g2core_characters,  # g2core: the characters its normalizer drops left out
     "motion": marlin_motion,  # Marlin: G0-G3, G5, G92 read as its parser reads them
+    "bare_motion": marlin_bare_motion,  # Marlin: X, Y, Z, E, F words with no command
     "parameters": without_marlin_parameters,  # Marlin: G, M, T words after a G command
 }
 

@@ -114,6 +114,8 @@ def marlin_line(raw: str) -> str | None:
     code = raw.split(";", 1)[0]
     if _NOT_A_COMMAND.match(code):
         return "quiet"  # Marlin: "Unknown command", and on to the next line
+    if _BARE_WORDS.match(code):
+        return "bare_motion"
     head = _HEAD.match(code)
     if head is None:
         return None
@@ -240,6 +242,20 @@ def marlin_motion(raw: str) -> str:
     return f"{head.group()} {words}"
 
 
+def marlin_bare_motion(raw: str) -> str:
+    """A "bare_motion" line (:func:`marlin_line`: axis, E or F words with no command, ``X10
+    Y5``) as GCODE_MOTION_MODES reads it, the modal G0/G1's parameters (X, Y, Z, E, F) read as
+    :func:`marlin_motion` reads them (a slicer template's valueless ``X[x] Y5`` is a Y5), for
+    the shared step to move in the modal motion; nothing where no value is left."""
+    params: dict[str, str | None] = {}
+    for step in _MARLIN_STEP.finditer(_PAREN.sub("", raw.split(";", 1)[0])):
+        letter = step.group(1)
+        if letter is not None and letter.upper() in "XYZEF":
+            value = _MARLIN_VALUE.match(step.group(2))
+            params[letter.upper()] = value.group() if value else None
+    return " ".join(f"{k}{v}" for k, v in params.items() if v is not None)
+
+
 def _command(raw: str) -> tuple[str, re.Match[str]]:
     """A Marlin line that :func:`marlin_line` sorted: its text before any ``;`` comment, and
     the match of its command (:data:`_HEAD`)."""
@@ -307,8 +323,13 @@ def marlin_feed_percent(raw: str) -> tuple[bool, bool, int | None]:
 #: bare axis words (``X10 Y5``) and a lone ``%`` are left to the shared step. The line number is
 #: taken whole (an atomic group): ``N10 G1`` is not ``N1`` and a stray ``0``.
 _NOT_A_COMMAND = re.compile(
-    r"^ *(?>N\d+ *)?(?:[^A-Za-z( %]|%.*\S|[A-Za-z][A-Za-z_]|[Oo]|[GgMmTt] *+(?![0-9]))"
+    r"^ *(?>N\d+ *)?"
+    r"(?:[^A-Za-z( %]|%.*\S|[A-Za-z][A-Za-z_]|[Oo]|[GgMmTt] *+(?![0-9])|[^GMTNOXYZEFgmtnoxyzef( %])"
 )
+#: A line that opens with an axis, E or F word (``X10 Y5``): GCODE_MOTION_MODES applies the
+#: modal motion to it (Marlin's default build answers "Unknown command"; a line that opens with
+#: another parameter letter, ``P5``, is unknown to both)
+_BARE_WORDS = re.compile(r"^ *(?>N\d+ *)?[XYZEFxyzef]")
 #: Any word (a letter and a value).
 _WORD = re.compile(r"[A-Z]\s*[-+]?[.\d]", re.IGNORECASE)
 #: An M or T word after a G command: a parameter to Marlin, which that command ignores.
