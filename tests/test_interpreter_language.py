@@ -269,6 +269,23 @@ def test_subroutine_files_on_the_search_path(tmp_path) -> None:
     assert err.file == str(tmp_path / "bad.ngc") and err.line == 2
 
 
+def test_an_m98_subprogram_in_its_own_file(tmp_path) -> None:
+    """rs274 looks an M98 P<n> not in the program up as it looks up o<n> call: n.ngc on the
+    search path, holding ``O<n>`` ... ``M99`` (rs274 -g on these files, 2026-11-30: X5, then
+    Y3; a file holding an ``o2000 sub`` is refused by both)."""
+    (tmp_path / "2000.ngc").write_text("O2000\nG0 X5\nM99\n")
+    main = "G21\nM98 P2000 L2\nG0 Y3\nM30\n"
+    moves = list(interpret(main, search_path=(tmp_path,)))
+    assert [(m.line, m.end) for m in moves] == [
+        (2, (5.0, 0.0, 0.0)),
+        (2, (5.0, 0.0, 0.0)),
+        (3, (5.0, 3.0, 0.0)),
+    ]
+    assert "or a file 2000.ngc" in error_of(main).message  # not on the search path
+    (tmp_path / "2000.ngc").write_text("o2000 sub\nG0 X5\no2000 endsub\n")
+    assert "no subprogram O2000" in error_of(main, search_path=(tmp_path,)).message
+
+
 def test_the_lines_read_while_seeking_a_subroutine_are_checked(tmp_path) -> None:
     """rs274 reads every line it passes over (read_text): a nested comment in a subroutine
     file's header, before its ``sub`` line, is refused there (a Mazak retrofit's M6 remap

@@ -323,6 +323,7 @@ class Runner:
         self.max_iterations = max_iterations
         self.iterations = 0
         self.subs: dict[str, tuple[Source, int]] = {}
+        self.fanuc_files: dict[int, Source] = {}  # M98 subprograms found in files, by number
         self.searched: set[tuple[Source, int]] = set()  # definitions found by a forward search
         self.frames: list[Frame] = [Frame(self.main, 0)]
         self.ended = False
@@ -682,12 +683,17 @@ class Runner:
         count = int(whole_number("L", evaluate(words["L"], self.params))) if "L" in words else 1
         if count <= 0:
             return  # L0: no call
-        found = find_program(f.source.lines, f.index, number)
-        if found is None:
-            raise GcodeError(
-                f"M98 P{number}: no subprogram O{number} in {f.source.name} (a line 'O{number}' "
-                "starts it, M99 ends it)"
-            )
+        source, found = f.source, find_program(f.source.lines, f.index, number)
+        if found is None:  # rs274 looks it up as an o<n> call: n.ngc in the search path
+            source = self.fanuc_files.get(number) or self._sub_file(str(number)) or f.source
+            found = find_program(source.lines, 0, number) if source is not f.source else None
+            if found is None:
+                raise GcodeError(
+                    f"M98 P{number}: no subprogram O{number} in {f.source.name} or a file "
+                    f"{number}.ngc in the subroutine path (a line 'O{number}' starts it, M99 "
+                    "ends it)"
+                )
+            self.fanuc_files[number] = source
         if len(self.frames) > MAX_CALL_LEVELS:
             raise GcodeError(
                 f"too many subroutine levels (more than {MAX_CALL_LEVELS} nested calls, as in "
@@ -700,14 +706,11 @@ class Runner:
                 "; raise the bound with --max-iterations if the program is right"
             )
         self.params.enter([self.params.numbered.get(i, 0.0) for i in range(1, 31)])
-        self.frames.append(Frame(f.source, found + 1, sub=str(number), fanuc=(found, count)))
+        self.frames.append(Frame(source, found + 1, sub=str(number), fanuc=(found, count)))
 
-    def _find_sub(self, src: Source, i: int, name: str) -> tuple[Source, int]:
-        at = src.find(i + 1, name, ("sub",), until_percent=src is self.main and self.percent_open)
-        if at is not None:
-            self.subs[name] = (src, at)
-            self.searched.add((src, at))
-            return src, at
+    def _sub_file(self, name: str) -> Source | None:
+        """``NAME.ngc`` in the first folder of the search path that has one, read (rs274's
+        lookup of an ``o<name> call`` and of an ``M98 P<n>`` not in the program), or None."""
         for folder in self.search_path:
             path = folder / f"{name}.ngc"
             try:
@@ -722,19 +725,28 @@ class Runner:
                     data = path.read_bytes()
                 except OSError as exc:
                     raise GcodeError(f"cannot read subroutine file {path}: {exc}") from None
-                text = decode_program(data)
-                sub_src = Source(
+                return Source(
                     str(path),
-                    split_lines(text),
+                    split_lines(decode_program(data)),
                     comments=self.main.comments,
                     line_limit=self.main.line_limit,
                     lex_rules=self.main.lex_rules,
                 )
-                at = sub_src.find(0, name, ("sub",))
-                if at is None:
-                    raise GcodeError(f"subroutine file {path} has no o<{cut(name)}> sub line")
-                self.subs[name] = (sub_src, at)
-                return sub_src, at
+        return None
+
+    def _find_sub(self, src: Source, i: int, name: str) -> tuple[Source, int]:
+        at = src.find(i + 1, name, ("sub",), until_percent=src is self.main and self.percent_open)
+        if at is not None:
+            self.subs[name] = (src, at)
+            self.searched.add((src, at))
+            return src, at
+        sub_src = self._sub_file(name)
+        if sub_src is not None:
+            at = sub_src.find(0, name, ("sub",))
+            if at is None:
+                raise GcodeError(f"subroutine file {sub_src.name} has no o<{cut(name)}> sub line")
+            self.subs[name] = (sub_src, at)
+            return sub_src, at
         where = ", ".join(str(p) for p in self.search_path) or "no search path"
         closed = " before its closing '%' (nothing after it is read)" if self.percent_open else ""
         raise GcodeError(
