@@ -668,6 +668,9 @@ def test_marlin_skips_a_command_letter_without_its_number() -> None:
         (8, (10.0, 7.0, 0.0)),
         (9, (2.0, 7.0, 0.0)),
     ]
+    # an N is skipped with the digits right after it: N alone, NX5 and N 5 G1 are unknown
+    numbered = "G21\nG90\nG1 X1 F600\nn10 G1 X2\nN\nNX5\nN10 P5\nN 5 G1 X9\nN10 G1 X3\n"
+    assert [(m.line, m.end[0]) for m in run(numbered, "marlin")] == [(3, 1.0), (4, 2.0), (9, 3.0)]
 
 
 def test_o_words_are_linuxcncs_alone() -> None:

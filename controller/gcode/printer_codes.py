@@ -313,18 +313,19 @@ def marlin_feed_percent(raw: str) -> tuple[bool, bool, int | None]:
     return "R" in words, "B" in words, percent
 
 
-#: A line Marlin answers with "Unknown command": one that opens with neither a letter and a
-#: value nor a comment (a stray number, ``% text``, a Klipper macro such as ``PRINT_START
-#: BED=60``, a block delete ``/`` or a ``#``, which Marlin has not, or a tab: its reader skips
-#: spaces only, GCodeParser::parse), or an O-word (LinuxCNC's ``o100 sub``, ``o100 endsub``,
-#: a program number ``O1001``: Marlin's command letters are G, M and T, and the lines between
-#: them run), or a G, M or T with no code number after its spaces (a slicer's unfilled
-#: ``T[next_extruder]``, ``G{x}``, ``T-1``: GCodeParser::parse takes digits only). A line of
-#: bare axis words (``X10 Y5``) and a lone ``%`` are left to the shared step. The line number is
-#: taken whole (an atomic group): ``N10 G1`` is not ``N1`` and a stray ``0``.
+#: A line Marlin answers with "Unknown command" (GCodeParser::parse: after spaces and a line
+#: number, a command letter G, M or T and its digits): one that opens with no letter (a stray
+#: number, a block delete ``/`` or a ``#``, which Marlin has not, or a tab: its reader skips
+#: spaces only), with a letter that is no command (an O-word, LinuxCNC's ``o100 sub`` or a
+#: program number ``O1001``, whose lines between then run; ``P5``, ``S100``), with a word
+#: (a Klipper macro such as ``PRINT_START BED=60``), with ``%`` and text, with a G, M or T
+#: and no digits after its spaces (a slicer's unfilled ``T[next_extruder]``, ``G{x}``,
+#: ``T-1``), or with an N and no digit or sign right after it (``N 5 G1``). Bare axis, E and F words (``X10 Y5``, :data:`_BARE_WORDS`) and a lone ``%`` are
+#: read on. The line number is taken whole (an atomic group): ``N10 G1`` is not ``N1`` and a
+#: stray ``0``.
 _NOT_A_COMMAND = re.compile(
-    r"^ *(?>N\d+ *)?"
-    r"(?:[^A-Za-z( %]|%.*\S|[A-Za-z][A-Za-z_]|[Oo]|[GgMmTt] *+(?![0-9])|[^GMTNOXYZEFgmtnoxyzef( %])"
+    r"^ *(?>[Nn]\d+ *)?"
+    r"(?:[^GMTNXYZEFgmtnxyzef( %]|%.*\S|[A-Za-z][A-Za-z_]|[GgMmTt] *+(?![0-9])|[Nn](?![-+0-9]))"
 )
 #: A line that opens with an axis, E or F word (``X10 Y5``): GCODE_MOTION_MODES applies the
 #: modal motion to it (Marlin's default build answers "Unknown command"; a line that opens with
