@@ -155,15 +155,20 @@ def test_marlin_rules() -> None:
 
 def test_marlin_reads_nested_and_open_comments_without_error() -> None:
     """Skeinforge writes "(<setting> ... Jump_Space_(mm): 2.0 </setting>)": Marlin skips such
-    a comment (rs274 refuses it); a comment left open runs to the line's end."""
+    a line (rs274 refuses it); a comment left open runs to the line's end. Marlin's reader
+    (queue.cpp, PAREN_COMMENTS) drops a comment up to its first ``)``, and its parser reads
+    what is left: ``c)`` of ``(a (b) c)`` is a valueless C the G1 does not read, and the
+    Skeinforge line's rest opens with ``:``, an unknown command."""
     text = (
         "(<setting> comb Running_Jump_Space_(mm): 2.0 </setting>)\n"
         "G1 X1 F600 (a (b) c)\nG1 X2 (open\nG1 X3 (a) Y2 (b) ; done\n"
     )
     assert [m.end for m in run(text, "marlin")] == [(1, 0, 0), (2, 0, 0), (3, 2, 0)]
     assert "nested comment" in error_of(text + "M2", "linuxcnc").message
-    assert lexer.firmware_comments("G1 (a (b) c) X1 (d", "marlin") == "G1 (a b c) X1 (d)"
+    assert lexer.firmware_comments("G1 (a (b) c) X1 (d", "marlin") == "G1  c X1 "
     assert lexer.firmware_comments("G1 X1 ) Y2", "marlin") == "G1 X1  Y2"  # a stray ) skipped
+    assert lexer.firmware_comments("G1 X1 (a;b) Y2 ; c", "marlin") == "G1 X1  Y2 "
+    assert lexer.firmware_comments("M117 a\\(b\\) (c)", "marlin") == "M117 a(b) "
 
 
 def test_marlin_ignores_the_axis_letters_its_default_build_lacks() -> None:

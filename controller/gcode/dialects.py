@@ -352,8 +352,8 @@ MARLIN = Dialect(
     g0_at_feed=True,
     checksums="marlin",
     extruder=True,
-    # queue.cpp process_stream_char (PAREN_COMMENTS) and GCodeParser::parse: a comment left
-    # open or holding a ( is no error (lexer._balanced_comments); its default build reads no
+    # queue.cpp process_stream_char (PAREN_COMMENTS) drops a comment up to its first ): one
+    # left open or holding a ( is no error (lexer._marlin_stream); its default build reads no
     # ( comments and skips a line that opens with one as an unknown command
     firmware_comments="marlin",
     positive_feed_only=True,

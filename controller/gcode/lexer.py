@@ -204,16 +204,16 @@ def firmware_comments(raw: str, rules: str) -> str:
     """``raw`` with its comments as a firmware's line reader takes them, for :func:`strip_line`.
 
     ``rules``: ``"grbl"`` (grbl 1.1's serial layer, protocol.c), ``"g2core"`` (its
-    ``_normalize_gcode_block``) or ``"marlin"`` (comments nest: :func:`_balanced_comments`).
+    ``_normalize_gcode_block``) or ``"marlin"`` (its reader drops them: :func:`_marlin_stream`).
     grbl and g2core read a ``(`` comment up to its first ``)`` or to the end of the line, a
     ``(`` inside it being text, and end the line at a ``;`` outside a comment (rs274 refuses a
     comment left open or holding a ``(``). g2core also ends the line at a ``%`` (so a ``%``
     line is an empty line, not a program delimiter) and skips a line whose first character is
     ``/`` (its block delete is always on: ``gc_gcode_parser`` returns before parsing such a
-    line). The comment is returned closed, with no ``(`` inside.
+    line). The comment is returned closed, with no ``(`` inside (Marlin's is dropped).
     """
     if rules == "marlin":
-        return _balanced_comments(raw) if "(" in raw or ")" in raw else raw
+        return _marlin_stream(raw) if "(" in raw or ")" in raw or "\\" in raw else raw
     if rules == "grbl":
         return grbl_line(raw)
     g2core = rules == "g2core"
@@ -245,33 +245,30 @@ def grbl_line(raw: str) -> str:
     return _GRBL_DROPPED.sub("", _OPEN_COMMENT.sub("", kept.group() if kept else ""))
 
 
-def _balanced_comments(raw: str) -> str:
-    """``raw`` with its ``(`` comments read as nesting (Marlin): a ``(`` inside a comment opens
-    one more level, the comment ends at the ``)`` that closes the first, or at the line's end;
-    a ``;`` outside a comment ends the line; a ``)`` outside one is dropped. Marlin's
-    PAREN_COMMENTS reader ends a comment at its first ``)``, and its parser reads what follows
-    it as words: the same motion on a line whose parentheses balance unless the text after an
-    inner ``)`` holds a letter the command reads (``E1 (a (b) one)``: Marlin's parser keeps
-    the last E, of no value, and the move does not extrude; here it does). Each comment is
-    returned closed, with no parenthesis inside."""
+def _marlin_stream(raw: str) -> str:
+    """``raw`` as Marlin's line reader passes it on (queue.cpp ``process_stream_char``, the
+    PAREN_COMMENTS build): a ``(`` comment dropped up to its first ``)``, a ``(`` inside it
+    being text (``(a (b) c)`` leaves `` c)``, which the parser reads on: its letters without a
+    value are no parameter); a ``;`` outside a comment ends the line; a ``\\`` keeps the next
+    character as it is, itself dropped. A ``)`` outside a comment, which the parser skips, is
+    dropped too."""
     out: list[str] = []
-    depth = 0
+    paren = escaped = False
     for ch in raw:
-        if depth:
-            if ch in "()":
-                depth += 1 if ch == "(" else -1
-                if depth == 0:
-                    out.append(")")
-            else:
-                out.append(ch)
-        elif ch == "(":
-            depth = 1
-            out.append("(")
+        if paren:
+            paren = ch != ")"
+        elif escaped:
+            escaped = False
+            out.append(ch)
+        elif ch == "\\":
+            escaped = True
         elif ch == ";":
             break
-        elif ch != ")":  # a stray ) is no word: the parser skips it
+        elif ch == "(":
+            paren = True
+        elif ch != ")":
             out.append(ch)
-    return "".join(out) + (")" if depth else "")
+    return "".join(out)
 
 
 def _closed(comment: re.Match[str]) -> str:
