@@ -790,6 +790,22 @@ def test_marlin_g4_dwells_in_milliseconds_or_seconds() -> None:
     ]
 
 
+def test_g2core_runs_the_gcode_of_a_json_gc_line() -> None:
+    """g2core runs a JSON line's ``gc`` string as a G-code line (config_app.cpp ``gc``:
+    gc_run_gc), in strict or relaxed JSON (a TinyG milling robot's generator writes whole
+    programs so); other JSON lines move nothing."""
+    text = (
+        'G21 G90\n{"gc":"g90g1f100z2"}\n{gc:"g1 x5 y5 f300"}\n{"xvm":1000}\n'
+        '{"gc":"g0x+1"}\nG1 X10 F300\n'
+    )
+    assert [(m.line, m.end) for m in run(text, "g2core")] == [
+        (2, (0.0, 0.0, 2.0)),
+        (3, (5.0, 5.0, 2.0)),
+        (5, (1.0, 5.0, 2.0)),  # its normalizer drops the +, as on any G-code line
+        (6, (10.0, 5.0, 2.0)),
+    ]
+
+
 def test_g2core_m100_and_text_mode_lines_move_nothing() -> None:
     text = "$xvm=1000\nM100 ({xvm:1000})\nM100.1 ({zvm:100})\nM101 ({in1:1})\nG0 X1\n"
     assert [(m.line, m.end) for m in run(text, "g2core")] == [(5, (1.0, 0.0, 0.0))]

@@ -45,6 +45,7 @@ from gantry_sim.controller.gcode.printer_codes import (
     after_controls,
     as_g92,
     g2core_characters,
+    g2core_json_gcode,
     marlin_bare_motion,
     marlin_command_alone,
     marlin_dwell_seconds,
@@ -76,6 +77,7 @@ LEXED_LINES_KEPT = 8192
 #: controls split off a line's start, Marlin's subcode dropped (G91.1 is a G91).
 _READ_AGAIN: dict[str, Callable[[str], str]] = {
     "controls": after_controls,
+    "json_gcode": g2core_json_gcode,  # g2core: {"gc":"g1x10"} runs its G-code
     "subcode": marlin_without_subcode,
     "line_number": marlin_without_line_number,
 }

@@ -9,9 +9,11 @@ The interpreter reads these fields and never tests a dialect's name. Sources (co
   converted: 0.0028284 in = 0.0718 mm); a radius below 0.00127 mm (0.00005 in) is a zero-radius
   arc; an R arc may fall short of the end by that same amount (it becomes the exact semicircle);
   P must be within 0.001 of an integer and >= 1; the program must end with M2/M30 or ``%``.
-- ``g2core``: g2core's G2/G3 page: an explicit end point equal to the start moves nothing (a full
-  circle needs the plane axes omitted); radius mismatch refused above 0.5 mm (0.05 in), or above
-  0.005 mm (0.0005 in) and 0.1 % of the radius.
+- ``g2core``: g2core's G2/G3 page (seed 000, the dialect's specification): an explicit end point
+  equal to the start moves nothing (a full circle needs the plane axes omitted; the firmware's
+  plan_arc.cpp turns a G2 so into a full circle and refuses a G3); radius mismatch refused
+  above 1.0 mm, or above 0.005 mm and 0.1 % of the start radius, in mm whatever the units
+  (plan_arc.h's ARC_RADIUS_ERROR_MAX; the page's 0.5 mm is commented out there).
 - ``marlin``: Marlin's G2/G3 page (segments of MM_PER_ARC_SEGMENT = 1 mm, the dialect's
   segmentation default): the end point is not checked, the arc ends on the start-radius
   circle at the destination's angle and the move at the destination (plan_arc's last segment

@@ -376,12 +376,15 @@ _FEEDHOLD = (
 def g2core_line(raw: str) -> str | None:
     """ "quiet" for a g2core JSON or text-mode line, G28.2/G28.4, or a control after blanks;
     "controls" for a line opening with single-character controls (:func:`after_controls`);
+    "json_gcode" for a JSON line of G-code, ``{"gc":"g1x10f300"}`` (:func:`g2core_json_gcode`);
     "set_origin" for G28.3; "characters" for a G-code line holding a character g2core drops
     (:func:`g2core_characters`); None otherwise."""
     if raw.lstrip(" \t" + G2CORE_CONTROLS)[:1] == "!":
         raise GcodeError(_FEEDHOLD)
     if raw[:1] and raw[0] in G2CORE_CONTROLS:
         return "controls"
+    if _G2CORE_GC.match(raw):
+        return "json_gcode"
     if _G2CORE_SET_ORIGIN.match(raw):
         return "set_origin"
     head = raw.lstrip(" \t")[:1]
@@ -404,6 +407,18 @@ def g2core_characters(raw: str) -> str:
     lexer.firmware_comments) as g2core parses it: the characters its normalizer drops left out
     (``X+5`` is X5), its comments kept."""
     return _G2CORE_COMMENT_OR_DROPPED.sub(lambda m: m.group() if m.group()[0] == "(" else "", raw)
+
+
+#: A JSON line of G-code: the ``gc`` key (quoted, or bare as g2core's relaxed JSON allows)
+#: and a string, which g2core runs as a G-code line (config_app.cpp ``gc``: gc_run_gc)
+_G2CORE_GC = re.compile(r'\s*\{\s*"?gc"?\s*:\s*"((?:[^"\\]|\\.)*)"\s*\}\s*$', re.IGNORECASE)
+
+
+def g2core_json_gcode(raw: str) -> str:
+    """A "json_gcode" line (:func:`g2core_line`): its G-code string, unescaped."""
+    found = _G2CORE_GC.match(raw)
+    assert found is not None  # g2core_line matched it
+    return re.sub(r"\\(.)", r"\1", found.group(1))
 
 
 def after_controls(raw: str) -> str:
