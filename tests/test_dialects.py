@@ -165,7 +165,7 @@ def test_marlin_reads_nested_and_open_comments_without_error() -> None:
     )
     assert [m.end for m in run(text, "marlin")] == [(1, 0, 0), (2, 0, 0), (3, 2, 0)]
     assert "nested comment" in error_of(text + "M2", "linuxcnc").message
-    assert lexer.firmware_comments("G1 (a (b) c) X1 (d", "marlin") == "G1  c X1 "
+    assert lexer.firmware_comments("G1 (a (b) c) X1 (d", "marlin") == "G1  c) X1 "
     assert lexer.firmware_comments("G1 X1 ) Y2", "marlin") == "G1 X1  Y2"  # a stray ) skipped
     assert lexer.firmware_comments("G1 X1 (a;b) Y2 ; c", "marlin") == "G1 X1  Y2 "
     assert lexer.firmware_comments("M117 a\\(b\\) (c)", "marlin") == "M117 a(b) "

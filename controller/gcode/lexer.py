@@ -251,7 +251,8 @@ def _marlin_stream(raw: str) -> str:
     being text (``(a (b) c)`` leaves `` c)``, which the parser reads on: its letters without a
     value are no parameter); a ``;`` outside a comment ends the line; a ``\\`` keeps the next
     character as it is, itself dropped. A ``)`` outside a comment, which the parser skips, is
-    dropped too."""
+    dropped too, unless it follows a letter (``E)`` leaves that E without a value, where
+    ``E 5`` would be an E5)."""
     out: list[str] = []
     paren = escaped = False
     for ch in raw:
@@ -266,7 +267,7 @@ def _marlin_stream(raw: str) -> str:
             break
         elif ch == "(":
             paren = True
-        elif ch != ")":
+        elif ch != ")" or "".join(out).rstrip(" ")[-1:].isalpha():
             out.append(ch)
     return "".join(out)
 
