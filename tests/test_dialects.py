@@ -169,6 +169,9 @@ def test_marlin_reads_nested_and_open_comments_without_error() -> None:
     assert lexer.firmware_comments("G1 X1 ) Y2", "marlin") == "G1 X1  Y2"  # a stray ) skipped
     assert lexer.firmware_comments("G1 X1 (a;b) Y2 ; c", "marlin") == "G1 X1  Y2 "
     assert lexer.firmware_comments("M117 a\\(b\\) (c)", "marlin") == "M117 a(b) "
+    # a hostile line of 100,000 valueless letters is read in one pass (each ")" once looked
+    # back over the whole line kept so far: minutes for such a line)
+    assert lexer.firmware_comments("G1 " + "X)" * 100_000, "marlin") == "G1 " + "X)" * 100_000
 
 
 def test_marlin_ignores_the_axis_letters_its_default_build_lacks() -> None:

@@ -255,20 +255,26 @@ def _marlin_stream(raw: str) -> str:
     ``E 5`` would be an E5)."""
     out: list[str] = []
     paren = escaped = False
+    last = ""  # the last character kept that is not a space
     for ch in raw:
         if paren:
             paren = ch != ")"
-        elif escaped:
+            continue
+        if escaped:
             escaped = False
-            out.append(ch)
         elif ch == "\\":
             escaped = True
+            continue
         elif ch == ";":
             break
         elif ch == "(":
             paren = True
-        elif ch != ")" or "".join(out).rstrip(" ")[-1:].isalpha():
-            out.append(ch)
+            continue
+        elif ch == ")" and not last.isalpha():
+            continue
+        out.append(ch)
+        if ch != " ":
+            last = ch
     return "".join(out)
 
 
