@@ -134,7 +134,7 @@ class Source:
         if self.comments:
             raw = firmware_comments(raw, self.comments)
         kind = self.own_lines(raw) if self.own_lines is not None else None
-        while kind is not None and kind in _READ_AGAIN:
+        while kind in _READ_AGAIN:
             raw = _READ_AGAIN[kind](raw)
             kind = self.own_lines(raw) if self.own_lines is not None else None
         if kind == "quiet":
@@ -685,16 +685,17 @@ class Runner:
         count = int(whole_number("L", evaluate(words["L"], self.params))) if "L" in words else 1
         if count <= 0:
             return  # L0: no call
-        source, found = f.source, find_program(f.source.lines, f.index, number)
+        source: Source | None = f.source
+        found = find_program(f.source.lines, f.index, number)
         if found is None:  # rs274 looks it up as an o<n> call: n.ngc in the search path
-            source = self.fanuc_files.get(number) or self._sub_file(str(number)) or f.source
-            found = find_program(source.lines, 0, number) if source is not f.source else None
-            if found is None:
-                raise GcodeError(
-                    f"M98 P{number}: no subprogram O{number} in {f.source.name} or a file "
-                    f"{number}.ngc in the subroutine path (a line 'O{number}' starts it, M99 "
-                    "ends it)"
-                )
+            source = self.fanuc_files.get(number) or self._sub_file(str(number))
+            found = None if source is None else find_program(source.lines, 0, number)
+        if source is None or found is None:
+            raise GcodeError(
+                f"M98 P{number}: no subprogram O{number} in {f.source.name} or a file "
+                f"{number}.ngc in the subroutine path (a line 'O{number}' starts it, M99 ends it)"
+            )
+        if source is not f.source:
             self.fanuc_files[number] = source
         if len(self.frames) > MAX_CALL_LEVELS:
             raise GcodeError(

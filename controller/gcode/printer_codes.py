@@ -227,13 +227,7 @@ def marlin_motion(raw: str) -> str:
     code, head = _command(raw)
     tenths = round(float(head.group(2)) * 10)
     reads = _MOTION_READS[tenths]
-    params: dict[str, str | None] = {}
-    # ( ) comments (closed by lexer.firmware_comments) as PAREN_COMMENTS' reader drops them
-    for step in _MARLIN_STEP.finditer(_PAREN.sub("", code[head.end() :])):
-        letter = step.group(1)
-        if letter is not None:
-            value = _MARLIN_VALUE.match(step.group(2))
-            params[letter.upper()] = value.group() if value else None
+    params = _marlin_parameters(code[head.end() :])
     if params.get("R") is not None:
         params.update(dict.fromkeys("IJK"))
     words = " ".join(f"{k}{v}" for k, v in params.items() if v is not None and k in reads)
@@ -247,13 +241,22 @@ def marlin_bare_motion(raw: str) -> str:
     Y5``) as GCODE_MOTION_MODES reads it, the modal G0/G1's parameters (X, Y, Z, E, F) read as
     :func:`marlin_motion` reads them (a slicer template's valueless ``X[x] Y5`` is a Y5), for
     the shared step to move in the modal motion; nothing where no value is left."""
+    params = _marlin_parameters(raw.split(";", 1)[0])
+    return " ".join(f"{k}{v}" for k, v in params.items() if v is not None and k in "XYZEF")
+
+
+def _marlin_parameters(text: str) -> dict[str, str | None]:
+    """The parameters of ``text`` (a line after its command) as GCodeParser::parse sets them:
+    each letter (upper case) with the value of its last occurrence, None where that has no
+    number; ``( )`` comments dropped, as the PAREN_COMMENTS build's reader drops them (the
+    Marlin dialect's lines come here without them: lexer.firmware_comments)."""
     params: dict[str, str | None] = {}
-    for step in _MARLIN_STEP.finditer(_PAREN.sub("", raw.split(";", 1)[0])):
+    for step in _MARLIN_STEP.finditer(_PAREN.sub("", text)):
         letter = step.group(1)
-        if letter is not None and letter.upper() in "XYZEF":
+        if letter is not None:
             value = _MARLIN_VALUE.match(step.group(2))
             params[letter.upper()] = value.group() if value else None
-    return " ".join(f"{k}{v}" for k, v in params.items() if v is not None)
+    return params
 
 
 def _command(raw: str) -> tuple[str, re.Match[str]]:
@@ -320,9 +323,9 @@ def marlin_feed_percent(raw: str) -> tuple[bool, bool, int | None]:
 #: program number ``O1001``, whose lines between then run; ``P5``, ``S100``), with a word
 #: (a Klipper macro such as ``PRINT_START BED=60``), with ``%`` and text, with a G, M or T
 #: and no digits after its spaces (a slicer's unfilled ``T[next_extruder]``, ``G{x}``,
-#: ``T-1``), or with an N and no digit or sign right after it (``N 5 G1``). Bare axis, E and F words (``X10 Y5``, :data:`_BARE_WORDS`) and a lone ``%`` are
-#: read on. The line number is taken whole (an atomic group): ``N10 G1`` is not ``N1`` and a
-#: stray ``0``.
+#: ``T-1``), or with an N and no digit or sign right after it (``N 5 G1``). Bare axis, E and
+#: F words (``X10 Y5``, :data:`_BARE_WORDS`) and a lone ``%`` are read on. The line number is
+#: taken whole (an atomic group): ``N10 G1`` is not ``N1`` and a stray ``0``.
 _NOT_A_COMMAND = re.compile(
     r"^ *(?>[Nn]\d+ *)?"
     r"(?:[^GMTNXYZEFgmtnxyzef( %]|%.*\S|[A-Za-z][A-Za-z_]|[GgMmTt] *+(?![0-9])|[Nn](?![-+0-9]))"
