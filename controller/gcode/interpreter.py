@@ -93,7 +93,7 @@ from gantry_sim.controller.gcode.tool_offsets import (
     tool_words,
 )
 from gantry_sim.controller.gcode.tools import Tool
-from gantry_sim.controller.gcode.words import Words, check_words, read_words
+from gantry_sim.controller.gcode.words import Words, check_motion_axes, check_words, read_words
 from gantry_sim.controller.moves import (
     Arc,
     Dwell,
@@ -181,6 +181,7 @@ class Interpreter:
         s = self.state
         # Step 2: every code is one gantry-sim supports.
         check_codes(w, d)
+        check_motion_axes(w, d)
         user = w.m.get("user")
         if user is not None and not any((f / f"M{user}").is_file() for f in self.search_path):
             raise GcodeError(

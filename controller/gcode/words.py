@@ -34,6 +34,11 @@ _OTHER_AXES = "ABCUVW"
 ROTARY_AXES = "ABC"
 #: canned cycles (tenths): they take R and L (and P, Q, I/J/K as each needs).
 _CYCLES = frozenset((730, 740, 810, 820, 830, 840, 850, 860, 870, 880, 890))
+#: motion codes rs274 runs only with an axis word on their line (G5, G5.1, G33, G33.1, G38.x and
+#: the canned cycles; not G0-G3, G5.2, G76 or G80)
+_NEED_AXES = _CYCLES | {50, 51, 330, 331, 382, 383, 384, 385}
+#: the words that count as axis words there (rs274's axis_flag: polar @ and ^ too)
+_AXIS_FLAGS = frozenset("XYZABCUVW@^")
 #: Letters every block may carry (axes, feed, spindle speed, tool; a rotary axis at 0; N, a
 #: line number read as a word by the dialects whose lexer does so, grbl and g2core).
 _ANY_CODE = frozenset("XYZFSTN@^$" + ROTARY_AXES)
@@ -176,6 +181,19 @@ def _setting(
             f"#{MAX_PARAMETER}); set #1..#{MAX_SETTABLE_PARAMETER}"
         )
     return index, evaluate(value_tree, params)
+
+
+def check_motion_axes(w: Words, dialect: Dialect) -> None:
+    """A G5, G5.1, G33, G33.1, G38.x or canned-cycle code on a line with no axis word is refused
+    before anything else of the block, as rs274's read step refuses it ("All axes missing with
+    motion code"): a bare ``G81`` does not drill the last hole again (the linuxcnc dialect:
+    its canned cycles are rs274's)."""
+    code = w.g.get("motion")
+    if dialect.canned_cycles and code in _NEED_AXES and _AXIS_FLAGS.isdisjoint(w.values):
+        raise GcodeError(
+            f"all axes missing with motion code {g_name(code)}: a line that names "
+            f"{g_name(code)} needs an axis word (X, Y or Z) for it to act on"
+        )
 
 
 def check_words(w: Words, motion: int | None, dialect: Dialect) -> None:
