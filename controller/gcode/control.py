@@ -35,6 +35,7 @@ from gantry_sim.controller.gcode.lexer import (
     decode_program,
     firmware_comments,
     lex_line,
+    lex_passed_oword,
     line_too_long,
     split_lines,
     strip_line,
@@ -169,10 +170,15 @@ class Source:
         try:
             return self.block(i)
         except GcodeError as exc:
+            if not isinstance(exc, TextError) and _O_LINE.match(self.lines[i]):
+                try:  # rs274 reads a passed-over O-word line's name and keyword only
+                    return lex_passed_oword(self.lines[i], i + 1, self.lex_rules)
+                except GcodeError as again:
+                    exc = again
             if isinstance(exc, TextError) or _O_LINE.match(self.lines[i]):
                 if exc.file is None:
                     exc.file = self.name
-                raise
+                raise exc from None
             return None
 
     def oword(self, i: int) -> OWord | None:

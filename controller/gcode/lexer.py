@@ -395,9 +395,24 @@ def _digits_end(text: str, pos: int) -> int:
     return found.end()
 
 
-def _lex_text(text: str, raw: str, line: int, rules: LexRules = RS274_LEX) -> Block:
+def lex_passed_oword(raw: str, line: int, rules: LexRules = RS274_LEX) -> Block:
+    """An O-word line passed over (in a branch not taken, a loop left, a subroutine's body at
+    its definition) read as rs274 reads a line it skips: its O number or name and its keyword,
+    not what follows (``o1 if [<#_v> EQ 1]`` in a subroutine never called is no error; it is
+    where it runs). The arguments of the Block's O-word are empty."""
+    try:
+        return _lex_text(strip_line(raw), raw, line, rules, oword_head=True)
+    except GcodeError as exc:
+        if exc.line is None:
+            exc.line = line
+        raise
+
+
+def _lex_text(
+    text: str, raw: str, line: int, rules: LexRules = RS274_LEX, oword_head: bool = False
+) -> Block:
     """The general reader: any stripped line ``text`` (of source line ``raw``), read by
-    ``rules``."""
+    ``rules``; ``oword_head``: an O-word's name and keyword only (:func:`lex_passed_oword`)."""
     if text == "%":
         return Block(line, (), (), True, raw)
     reader = Reader(text)
@@ -447,7 +462,7 @@ def _lex_text(text: str, raw: str, line: int, rules: LexRules = RS274_LEX) -> Bl
         if ch == "O":
             if words or settings:
                 raise GcodeError("an O-word must open its line (after an optional N number)")
-            return Block(line, (), (), False, raw, _oword(reader))
+            return Block(line, (), (), False, raw, _oword(reader, oword_head))
         if ch == "%":
             raise GcodeError("'%' is only allowed alone on a line, opening and closing a program")
         if ch == "N" and rules.line_number_words:
@@ -471,8 +486,9 @@ def _lex_text(text: str, raw: str, line: int, rules: LexRules = RS274_LEX) -> Bl
     return Block(line, tuple(words), tuple(settings), False, raw, settings_at=tuple(settings_at))
 
 
-def _oword(reader: Reader) -> OWord | None:
-    """``O`` at ``reader.pos``: the O number or name, the keyword, its bracketed arguments."""
+def _oword(reader: Reader, head_only: bool = False) -> OWord | None:
+    """``O`` at ``reader.pos``: the O number or name, the keyword, its bracketed arguments
+    (``head_only``: none read, the rest of the line passed over)."""
     reader.pos += 1
     number = None
     if reader.peek() == "<":
@@ -490,10 +506,16 @@ def _oword(reader: Reader) -> OWord | None:
     if keyword is None and reader.text[reader.pos :].strip(COMMENT) == "":
         return None  # a program number alone ("O1000"): rs274 ignores the line
     if keyword is None:
+        shown = name if name.isdigit() else f"<{name}>"
+        found = reader.text[reader.pos :].split(COMMENT, 1)[0].strip()
         raise GcodeError(
-            f"unknown O-word keyword after o{name}; expected one of: "
+            f"unknown O-word keyword after o{cut(shown)}: found {cut(found)!r}; expected one "
+            "of: "
             + ", ".join(k.lower() for k in sorted(O_KEYWORDS))
+            + (f" (a call reads o{cut(shown)} call [...])" if found.startswith("[") else "")
         )
+    if head_only:
+        return OWord(name, keyword.lower(), (), number)
     if number is not None and keyword != "CALL":
         raise GcodeError(
             "an O number given by a parameter or an [expression] is supported with call only; "
