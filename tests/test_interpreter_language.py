@@ -387,6 +387,7 @@ def test_tool_table_and_length_offsets(tmp_path, capsys) -> None:
     text = "T1 M6\nG43 H1\nG0 X1\nG49\nG0 X2\nG53 G0 Z0\nT3\nM2\n"
     err = error_of(text, tools=tools)
     assert err.line == 7 and "tool 3 not found" in err.message
+    assert "which holds T1, T2 (give it in the --tool-table file" in err.message
     moves = list(interpret(text.replace("T3\n", ""), tools=tools))
     assert [m.end for m in moves] == [(1.0, 0.0, -10.0), (2.0, 0.0, 0.0), (2.0, 0.0, 0.0)]
     with pytest.raises(GcodeError) as info:
@@ -565,3 +566,20 @@ def test_loops_and_calls_longer_than_the_lexed_lines_kept_run_the_same(monkeypat
     assert len(kept) == 3 * (12 + 2) + 1 + 2  # the 12 lines and the sub's 2, Z-1 once, M98
     monkeypatch.setattr(control, "LEXED_LINES_KEPT", 2)
     assert parse_program(LONG_LOOP) == kept
+
+
+def test_messages_name_what_is_wrong_and_how_to_go_on() -> None:
+    """A word whose value cannot be read names its letter (LinuxCNC's lathe/boring.ngc: text
+    after a comment reads as an M word starting with 'A'); an INI or HAL parameter, which no
+    simulation has, says so and how to give it; an O-word line with no keyword quotes the name
+    as written and points at a forgotten call."""
+    err = error_of("G0 X1\n(MSG, Press Cycle Start) Macro\nM2\n")
+    assert err.line == 2 and err.message.startswith("M word: bad value starting with 'A'")
+    err = error_of("G0 Z#<_ini[axis_z]max_limit>\nM2\n")
+    assert "reads it from its INI file" in err.message
+    assert "#<_ini[axis_z]max_limit> = ..." in err.message
+    assert "from a HAL pin" in error_of("F#<_hal[plasmac.cut-feed-rate]>\nM2\n").message
+    assert "set it before reading it" in error_of("G0 X#<depth>\nM2\n").message
+    err = error_of("o<drill_man> [1] [2]\nM2\n")
+    assert "after o<drill_man>: found '[1][2]'" in err.message
+    assert "(a call reads o<drill_man> call [...])" in err.message

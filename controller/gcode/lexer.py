@@ -482,8 +482,22 @@ def _lex_text(
                 + realtime
             )
         reader.pos += 1
-        words.append((ch, reader.real_value()))
+        words.append((ch, _word_value(reader, ch)))
     return Block(line, tuple(words), tuple(settings), False, raw, settings_at=tuple(settings_at))
+
+
+def _word_value(reader: Reader, letter: str) -> Tree:
+    """The value of word ``letter``, whose letter ``reader`` has just passed; a value that
+    cannot be read is refused naming the word (``(MSG, ...) Macro`` reads an M word whose
+    value starts with 'A')."""
+    try:
+        return reader.real_value()
+    except GcodeError as exc:
+        if not isinstance(exc, TextError) and exc.message.startswith(
+            ("bad value", "missing value")
+        ):
+            exc.message = f"{letter} word: {exc.message}"
+        raise
 
 
 def _oword(reader: Reader, head_only: bool = False) -> OWord | None:

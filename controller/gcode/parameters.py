@@ -109,9 +109,7 @@ class Parameters:
     def named(self, name: str) -> float:
         value = self._lookup(name)
         if value is None:
-            raise GcodeError(
-                f"named parameter #<{cut(name)}> not defined; set it before reading it"
-            )
+            raise GcodeError(f"named parameter #<{cut(name)}> not defined; " + _how_to_set(name))
         return value
 
     def exists(self, name: str) -> bool:
@@ -157,3 +155,16 @@ class Parameters:
     def level(self) -> int:
         """Subroutine call depth (0 in the main program)."""
         return len(self.saved_args)
+
+
+def _how_to_set(name: str) -> str:
+    """What a message about an undefined named parameter tells the user to do: LinuxCNC fills
+    ``#<_ini[section]name>`` from its INI file and ``#<_hal[pin]>`` from HAL, neither of which
+    a simulation has; a program may set them itself (rs274 lets it)."""
+    source = {"_ini[": "its INI file", "_hal[": "a HAL pin"}.get(name[:5])
+    if source is None:
+        return "set it before reading it"
+    return (
+        f"LinuxCNC reads it from {source}, which gantry-sim does not have: set it at the "
+        f"program's start to your machine's value (#<{cut(name)}> = ...)"
+    )

@@ -36,6 +36,10 @@ from gantry_sim.controller.planes import Vec3
 ZERO: Vec3 = (0.0, 0.0, 0.0)
 
 
+#: the tools a "not found" message lists at most
+_LISTED_TOOLS = 12
+
+
 class ToolTable:
     """The interpreter's tool table (changed by G10 L1/L10/L11).
 
@@ -61,7 +65,14 @@ class ToolTable:
             return self.tools[number]
         if self.table_less:
             return None
-        raise GcodeError(f"requested tool {number} not found in the tool table")
+        held = sorted(self.tools)
+        listed = ", ".join(f"T{n}" for n in held[:_LISTED_TOOLS])
+        more = f" and {len(held) - _LISTED_TOOLS} more" if len(held) > _LISTED_TOOLS else ""
+        raise GcodeError(
+            f"requested tool {number} not found in the tool table, which holds "
+            f"{listed + more if held else 'no tools'} (give it in the --tool-table file or the "
+            "machine file's [tools])"
+        )
 
     def entry(self, s: ModalState, number: int) -> Tool | None:
         """rs274's ``tool_table[find_tool_index(number)]``: tool 0 is the spindle's slot."""
