@@ -450,8 +450,10 @@ def test_marlin_skips_lines_it_does_not_know_and_ignores_m_t_words_after_g() -> 
     assert [(m.end, m.feed_mm_per_min) for m in moves] == [((1.0, 0.0, 0.0), 100.0)]
     moves = run("G21\nG1 X1 (M3 note) F100 M5\n", "marlin")
     assert [(m.end, m.feed_mm_per_min) for m in moves] == [((1.0, 0.0, 0.0), 100.0)]
-    # a line of bare axis words is still the shared step's: no motion mode yet, refused
-    assert error_of("G21\nX5\n", "marlin").line == 2
+    # bare axis words or F before any G0-G3: Marlin's parser has no motion mode to apply
+    # (parser.cpp, motion_mode_codenum < 0) and skips the line as an unknown command, F too
+    moves = run("G21\nX5 F100\nG1 X1\n", "marlin")
+    assert [(m.line, m.end, m.feed_mm_per_min) for m in moves] == [(3, (1.0, 0.0, 0.0), 1500.0)]
     # LinuxCNC keeps refusing these
     assert error_of("G21\nPRINT_START\nM2\n", "linuxcnc").line == 2
     assert error_of("G90 M107\nM2\n", "linuxcnc").line == 1

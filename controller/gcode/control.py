@@ -142,7 +142,8 @@ class Source:
             return Block(i + 1, (), (), False, raw)
         rewrite = _REWRITTEN.get(kind) if kind is not None else None
         if rewrite is not None:
-            return lex_line(rewrite(raw), i + 1, self.lex_rules)
+            block = lex_line(rewrite(raw), i + 1, self.lex_rules)
+            return replace(block, bare=True) if kind == "bare_motion" else block
         if kind in ("dwell", "wait"):  # Marlin G4: the shared G4 with P in seconds; M400...
             seconds = marlin_dwell_seconds(raw) if kind == "dwell" else 0.0
             return Block(i + 1, (("G", ("num", 4.0)), ("P", ("num", seconds))), (), False, raw)

@@ -177,6 +177,8 @@ class Interpreter:
         if block.feed_percent is not None:
             self.state = set_feed_percent(self.state, *block.feed_percent)
             return [], False
+        if block.bare and self.state.motion is None:
+            return [], False  # Marlin: no G0-G3 yet, so "Unknown command" (F not taken either)
         w = read_words(block, self.params, d, self._create_named)
         s = self.state
         # Step 2: every code is one gantry-sim supports.
@@ -268,6 +270,8 @@ class Interpreter:
         nonmodal = w.g.get("nonmodal")
         axis_code = nonmodal in AXIS_NONMODAL
         has_axes = not _AXIS_LETTERS.isdisjoint(w.values)  # A/B/C: only 0 gets this far
+        # Marlin: a bare E line moves the extruder alone in the modal motion (G1 E5)
+        has_axes = has_axes or (block.bare and "E" in w.values)
         motion = w.g.get("motion")
         if motion == 800:
             if has_axes and not axis_code:
@@ -454,6 +458,8 @@ class Interpreter:
         if read is None or comp.side is not None or comp.holding:
             return None
         motion, v = read
+        if block.bare and (s.motion is None or _PLAIN_AXES.isdisjoint(v)):
+            return None  # Marlin: a bare line before any G0-G3, or a bare E (the general step)
         if motion is None and not _PLAIN_AXES.isdisjoint(v):
             motion = s.motion  # axis words alone: the modal motion
             if motion not in (0, 10):

@@ -120,6 +120,8 @@ def marlin_line(raw: str) -> str | None:
     if head is None:
         return None
     letter, number = head.group(1).upper(), head.group(2)
+    if letter == "M":
+        number = number.split(".", 1)[0]  # M220.5 is M220, M83.5 an M83: no M reads a subcode
     if letter == "M" and number.lstrip("0") in ("201", "203", "204", "205"):
         return "limits"
     if letter == "M" and number.lstrip("0") in ("82", "83"):
@@ -289,7 +291,8 @@ def marlin_extruder(raw: str) -> tuple[str, float]:
     E word, in the program's units)."""
     code, head = _command(raw)
     if head.group(1).upper() == "M":
-        return ("relative", 1.0 if head.group(2).lstrip("0") == "83" else 0.0)
+        number = head.group(2).split(".", 1)[0]  # M83.5 is an M83
+        return ("relative", 1.0 if number.lstrip("0") == "83" else 0.0)
     value = _E_WORD.findall(_PAREN.sub("", code[head.end() :]))[-1]
     return ("position", float(value) if value.lstrip("+-") else 0.0)
 
@@ -327,6 +330,7 @@ def marlin_feed_percent(raw: str) -> tuple[bool, bool, int | None]:
 #: F words (``X10 Y5``, :data:`_BARE_WORDS`) and a lone ``%`` are read on. The line number is
 #: taken whole (an atomic group): ``N10 G1`` is not ``N1`` and a stray ``0``.
 _NOT_A_COMMAND = re.compile(
+    r"^ *[Nn]\d+ *[Nn]|"  # a second line number: its letter N is no command
     r"^ *(?>[Nn]\d+ *)?"
     r"(?:[^GMTNXYZEFgmtnxyzef( %]|%.*\S|[A-Za-z][A-Za-z_]|[GgMmTt] *+(?![0-9])|[Nn](?![-+0-9]))"
 )
