@@ -14,7 +14,9 @@ The oracle prints one JSON object per event: ``{"ev": "line", "file_line", "kind
 1), "tlo" (G43.1's offset on Z)}``, ``{"ev": "arc", "file_line", "dir": "cw" | "ccw", "end",
 "centre", "radius", "plane": [axis0, axis1, linear], "angular_travel" (rad, signed),
 "segments", "feed", "inverse_time", "tlo"}``, ``{"ev": "status", "file_line", "ok": 0 | 1,
-"error": N}``, and others (dwell, probe, alarm, reset, sleep, end).
+"error": N}``, and others: dwell, sync (grbl empties its planner), probe, alarm, reset, sleep,
+end. Events not named here, and fields not used, are ignored; a probe, alarm, reset or sleep
+event, or an event with ``"check_mode": 1``, leaves its program out.
 """
 
 from __future__ import annotations
