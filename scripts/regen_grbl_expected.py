@@ -70,6 +70,10 @@ def condense(events: list[dict]) -> dict | str:
             if m["kind"] == "linear":  # planner.c: in G93 the rate is F times the length
                 length = math.dist(before, e["end"])
                 m["feed"] = e["feed"] * length if e.get("inverse_time") else e["feed"]
+        elif e["radius"] == 0.0 and not e.get("inverse_time"):
+            # a centre on the start: mc_arc cuts it into no segment, its closing mc_line goes
+            # straight to the end at the feed
+            m.update(kind="linear", feed=e["feed"])
         else:
             feed = e["feed"]
             if e.get("inverse_time"):  # mc_arc: the segments run at F times their count

@@ -15,6 +15,7 @@ from __future__ import annotations
 import math
 import struct
 from dataclasses import replace
+from typing import Final, Literal
 
 from gantry_sim.controller.errors import GcodeError
 from gantry_sim.controller.gcode.arc_centre import (
@@ -86,12 +87,18 @@ def _turns(v: dict[str, float], d: Dialect) -> int:
     return int(whole)
 
 
+#: :func:`arc_move`'s answer for an arc its dialect runs as one straight feed move to the end
+#: (:attr:`~gantry_sim.controller.gcode.dialects.Dialect.zero_radius_straight`)
+STRAIGHT: Final = "straight"
+
+
 def arc_move(
     line: int, v: dict[str, float], s: ModalState, end: Vec3, ccw: bool, d: Dialect
-) -> Arc | None:
+) -> Arc | Literal["straight"] | None:
     """The arc of one block, or None when the dialect makes it move nothing (g2core: an end
     equal to the start; Marlin: an end on the start's ray, which also leaves the position where
-    it was).
+    it was), or :data:`STRAIGHT` when it runs as one straight feed move to ``end`` (grbl: a
+    centre on the start).
 
     Args:
         line: source line.
@@ -179,6 +186,9 @@ def arc_move(
                 pe = ps
         r0 = math.hypot(ps[0] - centre[0], ps[1] - centre[1])
         r1 = math.hypot(pe[0] - centre[0], pe[1] - centre[1])
+        if r0 < min_r and d.zero_radius_straight and d.radius_check is not None:
+            _check_radius(r0, r1, s.inch, d)
+            return STRAIGHT  # grbl: a centre on the start is a straight move to the end
         if r0 < min_r or r1 < min_r:
             raise GcodeError(
                 f"zero-radius arc (start radius {r0:.4f}, end radius {r1:.4f}); the centre must "
@@ -221,7 +231,7 @@ def _check_radius(r0: float, r1: float, inch: bool, d: Dialect) -> None:
     tol, cap = (rc.abs_tol_in, rc.abs_max_in) if inch else (rc.abs_tol_mm, rc.abs_max_mm)
     abs_err, rel_err = radius_mismatch(r0, r1)
     if rc.rel_to_start:
-        rel_err = abs_err / r0
+        rel_err = abs_err / r0 if r0 > 0.0 else (math.inf if abs_err > 0.0 else 0.0)
     if abs_err > cap or (abs_err > tol and rel_err > rc.rel_tol):
         unit = "in" if inch else "mm"
         raise GcodeError(

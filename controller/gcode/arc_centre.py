@@ -90,4 +90,5 @@ def swept_angle(
 def radius_mismatch(r_start: float, r_end: float) -> tuple[float, float]:
     """(absolute difference [units], relative difference to the larger radius [-])."""
     abs_err = abs(r_start - r_end)
-    return abs_err, abs_err / max(r_start, r_end)
+    larger = max(r_start, r_end)
+    return abs_err, abs_err / larger if larger > 0.0 else 0.0

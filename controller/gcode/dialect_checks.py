@@ -98,10 +98,15 @@ def _check_grbl_read_order(block: Block, d: Dialect) -> None:
         value = tree[1] if tree[0] == "num" else -tree[1][1]
         if letter in "GM":
             g = letter == "G"
-            # gcode.c: int_value = trunc(value), mantissa = round(100 * (value - int_value))
+            # gcode.c: int_value = trunc(value), mantissa = round(100 * (value - int_value)),
+            # into a uint8_t and a uint16_t: G257 is a G1 with a mantissa of 25600
             int_value = math.trunc(value)
-            mantissa = round(100 * (value - int_value))
+            if value >= 0:
+                int_value %= 256
+            mantissa = round(100 * (value - int_value)) % 65536
             whole = int_value * 10 if g else int_value
+            if value >= 256 and (mantissa or not g):
+                _refuse_wrapped(letter, value, int_value, whole, d)
             # a G code in tenths (G28.1: mantissa 10); -1: a decimal part no code has (G1.05)
             if g:
                 code = whole + mantissa // 10 if mantissa % 10 == 0 and mantissa < 100 else -1
@@ -109,6 +114,11 @@ def _check_grbl_read_order(block: Block, d: Dialect) -> None:
                 code = whole
             known = d.g_codes if g else d.m_codes
             name = g_name(code) if code in known and (g or not mantissa) else f"{letter}{value:g}"
+            if not g and mantissa and value >= 0:  # gcode.c checks an M's mantissa first
+                raise GcodeError(
+                    f"{name} is not a {d.name} code: M{whole} takes no decimal part (command "
+                    "value not integer)"
+                )
             if value < 0 or whole not in (_wholes(known) if g else known):
                 raise GcodeError(f"{name} is not supported: {d.name} has no {name}")
             if code not in known or (not g and mantissa):
@@ -192,3 +202,20 @@ def check_jog(w: Words) -> None:
             raise GcodeError(f"{letter} word with no code that uses it in a $J= jog")
     if "F" not in w.values or w.values["F"] <= 0.0:
         raise GcodeError("a $J= jog needs its own F (units per minute, > 0): zero feed rate")
+
+
+def _refuse_wrapped(letter: str, value: float, int_value: int, whole: int, d: Dialect) -> None:
+    """A G or M number above 255, which grbl's gcode.c reads into one byte (``int_value``, the
+    number modulo 256) with the rest left as a mantissa of 100 and more: an M is refused at
+    once (error 23: no Mxx.x); a G goes on as G``int_value`` with that mantissa, an error 20
+    where that code examines its decimal part itself (G28, G38, G61...: none matches) or grbl
+    has no such code, else 23."""
+    name = f"{letter}{value:g}"
+    known = _wholes(d.g_codes or frozenset())
+    if letter == "G" and (whole not in known or whole in _GRBL_OTHER_DECIMALS_UNSUPPORTED):
+        raise GcodeError(f"{name} is not supported: {d.name} has no {name}")
+    raise GcodeError(
+        f"{name} is not a {d.name} code: its command number is read into one byte, so {name} "
+        f"reads as {letter}{int_value} with a decimal part, and {letter}{int_value} takes no "
+        "decimal part (command value not integer)"
+    )

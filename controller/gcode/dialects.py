@@ -187,6 +187,11 @@ class Dialect:
             controller/gcode/dialect_checks.py, gcode.c's reading loop); ``""``: none.
         g53_absolute_in_g91: G53's axis words are machine coordinates in G91 too (grbl's
             gcode.c applies no distance mode under G53); False: G53 in G91 is refused (rs274).
+        zero_radius_straight: a centre-format arc whose centre is its start (I and J 0), with its
+            end within the radius check of the centre, is one straight feed move to the end
+            (grbl 1.1: gcode.c sets no least radius, and mc_arc cuts a radius of 0 into no
+            segment, so its closing mc_line goes straight there); False: refused as a
+            zero-radius arc.
         g93_arc_per_segment: a G93 arc runs at its F times the segments it is cut into at
             ``arc_tolerance_mm`` [mm/min] (grbl 1.1's mc_arc: :func:`~gantry_sim.controller.
             gcode.feed_modes.grbl_inverse_time_arc`); False: at F times its length (rs274).
@@ -261,6 +266,7 @@ class Dialect:
     strict_g80: bool = False
     positive_feed_only: bool = False
     g93_arc_per_segment: bool = False
+    zero_radius_straight: bool = False
     g10_p_truncated: bool = False
     permissive_blocks: bool = False
     min_r_word_mm: float = 0.0
@@ -468,6 +474,7 @@ GRBL = Dialect(
     program_end_continues=True,
     strict_g80=True,
     g93_arc_per_segment=True,
+    zero_radius_straight=True,
     g10_p_truncated=True,
 )
 

@@ -17,7 +17,12 @@ from pathlib import Path
 from typing import Any, NamedTuple
 
 from gantry_sim.controller.errors import GcodeError
-from gantry_sim.controller.gcode.arc_block import arc_move, from_where_it_is, turned_plane
+from gantry_sim.controller.gcode.arc_block import (
+    STRAIGHT,
+    arc_move,
+    from_where_it_is,
+    turned_plane,
+)
 from gantry_sim.controller.gcode.canned_cycles import CYCLES, CycleMemory, run_cycle
 from gantry_sim.controller.gcode.codes import (
     G_HANDLED,
@@ -387,7 +392,10 @@ class Interpreter:
             else:
                 self._require_feed(s, "an arc", w.values)
                 arc = arc_move(w.line, w.values, s, end, motion == 30, d)
-                if arc is not None:
+                if arc == STRAIGHT:  # grbl: mc_arc's one mc_line, straight to the end
+                    line = Linear(w.line, s.work, to_work(end, s.frame), s.feed_mm_per_min)
+                    s = self._emit(moves, s, path_feed(line, s, w.values), end)
+                elif arc is not None:
                     per_segment = d.arc_tolerance_mm if d.g93_arc_per_segment else None
                     placed = path_feed(self._arc_to_work(arc, s), s, w.values, per_segment)
                     s = self._emit(moves, s, placed, arc.end)  # arc.end: program frame
@@ -538,7 +546,7 @@ class Interpreter:
     ) -> ModalState:
         """A G0/G1/G2/G3 under cutter compensation: its tool-centre path, released a block
         late (controller/gcode/comp_paths.py)."""
-        programmed = None
+        programmed: Arc | None = None
         fed = s  # the state whose feed the tool-centre moves take
         if motion == 10:
             self._require_feed(s, "a G1 move", w.values)
@@ -548,11 +556,11 @@ class Interpreter:
             fed = evolve(s, feed_mm_per_min=path_feed(straight, s, w.values).feed_mm_per_min)
         elif motion in (20, 30):
             self._require_feed(s, "an arc", w.values)
-            programmed = arc_move(w.line, w.values, s, end, motion == 30, self.dialect)
-            if programmed is None:
-                return s
-            feed = path_feed(programmed, s, w.values).feed_mm_per_min
-            programmed = evolve(programmed, feed_mm_per_min=feed)
+            arc = arc_move(w.line, w.values, s, end, motion == 30, self.dialect)
+            if not isinstance(arc, Arc):  # None: nothing moves (no dialect with cutter
+                return s  # compensation makes an arc straight)
+            feed = path_feed(arc, s, w.values).feed_mm_per_min
+            programmed = evolve(arc, feed_mm_per_min=feed)
             end = programmed.end
         released = comp_move(self.comp, motion, w.line, end, fed, programmed, "R" in w.values)
         moves.extend(released)
