@@ -156,9 +156,10 @@ class Source:
                 return replace(lex_line(raw, i + 1), limits=True)
             except GcodeError:  # Marlin reads what it can and ignores the rest
                 return Block(i + 1, (), (), False, raw)
-        if kind == "home":  # Marlin G28 [X] [Y] [Z]: bare axis letters name the axes to home
+        if kind == "home":  # Marlin G28 [X] [Y] [Z] [O]: bare axis letters name the axes to
+            # home; O homes only while some axis is not homed yet
             text = strip_line(raw).split(COMMENT, 1)[0]
-            axes = tuple((a, ("num", 0.0)) for a in "XYZ" if a in text[text.find("28") :])
+            axes = tuple((a, ("num", 0.0)) for a in "XYZO" if a in text[text.find("28") :])
             return Block(i + 1, axes, (), False, raw, home=True)
         return lex_line(raw, i + 1, self.lex_rules)
 

@@ -151,6 +151,8 @@ class Interpreter:
         #: the letters of plain motion blocks, which take :meth:`_plain_step`
         #: (controller/gcode/plain_block.py; none: every block takes the general step)
         self.plain = plain_letters(dialect)
+        #: the axes a Marlin G28 has homed (G28 O homes only while one of X, Y, Z is not)
+        self.homed: set[str] = set()
 
     def comment(self, block: Block) -> None:
         """A line's ``(abort, message)`` comment ends the program there, as in rs274
@@ -729,9 +731,14 @@ class Interpreter:
     def _printer_home(self, block: Block) -> list[Move | Event]:
         """Marlin G28: the named axes (all when none) go to the machine's home, the position
         its endstops give: the machine file's [work] g28_mm (default: the work origin). As
-        Marlin's set_axis_is_at_home, homing also clears the G92 shift of every homed axis."""
+        Marlin's set_axis_is_at_home, homing also clears the G92 shift of every homed axis. With
+        O, nothing happens once every axis has been homed (the program's G28s: a printer starts
+        with none homed)."""
         s = self.state
-        named = [a for a, _ in block.words] or list("XYZ")
+        named = [a for a, _ in block.words if a in "XYZ"] or list("XYZ")
+        if any(a == "O" for a, _ in block.words) and self.homed >= {"X", "Y", "Z"}:
+            return []  # G28 O: "homing not needed, skip" (G28.cpp, axes_should_home)
+        self.homed |= set(named)
         home = [self.params.mm(G28_HOME + i) for i in range(3)]
         target = tuple(home[i] if a in named else s.work[i] for i, a in enumerate("XYZ"))
         g92 = tuple(0.0 if a in named else s.frame.g92[i] for i, a in enumerate("XYZ"))
