@@ -191,17 +191,32 @@ def check_codes(w: Words, d: Dialect) -> None:
 
 
 def check_jog(w: Words) -> None:
-    """A grbl ``$J=`` line: only G20/G21, G90/G91, G53, X/Y/Z, N and a required F."""
-    for code in w.g.values():
-        if code not in _JOG_G:
-            raise GcodeError(f"{g_name(code)} is not supported in a $J= jog (G20/21, G90/91, G53)")
-    if w.m:
-        raise GcodeError("M codes are not supported in a $J= jog")
-    for letter in w.values:
-        if letter not in "XYZFN":
-            raise GcodeError(f"{letter} word with no code that uses it in a $J= jog")
+    """A grbl ``$J=`` line, before the block's own checks: its own F (gcode.c checks it first
+    in a jog: error 22)."""
     if "F" not in w.values or w.values["F"] <= 0.0:
         raise GcodeError("a $J= jog needs its own F (units per minute, > 0): zero feed rate")
+
+
+def jog_moves_as_g1(w: Words) -> bool:
+    """Whether a grbl ``$J=`` line's axis words are a G1's: unless the line names a command that
+    takes them itself (a motion or G80, G10, G28, G30, G43.1, G49, G92), which grbl checks as
+    that command before it refuses the jog."""
+    return "motion" not in w.g and _GRBL_AXIS_COMMANDS.isdisjoint(w.g.values())
+
+
+def check_jog_after(w: Words) -> None:
+    """A grbl ``$J=`` line that passed the block's own checks (gcode.c's step 3, where a G2 in
+    a jog is checked as any arc is): S and T, which a jog leaves unused (error 36), then any
+    code but G20/G21, G90/G91 and G53 (error 16, an invalid jog command)."""
+    for letter in "ST":
+        if letter in w.values:
+            raise GcodeError(f"{letter} word with no code that uses it in a $J= jog")
+    codes = [g_name(c) for c in w.g.values() if c not in _JOG_G] + [f"M{c}" for c in w.m.values()]
+    if codes:
+        raise GcodeError(
+            f"invalid jog command: {codes[0]} in a $J= jog, which takes axis words, F, N and "
+            "only G20/G21, G90/G91 and G53"
+        )
 
 
 def _refuse_wrapped(letter: str, value: float, int_value: int, whole: int, d: Dialect) -> None:

@@ -409,6 +409,7 @@ _GRBL_G = frozenset((
 _GRBL_ERRORS = (
     # a second '.' after a number: grbl's read_float ends the number there, and '.' is no
     # command letter
+    ("invalid jog command", 16),
     ("takes no decimal part", 23), ("axis command conflict", 24),
     ("a second '.' after the number", 1),
     ("expects a command letter", 1), ("not grbl features", 20), ("bad number format", 2),

@@ -44,9 +44,15 @@ from gantry_sim.controller.gcode.coords import (
     system_frame,
 )
 from gantry_sim.controller.gcode.cutter_comp import CutterComp
-from gantry_sim.controller.gcode.dialect_checks import check_codes, check_jog, check_plain
+from gantry_sim.controller.gcode.dialect_checks import (
+    check_codes,
+    check_jog,
+    check_jog_after,
+    check_plain,
+    jog_moves_as_g1,
+)
 from gantry_sim.controller.gcode.dialects import Dialect, coded, get_dialect
-from gantry_sim.controller.gcode.expressions import evaluate
+from gantry_sim.controller.gcode.expressions import Tree, evaluate
 from gantry_sim.controller.gcode.extruder import Extruder
 from gantry_sim.controller.gcode.feed_modes import (
     INVERSE_TIME,
@@ -761,9 +767,16 @@ class Interpreter:
         check_jog(w)
         if self.dialect.jog_units_per_minute and saved.feed_mode == INVERSE_TIME:
             self.state = evolve(saved, feed_mode=UNITS_PER_MINUTE)  # grbl's jog: F per minute
-        g1 = Block(block.line, (("G", ("num", 1.0)), *block.words), (), False, block.text)
+        head: tuple[tuple[str, Tree], ...] = (("G", ("num", 1.0)),) if jog_moves_as_g1(w) else ()
+        if head and _AXIS_LETTERS.isdisjoint(w.values):
+            # grbl 1.1h: a jog with no axis word keeps its block's target at 0 (gcode.c fills
+            # in the current position only for a line with axis words): it goes to machine zero
+            zero = ("num", 0.0)
+            head = (*head, ("G", ("num", 53.0)), ("X", zero), ("Y", zero), ("Z", zero))
+        g1 = Block(block.line, (*head, *block.words), (), False, block.text)
         try:
             moves, _ = self.step(g1)
+            check_jog_after(w)
         finally:
             done = self.state
             self.state = evolve(saved, position=done.position, work=done.work)
