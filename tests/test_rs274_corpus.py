@@ -17,6 +17,7 @@ within 0.5e-4 unit of the exact value. With ``unit`` = 1 mm (or 25.4 mm where th
 
 from __future__ import annotations
 
+import itertools
 import json
 import math
 import re
@@ -29,14 +30,38 @@ PROGRAMS = sorted((DATA / "programs").glob("*.ngc"))
 MIN_PROGRAMS = 1930
 
 
-#: Where gantry-sim deliberately differs from rs274, and why. rs274 is a 9-axis interpreter and
-#: moves A/B/C as rotary axes; this is a 3-axis machine, and silently dropping a rotary move would
-#: misreport the path, so the words are refused. For these programs the test still demands rs274's
-#: motions up to the first line with such a word, and an error on exactly that line that names it.
-DEVIATIONS: dict[str, str] = {
-    name: "A/B/C axis words are refused on this 3-axis machine (rs274 moves rotary axes; a word "
+#: Where gantry-sim deliberately differs from rs274, and why: program -> (reason, pattern of the
+#: first line gantry-sim refuses, text its message must contain). For these programs the test
+#: still demands rs274's motions up to the first line the pattern matches (comments included),
+#: and an error on exactly that line whose message names the feature.
+#: - rs274 is a 9-axis interpreter and moves A/B/C as rotary axes; this is a 3-axis machine, and
+#:   silently dropping a rotary move would misreport the path, so the words are refused.
+#: - probing, spindle-synchronised motion, lathe cycles and XZ cutter compensation have no
+#:   meaning on this machine's simulation (controller/gcode/interpreter.py says why for each);
+#:   the own_refused_* programs are written to reach each refusal after ordinary moves.
+_ROTARY = (
+    "A/B/C axis words are refused on this 3-axis machine (rs274 moves rotary axes; a word "
     "of 0, which moves nothing, is accepted: rotary_words_of_zero)"
-    for name in ("abc_linear", "abc_on_arc", "abc_only_a")
+)
+_SPINDLE_SYNC = "spindle-synchronised motion needs a spindle, which gantry-sim does not simulate"
+DEVIATIONS: dict[str, tuple[str, str, str]] = {
+    **{
+        name: (_ROTARY, r"[ABC]", "axis word")
+        for name in ("abc_linear", "abc_on_arc", "abc_only_a")
+    },
+    "own_refused_probe": (
+        "a probing move ends where a probe trips; the simulation has no probe",
+        r"G38\.",
+        "probe",
+    ),
+    "own_refused_spindle_sync": (_SPINDLE_SYNC, r"G33", "simulates no spindle"),
+    "own_refused_thread_cycle": (_SPINDLE_SYNC, r"G76", "simulates no spindle"),
+    "own_refused_lathe_roughing": ("G70-G72 are lathe cycles", r"G71", "need a lathe"),
+    "own_refused_xz_comp": (
+        "cutter compensation is done in the XY plane only",
+        r"G41",
+        "XZ (G18) cutter radius compensation is not supported",
+    ),
 }
 
 
@@ -45,21 +70,6 @@ DEVIATIONS: dict[str, str] = {
 #: the G92-with-rotation programs follow rs274's own re-expression of its current point, and
 #: M61 then G43 follows rs274's tool slots (controller/gcode/tool_offsets.py).
 KNOWN_DIFFERENCES: dict[str, str] = {}
-
-
-#: LinuxCNC's own sample programs (lcnc_*, see tests/data/rs274/LINUXCNC_SAMPLES.md) use features
-#: gantry-sim refuses on purpose (cutter compensation, canned cycles, probing, threading, lathe
-#: cycles, rotary axes, modal-state save/restore). For them the refusal must name one of these
-#: reasons, and every motion made before it must be rs274's (same order and geometry; rs274
-#: goes on further).
-DOCUMENTED_REFUSALS = re.compile(
-    r"is not supported|axis word on a 3-axis machine|unknown G code G7[0-6]|"
-    r"unsupported M code M7[0-3]"
-)
-#: rs274's prefix-derived source lines are not meaningful inside O-word subroutines (the motions
-#: of a subroutine appear when its call line is added), so lcnc_* programs with O-words are
-#: compared without the line of each motion.
-_OWORD = re.compile(r"^\s*(N\d+\s*)?o", re.IGNORECASE | re.MULTILINE)
 
 
 def _params() -> list:
@@ -80,15 +90,15 @@ def _expected(program: Path) -> dict:
 
 
 def _deviation_expectation(program: Path, text: str) -> tuple[dict, str]:
-    """rs274's expectation cut at the first line with an A/B/C word, which must be an error."""
+    """rs274's expectation cut at the first line gantry-sim refuses, which must be an error."""
+    why, pattern, must_mention = DEVIATIONS[program.stem]
     want = _expected(program)
-    line = next(i for i, t in enumerate(text.split("\n"), 1) if any(c in t.upper() for c in "ABC"))
-    motions = [m for m in want["motions"] if m["line"] < line]
-    return {
-        **want,
-        "motions": motions,
-        "error": {"line": line, "message": DEVIATIONS[program.stem]},
-    }, "axis word"
+    refused = re.compile(pattern, re.IGNORECASE)
+    line = next(i for i, t in enumerate(text.split("\n"), 1) if refused.search(t))
+    # in program order, up to the first motion of that line (a cycle's own motions may carry the
+    # N of its profile subroutine's lines, which come earlier in the file)
+    motions = list(itertools.takewhile(lambda m: m["line"] < line, want["motions"]))
+    return {**want, "motions": motions, "error": {"line": line, "message": why}}, must_mention
 
 
 def _run(text: str, name: str) -> tuple[list, Exception | None]:
@@ -153,25 +163,6 @@ def test_matches_rs274(program: Path) -> None:
     got = [m.to_json() for m in moves]
     unit_mm = want["print_unit_mm"]
     problems = []
-    if program.stem.startswith("lcnc_"):
-        sample_lines = not (program.stem.startswith("lcnc_") and _OWORD.search(text))
-        if not sample_lines:
-            got = [{k: v for k, v in g.items() if k != "line"} for g in got]
-            want = {**want, "motions": [{**m, "line": None} for m in want["motions"]]}
-            got = [{**g, "line": None} for g in got]
-        if error is not None and DOCUMENTED_REFUSALS.search(error.message):
-            if len(got) > len(want["motions"]):
-                problems.append(
-                    f"{len(got)} motions before the refusal, rs274 has only {len(want['motions'])}"
-                )
-            for i, (g, w) in enumerate(zip(got, want["motions"], strict=False)):
-                problems += _check_motion(i, g, w, unit_mm)
-            if want["error"] is not None and want["error"]["line"] < error.line and sample_lines:
-                problems.append(
-                    f"rs274 refuses line {want['error']['line']} before ours {error.line}"
-                )
-            assert not problems, "\n".join(problems)
-            return
     if len(got) != len(want["motions"]):
         problems.append(f"{len(got)} motions, rs274 has {len(want['motions'])}")
     for i, (g, w) in enumerate(zip(got, want["motions"], strict=False)):
@@ -184,10 +175,7 @@ def test_matches_rs274(program: Path) -> None:
             f"no error; rs274 rejects line {want['error']['line']}: {want['error']['message']}"
         )
     else:
-        late = not (program.stem.startswith("lcnc_") and _OWORD.search(text))
-        # (in O-word samples rs274's prefix-derived error line is where the error became
-        # visible, e.g. the loop's closing line: ours, the failing line itself, is not later)
-        if error.line != want["error"]["line"] and (late or error.line > want["error"]["line"]):
+        if error.line != want["error"]["line"]:
             problems.append(
                 f"error on line {error.line}, rs274 on line {want['error']['line']} "
                 f"({want['error']['message']}); ours: {error.message}"
@@ -248,7 +236,7 @@ def test_expectations_are_self_consistent() -> None:
             assert m["start"] == prev_end, p.name
             assert (1 if jumps else prev_line) <= m["line"] <= n_lines, p.name
             assert m["kind"] in ("rapid", "linear", "arc", "other"), p.name
-            if m["kind"] == "arc" and not p.stem.startswith("lcnc_"):  # samples: rs274's as is
+            if m["kind"] == "arc":
                 assert m["plane"] in ("XY", "XZ", "YZ") and m["direction"] in ("cw", "ccw")
                 assert m["radius"] > 0 and m["turns"] >= 1, p.name
                 assert 0 < m["angle"] <= 2 * math.pi * m["turns"] + 1e-12, p.name
