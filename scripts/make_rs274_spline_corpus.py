@@ -1,9 +1,11 @@
 """Write the spline corpus (G5, G5.1, G5.2/G5.3) and record what LinuxCNC does with it.
 
 Writes ``tests/data/rs274_splines/programs/*.ngc`` (``gen_*``: seeded, deterministic; ``err_*``:
-the refusals measured with rs274; ``doc_*``: the LinuxCNC documentation's examples; the
-``lcnc_*`` programs, LinuxCNC's own samples, are kept as they are: see LINUXCNC_SAMPLES.md),
-then for every program:
+the refusals measured with rs274; the other hand-written ones probe one rule each; ``own_*``:
+whole programs in the style of real ones, a NURBS outline with weights and orders
+(``own_nurbs_outline``) and an engraving of many small G5.1 curves written with parameters and
+expressions (``own_g51_engraving``, seeded); every program is our own text), then for every
+program:
 
 * ``raw/NAME.txt``: ``rs274 -g NAME.ngc`` (exit status, stdout, stderr): rs274 prints each
   spline as ``NURBS_FEED(k, ...)`` with k its number of control points, and the error text;
@@ -36,6 +38,57 @@ DATA = ROOT / "tests" / "data" / "rs274_splines"
 PROBE = ROOT / "scripts" / "rs274_spline_probe.py"
 SEED = 20261123
 INCH_MM = 25.4
+
+#: A leaf-shaped outline cut as four NURBS curves (G5.2 ... G5.3): orders 3 and 4 (L), weights
+#: above and below 1 (P), control points on continuation lines without a G word, a first line
+#: with its weight, Z plunges and a spindle between the curves.
+OWN_NURBS_OUTLINE = """(own program: a leaf outline of NURBS curves with weights, orders 3 and 4)
+G21 G90 G17
+G0 Z25
+M3 S12000
+G0 X-2 Y0
+G0 Z3
+G1 Z-2.5 F150
+F700
+
+(upper edge, order 3, the middle points pulled in by a weight of 2)
+G5.2 X4.5   Y6.25   P1   L3
+     X12.75 Y10.5   P2
+     X22    Y9.75   P2
+     X30.5  Y4      P1
+     X34    Y0      P1
+G5.3
+
+(lower edge back to the stem, order 4, one light point)
+G5.2 X29    Y-5.5   P1   L4
+     X20.25 Y-9.25  P0.6
+     X10    Y-8     P1.5
+     X3.5   Y-3.75  P1
+     X-2    Y0      P1
+G5.3
+
+G0 Z3
+G0 X1 Y0
+G1 Z-1.5 F150
+F700
+
+(the midrib: a flat curve of order 3, all weights equal)
+G5.2 X9     Y1.25   P1   L3
+     X18    Y1.5    P1
+     X27    Y0.5    P1
+     X31    Y0      P1
+G5.3
+
+(a vein, a single span of order 3 with a heavy middle point)
+G5.2 P1 L3
+     X16    Y5.5    P3
+     X21    Y7      P1
+G5.3
+
+G0 Z25
+M5
+M2
+"""
 
 #: hand-written programs rs274 refuses (or accepts in a way worth pinning), by what they probe
 HAND: dict[str, str] = {
@@ -72,12 +125,13 @@ HAND: dict[str, str] = {
     "nurbs_plane_xz_reads_xy": "G21 G18 G1 F100 X1\nG5.2 X2 Y1 P1\nX3 Y0 P1\nG5.3\nM2\n",
     "nurbs_z_word_ignored": "G21 G1 F100 X1\nG5.2 X2 Y1 P1 Z3\nX3 Y0 P1\nG5.3\nM2\n",
     "nurbs_incremental": "G21 G91 G1 F100 X1\nG5.2 X2 Y1 P1\nX3 Y0 P1\nG5.3\nG1 X1\nM2\n",
-    "doc_g5": "G21 G90 G17\nG0 X0 Y0\nG5 I0 J3 P0 Q-3 X1 Y1 F600\nG5 P0 Q-3 X2 Y2\nM2\n",
-    "doc_g51": "G21 G90 G17\nG0 X-2 Y4\nG5.1 X2 I2 J-8 F600\nM2\n",
-    "doc_nurbs": (
-        "G21 G90 G17 F600\nG0 X0 Y0\nG5.2 X0 Y1 P1 L3\nX2 Y2 P1\nX2 Y0 P1\nX0 Y0 P2\nG5.3\n"
-        "G0 X4 Y0\nG5.2 X4 Y2 P1 L3\nX6 Y2 P2\nX6 Y0 P1\nX4 Y0 P1\nG5.3\nM2\n"
+    "g5_two_segments_mirrored": "G21 G90 G17\nG0 X1 Y-1\nG5 I2 J1 P-1 Q2 X4 Y2 F450\nG5 P-1 Q2 X6 Y5\nM2\n",
+    "g51_one_curve": "G21 G90 G17\nG0 X3 Y-2\nG5.1 X7 I1 J5 F450\nM2\n",
+    "nurbs_two_curves_weights": (
+        "G21 G90 G17 F450\nG0 X1 Y1\nG5.2 X1 Y4 P1 L3\nX4 Y5 P2\nX5 Y1 P1\nX2 Y0 P0.5\nG5.3\n"
+        "G0 X8 Y1\nG5.2 X9 Y3 P2 L4\nX11 Y4 P1\nX12 Y1 P1\nX10 Y0 P3\nG5.3\nM2\n"
     ),
+    "own_nurbs_outline": OWN_NURBS_OUTLINE,
 }
 
 
@@ -152,6 +206,49 @@ def nurbs_programs(rng: random.Random) -> dict[str, str]:
     return out
 
 
+def engraving_program(rng: random.Random) -> str:
+    """Closed rings of small quadratic G5.1 curves (plus a few G01 edges), every coordinate an
+    expression of numbered parameters (scale, offsets, heights, feed) as a text-engraving
+    generator writes them: integer design units times a small scale, no units word."""
+    lines = [
+        "G54 G92.1",
+        "(own program: rings of quadratic G5.1 curves, coordinates as expressions of parameters)",
+        "#1=0.2     (clearance height)",
+        "#2=0.05    (engraving depth)",
+        "#3=0.00275 (scale: design units to program units)",
+        "#4=180.0   (feed)",
+        "#5=4.0     (X offset)",
+        "#6=-1.5    (Y offset)",
+    ]
+
+    def xy(x: int, y: int) -> str:
+        return f"X [{x}*#3+#5] Y [{y}*#3+#6]"
+
+    for ring in range(18):
+        cx, cy = 900 + 1500 * (ring % 6), 900 + 1700 * (ring // 6)
+        radius = rng.randint(320, 700)
+        lobes, depth = rng.choice([2, 3, 4, 5]), rng.uniform(0.05, 0.3)
+        n = rng.randint(7, 13)
+        pts = []
+        for j in range(n):
+            t = 2 * math.pi * j / n + rng.uniform(-0.1, 0.1)
+            r = radius * (1 + depth * math.cos(lobes * t))
+            pts.append((round(cx + r * math.cos(t)), round(cy + r * math.sin(t))))
+        lines += [f"(ring {ring + 1})", "G00 Z #1", f"G00 {xy(*pts[0])}", "G01 Z [0-#2] F#4"]
+        for j in range(n):
+            (x0, y0), (x1, y1) = pts[j], pts[(j + 1) % n]
+            if rng.random() < 0.12:
+                lines.append(f"G01 {xy(x1, y1)} (edge)")
+                continue
+            # control point: the chord's middle pushed away from the ring's centre
+            mx, my = (x0 + x1) / 2 - cx, (y0 + y1) / 2 - cy
+            bulge = 1 + rng.uniform(0.04, 0.25)
+            i, jj = round(cx + mx * bulge - x0), round(cy + my * bulge - y0)
+            lines.append(f"G5.1 X[{x1}*#3+#5] Y[{y1}*#3+#6] I[{i}*#3] J[{jj}*#3]")
+    lines += ["G00 Z #1", "M2", ""]
+    return "\n".join(lines)
+
+
 def run_locked(args: list[str]) -> subprocess.CompletedProcess:
     """Run one LinuxCNC tool under the lock, in a scratch folder: rs274 and the gcode module
     write their parameter file (rs274ngc.var and its .bak) into the working directory."""
@@ -215,19 +312,15 @@ def record(name: str, path: Path) -> None:
 def main() -> None:
     rng = random.Random(SEED)
     programs = {**HAND, **bezier_programs(rng), **nurbs_programs(rng)}
-    samples = sorted(p.stem for p in (DATA / "programs").glob("lcnc_*.ngc"))
+    programs["own_g51_engraving"] = engraving_program(random.Random(SEED + 1))
     for sub in ("programs", "raw", "expected"):
         (DATA / sub).mkdir(parents=True, exist_ok=True)
         for stale in (DATA / sub).glob("*"):
-            if not stale.name.startswith("lcnc_"):
-                stale.unlink()
+            stale.unlink()
     for name, text in programs.items():
         path = DATA / "programs" / f"{name}.ngc"
         path.write_text(text)
         record(name, path)
-    for name in samples:
-        record(name, DATA / "programs" / f"{name}.ngc")
-    programs.update(dict.fromkeys(samples, ""))
     print(f"{len(programs)} programs recorded in {DATA}")
 
 

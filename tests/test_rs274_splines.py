@@ -49,7 +49,7 @@ MEANING = {
 
 def test_the_corpus_is_there() -> None:
     assert len(PROGRAMS) >= 122
-    assert {p.stem for p in PROGRAMS} >= {"lcnc_butterfly", "lcnc_systems"}
+    assert {p.stem for p in PROGRAMS} >= {"own_nurbs_outline", "own_g51_engraving"}
 
 
 def _run(text: str) -> tuple[list, GcodeError | None]:
