@@ -1,5 +1,6 @@
-"""`gantry machine import`: real LinuxCNC sample configurations and a grbl $$ dump
-(tests/data/machine_import/README.md names their sources)."""
+"""`gantry machine import`: LinuxCNC configurations with the figures of LinuxCNC's sample
+configurations, and a grbl $$ dump (tests/data/machine_import/README.md: our own text, whose
+numbers follow the sources it names)."""
 
 from __future__ import annotations
 
