@@ -16,14 +16,15 @@ from gantry_sim.sim.contour import analyse
 from gantry_sim.sim.move_table import move_table
 from gantry_sim.sim.program_distance import path_window
 
-#: a spiral of 120 polar moves, all on line 6 (LinuxCNC's nc_files/spiral.ngc, shortened)
-LOOP = """G21 G64 G90 F600
-G0 X2 Y0 Z1
+#: a spiral of 120 incremental polar moves (radius 2.5 mm shrinking by 0.012 mm, 5 degrees
+#: clockwise each), all on line 6
+LOOP = """G21 G90 G64 F600
+G0 X0 Y2.5 Z1
 G1 Z0
 G91
-o100 repeat [120]
-G1 @-0.01 ^6
-o100 endrepeat
+o7 repeat [120]
+G1 @-0.012 ^-5
+o7 endrepeat
 G90 G0 Z1
 M2
 """
