@@ -150,8 +150,10 @@ def _check_grbl_read_order(block: Block, d: Dialect) -> None:
                 f"bad character {letter!r}; {d.name} expects a command letter A-Z followed by "
                 "a number"
             )
-        elif letter in letters or (d.letters is not None and letter not in d.letters):
-            return  # read_words names a repeated letter, check_codes an unknown one
+        elif d.letters is not None and letter not in d.letters:  # as gcode.c meets it
+            raise GcodeError(f"{letter} word is not supported: {d.name} has no {letter} word")
+        elif letter in letters:
+            return  # read_words names a repeated letter
         else:
             letters.add(letter)
             if letter in _GRBL_NOT_NEGATIVE and value < 0.0:

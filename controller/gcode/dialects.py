@@ -181,10 +181,16 @@ class Dialect:
         program_end_continues: M2/M30 reset some modes and the program goes on with the next
             line (grbl 1.1, whose senders stream every line of a file; gcode.c step 21); False:
             M2/M30 end the program (rs274).
+        tool_length_axis_codes: the tool-length codes (tenths) that take the line's axis words,
+            which then move nothing: G43.1 (its offset); grbl's G49 too (gcode.c consumes them
+            with AXIS_COMMAND_TOOL_LENGTH_OFFSET).
         strict_g80: no axis word while G80 (motion off) is in effect, not even for G10, G28,
             G30, G92 or G43.1 (grbl's "strict" G80 error 31); False: those take their words.
-        read_order: whose word-by-word checks name a line's first error (``"grbl"``:
-            controller/gcode/dialect_checks.py, gcode.c's reading loop); ``""``: none.
+        read_order: whose order of checks names a line's first error (``"grbl"``: gcode.c's,
+            its reading loop's word by word (controller/gcode/dialect_checks.py), then a G53's
+            motion mode before the G80 axis-word error, and words no code uses last, after the
+            block's motion; a centre word alone is such a word, not a modal arc's); ``""``:
+            rs274's.
         g53_absolute_in_g91: G53's axis words are machine coordinates in G91 too (grbl's
             gcode.c applies no distance mode under G53); False: G53 in G91 is refused (rs274).
         zero_radius_straight: a centre-format arc whose centre is its start (I and J 0), with its
@@ -264,6 +270,7 @@ class Dialect:
     read_order: str = ""
     program_end_continues: bool = False
     strict_g80: bool = False
+    tool_length_axis_codes: frozenset[int] = frozenset({431})
     positive_feed_only: bool = False
     g93_arc_per_segment: bool = False
     zero_radius_straight: bool = False
@@ -474,6 +481,7 @@ GRBL = Dialect(
     read_order="grbl",
     program_end_continues=True,
     strict_g80=True,
+    tool_length_axis_codes=frozenset({431, 490}),
     g93_arc_per_segment=True,
     zero_radius_straight=True,
     g10_p_truncated=True,

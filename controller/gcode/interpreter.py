@@ -104,7 +104,13 @@ from gantry_sim.controller.gcode.tool_offsets import (
     tool_words,
 )
 from gantry_sim.controller.gcode.tools import Tool
-from gantry_sim.controller.gcode.words import Words, check_motion_axes, check_words, read_words
+from gantry_sim.controller.gcode.words import (
+    Words,
+    check_motion_axes,
+    check_unused_words,
+    check_words,
+    read_words,
+)
 from gantry_sim.controller.moves import (
     Arc,
     Dwell,
@@ -282,6 +288,11 @@ class Interpreter:
         # Step 5: which motion this block makes, if any.
         nonmodal = w.g.get("nonmodal")
         axis_code = nonmodal in AXIS_NONMODAL
+        grbl_order = d.read_order == "grbl"  # gcode.c's order of checks
+        if grbl_order and nonmodal == 530 and w.g.get("motion", s.motion) not in (0, 10):
+            # gcode.c: the non-modal G53's check (the block's motion mode, G80 included) comes
+            # before the motion modes' checks
+            raise GcodeError("G53 (machine coordinates) must be used with G0 or G1")
         has_axes = not _AXIS_LETTERS.isdisjoint(w.values)  # A/B/C: only 0 gets this far
         # Marlin: a bare E line moves the extruder alone in the modal motion (G1 E5)
         has_axes = has_axes or (block.bare and "E" in w.values)
@@ -306,10 +317,10 @@ class Interpreter:
                 s = evolve(s, motion=motion)
         elif axis_code:
             pass  # the axis words belong to G10/G28/G30/G92
-        elif s.motion in (20, 30) and any(c in w.values for c in "IJKR"):
+        elif s.motion in (20, 30) and any(c in w.values for c in "IJKR") and not grbl_order:
             motion = s.motion  # rs274: a centre word alone continues a modal G2/G3
-        elif has_axes and w.g.get("tool_length") == 431:
-            pass  # the axis words are G43.1's offsets
+        elif has_axes and w.g.get("tool_length") in d.tool_length_axis_codes:
+            pass  # the axis words are G43.1's offsets (grbl: G49 takes them too, and moves none)
         elif has_axes and s.motion is None and d.permissive_blocks:
             pass  # g2core starts with motion cancelled: axis words alone move nothing
         elif has_axes:
@@ -349,7 +360,7 @@ class Interpreter:
             s = self._home(w.line, w.values, s, nonmodal, moves)
         machine_coords = nonmodal == 530
         if machine_coords:
-            if motion not in (0, 10):
+            if motion not in (0, 10) and not grbl_order:  # grbl's is checked above
                 raise GcodeError("G53 (machine coordinates) must be used with G0 or G1")
             if s.incremental and not d.g53_absolute_in_g91:
                 raise GcodeError("G53 cannot be used in incremental distance mode (G91); use G90")
@@ -422,6 +433,8 @@ class Interpreter:
                 s = evolve(s, work=self.comp.released_end)
             if stop in M_PROGRAM_END:
                 self.comp.side, self.comp.first = None, True
+        if grbl_order:  # gcode.c: unused words are its step 3's last check
+            check_unused_words(w, motion, d)
         # Step 7: commit; events after the block's motion (rs274 runs G4 before motion, so a
         # dwell on a motion line waits before it moves).
         if self.events:

@@ -37,6 +37,21 @@ _CYCLES = frozenset((730, 740, 810, 820, 830, 840, 850, 860, 870, 880, 890))
 #: motion codes rs274 runs only with an axis word on their line (G5, G5.1, G33, G33.1, G38.x and
 #: the canned cycles; not G0-G3, G5.2, G76 or G80)
 _NEED_AXES = _CYCLES | {50, 51, 330, 331, 382, 383, 384, 385}
+#: the codes that take each word only some codes use (for the unused-word message)
+_RS274_NEEDS = {
+    "P": "G2, G3, G4, G5, G5.2, G10, G64, G76, G82, G86, G88, G89, M19, M50-M53, M62-M66, M98 "
+    "or a user M code (M100-M199)",
+    "Q": "G64, G73 or G83",
+    "H": "G43 or G43.2",
+    "R": "G2, G3 or a canned cycle",
+    "D": "G41, G41.1, G42, G42.1 or G96",
+    "L": "G10 or a canned cycle",
+    "E": "a code that takes E (none here; G-code numbers have no exponent, so 1e3 reads as 1 "
+    "then an E word)",
+}
+#: grbl 1.1's codes that take each word only some codes use (for its unused-word message)
+_GRBL_NEEDS = {"P": "G4 or G10", "L": "G10", "R": "G2 or G3", "I": "G2 or G3", "J": "G2 or G3",
+               "K": "G2 or G3"}  # fmt: skip
 #: the words that count as axis words there (rs274's axis_flag: polar @ and ^ too)
 _AXIS_FLAGS = frozenset("XYZABCUVW@^")
 #: Letters every block may carry (axes, feed, spindle speed, tool; a rotary axis at 0; N, a
@@ -212,25 +227,8 @@ def check_words(w: Words, motion: int | None, dialect: Dialect) -> None:
     if cycle and any(a in v for a in ROTARY_AXES):
         a = next(a for a in ROTARY_AXES if a in v)
         raise GcodeError(f"cannot put an {a} in a canned cycle")
-    # the words only some codes take (most lines have none: X Y Z F S T)
-    taken = [k for k in v if k not in _ANY_CODE and k not in dialect.ignored_letters]
-    uses = _letter_uses(w, motion, dialect) if taken else {}
-    for letter in taken:
-        if not uses.get(letter, False):
-            need = {
-                "P": "G2, G3, G4, G5, G5.2, G10, G64, G76, G82, G86, G88, G89, M19, M50-M53, "
-                "M62-M66, M98 or a user M code (M100-M199)",
-                "Q": "G64, G73 or G83",
-                "H": "G43 or G43.2",
-                "R": "G2, G3 or a canned cycle",
-            }.get(letter, "G2, G3 or G87")
-            if letter in "DLE":
-                need = {
-                    "D": "G41, G41.1, G42, G42.1 or G96",
-                    "L": "G10 or a canned cycle",
-                    "E": "a code that takes E (none here; G-code numbers have no exponent, so 1e3 reads as 1 then an E word)",
-                }[letter]
-            raise GcodeError(f"{letter} word with no code that uses it; {letter} needs {need}")
+    if dialect.read_order != "grbl":  # grbl checks them last (check_unused_words)
+        check_unused_words(w, motion, dialect)
     if w.m.get("spindle") == 19:
         _check_orient(v)
     if "$" in v:
@@ -266,6 +264,22 @@ def check_words(w: Words, motion: int | None, dialect: Dialect) -> None:
         raise GcodeError("G4 (dwell) cannot share a line with G2 or G3: both use the P word")
     if w.g.get("nonmodal") == 40 and v.get("P", -1.0) < 0.0:
         raise GcodeError("G4 (dwell) needs a P word: the dwell time in seconds, >= 0")
+
+
+def check_unused_words(w: Words, motion: int | None, dialect: Dialect) -> None:
+    """Every word only some codes take (most lines have none: X Y Z F S T) has a code on the
+    line that uses it; :func:`check_words` runs this, except for grbl, whose gcode.c checks
+    for unused words last, after the feed, the motion and the arc (the interpreter runs it at
+    the end of the block)."""
+    v = w.values
+    # the words only some codes take (most lines have none: X Y Z F S T)
+    taken = [k for k in v if k not in _ANY_CODE and k not in dialect.ignored_letters]
+    uses = _letter_uses(w, motion, dialect) if taken else {}
+    for letter in taken:
+        if not uses.get(letter, False):
+            need = _GRBL_NEEDS.get(letter) if dialect.read_order == "grbl" else None
+            need = need or _RS274_NEEDS.get(letter, "G2, G3 or G87")
+            raise GcodeError(f"{letter} word with no code that uses it; {letter} needs {need}")
 
 
 def _check_orient(v: dict[str, float]) -> None:
