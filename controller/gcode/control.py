@@ -48,6 +48,7 @@ from gantry_sim.controller.gcode.printer_codes import (
     g2core_characters,
     g2core_json_gcode,
     marlin_bare_motion,
+    marlin_bare_opener,
     marlin_command_alone,
     marlin_dwell_seconds,
     marlin_extruder,
@@ -143,7 +144,7 @@ class Source:
         rewrite = _REWRITTEN.get(kind) if kind is not None else None
         if rewrite is not None:
             block = lex_line(rewrite(raw), i + 1, self.lex_rules)
-            return replace(block, bare=True) if kind == "bare_motion" else block
+            return replace(block, bare=marlin_bare_opener(raw)) if kind == "bare_motion" else block
         if kind in ("dwell", "wait"):  # Marlin G4: the shared G4 with P in seconds; M400...
             seconds = marlin_dwell_seconds(raw) if kind == "dwell" else 0.0
             return Block(i + 1, (("G", ("num", 4.0)), ("P", ("num", seconds))), (), False, raw)

@@ -11,6 +11,7 @@ then program end), so ``G20 G1 X1`` moves to 1 inch, and ``F10 G20`` keeps 10 mm
 
 from __future__ import annotations
 
+import dataclasses
 from collections.abc import Iterator, Mapping
 from functools import partial
 from pathlib import Path
@@ -84,7 +85,7 @@ from gantry_sim.controller.gcode.parameters import (
 from gantry_sim.controller.gcode.plain_block import plain_letters, plain_motion
 from gantry_sim.controller.gcode.polar import polar_end_point
 from gantry_sim.controller.gcode.predefined import predefined
-from gantry_sim.controller.gcode.printer_codes import OWN_LINES
+from gantry_sim.controller.gcode.printer_codes import MARLIN_BARE_OPENERS, OWN_LINES
 from gantry_sim.controller.gcode.splines import (
     G5_2,
     G5_3,
@@ -180,6 +181,16 @@ class Interpreter:
         d = self.dialect
         if not d.language:
             check_plain(block, d)
+        if block.bare:
+            motion = self.state.motion
+            modal = None if motion is None else MARLIN_BARE_OPENERS.get(motion)
+            if modal is None or block.bare not in modal[0]:
+                # Marlin (parser.cpp): no modal motion yet, or one that takes no such opener:
+                # "Unknown command", and nothing of the line runs (its F neither)
+                return [], False
+            block = dataclasses.replace(
+                block, words=tuple(wd for wd in block.words if wd[0] in modal[1])
+            )
         if self.plain:
             plain = self._plain_step(block)
             if plain is not None:
@@ -196,8 +207,6 @@ class Interpreter:
         if block.feed_percent is not None:
             self.state = set_feed_percent(self.state, *block.feed_percent)
             return [], False
-        if block.bare and self.state.motion is None:
-            return [], False  # Marlin: no G0-G3 yet, so "Unknown command" (F not taken either)
         w = read_words(block, self.params, d, self._create_named)
         s = self.state
         # Step 2: every code is one gantry-sim supports.
@@ -294,8 +303,8 @@ class Interpreter:
             # before the motion modes' checks
             raise GcodeError("G53 (machine coordinates) must be used with G0 or G1")
         has_axes = not _AXIS_LETTERS.isdisjoint(w.values)  # A/B/C: only 0 gets this far
-        # Marlin: a bare E line moves the extruder alone in the modal motion (G1 E5)
-        has_axes = has_axes or (block.bare and "E" in w.values)
+        # Marlin: a bare line runs as the modal motion even with no axis word (E5: a G1 E5)
+        has_axes = has_axes or (block.bare != "" and any(k != "F" for k in w.values))
         motion = w.g.get("motion")
         if motion == 800:
             if has_axes and not axis_code:
@@ -313,7 +322,9 @@ class Interpreter:
             if motion in (50, 51) and not any(a in w.values for a in "XY@^"):
                 raise GcodeError(f"{g_name(motion)} needs X or Y: all axes missing")
             # rs274: G5/G5.1 leave the motion mode as it was
-            if motion is not None and motion not in (50, 51) and motion != s.motion:
+            if motion == 50 and d.splines == "marlin":  # GCODE_MOTION_MODES: G5 is modal
+                s = evolve(s, motion=motion)
+            elif motion is not None and motion not in (50, 51) and motion != s.motion:
                 s = evolve(s, motion=motion)
         elif axis_code:
             pass  # the axis words belong to G10/G28/G30/G92

@@ -141,8 +141,9 @@ class Block:
             marlin_feed_percent`): (restore, back up, the new percentage or None).
         settings_at: per setting, how many of ``words`` come before it on the line (empty:
             every setting after the words).
-        bare: a Marlin line of X, Y, Z, E and F words with no command (``X10 Y5``, ``E5``),
-            which GCODE_MOTION_MODES moves in the modal G0/G1/G2/G3.
+        bare: a Marlin line of parameters with no command (``X10 Y5``, ``E5``), which
+            GCODE_MOTION_MODES runs as the modal G0-G3 or G5: the letter it opens with (upper
+            case; "" for any other line).
     """
 
     line: int
@@ -157,7 +158,7 @@ class Block:
     extruder: tuple[str, float] | None = None
     settings_at: tuple[int, ...] = ()
     feed_percent: tuple[bool, bool, int | None] | None = None
-    bare: bool = False
+    bare: str = ""
 
     @property
     def empty(self) -> bool:

@@ -112,10 +112,10 @@ def marlin_line(raw: str) -> str | None:
     if _TEXT.match(raw):
         return "quiet"
     code = raw.split(";", 1)[0]
-    if _NOT_A_COMMAND.match(code):
-        return "quiet"  # Marlin: "Unknown command", and on to the next line
     if _BARE_WORDS.match(code):
         return "bare_motion"
+    if _NOT_A_COMMAND.match(code):
+        return "quiet"  # Marlin: "Unknown command", and on to the next line
     head = _HEAD.match(code)
     if head is None:
         return None
@@ -239,12 +239,37 @@ def marlin_motion(raw: str) -> str:
 
 
 def marlin_bare_motion(raw: str) -> str:
-    """A "bare_motion" line (:func:`marlin_line`: axis, E or F words with no command, ``X10
-    Y5``) as GCODE_MOTION_MODES reads it, the modal G0/G1's parameters (X, Y, Z, E, F) read as
-    :func:`marlin_motion` reads them (a slicer template's valueless ``X[x] Y5`` is a Y5), for
-    the shared step to move in the modal motion; nothing where no value is left."""
+    """A "bare_motion" line (:func:`marlin_line`: parameters with no command, ``X10 Y5``) as
+    GCODE_MOTION_MODES reads it: every parameter a modal G0-G3 or G5 may read (X, Y, Z, E, F,
+    I, J, K, P, Q, R), each read as :func:`marlin_motion` reads it (a slicer template's
+    valueless ``X[x] Y5`` is a Y5), for the interpreter to keep those its modal motion reads
+    (:func:`marlin_bare_opener`); nothing where no value is left."""
     params = _marlin_parameters(raw.split(";", 1)[0])
-    return " ".join(f"{k}{v}" for k, v in params.items() if v is not None and k in "XYZEF")
+    return " ".join(f"{k}{v}" for k, v in params.items() if v is not None and k in _BARE_READ)
+
+
+def marlin_bare_opener(raw: str) -> str:
+    """The letter a "bare_motion" line opens with (upper case): parser.cpp runs the line as
+    the modal motion only where that motion takes it (:data:`MARLIN_BARE_OPENERS`)."""
+    found = _BARE_WORDS.match(raw.split(";", 1)[0])
+    assert found is not None
+    return found.group(1).upper()
+
+
+#: the parameters a bare line may carry for a modal motion
+_BARE_READ = "XYZEFIJKPQR"
+#: GCODE_MOTION_MODES (parser.cpp): the modal motion (tenths) -> the letters a bare line may
+#: open with to run as that motion, and the parameters that motion reads. An R opens a G2/G3
+#: line; I, J, P and Q never open one: their cases fall through to R's, which returns unless
+#: the motion is G2/G3, and before it Q's, which returns unless it is G5 (checked on Marlin
+#: built for the host: ``I5 J0 X30`` after a G5 moves nothing)
+MARLIN_BARE_OPENERS: dict[int, tuple[str, str]] = {
+    0: ("XYZEF", "XYZEF"),
+    10: ("XYZEF", "XYZEF"),
+    20: ("XYZEFR", "XYZEFIJKPR"),
+    30: ("XYZEFR", "XYZEFIJKPR"),
+    50: ("XYZEF", "XYZEFIJPQ"),
+}
 
 
 def _marlin_parameters(text: str) -> dict[str, str | None]:
@@ -337,7 +362,7 @@ _NOT_A_COMMAND = re.compile(
 #: A line that opens with an axis, E or F word (``X10 Y5``): GCODE_MOTION_MODES applies the
 #: modal motion to it (Marlin's default build answers "Unknown command"; a line that opens with
 #: another parameter letter, ``P5``, is unknown to both)
-_BARE_WORDS = re.compile(r"^ *(?>N\d+ *)?[XYZEFxyzef]")
+_BARE_WORDS = re.compile(r"^ *(?>N\d+ *)?([XYZEFIJPQRxyzefijpqr])")
 #: Any word (a letter and a value).
 _WORD = re.compile(r"[A-Z]\s*[-+]?[.\d]", re.IGNORECASE)
 #: An M or T word after a G command: a parameter to Marlin, which that command ignores.
