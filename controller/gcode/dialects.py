@@ -12,8 +12,10 @@ The interpreter reads these fields and never tests a dialect's name. Sources (co
 - ``g2core``: g2core's G2/G3 page (seed 000, the dialect's specification): an explicit end point
   equal to the start moves nothing (a full circle needs the plane axes omitted; the firmware's
   plan_arc.cpp turns a G2 so into a full circle and refuses a G3); radius mismatch refused
-  above 1.0 mm, or above 0.005 mm and 0.1 % of the start radius, in mm whatever the units
-  (plan_arc.h's ARC_RADIUS_ERROR_MAX; the page's 0.5 mm is commented out there).
+  above .5 mm (.05 inch), or above .005 mm (.0005 inch) and 0.1 % of the radius, as the page
+  says (the firmware's plan_arc.h: ARC_RADIUS_ERROR_MAX 1.0 mm, in mm whatever the units).
+  Where the page is silent the dialect follows the firmware (synthetos/g2 edge-preview
+  1fb59404: gcode_parser.cpp, canonical_machine.cpp, plan_arc.cpp).
 - ``marlin``: Marlin's G2/G3 page (segments of MM_PER_ARC_SEGMENT = 1 mm, the dialect's
   segmentation default): the end point is not checked, the arc ends on the start-radius
   circle at the destination's angle and the move at the destination (plan_arc's last segment
@@ -312,9 +314,9 @@ LINUXCNC = Dialect(
 G2CORE = Dialect(
     name="g2core",
     explicit_end_full_circle=False,
-    # plan_arc.h: ARC_RADIUS_ERROR_MAX 1.0 mm (its 0.5 commented out), MIN 0.005 mm, 0.1 % of
-    # the start radius, compared in mm whatever the units (plan_arc.cpp converts first)
-    radius_check=RadiusCheck(0.005, 1.0, 0.005 / 25.4, 1.0 / 25.4, 0.001, rel_to_start=True),
+    # seed 000: more than .5 mm (.05 inch), or .005 mm (.0005 inch) and 0.1 % of the radius
+    # (the firmware's plan_arc.h ARC_RADIUS_ERROR_MAX is 1.0 mm, in mm whatever the units)
+    radius_check=RadiusCheck(0.005, 0.5, 0.0005, 0.05, 0.001),
     project_end_on_arc=False,
     both_offsets_required=False,
     p_adds_circles=False,
