@@ -917,3 +917,22 @@ def test_grbl_line_buffer_and_feed_after_inverse_time() -> None:
     assert "(grbl error 22)" in error_of("G1 X1 F100\nG93 G1 X2 F10\nG94\nG1 X3\n", "grbl").message
     assert run("G1 X1 F100\nG94\nG1 X3\n", "grbl")[-1].feed_mm_per_min == 100.0
     assert run("G1 X1 F100\nG93 G1 X2 F10\nG94 G1 X3 F50\n", "grbl")[-1].feed_mm_per_min == 50.0
+
+
+def test_g2core_program_end_resets_modes_and_reads_on() -> None:
+    """g2core's M2/M30 stop nothing: canonical_machine.cpp ``_exec_program_stop_end`` (with
+    ``_exec_program_finalize``) suspends the G92 offsets (G92.2), selects $gco (G54), $gpl
+    (G17), $gdi (G90), G91.1 and G94 and cancels the motion mode (not G1, "Safer"); the units
+    and F stay, and gcode_parser reads the next line (h4 reproducers m2_then_lines,
+    m30_g92_suspended)."""
+    moves = run("G21 G90\nG1 X5 F100\nM2\nG0 X20\nG1 X30\n", "g2core")
+    assert [(m.line, m.end[0]) for m in moves] == [(2, 5.0), (4, 20.0), (5, 30.0)]
+    assert moves[-1].feed_mm_per_min == 100.0
+    moves = run("G21 G90\nG0 X10\nG92 X0\nM30\nG0 X1\nG92.3\nG0 X2\n", "g2core")
+    assert [m.end[0] for m in moves] == [10.0, 1.0, 12.0]  # suspended, then restored
+    text = "G20 G91 G55 G18 G90.1 G1 X1 F10\nM2\nX2\nG0 X1 Y1\n"
+    moves = run(text, "g2core")
+    assert [m.line for m in moves] == [1, 4]  # X2 alone: motion cancelled
+    assert moves[-1].end == pytest.approx((25.4, 25.4, 0.0))  # G90 G54, still inches
+    events = list(interpret_events("G1 X1 F10\nM30\nG1 X2\n", "g2core"))
+    assert [type(e).__name__ for e in events] == ["Linear", "Stop", "Linear"]

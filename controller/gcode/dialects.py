@@ -180,9 +180,12 @@ class Dialect:
         jog_units_per_minute: a ``$J=`` jog's F is units per minute even under G93 (grbl).
         g10_p_truncated: G10's P is cut to its whole part (``P1.5`` is G54) and is 0, the
             system in effect, when absent (grbl's gcode.c); False: rs274's reading.
-        program_end_continues: M2/M30 reset some modes and the program goes on with the next
-            line (grbl 1.1, whose senders stream every line of a file; gcode.c step 21); False:
-            M2/M30 end the program (rs274).
+        program_end_continues: whose M2/M30 reset some modes, the program going on with the
+            next line (controller/gcode/modal_codes.py): ``"grbl"``, grbl 1.1's (its senders
+            stream every line of a file; gcode.c step 21); ``"g2core"``, g2core's
+            (canonical_machine.cpp ``_exec_program_stop_end``: nothing stops its reading, and
+            its own sender, node-g2core-api, streams every line); ``""``: M2/M30 end the
+            program (rs274).
         tool_length_axis_codes: the tool-length codes (tenths) that take the line's axis words,
             which then move nothing: G43.1 (its offset); grbl's G49 too (gcode.c consumes them
             with AXIS_COMMAND_TOOL_LENGTH_OFFSET).
@@ -270,7 +273,7 @@ class Dialect:
     jog_units_per_minute: bool = False
     g53_absolute_in_g91: bool = False
     read_order: str = ""
-    program_end_continues: bool = False
+    program_end_continues: str = ""
     strict_g80: bool = False
     tool_length_axis_codes: frozenset[int] = frozenset({431})
     positive_feed_only: bool = False
@@ -343,6 +346,7 @@ G2CORE = Dialect(
     feed_mode_clears_feed="grbl",
     min_r_word_mm=0.1,  # plan_arc.h MIN_ARC_RADIUS
     checksums="g2core",
+    program_end_continues="g2core",
 )
 
 MARLIN = Dialect(
@@ -481,7 +485,7 @@ GRBL = Dialect(
     jog_units_per_minute=True,
     g53_absolute_in_g91=True,
     read_order="grbl",
-    program_end_continues=True,
+    program_end_continues="grbl",
     strict_g80=True,
     tool_length_axis_codes=frozenset({431, 490}),
     g93_arc_per_segment=True,

@@ -65,6 +65,7 @@ from gantry_sim.controller.gcode.frames import Frame, add, from_work, sub, to_wo
 from gantry_sim.controller.gcode.lexer import Block, LexRules
 from gantry_sim.controller.gcode.modal_codes import (
     clears_feed,
+    g2core_program_end,
     grbl_program_end,
     overrides,
     path_control,
@@ -475,7 +476,7 @@ class Interpreter:
                 self.params.set_number(target, value)
         ended = w.m.get("stopping") in M_PROGRAM_END
         if ended and d.program_end_continues:
-            self.state = grbl_program_end(self.state, self.params)
+            self.state = _PROGRAM_END[d.program_end_continues](self.state, self.params)
             return moves, False
         return moves, ended
 
@@ -866,6 +867,8 @@ def _set_path(moves: list[Move | Event], path: PathControl) -> None:
 
 
 _MOTIONS = (Rapid, Linear, Arc, Spline)
+#: M2/M30 where the program goes on (Dialect.program_end_continues): the state after them
+_PROGRAM_END = {"grbl": grbl_program_end, "g2core": g2core_program_end}
 #: the axis words of a plain motion block
 _PLAIN_AXES = frozenset("XYZ")
 #: the words that move an axis (A/B/C: only a word of 0 gets as far as the motion)

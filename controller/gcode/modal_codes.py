@@ -1,5 +1,6 @@
 """What single codes do to the modal state: M48-M53 (overrides), G61/G61.1/G64 (path
-control), G93/G94/G95 (whether a feed mode clears the feed), grbl's M2/M30, and Marlin's
+control), G93/G94/G95 (whether a feed mode clears the feed), grbl's and g2core's M2/M30, and
+Marlin's
 M82/M83, G92 E (the extruder) and M220 (the feed percentage). Pure functions of the state:
 the interpreter (:mod:`~gantry_sim.controller.gcode.interpreter`) calls them in rs274's order.
 """
@@ -7,7 +8,7 @@ the interpreter (:mod:`~gantry_sim.controller.gcode.interpreter`) calls them in 
 from __future__ import annotations
 
 from gantry_sim.controller.errors import GcodeError
-from gantry_sim.controller.gcode.coords import SYSTEMS, select_system
+from gantry_sim.controller.gcode.coords import SYSTEMS, g92, select_system
 from gantry_sim.controller.gcode.dialects import Dialect
 from gantry_sim.controller.gcode.feed_modes import INVERSE_TIME, UNITS_PER_MINUTE
 from gantry_sim.controller.gcode.parameters import Parameters
@@ -17,6 +18,7 @@ from gantry_sim.controller.moves import PathControl
 
 __all__ = [
     "clears_feed",
+    "g2core_program_end",
     "grbl_program_end",
     "overrides",
     "path_control",
@@ -55,6 +57,21 @@ def grbl_program_end(s: ModalState, params: Parameters) -> ModalState:
     s = evolve(
         s, motion=10, plane="XY", incremental=False, feed_mode=940, spindle=0, mist=False,
         flood=False,
+    )  # fmt: skip
+    return select_system(s, params, SYSTEMS[540])
+
+
+def g2core_program_end(s: ModalState, params: Parameters) -> ModalState:
+    """g2core's M2/M30 (canonical_machine.cpp ``_exec_program_stop_end`` and
+    ``_exec_program_finalize``): the G92 offsets suspended as by G92.2 (kept: a G92.3 or a
+    bare G92 turns them back on), G54, G17, G90, G91.1, G94, motion cancelled (G80: axis words
+    alone move nothing after it, where NIST and grbl set G1), M5, M9 and the overrides on;
+    the units, F, S, the tool, its length offset and the path control stay. Nothing stops the
+    reading: the next line runs."""
+    s = g92(s, params, 922, {})
+    s = evolve(
+        s, motion=None, plane="XY", incremental=False, arc_absolute=False, feed_mode=940,
+        spindle=0, mist=False, flood=False, overrides=ModalState().overrides,
     )  # fmt: skip
     return select_system(s, params, SYSTEMS[540])
 
