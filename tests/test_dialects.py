@@ -936,3 +936,21 @@ def test_g2core_program_end_resets_modes_and_reads_on() -> None:
     assert moves[-1].end == pytest.approx((25.4, 25.4, 0.0))  # G90 G54, still inches
     events = list(interpret_events("G1 X1 F10\nM30\nG1 X2\n", "g2core"))
     assert [type(e).__name__ for e in events] == ["Linear", "Stop", "Linear"]
+
+
+def test_g2core_next_action_codes_take_the_place_of_the_motion() -> None:
+    """gcode_parser.cpp ``_execute_gcode_block`` runs G0-G3 (and stores their motion mode,
+    through cm_straight_traverse / cm_straight_feed / cm_arc_feed) only in ``case
+    NEXT_ACTION_DEFAULT``: G4, G10, G28.x, G30.x, G43, G43.2, G49 and G92.x on a line leave no
+    motion and the mode before it (h4 reproducers g43_with_axis_words, g4_with_axis_words,
+    g28_1_with_axis_words, g92_1_with_axis_words, g49_with_g0_leaves_mode,
+    g92_with_g0_keeps_mode, g10_with_g0_keeps_mode)."""
+    tools = "G21 G90\nG0 G43 Z15 H1\nG0 X10\n"
+    assert [m.end for m in run(tools, "g2core")] == [(10.0, 0.0, 0.0)]  # Z not lifted
+    moves = run("G21 G90\nG1 X1 F100\nG4 P0.5 X10\nG28.1 X3\nG92.1 X7\n", "g2core")
+    assert [m.line for m in moves] == [2]
+    moves = run("G21 G90\nG1 X5 F100\nG92 G0 X0 Y0\nX3\n", "g2core")
+    assert isinstance(moves[-1], Linear) and moves[-1].end == (8.0, 0.0, 0.0)
+    assert [m.line for m in run("G21 G90\nG0 G49\nX10\nG0 G10 L2 P1 X5\nX1\n", "g2core")] == []
+    # G28 still makes its own moves
+    assert [m.line for m in run("G21 G90\nG0 X5\nG1 G28 X1 F100\n", "g2core")] == [2, 3, 3]

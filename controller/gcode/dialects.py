@@ -170,10 +170,16 @@ class Dialect:
             refused (g2core's MIN_ARC_RADIUS); 0: none.
         permissive_blocks: blocks rs274 refuses that g2core's parser lets through run as it runs
             them (gcode_parser.cpp, canonical_machine.cpp, plan_arc.cpp): a G92/G10/G28/G30
-            beside G0-G3 takes the axis words and the motion code only sets the mode; axis
+            beside G0-G3 takes the axis words (``next_action_stops_motion``: the motion code
+            sets nothing); axis
             words with no motion mode (g2core starts with motion cancelled) move nothing; a
             line continuing a modal G2/G3 with no centre offset or radius moves nothing; a G92
             with no axis word turns the G92 offsets back on (cm_set_g92_offsets: as G92.3).
+        next_action_stops_motion: a block holding a code g2core runs as its "next action" (G4,
+            G10, G28, G28.1, G30, G30.1, G43, G43.2, G49, G92-G92.3) makes no G0-G3 motion and
+            stores no motion mode: gcode_parser.cpp ``_execute_gcode_block`` runs the motion
+            only for NEXT_ACTION_DEFAULT (``G0 G43 Z15 H1`` lifts nothing, ``G92 G0 X0``
+            leaves the mode before it; G28/G30 still make their own moves).
         feed_in_line_units: F is read in the units this line selects (grbl's gcode.c converts
             F after taking the line's G20/G21: ``G20 G1 X1 F10`` is 254 mm/min); False: in the
             units in effect before the line (rs274: that line's F is 10 mm/min).
@@ -281,6 +287,7 @@ class Dialect:
     zero_radius_straight: bool = False
     g10_p_truncated: bool = False
     permissive_blocks: bool = False
+    next_action_stops_motion: bool = False
     min_r_word_mm: float = 0.0
     line_number_words: bool = False
     o_words: bool = True
@@ -339,6 +346,7 @@ G2CORE = Dialect(
     home_all_axes=True,
     home_first_move=False,
     permissive_blocks=True,
+    next_action_stops_motion=True,
     firmware_comments="g2core",
     percent_delimits=False,
     # a block started in G93 takes F 0 unless it gives one (gcode_parser.cpp): the G94 after

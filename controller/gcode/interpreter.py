@@ -135,6 +135,10 @@ _STRAIGHT = (Rapid, Linear)
 _PATH_MOVES = (Rapid, Linear, Arc)
 #: non-modal codes whose axis words are theirs, not a motion's: G10, G28, G30, G92, G52.
 AXIS_NONMODAL = frozenset((100, 280, 300, 920, 520))
+#: g2core's "next actions" (Dialect.next_action_stops_motion): G4, G10, G28, G28.1, G30,
+#: G30.1, G92-G92.3; and the tool length codes G43, G43.2, G49
+_NEXT_ACTIONS = frozenset((40, 100, 280, 281, 300, 301, 920, 921, 922, 923))
+_NEXT_ACTION_LENGTHS = frozenset((430, 432, 490))
 
 
 class Interpreter:
@@ -341,6 +345,8 @@ class Interpreter:
             motion = s.motion
             if motion in (20, 30) and d.permissive_blocks:
                 motion = None  # g2core: a modal arc with no centre or radius moves nothing
+        if d.next_action_stops_motion and _next_action(w):
+            s, motion = evolve(s, motion=self.state.motion), None  # g2core: the mode stays
         if d.strict_g80 and has_axes and s.motion is None:
             # grbl 1.1 (gcode.c, G80 errors): with motion off even G28, G92, G10 or G43.1 may
             # not carry axis words
@@ -846,6 +852,12 @@ class Interpreter:
                 f"cannot make {what} with zero feed rate; set F (units per minute, > 0) on this "
                 "or an earlier line"
             )
+
+
+def _next_action(w: Words) -> bool:
+    """Whether block ``w`` holds a g2core "next action" (gcode_parser.cpp), which takes the
+    place of the block's motion."""
+    return w.g.get("nonmodal") in _NEXT_ACTIONS or w.g.get("tool_length") in _NEXT_ACTION_LENGTHS
 
 
 class _Saved(NamedTuple):
