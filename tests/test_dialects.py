@@ -873,10 +873,20 @@ def test_g2core_runs_blocks_rs274_refuses_as_g2core_runs_them() -> None:
     moves = run("g21 g90 f100\nx10 y5\ng1 x20\nm2\n", "g2core")
     assert [(m.line, m.start, m.end) for m in moves] == [(3, (0.0, 0.0, 0.0), (20.0, 0.0, 0.0))]
     assert "no motion mode" in error_of("G21 F100\nX10\nM2\n", "linuxcnc").message
-    # cncjs full-circle-without-xyz: a modal G2 line with no centre or radius moves nothing
-    moves = run("g21 g90 f100\ng2 i5\nx5\ng1 y5\nm2\n", "g2core")
-    assert [m.line for m in moves] == [2, 4] and moves[1].start == (0.0, 0.0, 0.0)
     assert "no centre" in error_of("G21 F100\nG2 I5\nX5\nM2\n", "linuxcnc").message
+
+
+def test_g2core_refuses_a_modal_arc_line_without_centre() -> None:
+    """cncjs full-circle-without-xyz: ``x5`` after ``g2 i5``. plan_arc.cpp ``cm_arc_feed``'s
+    "no G2/G3 word" test reads gp.modals[MODAL_GROUP_G1], which gcode_parser.cpp never clears,
+    so the line goes on to the zero-offset test and ``cm_alarm(STAT_ARC_OFFSETS_MISSING_FOR_
+    SELECTED_PLANE)`` (h4 reproducer modal_arc_without_centre; the arc harness gives ALARM
+    157). A next action on the line (G4) takes the motion's place: no alarm."""
+    refused = error_of("g21 g90 f100\ng2 i5\nx5\ng1 y5\n", "g2core")
+    assert refused.line == 3 and refused.file == "p.ngc"
+    assert "modal G2 with no centre offset (I, J, K) or radius (R)" in refused.message
+    assert "alarm" in error_of("G21 F100\nG3 X2 I1\nZ5\n", "g2core").message
+    assert [m.line for m in run("G21 F100\nG2 I5\nG4 P1 X5\nF200\n", "g2core")] == [2]
 
 
 def test_g2core_g28_3_sets_the_origin_where_the_tool_is() -> None:

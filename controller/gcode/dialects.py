@@ -171,10 +171,11 @@ class Dialect:
         permissive_blocks: blocks rs274 refuses that g2core's parser lets through run as it runs
             them (gcode_parser.cpp, canonical_machine.cpp, plan_arc.cpp): a G92/G10/G28/G30
             beside G0-G3 takes the axis words (``next_action_stops_motion``: the motion code
-            sets nothing); axis
-            words with no motion mode (g2core starts with motion cancelled) move nothing; a
-            line continuing a modal G2/G3 with no centre offset or radius moves nothing; a G92
-            with no axis word turns the G92 offsets back on (cm_set_g92_offsets: as G92.3).
+            sets nothing); axis words with no motion mode (g2core starts with motion
+            cancelled) move nothing; a G92 with no axis word turns the G92 offsets back on
+            (cm_set_g92_offsets: as G92.3). Axis words continuing a modal G2/G3 with no centre
+            offset or radius are refused: g2core alarms (plan_arc.cpp ``cm_arc_feed`` reads
+            gp.modals[], which its parser never clears, and reaches "arc offsets missing").
         next_action_stops_motion: a block holding a code g2core runs as its "next action" (G4,
             G10, G28, G28.1, G30, G30.1, G43, G43.2, G49, G92-G92.3) makes no G0-G3 motion and
             stores no motion mode: gcode_parser.cpp ``_execute_gcode_block`` runs the motion

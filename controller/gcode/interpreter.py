@@ -343,8 +343,13 @@ class Interpreter:
             if s.motion is None:
                 raise GcodeError("axis words with no motion mode; put G0, G1, G2 or G3 first")
             motion = s.motion
-            if motion in (20, 30) and d.permissive_blocks:
-                motion = None  # g2core: a modal arc with no centre or radius moves nothing
+            if motion in (20, 30) and d.permissive_blocks and not _next_action(w):
+                raise GcodeError(
+                    f"axis words continue the modal {g_name(motion)} with no centre offset "
+                    "(I, J, K) or radius (R); g2core raises an alarm on such a line "
+                    "(plan_arc.cpp: arc offsets missing or zero): give the arc's centre, or "
+                    "G0/G1 for a straight move"
+                )
         if d.next_action_stops_motion and _next_action(w):
             s, motion = evolve(s, motion=self.state.motion), None  # g2core: the mode stays
         if d.strict_g80 and has_axes and s.motion is None:
