@@ -68,9 +68,9 @@ def test_g2core_reads_what_its_normalizer_and_canonical_machine_leave() -> None:
     started in G93 takes F 0 unless it has one, so the G94 after G93 leaves no feed."""
     moves = run("G21 G90\nG1 X10 F600\n\u2028G1 X+20 Y#5\n", "g2core")
     assert [m.end for m in moves] == [(10.0, 0.0, 0.0), (20.0, 5.0, 0.0)]
-    # _verify_checksum ends the line at its first *, before normalizing (not X597; and in a
+    # _verify_checksum ends the line at its first *, before normalizing (not X5100; and in a
     # comment too, which then runs to the line's end)
-    moves = run("G21 F600\nN1 G1 X5*97\nN2 G1 Y2 (a*b) X3\n", "g2core")
+    moves = run("G21 F600\nN1 G1 X5*100\nN2 G1 Y2 (a*8) X3\n", "g2core")
     assert [m.end for m in moves] == [(5.0, 0.0, 0.0), (5.0, 2.0, 0.0)]
     moves = run("G21 G90\nG1 X10 F600\nG92 X0\nG92.2\nG92\nG1 X5\n", "g2core")
     assert moves[-1].end == (15.0, 0.0, 0.0)
@@ -964,3 +964,25 @@ def test_g2core_next_action_codes_take_the_place_of_the_motion() -> None:
     assert [m.line for m in run("G21 G90\nG0 G49\nX10\nG0 G10 L2 P1 X5\nX1\n", "g2core")] == []
     # G28 still makes its own moves
     assert [m.line for m in run("G21 G90\nG0 X5\nG1 G28 X1 F100\n", "g2core")] == [2, 3, 3]
+
+
+def test_g2core_checks_checksums() -> None:
+    """gcode_parser.cpp ``_verify_checksum``, run on the raw line (its leading blanks gone:
+    controller.cpp) before anything else: a ``*`` anywhere, a comment's too, starts a checksum,
+    the XOR of the characters before it, which must match (STAT_CHECKSUM_MATCH_FAILED) on a
+    line opening with N (STAT_MISSING_LINE_NUMBER_WITH_CHECKSUM), numbered one more than the
+    last such line (canonical_machine.cpp cm_check_linenum, from _execute_gcode_block). h4
+    reproducers
+    checksum_wrong, checksum_in_comment, checksum_without_n; g2core's own
+    gcode_debug_tests.h ``(***HT!***)`` lines fail it too."""
+    moves = run("G21 G90 F100\n  N1 G1 X5*100\nG1 Y1\nN2 G1 Y2 (a*8)\n", "g2core")
+    assert [m.end for m in moves] == [(5.0, 0.0, 0.0), (5.0, 1.0, 0.0), (5.0, 2.0, 0.0)]
+    wrong = error_of("G21 G90 F100\nN1 G1 X5*97\n", "g2core")
+    assert wrong.line == 2 and "XOR to 100, the number after it is 97" in wrong.message
+    # cm_check_linenum: each checksummed N one more than the last one's, N1 first
+    assert "N1 here" in error_of("G21 G90 F100\nN12 G1 X5 Y2*29\n", "g2core").message
+    assert error_of("F100\nN1 G1 X5*100\nN1 G1 X5*100\n", "g2core").line == 3
+    assert "STAT_CHECKSUM_MATCH_FAILED" in error_of("G1 X5 (a*b) Y2 F1\n", "g2core").message
+    no_n = error_of("G21 F100\nG1 X5 Y2*112\n", "g2core")
+    assert no_n.line == 2 and "does not open with an N" in no_n.message
+    assert run("{sr:n}*\n$x*\n", "g2core") == []  # not G-code lines

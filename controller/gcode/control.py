@@ -34,6 +34,7 @@ from gantry_sim.controller.gcode.lexer import (
     TextError,
     decode_program,
     firmware_comments,
+    g2core_checksum,
     lex_line,
     lex_passed_oword,
     line_too_long,
@@ -107,6 +108,7 @@ class Source:
     checksums: str = ""
     comments: str = ""
     line_limit: str = ""  # whose line length limit applies (lexer.line_too_long)
+    checksummed: int = 0  # g2core: the N of the last line with a checksum (lexer.g2core_checksum)
     blocks: OrderedDict[int, Block | GcodeError] = field(default_factory=OrderedDict)
 
     def block(self, i: int) -> Block:
@@ -131,8 +133,10 @@ class Source:
             too_long = line_too_long(raw, self.line_limit)
             if too_long is not None:
                 raise TextError(too_long)
-        if self.checksums and "*" in raw:  # g2core: the first * anywhere
-            raw = without_checksum(raw) if self.checksums == "marlin" else raw.split("*", 1)[0]
+        if self.checksums == "marlin" and "*" in raw:
+            raw = without_checksum(raw)
+        elif self.checksums == "g2core" and "*" in raw:  # the first * anywhere, checked
+            raw, self.checksummed = g2core_checksum(raw, self.checksummed)
         if self.comments:
             raw = firmware_comments(raw, self.comments)
         kind = self.own_lines(raw) if self.own_lines is not None else None

@@ -122,8 +122,9 @@ class Dialect:
             may stand anywhere in a line.
         checksums: whose rule ends a line at a ``*`` (a host's checksum, ``N12 G1 X5*97``):
             ``"marlin"``, its first ``*`` outside a comment (GCodeParser::parse; lexer.py
-            ``without_checksum``); ``"g2core"``, its first ``*`` anywhere (gcode_parser.cpp
-            ``_verify_checksum``, before the line is normalized); ``""``: none.
+            ``without_checksum``); ``"g2core"``, its first ``*`` anywhere, the checksum checked
+            (gcode_parser.cpp ``_verify_checksum``, before the line is normalized; lexer.py
+            ``g2core_checksum``); ``""``: none.
         g10_rotation: G10 L2 takes R (the XY rotation).
         coordinate_systems: how many of G54..G59.3 exist (grbl: 6).
         error_codes: (message fragment, firmware error number) pairs; the first match is

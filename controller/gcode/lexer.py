@@ -316,6 +316,54 @@ def without_checksum(raw: str) -> str:
     return raw
 
 
+#: the characters that make a line no G-code line for g2core when they open it (after blanks):
+#: single-character controls, JSON, text mode (controller.cpp ``_dispatch_kernel``)
+_G2CORE_NOT_GCODE = "!~%{$?Hh\x04\x05\x18"
+
+
+def g2core_checksum(raw: str, last: int) -> tuple[str, int]:
+    """``raw`` as g2core's ``_verify_checksum`` (gcode_parser.cpp) leaves a G-code line, and the
+    line number of the last line with a checksum (``last``: the one before). With a ``*``
+    anywhere, even in a comment, the XOR of the characters before it (the line's leading
+    blanks stripped, as controller.cpp does first) must equal the number after it, the line
+    must open with ``N``, and that number must be ``last`` + 1 (canonical_machine.cpp
+    ``cm_check_linenum``; 0 at power-on: the first is N1); the line then ends at the ``*``.
+    GcodeError otherwise."""
+    line = raw.lstrip(" \t")
+    star = line.find("*")
+    if star < 0 or line[:1] in _G2CORE_NOT_GCODE:
+        return raw, last
+    total = 0
+    for byte in line[:star].encode("utf-8", "surrogateescape"):
+        total ^= byte
+    given = _strtol(line[star + 1 :])
+    if given != total:
+        raise GcodeError(
+            f"checksum mismatch: the characters before the '*' XOR to {total}, the number after "
+            f"it is {given}; g2core refuses the line (gcode_parser.cpp _verify_checksum: "
+            "STAT_CHECKSUM_MATCH_FAILED; a '*' in a comment starts a checksum too)"
+        )
+    if not line.startswith("N"):
+        raise GcodeError(
+            "a checksum ('*') on a line that does not open with an N line number: g2core refuses "
+            "it (gcode_parser.cpp _verify_checksum: STAT_MISSING_LINE_NUMBER_WITH_CHECKSUM)"
+        )
+    number = _strtol(re.sub(r"\s", "", line[1:star]))
+    if number != last + 1:
+        raise GcodeError(
+            f"line number N{number} out of sequence: g2core takes a line with a checksum only "
+            f"when its N is one more than the last such line's (N{last + 1} here; N1 first: "
+            "canonical_machine.cpp cm_check_linenum, STAT_LINE_NUMBER_OUT_OF_SEQUENCE)"
+        )
+    return raw[: len(raw) - len(line) + star], number
+
+
+def _strtol(text: str) -> int:
+    """C's ``strtol(text, NULL, 10)``: blanks, a sign and the digits after them; 0 if none."""
+    m = re.match(r"\s*([-+]?\d+)", text)
+    return int(m.group(1)) if m else 0
+
+
 #: rs274 reads a line with ``fgets`` into LINELEN (255) bytes: a line of 253 characters or
 #: more, its line end counted, is "Command too long" (measured: 252 pass)
 LINUXCNC_MAX_LINE = 252
