@@ -986,3 +986,43 @@ def test_g2core_checks_checksums() -> None:
     no_n = error_of("G21 F100\nG1 X5 Y2*112\n", "g2core")
     assert no_n.line == 2 and "does not open with an N" in no_n.message
     assert run("{sr:n}*\n$x*\n", "g2core") == []  # not G-code lines
+
+
+@pytest.mark.parametrize(
+    ("line", "says"),
+    [
+        ("G52 X10", "G52 is not supported: g2core has no G52"),
+        ("G43.1 Z5", "g2core has no G43.1"),
+        ("G95 G1 X10 F0.1", "g2core has no G95"),
+        ("G96 S50", "g2core has no G96"),
+        ("G97 S1000 M3", "g2core has no G97"),
+        ("G98", "g2core has no G98"),
+        ("G99", "g2core has no G99"),
+        ("G10 L11 P1 Z5", "g2core has no G10 L11"),
+        ("G10 L2 P0 X5", "g2core has no P0"),
+        ("G10 L20 P7 X5", "g2core has no P7"),
+        ("G10 L2 P9 X5", "g2core has no P9"),
+        ("M19 R0", "g2core has no M19"),
+        ("M52 P1", "g2core has no M52"),
+        ("M53 P1", "g2core has no M53"),
+        ("M61 Q1", "g2core has no M61"),
+        ("M62 P1", "g2core has no M62"),
+        ("M66 P1 L0", "g2core has no M66"),
+        ("M68 E0 Q1", "g2core has no M68"),
+        ("M70", "g2core has no M70"),
+        ("M73", "g2core has no M73"),
+        ("M98 P100", "g2core has no M98"),
+        ("M99", "g2core has no M99"),
+    ],
+)
+def test_g2core_refuses_the_codes_it_lacks(line: str, says: str) -> None:
+    """gcode_parser.cpp ``_parse_gcode_block``'s switches have no case for these codes
+    (STAT_GCODE_COMMAND_UNSUPPORTED / STAT_MCODE_COMMAND_UNSUPPORTED; G95 is commented out),
+    and canonical_machine.cpp ``cm_set_g10_data`` refuses L11 ("not supported atm") and an
+    L2/L20 P below G54 or above its 6 systems (STAT_P_WORD_IS_INVALID). h4 reproducers g95,
+    g96_g97, g98_g99, g52, g43_1, m19, m62_m68, m52_m53, m98_subprogram, m99_in_main,
+    g10_l11, g10_p0, g10_p7."""
+    refused = error_of(f"G21 G90 F100\nM3 S1000\n{line}\nG0 X2\n", "g2core")
+    assert refused.line == 3 and says in refused.message
+    if not line.startswith(("M98", "M99")):  # (LinuxCNC: a call, a return)
+        assert run(f"G21 G90 F100\nM3 S1000\n{line}\nG0 X2\nM2\n", "linuxcnc")

@@ -185,11 +185,32 @@ def check_codes(w: Words, d: Dialect) -> None:
     allowed_m = LINUXCNC_M if d.m_codes is None else d.m_codes
     for code in w.m.values():
         if code not in allowed_m:
-            raise GcodeError(f"unsupported M code M{code}; {m_accepted(d.name, allowed_m)}")
+            has_none = f" ({d.name} has no M{code})" if d.m_codes is not None else ""
+            raise GcodeError(
+                f"unsupported M code M{code}{has_none}; {m_accepted(d.name, allowed_m)}"
+            )
     if d.letters is not None:
         for letter in w.values:
             if letter not in d.letters:
                 raise GcodeError(f"{letter} word is not supported: {d.name} has no {letter} word")
+    if w.g.get("nonmodal") == 100 and "L" in w.values:
+        _check_g10_numbers(w.values, d)
+
+
+def _check_g10_numbers(v: dict[str, float], d: Dialect) -> None:
+    """G10's L and (L2/L20) P among those the dialect has (``g10_levels``,
+    ``g10_p0_current``: g2core's cm_set_g10_data)."""
+    level = round(v["L"])
+    if d.g10_levels is not None and level not in d.g10_levels:
+        raise GcodeError(f"G10 L{level} is not supported: {d.name} has no G10 L{level}")
+    if d.g10_p0_current or level not in (2, 20):
+        return
+    p = math.trunc(v.get("P", 0.0))
+    if not 1 <= p <= d.coordinate_systems:
+        raise GcodeError(
+            f"G10 L{level} P{p} is not supported: {d.name} has no P{p} here, only its "
+            f"{d.coordinate_systems} coordinate systems P1 (G54) .. P{d.coordinate_systems}"
+        )
 
 
 def check_jog(w: Words) -> None:

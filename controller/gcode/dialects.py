@@ -126,6 +126,9 @@ class Dialect:
             (gcode_parser.cpp ``_verify_checksum``, before the line is normalized; lexer.py
             ``g2core_checksum``); ``""``: none.
         g10_rotation: G10 L2 takes R (the XY rotation).
+        g10_levels: the G10 L numbers the controller has; None: LinuxCNC's (1, 2, 10, 11, 20).
+        g10_p0_current: G10 L2/L20 P0 is the system in effect (rs274); False: P0 (or no P) is
+            refused (g2core's cm_set_g10_data: "you can't set G53").
         coordinate_systems: how many of G54..G59.3 exist (grbl: 6).
         error_codes: (message fragment, firmware error number) pairs; the first match is
             appended to a message as ``(grbl error N)``.
@@ -259,6 +262,8 @@ class Dialect:
     realtime_characters: bool = False
     checksums: str = ""
     g10_rotation: bool = True
+    g10_levels: frozenset[int] | None = None
+    g10_p0_current: bool = True
     coordinate_systems: int = 9
     error_codes: tuple[tuple[str, int], ...] = ()
     arc_tolerance_mm: float | None = None
@@ -323,6 +328,19 @@ LINUXCNC = Dialect(
     abort_comments=True,
 )
 
+# fmt: off
+#: g2core's codes (gcode_parser.cpp _parse_gcode_block, tenths; G28.2-G28.4 and M100/M101 are
+#: its own lines, printer_codes.py; G38.x are refused where they are read)
+_G2CORE_G = frozenset((
+    0, 10, 20, 30, 40, 100, 170, 180, 190, 200, 210, 280, 281, 282, 283, 284, 300, 301, 382,
+    383, 384, 385, 400, 430, 432, 490, 530, 540, 550, 560, 570, 580, 590, 610, 611, 640, 800,
+    900, 901, 910, 911, 920, 921, 922, 923, 930, 940,
+    # refused where they are read, saying what g2core lacks: canned cycles, cutter
+    # compensation, splines
+    730, 740, 810, 820, 830, 840, 850, 860, 870, 880, 890, 410, 411, 420, 421, 50, 51, 52, 53,
+))
+_G2CORE_M = frozenset((0, 1, 2, 3, 4, 5, 6, 7, 8, 9, 30, 48, 49, 50, 51, 60))
+# fmt: on
 G2CORE = Dialect(
     name="g2core",
     explicit_end_full_circle=False,
@@ -357,6 +375,11 @@ G2CORE = Dialect(
     min_r_word_mm=0.1,  # plan_arc.h MIN_ARC_RADIUS
     checksums="g2core",
     program_end_continues="g2core",
+    g_codes=_G2CORE_G,
+    m_codes=_G2CORE_M,
+    coordinate_systems=6,  # g2core.h COORDS
+    g10_levels=frozenset((1, 2, 10, 20)),  # cm_set_g10_data: "L11 not supported atm"
+    g10_p0_current=False,  # cm_set_g10_data: P below G54 is STAT_P_WORD_IS_INVALID
 )
 
 MARLIN = Dialect(

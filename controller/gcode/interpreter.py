@@ -957,7 +957,7 @@ def interpret_events(
             lex_rules=LexRules(
                 rules.system_lines, rules.line_number_words, rules.o_words, rules.language
             ),
-            owords=rules.language,
+            owords=rules.language and rules.o_words,
             own_lines=OWN_LINES[rules.own_lines]() if rules.own_lines else None,
             realtime=rules.realtime_characters,
             checksums=rules.checksums,

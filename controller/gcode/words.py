@@ -83,6 +83,13 @@ def _code(value: float, tenths: bool) -> int | None:
     return code if abs(scaled - code) < 1e-6 else None
 
 
+def _has_none(dialect: Dialect | None, value: float) -> str:
+    """ " (g2core has no M98)" where the dialect has M codes of its own, else ""."""
+    if dialect is None or dialect.m_codes is None:
+        return ""
+    return f" ({dialect.name} has no M{value:g})"
+
+
 def _m_list(dialect: Dialect | None) -> str:
     """The M codes ``dialect`` accepts, as a message says them."""
     if dialect is None or dialect.m_codes is None:
@@ -161,7 +168,9 @@ def read_words(
             code = _code(value, False)
             group = None if code is None else M_GROUPS.get(code)
             if code is None or group is None:
-                raise GcodeError(f"unsupported M code M{value:g}; {_m_list(dialect)}")
+                raise GcodeError(
+                    f"unsupported M code M{value:g}{_has_none(dialect, value)}; {_m_list(dialect)}"
+                )
             if group in m and not last_wins:
                 raise GcodeError(
                     f"two M codes from one modal group on a line (M{m[group]} and M{code}); "
