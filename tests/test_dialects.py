@@ -1026,3 +1026,23 @@ def test_g2core_refuses_the_codes_it_lacks(line: str, says: str) -> None:
     assert refused.line == 3 and says in refused.message
     if not line.startswith(("M98", "M99")):  # (LinuxCNC: a call, a return)
         assert run(f"G21 G90 F100\nM3 S1000\n{line}\nG0 X2\nM2\n", "linuxcnc")
+
+
+def test_g2core_g93_block_without_f_keeps_the_last_inverse_time() -> None:
+    """gcode_parser.cpp gives every block started in G93 ``F_word = 0`` unless it has an F;
+    canonical_machine.cpp ``cm_set_feed_rate`` returns STAT_FEEDRATE_NOT_SPECIFIED for it in
+    G93 *before* changing the feed, and EXEC_FUNC only stores that status, which the move's
+    replaces: a G1 without F runs with the last G93 F (TinyG's test_009_inverse_time.h relies
+    on it). A G93 move with no G93 F before it (g2core: the old mm/min number read as minutes)
+    stays refused, and G94 after G93 leaves no feed."""
+    moves = run("G21 G90\nG1 X10 F100\nG93\nG1 X11 F2\nG1 X12\nG0 X0\nG1 X1\n", "g2core")
+    assert [(m.line, m.feed_mm_per_min if isinstance(m, Linear) else None) for m in moves] == [
+        (2, 100.0),
+        (4, 2.0),
+        (5, 2.0),
+        (6, None),
+        (7, 2.0),
+    ]
+    assert error_of("G21\nG1 X1 F100\nG93 G1 X10\n", "g2core").line == 3
+    assert error_of("G21\nG93 G1 X1 F2\nG94\nG1 X3\n", "g2core").line == 4
+    assert error_of("G21\nG93 G1 X1 F2\nG1 X3\nM2\n", "linuxcnc").line == 3

@@ -169,7 +169,13 @@ class Dialect:
         feed_mode_clears_feed: whose rule sets the feed to 0 at a feed mode word, before the
             line's F is read: ``"linuxcnc"``, every G94 and G95 (rs274's convert_feed_mode,
             even in the mode already in effect); ``"grbl"``, G94 after G93 (the feed is
-            undefined after leaving inverse time; g2core too); ``""``: the feed is kept.
+            undefined after leaving inverse time); ``"g2core"``, G94 after G93 as grbl, and G93
+            after G94 (g2core would read the old feed number as minutes; refused here until a
+            G93 F is given); ``""``: the feed is kept.
+        g93_f_stands: in G93 a block without F runs with the last F given in G93 (g2core: each
+            block started in G93 takes F 0, which ``cm_set_feed_rate`` refuses without changing
+            the feed, and that status is overwritten by the move's); False: every G93 feed move
+            needs its own F (rs274).
         min_r_word_mm: an R word (radius-format arc) below this [mm, whatever the units] is
             refused (g2core's MIN_ARC_RADIUS); 0: none.
         permissive_blocks: blocks rs274 refuses that g2core's parser lets through run as it runs
@@ -281,6 +287,7 @@ class Dialect:
     percent_delimits: bool = True
     motion_waits: str = ""
     feed_mode_clears_feed: str = ""
+    g93_f_stands: bool = False
     line_limit: str = ""
     feed_in_line_units: bool = False
     jog_units_per_minute: bool = False
@@ -370,8 +377,9 @@ G2CORE = Dialect(
     firmware_comments="g2core",
     percent_delimits=False,
     # a block started in G93 takes F 0 unless it gives one (gcode_parser.cpp): the G94 after
-    # G93 leaves no feed
-    feed_mode_clears_feed="grbl",
+    # G93 leaves no feed; in G93 that F 0 is refused and the last F stands
+    feed_mode_clears_feed="g2core",
+    g93_f_stands=True,
     min_r_word_mm=0.1,  # plan_arc.h MIN_ARC_RADIUS
     checksums="g2core",
     program_end_continues="g2core",

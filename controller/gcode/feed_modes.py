@@ -24,8 +24,8 @@ def check_feed_mode(s: ModalState, what: str, v: dict[str, float]) -> None:
     """The feed words a feed move needs in the current feed mode."""
     if s.feed_mode == INVERSE_TIME and "F" not in v:
         raise GcodeError(
-            f"F word missing with inverse time (G93) on {what}: every feed move in G93 needs its "
-            "own F (1/minute)"
+            f"F word missing with inverse time (G93) on {what}: give it an F (1/minute; rs274 "
+            "needs one on every feed move in G93, g2core on the first after G93)"
         )
     if s.feed_mode == PER_REVOLUTION and s.rpm <= 0.0:
         raise GcodeError(

@@ -213,6 +213,8 @@ class Interpreter:
             self.state = set_feed_percent(self.state, *block.feed_percent)
             return [], False
         w = read_words(block, self.params, d, self._create_named)
+        if w.g.get("feed_mode", INVERSE_TIME) == INVERSE_TIME:
+            self._inverse_time_f(w.values)
         s = self.state
         # Step 2: every code is one gantry-sim supports.
         check_codes(w, d)
@@ -517,6 +519,7 @@ class Interpreter:
             if motion not in (0, 10):
                 return None
         changes: dict[str, Any] = {}
+        self._inverse_time_f(v)
         feed = v.get("F")
         if feed is not None and not (d.positive_feed_only and feed <= 0.0):
             if feed < 0.0:
@@ -847,6 +850,14 @@ class Interpreter:
                 value = v[letter] * s.scale
                 end[i] = s.position[i] + value if s.incremental else value
         return (end[0], end[1], end[2])
+
+    def _inverse_time_f(self, values: dict[str, float]) -> None:
+        """g2core (``Dialect.g93_f_stands``): a block started in G93 that stays in it and has no
+        F runs with the last F given in G93 (``values`` gets it)."""
+        s = self.state
+        if self.dialect.g93_f_stands and s.feed_mode == INVERSE_TIME and "F" not in values:
+            if s.feed_number > 0.0:
+                values["F"] = s.feed_number
 
     @staticmethod
     def _require_feed(s: ModalState, what: str, values: dict[str, float]) -> None:

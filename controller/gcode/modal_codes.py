@@ -81,8 +81,12 @@ def clears_feed(before: int, mode: int, d: Dialect) -> bool:
     to 0 before the line's F is read
     (:attr:`~gantry_sim.controller.gcode.dialects.Dialect.feed_mode_clears_feed`)."""
     rule = d.feed_mode_clears_feed
-    return (rule == "linuxcnc" and mode != INVERSE_TIME) or (
-        rule == "grbl" and mode == UNITS_PER_MINUTE and before == INVERSE_TIME
+    leaves = mode == UNITS_PER_MINUTE and before == INVERSE_TIME
+    enters = mode == INVERSE_TIME and before == UNITS_PER_MINUTE
+    return (
+        (rule == "linuxcnc" and mode != INVERSE_TIME)
+        or (rule == "grbl" and leaves)
+        or (rule == "g2core" and (leaves or enters))
     )
 
 
