@@ -172,3 +172,37 @@ def test_grbl_syncs_its_planner_where_its_source_does(machine, code, stops):
         assert (
             p.duration_s == plan(list(interpret_events(same, dialect="grbl")), machine).duration_s
         )
+
+
+@pytest.mark.parametrize(
+    ("code", "stops"),
+    [
+        ("S500", True),  # the S in effect already: the spindle toolhead still asks for a stop
+        ("G1 X15 S600", True),
+        ("M3", True),
+        ("M5", True),
+        ("M7", True),
+        ("M9", True),
+        ("T2", True),
+        ("M6", True),
+        ("G92 X0", False),  # the model only
+        ("G55", False),
+        ("G10 L2 P2 X1", False),
+        ("G21", False),
+        ("F600", False),
+    ],
+)
+def test_g2core_stops_at_its_queued_commands(code, stops):
+    """g2core's back-planning forces a zero exit speed on every command block in its planner
+    queue (planner.cpp ``mp_queue_command``, plan_line.cpp "TEMPORARY force PTZ"): S
+    (spindle.cpp ``spindle_set_speed``, the default toolhead's set_speed returns true), T
+    (canonical_machine.cpp ``cm_select_tool``), M6 (``cm_change_tool``), M3-M5
+    (``spindle_set_direction``), M7-M9 (coolant.cpp ``coolant_control_sync``); G92, G5x, G10,
+    units change the model only."""
+    text = "G21 G90 G64\nF1200\nM3 S500\nG1 X10\n" + code + "\nG1 X20\n"
+    items = list(interpret_events(text, dialect="g2core"))
+    waits = [e for e in items if isinstance(e, Stop) and e.line == 5]
+    assert bool(waits) == stops, waits
+    if stops:
+        assert waits[0].position == (10.0, 0.0, 0.0)
+        assert items.index(waits[0]) == next(i for i, e in enumerate(items) if e.line == 5)

@@ -24,7 +24,8 @@ The steps, in the order a line goes through them (module: its one job):
    ``tools``           tool tables and tool length offsets (T, M6, G43)
    ``feed_modes``      G93 inverse time and G95 per revolution -> path speed
    ``modal_save``      M70-M73, the saved modal state
-   ``motion_waits``    the commands LinuxCNC runs with motion stopped: a stop before the block
+   ``motion_waits``    the commands a controller runs with motion stopped: a stop before the
+                       block (LinuxCNC's, grbl's, g2core's rules)
 5. ``arc_block``       one G2/G3 block -> an Arc, with the dialect's numbered checks
    ``arc_centre``      the centre from IJK or R, and the swept angle, in plane coordinates
 """

@@ -165,7 +165,8 @@ class Dialect:
             CAM files drop it; g2core reads it as a comment; Marlin: "Unknown command").
         motion_waits: whose rules say which machine commands the controller runs with motion
             stopped (spindle, coolant, offsets, outputs), each an exact stop before its block
-            ("linuxcnc", "grbl"; "": none modelled; controller/gcode/motion_waits.py).
+            ("linuxcnc", "grbl", "g2core"; "": none modelled; controller/gcode/
+            motion_waits.py).
         feed_mode_clears_feed: whose rule sets the feed to 0 at a feed mode word, before the
             line's F is read: ``"linuxcnc"``, every G94 and G95 (rs274's convert_feed_mode,
             even in the mode already in effect); ``"grbl"``, G94 after G93 (the feed is
@@ -380,6 +381,7 @@ G2CORE = Dialect(
     # G93 leaves no feed; in G93 that F 0 is refused and the last F stands
     feed_mode_clears_feed="g2core",
     g93_f_stands=True,
+    motion_waits="g2core",  # every queued command (mp_queue_command) stops the planner
     min_r_word_mm=0.1,  # plan_arc.h MIN_ARC_RADIUS
     checksums="g2core",
     program_end_continues="g2core",

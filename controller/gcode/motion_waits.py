@@ -40,6 +40,18 @@ on lines of their own). In laser mode, with the spindle on in M3 (constant power
 moves nothing in its motion mode and changes the mode between G1/G2/G3 and any other (a bare
 ``G0`` between two cuts) syncs too, so that the power follows (gcode.c's
 ``GC_PARSER_LASER_FORCE_SYNC``).
+
+g2core (read in its source, synthetos/g2 edge-preview 1fb59404): every command it puts in the
+planner queue (``mp_queue_command``: planner.cpp) is a block whose exit speed the back-planning
+forces to zero (plan_line.cpp, "TEMPORARY force PTZ"), so the machine stops at it. The commands
+of a G-code block that are queued are its S (``spindle_set_speed``: the spindle and ESC
+toolheads ask for the stop at every S, changed or not; a laser toolhead may not), T
+(``cm_select_tool``), M6 (``cm_change_tool``), M3/M4/M5 (``spindle_set_direction``), M7/M8/M9
+(``coolant_control_sync``, whatever the coolant's state), all run before the block's motion
+(gcode_parser.cpp ``_execute_gcode_block``), and the program stops and ends (M0, M1, M60,
+M2, M30: a stop after the motion, the interpreter's ``Stop`` events). G92, G54-G59, G10,
+G20/G21 and G90/G91 change the model only: no stop. (G28.3, which queues too, is run here as
+a G92: not modelled.)
 """
 
 from __future__ import annotations
@@ -71,10 +83,12 @@ _TOOL_TABLE_L = frozenset((1.0, 10.0, 11.0))
 def motion_wait(w: Words, before: ModalState, rules: str) -> str | None:
     """The first command of block ``w`` (read after ``before``, the state it starts from) that
     the controller runs only with motion stopped, named as in the program ("S", "M8",
-    "G43"...), or None when the block has none; ``rules``: whose ("linuxcnc", "grbl"; "": none
-    modelled). See the module docstring."""
+    "G43"...), or None when the block has none; ``rules``: whose ("linuxcnc", "grbl",
+    "g2core"; "": none modelled). See the module docstring."""
     if rules == "grbl":
         return _grbl_wait(w, before)
+    if rules == "g2core":
+        return _g2core_wait(w)
     if rules != "linuxcnc":
         return None
     if "S" in w.values:
@@ -98,6 +112,21 @@ def motion_wait(w: Words, before: ModalState, rules: str) -> str | None:
         return "G92" if nonmodal != 520 else "G52"
     if nonmodal == 100 and (w.values.get("L") in _TOOL_TABLE_L or _sets_active_system(w, before)):
         return "G10"
+    return None
+
+
+def _g2core_wait(w: Words) -> str | None:
+    """:func:`motion_wait` by g2core's rules (module docstring): S, T, M6, M3-M5, M7-M9."""
+    for letter in "ST":
+        if letter in w.values:
+            return letter
+    if w.m.get("tool_change") == 6:
+        return "M6"
+    spindle = w.m.get("spindle")
+    if spindle in _GRBL_SPINDLE:
+        return f"M{spindle}"
+    if "coolant" in w.m:
+        return f"M{w.m['coolant']}"
     return None
 
 

@@ -33,7 +33,7 @@ def plain_letters(d: Dialect) -> frozenset[str]:
     whole number, or rules of its own for which commands wait for motion)."""
     letters = _LETTERS | {"E"} if d.extruder else _LETTERS
     plain = (
-        d.motion_waits in ("", "linuxcnc", "grbl")
+        d.motion_waits in ("", "linuxcnc", "grbl", "g2core")
         and (d.g_codes is None or {0, 10} <= d.g_codes)
         and (d.letters is None or (letters | {"G"}) <= d.letters)
         and not (letters & d.integer_words)
