@@ -1,5 +1,6 @@
 """Each dialect segments arcs as its controller does by default (grbl: $12 arc tolerance
-0.002 mm; marlin: 1 mm segments) unless the machine file sets a [segmentation]."""
+0.002 mm; g2core: $ct 0.01 mm; marlin: 1 mm segments) unless the machine file sets a
+[segmentation]."""
 
 from __future__ import annotations
 
@@ -32,6 +33,19 @@ def test_grbl_uses_its_arc_tolerance(write_program, capsys, machine):
     # rapid's one segment
     chords = math.ceil(2 * math.pi * 20.0 / (2 * math.sqrt(0.002 * (40.0 - 0.002))))
     assert grbl["segments"] == chords + 1 < linuxcnc["segments"]
+
+
+def test_g2core_uses_its_chordal_tolerance(write_program, capsys, machine):
+    """g2core cuts arcs into chords within its chordal tolerance ``$ct``, 0.01 mm by default
+    (settings_default.h CHORDAL_TOLERANCE; plan_arc.cpp ``_compute_arc``: chord length
+    sqrt(4 ct (2r - ct)))."""
+    # (seed 000: an explicit end equal to the start moves nothing; the offsets alone circle)
+    circle = CIRCLE.replace("G3 X20 Y0 I-20", "G3 I-20")
+    assert main(["plan", str(write_program(circle)), "--dialect", "g2core"]) == 0
+    g2core = json.loads(capsys.readouterr().out)
+    assert g2core["chord_tolerance_mm"] == 0.01
+    chords = math.ceil(2 * math.pi * 20.0 / (2 * math.sqrt(0.01 * (40.0 - 0.01))))
+    assert g2core["segments"] == chords + 1
 
 
 def test_marlin_uses_fixed_1mm_segments(write_program, capsys):

@@ -382,6 +382,7 @@ G2CORE = Dialect(
     feed_mode_clears_feed="g2core",
     g93_f_stands=True,
     motion_waits="g2core",  # every queued command (mp_queue_command) stops the planner
+    arc_tolerance_mm=0.01,  # settings_default.h CHORDAL_TOLERANCE ($ct)
     min_r_word_mm=0.1,  # plan_arc.h MIN_ARC_RADIUS
     checksums="g2core",
     program_end_continues="g2core",
@@ -554,7 +555,8 @@ def coded(message: str, d: Dialect) -> str:
 
 def with_segmentation_default(machine: MachineConfig, dialect: str) -> MachineConfig:
     """``machine`` segmenting arcs as the dialect's controller does by default -- grbl: chords
-    within its arc tolerance ($12, 0.002 mm); marlin: fixed segments of 1 mm -- unless the
+    within its arc tolerance ($12, 0.002 mm); g2core: chords within its chordal tolerance
+    ($ct, 0.01 mm); marlin: fixed segments of 1 mm -- unless the
     user's machine file (or ``with_changes``) set a [segmentation] of its own."""
     d = get_dialect(dialect)
     if "segmentation" in machine.user_sections:
