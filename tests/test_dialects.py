@@ -1046,3 +1046,12 @@ def test_g2core_g93_block_without_f_keeps_the_last_inverse_time() -> None:
     assert error_of("G21\nG1 X1 F100\nG93 G1 X10\n", "g2core").line == 3
     assert error_of("G21\nG93 G1 X1 F2\nG94\nG1 X3\n", "g2core").line == 4
     assert error_of("G21\nG93 G1 X1 F2\nG1 X3\nM2\n", "linuxcnc").line == 3
+
+
+def test_g2core_r_wins_over_offsets() -> None:
+    """plan_arc.cpp ``cm_arc_feed`` reads I/J/K only when no R is given (``if (!radius_f)``),
+    and the R arc's centre comes from ``_compute_arc_offsets_from_radius``: R with I/J is an
+    R arc (h4 reproducer arc_r_with_i; the arc harness gives the same arc for both)."""
+    arc = run("G21 G90 G17 F300\nG0 X10 Y0\nG2 X20 Y0 R6 I5\n", "g2core")[-1]
+    assert arc.center == pytest.approx((15.0, -math.sqrt(11.0), 0.0))
+    assert "R mixed" in error_of("G21 F300\nG0 X10\nG2 X20 R6 I5\nM2\n", "linuxcnc").message

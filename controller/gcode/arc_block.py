@@ -134,7 +134,7 @@ def arc_move(
     # grbl's radius format consumes R only: an I, J or K is an unused word (gcode.c), found
     # after the radius' own checks
     unused_offsets = has_r and d.off_plane_offset_ignored and any(o in v for o in _OFFSETS)
-    if has_r and has_ijk and not unused_offsets:
+    if has_r and has_ijk and not unused_offsets and not d.r_wins_over_offsets:
         raise GcodeError("R mixed with I/J/K on one arc; use either R or the offsets, not both")
     turns = _turns(v, d)  # Step 2
     # Step 3: offsets must belong to the plane (grbl consumes and ignores the other one).

@@ -91,6 +91,12 @@ class Dialect:
         min_radius_mm / min_radius_in: smaller radii are zero-radius arcs; also how far an R
             arc may fall short of reaching its end point [mm / inch].
         r_short_is_semicircle: an R too small to reach the end always gives the semicircle.
+        r_short_checked_as_centre: an R too small to reach the end gives the semicircle when
+            half the chord passes ``radius_check`` against R (g2core: plan_arc.cpp
+            ``_compute_arc_offsets_from_radius`` puts the centre at the chord's middle when
+            its discriminant is negative, then ``_compute_arc`` checks the radii).
+        r_wins_over_offsets: an R arc's I, J, K words are ignored (g2core: plan_arc.cpp reads
+            the offsets only without R); False: R mixed with I/J/K is an error (rs274).
         require_program_end: the text must end with M2/M30 or a closing ``%`` (rs274).
         r_needs_arc_code_first: R is an arc radius only after G2/G3 on the same line
             (Laserdyne: otherwise R means "Repeat", which is refused).
@@ -253,6 +259,8 @@ class Dialect:
     r_short_is_semicircle: bool
     require_program_end: bool
     max_p: int | None = None
+    r_short_checked_as_centre: bool = False
+    r_wins_over_offsets: bool = False
     r_needs_arc_code_first: bool = False
     zero_angle_fuzz: float = 1e-12
     language: bool = True
@@ -384,6 +392,7 @@ G2CORE = Dialect(
     motion_waits="g2core",  # every queued command (mp_queue_command) stops the planner
     arc_tolerance_mm=0.01,  # settings_default.h CHORDAL_TOLERANCE ($ct)
     min_r_word_mm=0.1,  # plan_arc.h MIN_ARC_RADIUS
+    r_wins_over_offsets=True,
     checksums="g2core",
     program_end_continues="g2core",
     g_codes=_G2CORE_G,
