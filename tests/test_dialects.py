@@ -1055,3 +1055,15 @@ def test_g2core_r_wins_over_offsets() -> None:
     arc = run("G21 G90 G17 F300\nG0 X10 Y0\nG2 X20 Y0 R6 I5\n", "g2core")[-1]
     assert arc.center == pytest.approx((15.0, -math.sqrt(11.0), 0.0))
     assert "R mixed" in error_of("G21 F300\nG0 X10\nG2 X20 R6 I5\nM2\n", "linuxcnc").message
+
+
+def test_g2core_short_r_is_a_half_circle_within_the_radius_tolerance() -> None:
+    """plan_arc.cpp ``_compute_arc_offsets_from_radius``: a negative discriminant (R shorter
+    than half the chord) puts the centre at the chord's middle, and ``_compute_arc``'s radius
+    check then decides (h4 reproducer arc_r_short: R99.95 for a 200 mm chord runs, the arc
+    harness refuses R99.85), here with seed 000's tolerance."""
+    arc = run("G21 G90 G17 F300\nG2 X200 Y0 R99.95\n", "g2core")[0]
+    assert arc.center == (100.0, 0.0, 0.0) and arc.angle == pytest.approx(math.pi)
+    refused = error_of("G21 G90 G17 F300\nG2 X200 Y0 R99.85\n", "g2core")
+    assert refused.line == 2 and "too small to reach" in refused.message
+    assert "too small" in error_of("G21 F300\nG2 X200 Y0 R99.95\nM2\n", "linuxcnc").message

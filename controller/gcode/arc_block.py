@@ -19,6 +19,7 @@ from typing import Final, Literal
 
 from gantry_sim.controller.errors import GcodeError
 from gantry_sim.controller.gcode.arc_centre import (
+    Point2,
     centre_from_offsets,
     centre_from_radius,
     radius_mismatch,
@@ -162,7 +163,8 @@ def arc_move(
                 f"R{v['R']:g} is below {d.name}'s smallest arc radius, {d.min_r_word_mm:g} mm "
                 "(MIN_ARC_RADIUS)"
             )
-        centre = centre_from_radius(ps, pe, v["R"], ccw, min_r, d.r_short_is_semicircle)
+        clamp = d.r_short_is_semicircle or _short_r_passes(ps, pe, v["R"], s.inch, d)
+        centre = centre_from_radius(ps, pe, v["R"], ccw, min_r, clamp)
         if unused_offsets:
             raise GcodeError(
                 "I/J/K word on a radius-format (R) arc: the R format uses no offset words; use "
@@ -223,6 +225,23 @@ def arc_move(
         turns=turns,
         angle=angle,
     )
+
+
+def _short_r_passes(ps: Point2, pe: Point2, r: float, inch: bool, d: Dialect) -> bool:
+    """Whether an R shorter than half the chord is the half circle by
+    ``Dialect.r_short_checked_as_centre`` (GcodeError where half the chord fails the radius
+    check against R); False where R reaches or the dialect has no such rule."""
+    half = math.dist(ps, pe) / 2.0
+    if not d.r_short_checked_as_centre or half <= abs(r) or d.radius_check is None:
+        return False
+    try:
+        _check_radius(abs(r), half, inch, d)
+    except GcodeError as exc:
+        raise GcodeError(
+            f"arc radius {abs(r):.4f} too small to reach the end point (half the chord is "
+            f"{half:.4f}), beyond the half circle's tolerance: {exc.message}"
+        ) from None
+    return True
 
 
 def _check_radius(r0: float, r1: float, inch: bool, d: Dialect) -> None:

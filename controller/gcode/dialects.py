@@ -393,6 +393,7 @@ G2CORE = Dialect(
     arc_tolerance_mm=0.01,  # settings_default.h CHORDAL_TOLERANCE ($ct)
     min_r_word_mm=0.1,  # plan_arc.h MIN_ARC_RADIUS
     r_wins_over_offsets=True,
+    r_short_checked_as_centre=True,
     checksums="g2core",
     program_end_continues="g2core",
     g_codes=_G2CORE_G,
