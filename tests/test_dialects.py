@@ -1067,3 +1067,18 @@ def test_g2core_short_r_is_a_half_circle_within_the_radius_tolerance() -> None:
     refused = error_of("G21 G90 G17 F300\nG2 X200 Y0 R99.85\n", "g2core")
     assert refused.line == 2 and "too small to reach" in refused.message
     assert "too small" in error_of("G21 F300\nG2 X200 Y0 R99.95\nM2\n", "linuxcnc").message
+
+
+def test_g2core_reads_a_subcode_it_does_not_check_as_the_whole_code() -> None:
+    """gcode_parser.cpp ``_parse_gcode_block`` switches on ``(uint8_t)value`` and asks
+    ``_point(value)`` only for G28, G30, G38, G43, G61, G90, G91 and G92: G1.5 is G1, G17.1
+    G17, G59.1 G59 (h4 reproducers g1_5, g17_1, g59_1; the lexical oracle gives G1.5 as
+    "uint8 1, point 5")."""
+    text = "G21 G90\nG10 L2 P6 X20\nG1.5 X10 F100\nG17.1 G59.1\nG0 X10\n"
+    moves = run(text, "g2core")
+    assert [(type(m), m.end) for m in moves] == [
+        (Linear, (10.0, 0.0, 0.0)),
+        (Rapid, (30.0, 0.0, 0.0)),  # G59's X20
+    ]
+    assert "unknown G code G61.2" in error_of("G61.2\n", "g2core").message
+    assert "G43.1" in error_of("G43.1 Z1\n", "g2core").message

@@ -107,6 +107,10 @@ class Dialect:
             a full circle and 4e-7 rad more).
         language: numbered/named parameters, [expressions] and O-words are part of the dialect.
         g_codes / m_codes: the codes (G in tenths) the controller knows; None: LinuxCNC's.
+        g_point_codes: the whole G codes (tenths) whose decimal part the controller reads; any
+            other G word is read as its whole number (g2core: ``switch ((uint8_t)value)`` in
+            gcode_parser.cpp, ``_point`` consulted for G28, G30, G38, G43, G61, G90, G91 and
+            G92 only: G59.1 is G59, G1.5 G1, G17.1 G17); None: every decimal part counts.
         letters: the word letters the controller knows; None: LinuxCNC's.
         system_lines: ``$`` lines are system commands (grbl); ``$J=`` is a jog.
         home_all_axes: G28/G30 send every axis home, axis words only add a first move (g2core's
@@ -266,6 +270,7 @@ class Dialect:
     language: bool = True
     g_codes: frozenset[int] | None = None
     m_codes: frozenset[int] | None = None
+    g_point_codes: frozenset[int] | None = None
     letters: frozenset[str] | None = None
     system_lines: bool = False
     home_all_axes: bool = False
@@ -398,6 +403,7 @@ G2CORE = Dialect(
     program_end_continues="g2core",
     g_codes=_G2CORE_G,
     m_codes=_G2CORE_M,
+    g_point_codes=frozenset((280, 300, 380, 430, 610, 900, 910, 920)),
     coordinate_systems=6,  # g2core.h COORDS
     g10_levels=frozenset((1, 2, 10, 20)),  # cm_set_g10_data: "L11 not supported atm"
     g10_p0_current=False,  # cm_set_g10_data: P below G54 is STAT_P_WORD_IS_INVALID

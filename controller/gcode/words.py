@@ -83,6 +83,16 @@ def _code(value: float, tenths: bool) -> int | None:
     return code if abs(scaled - code) < 1e-6 else None
 
 
+def _g_code(value: float, dialect: Dialect | None) -> int | None:
+    """A G word's code in tenths (:func:`_code`), or, where the dialect reads the decimal
+    part of some codes only (``Dialect.g_point_codes``), any other read as its whole number
+    (g2core's ``switch ((uint8_t)value)``: G59.1 is G59, G1.5 is G1)."""
+    points = None if dialect is None else dialect.g_point_codes
+    if points is not None and 0.0 <= value < 256.0 and int(value) * 10 not in points:
+        return int(value) * 10
+    return _code(value, True)
+
+
 def _has_none(dialect: Dialect | None, value: float) -> str:
     """ " (g2core has no M98)" where the dialect has M codes of its own, else ""."""
     if dialect is None or dialect.m_codes is None:
@@ -150,7 +160,7 @@ def read_words(
             done += 1
         value = _number(tree, params)
         if letter == "G":
-            code = _code(value, True)
+            code = _g_code(value, dialect)
             group = None if code is None else G_GROUPS.get(code)
             if code is None or group is None:
                 raise GcodeError(f"unknown G code G{value:g}; see README 'Dialects' for the list")
