@@ -1082,3 +1082,14 @@ def test_g2core_reads_a_subcode_it_does_not_check_as_the_whole_code() -> None:
     ]
     assert "unknown G code G61.2" in error_of("G61.2\n", "g2core").message
     assert "G43.1" in error_of("G43.1 Z1\n", "g2core").message
+
+
+def test_g2core_g10_ignores_r_and_leaves_g92_out_of_l20() -> None:
+    """canonical_machine.cpp ``cm_set_g10_data``: L2 sets only the axes' offsets (R is read
+    as an arc radius and not used: no rotation), and L20's offset is the machine position less
+    the value and the tool offset, G92 left out ("Should L20 take into account G92
+    offsets?"). h4 reproducers g10_r, g10_l20_with_g92."""
+    assert run("G21 G90\nG10 L2 P1 R90\nG0 X10\n", "g2core")[0].end == (10.0, 0.0, 0.0)
+    text = "G21 G90\nG0 X10\nG92 X0\nG10 L20 P1 X0\nG0 X0\n"
+    assert run(text, "g2core")[-1].end == (20.0, 0.0, 0.0)  # G54 10, G92 still 10
+    assert run(text + "M2\n", "linuxcnc")[-1].end == (10.0, 0.0, 0.0)

@@ -81,12 +81,17 @@ def g10(
     systems: int = 9,
     rs274_p: bool = True,
     p_truncated: bool = False,
+    g2core: bool = False,
 ) -> ModalState:
     """G10 L2 (set a system's origin, R its XY rotation) and L20 (origin so the point reads v).
     ``rs274_p``: P is read as rs274 reads it (:func:`rs274_system_number`); else P must be a
     whole number. ``p_truncated`` (grbl's gcode.c): P is cut to its whole part and is 0 (the
     system in effect) when absent; only a G10 with neither L nor P is refused for a missing
-    word."""
+    word. ``g2core`` (canonical_machine.cpp ``cm_set_g10_data``): R is ignored (it is read as
+    an arc radius), and L20 leaves the G92 offset out ("Should L20 take into account G92
+    offsets?")."""
+    if g2core:
+        v = {k: value for k, value in v.items() if k != "R"}
     if p_truncated and "L" not in v and "P" in v:
         raise GcodeError("G10 without L is not supported; use L2 or L20")
     if "L" not in v:
@@ -131,7 +136,8 @@ def g10(
         # origin that makes it read v there, X/Y turned by the system's rotation
         origin = (p.mm(base), p.mm(base + 1), p.mm(base + 2))
         r = p.numbered.get(base + 9, 0.0)
-        c = sub(rotate(sub(to_work(s.position, s.frame), origin), -r), _param_g92(p))
+        g92 = (0.0, 0.0, 0.0) if g2core else _param_g92(p)
+        c = sub(rotate(sub(to_work(s.position, s.frame), origin), -r), g92)
         want = tuple(v[a] * scale if a in v else c[i] for i, a in enumerate(_AXES))
         old_xy, new_xy = rotate(c, r), rotate((want[0], want[1], want[2]), r)
         for i, a in enumerate(_AXES):

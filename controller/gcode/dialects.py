@@ -136,6 +136,8 @@ class Dialect:
             (gcode_parser.cpp ``_verify_checksum``, before the line is normalized; lexer.py
             ``g2core_checksum``); ``""``: none.
         g10_rotation: G10 L2 takes R (the XY rotation).
+        g10_g2core: G10 L2/L20 as g2core's cm_set_g10_data runs them: R ignored (no rotation),
+            and L20 leaves the G92 offset out of the point it makes read the words.
         g10_levels: the G10 L numbers the controller has; None: LinuxCNC's (1, 2, 10, 11, 20).
         g10_p0_current: G10 L2/L20 P0 is the system in effect (rs274); False: P0 (or no P) is
             refused (g2core's cm_set_g10_data: "you can't set G53").
@@ -283,6 +285,7 @@ class Dialect:
     checksums: str = ""
     g10_rotation: bool = True
     g10_levels: frozenset[int] | None = None
+    g10_g2core: bool = False
     g10_p0_current: bool = True
     coordinate_systems: int = 9
     error_codes: tuple[tuple[str, int], ...] = ()
@@ -407,6 +410,7 @@ G2CORE = Dialect(
     coordinate_systems=6,  # g2core.h COORDS
     g10_levels=frozenset((1, 2, 10, 20)),  # cm_set_g10_data: "L11 not supported atm"
     g10_p0_current=False,  # cm_set_g10_data: P below G54 is STAT_P_WORD_IS_INVALID
+    g10_g2core=True,
 )
 
 MARLIN = Dialect(

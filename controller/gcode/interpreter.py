@@ -372,7 +372,15 @@ class Interpreter:
         if nonmodal == 100 and round(w.values.get("L", 0)) in (1, 10, 11) and d.g10_rotation:
             s = set_tool_entry(s, self.params, w.values, self.table)
         elif nonmodal == 100:
-            s = g10(s, self.params, w.values, d.coordinate_systems, d.language, d.g10_p_truncated)
+            s = g10(
+                s,
+                self.params,
+                w.values,
+                d.coordinate_systems,
+                d.language,
+                d.g10_p_truncated,
+                d.g10_g2core,
+            )
         elif nonmodal in (920, 921, 922, 923, 520):
             if nonmodal == 920 and d.permissive_blocks and _AXIS_LETTERS.isdisjoint(w.values):
                 nonmodal = 923  # g2core: a bare G92 turns the G92 offsets back on
