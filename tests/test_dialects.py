@@ -1093,3 +1093,16 @@ def test_g2core_g10_ignores_r_and_leaves_g92_out_of_l20() -> None:
     text = "G21 G90\nG0 X10\nG92 X0\nG10 L20 P1 X0\nG0 X0\n"
     assert run(text, "g2core")[-1].end == (20.0, 0.0, 0.0)  # G54 10, G92 still 10
     assert run(text + "M2\n", "linuxcnc")[-1].end == (10.0, 0.0, 0.0)
+
+
+def test_g2core_motion_mode_after_g28_homing_and_a_bare_g2() -> None:
+    """G28/G30 go through canonical_machine.cpp ``cm_straight_traverse`` (from
+    ``_goto_stored_position``), which stores G0 as the motion mode; homing ends with it
+    cancelled (cycle_homing.cpp ``_homing_finalize_exit``); a G2/G3 with no axis, offset, R or
+    P word returns from plan_arc.cpp ``cm_arc_feed`` before it stores the mode (h4 reproducers
+    g28_leaves_g0_mode, g28_2_cancels_mode, g2_without_words)."""
+    moves = run("G21 G90\nG1 X5 F100\nG28\nX3\n", "g2core")
+    assert isinstance(moves[-1], Rapid) and moves[-1].end == (3.0, 0.0, 0.0)
+    assert [m.line for m in run("G21 G90\nG1 X5 F100\nG28.2 X0\nX10\n", "g2core")] == [2]
+    moves = run("G21 G90\nG1 X5 F100\nG2\nG3 F50\nX10\n", "g2core")
+    assert isinstance(moves[-1], Linear) and moves[-1].feed_mm_per_min == 50.0

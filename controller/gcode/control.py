@@ -48,6 +48,7 @@ from gantry_sim.controller.gcode.printer_codes import (
     as_g92,
     g2core_characters,
     g2core_json_gcode,
+    homing_end,
     marlin_bare_motion,
     marlin_bare_opener,
     marlin_command_alone,
@@ -87,6 +88,7 @@ _READ_AGAIN: dict[str, Callable[[str], str]] = {
 #: Own-line kinds read by the shared lexer once rewritten as the controller reads them.
 _REWRITTEN: dict[str, Callable[[str], str]] = {
     "set_origin": as_g92,  # g2core G28.3: a G92 of its words
+    "homing": homing_end,  # g2core G28.2/G28.4: motion cancelled after homing
     "command_alone": marlin_command_alone,  # Marlin: G17-G21, G54-G59, G80, G90, G91 read no word
     "characters": g2core_characters,  # g2core: the characters its normalizer drops left out
     "motion": marlin_motion,  # Marlin: G0-G3, G5, G92 read as its parser reads them

@@ -326,6 +326,8 @@ class Interpreter:
                     f"{g_name(nonmodal)} and {g_name(motion)} both use the axis words; put them "
                     "on separate lines"
                 )
+            if motion in (20, 30) and d.permissive_blocks and _ARC_WORDS.isdisjoint(w.values):
+                motion = None  # g2core: cm_arc_feed returns before it stores the mode
             if motion in (50, 51) and not any(a in w.values for a in "XY@^"):
                 raise GcodeError(f"{g_name(motion)} needs X or Y: all axes missing")
             # rs274: G5/G5.1 leave the motion mode as it was
@@ -353,7 +355,9 @@ class Interpreter:
                     "G0/G1 for a straight move"
                 )
         if d.next_action_stops_motion and _next_action(w):
-            s, motion = evolve(s, motion=self.state.motion), None  # g2core: the mode stays
+            # g2core: the mode stays, but G28/G30 move by cm_straight_traverse, which sets G0
+            kept = 0 if nonmodal in (280, 300) else self.state.motion
+            s, motion = evolve(s, motion=kept), None
         if d.strict_g80 and has_axes and s.motion is None:
             # grbl 1.1 (gcode.c, G80 errors): with motion off even G28, G92, G10 or G43.1 may
             # not carry axis words
@@ -909,6 +913,9 @@ _PROGRAM_END = {"grbl": grbl_program_end, "g2core": g2core_program_end}
 _PLAIN_AXES = frozenset("XYZ")
 #: the words that move an axis (A/B/C: only a word of 0 gets as far as the motion)
 _AXIS_LETTERS = frozenset("XYZ@^ABC")
+#: the words that make a G2/G3 line an arc for g2core (plan_arc.cpp cm_arc_feed): an axis, an
+#: offset, R or P; without one it returns before storing the motion mode
+_ARC_WORDS = _AXIS_LETTERS | frozenset("IJKRP")
 
 
 def interpret(

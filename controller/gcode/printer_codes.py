@@ -22,7 +22,8 @@ G91 alone, ``G90 X10`` moves nothing): Marlin runs one command a line.
 
 g2core: a line opening with ``{`` is a JSON configuration or status request (no motion), and so
 are M100 (JSON in a G-code line), M100.1 and M101 (wait for inputs); G28.2 (homing) and G28.4
-are accepted without motion. G28.3 (set the absolute origin) makes the named axes read the
+are accepted without motion, and leave the motion mode cancelled, as g2core's homing ends
+(cycle_homing.cpp ``_homing_finalize_exit``). G28.3 (set the absolute origin) makes the named axes read the
 words' values where the tool is, without moving it (canonical_machine.cpp
 ``cm_set_absolute_origin``): it runs as a G92 with the same words, the one offset that shifts
 every later position without moving the tool (a later G92.1 clears it, where g2core's origin
@@ -386,10 +387,8 @@ def without_marlin_parameters(raw: str) -> str:
     return code[:start] + rest + sep + comment
 
 
-_G2CORE_QUIET = re.compile(
-    r"^\s*(?:N\d+\s*)?(?:G\s*0*28\s*\.\s*[234](?!\d)|M\s*0*10[01](?:\.\d)?(?!\d))",
-    re.IGNORECASE,
-)
+_G2CORE_QUIET = re.compile(r"^\s*(?:N\d+\s*)?M\s*0*10[01](?:\.\d)?(?!\d)", re.IGNORECASE)
+_G2CORE_HOMING = re.compile(r"^\s*(?:N\d+\s*)?G\s*0*28\s*\.\s*[24](?!\d)", re.IGNORECASE)
 
 
 _G2CORE_SET_ORIGIN = re.compile(r"^(\s*(?:N\d+\s*)?)G\s*0*28\s*\.\s*3(?!\d)", re.IGNORECASE)
@@ -406,10 +405,11 @@ _FEEDHOLD = (
 
 
 def g2core_line(raw: str) -> str | None:
-    """ "quiet" for a g2core JSON or text-mode line, G28.2/G28.4, or a control after blanks;
+    """ "quiet" for a g2core JSON or text-mode line, M100/M101, or a control after blanks;
     "controls" for a line opening with single-character controls (:func:`after_controls`);
     "json_gcode" for a JSON line of G-code, ``{"gc":"g1x10f300"}`` (:func:`g2core_json_gcode`);
-    "set_origin" for G28.3; "characters" for a G-code line holding a character g2core drops
+    "set_origin" for G28.3; "homing" for G28.2/G28.4 (:func:`homing_end`); "characters" for a
+    G-code line holding a character g2core drops
     (:func:`g2core_characters`); None otherwise."""
     if raw.lstrip(" \t" + G2CORE_CONTROLS)[:1] == "!":
         raise GcodeError(_FEEDHOLD)
@@ -419,6 +419,8 @@ def g2core_line(raw: str) -> str | None:
         return "json_gcode"
     if _G2CORE_SET_ORIGIN.match(raw):
         return "set_origin"
+    if _G2CORE_HOMING.match(raw):
+        return "homing"
     head = raw.lstrip(" \t")[:1]
     if (head and head in "{?$Hh" + G2CORE_CONTROLS) or _G2CORE_QUIET.match(raw):
         return "quiet"
@@ -457,6 +459,12 @@ def after_controls(raw: str) -> str:
     """A "controls" line (:func:`g2core_line`) less the controls that open it: the line g2core
     reads after them."""
     return raw.lstrip(G2CORE_CONTROLS)
+
+
+def homing_end(raw: str) -> str:
+    """A g2core G28.2/G28.4 line (homing, no motion modelled) as the state it leaves: motion
+    cancelled (cycle_homing.cpp ``_homing_finalize_exit``), a G80."""
+    return "G80"
 
 
 def as_g92(raw: str) -> str:
