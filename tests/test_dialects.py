@@ -1106,3 +1106,13 @@ def test_g2core_motion_mode_after_g28_homing_and_a_bare_g2() -> None:
     assert [m.line for m in run("G21 G90\nG1 X5 F100\nG28.2 X0\nX10\n", "g2core")] == [2]
     moves = run("G21 G90\nG1 X5 F100\nG2\nG3 F50\nX10\n", "g2core")
     assert isinstance(moves[-1], Linear) and moves[-1].feed_mm_per_min == 50.0
+
+
+def test_g2core_ignores_words_no_code_on_the_line_uses() -> None:
+    """gcode_parser.cpp ``_parse_gcode_block`` stores I, J, K, R, P, L, H in ``gv`` and only
+    the codes that need them read them (h4 reproducers unused_i_on_g1, unused_p_on_g0); a
+    letter it does not know (Q, D, E) stays an error."""
+    moves = run("G21 G90\nG1 X10 I5 F100\nG0 X12 P5 L2 H1 R3\n", "g2core")
+    assert [m.end for m in moves] == [(10.0, 0.0, 0.0), (12.0, 0.0, 0.0)]
+    assert "Q word" in error_of("G21\nG0 X1 Q5\n", "g2core").message
+    assert "I word" in error_of("G21\nG1 X10 I5 F100\nM2\n", "linuxcnc").message

@@ -85,6 +85,9 @@ class Dialect:
         default_feed_mm_per_min: feed before any F word, or None when F is required.
         g20_is_inch: G20 selects inches; False: G20 is something else and is refused.
         g20_refusal: the message for G20 when ``g20_is_inch`` is False.
+        unused_words_ignored: these letters are ignored on a line where no code uses them
+            (g2core: gcode_parser.cpp stores every word in ``gv`` and only the codes that need
+            one read it: ``G1 X10 I5``, ``G0 X10 P5`` move); other letters: an error (rs274).
         ignored_letters: words accepted that move no axis and set nothing of the shared state
             (Marlin's E, which its extruder reads, S, and the axis letters its default build
             lacks: A B C U V W).
@@ -267,6 +270,7 @@ class Dialect:
     max_p: int | None = None
     r_short_checked_as_centre: bool = False
     r_wins_over_offsets: bool = False
+    unused_words_ignored: frozenset[str] = frozenset()
     r_needs_arc_code_first: bool = False
     zero_angle_fuzz: float = 1e-12
     language: bool = True
@@ -401,6 +405,7 @@ G2CORE = Dialect(
     arc_tolerance_mm=0.01,  # settings_default.h CHORDAL_TOLERANCE ($ct)
     min_r_word_mm=0.1,  # plan_arc.h MIN_ARC_RADIUS
     r_wins_over_offsets=True,
+    unused_words_ignored=frozenset("HIJKLPR"),
     r_short_checked_as_centre=True,
     checksums="g2core",
     program_end_continues="g2core",

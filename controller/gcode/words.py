@@ -292,7 +292,13 @@ def check_unused_words(w: Words, motion: int | None, dialect: Dialect) -> None:
     the end of the block)."""
     v = w.values
     # the words only some codes take (most lines have none: X Y Z F S T)
-    taken = [k for k in v if k not in _ANY_CODE and k not in dialect.ignored_letters]
+    taken = [
+        k
+        for k in v
+        if k not in _ANY_CODE
+        and k not in dialect.ignored_letters
+        and k not in dialect.unused_words_ignored
+    ]
     uses = _letter_uses(w, motion, dialect) if taken else {}
     for letter in taken:
         if not uses.get(letter, False):
