@@ -1116,3 +1116,13 @@ def test_g2core_ignores_words_no_code_on_the_line_uses() -> None:
     assert [m.end for m in moves] == [(10.0, 0.0, 0.0), (12.0, 0.0, 0.0)]
     assert "Q word" in error_of("G21\nG0 X1 Q5\n", "g2core").message
     assert "I word" in error_of("G21\nG1 X10 I5 F100\nM2\n", "linuxcnc").message
+
+
+def test_g2core_drops_a_stray_paren_and_deletes_a_block_after_blanks() -> None:
+    """gcode_parser.cpp ``_normalize_gcode_block`` keeps letters, digits, - and . only, so a
+    ``)`` left after a comment is dropped (h4 reproducers paren_after_comment,
+    msg_comment_with_paren; the lexical oracle reads ``G0X1Y5Y2`` as G0 X1 Y2); controller.cpp
+    ``_dispatch_kernel`` strips a line's leading blanks before ``gcode_parser`` tests its first
+    character for ``/`` (block_delete_after_blanks)."""
+    text = "G21 G90\nG0 X1 (a (b) Y5) Y2\n(msg hello (x) G0 X5)\n   /G0 X9\n\t/G0 Y9\n"
+    assert [m.end for m in run(text, "g2core")] == [(1.0, 2.0, 0.0), (5.0, 2.0, 0.0)]

@@ -212,21 +212,24 @@ def firmware_comments(raw: str, rules: str) -> str:
     grbl and g2core read a ``(`` comment up to its first ``)`` or to the end of the line, a
     ``(`` inside it being text, and end the line at a ``;`` outside a comment (rs274 refuses a
     comment left open or holding a ``(``). g2core also ends the line at a ``%`` (so a ``%``
-    line is an empty line, not a program delimiter) and skips a line whose first character is
-    ``/`` (its block delete is always on: ``gc_gcode_parser`` returns before parsing such a
-    line). The comment is returned closed, with no ``(`` inside (Marlin's is dropped).
+    line is an empty line, not a program delimiter), drops a ``)`` outside a comment (its
+    normalizer keeps letters, digits, ``-`` and ``.`` only: ``G0 X1 (a (b) Y5) Y2`` is G0 X1
+    Y2) and skips a line whose first character after blanks is ``/`` (controller.cpp strips
+    the blanks; its block delete is always on: ``gc_gcode_parser`` returns before parsing
+    such a line). The comment is returned closed, with no ``(`` inside (Marlin's is dropped).
     """
     if rules == "marlin":
         return _marlin_stream(raw) if "(" in raw or ")" in raw or "\\" in raw else raw
     if rules == "grbl":
         return grbl_line(raw)
     g2core = rules == "g2core"
-    if g2core and raw.startswith("/"):
+    if g2core and raw.lstrip(" \t").startswith("/"):
         return ""
-    if "(" not in raw and ";" not in raw and not (g2core and "%" in raw):
+    if "(" not in raw and ";" not in raw and not (g2core and ("%" in raw or ")" in raw)):
         return raw
     kept = _FIRMWARE_LINE[rules].match(raw)
-    return _OPEN_COMMENT.sub(_closed, kept.group() if kept else "")
+    closed = _OPEN_COMMENT.sub(_closed, kept.group() if kept else "")
+    return _COMMENT_OR_PAREN.sub(_without_paren, closed) if g2core else closed
 
 
 #: what a firmware reads of a line: words and comments, a comment running to its first ``)``
@@ -237,6 +240,14 @@ _FIRMWARE_LINE = {
 }
 #: a comment, closed or left open at the line's end
 _OPEN_COMMENT = re.compile(r"\(([^)]*)\)?")
+#: a closed comment, or a ``)`` outside one (g2core's normalizer drops it)
+_COMMENT_OR_PAREN = re.compile(r"\([^)]*\)|\)")
+
+
+def _without_paren(m: re.Match[str]) -> str:
+    return m.group() if m.group() != ")" else ""
+
+
 #: what grbl's serial layer drops from a line besides its comments
 _GRBL_DROPPED = re.compile(r"[\x00-\x20/]+")
 
