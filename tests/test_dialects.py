@@ -1126,3 +1126,12 @@ def test_g2core_drops_a_stray_paren_and_deletes_a_block_after_blanks() -> None:
     character for ``/`` (block_delete_after_blanks)."""
     text = "G21 G90\nG0 X1 (a (b) Y5) Y2\n(msg hello (x) G0 X5)\n   /G0 X9\n\t/G0 Y9\n"
     assert [m.end for m in run(text, "g2core")] == [(1.0, 2.0, 0.0), (5.0, 2.0, 0.0)]
+
+
+def test_g2core_g0_or_g1_without_axis_words_moves_nothing() -> None:
+    """canonical_machine.cpp ``cm_straight_traverse`` / ``cm_straight_feed``: "it's legal for
+    a G0 to have no axis words but we don't want to process it": the motion mode is set, no
+    move is planned (G1 refuses a zero feed first). h4 reproducer g0_without_axes."""
+    moves = run("G21 G90\nG0 X5\nG0\nG1 F100\nX6\n", "g2core")
+    assert [(m.line, type(m)) for m in moves] == [(2, Rapid), (5, Linear)]
+    assert error_of("G21 G90\nG1\n", "g2core").line == 2  # no feed yet

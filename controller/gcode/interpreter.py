@@ -439,6 +439,10 @@ class Interpreter:
                 self.comp.arc_not_allowed = False
             if self.comp.active:
                 s = self._comp_motion(w, s, motion, end, moves)
+            elif motion in (0, 10) and d.permissive_blocks and not has_axes:
+                if motion == 10:  # g2core: cm_straight_feed refuses feed 0 first
+                    self._require_feed(s, "a G1 move", w.values)
+                # (cm_straight_traverse/feed: "legal ... but we don't want to process it")
             elif motion == 0 and not d.g0_at_feed:
                 s = self._emit(moves, s, Rapid(w.line, s.work, to_work(end, s.frame)), end)
             elif motion in (0, 10):  # G1, or a G0 where the controller moves it as one
@@ -526,6 +530,8 @@ class Interpreter:
         motion, v = read
         if block.bare and (s.motion is None or _PLAIN_AXES.isdisjoint(v)):
             return None  # Marlin: a bare line before any G0-G3, or a bare E (the general step)
+        if motion is not None and d.permissive_blocks and _PLAIN_AXES.isdisjoint(v):
+            return None  # g2core: a G0/G1 with no axis word moves nothing (the general step)
         if motion is None and not _PLAIN_AXES.isdisjoint(v):
             motion = s.motion  # axis words alone: the modal motion
             if motion not in (0, 10):
