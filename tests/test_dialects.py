@@ -1135,3 +1135,14 @@ def test_g2core_g0_or_g1_without_axis_words_moves_nothing() -> None:
     moves = run("G21 G90\nG0 X5\nG0\nG1 F100\nX6\n", "g2core")
     assert [(m.line, type(m)) for m in moves] == [(2, Rapid), (5, Linear)]
     assert error_of("G21 G90\nG1\n", "g2core").line == 2  # no feed yet
+
+
+def test_g2core_reads_a_long_line_up_to_511_characters() -> None:
+    """xio.cpp ``_scanBuffer``/``readline`` (RX_BUFFER_SIZE 512) pass on a line's first 511
+    characters and skip the rest of it (h4 reproducer long_line: the Z5 after a 500-character
+    comment is lost, the comment left open)."""
+    line = "G0 X1 Y2 (" + "c" * 500 + ") Z5"
+    assert run(f"G21 G90\n{line}\n", "g2core")[0].end == (1.0, 2.0, 0.0)
+    assert run(f"G21 G90\n{line[:511]}Z7\n", "g2core")[0].end == (1.0, 2.0, 0.0)
+    short = "G0 X1 Y2 (" + "c" * 400 + ") Z5"
+    assert run(f"G21 G90\n{short}\n", "g2core")[0].end == (1.0, 2.0, 5.0)

@@ -27,6 +27,7 @@ from gantry_sim.controller.gcode.expressions import Tree, evaluate
 from gantry_sim.controller.gcode.fanuc_subs import fanuc_code, find_program
 from gantry_sim.controller.gcode.lexer import (
     COMMENT,
+    G2CORE_MAX_LINE,
     RS274_LEX,
     Block,
     LexRules,
@@ -131,7 +132,9 @@ class Source:
 
     def _lex(self, i: int) -> Block:
         raw = without_realtime(self.lines[i]) if self.realtime else self.lines[i]
-        if self.line_limit:
+        if self.line_limit == "g2core":
+            raw = raw[:G2CORE_MAX_LINE]  # xio.cpp: the rest of a longer line is skipped
+        elif self.line_limit:
             too_long = line_too_long(raw, self.line_limit)
             if too_long is not None:
                 raise TextError(too_long)

@@ -244,7 +244,8 @@ class Dialect:
             F0 sets a feed of 0, which no feed move takes, and a negative F is an error
             (rs274).
         line_limit: whose longest line applies (controller/gcode/lexer.py ``line_too_long``:
-            ``"linuxcnc"`` 252 characters, ``"grbl"`` 79 kept in its line buffer); ``""``: none.
+            ``"linuxcnc"`` 252 characters, ``"grbl"`` 79 kept in its line buffer; ``"g2core"``: a line is cut to its first 511
+            characters, as xio.cpp's readline passes them on); ``""``: none.
         line_number_words: N is a word read anywhere on the line, as grbl's gcode.c and
             g2core's parser read it (a number, truncated; a second N is a repeated word); False:
             an N line number may only open the line (rs274).
@@ -403,6 +404,7 @@ G2CORE = Dialect(
     g93_f_stands=True,
     motion_waits="g2core",  # every queued command (mp_queue_command) stops the planner
     arc_tolerance_mm=0.01,  # settings_default.h CHORDAL_TOLERANCE ($ct)
+    line_limit="g2core",
     min_r_word_mm=0.1,  # plan_arc.h MIN_ARC_RADIUS
     r_wins_over_offsets=True,
     unused_words_ignored=frozenset("HIJKLPR"),

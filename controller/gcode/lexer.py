@@ -383,6 +383,11 @@ LINUXCNC_MAX_LINE = 252
 GRBL_MAX_LINE = 79
 
 
+#: g2core's serial reader (xio.cpp ``readline``, RX_BUFFER_SIZE 512) passes on a line's first
+#: 511 characters and skips the rest of it
+G2CORE_MAX_LINE = 511
+
+
 def line_too_long(raw: str, rule: str) -> str | None:
     """Why the controller of ``rule`` ("linuxcnc", "grbl"; "": no limit) refuses line ``raw``
     (without its line end; grbl's realtime characters already taken out) for its length, or
