@@ -1146,3 +1146,12 @@ def test_g2core_reads_a_long_line_up_to_511_characters() -> None:
     assert run(f"G21 G90\n{line[:511]}Z7\n", "g2core")[0].end == (1.0, 2.0, 0.0)
     short = "G0 X1 Y2 (" + "c" * 400 + ") Z5"
     assert run(f"G21 G90\n{short}\n", "g2core")[0].end == (1.0, 2.0, 5.0)
+
+
+def test_g2core_runs_a_line_that_is_one_active_json_comment() -> None:
+    """gcode_parser.cpp: ``_normalize_gcode_block`` keeps a comment opening ``({`` as the
+    active comment, and ``gcode_parser`` hands it to json_parser when the block has no G-code
+    besides it, so ``({gc:"g0x10"})`` moves (h4 reproducer active_comment_gc; the parser
+    harness shows ``json_parser({gc:"g0x10"})``); other active JSON sets nothing modelled."""
+    text = 'G21 G90\n({gc:"g0x10"})\n  ({xvm:1000})\n(a comment)\n'
+    assert [m.end for m in run(text, "g2core")] == [(10.0, 0.0, 0.0)]

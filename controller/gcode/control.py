@@ -47,6 +47,7 @@ from gantry_sim.controller.gcode.lexer import (
 from gantry_sim.controller.gcode.printer_codes import (
     after_controls,
     as_g92,
+    g2core_active_json,
     g2core_characters,
     g2core_json_gcode,
     homing_end,
@@ -83,6 +84,7 @@ LEXED_LINES_KEPT = 8192
 _READ_AGAIN: dict[str, Callable[[str], str]] = {
     "controls": after_controls,
     "json_gcode": g2core_json_gcode,  # g2core: {"gc":"g1x10"} runs its G-code
+    "active_json": g2core_active_json,  # g2core: ({gc:"g1x10"}) alone is a JSON line
     "subcode": marlin_without_subcode,
     "line_number": marlin_without_line_number,
 }

@@ -408,6 +408,7 @@ def g2core_line(raw: str) -> str | None:
     """ "quiet" for a g2core JSON or text-mode line, M100/M101, or a control after blanks;
     "controls" for a line opening with single-character controls (:func:`after_controls`);
     "json_gcode" for a JSON line of G-code, ``{"gc":"g1x10f300"}`` (:func:`g2core_json_gcode`);
+    "active_json" for a line that is one ``({...})`` comment (:func:`g2core_active_json`);
     "set_origin" for G28.3; "homing" for G28.2/G28.4 (:func:`homing_end`); "characters" for a
     G-code line holding a character g2core drops
     (:func:`g2core_characters`); None otherwise."""
@@ -417,6 +418,8 @@ def g2core_line(raw: str) -> str | None:
         return "controls"
     if _G2CORE_GC.match(raw):
         return "json_gcode"
+    if _G2CORE_ACTIVE_JSON.match(raw):
+        return "active_json"
     if _G2CORE_SET_ORIGIN.match(raw):
         return "set_origin"
     if _G2CORE_HOMING.match(raw):
@@ -453,6 +456,19 @@ def g2core_json_gcode(raw: str) -> str:
     found = _G2CORE_GC.match(raw)
     assert found is not None  # g2core_line matched it
     return re.sub(r"\\(.)", r"\1", found.group(1))
+
+
+#: A line that is one active comment of JSON, ``({gc:"g0x10"})``: g2core's normalizer keeps a
+#: comment opening ``({`` as the block's active comment, and a block with no G-code besides
+#: passes it to json_parser (gcode_parser.cpp ``gcode_parser``)
+_G2CORE_ACTIVE_JSON = re.compile(r"^[ \t]*\((\{.*?)\)?[ \t]*$")
+
+
+def g2core_active_json(raw: str) -> str:
+    """An "active_json" line (:func:`g2core_line`): its JSON, run as a JSON line."""
+    found = _G2CORE_ACTIVE_JSON.match(raw)
+    assert found is not None  # g2core_line matched it
+    return found.group(1)
 
 
 def after_controls(raw: str) -> str:
