@@ -1155,3 +1155,15 @@ def test_g2core_runs_a_line_that_is_one_active_json_comment() -> None:
     harness shows ``json_parser({gc:"g0x10"})``); other active JSON sets nothing modelled."""
     text = 'G21 G90\n({gc:"g0x10"})\n  ({xvm:1000})\n(a comment)\n'
     assert [m.end for m in run(text, "g2core")] == [(10.0, 0.0, 0.0)]
+
+
+def test_g2core_g53_is_an_absolute_override_for_any_move() -> None:
+    """canonical_machine.cpp: under G53 ``cm_get_combined_offset`` is 0 and
+    ``cm_set_model_target`` still adds G91 words to the position, so G53 in G91 is an
+    increment, and an arc (``cm_arc_feed`` takes the same target) ends in machine coordinates
+    (h4 reproducers g53_in_g91, g53_with_arc)."""
+    moves = run("G21 G91\nG10 L2 P1 X100\nG0 X10\nG53 G0 X5\n", "g2core")
+    assert [m.end for m in moves] == [(10.0, 0.0, 0.0), (15.0, 0.0, 0.0)]
+    arc = run("G21 G90\nG10 L2 P1 X100\nG0 X10\nG53 G2 X120 Y0 I5 F100\n", "g2core")[-1]
+    assert isinstance(arc, Arc) and arc.end == (120.0, 0.0, 0.0)
+    assert "G53" in error_of("G21 G91\nG53 G0 X5\nM2\n", "linuxcnc").message

@@ -229,6 +229,9 @@ class Dialect:
             motion mode before the G80 axis-word error, and words no code uses last, after the
             block's motion; a centre word alone is such a word, not a modal arc's); ``""``:
             rs274's.
+        g53_g2core: G53 as g2core's absolute override (canonical_machine.cpp
+            ``cm_get_combined_offset`` returns 0 under it): with any motion (an arc's end in
+            machine coordinates) or none, and in G91 the words are increments as ever.
         g53_absolute_in_g91: G53's axis words are machine coordinates in G91 too (grbl's
             gcode.c applies no distance mode under G53); False: G53 in G91 is refused (rs274).
         zero_radius_straight: a centre-format arc whose centre is its start (I and J 0), with its
@@ -314,6 +317,7 @@ class Dialect:
     feed_in_line_units: bool = False
     jog_units_per_minute: bool = False
     g53_absolute_in_g91: bool = False
+    g53_g2core: bool = False
     read_order: str = ""
     program_end_continues: str = ""
     strict_g80: bool = False
@@ -405,6 +409,7 @@ G2CORE = Dialect(
     motion_waits="g2core",  # every queued command (mp_queue_command) stops the planner
     arc_tolerance_mm=0.01,  # settings_default.h CHORDAL_TOLERANCE ($ct)
     line_limit="g2core",
+    g53_g2core=True,
     min_r_word_mm=0.1,  # plan_arc.h MIN_ARC_RADIUS
     r_wins_over_offsets=True,
     unused_words_ignored=frozenset("HIJKLPR"),

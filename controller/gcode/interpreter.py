@@ -396,7 +396,9 @@ class Interpreter:
         elif nonmodal in (280, 300):
             s = self._home(w.line, w.values, s, nonmodal, moves)
         machine_coords = nonmodal == 530
-        if machine_coords:
+        if machine_coords and d.g53_g2core:
+            machine_coords = not s.incremental  # g2core: G91 adds to the position as ever
+        elif machine_coords:
             if motion not in (0, 10) and not grbl_order:  # grbl's is checked above
                 raise GcodeError("G53 (machine coordinates) must be used with G0 or G1")
             if s.incremental and not d.g53_absolute_in_g91:
