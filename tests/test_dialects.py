@@ -1167,3 +1167,16 @@ def test_g2core_g53_is_an_absolute_override_for_any_move() -> None:
     arc = run("G21 G90\nG10 L2 P1 X100\nG0 X10\nG53 G2 X120 Y0 I5 F100\n", "g2core")[-1]
     assert isinstance(arc, Arc) and arc.end == (120.0, 0.0, 0.0)
     assert "G53" in error_of("G21 G91\nG53 G0 X5\nM2\n", "linuxcnc").message
+
+
+def test_g2core_reads_a_sign_or_point_without_digits_as_zero() -> None:
+    """gcode_parser.cpp ``_get_next_gcode_word`` reads a value with util.h ``c_atof``, which
+    consumes a ``-`` or ``.`` with no digits and gives 0 (h4 reproducer sign_without_digits;
+    the lexical oracle shows ``word X -0``): ``X-`` and ``X.`` are X0."""
+    text = "G21 G90\nG0 X5 Y5\nG0 X- Y1\nG0 X. Y - \nG0 X-.5 Y.5\n"
+    assert [m.end for m in run(text, "g2core")][1:] == [
+        (0.0, 1.0, 0.0),
+        (0.0, 0.0, 0.0),
+        (-0.5, 0.5, 0.0),
+    ]
+    assert "bad value" in error_of("G0 X- Y1\nM2\n", "linuxcnc").message

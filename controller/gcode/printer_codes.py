@@ -427,7 +427,8 @@ def g2core_line(raw: str) -> str | None:
     head = raw.lstrip(" \t")[:1]
     if (head and head in "{?$Hh" + G2CORE_CONTROLS) or _G2CORE_QUIET.match(raw):
         return "quiet"
-    if _G2CORE_DROPPED.search(_PAREN.sub("", raw)):
+    words = _PAREN.sub("", raw)
+    if _G2CORE_DROPPED.search(words) or _G2CORE_NO_DIGITS.search(words):
         return "characters"
     return None
 
@@ -436,14 +437,27 @@ def g2core_line(raw: str) -> str | None:
 #: its comments: letters, digits, "-" and "."; blanks end a word; anything else is dropped
 #: (a "+", a "#", a U+2028 LINE SEPARATOR some editors leave in a file).
 _G2CORE_DROPPED = re.compile(r"[^A-Za-z0-9.\- \t\r\n\f\v()]")  # isspace() of C: ASCII
-_G2CORE_COMMENT_OR_DROPPED = re.compile(r"\([^)]*\)?|" + _G2CORE_DROPPED.pattern)
+#: A value of a sign or a point and no digit (``X-``, ``X.``, blanks dropped as g2core drops
+#: them): c_atof (util.h) reads it as 0 where it ends before the next letter
+_G2CORE_NO_DIGITS = re.compile(r"(?<=[A-Za-z])[ \t]*(?:-[ \t]*\.?|\.)(?=[ \t]*(?:[A-Za-z(]|$))")
+_G2CORE_COMMENT_OR_DROPPED = re.compile(
+    r"\([^)]*\)?|" + _G2CORE_DROPPED.pattern + "|" + _G2CORE_NO_DIGITS.pattern
+)
 
 
 def g2core_characters(raw: str) -> str:
     """A "characters" line (:func:`g2core_line`; its comments closed by
     lexer.firmware_comments) as g2core parses it: the characters its normalizer drops left out
-    (``X+5`` is X5), its comments kept."""
-    return _G2CORE_COMMENT_OR_DROPPED.sub(lambda m: m.group() if m.group()[0] == "(" else "", raw)
+    (``X+5`` is X5), a value with no digit read as 0 (``X-`` and ``X.`` are X0: c_atof), its
+    comments kept."""
+    return _G2CORE_COMMENT_OR_DROPPED.sub(_g2core_kept, raw)
+
+
+def _g2core_kept(m: re.Match[str]) -> str:
+    text = m.group()
+    if text[0] == "(":
+        return text
+    return "" if _G2CORE_DROPPED.fullmatch(text) else "0"  # a dropped character, or X-
 
 
 #: A JSON line of G-code: the ``gc`` key (quoted, or bare as g2core's relaxed JSON allows)
