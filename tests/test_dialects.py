@@ -1180,3 +1180,13 @@ def test_g2core_reads_a_sign_or_point_without_digits_as_zero() -> None:
         (-0.5, 0.5, 0.0),
     ]
     assert "bad value" in error_of("G0 X- Y1\nM2\n", "linuxcnc").message
+
+
+def test_g2core_g80_on_a_motion_line_is_the_last_motion_code() -> None:
+    """gcode_parser.cpp sets G0-G3 and G80 in one ``motion_mode`` (SET_MODAL, the last one
+    read wins) and the NEXT_ACTION_DEFAULT case stores MOTION_MODE_CANCEL_MOTION_MODE for G80
+    with no move, axis words or not (h4 reproducer g80_after_g1_on_line: both harnesses show
+    no canonical call for ``G1 X5 G80`` nor for the ``X10`` after it)."""
+    assert run("G21 G90 F100\nG1 X5 G80\nX10\nG80 X3\n", "g2core") == []
+    moves = run("G21 G90 F100\nG80 G1 X5\nX6\n", "g2core")
+    assert [m.end[0] for m in moves] == [5.0, 6.0]

@@ -314,7 +314,7 @@ class Interpreter:
         has_axes = has_axes or (block.bare != "" and any(k != "F" for k in w.values))
         motion = w.g.get("motion")
         if motion == 800:
-            if has_axes and not axis_code:
+            if has_axes and not axis_code and not d.permissive_blocks:
                 raise GcodeError("axis words with G80 (motion off); use G0, G1, G2 or G3")
             s, motion = evolve(s, motion=None), None
             cycle = evolve(cycle, initial=None)

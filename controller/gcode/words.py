@@ -164,7 +164,7 @@ def read_words(
             group = None if code is None else G_GROUPS.get(code)
             if code is None or group is None:
                 raise GcodeError(f"unknown G code G{value:g}; see README 'Dialects' for the list")
-            if group == "motion" and 800 in (code, g.get(group)):
+            if group == "motion" and 800 in (code, g.get(group)) and not last_wins:
                 # rs274: G80 beside another motion code is ignored ("G0 X1 G80" is a G0).
                 g[group] = g.get(group, 800) if code == 800 else code
                 continue
