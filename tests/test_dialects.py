@@ -1190,3 +1190,11 @@ def test_g2core_g80_on_a_motion_line_is_the_last_motion_code() -> None:
     assert run("G21 G90 F100\nG1 X5 G80\nX10\nG80 X3\n", "g2core") == []
     moves = run("G21 G90 F100\nG80 G1 X5\nX6\n", "g2core")
     assert [m.end[0] for m in moves] == [5.0, 6.0]
+
+
+def test_g2core_runs_the_gc_pair_of_a_json_line_with_other_pairs() -> None:
+    """json_parser.cpp ``_json_parser_execute`` runs a line's pairs in order, and its ``gc``
+    pair runs the G-code (config_app.cpp gc_run_gc) whatever pairs stand beside it (h4
+    reproducer json_two_keys); the other pairs set nothing modelled."""
+    text = 'G21\n{"gc":"g0x10","sr":null}\n{"sr":null,"gc":"g0y3","xvm":1000}\n{"sr":{"posx":1}}\n'
+    assert [m.end for m in run(text, "g2core")] == [(10.0, 0.0, 0.0), (10.0, 3.0, 0.0)]

@@ -460,9 +460,16 @@ def _g2core_kept(m: re.Match[str]) -> str:
     return "" if _G2CORE_DROPPED.fullmatch(text) else "0"  # a dropped character, or X-
 
 
-#: A JSON line of G-code: the ``gc`` key (quoted, or bare as g2core's relaxed JSON allows)
-#: and a string, which g2core runs as a G-code line (config_app.cpp ``gc``: gc_run_gc)
-_G2CORE_GC = re.compile(r'\s*\{\s*"?gc"?\s*:\s*"((?:[^"\\]|\\.)*)"\s*\}\s*$', re.IGNORECASE)
+#: One pair of a flat JSON object: a key (quoted, or bare as g2core's relaxed JSON allows) and a
+#: string, number, true, false or null
+_JSON_PAIR = r'\s*"?\w+"?\s*:\s*(?:"(?:[^"\\]|\\.)*"|[^,"{}]*?)\s*'
+#: A JSON line of G-code: the ``gc`` key and a string, which g2core runs as a G-code line
+#: (config_app.cpp ``gc``: gc_run_gc), among other pairs json_parser runs in order (status
+#: requests and settings: nothing modelled)
+_G2CORE_GC = re.compile(
+    rf'\s*\{{(?:{_JSON_PAIR},)*?\s*"?gc"?\s*:\s*"((?:[^"\\]|\\.)*)"\s*(?:,{_JSON_PAIR})*\}}\s*$',
+    re.IGNORECASE,
+)
 
 
 def g2core_json_gcode(raw: str) -> str:
