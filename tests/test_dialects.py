@@ -1198,3 +1198,12 @@ def test_g2core_runs_the_gc_pair_of_a_json_line_with_other_pairs() -> None:
     reproducer json_two_keys); the other pairs set nothing modelled."""
     text = 'G21\n{"gc":"g0x10","sr":null}\n{"sr":null,"gc":"g0y3","xvm":1000}\n{"sr":{"posx":1}}\n'
     assert [m.end for m in run(text, "g2core")] == [(10.0, 0.0, 0.0), (10.0, 3.0, 0.0)]
+
+
+def test_g2core_refusal_of_m50_1_does_not_say_g2core_lacks_it() -> None:
+    """gcode_parser.cpp ``_parse_gcode_block`` has M50.1 (``case 50``, ``_point`` 1: the
+    traverse override switch, its execution commented out); gantry-sim does not read it, and
+    its refusal must not claim g2core lacks it (h4 reproducer m50_1)."""
+    message = error_of("G21\nM50.1 P1\n", "g2core").message
+    assert "unsupported M code M50.1" in message and "has no" not in message
+    assert "g2core has no M19" in error_of("M19\n", "g2core").message

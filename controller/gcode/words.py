@@ -94,8 +94,9 @@ def _g_code(value: float, dialect: Dialect | None) -> int | None:
 
 
 def _has_none(dialect: Dialect | None, value: float) -> str:
-    """ " (g2core has no M98)" where the dialect has M codes of its own, else ""."""
-    if dialect is None or dialect.m_codes is None:
+    """ " (g2core has no M98)" where the dialect has M codes of its own, else "" (also for a
+    decimal code: g2core has M50.1, which gantry-sim does not read)."""
+    if dialect is None or dialect.m_codes is None or value != int(value):
         return ""
     return f" ({dialect.name} has no M{value:g})"
 
