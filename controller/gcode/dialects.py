@@ -247,8 +247,9 @@ class Dialect:
             F0 sets a feed of 0, which no feed move takes, and a negative F is an error
             (rs274).
         line_limit: whose longest line applies (controller/gcode/lexer.py ``line_too_long``:
-            ``"linuxcnc"`` 252 characters, ``"grbl"`` 79 kept in its line buffer; ``"g2core"``: a line is cut to its first 511
-            characters, as xio.cpp's readline passes them on); ``""``: none.
+            ``"linuxcnc"`` 252 characters, ``"grbl"`` 79 kept in its line buffer; ``"g2core"``:
+            a line is cut to its first 511 characters, as xio.cpp's readline passes them on);
+            ``""``: none.
         line_number_words: N is a word read anywhere on the line, as grbl's gcode.c and
             g2core's parser read it (a number, truncated; a second N is a repeated word); False:
             an N line number may only open the line (rs274).
