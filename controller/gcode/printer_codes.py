@@ -20,11 +20,13 @@ command are its parameters, which it ignores (``G90 M107`` is G90, ``G0 G90 X20`
 in the distance mode in effect); G20, G21, G90 and G91 read no word at all (``G91 G0 Z5`` is a
 G91 alone, ``G90 X10`` moves nothing): Marlin runs one command a line.
 
-g2core: a line opening with ``{`` is a JSON configuration or status request (no motion), and so
-are M100 (JSON in a G-code line), M100.1 and M101 (wait for inputs); G28.2 (homing) and G28.4
+g2core: a line opening with ``{`` is JSON: its ``gc`` pair runs as a G-code line, its other
+pairs (configuration, status requests) move nothing; a line that is one ``({...})`` active
+comment is read as that JSON line. M100 (JSON in a G-code line), M100.1 and M101 (wait for
+inputs) move nothing; G28.2 (homing) and G28.4
 are accepted without motion, and leave the motion mode cancelled, as g2core's homing ends
-(cycle_homing.cpp ``_homing_finalize_exit``). G28.3 (set the absolute origin) makes the named axes read the
-words' values where the tool is, without moving it (canonical_machine.cpp
+(cycle_homing.cpp ``_homing_finalize_exit``). G28.3 (set the absolute origin) makes the named
+axes read the words' values where the tool is, without moving it (canonical_machine.cpp
 ``cm_set_absolute_origin``): it runs as a G92 with the same words, the one offset that shifts
 every later position without moving the tool (a later G92.1 clears it, where g2core's origin
 stays). A line opening with ``?``, ``$``, ``H`` or ``h`` is a text-mode command (status report,
