@@ -1063,7 +1063,11 @@ def test_g2core_short_r_is_a_half_circle_within_the_radius_tolerance() -> None:
     check then decides (h4 reproducer arc_r_short: R99.95 for a 200 mm chord runs, the arc
     harness refuses R99.85), here with seed 000's tolerance."""
     arc = run("G21 G90 G17 F300\nG2 X200 Y0 R99.95\n", "g2core")[0]
-    assert arc.center == (100.0, 0.0, 0.0) and arc.angle == pytest.approx(math.pi)
+    assert arc.angle == pytest.approx(math.pi)
+    # the centre R from the start along the chord, the last segment on that circle (the arc
+    # harness: centre 99.95, last segment at 199.9)
+    assert arc.center == pytest.approx((99.95, 0.0, 0.0))
+    assert arc.end == pytest.approx((199.9, 0.0, 0.0))
     refused = error_of("G21 G90 G17 F300\nG2 X200 Y0 R99.85\n", "g2core")
     assert refused.line == 2 and "too small to reach" in refused.message
     assert "too small" in error_of("G21 F300\nG2 X200 Y0 R99.95\nM2\n", "linuxcnc").message
@@ -1207,3 +1211,16 @@ def test_g2core_refusal_of_m50_1_does_not_say_g2core_lacks_it() -> None:
     message = error_of("G21\nM50.1 P1\n", "g2core").message
     assert "unsupported M code M50.1" in message and "has no" not in message
     assert "g2core has no M19" in error_of("M19\n", "g2core").message
+
+
+def test_g2core_arc_ends_on_its_start_circle_and_the_next_move_takes_up_the_rest() -> None:
+    """plan_arc.cpp ``cm_arc_callback`` puts every segment's end on the start radius, the last
+    at the end's angle, while the model takes the programmed end; the planner's next move
+    starts where the last segment ended (plan_line.cpp ``mp_aline``). h4 reproducer
+    arc_end_off_circle: the arc harness's last segment is at X10.0000, the G1 goes to X10.0049
+    Y5."""
+    moves = run("G21 G90 G17 F300\nG2 X10.0049 Y0 I5\nG1 Y5\n", "g2core")
+    assert moves[0].end == pytest.approx((10.0, 0.0, 0.0))
+    assert moves[1].start == moves[0].end and moves[1].end == pytest.approx((10.0049, 5.0, 0.0))
+    moves = run("G21 G91 G17 F300\nG2 X10.0049 Y0 I5\nG1 Y5\n", "g2core")
+    assert moves[1].end == pytest.approx((10.0049, 5.0, 0.0))  # from the programmed end

@@ -2,8 +2,8 @@
 arc_harness_output.txt holds what g2core's gcode_parser.cpp and plan_arc.cpp (built for the
 host; tests/data/g2core/README.md) did with each line of 33 small programs, and every line's
 reading here must agree with it: refused where g2core answered with an error status, and the
-tool where g2core's model position is after it, where the dialect follows the firmware (the
-sections left out, and why, are in SKIPPED)."""
+tool where g2core's planner left it (a straight move's end, an arc's last segment's end), where
+the dialect follows the firmware (the sections left out, and why, are in SKIPPED)."""
 
 from __future__ import annotations
 
@@ -46,25 +46,30 @@ _NOT_REFUSED = frozenset((0, 3, 4))
 REPORTED_BUT_RUN = {
     "G94": "the F 0 given to a block started in G93: cm_set_feed_rate's status, feed set to 0",
 }
-_POSITION = re.compile(r"model position \(([-\d.]+), ([-\d.]+), ([-\d.]+)\)")
+#: where the planner left the tool: a straight move's end, an arc's last segment's end
+_PLANNED = re.compile(r"(?:line to|last) \(([-\d.]+), ([-\d.]+), ([-\d.]+)\)")
 
 
 def _sections() -> list[tuple[str, list[tuple[str, bool, Vec3]]]]:
-    """(title, [(line, refused, model position after it)]) per section of the harness output;
-    lines g2core rejected only because of an earlier alarm are left out."""
+    """(title, [(line, refused, where the planner left the tool after it)]) per section of the
+    harness output (the model position line closes a line's answer); lines g2core rejected only
+    because of an earlier alarm are left out."""
     sections: list[tuple[str, list[tuple[str, bool, Vec3]]]] = []
-    line, status = "", 0
+    line, status, tool = "", 0, (0.0, 0.0, 0.0)
     for text in DATA.read_text().splitlines():
         if text.startswith("######## "):
             sections.append((text[9:], []))
+            tool = (0.0, 0.0, 0.0)
         elif text.startswith("["):
             line, status = text[1:-1], 0
         elif text.strip().startswith("STATUS "):
             status = int(text.split()[1])
-        elif (found := _POSITION.search(text)) is not None and status != _REJECTED_BY_ALARM:
+        elif (found := _PLANNED.search(text)) is not None:
             x, y, z = (float(v) for v in found.groups())
+            tool = (x, y, z)
+        elif "model position" in text and status != _REJECTED_BY_ALARM:
             refused = status not in _NOT_REFUSED and line not in REPORTED_BUT_RUN
-            sections[-1][1].append((line, refused, (x, y, z)))
+            sections[-1][1].append((line, refused, tool))
     return sections
 
 
@@ -79,8 +84,9 @@ def test_the_data_file_holds_every_section() -> None:
 def test_g2core_dialect_reads_each_line_as_g2core(
     title: str, lines: list[tuple[str, bool, Vec3]]
 ) -> None:
-    """Each line refused where g2core refused it, and the tool where g2core's model position
-    is after it (gantry reads on past a refused line, as g2core does: ``errors``)."""
+    """Each line refused where g2core refused it, and the tool where g2core's planner left it
+    (gantry reads on past a refused line, as g2core does: ``errors``), to g2core's float
+    rounding, which grows with the coordinates (1000 mm: 0.0024 mm off after 248 segments)."""
     text = "".join(f"{line}\n" for line, _, _ in lines)
     errors: list[GcodeError] = []
     moves = list(interpret(text, "g2core", errors=errors))
@@ -92,4 +98,5 @@ def test_g2core_dialect_reads_each_line_as_g2core(
         if line in SKIPPED_LINES:
             continue
         assert (k in refused) == g2core_refused, (title, line, errors)
-        assert where == pytest.approx(position, abs=1e-4), (title, line)
+        tolerance = 1e-4 + 5e-6 * max(abs(c) for c in position)
+        assert where == pytest.approx(position, abs=tolerance), (title, line)

@@ -163,8 +163,10 @@ def arc_move(
                 f"R{v['R']:g} is below {d.name}'s smallest arc radius, {d.min_r_word_mm:g} mm "
                 "(MIN_ARC_RADIUS)"
             )
-        clamp = d.r_short_is_semicircle or _short_r_passes(ps, pe, v["R"], s.inch, d)
-        centre = centre_from_radius(ps, pe, v["R"], ccw, min_r, clamp)
+        short = _short_r_passes(ps, pe, v["R"], s.inch, d)
+        centre = centre_from_radius(ps, pe, v["R"], ccw, min_r, d.r_short_is_semicircle or short)
+        if short and d.end_on_start_circle:
+            centre, pe = _on_r_circle(ps, pe, abs(v["R"]))
         if unused_offsets:
             raise GcodeError(
                 "I/J/K word on a radius-format (R) arc: the R format uses no offset words; use "
@@ -203,12 +205,15 @@ def arc_move(
             pe = (centre[0] + (pe[0] - centre[0]) * k, centre[1] + (pe[1] - centre[1]) * k)
         elif d.radius_check is not None:
             _check_radius(r0, r1, s.inch, d)
+            if d.end_on_start_circle and r1 != r0:  # g2core: the end's angle on the start circle
+                k = r0 / r1
+                pe = (centre[0] + (pe[0] - centre[0]) * k, centre[1] + (pe[1] - centre[1]) * k)
     if not d.explicit_end_full_circle and pe == ps and (a1 in v or a2 in v):
         return None  # g2core: an explicit end point equal to the start moves nothing
     angle = swept_angle(ps, pe, centre, ccw, turns, d.zero_angle_fuzz)
     end_mm = list(end)
     end_mm[i1], end_mm[i2] = pe[0] * unit, pe[1] * unit
-    if d.project_end_on_arc:
+    if d.project_end_on_arc or d.end_on_start_circle:
         end = (end_mm[0], end_mm[1], end_mm[2])
     c = list(start)
     c[i1], c[i2] = centre[0] * unit, centre[1] * unit
@@ -242,6 +247,18 @@ def _short_r_passes(ps: Point2, pe: Point2, r: float, inch: bool, d: Dialect) ->
             f"{half:.4f}), beyond the half circle's tolerance: {exc.message}"
         ) from None
     return True
+
+
+def _on_r_circle(ps: Point2, pe: Point2, r: float) -> tuple[Point2, Point2]:
+    """(centre, end) of a half circle of radius ``r`` too short for its chord as g2core runs it
+    (``Dialect.end_on_start_circle``): plan_arc.cpp ``_compute_arc`` puts the centre ``r`` from
+    the start towards the chord's middle, and the last segment on that circle at the end's
+    angle."""
+    half = math.dist(ps, pe) / 2.0
+    k = r / half
+    centre = (ps[0] + (pe[0] - ps[0]) / 2.0 * k, ps[1] + (pe[1] - ps[1]) / 2.0 * k)
+    k = r / math.dist(pe, centre)
+    return centre, (centre[0] + (pe[0] - centre[0]) * k, centre[1] + (pe[1] - centre[1]) * k)
 
 
 def _check_radius(r0: float, r1: float, inch: bool, d: Dialect) -> None:

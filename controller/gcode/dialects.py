@@ -80,6 +80,12 @@ class Dialect:
         project_end_on_arc: the arc ends on the start-radius circle at the destination's angle
             (Marlin), and a straight move on to the destination (a spiral there when the end
             is within ``arc_block.MARLIN_SPIRAL_MM`` of the circle).
+        end_on_start_circle: a centre-format arc whose end passes ``radius_check`` off the
+            start circle ends on that circle at the end's angle, and the next move starts from
+            there towards its own end point, the programmed end being where the program is
+            (g2core: plan_arc.cpp ``cm_arc_callback`` puts every segment's end, the last one
+            too, on the start radius, while the model takes the programmed end; the planner's
+            next move starts where the last segment ended, plan_line.cpp ``mp_aline``).
         both_offsets_required: IJK arcs need both in-plane offsets even in G91.1 (Laserdyne).
         p_adds_circles: P counts extra full circles (Marlin) instead of total turns (LinuxCNC).
         default_feed_mm_per_min: feed before any F word, or None when F is required.
@@ -275,6 +281,7 @@ class Dialect:
     max_p: int | None = None
     r_short_checked_as_centre: bool = False
     r_wins_over_offsets: bool = False
+    end_on_start_circle: bool = False
     unused_words_ignored: frozenset[str] = frozenset()
     r_needs_arc_code_first: bool = False
     zero_angle_fuzz: float = 1e-12
@@ -415,6 +422,7 @@ G2CORE = Dialect(
     r_wins_over_offsets=True,
     unused_words_ignored=frozenset("HIJKLPR"),
     r_short_checked_as_centre=True,
+    end_on_start_circle=True,
     checksums="g2core",
     program_end_continues="g2core",
     g_codes=_G2CORE_G,

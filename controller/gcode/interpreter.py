@@ -461,7 +461,9 @@ class Interpreter:
                     per_segment = d.arc_tolerance_mm if d.g93_arc_per_segment else None
                     placed = path_feed(self._arc_to_work(arc, s), s, w.values, per_segment)
                     s = self._emit(moves, s, placed, arc.end)  # arc.end: program frame
-                    if arc.end != end:  # Marlin: its last segment goes on to the end point
+                    if arc.end != end and d.end_on_start_circle:
+                        s = evolve(s, position=end)  # g2core: the next move starts off it
+                    elif arc.end != end:  # Marlin: its last segment goes on to the end point
                         rest = Linear(w.line, s.work, to_work(end, s.frame), s.feed_mm_per_min)
                         s = self._emit(moves, s, path_feed(rest, s, w.values), end)
         if extrudes is not None:  # Marlin: whether this block's move runs at P or T (M204)
