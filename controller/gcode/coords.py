@@ -102,8 +102,6 @@ def g10(
         )
     if p_truncated and not any(a in v for a in _AXES):
         raise GcodeError(f"G10 L{v['L']:g} with no axis word: give the axes to set")
-    if p_truncated and "R" in v:
-        raise GcodeError("G10 L2 R (a rotated coordinate system) is not supported")
     p_value = v.get("P", 0.0)
     level, number = round(v["L"]), round(p_value)
     if level not in (2, 20):
@@ -120,6 +118,8 @@ def g10(
             f"G10 P{p_value:g}: P must be one of the {systems} coordinate systems 1..{systems} "
             "or 0 (the current)"
         )
+    if p_truncated and level == 2 and "R" in v:  # grbl's gcode.c, after P; an L20's R is unused
+        raise GcodeError("G10 L2 R (a rotated coordinate system) is not supported")
     index = number or s.coord_index
     base = g5x_base(index)
     scale = s.scale
@@ -130,7 +130,7 @@ def g10(
         if "R" in v:
             p.numbered[base + 9] = v["R"]
     else:
-        if "R" in v:
+        if "R" in v and not p_truncated:  # grbl: an unused word, checked last (error 36)
             raise GcodeError("G10 L20 takes no R word; set the rotation with G10 L2 R")
         # rs274: the current point in system ``index`` (find_current_in_system), and the
         # origin that makes it read v there, X/Y turned by the system's rotation

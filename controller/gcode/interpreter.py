@@ -358,10 +358,6 @@ class Interpreter:
             # g2core: the mode stays, but G28/G30 move by cm_straight_traverse, which sets G0
             kept = 0 if nonmodal in (280, 300) else self.state.motion
             s, motion = evolve(s, motion=kept), None
-        if d.strict_g80 and has_axes and s.motion is None:
-            # grbl 1.1 (gcode.c, G80 errors): with motion off even G28, G92, G10 or G43.1 may
-            # not carry axis words
-            raise GcodeError("axis words with G80 (motion off) in effect; use G0, G1, G2 or G3")
         check_words(w, motion, d)
         if d.r_needs_arc_code_first and w.r_before_arc_code:
             raise GcodeError(
@@ -395,6 +391,10 @@ class Interpreter:
             store_home(s, self.params, nonmodal)
         elif nonmodal in (280, 300):
             s = self._home(w.line, w.values, s, nonmodal, moves)
+        if d.strict_g80 and has_axes and s.motion is None:
+            # grbl 1.1 (gcode.c, G80 errors, after its non-modal commands' own checks): with
+            # motion off even G28, G92, G10 or G43.1 may not carry axis words
+            raise GcodeError("axis words with G80 (motion off) in effect; use G0, G1, G2 or G3")
         machine_coords = nonmodal == 530
         if machine_coords and d.g53_g2core:
             machine_coords = not s.incremental  # g2core: G91 adds to the position as ever

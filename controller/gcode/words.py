@@ -349,9 +349,11 @@ def _letter_uses(w: Words, motion: int | None, dialect: Dialect) -> dict[str, bo
         "I": arc or motion == 870 or (g10 and dialect.g10_rotation) or (spline and motion != 52),
         "J": arc or motion == 870 or (g10 and dialect.g10_rotation) or (spline and motion != 52),
         "K": arc or motion == 870,
-        # grbl's G10 reads R to refuse it (error 20: controller/gcode/coords.py g10)
+        # grbl's G10 L2 reads R to refuse it (error 20: controller/gcode/coords.py g10); its
+        # L20 leaves R unused
         "R": arc
-        or (g10 and (dialect.g10_rotation or dialect.g10_p_truncated))
+        or (g10 and dialect.g10_rotation)
+        or (g10 and dialect.g10_p_truncated and round(w.values.get("L", 0.0)) == 2)
         or cycle
         or w.m.get("spindle") == 19,
         "L": g10
