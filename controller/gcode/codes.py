@@ -71,7 +71,9 @@ G_REFUSED: dict[int, str] = {
 
 # M code -> modal group (LinuxCNC's M groups 4, 6, 7, 8, 9).
 M_GROUPS: dict[int, str] = {
-    **dict.fromkeys((0, 1, 2, 30, 60), "stopping"),
+    # M99 after other words: the main program's end (rs274 -g; opening a line it is M98's
+    # return, controller/gcode/fanuc_subs.py)
+    **dict.fromkeys((0, 1, 2, 30, 60, 99), "stopping"),
     **dict.fromkeys((6, 61), "tool_change"),
     **dict.fromkeys((62, 63, 64, 65, 66, 67, 68), "io"),  # digital/analog outputs, wait input
     **dict.fromkeys((70, 71, 72, 73), "modal_state"),  # save/invalidate/restore/auto-restore
@@ -80,7 +82,7 @@ M_GROUPS: dict[int, str] = {
     **dict.fromkeys((7, 8, 9), "coolant"),
     **dict.fromkeys((48, 49, 50, 51, 52, 53, 56), "override"),  # M56: grbl's parking override
 }
-M_PROGRAM_END = frozenset((2, 30))
+M_PROGRAM_END = frozenset((2, 30, 99))
 
 
 def g_name(code: int) -> str:

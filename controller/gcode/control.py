@@ -416,6 +416,11 @@ class Runner:
             yield from moves
             self.ended = ended
 
+    def in_subprogram(self) -> bool:
+        """Whether the line running is in a subroutine or an M98 subprogram (not the main
+        program's own lines)."""
+        return len(self.frames) > 1 or self.frames[-1].fanuc is not None
+
     def on_percent(self, block: Block) -> None:
         """A ``%`` line of the main program: opens it (its first line that is not blank: rs274's
         Interp::open, so not after a comment or an O number) or ends it."""

@@ -12,7 +12,7 @@ then program end), so ``G20 G1 X1`` moves to 1 inch, and ``F10 G20`` keeps 10 mm
 from __future__ import annotations
 
 import dataclasses
-from collections.abc import Iterator, Mapping
+from collections.abc import Callable, Iterator, Mapping
 from functools import partial
 from pathlib import Path
 from typing import Any, NamedTuple
@@ -169,6 +169,8 @@ class Interpreter:
         #: the letters of plain motion blocks, which take :meth:`_plain_step`
         #: (controller/gcode/plain_block.py; none: every block takes the general step)
         self.plain = plain_letters(dialect)
+        #: whether a subroutine or M98 subprogram is running (the Runner's; none: the main program)
+        self.in_subprogram: Callable[[], bool] = lambda: False
         #: the axes a Marlin G28 has homed (G28 O homes only while one of X, Y, Z is not)
         self.homed: set[str] = set()
 
@@ -472,6 +474,15 @@ class Interpreter:
                 for m in moves[made:]
             ]
         stop = w.m.get("stopping")
+        if stop == 99 and self.in_subprogram():
+            exc = GcodeError(
+                "M99 after other words inside a subprogram: M99 returns only where it opens its "
+                "line (rs274: Reached convert_stop() from M99 as subprogram return); in the main "
+                "program it ends the program, as M2"
+            )
+            # rs274 has made the line's motion when it refuses the M99
+            exc.partial = [m for m in moves if isinstance(m, Rapid | Linear | Arc)]  # type: ignore[attr-defined]
+            raise exc
         if stop is not None and self.comp.side is not None:  # rs274 convert_stop: finish it
             if self.comp.active and not self.comp.first:
                 moves.extend(self.comp.flush_at(self.comp.current[0], self.comp.current[1]))
@@ -1003,6 +1014,7 @@ def interpret_events(
         )
         runner.errors = errors
         runner.on_return = interp.sub_returned
+        interp.in_subprogram = runner.in_subprogram
         if rules.abort_comments:
             runner.on_comment = interp.comment
         yield from runner.run()
