@@ -58,7 +58,7 @@ def check_while_on(comp: CutterComp, w: Words, old: ModalState) -> None:
     nonmodal = w.g.get("nonmodal")
     if nonmodal in (280, 300):
         raise GcodeError("cannot use G28 or G30 with cutter radius compensation on")
-    if nonmodal in (920, 921, 922, 923, 520):
+    if nonmodal in (920, 921, 922, 923, 520) or "g92_reset" in w.g:
         raise GcodeError("cannot change axis offsets (G92) with cutter radius compensation on")
     if nonmodal == 530:
         raise GcodeError("cannot use G53 with cutter radius compensation on")

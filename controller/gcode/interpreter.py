@@ -393,6 +393,8 @@ class Interpreter:
             store_home(s, self.params, nonmodal)
         elif nonmodal in (280, 300):
             s = self._home(w.line, w.values, s, nonmodal, moves)
+        if "g92_reset" in w.g:  # rs274: after group 0's codes (G92 X3 G92.1 ends with none)
+            s = g92(s, self.params, w.g["g92_reset"], w.values)
         if d.strict_g80 and has_axes and s.motion is None:
             # grbl 1.1 (gcode.c, G80 errors, after its non-modal commands' own checks): with
             # motion off even G28, G92, G10 or G43.1 may not carry axis words

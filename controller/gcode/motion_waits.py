@@ -110,6 +110,8 @@ def motion_wait(w: Words, before: ModalState, rules: str) -> str | None:
     nonmodal = w.g.get("nonmodal")
     if nonmodal in _SHARED_OFFSETS:
         return "G92" if nonmodal != 520 else "G52"
+    if "g92_reset" in w.g:  # G92.1-G92.3, a group apart in rs274 (words.read_words)
+        return "G92"
     if nonmodal == 100 and (w.values.get("L") in _TOOL_TABLE_L or _sets_active_system(w, before)):
         return "G10"
     return None

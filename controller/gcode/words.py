@@ -49,6 +49,9 @@ _RS274_NEEDS = {
     "E": "a code that takes E (none here; G-code numbers have no exponent, so 1e3 reads as 1 "
     "then an E word)",
 }
+#: G92.1, G92.2, G92.3: in rs274 2.9 a modal group apart from group 0's G4, G10, G28.1...
+#: (``G10 L2 P1 X1 G92.1`` runs both; ``G92.1 G92.2`` is two codes of one group)
+_G92_RESETS = frozenset((921, 922, 923))
 #: grbl 1.1's codes that take each word only some codes use (for its unused-word message)
 _GRBL_NEEDS = {"P": "G4 or G10", "L": "G10", "R": "G2 or G3", "I": "G2 or G3", "J": "G2 or G3",
                "K": "G2 or G3"}  # fmt: skip
@@ -163,6 +166,8 @@ def read_words(
         if letter == "G":
             code = _g_code(value, dialect)
             group = None if code is None else G_GROUPS.get(code)
+            if code in _G92_RESETS and (dialect or LINUXCNC).g92_resets_apart:
+                group = "g92_reset"  # rs274 2.9: a group of their own, run after group 0's
             if code is None or group is None:
                 raise GcodeError(f"unknown G code G{value:g}; see README 'Dialects' for the list")
             if group == "motion" and 800 in (code, g.get(group)) and not last_wins:
