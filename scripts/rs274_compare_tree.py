@@ -118,7 +118,12 @@ def main() -> int:
     results = {}
     for path in sorted(args.folder.rglob("*.ngc")):
         if path.is_file() and path.stat().st_size <= args.max_bytes:
-            results[path] = compare(path)
+            try:
+                results[path] = compare(path)
+            except (KeyError, ValueError) as exc:  # rs274 output the harness cannot read
+                results[path] = (
+                    f"not compared: rs274's output not read ({type(exc).__name__}: {exc})"
+                )
             print(f"{path.relative_to(args.folder)}: {results[path]}", flush=True)
     matched = sum(r == "MATCH" for r in results.values())
     print(f"{matched} of {len(results)} programs match rs274", file=sys.stderr)

@@ -84,7 +84,7 @@ from gantry_sim.controller.gcode.parameters import (
     g5x_base,
 )
 from gantry_sim.controller.gcode.plain_block import plain_letters, plain_motion
-from gantry_sim.controller.gcode.polar import polar_end_point
+from gantry_sim.controller.gcode.polar import check_polar_plane, polar_end_point
 from gantry_sim.controller.gcode.predefined import predefined
 from gantry_sim.controller.gcode.printer_codes import MARLIN_BARE_OPENERS, OWN_LINES
 from gantry_sim.controller.gcode.splines import (
@@ -221,6 +221,7 @@ class Interpreter:
         # Step 2: every code is one gantry-sim supports.
         check_codes(w, d)
         check_motion_axes(w, d)
+        check_polar_plane(w.values, self.state)
         user = w.m.get("user")
         if user is not None and not any((f / f"M{user}").is_file() for f in self.search_path):
             raise GcodeError(
