@@ -225,6 +225,9 @@ class Dialect:
             (canonical_machine.cpp ``_exec_program_stop_end``: nothing stops its reading, and
             its own sender, node-g2core-api, streams every line); ``""``: M2/M30 end the
             program (rs274).
+        rs274_code_numbers: G and M numbers are read as rs274's read_g and read_integer_value
+            read them: a G within 0.001 of a tenth (ten times its value: G0.0001 is G0, G0.0002
+            out of range), an M within 0.0001 of a whole number (M5.0001 is M5); False: exact.
         g92_resets_apart: G92.1, G92.2 and G92.3 are a modal group of their own, run after
             group 0's codes on the same line (rs274 2.9: ``G10 L2 P1 X1 G92.1`` runs both, and
             ``G92 X3 G92.1`` ends with no offset); False: they are group 0's.
@@ -334,6 +337,7 @@ class Dialect:
     strict_g80: bool = False
     tool_length_axis_codes: frozenset[int] = frozenset({431})
     g92_resets_apart: bool = False
+    rs274_code_numbers: bool = False
     positive_feed_only: bool = False
     g93_arc_per_segment: bool = False
     zero_radius_straight: bool = False
@@ -351,6 +355,7 @@ _TOL_IN = 2 * 0.001 * math.sqrt(2.0)  # 0.0028284 in, rs274 CENTER_ARC_RADIUS_TO
 LINUXCNC = Dialect(
     name="linuxcnc",
     g92_resets_apart=True,
+    rs274_code_numbers=True,
     explicit_end_full_circle=True,
     radius_check=RadiusCheck(_TOL_MM, 100 * _TOL_MM, _TOL_IN, 100 * _TOL_IN, 0.001),
     project_end_on_arc=False,
@@ -478,6 +483,7 @@ LASERDYNE_ON_ARC_TOL_MM = 0.005
 LASERDYNE = Dialect(
     name="laserdyne",
     g92_resets_apart=True,
+    rs274_code_numbers=True,
     explicit_end_full_circle=True,
     radius_check=RadiusCheck(
         LASERDYNE_ON_ARC_TOL_MM,

@@ -324,7 +324,7 @@ class Interpreter:
         elif motion is not None:
             if nonmodal is not None and axis_code and has_axes and d.permissive_blocks:
                 s, motion = evolve(s, motion=motion), None  # g2core: G92 takes the words
-            elif nonmodal is not None and axis_code and has_axes:
+            elif nonmodal is not None and axis_code:  # rs274: with axis words or not
                 raise GcodeError(
                     f"{g_name(nonmodal)} and {g_name(motion)} both use the axis words; put them "
                     "on separate lines"

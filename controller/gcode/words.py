@@ -93,6 +93,19 @@ def _g_code(value: float, dialect: Dialect | None) -> int | None:
     points = None if dialect is None else dialect.g_point_codes
     if points is not None and 0.0 <= value < 256.0 and int(value) * 10 not in points:
         return int(value) * 10
+    if (dialect or LINUXCNC).rs274_code_numbers and -1e6 < value < 1e6:
+        # rs274's read_g: ten times the value, floored; within 0.001 above that or 0.001 below
+        # the next it is that tenth (G0.0001 is G0), else "G-code out of range"
+        tenths = 10.0 * value
+        low = math.floor(tenths)
+        if tenths - low > 0.999:
+            return low + 1
+        if tenths - low > 0.001:
+            raise GcodeError(
+                f"G code out of range: G{value:g}; a G number has one decimal at most (G1, "
+                "G92.1), within 0.0001"
+            )
+        return low
     return _code(value, True)
 
 
@@ -181,6 +194,8 @@ def read_words(
                 )
             g[group] = code
         elif letter == "M":
+            if (dialect or LINUXCNC).rs274_code_numbers:
+                value = whole_number("M", value)  # rs274's read_integer_value: M5.0001 is M5
             code = _code(value, False)
             group = None if code is None else M_GROUPS.get(code)
             if code is None or group is None:
