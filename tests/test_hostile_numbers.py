@@ -53,7 +53,13 @@ CASES = {
     ),
     "huge helix turns": (HEAD + f"G2 X0 Y0 Z-2 I5 J0 P{BIG}\nM2\n", "linuxcnc", 4, "turns"),
     "tiny feed": (HEAD + f"F{TINY}\nG1 X5\nM2\n", "linuxcnc", 5, "raise the F"),
-    "tiny inverse-time feed": (HEAD + f"G93\nG1 X5 F{TINY}\nM2\n", "linuxcnc", 5, "raise the F"),
+    # (rs274 runs a G93 move at 0.1 units/min at least: tests/data/rs274 g93_least_rate)
+    "tiny inverse-time feed": (
+        HEAD + f"G93\nG1 X5 F{TINY_DIGITS}\nM2\n",
+        "g2core",
+        5,
+        "raise the F",
+    ),
     "tiny Marlin path acceleration": (
         HEAD + f"M204 P{TINY_DIGITS}\nG1 X5\nM2\n",
         "marlin",

@@ -225,6 +225,9 @@ class Dialect:
             (canonical_machine.cpp ``_exec_program_stop_end``: nothing stops its reading, and
             its own sender, node-g2core-api, streams every line); ``""``: M2/M30 end the
             program (rs274).
+        g93_min_rate: the least rate of a move in G93 [program units per minute] (rs274's
+            inverse_time_rate_straight and _arc: 0.1, so a move of no length or a very short
+            one runs at 0.1 a minute); 0: F times the move's length.
         rs274_code_numbers: G and M numbers are read as rs274's read_g and read_integer_value
             read them: a G within 0.001 of a tenth (ten times its value: G0.0001 is G0, G0.0002
             out of range), an M within 0.0001 of a whole number (M5.0001 is M5); False: exact.
@@ -338,6 +341,7 @@ class Dialect:
     tool_length_axis_codes: frozenset[int] = frozenset({431})
     g92_resets_apart: bool = False
     rs274_code_numbers: bool = False
+    g93_min_rate: float = 0.0
     positive_feed_only: bool = False
     g93_arc_per_segment: bool = False
     zero_radius_straight: bool = False
@@ -356,6 +360,7 @@ LINUXCNC = Dialect(
     name="linuxcnc",
     g92_resets_apart=True,
     rs274_code_numbers=True,
+    g93_min_rate=0.1,
     explicit_end_full_circle=True,
     radius_check=RadiusCheck(_TOL_MM, 100 * _TOL_MM, _TOL_IN, 100 * _TOL_IN, 0.001),
     project_end_on_arc=False,
@@ -484,6 +489,7 @@ LASERDYNE = Dialect(
     name="laserdyne",
     g92_resets_apart=True,
     rs274_code_numbers=True,
+    g93_min_rate=0.1,
     explicit_end_full_circle=True,
     radius_check=RadiusCheck(
         LASERDYNE_ON_ARC_TOL_MM,

@@ -38,14 +38,18 @@ def path_feed(
     s: ModalState,
     v: dict[str, float],
     arc_segments_mm: float | None = None,
+    inverse_time_floor_mm: float = 0.0,
 ) -> Linear | Arc | Spline:
     """``move`` with its path speed [mm/min] for the feed mode in effect, and Marlin's M220
     percentage. ``arc_segments_mm``: an arc in G93 runs at F times the segments it is cut into
-    at this tolerance [mm] (grbl: :func:`grbl_inverse_time_arc`); None: F times its length."""
+    at this tolerance [mm] (grbl: :func:`grbl_inverse_time_arc`); None: F times its length, or
+    ``inverse_time_floor_mm`` [mm/min] where that is more (rs274's inverse_time_rate_straight
+    and _arc: at least 0.1 program units per minute, so a move of no length gets 0.1)."""
     if s.feed_mode == INVERSE_TIME:
         if arc_segments_mm is not None and isinstance(move, Arc):
             return grbl_inverse_time_arc(move, v["F"], arc_segments_mm)
-        return replace(move, feed_mm_per_min=move.length_mm * v["F"])
+        rate = max(inverse_time_floor_mm, move.length_mm * v["F"])
+        return replace(move, feed_mm_per_min=rate)
     if s.feed_mode == PER_REVOLUTION:
         return replace(move, feed_mm_per_min=s.feed_mm_per_min * s.rpm)
     if s.feed_percent[0] != 100:

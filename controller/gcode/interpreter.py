@@ -340,7 +340,7 @@ class Interpreter:
                 s = evolve(s, motion=motion)
         elif axis_code:
             pass  # the axis words belong to G10/G28/G30/G92
-        elif s.motion in (20, 30) and any(c in w.values for c in "IJKR") and not grbl_order:
+        elif s.motion in (20, 30) and not grbl_order and _centre_words(w):
             motion = s.motion  # rs274: a centre word alone continues a modal G2/G3
         elif has_axes and w.g.get("tool_length") in d.tool_length_axis_codes:
             pass  # the axis words are G43.1's offsets (grbl: G49 takes them too, and moves none)
@@ -455,22 +455,22 @@ class Interpreter:
             elif motion in (0, 10):  # G1, or a G0 where the controller moves it as one
                 self._require_feed(s, "a G1 move", w.values)
                 move = Linear(w.line, s.work, to_work(end, s.frame), s.feed_mm_per_min)
-                s = self._emit(moves, s, path_feed(move, s, w.values), end)
+                s = self._emit(moves, s, self._fed(move, s, w.values), end)
             else:
                 self._require_feed(s, "an arc", w.values)
                 arc = arc_move(w.line, w.values, s, end, motion == 30, d)
                 if arc == STRAIGHT:  # grbl: mc_arc's one mc_line, straight to the end
                     line = Linear(w.line, s.work, to_work(end, s.frame), s.feed_mm_per_min)
-                    s = self._emit(moves, s, path_feed(line, s, w.values), end)
+                    s = self._emit(moves, s, self._fed(line, s, w.values), end)
                 elif arc is not None:
                     per_segment = d.arc_tolerance_mm if d.g93_arc_per_segment else None
-                    placed = path_feed(self._arc_to_work(arc, s), s, w.values, per_segment)
+                    placed = self._fed(self._arc_to_work(arc, s), s, w.values, per_segment)
                     s = self._emit(moves, s, placed, arc.end)  # arc.end: program frame
                     if arc.end != end and d.end_on_start_circle:
                         s = evolve(s, position=end)  # g2core: the next move starts off it
                     elif arc.end != end:  # Marlin: its last segment goes on to the end point
                         rest = Linear(w.line, s.work, to_work(end, s.frame), s.feed_mm_per_min)
-                        s = self._emit(moves, s, path_feed(rest, s, w.values), end)
+                        s = self._emit(moves, s, self._fed(rest, s, w.values), end)
         if extrudes is not None:  # Marlin: whether this block's move runs at P or T (M204)
             moves[made:] = [
                 evolve(m, extrudes=extrudes) if isinstance(m, Linear | Arc | Spline) else m
@@ -586,7 +586,7 @@ class Interpreter:
             move = Linear(
                 block.line, s.work, to_work(end, s.frame), s.feed_mm_per_min, s.path, extrudes
             )
-            move = path_feed(move, s, v)  # type: ignore[assignment]  # a Linear stays one
+            move = self._fed(move, s, v)  # type: ignore[assignment]  # a Linear stays one
         # _emit, then _canon: the tool at the move's end, and rs274's canonical point there
         self.state = evolve(s, position=end, work=move.end, canon=from_work(move.end, s.frame))
         return [move]
@@ -636,13 +636,13 @@ class Interpreter:
             # G93/G95: the feed of the programmed move, from its own length (rs274's
             # inverse_time_rate_straight), not the compensated path's
             straight = Linear(w.line, s.position, end, s.feed_mm_per_min)
-            fed = evolve(s, feed_mm_per_min=path_feed(straight, s, w.values).feed_mm_per_min)
+            fed = evolve(s, feed_mm_per_min=self._fed(straight, s, w.values).feed_mm_per_min)
         elif motion in (20, 30):
             self._require_feed(s, "an arc", w.values)
             arc = arc_move(w.line, w.values, s, end, motion == 30, self.dialect)
             if not isinstance(arc, Arc):  # None: nothing moves (no dialect with cutter
                 return s  # compensation makes an arc straight)
-            feed = path_feed(arc, s, w.values).feed_mm_per_min
+            feed = self._fed(arc, s, w.values).feed_mm_per_min
             programmed = evolve(arc, feed_mm_per_min=feed)
             end = programmed.end
         released = comp_move(self.comp, motion, w.line, end, fed, programmed, "R" in w.values)
@@ -694,7 +694,7 @@ class Interpreter:
             self._require_feed(s, "a NURBS (G5.3)", w.values)
             s = evolve(s, motion=None)
         cycle = evolve(cycle, ijk=(ij[0], ij[1], cycle.ijk[2]))
-        placed = path_feed(move, s, w.values)
+        placed = self._fed(move, s, w.values)
         s = self._emit(moves, s, placed, end)
         return s, cycle, NurbsPoints()
 
@@ -876,6 +876,18 @@ class Interpreter:
         numbered[POSITION], numbered[POSITION + 1], numbered[POSITION + 2] = x, y, z
         self.params.position_locked = self.comp.side is not None
 
+    def _fed(
+        self,
+        move: Linear | Arc | Spline,
+        s: ModalState,
+        v: dict[str, float],
+        arc_segments_mm: float | None = None,
+    ) -> Linear | Arc | Spline:
+        """:func:`~gantry_sim.controller.gcode.feed_modes.path_feed` with the dialect's least
+        inverse-time rate (its ``g93_min_rate``, program units per minute)."""
+        floor = self.dialect.g93_min_rate * s.scale
+        return path_feed(move, s, v, arc_segments_mm, inverse_time_floor_mm=floor)
+
     @staticmethod
     def _end_point(v: dict[str, float], s: ModalState) -> Vec3:
         if "@" in v or "^" in v:
@@ -904,6 +916,13 @@ class Interpreter:
                 f"cannot make {what} with zero feed rate; set F (units per minute, > 0) on this "
                 "or an earlier line"
             )
+
+
+def _centre_words(w: Words) -> bool:
+    """Whether the line holds an arc's centre word (I, J, K, or R where no M19 takes it as its
+    angle: rs274 orients the spindle on ``M19 R90`` after a G2, and moves nothing)."""
+    r_taken = w.m.get("spindle") == 19
+    return any(c in w.values for c in "IJK") or ("R" in w.values and not r_taken)
 
 
 def _next_action(w: Words) -> bool:
