@@ -49,6 +49,8 @@ _RS274_NEEDS = {
     "E": "a code that takes E (none here; G-code numbers have no exponent, so 1e3 reads as 1 "
     "then an E word)",
 }
+#: M groups kept apart here that rs274 reads as one (group 7: M3-M5 and M19 with M70-M73)
+_SHARED_M_GROUP = {"spindle": "modal_state", "modal_state": "spindle"}
 #: G92.1, G92.2, G92.3: in rs274 2.9 a modal group apart from group 0's G4, G10, G28.1...
 #: (``G10 L2 P1 X1 G92.1`` runs both; ``G92.1 G92.2`` is two codes of one group)
 _G92_RESETS = frozenset((921, 922, 923))
@@ -206,6 +208,12 @@ def read_words(
                 raise GcodeError(
                     f"two M codes from one modal group on a line (M{m[group]} and M{code}); "
                     f"use one {group.replace('_', ' ')} code per line"
+                )
+            other = _SHARED_M_GROUP.get(group)
+            if other in m and not last_wins:  # rs274's group 7 holds both
+                raise GcodeError(
+                    f"two M codes from one modal group on a line (M{m[other]} and M{code}); "
+                    "M3-M5, M19 and M70-M73 are one group (rs274's group 7): one per line"
                 )
             m[group] = code
         elif letter in values and not last_wins:
