@@ -455,7 +455,8 @@ class Interpreter:
             elif motion in (0, 10):  # G1, or a G0 where the controller moves it as one
                 self._require_feed(s, "a G1 move", w.values)
                 move = Linear(w.line, s.work, to_work(end, s.frame), s.feed_mm_per_min)
-                s = self._emit(moves, s, self._fed(move, s, w.values), end)
+                programmed = Linear(w.line, s.position, end, s.feed_mm_per_min)
+                s = self._emit(moves, s, self._fed(move, s, w.values, program=programmed), end)
             else:
                 self._require_feed(s, "an arc", w.values)
                 arc = arc_move(w.line, w.values, s, end, motion == 30, d)
@@ -464,7 +465,9 @@ class Interpreter:
                     s = self._emit(moves, s, self._fed(line, s, w.values), end)
                 elif arc is not None:
                     per_segment = d.arc_tolerance_mm if d.g93_arc_per_segment else None
-                    placed = self._fed(self._arc_to_work(arc, s), s, w.values, per_segment)
+                    placed = self._fed(
+                        self._arc_to_work(arc, s), s, w.values, per_segment, program=arc
+                    )
                     s = self._emit(moves, s, placed, arc.end)  # arc.end: program frame
                     if arc.end != end and d.end_on_start_circle:
                         s = evolve(s, position=end)  # g2core: the next move starts off it
@@ -586,7 +589,11 @@ class Interpreter:
             move = Linear(
                 block.line, s.work, to_work(end, s.frame), s.feed_mm_per_min, s.path, extrudes
             )
-            move = self._fed(move, s, v)  # type: ignore[assignment]  # a Linear stays one
+            if s.feed_mode == INVERSE_TIME:  # F times the programmed length (rs274)
+                programmed = Linear(block.line, s.position, end, s.feed_mm_per_min)
+                move = self._fed(move, s, v, program=programmed)  # type: ignore[assignment]
+            else:
+                move = self._fed(move, s, v)  # type: ignore[assignment]  # a Linear stays one
         # _emit, then _canon: the tool at the move's end, and rs274's canonical point there
         self.state = evolve(s, position=end, work=move.end, canon=from_work(move.end, s.frame))
         return [move]
@@ -882,10 +889,17 @@ class Interpreter:
         s: ModalState,
         v: dict[str, float],
         arc_segments_mm: float | None = None,
+        program: Linear | Arc | None = None,
     ) -> Linear | Arc | Spline:
         """:func:`~gantry_sim.controller.gcode.feed_modes.path_feed` with the dialect's least
-        inverse-time rate (its ``g93_min_rate``, program units per minute)."""
+        inverse-time rate (its ``g93_min_rate``, program units per minute). ``program``: the
+        move in the program's frame, whose length an inverse-time feed takes (rs274's
+        inverse_time_rate_straight/_arc: the first move after G43 changes the tool tip's Z in
+        the machine, not the programmed Z)."""
         floor = self.dialect.g93_min_rate * s.scale
+        if program is not None and s.feed_mode == INVERSE_TIME:
+            fed = path_feed(program, s, v, arc_segments_mm, inverse_time_floor_mm=floor)
+            return dataclasses.replace(move, feed_mm_per_min=fed.feed_mm_per_min)
         return path_feed(move, s, v, arc_segments_mm, inverse_time_floor_mm=floor)
 
     @staticmethod
