@@ -26,7 +26,6 @@ from gantry_sim.controller.errors import GcodeError, cut
 from gantry_sim.controller.gcode.expressions import Tree, evaluate
 from gantry_sim.controller.gcode.fanuc_subs import fanuc_code, find_program
 from gantry_sim.controller.gcode.lexer import (
-    COMMENT,
     G2CORE_MAX_LINE,
     RS274_LEX,
     Block,
@@ -57,6 +56,7 @@ from gantry_sim.controller.gcode.printer_codes import (
     marlin_dwell_seconds,
     marlin_extruder,
     marlin_feed_percent,
+    marlin_home_words,
     marlin_motion,
     marlin_without_line_number,
     marlin_without_subcode,
@@ -168,11 +168,8 @@ class Source:
                 return replace(lex_line(raw, i + 1), limits=True)
             except GcodeError:  # Marlin reads what it can and ignores the rest
                 return Block(i + 1, (), (), False, raw)
-        if kind == "home":  # Marlin G28 [X] [Y] [Z] [O]: bare axis letters name the axes to
-            # home; O homes only while some axis is not homed yet
-            text = strip_line(raw).split(COMMENT, 1)[0]
-            axes = tuple((a, ("num", 0.0)) for a in "XYZO" if a in text[text.find("28") :])
-            return Block(i + 1, axes, (), False, raw, home=True)
+        if kind == "home":  # Marlin G28 [X] [Y] [Z] [O] [R]: the axes to home, O and R
+            return Block(i + 1, marlin_home_words(raw), (), False, raw, home=True)
         return lex_line(raw, i + 1, self.lex_rules)
 
     def lexed(self, i: int) -> Block | None:

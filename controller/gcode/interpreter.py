@@ -827,6 +827,11 @@ class Interpreter:
         if any(a == "O" for a, _ in block.words) and self.homed >= {"X", "Y", "Z"}:
             return []  # G28 O: "homing not needed, skip" (G28.cpp, axes_should_home)
         self.homed |= set(named)
+        moves: list[Move | Event] = []
+        raise_mm = next((t[1] for a, t in block.words if a == "R"), 0.0) * s.scale
+        if raise_mm > 0.0:  # G28 R: Z up by R before any axis homes (do_z_clearance)
+            up = (s.position[0], s.position[1], s.position[2] + raise_mm)
+            s = self._emit(moves, s, Rapid(block.line, s.work, to_work(up, s.frame)), up)
         home = [self.params.mm(G28_HOME + i) for i in range(3)]
         target = tuple(home[i] if a in named else s.work[i] for i, a in enumerate("XYZ"))
         g92 = tuple(0.0 if a in named else s.frame.g92[i] for i, a in enumerate("XYZ"))
@@ -836,7 +841,6 @@ class Interpreter:
         frame = evolve(s.frame, g92=(g92[0], g92[1], g92[2]))
         s = evolve(s, frame=frame)
         end = from_work((target[0], target[1], target[2]), frame)
-        moves: list[Move | Event] = []
         self.state = self._emit(moves, s, Rapid(block.line, s.work, to_work(end, frame)), end)
         if s.path is not None:
             _set_path(moves, s.path)

@@ -49,11 +49,6 @@ from gantry_sim.controller.gcode.codes import G_GROUPS
 #: M codes with free text after them (M117 message, M118 serial echo, SD file names).
 _TEXT = re.compile(r"^\s*(?:N\d+\s*)?M\s*0*(117|118|23|28|30|32|33|928)(?!\d)", re.IGNORECASE)
 _HEAD = re.compile(r"^\s*(?:N\d+\s*)?([GMT])\s*([0-9]+(?:\.[0-9]+)?)", re.IGNORECASE)
-#: G92 with no X, Y or Z word: E and the axes Marlin's default build lacks (A B C U V W, which it
-#: ignores) set nothing of the tool's position (``G92 U0``: a food printer's extruder)
-_E_ONLY = re.compile(
-    r"^\s*(?:N\d+\s*)?G\s*0*92\s*(?:[EABCUVW][-+0-9.]*\s*)*(?:[;(].*)?$", re.IGNORECASE
-)
 
 #: Marlin M codes that wait for the moves buffered before them to end (each calls
 #: ``planner.synchronize()``): M0/M1 (stop), M18/M84 (steppers off), M226 (wait for a pin),
@@ -152,7 +147,7 @@ def marlin_line(raw: str) -> str | None:
         return "quiet"
     if tenths in MARLIN_REFUSED_G:
         raise GcodeError(f"{MARLIN_REFUSED_G[tenths]} (Marlin G{number})")
-    if tenths == 920 and _E_ONLY.match(raw):
+    if tenths == 920 and _g92_sets_no_axis(words):
         return "extruder" if _E_WORD.search(_PAREN.sub("", code[head.end() :])) else "quiet"
     if tenths in MARLIN_QUIET_G:
         return "quiet"
@@ -162,8 +157,8 @@ def marlin_line(raw: str) -> str | None:
         return "quiet"
     if tenths not in G_GROUPS:
         return "quiet"  # a subcode it does not know (G38.6) or G800, its parser's debug
-    if tenths in MARLIN_NO_WORDS_G and _WORD.search(_PAREN.sub("", words)):
-        return "command_alone"
+    if tenths in MARLIN_NO_WORDS_G and _PAREN.sub("", words).strip():
+        return "command_alone"  # anything after it, words or not (G21 %, G90 PRINT_START)
     if tenths in _MOTION_READS:
         # most printer lines need no reading of Marlin's own: the shared step reads them alike
         if tenths <= 10 and _PLAIN_G01_WORDS.fullmatch(words):
@@ -296,6 +291,28 @@ def _command(raw: str) -> tuple[str, re.Match[str]]:
     head = _HEAD.match(code)
     assert head is not None  # marlin_line found it
     return code, head
+
+
+def marlin_home_words(raw: str) -> tuple[tuple[str, tuple[str, float]], ...]:
+    """A G28 line's words as GcodeSuite::G28 reads them: each of X, Y, Z named (with or without
+    a value: the letter names the axis), O (home only what is not homed) and R with its value
+    (raise Z by R before homing: ``seenval('R')``), upper case, for the interpreter's home."""
+    code, head = _command(raw)
+    params = _marlin_parameters(code[head.end() :])
+    words: list[tuple[str, tuple[str, float]]] = [(a, ("num", 0.0)) for a in "XYZO" if a in params]
+    r = params.get("R")
+    if r is not None:
+        words.append(("R", ("num", float(r))))
+    return tuple(words)
+
+
+def _g92_sets_no_axis(words: str) -> bool:
+    """Whether a G92's words (after its command) set no X, Y or Z: an E alone (or the axes
+    Marlin's default build lacks, A B C U V W), which sets the extruder or nothing. Its other
+    letters are parameters G92 does not read (``G92 E0 M400``); a letter with no value sets
+    nothing (GcodeSuite::G92 reads ``seenval``)."""
+    params = _marlin_parameters(words)
+    return all(params.get(a) is None for a in "XYZ")
 
 
 def marlin_command_alone(raw: str) -> str:
