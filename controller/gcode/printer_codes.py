@@ -143,7 +143,7 @@ def marlin_line(raw: str) -> str | None:
     if tenths == 40:
         return "dwell"
     words = code[head.end() :]
-    if tenths in MARLIN_BARE_QUIET_G and not _WORD.search(words):
+    if tenths in MARLIN_BARE_QUIET_G and not _WORD.search(_PARAMETER_GMT.sub("", words)):
         return "quiet"
     if tenths in MARLIN_REFUSED_G:
         raise GcodeError(f"{MARLIN_REFUSED_G[tenths]} (Marlin G{number})")
@@ -151,9 +151,10 @@ def marlin_line(raw: str) -> str | None:
         return "extruder" if _E_WORD.search(_PAREN.sub("", code[head.end() :])) else "quiet"
     if tenths in MARLIN_QUIET_G:
         return "quiet"
-    if tenths == 530 and not _PARAMETER_GMT.search(words):
-        # G53 with no command to chain (parser.cpp ``chain``): the default build has no G53;
-        # with CNC_COORDINATE_SYSTEMS it leaves the workspace offsets, and nothing moves
+    if tenths == 530 and not _G53_CHAINED_MOVE.search(words):
+        # G53 with no G0/G1 to chain (parser.cpp ``chain``): the build followed has no G53
+        # and skips the line (G53 G11 too); with CNC_COORDINATE_SYSTEMS it leaves the
+        # workspace offsets, and nothing moves
         return "quiet"
     if tenths not in G_GROUPS:
         return "quiet"  # a subcode it does not know (G38.6) or G800, its parser's debug
@@ -228,7 +229,7 @@ def marlin_motion(raw: str) -> str:
     tenths = round(float(head.group(2)) * 10)
     reads = _MOTION_READS[tenths]
     params = _marlin_parameters(code[head.end() :])
-    if params.get("R") is not None:
+    if tenths in (20, 30) and params.get("R") is not None:  # G5 reads no R
         params.update(dict.fromkeys("IJK"))
     words = " ".join(f"{k}{v}" for k, v in params.items() if v is not None and k in reads)
     if tenths == 920 and not words:
@@ -383,6 +384,8 @@ _NOT_A_COMMAND = re.compile(
 #: modal motion to it (Marlin's default build answers "Unknown command"; a line that opens with
 #: another parameter letter, ``P5``, is unknown to both)
 _BARE_WORDS = re.compile(r"^ *(?>N\d+ *)?([XYZEFIJPQRxyzefijpqr])")
+#: A G0 or G1 after a G53 (parser.cpp chains it); any other command after G53 runs nothing
+_G53_CHAINED_MOVE = re.compile(r"G\s*0*[01](?:\.0*)?(?![0-9.])", re.IGNORECASE)
 #: Any word (a letter and a value).
 _WORD = re.compile(r"[A-Z]\s*[-+]?[.\d]", re.IGNORECASE)
 #: An M or T word after a G command: a parameter to Marlin, which that command ignores.
