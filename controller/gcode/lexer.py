@@ -570,7 +570,8 @@ def _word_value(reader: Reader, letter: str) -> Tree:
 
 def _oword(reader: Reader, head_only: bool = False) -> OWord | None:
     """``O`` at ``reader.pos``: the O number or name, the keyword, its bracketed arguments
-    (``head_only``: none read, the rest of the line passed over)."""
+    (``head_only``: those it can read, the rest of the line passed over, as rs274 reads a line
+    it skips: an ``elseif`` reached so is evaluated with what it read)."""
     reader.pos += 1
     number = None
     if reader.peek() == "<":
@@ -596,8 +597,15 @@ def _oword(reader: Reader, head_only: bool = False) -> OWord | None:
             + ", ".join(k.lower() for k in sorted(O_KEYWORDS))
             + (f" (a call reads o{cut(shown)} call [...])" if found.startswith("[") else "")
         )
-    if head_only:
-        return OWord(name, keyword.lower(), (), number)
+    if head_only:  # the bracketed values it can read, up to the first thing it cannot
+        reader.pos += len(keyword)
+        read: list[Tree] = []
+        while reader.peek() == "[":
+            try:
+                read.append(reader.expression())
+            except GcodeError:
+                break
+        return OWord(name, keyword.lower(), tuple(read), number)
     if number is not None and keyword != "CALL":
         raise GcodeError(
             "an O number given by a parameter or an [expression] is supported with call only; "
