@@ -189,15 +189,10 @@ class Interpreter:
         if not d.language:
             check_plain(block, d)
         if block.bare:
-            motion = self.state.motion
-            modal = None if motion is None else MARLIN_BARE_OPENERS.get(motion)
-            if modal is None or block.bare not in modal[0]:
-                # Marlin (parser.cpp): no modal motion yet, or one that takes no such opener:
-                # "Unknown command", and nothing of the line runs (its F neither)
+            bare = self._marlin_bare(block)
+            if bare is None:
                 return [], False
-            block = dataclasses.replace(
-                block, words=tuple(wd for wd in block.words if wd[0] in modal[1])
-            )
+            block = bare
         if self.plain:
             plain = self._plain_step(block)
             if plain is not None:
@@ -219,75 +214,11 @@ class Interpreter:
             self._inverse_time_f(w.values)
         s = self.state
         # Step 2: every code is one gantry-sim supports.
-        check_codes(w, d)
-        check_motion_axes(w, d)
-        check_polar_plane(w.values, self.state)
-        user = w.m.get("user")
-        if user is not None and not any((f / f"M{user}").is_file() for f in self.search_path):
-            raise GcodeError(
-                f"unknown M code M{user}: a user M-code needs its program file M{user} in the "
-                "program's folder or a --subroutine-path folder (LinuxCNC: USER_M_PATH)"
-            )
-        for code in w.g.values():
-            if code in G_REFUSED:
-                raise GcodeError(f"{g_name(code)} is not supported: {G_REFUSED[code]}")
-            assert code in G_HANDLED or code in G_NO_PATH_EFFECT
-            if code in CYCLES and not d.canned_cycles:
-                raise GcodeError(f"{g_name(code)} is not supported: {d.name} has no canned cycles")
-            if code in SPLINE_CODES and not d.splines:
-                raise GcodeError(f"{g_name(code)} is not supported: {d.name} has no splines")
-            if code in SPLINE_CODES and d.splines == "marlin" and code != 50:
-                raise GcodeError(f"{g_name(code)} is not supported: Marlin's only spline is G5")
-            if code in (410, 411, 420, 421) and not d.cutter_comp:
-                raise GcodeError(
-                    f"{g_name(code)} is not supported: {d.name} has no cutter radius compensation"
-                )
-        # Step 3: feed mode, then feed (in the units in effect BEFORE this block's G20/G21, as
-        # rs274 does).
-        if "feed_mode" in w.g:
-            s = evolve(s, feed_mode=w.g["feed_mode"])
-            if clears_feed(self.state.feed_mode, w.g["feed_mode"], d):
-                s = evolve(s, feed_mm_per_min=0.0, feed_number=0.0)
-        if "F" in w.values and not (d.positive_feed_only and w.values["F"] <= 0.0):
-            if w.values["F"] < 0.0:
-                raise GcodeError("negative F word; the feed must be >= 0 (units per minute)")
-            scale = s.scale
-            if d.feed_in_line_units and "units" in w.g:
-                scale = MM_PER_INCH if w.g["units"] == 200 else 1.0
-            s = evolve(s, feed_mm_per_min=w.values["F"] * scale, feed_number=w.values["F"])
-        s, tool_changed = tool_words(s, w, self.table)
-        if "S" in w.values and "S" not in d.ignored_letters:
-            s = evolve(s, rpm=w.values["S"])
-        if "spindle_mode" in w.g:
-            s = evolve(s, css=w.g["spindle_mode"] == 960)
-        if "override" in w.m and w.m["override"] != 56:
-            s = evolve(s, overrides=overrides(s, w.m["override"], w.values, self.comp.side))
-        if "spindle" in w.m:
-            s = evolve(s, spindle={3: 1, 4: -1, 5: 0, 19: 0}[w.m["spindle"]])  # M19: stopped
-        # M70-M73 (rs274's convert_m: after the spindle's codes, before coolant and the G
-        # codes of this block, so "M72 G20" ends in G20 and "M70 G20" saves the units before)
-        s = self._modal_state(w.m.get("modal_state"), s)
-        if "coolant" in w.m:
-            c = w.m["coolant"]
-            s = evolve(s, mist=c == 7 or (s.mist and c == 8), flood=c == 8 or (s.flood and c == 7))
-        # Step 4: plane, units, coordinate system, distance modes.
-        check_while_on(self.comp, w, self.state)
-        if "plane" in w.g:
-            s = evolve(s, plane=_PLANES[w.g["plane"]])
-        if w.g.get("units") == 200 and not d.g20_is_inch:
-            raise GcodeError(d.g20_refusal)
-        if "units" in w.g:
-            s = evolve(s, inch=w.g["units"] == 200)
-        if "coordinate_system" in w.g:
-            s = select_system(s, self.params, SYSTEMS[w.g["coordinate_system"]])
-        if "distance" in w.g:
-            s = evolve(s, incremental=w.g["distance"] == 910)
-            if s.extruder is not None:  # Marlin: G90/G91 set E's mode too
-                s = evolve(s, extruder=s.extruder.with_mode(w.g["distance"] == 910))
-        if "arc_distance" in w.g:
-            s = evolve(s, arc_absolute=w.g["arc_distance"] == 901)
-        if "path_control" in w.g:
-            s = evolve(s, path=path_control(w.g["path_control"], w.values, s.scale))
+        self._check_codes(w)
+        # Step 3: feed mode, then feed, tool, spindle, overrides, M70-M73, coolant.
+        s, tool_changed = self._machine_codes(w, s)
+        # Step 4: plane, units, coordinate system, distance modes, path control.
+        s = self._frame_codes(w, s)
         dwell_held = w.g.get("nonmodal") == 40 and "P" in w.values and self.comp.holding
         if dwell_held:  # rs274 queues the dwell behind the held move: it waits where that ends
             self.comp.hold_dwell(w.line, w.values["P"])
@@ -372,30 +303,7 @@ class Interpreter:
         if released:  # G40 finished the held move: the tool stays at its offset point, while
             # rs274 goes on from the programmed point until a tool change re-reads the position
             s = evolve(s, work=self.comp.released_end)
-        if nonmodal == 100 and round(w.values.get("L", 0)) in (1, 10, 11) and d.g10_rotation:
-            s = set_tool_entry(s, self.params, w.values, self.table)
-        elif nonmodal == 100:
-            s = g10(
-                s,
-                self.params,
-                w.values,
-                d.coordinate_systems,
-                d.language,
-                d.g10_p_truncated,
-                d.g10_g2core,
-            )
-        elif nonmodal in (920, 921, 922, 923, 520):
-            if nonmodal == 920 and d.permissive_blocks and _AXIS_LETTERS.isdisjoint(w.values):
-                nonmodal = 923  # g2core: a bare G92 turns the G92 offsets back on
-            s = g92(s, self.params, nonmodal, w.values)
-            if nonmodal == 920 and s.extruder is not None and "E" in w.values:
-                s = evolve(s, extruder=s.extruder.at(w.values["E"] * s.scale))
-        elif nonmodal in (281, 301):
-            store_home(s, self.params, nonmodal)
-        elif nonmodal in (280, 300):
-            s = self._home(w.line, w.values, s, nonmodal, moves)
-        if "g92_reset" in w.g:  # rs274: after group 0's codes (G92 X3 G92.1 ends with none)
-            s = g92(s, self.params, w.g["g92_reset"], w.values)
+        s = self._nonmodal_codes(w, s, moves)
         if d.strict_g80 and has_axes and s.motion is None:
             # grbl 1.1 (gcode.c, G80 errors, after its non-modal commands' own checks): with
             # motion off even G28, G92, G10 or G43.1 may not carry axis words
@@ -529,6 +437,134 @@ class Interpreter:
             self.state = _PROGRAM_END[d.program_end_continues](self.state, self.params)
             return moves, False
         return moves, ended
+
+    def _nonmodal_codes(self, w: Words, s: ModalState, moves: list[Move | Event]) -> ModalState:
+        """Step 6a on ``s``: the block's group-0 code (G10, G92/G52, G28.1/G30.1, G28/G30, whose
+        moves go to ``moves``), then G92.1-G92.3 where rs274 keeps them apart."""
+        d = self.dialect
+        code = w.g.get("nonmodal")
+        if code == 100 and round(w.values.get("L", 0)) in (1, 10, 11) and d.g10_rotation:
+            s = set_tool_entry(s, self.params, w.values, self.table)
+        elif code == 100:
+            s = g10(
+                s,
+                self.params,
+                w.values,
+                d.coordinate_systems,
+                d.language,
+                d.g10_p_truncated,
+                d.g10_g2core,
+            )
+        elif code in (920, 921, 922, 923, 520):
+            if code == 920 and d.permissive_blocks and _AXIS_LETTERS.isdisjoint(w.values):
+                code = 923  # g2core: a bare G92 turns the G92 offsets back on
+            s = g92(s, self.params, code, w.values)
+            if code == 920 and s.extruder is not None and "E" in w.values:
+                s = evolve(s, extruder=s.extruder.at(w.values["E"] * s.scale))
+        elif code in (281, 301):
+            store_home(s, self.params, code)
+        elif code in (280, 300):
+            s = self._home(w.line, w.values, s, code, moves)
+        if "g92_reset" in w.g:  # rs274: after group 0's codes (G92 X3 G92.1 ends with none)
+            s = g92(s, self.params, w.g["g92_reset"], w.values)
+        return s
+
+    def _marlin_bare(self, block: Block) -> Block | None:
+        """A Marlin line of bare parameters (``X10 Y5``) as GCODE_MOTION_MODES reads it: the
+        block with the words its modal motion reads, or None where Marlin runs nothing of it."""
+        motion = self.state.motion
+        modal = None if motion is None else MARLIN_BARE_OPENERS.get(motion)
+        if modal is None or block.bare not in modal[0]:
+            # Marlin (parser.cpp): no modal motion yet, or one that takes no such opener:
+            # "Unknown command", and nothing of the line runs (its F neither)
+            return None
+        return dataclasses.replace(
+            block, words=tuple(wd for wd in block.words if wd[0] in modal[1])
+        )
+
+    def _check_codes(self, w: Words) -> None:
+        """Step 2: every code of ``w`` is one gantry-sim supports in this dialect, a user M code
+        has its file, and the words a code needs are there (rs274's read-time checks)."""
+        d = self.dialect
+        check_codes(w, d)
+        check_motion_axes(w, d)
+        check_polar_plane(w.values, self.state)
+        user = w.m.get("user")
+        if user is not None and not any((f / f"M{user}").is_file() for f in self.search_path):
+            raise GcodeError(
+                f"unknown M code M{user}: a user M-code needs its program file M{user} in the "
+                "program's folder or a --subroutine-path folder (LinuxCNC: USER_M_PATH)"
+            )
+        for code in w.g.values():
+            if code in G_REFUSED:
+                raise GcodeError(f"{g_name(code)} is not supported: {G_REFUSED[code]}")
+            assert code in G_HANDLED or code in G_NO_PATH_EFFECT
+            if code in CYCLES and not d.canned_cycles:
+                raise GcodeError(f"{g_name(code)} is not supported: {d.name} has no canned cycles")
+            if code in SPLINE_CODES and not d.splines:
+                raise GcodeError(f"{g_name(code)} is not supported: {d.name} has no splines")
+            if code in SPLINE_CODES and d.splines == "marlin" and code != 50:
+                raise GcodeError(f"{g_name(code)} is not supported: Marlin's only spline is G5")
+            if code in (410, 411, 420, 421) and not d.cutter_comp:
+                raise GcodeError(
+                    f"{g_name(code)} is not supported: {d.name} has no cutter radius compensation"
+                )
+
+    def _machine_codes(self, w: Words, s: ModalState) -> tuple[ModalState, bool]:
+        """Step 3 on ``s``: feed mode, then feed (in the units in effect BEFORE this block's
+        G20/G21, as rs274 does), tool words, S, G96/G97, overrides, spindle, M70-M73 and
+        coolant; returns the state and whether the tool changed."""
+        d = self.dialect
+        if "feed_mode" in w.g:
+            s = evolve(s, feed_mode=w.g["feed_mode"])
+            if clears_feed(self.state.feed_mode, w.g["feed_mode"], d):
+                s = evolve(s, feed_mm_per_min=0.0, feed_number=0.0)
+        if "F" in w.values and not (d.positive_feed_only and w.values["F"] <= 0.0):
+            if w.values["F"] < 0.0:
+                raise GcodeError("negative F word; the feed must be >= 0 (units per minute)")
+            scale = s.scale
+            if d.feed_in_line_units and "units" in w.g:
+                scale = MM_PER_INCH if w.g["units"] == 200 else 1.0
+            s = evolve(s, feed_mm_per_min=w.values["F"] * scale, feed_number=w.values["F"])
+        s, tool_changed = tool_words(s, w, self.table)
+        if "S" in w.values and "S" not in d.ignored_letters:
+            s = evolve(s, rpm=w.values["S"])
+        if "spindle_mode" in w.g:
+            s = evolve(s, css=w.g["spindle_mode"] == 960)
+        if "override" in w.m and w.m["override"] != 56:
+            s = evolve(s, overrides=overrides(s, w.m["override"], w.values, self.comp.side))
+        if "spindle" in w.m:
+            s = evolve(s, spindle={3: 1, 4: -1, 5: 0, 19: 0}[w.m["spindle"]])  # M19: stopped
+        # M70-M73 (rs274's convert_m: after the spindle's codes, before coolant and the G
+        # codes of this block, so "M72 G20" ends in G20 and "M70 G20" saves the units before)
+        s = self._modal_state(w.m.get("modal_state"), s)
+        if "coolant" in w.m:
+            c = w.m["coolant"]
+            s = evolve(s, mist=c == 7 or (s.mist and c == 8), flood=c == 8 or (s.flood and c == 7))
+        return s, tool_changed
+
+    def _frame_codes(self, w: Words, s: ModalState) -> ModalState:
+        """Step 4 on ``s``: plane, units, coordinate system, distance modes and path control
+        (after rs274's checks of what compensation forbids)."""
+        d = self.dialect
+        check_while_on(self.comp, w, self.state)
+        if "plane" in w.g:
+            s = evolve(s, plane=_PLANES[w.g["plane"]])
+        if w.g.get("units") == 200 and not d.g20_is_inch:
+            raise GcodeError(d.g20_refusal)
+        if "units" in w.g:
+            s = evolve(s, inch=w.g["units"] == 200)
+        if "coordinate_system" in w.g:
+            s = select_system(s, self.params, SYSTEMS[w.g["coordinate_system"]])
+        if "distance" in w.g:
+            s = evolve(s, incremental=w.g["distance"] == 910)
+            if s.extruder is not None:  # Marlin: G90/G91 set E's mode too
+                s = evolve(s, extruder=s.extruder.with_mode(w.g["distance"] == 910))
+        if "arc_distance" in w.g:
+            s = evolve(s, arc_absolute=w.g["arc_distance"] == 901)
+        if "path_control" in w.g:
+            s = evolve(s, path=path_control(w.g["path_control"], w.values, s.scale))
+        return s
 
     def _plain_step(self, block: Block) -> list[Move | Event] | None:
         """:meth:`step` of a plain motion block (controller/gcode/plain_block.py) in a state
