@@ -95,7 +95,7 @@ _REWRITTEN: dict[str, Callable[[str], str]] = {
     "command_alone": marlin_command_alone,  # Marlin: G17-G21, G54-G59, G80, G90, G91 read no word
     "characters": g2core_characters,  # g2core: the characters its normalizer drops left out
     "motion": marlin_motion,  # Marlin: G0-G3, G5, G92 read as its parser reads them
-    "bare_motion": marlin_bare_motion,  # Marlin: X, Y, Z, E, F words with no command
+    "bare_motion": marlin_bare_motion,  # Marlin: parameters with no command (X10 Y5)
     "parameters": without_marlin_parameters,  # Marlin: G, M, T words after a G command
 }
 
@@ -181,12 +181,13 @@ class Source:
         try:
             return self.block(i)
         except GcodeError as exc:
-            if not isinstance(exc, TextError) and _O_LINE.match(self.lines[i]):
+            o_line = _O_LINE.match(self.lines[i]) is not None
+            if o_line and not isinstance(exc, TextError):
                 try:  # rs274 reads a passed-over O-word line's name and keyword only
                     return lex_passed_oword(self.lines[i], i + 1, self.lex_rules)
                 except GcodeError as again:
                     exc = again
-            if isinstance(exc, TextError) or _O_LINE.match(self.lines[i]):
+            if o_line or isinstance(exc, TextError):
                 if exc.file is None:
                     exc.file = self.name
                 raise exc from None

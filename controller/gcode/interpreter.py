@@ -363,8 +363,7 @@ class Interpreter:
             elif motion in (0, 10):  # G1, or a G0 where the controller moves it as one
                 self._require_feed(s, "a G1 move", w.values)
                 move = Linear(w.line, s.work, to_work(end, s.frame), s.feed_mm_per_min)
-                programmed = Linear(w.line, s.position, end, s.feed_mm_per_min)
-                s = self._emit(moves, s, self._fed(move, s, w.values, program=programmed), end)
+                s = self._emit(moves, s, self._fed_straight(move, s, w.values, end), end)
             else:
                 self._require_feed(s, "an arc", w.values)
                 arc = arc_move(w.line, w.values, s, end, motion == 30, d)
@@ -625,11 +624,7 @@ class Interpreter:
             move = Linear(
                 block.line, s.work, to_work(end, s.frame), s.feed_mm_per_min, s.path, extrudes
             )
-            if s.feed_mode == INVERSE_TIME:  # F times the programmed length (rs274)
-                programmed = Linear(block.line, s.position, end, s.feed_mm_per_min)
-                move = self._fed(move, s, v, program=programmed)  # type: ignore[assignment]
-            else:
-                move = self._fed(move, s, v)  # type: ignore[assignment]  # a Linear stays one
+            move = self._fed_straight(move, s, v, end)
         # _emit, then _canon: the tool at the move's end, and rs274's canonical point there
         self.state = evolve(s, position=end, work=move.end, canon=from_work(move.end, s.frame))
         return [move]
@@ -941,6 +936,17 @@ class Interpreter:
             fed = path_feed(program, s, v, arc_segments_mm, inverse_time_floor_mm=floor)
             return dataclasses.replace(move, feed_mm_per_min=fed.feed_mm_per_min)
         return path_feed(move, s, v, arc_segments_mm, inverse_time_floor_mm=floor)
+
+    def _fed_straight(self, move: Linear, s: ModalState, v: dict[str, float], end: Vec3) -> Linear:
+        """:meth:`_fed` of a straight feed move to ``end`` (program frame): in G93 its rate
+        from the programmed length, from ``s.position`` to ``end`` (a program-frame move is
+        made only then: this runs for every G1 of a long program)."""
+        program = None
+        if s.feed_mode == INVERSE_TIME:
+            program = Linear(move.line, s.position, end, s.feed_mm_per_min)
+        fed = self._fed(move, s, v, program=program)
+        assert isinstance(fed, Linear)  # path_feed keeps a move's kind
+        return fed
 
     @staticmethod
     def _end_point(v: dict[str, float], s: ModalState) -> Vec3:

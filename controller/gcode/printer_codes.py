@@ -369,20 +369,22 @@ def marlin_feed_percent(raw: str) -> tuple[bool, bool, int | None]:
 #: number, a command letter G, M or T and its digits): one that opens with no letter (a stray
 #: number, a block delete ``/`` or a ``#``, which Marlin has not, or a tab: its reader skips
 #: spaces only), with a letter that is no command (an O-word, LinuxCNC's ``o100 sub`` or a
-#: program number ``O1001``, whose lines between then run; ``P5``, ``S100``), with a word
-#: (a Klipper macro such as ``PRINT_START BED=60``), with ``%`` and text, with a G, M or T
-#: and no digits after its spaces (a slicer's unfilled ``T[next_extruder]``, ``G{x}``,
-#: ``T-1``), or with an N and no digit or sign right after it (``N 5 G1``). Bare axis, E and
-#: F words (``X10 Y5``, :data:`_BARE_WORDS`) and a lone ``%`` are read on. The line number is
-#: taken whole (an atomic group): ``N10 G1`` is not ``N1`` and a stray ``0``.
+#: program number ``O1001``, whose lines between then run; ``S100``), with a word (a Klipper
+#: macro such as ``KLIPPER_MACRO``), with ``%`` and text, with a G, M or T and no digits after
+#: its spaces (a slicer's unfilled ``T[next_extruder]``, ``G{x}``, ``T-1``), with an N and
+#: no digit or sign right after it (``N 5 G1``), or with a second line number. Lines that
+#: open with a parameter a modal motion may take (:data:`_BARE_WORDS`, checked first: ``X10
+#: Y5``, ``P5``, ``PRINT_START``) are the interpreter's to run or skip by the motion in
+#: effect, and a lone ``%`` is read on. The line number is taken whole (an atomic group):
+#: ``N10 G1`` is not ``N1`` and a stray ``0``.
 _NOT_A_COMMAND = re.compile(
     r"^ *[Nn]\d+ *[Nn]|"  # a second line number: its letter N is no command
     r"^ *(?>[Nn]\d+ *)?"
     r"(?:[^GMTNXYZEFgmtnxyzef( %]|%.*\S|[A-Za-z][A-Za-z_]|[GgMmTt] *+(?![0-9])|[Nn](?![-+0-9]))"
 )
-#: A line that opens with an axis, E or F word (``X10 Y5``): GCODE_MOTION_MODES applies the
-#: modal motion to it (Marlin's default build answers "Unknown command"; a line that opens with
-#: another parameter letter, ``P5``, is unknown to both)
+#: A line that opens with a parameter letter a modal motion may take (X, Y, Z, E, F, and I,
+#: J, P, Q, R): GCODE_MOTION_MODES runs it as the modal motion where that motion takes its
+#: opener (:data:`MARLIN_BARE_OPENERS`; Marlin's default build answers "Unknown command")
 _BARE_WORDS = re.compile(r"^ *(?>N\d+ *)?([XYZEFIJPQRxyzefijpqr])")
 #: A G0 or G1 after a G53 (parser.cpp chains it); any other command after G53 runs nothing
 _G53_CHAINED_MOVE = re.compile(r"G\s*0*[01](?:\.0*)?(?![0-9.])", re.IGNORECASE)

@@ -320,7 +320,6 @@ def check_unused_words(w: Words, motion: int | None, dialect: Dialect) -> None:
     for unused words last, after the feed, the motion and the arc (the interpreter runs it at
     the end of the block)."""
     v = w.values
-    # the words only some codes take (most lines have none: X Y Z F S T)
     taken = [
         k
         for k in v
