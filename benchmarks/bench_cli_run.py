@@ -15,13 +15,14 @@ in-process ones byte for byte.
 from __future__ import annotations
 
 import argparse
-import os
 import statistics
 import subprocess
 import sys
 import tempfile
 import time
 from pathlib import Path
+
+from bench_env import compile_package, user_env
 
 ROOT = Path(__file__).resolve().parent.parent
 VARIANTS = {
@@ -34,7 +35,7 @@ VARIANTS = {
 def _run(program: Path, out: Path, env: dict[str, str], extra: list[str]) -> float:
     cmd = [sys.executable, "-m", "gantry_sim.sim.cli", "run", str(program), "--out", str(out)]
     t0 = time.perf_counter()
-    subprocess.run([*cmd, *extra], env=dict(os.environ, **env), check=True, capture_output=True)
+    subprocess.run([*cmd, *extra], env=user_env(**env), check=True, capture_output=True)
     return time.perf_counter() - t0
 
 
@@ -43,6 +44,7 @@ def main() -> int:
     parser.add_argument("--repeat", type=int, default=7)
     parser.add_argument("--programs", default="circle,pocket_tangent_arcs")
     args = parser.parse_args()
+    compile_package()  # each run starts from bytecode, as a user's install does (bench_env)
     print(f"{'program':<22} {'variant':<11} {'min s':>7} {'median s':>9} {'/ in-process':>13}")
     for name in args.programs.split(","):
         program = ROOT / "examples" / f"{name}.ngc"

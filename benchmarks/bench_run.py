@@ -65,6 +65,8 @@ import tempfile
 import time
 from pathlib import Path
 
+from bench_env import compile_package, user_env
+
 ROOT = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(ROOT))
 
@@ -253,7 +255,7 @@ def _run_child(kind: str, blocks: int, baseline: str | None) -> dict:
     cmd += ["--baseline-rev", baseline] if baseline else ["--no-baseline"]
     # as `gantry run` sets it (sim/cli.py): without it `import mujoco` probes for GLFW, 0.1 s
     # that no run of the command pays
-    env = {**os.environ, "MUJOCO_GL": os.environ.get("MUJOCO_GL", "disable")}
+    env = user_env(MUJOCO_GL=os.environ.get("MUJOCO_GL", "disable"))
     res = subprocess.run(cmd, capture_output=True, text=True, cwd=ROOT, env=env)
     if res.returncode != 0:
         raise SystemExit(f"{kind} {blocks}: failed\n{res.stderr[-3000:]}")
@@ -351,6 +353,7 @@ def main() -> int:
         print(json.dumps(child(args.child[0], int(args.child[1]), baseline)))
         return 0
     sizes = [int(s) for s in args.sizes.split(",")] + ([100_000] if args.big else [])
+    compile_package()  # the runs start from bytecode, as a user's install does (bench_env)
     rows = []
     for kind in args.kinds.split(","):
         for n in sizes:
