@@ -134,11 +134,13 @@ def main() -> None:
     args = ap.parse_args()
     out = args.out
     data = json.loads(out.read_text()) if out.exists() and args.only else {"programs": {}}
+    today = datetime.datetime.now(datetime.UTC).strftime("%Y-%m-%d")
     data.update(
         {
             "origin": "LinuxCNC's own trajectory planner (tpmod), run by benchmarks/linuxcnc_peer.py",
             **linuxcnc_version(),
-            "date": datetime.datetime.now(datetime.UTC).strftime("%Y-%m-%d"),
+            # the whole file's; an entry recorded later (--only) carries its own
+            "date": data.get("date", today),
             "ini": "benchmarks/linuxcnc/gantry_peer.ini",
             "hal": "benchmarks/linuxcnc/gantry_peer.hal",
             "limits": "per axis as models/gantry.toml: v [500, 400, 200] mm/s, a [3000, 2500, "
@@ -159,6 +161,8 @@ def main() -> None:
         result = run_one(program, args.timeout)
         sha = hashlib.sha256(program.read_bytes()).hexdigest()
         entry = {"file": program.relative_to(ROOT).as_posix(), "sha256": sha, **result}
+        if args.only:
+            entry["date"] = today
         data["programs"].setdefault(name, {})[mode] = entry
         print(f"{name:12s} {mode:6s} {result['cycle_s']:9.3f} s  (wall {result['wall_s']:.3f} s)")
         out.parent.mkdir(parents=True, exist_ok=True)

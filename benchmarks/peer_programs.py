@@ -25,6 +25,10 @@ Programs:
   between pockets, G1 plunge at F300.
 * ``s_chain``: 20 tangent R5 half circles alternating G3/G2 at F6000 (the curvature flips sign
   at every junction, the tangent does not).
+* ``noisy_poly``: the first 1,000 blocks of the generated polyline of
+  ``benchmarks/programs.py`` (``poly``, 0.05-0.5 mm G1 moves turning 0.5-5 degrees, the turn's
+  sign kept for 10-60 moves, seed 1, 4 decimals) at F3000: a noisy CAM polyline, whose local
+  curvature jumps from move to move.
 * ``drill``: a grid of 3 x 4 holes 12 mm apart, G81 3 mm deep from R1 at F300 (G99: back to R),
   the spindle speed set anew before each row and coolant on around it: rapids between the
   holes (their corners blend in G64), and machine commands LinuxCNC runs at rest.
@@ -32,6 +36,7 @@ Programs:
 
 from __future__ import annotations
 
+import random
 import sys
 from pathlib import Path
 
@@ -40,11 +45,12 @@ if str(HERE.parent) not in sys.path:  # run as a script: import the sibling benc
     sys.path.insert(0, str(HERE.parent))
 
 from benchmarks.bench_blend import polygon, surface, zigzag  # noqa: E402
+from benchmarks.programs import GENERATORS  # noqa: E402
 
 #: mode tag -> the program's path-control words
 MODES = {"g64": "G64 P0.01", "g64q0": "G64 P0.01 Q0", "g61": "G61"}
 #: the programs made of consecutive straight moves, also written in ``g64q0``
-NAIVE_CAM_PROGRAMS = ("circle_360", "surface")
+NAIVE_CAM_PROGRAMS = ("circle_360", "surface", "noisy_poly")
 OUT = HERE / "peer"
 
 
@@ -116,6 +122,14 @@ def pocket(cols: int = 8, rows: int = 4, feed: float = 1200.0) -> str:
     return f"G21 G90 G17 {{mode}}\n{''.join(blocks)}G0 Z1\nM2\n"
 
 
+def noisy_poly(n: int = 1000) -> str:
+    """The first ``n`` blocks of ``benchmarks/programs.py``'s polyline of 10,000 blocks, seed 1
+    (its 10,000-block program's own moves, so the bench's figures and this one's agree)."""
+    rng = random.Random("1:poly:10000")
+    head, blocks = GENERATORS["poly"](10_000, rng)
+    return f"G21 G90 G17 {{mode}}\n{head}\n" + "\n".join(blocks[:n]) + "\nM2\n"
+
+
 def programs() -> dict[str, str]:
     """Program name -> its text with ``{mode}`` where the path-control words go."""
     return {
@@ -126,6 +140,7 @@ def programs() -> dict[str, str]:
         "pocket": pocket(),
         "s_chain": s_chain(),
         "drill": drill(),
+        "noisy_poly": noisy_poly(),
     }
 
 
