@@ -122,6 +122,7 @@ SCHEMA: dict[str, dict[str, Callable[[Any], Any]]] = {
         "mode": _choice("G64", "G61", "G61.1"),
         "tolerance_mm": _number("> 0", 1e-6, 10.0, "mm"),
         "naive_cam_tolerance_mm": _number(">= 0", 0.0, 10.0, "mm"),
+        "short_moves": _choice("fit", "blend"),
     },
     "servo": {
         # 10 us .. 100 ms (a drive's current loop .. a slow PLC)
@@ -187,6 +188,9 @@ class PathSettings:
     (exact stop at every junction). tolerance_mm: how far the reference may leave the programmed
     path at a blended junction [mm], also G64 without P. naive_cam_tolerance_mm: G64 without Q
     merges consecutive straight moves within this distance of one line [mm] (0: never).
+    short_moves: in G64, runs of short straight moves are followed on one curve of continuous
+    curvature fitted within the tolerance ("fit", controller/planner/polyline_fit.py) or
+    blended corner by corner as LinuxCNC blends them ("blend").
 
     The default, G64 with 0.01 mm: LinuxCNC starts in G64, and grbl's default junction deviation
     ($11) is 0.01 mm, which is the same corner-to-circle distance as a 0.01 mm blend tolerance.
@@ -195,6 +199,7 @@ class PathSettings:
     mode: str = "G64"
     tolerance_mm: float = 0.01
     naive_cam_tolerance_mm: float = 0.0
+    short_moves: str = "fit"
 
 
 @dataclass(frozen=True)

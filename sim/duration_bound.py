@@ -22,6 +22,8 @@ G64 shortens the path, and the bound takes that off:
   move, at most the shorter move, and it is R (2 tan(phi/2) - phi) shorter than the corner (up
   to 2 P as phi nears 180 degrees); a corner with an arc: at most 2 P, and at most the two
   moves' lengths;
+* a G64 fit of short moves (controller/planner/polyline_fit.py) passes a corner between two
+  of them at most 2 P tan(phi/2) shorter (4 P tan(phi/2) is taken off);
 * a G64 Q merge (LinuxCNC's naive-CAM detector) replaces a run of straight moves at one feed by
   the line from its start to its end, which can fold steps back along the line and remove a
   reversal: the runs are found by the planner's own rule
@@ -57,6 +59,10 @@ REVERSAL_RAD = math.radians(179.0)
 #: moves this short [mm] have no direction (the planner drops them)
 EPS_MM = 1e-9
 _COS_REVERSAL = math.cos(REVERSAL_RAD)
+#: the G64 fit's longest move [mm] and largest turn [rad]
+#: (controller/planner/polyline_fit.py MAX_MOVE_MM, MAX_TURN_RAD; tests/test_polyline_fit.py)
+FIT_MOVE_MM = 2.0
+FIT_TURN_RAD = math.radians(10.0)
 
 
 def duration_lower_bound(
@@ -262,7 +268,13 @@ def _blend_saving_mm(prev: _Prev, d: list[float] | None, length_mm: float) -> fl
     by_tolerance = p / sec_less_1 if sec_less_1 > 0 else math.inf
     tan = math.tan(half)
     radius = min(by_tolerance, min(prev.length, length_mm) / tan)
-    return max(radius * (2.0 * tan - phi), 0.0)
+    saving = max(radius * (2.0 * tan - phi), 0.0)
+    if max(prev.length, length_mm) <= FIT_MOVE_MM and phi <= FIT_TURN_RAD:
+        # a G64 fit may take the two moves (controller/planner/polyline_fit.py): a curve within
+        # P of both passes the corner at most 2 P tan(phi/2) shorter (the inner offset lines at
+        # P); twice that, for any rounding of that argument
+        saving = max(saving, 4.0 * p * tan)
+    return saving
 
 
 class _Stretch:

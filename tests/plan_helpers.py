@@ -219,3 +219,12 @@ def move_entry_starts(p) -> np.ndarray:
     an entry of their own between two moves), for a plan without dwells: each active path
     move's start [s]."""
     return np.delete(np.asarray(p.move_start_s), p.overlap_entries())
+
+
+def blending(machine):
+    """``machine`` with ``[path] short_moves = "blend"``: runs of short straight moves blended
+    corner by corner, as before the G64 fit (controller/planner/polyline_fit.py), for the tests
+    of the blends themselves on polylines."""
+    from dataclasses import replace
+
+    return replace(machine, path=replace(machine.path, short_moves="blend"))

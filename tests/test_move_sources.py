@@ -15,6 +15,7 @@ from gantry_sim.sim.blend_parts import known_path_sources, path_windows, plannin
 from gantry_sim.sim.contour import analyse
 from gantry_sim.sim.move_table import move_table
 from gantry_sim.sim.program_distance import path_window
+from tests.plan_helpers import blending
 
 #: a spiral of 120 incremental polar moves (radius 2.5 mm shrinking by 0.012 mm, 5 degrees
 #: clockwise each), all on line 6
@@ -84,7 +85,9 @@ def test_every_planned_move_names_the_program_moves_it_executes(machine):
 
 
 def test_samples_carry_their_moves_and_loop_moves_are_told_apart(machine):
-    _, planned = _planned(LOOP, machine)
+    # blended corner by corner: each move its own path move (a G64 fit's piece stands for the
+    # moves its length meets: tests/test_polyline_fit.py)
+    _, planned = _planned(LOOP, blending(machine))
     traj = planned.sample(machine.servo.period_s)
     assert traj.source is not None and traj.source.shape == (len(traj.t), 2)
     on_loop = traj.line == 6

@@ -14,7 +14,12 @@ from gantry_sim.controller.gcode.dialects import with_segmentation_default
 from gantry_sim.controller.gcode.interpreter import interpret_events, parse_program
 from gantry_sim.controller.moves import Arc, Dwell, Linear, PathControl, Stop
 from gantry_sim.controller.planner.plan import plan
-from tests.plan_helpers import assert_within_limits, move_entry_starts, polyline_distance
+from tests.plan_helpers import (
+    assert_within_limits,
+    blending,
+    move_entry_starts,
+    polyline_distance,
+)
 
 
 def _sample(moves, machine):
@@ -138,6 +143,7 @@ def test_blends_of_a_regular_polygon_meet_and_pass_it_like_a_circle(machine):
     """Blends that can use up the straight moves between them take up to 0.99 of the budget
     (P less the reference's share): no line-to-arc curvature jump is left, so the 72-gon runs
     at the feed like the G3 circle (it ran at about 0.55 F with blends of 0.8 of the budget)."""
+    machine = blending(machine)  # blends corner by corner, not the G64 fit
     moves = parse_program(_polygon(72, "G64 P0.01"))
     p, tr = _sample(moves, machine)
     g3 = plan(parse_program("G21 G90 G17\nG0 X10 Y0\nG3 X10 Y0 I-10 J0 F3000\nM2"), machine)
@@ -238,6 +244,7 @@ def test_a_blend_arc_ramping_at_its_junction_drops_the_phase_switch_there(machin
     (Ruckig stretched it 250 times), so the junctions were backed off round after round to
     0.49-0.60 F. An offending end is tried again without the switches near it: one closed
     form from the junction to the next chord vertex, checked as every end piece is."""
+    machine = blending(machine)  # blends corner by corner, not the G64 fit
     machine = with_segmentation_default(machine, "marlin")
     moves = list(interpret_events(PERIMETER, "marlin"))
     p, tr = _sample(moves, machine)
@@ -352,6 +359,7 @@ def test_the_loose_tries_made_beforehand_hold_every_one_used_and_only_those_that
     piece that goes to Ruckig or leaves the arc, or any other Ruckig piece): every try an arc
     then uses was made beforehand (none is made on its own), and fewer are made than one per
     moving end with a switch near it."""
+    machine = blending(machine)  # blends corner by corner, not the G64 fit
     from gantry_sim.controller.planner import chain_plan, pieces
 
     made, alone = [], []
@@ -409,6 +417,7 @@ def test_a_blend_between_merged_moves_names_every_program_move_it_passes(machine
     # merged moves meet, each passing most of ten sides. A blend named only the two sides at
     # its corner, so the contour error searched the wrong sides for its samples: 87 um from
     # them where the path is 9.6 um from the polygon.
+    machine = blending(machine)  # blends corner by corner, not the G64 fit
     from gantry_sim.sim.program_distance import distance_to_program
 
     sides = "".join(
@@ -427,6 +436,7 @@ def test_g64_q_merges_report_how_far_they_leave_the_programmed_points(machine, t
     """The zigzag's inner points lie 1 um off its merged line: `gantry plan` reports the merge,
     and the run's reference part is split to it (before, a merge counted as neither blend nor
     planning, and the reference part was unexplained)."""
+    machine = blending(machine)  # Q merges: the fit would take these moves first
     import json
 
     from gantry_sim.sim.cli import main
@@ -439,9 +449,12 @@ def test_g64_q_merges_report_how_far_they_leave_the_programmed_points(machine, t
     assert p.merges[1].deviation_mm == pytest.approx(0.0015, abs=1e-9)
     prog = tmp_path / "zig.ngc"
     prog.write_text(text)
-    assert main(["plan", str(prog)]) == 0
+    blend = tmp_path / "blend.toml"
+    blend.write_text('[path]\nshort_moves = "blend"\n')
+    assert main(["plan", str(prog), "--machine", str(blend)]) == 0
     out = tmp_path / "o"
-    assert main(["run", str(prog), "--out", str(out), "--no-plots", "--no-trace"]) == 0
+    run = ["run", str(prog), "--machine", str(blend), "--out", str(out), "--no-plots"]
+    assert main([*run, "--no-trace"]) == 0
     parts = json.loads((out / "report.json").read_text())["parts_um"]
     # the merges' 1.5 um, or the stops overlapped at the square corners of lines 12-14
     # (planner/stop_overlap.py), whichever is larger

@@ -30,7 +30,7 @@ from gantry_sim.controller.planner import (
 from gantry_sim.controller.planner.path_stream import path_plan
 from gantry_sim.controller.planner.prepare import sub_path
 from gantry_sim.models import DEFAULT_MACHINE
-from tests.plan_helpers import count_fork_map_parts
+from tests.plan_helpers import blending, count_fork_map_parts
 
 
 def _program() -> str:
@@ -75,11 +75,11 @@ def _plan_whole(text: str):
     return plan(tuple(interpret_events(text)), load_machine_config(DEFAULT_MACHINE))
 
 
-def _windowed(events: tuple, monkeypatch, window: int, margin: int):
+def _windowed(events: tuple, monkeypatch, window: int, margin: int, machine=None):
     """The plan of ``events`` in windows of ``window`` moves, and the sizes of the runs of
-    chains the windows settled (one per probe)."""
+    chains the windows settled (one per probe); ``machine``: the bundled one by default."""
     probes = _small_windows(monkeypatch, window, margin)
-    return plan(events, load_machine_config(DEFAULT_MACHINE)), probes
+    return plan(events, machine or load_machine_config(DEFAULT_MACHINE)), probes
 
 
 def _small_windows(monkeypatch, window: int, margin: int) -> list[int]:
@@ -640,7 +640,8 @@ def test_blends_judged_as_the_windows_go_are_those_judged_first(monkeypatch, sha
         return slow_blends(path, prepared, jerk)
 
     monkeypatch.setattr(window_judge, "slow_blends", each)
-    windowed, probes = _windowed(tuple(interpret_events(text)), monkeypatch, 40, 8)
+    blend = blending(load_machine_config(DEFAULT_MACHINE))  # corner blends, not the G64 fit
+    windowed, probes = _windowed(tuple(interpret_events(text)), monkeypatch, 40, 8, blend)
     assert len(judged) == len(set(judged)) == 149  # every blend judged, once
     assert len(probes) >= 4, probes
     if sharp_from >= 150:
@@ -652,7 +653,7 @@ def test_blends_judged_as_the_windows_go_are_those_judged_first(monkeypatch, sha
         if sharp_from > 100:  # found late: the windows before judged their own blends
             assert remade[0][1] > 80
     _judged_up_front(monkeypatch)
-    first = plan(interpret_events(text), load_machine_config(DEFAULT_MACHINE))
+    first = plan(interpret_events(text), blend)
     _assert_same(first, windowed)
 
 

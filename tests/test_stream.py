@@ -100,7 +100,9 @@ def test_streamed_run_equals_the_whole_program_run(machine, stateful, worker, te
     whole = split_reference(whole, planned, traj)
 
     ranges = []
-    size = 40 if text is LONG else 300  # LONG: the lag reaches back past a range's first moves
+    # LONG: the lag reaches back past a range's first moves (20 ticks: 2 mm of its fitted arc
+    # at the feed, 50 of its 0.04 mm moves)
+    size = 20 if text is LONG else 300
     streamed = stream_run(
         moves, planned, machine, gantry, range_ticks=size, on_range=lambda *a: ranges.append(a)
     )

@@ -36,7 +36,7 @@ from dataclasses import dataclass, field, replace
 import numpy as np
 
 from gantry_sim.controller.config import PathSettings
-from gantry_sim.controller.moves import Arc, Dwell, Linear, Move, PathMove, Rapid
+from gantry_sim.controller.moves import Arc, Dwell, Linear, PathMove, Rapid
 from gantry_sim.controller.planes import PLANE_AXES, Plane, Vec3, plane_of
 from gantry_sim.controller.planner.blend_types import Blend, Blended
 from gantry_sim.controller.planner.corner_blend import (
@@ -128,7 +128,7 @@ class PathPlan:
         return {k - lo: d[k] for k in keys[first:stop]}
 
 
-def smoothing_budget(m: Move, settings: PathSettings, chord_tolerance_mm: float) -> float:
+def smoothing_budget(m: PathMove, settings: PathSettings, chord_tolerance_mm: float) -> float:
     """The deviation a G64 move's junction smoothing may use: P less the reference's share
     (0 in G61/G61.1 and for rapids: the planner's own budget)."""
     if isinstance(m, Rapid):

@@ -12,7 +12,8 @@ from dataclasses import dataclass, replace
 import numpy as np
 
 from gantry_sim.controller.config import PathSettings
-from gantry_sim.controller.moves import Dwell, Linear, Move, PathMove
+from gantry_sim.controller.moves import Dwell, Linear, PathMove
+from gantry_sim.controller.planner.blend_types import Blend
 
 __all__ = [
     "EPS_MM",
@@ -73,12 +74,16 @@ class PathEntry:
         holds: the dwells at the junction before it (empty: none).
         source: the first and last program move it comes from (indices among the program's
             motions, zero-length ones counted).
+        fit: where the move is a piece of a G64 fit
+            (:mod:`~gantry_sim.controller.planner.polyline_fit`), its record (its largest
+            deviation from the moves it stands for); else None.
     """
 
-    move: Move
+    move: PathMove
     stop_after: bool
     holds: list[Dwell]
     source: tuple[int, int]
+    fit: Blend | None = None
 
 
 def merge_runs(
@@ -110,11 +115,13 @@ def merge_runs(
             q = control(m, settings).naive_cam_mm
             merges.append(Merge(m.line, float(_offsets(moves).max()), q))
             m = replace(m, end=last.end, path=getattr(last, "path", None))
-        yield PathEntry(m, run[-1].stop_after, cur.holds, (cur.source[0], run[-1].source[1]))
+        yield PathEntry(
+            m, run[-1].stop_after, cur.holds, (cur.source[0], run[-1].source[1]), cur.fit
+        )
         cur = nxt
 
 
-def starts_run(move: Move, settings: PathSettings, c: Control | None = None) -> bool:
+def starts_run(move: PathMove, settings: PathSettings, c: Control | None = None) -> bool:
     """True when a naive-CAM run may start at ``move``: a straight G64 move with Q > 0;
     ``c``: its :func:`control` under ``settings`` when the caller has it already."""
     if not isinstance(move, Linear):
@@ -123,7 +130,7 @@ def starts_run(move: Move, settings: PathSettings, c: Control | None = None) -> 
     return c.mode == "G64" and c.naive_cam_mm > 0
 
 
-def extends_run(run: Sequence[Move], nxt: Move, settings: PathSettings) -> bool:
+def extends_run(run: Sequence[PathMove], nxt: PathMove, settings: PathSettings) -> bool:
     """True when the naive-CAM run ``run`` (straight G64 moves, the first with Q > 0, not
     broken by a stop or dwell) takes ``nxt`` too: a straight G64 move at the run's feed, the
     run no longer than :data:`MAX_MERGE_RUN`, every end point within the first move's Q of the
@@ -140,13 +147,13 @@ def extends_run(run: Sequence[Move], nxt: Move, settings: PathSettings) -> bool:
     )
 
 
-def _within(run: Sequence[Move], q_mm: float) -> bool:
+def _within(run: Sequence[PathMove], q_mm: float) -> bool:
     """True when every end point of ``run`` lies within ``q_mm`` of the run's chord."""
     off = _offsets(run)
     return off.size > 0 and bool(np.all(off <= q_mm))
 
 
-def _offsets(run: Sequence[Move]) -> np.ndarray:
+def _offsets(run: Sequence[PathMove]) -> np.ndarray:
     """Distances [mm] of the inner end points of ``run`` from the chord from its start to its
     end (the segment); empty when the chord has no length."""
     a, b = np.asarray(run[0].start, float), np.asarray(run[-1].end, float)

@@ -53,6 +53,7 @@ from gantry_sim.controller.planner.path_control import (
     control,
     merge_runs,
 )
+from gantry_sim.controller.planner.polyline_fit import fit_runs
 from gantry_sim.controller.planner.spline_split import split_slow_parts
 from gantry_sim.controller.planner.transition import TransitionMachine
 from gantry_sim.controller.planner.window_cut import WINDOW_MOVES
@@ -103,7 +104,7 @@ def path_plan(
     first = core = 0  # core: the first merged move not yet blended
     spans: list[tuple[int, int]] = []  # stretches waiting for their wave
     entries = _entries(items, settings, trailing, machine)
-    for entry in merge_runs(entries, settings, merges):
+    for entry in merge_runs(fit_runs(entries, settings, chord_tolerance_mm), settings, merges):
         buffer.append(entry)
         if first + len(buffer) >= core + stretch_moves + CONTEXT_MOVES:
             spans.append((core, core + stretch_moves))
@@ -220,7 +221,9 @@ class _Stretcher:
             stop_after=[e.stop_after for e in part],
             holds={k: e.holds for k, e in enumerate(part) if e.holds},
             smoothing_mm=[
-                smoothing_budget(e.move, self.settings, self.chord_tolerance_mm) for e in part
+                smoothing_budget(e.move, self.settings, self.chord_tolerance_mm)
+                - (0.0 if e.fit is None else e.fit.deviation_mm)
+                for e in part
             ],
             sources=[e.source for e in part],
         )
@@ -238,6 +241,9 @@ class _Stretcher:
             view,
         )
         mine = made[lo - a : hi - a]
+        for b, e in zip(mine, part[lo - a : hi - a], strict=True):
+            if e.fit is not None:  # a G64 fit's piece (polyline_fit): reported as a blend
+                b.blends.insert(0, e.fit)
         for b in mine:  # junctions counted in the whole path
             b.blend_at = [None if at is None else at + a for at in b.blend_at]
         return mine, {} if view is None else view.made

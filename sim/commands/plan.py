@@ -52,8 +52,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 def deviation_summary(blends: Sequence[Any]) -> dict:
     """The G64 blends (or G64 Q merges): how many, the largest deviation from the programmed
     path (the merged-away points) [mm] and its line (null when none); for blends also how many
-    are G2 transitions at tangent junctions (``transitions``) and how many are stops whose two
-    moves' profiles overlap (``overlaps``: controller/planner/stop_overlap.py)."""
+    are G2 transitions at tangent junctions (``transitions``), how many are stops whose two
+    moves' profiles overlap (``overlaps``: controller/planner/stop_overlap.py) and how many are
+    pieces of G64 fits of short moves (``fits``: controller/planner/polyline_fit.py)."""
     worst = None
     kinds: dict[str | None, int] = {}
     for b in blends:  # one pass: a long program's blends are read from disk
@@ -69,6 +70,7 @@ def deviation_summary(blends: Sequence[Any]) -> dict:
     if set(kinds) != {None}:  # blends (which have kinds), or none at all
         out["transitions"] = kinds.get("transition", 0)
         out["overlaps"] = kinds.get("overlap", 0)
+        out["fits"] = kinds.get("fit", 0)
     return out
 
 
