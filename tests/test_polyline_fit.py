@@ -68,8 +68,13 @@ def test_the_curve_stays_within_its_budget_of_the_moves_and_reports_its_deviatio
     reported = max(b.deviation_mm for b in fits)
     assert len(fits) == len(pieces)
     assert away.max() <= reported + 1e-12 <= _budget(machine) + 1e-12
-    # and the corners the curve cuts: every move's end point from the curve
-    ends = np.array([m.end for m in moves if isinstance(m, Linear)])
+    # and the corners the curve cuts: the end points between two moves a piece stands for
+    covered = set()
+    for (a, b), m in zip(p.path_sources.tolist(), p.path_moves, strict=True):
+        if isinstance(m, Transition):
+            covered.update(range(a, b + 1))
+    ends = np.array([p.moves[k].end for k in sorted(covered) if k + 1 in covered])
+    assert len(ends) > 50
     cut = np.sqrt(((ends[:, None, :] - dense[None, ::3, :]) ** 2).sum(axis=2)).min(axis=1)
     assert cut.max() <= reported + 1e-3 * machine.path.tolerance_mm
 
@@ -160,6 +165,7 @@ def _steps(n: int, step: float = 0.2, turn_deg: float = 2.0) -> list[str]:
         ("G61", False),  # no tolerance to fit within
         ("G64 P0.01 in 3-D", False),  # no principal plane
         ("too few", False),
+        ("in line", False),  # straight moves run on their axes' own limits
     ],
 )
 def test_runs_are_taken_only_where_the_rules_allow(machine, changed, pieces_expected):
@@ -171,6 +177,8 @@ def test_runs_are_taken_only_where_the_rules_allow(machine, changed, pieces_expe
         steps = [f"{s} Z{0.001 * k:.4f}" for k, s in enumerate(steps)]
     if changed == "too few":
         steps = steps[: polyline_fit.MIN_RUN_MOVES - 1]
+    if changed == "in line":  # turning by 1e-4 rad, as 4 decimals round a straight line
+        steps = _steps(60, 0.2, math.degrees(1e-4))
     text = head + "".join(f"G1 {s}\n" for s in steps) + "M2\n"
     p = plan(parse_program(text), machine)
     assert bool(_fits(p)) == pieces_expected
