@@ -277,3 +277,25 @@ def test_the_duration_bound_stays_below_the_fitted_plan(machine, text):
     items = list(interpret_events(text))
     bound, _, _ = duration_bound.duration_lower_bound(items, machine)
     assert 0.5 * plan(items, machine).duration_s < bound <= plan(items, machine).duration_s
+
+
+def test_a_path_made_again_takes_its_fits_from_the_first(machine, monkeypatch):
+    """The path made again without its slow blends (window_judge) has the same moves: its
+    chunks are not fitted again (FitMemo), and come out the same."""
+    from gantry_sim.controller.planner.path_stream import path_plan
+
+    calls = []
+    real = polyline_fit._fit_entries
+    monkeypatch.setattr(
+        polyline_fit, "_fit_entries", lambda *a, **k: calls.append(1) or real(*a, **k)
+    )
+    monkeypatch.setattr(polyline_fit, "process_count", lambda: 1)
+    items = list(interpret_events(_noisy(300)))
+    memo = polyline_fit.FitMemo()
+    tol = machine.segmentation.chord_tolerance_mm
+    first = path_plan(items, machine.path, tol, fitted=memo)
+    fitted = len(calls)
+    again = path_plan(items, machine.path, tol, frozenset({5}), fitted=memo)
+    assert fitted >= 1 and len(calls) == fitted
+    pieces = [m for m in first.moves if isinstance(m, Transition)]
+    assert pieces and pieces == [m for m in again.moves if isinstance(m, Transition)]

@@ -53,7 +53,7 @@ from gantry_sim.controller.planner.path_control import (
     control,
     merge_runs,
 )
-from gantry_sim.controller.planner.polyline_fit import fit_runs
+from gantry_sim.controller.planner.polyline_fit import FitMemo, fit_runs
 from gantry_sim.controller.planner.spline_split import split_slow_parts
 from gantry_sim.controller.planner.transition import TransitionMachine
 from gantry_sim.controller.planner.window_cut import WINDOW_MOVES
@@ -77,6 +77,7 @@ def path_plan(
     machine: TransitionMachine | None = None,
     sized: dict | None = None,
     corners: CornerMemo | None = None,
+    fitted: FitMemo | None = None,
     *,
     stretch_moves: int = STRETCH_MOVES,
 ) -> PathPlan:
@@ -93,9 +94,10 @@ def path_plan(
     moves (a path planned whole may be made again without its slow blends; a longer one is
     made again at most once, and keeping every transition would hold about 1 KB each for the
     whole path: beyond that it is emptied and no longer filled). ``corners``: the arc corners'
-    blends of an earlier call for the same program, filled here (None: none kept)."""
+    blends of an earlier call for the same program, filled here (None: none kept); ``fitted``:
+    the G64 fits of an earlier call, likewise (kept as ``sized`` is)."""
     stretch = _Stretcher(
-        settings, chord_tolerance_mm, skip, jerk_mm_per_s3, machine, sized, corners
+        settings, chord_tolerance_mm, skip, jerk_mm_per_s3, machine, sized, corners, fitted
     )
     out = stretch.out
     merges: list[Merge] = []
@@ -104,7 +106,8 @@ def path_plan(
     first = core = 0  # core: the first merged move not yet blended
     spans: list[tuple[int, int]] = []  # stretches waiting for their wave
     entries = _entries(items, settings, trailing, machine)
-    for entry in merge_runs(fit_runs(entries, settings, chord_tolerance_mm), settings, merges):
+    fits = fit_runs(entries, settings, chord_tolerance_mm, fitted)
+    for entry in merge_runs(fits, settings, merges):
         buffer.append(entry)
         if first + len(buffer) >= core + stretch_moves + CONTEXT_MOVES:
             spans.append((core, core + stretch_moves))
@@ -179,10 +182,12 @@ class _Stretcher:
         machine: TransitionMachine | None,
         sized: dict | None,
         corners: CornerMemo | None,
+        fitted: FitMemo | None = None,
     ) -> None:
         self.settings, self.skip = settings, skip
         self.chord_tolerance_mm, self.jerk_mm_per_s3 = chord_tolerance_mm, jerk_mm_per_s3
         self.machine, self.sized, self.corners = machine, sized, corners
+        self.fitted = fitted
         self.moves: SpilledList[PathMove] = SpilledList()
         self.blends: SpilledList[Blend] = SpilledList()
         self.smoothing = array("d")
@@ -267,3 +272,5 @@ class _Stretcher:
         if self.sized is not None and len(self.moves) > WINDOW_MOVES:
             self.sized.clear()  # a long path: not kept (see path_plan)
             self.sized = None
+        if self.fitted is not None and len(self.moves) > WINDOW_MOVES:
+            self.fitted.drop()

@@ -55,6 +55,7 @@ from gantry_sim.controller.planner.limit_events import (
 )
 from gantry_sim.controller.planner.magnitudes import check_magnitudes
 from gantry_sim.controller.planner.path_stream import path_plan
+from gantry_sim.controller.planner.polyline_fit import FitMemo
 from gantry_sim.controller.planner.prepare import prepare, slow_blends
 from gantry_sim.controller.planner.result import Plan
 from gantry_sim.controller.planner.ruckig_solver import RuckigSolver
@@ -242,11 +243,17 @@ def _plan_part(
     sizing = TransitionMachine(machine.limits, seg, feed_override_pct / 100.0)
     sized: dict = {}  # transitions by site, for a path made again without some blends
     corners = CornerMemo()  # the arc corners' blends, likewise
+    fitted = FitMemo()  # the G64 fits of short moves, likewise
     tol = seg.chord_tolerance_mm
 
-    def made(slow: frozenset[int], sized: dict = sized, corners: CornerMemo = corners) -> PathPlan:
+    def made(
+        slow: frozenset[int],
+        sized: dict = sized,
+        corners: CornerMemo = corners,
+        fitted: FitMemo = fitted,
+    ) -> PathPlan:
         """The path, with ``slow``'s blends left out (exact stops there)."""
-        out = path_plan(items, machine.path, tol, slow, jerk, sizing, sized, corners)
+        out = path_plan(items, machine.path, tol, slow, jerk, sizing, sized, corners, fitted)
         out.path_acc_mm_per_s2 = path_acc
         return out
 
@@ -264,7 +271,7 @@ def _plan_part(
         del known
     elif path.blend_junction:  # judged window by window as they are planned (window_judge)
         remake = made
-    del sized, corners
+    del sized, corners, fitted
     solver = RuckigSolver(machine.limits)
     # the path is held by ``src`` alone while planned: made again, the old one is freed
     src = JudgedPath(path, remake, machine, feed_override_pct)

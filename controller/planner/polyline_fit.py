@@ -76,7 +76,7 @@ from gantry_sim.controller.planner.blend_types import Blend
 from gantry_sim.controller.planner.path_control import PathEntry, control
 from gantry_sim.controller.quintic_curve import QuinticCurve
 
-__all__ = ["FitCurve", "fit_curve", "fit_runs"]
+__all__ = ["FitCurve", "FitMemo", "fit_curve", "fit_runs"]
 
 #: Longest move a run takes [mm], and the largest turn where two of its moves meet [rad].
 MAX_MOVE_MM = 2.0
@@ -469,8 +469,30 @@ def _starts(entry: PathEntry, settings: PathSettings, chord_tolerance_mm: float)
     )
 
 
+class FitMemo:
+    """The chunks fitted by an earlier call of :func:`fit_runs` for the same program, by their
+    moves (program sources of the first and last, and whether the chunk holds the run's
+    start and end): the path made again without its slow blends
+    (:mod:`~gantry_sim.controller.planner.window_judge`) has the same moves, so its fits are
+    the first path's. Dropped (emptied and no longer filled) for a path longer than a window,
+    which is made again at most once: it would hold every piece of the whole program."""
+
+    def __init__(self) -> None:
+        self.known: dict[tuple[int, int, bool, bool], list[PathEntry]] | None = {}
+
+    def drop(self) -> None:
+        self.known = None
+
+
+def _key(chunk: _Chunk) -> tuple[int, int, bool, bool]:
+    return (chunk.run[0].source[0], chunk.run[-1].source[1], chunk.lead, chunk.tail)
+
+
 def fit_runs(
-    entries: Iterable[PathEntry], settings: PathSettings, chord_tolerance_mm: float
+    entries: Iterable[PathEntry],
+    settings: PathSettings,
+    chord_tolerance_mm: float,
+    memo: FitMemo | None = None,
 ) -> Iterator[PathEntry]:
     """The entries with each run of short straight moves (module docstring) replaced by: the
     first half of its first move, the fitted curve's pieces (each an entry with a
@@ -483,14 +505,17 @@ def fit_runs(
 
     def flush() -> Iterator[PathEntry]:
         nonlocal chunks
+        known = None if memo is None else memo.known
         jobs = [q for q in queue if isinstance(q, _Chunk)]
+        done = {id(job): known[_key(job)] for job in jobs if known and _key(job) in known}
+        jobs = [job for job in jobs if id(job) not in done]
         groups = max(1, min(process_count(), len(jobs)))
         made = fork_map(fit, [jobs[g::groups] for g in range(groups)])
-        done = {
-            id(job): out
-            for g in range(groups)
-            for job, out in zip(jobs[g::groups], made[g], strict=True)
-        }
+        for g in range(groups):
+            for job, out in zip(jobs[g::groups], made[g], strict=True):
+                done[id(job)] = out
+                if known is not None:
+                    known[_key(job)] = out
         for q in queue:
             if isinstance(q, _Chunk):
                 yield from done[id(q)]
