@@ -292,6 +292,11 @@ def row_cells(rows: np.ndarray) -> np.ndarray:
     return rows[:, _CUM]
 
 
+def row_ends(rows: np.ndarray) -> np.ndarray:
+    """The end points (m, 2, 3) [mm] of the curves of packed rows ``rows`` (a view)."""
+    return rows[:, _ENDS].reshape(rows.shape[0], 2, 3)
+
+
 def row_coefficients(rows: np.ndarray) -> np.ndarray:
     """The power coefficients (m, 6, 3) of the curves of packed rows ``rows`` (m, :data:`ROW`)
     (a view)."""

@@ -25,6 +25,15 @@ import numpy as np
 
 from gantry_sim.controller.moves import Arc, Linear, Move, PathMove, Rapid, Spline, Transition
 from gantry_sim.controller.planes import PLANE_AXES
+from gantry_sim.controller.quintic_curve import (
+    BERNSTEIN,
+    ROW,
+    QuinticCurve,
+    packed_rows,
+    row_cells,
+    row_coefficients,
+    row_ends,
+)
 
 #: slack added to every move's bounding box [mm] (rounding in the box, not geometry)
 BOX_SLACK_MM = 1e-9
@@ -100,6 +109,8 @@ def move_table(moves: Sequence[PathMove], cum_len: np.ndarray | None = None) -> 
     :class:`MoveTable`; ``cum_len`` (len(moves) + 1,) [mm]: the path length before each move
     when the moves are rows of a longer program (its :class:`ProgramIndex`'s), else counted
     from their start (each move's ``length_mm``, as :func:`_lengths` computes it)."""
+    if not isinstance(moves, list | tuple):  # a plan's path on disk (SpilledList): read once
+        moves = list(moves)
     m = len(moves)
     start, end = _points(moves, "start"), _points(moves, "end")
     seg_d = end - start
@@ -115,10 +126,17 @@ def move_table(moves: Sequence[PathMove], cum_len: np.ndarray | None = None) -> 
     box_lo, box_hi = np.minimum(start, end), np.maximum(start, end)
     splines = np.flatnonzero(is_spline).tolist()
     spline_moves = cast(list[Spline | Transition], [moves[j] for j in splines])
-    for j, mv in zip(splines, spline_moves, strict=True):  # rare: one at a time
-        lo_j, hi_j = _spline_box(mv)
-        box_lo[j] = np.minimum(box_lo[j], lo_j)
-        box_hi[j] = np.maximum(box_hi[j], hi_j)
+    steps = [j for j, mv in zip(splines, spline_moves, strict=True) if isinstance(mv, Transition)]
+    step_rows = _transition_rows(moves, steps)
+    if steps:  # G2 transitions and G64 fits' pieces (thousands on a CAM polyline): at once
+        ctrl = step_rows.control_points
+        box_lo[steps] = np.minimum(box_lo[steps], ctrl.min(axis=1))
+        box_hi[steps] = np.maximum(box_hi[steps], ctrl.max(axis=1))
+    for j, mv in zip(splines, spline_moves, strict=True):  # NURBS: rare, one at a time
+        if not isinstance(mv, Transition):
+            lo_j, hi_j = _spline_box(mv)
+            box_lo[j] = np.minimum(box_lo[j], lo_j)
+            box_hi[j] = np.maximum(box_hi[j], hi_j)
     arcs = np.flatnonzero(is_arc)
     arc_start = start.copy()
     frames = None
@@ -160,10 +178,14 @@ def move_table(moves: Sequence[PathMove], cum_len: np.ndarray | None = None) -> 
         at[rows, axes[arcs, 2]] = cols["h0"][arcs] + cols["dh"][arcs] * u0
         arc_start[arcs] = at
     if cum_len is None:
-        cum_len = np.concatenate([[0.0], np.cumsum(_lengths(moves, seg_d, straight, arcs, frames))])
+        length = _lengths(moves, seg_d, straight, arcs, frames, steps, step_rows)
+        cum_len = np.concatenate([[0.0], np.cumsum(length)])
     curves: list[object] = [None] * m
+    for j, c in zip(steps, step_rows.curves, strict=True):
+        curves[j] = c
     for j, mv in zip(splines, spline_moves, strict=True):
-        curves[j] = mv.curve
+        if not isinstance(mv, Transition):
+            curves[j] = mv.curve
     return MoveTable(
         line=np.array(list(map(attrgetter("line"), moves)), dtype=np.int64),
         feed=feed,
@@ -217,11 +239,14 @@ def _lengths(
     straight: np.ndarray,
     arcs: np.ndarray,
     frames: _ArcFrames | None,
+    steps: Sequence[int] = (),
+    step_rows: _TransitionRows | None = None,
 ) -> np.ndarray:
     """(len(moves),) every move's ``length_mm`` [mm], the numbers controller/moves.py gives: a
     straight move's math.dist(start, end) is math.hypot of its seg_d (both take |p - q| per
     axis into the same norm), an arc's math.hypot(0.5 * (r0 + r1) * A, h1 - h0) with its
-    frame's numbers (Arc.length_mm's own), any other move's (a spline's) its own property."""
+    frame's numbers (Arc.length_mm's own), a transition's the last of its row's arc lengths
+    (``steps``: their rows, ``step_rows``), any other move's (a spline's) its own property."""
     length = np.zeros(len(moves))
     rows = np.flatnonzero(straight)
     length[rows] = _map(math.hypot, *seg_d[rows].T)
@@ -230,9 +255,40 @@ def _lengths(
         length[arcs] = _map(math.hypot, in_plane, frames.h1 - frames.h0)
     rest = ~straight
     rest[arcs] = False
+    if steps and step_rows is not None:
+        length[list(steps)] = step_rows.length_mm
+        rest[list(steps)] = False
     for j in np.flatnonzero(rest).tolist():
         length[j] = moves[j].length_mm
     return length
+
+
+class _TransitionRows:
+    """The packed rows of some :class:`Transition` moves, read once: their control points
+    (m, 6, 3) [mm] (as ``Transition.control_points``: ends exact), arc lengths [mm] and curves."""
+
+    def __init__(self, moves: Sequence[PathMove], at: Sequence[int]) -> None:
+        packed = [cast(Transition, moves[j]).row for j in at]
+        self.rows = packed_rows(packed) if packed else np.zeros((0, ROW))
+
+    @property
+    def control_points(self) -> np.ndarray:
+        rows = self.rows
+        ctrl = np.einsum("ij,mjk->mik", BERNSTEIN, row_coefficients(rows))
+        ctrl[:, [0, 5]] = row_ends(rows)
+        return ctrl
+
+    @property
+    def length_mm(self) -> np.ndarray:
+        return row_cells(self.rows)[:, -1].copy()
+
+    @property
+    def curves(self) -> list[QuinticCurve]:
+        return [QuinticCurve.from_row(r) for r in self.rows]
+
+
+def _transition_rows(moves: Sequence[PathMove], at: Sequence[int]) -> _TransitionRows:
+    return _TransitionRows(moves, at)
 
 
 @dataclass(frozen=True)
