@@ -61,7 +61,7 @@ EPS_MM = 1e-9
 _COS_REVERSAL = math.cos(REVERSAL_RAD)
 #: the G64 fit's longest move [mm] and largest turn [rad]
 #: (controller/planner/polyline_fit.py MAX_MOVE_MM, MAX_TURN_RAD; tests/test_polyline_fit.py)
-FIT_MOVE_MM = 2.0
+FIT_MOVE_MM = 1.0
 FIT_TURN_RAD = math.radians(10.0)
 
 

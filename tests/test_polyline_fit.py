@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import itertools
 import math
+import os
 import random
 
 import numpy as np
@@ -299,3 +300,67 @@ def test_a_path_made_again_takes_its_fits_from_the_first(machine, monkeypatch):
     assert fitted >= 1 and len(calls) == fitted
     pieces = [m for m in first.moves if isinstance(m, Transition)]
     assert pieces and pieces == [m for m in again.moves if isinstance(m, Transition)]
+
+
+def _random_run(data, plane: str) -> tuple[str, float]:
+    """A program of a random polyline in ``plane`` (moves of 0.02-2 mm turning up to 10
+    degrees, runs of turns one way then the other) and its P [mm]."""
+    from hypothesis import strategies as st
+
+    n = data.draw(st.integers(10, 120), label="moves")
+    p_mm = data.draw(st.sampled_from([0.002, 0.005, 0.01, 0.03]), label="P")
+    feed = data.draw(st.sampled_from([300, 1500, 3000, 9000]), label="F")
+    lengths = data.draw(st.lists(st.floats(0.02, 2.0), min_size=n, max_size=n), label="L")
+    turns = data.draw(st.lists(st.floats(-10.0, 10.0), min_size=n, max_size=n), label="turn")
+    a, b = {"XY": ("X", "Y"), "XZ": ("X", "Z"), "YZ": ("Y", "Z")}[plane]
+    word = {"XY": "G17", "XZ": "G18", "YZ": "G19"}[plane]
+    u = v = h = 0.0
+    body = []
+    for length, turn in zip(lengths, turns, strict=True):
+        h += math.radians(turn)
+        u, v = u + length * math.cos(h), v + length * math.sin(h)
+        body.append(f"G1 {a}{u:.4f} {b}{v:.4f}")
+    head = f"G21 G90 {word} G64 P{p_mm}\nG0 X0 Y0 Z0\nF{feed}\n"
+    return head + "\n".join(body) + "\nM2\n", p_mm
+
+
+@pytest.mark.parametrize("plane", ["XY", "XZ", "YZ"])
+def test_random_polylines_stay_within_p_and_every_limit(machine, plane):
+    """Property: on random polylines in each plane, at random P and feed, the fitted curve
+    stays within its budget of the moves (dense points against every move), the path is
+    continuous, and the sampled reference keeps every limit and the feed."""
+    from hypothesis import given, settings
+    from hypothesis import strategies as st
+
+    from tests.plan_helpers import PLAN_PROPERTY_SETTINGS
+
+    # 8 programs a plane in the suite (a plan and a dense check each);
+    # GANTRY_FIT_EXAMPLES=200 runs more
+    examples = int(os.environ.get("GANTRY_FIT_EXAMPLES", "8"))
+
+    @settings(PLAN_PROPERTY_SETTINGS, max_examples=examples)
+    @given(st.data())
+    def check(data):
+        text, p_mm = _random_run(data, plane)
+        moves = parse_program(text)
+        try:
+            p = plan(moves, machine)
+        except Exception as exc:  # only a refusal for the travel, with its line
+            assert "travel" in str(exc), exc
+            return
+        path = list(p.path_moves)
+        for a, b in itertools.pairwise(path):
+            assert a.end == b.start
+        pieces = [m for m in path if isinstance(m, Transition)]
+        if pieces:
+            t = np.linspace(0.0, 1.0, 41)
+            dense = np.vstack([piece.curve.points(t) for piece in pieces])
+            budget = polyline_fit.GEOMETRY_SHARE * (
+                p_mm - REFERENCE_SHARE * machine.segmentation.chord_tolerance_mm
+            )
+            reported = max(b.deviation_mm for b in p.blends if b.kind == "fit")
+            lines = [m for m in moves if isinstance(m, Linear)]
+            assert polyline_distance(dense, lines).max() <= reported + 1e-12 <= budget + 1e-12
+        assert_within_limits(p.sample(machine.servo.period_s), machine, moves)
+
+    check()
