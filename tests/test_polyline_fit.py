@@ -364,3 +364,21 @@ def test_random_polylines_stay_within_p_and_every_limit(machine, plane):
         assert_within_limits(p.sample(machine.servo.period_s), machine, moves)
 
     check()
+
+
+def test_entries_with_no_run_stream_through_at_once(machine):
+    """A program with no run to fit: each entry comes out before the next is read (the path
+    is made as the moves come, path_stream), not held to the end."""
+    from gantry_sim.controller.planner.path_control import PathEntry
+
+    moves = [m for m in parse_program(_polygon(8)) if isinstance(m, Linear)]
+    read = []
+
+    def entries():
+        for k, m in enumerate(moves):
+            read.append(k)
+            yield PathEntry(m, False, [], (k, k))
+
+    tol = machine.segmentation.chord_tolerance_mm
+    for k, e in enumerate(polyline_fit.fit_runs(entries(), machine.path, tol)):
+        assert e.move is moves[k] and read[-1] == k

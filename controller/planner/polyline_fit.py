@@ -112,6 +112,8 @@ MU_ROUNDS = 4
 CHUNK_MOVES = 512
 CUT_MOVES = 64
 BATCH_CHUNKS = 8
+#: Entries held behind the chunks waiting to be fitted, at most (then they are fitted).
+QUEUE_ENTRIES = 16384
 #: Samples per span measuring the curve, and golden-section steps refining the largest.
 SPAN_SAMPLES = 8
 GOLDEN_STEPS = 8
@@ -543,7 +545,10 @@ def fit_runs(
     cur = next(it, None)
     while cur is not None:
         if not _starts(cur, settings, chord_tolerance_mm):
-            queue.append(cur)
+            if queue:  # behind chunks still to fit
+                queue.append(cur)
+            else:  # nothing waits: the entry goes on at once (a program with no run streams)
+                yield cur
             prev, cur = cur, next(it, None)
             continue
         # a run that starts or ends at rest starts or ends at its end point, not a half-move
@@ -567,7 +572,7 @@ def fit_runs(
             chunks += 1
         else:
             queue.extend(run)
-        if chunks >= BATCH_CHUNKS:
+        if chunks >= BATCH_CHUNKS or (chunks == 0 and queue) or len(queue) > QUEUE_ENTRIES:
             yield from flush()
     yield from flush()
 
