@@ -42,6 +42,13 @@ def _surface_xz(n: int) -> str:
     return f"G21 G90 G18 G64 P0.01\nG0 X0 Y3 Z0\nF2000\n{body}M2\n"
 
 
+@pytest.fixture
+def fit_all(monkeypatch):
+    """Every run the rules take is fitted, also where corner blends would pass it at its feed
+    (polyline_fit._blends_slow): the tests of the curve's own properties."""
+    monkeypatch.setattr(polyline_fit, "SLOW_SHARE", 0.0)
+
+
 def _fits(p) -> list[Transition]:
     return [m for m in p.path_moves if isinstance(m, Transition)]
 
@@ -56,7 +63,9 @@ def _budget(machine) -> float:
 @pytest.mark.parametrize(
     "text", [_noisy(400), _polygon(360), _surface_xz(300)], ids=["noisy", "360-gon", "G18 row"]
 )
-def test_the_curve_stays_within_its_budget_of_the_moves_and_reports_its_deviation(machine, text):
+def test_the_curve_stays_within_its_budget_of_the_moves_and_reports_its_deviation(
+    fit_all, machine, text
+):
     moves = parse_program(text)
     p = plan(moves, machine)
     pieces = _fits(p)
@@ -136,7 +145,7 @@ def test_a_noisy_polyline_runs_near_its_feed_within_every_limit(machine):
     assert_within_limits(tr, machine, moves)
 
 
-def test_a_spiral_in_g19_of_short_moves_is_fitted_in_its_plane(machine):
+def test_a_spiral_in_g19_of_short_moves_is_fitted_in_its_plane(fit_all, machine):
     body = "".join(
         f"G1 Y{(4 + 0.01 * k) * math.cos(k / 20):.4f} Z{(4 + 0.01 * k) * math.sin(k / 20):.4f}\n"
         for k in range(1, 200)
@@ -169,7 +178,7 @@ def _steps(n: int, step: float = 0.2, turn_deg: float = 2.0) -> list[str]:
         ("in line", False),  # straight moves run on their axes' own limits
     ],
 )
-def test_runs_are_taken_only_where_the_rules_allow(machine, changed, pieces_expected):
+def test_runs_are_taken_only_where_the_rules_allow(fit_all, machine, changed, pieces_expected):
     steps = _steps(60)
     head = "G21 G90 G17 G64 P0.01\nG0 X0 Y0 Z0\nF2000\n"
     if changed == "G61":
@@ -185,7 +194,7 @@ def test_runs_are_taken_only_where_the_rules_allow(machine, changed, pieces_expe
     assert bool(_fits(p)) == pieces_expected
 
 
-def test_a_run_ends_at_a_feed_change_a_dwell_a_long_move_and_a_sharp_turn(machine):
+def test_a_run_ends_at_a_feed_change_a_dwell_a_long_move_and_a_sharp_turn(fit_all, machine):
     s = _steps(120)
     body = (
         [f"G1 {x}" for x in s[:30]]
@@ -213,7 +222,9 @@ def test_a_run_ends_at_a_feed_change_a_dwell_a_long_move_and_a_sharp_turn(machin
     assert speed[(tr.line >= 63) & (tr.line <= 65)].min() < 1e-9
 
 
-def test_a_chunk_that_does_not_fit_keeps_its_moves_and_the_path_stays_whole(machine, monkeypatch):
+def test_a_chunk_that_does_not_fit_keeps_its_moves_and_the_path_stays_whole(
+    fit_all, machine, monkeypatch
+):
     monkeypatch.setattr(polyline_fit, "CHUNK_MOVES", 80)
     monkeypatch.setattr(polyline_fit, "CUT_MOVES", 10)
     real = polyline_fit.fit_curve
@@ -294,9 +305,10 @@ def test_a_path_made_again_takes_its_fits_from_the_first(machine, monkeypatch):
     items = list(interpret_events(_noisy(300)))
     memo = polyline_fit.FitMemo()
     tol = machine.segmentation.chord_tolerance_mm
-    first = path_plan(items, machine.path, tol, fitted=memo)
+    jerk = min(machine.limits.max_jerk_mm_per_s3)
+    first = path_plan(items, machine.path, tol, jerk_mm_per_s3=jerk, fitted=memo)
     fitted = len(calls)
-    again = path_plan(items, machine.path, tol, frozenset({5}), fitted=memo)
+    again = path_plan(items, machine.path, tol, frozenset({5}), jerk, fitted=memo)
     assert fitted >= 1 and len(calls) == fitted
     pieces = [m for m in first.moves if isinstance(m, Transition)]
     assert pieces and pieces == [m for m in again.moves if isinstance(m, Transition)]
@@ -325,7 +337,7 @@ def _random_run(data, plane: str) -> tuple[str, float]:
 
 
 @pytest.mark.parametrize("plane", ["XY", "XZ", "YZ"])
-def test_random_polylines_stay_within_p_and_every_limit(machine, plane):
+def test_random_polylines_stay_within_p_and_every_limit(fit_all, machine, plane):
     """Property: on random polylines in each plane, at random P and feed, the fitted curve
     stays within its budget of the moves (dense points against every move), the path is
     continuous, and the sampled reference keeps every limit and the feed."""
@@ -382,3 +394,11 @@ def test_entries_with_no_run_stream_through_at_once(machine):
     tol = machine.segmentation.chord_tolerance_mm
     for k, e in enumerate(polyline_fit.fit_runs(entries(), machine.path, tol)):
         assert e.move is moves[k] and read[-1] == k
+
+
+def test_runs_that_blends_pass_at_the_feed_keep_their_blends(machine):
+    """A chunk is fitted only where corner blends would pass a quarter of its moves below 0.9
+    of the feed: the 360-gon at F3000 (blends meeting on a circle, no jump between them) keeps
+    its blends; the noisy polyline, whose blends' curvatures jump, is fitted."""
+    assert not _fits(plan(parse_program(_polygon(360)), machine))
+    assert len(_fits(plan(parse_program(_noisy(200)), machine))) > 100

@@ -106,7 +106,15 @@ def path_plan(
     first = core = 0  # core: the first merged move not yet blended
     spans: list[tuple[int, int]] = []  # stretches waiting for their wave
     entries = _entries(items, settings, trailing, machine)
-    fits = fit_runs(entries, settings, chord_tolerance_mm, fitted)
+    scale = 1.0 if machine is None else machine.feed_scale
+    fits = fit_runs(
+        entries,
+        settings,
+        chord_tolerance_mm,
+        fitted,
+        jerk_mm_per_s3=jerk_mm_per_s3,
+        feed_scale=scale,
+    )
     for entry in merge_runs(fits, settings, merges):
         buffer.append(entry)
         if first + len(buffer) >= core + stretch_moves + CONTEXT_MOVES:

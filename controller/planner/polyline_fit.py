@@ -94,12 +94,13 @@ MIN_RUN_MOVES = 8
 #: (a chunk's own is its length over a whole number of spans); then half that.
 KNOT_MM = 0.25
 KNOTS_PER_MOVE = 0.8
-#: A chunk is fitted where at least this share of its moves would be used up by the blends at
-#: their two ends (:func:`_blends_meet`): there the blends' arcs meet with jumps of curvature,
-#: which the fit removes; where lines stay between the blends (longer moves, smaller turns),
-#: corner blends are about as fast and plan faster (TinyG's FordEmblem, a contour digitised in
-#: moves of about 1 mm: 721.2 s fitted against 723.2 s blended, planned in 26 s against 8.7 s).
-MEETING_SHARE = 0.5
+#: A chunk is fitted where corner blends would pass at least SLOW_SHARE of its moves below
+#: SLOW_FEED of the feed (:func:`_blends_slow`): the jumps of curvature between them, which the
+#: fit removes, cost time there; elsewhere the blends are as fast and plan faster (TinyG's
+#: FordEmblem, a contour digitised in moves of about 1 mm: 721.2 s fitted against 723.2 s
+#: blended, planned in 26 s against 8.7 s).
+SLOW_SHARE = 0.25
+SLOW_FEED = 0.9
 #: Spacing of the polyline points the fit is measured against [mm] (end points too).
 SAMPLE_MM = 0.1
 #: Share of the budget (P less the reference's share of the chord tolerance) the curve may use.
@@ -511,13 +512,24 @@ def fit_runs(
     settings: PathSettings,
     chord_tolerance_mm: float,
     memo: FitMemo | None = None,
+    *,
+    jerk_mm_per_s3: float = math.inf,
+    feed_scale: float = 1.0,
 ) -> Iterator[PathEntry]:
     """The entries with each run of short straight moves (module docstring) replaced by: the
     first half of its first move, the fitted curve's pieces (each an entry with a
     :class:`~gantry_sim.controller.moves.Transition` and its ``fit``), the second half of its
-    last move. A run that does not fit comes as it was. Runs are fitted :data:`BATCH_CHUNKS`
+    last move. A run that does not fit comes as it was, and so does one that corner blends
+    would pass at its feed (``jerk_mm_per_s3``: the machine's lowest axis jerk [mm/s^3], inf:
+    none is fitted; ``feed_scale``: the feed override [1]). Runs are fitted :data:`BATCH_CHUNKS`
     chunks at a time over the processes (:func:`~gantry_sim.controller.forked.fork_map`)."""
-    fit = functools.partial(_fit_chunks, settings=settings, chord_tolerance_mm=chord_tolerance_mm)
+    fit = functools.partial(
+        _fit_chunks,
+        settings=settings,
+        chord_tolerance_mm=chord_tolerance_mm,
+        jerk_mm_per_s3=jerk_mm_per_s3,
+        feed_scale=feed_scale,
+    )
     queue: list[PathEntry | _Chunk] = []  # in order: entries as they are, and chunks to fit
     chunks = 0
 
@@ -595,16 +607,28 @@ class _Chunk:
 
 
 def _fit_chunks(
-    chunks: list[_Chunk], settings: PathSettings, chord_tolerance_mm: float
+    chunks: list[_Chunk],
+    settings: PathSettings,
+    chord_tolerance_mm: float,
+    jerk_mm_per_s3: float,
+    feed_scale: float,
 ) -> list[list[PathEntry]]:
-    return [_fit_entries(c, settings, chord_tolerance_mm) for c in chunks]
+    return [
+        _fit_entries(c, settings, chord_tolerance_mm, jerk_mm_per_s3, feed_scale) for c in chunks
+    ]
 
 
 def _fit_entries(
-    chunk: _Chunk, settings: PathSettings, chord_tolerance_mm: float
+    chunk: _Chunk,
+    settings: PathSettings,
+    chord_tolerance_mm: float,
+    jerk_mm_per_s3: float = math.inf,
+    feed_scale: float = 1.0,
 ) -> list[PathEntry]:
     """The entries a chunk becomes: its lead half-move, the curve's pieces, its tail half-move;
-    or its moves as they were where no curve fits (:func:`_unfitted`)."""
+    or its moves as they were where no curve fits (:func:`_unfitted`), or where corner blends
+    would pass it at the feed anyway (:func:`_blends_slow`, under the machine's lowest jerk
+    ``jerk_mm_per_s3`` [mm/s^3] and the feed override ``feed_scale``)."""
     run = chunk.run
     moves: list[Linear] = [e.move for e in run]  # type: ignore[misc]
     pts3 = np.array([moves[0].start] + [m.end for m in moves], dtype=float)
@@ -620,7 +644,8 @@ def _fit_entries(
     lead = 0.0 if chunk.rest_before else 0.5 * moves[0].length_mm
     tail = 0.0 if chunk.rest_after else 0.5 * moves[-1].length_mm
     line = _Polyline(pts)
-    if not _blends_meet(line, budget):
+    feed = moves[0].feed_mm_per_min / 60.0 * feed_scale
+    if not _blends_slow(line, budget, feed, jerk_mm_per_s3):
         return _unfitted(chunk)
     poly = _clip(line, lead, float(line.s[-1]) - tail)
     if chunk.rest_before:  # the polyline's own turning there (the stop hides any jump)
@@ -681,21 +706,34 @@ def _fit_entries(
     return out
 
 
-def _blends_meet(line: _Polyline, budget_mm: float) -> bool:
-    """True when corner blends within ``budget_mm`` [mm] would use up at least
-    :data:`MEETING_SHARE` of the inner moves of ``line`` between them: a turn phi's blend of
-    radius R leaves the corner by R (sec(phi/2) - 1) and takes R tan(phi/2) of each move."""
+def _blends_slow(line: _Polyline, budget_mm: float, feed_mm_per_s: float, jerk: float) -> bool:
+    """True when corner blends within ``budget_mm`` [mm] would pass at least
+    :data:`SLOW_SHARE` of the inner moves of ``line`` below :data:`SLOW_FEED` of the feed
+    [mm/s], under the jerk ``jerk`` [mm/s^3]: a turn phi's blend of radius R leaves the corner by
+    R (sec(phi/2) - 1) and takes R tan(phi/2) of each move (at most half of it); where two
+    blends meet (nothing of the move left between them) their curvatures jump by dk, and the
+    jump is passed at v^2 dk <= 1.1447 (e J^2)^(1/3) at most, e the smoothing's share of the
+    budget (benchmarks/junction_floor.py's ceiling); where a line stays between them, the jump
+    from it to each arc (dk = 1/R) counts the same way."""
     d = line.seg / np.maximum(line.len, 1e-300)[:, None]
-    cos = np.clip(np.einsum("ij,ij->i", d[:-1], d[1:]), -1.0, 1.0)
-    half = 0.5 * np.arccos(cos)  # at each inner end point
+    cross = d[:-1, 0] * d[1:, 1] - d[:-1, 1] * d[1:, 0]
+    phi = np.arctan2(cross, np.einsum("ij,ij->i", d[:-1], d[1:]))  # signed, at each inner end
+    half = 0.5 * np.abs(phi)
     sec_less_1 = 1.0 / np.cos(half) - 1.0
+    tan = np.tan(half)
+    room = 0.5 * np.minimum(line.len[:-1], line.len[1:])
     with np.errstate(divide="ignore", invalid="ignore"):
-        take = np.where(sec_less_1 > 0, budget_mm / sec_less_1 * np.tan(half), np.inf)
+        take = np.minimum(np.where(sec_less_1 > 0, budget_mm / sec_less_1 * tan, np.inf), room)
+        k = np.where(take > 0, np.sign(phi) * tan / take, 0.0)  # each blend's signed curvature
     inner = line.len[1:-1]
     if inner.size == 0:
         return False
-    meets = take[:-1] + take[1:] >= inner
-    return bool(np.mean(meets) >= MEETING_SHARE)
+    meets = take[:-1] + take[1:] >= 0.99 * inner
+    dk = np.where(meets, np.abs(k[1:] - k[:-1]), np.maximum(np.abs(k[1:]), np.abs(k[:-1])))
+    a_jump = 1.1447 * ((1.0 - GEOMETRY_SHARE) * budget_mm * jerk * jerk) ** (1.0 / 3.0)
+    with np.errstate(divide="ignore"):
+        v = np.sqrt(a_jump / dk)
+    return bool(np.mean(v < SLOW_FEED * feed_mm_per_s) >= SLOW_SHARE)
 
 
 def _left(d: np.ndarray) -> np.ndarray:
