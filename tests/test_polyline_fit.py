@@ -45,8 +45,10 @@ def _surface_xz(n: int) -> str:
 @pytest.fixture
 def fit_all(monkeypatch):
     """Every run the rules take is fitted, also where corner blends would pass it at its feed
-    (polyline_fit._blends_slow): the tests of the curve's own properties."""
+    (polyline_fit._blends_slow), and runs of 8 moves or more: the tests of the curve's own
+    properties."""
     monkeypatch.setattr(polyline_fit, "SLOW_SHARE", 0.0)
+    monkeypatch.setattr(polyline_fit, "MIN_RUN_MOVES", 8)
 
 
 def _fits(p) -> list[Transition]:

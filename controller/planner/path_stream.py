@@ -107,6 +107,7 @@ def path_plan(
     spans: list[tuple[int, int]] = []  # stretches waiting for their wave
     entries = _entries(items, settings, trailing, machine)
     scale = 1.0 if machine is None else machine.feed_scale
+    acc = math.inf if machine is None else min(machine.limits.max_acceleration_mm_per_s2)
     fits = fit_runs(
         entries,
         settings,
@@ -114,6 +115,7 @@ def path_plan(
         fitted,
         jerk_mm_per_s3=jerk_mm_per_s3,
         feed_scale=scale,
+        acc_mm_per_s2=acc,
     )
     for entry in merge_runs(fits, settings, merges):
         buffer.append(entry)
