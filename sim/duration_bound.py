@@ -59,10 +59,6 @@ REVERSAL_RAD = math.radians(179.0)
 #: moves this short [mm] have no direction (the planner drops them)
 EPS_MM = 1e-9
 _COS_REVERSAL = math.cos(REVERSAL_RAD)
-#: the G64 fit's longest move [mm] and largest turn [rad]
-#: (controller/planner/polyline_fit.py MAX_MOVE_MM, MAX_TURN_RAD; tests/test_polyline_fit.py)
-FIT_MOVE_MM = 1.0
-FIT_TURN_RAD = math.radians(10.0)
 
 
 def duration_lower_bound(
@@ -74,6 +70,7 @@ def duration_lower_bound(
     from gantry_sim.controller.moves import Arc, Dwell, Limits, Linear, Rapid, Spline, Stop
     from gantry_sim.controller.planner.magnitudes import check_magnitudes
     from gantry_sim.controller.planner.path_control import control, extends_run, starts_run
+    from gantry_sim.controller.planner.polyline_fit import MAX_MOVE_MM, MAX_TURN_RAD
 
     stops, motions = (Dwell, Stop, Limits), (Rapid, Linear, Arc, Spline)
     governed = (Rapid, Linear, Arc)  # their mode governs the junction after them (G64: blended)
@@ -159,7 +156,7 @@ def duration_lower_bound(
         if d is not None and stretch.reverses(d, length):
             total += stretch.close()
         elif prev is not None and here is not None and prev.g64:
-            saved = _blend_saving_mm(prev, d, length)
+            saved = _blend_saving_mm(prev, d, length, (MAX_MOVE_MM, MAX_TURN_RAD))
             saved_s = saved / min(prev.speed, speed) if saved > 0 else 0.0
             stretch.shorten(saved, saved_s)
             per_line[prev.line] = max(per_line.get(prev.line, 0.0) - saved_s, 0.0)
@@ -251,9 +248,13 @@ def _straight_cap(vmax: list[float], d: list[float], length_mm: float, norm: flo
     return norm if cap is None else cap
 
 
-def _blend_saving_mm(prev: _Prev, d: list[float] | None, length_mm: float) -> float:
+def _blend_saving_mm(
+    prev: _Prev, d: list[float] | None, length_mm: float, fit: tuple[float, float]
+) -> float:
     """How much shorter [mm] a G64 blend of the corner after ``prev`` into a move of
-    displacement ``d`` (None: an arc) and ``length_mm`` can make the path (module docstring)."""
+    displacement ``d`` (None: an arc) and ``length_mm`` can make the path (module docstring);
+    ``fit``: the longest move [mm] and largest turn [rad] a G64 fit takes
+    (controller/planner/polyline_fit.py)."""
     p = prev.p
     if prev.dropped:  # the end of a naive-CAM run: its merged line is not known
         return 2.0 * p
@@ -269,7 +270,7 @@ def _blend_saving_mm(prev: _Prev, d: list[float] | None, length_mm: float) -> fl
     tan = math.tan(half)
     radius = min(by_tolerance, min(prev.length, length_mm) / tan)
     saving = max(radius * (2.0 * tan - phi), 0.0)
-    if max(prev.length, length_mm) <= FIT_MOVE_MM and phi <= FIT_TURN_RAD:
+    if max(prev.length, length_mm) <= fit[0] and phi <= fit[1]:
         # a G64 fit may take the two moves (controller/planner/polyline_fit.py): a curve within
         # P of both passes the corner at most 2 P tan(phi/2) shorter (the inner offset lines at
         # P); twice that, for any rounding of that argument

@@ -127,7 +127,7 @@ def move_table(moves: Sequence[PathMove], cum_len: np.ndarray | None = None) -> 
     splines = np.flatnonzero(is_spline).tolist()
     spline_moves = cast(list[Spline | Transition], [moves[j] for j in splines])
     steps = [j for j, mv in zip(splines, spline_moves, strict=True) if isinstance(mv, Transition)]
-    step_rows = _transition_rows(moves, steps)
+    step_rows = _TransitionRows(moves, steps)
     if steps:  # G2 transitions and G64 fits' pieces (thousands on a CAM polyline): at once
         ctrl = step_rows.control_points
         box_lo[steps] = np.minimum(box_lo[steps], ctrl.min(axis=1))
@@ -285,10 +285,6 @@ class _TransitionRows:
     @property
     def curves(self) -> list[QuinticCurve]:
         return [QuinticCurve.from_row(r) for r in self.rows]
-
-
-def _transition_rows(moves: Sequence[PathMove], at: Sequence[int]) -> _TransitionRows:
-    return _TransitionRows(moves, at)
 
 
 @dataclass(frozen=True)

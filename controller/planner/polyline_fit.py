@@ -98,8 +98,8 @@ MIN_RUN_MOVES = 64
 KNOT_MM = 0.25
 KNOTS_PER_MOVE = 0.8
 #: A chunk is fitted where corner blends would pass at least SLOW_SHARE of its moves below
-#: SLOW_FEED of the feed (:func:`_blends_slow`): the jumps of curvature between them, which the
-#: fit removes, cost time there; elsewhere the blends are as fast and plan faster (TinyG's
+#: SLOW_FEED of what the curvature itself allows (:func:`_blends_slow`): the jumps of
+#: curvature between them, which the fit removes, cost time there; elsewhere the blends are as fast and plan faster (TinyG's
 #: FordEmblem, a contour digitised in moves of about 1 mm: 721.2 s fitted against 723.2 s
 #: blended, planned in 26 s against 8.7 s).
 SLOW_SHARE = 0.25
@@ -758,6 +758,18 @@ def _left(d: np.ndarray) -> np.ndarray:
     return np.array([-d[1], d[0]])
 
 
+def _signed_turn(m0: PathMove, m1: PathMove, ax: tuple[int, ...]) -> float:
+    """The signed turn [rad] where ``m0`` meets ``m1`` (positive: towards +90 degrees in the
+    plane's two axes ``ax``)."""
+
+    def d(m: PathMove) -> np.ndarray:
+        v = np.array([m.end[ax[0]] - m.start[ax[0]], m.end[ax[1]] - m.start[ax[1]]])
+        return v / math.hypot(v[0], v[1])
+
+    d0, d1 = d(m0), d(m1)
+    return math.atan2(d0[0] * d1[1] - d0[1] * d1[0], d0 @ d1)
+
+
 def _join_curvature(m0: PathMove, m1: PathMove, m2: PathMove | None, ax: tuple[int, ...]) -> float:
     """The signed curvature [1/mm] (positive: turning towards +90 degrees in the plane's two
     axes ``ax``) the curve has where two chunks meet, in the middle of ``m1``: the turns where
@@ -765,24 +777,14 @@ def _join_curvature(m0: PathMove, m1: PathMove, m2: PathMove | None, ax: tuple[i
     chunks compute it from the same three moves, so their curves meet with one curvature."""
     if m2 is None:
         return 0.0
-
-    def d(m: PathMove) -> np.ndarray:
-        v = np.array([m.end[ax[0]] - m.start[ax[0]], m.end[ax[1]] - m.start[ax[1]]])
-        return v / math.hypot(v[0], v[1])
-
-    d0, d1, d2 = d(m0), d(m1), d(m2)
-    turn = math.atan2(d0[0] * d1[1] - d0[1] * d1[0], d0 @ d1)
-    turn += math.atan2(d1[0] * d2[1] - d1[1] * d2[0], d1 @ d2)
+    turn = _signed_turn(m0, m1, ax) + _signed_turn(m1, m2, ax)
     return turn / (0.5 * m0.length_mm + m1.length_mm + 0.5 * m2.length_mm)
 
 
 def _turn_rate(m0: PathMove, m1: PathMove, ax: tuple[int, ...]) -> float:
     """The signed turn where ``m0`` meets ``m1`` over half their lengths [1/mm]: the polyline's
     curvature there (a polygon's turn over its side: its circle's, to first order)."""
-    v0 = np.array([m0.end[ax[0]] - m0.start[ax[0]], m0.end[ax[1]] - m0.start[ax[1]]])
-    v1 = np.array([m1.end[ax[0]] - m1.start[ax[0]], m1.end[ax[1]] - m1.start[ax[1]]])
-    turn = math.atan2(v0[0] * v1[1] - v0[1] * v1[0], float(v0 @ v1))
-    return turn / (0.5 * m0.length_mm + 0.5 * m1.length_mm)
+    return _signed_turn(m0, m1, ax) / (0.5 * m0.length_mm + 0.5 * m1.length_mm)
 
 
 def _middle(m: Linear) -> tuple[float, float, float]:
