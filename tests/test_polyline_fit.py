@@ -136,13 +136,17 @@ def test_position_tangent_and_curvature_are_continuous_along_the_curve_and_at_it
 
 def test_a_noisy_polyline_runs_near_its_feed_within_every_limit(machine):
     """The benchmarks' noisy polyline: blended corner by corner each arc has its own corner's
-    curvature and the jumps between them are passed slowly; on the fitted curve it runs in
-    about half the time (LinuxCNC 2.9, without a jerk limit: 5.670 s for its first 1,000
-    moves, benchmarks/data/linuxcnc_peer.json), within every axis limit and the feed."""
+    curvature and the jumps between them are passed slowly; on the fitted curve it runs near
+    its feed (LinuxCNC 2.9, without a jerk limit: 5.670 s for its first 1,000 moves,
+    benchmarks/data/linuxcnc_peer.json), within every axis limit and the feed. Measured on
+    these 300 moves: 1.30 x their length at the feed, where corner by corner they took 2.33 x
+    (2.17 x since blend arcs are laid within their own budget: tests/test_blend_chords.py)."""
     moves = parse_program(_noisy(300))
     fitted = plan(moves, machine)
     blended = plan(moves, blending(machine))
-    assert fitted.duration_s < 0.6 * blended.duration_s
+    at_feed_s = sum(m.length_mm for m in moves if isinstance(m, Linear)) / (3000.0 / 60.0)
+    assert fitted.duration_s < 1.35 * at_feed_s
+    assert fitted.duration_s < 0.65 * blended.duration_s
     tr = fitted.sample(machine.servo.period_s)
     assert_within_limits(tr, machine, moves)
 

@@ -106,6 +106,11 @@ class ArcGeometry(MoveGeometry):
     #: a closed-form piece from rest across a long chord leaves the arc (0.29 um at 1 um
     #: chord tolerance on a Bambu print's R13 arc at M204 S500, against 0.02 on chord steps).
     stop_step_u: float = 1.0
+    #: The chord tolerance its vertices were laid within [mm] (the machine's, but a G64 blend
+    #: arc's own: :func:`~gantry_sim.controller.planner.prepare.blend_chord_tolerances`; 0: a
+    #: transition's). Its pieces between vertices stay within
+    #: :data:`~gantry_sim.controller.planner.pieces.JUNCTION_DEVIATION_MAX` of it.
+    chord_tolerance_mm: float = 0.0
 
     def points(self, u: np.ndarray) -> np.ndarray:
         """Points on the curve at fractions ``u`` (u = 0 and 1: start and end exactly)."""
@@ -356,7 +361,20 @@ def _arc_geometry(
         tol, step_mm = seg.chord_tolerance_mm, seg.segment_length_mm
         stop_step = 1.0 / max(chords_of_sweep(move, r_max, "chord", tol, step_mm), n)
     return ArcGeometry(
-        move, verts, length, t_in, t_out, k_in, k_out, _UNSET, feed, u, follow, spiral, stop_step
+        move,
+        verts,
+        length,
+        t_in,
+        t_out,
+        k_in,
+        k_out,
+        _UNSET,
+        feed,
+        u,
+        follow,
+        spiral,
+        stop_step,
+        seg.chord_tolerance_mm,
     )
 
 
@@ -378,7 +396,20 @@ def _spline_geometry(move: Spline, seg: Segmentation, feed_scale: float) -> ArcG
         dcurv,
         feed * (1.0 - FEED_MARGIN_PER_PHI4 * min(sweep, 1.0) ** 4 - FEED_MARGIN_REL),
     )
-    return ArcGeometry(move, verts, length, t_in, t_out, k_in, k_out, _UNSET, feed, u, follow)
+    return ArcGeometry(
+        move,
+        verts,
+        length,
+        t_in,
+        t_out,
+        k_in,
+        k_out,
+        _UNSET,
+        feed,
+        u,
+        follow,
+        chord_tolerance_mm=seg.chord_tolerance_mm,
+    )
 
 
 def _transition_geometry(

@@ -110,6 +110,7 @@ class MovePieces:
         self.limits = limits
         self.pieces = pieces
         self.solver = solver
+        self.chord_tolerance_mm = chord_tolerance_mm
         self.dev_max = JUNCTION_DEVIATION_MAX * chord_tolerance_mm
         self.out = CubicBuilder()
         self.ruckig_pieces = 0
@@ -125,6 +126,11 @@ class MovePieces:
         default, or the arc's smoothing budget ``smoothing_mm`` (a G64 blend arc's) where
         larger."""
         return max(self.dev_max, smoothing_mm)
+
+    def inner_deviation_mm(self, g: ArcGeometry) -> float:
+        """The deviation [mm] allowed the pieces of ``g`` away from its moving junctions:
+        :data:`JUNCTION_DEVIATION_MAX` of the chord tolerance its vertices were laid within."""
+        return max(self.dev_max, JUNCTION_DEVIATION_MAX * g.chord_tolerance_mm)
 
     def straight(self, g: MoveGeometry, profile: Profile1D) -> float:
         """The profile projected on the straight move; its duration [s]."""
@@ -203,6 +209,25 @@ class MovePieces:
         self._paste(first)
         return done
 
+    def _inner_off(
+        self, g: ArcGeometry, pieces: Pieces, lo: int, hi: int, ends: list[int], moving: bool
+    ) -> bool:
+        """Whether a closed-form piece ``lo`` .. ``hi - 1`` of ``g`` other than its ``ends``
+        leaves it by more than :meth:`inner_deviation_mm`, counted as a Ruckig piece off the
+        arc is. Measured only on a curve laid within more than the machine's chord tolerance
+        (a G64 blend arc's): between vertices laid within that one, pieces stay far inside
+        it, and measuring every piece of every arc would cost a good part of planning."""
+        if not g.chord_tolerance_mm > self.chord_tolerance_mm:
+            return False
+        limit = self.inner_deviation_mm(g)
+        if not any(_deviation(g, pieces, k) > limit for k in range(lo, hi) if k not in ends):
+            return False
+        if moving:
+            self.inner_off_pieces += 1
+        else:
+            self.off_pieces += 1
+        return True
+
     def _mark(self) -> tuple[int, int, int, int]:
         """Where the output and the counters stand (:meth:`_cut` goes back there)."""
         self.out.flush()
@@ -257,8 +282,9 @@ class MovePieces:
         if ok.all() and phases is not None:
             self._add_closed(phases, mins, 0, n)
             off_at = {k: _deviation(g, pieces, k) > dev_max for k in set(ends)}
-            bad_in = mv_in and off_at[0]
-            bad_out = mv_out and off_at[n - 1]
+            inner = self._inner_off(g, pieces, 0, n, ends, mv_in or mv_out)
+            bad_in = mv_in and (off_at[0] or inner)
+            bad_out = mv_out and (off_at[n - 1] or inner)
             return float(mins.sum()), bad_in, bad_out
         total = 0.0
         k = 0
@@ -276,6 +302,9 @@ class MovePieces:
                     off = _deviation(g, pieces, c) > dev_max
                     bad_in |= c == 0 and mv_in and off
                     bad_out |= c == n - 1 and mv_out and off
+                if self._inner_off(g, pieces, k, e, ends, mv_in or mv_out):
+                    bad_in |= mv_in
+                    bad_out |= mv_out
                 k = e
                 continue
             if self.pieces != "ruckig":
@@ -314,8 +343,9 @@ class MovePieces:
         # the sampled Ruckig pieces against the arc, at once (each as g.deviation measures it)
         devs = _piece_deviations(g, [(q, uk) for q, uk, *_ in sampled])
         for (_, _, piece, at_in, at_out), dev in zip(sampled, devs, strict=True):
-            # the smoothing budget is for the jumps at moving junctions only
-            near = dev_max if at_in or at_out else self.dev_max
+            # the smoothing budget is for the jumps at moving junctions only; inside, what the
+            # vertices' own tolerance allows (a G64 blend arc's may exceed the machine's)
+            near = dev_max if at_in or at_out else self.inner_deviation_mm(g)
             # the speed exactly: a short bulge falls between samples
             off = dev > near or speed_exceeds(piece.phases, g.feed_mm_per_s)
             bad_in |= at_in and off
