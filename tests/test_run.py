@@ -102,6 +102,22 @@ def test_cli_writes_outputs_and_gates(write_program, tmp_path, capsys):
     assert (out / "report.json").exists()
 
 
+def test_a_program_of_rapids_only_says_it_measured_no_contour_error(
+    write_program, tmp_path, capsys
+):
+    """Rapids are not cutting: with no feed move the contour error is 0 by definition, and a
+    gate on it passes; the summary says so rather than print a figure that looks measured."""
+    prog = write_program("G21 G90\nG0 X5 Y2\nG0 Z-1\nG0 X0 Y0 Z0\nM2\n")
+    out = tmp_path / "out"
+    assert main(["run", str(prog), "--out", str(out), "--no-plots", "--max-error-um", "1"]) == 0
+    text = capsys.readouterr().out
+    assert "contour error: none measured: the program has no feed moves" in text
+    assert "contour error: max" not in text
+    rep = json.loads((out / "report.json").read_text())
+    assert rep["contour_error_um"] == {"max": 0.0, "rms": 0.0, "p95": 0.0}
+    assert rep["blocks"] == []
+
+
 def test_bad_machine_key_exits_2(write_program, tmp_path, capsys):
     mf = machine_file(tmp_path, "[servo]\nkp = 3\n")
     assert (
