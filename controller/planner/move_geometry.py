@@ -356,25 +356,13 @@ def _arc_geometry(
         normal_curvature,
         plane_share,
     )
+    tol, step_mm = seg.chord_tolerance_mm, seg.segment_length_mm
     stop_step = 1.0
     if seg.method == "fixed":
-        tol, step_mm = seg.chord_tolerance_mm, seg.segment_length_mm
         stop_step = 1.0 / max(chords_of_sweep(move, r_max, "chord", tol, step_mm), n)
+    frames = (t_in, t_out, k_in, k_out)
     return ArcGeometry(
-        move,
-        verts,
-        length,
-        t_in,
-        t_out,
-        k_in,
-        k_out,
-        _UNSET,
-        feed,
-        u,
-        follow,
-        spiral,
-        stop_step,
-        seg.chord_tolerance_mm,
+        move, verts, length, *frames, _UNSET, feed, u, follow, spiral, stop_step, tol
     )
 
 
@@ -396,19 +384,10 @@ def _spline_geometry(move: Spline, seg: Segmentation, feed_scale: float) -> ArcG
         dcurv,
         feed * (1.0 - FEED_MARGIN_PER_PHI4 * min(sweep, 1.0) ** 4 - FEED_MARGIN_REL),
     )
+    frames = (t_in, t_out, k_in, k_out)
+    tol = seg.chord_tolerance_mm
     return ArcGeometry(
-        move,
-        verts,
-        length,
-        t_in,
-        t_out,
-        k_in,
-        k_out,
-        _UNSET,
-        feed,
-        u,
-        follow,
-        chord_tolerance_mm=seg.chord_tolerance_mm,
+        move, verts, length, *frames, _UNSET, feed, u, follow, chord_tolerance_mm=tol
     )
 
 
