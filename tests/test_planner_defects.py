@@ -4,6 +4,8 @@ arc or helix, keeps every limit and never exceeds the feed."""
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 import pytest
 
@@ -80,6 +82,50 @@ def test_nanometres_left_between_two_blends_are_a_cruise(machine):  # type: igno
     assert_within_limits(tr, machine, moves)
     assert np.allclose(tr.pos[-1], moves[-1].end, atol=1e-9)
     assert p.duration_s < 1.0  # 3.2 mm at 83 mm/s: no detour
+
+
+def _arc_sliver_arc(sliver_mm: float) -> str:
+    """G61: a CCW arc of R2, a straight move of ``sliver_mm`` along its end tangent, a CCW arc of
+    R5 tangent to it, and a line out: the two tangent junctions keep their speed, each capped by
+    its own curvature jump, so the sliver's end speeds differ by what its length allows."""
+    c2 = (-sliver_mm, 2.0 - 5.0)
+    end = (c2[0] + 5.0 * math.cos(math.radians(150)), c2[1] + 5.0 * math.sin(math.radians(150)))
+    return (
+        "G21 G90 G17 G61\nG0 X2 Y-3\nG1 X2 Y0 F6000\nG3 X0 Y2 I-2 J0\n"
+        f"G1 X{-sliver_mm:.12f} Y2\nG3 X{end[0]:.12f} Y{end[1]:.12f} I0 J-5\n"
+        f"G1 X{end[0] - 3:.12f} Y{end[1] - 3:.12f}\nM2\n"
+    )
+
+
+@pytest.mark.parametrize("sliver_mm", [1e-6, 1e-5])
+def test_a_sliver_between_two_tangent_arcs_is_passed_not_detoured(machine, sliver_mm):
+    """Ruckig's profile from one speed to another 1e-10 of it away over a micrometre has to go
+    back along the path (77 ms, 8 um off the program here; 0.1 mm on a Marlin benchy, where an
+    arc corner's blend and a line's left 0.1 nm of the line between them). The check for a
+    profile going backwards read the speed at each phase's start only; Ruckig's passed 0 there
+    and went to -15 mm/s inside a phase. The sliver is now a cruise at one speed."""
+    moves = parse_program(_arc_sliver_arc(sliver_mm))
+    p = plan(moves, machine)
+    tr = p.sample(1e-4)
+    assert_within_limits(tr, machine, moves)
+    assert program_deviation(tr, p.moves) <= 0.25 * TOL
+    # 0.1 nm of line: its end speeds were equal to the last digit, and Ruckig's cruise fitted
+    thinner = plan(parse_program(_arc_sliver_arc(1e-7)), machine)
+    assert p.duration_s == pytest.approx(thinner.duration_s, abs=1e-3)  # 70 ms longer before
+
+
+def test_the_lowest_speed_of_a_profile_is_found_inside_its_phases():
+    from gantry_sim.controller.planner.ruckig_solver import lowest_speed
+
+    # one phase from 1 mm/s decelerating at 1,600 mm/s^2 with jerk 85,713 mm/s^3 for 37.5 ms:
+    # both ends above 0, the turn at t = a / j = 18.7 ms at 1 - 1600^2 / (2 * 85713) < 0
+    rows = np.array([[0.0375, 0.0, 1.0, -1600.0, 85713.0]])
+    v_end = 1.0 + 0.0375 * (-1600.0 + 0.5 * 0.0375 * 85713.0)
+    assert v_end > 0.0
+    assert lowest_speed(rows) == pytest.approx(1.0 - 1600.0**2 / (2 * 85713.0), rel=1e-12)
+    # a phase whose acceleration does not pass zero inside it: its lower end
+    rows = np.array([[0.01, 0.0, 10.0, -100.0, -1000.0]])
+    assert lowest_speed(rows) == pytest.approx(10.0 - 1.0 - 0.05, rel=1e-12)
 
 
 #: A PrusaSlicer perimeter (lines 706-712 of lhalb/evt_v4.gcode, extrusion words dropped) in

@@ -149,6 +149,21 @@ def _phases(prof: ruckig.Profile) -> AxisPhases:
 RUCKIG_MAX_DURATION_S = 7.6e3
 
 
+def lowest_speed(rows: np.ndarray) -> float:
+    """The lowest speed [mm/s] of a 1-D profile's phases ``rows`` (k, 5: duration, s, v, a, j
+    at each phase's start): at the phases' ends and where a phase's acceleration passes zero
+    inside it (v is quadratic in a phase). Ruckig's profile between two speeds a hair apart
+    over a sliver of a line (0.1 nm left between an arc corner's blend and a line's) passed
+    every phase start at 0 mm/s or more and went 0.2 mm back along the path in between."""
+    dur, v, a, j = rows[:, 0], rows[:, 2], rows[:, 3], rows[:, 4]
+    v_end = v + dur * (a + 0.5 * dur * j)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        t = np.where(j != 0.0, -a / j, -1.0)
+    inside = (t > 0.0) & (t < dur)
+    turn = v[inside] + 0.5 * a[inside] * t[inside]  # v + a t + j t^2 / 2 at t = -a / j
+    return float(min(v.min(), v_end.min(), turn.min() if turn.size else math.inf))
+
+
 def too_slow_for_ruckig(what: str, duration_s: float, line: int) -> PlanningError:
     """The error for ``what`` (a piece, a move) lasting ``duration_s`` [s] at its line's feed,
     beyond :data:`RUCKIG_MAX_DURATION_S`: the program's feed, not the planner, is at fault."""
@@ -204,7 +219,7 @@ class RuckigSolver:
                 if share == LIMIT_RETRY_SHARES[-1]:
                     raise
         rows = np.array(_phases(self._tr1.profiles[0][0]), dtype=float).T
-        if rows[:, 2].min() < -1e-9 * max(cap_mm_per_s, 1.0):
+        if lowest_speed(rows) < -1e-9 * max(cap_mm_per_s, 1.0):
             raise ProfileReverses()
         return Profile1D(rows)
 
