@@ -255,3 +255,37 @@ def test_planning_split_leaves_out_exactly_the_overlapped_samples():
     t = np.array([0.5, 1.0, 1.2, 1.5, 1.9, 2.0, 2.249, 2.25, 3.0])
     assert in_overlaps(t, windows).tolist() == [0, 1, 1, 0, 0, 1, 1, 0, 0]
     assert not in_overlaps(t, np.zeros((0, 2))).any()
+
+
+def _hairpin(feed: float) -> str:
+    """A CAM-like hairpin in G64 P0.05 (its Q merges each leg into one move): a leg of 0.175 mm
+    moves up, a rounded tip of 0.002 mm moves, a leg of 0.07 mm moves back down beside it; the
+    tip is an exact stop whose two moves' profiles overlap."""
+    up = [(0.0012 * y * y, y) for y in np.arange(0.175, 10.0, 0.175)]
+    xt, yt = up[-1][0] + 0.012, up[-1][1] + 0.06
+    tip = [(xt + dx, yt - 400.0 * dx * dx) for dx in np.arange(-0.012, 0.0121, 0.002)]
+    bx, by = tip[-1]
+    down = [(bx + 0.025 * k * 0.07, by - k * 0.07) for k in range(1, 45)]
+    body = "".join(f"G1 X{x:.6f} Y{y:.6f}\n" for x, y in up + tip + down)
+    return f"G21 G90 G17 G64 P0.05\nG0 X0 Y0 Z0\nF{feed}\n{body}M2\n"
+
+
+@pytest.mark.parametrize("feed", [3000.0, 6000.0])
+def test_an_overlapped_stop_is_measured_against_both_its_moves(machine, feed):
+    """During the overlap the reference is on the end of one merged leg and the start of the
+    other at once; its samples were measured against the tip's few program moves only (the
+    last of the first leg, the first of the second, one either side), 0.2 mm from it: 95-106
+    um of reference error where the reference is 42 um from the program (a CAMotics example
+    read 176 um for 49). The overlap's entry now names both legs' program moves."""
+    from tests.plan_helpers import polyline_distance, program_deviation
+
+    moves = list(interpret_events(_hairpin(feed)))
+    p = plan(moves, machine)
+    assert len(p.overlaps_s) == 1 and len(p.merges) == 2
+    tr = p.sample(machine.servo.period_s)
+    program = [m for m in p.moves if isinstance(m, Linear)]
+    nearest = polyline_distance(tr.pos[tr.line > 3], program).max()
+    assert program_deviation(tr, p.moves) == pytest.approx(nearest, abs=1e-12)
+    assert nearest <= 0.05
+    (e,) = p.overlap_entries()
+    assert p.move_sources[e].tolist() == [p.move_sources[e - 1][0], p.move_sources[e + 1][1]]
