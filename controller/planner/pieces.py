@@ -215,8 +215,9 @@ class MovePieces:
         """Whether a closed-form piece ``lo`` .. ``hi - 1`` of ``g`` other than its ``ends``
         leaves it by more than :meth:`inner_deviation_mm`, counted as a Ruckig piece off the
         arc is. Measured only on a curve laid within more than the machine's chord tolerance
-        (a G64 blend arc's): between vertices laid within that one, pieces stay far inside
-        it, and measuring every piece of every arc would cost a good part of planning."""
+        (a G64 blend arc's): the pieces between vertices laid within that one are left
+        unmeasured as before (random arcs from rest to rest in G61: 0.24 x the chord tolerance
+        at most, sampled at 0.1 ms)."""
         if not g.chord_tolerance_mm > self.chord_tolerance_mm:
             return False
         limit = self.inner_deviation_mm(g)

@@ -154,7 +154,7 @@ def lowest_speed(rows: np.ndarray) -> float:
     at each phase's start): at the phases' ends and where a phase's acceleration passes zero
     inside it (v is quadratic in a phase). Ruckig's profile between two speeds a hair apart
     over a sliver of a line (0.1 nm left between an arc corner's blend and a line's) passed
-    every phase start at 0 mm/s or more and went 0.2 mm back along the path in between."""
+    every phase start at 0 mm/s or more and went 0.38 mm back along the path in between."""
     dur, v, a, j = rows[:, 0], rows[:, 2], rows[:, 3], rows[:, 4]
     v_end = v + dur * (a + 0.5 * dur * j)
     with np.errstate(divide="ignore", invalid="ignore"):
