@@ -123,6 +123,19 @@ def piece_limits_ok(
     return ok & _speeds_ok(vs, as_, js, dur, vmax, speed_cap)
 
 
+def phase_speeds(
+    v: np.ndarray, a: np.ndarray, j: np.ndarray, dur: np.ndarray | float
+) -> tuple[np.ndarray, np.ndarray]:
+    """Constant-jerk phases starting at velocity ``v``, acceleration ``a`` with jerk ``j``
+    for ``dur`` [s] (arrays that broadcast): their velocity where the acceleration passes zero
+    inside the phase (its start, or its end, where it does not) and at their end. With the
+    start, these bound the velocity over the phase (it is quadratic in time)."""
+    with np.errstate(divide="ignore", invalid="ignore"):
+        tau = np.where(j != 0.0, -a / j, 0.0)
+    tau = np.clip(tau, 0.0, dur)
+    return v + tau * (a + 0.5 * tau * j), v + dur * (a + 0.5 * dur * j)
+
+
 def _speeds_ok(
     vs: np.ndarray,
     as_: np.ndarray,
@@ -134,11 +147,7 @@ def _speeds_ok(
     """(n,) True where the pieces keep the axes' speed limits ``vmax`` and the path-speed cap
     (see :func:`piece_limits_ok`)."""
     h = (dur / 3.0)[:, None, None]
-    with np.errstate(divide="ignore", invalid="ignore"):
-        tau = np.where(js != 0.0, -as_ / js, 0.0)
-    tau = np.clip(tau, 0.0, h)
-    v_stat = vs + tau * (as_ + 0.5 * tau * js)
-    v_end = vs + h * (as_ + 0.5 * h * js)
+    v_stat, v_end = phase_speeds(vs, as_, js, h)
     ok = np.all(np.abs(v_stat) <= vmax, axis=(1, 2)) & np.all(np.abs(v_end) <= vmax, axis=(1, 2))
     cap2 = (np.asarray(speed_cap, dtype=float) ** 2).reshape(-1, 1)
     sampled = np.zeros(js.shape[:2])  # (n, 3 phases): the largest |v|^2 of the 5 points

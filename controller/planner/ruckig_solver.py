@@ -26,7 +26,7 @@ import ruckig
 
 from gantry_sim.controller.config import Limits
 from gantry_sim.controller.errors import PlanningError
-from gantry_sim.controller.planner.jerk3 import PiecePhases, jerk3_pairs
+from gantry_sim.controller.planner.jerk3 import PiecePhases, jerk3_pairs, phase_speeds
 from gantry_sim.controller.planner.profile import Profile1D
 from gantry_sim.controller.planner.spaced import spaced
 
@@ -156,12 +156,8 @@ def lowest_speed(rows: np.ndarray) -> float:
     over a sliver of a line (0.1 nm left between an arc corner's blend and a line's) passed
     every phase start at 0 mm/s or more and went 0.38 mm back along the path in between."""
     dur, v, a, j = rows[:, 0], rows[:, 2], rows[:, 3], rows[:, 4]
-    v_end = v + dur * (a + 0.5 * dur * j)
-    with np.errstate(divide="ignore", invalid="ignore"):
-        t = np.where(j != 0.0, -a / j, -1.0)
-    inside = (t > 0.0) & (t < dur)
-    turn = v[inside] + 0.5 * a[inside] * t[inside]  # v + a t + j t^2 / 2 at t = -a / j
-    return float(min(v.min(), v_end.min(), turn.min() if turn.size else math.inf))
+    turn, end = phase_speeds(v, a, j, dur)
+    return float(min(v.min(), turn.min(), end.min()))
 
 
 def too_slow_for_ruckig(what: str, duration_s: float, line: int) -> PlanningError:
@@ -419,9 +415,7 @@ def _closed_form_fit(
         )
         h = duration_s / 3.0
         v, a, j = (x[0][:, axes] for x in (c.v, c.a, c.j))  # (3 phases, axes)
-        with np.errstate(divide="ignore", invalid="ignore"):
-            t = np.clip(np.where(j != 0.0, -a / j, 0.0), 0.0, h)  # the speed's extremum
-        speeds = [v, v + a * t + 0.5 * j * t * t, v + a * h + 0.5 * j * h * h]
+        speeds = [v, *phase_speeds(v, a, j, h)]
         ok = (
             all(np.all(np.abs(x) <= lim[0]) for x in speeds)
             and np.all(np.abs(a) <= lim[1])
