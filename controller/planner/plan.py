@@ -57,7 +57,7 @@ from gantry_sim.controller.planner.magnitudes import check_magnitudes
 from gantry_sim.controller.planner.path_stream import path_plan
 from gantry_sim.controller.planner.polyline_fit import FitMemo
 from gantry_sim.controller.planner.prepare import prepare, slow_blends
-from gantry_sim.controller.planner.result import Plan
+from gantry_sim.controller.planner.result import Plan, overlap_entries
 from gantry_sim.controller.planner.ruckig_solver import RuckigSolver
 from gantry_sim.controller.planner.transition import TransitionMachine
 from gantry_sim.controller.planner.travel import check_travel
@@ -333,9 +333,7 @@ def _widen_overlap_sources(
     the first and the first of the second (a dwell's window), a hairpin of 0.17 mm moves
     merged either side of its tip in G64 P0.05 read 176 um of reference error where the
     reference was 49 um from the program (a real CAM program of CAMotics' examples)."""
-    if not len(overlaps_s):
-        return
-    e = np.searchsorted(move_start_s, overlaps_s[:, 0], side="right") - 1
+    e = overlap_entries(move_start_s, overlaps_s)
     e = e[(e > 0) & (e + 1 < len(sources))]
     sources[e, 0] = sources[e - 1, 0]
     sources[e, 1] = sources[e + 1, 1]

@@ -132,10 +132,9 @@ def prepare(
     # may have another budget
     keys: list[Hashable] = [(m, loose[k]) if k in loose else m for k, m in enumerate(moves)]
     new: dict[float, dict[Hashable, PathMove]] = {}  # by chord tolerance, each once, in order
-    for key, m in zip(keys, moves, strict=True):
+    for k, (key, m) in enumerate(zip(keys, moves, strict=True)):
         if key not in known:
-            tol = key[1] if isinstance(key, tuple) else seg.chord_tolerance_mm
-            new.setdefault(tol, {})[key] = m
+            new.setdefault(loose.get(k, seg.chord_tolerance_mm), {})[key] = m
     for tol, group in new.items():
         laid = seg if tol == seg.chord_tolerance_mm else replace(seg, chord_tolerance_mm=tol)
         made = move_geometries(list(group.values()), lim, laid, feed_override_pct / 100.0)

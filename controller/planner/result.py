@@ -119,7 +119,7 @@ class Plan:
         the entries of the stops overlapped, one per row of :attr:`overlaps_s`, in order: an
         overlap is an entry of its own between its two moves, so the moves after it are one
         entry further on."""
-        return np.searchsorted(self.move_start_s, self.overlaps_s[:, 0], side="right") - 1
+        return overlap_entries(self.move_start_s, self.overlaps_s)
 
     def sample_count(self, period_s: float) -> int:
         """How many samples :meth:`sample` takes every ``period_s`` [s]."""
@@ -147,6 +147,12 @@ class Plan:
         return Trajectory(
             t=t, pos=pos, vel=vel, acc=acc, line=line, period_s=period_s, source=source
         )
+
+
+def overlap_entries(move_start_s: np.ndarray, overlaps_s: np.ndarray) -> np.ndarray:
+    """:meth:`Plan.overlap_entries` of a plan's entries starting at ``move_start_s`` [s] and
+    its overlapped stops ``overlaps_s`` ((k, 2) start and end [s])."""
+    return np.searchsorted(move_start_s, overlaps_s[:, 0], side="right") - 1
 
 
 def _no_pairs(dtype: type) -> np.ndarray:
