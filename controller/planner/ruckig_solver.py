@@ -155,9 +155,11 @@ def lowest_speed(rows: np.ndarray) -> float:
     inside it (v is quadratic in a phase). Ruckig's profile between two speeds a hair apart
     over a sliver of a line (0.1 nm left between an arc corner's blend and a line's) passed
     every phase start at 0 mm/s or more and went 0.38 mm back along the path in between."""
-    dur, v, a, j = rows[:, 0], rows[:, 2], rows[:, 3], rows[:, 4]
-    turn, end = phase_speeds(v, a, j, dur)
-    return float(min(v.min(), turn.min(), end.min()))
+    low = math.inf
+    for dur, _s, v, a, j in rows.tolist():  # floats: numpy costs more than the sums on 7 rows
+        tau = min(max(-a / j, 0.0), dur) if j != 0.0 else 0.0  # jerk3.phase_speeds, scalar
+        low = min(low, v, v + tau * (a + 0.5 * tau * j), v + dur * (a + 0.5 * dur * j))
+    return low
 
 
 def too_slow_for_ruckig(what: str, duration_s: float, line: int) -> PlanningError:
