@@ -228,3 +228,9 @@ def blending(machine):
     from dataclasses import replace
 
     return replace(machine, path=replace(machine.path, short_moves="blend"))
+
+
+def blend_arcs(p) -> list:
+    """The blend arcs of plan ``p``: its ``blends`` less the stops overlapped (kind
+    "overlap"), which it lists there too."""
+    return [b for b in p.blends if b.kind != "overlap"]

@@ -22,6 +22,7 @@ from gantry_sim.controller.planner.blend_judge import (
 )
 from gantry_sim.controller.planner.limits import BlockLimits
 from gantry_sim.controller.planner.plan import plan
+from tests.plan_helpers import blend_arcs
 
 LIMITS = BlockLimits(10.0, 50.0, 3000.0, 100000.0)  # length, cap, acceleration, jerk
 
@@ -129,11 +130,11 @@ def test_the_planner_keeps_the_faster_of_blend_and_stop(
     blended = plan(moves, machine)
     _forced(monkeypatch, lambda path, prepared, jerk: frozenset(path.blend_junction.values()))
     stopped = plan(moves, machine)
-    assert len(blended.blends) == 11 and not stopped.blends
+    assert len(blended.blends) == 11 and not blend_arcs(stopped)  # its stops may overlap
     best = min(blended.duration_s, stopped.duration_s)
     assert judged.duration_s in (blended.duration_s, stopped.duration_s)
     assert judged.duration_s <= (1 + WORST_MISS) * best
     if stopped.duration_s < (1 - WORST_MISS) * blended.duration_s:
-        assert not judged.blends  # a stop clearly faster is taken
+        assert not blend_arcs(judged)  # a stop clearly faster is taken
     if blended.duration_s < (1 - WORST_MISS) * stopped.duration_s:
         assert len(judged.blends) == 11  # and a blend clearly faster

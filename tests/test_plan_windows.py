@@ -30,7 +30,7 @@ from gantry_sim.controller.planner import (
 from gantry_sim.controller.planner.path_stream import path_plan
 from gantry_sim.controller.planner.prepare import sub_path
 from gantry_sim.models import DEFAULT_MACHINE
-from tests.plan_helpers import blending, count_fork_map_parts
+from tests.plan_helpers import blend_arcs, blending, count_fork_map_parts
 
 
 def _program() -> str:
@@ -481,7 +481,9 @@ def test_the_rounds_after_the_first_planned_ahead_are_taken_and_give_the_same_pl
         return got
 
     monkeypatch.setattr(window_ahead.WindowsAhead, "take", take)
-    whole, windowed, _ = _whole_and_windowed(_program(), monkeypatch, 40, 8)
+    # right angles among gentle turns: their stops (overlapped) bring speeds down round after
+    # round in every window
+    whole, windowed, _ = _whole_and_windowed(_gentle_then_sharp(0), monkeypatch, 40, 8)
     assert any(n > 0 for n in later_rounds), later_rounds
     _assert_same(whole, windowed)
 
@@ -509,7 +511,9 @@ def test_the_window_after_the_next_starts_as_soon_as_the_next_is_taken(monkeypat
 
     monkeypatch.setattr(window_ahead.WindowsAhead, "_start", start)
     monkeypatch.setattr(window_ahead.WindowsAhead, "take", take)
-    whole, windowed, _ = _whole_and_windowed(_program(), monkeypatch, 40, 8)
+    # windows of 30: four or more over the program's moves (its stops overlapped take fewer
+    # path moves than the blends they replace, and windows of 40 gave three)
+    whole, windowed, _ = _whole_and_windowed(_program(), monkeypatch, 30, 6)
     starts = [(key, v) for kind, key, v, _ in events if kind == "start"]
     assert len(starts) >= 3 and len({key for key, _ in starts}) == len(starts), starts
     inside = ready = 0
@@ -649,7 +653,7 @@ def test_blends_judged_as_the_windows_go_are_those_judged_first(monkeypatch, sha
         assert len(windowed.blends) == 149  # every corner blended
     else:
         assert len(remade) == 1 and judged_apart == [remade[0][1]] and remade[0][0] > 0
-        assert len(windowed.blends) < 149
+        assert len(blend_arcs(windowed)) < 149  # the others: stops, some overlapped
         if sharp_from > 100:  # found late: the windows before judged their own blends
             assert remade[0][1] > 80
     _judged_up_front(monkeypatch)
@@ -662,8 +666,8 @@ def test_a_long_plan_reports_its_progress_window_by_window(monkeypatch):
     steps, adding up to all the items (a progress bar's updates: sim/progress.py)."""
     events = tuple(interpret_events(_program()))
     machine = load_machine_config(DEFAULT_MACHINE)
-    monkeypatch.setattr(window_cut, "WINDOW_MOVES", 40)
-    monkeypatch.setattr(window_cut, "MARGIN_MOVES", 8)
+    monkeypatch.setattr(window_cut, "WINDOW_MOVES", 30)  # four or more windows (as above)
+    monkeypatch.setattr(window_cut, "MARGIN_MOVES", 6)
     steps: list[int] = []
     planned = plan(events, machine, advance=steps.append)
     assert sum(steps) == len(events)

@@ -4,7 +4,6 @@
 from __future__ import annotations
 
 import json
-from itertools import pairwise
 
 import numpy as np
 import pytest
@@ -12,79 +11,17 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from gantry_sim.controller.gcode.interpreter import interpret_events
-from gantry_sim.controller.moves import Linear, Rapid
+from gantry_sim.controller.moves import Linear
 from gantry_sim.controller.planner import plan
 from gantry_sim.controller.planner.blend import REFERENCE_SHARE
 from gantry_sim.controller.planner.overlap_search import STEP_S
+from tests.overlap_helpers import check_overlaps
 
 HEAD = "G21 G90 G17 G64 P0.01\nG1 X5 F1200\n"
-SAMPLE_S = 1e-5  # fine samples of the reference around each overlap [s]
 
 
 def _plan(text: str, machine):
     return plan(list(interpret_events(text)), machine)
-
-
-def _segment_distance(q: np.ndarray, a: np.ndarray, b: np.ndarray) -> np.ndarray:
-    d = b - a
-    u = np.clip(((q - a) @ d) / (d @ d), 0.0, 1.0)
-    return np.linalg.norm(q - (a + np.outer(u, d)), axis=1)
-
-
-def _check_overlaps(p, machine, tolerance_mm: float = 0.01) -> None:
-    """Around every overlap, sampled every SAMPLE_S: each axis within its velocity, acceleration
-    and jerk (by differences) limits, the path speed within the smaller feed, the reference
-    within the budget (P less the reference's share) of the two programmed segments, and the
-    corner within it of the reference; the reference continuous in position across the
-    overlap's ends; each overlap recorded as a blend of kind "overlap" within P."""
-    vmax, amax, jmax = (np.asarray(x) for x in machine.limits.per_axis())
-    budget = tolerance_mm - REFERENCE_SHARE * machine.segmentation.chord_tolerance_mm
-    for t0, t1 in p.overlaps_s:
-        a, b = _moves_at(p, t0, t1)
-        t = np.arange(max(t0 - 2e-3, 0.0), min(t1 + 2e-3, p.duration_s), SAMPLE_S)
-        pos, vel, acc = p.curve.evaluate(t)
-        assert (np.abs(vel) <= vmax * (1 + 1e-9)).all()
-        assert (np.abs(acc) <= amax * (1 + 1e-9)).all()
-        jerk = np.diff(acc, axis=0) / SAMPLE_S
-        assert (np.abs(jerk) <= jmax * (1 + 1e-6)).all()
-        # continuous: each step is the mean velocity times the step, to second order
-        steps = np.diff(pos, axis=0) - 0.5 * (vel[1:] + vel[:-1]) * SAMPLE_S
-        assert np.abs(steps).max() < 1e-9
-        inside = (t >= t0) & (t < t1)
-        feed = min(getattr(m, "feed_mm_per_min", np.inf) for m in (a, b)) / 60.0  # rapids: none
-        assert np.linalg.norm(vel[inside], axis=1).max() <= feed * (1 + 1e-9)
-        c = np.asarray(a.end, float)
-        off = np.minimum(
-            _segment_distance(pos[inside], np.asarray(a.start, float), c),
-            _segment_distance(pos[inside], c, np.asarray(b.end, float)),
-        )
-        assert off.max() <= budget + 1e-12
-        assert np.linalg.norm(pos[inside] - c, axis=1).min() <= budget + 1e-12
-    kinds = [bl for bl in p.blends if bl.kind == "overlap"]
-    assert len(kinds) == len(p.overlaps_s)
-    assert all(
-        0 < bl.deviation_mm <= bl.tolerance_mm == pytest.approx(tolerance_mm) for bl in kinds
-    )
-
-
-def _moves_at(p, t0: float, t1: float):
-    """The two straight path moves (feed moves or rapids) an overlap from ``t0`` to ``t1`` [s]
-    joins: the pair of consecutive ones whose first holds the reference at its start and whose
-    second holds it at its end (the path's moves: a G64 Q merge is one of them)."""
-    (start, end), _, _ = p.curve.evaluate(np.array([t0, t1]))
-    path = list(p.path_moves)
-    best, pair = np.inf, None
-    for a, b in pairwise(path):
-        straight = isinstance(a, Linear | Rapid) and isinstance(b, Linear | Rapid)
-        if straight and a.end == b.start:
-            sa = np.asarray(a.start, float)
-            ca = np.asarray(a.end, float)
-            off = _segment_distance(start[None], sa, ca)[0]
-            off += _segment_distance(end[None], ca, np.asarray(b.end, float))[0]
-            if off < best:
-                best, pair = off, (a, b)
-    assert pair is not None and best < 1e-9
-    return pair
 
 
 def test_a_stop_between_x_and_y_moves_overlaps_and_the_program_is_that_much_shorter(machine):
@@ -100,7 +37,7 @@ def test_a_stop_between_x_and_y_moves_overlaps_and_the_program_is_that_much_shor
     assert g64.move_lines.tolist() == [2, 2, 3]  # the X move, the overlap (its line), Y
     assert g64.overlap_entries().tolist() == [1]
     assert g64.move_start_s[1] == g64.overlaps_s[0, 0]
-    _check_overlaps(g64, machine)
+    check_overlaps(g64, machine)
 
 
 def test_the_overlap_is_the_longest_that_keeps_p(machine):
@@ -128,7 +65,6 @@ def test_the_overlap_is_the_longest_that_keeps_p(machine):
 @pytest.mark.parametrize(
     "tail",
     [
-        "G1 X9.33 Y2.5\n",  # a 30 degree turn: both moves' jerk lies along X, and adds
         "G1 X10\n",  # straight on: no stop
         "G4 P0.1\nG1 X5 Y5\n",  # a dwell at the corner: the program asks to stop
         "M0\nG1 X5 Y5\n",  # a program stop likewise
@@ -137,7 +73,8 @@ def test_the_overlap_is_the_longest_that_keeps_p(machine):
         "G1 X0\n",  # a reversal: a stop in LinuxCNC and grbl (and sim.duration_bound)
     ],
 )
-def test_no_overlap_where_the_jerks_add_or_the_program_stops(machine, tail):
+def test_no_overlap_where_the_program_stops(machine, tail):
+    """(Corners whose moves' jerks add: tests/test_shared_jerk.py.)"""
     p = _plan(HEAD + tail + "M2\n", machine)
     assert len(p.overlaps_s) == 0
     assert not any(b.kind == "overlap" for b in p.blends)
@@ -174,7 +111,7 @@ def test_a_stop_between_two_rapids_overlaps_in_g64(machine, after, count):
     assert len(g64.overlaps_s) == count and len(g61.overlaps_s) == 0
     taus = g64.overlaps_s[:, 1] - g64.overlaps_s[:, 0]
     assert g61.duration_s - g64.duration_s == pytest.approx(taus.sum(), abs=1e-9)
-    _check_overlaps(g64, machine)
+    check_overlaps(g64, machine)
 
 
 @pytest.mark.parametrize("after", ["G61.1\n", "G61\n", "G64 P0.001\n"])
@@ -188,7 +125,7 @@ def test_the_move_before_the_corner_governs_it(machine, after):
     assert len(g64.overlaps_s) == 1
     np.testing.assert_array_equal(p.overlaps_s, g64.overlaps_s)
     assert [b.tolerance_mm for b in p.blends] == [b.tolerance_mm for b in g64.blends]
-    _check_overlaps(p, machine)
+    check_overlaps(p, machine)
     first = _plan(HEAD.replace("G64 P0.01", "G61.1") + "G64 P0.01\nG1 X5 Y5\nM2\n", machine)
     assert len(first.overlaps_s) == 0
 
@@ -203,7 +140,7 @@ def test_a_pocket_of_right_angle_corners_and_plunges_keeps_every_limit(machine):
     )
     p = _plan(text, machine)
     assert len(p.overlaps_s) >= 7
-    _check_overlaps(p, machine)
+    check_overlaps(p, machine)
     starts, ends = p.overlaps_s[:, 0], p.overlaps_s[:, 1]
     assert (ends[:-1] <= starts[1:]).all()
 
@@ -226,7 +163,7 @@ def test_any_axis_corner_overlapped_keeps_every_limit_and_its_tolerance(
         f"G21 G90 G64 P{tolerance}\nG1 X{a_end[0]} Y{a_end[1]} Z{a_end[2]} F{feeds[0]}\n"
         f"G1 X{b_end[0]} Y{b_end[1]} Z{b_end[2]} F{feeds[1]}\nM2\n"
     )
-    _check_overlaps(_plan(text, machine), machine, tolerance)
+    check_overlaps(_plan(text, machine), machine, tolerance)
 
 
 def test_gantry_plan_counts_the_overlaps_and_the_run_reports_them_as_blends(

@@ -92,13 +92,16 @@ def blend_faster(
     blend: BlockLimits,
     before: BlockLimits,
     after: BlockLimits,
+    stop_credit_s: float = 0.0,
 ) -> bool:
     """Whether a blend arc with the limits ``blend``, entered and left at ``ends_mm_per_s``
     (the junction caps with the moves either side), between moves with the limits ``before``
     and ``after`` (as the blend left them), is estimated faster than an exact stop at the
-    corner (module docstring). The estimate's definition, corner by corner in floats: the
-    planner judges a window's corners at once with :func:`blend_faster_many`, which gives the
-    same choices (``tests/test_blend_judge.py`` compares them)."""
+    corner (module docstring), ``stop_credit_s`` [s] shorter where its two moves' profiles
+    would overlap (:mod:`~gantry_sim.controller.planner.shared_jerk`). The estimate's
+    definition, corner by corner in floats: the planner judges a window's corners at once with
+    :func:`blend_faster_many`, which gives the same choices (``tests/test_blend_judge.py``
+    compares them)."""
     v_in, v_out = (min(v, blend.cap_mm_per_s) for v in ends_mm_per_s)
     if min(v_in, v_out) <= 0.0:
         return False
@@ -110,6 +113,7 @@ def blend_faster(
         + half_move_s(v_out, 0.5 * after.length_mm, after)
     )
     stopping = sum(half_move_s(0.0, 0.5 * lim.length_mm + half, lim) for lim in (before, after))
+    stopping -= stop_credit_s
     return passing <= (1.0 + STOP_GAIN_MIN) * stopping
 
 
@@ -118,9 +122,11 @@ def blend_faster_many(
     blends: Sequence[BlockLimits],
     before: Sequence[BlockLimits],
     after: Sequence[BlockLimits],
+    stop_credit_s: Sequence[float] | None = None,
 ) -> np.ndarray:
     """:func:`blend_faster` of each corner, at once (bool array): the estimates of
-    :func:`half_move_s_many`, summed in the same order, so the same choices."""
+    :func:`half_move_s_many`, summed in the same order, so the same choices (``stop_credit_s``:
+    per corner, None: 0)."""
     n = len(blends)
     if n == 0:
         return np.zeros(0, dtype=bool)
@@ -149,6 +155,8 @@ def blend_faster_many(
     t = half_move_s_many(v, d, lim[:, 1], lim[:, 2], lim[:, 3]).reshape(6, n)
     passing = t[0] + t[1] + t[2] + t[3]
     stopping = t[4] + t[5]
+    if stop_credit_s is not None:
+        stopping = stopping - np.asarray(stop_credit_s, dtype=float)
     return (v_in > 0.0) & (v_out > 0.0) & (passing <= (1.0 + STOP_GAIN_MIN) * stopping)
 
 

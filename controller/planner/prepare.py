@@ -19,7 +19,7 @@ from typing import NamedTuple
 
 import numpy as np
 
-from gantry_sim.controller.config import MachineConfig
+from gantry_sim.controller.config import Limits, MachineConfig
 from gantry_sim.controller.moves import Arc, Dwell, PathMove
 from gantry_sim.controller.planner.blend import MAX_TURN_RAD, PathPlan, corner_budget_mm
 from gantry_sim.controller.planner.blend_judge import blend_faster_many
@@ -35,6 +35,7 @@ from gantry_sim.controller.planner.move_geometry import (
     limits_for_junctions,
     move_geometries,
 )
+from gantry_sim.controller.planner.shared_jerk import overlap_estimate, share_jerk_at_stops
 from gantry_sim.controller.planner.stop_overlap import overlappable
 from gantry_sim.controller.planner.transition import CHORD_FIT_REACHED
 
@@ -50,7 +51,9 @@ class Prepared(NamedTuple):
     M204 path acceleration [mm/s^2] it runs under (inf: none; None: none anywhere); and the
     ``stop_corners``: junction -> G64 budget [mm] of each exact stop between two straight feed
     moves that the path control would have blended (:func:`stop_corners`), where the two
-    moves' profiles may overlap (:mod:`~gantry_sim.controller.planner.stop_overlap`)."""
+    moves' profiles may overlap (:mod:`~gantry_sim.controller.planner.stop_overlap`); and
+    ``stop_credit_s``: active blend arc -> the time [s] an overlap would save at an exact stop
+    in its place (:func:`_stop_credits`), which :func:`slow_blends` counts."""
 
     geoms: list[MoveGeometry]
     active: list[MoveGeometry]
@@ -62,6 +65,7 @@ class Prepared(NamedTuple):
     sources: list[tuple[int, int]]
     path_acc_mm_per_s2: list[float] | None = None
     stop_corners: Mapping[int, float] = MappingProxyType({})
+    stop_credit_s: Mapping[int, float] = MappingProxyType({})
 
 
 #: A G64 blend arc's chords are laid within this share of its smoothing budget, rounded down
@@ -167,9 +171,50 @@ def prepare(
         stops | set(holds),
         partial(corner_budget_mm, settings=machine.path, chord_tolerance_mm=seg.chord_tolerance_mm),
     )
-    return Prepared(
-        geoms, active, where, caps, states, holds, smoothing, sources, path_acc, corners
+    active = share_jerk_at_stops(active, corners, lim)
+    credits = _stop_credits(
+        path,
+        at,
+        active,
+        partial(corner_budget_mm, settings=machine.path, chord_tolerance_mm=seg.chord_tolerance_mm),
+        lim,
     )
+    return Prepared(
+        geoms, active, where, caps, states, holds, smoothing, sources, path_acc, corners, credits
+    )
+
+
+def _stop_credits(
+    path: PathPlan,
+    at: np.ndarray,
+    active: Sequence[MoveGeometry],
+    budget_of: Callable[[PathMove], float],
+    limits: Limits,
+) -> dict[int, float]:
+    """Active blend arc -> the time [s] an overlap is estimated to save at the exact stop that
+    would replace it (:func:`~gantry_sim.controller.planner.shared_jerk.overlap_estimate`), where
+    the moves either side are straight (feed moves or rapids) and would meet at such a stop
+    (``at``: path junction -> active; ``budget_of``: the G64 budget [mm] of the move before
+    a junction). Each side's move takes half the blend's length back, as the stop's estimate
+    does (blend_judge)."""
+    jmax = np.asarray(limits.per_axis()[2], dtype=float)
+    out: dict[int, float] = {}
+    for k in path.blend_junction:
+        b = int(at[k])
+        if not (0 < b < len(active) - 1 and int(at[k + 1]) == b + 1):
+            continue  # the blend has no length, or no move either side
+        ga, arc, gb = active[b - 1], active[b], active[b + 1]
+        if not overlappable(ga.move, gb.move):
+            continue
+        half = 0.5 * arc.length_mm
+        la = replace(ga.limits, length_mm=ga.limits.length_mm + half)
+        lb = replace(gb.limits, length_mm=gb.limits.length_mm + half)
+        credit, _ = overlap_estimate(
+            la, lb, ga.tangent_out, gb.tangent_in, budget_of(ga.move), jmax
+        )
+        if credit > 0.0:
+            out[b] = credit
+    return out
 
 
 def stop_corners(
@@ -221,7 +266,8 @@ def slow_blends(path: PathPlan, prepared: Prepared, jerk_mm_per_s3: float) -> fr
     a sharp corner's blend is slow, and its path long against what the stop costs, so those
     corners stay exact stops. The blend arc is entered and left at the junction caps the
     planner's pieces reach in the end (:func:`_reached_cap`), with ``jerk_mm_per_s3`` the
-    machine's smallest axis jerk. A blend at either end of the active moves is not judged (a
+    machine's smallest axis jerk. The stop's estimate is less the time its overlap would save
+    (``prepared.stop_credit_s``). A blend at either end of the active moves is not judged (a
     stretch's neighbours are not known there)."""
     geoms, active, caps, smoothing = (
         prepared.geoms,
@@ -247,6 +293,7 @@ def slow_blends(path: PathPlan, prepared: Prepared, jerk_mm_per_s3: float) -> fr
         [active[b].limits for _, b in judged],
         [active[b - 1].limits for _, b in judged],
         [active[b + 1].limits for _, b in judged],
+        [prepared.stop_credit_s.get(b, 0.0) for _, b in judged],
     )
     return frozenset(j for (j, _), fast in zip(judged, faster.tolist(), strict=True) if not fast)
 
