@@ -74,6 +74,7 @@ from gantry_sim.controller.config import PathSettings
 from gantry_sim.controller.forked import fork_map, process_count
 from gantry_sim.controller.moves import Linear, PathMove, Rapid, Transition
 from gantry_sim.controller.planes import PLANE_AXES, PLANES, Plane
+from gantry_sim.controller.planner.blend import MEET_SHARE
 from gantry_sim.controller.planner.blend_types import Blend
 from gantry_sim.controller.planner.path_control import PathEntry, control
 from gantry_sim.controller.quintic_curve import QuinticCurve
@@ -726,7 +727,9 @@ def _blends_slow(
     blends meet (nothing of the move left between them) their curvatures jump by dk, and the
     jump is passed at v^2 dk <= 1.1447 (e J^2)^(1/3) at most, e the smoothing's share of the
     budget (benchmarks/junction_floor.py's ceiling); where a line stays between them, the jump
-    from it to each arc (dk = 1/R) counts the same way. (pcb2gcode's isolation passes around
+    from it to each arc (dk = 1/R) counts the same way. Blends that would use up the move
+    between them within blend.MEET_SHARE of the whole budget take that, as blend.py makes them
+    (a 72-gon of R 10: one chain of equal arcs, no jump). (pcb2gcode's isolation passes around
     pads, 0.13 mm moves on circles of R 1.5 at F360 in/min: curvature-bound either way, and
     29 % slower fitted, since each short run's curve leaves and meets its halves straight.)"""
     d = line.seg / np.maximum(line.len, 1e-300)[:, None]
@@ -736,12 +739,21 @@ def _blends_slow(
     sec_less_1 = 1.0 / np.cos(half) - 1.0
     tan = np.tan(half)
     room = 0.5 * np.minimum(line.len[:-1], line.len[1:])
-    with np.errstate(divide="ignore", invalid="ignore"):
-        take = np.minimum(np.where(sec_less_1 > 0, budget_mm / sec_less_1 * tan, np.inf), room)
-        k = np.where(take > 0, np.sign(phi) * tan / take, 0.0)  # each blend's signed curvature
     inner = line.len[1:-1]
     if inner.size == 0:
         return False
+    with np.errstate(divide="ignore", invalid="ignore"):
+        take = np.minimum(np.where(sec_less_1 > 0, budget_mm / sec_less_1 * tan, np.inf), room)
+        # blends that can use up the move between them within MEET_SHARE of the whole budget
+        # do (blend.py): a regular polygon's become one chain of equal arcs, with no jump
+        meet_mm = MEET_SHARE * budget_mm / GEOMETRY_SHARE
+        reach = np.minimum(np.where(sec_less_1 > 0, meet_mm / sec_less_1 * tan, np.inf), room)
+        used_up = reach[:-1] + reach[1:] >= 0.99 * inner
+        grown = np.zeros(len(take), dtype=bool)
+        grown[:-1] |= used_up
+        grown[1:] |= used_up
+        take = np.where(grown, np.maximum(take, reach), take)
+        k = np.where(take > 0, np.sign(phi) * tan / take, 0.0)  # each blend's signed curvature
     meets = take[:-1] + take[1:] >= 0.99 * inner
     dk = np.where(meets, np.abs(k[1:] - k[:-1]), np.maximum(np.abs(k[1:]), np.abs(k[:-1])))
     a_jump = 1.1447 * ((1.0 - GEOMETRY_SHARE) * budget_mm * jerk * jerk) ** (1.0 / 3.0)
