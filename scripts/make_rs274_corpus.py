@@ -14,6 +14,7 @@ import random
 from pathlib import Path
 
 from rs274_comp_programs import comp_programs
+from rs274_cycle_plane_programs import cycle_plane_programs
 from rs274_cycle_programs import cycle_programs
 from rs274_language_programs import language_programs
 from rs274_tool_frame_programs import tool_frame_programs
@@ -390,6 +391,9 @@ def main() -> int:
     cycles = cycle_programs(SEED + 20)  # canned cycles (issue 11): a stream of their own
     assert not set(cycles) & set(progs), "duplicate program names"
     progs.update(cycles)
+    cycle_planes = cycle_plane_programs()  # every cycle in every plane (no randomness)
+    assert not set(cycle_planes) & set(progs), "duplicate program names"
+    progs.update(cycle_planes)
     comp = comp_programs(SEED + 30)  # cutter compensation (issue 11)
     assert not set(comp) & set(progs), "duplicate program names"
     progs.update(comp)

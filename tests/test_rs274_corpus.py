@@ -27,7 +27,7 @@ import pytest
 
 DATA = Path(__file__).parent / "data" / "rs274"
 PROGRAMS = sorted((DATA / "programs").glob("*.ngc"))
-MIN_PROGRAMS = 1930
+MIN_PROGRAMS = 2270
 
 
 #: Where gantry-sim deliberately differs from rs274, and why: program -> (reason, pattern of the
