@@ -251,9 +251,23 @@ def _from_work(w: list[float], g5x: list[float], g92: list[float], rot_deg: floa
     return [x - g92[0], y - g92[1], z - g92[2]]
 
 
-def parse_canon(stdout: str) -> tuple[list[dict], float]:
+def parse_canon(stdout: str, unknown: list[str] | None = None) -> tuple[list[dict], float]:
     """Canonical calls -> motions (without lines; ``n``: the block's N word or None) in the work
-    frame [mm], and the largest print unit used [mm]."""
+    frame [mm], and the largest print unit used [mm].
+
+    A plane other than XY/XZ/YZ (rs274 prints ``CANON_PLANE_UNKNOWN`` for G17.1-G19.1) is
+    remembered: straight moves do not need it, an arc in it does. What this cannot read (a call
+    not in QUIET_CALLS nor a motion, an arc in an unknown plane) raises RuntimeError, as an
+    expectation must not miss a motion; with ``unknown`` given, it is noted there instead (one
+    text per call) and the run goes on (an arc in an unknown plane then becomes kind "other",
+    its end unknown: the position is kept).
+    """
+
+    def not_read(what: str) -> None:
+        if unknown is None:
+            raise RuntimeError(what)
+        unknown.append(what)
+
     scale, plane, feed = 1.0, "XY", 0.0
     # G95: rs274 passes F per revolution (SET_FEED_MODE(spindle, 1)) and LinuxCNC's motion
     # multiplies it by the spindle speed; gantry-sim's feed is that path speed [mm/min]
@@ -279,7 +293,7 @@ def parse_canon(stdout: str) -> tuple[list[dict], float]:
         elif name == "USE_LENGTH_UNITS":
             scale = INCH_MM if "INCHES" in args else 1.0
         elif name == "SELECT_PLANE":
-            plane = PLANES[args.strip()]
+            plane = PLANES.get(args.strip(), args.strip())
         elif name == "SET_FEED_MODE":
             per_rev = int(_nums(args)[1]) == 1
         elif name == "SET_SPINDLE_SPEED":
@@ -301,6 +315,9 @@ def parse_canon(stdout: str) -> tuple[list[dict], float]:
             motions.append(mo)
             pos = end
             unit_max = max(unit_max, scale)
+        elif name == "ARC_FEED" and plane not in PLANE_AXES:
+            not_read(f"ARC_FEED({args}) in plane {plane}, whose axes are not known")
+            motions.append({"n": n, "kind": "other", "start": pos, "end": pos, "call": name})
         elif name == "ARC_FEED":
             v = _nums(args)
             prog = _from_work(pos, g5x, g92, rot)  # offsets may have changed since the last move
@@ -334,7 +351,7 @@ def parse_canon(stdout: str) -> tuple[list[dict], float]:
             motions.append({"n": n, "kind": "other", "start": pos, "end": end, "call": name})
             pos = end
         elif name not in QUIET_CALLS:
-            raise RuntimeError(f"unexpected canonical call {name}({args})")
+            not_read(f"unexpected canonical call {name}({args})")
     return motions, unit_max
 
 

@@ -4,6 +4,9 @@ For programs that are not in the corpus (e.g. all of LinuxCNC's ``nc_files/``, w
 length): per program one line, ``MATCH`` when both accept and make the same motions (kinds and
 geometry within the corpus' tolerances; lines are not compared, rs274 prints none), else what
 differs: which side refuses (with both messages), a motion count, or the first differing motion.
+Canonical output the harness does not read (a plane it does not know, such as G17.1's
+``CANON_PLANE_UNKNOWN``, with an arc in it, or a call new to it) is reported on that line, and the
+rest is still compared; an error in the harness itself is reported for that program only.
 rs274 runs one program at a time under ``flock /tmp/rs274.lock``, in the program's folder (so
 its subroutine files are found there, as gantry-sim's ``--subroutine-path``), with rs274's
 built-in tool table (``tests/data/rs274/rs274_default_tools.tbl``, inches).
@@ -74,14 +77,19 @@ def compare(path: Path) -> str:
         if out.tell() >= MAX_OUTPUT_BYTES:
             return f"rs274 wrote over {MAX_OUTPUT_BYTES >> 20} MB (a runaway loop?)"
         out.seek(0)
-        # (print,...) comments print to stdout among the canonical calls: not motions
-        lines = out.read().decode("utf-8", "replace").splitlines()
-        stdout = "\n".join(x for x in lines if regen.CANON_RE.match(x))
-    try:
-        want, unit = regen.parse_canon(stdout)
-    except RuntimeError as exc:
-        return f"rs274 output not understood: {exc}"
-    rs_error = regen.error_message(proc.stderr) if proc.returncode else None
+        stdout = out.read().decode("utf-8", "replace")
+    return judge(text, path, stdout, proc.returncode, proc.stderr)
+
+
+def judge(text: str, path: Path, stdout: str, returncode: int, stderr: str) -> str:
+    """rs274's output for the program ``text`` (at ``path``) against gantry-sim's run -> "MATCH"
+    or what differs. Canonical calls the harness does not know (an arc in a UVW plane, a call
+    new to it) are reported, and the motions it did read are still compared."""
+    # (print,...) comments print to stdout among the canonical calls: not motions
+    canon = "\n".join(x for x in stdout.splitlines() if regen.CANON_RE.match(x))
+    unknown: list[str] = []
+    want, unit = regen.parse_canon(canon, unknown)
+    rs_error = regen.error_message(stderr) if returncode else None
     got: list[dict] = []
     error: GcodeError | None = None
     try:
@@ -107,6 +115,11 @@ def compare(path: Path) -> str:
         if bad:
             notes.append(bad[0])
             break
+    if unknown:
+        shown = "; ".join(unknown[:3]) + (
+            f"; and {len(unknown) - 3} more" if len(unknown) > 3 else ""
+        )
+        notes.append(f"rs274 output the harness does not read ({shown})")
     return "; ".join(notes) or "MATCH"
 
 
@@ -120,10 +133,8 @@ def main() -> int:
         if path.is_file() and path.stat().st_size <= args.max_bytes:
             try:
                 results[path] = compare(path)
-            except (KeyError, ValueError) as exc:  # rs274 output the harness cannot read
-                results[path] = (
-                    f"not compared: rs274's output not read ({type(exc).__name__}: {exc})"
-                )
+            except Exception as exc:  # one program's trouble does not end the survey
+                results[path] = f"not compared: harness error ({type(exc).__name__}: {exc})"
             print(f"{path.relative_to(args.folder)}: {results[path]}", flush=True)
     matched = sum(r == "MATCH" for r in results.values())
     print(f"{matched} of {len(results)} programs match rs274", file=sys.stderr)
