@@ -89,3 +89,38 @@ def test_compare_tree_notes_unknown_calls_and_goes_on(tmp_path: Path) -> None:
     verdict = tree.judge(text, path, ODD_CANON, 0, "")
     assert "rs274 makes ARC_FEED" in verdict
     assert "does not read" in verdict and "SET_SOMETHING_NEW" in verdict
+
+
+#: ``rs274 -g`` (LinuxCNC 2.9, as above) on SPLINE_PROGRAM, exit 0, setup calls left out
+SPLINE_PROGRAM = "G21 F100\nG5.1 X4 Y2 I1 J3\nG1 X0\nM2\n"
+SPLINE_CANON = """\
+    7 N..... SET_FEED_RATE(100.0000)
+    8 N..... USE_LENGTH_UNITS(CANON_UNITS_MM)
+    9 N..... NURBS_FEED(3, ...)
+   10 N..... STRAIGHT_FEED(0.0000, 2.0000, 0.0000, 0.0000, 0.0000, 0.0000)
+   17 N..... PROGRAM_END()
+"""
+
+
+def test_compare_tree_passes_over_a_spline_and_checks_the_next_end(tmp_path: Path) -> None:
+    path = tmp_path / "spline.ngc"
+    path.write_text(SPLINE_PROGRAM)
+    assert tree.judge(SPLINE_PROGRAM, path, SPLINE_CANON, 0, "") == "MATCH"
+    moved = SPLINE_PROGRAM.replace("G1 X0", "G1 X1")
+    assert "motion 1: end" in tree.judge(moved, path, SPLINE_CANON, 0, "")
+
+
+def test_compare_tree_says_why_rs274_refuses_a_user_m_code(tmp_path: Path) -> None:
+    """rs274 -g reads no INI, so it refuses M100-M199 even with the program beside it."""
+    text = "G21 F100\nG1 X1\nM111\nM2\n"
+    path = tmp_path / "user_m.ngc"
+    path.write_text(text)
+    canon = (
+        "    7 N..... SET_FEED_RATE(100.0000)\n"
+        "   10 N..... STRAIGHT_FEED(1.0000, 0.0000, 0.0000, 0.0000, 0.0000, 0.0000)\n"
+    )
+    stderr = "executing\nUnknown m code used: M111\nM111\n"
+    (tmp_path / "M111").write_text("#!/bin/sh\nexit 0\n")
+    verdict = tree.judge(text, path, canon, 1, stderr)
+    assert "rs274 refuses, gantry-sim accepts" in verdict and "no USER_M_PATH" in verdict
+    assert "motion" not in verdict  # the move before it was compared and agrees
