@@ -126,10 +126,12 @@ def test_marlin_g28_goes_to_the_machines_home_and_clears_g92_of_homed_axes(tmp_p
     assert moves[3].end == (10.0, 20.0, 30.0)
 
 
-def test_m6_sets_the_tool_parameters_in_the_programs_units() -> None:
+def test_m6_sets_the_tool_parameters_in_the_tables_units() -> None:
     """rs274's set_tool_parameters at M6: #5400 the tool, #5401-#5403 its offsets, #5410 its
-    diameter (lengths held in mm, read in the program's units, as every length parameter here);
-    M61 leaves them."""
+    diameter, the tool table's own numbers (LinuxCNC's machine units: mm here), which G20/G21
+    leave as they are (rs274 -g, whose table is in inches, reads 0.125 for T1's diameter in a
+    G21 program: tests/data/rs274/programs/tool_parameters_in_table_units.ngc); M61 leaves
+    them."""
     from gantry_sim.controller.gcode.interpreter import interpret
     from gantry_sim.controller.gcode.tools import Tool
 
@@ -141,5 +143,8 @@ def test_m6_sets_the_tool_parameters_in_the_programs_units() -> None:
     text = "G21\nT3 M6\nG0 X#5400 Y#5401 Z#5403\nG0 X#5402 Y#5410\nG20\nG0 Z#5403\nM2\n"
     moves = parse_program(text, tools=tools)
     assert [m.end for m in moves[:2]] == [(3.0, 1.0, 25.4), (-2.0, 6.35, 25.4)]
-    assert moves[2].end[2] == pytest.approx(25.4)  # G20: #5403 reads 1 (in), moved to 1 in
+    assert moves[2].end[2] == pytest.approx(25.4 * 25.4)  # G20: #5403 still reads 25.4
+    inch_table = {3: Tool(3, 25.4, 6.35, 1.0, -2.0, unit_mm=25.4)}
+    moves = parse_program(text, tools=inch_table)
+    assert moves[1].end == pytest.approx((-2.0 / 25.4, 6.35 / 25.4, 1.0))
     assert parse_program("M61 Q3\nG0 X#5400\nM2\n", tools=tools)[0].end == (0.0, 0.0, 0.0)

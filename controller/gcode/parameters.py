@@ -46,14 +46,14 @@ def g5x_base(index: int) -> int:
     return 5201 + 20 * index
 
 
-#: parameters holding lengths: stored in mm, read and written in the program's units.
+#: parameters holding lengths: stored in mm, read and written in the program's units. Not the
+#: tool parameters #5401-#5410: rs274 copies them from the tool table in its machine units and
+#: leaves them so under G20 and G21 (``tool_offsets.tool_parameters``).
 LENGTH_PARAMETERS = frozenset(
     {G28_HOME + i for i in range(3)}
     | {G30_HOME + i for i in range(3)}
     | {G92_OFFSET + i for i in range(3)}
     | {g5x_base(k) + i for k in range(1, 10) for i in range(3)}
-    | {TOOL_OFFSET + i for i in range(3)}
-    | {TOOL_DIAMETER}
     | {POSITION + i for i in range(3)}
 )
 

@@ -70,7 +70,7 @@ def set_tool_entry(
         if "Z" in v:
             z = t[2] - v["Z"] * k
     diameter = 2.0 * v["R"] * k if "R" in v else old.diameter_mm
-    new = Tool(number, z, diameter, x, y)
+    new = Tool(number, z, diameter, x, y, table.unit_mm)
     table.put(new)
     if s.pocket == number:
         s = replace(s, spindle_tool=new, spindle_tool_db=new)

@@ -50,6 +50,8 @@ class ToolTable:
     def __init__(self, tools: dict[int, Tool] | None) -> None:
         self.tools = dict(tools) if tools is not None else {}
         self.table_less = tools is None
+        #: mm per unit of the table (its first entry's; mm without one): what G10 L1 stores in
+        self.unit_mm = next(iter(self.tools.values())).unit_mm if self.tools else 1.0
 
     @property
     def first(self) -> int:
@@ -170,11 +172,13 @@ def _whole(value: float, letter: str) -> int:
 
 
 def tool_parameters(tool: Tool) -> dict[int, float]:
-    """#5400-#5413 once M6 has loaded ``tool``, as rs274's set_tool_parameters sets them;
-    lengths in mm (read in the program's units)."""
+    """#5400-#5413 once M6 has loaded ``tool``, as rs274's set_tool_parameters sets them: the
+    tool table's own numbers, lengths in its units (the machine's: mm here; ``tool.unit_mm``),
+    not converted to the program's (``G21``, ``T1 M6`` with rs274 -g's inch table reads #5410 =
+    0.125, and so under G20)."""
     values = dict.fromkeys(range(TOOL_NUMBER, TOOL_NUMBER + 14), 0.0)
     values[TOOL_NUMBER] = float(tool.number)
     for i, offset in enumerate(tool.offset_mm):
-        values[TOOL_OFFSET + i] = offset
-    values[TOOL_DIAMETER] = tool.diameter_mm
+        values[TOOL_OFFSET + i] = offset / tool.unit_mm
+    values[TOOL_DIAMETER] = tool.diameter_mm / tool.unit_mm
     return values

@@ -26,13 +26,19 @@ _WORD = re.compile(r"([A-Z])\s*([-+]?(?:\d+\.?\d*|\.\d+))")
 
 @dataclass(frozen=True)
 class Tool:
-    """One tool: number, length offset along Z [mm], diameter [mm], X/Y offsets [mm]."""
+    """One tool: number, length offset along Z [mm], diameter [mm], X/Y offsets [mm].
+
+    ``unit_mm``: mm per length unit of the table it came from, LinuxCNC's machine units (1 for
+    a metric table, 25.4 for ``rs274 -g``'s inch one): the tool parameters #5401-#5410 read
+    the table's own numbers, whatever G20/G21 is in effect.
+    """
 
     number: int
     z_mm: float
     diameter_mm: float = 0.0
     x_mm: float = 0.0
     y_mm: float = 0.0
+    unit_mm: float = 1.0
 
     @property
     def offset_mm(self) -> tuple[float, float, float]:
@@ -64,6 +70,7 @@ def parse_tool_table(
             float(words.get("D", 0.0)) * units_mm,
             float(words.get("X", 0.0)) * units_mm,
             float(words.get("Y", 0.0)) * units_mm,
+            units_mm,
         )
     return tools
 
