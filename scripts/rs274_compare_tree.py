@@ -44,6 +44,8 @@ TOOLS = read_tool_table(ROOT / "tests" / "data" / "rs274" / "rs274_default_tools
 #: rs274's output read at most (a program looping for ever prints for ever: the whole of it was
 #: read into memory once, 24 GB, until the kernel killed the script)
 MAX_OUTPUT_BYTES = 64 << 20
+#: gantry-sim's moves run at most past rs274's when rs274 refuses (to see whether it refuses too)
+MOVES_PAST_REFUSAL = 2_000_000
 #: rs274 -g's refusal of a user M-code (M100-M199)
 USER_M_RE = re.compile(r"Unknown m code used: M(1\d\d)$")
 #: rs274's run time at most [s]
@@ -99,8 +101,12 @@ def judge(text: str, path: Path, stdout: str, returncode: int, stderr: str) -> s
     error: GcodeError | None = None
     try:
         moves = interpret(text, file=path.name, tools=TOOLS, search_path=(path.parent,))
-        for move in itertools.islice(moves, len(want) + 1):  # one more tells a longer run
-            got.append(move.to_json())
+        # one more than rs274's tells a longer run; when rs274 refuses, run on (bounded) to
+        # tell whether gantry-sim refuses further on
+        limit = len(want) + (1 if rs_error is None else MOVES_PAST_REFUSAL)
+        for k, move in enumerate(itertools.islice(moves, limit)):
+            if k <= len(want):
+                got.append(move.to_json())
     except GcodeError as exc:
         error = exc
     notes = []

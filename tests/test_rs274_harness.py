@@ -124,3 +124,17 @@ def test_compare_tree_says_why_rs274_refuses_a_user_m_code(tmp_path: Path) -> No
     verdict = tree.judge(text, path, canon, 1, stderr)
     assert "rs274 refuses, gantry-sim accepts" in verdict and "no USER_M_PATH" in verdict
     assert "motion" not in verdict  # the move before it was compared and agrees
+
+
+def test_compare_tree_runs_on_after_rs274_refuses(tmp_path: Path) -> None:
+    """gantry-sim refusing a later line than rs274 is "both refuse", not "accepts" (its run
+    was once cut one motion after rs274's last)."""
+    text = "G21 F100\nG1 X1\nG1 X2\nG1 X3\nG1 X4 A5\nM2\n"
+    path = tmp_path / "later.ngc"
+    path.write_text(text)
+    canon = (
+        "    7 N..... SET_FEED_RATE(100.0000)\n"
+        "   10 N..... STRAIGHT_FEED(1.0000, 0.0000, 0.0000, 0.0000, 0.0000, 0.0000)\n"
+    )
+    verdict = tree.judge(text, path, canon, 1, "executing\nSome refusal\nG1 X2\n")
+    assert verdict.startswith("both refuse: rs274 'Some refusal'") and ":5:" in verdict
