@@ -11,6 +11,7 @@ import pytest
 
 from gantry_sim.controller.errors import GcodeError
 from gantry_sim.controller.gcode.interpreter import interpret, interpret_events, parse_program
+from gantry_sim.controller.gcode.lexer import split_lines
 
 
 def ends(text: str) -> list[tuple[float, ...]]:
@@ -102,6 +103,29 @@ def test_cr_cr_lf_is_one_line_end() -> None:
     assert [m.line for m in parse_program("G0 X1\r\r\nG0 X2\r\r\nG0 X3\r\r\nM2\r\r\n")] == [1, 2, 3]
     assert error_of("G21\r\r\nG0 X1\r\r\nG0 G1 X2\r\r\nM2\r\r\n").line == 3
     assert [m.line for m in parse_program("G0 X1\r\rG0 X2\nM2\n")] == [1, 3]  # bare CRs: two
+
+
+def test_line_ends_split_as_the_rule_says() -> None:
+    # every text of up to 6 characters of "a", CR and LF: LF, CRs then LF, or a bare CR
+    import itertools
+    import re
+
+    rule = re.compile(r"\r*\n|\r")  # the rule, on texts too short for its backtracking to cost
+    for n in range(7):
+        for chars in itertools.product("a\r\n", repeat=n):
+            text = "".join(chars)
+            want = rule.split(text)
+            if want and want[-1] == "":
+                want.pop()
+            assert split_lines(text) == want, repr(text)
+
+
+def test_long_run_of_bare_crs_is_read_in_linear_time() -> None:
+    # hostile-input review: 200,000 CRs and no LF took 18 s to split (a regular expression
+    # scanned the CR run again from each CR); now a few milliseconds
+    text = "\r" * 200_000 + "G0 X1\rM2\r"
+    assert len(split_lines(text)) == 200_002
+    assert [m.line for m in parse_program(text)] == [200_001]
 
 
 # issue 15 #15: a UTF-8 byte order mark opens the file ---------------------------------------

@@ -76,10 +76,6 @@ O_KEYWORDS = (
 #: returned value; a call any number); the others take none ("Unexpected character after
 #: O-word")
 _O_VALUES_MAX = {"IF": 1, "ELSEIF": 1, "WHILE": 1, "REPEAT": 1, "RETURN": 1, "ENDSUB": 1}
-#: a line ends at LF, at CRs then LF (CR LF, and the CR CR LF of a file whose line ends were
-#: converted twice: LinuxCNC counts that as one line end, and so do editors and grep), or at a
-#: bare CR
-_LINE_END = re.compile(r"\r*\n|\r")
 #: what strip_line drops outside comments
 _BLANKS = str.maketrans("", "", " \t\r")
 #: grbl's realtime characters (status, cycle start, feed hold, reset) and every character
@@ -634,8 +630,23 @@ def _oword(reader: Reader, head_only: bool = False) -> OWord | None:
 
 
 def split_lines(text: str) -> list[str]:
-    """The source lines: a leading BOM dropped, split at LF, CRs then LF, or a bare CR."""
-    lines = _LINE_END.split(text.removeprefix("\ufeff"))
+    """The source lines: a leading BOM dropped, split at LF, CRs then LF, or a bare CR.
+
+    A line ends at LF, at CRs then LF (CR LF, and the CR CR LF of a file whose line ends were
+    converted twice: LinuxCNC counts that as one line end, and so do editors and grep), or at
+    a bare CR. Time linear in the text: each LF-ended piece drops its trailing CRs, then splits
+    at the CRs left (the regular expression ``\\r*\\n|\\r`` scanned a run of n CRs with no LF
+    again from each of them: 200,000 CRs took 18 s).
+    """
+    pieces = text.removeprefix("\ufeff").split("\n")
+    last = pieces.pop()  # the text after the last LF (none ends it)
+    lines: list[str] = []
+    for piece in pieces:
+        if "\r" in piece:
+            lines.extend(piece.rstrip("\r").split("\r"))
+        else:
+            lines.append(piece)
+    lines.extend(last.split("\r"))
     if lines and lines[-1] == "":
         lines.pop()
     return lines
