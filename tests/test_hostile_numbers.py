@@ -144,3 +144,30 @@ def test_a_feed_beyond_any_axis_is_planned_at_the_axes_speeds(
     assert _cycle_s(["run", str(slow), *run, "--feed-override", "1e308"], capsys) == at_top
     assert _cycle_s(["run", str(slow), *run, "--feed-override", "1e5"], capsys) == at_top
     assert not [w for w in recwarn if issubclass(w.category, RuntimeWarning)]
+
+
+#: programs whose computed numbers overflow a double, each value on its own within 1e300
+#: (hostile-input review: G95's F x S gave a feed of Infinity, printed by `gantry parse`)
+OVERFLOWS = {
+    "G95 feed": (f"G95 S{BIG} M3\nG1 X1 F{BIG}\nM2\n", 5, "feed per revolution (G95) F 1e+300"),
+    "G95 canned cycle": (
+        f"G95 S{BIG} M3\nG81 X1 Y1 Z-1 R1 F{BIG}\nM2\n",
+        5,
+        "feed per revolution (G95)",
+    ),
+    "arc radius": (f"G2 X10 Y0 R{BIG}\nM2\n", 4, "arc move's centre X is not a finite number"),
+    "inch arc radius": (f"G20 G2 X1 Y0 R{BIG}\nM2\n", 4, "not a finite number"),
+    "inverse-time feed": (f"G93 G1 X{BIG} F{BIG}\nM2\n", 4, "feed [mm/min] is not a finite"),
+}
+
+
+@pytest.mark.parametrize("name", sorted(OVERFLOWS))
+def test_parse_refuses_a_number_that_overflows_on_its_line(name, write_program, capsys):
+    text, line, fragment = OVERFLOWS[name]
+    path = write_program(HEAD + text)
+    status = main(["parse", str(path)])
+    out, err = capsys.readouterr()
+    assert status == 2, err
+    assert err.startswith(f"{path}:{line}: error: ") and fragment in err, err
+    for row in out.splitlines():  # what was printed before the refused line is JSON
+        json.loads(row, parse_constant=lambda c: pytest.fail(f"{c} printed"))

@@ -25,6 +25,7 @@ from pathlib import Path
 from gantry_sim.controller.errors import GcodeError, cut
 from gantry_sim.controller.gcode.expressions import Tree, evaluate
 from gantry_sim.controller.gcode.fanuc_subs import fanuc_code, find_program
+from gantry_sim.controller.gcode.finite import check_finite
 from gantry_sim.controller.gcode.lexer import (
     G2CORE_MAX_LINE,
     RS274_LEX,
@@ -397,6 +398,7 @@ class Runner:
                     self._fanuc(f, block, code)
                     continue
                 moves, ended = self.step(block)
+                check_finite(moves)
             except GcodeError as exc:
                 if exc.line is None:
                     exc.line = i + 1

@@ -51,10 +51,22 @@ def path_feed(
         rate = max(inverse_time_floor_mm, move.length_mm * v["F"])
         return replace(move, feed_mm_per_min=rate)
     if s.feed_mode == PER_REVOLUTION:
-        return replace(move, feed_mm_per_min=s.feed_mm_per_min * s.rpm)
+        return replace(move, feed_mm_per_min=per_revolution(s.feed_mm_per_min, s.rpm))
     if s.feed_percent[0] != 100:
         return replace(move, feed_mm_per_min=move.feed_mm_per_min * (0.01 * s.feed_percent[0]))
     return move
+
+
+def per_revolution(feed_mm_per_rev: float, rpm: float) -> float:
+    """G95's path speed [mm/min]: F [mm/rev] x S [rev/min]; GcodeError where the product
+    overflows (each may be up to 1e300)."""
+    rate = feed_mm_per_rev * rpm
+    if not math.isfinite(rate):
+        raise GcodeError(
+            f"feed per revolution (G95) F {feed_mm_per_rev:g} mm/rev x S {rpm:g} rev/min is not "
+            "a finite feed; the path speed F x S must be a finite number of mm/min"
+        )
+    return rate
 
 
 def grbl_inverse_time_arc(arc: Arc, f_per_min: float, tolerance_mm: float) -> Arc:

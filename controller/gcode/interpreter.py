@@ -60,6 +60,7 @@ from gantry_sim.controller.gcode.feed_modes import (
     UNITS_PER_MINUTE,
     check_feed_mode,
     path_feed,
+    per_revolution,
 )
 from gantry_sim.controller.gcode.frames import Frame, add, from_work, sub, to_work
 from gantry_sim.controller.gcode.lexer import Block, LexRules
@@ -642,7 +643,7 @@ class Interpreter:
                     f"cannot feed {g_name(motion)} with zero spindle speed in feed per "
                     "revolution (G95); set S"
                 )
-            feed *= s.rpm
+            feed = per_revolution(feed, s.rpm)
         items, end, cycle = run_cycle(
             w.line,
             motion,

@@ -59,7 +59,7 @@ def run(args: argparse.Namespace) -> int:
             events=args.events,
             parameters=machine.work.parameters(),
         ):
-            out.write(json.dumps(move.to_json()) + "\n")
+            out.write(json.dumps(move.to_json(), allow_nan=False) + "\n")  # JSON only
     except GantryError:
         out.flush()
         raise
