@@ -57,6 +57,24 @@ def test_bad_centre_is_status_2(capsys, centre, where):
     assert where in err and "Traceback" not in err
 
 
+@pytest.mark.parametrize(
+    "options,blamed,fragment",
+    [
+        # hostile-input review: a centre of 1e300 made an overlong line, blamed on --radius
+        (["--centre=1e300,0"], "--centre", "within +-1e+09 mm"),
+        (["--centre=0,0,-1e300"], "--centre", "within +-1e+09 mm"),
+        (["--centre=1000,0"], "--centre", "outside the machine's travel"),  # the centre itself
+        (["--radius=1e300"], "--radius", "at most 1e+09 mm"),
+        (["--radius=290"], "--radius", "outside the machine's travel"),  # centre in, circle out
+    ],
+)
+def test_the_option_at_fault_is_blamed(capsys, options, blamed, fragment):
+    assert main([*SHORT, *options]) == 2
+    err = capsys.readouterr().err
+    assert err.startswith(f"{blamed}: error: ") and fragment in err, err
+    assert "--work-offset" not in err  # no option of gantry ballbar
+
+
 def test_g_gate_fails_with_status_1_and_still_writes_the_report(tmp_path, capsys):
     out = tmp_path / "bb"
     assert main([*SHORT, "--max-g-um", "1", "--out", str(out)]) == 1

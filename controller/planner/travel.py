@@ -40,6 +40,12 @@ class TravelError(PlanningError):
         self.offset_mm = offset_mm
         super().__init__(self._where_and_extent + _suggestion(offset_mm, g54_mm), line=line)
 
+    @property
+    def where_and_extent(self) -> str:
+        """The message without its ``--work-offset`` suggestion (for a generated program,
+        placed by options of its own)."""
+        return self._where_and_extent
+
     def offset_does_not_place(self) -> None:
         """The suggested offset was tried and leaves the program outside all the same (it
         sets its origin from where the tool stands, or moves in machine coordinates): the

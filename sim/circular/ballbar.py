@@ -15,9 +15,10 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from gantry_sim.controller.config import MachineConfig
+from gantry_sim.controller.config import MachineConfig, Travel
 from gantry_sim.controller.errors import ConfigError, GantryError, SimulationError
 from gantry_sim.controller.machine_work import NO_WORK
+from gantry_sim.controller.planes import Vec3
 from gantry_sim.sim.circular.diagnostics import diagnostics_json, fit_diagnostics
 from gantry_sim.sim.circular.figures import (
     CircleAnalysis,
@@ -103,9 +104,12 @@ def option_error(
     radius_option: str,
     feed_option: str | None,
     machine_file: str,
+    centre_outside: bool = False,
 ) -> GantryError:
     """An error about a generated test program, re-addressed to the option a user can change
-    (never a line of a program the user has not seen)."""
+    (never a line of a program the user has not seen): a circle the machine cannot run is
+    blamed on ``--centre`` where the centre itself lies outside the travel
+    (``centre_outside``), else on ``radius_option``."""
     from gantry_sim.sim.budget import BudgetError
 
     if exc.file == "--radius":  # circle_test_program's own checks
@@ -116,7 +120,18 @@ def option_error(
         return ConfigError(f"{what}: {exc.summary}", file=feed_option or "--max-sim-s")
     if isinstance(exc, SimulationError):
         return SimulationError(f"{what}: {exc.message}", file=machine_file)
-    return ConfigError(f"{what} cannot be run on this machine: {exc.message}", file=radius_option)
+    from gantry_sim.controller.planner.travel import TravelError
+
+    option = "--centre" if centre_outside else radius_option
+    message = exc.where_and_extent if isinstance(exc, TravelError) else exc.message
+    return ConfigError(f"{what} cannot be run on this machine: {message}", file=option)
+
+
+def outside_travel(point_mm: Vec3, travel: Travel) -> bool:
+    """Whether ``point_mm`` (work coordinates [mm]) lies outside ``travel``."""
+    return not all(
+        lo <= v <= hi for v, lo, hi in zip(point_mm, travel.min_mm, travel.max_mm, strict=True)
+    )
 
 
 def run_ballbar(
@@ -168,7 +183,10 @@ def run_ballbar(
             plots=False if plots_elsewhere else None,
         )
     except GantryError as exc:
-        raise option_error(exc, "ballbar.ngc", what, "--radius", "--feed", machine.source) from None
+        outside = outside_travel(centre_mm, machine.travel)
+        raise option_error(
+            exc, "ballbar.ngc", what, "--radius", "--feed", machine.source, outside
+        ) from None
     centre_ab = plane_coords(np.array([program.centre_mm]), plane)[0]
     samples = {d: circle_samples(run, program, d) for d in DIRECTIONS}
     fewest = min(len(v) for v in samples.values())

@@ -27,6 +27,7 @@ from dataclasses import dataclass
 
 from gantry_sim.controller.errors import ConfigError
 from gantry_sim.controller.planes import AXES, PLANE_AXES, PLANE_WORDS, Vec3
+from gantry_sim.controller.planner.magnitudes import MAX_COORDINATE_MM
 
 _OFFSET_LETTER = "IJK"
 #: angle of the measured circle's start S about the centre [deg]
@@ -105,7 +106,8 @@ def circle_test_program(
         centre_mm: circle centre in work coordinates [mm].
 
     Raises:
-        ConfigError: an invalid plane, radius, feed or direction (the message says what is allowed).
+        ConfigError: an invalid plane, radius, feed, centre or direction (the message says
+            what is allowed, and names the option: ``--radius``, ``--centre``...).
     """
     if plane not in PLANE_WORDS:
         raise ConfigError(f"plane {plane!r} is not one of XY, XZ, YZ", file="--plane")
@@ -114,6 +116,19 @@ def circle_test_program(
     if not (math.isfinite(feed_mm_per_min) and feed_mm_per_min > 0):
         raise ConfigError(
             f"feed {feed_mm_per_min} mm/min must be a finite number > 0", file="--feed"
+        )
+    if not (radius_mm <= MAX_COORDINATE_MM):
+        raise ConfigError(
+            f"radius {radius_mm:g} mm: at most {MAX_COORDINATE_MM:g} mm (no machine travels "
+            "that far)",
+            file="--radius",
+        )
+    if not all(math.isfinite(v) and abs(v) <= MAX_COORDINATE_MM for v in centre_mm):
+        shown_centre = ",".join(f"{v:g}" for v in centre_mm)
+        raise ConfigError(
+            f"centre {shown_centre} mm: each coordinate must be a finite number within "
+            f"+-{MAX_COORDINATE_MM:g} mm (no machine travels that far)",
+            file="--centre",
         )
     bad = [d for d in directions if d not in ("cw", "ccw")]
     if bad or not directions:
