@@ -16,12 +16,13 @@ from __future__ import annotations
 from collections.abc import Callable, Iterable, Iterator, Sequence
 from dataclasses import replace
 from pathlib import Path
-from typing import Any, BinaryIO, Literal, overload
+from typing import Any, Literal, overload
 
 from gantry_sim.controller.config import MachineConfig
 from gantry_sim.controller.errors import GantryError, GcodeError
 from gantry_sim.controller.gcode.control import DEFAULT_MAX_ITERATIONS
 from gantry_sim.controller.gcode.lexer import decode_program
+from gantry_sim.controller.input_files import MB, input_chunks
 from gantry_sim.controller.moves import Event, Move
 from gantry_sim.controller.spill import SpilledList
 
@@ -179,9 +180,12 @@ def _other_refused_lines(
     return max(len(errors) - 1, 0), True
 
 
-#: the largest program read [bytes] (a slicer's longest prints are a few hundred MB; a
-#: stream that never ends, such as ``/dev/zero`` or ``yes``, is refused here)
-MAX_PROGRAM_BYTES = 2 << 30
+#: the largest program read [bytes]: 500 MB, some 17 million lines of CAM output (an
+#: hour-long program of 100,000 lines is 3 MB; a slicer's longest prints are a few hundred
+#: MB). Read and split into lines, a program takes about 5 times its size in memory (9 times
+#: for lines of one character, as ``yes`` writes them): 2 GiB, the cap before, let such a
+#: stream take 19 GB. A stream that never ends is refused when it passes the cap.
+MAX_PROGRAM_BYTES = 500 * MB
 #: a stream (a pipe, ``/dev/stdin``) is read this many bytes at a time, each checked
 READ_CHUNK_BYTES = 1 << 20
 
@@ -190,34 +194,26 @@ def read_program(path: Path) -> str:
     """Read a G-code program as text (UTF-8, else Latin-1): a file, or a stream such as
     ``/dev/stdin`` read a chunk at a time. Unreadable files, files with NUL bytes and programs
     of more than :data:`MAX_PROGRAM_BYTES` are a GcodeError."""
-    try:
-        with path.open("rb") as f:
-            data = _read_checked(f, path)
-    except FileNotFoundError:
-        raise GcodeError("program file not found", file=str(path)) from None
-    except IsADirectoryError:
-        raise GcodeError(
-            "program path is a directory, expected a G-code file", file=str(path)
-        ) from None
-    except OSError as exc:
-        raise GcodeError(f"cannot read program: {exc.strerror}", file=str(path)) from None
-    return decode_program(data)
+    chunks = input_chunks(
+        path, "program", MAX_PROGRAM_BYTES, GcodeError, READ_CHUNK_BYTES, "the most read; split it"
+    )
+    return decode_program(_read_checked(chunks, path))
 
 
 #: the byte-order marks of UTF-16 text (little- and big-endian), as Windows tools write it
 _UTF16_BOMS = (b"\xff\xfe", b"\xfe\xff")
 
 
-def _read_checked(f: BinaryIO, path: Path) -> bytes:
-    """The bytes of the open program ``f``, without the NUL bytes that may pad its end (a
-    file copied in blocks, a TinyG sample with two after its closing ``%``): refused at a
-    byte after a NUL (naming the NUL's line), past :data:`MAX_NUL_PADDING_BYTES` of padding
-    (``/dev/zero``: at the first chunk) or past :data:`MAX_PROGRAM_BYTES`, before the rest
-    is read."""
+def _read_checked(read: Iterable[bytes], path: Path) -> bytes:
+    """The program's bytes from its chunks ``read`` (capped by the reader at
+    :data:`MAX_PROGRAM_BYTES`), without the NUL bytes that may pad its end (a file copied in
+    blocks, a TinyG sample with two after its closing ``%``): refused at a byte after a NUL
+    (naming the NUL's line) or past :data:`MAX_NUL_PADDING_BYTES` of padding (``/dev/zero``:
+    at the first chunk), before the rest is read."""
     chunks: list[bytes] = []
     size = 0
     padding = 0  # NUL bytes since the first one
-    while chunk := f.read(READ_CHUNK_BYTES):
+    for chunk in read:
         if padding:
             if chunk.count(0) != len(chunk):
                 raise _nul_error(b"".join(chunks), path)
@@ -240,10 +236,6 @@ def _read_checked(f: BinaryIO, path: Path) -> bytes:
             chunks.append(chunk)
         if padding > MAX_NUL_PADDING_BYTES:
             raise GcodeError("not a G-code text file (it contains NUL bytes)", file=str(path))
-        if size > MAX_PROGRAM_BYTES:
-            raise GcodeError(
-                f"program larger than {MAX_PROGRAM_BYTES >> 30} GiB; split it", file=str(path)
-            )
     return b"".join(chunks)
 
 

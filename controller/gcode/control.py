@@ -64,11 +64,15 @@ from gantry_sim.controller.gcode.printer_codes import (
     without_marlin_parameters,
 )
 from gantry_sim.controller.gcode.words import whole_number
+from gantry_sim.controller.input_files import MB, read_capped
 from gantry_sim.controller.moves import Event, Move
 
 MAX_CALL_LEVELS = 9
 MAX_ERRORS = 1000  # --all-errors stops collecting (and raises) after this many
 DEFAULT_MAX_ITERATIONS = 1_000_000
+#: the largest subroutine file read [bytes] (a subroutine's body: a few KB; a whole program's
+#: cap would do as well, but a file of this size is no subroutine)
+MAX_SUB_FILE_BYTES = 50 * MB
 
 
 #: Lexed lines a :class:`Source` keeps (the latest lexed), for loops and subroutines that run
@@ -749,10 +753,7 @@ class Runner:
                     f"looked up as a file in {folder}: {exc.strerror}"
                 ) from None
             if found:
-                try:
-                    data = path.read_bytes()
-                except OSError as exc:
-                    raise GcodeError(f"cannot read subroutine file {path}: {exc}") from None
+                data = read_capped(path, "subroutine file", MAX_SUB_FILE_BYTES, GcodeError)
                 return Source(
                     str(path),
                     split_lines(decode_program(data)),

@@ -20,6 +20,7 @@ from pathlib import Path
 
 from gantry_sim.controller.errors import GcodeError
 from gantry_sim.controller.gcode.lexer import split_lines
+from gantry_sim.controller.input_files import CONFIG_CAP_BYTES, read_capped
 
 _WORD = re.compile(r"([A-Z])\s*([-+]?(?:\d+\.?\d*|\.\d+))")
 
@@ -77,8 +78,10 @@ def parse_tool_table(
 
 def read_tool_table(path: Path, units_mm: float = 1.0) -> dict[int, Tool]:
     """Read a ``tool.tbl`` file (GcodeError naming the file when it cannot be read)."""
+    data = read_capped(path, "tool table", CONFIG_CAP_BYTES, GcodeError)
     try:
-        text = path.read_text(encoding="utf-8")
-    except (OSError, UnicodeDecodeError) as exc:
-        raise GcodeError(f"cannot read tool table: {exc}", file=str(path)) from None
+        text = data.decode("utf-8")
+    except UnicodeDecodeError as exc:
+        line = data[: exc.start].count(b"\n") + 1
+        raise GcodeError("not a tool table (invalid UTF-8)", file=str(path), line=line) from None
     return parse_tool_table(text, str(path), units_mm)

@@ -12,6 +12,7 @@ from pathlib import Path
 from typing import Any
 
 from gantry_sim.controller.errors import ConfigError
+from gantry_sim.controller.input_files import CONFIG_CAP_BYTES, read_capped
 from gantry_sim.controller.planes import Vec3
 
 AXES = ("x", "y", "z")
@@ -50,15 +51,10 @@ class Imported:
 
 
 def read_text(path: Path, what: str) -> str:
-    """The file's text; unreadable, binary or non-UTF-8 files are a ConfigError (FILE: error)."""
-    try:
-        data = path.read_bytes()
-    except FileNotFoundError:
-        raise ConfigError(f"{what} not found", file=str(path)) from None
-    except IsADirectoryError:
-        raise ConfigError(f"{what} is a directory, expected a file", file=str(path)) from None
-    except OSError as exc:
-        raise ConfigError(f"cannot read {what}: {exc.strerror}", file=str(path)) from None
+    """The file's text; unreadable, binary or non-UTF-8 files, and files larger than
+    :data:`~gantry_sim.controller.input_files.CONFIG_CAP_BYTES`, are a ConfigError (FILE:
+    error)."""
+    data = read_capped(path, what, CONFIG_CAP_BYTES)
     if b"\x00" in data:
         raise ConfigError(f"not a {what} (binary data)", file=str(path))
     try:

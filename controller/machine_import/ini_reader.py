@@ -15,6 +15,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from gantry_sim.controller.errors import ConfigError, shown
+from gantry_sim.controller.input_files import read_capped
 
 _SECTION = re.compile(r"^\[([^\]]+)\]\s*$")
 #: a key line; its value is group 2 stripped (``(.*?)\s*$`` tried every end of a run of
@@ -86,8 +87,12 @@ def parse_ini(text: str, path: str, _depth: int = 0, _into: IniFile | None = Non
                     f"#INCLUDE {name!r}: missing name or nested too deep", file=path, line=number
                 )
             try:
-                inc_text = inc.read_text(encoding="utf-8")
-            except (OSError, UnicodeDecodeError) as exc:
+                inc_text = read_capped(inc, "#INCLUDE file").decode("utf-8")
+            except ConfigError as exc:
+                raise ConfigError(
+                    f"#INCLUDE {name}: {exc.message}", file=path, line=number
+                ) from None
+            except UnicodeDecodeError as exc:
                 raise ConfigError(
                     f"#INCLUDE {name}: cannot read it ({exc})", file=path, line=number
                 ) from None
