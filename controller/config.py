@@ -17,6 +17,7 @@ from pathlib import Path
 from typing import Any
 
 from gantry_sim.controller.errors import ConfigError, shown
+from gantry_sim.controller.input_files import CONFIG_CAP_BYTES, read_capped
 from gantry_sim.controller.machine_work import NO_WORK, WORK_SECTIONS, WorkSetup, take_work_sections
 from gantry_sim.controller.planes import Vec3
 
@@ -280,21 +281,17 @@ def _check(section: str, key: str, value: Any, file: str) -> Any:
 
 
 def _read_toml(path: Path) -> dict[str, Any]:
+    data = read_capped(Path(path), "machine file", CONFIG_CAP_BYTES)
     try:
-        with open(path, "rb") as fh:
-            return tomllib.load(fh)
-    except FileNotFoundError:
-        raise ConfigError("machine file not found", file=str(path)) from None
-    except IsADirectoryError:
+        return tomllib.loads(data.decode("utf-8"))
+    except RecursionError:  # arrays or inline tables nested a thousand deep
         raise ConfigError(
-            "machine file is a directory, expected a TOML file", file=str(path)
+            "not valid TOML: arrays or tables nested too deep for the reader", file=str(path)
         ) from None
     except tomllib.TOMLDecodeError as exc:
         raise ConfigError(f"not valid TOML: {exc}", file=str(path)) from None
     except UnicodeDecodeError:
         raise ConfigError("not valid TOML: the file is not UTF-8 text", file=str(path)) from None
-    except OSError as exc:
-        raise ConfigError(f"cannot read the machine file: {exc.strerror}", file=str(path)) from None
 
 
 def _overlay(merged: dict[str, dict[str, Any]], data: dict[str, Any], path: Path) -> None:

@@ -20,6 +20,7 @@ from pathlib import Path
 from typing import Any
 
 from gantry_sim.controller.errors import ConfigError, shown
+from gantry_sim.controller.input_files import REPORT_CAP_BYTES, read_capped
 from gantry_sim.sim.gates import MAX_LINES_LISTED
 
 #: default margins (``gantry compare --help``)
@@ -80,17 +81,24 @@ class Comparison:
 
 
 def load_report(path: Path) -> dict[str, Any]:
-    """report.json, or the report.json inside folder ``path`` (ConfigError naming the file)."""
+    """report.json, or the report.json inside folder ``path`` (ConfigError naming the file:
+    missing, larger than :data:`~gantry_sim.controller.input_files.REPORT_CAP_BYTES`, not
+    JSON, nested too deep, or not shaped as a report)."""
     path = Path(path)
     file = path / "report.json" if path.is_dir() else path
+    if not file.exists() and not file.is_symlink():
+        raise ConfigError("no report.json here (run `gantry run --out DIR` first)", file=str(file))
+    raw = read_capped(file, "report", REPORT_CAP_BYTES)
     try:
-        data = json.loads(file.read_text())
-    except FileNotFoundError:
+        data = json.loads(raw.decode("utf-8"))
+    except RecursionError:  # [[[[... a thousand deep: json's decoder recurses per level
         raise ConfigError(
-            "no report.json here (run `gantry run --out DIR` first)", file=str(file)
+            "not a readable report.json: arrays or objects nested too deep", file=str(file)
         ) from None
-    except (OSError, UnicodeDecodeError, json.JSONDecodeError) as exc:
-        raise ConfigError(f"not a readable report.json: {exc}", file=str(file)) from None
+    except (UnicodeDecodeError, ValueError) as exc:  # (json.JSONDecodeError is a ValueError)
+        raise ConfigError(
+            f"not a readable report.json: {shown(str(exc), 200)}", file=str(file)
+        ) from None
     if not isinstance(data, dict) or not {"blocks", "cycle_time_s"} <= data.keys():
         raise ConfigError("not a gantry report.json (no blocks / cycle_time_s)", file=str(file))
     problem = _schema_problem(data)
