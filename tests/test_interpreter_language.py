@@ -283,6 +283,37 @@ def test_runaway_loops_and_recursion_stop_with_their_line() -> None:
     assert len(list(interpret(f"G21 F1000\nM98 P100 L500\n{sub}", max_iterations=500))) == 1000
 
 
+def test_a_loop_that_never_moves_is_refused_after_a_bounded_number_of_lines(tmp_path, capsys):
+    # hostile-input review: refused only at 1,000,000 repetitions, 45-150 s for a body of a
+    # few lines (this one: about 60 s); now after 100,000 lines without a move (about 1 s)
+    from gantry_sim.sim.cli import main
+
+    prog = tmp_path / "spin.ngc"
+    prog.write_text("#1=0\no100 while [1]\n#1=[#1+1]\n#2=[#1*2]\no100 endwhile\nM2\n")
+    assert main(["parse", str(prog)]) == 2
+    err = capsys.readouterr().err
+    assert err.startswith(f"{prog}:2: error: 100002 lines run in loops and subroutines without a ")
+    assert "At most 100000 are run (a tenth of --max-iterations)" in err
+    err = error_of("o1 sub\n#1=1\no1 call\no1 endsub\no1 call\nM2\n", max_iterations=100)
+    assert err.line == 3 and "too many subroutine levels" in err.message  # (levels first)
+    # M98's L repeats of a subprogram that never moves: refused at its M99
+    err = error_of("M98 P100 L900000\nM2\nO100\n#1=1\n#2=2\nM99\n")
+    assert err.line == 6 and "without a move (at M99 repeating O100)" in err.message
+
+
+def test_big_loops_that_move_still_run() -> None:
+    # 10,000 repetitions that move, and nested loops whose inner loop computes 50 lines
+    # between moves: the bound counts lines since the last move, so none of them meets it
+    moves = parse_program("F1000\no1 repeat [10000]\nG91 G1 X0.01\no1 endrepeat\nM2\n")
+    assert len(moves) == 10_000
+    nested = (
+        "F1000 G91\n#1=0\no1 repeat [50]\no2 repeat [100]\no3 repeat [25]\n#1=[#1+1]\n"
+        "o3 endrepeat\nG1 X0.001\no2 endrepeat\no1 endrepeat\nM2\n"
+    )
+    # 265,000 lines run without a move in all (the bound is 100,000 in a row)
+    assert len(parse_program(nested)) == 5000
+
+
 def test_subroutine_files_on_the_search_path(tmp_path) -> None:
     (tmp_path / "peck.ngc").write_text("o<peck> sub\nG0 Z[-#1]\no<peck> endsub\nM2\n")
     moves = list(interpret("o<peck> call [2]\nM2\n", search_path=(tmp_path,)))

@@ -144,7 +144,8 @@ def add_program_setup(parser: argparse.ArgumentParser) -> None:
         type=positive_int,
         default=None,
         metavar="N",
-        help="bound on O-word loop repetitions and calls (default 1000000)",
+        help="bound on O-word loop repetitions and calls (default 1000000); a tenth of it "
+        "bounds the lines run in loops and subroutines without a move",
     )
 
 
