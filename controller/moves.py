@@ -82,12 +82,15 @@ class Rapid:
         path: the path control mode set by the program (None: none set, the machine file's
             default applies); it governs the junction at the rapid's end, as a feed move's
             does (LinuxCNC blends a corner between two rapids in G64).
+        file: the subroutine file whose line this is (an ``o<name> call`` or ``M98`` found
+            on the subroutine path); None: the program's own line.
     """
 
     line: int
     start: Vec3
     end: Vec3
     path: PathControl | None = None
+    file: str | None = None
 
     kind = "rapid"
 
@@ -114,6 +117,8 @@ class Linear:
         extrudes: Marlin: whether the line's E word moves the extruder (Marlin plans such a
             move with the print acceleration, M204 P, and one that does not with the travel
             acceleration, M204 T); None where no extruder is followed (the other dialects).
+        file: the subroutine file whose line this is (an ``o<name> call`` or ``M98`` found
+            on the subroutine path); None: the program's own line.
     """
 
     line: int
@@ -122,6 +127,7 @@ class Linear:
     feed_mm_per_min: float
     path: PathControl | None = None
     extrudes: bool | None = None
+    file: str | None = None
 
     kind = "linear"
 
@@ -158,6 +164,8 @@ class Arc:
         extrudes: Marlin: whether the line's E word moves the extruder (Marlin plans such a
             move with the print acceleration, M204 P, and one that does not with the travel
             acceleration, M204 T); None where no extruder is followed (the other dialects).
+        file: the subroutine file whose line this is (an ``o<name> call`` or ``M98`` found
+            on the subroutine path); None: the program's own line.
     """
 
     line: int
@@ -172,6 +180,7 @@ class Arc:
     angle: float
     path: PathControl | None = None
     extrudes: bool | None = None
+    file: str | None = None
 
     kind = "arc"
 
@@ -218,6 +227,8 @@ class Spline:
         extrudes: Marlin: whether the line's E word moves the extruder (Marlin plans such a
             move with the print acceleration, M204 P, and one that does not with the travel
             acceleration, M204 T); None where no extruder is followed (the other dialects).
+        file: the subroutine file whose line this is (an ``o<name> call`` or ``M98`` found
+            on the subroutine path); None: the program's own line.
     """
 
     line: int
@@ -231,6 +242,7 @@ class Spline:
     knots: tuple[float, ...]
     path: PathControl | None = None
     extrudes: bool | None = None
+    file: str | None = None
 
     kind = "spline"
 
@@ -334,11 +346,14 @@ class Dwell:
         line: 1-based source line.
         position: where the tool waits [mm], work frame.
         seconds: dwell time [s] (LinuxCNC's P; Marlin's P [ms] and S [s] converted).
+        file: the subroutine file whose line this is (an ``o<name> call`` or ``M98`` found
+            on the subroutine path); None: the program's own line.
     """
 
     line: int
     position: Vec3
     seconds: float
+    file: str | None = None
 
     kind = "dwell"
 
@@ -360,11 +375,14 @@ class Stop:
         line: 1-based source line.
         position: where the tool stops [mm], work frame.
         code: "M0", "M1" or "M60".
+        file: the subroutine file whose line this is (an ``o<name> call`` or ``M98`` found
+            on the subroutine path); None: the program's own line.
     """
 
     line: int
     position: Vec3
     code: str
+    file: str | None = None
 
     kind = "stop"
 
@@ -384,11 +402,16 @@ class Limits:
     [mm/s^2]; M203: max feedrate per axis [mm/s]; M204: P print, R retract, T travel
     acceleration [mm/s^2]; M205: X/Y/Z jerk [mm/s], J junction deviation [mm], S/T minimum
     feedrates [mm/s], B minimum segment time [us]).
+
+    Attributes:
+        file: the subroutine file whose line this is (an ``o<name> call`` or ``M98`` found
+            on the subroutine path); None: the program's own line.
     """
 
     line: int
     code: str
     values: tuple[tuple[str, float], ...]
+    file: str | None = None
 
     kind = "limits"
 

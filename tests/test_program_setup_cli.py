@@ -147,3 +147,36 @@ def test_a_runaway_loop_is_reported_without_a_second_pass(write_program, capsys)
     assert main(["plan", str(prog), "--max-iterations", "100"]) == 2
     err = capsys.readouterr().err
     assert "more than 100 loop repetitions" in err and "--all-errors" not in err
+
+
+@pytest.mark.parametrize("command", ["plan", "run"])
+@pytest.mark.parametrize(
+    ("sub", "fragment"),
+    [
+        # hostile-input review: these named the main program with the subroutine file's line
+        ("o<far> sub\nG1 X1 F100\nG1 X5000\no<far> endsub\n", "outside the machine's travel"),
+        ("o<far> sub\nG1 X1 F100\nG1 X[10**300]\no<far> endsub\n", "reaches 1e+300 mm"),
+        ("o<far> sub\nG1 X1 F100\nG2 X1 I1 P[10**8]\no<far> endsub\n", "turns"),
+    ],
+)
+def test_a_later_error_on_a_subroutine_files_line_names_that_file(
+    tmp_path, capsys, command, sub, fragment
+):
+    lib = tmp_path / "lib"
+    lib.mkdir()
+    (lib / "far.ngc").write_text(sub)
+    prog = tmp_path / "part.ngc"
+    prog.write_text("G21 G90\nG1 X0 F100\nG1 X2\no<far> call\nM2\n")
+    out = ["--out", str(tmp_path / "out"), "--no-plots"] if command == "run" else []
+    assert main([command, str(prog), "--subroutine-path", str(lib), *out]) == 2
+    err = capsys.readouterr().err
+    assert err.startswith(f"{lib / 'far.ngc'}:3: error: ") and fragment in err, err
+
+
+def test_moves_of_a_subroutine_file_carry_its_name(setup_files):
+    from gantry_sim.controller.gcode.interpreter import interpret
+
+    prog, lib, _ = setup_files
+    moves = list(interpret(MAIN, file=str(prog), search_path=(lib,)))
+    assert [m.file for m in moves] == [None] + [str(lib / "square.ngc")] * 5
+    assert [m.line for m in moves] == [4, 2, 3, 4, 5, 6]

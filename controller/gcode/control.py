@@ -67,6 +67,7 @@ from gantry_sim.controller.gcode.printer_codes import (
     marlin_without_subcode,
     without_marlin_parameters,
 )
+from gantry_sim.controller.gcode.state import evolve
 from gantry_sim.controller.gcode.words import whole_number
 from gantry_sim.controller.input_files import MB, read_capped
 from gantry_sim.controller.moves import Event, Move
@@ -430,6 +431,8 @@ class Runner:
                 continue
             if moves:
                 self.idle_lines = 0
+                if f.source is not self.main:  # errors found later name this file
+                    moves = [evolve(m, file=f.source.name) for m in moves]
             yield from moves
             self.ended = ended
 

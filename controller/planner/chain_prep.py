@@ -239,7 +239,9 @@ def _path_profile(
         if ramp is not None:
             return ramp
         raise PlanningError(
-            "the speed profile would reverse along the path", line=move.line
+            "the speed profile would reverse along the path",
+            line=move.line,
+            file=getattr(move, "file", None),  # (a Transition is the program's)
         ) from None
 
 

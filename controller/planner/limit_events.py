@@ -212,7 +212,9 @@ def _apply(state: _LimitState, event: Limits) -> bool:
         return state.apply(event)
     except ConfigError as exc:  # the program's value, not the machine file's
         raise GcodeError(
-            f"{event.code} on this line would set the machine's {exc.message}", line=event.line
+            f"{event.code} on this line would set the machine's {exc.message}",
+            line=event.line,
+            file=event.file,
         ) from None
 
 

@@ -45,6 +45,17 @@ def check_magnitudes(item: T) -> T:
     :data:`WEIGHT_RANGE`; return ``item``. Anything else is returned unchecked. (Every move of
     every plan and run comes here, twice in a run: the numbers are first summed, and searched
     for one beyond the bound, to name it, only when the sum is beyond it.)"""
+    try:
+        return _checked(item)
+    except PlanningError as exc:  # a subroutine file's line is named with its file
+        file = getattr(item, "file", None)
+        if file is not None:
+            exc.located(file)
+        raise
+
+
+def _checked(item: T) -> T:
+    """:func:`check_magnitudes`, its errors named by line only."""
     if isinstance(item, Rapid | Linear):
         if not _all_within((*item.start, *item.end)):
             _points(item.line, "move", (item.start, item.end))

@@ -73,6 +73,7 @@ def segment_count(
             f"arc needs {n} segments ({method} segmentation); at most {MAX_SEGMENTS_PER_ARC} "
             "per arc are planned: use fewer turns (P), a smaller arc or a coarser tolerance",
             line=arc.line,
+            file=arc.file,
         )
     return n
 
@@ -234,8 +235,13 @@ def _chord_count(
                 f"spline needs more than {MAX_SEGMENTS_PER_ARC} segments to stay within the chord "
                 "tolerance; use a coarser tolerance",
                 line=spline.line,
+                file=spline.file,
             )
-    raise PlanningError("no chord count keeps this spline within the tolerance", line=spline.line)
+    raise PlanningError(
+        "no chord count keeps this spline within the tolerance",
+        line=spline.line,
+        file=spline.file,
+    )
 
 
 def segment_spline(

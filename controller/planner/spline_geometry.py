@@ -117,6 +117,7 @@ def curvature_bounds(move: Spline, chords: int) -> tuple[float, float]:
                 "make it stop and turn back), which no machine follows without stopping there; "
                 "split it at the cusp or move its control points",
                 line=move.line,
+                file=move.file,
             )
         before = turns[-1:] if len(turns) else before
         inner = np.ones(len(t), dtype=bool)

@@ -34,11 +34,18 @@ class TravelError(PlanningError):
     ``--work-offset`` to give (the option sets G54's origin, it adds to nothing)."""
 
     def __init__(
-        self, where: str, extent: str, offset_mm: Vec3 | None, line: int, g54_mm: Vec3 = _ORIGIN
+        self,
+        where: str,
+        extent: str,
+        offset_mm: Vec3 | None,
+        line: int,
+        g54_mm: Vec3 = _ORIGIN,
+        file: str | None = None,
     ) -> None:
         self._where_and_extent = f"{where}; {extent}"
         self.offset_mm = offset_mm
-        super().__init__(self._where_and_extent + _suggestion(offset_mm, g54_mm), line=line)
+        message = self._where_and_extent + _suggestion(offset_mm, g54_mm)
+        super().__init__(message, file=file, line=line)
 
     @property
     def where_and_extent(self) -> str:
@@ -118,6 +125,7 @@ def check_travel(moves: Sequence[Move], travel: Travel, g54_mm: Vec3 = _ORIGIN) 
                     offset_mm,
                     move.line,
                     g54_mm,
+                    move.file,
                 )
 
 
