@@ -93,9 +93,10 @@ def check_lower_bound(
     travel (PlanningError, as planning would refuse it): an option lifts the bound, none
     makes the program fit, so that is the first thing to tell. ``items`` is read again then,
     so it must be a sequence or a list kept on disk, not an iterator."""
-    duration, line, longest = duration_lower_bound(items, machine, feed_override_pct)
+    duration, where, longest = duration_lower_bound(items, machine, feed_override_pct)
+    line, sub_file = where if where is not None else (None, None)
     try:
-        _check_duration(duration, line, longest, machine, budget, file, "at least ")
+        _check_duration(duration, line, longest, machine, budget, sub_file or file, "at least ")
     except BudgetError:
         from gantry_sim.controller.planner.travel import check_program_travel
 

@@ -58,15 +58,18 @@ if TYPE_CHECKING:  # no numpy or config import when the CLI only builds its pars
 REVERSAL_RAD = math.radians(179.0)
 #: moves this short [mm] have no direction (the planner drops them)
 EPS_MM = 1e-9
+#: a program line: (line, the subroutine file it is in; None: the program's own)
+Where = tuple[int, str | None]
 _COS_REVERSAL = math.cos(REVERSAL_RAD)
 
 
 def duration_lower_bound(
     items: Iterable[object], machine: MachineConfig, feed_override_pct: float = 100.0
-) -> tuple[float, int | None, float]:
+) -> tuple[float, Where | None, float]:
     """A lower bound [s] on the planned duration of ``items`` (moves and events; see the
-    module docstring), and the line whose moves take longest at their speeds with that time
-    [s] (a canned cycle's line makes many moves); (0, None, 0) without moves or dwells."""
+    module docstring), and the line whose moves take longest at their speeds, as (line, the
+    subroutine file it is in or None), with that time [s] (a canned cycle's line makes many
+    moves); (0, None, 0) without moves or dwells."""
     from gantry_sim.controller.moves import Arc, Dwell, Limits, Linear, Rapid, Spline, Stop
     from gantry_sim.controller.planner.magnitudes import check_magnitudes
     from gantry_sim.controller.planner.path_control import control, extends_run, starts_run
@@ -101,7 +104,7 @@ def duration_lower_bound(
     norm = math.sqrt(sum(v * v for v in vmax))
     acc = math.inf if accel_set else math.hypot(*machine.limits.max_acceleration_mm_per_s2)
     scale = feed_override_pct / 100.0
-    per_line: dict[int, float] = {}
+    per_line: dict[Where, float] = {}  # (line, file): a subroutine file's lines are its own
     stretch = _Stretch(norm, acc)
     total = 0.0
     run: list[Move] = []  # the naive-CAM run under way, as the planner's merge makes it
@@ -116,7 +119,8 @@ def duration_lower_bound(
             seconds = m.seconds if isinstance(m, Dwell) else 0.0
             total += stretch.close() + seconds
             if seconds:
-                per_line[m.line] = per_line.get(m.line, 0.0) + seconds
+                at = (m.line, m.file)
+                per_line[at] = per_line.get(at, 0.0) + seconds
             prev, run = None, []
             continue
         if not isinstance(m, motions):
@@ -136,7 +140,8 @@ def duration_lower_bound(
         t = length / speed if speed > 0 else 0.0
         if isinstance(m, Arc) and c is not None:
             t += _curvature_time_s(m, length, speed, acc, c.tolerance_mm)
-        here = None if c is None else _Prev(m.line, feed, speed, t, c, d, length, m.start)
+        at = (m.line, m.file)
+        here = None if c is None else _Prev(at, feed, speed, t, c, d, length, m.start)
         joins = bool(run) and extends_run(run, m, path)
         if joins:
             run.append(m)
@@ -147,7 +152,7 @@ def duration_lower_bound(
                 stretch.extend_run(m.end)
             else:  # the run starts at the move before: no shorter than its chord
                 stretch.drop_last()
-                per_line[prev.line] = max(per_line.get(prev.line, 0.0) - prev.t, 0.0)
+                per_line[prev.at] = max(per_line.get(prev.at, 0.0) - prev.t, 0.0)
                 chord_speed = min(norm, feed * scale / 60.0) if feed is not None else norm
                 stretch.start_run(prev.start, m.end, chord_speed)
             here.dropped = True
@@ -159,15 +164,15 @@ def duration_lower_bound(
             saved = _blend_saving_mm(prev, d, length, (MAX_MOVE_MM, MAX_TURN_RAD))
             saved_s = saved / min(prev.speed, speed) if saved > 0 else 0.0
             stretch.shorten(saved, saved_s)
-            per_line[prev.line] = max(per_line.get(prev.line, 0.0) - saved_s, 0.0)
+            per_line[prev.at] = max(per_line.get(prev.at, 0.0) - saved_s, 0.0)
         stretch.add(length, t, d)
-        per_line[m.line] = per_line.get(m.line, 0.0) + t
+        per_line[at] = per_line.get(at, 0.0) + t
         prev = here
     total += stretch.close()
     if not per_line:
         return 0.0, None, 0.0
-    line = max(per_line, key=lambda k: per_line[k])
-    return total, line, per_line[line]
+    where = max(per_line, key=lambda k: per_line[k])
+    return total, where, per_line[where]
 
 
 def _curvature_time_s(
@@ -200,18 +205,18 @@ def _curvature_time_s(
 
 
 class _Prev:
-    """A feed move (G1, G2, G3): its line, feed [mm/min], fastest speed [mm/s] and time [s],
+    """A feed move (G1, G2, G3): its (line, file), feed [mm/min], fastest speed [mm/s] and time [s],
     its path control's P and Q [mm] and whether it is G64 (its end junction is blended), its
     displacement (None: an arc), length and start point [mm], and whether a naive-CAM run took
     it (``dropped``)."""
 
     __slots__ = (
+        "at",
         "direction",
         "dropped",
         "feed",
         "g64",
         "length",
-        "line",
         "p",
         "q",
         "speed",
@@ -221,7 +226,7 @@ class _Prev:
 
     def __init__(
         self,
-        line: int,
+        at: Where,
         feed: float | None,
         speed: float,
         t: float,
@@ -230,7 +235,7 @@ class _Prev:
         length: float,
         start: Sequence[float],
     ) -> None:
-        self.line, self.feed, self.speed, self.t = line, feed, speed, t
+        self.at, self.feed, self.speed, self.t = at, feed, speed, t
         self.p, self.q, self.g64 = control.tolerance_mm, control.naive_cam_mm, control.mode == "G64"
         self.direction, self.length, self.start = d, length, start
         self.dropped = False

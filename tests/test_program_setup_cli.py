@@ -173,6 +173,18 @@ def test_a_later_error_on_a_subroutine_files_line_names_that_file(
     assert err.startswith(f"{lib / 'far.ngc'}:3: error: ") and fragment in err, err
 
 
+def test_the_simulated_time_bound_names_a_subroutine_files_line(tmp_path, capsys):
+    lib = tmp_path / "lib"
+    lib.mkdir()
+    (lib / "slow.ngc").write_text("o<slow> sub\nG1 X1 F100\nG1 X200 F0.01\no<slow> endsub\n")
+    prog = tmp_path / "part.ngc"
+    prog.write_text("G21 G90\nG1 X0 F100\nG1 X2\nG1 X3\no<slow> call\nM2\n")
+    args = ["run", str(prog), "--subroutine-path", str(lib), "--out", str(tmp_path / "out")]
+    assert main(args) == 2
+    err = capsys.readouterr().err
+    assert err.startswith(f"{lib / 'slow.ngc'}:3: error: the program takes at least "), err
+
+
 def test_moves_of_a_subroutine_file_carry_its_name(setup_files):
     from gantry_sim.controller.gcode.interpreter import interpret
 
