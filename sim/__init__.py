@@ -37,7 +37,9 @@ entry point is :mod:`.api`):
     plot_files.py    path.png and error.png written beside the other outputs, there or here
     error_plot.py    error.png: per-bin band along the program, worst blocks, the gates
     search_plots.py  tune.png and the sweep plots (every point, faults marked, axes from 0)
-    outdir.py        outputs never half-written (temporary sibling, then rename)
+    outdir.py        outputs never half-written or mixed: staged in DIR, committed whole
+    interrupts.py    Ctrl-C / SIGTERM: one interruption unwound once; commits held whole
+    console.py       the `gantry` console script: signal handling first, then cli.py
     circular/        circular tests after ISO 230-4: the virtual ballbar and feed tuning
     sweep/           one simulation per grid point of feed override x accel x jerk
     cli.py           ``gantry``: dispatcher over commands/

@@ -20,6 +20,7 @@ import traceback
 from collections.abc import Sequence
 
 from gantry_sim.controller.errors import GantryError
+from gantry_sim.sim.interrupts import Terminated, caught, on_signal, reset, run_command
 
 #: subcommand -> module in sim.commands defining ``HELP``, ``add_arguments(parser)`` and
 #: ``run(args) -> int``.
@@ -88,19 +89,8 @@ def build_parser() -> argparse.ArgumentParser:
     return parser
 
 
-class Terminated(BaseException):
-    """SIGTERM arrived: unwind (staging folders removed, sweep workers stopped), exit 143."""
-
-
-def _on_sigterm(signum, frame) -> None:
-    global _TERMINATED
-    _TERMINATED = True
-    raise Terminated
-
-
-#: SIGTERM arrived during this process: an error it caused is the interruption, not a bug
-#: (raised inside ``import mujoco``, it surfaces as "ImportError: initialization failed").
-_TERMINATED = False
+#: the SIGTERM handler (sim.interrupts.on_signal), under its earlier name
+_on_sigterm = on_signal
 
 
 def _interrupted_by(exc: BaseException) -> str | None:
@@ -115,7 +105,10 @@ def _interrupted_by(exc: BaseException) -> str | None:
         if isinstance(e, KeyboardInterrupt):
             return "interrupted"
         e = e.__cause__ or e.__context__
-    return "terminated" if _TERMINATED else None
+    signum = caught()
+    if signum is None:
+        return None
+    return "terminated" if signum == signal.SIGTERM else "interrupted"
 
 
 def _silence_stdout() -> None:
@@ -193,10 +186,9 @@ def main(argv: Sequence[str] | None = None) -> int:
     real_stdout = sys.stdout
     sys.stdout = _GuardedStdout(real_stdout)
     previous = None
-    global _TERMINATED
-    _TERMINATED = False
+    reset()
     if threading.current_thread() is threading.main_thread():
-        previous = signal.signal(signal.SIGTERM, _on_sigterm)
+        previous = signal.signal(signal.SIGTERM, on_signal)
     try:
         return _dispatch(args, debug)
     finally:
@@ -280,22 +272,10 @@ class _GuardedStdout:
 
 
 def entry() -> None:
-    """The ``gantry`` command: :func:`main`, then exit. After an interruption (Ctrl-C,
-    SIGTERM) the process ends without the interpreter's finalisation: a signal that arrived
-    inside ``import mujoco`` leaves that extension half set up, and tearing it down aborted
-    the process (exit 134 after "gantry: terminated"). Everything gantry cleans up has been
-    cleaned by then (the interruption unwinds through it)."""
-    status = main()
-    if status in (128 + signal.SIGINT, 128 + signal.SIGTERM):
-        for stream in (sys.stdout, sys.stderr):
-            try:
-                if stream is not None:
-                    stream.flush()
-            except (OSError, ValueError):
-                pass
-        os._exit(status)
-    sys.exit(status)
+    """``gantry`` with this module imported first; the console script is sim.console.entry,
+    which installs the signal handling before this module's imports."""
+    run_command(lambda: main)
 
 
-if __name__ == "__main__":
+if __name__ == "__main__":  # python -m gantry_sim.sim.cli
     entry()

@@ -6,7 +6,8 @@ allocations landing in pages the planner had freed copied them one by one (1.4 G
 the analysis worker at 100,000 mixed blocks); nor multiprocessing's spawn, which runs the
 caller's main script again in the worker (a user's script without a ``__main__`` guard would
 run twice). A worker ends when its stdin closes: when the run ends, or its process dies,
-whatever the cause.
+whatever the cause; an interrupted run also stops every worker it started before it exits
+(:func:`stop_all`, called by sim.interrupts.leave), so none outlives it, even briefly.
 
 This module imports nothing heavy (no numpy): a run starts its workers before its own imports.
 """
@@ -19,12 +20,15 @@ import subprocess
 import sys
 from multiprocessing.connection import Connection
 
+from gantry_sim.sim.interrupts import deferred
+
 __all__ = [
     "EARLY_WORKER_CHARS",
     "Pipes",
     "recv_out_of_band",
     "send_out_of_band",
     "serve_stdio",
+    "stop_all",
     "worker_wanted",
 ]
 
@@ -41,18 +45,20 @@ class Pipes:
 
     def __init__(self, module: str) -> None:
         env = dict(os.environ, PYTHONPATH=os.pathsep.join(p for p in sys.path if p))
-        self.proc = subprocess.Popen(
-            [sys.executable, "-m", module],
-            stdin=subprocess.PIPE,
-            stdout=subprocess.PIPE,
-            env=env,
-            start_new_session=True,
-        )
-        assert self.proc.stdin is not None and self.proc.stdout is not None
-        self.out = Connection(os.dup(self.proc.stdin.fileno()), readable=False)
-        self.inp = Connection(os.dup(self.proc.stdout.fileno()), writable=False)
-        self.proc.stdin.close()
-        self.proc.stdout.close()
+        with deferred():  # started and listed whole: a Ctrl-C here leaves no unlisted worker
+            self.proc = subprocess.Popen(
+                [sys.executable, "-m", module],
+                stdin=subprocess.PIPE,
+                stdout=subprocess.PIPE,
+                env=env,
+                start_new_session=True,
+            )
+            assert self.proc.stdin is not None and self.proc.stdout is not None
+            self.out = Connection(os.dup(self.proc.stdin.fileno()), readable=False)
+            self.inp = Connection(os.dup(self.proc.stdout.fileno()), writable=False)
+            self.proc.stdin.close()
+            self.proc.stdout.close()
+            _LIVE.add(self)
 
     def stop(self, *, kill: bool = True) -> None:
         """Close its stdin and end it: killed (``kill``: it has nothing left to do, and an
@@ -72,6 +78,19 @@ class Pipes:
                 self.proc.wait()
         if not self.inp.closed:
             self.inp.close()
+        _LIVE.discard(self)
+
+
+#: the workers started by this process and not stopped yet (:func:`stop_all`)
+_LIVE: set[Pipes] = set()
+
+
+def stop_all() -> None:
+    """Stop every worker this process started that is still running (an interrupted run's last
+    step: its workers are in sessions of their own, so a terminal's Ctrl-C does not reach
+    them, and a busy one would notice its closed stdin only when it next reads)."""
+    for pipes in list(_LIVE):
+        pipes.stop()
 
 
 def serve_stdio() -> tuple[Connection, Connection]:
