@@ -33,6 +33,7 @@ from contextlib import contextmanager
 from pathlib import Path
 
 from gantry_sim.controller.errors import GantryError
+from gantry_sim.sim.interrupts import deferred
 
 STAGE_PREFIX = ".gantry-staging-"
 MANIFEST = ".complete"
@@ -136,20 +137,23 @@ def _manifest(stage: Path) -> dict | None:
 
 def _commit(stage: Path, out_dir: Path) -> None:
     """Steps 2-3 of the module docstring for a staging folder holding a manifest; idempotent,
-    so it also completes a commit a killed writer left half done."""
+    so it also completes a commit a killed writer left half done. A name that is a folder in
+    ``out_dir`` is refused before anything is removed."""
     meta = _manifest(stage)
     if meta is None:  # unreadable: treat as never committed
         shutil.rmtree(stage, ignore_errors=True)
         return
     last, replaces = meta["last"], meta["replaces"]
     pending = sorted(p.name for p in stage.iterdir() if p.name != MANIFEST)
-    if last in pending:
-        (out_dir / last).unlink(missing_ok=True)
-    for name in [*pending, *replaces]:
+    names = list(dict.fromkeys([*pending, *replaces]))
+    for name in names:
         target = out_dir / name
         if target.is_dir() and not target.is_symlink():
             raise OutputError(f"'{name}' in the output folder is a folder", file=str(target))
-        target.unlink(missing_ok=True)
+    if last is not None:
+        (out_dir / last).unlink(missing_ok=True)  # first: no marker beside a partial run
+    for name in names:
+        (out_dir / name).unlink(missing_ok=True)
     for name in sorted(pending, key=lambda n: (n == last, n)):
         os.replace(stage / name, out_dir / name)
     shutil.rmtree(stage)
@@ -188,7 +192,7 @@ def prepare_output_dir(out_dir: Path) -> None:
     out_dir = Path(out_dir)
     ensure_dir(out_dir)
     clean_legacy_stages(out_dir)
-    with locked(out_dir):
+    with locked(out_dir), deferred():
         try:
             recover(out_dir)
             Path(tempfile.mkdtemp(prefix=STAGE_PREFIX, dir=out_dir)).rmdir()
@@ -205,7 +209,7 @@ def remove_outputs(out_dir: Path, names: Sequence[str], last: str) -> None:
     if not out_dir.is_dir():
         return
     try:
-        with locked(out_dir):
+        with locked(out_dir), deferred():
             for name in sorted(names, key=lambda n: n != last):
                 (out_dir / name).unlink(missing_ok=True)
     except (OSError, OutputError):
@@ -214,36 +218,57 @@ def remove_outputs(out_dir: Path, names: Sequence[str], last: str) -> None:
 
 @contextmanager
 def atomic_output_dir(
-    out_dir: Path, last: str | None = None, replaces: Sequence[str] = ()
+    out_dir: Path, last: str, owns: Sequence[str], replaces: Sequence[str] = ()
 ) -> Iterator[Path]:
     """Yield a staging folder inside ``out_dir``; when the body succeeds, commit its files.
 
     Args:
-        out_dir: the output folder (created if needed; other files in it are left alone).
+        out_dir: the output folder (created if needed; files that are not the command's
+            are left alone).
         last: the marker file, removed first and moved in last (its presence = a whole run).
+        owns: every file the command can write (``last`` included): the commit removes those
+            of an earlier run that this one did not write (``gantry run --no-plots`` after a
+            run with plots: no old path.png beside the new report.json). Staging a file not
+            listed is a bug (RuntimeError).
         replaces: more names to remove from ``out_dir`` at the commit (e.g. a journal).
 
-    If the body raises, ``out_dir`` is unchanged. OSErrors become :class:`OutputError`.
+    If the body raises, or a Ctrl-C or SIGTERM comes before the commit, ``out_dir`` is
+    unchanged; one that comes during the commit is raised after it (sim.interrupts.deferred:
+    the new run is whole). OSErrors become :class:`OutputError`.
     """
     out_dir = Path(out_dir)
     ensure_dir(out_dir)
     with locked(out_dir):  # held from staging to commit: no other writer removes our stage
+        stage: Path | None = None
         try:
-            recover(out_dir)  # stale folders of killed writers
-            stage = Path(tempfile.mkdtemp(prefix=STAGE_PREFIX, dir=out_dir))
-        except OSError as exc:
-            raise os_error(exc, out_dir) from None
-        try:
+            with deferred():
+                try:
+                    recover(out_dir)  # stale folders of killed writers
+                    stage = Path(tempfile.mkdtemp(prefix=STAGE_PREFIX, dir=out_dir))
+                except OSError as exc:
+                    raise os_error(exc, out_dir) from None
             try:
                 yield stage
-                manifest = stage / (MANIFEST + ".tmp")
-                manifest.write_text(json.dumps({"last": last, "replaces": list(replaces)}))
-                os.replace(manifest, stage / MANIFEST)
-                _commit(stage, out_dir)
+                _check_owned(stage, last, owns)
+                with deferred():
+                    manifest = stage / (MANIFEST + ".tmp")
+                    meta = {"last": last, "replaces": list(dict.fromkeys([*owns, *replaces]))}
+                    manifest.write_text(json.dumps(meta))
+                    os.replace(manifest, stage / MANIFEST)
+                    _commit(stage, out_dir)
             except OSError as exc:
                 raise os_error(exc, out_dir) from None
         finally:
-            shutil.rmtree(stage, ignore_errors=True)
+            if stage is not None:
+                shutil.rmtree(stage, ignore_errors=True)
+
+
+def _check_owned(stage: Path, last: str, owns: Sequence[str]) -> None:
+    """Raise RuntimeError (a bug) when the staging folder holds a file ``owns`` omits: a later
+    run without it could not remove it."""
+    extra = sorted({p.name for p in stage.iterdir()} - {last, *owns})
+    if extra:
+        raise RuntimeError(f"staged files not listed as the command's outputs: {extra}")
 
 
 def check_output_file(path: Path) -> None:
@@ -281,18 +306,22 @@ def atomic_file(path: Path, mode: str = "w", **open_kwargs) -> Iterator:
     ``path`` (a new path or a regular file, see ``_writable_target``) by ``os.replace`` with
     the umask's permissions; when it raises, it is removed and ``path`` is left as it was."""
     target = _writable_target(Path(path))
+    tmp: str | None = None
     try:
-        fd, tmp = tempfile.mkstemp(prefix=f".{target.name}.tmp-", dir=target.parent)
-    except OSError as exc:
-        raise os_error(exc, target) from None
-    try:
-        os.fchmod(fd, 0o666 & ~umask())
-        with os.fdopen(fd, mode, **open_kwargs) as fh:
-            yield fh
-        os.replace(tmp, target)
-    except OSError as exc:
-        Path(tmp).unlink(missing_ok=True)
-        raise os_error(exc, target) from None
-    except BaseException:
-        Path(tmp).unlink(missing_ok=True)
-        raise
+        with deferred():  # the temporary file is named in ``tmp`` before any interruption
+            try:
+                fd, tmp = tempfile.mkstemp(prefix=f".{target.name}.tmp-", dir=target.parent)
+            except OSError as exc:
+                raise os_error(exc, target) from None
+        try:
+            os.fchmod(fd, 0o666 & ~umask())
+            with os.fdopen(fd, mode, **open_kwargs) as fh:
+                yield fh
+            with deferred():
+                os.replace(tmp, target)
+                tmp = None
+        except OSError as exc:
+            raise os_error(exc, target) from None
+    finally:
+        if tmp is not None:
+            Path(tmp).unlink(missing_ok=True)

@@ -50,7 +50,8 @@ if TYPE_CHECKING:
 #: up to there can be written while the plots are drawn (RunReport.write_json_start)
 LATE_KEYS = ("timing_s", "verdict", "files")
 
-#: files a run writes into its output folder (removed first by `gantry run`: no stale report)
+#: files a run writes into its output folder: a new run replaces them all, those it does not
+#: write (--no-plots, --no-trace) removed (sim.outdir); a failed run removes them all
 OUTPUT_FILES = ("report.json", "timing.json", "trace.npz", "path.png", "error.png")
 #: the plots among them (not written with ``plots=False``)
 PLOT_FILES = ("path.png", "error.png")
@@ -406,7 +407,7 @@ def write_outputs(
     t0 = time.perf_counter()
     files = written_files(plots, trace_npz)
     with (
-        atomic_output_dir(out_dir, last="report.json") as tmp,
+        atomic_output_dir(out_dir, last="report.json", owns=OUTPUT_FILES) as tmp,
         stage("write", len(files), "file", progress) as advance,
     ):
         drawn = None

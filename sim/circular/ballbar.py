@@ -38,6 +38,13 @@ if TYPE_CHECKING:
     from gantry_sim.sim.plot_worker import PlotWorker
 
 DIRECTIONS = ("ccw", "cw")
+#: the files ``gantry ballbar`` writes into its output folder (sim.outdir.atomic_output_dir)
+BALLBAR_FILES = (
+    "ballbar.json",
+    "ballbar.ngc",
+    *(f"trace_{d}.npz" for d in DIRECTIONS),
+    "polar.png",
+)
 #: fewest traced samples (servo periods) on the measured circle for meaningful figures
 MIN_SAMPLES = 360
 
@@ -226,7 +233,7 @@ def write_ballbar_outputs(
 
     polar = PolarRequest(result.ccw, result.cw, result.summary)
     sent = plotter is not None and plotter.draw(polar)
-    with atomic_output_dir(out_dir, last="ballbar.json") as tmp:
+    with atomic_output_dir(out_dir, last="ballbar.json", owns=BALLBAR_FILES) as tmp:
         (tmp / "ballbar.json").write_text(json.dumps(result.summary, indent=2) + "\n")
         (tmp / "ballbar.ngc").write_text(result.program.text)
         for d in DIRECTIONS:

@@ -27,6 +27,9 @@ from gantry_sim.sim.commands.common import (
     search_path,
 )
 
+#: the files ``gantry sweep --out`` writes (sim.outdir.atomic_output_dir; the plots:
+#: sim.search_plots.save_sweep_plots)
+SWEEP_FILES = ("sweep.csv", "sweep_error_vs_feed.png", "sweep_cycle_vs_error.png")
 HELP = (
     "simulate a program over a grid of feed overrides, max accelerations and max jerks "
     "(on local processes or a Dask cluster) and tabulate cycle time against contour error"
@@ -140,7 +143,9 @@ def run(args: argparse.Namespace) -> int:
         print(_where_it_stopped(stop), file=sys.stderr)
         return 128 + signal.SIGINT
     if args.out is not None:  # one commit: the CSV (last), the plots, the journal removed
-        with atomic_output_dir(args.out, last="sweep.csv", replaces=(JOURNAL,)) as tmp:
+        with atomic_output_dir(
+            args.out, last="sweep.csv", owns=SWEEP_FILES, replaces=(JOURNAL,)
+        ) as tmp:
             with open(tmp / "sweep.csv", "w", newline="") as fh:
                 write_csv(rows, fh)
             save_sweep_plots(rows, tmp)

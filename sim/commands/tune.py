@@ -20,6 +20,8 @@ from gantry_sim.sim.commands.common import (
     path_arg,
 )
 
+#: the files ``gantry tune --out`` writes (sim.outdir.atomic_output_dir)
+TUNE_FILES = ("tune.json", "tune.png")
 HELP = (
     "find, per circle radius, the highest feed [mm/min] whose full circle keeps the max "
     "contour error within a tolerance (bisection on simulations)"
@@ -102,7 +104,7 @@ def run(args: argparse.Namespace) -> int:
         "rows": [r.to_json() for r in rows],
     }
     if args.out is not None:
-        with atomic_output_dir(args.out, last="tune.json") as tmp:
+        with atomic_output_dir(args.out, last="tune.json", owns=TUNE_FILES) as tmp:
             (tmp / "tune.json").write_text(json.dumps(summary, indent=2) + "\n")
             save_tune_plot(tmp / "tune.png", rows, args.tolerance_um, args.plane)
     sys.stdout.write(json.dumps(summary) + "\n")
