@@ -6,7 +6,8 @@ cut in half.
 signal only: a second Ctrl-C while the first unwinds (staging folders removed, workers
 stopped) is ignored, so the clean-up is never cut short and no traceback reaches the user.
 Inside :func:`deferred` (an output folder's commit, a worker's start) a signal is held and
-raised when the block ends, so the block runs whole or not at all.
+raised when the block ends, so the block runs whole or not at all; so is every import of the
+main thread (a compiled module interrupted in its initialisation aborted the process).
 
 This module imports nothing beyond the standard library's core: the console script installs
 it before anything else is imported.
@@ -15,13 +16,14 @@ it before anything else is imported.
 from __future__ import annotations
 
 import atexit
+import builtins
 import os
 import signal
 import sys
 import threading
-from collections.abc import Callable, Iterator
+from collections.abc import Callable, Iterator, Mapping, Sequence
 from contextlib import contextmanager
-from types import FrameType
+from types import FrameType, ModuleType
 
 __all__ = [
     "EXIT_INTERRUPTED",
@@ -101,24 +103,28 @@ def install() -> None:
     if signal.getsignal(signal.SIGINT) is not signal.SIG_IGN:
         signal.signal(signal.SIGINT, on_signal)
     signal.signal(signal.SIGTERM, on_signal)
+    atexit.register(_ignore_at_exit)  # registered first: called last
+    builtins.__import__ = _whole_import
     if hasattr(signal, "pthread_sigmask"):
-        atexit.register(_hold_at_exit)  # registered first: called last
         signal.pthread_sigmask(signal.SIG_UNBLOCK, SIGNALS)
 
 
-def _hold_at_exit() -> None:
-    """The last exit handler: block both signals for the interpreter's last steps, where it
-    puts back their default action (a signal there killed a finished run, status -2, no
-    message); one that comes then is lost with the process, which exits with its status."""
-    signal.pthread_sigmask(signal.SIG_BLOCK, SIGNALS)
+def _ignore_at_exit() -> None:
+    """The last exit handler: ignore both signals for the interpreter's last steps, where it
+    would put back their default action (a signal there killed a finished run: status -2,
+    no message). Ignored, not blocked: a library's threads (numpy's BLAS) would take a
+    signal blocked in this one. One that comes then is lost with the process, which exits
+    with its status."""
+    for signum in SIGNALS:
+        signal.signal(signum, signal.SIG_IGN)
 
 
 @contextmanager
 def deferred() -> Iterator[None]:
     """Run the block whole: a Ctrl-C or SIGTERM that arrives inside it (with :func:`on_signal`
     installed) is raised when the block ends. A no-op outside the main thread."""
-    global _depth, _caught
-    if threading.current_thread() is not threading.main_thread():
+    global _depth
+    if threading.get_ident() != threading.main_thread().ident:
         yield
         return
     _depth += 1
@@ -127,11 +133,44 @@ def deferred() -> Iterator[None]:
     finally:
         _depth -= 1
         if not _depth and _held:
-            signum = _held.pop()
-            _held.clear()
-            if _caught is None:
-                _caught = signum
-                raise _exception(signum)
+            _raise_held()
+
+
+def _raise_held() -> None:
+    """Raise the signal :func:`on_signal` held (unless one is unwinding already)."""
+    global _caught
+    signum = _held.pop()
+    _held.clear()
+    if _caught is None:
+        _caught = signum
+        raise _exception(signum)
+
+
+def _whole_import(
+    name: str,
+    globals: Mapping[str, object] | None = None,
+    locals: Mapping[str, object] | None = None,
+    fromlist: Sequence[str] | None = (),
+    level: int = 0,
+) -> ModuleType:
+    """``builtins.__import__`` with the main thread's imports held whole (:func:`deferred`):
+    an exception raised inside a compiled module's initialisation (pybind11's: mujoco,
+    ruckig) aborted the process (status -6, a fatal error's dump) or left it half set up; the
+    signal is raised once the outermost import is done."""
+    global _depth
+    if threading.get_ident() != _MAIN_THREAD:
+        return _REAL_IMPORT(name, globals, locals, fromlist, level)
+    _depth += 1
+    try:
+        return _REAL_IMPORT(name, globals, locals, fromlist, level)
+    finally:
+        _depth -= 1
+        if not _depth and _held:
+            _raise_held()
+
+
+_REAL_IMPORT = builtins.__import__
+_MAIN_THREAD = threading.main_thread().ident
 
 
 def status_of(exc: BaseException) -> int | None:

@@ -129,3 +129,21 @@ def test_ctrl_c_pressed_twice_to_the_process_group_mid_run(tmp_path):
         except ProcessLookupError:  # it ended at the first
             break
     _assert_contract(proc, signal.SIGINT, tmp_path)
+
+
+def test_a_signal_inside_an_import_is_raised_once_the_import_is_done(tmp_path):
+    """A compiled module (pybind11's: mujoco, ruckig) interrupted in its initialisation
+    aborted the process (-6, a fatal error's dump): the main thread's imports are held whole
+    (sim.interrupts), and the signal is raised at the import statement once it is done."""
+    (tmp_path / "signalled.py").write_text(
+        "import os, signal\nos.kill(os.getpid(), signal.SIGTERM)\nDONE = True\n"
+    )
+    code = (
+        "import sys\nfrom gantry_sim.sim import interrupts\ninterrupts.install()\n"
+        "try:\n    import signalled\nexcept interrupts.Terminated:\n"
+        "    print(sys.modules['signalled'].DONE)\n"
+    )
+    out = subprocess.run(
+        [sys.executable, "-c", code], cwd=tmp_path, capture_output=True, text=True, timeout=60
+    )
+    assert (out.returncode, out.stdout, out.stderr) == (0, "True\n", "")
