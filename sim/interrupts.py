@@ -17,6 +17,7 @@ from __future__ import annotations
 
 import atexit
 import builtins
+import gc
 import os
 import signal
 import sys
@@ -216,12 +217,14 @@ def leave(status: int, clean: bool = True, message: bool = True) -> None:
 
 def _clean_up() -> None:
     """What an interrupted command leaves to do: the output folders it made while empty
-    (sim.outdir) and its helper processes (sim.worker_pipes), where those modules were used."""
+    (sim.outdir), its helper processes (sim.worker_pipes), where those modules were used, and
+    the objects whose finalizers release something outside the process."""
     outdir = sys.modules.get("gantry_sim.sim.outdir")
     pipes = sys.modules.get("gantry_sim.sim.worker_pipes")
     for step in (
         getattr(pipes, "stop_all", None),
         getattr(outdir, "remove_new_empty_folders", None),
+        gc.collect,  # multiprocessing's semaphores unlinked by their finalizers (a sweep's)
     ):
         if step is not None:
             try:

@@ -111,7 +111,10 @@ def test_sigterm_of_a_local_sweep_stops_it_cleanly(tmp_path):
         os.kill(pid, signal.SIGKILL)
     assert not left
     assert proc.returncode == 128 + signal.SIGTERM
-    assert TRACEBACK not in err and "gantry: terminated" in err
+    assert TRACEBACK not in err
+    # nothing else: the pool's semaphores were left to the resource tracker, which printed
+    # "leaked semaphore objects" (a SIGTERM did not stop the executor, its generator did)
+    assert err == "gantry: terminated\n"
     # what finished is journaled; a rerun resumes from it
     assert not list((tmp_path / "out").glob(".gantry-staging-*"))
 

@@ -74,6 +74,10 @@ def local_map(fn: Callable, args: list[tuple], workers: int | None) -> Generator
                 p.terminate()
             for p in procs:
                 p.join(timeout=5)
+            # the pool's thread then ends at once; joined, it lets go of the queues, whose
+            # semaphores an interrupted gantry frees before it exits (sim.interrupts.leave):
+            # left to the resource tracker, they were "leaked semaphore objects" on stderr
+            ex.shutdown(wait=True)
 
 
 def check_scheduler_address(address: str, option: str) -> str:

@@ -224,8 +224,12 @@ def run_sweep(
                     if journal is not None:
                         _append(journal, {"fingerprint": tag, "key": key, "row": row})
                     bar.update(1)
-        except KeyboardInterrupt:
-            rows.close()  # stop the executor now: queued points cancelled, workers terminated
+        except BaseException as stop:
+            # stop the executor now: queued points cancelled, workers terminated (SIGTERM or
+            # an error too: left to the garbage collector, its pool outlived the sweep)
+            rows.close()
+            if not isinstance(stop, KeyboardInterrupt):
+                raise
             wanted = {p.key() for p in points}
             raise SweepInterrupted(len(wanted & done.keys()), len(wanted), journal) from None
     return [done[p.key()] for p in points]
