@@ -249,11 +249,14 @@ def atomic_output_dir(
                     raise os_error(exc, out_dir) from None
             try:
                 yield stage
-                _check_owned(stage, last, owns)
+                staged = _check_owned(stage, last, owns)
+                # the earlier run's files this one does not replace, named now: a commit
+                # completed by the next writer (sim.outdir.recover) removes these, never a
+                # new file it finds moved in already
+                stale = [n for n in dict.fromkeys([*owns, *replaces]) if n not in staged]
                 with deferred():
                     manifest = stage / (MANIFEST + ".tmp")
-                    meta = {"last": last, "replaces": list(dict.fromkeys([*owns, *replaces]))}
-                    manifest.write_text(json.dumps(meta))
+                    manifest.write_text(json.dumps({"last": last, "replaces": stale}))
                     os.replace(manifest, stage / MANIFEST)
                     _commit(stage, out_dir)
             except OSError as exc:
@@ -263,12 +266,14 @@ def atomic_output_dir(
                 shutil.rmtree(stage, ignore_errors=True)
 
 
-def _check_owned(stage: Path, last: str, owns: Sequence[str]) -> None:
-    """Raise RuntimeError (a bug) when the staging folder holds a file ``owns`` omits: a later
-    run without it could not remove it."""
-    extra = sorted({p.name for p in stage.iterdir()} - {last, *owns})
+def _check_owned(stage: Path, last: str, owns: Sequence[str]) -> set[str]:
+    """The names staged; RuntimeError (a bug) when one is a file ``owns`` omits: a later run
+    without it could not remove it."""
+    staged = {p.name for p in stage.iterdir()}
+    extra = sorted(staged - {last, *owns})
     if extra:
         raise RuntimeError(f"staged files not listed as the command's outputs: {extra}")
+    return staged
 
 
 def check_output_file(path: Path) -> None:

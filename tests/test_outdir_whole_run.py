@@ -15,11 +15,13 @@ import signal
 from collections.abc import Iterator
 from pathlib import Path
 
+import numpy as np
 import pytest
+from fault_helpers import gantry_at
 
 from gantry_sim.sim import interrupts, outdir
 from gantry_sim.sim.cli import main
-from gantry_sim.sim.outdir import STAGE_PREFIX, atomic_file, atomic_output_dir
+from gantry_sim.sim.outdir import STAGE_PREFIX, atomic_file, atomic_output_dir, recover
 
 LINE = "G21 G90\nG1 X2 F1200\nM2\n"
 RUN_FILES = {"report.json", "timing.json", "trace.npz", "path.png", "error.png"}
@@ -53,6 +55,22 @@ def test_a_failed_run_removes_the_earlier_run_whole_and_keeps_other_files(write_
     outside = write_program("G1 X400 F3000\nM2\n", "outside.ngc")  # leaves the travel
     assert main(["run", str(outside), "--out", str(out)]) == 2
     assert _names(out) == {"notes.txt"}
+
+
+def test_a_commit_killed_half_way_is_completed_whole_by_the_next_writer(write_program):
+    """kill -9 after two of the new run's files moved in: the next writer completes the commit
+    and removes only the earlier run's files, never the new ones already moved in."""
+    out = Path("out")
+    assert main(["run", str(write_program(LINE, "old.ngc")), "--out", str(out)]) == 0
+    new = str(write_program("G21 G90\nG1 X3 F1200\nM2\n", "new.ngc"))
+    killed = gantry_at("replace:2", "run", new, "--out", str(out), "--no-plots")
+    assert killed.returncode == -9, killed.stderr
+    recover(out)  # what the next writer into the folder does first, under its lock
+    assert _names(out) == {"report.json", "timing.json", "trace.npz"}
+    report = json.loads((out / "report.json").read_text())
+    assert Path(report["program"]).name == "new.ngc"
+    with np.load(out / "trace.npz") as tr:
+        assert report["sim"]["steps"] == 2 * tr["t"].size  # the same run's trace
 
 
 def _commit(out: Path, files: dict[str, str], owns: tuple[str, ...]) -> None:
