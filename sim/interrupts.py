@@ -4,7 +4,8 @@ cut in half.
 :func:`install` (the console script's first step, sim.console) points SIGINT and SIGTERM at
 :func:`on_signal`, which raises ``KeyboardInterrupt`` or :class:`Terminated` for the first
 signal only: a second Ctrl-C while the first unwinds (staging folders removed, workers
-stopped) is ignored, so the clean-up is never cut short and no traceback reaches the user.
+stopped) is ignored, so the clean-up is never cut short and no traceback reaches the user; a
+third ends the process at once (a clean-up that hangs, an interruption something swallowed).
 Inside :func:`deferred` (an output folder's commit, a worker's start) a signal is held and
 raised when the block ends, so the block runs whole or not at all; so is every import of the
 main thread (a compiled module interrupted in its initialisation aborted the process).
@@ -57,6 +58,10 @@ class Terminated(BaseException):
 _caught: int | None = None
 #: signals held by :func:`deferred` (the first only), raised when the outermost block ends
 _held: list[int] = []
+#: signals that came while the first one unwound
+_repeats = 0
+#: that many of them end the process at once (a third Ctrl-C)
+FORCE_AFTER = 2
 #: how deep the main thread is in :func:`deferred` blocks
 _depth = 0
 #: once the command has ended: a signal exits at once (no exception in the interpreter's
@@ -70,10 +75,13 @@ def _exception(signum: int) -> BaseException:
 
 def on_signal(signum: int, frame: FrameType | None) -> None:
     """The handler of SIGINT and SIGTERM (see the module docstring)."""
-    global _caught
+    global _caught, _repeats
     if _leaving:
         leave(128 + signum, clean=False)
     if _caught is not None:
+        _repeats += 1
+        if _repeats >= FORCE_AFTER:  # the clean-up hangs, or something swallowed the first
+            leave(128 + _caught, clean=False)
         return  # the first interruption is unwinding: let its clean-up finish
     if _depth:
         if not _held:
@@ -90,8 +98,9 @@ def caught() -> int | None:
 
 def reset() -> None:
     """Forget an earlier interruption (a new command starts in this process: sim.cli.main)."""
-    global _caught
+    global _caught, _repeats
     _caught = None
+    _repeats = 0
     _held.clear()
 
 

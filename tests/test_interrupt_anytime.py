@@ -147,3 +147,19 @@ def test_a_signal_inside_an_import_is_raised_once_the_import_is_done(tmp_path):
         [sys.executable, "-c", code], cwd=tmp_path, capture_output=True, text=True, timeout=60
     )
     assert (out.returncode, out.stdout, out.stderr) == (0, "True\n", "")
+
+
+def test_a_third_ctrl_c_ends_gantry_even_when_the_first_was_swallowed(tmp_path):
+    """The second is ignored (the first one's clean-up goes on); if that clean-up hangs, or
+    a library swallowed the first KeyboardInterrupt, the third ends the process: 130."""
+    code = (
+        "import os, signal, time\nfrom gantry_sim.sim import interrupts\n"
+        "signal.signal(signal.SIGINT, signal.SIG_DFL)\ninterrupts.install()\n"
+        "try:\n    os.kill(os.getpid(), signal.SIGINT)\nexcept KeyboardInterrupt:\n    pass\n"
+        "os.kill(os.getpid(), signal.SIGINT)\nprint('ignored', flush=True)\n"
+        "os.kill(os.getpid(), signal.SIGINT)\ntime.sleep(60)\nprint('not reached')\n"
+    )
+    out = subprocess.run(
+        [sys.executable, "-c", code], cwd=tmp_path, capture_output=True, text=True, timeout=60
+    )
+    assert (out.returncode, out.stdout, out.stderr) == (130, "ignored\n", "gantry: interrupted\n")
