@@ -7,10 +7,15 @@ moves are ``rename``s), under an exclusive lock on DIR held from staging to comm
 into one folder take turns), then committed:
 
 1. a ``.complete`` manifest is added to the staging folder by rename: from here on the run is
-   committed and the next writer finishes an interrupted commit instead of discarding it;
+   committed and the next writer finishes an interrupted commit instead of discarding it; it
+   names the command's files (``owns``) that the new run did not write (``--no-plots``);
 2. the old marker (``last``: report.json, ballbar.json, ...) is removed first, then the old
-   files the new run replaces;
+   files the new run replaces and those the manifest names;
 3. the new files are moved in, the marker last; the staging folder is removed.
+
+Files that are not the command's (the user's, another command's) are never touched. Steps 1-3,
+and the staging folder's creation, are held whole against Ctrl-C and SIGTERM
+(sim.interrupts.deferred): a signal then is raised when they are done.
 
 So the marker's presence means "one whole run is here". A writer killed at any moment leaves a
 staging folder that the next writer into DIR (holding the lock, so it is stale) either removes
