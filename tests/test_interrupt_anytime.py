@@ -131,6 +131,13 @@ def test_ctrl_c_pressed_twice_to_the_process_group_mid_run(tmp_path):
     _assert_contract(proc, signal.SIGINT, tmp_path)
 
 
+def _python(code: str, cwd) -> subprocess.CompletedProcess:
+    """``python -c code`` run in ``cwd``, its output captured as text."""
+    return subprocess.run(
+        [sys.executable, "-c", code], cwd=cwd, capture_output=True, text=True, timeout=60
+    )
+
+
 def test_a_signal_inside_an_import_is_raised_once_the_import_is_done(tmp_path):
     """A compiled module (pybind11's: mujoco, ruckig) interrupted in its initialisation
     aborted the process (-6, a fatal error's dump): the main thread's imports are held whole
@@ -143,9 +150,7 @@ def test_a_signal_inside_an_import_is_raised_once_the_import_is_done(tmp_path):
         "try:\n    import signalled\nexcept interrupts.Terminated:\n"
         "    print(sys.modules['signalled'].DONE)\n"
     )
-    out = subprocess.run(
-        [sys.executable, "-c", code], cwd=tmp_path, capture_output=True, text=True, timeout=60
-    )
+    out = _python(code, tmp_path)
     assert (out.returncode, out.stdout, out.stderr) == (0, "True\n", "")
 
 
@@ -159,7 +164,5 @@ def test_a_third_ctrl_c_ends_gantry_even_when_the_first_was_swallowed(tmp_path):
         "os.kill(os.getpid(), signal.SIGINT)\nprint('ignored', flush=True)\n"
         "os.kill(os.getpid(), signal.SIGINT)\ntime.sleep(60)\nprint('not reached')\n"
     )
-    out = subprocess.run(
-        [sys.executable, "-c", code], cwd=tmp_path, capture_output=True, text=True, timeout=60
-    )
+    out = _python(code, tmp_path)
     assert (out.returncode, out.stdout, out.stderr) == (130, "ignored\n", "gantry: interrupted\n")
