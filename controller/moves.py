@@ -57,8 +57,13 @@ def _vec(v: Vec3) -> list[float]:
 
 
 def _motion_json(m: Rapid | Linear | Arc | Spline | Transition) -> dict:
-    """The keys every motion's JSON starts with (``gantry parse``, CONTRACTS.md)."""
-    return {"line": m.line, "kind": m.kind, "start": _vec(m.start), "end": _vec(m.end)}
+    """The keys every motion's JSON starts with (``gantry parse``, CONTRACTS.md), and
+    ``"file"`` where the line is a subroutine file's (``line`` counts in that file)."""
+    out = {"line": m.line, "kind": m.kind, "start": _vec(m.start), "end": _vec(m.end)}
+    file = getattr(m, "file", None)
+    if file is not None:
+        out["file"] = file
+    return out
 
 
 def _feed_json(m: Linear | Arc | Spline | Transition) -> dict:

@@ -192,3 +192,15 @@ def test_moves_of_a_subroutine_file_carry_its_name(setup_files):
     moves = list(interpret(MAIN, file=str(prog), search_path=(lib,)))
     assert [m.file for m in moves] == [None] + [str(lib / "square.ngc")] * 5
     assert [m.line for m in moves] == [4, 2, 3, 4, 5, 6]
+
+
+def test_parse_names_the_subroutine_file_of_its_moves(setup_files, capsys):
+    """`gantry parse` adds "file" to the motions whose line is a subroutine file's (the line
+    counts in that file); the program's own motions have no such key, as before."""
+    prog, lib, table = setup_files
+    assert main(["parse", str(prog), *_options(lib, table)]) == 0
+    rows = [json.loads(r) for r in capsys.readouterr().out.splitlines()]
+    motions = [r for r in rows if r["kind"] in ("rapid", "linear")]
+    assert [(r.get("file"), r["line"]) for r in motions] == [(None, 4)] + [
+        (str(lib / "square.ngc"), k) for k in range(2, 7)
+    ]
