@@ -13,6 +13,7 @@ from hypothesis import strategies as st
 from gantry_sim.controller.config import Limits
 from gantry_sim.controller.gcode.interpreter import interpret_events
 from gantry_sim.controller.planner import plan, shared_jerk
+from gantry_sim.controller.planner.blend_judge import ramp_s
 from gantry_sim.controller.planner.ruckig_solver import RuckigSolver
 from gantry_sim.controller.planner.shared_jerk import ramp_lost_s, ramp_reach_s
 from tests.overlap_helpers import check_overlaps
@@ -118,3 +119,14 @@ def test_the_ramp_estimates_are_ruckigs_ramps(machine, v, a, j):
         _, s0, v0, a0, jk = rows[k]
         s = s0 + dt * (v0 + dt * (0.5 * a0 + dt * jk / 6.0))
         assert s == pytest.approx(d, rel=1e-9, abs=1e-12)
+
+
+@pytest.mark.parametrize("length_mm", [1e-4, 0.05, 1.0, 30.0, 500.0])
+@pytest.mark.parametrize(("a", "j"), [(3000.0, 100_000.0), (2500.0, 80_000.0), (500.0, 1e6)])
+def test_the_top_speed_of_a_short_move_fills_it_with_its_two_ramps(length_mm, a, j):
+    """A move too short for its cap reaches the speed whose two ramps (up, then down) cover
+    it: v ramp_s(v) = length, on both branches of ramp_s (the acceleration reached or not);
+    one long enough reaches its cap."""
+    v = shared_jerk._top_speed(length_mm, 1e9, a, j)
+    assert v * ramp_s(v, a, j) == pytest.approx(length_mm, rel=1e-12)
+    assert shared_jerk._top_speed(length_mm, 0.5 * v, a, j) == 0.5 * v

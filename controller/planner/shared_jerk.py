@@ -125,38 +125,37 @@ def ramp_lost_s(v: float, a: float, j: float) -> float:
 
 def _top_speed(length_mm: float, cap: float, a: float, j: float) -> float:
     """The speed [mm/s] a move of ``length_mm`` reaches from rest to rest under ``a`` and
-    ``j``, at most ``cap`` (by bisection: the ramp distance, ``v`` times half the ramp's
-    duration, grows with the speed)."""
+    ``j``, at most ``cap``: the two ramps cover ``v ramp_s(v)``, which grows with ``v``;
+    solved in closed form on each of its two branches (2 v^1.5 / sqrt(j) while the jerk
+    never lets the acceleration reach ``a``, v^2 / a + v a / j once it does)."""
     if cap * ramp_s(cap, a, j) <= length_mm:
         return cap
-    lo, hi = 0.0, cap
-    for _ in range(40):
-        mid = 0.5 * (lo + hi)
-        lo, hi = (mid, hi) if mid * ramp_s(mid, a, j) <= length_mm else (lo, mid)
-    return lo
+    v = (0.5 * length_mm * math.sqrt(j)) ** (2.0 / 3.0)
+    if v * j <= a * a:
+        return v
+    k = a / j
+    return 0.5 * a * (math.sqrt(k * k + 4.0 * length_mm / a) - k)
 
 
 def ramp_reach_s(d_mm: float, v: float, a: float, j: float) -> float:
     """The time [s] the S-curve ramp from rest to ``v`` [mm/s] (``a``, ``j`` as in
-    :func:`ramp_lost_s`) takes to cover ``d_mm`` [mm] (cruising at ``v`` after it)."""
+    :func:`ramp_lost_s`) takes to cover ``d_mm`` [mm] (cruising at ``v`` after it): in closed
+    form in the jerk phase, the constant acceleration and the cruise, by bisection of the
+    cubic in the phase easing off."""
     t1 = min(a / j, math.sqrt(v / j))  # the jerk phase; then constant acceleration, if any
     a1 = j * t1
-    t2 = max(v / a1 - t1, 0.0) if a1 > 0.0 else 0.0  # the constant-acceleration phase
-
-    def dist(t: float) -> float:
-        if t <= t1:
-            return j * t**3 / 6.0
-        s1, v1 = j * t1**3 / 6.0, 0.5 * a1 * t1
-        if t <= t1 + t2:
-            u = t - t1
-            return s1 + v1 * u + 0.5 * a1 * u * u
-        s2, v2 = s1 + v1 * t2 + 0.5 * a1 * t2 * t2, v1 + a1 * t2
-        u = min(t - t1 - t2, t1)  # the phase easing off: the jerk phase mirrored
-        s3 = s2 + v2 * u + 0.5 * a1 * u * u - j * u**3 / 6.0
-        return s3 + v * max(t - 2.0 * t1 - t2, 0.0)
-
-    lo, hi = 0.0, 2.0 * t1 + t2 + d_mm / v
+    s1, v1 = j * t1**3 / 6.0, 0.5 * a1 * t1
+    if d_mm <= s1:
+        return (6.0 * d_mm / j) ** (1.0 / 3.0)
+    t2 = max(v / a1 - t1, 0.0)  # the constant-acceleration phase
+    s2, v2 = s1 + v1 * t2 + 0.5 * a1 * t2 * t2, v1 + a1 * t2
+    if d_mm <= s2:
+        return t1 + (math.sqrt(v1 * v1 + 2.0 * a1 * (d_mm - s1)) - v1) / a1
+    s3 = s2 + v2 * t1 + 0.5 * a1 * t1 * t1 - j * t1**3 / 6.0  # the phase easing off
+    if d_mm > s3:
+        return 2.0 * t1 + t2 + (d_mm - s3) / v
+    lo, hi = 0.0, t1
     for _ in range(50):
-        mid = 0.5 * (lo + hi)
-        lo, hi = (mid, hi) if dist(mid) < d_mm else (lo, mid)
-    return hi
+        u = 0.5 * (lo + hi)
+        lo, hi = (u, hi) if s2 + u * (v2 + u * (0.5 * a1 - u * j / 6.0)) < d_mm else (lo, u)
+    return t1 + t2 + hi
