@@ -25,6 +25,7 @@ import sys
 import threading
 from collections.abc import Callable, Iterator, Mapping, Sequence
 from contextlib import contextmanager
+from functools import partial
 from types import FrameType, ModuleType
 
 __all__ = [
@@ -230,10 +231,15 @@ def _clean_up() -> None:
     the objects whose finalizers release something outside the process."""
     outdir = sys.modules.get("gantry_sim.sim.outdir")
     pipes = sys.modules.get("gantry_sim.sim.worker_pipes")
+    mp_util = sys.modules.get("multiprocessing.util")
     for step in (
         getattr(pipes, "stop_all", None),
         getattr(outdir, "remove_new_empty_folders", None),
         gc.collect,  # multiprocessing's semaphores unlinked by their finalizers (a sweep's)
+        # and those of the ones still referenced, as the interpreter's exit runs them (a
+        # sweep's pool queues: left to the resource tracker, they were "leaked semaphore
+        # objects" on stderr after "gantry: terminated")
+        partial(mp_util._run_finalizers, 0) if mp_util is not None else None,
     ):
         if step is not None:
             try:
