@@ -11,7 +11,7 @@ before and after its moves of interest gives them what the whole path gives them
 from __future__ import annotations
 
 import math
-from collections.abc import Callable, Hashable, Mapping, Sequence
+from collections.abc import Callable, Collection, Hashable, Mapping, Sequence
 from dataclasses import replace
 from functools import partial
 from types import MappingProxyType
@@ -35,7 +35,11 @@ from gantry_sim.controller.planner.move_geometry import (
     limits_for_junctions,
     move_geometries,
 )
-from gantry_sim.controller.planner.shared_jerk import overlap_estimate, share_jerk_at_stops
+from gantry_sim.controller.planner.shared_jerk import (
+    overlap_estimate,
+    share_jerk_at_stops,
+    stop_credit_s,
+)
 from gantry_sim.controller.planner.stop_overlap import overlappable
 from gantry_sim.controller.planner.transition import CHORD_FIT_REACHED
 
@@ -171,13 +175,14 @@ def prepare(
         stops | set(holds),
         partial(corner_budget_mm, settings=machine.path, chord_tolerance_mm=seg.chord_tolerance_mm),
     )
-    active = share_jerk_at_stops(active, corners, lim)
+    active, shared = share_jerk_at_stops(active, corners, lim)
     credits = _stop_credits(
         path,
         at,
         active,
         partial(corner_budget_mm, settings=machine.path, chord_tolerance_mm=seg.chord_tolerance_mm),
         lim,
+        shared,
     )
     return Prepared(
         geoms, active, where, caps, states, holds, smoothing, sources, path_acc, corners, credits
@@ -190,15 +195,22 @@ def _stop_credits(
     active: Sequence[MoveGeometry],
     budget_of: Callable[[PathMove], float],
     limits: Limits,
+    shared: Collection[int],
 ) -> dict[int, float]:
     """Active blend arc -> the time [s] an overlap is estimated to save at the exact stop that
     would replace it (:func:`~gantry_sim.controller.planner.shared_jerk.overlap_estimate`), where
     the moves either side are straight (feed moves or rapids) and would meet at such a stop
     (``at``: path junction -> active; ``budget_of``: the G64 budget [mm] of the move before
-    a junction). Each side's move takes half the blend's length back, as the stop's estimate
-    does (blend_judge)."""
+    a junction; ``shared``: the junctions of the stops whose moves share their jerk), as
+    :func:`~gantry_sim.controller.planner.shared_jerk.stop_credit_s` counts it: a move's ramp
+    at its other end is paid for by a blend arc there (in a chain of blends judged slow, a
+    stop that shares too), a stop that shares, or the path's end (where the judge of a zigzag
+    of 6 degree turns otherwise kept its first and last blends: 0.5 % slower), not by a plain
+    stop. Each side's move takes half the blend's length back, as the stop's estimate does
+    (blend_judge)."""
     jmax = np.asarray(limits.per_axis()[2], dtype=float)
     out: dict[int, float] = {}
+    arcs = {int(at[k]) for k in path.blend_junction if int(at[k + 1]) == int(at[k]) + 1}
     for k in path.blend_junction:
         b = int(at[k])
         if not (0 < b < len(active) - 1 and int(at[k + 1]) == b + 1):
@@ -209,9 +221,12 @@ def _stop_credits(
         half = 0.5 * arc.length_mm
         la = replace(ga.limits, length_mm=ga.limits.length_mm + half)
         lb = replace(gb.limits, length_mm=gb.limits.length_mm + half)
-        credit, _ = overlap_estimate(
-            la, lb, ga.tangent_out, gb.tangent_in, budget_of(ga.move), jmax
+        e = overlap_estimate(la, lb, ga.tangent_out, gb.tangent_in, budget_of(ga.move), jmax)
+        pays = (
+            b < 2 or b - 2 in arcs or b - 1 in shared,
+            b + 2 >= len(active) or b + 2 in arcs or b + 2 in shared,
         )
+        credit = stop_credit_s(e, pays)
         if credit > 0.0:
             out[b] = credit
     return out
