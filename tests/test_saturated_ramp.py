@@ -228,3 +228,27 @@ def test_tiny_arcs_plan_within_limits(machine, text):
 def test_generated_short_and_near_full_arcs_plan_within_limits(machine):
     for text in _short_arc_programs(8, np.random.default_rng(15)):
         _plans_within_limits(text, machine)
+
+
+def test_low_jerk_ramps_take_a_bounded_number_of_steps(monkeypatch):
+    """At the machine file's least jerk (1 mm/s^3) a ramp reaches MAX_RAMP_S: its family's
+    steps grow so that at most MAX_RAMP_STEPS span it (8,000 steps of STEP_S made a full
+    circle's plan take over a minute)."""
+    from gantry_sim.controller.planner import saturated_ramp
+    from gantry_sim.controller.planner.ramp_family import MAX_RAMP_S, RampFamily
+
+    sizes: list[int] = []
+
+    class Counted(RampFamily):
+        def __init__(self, *args, **kwargs) -> None:
+            super().__init__(*args, **kwargs)
+            sizes.append(self.grid.size)
+
+    monkeypatch.setattr(saturated_ramp, "RampFamily", Counted)
+    r = 10.0
+    length = 2 * math.pi * r
+    acc, jerk = (SHARE * 3000.0, SHARE * 2500.0), (SHARE * 1.0, SHARE * 1.0)
+    lims = tuple(CircleLimits(0.0, 1.0, r, length, rev, acc, jerk) for rev in (False, True))
+    saturated_profile(length, 0.0, 0.0, 50.0, lims)
+    assert sizes and max(sizes) <= saturated_ramp.MAX_RAMP_STEPS + 2
+    assert MAX_RAMP_S / saturated_ramp.MAX_RAMP_STEPS > saturated_ramp.STEP_S

@@ -30,10 +30,15 @@ import numpy as np
 
 from gantry_sim.controller.planner.profile import Profile1D
 from gantry_sim.controller.planner.ramp_bounds import RampLimits
-from gantry_sim.controller.planner.ramp_family import RampFamily, advance
+from gantry_sim.controller.planner.ramp_family import MAX_RAMP_S, RampFamily, advance
 
 #: Step [s] of the ramps' constant-jerk phases (the jerk follows the state at this rate).
 STEP_S = 2.5e-4
+#: Most steps a ramp's switch times span: where the ramps reach further (a machine of low jerk,
+#: down to the machine file's 1 mm/s^3, reaches the 2 s of ``MAX_RAMP_S``) the step grows to
+#: reach / this. Each search steps every switch time's ramp down, so its cost grows with the
+#: square of the steps: 8,000 steps of STEP_S took 8 s an arc, a full circle a minute.
+MAX_RAMP_STEPS = 2048
 #: Peaks tried for the ramps of one arc (each a few hundredths of a second to build).
 PEAK_TRIES = 8
 #: Share of the plane's jerk and acceleration the ramps use (the point-by-point check that
@@ -98,6 +103,7 @@ def saturated_profile(
     lim_up, lim_dn = limits
     acc, jerk = lim_up.acc_min, lim_up.jerk_min
     hi = 2.0 * (cap / jerk) ** 0.5 + 2.0 * cap / acc  # switch times beyond this overshoot cap
+    dt = max(dt, min(hi, MAX_RAMP_S) / MAX_RAMP_STEPS)
     ends, tables = [], []
     for v0, lim in ((v_in, lim_up), (v_out, lim_dn)):
         fam = RampFamily(v0, lim, dt, hi)
