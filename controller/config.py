@@ -85,9 +85,10 @@ def _choice(*options: str) -> Callable[[Any], str]:
     return check
 
 
-def _string(v: Any) -> str:
-    if not isinstance(v, str) or not v:
-        raise ValueError("a non-empty string")
+def _path_string(v: Any) -> str:
+    """A file path: a non-empty string without NUL characters (no file name holds one)."""
+    if not isinstance(v, str) or not v or "\0" in v:
+        raise ValueError("a non-empty file path without NUL characters")
     return v
 
 
@@ -139,7 +140,7 @@ SCHEMA: dict[str, dict[str, Callable[[Any], Any]]] = {
         "max_error_integral_mm_s": _vec3(_number(">= 0 (0: no clamp)", 0.0, 1e6, "mm s")),
     },
     "sim": {
-        "model": _string,
+        "model": _path_string,
         # 1 us .. 10 ms
         "physics_timestep_s": _number("> 0", 1e-6, 1e-2, "s"),
         "work_origin_joint_mm": _vec3(_COORD),

@@ -31,6 +31,9 @@ CONFIG_CAP_BYTES = 4 * MB
 #: a report.json (about 180 bytes per block: 18 MB for a run of 100,000 blocks, read by
 #: json.loads in about 1 s and 35 MB; this cap holds some 1.4 million blocks)
 REPORT_CAP_BYTES = 256 * MB
+#: an MJCF model or a file it references (a mesh, a height field): the bundled model is
+#: 10 kB, a fine STL mesh some tens of MB
+MODEL_CAP_BYTES = 256 * MB
 #: a stream is read this many bytes at a time
 READ_CHUNK_BYTES = 1 << 20
 
@@ -70,6 +73,24 @@ def input_chunks(
             chunk = b""
     finally:
         os.close(fd)
+
+
+def check_model_file(path: Path, what: str, cap_bytes: int = MODEL_CAP_BYTES) -> None:
+    """Raise ConfigError (naming ``path``; ``what`` names its kind) unless ``path`` is a
+    regular file of at most ``cap_bytes`` [bytes]. For files MuJoCo opens itself, which it
+    would wait on for ever (a FIFO with no writer) or read without end (a device)."""
+    try:
+        info = os.stat(path)
+    except (OSError, ValueError) as exc:  # ValueError: a NUL byte in the path
+        reason = getattr(exc, "strerror", None) or "not a valid path"
+        raise ConfigError(f"cannot read {what}: {reason}", file=str(path)) from None
+    if not stat.S_ISREG(info.st_mode):
+        kind = "a directory" if stat.S_ISDIR(info.st_mode) else "not a regular file"
+        raise ConfigError(
+            f"{what} is {kind}, expected a regular (XML or mesh) file", file=str(path)
+        )
+    if info.st_size > cap_bytes:
+        raise _too_large(path, what, cap_bytes, ConfigError, "more than a model needs")
 
 
 def read_capped(

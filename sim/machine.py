@@ -171,8 +171,13 @@ def _xyz(values: Sequence[T]) -> tuple[T, T, T]:
 
 def _load_model(file: str, timestep_s: float) -> tuple[Any, Any]:
     """Compile the MJCF at ``file`` with the machine file's physics timestep [s]: (model, data)."""
+    from pathlib import Path
+
     import mujoco
 
+    from gantry_sim.controller.input_files import check_model_file
+
+    check_model_file(Path(file), "the MJCF model")
     try:
         model = mujoco.MjModel.from_xml_path(file)
     except (ValueError, OSError) as exc:

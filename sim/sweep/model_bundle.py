@@ -23,6 +23,7 @@ from pathlib import Path
 
 from gantry_sim.controller.config import MachineConfig
 from gantry_sim.controller.errors import ConfigError
+from gantry_sim.controller.input_files import check_model_file
 
 #: attributes naming a file; the cube-texture faces included
 FILE_ATTRS = ("file", "fileright", "fileleft", "fileup", "filedown", "filefront", "fileback")
@@ -50,10 +51,11 @@ def _asset_dir(tag: str, dirs: dict[str, str]) -> str:
 
 
 def _read(path: Path, by: Path) -> bytes:
+    what = "the MJCF model" if path == by else f"'{path}' (referenced by {by})"
+    check_model_file(path, what)
     try:
         return path.read_bytes()
     except OSError as exc:
-        what = "the MJCF model" if path == by else f"'{path}' (referenced by {by})"
         raise ConfigError(
             f"cannot read {what} to ship it to the workers: {exc.strerror}", file=str(by)
         ) from None
