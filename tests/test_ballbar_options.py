@@ -125,3 +125,12 @@ def test_json_and_summary_exclude_each_other(capsys):
     with pytest.raises(SystemExit) as exc:
         main([*SHORT, "--json", "--summary"])
     assert exc.value.code == 2
+
+
+@pytest.mark.parametrize("feed", ["1e-9", "0.0004"])
+def test_a_feed_below_the_programs_resolution_is_blamed_on_feed(capsys, feed):
+    """The program writes F to 6 decimals: --feed 1e-9 was written F0 and refused as "zero
+    feed rate" on --radius; now --feed says the least feed it takes."""
+    assert main(["ballbar", "--radius", "5", "--feed", feed]) == 2
+    err = capsys.readouterr().err
+    assert err.startswith("--feed: error: ") and ">= 0.001 mm/min" in err, err

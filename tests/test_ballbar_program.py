@@ -73,7 +73,7 @@ def test_ballbar_program_runs_ccw_then_cw_and_ends():
     [
         ({"plane": "ZX"}, "XY, XZ, YZ"),
         ({"radius_mm": 0.0}, "> 0"),
-        ({"feed_mm_per_min": -5.0}, "> 0"),
+        ({"feed_mm_per_min": -5.0}, ">= 0.001"),
         ({"directions": ("up",)}, "'cw' or 'ccw'"),
     ],
 )

@@ -34,6 +34,9 @@ _OFFSET_LETTER = "IJK"
 START_DEG = 45.0
 #: travel of the run-in and of the run-out arc [deg]
 LEAD_DEG = 180.0
+#: least feed [mm/min]: the program writes numbers to 6 decimals (F1e-9 was written F0 and
+#: refused as "zero feed rate" on --radius), and this keeps F within 0.1 % of what was asked
+MIN_FEED_MM_PER_MIN = 0.001
 
 
 @dataclass(frozen=True)
@@ -101,7 +104,7 @@ def circle_test_program(
     Args:
         plane: "XY" (G17), "XZ" (G18) or "YZ" (G19).
         radius_mm: circle radius [mm], > 0.
-        feed_mm_per_min: feed along the path [mm/min], > 0.
+        feed_mm_per_min: feed along the path [mm/min], >= :data:`MIN_FEED_MM_PER_MIN`.
         directions: "ccw" (G3) and/or "cw" (G2), run in this order, each returning to the centre.
         centre_mm: circle centre in work coordinates [mm].
 
@@ -113,9 +116,11 @@ def circle_test_program(
         raise ConfigError(f"plane {plane!r} is not one of XY, XZ, YZ", file="--plane")
     if not (math.isfinite(radius_mm) and radius_mm > 0):
         raise ConfigError(f"radius {radius_mm} mm must be a finite number > 0", file="--radius")
-    if not (math.isfinite(feed_mm_per_min) and feed_mm_per_min > 0):
+    if not (math.isfinite(feed_mm_per_min) and feed_mm_per_min >= MIN_FEED_MM_PER_MIN):
         raise ConfigError(
-            f"feed {feed_mm_per_min} mm/min must be a finite number > 0", file="--feed"
+            f"feed {feed_mm_per_min:g} mm/min must be a finite number >= "
+            f"{MIN_FEED_MM_PER_MIN:g} mm/min",
+            file="--feed",
         )
     if not (radius_mm <= MAX_COORDINATE_MM):
         raise ConfigError(
