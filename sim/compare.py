@@ -108,8 +108,15 @@ def load_report(path: Path) -> dict[str, Any]:
 
 
 def _number(x: Any) -> bool:
-    """A finite JSON number (not a bool)."""
-    return isinstance(x, int | float) and not isinstance(x, bool) and math.isfinite(x)
+    """A finite JSON number >= 0 (not a bool) within the float range: report.json's times
+    and errors are magnitudes (an integer of 400 digits exited 3: math.isfinite raised
+    OverflowError on it; a negative time compared as if it were one)."""
+    if not isinstance(x, int | float) or isinstance(x, bool):
+        return False
+    try:
+        return math.isfinite(float(x)) and x >= 0
+    except OverflowError:
+        return False
 
 
 def _schema_problem(data: dict[str, Any]) -> str:
@@ -117,7 +124,7 @@ def _schema_problem(data: dict[str, Any]) -> str:
     number, each block an object with an integer line, a number max_error_um and time_s a
     number or null."""
     if not _number(data["cycle_time_s"]):
-        return f"cycle_time_s is {shown(data['cycle_time_s'])}, not a number [s]"
+        return f"cycle_time_s is {shown(data['cycle_time_s'])}, not a number >= 0 [s]"
     if not isinstance(data["blocks"], list):
         return "blocks is not a list"
     for i, b in enumerate(data["blocks"]):
@@ -126,9 +133,9 @@ def _schema_problem(data: dict[str, Any]) -> str:
         if not (isinstance(b.get("line"), int) and not isinstance(b.get("line"), bool)):
             return f"blocks[{i}].line is {shown(b.get('line'))}, not a line number"
         if not _number(b.get("max_error_um")):
-            return f"blocks[{i}].max_error_um is {shown(b.get('max_error_um'))}, not a number [um]"
+            return f"blocks[{i}].max_error_um is {shown(b.get('max_error_um'))}, not a number >= 0 [um]"
         if b.get("time_s") is not None and not _number(b["time_s"]):
-            return f"blocks[{i}].time_s is {shown(b['time_s'])}, not a number [s] or null"
+            return f"blocks[{i}].time_s is {shown(b['time_s'])}, not a number >= 0 [s] or null"
     return ""
 
 

@@ -138,6 +138,10 @@ GOOD = {"cycle_time_s": 1.0, "blocks": [{"line": 2, "kind": "linear", "max_error
         ({"cycle_time_s": "1", "blocks": []}, "not a number"),
         ({"cycle_time_s": 1.0, "blocks": [{"line": 2, "max_error_um": "big"}]}, "max_error_um"),
         ({"cycle_time_s": 1.0, "blocks": [{"line": 2.5, "max_error_um": 1.0}]}, ".line is 2.5"),
+        # a 400-digit integer exited 3 (OverflowError); a negative time or error is no report's
+        ({"cycle_time_s": 10**400, "blocks": []}, "cycle_time_s is 1000"),
+        ({"cycle_time_s": -1.0, "blocks": []}, "cycle_time_s is -1.0, not a number >= 0"),
+        ({"cycle_time_s": 1.0, "blocks": [{"line": 2, "max_error_um": -3}]}, "is -3, not a"),
         # a megabyte of value: quoted to 40 characters
         ({"cycle_time_s": 1.0, "blocks": [{"line": "a" * 10**6}]}, ".line is 'aaaa"),
     ],
