@@ -17,6 +17,7 @@ import numpy as np
 from gantry_sim.controller.moves import Move
 from gantry_sim.sim.contour import ContourStats
 from gantry_sim.sim.path_outline import Outline, extent, outline
+from gantry_sim.sim.plot_text import literal_text
 from gantry_sim.sim.plots import DPI, _figure, quiet
 from gantry_sim.sim.trace import Trace
 
@@ -159,7 +160,7 @@ def outline_figure(
         worst = (drawn[k], tr.pos[k], int(tr.line[k]), float(tr.err_um[k]))
     traced = drawn[_decimate(len(drawn), k)]
     gain = f"traced path, error x {ERROR_MAGNIFICATION:g} (1 um drawn as 1 mm)"
-    title = f"{program}: max {contour.max_um:.2f} um, rms {contour.rms_um:.2f} um"
+    title = f"{literal_text(program)}: max {contour.max_um:.2f} um, rms {contour.rms_um:.2f} um"
     if len(views) == 1:
         fig = _figure((7, 7), dpi=DPI)
         ax = fig.add_subplot()

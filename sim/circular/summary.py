@@ -13,6 +13,8 @@ import math
 from collections.abc import Mapping
 from typing import Any
 
+from gantry_sim.sim.plot_text import literal_text
+
 
 def g_gate(summary: Mapping[str, Any], max_g_um: float) -> dict:
     """The "gate" object: G of each direction against ``max_g_um`` [um].
@@ -135,7 +137,7 @@ def polar_conditions_text(summary: Mapping[str, Any]) -> str:
     c = s.get("conditions") or {}
     lines = [
         "Test conditions",
-        f"machine: {c.get('machine', 'n/a')}",
+        f"machine: {literal_text(str(c.get('machine', 'n/a')))}",
         f"plane {s['plane']}, radius {s['radius_mm']:g} mm, feed {s['feed_mm_per_min']:g} mm/min",
     ]
     if c:
