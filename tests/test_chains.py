@@ -71,6 +71,21 @@ def test_a_profile_cut_at_the_moves_ends_is_the_same_motion(machine):
             assert v_whole == pytest.approx(speeds[k], abs=1e-6)
 
 
+def test_a_chain_of_thousands_of_tiny_moves_splits_into_its_moves(machine):
+    """5,000 moves of 1e-6 mm and some longer ones (and moves passed in no time): each part
+    is its move's rows alone, the parts' durations add up to the profile's (the split took
+    moves x rows masks, 3 s a chain of 12,000 tiny moves; now one slice per move)."""
+    lengths = [1e-6] * 5000 + [0.5, 1e-12, 2.0] + [1e-6] * 100
+    solver = RuckigSolver(machine.limits)
+    prof = solver.profile(sum(lengths), 0.0, 0.0, 40.0, 800.0, 3e4)
+    parts, speeds, _ = split_profile(prof, lengths)
+    assert len(parts) == len(lengths) and speeds.shape == (len(lengths) - 1,)
+    assert sum(p.duration_s for p in parts) == pytest.approx(prof.duration_s, rel=1e-9)
+    assert all(p.s[0] == 0.0 and (p.dur >= 0).all() for p in parts)
+    ends = [float(_state(p, np.array([p.duration_s * (1 - 1e-12)]))[0]) for p in parts[-105:]]
+    assert ends[2] == pytest.approx(0.5, abs=1e-9) and ends[4] == pytest.approx(2.0, abs=1e-9)
+
+
 def _state(prof, t):
     dur, s, v, a, j = prof.rows.T
     t0 = np.concatenate(([0.0], np.cumsum(dur)[:-1]))

@@ -112,9 +112,14 @@ def split_profile(
     owner = np.searchsorted(t_cut, t_lo, side="right")
     s = np.maximum(s - bounds[owner], 0.0)
     table = np.column_stack([t_hi - t_lo, s, v, a, jk])
+    kept = table[:, 0] > 0
+    table, owner = table[kept], owner[kept]
+    # owner never decreases (t_lo and t_cut are sorted): each move's rows are one slice (a
+    # mask per move cost moves x rows, 3 s a chain of 12,000 tiny moves)
+    edges = np.searchsorted(owner, np.arange(len(lengths_mm) + 1), side="left")
     parts = []
     for m in range(len(lengths_mm)):
-        mine = table[(owner == m) & (table[:, 0] > 0)]
+        mine = table[edges[m] : edges[m + 1]].copy()
         if mine.size == 0:  # a move the profile passes in no time: hold its start state
             mine = np.zeros((1, 5))
         mine[0, 1] = 0.0
