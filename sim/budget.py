@@ -104,6 +104,14 @@ def check_lower_bound(
         raise
 
 
+def _option_value(x: float) -> str:
+    """``x`` rounded up, as an option to pass: a whole number up to 1e15, beyond that three
+    significant digits (a feed of 1e-300 mm/min asked for a 303-digit --max-sim-s)."""
+    if x <= 1e15:
+        return str(math.ceil(x))
+    return f"{x * 1.01:.3g}"  # 3 digits move it by at most 0.5 %: still above x
+
+
 def _check_duration(
     duration: float,
     line: int | None,
@@ -124,7 +132,7 @@ def _check_duration(
     if duration > budget.max_sim_s:
         # (a feed of 1e-320 mm/min makes the time infinite: no bound simulates that)
         anyway = (
-            f", or pass --max-sim-s {above}{math.ceil(duration)} to simulate it anyway"
+            f", or pass --max-sim-s {above}{_option_value(duration)} to simulate it anyway"
             if math.isfinite(duration)
             else ""
         )
@@ -140,7 +148,7 @@ def _check_duration(
             line=line,
         )
     if ticks > budget.max_sim_s * TICKS_PER_BUDGET_S:
-        need = math.ceil(ticks / TICKS_PER_BUDGET_S)
+        need = _option_value(ticks / TICKS_PER_BUDGET_S)
         message = (
             f"simulating it takes {at_least}{ticks:.3g} servo ticks ({duration:.6g} s at "
             f"[servo] period_s = {machine.servo.period_s:g}), beyond the bound of "
@@ -153,7 +161,7 @@ def _check_duration(
             f"simulating it takes {at_least}{steps:.3g} MuJoCo physics steps ({duration:.6g} s "
             f"at [sim] physics_timestep_s = {machine.sim.physics_timestep_s:g}), beyond the "
             f"bound of {budget.max_physics_steps:.3g} (about a minute of computing); use a "
-            f"larger physics timestep, or pass --max-physics-steps {above}{math.ceil(steps)} to "
+            f"larger physics timestep, or pass --max-physics-steps {above}{_option_value(steps)} to "
             "simulate it anyway"
         )
         raise BudgetError(message, message, file=file)

@@ -6,6 +6,7 @@ no profile at all."""
 from __future__ import annotations
 
 import json
+import re
 
 import pytest
 
@@ -83,6 +84,8 @@ def test_a_number_no_machine_follows_is_refused_on_its_line(
     assert err.count("\n") == 1 and err.startswith(f"{path}:{line}: error: "), err
     if command == "run" and fragment == "raise the F":
         fragment = "of simulated time"  # the run's simulated-time bound refuses it first
+        # the option to raise it is a number to type, not 303 digits
+        assert re.search(r"--max-sim-s above [\d.e+]{1,16} to", err), err
     assert fragment in err
 
 
