@@ -33,7 +33,7 @@ class GantryError(Exception):
         where = self.file or "<input>"
         if self.line is not None:
             where = f"{where}:{self.line}"
-        return f"{where}: error: {self.message}"
+        return one_line(f"{where}: error: {self.message}")  # names in it may hold a newline
 
 
 class GcodeError(GantryError):
@@ -63,6 +63,16 @@ class PlannerFailure(RuntimeError):
     def __init__(self, message: str, line: int) -> None:
         super().__init__(f"line {line}: {message}")
         self.line = line
+
+
+#: Control characters (C0 but the tab, and DEL) as the escapes :func:`one_line` writes.
+_CONTROLS = {c: repr(chr(c))[1:-1] for c in (*range(9), *range(10, 32), 127)}
+
+
+def one_line(name: str) -> str:
+    """An error line's text with its control characters escaped (``\\n``...): a file name
+    holding a newline keeps ``FILE:LINE: error: MESSAGE`` on one line."""
+    return name.translate(_CONTROLS)
 
 
 #: Characters of a value's repr a message quotes at most (:func:`shown`).

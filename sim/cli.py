@@ -19,7 +19,7 @@ import threading
 import traceback
 from collections.abc import Sequence
 
-from gantry_sim.controller.errors import GantryError
+from gantry_sim.controller.errors import GantryError, one_line
 from gantry_sim.sim.interrupts import Terminated, caught, on_signal, reset, run_command
 
 #: subcommand -> module in sim.commands defining ``HELP``, ``add_arguments(parser)`` and
@@ -214,7 +214,7 @@ def _dispatch(args: argparse.Namespace, debug: bool) -> int:
         return _stdout_error(exc)
     except OSError as exc:
         if exc.filename is not None:  # a file-system error on a path we were given
-            print(f"{exc.filename}: error: {exc.strerror}", file=sys.stderr)
+            print(f"{one_line(str(exc.filename))}: error: {exc.strerror}", file=sys.stderr)
             return EXIT_INPUT
         if exc.errno in _FULL:  # writing an open file: the spills in the temporary folder
             _flush_quietly()
