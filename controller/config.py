@@ -284,7 +284,7 @@ def _check(section: str, key: str, value: Any, file: str) -> Any:
 def _read_toml(path: Path) -> dict[str, Any]:
     data = read_capped(Path(path), "machine file", CONFIG_CAP_BYTES)
     try:
-        return tomllib.loads(data.decode("utf-8"))
+        return tomllib.loads(data.decode("utf-8-sig"))
     except RecursionError:  # arrays or inline tables nested a thousand deep
         raise ConfigError(
             "not valid TOML: arrays or tables nested too deep for the reader", file=str(path)

@@ -90,7 +90,7 @@ def load_report(path: Path) -> dict[str, Any]:
         raise ConfigError("no report.json here (run `gantry run --out DIR` first)", file=str(file))
     raw = read_capped(file, "report", REPORT_CAP_BYTES)
     try:
-        data = json.loads(raw.decode("utf-8"))
+        data = json.loads(raw.decode("utf-8-sig"))
     except RecursionError:  # [[[[... a thousand deep: json's decoder recurses per level
         raise ConfigError(
             "not a readable report.json: arrays or objects nested too deep", file=str(file)

@@ -58,7 +58,7 @@ def read_text(path: Path, what: str) -> str:
     if b"\x00" in data:
         raise ConfigError(f"not a {what} (binary data)", file=str(path))
     try:
-        return data.decode("utf-8")
+        return data.decode("utf-8-sig")  # a leading BOM (Notepad) is no text
     except UnicodeDecodeError as exc:
         line = data[: exc.start].count(b"\n") + 1
         raise ConfigError(f"not a {what} (invalid UTF-8)", file=str(path), line=line) from None

@@ -87,7 +87,7 @@ def parse_ini(text: str, path: str, _depth: int = 0, _into: IniFile | None = Non
                     f"#INCLUDE {name!r}: missing name or nested too deep", file=path, line=number
                 )
             try:
-                inc_text = read_capped(inc, "#INCLUDE file").decode("utf-8")
+                inc_text = read_capped(inc, "#INCLUDE file").decode("utf-8-sig")
             except ConfigError as exc:
                 raise ConfigError(
                     f"#INCLUDE {name}: {exc.message}", file=path, line=number
