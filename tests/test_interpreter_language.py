@@ -298,7 +298,15 @@ def test_a_loop_that_never_moves_is_refused_after_a_bounded_number_of_lines(tmp_
     assert err.line == 3 and "too many subroutine levels" in err.message  # (levels first)
     # M98's L repeats of a subprogram that never moves: refused at its M99
     err = error_of("M98 P100 L900000\nM2\nO100\n#1=1\n#2=2\nM99\n")
-    assert err.line == 6 and "without a move (at M99 repeating O100)" in err.message
+    assert err.line == 6 and "without a move (at M99 repeating O100;" in err.message
+
+
+@pytest.mark.parametrize("body", ["G1 X0 F100", "G4 P0", "M1", "G64 P0.01"])
+def test_a_loop_of_moves_that_go_nowhere_is_refused_as_one_that_never_moves(body):
+    """A million zero-length G1s, G4 P0s or M1s reset the bound at each line: they took
+    minutes to parse and plan for no motion at all; now they count as lines without one."""
+    err = error_of(f"o1 repeat [1000000]\n{body}\no1 endrepeat\nM2\n")
+    assert err.line == 3 and "without a move (at o1 endrepeat; a move of no" in err.message
 
 
 def test_big_loops_that_move_still_run() -> None:

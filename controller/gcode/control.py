@@ -22,7 +22,7 @@ from __future__ import annotations
 import math
 import re
 from collections import OrderedDict
-from collections.abc import Callable, Iterator
+from collections.abc import Callable, Iterator, Sequence
 from dataclasses import dataclass, field, replace
 from pathlib import Path
 
@@ -430,7 +430,8 @@ class Runner:
                     f.index = i + 1
                 continue
             if moves:
-                self.idle_lines = 0
+                if _progress(moves):
+                    self.idle_lines = 0
                 if f.source is not self.main:  # errors found later name this file
                     moves = [evolve(m, file=f.source.name) for m in moves]
             yield from moves
@@ -478,12 +479,13 @@ class Runner:
 
     def _check_idle(self, where: str) -> None:
         """Refuse a loop or call (``where``) made after more than ``max_idle_lines`` lines run
-        in loops and subroutines without a move or event."""
+        in loops and subroutines without a move that goes somewhere or a dwell that lasts."""
         if self.idle_lines > self.max_idle_lines:
             raise GcodeError(
                 f"{self.idle_lines} lines run in loops and subroutines without a move (at "
-                f"{where}): a loop that never ends? At most {self.max_idle_lines} are run "
-                "(a tenth of --max-iterations); raise --max-iterations if the program is right"
+                f"{where}; a move of no length, G4 P0 or a stop is none): a loop that never "
+                f"ends? At most {self.max_idle_lines} are run (a tenth of --max-iterations); "
+                "raise --max-iterations if the program is right"
             )
 
     def _block(self, source: Source, i: int) -> Block:
@@ -810,6 +812,17 @@ class Runner:
             f"subroutine o{_show(cut(name))} not found: not defined in the program{closed} and "
             f"no {cut(name)}.ngc in the subroutine path ({where}); add --subroutine-path DIR"
         )
+
+
+def _progress(moves: Sequence[object]) -> bool:
+    """Whether ``moves`` take the machine anywhere or take time: a move of positive length
+    [mm] or a dwell of positive seconds. A zero-length G1, G4 P0, M1 or a mode change does
+    not: a loop of a million of them took minutes to parse and plan, for nothing."""
+    for m in moves:
+        length = getattr(m, "length_mm", None)
+        if (length is not None and length > 0) or getattr(m, "seconds", 0.0) > 0:
+            return True
+    return False
 
 
 def idle_lines_bound(max_iterations: int) -> int:
