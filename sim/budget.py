@@ -45,10 +45,13 @@ class BudgetError(PlanningError):
 
 @dataclass(frozen=True)
 class Budget:
-    """The largest simulation run without asking: simulated time [s] and MuJoCo steps."""
+    """The largest simulation run without asking: simulated time [s] and MuJoCo steps;
+    ``action``: what the bound holds back, as its messages say it ("simulate", or "plan" for
+    ``gantry plan --out``, which writes the reference sampled every servo period)."""
 
     max_sim_s: float = DEFAULT_MAX_SIM_S
     max_physics_steps: float = DEFAULT_MAX_PHYSICS_STEPS
+    action: str = "simulate"
 
     def __post_init__(self) -> None:
         for name, value in (
@@ -132,14 +135,19 @@ def _check_duration(
     if duration > budget.max_sim_s:
         # (a feed of 1e-320 mm/min makes the time infinite: no bound simulates that)
         anyway = (
-            f", or pass --max-sim-s {above}{_option_value(duration)} to simulate it anyway"
+            f", or pass --max-sim-s {above}{_option_value(duration)} to {budget.action} it anyway"
             if math.isfinite(duration)
             else ""
         )
+        cost = (
+            "the time to simulate it and the trace written grow with it: about 1 s and 2-5 MB "
+            "per 2 simulated minutes"
+            if budget.action == "simulate"
+            else "the reference written grows with it: 20-40 kB per simulated second"
+        )
         bound = (
-            f", beyond the bound of {budget.max_sim_s:g} s (the time to simulate it and the "
-            f"trace written grow with it: about 1 s and 2-5 MB per 2 simulated minutes); check "
-            f"the feeds (F is in mm/min){anyway}"
+            f", beyond the bound of {budget.max_sim_s:g} s ({cost}); check the feeds (F is in "
+            f"mm/min){anyway}"
         )
         raise BudgetError(
             f"the program takes {at_least}{duration:.6g} s of simulated time{on_line}{bound}",
@@ -153,7 +161,7 @@ def _check_duration(
             f"simulating it takes {at_least}{ticks:.3g} servo ticks ({duration:.6g} s at "
             f"[servo] period_s = {machine.servo.period_s:g}), beyond the bound of "
             f"{budget.max_sim_s * TICKS_PER_BUDGET_S:.3g} (--max-sim-s counts 1000 ticks a "
-            f"second); pass --max-sim-s {above}{need} to simulate it anyway"
+            f"second); pass --max-sim-s {above}{need} to {budget.action} it anyway"
         )
         raise BudgetError(message, message, file=file)
     if steps > budget.max_physics_steps:

@@ -150,3 +150,19 @@ def test_plan_progress_goes_to_stderr_only_when_asked(write_program, capsys, mon
     assert "parse: " in got.err and "plan: " in got.err and "/5 [" in got.err  # 5 moves
     assert main(["plan", program]) == 0  # stderr is no terminal here: quiet
     assert capsys.readouterr().err == ""
+
+
+def test_plans_bound_says_what_plan_writes_and_does(tmp_path, capsys):
+    """`gantry plan --out` past --max-sim-s says what it holds back: the reference it writes
+    (20-40 kB per simulated second) and planning it anyway, not the run's trace and
+    simulation (the words `gantry run` uses)."""
+    from gantry_sim.sim.cli import main
+
+    prog = tmp_path / "p.ngc"
+    prog.write_text("G21 G90\nG1 X100 F0.5\nM2\n")  # 12,000 s
+    assert main(["plan", str(prog), "--out", str(tmp_path / "t.npz")]) == 2
+    err = capsys.readouterr().err
+    assert err.startswith(f"{prog}:2: error: the program takes at least 12000 s"), err
+    assert "20-40 kB per simulated second" in err and "to plan it anyway" in err, err
+    assert "simulate it" not in err and "trace" not in err, err
+    assert not (tmp_path / "t.npz").exists()

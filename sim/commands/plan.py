@@ -103,7 +103,7 @@ def run(args: argparse.Namespace) -> int:
                 advance=advance,
             )
         if args.out is not None:  # before planning: far beyond the bound is refused now
-            check_lower_bound(moves, machine, Budget(budget.max_sim_s, float("inf")), file)
+            check_lower_bound(moves, machine, Budget(budget.max_sim_s, float("inf"), "plan"), file)
         with stage("plan", len(moves), "move", shown, ticking=True) as advance:
             result = plan(moves, machine, advance=advance)
     except GantryError as exc:
@@ -120,7 +120,7 @@ def run(args: argparse.Namespace) -> int:
     if args.out is not None:  # the file's size: the same bound as a simulation's
         from gantry_sim.sim.plan_samples import write_samples_npz
 
-        check_budget(result, machine, Budget(budget.max_sim_s, float("inf")), file)
+        check_budget(result, machine, Budget(budget.max_sim_s, float("inf"), "plan"), file)
         write_samples_npz(args.out, result, period)
     summary = {
         "duration_s": result.duration_s,
