@@ -204,3 +204,17 @@ def test_parse_names_the_subroutine_file_of_its_moves(setup_files, capsys):
     assert [(r.get("file"), r["line"]) for r in motions] == [(None, 4)] + [
         (str(lib / "square.ngc"), k) for k in range(2, 7)
     ]
+
+
+@pytest.mark.parametrize("kind", ["file", "missing"])
+def test_a_subroutine_path_that_is_no_folder_is_refused(setup_files, tmp_path, capsys, kind):
+    """--subroutine-path names a folder: a file, or a path that does not exist, is refused
+    on the option (exit 2), where it was passed over without a word."""
+    prog, _, table = setup_files
+    where = table if kind == "file" else tmp_path / "no-such-folder"
+    with pytest.raises(SystemExit) as info:  # argparse's refusal of an option
+        main(["parse", str(prog), "--subroutine-path", str(where)])
+    assert info.value.code == 2
+    err = capsys.readouterr().err
+    assert "--subroutine-path" in err and "expected a folder" in err, err
+    assert "Traceback" not in err

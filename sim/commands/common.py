@@ -109,6 +109,16 @@ def path_arg(text: str) -> Path:
     return Path(text)
 
 
+def folder_arg(text: str) -> Path:
+    """An existing folder (argparse type): a file or a missing path is refused (a folder
+    searched for subroutine files that is not one was passed over without a word)."""
+    path = path_arg(text)
+    if not path.is_dir():
+        what = "a file" if path.exists() else "not found"
+        raise argparse.ArgumentTypeError(f"{shown(text)}: expected a folder, {what}")
+    return path
+
+
 def positive_int(text: str) -> int:
     """An integer >= 1 (argparse type)."""
     try:
@@ -133,7 +143,7 @@ def add_program_setup(parser: argparse.ArgumentParser) -> None:
     )
     parser.add_argument(
         "--subroutine-path",
-        type=path_arg,
+        type=folder_arg,
         action="append",
         default=[],
         metavar="DIR",
