@@ -169,21 +169,12 @@ def prepare(
     active = limits_for_junctions(active, caps, lim, path_acc)
     caps = feasible_junction_caps(active, caps, states, lim)
     where = [i for i, k in enumerate(keep) if k]
-    corners = stop_corners(
-        active,
-        caps,
-        stops | set(holds),
-        partial(corner_budget_mm, settings=machine.path, chord_tolerance_mm=seg.chord_tolerance_mm),
+    budget_of = partial(
+        corner_budget_mm, settings=machine.path, chord_tolerance_mm=seg.chord_tolerance_mm
     )
+    corners = stop_corners(active, caps, stops | set(holds), budget_of)
     active, shared = share_jerk_at_stops(active, corners, lim)
-    credits = _stop_credits(
-        path,
-        at,
-        active,
-        partial(corner_budget_mm, settings=machine.path, chord_tolerance_mm=seg.chord_tolerance_mm),
-        lim,
-        shared,
-    )
+    credits = _stop_credits(path, at, active, budget_of, lim, shared)
     return Prepared(
         geoms, active, where, caps, states, holds, smoothing, sources, path_acc, corners, credits
     )
@@ -210,11 +201,11 @@ def _stop_credits(
     (blend_judge)."""
     jmax = np.asarray(limits.per_axis()[2], dtype=float)
     out: dict[int, float] = {}
+    # the blend arcs with a length, by their index among the active moves
     arcs = {int(at[k]) for k in path.blend_junction if int(at[k + 1]) == int(at[k]) + 1}
-    for k in path.blend_junction:
-        b = int(at[k])
-        if not (0 < b < len(active) - 1 and int(at[k + 1]) == b + 1):
-            continue  # the blend has no length, or no move either side
+    for b in sorted(arcs):
+        if not 0 < b < len(active) - 1:
+            continue  # no move either side
         ga, arc, gb = active[b - 1], active[b], active[b + 1]
         if not overlappable(ga.move, gb.move):
             continue

@@ -23,9 +23,8 @@ cross, the reference is that far from each segment times sin(turn), and from the
 times 2 sin(turn / 2)). The jerk is shared where the overlap gains more than the four ramps
 lose, by 1 ms at least (:data:`MIN_GAIN_S`): at low speeds and on short moves (engraving:
 1.3-3.5 %, `benchmarks/bench_engraving.py`), not on long fast moves (25 mm at F20000: 4.995 s
-stopping, 5.248 s shared). Counting only the
-two ramps at the corner shared a slicer's lone 45 degree infill corner between short moves
-from and to rest, 6 % slower; where the stop at a move's other end shares too, its overlap
+stopping, 5.248 s shared). Counting only the two ramps at the corner shared a slicer's lone
+45 degree infill corner between short moves from and to rest, 6 % slower; where the stop at a move's other end shares too, its overlap
 pays for that ramp, so a chain of such corners (a 5 mm zigzag at F3000: 5.584 s against
 5.725 s stopping) would gain where this estimate keeps the stops, but whether it does lies
 beyond the two moves. The estimate reads nothing beyond them, so a stretch of the path
@@ -81,14 +80,20 @@ COS_MAX_TURN = math.cos(MAX_TURN_RAD)
 
 class Estimate(NamedTuple):
     """:func:`overlap_estimate` of one stop: ``gain_s`` [s], the overlap's time less what the
-    share costs the two ramps at the corner; ``share``, the jerk share (1: none, and then no
-    gain); ``far_lost_s`` [s], what it costs each move's ramp at its other end (the first
-    move's start, the second's end): lost there unless that stop shares too, where its own
-    estimate counts it."""
+    share costs the two ramps at the corner; ``share``, the jerk share (1: none needed, the
+    two moves' jerks keep the limits as they are); ``far_lost_s`` [s], what it costs each
+    move's ramp at its other end (the first move's start, the second's end): lost there
+    unless that stop shares too, where its own estimate counts it."""
 
     gain_s: float
     share: float
     far_lost_s: tuple[float, float]
+
+    @property
+    def shares(self) -> bool:
+        """Whether the planner takes this stop's share: one is needed, and it gains more than
+        all four ramps lose, by :data:`MIN_GAIN_S` at least."""
+        return self.share < 1.0 and self.gain_s - sum(self.far_lost_s) > MIN_GAIN_S
 
 
 NO_SHARE = Estimate(0.0, 1.0, (0.0, 0.0))
@@ -106,7 +111,7 @@ def shared_stops(
     for b, budget in corners.items():
         ga, gb = active[b - 1], active[b]
         e = overlap_estimate(ga.limits, gb.limits, ga.tangent_out, gb.tangent_in, budget, jmax)
-        if e.share < 1.0 and e.gain_s - sum(e.far_lost_s) > MIN_GAIN_S:
+        if e.shares:
             kept[b] = e
     return kept
 
@@ -138,7 +143,7 @@ def stop_credit_s(e: Estimate, far_pays: tuple[bool, bool]) -> float:
     jerk it needs (:func:`shared_stops`' rule, all four ramps counted); else its gain less each
     far ramp's loss unless ``far_pays`` says that end pays for it (a blend arc there, likely
     judged a stop too in a chain of them, or a stop that shares)."""
-    if e.gain_s <= 0.0 or (e.share < 1.0 and e.gain_s - sum(e.far_lost_s) <= MIN_GAIN_S):
+    if e.gain_s <= 0.0 or (e.share < 1.0 and not e.shares):
         return 0.0
     return e.gain_s - sum(
         lost for lost, pays in zip(e.far_lost_s, far_pays, strict=True) if not pays
