@@ -743,11 +743,19 @@ def _blends_slow(
     if inner.size == 0:
         return False
     with np.errstate(divide="ignore", invalid="ignore"):
-        take = np.minimum(np.where(sec_less_1 > 0, budget_mm / sec_less_1 * tan, np.inf), room)
+
+        def taken_mm(deviation_mm: float) -> np.ndarray:
+            """What each corner's blend takes of its moves [mm] leaving the corner by
+            ``deviation_mm``: R tan(phi/2), R from R (sec(phi/2) - 1) = deviation, at most
+            half the shorter move."""
+            return np.minimum(
+                np.where(sec_less_1 > 0, deviation_mm / sec_less_1 * tan, np.inf), room
+            )
+
+        take = taken_mm(budget_mm)
         # blends that can use up the move between them within MEET_SHARE of the whole budget
         # do (blend.py): a regular polygon's become one chain of equal arcs, with no jump
-        meet_mm = MEET_SHARE * budget_mm / GEOMETRY_SHARE
-        reach = np.minimum(np.where(sec_less_1 > 0, meet_mm / sec_less_1 * tan, np.inf), room)
+        reach = taken_mm(MEET_SHARE * budget_mm / GEOMETRY_SHARE)
         used_up = reach[:-1] + reach[1:] >= 0.99 * inner
         grown = np.zeros(len(take), dtype=bool)
         grown[:-1] |= used_up
