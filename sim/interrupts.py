@@ -134,17 +134,28 @@ def _ignore_at_exit() -> None:
 def deferred() -> Iterator[None]:
     """Run the block whole: a Ctrl-C or SIGTERM that arrives inside it (with :func:`on_signal`
     installed) is raised when the block ends. A no-op outside the main thread."""
-    global _depth
-    if threading.get_ident() != threading.main_thread().ident:
+    if threading.get_ident() != _MAIN_THREAD:
         yield
         return
-    _depth += 1
+    _hold()
     try:
         yield
     finally:
-        _depth -= 1
-        if not _depth and _held:
-            _raise_held()
+        _release()
+
+
+def _hold() -> None:
+    """Enter a block run whole (:func:`deferred`): signals are held from now on."""
+    global _depth
+    _depth += 1
+
+
+def _release() -> None:
+    """Leave a block run whole: the outermost one raises the signal held in it, if any."""
+    global _depth
+    _depth -= 1
+    if not _depth and _held:
+        _raise_held()
 
 
 def _raise_held() -> None:
@@ -168,16 +179,13 @@ def _whole_import(
     an exception raised inside a compiled module's initialisation (pybind11's: mujoco,
     ruckig) aborted the process (status -6, a fatal error's dump) or left it half set up; the
     signal is raised once the outermost import is done."""
-    global _depth
     if threading.get_ident() != _MAIN_THREAD:
         return _REAL_IMPORT(name, globals, locals, fromlist, level)
-    _depth += 1
+    _hold()
     try:
         return _REAL_IMPORT(name, globals, locals, fromlist, level)
     finally:
-        _depth -= 1
-        if not _depth and _held:
-            _raise_held()
+        _release()
 
 
 _REAL_IMPORT = builtins.__import__
