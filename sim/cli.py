@@ -89,10 +89,6 @@ def build_parser() -> argparse.ArgumentParser:
     return parser
 
 
-#: the SIGTERM handler (sim.interrupts.on_signal), under its earlier name
-_on_sigterm = on_signal
-
-
 def _interrupted_by(exc: BaseException) -> str | None:
     """ "terminated" or "interrupted" when ``exc`` came from a SIGTERM or a Ctrl-C that an
     extension module turned into another exception (its cause or context chain), else None."""

@@ -272,11 +272,11 @@ def test_sigterm_turned_into_an_import_error_is_a_termination(
     """SIGTERM arriving inside ``import mujoco``: pybind11 reports the module's failed
     initialisation as "ImportError: initialization failed" (exit 3 before); it is the SIGTERM,
     exit 143. ``chained``: the ImportError names the Terminated as its context, or nothing."""
-    import gantry_sim.sim.cli as cli
+    from gantry_sim.sim import interrupts
 
     def killed_mid_import(*args, **kwargs):  # type: ignore[no-untyped-def]
         try:
-            cli._on_sigterm(15, None)
+            interrupts.on_signal(15, None)  # the SIGTERM handler
         except BaseException:
             if chained:
                 raise ImportError("initialization failed") from None
