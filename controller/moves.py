@@ -314,6 +314,25 @@ class Transition:
 
     kind = "transition"
 
+    def __reduce__(self) -> tuple:
+        """Pickled as its constructor's arguments: a slotted dataclass' default pickling calls
+        ``dataclasses.fields`` per object (4.0 us to pickle and 3.7 to unpickle a transition,
+        1.2 and 1.5 this way). A long run's path moves are pickled and read back several
+        times: spilled to disk by the planner, read per streamed range, and sent to the
+        analysis worker."""
+        return (
+            Transition,
+            (
+                self.line,
+                self.start,
+                self.end,
+                self.feed_mm_per_min,
+                self.plane,
+                self.row,
+                self.path,
+            ),
+        )
+
     @property
     def curve(self):  # -> QuinticCurve (imported here: moves.py stays free of numpy)
         """The exact curve (:class:`~gantry_sim.controller.quintic_curve.QuinticCurve`: points,

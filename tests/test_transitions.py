@@ -5,10 +5,12 @@ every limit and the feed in each principal plane, faster than the chord smoothin
 
 from __future__ import annotations
 
+import dataclasses
 import importlib
 import itertools
 import json
 import math
+import pickle
 
 import numpy as np
 import pytest
@@ -87,6 +89,18 @@ def test_curvature_is_continuous_where_a_transition_meets_its_moves(machine, sha
         np.testing.assert_allclose(own.curv_in, before.curv_out, atol=1e-10)  # [1/mm]
         np.testing.assert_allclose(own.curv_out, after.curv_in, atol=1e-10)
         assert np.linalg.norm(before.curv_out - after.curv_in) > 0.1  # a jump it replaces
+
+
+def test_a_pickled_transition_keeps_every_field(machine):
+    """Transition.__reduce__ lists the constructor's arguments by hand (the spill and the
+    analysis worker pickle thousands): every field must come back, a field added later too."""
+    p = plan(parse_program(line_arc("XY")), machine)
+    (t, *_) = _transitions(p)
+    back = pickle.loads(pickle.dumps(t, protocol=pickle.HIGHEST_PROTOCOL))
+    assert back == t and back.row == t.row and back.path == t.path
+    assert len(t.__reduce__()[1]) == len(dataclasses.fields(Transition))
+    names = [f.name for f in dataclasses.fields(Transition)]
+    assert list(t.__reduce__()[1]) == [getattr(t, name) for name in names]
 
 
 @pytest.mark.parametrize(
