@@ -66,6 +66,29 @@ def test_one_tile_gives_numpys_figures_exactly():
     assert blocks[1][2] == err[(line == 3) & feed].max() < peak < 100.0
 
 
+def test_short_and_long_blocks_give_numpys_figures_exactly():
+    """Blocks of fewer than 8 ticks in a tile are summed as columns, longer ones one by one
+    (sim/error_tally.py SHORT_BLOCK_TICKS): both are numpy's mean and max of the block, bit for
+    bit, and a block cut by a tile boundary sums its tiles."""
+    prog = "".join(f"G1 X{k + 1} F1000\n" for k in range(90)) + "M2\n"
+    tab = move_table(parse_program(prog))
+    rng = np.random.default_rng(5)
+    counts = rng.integers(1, 13, size=90)  # 1..12 ticks: both sides of 8
+    line = np.repeat(np.unique(tab.line), counts)
+    err = rng.gamma(2.0, 1.5, size=line.size) * 10.0 ** rng.uniform(-3, 3, size=line.size)
+    for tile in (1 << 16, 64):
+        tally = ErrorTally(tab, spill=False, tile_ticks=tile)
+        tally.add(line, err, np.ones(line.size, dtype=bool))
+        (_, _, _), blocks = tally.finish()
+        for ln, _, bmax, brms, ticks in blocks:
+            e = err[line == ln]
+            assert bmax == e.max() and ticks == e.size
+            if np.unique(np.flatnonzero(line == ln) // tile).size == 1:  # in one tile
+                assert brms == np.sqrt(np.mean(e**2))
+            else:  # tiles' sums added
+                assert brms == pytest.approx(np.sqrt(np.mean(e**2)), rel=1e-14)
+
+
 @pytest.mark.parametrize("n", [1, 2, 19, 20, 21, 1000, 12345])
 def test_percentile_linear_is_numpys_bit_for_bit(n):
     values = np.random.default_rng(n).lognormal(size=n)
