@@ -15,10 +15,13 @@ stage uses a window of them at a time. Two containers keep them on disk:
   (the last, open block in memory), read back by index, slice or in order, a few decoded blocks
   cached. The items read back are equal to those appended (pickled copies: identity is not kept
   across blocks).
+  :meth:`SpilledList.pickled` hands a slice to another process as the pickled blocks that
+  hold it, read from disk and not decoded (controller/pickled_slice.py).
 """
 
 from __future__ import annotations
 
+import itertools
 import os
 import pickle
 import tempfile
@@ -28,11 +31,15 @@ from collections.abc import Iterable, Iterator, Sequence
 from typing import IO, Any, Generic, TypeVar, overload
 
 from gantry_sim.controller.gc_pause import gc_paused
+from gantry_sim.controller.pickled_slice import PickledSlice
 
 __all__ = ["BLOCK_ITEMS", "BlockFile", "SpilledList"]
 
 #: Items per block of a :class:`SpilledList` (moves: about 0.4 MB pickled).
 BLOCK_ITEMS = 4096
+#: A SpilledList's identity for the readers of its :class:`PickledSlice` s (new at every
+#: truncate: its blocks change)
+_TOKENS = itertools.count(1)
 #: Decoded blocks a :class:`SpilledList` keeps (the least recently read first to go): its
 #: readers go in order, a window or a range at a time.
 CACHED_BLOCKS = 2
@@ -84,6 +91,15 @@ class BlockFile(Generic[T]):
         with gc_paused():
             block: T = pickle.loads(data)
         return block
+
+    def raw(self, b: int) -> bytes:
+        """Block ``b`` pickled: the bytes on disk as they are (a block kept in memory is
+        pickled now)."""
+        held = self._held.get(b)
+        if held is not None:
+            return pickle.dumps(held, protocol=pickle.HIGHEST_PROTOCOL)
+        offset, size = self._spans[b]
+        return _read_all(self._fd(), size, offset)
 
     def truncate(self, count: int) -> None:
         """Keep the first ``count`` blocks only."""
@@ -139,7 +155,7 @@ class SpilledList(Sequence[T]):
     tests). Pickled (sent to another process), the items are carried in memory.
     """
 
-    __slots__ = ("_block_items", "_cache", "_file", "_lock", "_spill", "_tail")
+    __slots__ = ("_block_items", "_cache", "_file", "_lock", "_spill", "_tail", "_token")
 
     def __init__(
         self, items: Iterable[T] = (), *, block_items: int = BLOCK_ITEMS, spill: bool = True
@@ -152,6 +168,7 @@ class SpilledList(Sequence[T]):
         self._tail: list[T] = []  # the open block
         self._cache: OrderedDict[int, list[T]] = OrderedDict()
         self._lock = threading.Lock()
+        self._token = next(_TOKENS)
         self.extend(items)
 
     def __len__(self) -> int:
@@ -195,6 +212,28 @@ class SpilledList(Sequence[T]):
         b, k = divmod(i, self._block_items)
         return self._block(b)[k]
 
+    def pickled(self, lo: int, hi: int) -> PickledSlice:
+        """Items ``lo`` .. ``hi`` - 1 (clipped as a slice) as the pickled blocks that hold them,
+        read from disk without decoding (controller/pickled_slice.py)."""
+        lo, hi, _ = slice(lo, hi).indices(len(self))
+        hi = max(hi, lo)
+        first, last = lo // self._block_items, (hi - 1) // self._block_items
+        closed = len(self._file)
+        blocks = [
+            self._file.raw(b)
+            if b < closed
+            else pickle.dumps(self._tail, protocol=pickle.HIGHEST_PROTOCOL)
+            for b in range(first, last + 1)
+        ]
+        return PickledSlice(
+            token=self._token,
+            first_block=first,
+            blocks=tuple(blocks),
+            closed=max(0, min(closed - first, len(blocks))),
+            skip=lo - first * self._block_items,
+            count=hi - lo,
+        )
+
     def __iter__(self) -> Iterator[T]:
         for b in range(len(self._file)):
             yield from self._block(b)
@@ -215,6 +254,7 @@ class SpilledList(Sequence[T]):
             return
         b, k = divmod(max(count, 0), self._block_items)
         if b < len(self._file):  # the cut lies in a closed block: it becomes the open one
+            self._token = next(_TOKENS)  # its pickled slices' blocks are no longer these
             self._tail = list(self._block(b))
             self._file.truncate(b)
             with self._lock:

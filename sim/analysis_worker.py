@@ -30,6 +30,7 @@ from typing import cast
 
 import numpy as np
 
+from gantry_sim.controller.pickled_slice import DecodedBlocks
 from gantry_sim.controller.trajectory import Trajectory
 from gantry_sim.sim.blend_parts import planning_distance_mm
 from gantry_sim.sim.contour import ChunkAnalysis, analyse_chunk
@@ -73,19 +74,23 @@ def analyse_range(
     context_pos: np.ndarray,
     offset: int,
     overlap: np.ndarray | None = None,
+    *,
+    cache: DecodedBlocks | None = None,
 ) -> tuple[ChunkAnalysis, float]:
     """The contour analysis of ticks executing ``line`` (n,) and the program moves ``source``
     (n, 2) (Trajectory.source, or None) traced at ``pos`` (n, 3) [mm]
     (sim.contour.analyse_chunk), and the largest distance [mm] of their feed reference
     samples from the path the planner followed (sim.blend_parts.planning_distance_mm; not
     those where ``overlap`` (n,) is set: sim.blend_parts.in_overlaps), against the moves
-    ``tables`` holds (sim.range_rows: the rows the range reaches, laid out here)."""
-    tab = move_table(tables.moves, tables.cum_len)
+    ``tables`` holds (sim.range_rows: the rows the range reaches, laid out here; their pickled
+    blocks decoded through ``cache``)."""
+    moves, path_moves = tables.listed(cache)
+    tab = move_table(moves, tables.cum_len)
     if source is not None:
         source = np.where(source >= 0, source - tables.r0, source)
     part = analyse_chunk(tab, line, pos, context_pos, offset, source, tables.found)
     ref = context_pos[offset : offset + len(pos)]
-    path_tab = move_table(tables.path_moves)
+    path_tab = move_table(path_moves)
     feed = part.feed if overlap is None else part.feed & ~overlap
     return part, planning_distance_mm(path_tab, line, ref, feed, tables.path_window)
 
@@ -188,10 +193,11 @@ class ProcessAnalyser:
 
 def _serve(inp: Connection, out: Connection) -> None:
     """The worker: every range received until the input ends."""
+    cache = DecodedBlocks()  # consecutive ranges share the blocks at their boundary
     try:
         while True:
             job = cast(tuple, recv_out_of_band(inp))
-            out.send(analyse_range(*job))
+            out.send(analyse_range(*job, cache=cache))
     except (EOFError, OSError, KeyboardInterrupt):
         pass  # the run ended, is gone or interrupted (OSError: a broken pipe): nobody to tell
     except Exception:  # reported to the run, which raises it

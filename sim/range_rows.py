@@ -22,6 +22,8 @@ from dataclasses import dataclass
 import numpy as np
 
 from gantry_sim.controller.moves import Move, PathMove
+from gantry_sim.controller.pickled_slice import DecodedBlocks, PickledSlice
+from gantry_sim.controller.spill import SpilledList
 from gantry_sim.controller.trajectory import Trajectory
 from gantry_sim.sim.contour import LAG_REACH
 from gantry_sim.sim.move_table import ProgramIndex
@@ -38,29 +40,42 @@ class RangeTables:
     """The moves one range is analysed against.
 
     Attributes:
-        moves: the program's moves r0 .. r0 + len(moves) - 1.
+        moves: the program's moves r0 .. r0 + len(moves) - 1 (a PickledSlice of them when
+            they go to a worker process: :meth:`decoded` lists them).
         cum_len: (len(moves) + 1,) the whole program's path length before each of them [mm].
         r0: the program index of ``moves[0]`` (Trajectory.source counts from the program's
             first move).
         path_moves: the moves of the path the planner followed that the range comes from
-            (the whole path when ``path_window`` is None).
+            (the whole path when ``path_window`` is None; a PickledSlice, as ``moves``).
         found: (n,) per tick, whether its line has moves anywhere in the program.
         path_window: (n, 2) per tick, the rows of ``path_moves`` its program moves became;
             None: searched by line.
     """
 
-    moves: list[Move]
+    moves: list[Move] | PickledSlice
     cum_len: np.ndarray
     r0: int
-    path_moves: list[PathMove]
+    path_moves: list[PathMove] | PickledSlice
     found: np.ndarray
     path_window: np.ndarray | None
+
+    def listed(self, cache: DecodedBlocks | None = None) -> tuple[list[Move], list[PathMove]]:
+        """:attr:`moves` and :attr:`path_moves` as lists (pickled blocks decoded, through
+        ``cache`` when given)."""
+        moves, path = self.moves, self.path_moves
+        return (
+            moves.items(cache) if isinstance(moves, PickledSlice) else moves,
+            path.items(cache) if isinstance(path, PickledSlice) else path,
+        )
 
 
 class RowPicker:
     """Picks each range's :class:`RangeTables` (see the module docstring) from the program's
     ``moves``, the path followed (``path_moves``), the program's :class:`ProgramIndex` and
-    ``path_sources`` (Plan.path_sources; None where not known: the whole path is searched)."""
+    ``path_sources`` (Plan.path_sources; None where not known: the whole path is searched).
+    ``pickled``: the tables go to another process: lists kept on disk are handed over as the
+    pickled blocks that hold the rows (controller/pickled_slice.py), not read and pickled again.
+    """
 
     def __init__(
         self,
@@ -68,8 +83,11 @@ class RowPicker:
         path_moves: Sequence[PathMove],
         index: ProgramIndex,
         path_sources: np.ndarray | None,
+        *,
+        pickled: bool = False,
     ) -> None:
         self.moves, self.path_moves, self.index = moves, path_moves, index
+        self.pickled = pickled
         self.path_sources = path_sources
         self._lines = np.unique(index.line)  # the lines that have moves, sorted
 
@@ -97,13 +115,18 @@ class RowPicker:
             q1 = min(q1, int(w.max()) + 2 + MARGIN_ROWS)
             window = w - q0
         return RangeTables(
-            moves=list(self.moves[r0:r1]),
+            moves=self._rows(self.moves, r0, r1),
             cum_len=self.index.cum_len[r0 : r1 + 1].copy(),
             r0=r0,
-            path_moves=list(self.path_moves[q0:q1]),
+            path_moves=self._rows(self.path_moves, q0, q1),
             found=found,
             path_window=window,
         )
+
+    def _rows(self, seq: Sequence, lo: int, hi: int) -> list | PickledSlice:
+        if self.pickled and isinstance(seq, SpilledList):
+            return seq.pickled(lo, hi)
+        return list(seq[lo:hi])
 
     def _program_rows(self, first: int, last: int, reach_mm: float) -> tuple[int, int]:
         """Rows [r0, r1) holding moves ``first`` .. ``last`` (executed), one either side, and

@@ -160,10 +160,6 @@ def stream_run(
         if (job.lo + job.pos.shape[0]) // range_ticks % TRIM_RANGES == 1:
             trim_heap()  # the ranges' freed buffers, and the set-up's, back to the system
 
-    # each range goes to the analysis with the moves it reaches (sim.range_rows), whose tables
-    # the analysis lays out: no table of the whole program is made (28 MB each at 100,000
-    # blocks: the program's, and the path's for the blend/planning split)
-    rows = RowPicker(moves, planned.path_moves or moves, index, known_path_sources(planned))
     overlaps = len(planned.overlaps_s) > 0  # stops overlapped: out of the planning split
     # the chords' largest error from their curves (a second of work at 10,000 arcs) and the
     # plan's largest blend deviation (its blends read from disk: 0.03 s at 10,000 polyline
@@ -172,6 +168,17 @@ def stream_run(
     plan_figures = Background(functools.partial(_plan_figures_um, moves, planned))
     try:
         analyser = make_analyser() if worker is None else worker
+        # each range goes to the analysis with the moves it reaches (sim.range_rows), whose
+        # tables the analysis lays out: no table of the whole program is made (28 MB each at
+        # 100,000 blocks: the program's, and the path's for the blend/planning split); to a
+        # worker process as the pickled blocks that hold them
+        rows = RowPicker(
+            moves,
+            planned.path_moves or moves,
+            index,
+            known_path_sources(planned),
+            pickled=isinstance(analyser, ProcessAnalyser),
+        )
         # sampling and hand-over on a thread while the loop steps (sim.range_helper)
         helper: Helper = RangeHelper() if isinstance(analyser, ProcessAnalyser) else InlineHelper()
         handed: deque[Future[None]] = deque()  # the hand-overs not seen finished

@@ -11,6 +11,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from gantry_sim.controller.moves import Linear
+from gantry_sim.controller.pickled_slice import DecodedBlocks
 from gantry_sim.controller.spill import SpilledList
 
 
@@ -42,6 +43,34 @@ def test_reads_back_what_was_appended(n, block, spill, cut, lo, hi, step):
     s.extend(_moves(3))
     items.extend(_moves(3))
     assert list(s) == items and s[-3:] == items[-3:]
+
+
+@settings(max_examples=60, deadline=None)
+@given(
+    n=st.integers(0, 40),
+    block=st.integers(1, 7),
+    spill=st.booleans(),
+    cut=st.integers(0, 45),
+    spans=st.lists(st.tuples(st.integers(-5, 50), st.integers(-5, 50)), max_size=6),
+)
+def test_pickled_slices_decode_to_the_slice_with_one_cache(n, block, spill, cut, spans):
+    """A slice sent as its pickled blocks (controller/pickled_slice.py) decodes to the list's
+    slice, with a reader's cache kept across slices, and across a truncate and new items that
+    put other items in the cached blocks' places."""
+    items = _moves(n)
+    s = SpilledList(items, block_items=block, spill=spill)
+    cache = DecodedBlocks(size=3)
+    for lo, hi in spans:
+        part = pickle.loads(pickle.dumps(s.pickled(lo, hi)))  # as a worker gets it
+        assert part.items(cache) == items[lo:hi] == part.items()
+        assert len(part) == len(items[lo:hi])
+    s.truncate(cut)
+    del items[cut:]
+    fresh = [Linear(1000 + i, (0.0, i, 0.0), (1.0, i, 0.0), 900.0) for i in range(n - len(items))]
+    s.extend(fresh)
+    items += fresh
+    for lo, hi in [*spans, (0, n)]:
+        assert s.pickled(lo, hi).items(cache) == items[lo:hi]
 
 
 def test_equal_to_a_list_of_equal_items_not_to_a_tuple():

@@ -13,6 +13,7 @@ import pytest
 
 from gantry_sim.controller.gcode.interpreter import interpret
 from gantry_sim.controller.planner.plan import plan
+from gantry_sim.controller.spill import SpilledList
 from gantry_sim.sim import stream
 from gantry_sim.sim.contour import analyse
 from gantry_sim.sim.machine import load_gantry
@@ -83,12 +84,13 @@ def test_streamed_run_equals_the_whole_program_run(machine, stateful, worker, te
             ff_velocity=[0.0] * 3,
             ff_acceleration=[0.0] * 3,
         )
-    reached, threads = [], set()
+    reached, threads, carried = [], set(), set()
     tables = RowPicker.tables
 
     def tables_spy(*a):
         threads.add(threading.current_thread().name)
         reached.append(len((t := tables(*a)).moves))
+        carried.add(type(t.moves).__name__)
         return t
 
     monkeypatch.setattr(RowPicker, "tables", tables_spy)
@@ -103,8 +105,12 @@ def test_streamed_run_equals_the_whole_program_run(machine, stateful, worker, te
     # LONG: the lag reaches back past a range's first moves (20 ticks: 2 mm of its fitted arc
     # at the feed, 50 of its 0.04 mm moves)
     size = 20 if text is LONG else 300
+    # kept on disk in blocks of 5 (as a long program's moves are, in blocks of 4,096): a
+    # worker gets each range's moves as the pickled blocks that hold them, and keeps the
+    # blocks two ranges share decoded
+    kept = SpilledList(moves, block_items=5)
     streamed = stream_run(
-        moves, planned, machine, gantry, range_ticks=size, on_range=lambda *a: ranges.append(a)
+        kept, planned, machine, gantry, range_ticks=size, on_range=lambda *a: ranges.append(a)
     )
     n = traj.t.size
     assert streamed.ticks == n and len(ranges) == -(-n // size) > 3
@@ -116,6 +122,7 @@ def test_streamed_run_equals_the_whole_program_run(machine, stateful, worker, te
     assert [name.split("_")[0] for name in threads] == [
         "gantry-range" if in_process else "MainThread"
     ]
+    assert carried == {"PickledSlice" if in_process else "list"}
     got = streamed.analysis
     assert got.contour == whole.contour and got.parts == whole.parts
     assert got.blocks == whole.blocks and sum(b.ticks for b in got.blocks) > 0
