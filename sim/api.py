@@ -381,10 +381,20 @@ def _prepared_plots(
     moves: Sequence[Move], prepare: bool, plotter: PlotWorker | None
 ) -> Future[Outline | None] | None:
     """The plots' outline (and imports, when no ``plotter`` draws them) prepared in a thread
-    (sim.plot_prep); None when not ``prepare`` (no plots)."""
+    (sim.plot_prep); None when not ``prepare`` (no plots), or when the ``plotter`` computes the
+    outline (PlotWorker.send_outline: the moves kept on disk go to it as their pickled
+    blocks)."""
     if not prepare:
         return None
+    from gantry_sim.controller.spill import SpilledList
     from gantry_sim.sim.plot_prep import prepare_plots
+
+    if (
+        plotter is not None
+        and isinstance(moves, SpilledList)
+        and plotter.send_outline(moves.pickled(0, len(moves)))
+    ):
+        return None
 
     return prepare_plots(moves, imports=plotter is None)
 

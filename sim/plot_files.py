@@ -35,7 +35,8 @@ class Plots:
         program: the program's name (path.png's title).
         contour: the run's contour error figures [um].
         moves: the commanded geometry.
-        drawing: path.png's outline computed during the run (sim.plot_prep), or None.
+        drawing: path.png's outline computed during the run (sim.plot_prep), or None (by the
+            worker, when it was sent the moves: PlotWorker.send_outline; else here).
         gates: drawn on error.png.
         worker: the run's plot worker, or None: drawn here.
     """
@@ -54,9 +55,11 @@ class Plots:
         # the plots' thread (sim.plot_prep) has ended once its outline is there: nothing is
         # being imported when error.png's child is forked (a module lock held by another thread
         # at the fork would stay held in the child)
+        kept = worker is not None and worker.outline_kept  # the worker has the outline
         done = drawing.result() if drawing is not None else None
-        if done is None and len(moves):
+        if done is None and len(moves) and not kept:
             done = outline(moves)
+        self._moves = moves
         self._path_png, self._error_png_path = folder / "path.png", folder / "error.png"
         self._request = PlotRequest(
             trace=drawn_fields(trace),
@@ -65,10 +68,11 @@ class Plots:
             drawing=done,
             gates=gates,
             kinds=gates.line_kinds(moves) if gates is not None else {},
+            outline_kept=kept,
         )
         self._worker = worker if worker is not None and worker.draw(self._request) else None
         # drawn here: error.png's child starts now, beside the writing of trace.npz
-        self._error_png = None if self._worker is not None else self._request.begin()
+        self._error_png = None if self._worker is not None else self._here().begin()
 
     @property
     def elsewhere(self) -> bool:
@@ -81,11 +85,20 @@ class Plots:
         drawn = self._worker.wait() if self._worker is not None else None
         if drawn is None:
             if self._error_png is None:
-                self._error_png = self._request.begin()
-            drawn = self._request.end(self._error_png)
+                self._error_png = self._here().begin()
+            drawn = self._here().end(self._error_png)
         self._path_png.write_bytes(drawn[0])
         self._error_png_path.write_bytes(drawn[1])
         advance(2)
+
+    def _here(self) -> PlotRequest:
+        """The request as drawn in this process: with the outline computed here if the worker
+        was to compute it."""
+        if self._request.outline_kept:
+            moves = self._moves
+            drawing = outline(moves) if len(moves) else None
+            self._request = replace(self._request, drawing=drawing, outline_kept=False)
+        return self._request
 
     def close(self) -> None:
         """Stop error.png's child here, if any, and reap it: nothing writes into the folder

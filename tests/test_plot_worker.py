@@ -73,6 +73,7 @@ def _run(machine, folder: Path, *, worker: bool, text: str = CIRCLE) -> dict[str
 def test_the_worker_draws_the_files_the_run_draws(machine, tmp_path, workers, waits):
     drawn = _run(machine, tmp_path / "worker", worker=True)
     assert len(workers) == 1 and waits == [True]  # drawn there, not here after a failure
+    assert workers[0].outline_kept  # path.png's outline computed there too
     assert _ended(workers[0])  # one set of plots: closed once written
     here = _run(machine, tmp_path / "here", worker=False)
     assert len(workers) == 1 and waits == [True]  # no worker asked for
@@ -116,6 +117,24 @@ def test_a_drawing_that_fails_in_the_worker_is_reported_to_the_run(workers):
         worker.close()
     assert _ended(worker)
     assert not worker.draw(bad) and worker.wait() is None
+
+
+def test_an_outline_that_fails_in_the_worker_leaves_the_plots_to_the_run(workers):
+    """The moves' blocks do not decode in the worker: the request that needs their outline is
+    answered with the error, so the run draws both files itself."""
+    from gantry_sim.controller.pickled_slice import PickledSlice
+
+    worker = PlotWorker()
+    worker.start()
+    try:
+        assert worker.send_outline(PickledSlice(1, 0, (b"not a pickle",), 1, 0, 3))
+        assert not worker.send_outline(PickledSlice(1, 0, (), 0, 0, 0))  # one outline a worker
+        assert worker.outline_kept
+        request = PlotRequest(None, "x", None, None, None, {}, outline_kept=True)  # type: ignore[arg-type]
+        assert worker.draw(request)
+        assert worker.wait() is None
+    finally:
+        worker.close()
 
 
 def test_a_worker_outliving_its_run_writes_nothing(machine, tmp_path, workers):
