@@ -49,7 +49,18 @@ class PlanningError(GantryError):
 
 
 class SimulationError(GantryError):
-    """The simulation diverged or produced non-finite values."""
+    """The simulation diverged or produced non-finite values; ``move``: the index of the
+    program move being executed, where known (its ``file`` names a subroutine file's line)."""
+
+    def __init__(
+        self,
+        message: str,
+        file: str | None = None,
+        line: int | None = None,
+        move: int | None = None,
+    ) -> None:
+        super().__init__(message, file, line)
+        self.move = move
 
 
 class PlannerFailure(RuntimeError):

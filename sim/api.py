@@ -29,7 +29,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING
 
 from gantry_sim.controller.config import MachineConfig
-from gantry_sim.controller.errors import GantryError, GcodeError, PlanningError
+from gantry_sim.controller.errors import GantryError, GcodeError, PlanningError, SimulationError
 from gantry_sim.controller.gcode.control import DEFAULT_MAX_ITERATIONS
 from gantry_sim.sim.budget import Budget, check_budget, check_lower_bound
 from gantry_sim.sim.gates import Gates, Verdict
@@ -265,6 +265,8 @@ def _run(
             result = split_reference(result, planned, traj)
         t4 = time.perf_counter()
     except GantryError as exc:
+        if isinstance(exc, SimulationError) and exc.file is None and exc.move is not None:
+            exc.file = _move_file(moves, exc.move)  # a subroutine file's line names its file
         if exc.file is None and exc.line is not None:
             exc.file = file
         raise
@@ -397,6 +399,12 @@ def _prepared_plots(
         return None
 
     return prepare_plots(moves, imports=plotter is None)
+
+
+def _move_file(moves: Sequence[Move], index: int) -> str | None:
+    """The subroutine file of program move ``index`` (None: the program's own, or no such
+    move)."""
+    return moves[index].file if 0 <= index < len(moves) else None
 
 
 def _program_text(program: str | os.PathLike[str], file: str | None) -> tuple[str, str]:

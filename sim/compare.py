@@ -66,6 +66,12 @@ class Row:
     base_time_s: float | None
     run_time_s: float | None
     status: str  # "ok", "changed", "FAIL error", "FAIL time", "FAIL error+time", "new", "gone"
+    file: str | None = None  # the subroutine file the line is in (None: the program's own)
+
+    @property
+    def where(self) -> str:
+        """ "line N", and "of FILE" for a subroutine file's line."""
+        return f"line {self.line}" + ("" if self.file is None else f" of {self.file}")
 
 
 @dataclass(frozen=True)
@@ -132,6 +138,8 @@ def _schema_problem(data: dict[str, Any]) -> str:
             return f"blocks[{i}] is not an object"
         if not (isinstance(b.get("line"), int) and not isinstance(b.get("line"), bool)):
             return f"blocks[{i}].line is {shown(b.get('line'))}, not a line number"
+        if b.get("file") is not None and not isinstance(b["file"], str):
+            return f"blocks[{i}].file is {shown(b['file'])}, not a file name"
         if not _number(b.get("max_error_um")):
             return f"blocks[{i}].max_error_um is {shown(b.get('max_error_um'))}, not a number >= 0 [um]"
         if b.get("time_s") is not None and not _number(b["time_s"]):
@@ -145,11 +153,14 @@ def _grew(base: float | None, run: float | None, allowed: float) -> bool:
 
 def compare(base: dict[str, Any], run: dict[str, Any], margins: Margins) -> Comparison:
     """Compare report.json objects ``run`` against ``base`` block by block (module docstring)."""
-    b_blocks = {int(b["line"]): b for b in base["blocks"]}
-    r_blocks = {int(b["line"]): b for b in run["blocks"]}
+    # a block is its line in its file: the program's own first ("" sorts first), then each
+    # subroutine file's (sim.block_files)
+    b_blocks = {(b.get("file") or "", int(b["line"])): b for b in base["blocks"]}
+    r_blocks = {(b.get("file") or "", int(b["line"])): b for b in run["blocks"]}
     rows: list[Row] = []
-    for line in sorted(b_blocks.keys() | r_blocks.keys()):
-        b, r = b_blocks.get(line), r_blocks.get(line)
+    for key in sorted(b_blocks.keys() | r_blocks.keys()):
+        b, r = b_blocks.get(key), r_blocks.get(key)
+        file, line = key[0] or None, key[1]
         be = None if b is None else float(b["max_error_um"])
         re_ = None if r is None else float(r["max_error_um"])
         bt = None if b is None or b.get("time_s") is None else float(b["time_s"])
@@ -170,7 +181,7 @@ def compare(base: dict[str, Any], run: dict[str, Any], margins: Margins) -> Comp
             else:
                 status = "ok"
         kind = str((r or b or {}).get("kind", "?"))
-        rows.append(Row(line, kind, be, re_, bt, rt, status))
+        rows.append(Row(line, kind, be, re_, bt, rt, status, file))
     failures = _failures(rows, margins)
     bc, rc = float(base["cycle_time_s"]), float(run["cycle_time_s"])
     if _grew(bc, rc, margins.time_allowed(bc)):
@@ -206,20 +217,21 @@ def _failures(rows: Sequence[Row], margins: Margins) -> list[dict[str, Any]]:
         base = worst.base_error_um if what == "error" else worst.base_time_s
         run = worst.run_error_um if what == "error" else worst.run_time_s
         allowed = (margins.error_allowed if what == "error" else margins.time_allowed)(base or 0.0)
-        out.append(
-            {
-                "gate": f"baseline block {what}",
-                "value": run,
-                "limit": (base or 0.0) + allowed,
-                "unit": unit,
-                "line": worst.line,
-                "blocks_over": len(bad),
-                "lines": [r.line for r in bad[:MAX_LINES_LISTED]],
-                "message": f"line {worst.line} ({worst.kind}): block {what} {run:.4g} {unit} "
-                f"grew from {base:.4g} {unit} by more than {allowed:.4g} {unit} "
-                f"({len(bad)} block(s) over)",
-            }
-        )
+        failure: dict[str, Any] = {
+            "gate": f"baseline block {what}",
+            "value": run,
+            "limit": (base or 0.0) + allowed,
+            "unit": unit,
+            "line": worst.line,
+            "blocks_over": len(bad),
+            "lines": [r.line for r in bad[:MAX_LINES_LISTED]],
+            "message": f"{worst.where} ({worst.kind}): block {what} {run:.4g} {unit} "
+            f"grew from {base:.4g} {unit} by more than {allowed:.4g} {unit} "
+            f"({len(bad)} block(s) over)",
+        }
+        if worst.file is not None:
+            failure["file"] = worst.file
+        out.append(failure)
     return out
 
 
@@ -234,7 +246,7 @@ def _delta(a: float | None, b: float | None, fmt: str) -> str:
 def format_table(cmp: Comparison, margins: Margins, max_rows: int = 40) -> str:
     """The blocks that changed (failures first), then the cycle time and the verdict."""
     changed = [r for r in cmp.rows if r.status != "ok"]
-    changed.sort(key=lambda r: (not r.status.startswith("FAIL"), r.line))
+    changed.sort(key=lambda r: (not r.status.startswith("FAIL"), r.file or "", r.line))
     head = (
         f"{'line':>6} {'kind':<6} {'base um':>9} {'run um':>9} {'d um':>8} "
         f"{'base s':>9} {'run s':>9} {'d s':>9}  status"
@@ -246,6 +258,7 @@ def format_table(cmp: Comparison, margins: Margins, max_rows: int = 40) -> str:
             f"{_num(r.run_error_um, '9.3f')} {_delta(r.base_error_um, r.run_error_um, '8.3f')} "
             f"{_num(r.base_time_s, '9.4f')} {_num(r.run_time_s, '9.4f')} "
             f"{_delta(r.base_time_s, r.run_time_s, '9.4f')}  {r.status}"
+            + ("" if r.file is None else f"  ({r.file})")
         )
     if len(changed) > max_rows:
         out.append(f"... {len(changed) - max_rows} more changed block(s)")

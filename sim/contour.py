@@ -32,6 +32,7 @@ import numpy as np
 
 from gantry_sim.controller.moves import Move
 from gantry_sim.controller.units import UM_PER_MM
+from gantry_sim.sim.block_files import block_keys, split_key, tick_keys
 from gantry_sim.sim.error_tally import ErrorTally
 from gantry_sim.sim.move_table import MoveTable, move_table
 from gantry_sim.sim.nearest import nearest_on_moves
@@ -99,21 +100,31 @@ class ErrorParts:
 @dataclass(frozen=True, slots=True)
 class BlockError:
     """The contour error of one feed block (all samples executing its line) [um], and how many
-    samples execute it (``ticks``: report.json gives ticks x servo period as its time)."""
+    samples execute it (``ticks``: report.json gives ticks x servo period as its time);
+    ``file``: the subroutine file the line is in (None: the program's own; sim.block_files)."""
 
     line: int
     kind: str
     max_error_um: float
     rms_error_um: float
     ticks: int = 0
+    file: str | None = None
 
     def to_json(self) -> dict[str, int | str | float]:
-        return {
+        out: dict[str, int | str | float] = {
             "line": self.line,
             "kind": self.kind,
             "max_error_um": self.max_error_um,
             "rms_error_um": self.rms_error_um,
         }
+        if self.file is not None:
+            out["file"] = self.file
+        return out
+
+    @property
+    def where(self) -> str:
+        """ "line N", and "of FILE" for a subroutine file's line."""
+        return f"line {self.line}" + (f" of {self.file}" if self.file is not None else "")
 
 
 @dataclass(frozen=True)
@@ -216,10 +227,18 @@ def block_stats(tab: MoveTable, line: np.ndarray, err_um: np.ndarray) -> tuple[B
     return tally_figures(tally)[1]
 
 
-def tally_figures(tally: ErrorTally) -> tuple[ContourStats, tuple[BlockError, ...]]:
-    """The statistics over the feed samples and the per-block figures of a finished tally."""
+def tally_figures(
+    tally: ErrorTally, files: tuple[str, ...] = ()
+) -> tuple[ContourStats, tuple[BlockError, ...]]:
+    """The statistics over the feed samples and the per-block figures of a finished tally
+    (``files``: the subroutine files of its block keys, sim.block_files; none: keyed by
+    line)."""
     (peak, rms, p95), blocks = tally.finish()
-    return ContourStats(peak, rms, p95), tuple(BlockError(*b) for b in blocks)
+    out = []
+    for key, kind, peak_um, rms_um, ticks in blocks:
+        line, file = split_key(key, files) if files else (key, None)
+        out.append(BlockError(line, kind, peak_um, rms_um, ticks, file))
+    return ContourStats(peak, rms, p95), tuple(out)
 
 
 @dataclass(frozen=True)
@@ -283,10 +302,16 @@ def analyse_chunk(
 
 
 def combine(
-    tab: MoveTable, line: np.ndarray, chunks: Sequence[ChunkAnalysis], chord_max: float
+    tab: MoveTable,
+    line: np.ndarray,
+    chunks: Sequence[ChunkAnalysis],
+    chord_max: float,
+    keys: np.ndarray | None = None,
+    files: tuple[str, ...] = (),
 ) -> Analysis:
     """The :class:`Analysis` of a whole trace from its chunks in order (``line``: (N,) all
-    samples' lines; ``chord_max``: :func:`chord_max_um` [um])."""
+    samples' lines, or their block keys with ``keys``, per move of ``tab``, and ``files``:
+    sim.block_files; ``chord_max``: :func:`chord_max_um` [um])."""
     err_um = np.concatenate([c.err_um for c in chunks]) if chunks else np.zeros(0)
     nearest = np.concatenate([c.nearest for c in chunks]) if chunks else np.zeros((0, 3))
     feed = np.concatenate([c.feed for c in chunks]) if chunks else np.zeros(0, dtype=bool)
@@ -295,7 +320,7 @@ def combine(
         reference_max_um=max((c.reference_max_um for c in chunks), default=0.0),
         tracking_max_um=max((c.tracking_max_um for c in chunks), default=0.0),
     )
-    return joined(tab, line, err_um, nearest, feed, parts)
+    return joined(tab, line, err_um, nearest, feed, parts, keys, files)
 
 
 def joined(
@@ -305,12 +330,15 @@ def joined(
     nearest: np.ndarray,
     feed: np.ndarray,
     parts: ErrorParts,
+    keys: np.ndarray | None = None,
+    files: tuple[str, ...] = (),
 ) -> Analysis:
     """The :class:`Analysis` of a whole trace from its per-sample arrays, already joined (a
-    streamed run fills them range by range: no second copy), and its parts [um]."""
-    tally = ErrorTally(tab, spill=False)
+    streamed run fills them range by range: no second copy), and its parts [um] (``line``,
+    ``keys``, ``files``: as :func:`combine`)."""
+    tally = ErrorTally(tab, spill=False, keys=keys)
     tally.add(line, err_um, feed)
-    contour, blocks = tally_figures(tally)
+    contour, blocks = tally_figures(tally, files)
     for arr in (err_um, nearest, feed):
         arr.setflags(write=False)
     return Analysis(err_um, nearest, feed, contour, parts, blocks)
@@ -337,4 +365,6 @@ def analyse(
     """
     tab = move_table(moves)
     whole = analyse_chunk(tab, line, pos, ref, 0, source)
-    return combine(tab, line, [whole], chord_max_um(moves, vertices, tab))
+    keys, files = block_keys(tab.line, [mv.file for mv in moves])
+    ticks = tick_keys(line, source, keys, files)  # a subroutine file's lines: blocks apart
+    return combine(tab, ticks, [whole], chord_max_um(moves, vertices, tab), keys, files)

@@ -38,15 +38,22 @@ class ErrorTally:
     """Whole-run error figures of the ticks :meth:`add` ed in order (see the module docstring).
 
     ``tab``: the program's move table or index (which lines are feed blocks, and their kinds);
-    ``spill``: keep the feed ticks' errors on disk rather than in memory; ``tile_ticks``:
-    default TILE_TICKS.
+    ``keys``: per move of ``tab`` its block key (sim.block_files; default: its line), the
+    ticks then :meth:`add` ed with their keys (sim.block_files.tick_keys); ``spill``: keep the
+    feed ticks' errors on disk rather than in memory; ``tile_ticks``: default TILE_TICKS.
     """
 
     def __init__(
-        self, tab: MoveTable | ProgramIndex, *, spill: bool, tile_ticks: int | None = None
+        self,
+        tab: MoveTable | ProgramIndex,
+        *,
+        spill: bool,
+        tile_ticks: int | None = None,
+        keys: np.ndarray | None = None,
     ) -> None:
         feed_moves = np.flatnonzero(tab.feed)
-        lines, first = np.unique(tab.line[feed_moves], return_index=True)
+        keys = tab.line if keys is None else keys
+        lines, first = np.unique(keys[feed_moves], return_index=True)
         order = np.argsort(first, kind="stable")  # blocks in program order
         firsts = feed_moves[first[order]]
         self.block_lines = lines[order]
@@ -67,7 +74,8 @@ class ErrorTally:
         self.values = ValueSpill(on_disk=spill)
 
     def add(self, line: np.ndarray, err_um: np.ndarray, feed: np.ndarray) -> None:
-        """The next ticks: their program lines (n,), contour errors (n,) [um], feed flags (n,)."""
+        """The next ticks: their program lines (n,) (their block keys where the tally was made
+        with ``keys``), contour errors (n,) [um], feed flags (n,)."""
         line, err_um, feed = np.asarray(line), np.asarray(err_um, float), np.asarray(feed, bool)
         while line.size:
             take = min(line.size, self._tile - self._pending_n)
@@ -118,7 +126,7 @@ class ErrorTally:
 
     def finish(self) -> tuple[tuple[float, float, float], list[tuple[int, str, float, float, int]]]:
         """((max, rms, p95) over the feed ticks [um] (zeros when none), per feed block in program
-        order (line, kind, max [um], rms [um], ticks)). Closes the spill."""
+        order (line, or block key, kind, max [um], rms [um], ticks)). Closes the spill."""
         self._reduce_tile()
         n = self.values.count
         try:

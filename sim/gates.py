@@ -42,11 +42,14 @@ class ErrorLimit:
     kind: str | None = None
     lines: tuple[int, int] | None = None
 
-    def covers(self, line: int, kind: str) -> bool:
-        """Whether the limit applies to the block of program ``line`` of motion ``kind``."""
+    def covers(self, line: int, kind: str, file: str | None = None) -> bool:
+        """Whether the limit applies to the block of program ``line`` of motion ``kind`` (in
+        the subroutine file ``file``: lines FIRST-LAST are the program's own, not the file's)."""
         if self.kind is not None and kind != self.kind:
             return False
-        return self.lines is None or self.lines[0] <= line <= self.lines[1]
+        if self.lines is None:
+            return True
+        return file is None and self.lines[0] <= line <= self.lines[1]
 
     def label(self) -> str:
         """The limit as the option that sets it, e.g. ``--max-error-um arc=5``."""
@@ -163,6 +166,9 @@ class BlockLike(Protocol):
     @property
     def max_error_um(self) -> float: ...
 
+    @property
+    def file(self) -> str | None: ...
+
 
 class ReportLike(Protocol):
     """A typed report (sim.report.RunReport): its blocks and cycle time [s]."""
@@ -174,41 +180,47 @@ class ReportLike(Protocol):
     def cycle_time_s(self) -> float: ...
 
 
-def _blocks(report: Mapping[str, Any] | ReportLike) -> Iterator[tuple[int, str, float]]:
-    """(line, kind, max error [um]) per feed block of a report.json object or a typed report
-    (read as they come: a 100,000-block report is not made into dicts for this)."""
+def _blocks(
+    report: Mapping[str, Any] | ReportLike,
+) -> Iterator[tuple[int, str, float, str | None]]:
+    """(line, kind, max error [um], subroutine file or None) per feed block of a report.json
+    object or a typed report (read as they come: a 100,000-block report is not made into dicts
+    for this)."""
     if isinstance(report, Mapping):
         for b in report["blocks"]:
-            yield int(b["line"]), b["kind"], b["max_error_um"]
+            yield int(b["line"]), b["kind"], b["max_error_um"], b.get("file")
     else:
         for t in report.blocks:
-            yield t.line, t.kind, t.max_error_um
+            yield t.line, t.kind, t.max_error_um, t.file
 
 
 def evaluate(report: Mapping[str, Any] | ReportLike, gates: Gates) -> list[dict[str, Any]]:
     """The failures of ``report`` (report.json's object, or the typed report) against
     ``gates``, one per limit exceeded: {"gate", "value", "limit", "unit", "line" (the worst
-    block), "blocks_over", "lines" (the first 20 over), "message"}."""
+    block), "blocks_over", "lines" (the first 20 over), "message"}, and "file" where the worst
+    block is a subroutine file's line."""
     failures: list[dict[str, Any]] = []
     for lim in gates.errors:
-        over = [b for b in _blocks(report) if lim.covers(b[0], b[1]) and b[2] > lim.limit_um]
+        over = [b for b in _blocks(report) if lim.covers(b[0], b[1], b[3]) and b[2] > lim.limit_um]
         if not over:
             continue
-        line, kind, value = max(over, key=lambda b: b[2])
-        failures.append(
-            {
-                "gate": lim.label(),
-                "value": value,
-                "limit": lim.limit_um,
-                "unit": "um",
-                "line": line,
-                "blocks_over": len(over),
-                "lines": [b[0] for b in over[:MAX_LINES_LISTED]],
-                "message": f"line {line} ({kind}): max contour error "
-                f"{value:.3f} um > {lim.limit_um:g} um ({lim.label()}; "
-                f"{len(over)} block(s) over)",
-            }
-        )
+        line, kind, value, file = max(over, key=lambda b: b[2])
+        where = f"line {line}" + ("" if file is None else f" of {file}")
+        failure = {
+            "gate": lim.label(),
+            "value": value,
+            "limit": lim.limit_um,
+            "unit": "um",
+            "line": line,
+            "blocks_over": len(over),
+            "lines": [b[0] for b in over[:MAX_LINES_LISTED]],
+            "message": f"{where} ({kind}): max contour error "
+            f"{value:.3f} um > {lim.limit_um:g} um ({lim.label()}; "
+            f"{len(over)} block(s) over)",
+        }
+        if file is not None:
+            failure["file"] = file
+        failures.append(failure)
     cap = gates.max_cycle_time_s
     cycle = report["cycle_time_s"] if isinstance(report, Mapping) else report.cycle_time_s
     if cap is not None and cycle > cap:

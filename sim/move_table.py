@@ -34,6 +34,7 @@ from gantry_sim.controller.quintic_curve import (
     row_coefficients,
     row_ends,
 )
+from gantry_sim.sim.block_files import block_keys
 
 #: slack added to every move's bounding box [mm] (rounding in the box, not geometry)
 BOX_SLACK_MM = 1e-9
@@ -294,13 +295,16 @@ class ProgramIndex:
     feed move, an arc or a spline (:class:`~gantry_sim.sim.error_tally.ErrorTally`'s blocks), and
     the path length [mm] before each move (len + 1,), counted as :func:`move_table` counts it,
     so a table of some of its rows (``move_table(moves[a:b], index.cum_len[a:b + 1])``) has the
-    whole table's numbers."""
+    whole table's numbers; and per move its block key, with the subroutine files' names
+    (sim.block_files: a subroutine file's lines are blocks of their own)."""
 
     line: np.ndarray
     feed: np.ndarray
     arc: np.ndarray
     spline: np.ndarray
     cum_len: np.ndarray
+    key: np.ndarray
+    files: tuple[str, ...] = ()
 
     def __len__(self) -> int:
         return len(self.line)
@@ -312,18 +316,24 @@ class ProgramIndex:
         lines: list[int] = []
         kinds: list[str] = []
         lengths: list[float] = []
+        files: list[str | None] = []
         for k in range(0, len(moves), block):
             for mv in moves[k : k + block]:
                 lines.append(mv.line)
                 kinds.append(mv.kind)
                 lengths.append(mv.length_mm)
+                files.append(mv.file)
         kind = np.array(kinds)
+        line = np.array(lines, dtype=np.int64)
+        key, names = block_keys(line, files)
         return cls(
-            line=np.array(lines, dtype=np.int64),
+            line=line,
             feed=kind != "rapid",
             arc=kind == "arc",
             spline=kind == "spline",
             cum_len=np.concatenate([[0.0], np.cumsum(np.array(lengths, dtype=float))]),
+            key=key,
+            files=names,
         )
 
 

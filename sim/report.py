@@ -153,15 +153,16 @@ class RunReport:
         return max(len(self.program_limits) - 1, 0)
 
     def block(self, line: int) -> BlockError | None:
-        """The block executing program line ``line``, or None when it is no feed block."""
-        return next((b for b in self.blocks if b.line == line), None)
+        """The block executing program line ``line`` (of the program's own file), or None when
+        it is no feed block."""
+        return next((b for b in self.blocks if b.line == line and b.file is None), None)
 
     @property
     def block_time_s(self) -> dict[int, float]:
-        """Per feed block's line, the time spent executing it [s] (servo ticks on the line x
-        servo period)."""
+        """Per feed block's line (of the program's own file), the time spent executing it [s]
+        (servo ticks on the line x servo period)."""
         period = self.sim.servo_period_s
-        return {b.line: b.ticks * period for b in self.blocks}
+        return {b.line: b.ticks * period for b in self.blocks if b.file is None}
 
     def blocks_json(self) -> Iterator[dict[str, Any]]:
         """report.json's "blocks", one object at a time (a 100,000-block run's take 40 MB as

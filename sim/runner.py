@@ -150,6 +150,7 @@ def _check(
                 f"(MuJoCo: {mujoco.mjtWarning(w).name}{said}); the servo loop is unstable: check "
                 f"[servo] gains and period in {where} and the model's masses and force limits",
                 line=int(traj.line[lo]),
+                move=_move_at(traj, lo),
             )
     err = np.abs(work_mm - traj.pos[lo:hi])
     limit = machine.servo.max_following_error_mm
@@ -165,4 +166,13 @@ def _check(
             f"or too weak: check [servo] gains and feedforward in {where} and the model's force "
             "limits)",
             line=int(traj.line[k]),
+            move=_move_at(traj, k),
         )
+
+
+def _move_at(traj: Trajectory, k: int) -> int | None:
+    """The program move sample ``k`` executes (Trajectory.source), or None where not known."""
+    if traj.source is None:
+        return None
+    first = int(np.asarray(traj.source).reshape(-1, 2)[k, 0])
+    return first if first >= 0 else None

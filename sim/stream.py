@@ -44,6 +44,7 @@ from gantry_sim.sim.blend_parts import (
     known_path_sources,
     with_planning_split,
 )
+from gantry_sim.sim.block_files import tick_keys
 from gantry_sim.sim.contour import (
     Analysis,
     ChunkAnalysis,
@@ -138,7 +139,7 @@ def stream_run(
     stride = max(1, n // DECIMATED_TICKS)
     limit = np.array([[-p.force_min_N, p.force_max_N] for p in gantry.plant]).min(axis=1)
 
-    tally = ErrorTally(index, spill=True)  # the whole-run figures, in bounded memory
+    tally = ErrorTally(index, spill=True, keys=index.key)  # whole-run figures, bounded memory
     run = _Running(stride, limit)
     sim_s = ana_s = 0.0
     start = planned.sample_range(period, 0, 1).pos[0]
@@ -152,7 +153,10 @@ def stream_run(
             if on_range is not None:
                 on_range(job.lo, job.piece, job.pos, job.force, part)
             run.add(job, part, planning_mm)
-            tally.add(job.piece.line, part.err_um, part.feed)
+            piece = job.piece
+            tally.add(
+                tick_keys(piece.line, piece.source, index.key, index.files), part.err_um, part.feed
+            )
 
     def hand_over(job: RangeJob) -> None:
         analyser.submit(job, rows.tables(job.piece, job.context_pos, job.offset, job.pos))
@@ -214,7 +218,7 @@ def stream_run(
             while handed:
                 handed.popleft().result()
             take(analyser.ready(drain=True))
-            contour, blocks = tally_figures(tally)
+            contour, blocks = tally_figures(tally, index.files)
             chord_um, blend_um = plan_figures.result()
         finally:
             if handed:  # the run failed: a hand-over may wait for the worker's reply

@@ -153,9 +153,7 @@ def _summary(typed: RunReport, out_dir: Path, files: list[str]) -> str:
         )
     worst = typed.worst_block()
     if worst is not None:
-        lines.append(
-            f"  worst block: line {worst.line} ({worst.kind}) max {worst.max_error_um:.3f} um"
-        )
+        lines.append(f"  worst block: {worst.where} ({worst.kind}) max {worst.max_error_um:.3f} um")
     lines.append(
         f"simulated {sim['steps']} steps of {sim['physics_timestep_s'] * 1e3:g} ms at "
         f"{timing['realtime_factor']:.0f}x real time; total {timing['timing_s']['total']:.2f} s "
