@@ -78,3 +78,18 @@ def test_xz_arc_in_a_system_turned_by_other_angles_is_refused():
 
     with pytest.raises(GcodeError, match="vertical plane turned by the rotation"):
         list(interpret("G21\nG10 L2 P1 R30\nG0 X10\nG18 G2 X20 I5 K0 F100\nM2\n"))
+
+
+@pytest.mark.parametrize(
+    "block", ["T2147483648", "T99999999999999999999 M6", "M61 Q2147483648", "G43 H2147483648"]
+)
+def test_a_tool_number_beyond_a_c_int_is_refused(block):
+    """rs274 reads T, H and M61's Q into a C int: `rs274 -g` (LinuxCNC 2.9, 2026-12-02) refused
+    each of these blocks ("Negative tool id", "Need non-negative Q-word", "Negative h word"),
+    and looked T2147483647 up as any other tool."""
+    from gantry_sim.controller.errors import GcodeError
+
+    with pytest.raises(GcodeError, match="tool numbers are 0 to 2147483647") as err:
+        list(interpret(f"G21\n{block}\nG1 X1 F100\nM2\n"))
+    assert err.value.line == 2
+    assert len(list(interpret("G21\nT2147483647 M6\nG1 X1 F100\nM2\n"))) == 1  # no table: any

@@ -30,7 +30,7 @@ from gantry_sim.controller.gcode.frames import rotate
 from gantry_sim.controller.gcode.parameters import TOOL_DIAMETER, TOOL_NUMBER, TOOL_OFFSET
 from gantry_sim.controller.gcode.state import ModalState
 from gantry_sim.controller.gcode.tools import Tool
-from gantry_sim.controller.gcode.words import Words
+from gantry_sim.controller.gcode.words import Words, check_tool_number
 from gantry_sim.controller.planes import Vec3
 
 ZERO: Vec3 = (0.0, 0.0, 0.0)
@@ -168,6 +168,7 @@ def _whole(value: float, letter: str) -> int:
     number = round(value)
     if number < 0:
         raise GcodeError(f"negative {letter} word; tool numbers are >= 0")
+    check_tool_number(letter, value)
     return number
 
 

@@ -126,6 +126,23 @@ def _m_list(dialect: Dialect | None) -> str:
     return m_accepted(dialect.name, dialect.m_codes)
 
 
+#: The largest tool number: rs274 reads T, H and M61's Q into a C int, so T2147483648 wraps to
+#: a negative tool id and is refused ("Negative tool id", checked with LinuxCNC 2.9's rs274 -g,
+#: 2026-12-02; T2147483647 is looked up in the tool table as any other).
+MAX_TOOL_NUMBER = 2**31 - 1
+
+
+def check_tool_number(letter: str, value: float) -> None:
+    """GcodeError when the tool number ``value`` of word ``letter`` (T, H, M61's Q) is beyond
+    :data:`MAX_TOOL_NUMBER`."""
+    if value >= MAX_TOOL_NUMBER + 0.5:
+        raise GcodeError(
+            f"{letter}{value:.17g} is beyond the largest tool number: tool numbers are 0 to "
+            f"{MAX_TOOL_NUMBER} (LinuxCNC's rs274 reads a larger one as a negative tool id and "
+            "refuses it)"
+        )
+
+
 def whole_number(letter: str, value: float) -> float:
     """``value`` of an integer word (T, H, L in LinuxCNC) as rs274 reads it: the whole number
     within :data:`INTEGER_TOL` of it (T1.99995 is T2), else GcodeError (T1.5, L19.6)."""
@@ -295,8 +312,12 @@ def check_words(w: Words, motion: int | None, dialect: Dialect) -> None:
         raise GcodeError("negative S word; the spindle speed must be >= 0")
     if v.get("T", 0.0) < 0.0:
         raise GcodeError("negative T word; tool numbers are >= 0")
+    if "T" not in dialect.ignored_letters:
+        check_tool_number("T", v.get("T", 0.0))
     if w.m.get("tool_change") == 61 and v.get("Q", -1.0) < 0.0:
         raise GcodeError("M61 needs a Q word >= 0: the tool number now in the spindle")
+    if w.m.get("tool_change") == 61:
+        check_tool_number("Q", v["Q"])
     if w.m.get("io") in (62, 63, 64, 65) and "P" not in v:
         raise GcodeError(f"M{w.m['io']} needs a P word: the digital output number")
     if w.m.get("io") == 66:
