@@ -78,6 +78,12 @@ def ensure_dir(out_dir: Path) -> None:
     try:
         if out_dir.exists() and not out_dir.is_dir():
             raise OutputError("--out must be a folder, but this is a file", file=str(out_dir))
+        if out_dir.is_symlink() and not out_dir.exists():
+            raise OutputError(
+                "--out must be a folder, but this is a symbolic link to nothing that exists (a "
+                "missing target, or links that lead back to themselves)",
+                file=str(out_dir),
+            )
         missing = [p for p in (out_dir, *out_dir.parents) if not p.exists()]
         out_dir.mkdir(parents=True, exist_ok=True)
         _CREATED.extend(reversed(missing))

@@ -293,6 +293,22 @@ def test_out_file_where_a_folder_is_needed_and_folder_where_a_file_is(tmp_path, 
     assert "report.json" in capsys.readouterr().err
 
 
+def test_out_through_a_link_to_nothing_says_so(tmp_path, capsys):
+    """A link to a missing target, or a loop of links, is no folder to write into: the error
+    says which (before: "cannot create the output folder: File exists")."""
+    prog = _program(tmp_path, LINE, "p.ngc")
+    (tmp_path / "loop").symlink_to("loop")
+    (tmp_path / "a").symlink_to("b")
+    (tmp_path / "b").symlink_to("a")
+    (tmp_path / "gone").symlink_to(tmp_path / "missing")
+    for name in ("loop", "a", "gone"):
+        assert main(["run", prog, "--out", str(tmp_path / name), "--no-plots"]) == 2
+        err = capsys.readouterr().err
+        assert err.startswith(f"{tmp_path / name}: error: --out must be a folder"), err
+        assert "symbolic link to nothing that exists" in err
+    assert not (tmp_path / "missing").exists()
+
+
 def test_an_empty_path_is_refused_not_taken_for_the_current_folder(tmp_path, capsys, monkeypatch):
     """``--out "$OUT"`` with OUT unset: every command refuses it (exit 2) and writes nothing
     into the folder it runs in."""
