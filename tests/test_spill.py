@@ -19,12 +19,18 @@ def _moves(n: int) -> list[Linear]:
     return [Linear(i + 1, (i, 0.0, 0.0), (i + 1.0, 0.5, 0.0), 600.0) for i in range(n)]
 
 
+#: a list of n moves in blocks of ``block`` items, on disk or not, cut back to ``cut`` items
+LISTS = {
+    "n": st.integers(0, 40),
+    "block": st.integers(1, 7),
+    "spill": st.booleans(),
+    "cut": st.integers(0, 45),
+}
+
+
 @settings(max_examples=60, deadline=None)
 @given(
-    n=st.integers(0, 40),
-    block=st.integers(1, 7),
-    spill=st.booleans(),
-    cut=st.integers(0, 45),
+    **LISTS,
     lo=st.integers(-50, 50),
     hi=st.integers(-50, 50),
     step=st.sampled_from([1, 2, 3, -1]),
@@ -47,10 +53,7 @@ def test_reads_back_what_was_appended(n, block, spill, cut, lo, hi, step):
 
 @settings(max_examples=60, deadline=None)
 @given(
-    n=st.integers(0, 40),
-    block=st.integers(1, 7),
-    spill=st.booleans(),
-    cut=st.integers(0, 45),
+    **LISTS,
     spans=st.lists(st.tuples(st.integers(-5, 50), st.integers(-5, 50)), max_size=6),
 )
 def test_pickled_slices_decode_to_the_slice_with_one_cache(n, block, spill, cut, spans):
