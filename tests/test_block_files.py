@@ -103,3 +103,18 @@ def test_a_servo_error_in_a_subroutine_file_names_that_file(machine, folder, mon
         api.run_program(folder / "first.ngc", machine=tight, plots=False)
     assert (err.value.file, err.value.line) == (str(folder / "side.ngc"), 2)
     assert str(err.value).startswith(f"{folder / 'side.ngc'}:2: error: following error")
+
+
+def test_gantry_plan_names_the_file_of_its_largest_blend(folder, capsys):
+    """A G64 corner in a subroutine file: the plan's largest blend is that file's line 2."""
+    from gantry_sim.sim.cli import main
+
+    (folder / "corner.ngc").write_text("o<corner> sub\nG1 X10 F3000\nG1 Y10\no<corner> endsub\n")
+    (folder / "c.ngc").write_text("G21 G90 G64 P0.05\nG1 X0 Y0 F3000\no<corner> call\nM2\n")
+    assert main(["plan", str(folder / "c.ngc")]) == 0
+    blends = json.loads(capsys.readouterr().out)["blends"]
+    assert (blends["max_deviation_line"], blends["max_deviation_file"]) == (
+        2,
+        str(folder / "corner.ngc"),
+    )
+    assert 0.0 < blends["max_deviation_mm"] <= 0.05

@@ -324,7 +324,7 @@ def blend_corners(
             made.smoothing.append(max(tol - REFERENCE_SHARE * chord_tolerance_mm - dev, 0.0))
             made.sources.append(between)
             made.blend_at.append(i + 1)
-            made.blends.append(Blend(m.line, dev, tol))
+            made.blends.append(Blend(m.line, dev, tol, file=getattr(m, "file", None)))
         if i + 1 in trans:
             tc = trans[i + 1]
             tol = control(m, settings).tolerance_mm
@@ -335,7 +335,9 @@ def blend_corners(
             )
             made.sources.append(between)
             made.blend_at.append(None)
-            made.blends.append(Blend(m.line, tc.deviation_mm, tol, "transition"))
+            made.blends.append(
+                Blend(m.line, tc.deviation_mm, tol, "transition", getattr(m, "file", None))
+            )
     return out
 
 

@@ -17,13 +17,20 @@ class Blend:
     "corner" (a blend arc), "transition" (a G2 transition at a tangent junction,
     :mod:`~gantry_sim.controller.planner.transition`) or "overlap" (an exact stop between two
     straight moves or two rapids whose profiles overlap,
-    :mod:`~gantry_sim.controller.planner.stop_overlap`). Slotted: a long program of tangent
-    arcs has one per junction."""
+    :mod:`~gantry_sim.controller.planner.stop_overlap`); ``file``: the subroutine file the
+    line is in (None: the program's own). Slotted: a long program of tangent arcs has one per
+    junction."""
 
     line: int
     deviation_mm: float
     tolerance_mm: float
     kind: str = "corner"
+    file: str | None = None
+
+    def __reduce__(self) -> tuple:
+        """Pickled as its constructor's arguments (the spill keeps one per junction; a slotted
+        dataclass' default pickling calls ``dataclasses.fields`` per object)."""
+        return (Blend, (self.line, self.deviation_mm, self.tolerance_mm, self.kind, self.file))
 
 
 @dataclass

@@ -296,7 +296,8 @@ def _plan_part(
         arr.setflags(write=False)
     share = REFERENCE_SHARE * seg.chord_tolerance_mm
     overlaps = [
-        Blend(o.line, o.deviation_mm, o.budget_mm + share, kind="overlap") for o in planned.overlaps
+        Blend(o.line, o.deviation_mm, o.budget_mm + share, "overlap", o.file)
+        for o in planned.overlaps
     ]
     blends = path.blends  # the path's (a list, or on disk), then the overlaps
     if overlaps:

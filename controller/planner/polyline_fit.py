@@ -708,7 +708,7 @@ def _fit_entries(
         src = (run[int(lo[k])].source[0], run[int(hi[k])].source[1])
         holds = run[0].holds if k == 0 and chunk.rest_before else []
         stop = k == m - 1 and chunk.rest_after and run[-1].stop_after
-        fit_blend = Blend(piece.line, float(dev[k]), tol, "fit")
+        fit_blend = Blend(piece.line, float(dev[k]), tol, "fit", first.file)
         out.append(PathEntry(piece, stop, holds, src, fit_blend))
     if chunk.tail and not chunk.rest_after:
         out.append(PathEntry(replace(moves[-1], start=z), run[-1].stop_after, [], run[-1].source))

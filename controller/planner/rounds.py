@@ -429,7 +429,10 @@ def assemble(
                 starts.append(clock)
                 lines.append(line)
                 entries.append((first - 1, first))
-                overlaps.append(Overlapped(clock, tau, line, found.deviation_mm, corners[first]))
+                file = getattr(last.geometry.move, "file", None)
+                overlaps.append(
+                    Overlapped(clock, tau, line, found.deviation_mm, corners[first], file)
+                )
         if last is not None:
             chunks.append(last.chunk)
         hold(first)

@@ -78,14 +78,15 @@ class Pending:
 @dataclass(frozen=True)
 class Overlapped:
     """A stop overlapped: where the overlap starts [s], how long it lasts [s], the line of the
-    move ending at the corner, the largest deviation [mm] (:attr:`Found.deviation_mm`) and
-    the budget it was held to [mm]."""
+    move ending at the corner, the largest deviation [mm] (:attr:`Found.deviation_mm`), the
+    budget it was held to [mm], and the subroutine file of the line (None: the program's)."""
 
     start_s: float
     tau_s: float
     line: int
     deviation_mm: float
     budget_mm: float
+    file: str | None = None
 
 
 def first_move_s(chain: Chain) -> float:

@@ -67,6 +67,8 @@ def deviation_summary(blends: Sequence[Any]) -> dict:
         "max_deviation_mm": worst.deviation_mm if worst else 0.0,
         "max_deviation_line": worst.line if worst else None,
     }
+    if worst is not None and getattr(worst, "file", None) is not None:
+        out["max_deviation_file"] = worst.file  # a subroutine file's line
     if set(kinds) != {None}:  # blends (which have kinds), or none at all
         out["transitions"] = kinds.get("transition", 0)
         out["overlaps"] = kinds.get("overlap", 0)
