@@ -158,24 +158,31 @@ def chord_max_um(
     if vertices is None:
         return 0.0
     if tab is not None:
-        return _chord_max_mm(tab, vertices, 0, len(moves)) * UM_PER_MM
+        return _chord_max_mm(tab, _vertex_block(vertices, 0, len(moves))) * UM_PER_MM
     worst_mm = 0.0
     for k in range(0, len(moves), CHORD_MOVES):
         block = moves[k : k + CHORD_MOVES]
-        worst_mm = max(worst_mm, _chord_max_mm(move_table(block), vertices, k, len(block)))
+        verts = _vertex_block(vertices, k, k + len(block))
+        worst_mm = max(worst_mm, _chord_max_mm(move_table(block), verts))
     return worst_mm * UM_PER_MM
 
 
-def _chord_max_mm(tab: MoveTable, vertices: Sequence[np.ndarray], first: int, n: int) -> float:
-    """:func:`chord_max_um` [mm] of the moves ``first`` .. ``first + n - 1``, rows 0.. of
-    ``tab``."""
+def _vertex_block(vertices: Sequence[np.ndarray], lo: int, hi: int) -> Sequence[np.ndarray]:
+    """``vertices[lo:hi]``: a plan's (controller.planner.vertices.ChordVertices, not imported
+    here: the analysis worker does not need the planner) made in batches."""
+    block = getattr(vertices, "block", None)
+    return block(lo, hi) if block is not None else vertices[lo:hi]
+
+
+def _chord_max_mm(tab: MoveTable, vertices: Sequence[np.ndarray]) -> float:
+    """:func:`chord_max_um` [mm] of the moves of ``tab``, whose vertices are ``vertices``."""
     worst_mm = 0.0
     batch: list[tuple[int, np.ndarray]] = []
     chords = 0
-    for j in range(n):
+    for j in range(len(tab)):
         if not (tab.arc[j] or tab.spline[j]):
             continue
-        verts = np.asarray(vertices[first + j], dtype=float).reshape(-1, 3)
+        verts = np.asarray(vertices[j], dtype=float).reshape(-1, 3)
         if len(verts) < 2:
             continue
         batch.append((j, verts))

@@ -123,3 +123,29 @@ def test_small_passes_give_the_same_distances(monkeypatch):
     monkeypatch.setattr(pd, "PAIRS_PER_PASS", 64)
     cut = pd.distance_to_moves(tab, lines, pts, reach)
     assert np.array_equal(whole[0], cut[0]) and np.array_equal(whole[1], cut[1])
+
+
+def test_a_plans_vertices_read_in_blocks_are_its_vertices_one_by_one(machine, monkeypatch):
+    """ChordVertices.block makes the arcs' vertices in batches (the run's chord check): the
+    same arrays bit for bit as reading each move's, for lines, arcs, helices and a spline, and
+    the same chord part with blocks cut anywhere."""
+    from gantry_sim.controller.gcode.interpreter import parse_program
+    from gantry_sim.controller.planner import plan
+    from gantry_sim.sim import contour
+
+    text = PROGRAM.replace(
+        "M2\n",
+        "G2 X6.6 Y3.1 I2 J0\nG3 X2.6 Y3.1 I-2 J0 Z-1\nG1 X0\nG3 X0 Y0 I1 J-1.55 P3 Z-3\n"
+        "G5 X4 Y2 I1 J1 P1 Q-1\nM2\n",
+    )
+    moves = parse_program(text)
+    vertices = plan(moves, machine).vertices
+    one_by_one = [vertices[i] for i in range(len(moves))]
+    for lo, hi in ((0, len(moves)), (1, 4), (2, len(moves) - 1)):
+        block = vertices.block(lo, hi)
+        assert len(block) == hi - lo
+        assert all(np.array_equal(a, b) for a, b in zip(block, one_by_one[lo:hi], strict=True))
+    at_once = contour.chord_max_um(moves, vertices)
+    assert at_once == contour.chord_max_um(moves, one_by_one) > 0
+    monkeypatch.setattr(contour, "CHORD_MOVES", 3)  # blocks of 3 moves
+    assert contour.chord_max_um(moves, vertices) == at_once
