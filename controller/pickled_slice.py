@@ -14,21 +14,22 @@ from __future__ import annotations
 
 import pickle
 from collections import OrderedDict
+from collections.abc import Sequence
 from dataclasses import dataclass
-from typing import Any
+from typing import Any, overload
 
 from gantry_sim.controller.gc_pause import gc_paused
 
-__all__ = ["DecodedBlocks", "PickledSlice"]
+__all__ = ["DecodedBlocks", "PickledSlice", "SliceView"]
 
 
 @dataclass(frozen=True)
 class PickledSlice:
     """Items ``skip .. skip + count`` of the concatenated blocks ``blocks`` (each a pickled
-    list), blocks ``first_block ..`` of the list identified by ``token``. ``closed``: how many
-    of those blocks are closed (never changed again while the token stands), so a reader may
-    keep them decoded by (token, block number); the others (the list's open last block) are
-    decoded every time."""
+    list of ``block_items`` items, the last maybe fewer), blocks ``first_block ..`` of the list
+    identified by ``token``. ``closed``: how many of those blocks are closed (never changed
+    again while the token stands), so a reader may keep them decoded by (token, block number);
+    the others (the list's open last block) are decoded every time."""
 
     token: int
     first_block: int
@@ -36,6 +37,7 @@ class PickledSlice:
     closed: int
     skip: int
     count: int
+    block_items: int
 
     def __len__(self) -> int:
         return self.count
@@ -53,6 +55,57 @@ class PickledSlice:
             out.extend(block[max(lo - start, 0) : hi - start])
             start += len(block)
         return out
+
+
+class SliceView(Sequence[Any]):
+    """A :class:`PickledSlice`'s items read by index or slice, its blocks decoded as they are
+    reached (the last ``cached`` kept): a reader that goes through them in order, a block at a
+    time, holds a block or two of objects, not the slice's."""
+
+    def __init__(self, part: PickledSlice, cached: int = 2) -> None:
+        self._part = part
+        self._cache = DecodedBlocks(cached)
+        self._held: list[Any] | None = None  # the open block, decoded
+
+    def __len__(self) -> int:
+        return self._part.count
+
+    @overload
+    def __getitem__(self, index: int) -> Any: ...
+
+    @overload
+    def __getitem__(self, index: slice) -> list[Any]: ...
+
+    def __getitem__(self, index: int | slice) -> Any:
+        part, per = self._part, self._part.block_items
+        if isinstance(index, slice):
+            lo, hi, step = index.indices(part.count)
+            if step != 1:
+                return [self[i] for i in range(lo, hi, step)]
+            out: list[Any] = []
+            while lo < hi:
+                k, at = divmod(part.skip + lo, per)
+                block = self._block(k)
+                take = min(hi - lo, len(block) - at)
+                out.extend(block[at : at + take])
+                lo += take
+            return out
+        i = index + part.count if index < 0 else index
+        if not 0 <= i < part.count:
+            raise IndexError(f"index {index} out of range for {part.count} items")
+        k, at = divmod(part.skip + i, per)
+        return self._block(k)[at]
+
+    def _block(self, k: int) -> list[Any]:
+        part = self._part
+        key = (part.token, part.first_block + k) if k < part.closed else None
+        return self._cache.get(key, part.blocks[k]) if key is not None else self._open(k)
+
+    def _open(self, k: int) -> list[Any]:
+        """The slice's open block (decoded once here: its key is not the list's to keep)."""
+        if self._held is None:
+            self._held = _decoded(self._part.blocks[k])
+        return self._held
 
 
 class DecodedBlocks:

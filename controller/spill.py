@@ -232,6 +232,7 @@ class SpilledList(Sequence[T]):
             closed=max(0, min(closed - first, len(blocks))),
             skip=lo - first * self._block_items,
             count=hi - lo,
+            block_items=self._block_items,
         )
 
     def __iter__(self) -> Iterator[T]:

@@ -158,10 +158,12 @@ class OutlineRequest:
     moves: PickledSlice
 
     def outline(self) -> Outline | None:
-        """The moves' outline (None: no moves)."""
+        """The moves' outline (None: no moves), their blocks decoded as the outline reaches
+        them."""
+        from gantry_sim.controller.pickled_slice import SliceView
         from gantry_sim.sim.path_outline import outline
 
-        return outline(self.moves.items()) if len(self.moves) else None
+        return outline(SliceView(self.moves)) if len(self.moves) else None
 
 
 #: what a worker draws

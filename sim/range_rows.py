@@ -41,7 +41,7 @@ class RangeTables:
 
     Attributes:
         moves: the program's moves r0 .. r0 + len(moves) - 1 (a PickledSlice of them when
-            they go to a worker process: :meth:`decoded` lists them).
+            they go to a worker process: :meth:`listed` lists them).
         cum_len: (len(moves) + 1,) the whole program's path length before each of them [mm].
         r0: the program index of ``moves[0]`` (Trajectory.source counts from the program's
             first move).

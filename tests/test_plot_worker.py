@@ -127,8 +127,8 @@ def test_an_outline_that_fails_in_the_worker_leaves_the_plots_to_the_run(workers
     worker = PlotWorker()
     worker.start()
     try:
-        assert worker.send_outline(PickledSlice(1, 0, (b"not a pickle",), 1, 0, 3))
-        assert not worker.send_outline(PickledSlice(1, 0, (), 0, 0, 0))  # one outline a worker
+        assert worker.send_outline(PickledSlice(1, 0, (b"not a pickle",), 1, 0, 3, 4))
+        assert not worker.send_outline(PickledSlice(1, 0, (), 0, 0, 0, 4))  # one outline a worker
         assert worker.outline_kept
         request = PlotRequest(None, "x", None, None, None, {}, outline_kept=True)  # type: ignore[arg-type]
         assert worker.draw(request)
@@ -291,3 +291,25 @@ def test_the_plots_draw_nothing_of_what_the_worker_is_not_sent(machine):
         ).render()
 
     assert drawn(slim) == drawn(whole)
+
+
+def test_the_outline_from_pickled_blocks_is_the_moves_outline():
+    """The worker's outline, its moves' blocks decoded as it reaches them, is the outline of
+    the moves, cut into blocks anywhere."""
+    import pickle
+
+    import numpy as np
+
+    from gantry_sim.controller.gcode.interpreter import parse_program
+    from gantry_sim.controller.spill import SpilledList
+    from gantry_sim.sim.plot_worker import OutlineRequest
+
+    moves = parse_program(CIRCLE.replace("M2\n", "G0 X9\nG1 Y2\nG2 X11 Y4 I2\nG1 X12\nM2\n"))
+    expect = outline(moves)
+    for block in (1, 2, 3, 100):
+        kept = SpilledList(moves, block_items=block)
+        request = pickle.loads(pickle.dumps(OutlineRequest(kept.pickled(0, len(kept)))))
+        got = request.outline()
+        assert got is not None and got.planes == expect.planes
+        assert np.array_equal(got.feed, expect.feed, equal_nan=True)
+        assert np.array_equal(got.rapid, expect.rapid, equal_nan=True)

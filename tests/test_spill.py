@@ -11,7 +11,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from gantry_sim.controller.moves import Linear
-from gantry_sim.controller.pickled_slice import DecodedBlocks
+from gantry_sim.controller.pickled_slice import DecodedBlocks, SliceView
 from gantry_sim.controller.spill import SpilledList
 
 
@@ -67,6 +67,10 @@ def test_pickled_slices_decode_to_the_slice_with_one_cache(n, block, spill, cut,
         part = pickle.loads(pickle.dumps(s.pickled(lo, hi)))  # as a worker gets it
         assert part.items(cache) == items[lo:hi] == part.items()
         assert len(part) == len(items[lo:hi])
+        view, want = SliceView(part), items[lo:hi]  # read block by block
+        assert len(view) == len(want) and view[0 : len(want)] == want
+        assert [view[i] for i in range(-len(want), len(want))] == want + want
+        assert view[1::2] == want[1::2] and view[len(want) // 2 :] == want[len(want) // 2 :]
     s.truncate(cut)
     del items[cut:]
     fresh = [Linear(1000 + i, (0.0, i, 0.0), (1.0, i, 0.0), 900.0) for i in range(n - len(items))]
