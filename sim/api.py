@@ -31,7 +31,7 @@ from typing import TYPE_CHECKING
 from gantry_sim.controller.config import MachineConfig
 from gantry_sim.controller.errors import GantryError, GcodeError, PlanningError, SimulationError
 from gantry_sim.controller.gcode.control import DEFAULT_MAX_ITERATIONS
-from gantry_sim.sim.budget import Budget, check_budget, check_lower_bound
+from gantry_sim.sim.budget import Budget, ParseBound, check_budget
 from gantry_sim.sim.gates import Gates, Verdict
 from gantry_sim.sim.progress import stage, wanted
 from gantry_sim.sim.report import RunReport
@@ -207,34 +207,48 @@ def _run(
     try:
         machine = with_segmentation_default(machine, dialect)
         shown = wanted(progress)
-        with stage("parse", text.count("\n") + 1, "line", shown) as advance, gc_paused():
-            items = interpret_program(
-                text,
-                dialect=dialect,
-                file=file,
-                machine=machine,
-                search_path=folders,
-                max_iterations=max_iterations,
-                events=True,
-                advance=advance,
-            )
-        moves = SpilledList(m for m in items if isinstance(m, Rapid | Linear | Arc | Spline))
-        t1 = time.perf_counter()
-        if plotter is not None:
-            plotter.start()  # a long program's after its parse (sim.plot_worker)
-        try:  # the bound's check may find the program leaving the travel first
-            check_lower_bound(items, machine, budget or Budget(), file, feed_override_pct)
-            with stage("plan", len(items), "move", shown, ticking=True) as advance:
-                planned = plan(items, machine, feed_override_pct=feed_override_pct, advance=advance)
-        except PlanningError as exc:
-            raise checked_placement(
+        # the duration bound taken as the program is read: a program already too long for
+        # the budget is refused as soon as its read part is; the bound's check may find the
+        # program leaving the travel first
+        bound = ParseBound(machine, budget or Budget(), file, feed_override_pct)
+
+        def placed(exc: PlanningError, text: str) -> GantryError:
+            """``exc``, its suggested work offset checked on the program ``text``
+            (sim.program.checked_placement)."""
+            return checked_placement(
                 exc,
                 text,
                 dialect=dialect,
                 machine=machine,
                 search_path=folders,
                 max_iterations=max_iterations,
-            ) from None
+            )
+
+        try:
+            with stage("parse", text.count("\n") + 1, "line", shown) as advance, gc_paused():
+                items = interpret_program(
+                    text,
+                    dialect=dialect,
+                    file=file,
+                    machine=machine,
+                    search_path=folders,
+                    max_iterations=max_iterations,
+                    events=True,
+                    advance=advance,
+                    watch=bound,
+                )
+        except PlanningError as exc:
+            raise placed(exc, text) from None
+        moves = SpilledList(m for m in items if isinstance(m, Rapid | Linear | Arc | Spline))
+        t1 = time.perf_counter()
+        if plotter is not None:
+            plotter.start()  # a long program's after its parse (sim.plot_worker)
+        try:
+            bound.check(items)  # the whole program's bound (sim.budget.check_lower_bound)
+            with stage("plan", len(items), "move", shown, ticking=True) as advance:
+                planned = plan(items, machine, feed_override_pct=feed_override_pct, advance=advance)
+        except PlanningError as exc:
+            raise placed(exc, text) from None
         del items, text  # the moves are on disk now (``moves``); the run needs neither
         check_budget(planned, machine, budget or Budget(), file)
         if planned.sample_count(machine.servo.period_s) > STREAM_ABOVE_TICKS:

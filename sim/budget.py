@@ -97,6 +97,20 @@ def check_lower_bound(
     makes the program fit, so that is the first thing to tell. ``items`` is read again then,
     so it must be a sequence or a list kept on disk, not an iterator."""
     duration, where, longest = duration_lower_bound(items, machine, feed_override_pct)
+    _check_bound(duration, where, longest, items, machine, budget, file)
+
+
+def _check_bound(
+    duration: float,
+    where: tuple[int, str | None] | None,
+    longest: float,
+    items: Iterable[object],
+    machine: MachineConfig,
+    budget: Budget,
+    file: str,
+) -> None:
+    """:func:`check_lower_bound`'s checks on a bound [s], its longest line (line, subroutine
+    file) and that line's time [s]; ``items``: the program read so far, for the travel."""
     line, sub_file = where if where is not None else (None, None)
     try:
         _check_duration(duration, line, longest, machine, budget, sub_file or file, "at least ")
@@ -105,6 +119,67 @@ def check_lower_bound(
 
         check_program_travel(items, machine.travel, machine.work.systems_mm[0])
         raise
+
+
+class ParseBound:
+    """:func:`check_lower_bound` taken as the program is read (called with each item and the
+    items so far: sim.program.interpret_program's ``watch``), so that a program whose first
+    items already take longer than ``budget`` is refused then, not after the whole of it is
+    read: ``G81 ... L1000000`` (3 million moves) was read for 64 s before its refusal, 10 s
+    now (the cycle's moves are made before the first is seen). Every :data:`EVERY` items the
+    bound of the stretches closed so far (a lower bound on the whole program,
+    sim.duration_bound.BoundWalk) is checked; the travel is checked on the items so far first,
+    as :func:`check_lower_bound` does. A program of fewer items (read in a second or two) is
+    checked whole after its reading, so its message gives the whole program's bound. Off for the rest of the program at a Marlin
+    M201-M205 (a later M203 may raise the speed cap the bound assumed) and at an item whose
+    numbers the planner refuses (the whole-program check says why). :meth:`check` then makes
+    the whole-program check, from the bound taken while reading where it stayed on."""
+
+    #: items read between two checks (about 1.5 s of reading)
+    EVERY = 65_536
+
+    def __init__(
+        self, machine: MachineConfig, budget: Budget, file: str, feed_override_pct: float = 100.0
+    ) -> None:
+        from gantry_sim.controller.moves import Limits
+        from gantry_sim.sim.duration_bound import BoundWalk
+
+        self.machine, self.budget, self.file = machine, budget, file
+        self.feed_override_pct = feed_override_pct
+        vmax = list(machine.limits.max_velocity_mm_per_s)
+        self._walk = BoundWalk(machine, feed_override_pct, vmax, accel_set=False)
+        self._limits = Limits
+        self.on = True
+        self._count = 0
+
+    def __call__(self, item: object, so_far: Iterable[object]) -> None:
+        if not self.on:
+            return
+        from gantry_sim.controller.planner.magnitudes import check_magnitudes
+
+        if isinstance(item, self._limits):
+            self.on = False
+            return
+        try:
+            check_magnitudes(item)
+        except PlanningError:
+            self.on = False
+            return
+        self._walk.add(item)
+        self._count += 1
+        if self._count % self.EVERY == 0:
+            where, longest = self._walk.longest()
+            total = self._walk.total_s
+            _check_bound(total, where, longest, so_far, self.machine, self.budget, self.file)
+
+    def check(self, items: Iterable[object]) -> None:
+        """:func:`check_lower_bound` of the whole program ``items`` (the items given so far)."""
+        if not self.on:
+            check_lower_bound(items, self.machine, self.budget, self.file, self.feed_override_pct)
+            return
+        duration, where, longest = self._walk.finish()
+        self.on = False
+        _check_bound(duration, where, longest, items, self.machine, self.budget, self.file)
 
 
 def _option_value(x: float) -> str:

@@ -70,25 +70,8 @@ def duration_lower_bound(
     module docstring), and the line whose moves take longest at their speeds, as (line, the
     subroutine file it is in or None), with that time [s] (a canned cycle's line makes many
     moves); (0, None, 0) without moves or dwells."""
-    from gantry_sim.controller.moves import Arc, Dwell, Limits, Linear, Rapid, Spline, Stop
+    from gantry_sim.controller.moves import Limits
     from gantry_sim.controller.planner.magnitudes import check_magnitudes
-    from gantry_sim.controller.planner.path_control import control, extends_run, starts_run
-    from gantry_sim.controller.planner.polyline_fit import MAX_MOVE_MM, MAX_TURN_RAD
-
-    stops, motions = (Dwell, Stop, Limits), (Rapid, Linear, Arc, Spline)
-    governed = (Rapid, Linear, Arc)  # their mode governs the junction after them (G64: blended)
-    straights = (Rapid, Linear)
-    # per path-control object (moves share theirs): the object, held so that its id stays its
-    # own while the moves read from disk come and go, and its Control
-    controls: dict[int, tuple[object, Control]] = {}
-
-    def control_of(m: Move) -> Control:
-        """``control(m, path)``, made once per path-control object."""
-        pc = getattr(m, "path", None)
-        hit = controls.get(id(pc))
-        if hit is None:
-            hit = controls[id(pc)] = (pc, control(m, path))
-        return hit[1]
 
     items = items if isinstance(items, Sequence) else list(items)  # read twice
     vmax = list(machine.limits.max_velocity_mm_per_s)
@@ -101,78 +84,141 @@ def duration_lower_bound(
                     i = "XYZ".index(axis)
                     vmax[i] = max(vmax[i], value)
         accel_set |= isinstance(e, Limits) and e.code in ("M201", "M204")
-    norm = math.sqrt(sum(v * v for v in vmax))
-    acc = math.inf if accel_set else math.hypot(*machine.limits.max_acceleration_mm_per_s2)
-    scale = feed_override_pct / 100.0
-    per_line: dict[Where, float] = {}  # (line, file): a subroutine file's lines are its own
-    stretch = _Stretch(norm, acc)
-    total = 0.0
-    run: list[Move] = []  # the naive-CAM run under way, as the planner's merge makes it
-    prev: _Prev | None = None  # the last feed move (Linear or Arc) of non-zero length
-    path = machine.path
+    walk = BoundWalk(machine, feed_override_pct, vmax, accel_set)
     for m in items:
-        if isinstance(m, stops):  # an exact stop (and the dwell's time)
-            if isinstance(m, Limits) and m.code == "M205":  # J: the blend tolerance from here
+        walk.add(m)
+    return walk.finish()
+
+
+class BoundWalk:
+    """:func:`duration_lower_bound`'s pass over the items, an item at a time (:meth:`add`),
+    under the axis speeds ``vmax`` [mm/s] (the machine's, raised by any M203 of the program)
+    and the machine's accelerations unless ``accel_set`` (an M201 or M204 in the program).
+    :attr:`total_s` is the bound of the stretches closed so far: a lower bound on any program
+    that starts with the items added, when no later item raises ``vmax`` (sim.budget's
+    ParseBound checks it as the program is read)."""
+
+    def __init__(
+        self,
+        machine: MachineConfig,
+        feed_override_pct: float,
+        vmax: list[float],
+        accel_set: bool,
+    ) -> None:
+        from gantry_sim.controller.moves import Arc, Dwell, Limits, Linear, Rapid, Spline, Stop
+        from gantry_sim.controller.planner.polyline_fit import MAX_MOVE_MM, MAX_TURN_RAD
+
+        self._stops, self._motions = (Dwell, Stop, Limits), (Rapid, Linear, Arc, Spline)
+        # their mode governs the junction after them (G64: blended)
+        self._governed = (Rapid, Linear, Arc)
+        self._straights = (Rapid, Linear)
+        self._arc, self._dwell, self._limits = Arc, Dwell, Limits
+        self._fit = (MAX_MOVE_MM, MAX_TURN_RAD)
+        # per path-control object (moves share theirs): the object, held so that its id stays
+        # its own while the moves read from disk come and go, and its Control
+        self._controls: dict[int, tuple[object, Control]] = {}
+        self.vmax = vmax
+        self.norm = math.sqrt(sum(v * v for v in vmax))
+        acc = math.inf if accel_set else math.hypot(*machine.limits.max_acceleration_mm_per_s2)
+        self.acc = acc
+        self.scale = feed_override_pct / 100.0
+        self.per_line: dict[Where, float] = {}  # (line, file): a subroutine file's lines apart
+        self._stretch = _Stretch(self.norm, acc)
+        self.total_s = 0.0
+        self._run: list[Move] = []  # the naive-CAM run under way, as the planner's merge makes it
+        self._prev: _Prev | None = None  # the last feed move (Linear or Arc) of non-zero length
+        self._path = machine.path
+
+    def _control_of(self, m: Move) -> Control:
+        """``control(m, path)``, made once per path-control object."""
+        from gantry_sim.controller.planner.path_control import control
+
+        pc = getattr(m, "path", None)
+        hit = self._controls.get(id(pc))
+        if hit is None:
+            hit = self._controls[id(pc)] = (pc, control(m, self._path))
+        return hit[1]
+
+    def add(self, m: object) -> None:
+        """The next item (a move or an event; anything else is passed over)."""
+        from gantry_sim.controller.planner.path_control import extends_run, starts_run
+
+        stretch, per_line = self._stretch, self.per_line
+        if isinstance(m, self._stops):  # an exact stop (and the dwell's time)
+            if isinstance(m, self._limits) and m.code == "M205":  # J: blend tolerance from here
                 j = dict(m.values).get("J", 0.0)
-                path = replace(path, tolerance_mm=j) if j > 0 else path
-                controls.clear()
-            seconds = m.seconds if isinstance(m, Dwell) else 0.0
-            total += stretch.close() + seconds
+                self._path = replace(self._path, tolerance_mm=j) if j > 0 else self._path
+                self._controls.clear()
+            seconds = m.seconds if isinstance(m, self._dwell) else 0.0
+            self.total_s += stretch.close() + seconds
             if seconds:
                 at = (m.line, m.file)
                 per_line[at] = per_line.get(at, 0.0) + seconds
-            prev, run = None, []
-            continue
-        if not isinstance(m, motions):
-            continue
+            self._prev, self._run = None, []
+            return
+        if not isinstance(m, self._motions):
+            return
         length = m.length_mm
         if length <= EPS_MM:  # the planner drops it: no junction, no time
-            continue
+            return
         feed = getattr(m, "feed_mm_per_min", None)
-        c = control_of(m) if isinstance(m, governed) else None
+        c = self._control_of(m) if isinstance(m, self._governed) else None
         d = None
-        cap = norm
-        if isinstance(m, straights):
+        cap = self.norm
+        if isinstance(m, self._straights):
             (x0, y0, z0), (x1, y1, z1) = m.start, m.end
             d = [x1 - x0, y1 - y0, z1 - z0]
-            cap = _straight_cap(vmax, d, length, norm)
-        speed = cap if feed is None else min(cap, feed * scale / 60.0)
+            cap = _straight_cap(self.vmax, d, length, self.norm)
+        speed = cap if feed is None else min(cap, feed * self.scale / 60.0)
         t = length / speed if speed > 0 else 0.0
-        if isinstance(m, Arc) and c is not None:
-            t += _curvature_time_s(m, length, speed, acc, c.tolerance_mm)
+        if isinstance(m, self._arc) and c is not None:
+            t += _curvature_time_s(m, length, speed, self.acc, c.tolerance_mm)
         at = (m.line, m.file)
         here = None if c is None else _Prev(at, feed, speed, t, c, d, length, m.start)
-        joins = bool(run) and extends_run(run, m, path)
+        run, prev = self._run, self._prev
+        joins = bool(run) and extends_run(run, m, self._path)
         if joins:
             run.append(m)
         else:
-            run = [m] if c is not None and starts_run(m, path, c) else []
+            self._run = [m] if c is not None and starts_run(m, self._path, c) else []
         if joins and prev is not None and here is not None:  # a naive-CAM run takes m
             if prev.dropped:
                 stretch.extend_run(m.end)
             else:  # the run starts at the move before: no shorter than its chord
                 stretch.drop_last()
                 per_line[prev.at] = max(per_line.get(prev.at, 0.0) - prev.t, 0.0)
-                chord_speed = min(norm, feed * scale / 60.0) if feed is not None else norm
+                chord_speed = (
+                    min(self.norm, feed * self.scale / 60.0) if feed is not None else self.norm
+                )
                 stretch.start_run(prev.start, m.end, chord_speed)
             here.dropped = True
-            prev = here
-            continue
+            self._prev = here
+            return
         if d is not None and stretch.reverses(d, length):
-            total += stretch.close()
+            self.total_s += stretch.close()
         elif prev is not None and here is not None and prev.g64:
-            saved = _blend_saving_mm(prev, d, length, (MAX_MOVE_MM, MAX_TURN_RAD))
+            saved = _blend_saving_mm(prev, d, length, self._fit)
             saved_s = saved / min(prev.speed, speed) if saved > 0 else 0.0
             stretch.shorten(saved, saved_s)
             per_line[prev.at] = max(per_line.get(prev.at, 0.0) - saved_s, 0.0)
         stretch.add(length, t, d)
         per_line[at] = per_line.get(at, 0.0) + t
-        prev = here
-    total += stretch.close()
-    if not per_line:
-        return 0.0, None, 0.0
-    where = max(per_line, key=lambda k: per_line[k])
-    return total, where, per_line[where]
+        self._prev = here
+
+    def longest(self) -> tuple[Where | None, float]:
+        """The (line, file) whose moves take longest so far, and that time [s]."""
+        if not self.per_line:
+            return None, 0.0
+        where = max(self.per_line, key=lambda k: self.per_line[k])
+        return where, self.per_line[where]
+
+    def finish(self) -> tuple[float, Where | None, float]:
+        """:func:`duration_lower_bound`'s result, the last stretch closed (call once)."""
+        self.total_s += self._stretch.close()
+        where, longest = self.longest()
+        if where is None:
+            return 0.0, None, 0.0
+        return self.total_s, where, longest
 
 
 def _curvature_time_s(

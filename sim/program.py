@@ -38,6 +38,7 @@ def interpret_program(
     max_iterations: int = ...,
     events: Literal[False] = ...,
     advance: Callable[[int], object] | None = ...,
+    watch: Callable[[object, Sequence[object]], None] | None = ...,
 ) -> SpilledList[Move]: ...
 
 
@@ -52,6 +53,7 @@ def interpret_program(
     max_iterations: int = ...,
     events: Literal[True],
     advance: Callable[[int], object] | None = ...,
+    watch: Callable[[object, Sequence[object]], None] | None = ...,
 ) -> SpilledList[Move | Event]: ...
 
 
@@ -65,6 +67,7 @@ def interpret_program(
     max_iterations: int = DEFAULT_MAX_ITERATIONS,
     events: bool = False,
     advance: Callable[[int], object] | None = None,
+    watch: Callable[[object, Sequence[object]], None] | None = None,
 ) -> SpilledList[Move] | SpilledList[Move | Event]:
     """The program's moves (and, with ``events``, its dwells, stops and limit changes), in a
     list kept on disk in blocks (:class:`~gantry_sim.controller.spill.SpilledList`: a long
@@ -80,6 +83,8 @@ def interpret_program(
         events: include the program's events among the moves.
         advance: called with the source lines read since its last call, as the moves come (a
             progress bar's update).
+        watch: called with each item as it comes and the items so far (sim.budget.ParseBound);
+            what it raises stops the reading.
 
     Raises:
         GcodeError: the first refused line (file, line), its message ending with the count of
@@ -95,7 +100,14 @@ def interpret_program(
     }
     try:
         made = (interpret_events if events else interpret)(text, dialect, file, **kwargs)
-        return SpilledList(made if advance is None else _advancing(made, advance))
+        items = made if advance is None else _advancing(made, advance)
+        if watch is None:
+            return SpilledList(items)
+        out: SpilledList = SpilledList()
+        for item in items:
+            out.append(item)
+            watch(item, out)
+        return out
     except GcodeError as exc:
         if "--max-iterations" in exc.message:
             raise  # the loop bound: a second pass would repeat the runaway loop's work

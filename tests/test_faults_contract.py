@@ -443,3 +443,61 @@ def test_config_error_keeps_its_type(tmp_path):
     mf.write_text("[servo]\nperiod_s = -1\n")
     with pytest.raises(ConfigError):
         load_machine_config(DEFAULT_MACHINE, mf)
+
+
+def test_a_program_too_long_for_the_budget_is_refused_while_it_is_read(
+    tmp_path, capsys, no_planning, monkeypatch
+):  # type: ignore[no-untyped-def]
+    """sim.budget.ParseBound checks the bound of what is read every EVERY items: a loop of
+    20,000 slow moves is refused on its own line before the bad line after it is read (read
+    whole, that line's G-code error came first, after the whole loop)."""
+    from gantry_sim.sim import budget
+
+    monkeypatch.setattr(budget.ParseBound, "EVERY", 64)
+    prog = tmp_path / "slow.ngc"
+    prog.write_text("G21 G90\no1 repeat [10000]\nG1 X1 F30\nG1 X0\no1 endrepeat\nG99999\nM2\n")
+    assert main(["run", str(prog), "--out", str(tmp_path / "o"), "--max-sim-s", "100"]) == 2
+    err = capsys.readouterr().err
+    found = re.match(
+        rf"{re.escape(str(prog))}:3: error: the program takes at least ([\d.]+) s", err
+    )
+    assert found and 100 < float(found.group(1)) < 200, err  # 64 moves of 2 s: 128 s
+    monkeypatch.setattr(budget.ParseBound, "EVERY", 10**9)  # checked whole: the G99999 first
+    assert main(["run", str(prog), "--out", str(tmp_path / "o"), "--max-sim-s", "100"]) == 2
+    assert re.match(rf"{re.escape(str(prog))}:6: error: ", capsys.readouterr().err)
+
+
+@pytest.mark.parametrize("dialect", ["linuxcnc", "marlin"])
+def test_the_bound_taken_while_reading_is_the_whole_programs(dialect, machine):  # type: ignore[no-untyped-def]
+    """ParseBound.check gives check_lower_bound's verdict and figures: the same bound from the
+    items seen one by one (BoundWalk) as from the whole list; a Marlin limit change (M203 may
+    raise the speed cap later) turns the running bound off, and the whole list is read
+    again."""
+    from gantry_sim.controller.gcode.interpreter import interpret_events
+    from gantry_sim.sim.budget import Budget, BudgetError, ParseBound
+    from gantry_sim.sim.duration_bound import BoundWalk, duration_lower_bound
+
+    text = (
+        "G21 G90 G64 P0.05\nG1 X5 F600\nG2 X10 I2.5\nG4 P0.5\nG1 Y5\nG1 X0\nG0 Z3\n"
+        + ("M203 X900\n" if dialect == "marlin" else "")
+        + "G1 X4 Y3 F60\nM2\n"
+    )
+    items = list(interpret_events(text, dialect))
+    whole = duration_lower_bound(items, machine)
+    walk = BoundWalk(machine, 100.0, list(machine.limits.max_velocity_mm_per_s), False)
+    for item in items:
+        walk.add(item)
+    if dialect == "linuxcnc":
+        assert walk.finish() == whole
+    errors = []
+    for limit in (whole[0] * 0.99, whole[0] * 1.01):
+        bound = ParseBound(machine, Budget(max_sim_s=limit), "p")
+        for k, item in enumerate(items):
+            bound(item, items[: k + 1])
+        assert bound.on == (dialect == "linuxcnc")
+        try:
+            bound.check(items)
+            errors.append(None)
+        except BudgetError as exc:
+            errors.append(f"{whole[0]:.6g} s" in exc.message)
+    assert errors == [True, None]
