@@ -108,16 +108,27 @@ def _check_bound(
     machine: MachineConfig,
     budget: Budget,
     file: str,
+    partial: bool = False,
 ) -> None:
     """:func:`check_lower_bound`'s checks on a bound [s], its longest line (line, subroutine
-    file) and that line's time [s]; ``items``: the program read so far, for the travel."""
+    file) and that line's time [s]; ``items``: the program read so far, for the travel
+    (``partial``: only a first part of it, which a travel error then says)."""
     line, sub_file = where if where is not None else (None, None)
     try:
         _check_duration(duration, line, longest, machine, budget, sub_file or file, "at least ")
     except BudgetError:
-        from gantry_sim.controller.planner.travel import check_program_travel
+        from gantry_sim.controller.planner.travel import TravelError, check_program_travel
 
-        check_program_travel(items, machine.travel, machine.work.systems_mm[0])
+        try:
+            check_program_travel(items, machine.travel, machine.work.systems_mm[0])
+        except TravelError as exc:
+            if partial:  # the whole program's extent is not known: no offset to suggest
+                exc.offset_mm = None
+                exc.message = exc.where_and_extent + (
+                    " (in the part read before its duration bound stopped the reading: that "
+                    "part alone is beyond the simulation budget too)"
+                )
+            raise
         raise
 
 
@@ -128,7 +139,9 @@ class ParseBound:
     read: ``G81 ... L1000000`` (3 million moves) was read for 64 s before its refusal, 10 s
     now (the cycle's moves are made before the first is seen). Every :data:`EVERY` items the
     bound of the stretches closed so far (a lower bound on the whole program,
-    sim.duration_bound.BoundWalk) is checked; the travel is checked on the items so far first,
+    sim.duration_bound.BoundWalk) is checked: a stretch closes at a rest (a dwell, a stop, a
+    reversal), so a program that runs on without one is checked whole once read (the open
+    stretch's figure can still fall: a naive-CAM merge replaces its moves by their chord); the travel is checked on the items so far first,
     as :func:`check_lower_bound` does. A program of fewer items (read in a second or two) is
     checked whole after its reading, so its message gives the whole program's bound. Off for the rest of the program at a Marlin
     M201-M205 (a later M203 may raise the speed cap the bound assumed) and at an item whose
@@ -170,7 +183,9 @@ class ParseBound:
         if self._count % self.EVERY == 0:
             where, longest = self._walk.longest()
             total = self._walk.total_s
-            _check_bound(total, where, longest, so_far, self.machine, self.budget, self.file)
+            _check_bound(
+                total, where, longest, so_far, self.machine, self.budget, self.file, partial=True
+            )
 
     def check(self, items: Iterable[object]) -> None:
         """:func:`check_lower_bound` of the whole program ``items`` (the items given so far)."""

@@ -501,3 +501,21 @@ def test_the_bound_taken_while_reading_is_the_whole_programs(dialect, machine): 
         except BudgetError as exc:
             errors.append(f"{whole[0]:.6g} s" in exc.message)
     assert errors == [True, None]
+
+
+def test_a_program_refused_while_read_for_its_travel_says_it_was_read_in_part(
+    tmp_path, capsys, no_planning, monkeypatch
+):  # type: ignore[no-untyped-def]
+    """The travel comes first (an option lifts the bound, none makes the program fit); the
+    span a running check gives is the read part's, and the message says so."""
+    from gantry_sim.sim import budget
+
+    monkeypatch.setattr(budget.ParseBound, "EVERY", 64)
+    prog = tmp_path / "far.ngc"
+    # back and forth, 10 mm further each time: each reversal closes a stretch of the bound
+    prog.write_text("G21 G91\no1 repeat [10000]\nG1 X20 F30\nG1 X-10\no1 endrepeat\nM2\n")
+    assert main(["run", str(prog), "--out", str(tmp_path / "o"), "--max-sim-s", "100"]) == 2
+    err = capsys.readouterr().err
+    assert err.startswith(f"{prog}:3: error: ") and "outside the machine's travel" in err
+    assert "in the part read before its duration bound stopped the reading" in err
+    assert err.count("\n") == 1 and TRACEBACK not in err
