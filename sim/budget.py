@@ -137,13 +137,15 @@ class ParseBound:
     items so far: sim.program.interpret_program's ``watch``), so that a program whose first
     items already take longer than ``budget`` is refused then, not after the whole of it is
     read: ``G81 ... L1000000`` (3 million moves) was read for 64 s before its refusal, 10 s
-    now (the cycle's moves are made before the first is seen). Every :data:`EVERY` items the
-    bound of the stretches closed so far (a lower bound on the whole program,
-    sim.duration_bound.BoundWalk) is checked: a stretch closes at a rest (a dwell, a stop, a
-    reversal), so a program that runs on without one is checked whole once read (the open
-    stretch's figure can still fall: a naive-CAM merge replaces its moves by their chord); the travel is checked on the items so far first,
-    as :func:`check_lower_bound` does. A program of fewer items (read in a second or two) is
-    checked whole after its reading, so its message gives the whole program's bound. Off for the rest of the program at a Marlin
+    now (the cycle's moves are made before the first is seen).
+
+    Every :data:`EVERY` items the bound of the stretches closed so far (a lower bound on the
+    whole program, sim.duration_bound.BoundWalk) is checked, the travel of the items so far
+    first, as :func:`check_lower_bound` does. A stretch closes at a rest (a dwell, a stop, a
+    reversal), so a program that runs on without one is checked whole once read (an open
+    stretch's figure can still fall: a naive-CAM merge replaces its moves by their chord). A
+    program of fewer items (read in a second or two) is checked whole after its reading, so
+    its message gives the whole program's bound. Off for the rest of the program at a Marlin
     M201-M205 (a later M203 may raise the speed cap the bound assumed) and at an item whose
     numbers the planner refuses (the whole-program check says why). :meth:`check` then makes
     the whole-program check, from the bound taken while reading where it stayed on."""
@@ -155,26 +157,25 @@ class ParseBound:
         self, machine: MachineConfig, budget: Budget, file: str, feed_override_pct: float = 100.0
     ) -> None:
         from gantry_sim.controller.moves import Limits
+        from gantry_sim.controller.planner.magnitudes import check_magnitudes
         from gantry_sim.sim.duration_bound import BoundWalk
 
         self.machine, self.budget, self.file = machine, budget, file
         self.feed_override_pct = feed_override_pct
         vmax = list(machine.limits.max_velocity_mm_per_s)
         self._walk = BoundWalk(machine, feed_override_pct, vmax, accel_set=False)
-        self._limits = Limits
+        self._limits, self._check_magnitudes = Limits, check_magnitudes
         self.on = True
         self._count = 0
 
     def __call__(self, item: object, so_far: Iterable[object]) -> None:
         if not self.on:
             return
-        from gantry_sim.controller.planner.magnitudes import check_magnitudes
-
         if isinstance(item, self._limits):
             self.on = False
             return
         try:
-            check_magnitudes(item)
+            self._check_magnitudes(item)
         except PlanningError:
             self.on = False
             return
