@@ -1,10 +1,10 @@
 """Feed blocks told apart by file: a subroutine file's line 3 is not the program's line 3.
 
 A program that calls subroutines kept in files of their own (``o<name> call`` of NAME.ngc on the
-subroutine path, Marlin's M98) runs moves from several files, each numbering its lines from 1.
-The per-block figures (sim.error_tally) group ticks by a block KEY: a move's line in the
-program's own file, its line plus its file's number times 2**32 in a subroutine file (files
-numbered from 1 in the order their first move comes). A program without subroutine files has
+subroutine path, an M98 subprogram found in a file) runs moves from several files, each
+numbering its lines from 1. The per-block figures (sim.error_tally) group ticks by a block KEY:
+a move's line in the program's own file, its line plus its file's number times 2**32 in a
+subroutine file (files numbered from 1 in the order their first move comes). A program without subroutine files has
 keys equal to its lines, and its figures are the same numbers as before, bit for bit.
 """
 

@@ -70,7 +70,7 @@ class Row:
 
     @property
     def where(self) -> str:
-        """ "line N", and "of FILE" for a subroutine file's line."""
+        """The block's place: "line N", and "of FILE" for a subroutine file's line."""
         return f"line {self.line}" + ("" if self.file is None else f" of {self.file}")
 
 

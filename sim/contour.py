@@ -123,7 +123,7 @@ class BlockError:
 
     @property
     def where(self) -> str:
-        """ "line N", and "of FILE" for a subroutine file's line."""
+        """The block's place: "line N", and "of FILE" for a subroutine file's line."""
         return f"line {self.line}" + (f" of {self.file}" if self.file is not None else "")
 
 
