@@ -106,7 +106,11 @@ class BoundWalk:
         accel_set: bool,
     ) -> None:
         from gantry_sim.controller.moves import Arc, Dwell, Limits, Linear, Rapid, Spline, Stop
+        from gantry_sim.controller.planner.path_control import control, extends_run, starts_run
         from gantry_sim.controller.planner.polyline_fit import MAX_MOVE_MM, MAX_TURN_RAD
+
+        # held here, not imported at every item (the walk runs once per move of the program)
+        self._control, self._extends_run, self._starts_run = control, extends_run, starts_run
 
         self._stops, self._motions = (Dwell, Stop, Limits), (Rapid, Linear, Arc, Spline)
         # their mode governs the junction after them (G64: blended)
@@ -131,18 +135,14 @@ class BoundWalk:
 
     def _control_of(self, m: Move) -> Control:
         """``control(m, path)``, made once per path-control object."""
-        from gantry_sim.controller.planner.path_control import control
-
         pc = getattr(m, "path", None)
         hit = self._controls.get(id(pc))
         if hit is None:
-            hit = self._controls[id(pc)] = (pc, control(m, self._path))
+            hit = self._controls[id(pc)] = (pc, self._control(m, self._path))
         return hit[1]
 
     def add(self, m: object) -> None:
         """The next item (a move or an event; anything else is passed over)."""
-        from gantry_sim.controller.planner.path_control import extends_run, starts_run
-
         stretch, per_line = self._stretch, self.per_line
         if isinstance(m, self._stops):  # an exact stop (and the dwell's time)
             if isinstance(m, self._limits) and m.code == "M205":  # J: blend tolerance from here
@@ -176,11 +176,11 @@ class BoundWalk:
         at = (m.line, m.file)
         here = None if c is None else _Prev(at, feed, speed, t, c, d, length, m.start)
         run, prev = self._run, self._prev
-        joins = bool(run) and extends_run(run, m, self._path)
+        joins = bool(run) and self._extends_run(run, m, self._path)
         if joins:
             run.append(m)
         else:
-            self._run = [m] if c is not None and starts_run(m, self._path, c) else []
+            self._run = [m] if c is not None and self._starts_run(m, self._path, c) else []
         if joins and prev is not None and here is not None:  # a naive-CAM run takes m
             if prev.dropped:
                 stretch.extend_run(m.end)
