@@ -14,13 +14,13 @@ from __future__ import annotations
 
 import pickle
 from collections import OrderedDict
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from typing import Any, overload
 
 from gantry_sim.controller.gc_pause import gc_paused
 
-__all__ = ["DecodedBlocks", "PickledSlice", "SliceView"]
+__all__ = ["DecodedBlocks", "PickledSlice", "SliceView", "read_span"]
 
 
 @dataclass(frozen=True)
@@ -44,27 +44,30 @@ class PickledSlice:
 
     def items(self, cache: DecodedBlocks | None = None) -> list[Any]:
         """The items, decoded (blocks kept in ``cache`` are decoded once)."""
-        out: list[Any] = []
-        lo, hi = self.skip, self.skip + self.count
-        start = 0  # the first item's index of the block at hand, in the slice's blocks
-        for k, data in enumerate(self.blocks):
-            if start >= hi:
-                break
-            key = (self.token, self.first_block + k) if k < self.closed else None
-            block = cache.get(key, data) if cache is not None else _decoded(data)
-            out.extend(block[max(lo - start, 0) : hi - start])
-            start += len(block)
-        return out
+        return SliceView(self, cache)[:]
+
+
+def read_span(block: Callable[[int], list[Any]], per: int, lo: int, hi: int) -> list[Any]:
+    """Items ``lo`` .. ``hi`` - 1 of a list kept in blocks of ``per`` items, block b being
+    ``block(b)`` (the last may be shorter; ``hi`` within the list)."""
+    out: list[Any] = []
+    while lo < hi:
+        b, at = divmod(lo, per)
+        items = block(b)
+        take = min(hi - lo, len(items) - at)
+        out.extend(items[at : at + take])
+        lo += take
+    return out
 
 
 class SliceView(Sequence[Any]):
     """A :class:`PickledSlice`'s items read by index or slice, its blocks decoded as they are
-    reached (the last ``cached`` kept): a reader that goes through them in order, a block at a
-    time, holds a block or two of objects, not the slice's."""
+    reached and kept in ``cache`` (default: the last two): a reader that goes through them in
+    order, a block at a time, holds a block or two of objects, not the slice's."""
 
-    def __init__(self, part: PickledSlice, cached: int = 2) -> None:
+    def __init__(self, part: PickledSlice, cache: DecodedBlocks | None = None) -> None:
         self._part = part
-        self._cache = DecodedBlocks(cached)
+        self._cache = DecodedBlocks(2) if cache is None else cache
         self._held: list[Any] | None = None  # the open block, decoded
 
     def __len__(self) -> int:
@@ -82,14 +85,7 @@ class SliceView(Sequence[Any]):
             lo, hi, step = index.indices(part.count)
             if step != 1:
                 return [self[i] for i in range(lo, hi, step)]
-            out: list[Any] = []
-            while lo < hi:
-                k, at = divmod(part.skip + lo, per)
-                block = self._block(k)
-                take = min(hi - lo, len(block) - at)
-                out.extend(block[at : at + take])
-                lo += take
-            return out
+            return read_span(self._block, per, part.skip + lo, part.skip + max(hi, lo))
         i = index + part.count if index < 0 else index
         if not 0 <= i < part.count:
             raise IndexError(f"index {index} out of range for {part.count} items")

@@ -31,7 +31,7 @@ from collections.abc import Iterable, Iterator, Sequence
 from typing import IO, Any, Generic, TypeVar, overload
 
 from gantry_sim.controller.gc_pause import gc_paused
-from gantry_sim.controller.pickled_slice import PickledSlice
+from gantry_sim.controller.pickled_slice import PickledSlice, read_span
 
 __all__ = ["BLOCK_ITEMS", "BlockFile", "SpilledList"]
 
@@ -198,14 +198,7 @@ class SpilledList(Sequence[T]):
             lo, hi, step = index.indices(n)
             if step != 1:
                 return [self[i] for i in range(lo, hi, step)]
-            out: list[T] = []
-            while lo < hi:
-                b, k = divmod(lo, self._block_items)
-                block = self._block(b)
-                take = min(hi - lo, len(block) - k)
-                out.extend(block[k : k + take])
-                lo += take
-            return out
+            return read_span(self._block, self._block_items, lo, hi)
         i = index + n if index < 0 else index
         if not 0 <= i < n:
             raise IndexError(f"index {index} out of range for {n} items")
