@@ -110,8 +110,8 @@ class ErrorTally:
         starts = np.flatnonzero(np.r_[True, block[1:] != block[:-1]])
         counts = np.diff(np.r_[starts, block.size])
         short = counts < SHORT_BLOCK_TICKS
-        _add_blocks(
-            self, block[starts[short]], *_short_block_figures(e, starts[short], counts[short])
+        self._add_blocks(
+            block[starts[short]], *_short_block_figures(e, starts[short], counts[short])
         )
         long = np.flatnonzero(~short)
         if long.size:
@@ -122,7 +122,17 @@ class ErrorTally:
             ]
             sums = np.array([float(add(part * part)) for part in parts])
             peaks = np.array([float(biggest(part)) for part in parts])
-            _add_blocks(self, block[starts[long]], sums, peaks, counts[long])
+            self._add_blocks(block[starts[long]], sums, peaks, counts[long])
+
+    def _add_blocks(
+        self, blocks: np.ndarray, sums: np.ndarray, peaks: np.ndarray, counts: np.ndarray
+    ) -> None:
+        """Add one tile's figures of ``blocks`` (each once): sums of squares, largest errors
+        (kept where not larger, as Python's ``max``), tick counts."""
+        self.block_sq[blocks] += sums
+        was = self.block_max[blocks]
+        self.block_max[blocks] = np.where(peaks > was, peaks, was)
+        self.block_ticks[blocks] += counts
 
     def finish(self) -> tuple[tuple[float, float, float], list[tuple[int, str, float, float, int]]]:
         """((max, rms, p95) over the feed ticks [um] (zeros when none), per feed block in program
@@ -172,14 +182,3 @@ def _short_block_figures(
     for j in range(width):
         total = total + sq[:, j]
     return total, np.where(held, vals, -np.inf).max(axis=1, initial=-np.inf), counts
-
-
-def _add_blocks(
-    tally: ErrorTally, blocks: np.ndarray, sums: np.ndarray, peaks: np.ndarray, counts: np.ndarray
-) -> None:
-    """Add one tile's figures of ``blocks`` (each once) to the tally's: sums of squares,
-    largest errors (kept where not larger, as Python's ``max``), tick counts."""
-    tally.block_sq[blocks] += sums
-    was = tally.block_max[blocks]
-    tally.block_max[blocks] = np.where(peaks > was, peaks, was)
-    tally.block_ticks[blocks] += counts
