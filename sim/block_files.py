@@ -11,10 +11,12 @@ keys equal to its lines, and its figures are the same numbers as before, bit for
 from __future__ import annotations
 
 from collections.abc import Sequence
+from typing import TYPE_CHECKING
 
-import numpy as np
+if TYPE_CHECKING:  # numpy imported where keys are made: gates and compare only need place()
+    import numpy as np
 
-__all__ = ["FILE_SHIFT", "block_keys", "split_key", "tick_keys"]
+__all__ = ["FILE_SHIFT", "block_keys", "place", "split_key", "tick_keys"]
 
 #: a key's file number sits above its line's 32 bits (a program's lines stay below 2**32: the
 #: largest program read is 500 MB)
@@ -28,6 +30,8 @@ def block_keys(
     """Per move its block key (int64; its line where ``files`` is None), from its line (m,)
     and its file (the move's ``file``: None in the program's own file); and the subroutine
     files' names, file number k being names[k - 1]."""
+    import numpy as np
+
     lines = np.asarray(lines, dtype=np.int64)
     if all(f is None for f in files):
         return lines, ()
@@ -44,11 +48,18 @@ def tick_keys(
     """Per tick its block key: the key of the move it executes (``source`` (n, 2), program
     move indices as Trajectory.source gives them, its first column) where known, else its
     line; ``line`` itself when no move is in a subroutine file (``files`` empty)."""
+    import numpy as np
+
     if not files or source is None:
         return np.asarray(line)
     first = np.asarray(source).reshape(-1, 2)[:, 0]
     known = (first >= 0) & (first < len(keys))
     return np.where(known, keys[np.where(known, first, 0)], line)
+
+
+def place(line: int, file: str | None) -> str:
+    """A block's place as messages say it: "line N", and "of FILE" for a subroutine file's."""
+    return f"line {line}" + ("" if file is None else f" of {file}")
 
 
 def split_key(key: int, files: tuple[str, ...]) -> tuple[int, str | None]:

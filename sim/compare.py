@@ -21,6 +21,7 @@ from typing import Any
 
 from gantry_sim.controller.errors import ConfigError, shown
 from gantry_sim.controller.input_files import REPORT_CAP_BYTES, read_capped
+from gantry_sim.sim.block_files import place
 from gantry_sim.sim.gates import MAX_LINES_LISTED
 
 #: default margins (``gantry compare --help``)
@@ -71,7 +72,7 @@ class Row:
     @property
     def where(self) -> str:
         """The block's place: "line N", and "of FILE" for a subroutine file's line."""
-        return f"line {self.line}" + ("" if self.file is None else f" of {self.file}")
+        return place(self.line, self.file)
 
 
 @dataclass(frozen=True)

@@ -32,7 +32,7 @@ import numpy as np
 
 from gantry_sim.controller.moves import Move
 from gantry_sim.controller.units import UM_PER_MM
-from gantry_sim.sim.block_files import block_keys, split_key, tick_keys
+from gantry_sim.sim.block_files import block_keys, place, split_key, tick_keys
 from gantry_sim.sim.error_tally import ErrorTally
 from gantry_sim.sim.move_table import MoveTable, move_table
 from gantry_sim.sim.nearest import nearest_on_moves
@@ -124,7 +124,7 @@ class BlockError:
     @property
     def where(self) -> str:
         """The block's place: "line N", and "of FILE" for a subroutine file's line."""
-        return f"line {self.line}" + (f" of {self.file}" if self.file is not None else "")
+        return place(self.line, self.file)
 
 
 @dataclass(frozen=True)

@@ -21,6 +21,7 @@ from dataclasses import dataclass
 from typing import Any, Protocol
 
 from gantry_sim.controller.errors import ConfigError
+from gantry_sim.sim.block_files import place
 
 #: the motion kinds a limit may name (controller.moves' feed moves)
 KINDS = ("linear", "arc", "spline")
@@ -205,7 +206,6 @@ def evaluate(report: Mapping[str, Any] | ReportLike, gates: Gates) -> list[dict[
         if not over:
             continue
         line, kind, value, file = max(over, key=lambda b: b[2])
-        where = f"line {line}" + ("" if file is None else f" of {file}")
         failure = {
             "gate": lim.label(),
             "value": value,
@@ -214,7 +214,7 @@ def evaluate(report: Mapping[str, Any] | ReportLike, gates: Gates) -> list[dict[
             "line": line,
             "blocks_over": len(over),
             "lines": [b[0] for b in over[:MAX_LINES_LISTED]],
-            "message": f"{where} ({kind}): max contour error "
+            "message": f"{place(line, file)} ({kind}): max contour error "
             f"{value:.3f} um > {lim.limit_um:g} um ({lim.label()}; "
             f"{len(over)} block(s) over)",
         }
