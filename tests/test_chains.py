@@ -16,6 +16,7 @@ import numpy as np
 import pytest
 
 from gantry_sim.controller.gcode.interpreter import parse_program
+from gantry_sim.controller.planner import chains
 from gantry_sim.controller.planner.chains import chain_limits, chain_spans, split_profile
 from gantry_sim.controller.planner.limits import BlockLimits
 from gantry_sim.controller.planner.plan import plan
@@ -42,6 +43,47 @@ def test_chain_spans_join_equal_caps_across_junctions_that_do_not_bind():
     assert chain_spans(blocks, caps) == [(0, 2), (2, 3), (3, 5)]
     assert chain_spans(blocks[:1], caps[:2]) == [(0, 1)]
     assert chain_spans([], np.zeros(1)) == []
+
+
+def test_a_long_chain_is_cut_where_its_part_is_two_braking_distances_long(monkeypatch):
+    """Cut after SPLIT_MOVES moves once they are SPLIT_BRAKING braking distances long (v^2 /
+    2a + v a / j with the part's lowest limits: 1.25 + 1 mm here), counted again from each cut;
+    a junction that binds starts the count again too."""
+    monkeypatch.setattr(chains, "SPLIT_MOVES", 3)
+    braking = 50.0**2 / (2 * 1000.0) + 50.0 * 1000.0 / 5e4  # 2.25 mm
+    short, long_ = 0.5, 2.0
+    # 3 moves of 0.5 mm are 1.5 mm < 4.5 mm: the cut waits for 9 moves; then 3 of 0.5 mm and
+    # one of 2 mm are 3.5 mm, 5.5 with the next; 3 of 2 mm cut at once
+    blocks = [_block(short, 50)] * 12 + [_block(long_, 50)] * 7
+    caps = np.full(len(blocks) + 1, np.inf)
+    assert chains.SPLIT_BRAKING * braking == 4.5
+    assert chain_spans(blocks, caps) == [(0, 9), (9, 14), (14, 17), (17, 19)]
+    caps[5] = 10.0  # binds: from 5 on, 7 moves of 0.5 mm are 3.5 mm, 5.5 with one of 2 mm
+    assert chain_spans(blocks, caps) == [(0, 5), (5, 13), (13, 16), (16, 19)]
+    # the lowest acceleration of the part counts: at 400 mm/s^2 twice the braking is 7.05 mm
+    slow = [_block(long_, 50)] * 2 + [_block(long_, 50, acc=400.0)] + [_block(long_, 50)] * 4
+    assert chain_spans(slow, np.full(8, np.inf)) == [(0, 4), (4, 7)]
+    monkeypatch.setattr(chains, "SPLIT_MOVES", 2_000)
+    assert chain_spans(blocks, np.full(len(blocks) + 1, np.inf)) == [(0, 19)]
+
+
+def test_a_long_chain_cut_in_parts_is_the_same_motion_as_one_profile(machine, monkeypatch):
+    """Parts long enough to reach the cap from rest and stop from it meet cruising: the plan of
+    200 collinear moves cut every 40 moves (its look-ahead gives each cut the feed) is the plan
+    of one chain, to rounding, within every limit."""
+    text = "G21 G91 F3000\n" + "G1 X0.25\n" * 200 + "M2\n"
+    moves = parse_program(text)
+    monkeypatch.setattr(chains, "SPLIT_MOVES", 40)
+    cut = plan(moves, machine)
+    monkeypatch.setattr(chains, "SPLIT_MOVES", 10**9)
+    whole = plan(moves, machine)
+    assert cut.duration_s == pytest.approx(whole.duration_s, rel=1e-12, abs=0.0)
+    a, b = cut.sample(1e-4), whole.sample(1e-4)
+    assert a.pos.shape == b.pos.shape
+    np.testing.assert_allclose(a.pos, b.pos, rtol=0, atol=1e-9)
+    np.testing.assert_allclose(a.vel, b.vel, rtol=0, atol=1e-6)
+    np.testing.assert_allclose(a.acc, b.acc, rtol=0, atol=1e-3)
+    assert_within_limits(a, machine, moves)
 
 
 def test_chain_limits_are_the_lowest_of_its_moves():

@@ -26,6 +26,16 @@ from gantry_sim.controller.planner.profile import Profile1D
 
 #: Relative difference of two speed caps [1] below which moves can share one profile.
 SAME_CAP_REL = 1e-9
+#: A chain is cut after this many moves where they are also at least :data:`SPLIT_BRAKING`
+#: braking distances long (:func:`chain_spans`): a long program's windows cut only at chain
+#: boundaries (:mod:`~gantry_sim.controller.planner.window_cut`), so one chain of 900,000
+#: collinear moves (a hostile loop, a thread of thousands of turns written one arc a turn)
+#: was planned in one window at 3.2 GB; cut, it is planned 5,000 moves at a time.
+SPLIT_MOVES = 2_000
+#: ... braking distances from the chain's cap to rest [1]: a part that long reaches its cap
+#: from any speed and can stop from it, so the look-ahead gives the cut its cap, and each part
+#: meets it cruising, as the whole chain's profile passes it.
+SPLIT_BRAKING = 2.0
 
 
 @dataclass(frozen=True, eq=False)
@@ -47,20 +57,50 @@ def chain_spans(blocks: Sequence[BlockLimits], caps: np.ndarray) -> list[tuple[i
     """Split the moves into chains ``[(first, stop), ...]`` (``stop`` exclusive, in order,
     covering every move): a junction ``b`` (between moves ``b - 1`` and ``b``) is inside a chain
     when both moves have the same speed cap (to :data:`SAME_CAP_REL`) and the junction's cap
-    ``caps[b]`` [mm/s] is at least that cap."""
+    ``caps[b]`` [mm/s] is at least that cap, unless the chain has :data:`SPLIT_MOVES` moves
+    before ``b`` that are :data:`SPLIT_BRAKING` braking distances long (counted from the
+    chain's first move, so a window starting at a chain boundary cuts where the whole
+    program does)."""
     spans, first = [], 0
     tops = [b.cap_mm_per_s for b in blocks]
     at = caps.tolist()  # Python floats: the same numbers, without a NumPy scalar per junction
+    run = _Run(blocks[0]) if blocks else None
     for b in range(1, len(blocks)):
         c0, c1 = tops[b - 1], tops[b]
         top = max(c0, c1)
         joined = abs(c0 - c1) <= SAME_CAP_REL * top and at[b] >= top * (1.0 - SAME_CAP_REL)
-        if not joined:
+        if not joined or (b - first >= SPLIT_MOVES and run is not None and run.long()):
             spans.append((first, b))
             first = b
+            run = _Run(blocks[b])
+        elif run is not None:
+            run.add(blocks[b])
     if blocks:
         spans.append((first, len(blocks)))
     return spans
+
+
+class _Run:
+    """The moves of a chain so far (:func:`chain_spans`): their length [mm] and lowest cap,
+    acceleration and jerk, as :func:`chain_limits` would give them."""
+
+    __slots__ = ("acc", "cap", "jerk", "length")
+
+    def __init__(self, first: BlockLimits) -> None:
+        self.length, self.cap = first.length_mm, first.cap_mm_per_s
+        self.acc, self.jerk = first.acc_mm_per_s2, first.jerk_mm_per_s3
+
+    def add(self, b: BlockLimits) -> None:
+        self.length += b.length_mm
+        self.cap = min(self.cap, b.cap_mm_per_s)
+        self.acc = min(self.acc, b.acc_mm_per_s2)
+        self.jerk = min(self.jerk, b.jerk_mm_per_s3)
+
+    def long(self) -> bool:
+        """At least :data:`SPLIT_BRAKING` times the distance to rest from the cap with the
+        lowest acceleration and jerk (v^2 / 2a + v a / j, an upper bound)."""
+        v, a, j = self.cap, self.acc, self.jerk
+        return self.length >= SPLIT_BRAKING * (v * v / (2.0 * a) + v * a / j)
 
 
 def chain_limits(blocks: Sequence[BlockLimits]) -> BlockLimits:
