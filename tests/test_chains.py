@@ -63,6 +63,16 @@ def test_a_long_chain_is_cut_where_its_part_is_two_braking_distances_long(monkey
     # the lowest acceleration of the part counts: at 400 mm/s^2 twice the braking is 7.05 mm
     slow = [_block(long_, 50)] * 2 + [_block(long_, 50, acc=400.0)] + [_block(long_, 50)] * 4
     assert chain_spans(slow, np.full(8, np.inf)) == [(0, 4), (4, 7)]
+    # however short, a part is cut after SPLIT_MOVES_ALWAYS moves
+    monkeypatch.setattr(chains, "SPLIT_MOVES_ALWAYS", 4)
+    assert chain_spans(blocks, np.full(20, np.inf)) == [
+        (0, 4),
+        (4, 8),
+        (8, 12),
+        (12, 15),
+        (15, 18),
+        (18, 19),
+    ]
     monkeypatch.setattr(chains, "SPLIT_MOVES", 2_000)
     assert chain_spans(blocks, np.full(len(blocks) + 1, np.inf)) == [(0, 19)]
 
@@ -84,6 +94,27 @@ def test_a_long_chain_cut_in_parts_is_the_same_motion_as_one_profile(machine, mo
     np.testing.assert_allclose(a.vel, b.vel, rtol=0, atol=1e-6)
     np.testing.assert_allclose(a.acc, b.acc, rtol=0, atol=1e-3)
     assert_within_limits(a, machine, moves)
+
+
+def test_a_chain_of_moves_too_short_to_cruise_is_cut_all_the_same(machine, monkeypatch):
+    """Parts of moves too short to reach the feed are cut after SPLIT_MOVES_ALWAYS moves: each
+    cut meets at the look-ahead's speed with no tangential acceleration, a step in the ramp
+    that costs time (here, six parts of 0.1 mm, all ramp: 0.0737 s against 0.0577 s; at the
+    real 32,000 moves a part, one step in tens of thousands of moves), never a stop, and keeps
+    every limit."""
+    text = "G21 G91 F3000\n" + "G1 X0.001\n" * 600 + "M2\n"
+    moves = parse_program(text)
+    monkeypatch.setattr(chains, "SPLIT_MOVES", 50)
+    monkeypatch.setattr(chains, "SPLIT_MOVES_ALWAYS", 100)
+    cut = plan(moves, machine)
+    monkeypatch.setattr(chains, "SPLIT_MOVES", 10**9)
+    whole = plan(moves, machine)
+    assert whole.duration_s < cut.duration_s
+    tr = cut.sample(1e-4)
+    assert_within_limits(tr, machine, moves)
+    speed = np.linalg.norm(tr.vel, axis=1)
+    inner = tr.t[(tr.t > 0.01) & (tr.t < cut.duration_s - 0.01)]
+    assert inner.size and speed[np.isin(tr.t, inner)].min() > 1.0  # [mm/s]: no stop at a cut
 
 
 def test_chain_limits_are_the_lowest_of_its_moves():

@@ -36,6 +36,11 @@ SPLIT_MOVES = 2_000
 #: from any speed and can stop from it, so the look-ahead gives the cut its cap, and each part
 #: meets it cruising, as the whole chain's profile passes it.
 SPLIT_BRAKING = 2.0
+#: A chain is cut after this many moves however short they are: parts of moves too short to
+#: reach their cap meet at the speed the look-ahead gives, with no tangential acceleration
+#: (a step in the ramp: milliseconds), where one chain of 10 million moves of 1 nm would
+#: hold tens of GB in one window.
+SPLIT_MOVES_ALWAYS = 32_000
 
 
 @dataclass(frozen=True, eq=False)
@@ -58,9 +63,9 @@ def chain_spans(blocks: Sequence[BlockLimits], caps: np.ndarray) -> list[tuple[i
     covering every move): a junction ``b`` (between moves ``b - 1`` and ``b``) is inside a chain
     when both moves have the same speed cap (to :data:`SAME_CAP_REL`) and the junction's cap
     ``caps[b]`` [mm/s] is at least that cap, unless the chain has :data:`SPLIT_MOVES` moves
-    before ``b`` that are :data:`SPLIT_BRAKING` braking distances long (counted from the
-    chain's first move, so a window starting at a chain boundary cuts where the whole
-    program does)."""
+    before ``b`` that are :data:`SPLIT_BRAKING` braking distances long, or
+    :data:`SPLIT_MOVES_ALWAYS` moves (counted from the chain's first move, so a window
+    starting at a chain boundary cuts where the whole program does)."""
     spans, first = [], 0
     tops = [b.cap_mm_per_s for b in blocks]
     at = caps.tolist()  # Python floats: the same numbers, without a NumPy scalar per junction
@@ -69,7 +74,10 @@ def chain_spans(blocks: Sequence[BlockLimits], caps: np.ndarray) -> list[tuple[i
         c0, c1 = tops[b - 1], tops[b]
         top = max(c0, c1)
         joined = abs(c0 - c1) <= SAME_CAP_REL * top and at[b] >= top * (1.0 - SAME_CAP_REL)
-        if not joined or (b - first >= SPLIT_MOVES and run is not None and run.long()):
+        moves = b - first
+        if not joined or (
+            moves >= SPLIT_MOVES and run is not None and (moves >= SPLIT_MOVES_ALWAYS or run.long())
+        ):
             spans.append((first, b))
             first = b
             run = _Run(blocks[b])
