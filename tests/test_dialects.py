@@ -775,7 +775,14 @@ def test_grbl_and_g2core_read_comments_as_their_firmware_does() -> None:
     assert "unclosed comment" in error_of(lines + "M2\n", "linuxcnc").message
     assert "nested comment" in error_of("G1 X1 F1 (a (b)\nM2\n", "linuxcnc").message
     assert "'%'" in error_of("G1 X1 F1\n%\n", "linuxcnc").message
-    assert "'%'" in error_of("G1 X1 F1 % c\n", "grbl").message  # only alone on its line
+    # grbl's reader takes a "%" among words as any character that is not a letter (error 1),
+    # not as a program delimiter misplaced; a "%" alone on a line is nothing
+    for text in ("G1 X1 F1 % c\n", "G1 X1 F1\n% note\nM2\n"):
+        message = error_of(text, "grbl").message
+        assert "bad character '%'" in message and "grbl error 1" in message, message
+        assert "opening and closing" not in message
+    assert [m.line for m in run("G1 X1 F1\n%\nG1 X2\n", "grbl")] == [1, 3]
+    assert "opening and closing" in error_of("%\nG1 X1 F1 % c\n%\n", "linuxcnc").message
 
 
 def test_g2core_json_lines_and_homing_codes_move_nothing() -> None:

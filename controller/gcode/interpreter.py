@@ -1085,7 +1085,11 @@ def interpret_events(
             search_path,
             max_iterations,
             lex_rules=LexRules(
-                rules.system_lines, rules.line_number_words, rules.o_words, rules.language
+                rules.system_lines,
+                rules.line_number_words,
+                rules.o_words,
+                rules.language,
+                rules.percent_delimits,
             ),
             owords=rules.language and rules.o_words,
             own_lines=OWN_LINES[rules.own_lines]() if rules.own_lines else None,

@@ -54,12 +54,16 @@ class LexRules:
         symbol_words: ``@``, ``^`` and ``$`` are word letters (LinuxCNC's polar radius and
             angle, spindle selection); False: bad characters, as grbl's reader takes them
             (error 1: it reads letters A-Z only).
+        percent_delimits: a ``%`` delimits a program (rs274: alone on a line, else an error
+            saying so); False: a ``%`` among words is a bad character like any other (a line
+            that is a ``%`` alone is nothing: the Runner's ``percent_delimits``).
     """
 
     system_lines: bool = False
     line_number_words: bool = False
     o_words: bool = True
     symbol_words: bool = True
+    percent_delimits: bool = True
 
 
 #: rs274's reader
@@ -527,7 +531,7 @@ def _lex_text(
             if words or settings:
                 raise GcodeError("an O-word must open its line (after an optional N number)")
             return Block(line, (), (), False, raw, _oword(reader, oword_head))
-        if ch == "%":
+        if ch == "%" and rules.percent_delimits:
             raise GcodeError("'%' is only allowed alone on a line, opening and closing a program")
         if ch == "N" and rules.line_number_words:
             reader.pos += 1
