@@ -221,8 +221,8 @@ def _check_duration(
     substeps = max(1, round(machine.servo.period_s / machine.sim.physics_timestep_s))
     steps = ticks * substeps
     above = "above " if at_least else ""  # a lower bound: that much would not do either
-    moves = "moves on this line alone take" if at_least else "move on this line alone takes"
-    on_line = f" (the {moves} {at_least}{longest:.6g} s)" if line is not None else ""
+    # a line's moves or its dwell: "this line alone" says both (a G4 P1 line is no move)
+    on_line = f" (this line alone takes {at_least}{longest:.6g} s)" if line is not None else ""
     if duration > budget.max_sim_s:
         # (a feed of 1e-320 mm/min makes the time infinite: no bound simulates that)
         anyway = (
@@ -238,7 +238,7 @@ def _check_duration(
         )
         bound = (
             f", beyond the bound of {budget.max_sim_s:g} s ({cost}); check the feeds (F is in "
-            f"mm/min){anyway}"
+            f"mm/min) and dwells{anyway}"
         )
         raise BudgetError(
             f"the program takes {at_least}{duration:.6g} s of simulated time{on_line}{bound}",
