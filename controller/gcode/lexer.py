@@ -397,7 +397,7 @@ def line_too_long(raw: str, rule: str) -> str | None:
             f"line of {len(raw)} characters: LinuxCNC reads at most {LINUXCNC_MAX_LINE} "
             "('Command too long'); split it, or shorten its comment"
         )
-    if rule == "grbl":
+    if rule == "grbl" and len(raw) > GRBL_MAX_LINE:  # grbl_line only drops characters
         kept = len(grbl_line(raw))
         if kept > GRBL_MAX_LINE:
             return (
