@@ -7,9 +7,11 @@ the plan of each is compared with the same program planned whole, number for num
 from __future__ import annotations
 
 import math
+import pickle
 import random
 import sys
 import time
+from collections.abc import Mapping
 
 import numpy as np
 import pytest
@@ -29,7 +31,7 @@ from gantry_sim.controller.planner import (
     windows,
 )
 from gantry_sim.controller.planner.path_stream import path_plan
-from gantry_sim.controller.planner.prepare import sub_path
+from gantry_sim.controller.planner.prepare import prepare, sub_path
 from gantry_sim.models import DEFAULT_MACHINE
 from tests.plan_helpers import blend_arcs, blending, count_fork_map_parts
 
@@ -371,6 +373,97 @@ def test_slow_blends_are_judged_the_same_in_windows(monkeypatch, window):
     whole, windowed, _ = _whole_and_windowed(_program(), monkeypatch, window, 5)
     assert len(whole.blends) < 69  # some corners were not blended
     assert windowed.blends == whole.blends
+
+
+#: Found by a seeded fuzz of windowed against whole plans: tangent arcs of R 2 and R 5, lines and
+#: a dwell in G64 P0.05 Q0, whose last corner (lines 39-40) is judged slower as a blend than as
+#: an exact stop only with the time the stop's overlap saves (prepare.stop_credit_s).
+_CREDITED_CORNER = """G21 G90 G17 G64 P0.05 Q0
+G0 X0 Y0 Z-1
+F2400
+G3 X7.5838 Y1.3268 R5.0
+G3 X8.6760 Y0.3069 R5.0
+G3 X10.6118 Y-0.4346 R2.0
+G3 X12.2958 Y0.4829 R2.0
+G3 X12.4337 Y2.3956 R2.0
+G3 X8.5961 Y5.2692 R5.0
+G3 X7.1017 Y5.2584 R5.0
+G1 X6.1141 Y5.1018
+G3 X2.3186 Y2.1727 R5.0
+G3 X4.2246 Y1.9615 R2.0
+G1 X5.1497 Y2.3414
+G3 X5.6625 Y2.6485 R2.0
+G1 X5.9325 Y2.8712
+G1 X6.1639 Y3.0621
+G4 P0.01
+G1 X6.3954 Y3.2529
+G1 X7.1669 Y3.8892
+G1 X7.2054 Y3.9210
+G1 X7.4369 Y4.1119
+G3 X7.8360 Y4.5569 R2.0
+G1 X8.0007 Y4.8076
+G1 X8.5770 Y5.6853
+G3 X8.7011 Y7.6431 R2.0
+G3 X8.3641 Y8.1368 R2.0
+G1 X8.3300 Y8.1734
+G1 X7.6492 Y8.9058
+G3 X3.1011 Y10.4224 R5.0
+G1 X3.3381 Y11.3939
+G1 X3.4210 Y11.7339
+G3 X2.1848 Y16.3660 R5.0
+G3 X1.0042 Y17.2823 R5.0
+G1 X0.1314 Y17.7703
+G3 X-1.2672 Y18.2966 R5.0
+G3 X-5.8611 Y16.9252 R5.0
+G1 X-5.8963 Y16.8897
+G1 X-5.9315 Y16.8541
+G1 X-5.9112 Y16.8085
+M2
+"""
+
+
+def test_a_windows_blends_are_judged_with_their_stops_overlap_credit(monkeypatch):
+    """A window with a move of context judged its blends without the stop credits (the window's
+    preparation left them out): the last corner kept its blend in windows, 2.0896 s against the
+    whole program's overlapped stop, 2.0873 s."""
+    whole, windowed, probes = _whole_and_windowed(_CREDITED_CORNER, monkeypatch, 60, 6)
+    assert len(probes) == 2, probes
+    assert [b.kind for b in whole.blends if b.line == 39] == ["overlap"]
+    _assert_same(whole, windowed)
+
+
+def test_a_window_with_context_is_its_stretch_prepared_less_the_first_move():
+    """Every field of a window's preparation is the stretch's, less the context move: lists
+    from the second move on, maps by active move shifted down by one (a field left out of the
+    window's copy takes its default)."""
+    machine = load_machine_config(DEFAULT_MACHINE)
+    filled: set[str] = set()  # the maps found with entries, across the two programs
+    # corners out of every principal plane stay stops (stop_corners), and their moves overlap
+    skew = "G21 G90 G64 P0.01\nG0 X0 Y0 Z0\nF1200\nG1 X5 Y1 Z1\nG1 X6 Y5 Z-1\nG1 X10 Y6 Z2\n"
+    skew += "G1 X12 Y1 Z0\nM2\n"
+    for text, first in ((_CREDITED_CORNER, 40), (_random_corners(1), 2), (skew, 0)):
+        path = path_plan(tuple(interpret_events(text)), machine.path, 0.001)
+        stretch = sub_path(path, first, len(path.moves), first + 1)
+        whole = prepare(stretch, machine, 100.0, {})
+        window = window_prep.prepare_window(stretch, machine, 100.0, True)
+        for name in type(whole)._fields:
+            a, b = getattr(whole, name), getattr(window, name)
+            if a is None:
+                assert b is None, name
+            elif isinstance(a, Mapping):
+                assert _dumped(b) == _dumped({k - 1: v for k, v in a.items() if k >= 1}), name
+                filled |= {name} if any(k >= 1 for k in a) else set()
+            elif name == "geoms":  # every move of the stretch, the context's too
+                assert _dumped(b) == _dumped(a)
+            else:
+                assert _dumped(b) == _dumped(a[1:]), name
+    assert filled == {"holds", "stop_corners", "stop_credit_s"}  # each map tested on entries
+
+
+def _dumped(x) -> bytes:
+    """``x`` pickled: equal bytes for equal numbers, arrays and dataclasses (no ``==`` on
+    arrays inside them)."""
+    return pickle.dumps(dict(x) if isinstance(x, Mapping) else list(x))
 
 
 def test_a_window_sent_back_again_comes_back_wider_each_time(monkeypatch):

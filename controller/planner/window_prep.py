@@ -67,15 +67,18 @@ def prepare_window(
         return pre
     if not (pre.path_index and pre.path_index[0] == 0):
         raise AssertionError("a window's context must be a move with length")
+    # every field by name: one left out takes its default (the stop credits once did, and the
+    # windows judged blends as if no stop there would overlap)
     return Prepared(
-        pre.geoms,
-        pre.active[1:],
-        pre.path_index[1:],
-        pre.caps[1:],
-        pre.states[1:],
-        {b - 1: d for b, d in pre.holds.items() if b >= 1},
-        pre.smoothing[1:],
-        pre.sources[1:],
-        None if pre.path_acc_mm_per_s2 is None else pre.path_acc_mm_per_s2[1:],
-        {b - 1: e for b, e in pre.stop_corners.items() if b >= 1},
+        geoms=pre.geoms,
+        active=pre.active[1:],
+        path_index=pre.path_index[1:],
+        caps=pre.caps[1:],
+        states=pre.states[1:],
+        holds={b - 1: d for b, d in pre.holds.items() if b >= 1},
+        smoothing=pre.smoothing[1:],
+        sources=pre.sources[1:],
+        path_acc_mm_per_s2=None if pre.path_acc_mm_per_s2 is None else pre.path_acc_mm_per_s2[1:],
+        stop_corners={b - 1: e for b, e in pre.stop_corners.items() if b >= 1},
+        stop_credit_s={b - 1: c for b, c in pre.stop_credit_s.items() if b >= 1},
     )
