@@ -12,6 +12,7 @@ import random
 import sys
 import time
 from collections.abc import Mapping
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -376,50 +377,9 @@ def test_slow_blends_are_judged_the_same_in_windows(monkeypatch, window):
 
 
 #: Found by a seeded fuzz of windowed against whole plans: tangent arcs of R 2 and R 5, lines and
-#: a dwell in G64 P0.05 Q0, whose last corner (lines 39-40) is judged slower as a blend than as
-#: an exact stop only with the time the stop's overlap saves (prepare.stop_credit_s).
-_CREDITED_CORNER = """G21 G90 G17 G64 P0.05 Q0
-G0 X0 Y0 Z-1
-F2400
-G3 X7.5838 Y1.3268 R5.0
-G3 X8.6760 Y0.3069 R5.0
-G3 X10.6118 Y-0.4346 R2.0
-G3 X12.2958 Y0.4829 R2.0
-G3 X12.4337 Y2.3956 R2.0
-G3 X8.5961 Y5.2692 R5.0
-G3 X7.1017 Y5.2584 R5.0
-G1 X6.1141 Y5.1018
-G3 X2.3186 Y2.1727 R5.0
-G3 X4.2246 Y1.9615 R2.0
-G1 X5.1497 Y2.3414
-G3 X5.6625 Y2.6485 R2.0
-G1 X5.9325 Y2.8712
-G1 X6.1639 Y3.0621
-G4 P0.01
-G1 X6.3954 Y3.2529
-G1 X7.1669 Y3.8892
-G1 X7.2054 Y3.9210
-G1 X7.4369 Y4.1119
-G3 X7.8360 Y4.5569 R2.0
-G1 X8.0007 Y4.8076
-G1 X8.5770 Y5.6853
-G3 X8.7011 Y7.6431 R2.0
-G3 X8.3641 Y8.1368 R2.0
-G1 X8.3300 Y8.1734
-G1 X7.6492 Y8.9058
-G3 X3.1011 Y10.4224 R5.0
-G1 X3.3381 Y11.3939
-G1 X3.4210 Y11.7339
-G3 X2.1848 Y16.3660 R5.0
-G3 X1.0042 Y17.2823 R5.0
-G1 X0.1314 Y17.7703
-G3 X-1.2672 Y18.2966 R5.0
-G3 X-5.8611 Y16.9252 R5.0
-G1 X-5.8963 Y16.8897
-G1 X-5.9315 Y16.8541
-G1 X-5.9112 Y16.8085
-M2
-"""
+#: a dwell in G64 P0.05 Q0, whose last corner is judged slower as a blend than as an exact stop
+#: only with the time the stop's overlap saves (prepare.stop_credit_s).
+_CREDITED_CORNER = (Path(__file__).parent / "data" / "windows" / "credited_corner.ngc").read_text()
 
 
 def test_a_windows_blends_are_judged_with_their_stops_overlap_credit(monkeypatch):
@@ -428,7 +388,7 @@ def test_a_windows_blends_are_judged_with_their_stops_overlap_credit(monkeypatch
     whole program's overlapped stop, 2.0873 s."""
     whole, windowed, probes = _whole_and_windowed(_CREDITED_CORNER, monkeypatch, 60, 6)
     assert len(probes) == 2, probes
-    assert [b.kind for b in whole.blends if b.line == 39] == ["overlap"]
+    assert [b.kind for b in whole.blends if b.line == 42] == ["overlap"]
     _assert_same(whole, windowed)
 
 
