@@ -9,7 +9,7 @@ import math
 import numpy as np
 import pytest
 
-from gantry_sim.controller.gcode.interpreter import parse_program
+from gantry_sim.controller.gcode.interpreter import interpret_events, parse_program
 from gantry_sim.controller.moves import Arc
 from gantry_sim.controller.planner.plan import plan
 from tests.plan_helpers import arc_deviation, assert_within_limits, program_deviation
@@ -237,3 +237,19 @@ def test_a_helical_spiral_keeps_the_axis_limits_that_bound_it(name, tmp_path):
     assert_phases_within_limits(p, machine)
     tr = p.sample(machine.servo.period_s)
     assert_within_limits(tr, machine, [m for m in items if isinstance(m, Arc)])
+
+
+def test_an_arc_that_crawls_from_rest_keeps_its_feed(machine):
+    """A grbl arc of R 0.7 um (grbl takes what LinuxCNC refuses as zero-radius) at 0.027 mm/min
+    from rest (G93 F276.5 on 0.1 um, found by a fuzz): its ramp to the feed ends within a
+    thousandth of its one chord, and the profile's switch there was dropped as too near the
+    chord's end, so one piece over the ramp and the cruise passed the feed by 35 %. Next to a
+    stop every switch is a vertex now."""
+    text = (
+        "G21 G90 G17\nG0 X4.0381 Y-3.1831 Z-2.4917\nG93\n"
+        "G1 X4.0143 Y-3.1866 Z-2.4917 F298.589\n"
+        "G3 X4.0142 Y-3.1866 Z-2.4917 I0.0001 J-0.0007 F276.507\n"
+        "G3 X3.9804 Y-3.2477 Z-2.4917 I-0.0092 J-0.0348 F26.570\nM2\n"
+    )
+    p = plan(list(interpret_events(text, "grbl")), machine)
+    assert_within_limits(p.sample(1e-4), machine, p.moves)
