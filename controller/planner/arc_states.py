@@ -230,12 +230,14 @@ def _fractions(
         i = round(uk * m)
         if 0 < i < m and abs(uk * m - i) < 0.25 and i not in snaps:
             snaps[i] = uk
-        elif abs(uk * m - i) > 1e-3 or (i == 0 and not state_in.moving):
+        elif (
+            abs(uk * m - i) > 1e-3
             # next to a stop every switch is kept: a ramp to a crawl ends within a thousandth
-            # of a chord (F0.03 on a 0.1 um arc), and one piece over it and the cruise overshot
-            # the feed by a third
-            extra.append(uk)
-        elif i == m and not state_out.moving:
+            # of a chord (F0.03 on a 0.1 um arc), and one piece over it and the cruise
+            # overshot the feed by a third
+            or (i == 0 and not state_in.moving)
+            or (i == m and not state_out.moving)
+        ):
             extra.append(uk)
     if not snaps and not extra and state_in.moving and state_out.moving and isinstance(g.move, Arc):
         return g.u.copy(), False  # an arc's u is arange(n + 1) / n: the steps below keep it

@@ -21,7 +21,7 @@ import numpy as np
 
 from gantry_sim.controller.planner.cubic import Chunk
 from gantry_sim.controller.planner.knots import union_sorted
-from gantry_sim.controller.planner.limits import BlockLimits
+from gantry_sim.controller.planner.limits import BlockLimits, braking_mm
 from gantry_sim.controller.planner.profile import Profile1D
 
 #: Relative difference of two speed caps [1] below which moves can share one profile.
@@ -66,25 +66,24 @@ def chain_spans(blocks: Sequence[BlockLimits], caps: np.ndarray) -> list[tuple[i
     before ``b`` that are :data:`SPLIT_BRAKING` braking distances long, or
     :data:`SPLIT_MOVES_ALWAYS` moves (counted from the chain's first move, so a window
     starting at a chain boundary cuts where the whole program does)."""
+    if not blocks:
+        return []
     spans, first = [], 0
     tops = [b.cap_mm_per_s for b in blocks]
     at = caps.tolist()  # Python floats: the same numbers, without a NumPy scalar per junction
-    run = _Run(blocks[0]) if blocks else None
+    run = _Run(blocks[0])
     for b in range(1, len(blocks)):
         c0, c1 = tops[b - 1], tops[b]
         top = max(c0, c1)
         joined = abs(c0 - c1) <= SAME_CAP_REL * top and at[b] >= top * (1.0 - SAME_CAP_REL)
         moves = b - first
-        if not joined or (
-            moves >= SPLIT_MOVES and run is not None and (moves >= SPLIT_MOVES_ALWAYS or run.long())
-        ):
+        if not joined or (moves >= SPLIT_MOVES and (moves >= SPLIT_MOVES_ALWAYS or run.long())):
             spans.append((first, b))
             first = b
             run = _Run(blocks[b])
-        elif run is not None:
+        else:
             run.add(blocks[b])
-    if blocks:
-        spans.append((first, len(blocks)))
+    spans.append((first, len(blocks)))
     return spans
 
 
@@ -106,9 +105,8 @@ class _Run:
 
     def long(self) -> bool:
         """At least :data:`SPLIT_BRAKING` times the distance to rest from the cap with the
-        lowest acceleration and jerk (v^2 / 2a + v a / j, an upper bound)."""
-        v, a, j = self.cap, self.acc, self.jerk
-        return self.length >= SPLIT_BRAKING * (v * v / (2.0 * a) + v * a / j)
+        lowest acceleration and jerk (:func:`~gantry_sim.controller.planner.limits.braking_mm`)."""
+        return self.length >= SPLIT_BRAKING * braking_mm(self.cap, self.acc, self.jerk)
 
 
 def chain_limits(blocks: Sequence[BlockLimits]) -> BlockLimits:

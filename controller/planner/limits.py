@@ -56,6 +56,14 @@ class BlockLimits:
     jerk_mm_per_s3: float
 
 
+def braking_mm(v: float, a: float, j: float) -> float:
+    """Distance [mm] to come to rest from ``v`` [mm/s] with acceleration ``a`` [mm/s^2] and
+    jerk ``j`` [mm/s^3]: an upper bound, v^2 / 2a + v a / j (the jerk-limited stop takes
+    v^2 / 2a + v a / 2j, or v sqrt(v / j) when v < a^2 / j; inf for a speed that is not
+    finite)."""
+    return v * v / (2.0 * a) + v * a / j if math.isfinite(v) else math.inf
+
+
 #: the highest path feed planned [mm/s]: a feed above it (``F`` of 160 digits, or a feed
 #: override of 1e308 %) is this one. No axis reaches it, so it changes no plan, and its
 #: square stays a finite number (the feed checks square it).

@@ -16,7 +16,6 @@ whole: :func:`window_stop`).
 from __future__ import annotations
 
 import bisect
-import math
 from array import array
 from collections.abc import Callable, Sequence
 
@@ -24,7 +23,7 @@ import numpy as np
 
 from gantry_sim.controller.config import Segmentation
 from gantry_sim.controller.moves import Arc, Spline
-from gantry_sim.controller.planner.limits import BlockLimits
+from gantry_sim.controller.planner.limits import BlockLimits, braking_mm
 from gantry_sim.controller.planner.move_geometry import MoveGeometry
 from gantry_sim.controller.planner.prepare import Prepared
 from gantry_sim.controller.planner.rounds import Settled
@@ -83,7 +82,7 @@ def cut_at(active: list[MoveGeometry], spans: list[tuple[int, int]]) -> tuple[in
     """:func:`cut` of chains ``spans`` over the moves ``active``."""
     lengths = np.array([g.limits.length_mm for g in active])
     behind = np.concatenate((np.cumsum(lengths[::-1])[::-1], [0.0]))  # path length to the end
-    braking = np.array([braking_mm(g.limits) for g in active] + [0.0])
+    braking = np.array([_braking_mm(g.limits) for g in active] + [0.0])
     needed = MARGIN_BRAKING * np.maximum.accumulate(braking[::-1])[::-1]  # from here on
     margin = min(MARGIN_MOVES, len(active) // 4)  # a window cut short by its chords keeps 3/4
     for k in range(len(spans) - 1, 0, -1):
@@ -93,12 +92,9 @@ def cut_at(active: list[MoveGeometry], spans: list[tuple[int, int]]) -> tuple[in
     return None
 
 
-def braking_mm(lim: BlockLimits) -> float:
-    """Distance [mm] to come to rest from a block's speed cap with its acceleration and jerk:
-    an upper bound, v^2 / 2a + v a / j (the jerk-limited stop takes v^2 / 2a + v a / 2j, or
-    v sqrt(v / j) when v < a^2 / j; inf for a block without a finite cap)."""
-    v, a, j = lim.cap_mm_per_s, lim.acc_mm_per_s2, lim.jerk_mm_per_s3
-    return v * v / (2.0 * a) + v * a / j if np.isfinite(v) else math.inf
+def _braking_mm(lim: BlockLimits) -> float:
+    """:func:`~gantry_sim.controller.planner.limits.braking_mm` from a block's speed cap."""
+    return braking_mm(lim.cap_mm_per_s, lim.acc_mm_per_s2, lim.jerk_mm_per_s3)
 
 
 def next_key(
