@@ -66,24 +66,26 @@ def chain_spans(blocks: Sequence[BlockLimits], caps: np.ndarray) -> list[tuple[i
     before ``b`` that are :data:`SPLIT_BRAKING` braking distances long, or
     :data:`SPLIT_MOVES_ALWAYS` moves (counted from the chain's first move, so a window
     starting at a chain boundary cuts where the whole program does)."""
-    if not blocks:
-        return []
     spans, first = [], 0
     tops = [b.cap_mm_per_s for b in blocks]
     at = caps.tolist()  # Python floats: the same numbers, without a NumPy scalar per junction
-    run = _Run(blocks[0])
+    run: _Run | None = None  # the chain's moves before b, once it has SPLIT_MOVES of them
     for b in range(1, len(blocks)):
         c0, c1 = tops[b - 1], tops[b]
         top = max(c0, c1)
-        joined = abs(c0 - c1) <= SAME_CAP_REL * top and at[b] >= top * (1.0 - SAME_CAP_REL)
+        cut = not (abs(c0 - c1) <= SAME_CAP_REL * top and at[b] >= top * (1.0 - SAME_CAP_REL))
         moves = b - first
-        if not joined or (moves >= SPLIT_MOVES and (moves >= SPLIT_MOVES_ALWAYS or run.long())):
+        if not cut and moves >= SPLIT_MOVES:  # (a short chain costs no more than before)
+            if run is None:
+                run = _Run(blocks[first:b])
+            else:
+                run.add(blocks[b - 1])
+            cut = moves >= SPLIT_MOVES_ALWAYS or run.long()
+        if cut:
             spans.append((first, b))
-            first = b
-            run = _Run(blocks[b])
-        else:
-            run.add(blocks[b])
-    spans.append((first, len(blocks)))
+            first, run = b, None
+    if blocks:
+        spans.append((first, len(blocks)))
     return spans
 
 
@@ -93,9 +95,10 @@ class _Run:
 
     __slots__ = ("acc", "cap", "jerk", "length")
 
-    def __init__(self, first: BlockLimits) -> None:
-        self.length, self.cap = first.length_mm, first.cap_mm_per_s
-        self.acc, self.jerk = first.acc_mm_per_s2, first.jerk_mm_per_s3
+    def __init__(self, blocks: Sequence[BlockLimits]) -> None:
+        lim = chain_limits(blocks)
+        self.length, self.cap = lim.length_mm, lim.cap_mm_per_s
+        self.acc, self.jerk = lim.acc_mm_per_s2, lim.jerk_mm_per_s3
 
     def add(self, b: BlockLimits) -> None:
         self.length += b.length_mm
