@@ -17,7 +17,9 @@ works, but with a look-ahead long enough that the cut does not change the motion
    :data:`~gantry_sim.controller.planner.window_cut.MARGIN_BRAKING` braking distances (from the
    fastest speed cap of the moves after c) before hi: the rest at hi, which the probe had to
    assume, slows nothing before c (no speed after c needs more than that distance to come to
-   rest, so the look-ahead's backward pass from hi reaches c above every cap). A chain ends at
+   rest, so the look-ahead's backward pass from hi reaches c above every cap). Where a stop
+   (a junction of cap 0) lies between c and hi, the braking distances are not needed: the
+   speed there is 0 in every round, and nothing after it reaches back before it. A chain ends at
    its look-ahead speed with no tangential acceleration, so the next window starts at c from
    (v_c, 0): the reference is continuous in position, velocity and acceleration across the
    cut, and each side keeps every limit (the cut and the windows' keys:
@@ -205,7 +207,7 @@ def _plan_windows(
             _truncate(out, mark)
             size = 2 * used  # each time it comes back, wider: at worst the rest of the path
             continue
-        cut = window_cut.cut(settled) if hi < n else (len(settled.spans), len(pre.active))
+        cut = window_cut.cut(settled, pre.caps) if hi < n else (len(settled.spans), len(pre.active))
         if cut is None:  # no chain boundary to cut at: a wider window
             size *= 2
             continue
