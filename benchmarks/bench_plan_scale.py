@@ -5,7 +5,9 @@
     python benchmarks/bench_plan_scale.py --sizes 1905,19050 --kinds finish
 
 Programs: benchmarks/programs.py (tangent arcs with S-bends, 0.05-0.5 mm G1 polylines, mixed
-G0/G1/G2/G3 contours with corners; ``--kinds finish``: a G18 finishing raster in G64 P0.001), seeded, on the bundled machine (G64 P0.01, 1 um chords).
+G0/G1/G2/G3 contours with corners; ``--kinds finish``: a G18 finishing raster in G64 P0.001;
+``--kinds adaptive``: FreeCAD-like adaptive clearing, loops of 0.05-0.12 mm chords joined by
+short rapids), seeded, on the bundled machine (G64 P0.01, 1 um chords).
 Each size runs in a fresh subprocess, so its peak resident set (getrusage ru_maxrss) is the
 planner's own: parse, then plan(). Printed per kind and size: parse and plan time [s], blocks
 per second, chords, cycle time of the plan [s], peak RSS [MB] of the planning process, the

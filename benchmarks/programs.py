@@ -18,6 +18,10 @@ incremental as G91.1 is the default):
   G64 P0.001 (the shape of the 1,905-line program of issue 12): rows along X of G1 moves
   0.2-0.5 mm long over a wavy surface z(x, y) (up to 3 mm deep, slopes up to about 25 degrees),
   alternating direction, 0.4 mm apart in Y, F1500.
+* ``adaptive``: adaptive clearing as FreeCAD writes it (its grbl posts of pulley pockets): loops
+  of G1 chords of 0.05-0.12 mm round circles of R 0.4-1 mm, sweeping 220-300 degrees, whose
+  centres advance 0.2 mm a loop, each loop reached from the one before by two short G0 moves at
+  the cutting depth (a stop at each end: the window cuts' case); F420.
 
 N counts the motion blocks after the opening G0 (which is not counted). Every program stays
 inside BOX, well within the bundled machine's travel (X +-300, Y +-200, Z +-75): each arc's
@@ -33,7 +37,7 @@ import sys
 
 #: the half-extents of the box the programs stay in [mm]
 BOX = (240.0, 140.0, 50.0)
-KINDS = ("arcs", "poly", "mixed", "finish")
+KINDS = ("arcs", "poly", "mixed", "finish", "adaptive")
 Z_SAFE = 5.0
 
 
@@ -187,7 +191,40 @@ def finish(n: int, rng: random.Random) -> tuple[str, list[str]]:
     return "G18 G64 P0.001 G0 X0 Y0 Z5", blocks
 
 
-GENERATORS = {"arcs": tangent_arcs, "poly": polyline, "mixed": mixed, "finish": finish}
+def adaptive(n: int, rng: random.Random) -> tuple[str, list[str]]:
+    step_over = 0.2  # the loops' centres advance this far [mm]
+    cx = cy = 0.0
+    heading = 0.0  # the direction the loops advance in [rad]
+    blocks: list[str] = []
+    x, y = 0.0, 0.0
+    while len(blocks) < n:
+        if abs(cx) > BOX[0] - 20 or abs(cy) > BOX[1] - 20:  # steer back to the middle
+            heading = math.atan2(-cy, -cx)
+        heading += math.radians(rng.uniform(-3.0, 3.0))
+        cx, cy = cx + step_over * math.cos(heading), cy + step_over * math.sin(heading)
+        r = rng.uniform(0.4, 1.0)
+        a = heading - math.radians(rng.uniform(100.0, 130.0))  # the loop starts behind, right
+        stop = a + math.radians(rng.uniform(220.0, 300.0))
+        sx, sy = _r4(cx + r * math.cos(a)), _r4(cy + r * math.sin(a))
+        # the link: lift-free rapids to the loop's start, through a point just off the cut
+        mx, my = _r4(0.5 * (x + sx) + 0.02), _r4(0.5 * (y + sy) + 0.02)
+        blocks.append(f"G0 X{_num(mx)} Y{_num(my)}")
+        blocks.append(f"G0 X{_num(sx)} Y{_num(sy)}")
+        x, y = sx, sy
+        while a < stop and len(blocks) < n:
+            a += rng.uniform(0.05, 0.12) / r  # chords of 0.05-0.12 mm
+            x, y = _r4(cx + r * math.cos(a)), _r4(cy + r * math.sin(a))
+            blocks.append(f"G1 X{_num(x)} Y{_num(y)}" + (" F420" if len(blocks) <= 2 else ""))
+    return "G0 X0 Y0 Z-2", blocks[:n]
+
+
+GENERATORS = {
+    "arcs": tangent_arcs,
+    "poly": polyline,
+    "mixed": mixed,
+    "finish": finish,
+    "adaptive": adaptive,
+}
 
 
 def program(kind: str, n: int, seed: int = 1) -> str:
