@@ -424,8 +424,8 @@ def test_a_windows_blends_are_judged_with_their_stops_overlap_credit(monkeypatch
 def test_a_cut_keeps_at_least_the_moves_a_later_judge_reaches_back(monkeypatch):
     """Cuts before a stop with 6 moves after them (windows of 30, a margin of 6 asked for):
     the window after a cut judged a blend slow near the cut and made the path again, and an arc
-    kept before the cut had its last piece 1e-12 apart from the whole program's. The margin is
-    MARGIN_MOVES_MIN (8) at least, and the plan is the whole program's."""
+    kept before the cut had its last piece 1e-12 apart from the whole program's. A cut before a
+    stop keeps MARGIN_MOVES_MIN (8) moves at least, and the plan is the whole program's."""
     path = Path(__file__).parent / "data" / "windows" / "judged_near_cut.ngc"
     whole, windowed, probes = _whole_and_windowed(path.read_text(), monkeypatch, 30, 6)
     assert len(probes) >= 8, probes

@@ -61,12 +61,14 @@ WINDOW_CHORDS = 2_000_000
 MARGIN_MOVES = 250
 #: ... and this many braking distances (from the probe's fastest speed cap to rest) [1].
 MARGIN_BRAKING = 2.0
-#: The fewest moves after a cut, however short the window (a window cut short by its chords
-#: keeps 3/4 of itself): a kept move's preparation depends on a few moves after it, and the
-#: window after the cut may find a blend slow within window_judge.BLEND_CONTEXT (3) moves of
-#: this window's end and make the path again from there. Cut before a stop with margins of 6
-#: moves in windows of 30, a fuzzed program planned an arc's last piece 1e-12 apart from the
-#: whole program's; with 8 and more, the whole program's plan.
+#: The fewest moves after a cut before a stop, however short the window (one cut short by its
+#: chords keeps 3/4 of itself): a kept move's preparation depends on a few moves after it, and
+#: the window after the cut may find a blend slow within window_judge.BLEND_CONTEXT (3) moves
+#: of this window's end and make the path again from there. Cut before a stop with margins of
+#: 6 moves in windows of 30, a fuzzed program planned an arc's last piece 1e-12 apart from the
+#: whole program's; with 8 and more, the whole program's plan. (A cut with its braking
+#: distances keeps the quarter: a window of a few moves of a million chords each must still
+#: cut, where it can, rather than widen to hold eight of them.)
 MARGIN_MOVES_MIN = 8
 
 
@@ -105,13 +107,16 @@ def cut_at(
     behind = np.concatenate((np.cumsum(lengths[::-1])[::-1], [0.0]))  # path length to the end
     braking = np.array([_braking_mm(g.limits) for g in active] + [0.0])
     needed = MARGIN_BRAKING * np.maximum.accumulate(braking[::-1])[::-1]  # from here on
-    # a window cut short by its chords keeps 3/4
-    margin = max(min(MARGIN_MOVES, len(active) // 4), MARGIN_MOVES_MIN)
+    margin = min(MARGIN_MOVES, len(active) // 4)  # a window cut short by its chords keeps 3/4
+    before_stop = max(margin, MARGIN_MOVES_MIN)
     stops = np.flatnonzero(caps[1 : len(active)] == 0.0)
     last_stop = int(stops[-1]) + 1 if stops.size else -1  # the window's last stop inside it
     for k in range(len(spans) - 1, 0, -1):
         first = spans[k][0]
-        if len(active) - first >= margin and (first <= last_stop or behind[first] >= needed[first]):
+        after = len(active) - first
+        if after >= margin and behind[first] >= needed[first]:
+            return k, first
+        if after >= before_stop and first <= last_stop:
             return k, first
     return None
 
