@@ -197,6 +197,7 @@ def adaptive(n: int, rng: random.Random) -> tuple[str, list[str]]:
     heading = 0.0  # the direction the loops advance in [rad]
     blocks: list[str] = []
     x, y = 0.0, 0.0
+    feed = " F420"  # on the first G1 (modal after it)
     while len(blocks) < n:
         if abs(cx) > BOX[0] - 20 or abs(cy) > BOX[1] - 20:  # steer back to the middle
             heading = math.atan2(-cy, -cx)
@@ -214,7 +215,8 @@ def adaptive(n: int, rng: random.Random) -> tuple[str, list[str]]:
         while a < stop and len(blocks) < n:
             a += rng.uniform(0.05, 0.12) / r  # chords of 0.05-0.12 mm
             x, y = _r4(cx + r * math.cos(a)), _r4(cy + r * math.sin(a))
-            blocks.append(f"G1 X{_num(x)} Y{_num(y)}" + (" F420" if len(blocks) <= 2 else ""))
+            blocks.append(f"G1 X{_num(x)} Y{_num(y)}{feed}")
+            feed = ""
     return "G0 X0 Y0 Z-2", blocks[:n]
 
 
