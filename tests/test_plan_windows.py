@@ -302,28 +302,14 @@ def test_window_stop_counts_chords_and_grows_with_the_window():
     assert window_cut.window_stop(moves, 0, 5_000, seg) == len(moves)  # all 3,818 chords fit
 
 
-def _adaptive_program(passes: int) -> str:
-    """Adaptive clearing as FreeCAD writes it: passes of 30 G1 moves of 0.1 mm at F420,
-    turning gently, each followed by short rapids up, across and down (stops, as every rapid
-    next to a feed move is), as in its pulley programs (a rapid a few dozen moves apart)."""
-    out = ["G21 G90 G17 G64 P0.01 Q0", "G0 X0 Y0 Z-1"]  # Q0: the moves are not merged
-    x = y = heading = 0.0
-    for p in range(passes):
-        for k in range(30):
-            heading += math.radians(3.0 if (p + k // 10) % 2 else -2.0)
-            x, y = x + 0.1 * math.cos(heading), y + 0.1 * math.sin(heading)
-            out.append(f"G1 X{x:.4f} Y{y:.4f} F420")
-        x += 0.2
-        out += ["G0 Z-0.8", f"G0 X{x:.4f}", "G0 Z-1"]
-    return "\n".join([*out, "G0 Z5", "M2"]) + "\n"
-
-
 def test_windows_cut_before_their_last_stop_need_no_braking_margin(monkeypatch):
     """A rapid asks for twice its braking distance (over 100 mm) of path after a cut, far
     more than a window of 0.1 mm moves holds; but a cut before a stop needs none (speed 0
     there in every round: nothing after it reaches back). The windows keep all but their
-    margin, instead of widening to the whole program, and give the whole program's plan."""
-    text = _adaptive_program(12)
+    margin, instead of widening to the whole program, and give the whole program's plan.
+    The program: benchmarks/programs.py's adaptive clearing, loops of 0.05-0.12 mm chords
+    joined by two short rapids at depth."""
+    text = program("adaptive", 300)
     whole, windowed, probes = _whole_and_windowed(text, monkeypatch, 120, 40)
     assert len(whole.path_moves) > 3 * 120
     assert len(probes) >= 4 and max(probes) <= 120, probes
