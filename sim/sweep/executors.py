@@ -69,15 +69,21 @@ def local_map(fn: Callable, args: list[tuple], workers: int | None) -> Generator
             ex.shutdown(wait=True)
         else:  # stopped early: do not wait for the simulations under way
             procs = list((getattr(ex, "_processes", None) or {}).values())
+            # shutdown() forgets the pool's thread: kept here, to be joined below
+            manager = getattr(ex, "_executor_manager_thread", None)
             ex.shutdown(wait=False, cancel_futures=True)
             for p in procs:
                 p.terminate()
             for p in procs:
                 p.join(timeout=5)
-            # the pool's thread then ends at once; joined, it lets go of the queues, whose
-            # semaphores an interrupted gantry frees before it exits (sim.interrupts.leave):
-            # left to the resource tracker, they were "leaked semaphore objects" on stderr
-            ex.shutdown(wait=True)
+            # the pool's thread then ends at once. Joined, and still referenced here, it
+            # leaves the queues' semaphores to this thread, which an interrupted gantry frees
+            # before it exits (sim.interrupts.leave). Left to end by itself, it dropped the
+            # queues and ran their finalizers while the process exited: a semaphore unlinked
+            # but not yet unregistered was reported by the resource tracker as "leaked
+            # semaphore objects" on stderr after "gantry: terminated"
+            if manager is not None:
+                manager.join(timeout=5)
 
 
 def check_scheduler_address(address: str, option: str) -> str:
