@@ -98,6 +98,15 @@ def test_cli_writes_a_machine_file_that_loads_and_lists_what_did_not_map(
     machine = load_machine_config(DEFAULT_MACHINE, out)
     written = tomllib.loads(out.read_text())
     assert machine.limits.max_velocity_mm_per_s == tuple(written["limits"]["max_velocity_mm_per_s"])
+    # every value the import mapped is in the file (grbl's [path] from $11 had been left out)
+    reader = import_grbl if fmt == "grbl" else import_linuxcnc
+    mapped = reader(DATA / name, TARGET).values
+    for section, keys in mapped.items():
+        for key in keys:
+            assert key in written.get(section, {}), f"[{section}] {key} not written"
+    if fmt == "grbl":
+        assert written["path"] == {"mode": "G64", "tolerance_mm": 0.01}
+        assert machine.path.mode == "G64" and machine.path.tolerance_mm == 0.01
 
 
 def test_grbl_junction_deviation_zero_is_exact_stop_at_corners(tmp_path):

@@ -12,7 +12,7 @@ import math
 from gantry_sim.controller.machine_import.common import Imported
 
 #: section order of models/gantry.toml
-SECTIONS = ("limits", "travel", "segmentation", "servo", "sim", "tools", "work")
+SECTIONS = ("limits", "travel", "segmentation", "path", "servo", "sim", "tools", "work")
 
 
 def _number(v: float) -> str:
@@ -44,7 +44,11 @@ def _comment(text: str) -> list[str]:
 
 
 def to_toml(imported: Imported) -> str:
-    """The machine file's text."""
+    """The machine file's text (every section of ``imported.values``, in the bundled file's
+    order; a section it does not know is a bug, never dropped)."""
+    unknown = sorted(set(imported.values) - set(SECTIONS))
+    if unknown:
+        raise ValueError(f"imported values for unknown machine-file sections: {unknown}")
     out = [
         f"# gantry-sim machine file imported from {imported.kind}: {imported.source}",
         "# Keys not set here keep the bundled models/gantry.toml values.",
