@@ -369,7 +369,8 @@ class Dwell:
     Attributes:
         line: 1-based source line.
         position: where the tool waits [mm], work frame.
-        seconds: dwell time [s] (LinuxCNC's P; Marlin's P [ms] and S [s] converted).
+        seconds: dwell time [s], >= 0 (LinuxCNC's P, a negative one waiting no time, as its
+            DWELL(-3) does; Marlin's P [ms] and S [s] converted).
         file: the subroutine file whose line this is (an ``o<name> call`` or ``M98`` found
             on the subroutine path); None: the program's own line.
     """

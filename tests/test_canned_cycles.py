@@ -76,6 +76,11 @@ def test_dwells_and_g88_stop_are_events_in_their_place() -> None:
     assert [(s.line, s.code) for s in stops] == [(1, "M3"), (4, "G88")]
     # G88 leaves the tool at the bottom: the operator retracts by hand
     assert [m for m in items if isinstance(m, Rapid | Linear)][-1].end == (2.0, 0.0, -1.0)
+    # a negative P: rs274 prints DWELL(-0.5000), which LinuxCNC ends at once (no time: the
+    # duration bound had subtracted it); G89's dwell at the bottom, G82's likewise
+    for code in ("G82", "G89"):
+        negative = f"G21 F100 M3\nG0 Z5\n{code} X1 Z-1 R1 P-0.5\nM2\n"
+        assert [e.seconds for e in interpret_events(negative) if isinstance(e, Dwell)] == [0.0]
 
 
 def test_errors_carry_the_cycle_line_and_moves_made_before_them() -> None:

@@ -519,6 +519,18 @@ def test_dwell_and_stops_are_events_when_asked(tmp_path, capsys) -> None:
     assert '"kind": "stop", "position": [2.0, 0.0, 0.0], "code": "M0"' in capsys.readouterr().out
 
 
+def test_a_negative_dwell_waits_no_time_as_in_linuxcnc() -> None:
+    # rs274 -g (LinuxCNC 2.9) prints DWELL(-3.0000) for "G4 P-3", and LinuxCNC's task ends a
+    # negative delay at once (bantamtools/omctest's G04_negative.nc: refused here before);
+    # G4 with no P stays an error, as rs274's "Dwell time missing with g4"
+    text = "G21 G90\nG4 P-3\nG0 X1\n#1 = -0.5\nG4 P#1\nM2\n"
+    dwells = [m for m in interpret_events(text) if m.kind == "dwell"]
+    assert [(d.line, d.seconds) for d in dwells] == [(2, 0.0), (5, 0.0)]
+    with pytest.raises(GcodeError, match="G4 \\(dwell\\) needs a P word") as err:
+        list(interpret_events("G21\nG4\nM2\n"))
+    assert err.value.line == 2
+
+
 def test_work_offset_places_the_program(tmp_path, capsys) -> None:
     from gantry_sim.sim.cli import main
 

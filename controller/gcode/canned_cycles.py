@@ -289,8 +289,8 @@ def _body(
 
 
 def _dwell(cyc: _Cycle, motion: int, p: float) -> None:
-    if motion != 810 and motion != 850:
-        cyc.items.append(Dwell(cyc.line, cyc.work, p))
+    if motion != 810 and motion != 850:  # a negative P waits no time (rs274: DWELL(-0.5))
+        cyc.items.append(Dwell(cyc.line, cyc.work, max(0.0, p)))
 
 
 def _back_bore(
@@ -347,4 +347,4 @@ def _tap(
         else:  # XZ: (bb, level, aa)
             cyc.feed_to(bb, level, aa)
         if level == bottom:
-            cyc.items.append(Dwell(cyc.line, cyc.work, p))
+            cyc.items.append(Dwell(cyc.line, cyc.work, max(0.0, p)))

@@ -409,7 +409,8 @@ class Interpreter:
         # dwell on a motion line waits before it moves).
         if self.events:
             if nonmodal == 40 and "P" in w.values and not dwell_held:
-                moves.insert(0, Dwell(w.line, self.state.work, w.values["P"]))
+                # rs274 prints DWELL(-3) for G4 P-3, which LinuxCNC's task ends at once
+                moves.insert(0, Dwell(w.line, self.state.work, max(0.0, w.values["P"])))
             if wait is not None:
                 moves.insert(0, Stop(w.line, self.state.work, wait))
             stop = w.m.get("stopping")

@@ -331,8 +331,8 @@ def check_words(w: Words, motion: int | None, dialect: Dialect) -> None:
         )
     if w.g.get("nonmodal") == 40 and arc and dialect.arc_p_allowed:
         raise GcodeError("G4 (dwell) cannot share a line with G2 or G3: both use the P word")
-    if w.g.get("nonmodal") == 40 and v.get("P", -1.0) < 0.0:
-        raise GcodeError("G4 (dwell) needs a P word: the dwell time in seconds, >= 0")
+    if w.g.get("nonmodal") == 40 and "P" not in v:  # a negative P waits no time (rs274)
+        raise GcodeError("G4 (dwell) needs a P word: the dwell time in seconds")
 
 
 def check_unused_words(w: Words, motion: int | None, dialect: Dialect) -> None:
