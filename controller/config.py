@@ -295,6 +295,16 @@ def _read_toml(path: Path) -> dict[str, Any]:
         raise ConfigError("not valid TOML: the file is not UTF-8 text", file=str(path)) from None
 
 
+def value_fault(section: str, key: str, value: float, vector: bool) -> str | None:
+    """What ``[section] key`` allows, where ``value`` may not be its value (a vector key's, on
+    any axis); None where it may. For importers, which check each number where they read it."""
+    try:
+        SCHEMA[section][key]([value] * 3 if vector else value)
+    except ValueError as exc:
+        return str(exc).replace("a list of 3 numbers [x, y, z], each ", "a finite number ")
+    return None
+
+
 def _overlay(merged: dict[str, dict[str, Any]], data: dict[str, Any], path: Path) -> None:
     for section, table in data.items():
         if section not in SCHEMA:
@@ -350,6 +360,13 @@ def load_machine_config(
         if lo >= hi:
             raise ConfigError(
                 f"[travel] {axis}: min_mm ({lo}) must be below max_mm ({hi})", file=source
+            )
+        if not lo <= 0.0 <= hi:  # where every run starts: no program could leave it
+            raise ConfigError(
+                f"[travel] {axis}: {lo:g}..{hi:g} mm does not hold 0, the work origin, where the "
+                "machine starts at rest; min_mm must be <= 0 <= max_mm (the work frame is placed "
+                "in the machine by [sim] work_origin_joint_mm)",
+                file=source,
             )
     sim = merged["sim"]
     if sim["physics_timestep_s"] > merged["servo"]["period_s"]:

@@ -208,15 +208,19 @@ def test_unreadable_inputs_exit_2(tmp_path, capsys):
 def test_an_input_that_maps_to_an_invalid_machine_file_is_an_error_about_the_input(
     tmp_path, capsys
 ):
+    # a number the machine file cannot hold is refused at its INI line, naming the key it
+    # becomes (it had been "it maps to an invalid machine file", with no line or INI key)
     ini = tmp_path / "m.ini"
     ini.write_text(
-        "[TRAJ]\nLINEAR_UNITS = mm\n" + "".join(f"[JOINT_{j}]\nFERROR = 0\n" for j in range(3))
+        "[TRAJ]\nLINEAR_UNITS = mm\n"
+        + "".join(f"[JOINT_{j}]\nFERROR = {5000 if j == 1 else 1}\n" for j in range(3))
     )
     out = tmp_path / "out.toml"
     assert main(["machine", "import", "linuxcnc", str(ini), "--out", str(out)]) == 2
     err = capsys.readouterr().err
     assert (
-        f"{ini}: error: it maps to an invalid machine file: [servo] max_following_error_mm" in err
+        f"{ini}:6: error: [JOINT_1] FERROR = '5000' gives [servo] max_following_error_mm = 5000,"
+        " which must be a finite number > 0 within 0.0001..1000 mm" in err
     )
     assert not out.exists()
     assert (

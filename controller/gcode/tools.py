@@ -48,9 +48,14 @@ class Tool:
 
 
 def parse_tool_table(
-    text: str, name: str = "<tool table>", units_mm: float = 1.0
+    text: str,
+    name: str = "<tool table>",
+    units_mm: float = 1.0,
+    skipped: list[tuple[int, str]] | None = None,
 ) -> dict[int, Tool]:
-    """``tool.tbl`` text -> tools by number; GcodeError (file, line) on a bad line."""
+    """``tool.tbl`` text -> tools by number; GcodeError (file, line) on a bad line, or, given
+    ``skipped``, the line number and text of each bad line appended there and the line
+    skipped (as LinuxCNC's tool-data loader does: "Unrecognized line skipped")."""
     tools: dict[int, Tool] = {}
     for k, raw in enumerate(split_lines(text), 1):  # lines counted as a program's
         body = raw.split(";", 1)[0].strip().upper()
@@ -58,6 +63,9 @@ def parse_tool_table(
             continue
         words = dict(_WORD.findall(body))
         rest = _WORD.sub("", body).strip()
+        if ("T" not in words or rest) and skipped is not None:
+            skipped.append((k, raw.strip()))
+            continue
         if "T" not in words or rest:
             raise GcodeError(
                 "bad tool table line; expected 'T<n> P<pocket> Z<length> D<diameter> ;comment'",

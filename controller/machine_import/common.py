@@ -69,8 +69,13 @@ def fit_travel(
 ) -> tuple[list[float], list[float], list[float]]:
     """Travel [mm] per axis and the work origin's joint position [mm] that puts it in the model.
 
-    The middle of each axis' travel goes to the middle of its joint range. A travel longer than
-    the joint range is shortened about its middle to the joint range (said in ``assumed``).
+    The middle of each axis' travel goes to the middle of its joint range. The machine starts
+    at rest at the work origin (0), so the travel must hold 0:
+
+    * a travel that does not (a configuration whose limits are 61..700) is widened to 0 (said
+      in ``assumed``: machine coordinates are taken as work coordinates, and the start is 0);
+    * a travel longer than the joint range is shortened to the joint range's length about its
+      middle, moved the least that keeps 0 within it (0..1000 on a 600 mm joint: 0..600).
 
     Returns:
         (min_mm, max_mm, work_origin_joint_mm), each a list of 3.
@@ -78,16 +83,32 @@ def fit_travel(
     out_lo, out_hi, origin = [], [], []
     for i, axis in enumerate(AXES):
         jlo, jhi = target.joint_range_mm[i]
-        mid, half = 0.5 * (lo_mm[i] + hi_mm[i]), 0.5 * (hi_mm[i] - lo_mm[i])
-        if 2 * half > jhi - jlo + 1e-9:
-            half = 0.5 * (jhi - jlo)
+        name = axis.upper()
+        lo, hi = float(lo_mm[i]), float(hi_mm[i])
+        if not lo <= 0.0 <= hi:
+            wide = (min(lo, 0.0), max(hi, 0.0))
             assumed.append(
-                f"travel {axis.upper()} {lo_mm[i]:g}..{hi_mm[i]:g} mm is longer than the model's "
-                f"{axis} joint range ({jhi - jlo:g} mm): shortened to {mid - half:g}..{mid + half:g}"
+                f"travel {name} {lo:g}..{hi:g} mm does not hold 0, where the machine starts (at "
+                f"rest at the work origin): widened to {wide[0]:g}..{wide[1]:g}"
             )
-        out_lo.append(mid - half)
-        out_hi.append(mid + half)
-        origin.append(0.5 * (jlo + jhi) - mid)
+            lo, hi = wide
+        length = jhi - jlo
+        if hi - lo > length + 1e-9:
+            mid = min(max(0.5 * (lo + hi), -0.5 * length), 0.5 * length)  # 0 within mid +- L/2
+            short = (mid - 0.5 * length, mid + 0.5 * length)
+            assumed.append(
+                f"travel {name} {lo:g}..{hi:g} mm is longer than the model's {axis} joint range "
+                f"({length:g} mm): shortened to {short[0]:g}..{short[1]:g}"
+                + (
+                    ""
+                    if mid == 0.5 * (lo + hi)
+                    else " (the stretch nearest its middle that holds 0)"
+                )
+            )
+            lo, hi = short
+        out_lo.append(lo)
+        out_hi.append(hi)
+        origin.append(0.5 * (jlo + jhi) - 0.5 * (lo + hi))
     if any(origin):
         assumed.append(
             "work origin: the middle of each axis' travel sits at the middle of the model's "

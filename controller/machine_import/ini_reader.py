@@ -2,16 +2,23 @@
 
 ``[SECTION]`` lines; ``KEY = VALUE`` lines (the first occurrence of a key wins); comments
 starting with ``#`` or ``;``; blank lines; a trailing backslash continues a line; ``#INCLUDE
-file`` reads a file (relative to the including one) in place. Lines that are none of these are
-skipped, as LinuxCNC does, and kept in :attr:`IniFile.bad` so an import can say so. Every value
-remembers its file and line for ``FILE:LINE: error:`` messages.
+file`` reads a file (relative to the including one) in place: its keys belong to the section
+the include stands in, and a section it opens goes on after it, as in LinuxCNC's preprocessed
+file. Lines that are none of these are skipped, as LinuxCNC does, and kept in
+:attr:`IniFile.bad` so an import can say so. Every value remembers its file and line for
+``FILE:LINE: error:`` messages.
+
+Text that is not UTF-8 is refused at its line only where LinuxCNC reads it (a section or a
+key); a comment in Latin-1 (``# Fräse``) is skipped as any comment. A number is read as
+LinuxCNC 2.9's ``IniFile::Find`` reads it (``sscanf("%lf")``): the leading number of the value,
+anything after it ignored (``100 # mm/s`` is 100; the import says so).
 """
 
 from __future__ import annotations
 
 import math
 import re
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 
 from gantry_sim.controller.errors import ConfigError, shown
@@ -21,6 +28,12 @@ _SECTION = re.compile(r"^\[([^\]]+)\]\s*$")
 #: a key line; its value is group 2 stripped (``(.*?)\s*$`` tried every end of a run of
 #: spaces from every start in it: quadratic in the run's length)
 _KEY = re.compile(r"^([A-Za-z0-9_]++)\s*+=(.*)$")
+#: the leading number ``sscanf("%lf")`` reads (decimal, inf, nan; hexadecimal floats aside)
+_LEADING_NUMBER = re.compile(
+    r"[+-]?+(?:(?:\d++\.?+\d*+|\.\d++)(?:[eE][+-]?+\d++)?+|inf(?:inity)?+|nan)", re.IGNORECASE
+)
+#: the code points ``surrogateescape`` gives the bytes that are not UTF-8
+_NOT_UTF8 = re.compile("[\udc80-\udcff]")
 
 
 @dataclass(frozen=True)
@@ -32,6 +45,8 @@ class IniFile:
     path: str
     sections: dict[str, dict[str, tuple[str, str, int]]]
     bad: dict[str, tuple[str, str, int]]
+    #: values read as their leading number, with text after it ignored (as LinuxCNC does)
+    trailing: list[str] = field(default_factory=list)
 
     def get(self, section: str, key: str) -> tuple[str, str, int] | None:
         return self.sections.get(section, {}).get(key)
@@ -42,15 +57,34 @@ class IniFile:
         if entry is None:
             return None
         text, file, line = entry
-        try:
-            value = float(text)
-        except ValueError:
-            value = math.nan
+        m = _LEADING_NUMBER.match(text)
+        value = float(m.group()) if m else math.nan
         if not math.isfinite(value):
             raise ConfigError(
                 f"[{section}] {key} = {shown(text)}: expected a number", file=file, line=line
             )
+        if m and m.end() < len(text):
+            note = (
+                f"{file}:{line}: [{section}] {key} = {shown(text)} read as {value:g}, the text "
+                "after the number ignored (as LinuxCNC does)"
+            )
+            if note not in self.trailing:
+                self.trailing.append(note)
         return value
+
+
+def decode_ini(data: bytes, path: str) -> str:
+    """An INI file's bytes as text: UTF-8 (a leading BOM dropped), the bytes that are not UTF-8
+    kept as ``surrogateescape`` code points for :func:`parse_ini` to refuse where they are read;
+    binary data is a ConfigError."""
+    if b"\x00" in data:
+        raise ConfigError("not a LinuxCNC INI file (binary data)", file=path)
+    return data.decode("utf-8", errors="surrogateescape").removeprefix("\ufeff")
+
+
+def read_ini(path: Path) -> str:
+    """:func:`decode_ini` of the file at ``path`` (at most the configuration files' cap)."""
+    return decode_ini(read_capped(path, "LinuxCNC INI file"), str(path))
 
 
 def _logical_lines(text: str) -> list[tuple[int, str]]:
@@ -71,36 +105,43 @@ def _logical_lines(text: str) -> list[tuple[int, str]]:
     return out
 
 
-def parse_ini(text: str, path: str, _depth: int = 0, _into: IniFile | None = None) -> IniFile:
-    """Parse LinuxCNC INI text: ``[SECTION]`` lines, ``KEY = VALUE`` lines, comments (# or ;),
-    blank lines, backslash continuations and ``#INCLUDE file`` (relative to the including
-    file, read in place, as LinuxCNC's preprocessor does)."""
-    ini = _into if _into is not None else IniFile(path=path, sections={}, bad={})
-    section: str | None = None
+def parse_ini(text: str, path: str) -> IniFile:
+    """Parse LinuxCNC INI text (:func:`decode_ini`'s): ``[SECTION]`` lines, ``KEY = VALUE``
+    lines, comments (# or ;), blank lines, backslash continuations and ``#INCLUDE file``
+    (relative to the including file, read in place, as LinuxCNC's preprocessor does)."""
+    ini = IniFile(path=path, sections={}, bad={})
+    _parse_into(ini, text, path, 0, None)
+    if not ini.sections:
+        raise ConfigError("no [SECTION] found: not a LinuxCNC INI file", file=path)
+    return ini
+
+
+def _parse_into(ini: IniFile, text: str, path: str, depth: int, section: str | None) -> str | None:
+    """Parse ``text`` into ``ini`` from within ``section`` (an #INCLUDE's: its lines stand in
+    the including file); returns the section open at its end."""
     for number, raw in _logical_lines(text):
         line = raw.strip()
         if line.upper().startswith("#INCLUDE"):
             name = line[len("#INCLUDE") :].strip()
-            inc = Path(path).parent / name
-            if _depth > 8 or not name:
+            if depth > 8 or not name or _NOT_UTF8.search(name):
                 raise ConfigError(
-                    f"#INCLUDE {name!r}: missing name or nested too deep", file=path, line=number
+                    f"#INCLUDE {shown(name)}: missing name, not UTF-8 or nested too deep",
+                    file=path,
+                    line=number,
                 )
+            inc = Path(path).parent / name
             try:
-                inc_text = read_capped(inc, "#INCLUDE file").decode("utf-8-sig")
+                inc_text = decode_ini(read_capped(inc, "#INCLUDE file"), str(inc))
             except ConfigError as exc:
                 raise ConfigError(
                     f"#INCLUDE {name}: {exc.message}", file=path, line=number
                 ) from None
-            except UnicodeDecodeError as exc:
-                raise ConfigError(
-                    f"#INCLUDE {name}: cannot read it ({exc})", file=path, line=number
-                ) from None
-            parse_ini(inc_text, str(inc), _depth + 1, ini)
-            section = None
+            section = _parse_into(ini, inc_text, str(inc), depth + 1, section)
             continue
         if not line or line[0] in "#;":
             continue
+        if _NOT_UTF8.search(line):
+            raise ConfigError("not a LinuxCNC INI file (invalid UTF-8)", file=path, line=number)
         if m := _SECTION.match(line):
             section = m.group(1).strip()
             ini.sections.setdefault(section, {})
@@ -110,6 +151,4 @@ def parse_ini(text: str, path: str, _depth: int = 0, _into: IniFile | None = Non
             ini.sections[section].setdefault(m.group(1), (m.group(2).strip(), path, number))
         else:
             ini.bad.setdefault(section, (line, path, number))
-    if _depth == 0 and not ini.sections:
-        raise ConfigError("no [SECTION] found: not a LinuxCNC INI file", file=path)
-    return ini
+    return section

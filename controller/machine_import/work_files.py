@@ -19,7 +19,7 @@ import re
 from pathlib import Path
 from typing import Any
 
-from gantry_sim.controller.errors import ConfigError, GcodeError
+from gantry_sim.controller.errors import ConfigError, GcodeError, shown
 from gantry_sim.controller.gcode.tools import parse_tool_table
 from gantry_sim.controller.machine_import.common import read_text
 from gantry_sim.controller.machine_work import SYSTEM_KEYS
@@ -53,10 +53,18 @@ def import_tools(
             f"[EMCIO] TOOL_TABLE {name}: no such file beside the INI: [tools] not written"
         )
         return None
+    skipped: list[tuple[int, str]] = []
     try:
-        tools = parse_tool_table(read_text(path, "tool table"), str(path), scale)
+        tools = parse_tool_table(read_text(path, "tool table"), str(path), scale, skipped)
     except GcodeError as exc:
         raise ConfigError(exc.message, file=exc.file, line=exc.line) from None
+    for line, text in skipped[:5]:  # e.g. an old-format table's heading
+        assumed.append(
+            f"{path}:{line}: {shown(text, 60)} is not a tool line (T<n> P<pocket> Z D ;comment): "
+            "skipped, as LinuxCNC skips it"
+        )
+    if len(skipped) > 5:
+        assumed.append(f"{path}: {len(skipped) - 5} more lines that are not tool lines skipped")
     out: dict[str, dict[str, float]] = {}
     for number in sorted(tools):
         t = tools[number]
@@ -86,9 +94,17 @@ def read_parameter_file(path: Path) -> dict[int, float]:
 
 
 def import_work(
-    ini: Path, name: str, scale: float, assumed: list[str], unmapped: list[str]
+    ini: Path,
+    name: str,
+    scale: float,
+    assumed: list[str],
+    unmapped: list[str],
+    keep_g92: bool = True,
 ) -> dict[str, Any] | None:
-    """``[RS274NGC] PARAMETER_FILE`` -> the ``[work]`` section (None when nothing to write)."""
+    """``[RS274NGC] PARAMETER_FILE`` -> the ``[work]`` section (None when nothing to write).
+    ``keep_g92``: False where ``[RS274NGC] DISABLE_G92_PERSISTENCE`` is set (LinuxCNC then
+    clears the stored G92 offset at start-up). The coordinate system LinuxCNC starts in
+    (#5220) has no key: a system other than G54 is listed as not mapped."""
     path = _beside(ini, name)
     if not path.is_file():
         assumed.append(
@@ -99,10 +115,23 @@ def import_work(
     p = read_parameter_file(path)
     out: dict[str, Any] = {}
     keys = dict(WORK_PARAMETERS)
-    if p.get(5210, 0.0) == 1.0:
+    g92 = any(p.get(5211 + i, 0.0) for i in range(3))
+    if g92 and not keep_g92:
+        assumed.append(
+            f"G92 offset #5211-#5213 in {name}: not written ([RS274NGC] "
+            "DISABLE_G92_PERSISTENCE: LinuxCNC clears it at start-up)"
+        )
+    elif p.get(5210, 0.0) == 1.0:
         keys["g92_mm"] = 5211
-    elif any(p.get(5211 + i, 0.0) for i in range(3)):
+    elif g92:
         unmapped.append(f"G92 offset #5211-#5213 in {name} (not in effect: #5210 is 0)")
+    index = int(p.get(5220, 1.0) + 0.0001)  # as LinuxCNC reads it; 1..9, else G54
+    if 2 <= index <= 9:
+        code = _SYSTEM_NAMES[index - 1]
+        unmapped.append(
+            f"#5220 = {index} in {name}: LinuxCNC starts programs in {code}; gantry-sim starts "
+            f"them in G54 (write {code} at the program's start)"
+        )
     for key, base in keys.items():
         vec = [p.get(base + i, 0.0) * scale for i in range(3)]
         if any(vec):
