@@ -151,7 +151,7 @@ def test_include_and_continuation_lines(tmp_path):
     [
         ("grbl", "$110=500\n$111 500\n", ":2: error:", "not a grbl setting line"),
         ("grbl", "$110=500\n$120=fast\n", ":2: error:", "expected a number"),
-        ("grbl", "$110=500\n$111=0\n$112=5\n", ":2: error:", "must be > 0"),
+        ("grbl", "$110=500\n$111=-1\n$112=5\n", ":2: error:", "must be > 0"),  # 0: unused
         ("grbl", "$110=500\n$11=-0.01\n", ":2: error:", "must be >= 0"),
         ("grbl", "hello\n", ":1: error:", "not a grbl setting line"),
         (

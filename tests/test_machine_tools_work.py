@@ -104,11 +104,19 @@ def test_grbl_import_takes_the_offsets_report(tmp_path):
     dump = tmp_path / "grbl.txt"
     dump.write_text(
         (DATA / "grbl_1.1_generic.txt").read_text()
-        + "[G54:5.000,-2.500,0.000]\n[G55:0.000,0.000,0.000]\n[G28:1.000,2.000,-3.000]\n"
+        + "[G54:-95.000,-102.500,-100.000]\n[G55:0.000,0.000,0.000]\n[G28:-99.000,-98.000,-103.000]\n"
         "[G92:0.000,0.000,0.000]\n[TLO:0.000]\n[PRB:0.000,0.000,0.000:0]\n"
     )
     work = import_grbl(dump, TARGET).values["work"]
-    assert work == {"g54_mm": [5.0, -2.5, 0.0], "g28_mm": [1.0, 2.0, -3.0]}
+    # grbl's $# positions are machine coordinates, -L..0 after homing (travel 200, 200, 200
+    # mm, Z shortened to the model's 150 mm about its middle): + L/2 in the machine file's
+    # -L/2..L/2 frame, L the whole $13x length; G55 at grbl's machine zero is the
+    # travel's far corner, not the work origin (they had been taken as work coordinates)
+    assert work == {
+        "g54_mm": [5.0, -2.5, 0.0],
+        "g55_mm": [100.0, 100.0, 100.0],
+        "g28_mm": [1.0, 2.0, -3.0],
+    }
 
 
 def test_marlin_g28_goes_to_the_machines_home_and_clears_g92_of_homed_axes(tmp_path):
