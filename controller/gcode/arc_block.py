@@ -129,6 +129,8 @@ def arc_move(
     )
     # Step 1: a centre, in one format.
     if not has_r and not has_ijk:
+        if d.bad_arc_moves_nothing:
+            return None
         raise GcodeError(
             f"arc has no centre; give offsets {o1}/{o2} (centre format) or R (radius format)"
         )
@@ -151,6 +153,8 @@ def arc_move(
     min_r = d.min_radius_in if s.inch else d.min_radius_mm
     # Step 4: the centre.
     if has_r:
+        if d.bad_arc_moves_nothing and (v["R"] == 0.0 or ps == pe):
+            return None  # Marlin finds no centre offset from them
         if a1 not in v and a2 not in v:
             raise GcodeError(
                 f"radius-format arc with neither {a1} nor {a2}; give the end point in the "
@@ -180,6 +184,8 @@ def arc_move(
                 raise GcodeError(
                     f"{o} word missing: {why} in the {s.plane} plane need both {o1} and {o2}"
                 )
+        if d.bad_arc_moves_nothing and v.get(o1, 0.0) == 0.0 and v.get(o2, 0.0) == 0.0:
+            return None  # Marlin: a zero arc_offset
         centre = centre_from_offsets(ps, (v.get(o1, 0.0), v.get(o2, 0.0)), s.arc_absolute)
         if d.project_end_on_arc:  # Marlin: its NEAR() full circle, and an arc of angle 0
             offset = ((centre[0] - ps[0]) * unit, (centre[1] - ps[1]) * unit)

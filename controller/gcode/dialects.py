@@ -254,6 +254,10 @@ class Dialect:
             (grbl 1.1: gcode.c sets no least radius, and mc_arc cuts a radius of 0 into no
             segment, so its closing mc_line goes straight there); False: refused as a
             zero-radius arc.
+        bad_arc_moves_nothing: a G2/G3 with no centre (no offset and no R, an R of 0, both
+            offsets 0, or an R whose end is its start) moves nothing and the program goes on,
+            its F kept (Marlin: G2_G3.cpp plans only ``if (arc_offset)``, else answers "G2/G3
+            bad parameters"); else it is an error.
         g93_arc_per_segment: a G93 arc runs at its F times the segments it is cut into at
             ``arc_tolerance_mm`` [mm/min] (grbl 1.1's mc_arc: :func:`~gantry_sim.controller.
             gcode.feed_modes.grbl_inverse_time_arc`); False: at F times its length (rs274).
@@ -345,6 +349,7 @@ class Dialect:
     positive_feed_only: bool = False
     g93_arc_per_segment: bool = False
     zero_radius_straight: bool = False
+    bad_arc_moves_nothing: bool = False
     g10_p_truncated: bool = False
     permissive_blocks: bool = False
     next_action_stops_motion: bool = False
@@ -482,6 +487,7 @@ MARLIN = Dialect(
     percent_delimits=False,
     # G2_G3.cpp reads the plane's two offsets only (I J in G17): a K there is ignored
     off_plane_offset_ignored=True,
+    bad_arc_moves_nothing=True,
 )
 
 LASERDYNE_ON_ARC_TOL_MM = 0.005
