@@ -61,10 +61,19 @@ def test_other_dialects_follow_no_extruder():
 def test_a_refused_line_leaves_the_extruder_as_it_was():
     # --all-errors goes on after a refused line: its E must not count (the line did nothing)
     errors: list[GcodeError] = []
-    text = "G21\nM82\nG1 X1 E1 F100\nG2 X2 E5\nG1 X3 E5\n"  # line 4: an arc with no centre
+    text = "G21\nM82\nG1 X1 E1 F100\nG2 X2 I1 P101 E5\nG1 X3 E5\n"  # line 4: P beyond 100
     moves = list(interpret(text, dialect="marlin", errors=errors))
     assert [e.line for e in errors] == [4]
     assert {m.line: m.extrudes for m in moves} == {3: True, 5: True}
+
+
+def test_an_arc_marlin_plans_nothing_for_leaves_the_extruder_as_it_was():
+    # no centre (G2_G3.cpp: "bad parameters"), or an end on the start's ray (plan_arc returns):
+    # Marlin commits no current_position, its E neither, so the next E5 still extrudes
+    for arc in ("G2 X2 E5", "G2 X3 Y0 I-1 J0 E5"):
+        text = f"G21\nM82\nG1 X1 E1 F100\n{arc}\nG1 X3 E5\n"
+        moves = list(interpret(text, dialect="marlin"))
+        assert {m.line: m.extrudes for m in moves} == {3: True, 5: True}, arc
 
 
 @settings(max_examples=60, deadline=None)

@@ -28,7 +28,9 @@ from gantry_sim.controller.machine_import.work_files import read_parameter_file
 OLD_BARE_O = re.compile(r"^\s*/?\s*(?:[nN]\s*\d+\s*)?[oO]\s*(\d+)\s*(?:\(.*\)|;.*)?\s*$")
 OLD_PARAM_LINE = re.compile(r"^\s*(\d+)\s+([-+]?(?:\d+\.?\d*|\.\d+)(?:[eE][-+]?\d+)?)\s*$")
 OLD_KEY = re.compile(r"^([A-Za-z0-9_]+)\s*=\s*(.*?)\s*$")
-OLD_SETTING = re.compile(r"^\$(\d+)\s*=\s*([^\s(]+)\s*(?:\(.*\))?\s*$")
+#: the setting line with backtracking quantifiers (its number of at most 9 digits and its
+#: description captured since 2026-12-02: grbl 0.8's numbering is told by the description)
+OLD_SETTING = re.compile(r"^\$(\d{1,9})\s*=\s*([^\s(]+)\s*(?:\((.*)\))?\s*$")
 
 LONG = 200_000  # characters in a run: the quadratic forms took minutes on such a line
 

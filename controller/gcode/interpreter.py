@@ -320,6 +320,7 @@ class Interpreter:
         if motion is not None and motion not in CYCLES and cycle.initial is not None:
             cycle = evolve(cycle, initial=None)  # a series of cycles ends with another motion
         extrudes: bool | None = None
+        e_before = s.extruder  # Marlin: an arc that plans nothing leaves E where it was
         if s.extruder is not None and motion is not None:
             e = w.values.get("E")
             extrudes, ext = s.extruder.move(None if e is None else e * s.scale)
@@ -382,6 +383,8 @@ class Interpreter:
                     elif arc.end != end:  # Marlin: its last segment goes on to the end point
                         rest = Linear(w.line, s.work, to_work(end, s.frame), s.feed_mm_per_min)
                         s = self._emit(moves, s, self._fed(rest, s, w.values), end)
+                elif e_before is not None:  # current_position, its E too, is not committed
+                    s = evolve(s, extruder=e_before)
         if extrudes is not None:  # Marlin: whether this block's move runs at P or T (M204)
             moves[made:] = [
                 evolve(m, extrudes=extrudes) if isinstance(m, Linear | Arc | Spline) else m
