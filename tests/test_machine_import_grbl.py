@@ -175,3 +175,22 @@ def test_cli_writes_the_offsets_the_machine_file_loads(tmp_path, capsys):
     assert machine.work.g30_mm == (0.0, 0.0, 0.0)  # not in the report: bundled
     assert tomllib.loads(out.read_text())["travel"]["max_mm"] == [300.0, 200.0, 40.0]
     assert "+ L/2" in capsys.readouterr().out  # the printed notes say how they were placed
+
+
+@pytest.mark.parametrize(
+    ("text", "line", "what"),
+    [
+        ("$110=500\n$111=1e308\n$112=500\n", 2, "$111=1e+308 gives [limits] max_velocity_mm_per_s"),
+        ("$120=5\n$121=5\n$122=1e-9\n", 3, "$122=1e-09 gives [limits] max_acceleration_mm_per_s2"),
+        ("$12=100\n", 1, "$12=100 gives [segmentation] chord_tolerance_mm = 100, which must be"),
+        ("$11=50\n", 1, "$11=50 gives [path] tolerance_mm = 50, which must be"),
+    ],
+)
+def test_a_setting_the_machine_file_cannot_hold_is_an_error_at_its_line(
+    tmp_path, capsys, text, line, what
+):
+    # it had been "it maps to an invalid machine file", naming no line or setting
+    path = tmp_path / "grbl.txt"
+    path.write_text(text)
+    assert main(["machine", "import", "grbl", str(path)]) == 2
+    assert f"{path}:{line}: error: {what}" in capsys.readouterr().err

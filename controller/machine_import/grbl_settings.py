@@ -49,6 +49,7 @@ import re
 from collections.abc import Callable
 from pathlib import Path
 
+from gantry_sim.controller.config import value_fault
 from gantry_sim.controller.errors import ConfigError, cut, shown
 from gantry_sim.controller.machine_import.common import Imported, Target, fit_travel, read_text
 from gantry_sim.controller.machine_import.grbl_offsets import (
@@ -177,6 +178,33 @@ def _axis_group(
     return [float(v) for v in values if v is not None]
 
 
+#: setting -> the machine-file key it becomes (section, key, whether a per-axis vector) and the
+#: factor from grbl's unit ($110-$112 mm/min -> mm/s)
+_DESTINATIONS = {
+    **{110 + i: ("limits", "max_velocity_mm_per_s", True, 1 / 60.0) for i in range(3)},
+    **{120 + i: ("limits", "max_acceleration_mm_per_s2", True, 1.0) for i in range(3)},
+    12: ("segmentation", "chord_tolerance_mm", False, 1.0),
+    11: ("path", "tolerance_mm", False, 1.0),
+}
+
+
+def _check_held(settings: dict[int, tuple[float, int]], path: str) -> None:
+    """A ConfigError at its line for a setting the machine file cannot hold ($110=1e308: a
+    velocity beyond 100 m/s; $12=100: a chord tolerance beyond 10 mm). 0 and negative values
+    are left to the rules that read them (an unused axis; $11=0: G61; refusals of their own)."""
+    for n, (section, key, vector, factor) in _DESTINATIONS.items():
+        if n not in settings or settings[n][0] <= 0.0:
+            continue
+        value, line = settings[n]
+        if (fault := value_fault(section, key, value * factor, vector)) is not None:
+            raise ConfigError(
+                f"${n}={value:g} gives [{section}] {key} = {value * factor:g}, which must be "
+                f"{fault}",
+                file=path,
+                line=line,
+            )
+
+
 def _limits(rates: list[float] | None, accs: list[float] | None) -> dict[str, list[float]]:
     """[limits] from $110-$112 [mm/min] and $120-$122 [mm/s^2] (mm/s, mm/s^2)."""
     limits: dict[str, list[float]] = {}
@@ -257,6 +285,7 @@ def import_grbl(path: Path, target: Target) -> Imported:
     rates = _axis_group(settings, 110, src, assumed)
     accs = _axis_group(settings, 120, src, assumed)
     lengths = _axis_group(settings, 130, src, assumed)
+    _check_held(settings, src)
     if limits := _limits(rates, accs):
         values["limits"] = limits
     box = _travel(lengths, target, values, assumed) if lengths is not None else None
