@@ -10,6 +10,7 @@ sampled loop's dominant mode, -3 dB bandwidth, pole radius and gain margin at th
 
 from __future__ import annotations
 
+import dataclasses
 import math
 from typing import Any
 
@@ -103,6 +104,7 @@ def effective_machine(machine: MachineConfig, gantry: Gantry) -> dict[str, Any]:
             "chord_tolerance_mm": machine.segmentation.chord_tolerance_mm,
             "segment_length_mm": machine.segmentation.segment_length_mm,
         },
+        "path": dataclasses.asdict(machine.path),
         "axes": axes,
     }
 
@@ -177,6 +179,21 @@ def _cell(axis: dict, key: Any, fmt: str) -> str:
     return "-" if value is None else fmt.format(value)
 
 
+def _path_text(path: dict[str, Any], seg: dict[str, Any]) -> str:
+    """Path control at program start and the arcs' segmentation, in one line."""
+    mode = path["mode"]
+    if mode == "G64":
+        mode += f" (blend within {path['tolerance_mm']:g} mm, short moves {path['short_moves']}"
+        q = path["naive_cam_tolerance_mm"]
+        mode += f", naive-CAM Q {q:g} mm)" if q else ")"
+    chords = (
+        f"chords within {seg['chord_tolerance_mm']:g} mm"
+        if seg["method"] == "chord"
+        else f"segments of {seg['segment_length_mm']:g} mm"
+    )
+    return f"path control at program start {mode}; arcs in {chords}"
+
+
 def format_table(info: dict[str, Any]) -> str:
     """The effective machine as a table for people: one column per axis."""
     axes = info["axes"]
@@ -187,6 +204,7 @@ def format_table(info: dict[str, Any]) -> str:
         f"servo period {info['servo_period_s'] * 1e3:g} ms, physics step "
         f"{info['physics_timestep_s'] * 1e3:g} ms, following-error limit "
         f"{info['max_following_error_mm']:g} mm, gravity feedforward {info['ff_gravity']:g}",
+        _path_text(info["path"], info["segmentation"]),
         "",
         f"{'':{width}}" + "".join(f"{a.upper():>14}" for a in axes),
     ]

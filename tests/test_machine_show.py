@@ -45,6 +45,18 @@ def test_table_for_people(capsys):
     for row in ("moving mass [kg]", "Kv [(m/min)/mm]", "bandwidth -3 dB [Hz]", "gain margin [x]"):
         assert row in out
     assert "WARNING" not in out
+    # the path control a program starts in (a grbl import's $11 sets it): it had not been shown
+    assert "path control at program start G64 (blend within 0.01 mm, short moves fit)" in out
+
+
+def test_path_control_of_a_machine_file_is_shown(tmp_path, capsys):
+    mf = tmp_path / "g61.toml"
+    mf.write_text('[path]\nmode = "G61"\n[segmentation]\nmethod = "fixed"\n')
+    info = _show_json(capsys, "--machine", str(mf))
+    assert info["path"]["mode"] == "G61"
+    assert main(["machine", "show", "--machine", str(mf)]) == 0
+    out = capsys.readouterr().out
+    assert "path control at program start G61; arcs in segments of" in out
 
 
 def test_machine_file_changes_show_through(tmp_path, capsys, machine):
