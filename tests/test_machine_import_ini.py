@@ -84,6 +84,15 @@ def test_an_include_stands_in_its_section(tmp_path):
     assert imp.values["travel"]["min_mm"][2] == -50.0  # the first of Z's MIN_LIMITs wins
 
 
+def test_an_include_cycle_or_an_empty_include_is_an_error_at_its_line(tmp_path):
+    (tmp_path / "a.inc").write_text("[AXIS_Y]\n#INCLUDE m.ini\n")
+    with pytest.raises(ConfigError, match=r"included more than 9 deep \(an include cycle\?\)"):
+        import_linuxcnc(_ini(tmp_path, "[AXIS_X]\n#INCLUDE a.inc\n"), TARGET)
+    with pytest.raises(ConfigError, match="no file name") as err:
+        import_linuxcnc(_ini(tmp_path, "[AXIS_X]\nMAX_VELOCITY = 1\n#INCLUDE\n"), TARGET)
+    assert err.value.line == 3
+
+
 def test_text_that_is_not_utf8_is_refused_only_where_linuxcnc_reads_it(tmp_path):
     path = tmp_path / "m.ini"
     path.write_bytes(b"# Fr\xe4se, Ma\xdfe in mm\n" + _x("MAX_VELOCITY = 10\n").encode())

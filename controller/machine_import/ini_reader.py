@@ -32,6 +32,8 @@ _KEY = re.compile(r"^([A-Za-z0-9_]++)\s*+=(.*)$")
 _LEADING_NUMBER = re.compile(
     r"[+-]?+(?:(?:\d++\.?+\d*+|\.\d++)(?:[eE][+-]?+\d++)?+|inf(?:inity)?+|nan)", re.IGNORECASE
 )
+#: #INCLUDE files within #INCLUDE files, at most (a file that includes itself stops there)
+MAX_INCLUDE_DEPTH = 9
 #: the code points ``surrogateescape`` gives the bytes that are not UTF-8
 _NOT_UTF8 = re.compile("[\udc80-\udcff]")
 
@@ -123,12 +125,17 @@ def _parse_into(ini: IniFile, text: str, path: str, depth: int, section: str | N
         line = raw.strip()
         if line.upper().startswith("#INCLUDE"):
             name = line[len("#INCLUDE") :].strip()
-            if depth > 8 or not name or _NOT_UTF8.search(name):
-                raise ConfigError(
-                    f"#INCLUDE {shown(name)}: missing name, not UTF-8 or nested too deep",
-                    file=path,
-                    line=number,
-                )
+            why = (
+                "no file name"
+                if not name
+                else "its name is not UTF-8"
+                if _NOT_UTF8.search(name)
+                else f"included more than {MAX_INCLUDE_DEPTH} deep (an include cycle?)"
+                if depth >= MAX_INCLUDE_DEPTH
+                else None
+            )
+            if why is not None:
+                raise ConfigError(f"#INCLUDE {shown(name)}: {why}", file=path, line=number)
             inc = Path(path).parent / name
             try:
                 inc_text = decode_ini(read_capped(inc, "#INCLUDE file"), str(inc))
