@@ -190,7 +190,6 @@ def test_a_setting_the_machine_file_cannot_hold_is_an_error_at_its_line(
     tmp_path, capsys, text, line, what
 ):
     # it had been "it maps to an invalid machine file", naming no line or setting
-    path = tmp_path / "grbl.txt"
-    path.write_text(text)
+    path = _dump(tmp_path, text)
     assert main(["machine", "import", "grbl", str(path)]) == 2
     assert f"{path}:{line}: error: {what}" in capsys.readouterr().err
