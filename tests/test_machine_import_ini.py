@@ -182,6 +182,17 @@ def test_jerk_is_read_where_linuxcnc_plans_with_it(tmp_path):
     assert any("MAX_JERK/MAX_LINEAR_JERK in AXIS_X" in a for a in imp.assumed)
 
 
+def test_a_limit_of_zero_is_not_set_rather_than_an_error(tmp_path):
+    # the checks against the machine file's ranges leave 0 to the rules that were there
+    text = _x("MAX_VELOCITY = 0\nMAX_JERK = 0\n").replace(
+        "[TRAJ]\n", "[TRAJ]\nPLANNER_TYPE = 1\nMAX_LINEAR_JERK = 5000\n"
+    )
+    imp = import_linuxcnc(_ini(tmp_path, text), TARGET)
+    assert "max_velocity_mm_per_s" not in imp.values.get("limits", {})
+    assert any("MAX_VELOCITY not set for X" in a for a in imp.assumed)
+    assert imp.values["limits"]["max_jerk_mm_per_s3"] == [5000.0] * 3
+
+
 def test_tool_table_lines_linuxcnc_skips_are_skipped(tmp_path):
     (tmp_path / "tool.tbl").write_text(
         "TOOLNO POCKET LENGTH DIAMETER COMMENT\nT1 P1 Z0.5 D0.125 ;end mill\n"

@@ -98,8 +98,8 @@ def jerk_reading(
     )
 
     def axis_jerk(asec: str | None) -> float | None:
-        own = number_as(ini, asec, "MAX_JERK", scale, JERK)
-        if own is None or own == 0.0:  # LinuxCNC's default 0: the axis sets none
+        own = number_as(ini, asec, "MAX_JERK", scale, JERK, unchecked_below_zero=True)
+        if own is None or own <= 0.0:  # LinuxCNC's default 0: the axis sets none
             return cap
         return own if cap is None else min(own, cap)
 

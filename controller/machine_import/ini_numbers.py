@@ -39,9 +39,13 @@ def number_as(
     factor: float,
     dest: tuple[str, str],
     vector: bool = True,
+    unchecked_below_zero: bool = False,
 ) -> float | None:
     """``[section] key`` times ``factor``, checked as :func:`require` does; None when the key
-    (or the section) is absent."""
+    (or the section) is absent. ``unchecked_below_zero``: a value <= 0 is returned as it is,
+    for the caller's own rule (a velocity limit of 0: that axis' limits are not written)."""
     if section is None or (raw := ini.number(section, key)) is None:
         return None
+    if unchecked_below_zero and raw <= 0.0:
+        return raw * factor
     return require(ini, section, key, raw * factor, dest, vector)

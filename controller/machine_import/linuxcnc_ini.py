@@ -157,8 +157,12 @@ def import_linuxcnc(path: Path, target: Target) -> Imported:
         def value(
             key: str, dest: tuple[str, str], asec: str | None = asec, jsec: str | None = jsec
         ) -> float | None:
-            for sec in (asec, jsec):
-                if (v := number_as(ini, sec, key, scale, dest)) is not None:
+            for sec in (asec, jsec):  # 0 or less: a limit not set (_vector says so)
+                if (
+                    v := number_as(
+                        ini, sec, key, scale, dest, unchecked_below_zero=dest[0] == "limits"
+                    )
+                ) is not None:
                     return v
             return None
 
