@@ -84,6 +84,15 @@ def test_an_include_stands_in_its_section(tmp_path):
     assert imp.values["travel"]["min_mm"][2] == -50.0  # the first of Z's MIN_LIMITs wins
 
 
+def test_only_the_word_include_includes(tmp_path):
+    # LinuxCNC's own sample configuration (tests/trajectory-planner/circular-arcs) comments
+    # "#Includes acceleration / velocity": a comment, which had been read as an #INCLUDE
+    text = _x("#Includes acceleration / velocity\nMAX_VELOCITY = 5\n#INCLUDEd\n")
+    assert import_linuxcnc(_ini(tmp_path, text), TARGET).values["limits"][
+        "max_velocity_mm_per_s"
+    ] == [5.0, 100.0, 100.0]
+
+
 def test_an_include_cycle_or_an_empty_include_is_an_error_at_its_line(tmp_path):
     (tmp_path / "a.inc").write_text("[AXIS_Y]\n#INCLUDE m.ini\n")
     with pytest.raises(ConfigError, match=r"included more than 9 deep \(an include cycle\?\)"):
@@ -138,6 +147,19 @@ def test_a_number_the_machine_file_cannot_hold_is_an_error_at_its_ini_line(
     err = capsys.readouterr().err
     assert f"{ini}:{line}: error: {what}" in err, err
     assert "internal error" not in err and not out.exists()
+
+
+def test_a_traj_cap_is_held_to_the_ranges_only_where_it_binds(tmp_path):
+    # 4000 in/s (101.6 m/s) is how configurations say "no cap": it had refused the import
+    def ini(cap: str) -> str:
+        axes = "".join(f"[AXIS_{a}]\n{_x_vel(2)}" for a in "XYZ")
+        return f"[TRAJ]\nLINEAR_UNITS = inch\nMAX_LINEAR_VELOCITY = {cap}\n" + axes
+
+    imp = import_linuxcnc(_ini(tmp_path, ini("4000")), TARGET)
+    assert imp.values["limits"]["max_velocity_mm_per_s"] == pytest.approx([2 * 25.4] * 3)
+    with pytest.raises(ConfigError, match=r"\[TRAJ\] MAX_LINEAR_VELOCITY = '1e-5' gives") as err:
+        import_linuxcnc(_ini(tmp_path, ini("1e-5")), TARGET)
+    assert err.value.line == 3
 
 
 def test_every_joint_of_a_gantry_axis_counts_for_the_following_error(tmp_path):

@@ -20,34 +20,45 @@ FERROR = ("servo", "max_following_error_mm")
 AV_RATIO_MAX, AV_RATIO_REPLACED = 0.9, 0.1
 
 
-def traj_caps(ini: IniFile, scale: float, assumed: list[str]) -> tuple[float | None, float | None]:
+#: a [TRAJ] cap [mm/s or mm/s^2] and the key it was read from (None, "": not set)
+Cap = tuple[float | None, str]
+
+
+def traj_caps(ini: IniFile, scale: float, assumed: list[str]) -> tuple[Cap, Cap]:
     """[TRAJ] MAX_LINEAR_VELOCITY and MAX_LINEAR_ACCELERATION [mm/s, mm/s^2], or in a LinuxCNC
     2.7 configuration (joints as [AXIS_n], no [JOINT_n]) its [TRAJ] MAX_VELOCITY and
-    MAX_ACCELERATION, which 2.8 renamed so (update_ini.py); None where not set."""
+    MAX_ACCELERATION, which 2.8 renamed so (update_ini.py); None where not set. A cap is not
+    held to the machine file's ranges (configurations write 4000 in/s for "no cap"): only the
+    axis limits it lowers are (:func:`capped`'s callers check those)."""
     old = not any(s.startswith("JOINT_") for s in ini.sections)
-    out: list[float | None] = []
-    for new_key, old_key, dest in (
-        ("MAX_LINEAR_VELOCITY", "MAX_VELOCITY", VEL),
-        ("MAX_LINEAR_ACCELERATION", "MAX_ACCELERATION", ACC),
+    out: list[Cap] = []
+    for new_key, old_key in (
+        ("MAX_LINEAR_VELOCITY", "MAX_VELOCITY"),
+        ("MAX_LINEAR_ACCELERATION", "MAX_ACCELERATION"),
     ):
-        cap = number_as(ini, "TRAJ", new_key, scale, dest)
-        if cap is None and old and (cap := number_as(ini, "TRAJ", old_key, scale, dest)):
+        key, cap = new_key, ini.number("TRAJ", new_key)
+        if cap is None and old and (cap := ini.number("TRAJ", old_key)) is not None:
+            key = old_key
             assumed.append(
                 f"[TRAJ] {old_key} read as {new_key} (a LinuxCNC 2.7 configuration: 2.8 renamed it)"
             )
-        out.append(cap)
+        out.append((None if cap is None else cap * scale, key))
     return out[0], out[1]
 
 
 def capped(
-    value: float | None, cap: float | None, letter: str, key: str, assumed: list[str]
+    ini: IniFile, value: float | None, cap: Cap, letter: str, key: str, assumed: list[str]
 ) -> float | None:
-    """``value`` [mm/s or mm/s^2] no higher than the [TRAJ] ``cap`` (said when it binds)."""
-    if value is None or cap is None or cap >= value:
+    """``value`` [mm/s or mm/s^2] no higher than the [TRAJ] ``cap`` (said when it binds; the
+    cap is then held to the machine file's range, at its [TRAJ] line)."""
+    limit, traj_key = cap
+    if value is None or limit is None or limit >= value:
         return value
+    if limit > 0.0:
+        require(ini, "TRAJ", traj_key, limit, VEL if "VELOCITY" in key else ACC)
     unit = "mm/s" if "VELOCITY" in key else "mm/s^2"
-    assumed.append(f"{letter}: {key} {value:g} {unit} capped by [TRAJ]'s {cap:g} {unit}")
-    return cap
+    assumed.append(f"{letter}: {key} {value:g} {unit} capped by [TRAJ]'s {limit:g} {unit}")
+    return limit
 
 
 def av_ratio(ini: IniFile, asec: str | None, assumed: list[str]) -> float:
@@ -91,7 +102,8 @@ def jerk_reading(
             + ": [limits] max_jerk_mm_per_s3 keeps the bundled values"
         )
         return lambda asec: None
-    cap = number_as(ini, "TRAJ", "MAX_LINEAR_JERK", scale, JERK)
+    raw_cap = ini.number("TRAJ", "MAX_LINEAR_JERK")  # checked where it is an axis' limit
+    cap = None if raw_cap is None else raw_cap * scale
     assumed.append(
         "[TRAJ] PLANNER_TYPE = 1 (S-curve): [AXIS_L] MAX_JERK, capped by [TRAJ] MAX_LINEAR_JERK "
         "-> [limits] max_jerk_mm_per_s3"
@@ -99,9 +111,11 @@ def jerk_reading(
 
     def axis_jerk(asec: str | None) -> float | None:
         own = number_as(ini, asec, "MAX_JERK", scale, JERK, unchecked_below_zero=True)
-        if own is None or own <= 0.0:  # LinuxCNC's default 0: the axis sets none
-            return cap
-        return own if cap is None else min(own, cap)
+        if own is not None and own > 0.0 and (cap is None or own <= cap):
+            return own
+        if cap is None:  # LinuxCNC's default MAX_JERK 0: the axis sets none
+            return None
+        return require(ini, "TRAJ", "MAX_LINEAR_JERK", cap, JERK)
 
     return axis_jerk
 

@@ -123,7 +123,9 @@ def _parse_into(ini: IniFile, text: str, path: str, depth: int, section: str | N
     the including file); returns the section open at its end."""
     for number, raw in _logical_lines(text):
         line = raw.strip()
-        if line.upper().startswith("#INCLUDE"):
+        # the word #INCLUDE, as LinuxCNC spells it (2.9's handle_includes: the line's first
+        # word; 2.10's inifile.cc: followed by a blank); "#Includes accel..." is a comment
+        if line.startswith("#INCLUDE") and line[8:9] in ("", " ", "\t"):
             name = line[len("#INCLUDE") :].strip()
             why = (
                 "no file name"

@@ -171,8 +171,8 @@ def import_linuxcnc(path: Path, target: Target) -> Imported:
         ratio = av_ratio(ini, asec, assumed)
         if ratio:
             v, a = (None if x is None else (1.0 - ratio) * x for x in (v, a))
-        limits["v"].append(capped(v, caps[0], letter, "MAX_VELOCITY", assumed))
-        limits["a"].append(capped(a, caps[1], letter, "MAX_ACCELERATION", assumed))
+        limits["v"].append(capped(ini, v, caps[0], letter, "MAX_VELOCITY", assumed))
+        limits["a"].append(capped(ini, a, caps[1], letter, "MAX_ACCELERATION", assumed))
         limits["lo"].append(value("MIN_LIMIT", LO))
         limits["hi"].append(value("MAX_LIMIT", HI))
         limits["j"].append(jerk(asec))
