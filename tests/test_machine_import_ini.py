@@ -50,6 +50,12 @@ def test_travel_keeps_the_work_origin_where_the_machine_starts(tmp_path):
     assert any("does not hold 0" in a and "widened to 0..400" in a for a in imp.assumed)
 
 
+def test_soft_limits_that_mean_none_are_shortened_to_the_model(tmp_path):
+    # LinuxCNC's own sample (ja_tests/xyzx_mpg) writes MIN_LIMIT = -1e10: fitted, not refused
+    imp = import_linuxcnc(_ini(tmp_path, _x("MIN_LIMIT = -1e10\nMAX_LIMIT = 1e10\n")), TARGET)
+    assert (imp.values["travel"]["min_mm"][0], imp.values["travel"]["max_mm"][0]) == (-300, 300)
+
+
 def test_a_machine_file_whose_travel_leaves_out_the_work_origin_is_refused(tmp_path):
     path = tmp_path / "m.toml"
     path.write_text("[travel]\nmin_mm = [200, -100, -50]\nmax_mm = [800, 100, 50]\n")

@@ -8,6 +8,8 @@ lengths, 1e-9 for SERVO_PERIOD's ns); the result is in the machine file's unit.
 
 from __future__ import annotations
 
+import math
+
 from gantry_sim.controller.config import value_fault
 from gantry_sim.controller.errors import ConfigError, shown
 from gantry_sim.controller.machine_import.ini_reader import IniFile
@@ -40,12 +42,16 @@ def number_as(
     dest: tuple[str, str],
     vector: bool = True,
     unchecked_below_zero: bool = False,
+    finite_only: bool = False,
 ) -> float | None:
     """``[section] key`` times ``factor``, checked as :func:`require` does; None when the key
     (or the section) is absent. ``unchecked_below_zero``: a value <= 0 is returned as it is,
-    for the caller's own rule (a velocity limit of 0: that axis' limits are not written)."""
+    for the caller's own rule (a velocity limit of 0: that axis' limits are not written);
+    ``finite_only``: any finite value is returned, for a caller that fits it to the range
+    itself (soft limits of +-1e10 meaning none, shortened to the model's travel)."""
     if section is None or (raw := ini.number(section, key)) is None:
         return None
-    if unchecked_below_zero and raw <= 0.0:
-        return raw * factor
-    return require(ini, section, key, raw * factor, dest, vector)
+    value = raw * factor
+    if (unchecked_below_zero and raw <= 0.0) or (finite_only and math.isfinite(value)):
+        return value
+    return require(ini, section, key, value, dest, vector)

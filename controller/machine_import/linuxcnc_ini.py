@@ -160,7 +160,13 @@ def import_linuxcnc(path: Path, target: Target) -> Imported:
             for sec in (asec, jsec):  # 0 or less: a limit not set (_vector says so)
                 if (
                     v := number_as(
-                        ini, sec, key, scale, dest, unchecked_below_zero=dest[0] == "limits"
+                        ini,
+                        sec,
+                        key,
+                        scale,
+                        dest,
+                        unchecked_below_zero=dest[0] == "limits",
+                        finite_only=dest[0] == "travel",  # fit_travel shortens it
                     )
                 ) is not None:
                     return v
