@@ -66,6 +66,30 @@ def test_grbl_setting_lines_read_as_before(line: str) -> None:
     assert _groups(grbl_settings._LINE.match(line)) == _groups(OLD_SETTING.match(line))
 
 
+def _old_logical_lines(text: str) -> list[tuple[int, str]]:
+    """ini_reader._logical_lines as it was before 2026-12-02 (quadratic in continuations)."""
+    out: list[tuple[int, str]] = []
+    pending: tuple[int, str] | None = None
+    for number, raw in enumerate(text.splitlines(), start=1):
+        line = raw.rstrip()
+        if pending is not None:
+            number, line = pending[0], pending[1] + " " + line.strip()
+            pending = None
+        if line.endswith("\\"):
+            pending = (number, line[:-1].rstrip())
+            continue
+        out.append((number, line))
+    if pending is not None:
+        out.append(pending)
+    return out
+
+
+@given(st.text(alphabet=" \t\\\nab=", max_size=40))
+@settings(max_examples=800, deadline=None)
+def test_continuation_lines_join_as_before(text: str) -> None:
+    assert ini_reader._logical_lines(text) == _old_logical_lines(text)
+
+
 def test_a_long_run_of_spaces_is_searched_in_linear_time() -> None:
     lines = ["G0 X1", " " * LONG + "x", "O12" + " " * LONG + "x", "O12 (sub)"]
     assert fanuc_subs.find_program(lines, 0, 12) == 3

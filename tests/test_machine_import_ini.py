@@ -75,6 +75,9 @@ def test_a_number_is_its_leading_number_as_linuxcnc_reads_it(tmp_path):
     with pytest.raises(ConfigError, match="expected a number") as err:
         import_linuxcnc(_ini(tmp_path, _x("MAX_VELOCITY = fast\n")), TARGET)
     assert err.value.line == 4
+    # glibc's strtod reads hexadecimal too: 0x10 is 16 (it had been 0, "x10" ignored)
+    imp = import_linuxcnc(_ini(tmp_path, _x("MAX_VELOCITY = 0x10\n")), TARGET)
+    assert imp.values["limits"]["max_velocity_mm_per_s"][0] == 16.0
 
 
 def test_an_include_stands_in_its_section(tmp_path):
@@ -106,6 +109,16 @@ def test_an_include_cycle_or_an_empty_include_is_an_error_at_its_line(tmp_path):
     with pytest.raises(ConfigError, match="no file name") as err:
         import_linuxcnc(_ini(tmp_path, "[AXIS_X]\nMAX_VELOCITY = 1\n#INCLUDE\n"), TARGET)
     assert err.value.line == 3
+
+
+def test_an_include_bomb_is_refused_quickly(tmp_path):
+    # three levels of 100 includes of one line had read 10**6 files (30 s; each level 100 x)
+    (tmp_path / "l0.inc").write_text("K = 1\n")
+    for level in (1, 2, 3):
+        (tmp_path / f"l{level}.inc").write_text(f"#INCLUDE l{level - 1}.inc\n" * 100)
+    with pytest.raises(ConfigError, match="more than 1000 #INCLUDE files") as err:
+        import_linuxcnc(_ini(tmp_path, "[AXIS_X]\n#INCLUDE l3.inc\n"), TARGET)
+    assert err.value.file == str(tmp_path / "l1.inc")
 
 
 def test_text_that_is_not_utf8_is_refused_only_where_linuxcnc_reads_it(tmp_path):
@@ -242,6 +255,16 @@ def test_stored_start_up_state_linuxcnc_would_apply_is_said(tmp_path):
     assert any("DISABLE_G92_PERSISTENCE" in a for a in imp.assumed)
     assert any("#5220 = 2" in n and "G55" in n for n in imp.not_mapped)
     assert any("RS274NGC_STARTUP_CODE" in n for n in imp.not_mapped)
+
+
+@pytest.mark.parametrize("value", ["1e999", "-1e999", "nan", "inf", "2e6"])
+def test_a_stored_offset_no_machine_file_holds_is_an_error_at_its_var_line(tmp_path, value):
+    # 1e999 had been exit 3 (a non-finite TOML value), nan and inf dropped without a word
+    (tmp_path / "m.var").write_text(f"5220 {value}\n5221\t{value}\n")
+    text = _x("") + "[RS274NGC]\nPARAMETER_FILE = m.var\n"
+    with pytest.raises(ConfigError, match="a stored offset must be a finite number") as err:
+        import_linuxcnc(_ini(tmp_path, text), TARGET)
+    assert (err.value.file, err.value.line) == (str(tmp_path / "m.var"), 2)
 
 
 def test_a_following_error_of_zero_is_left_to_the_bundled_value(tmp_path):

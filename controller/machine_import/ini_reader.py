@@ -11,7 +11,8 @@ file. Lines that are none of these are skipped, as LinuxCNC does, and kept in
 Text that is not UTF-8 is refused at its line only where LinuxCNC reads it (a section or a
 key); a comment in Latin-1 (``# Fräse``) is skipped as any comment. A number is read as
 LinuxCNC 2.9's ``IniFile::Find`` reads it (``sscanf("%lf")``): the leading number of the value,
-anything after it ignored (``100 # mm/s`` is 100; the import says so).
+hexadecimal too (``0x10`` is 16), anything after it ignored (``100 # mm/s`` is 100; the import
+says so).
 """
 
 from __future__ import annotations
@@ -22,18 +23,24 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 from gantry_sim.controller.errors import ConfigError, shown
-from gantry_sim.controller.input_files import read_capped
+from gantry_sim.controller.input_files import CONFIG_CAP_BYTES, read_capped
 
 _SECTION = re.compile(r"^\[([^\]]+)\]\s*$")
 #: a key line; its value is group 2 stripped (``(.*?)\s*$`` tried every end of a run of
 #: spaces from every start in it: quadratic in the run's length)
 _KEY = re.compile(r"^([A-Za-z0-9_]++)\s*+=(.*)$")
-#: the leading number ``sscanf("%lf")`` reads (decimal, inf, nan; hexadecimal floats aside)
+#: the leading number ``sscanf("%lf")`` reads: hexadecimal (glibc's strtod: 0x10 is 16, 0x1p4
+#: too), decimal, inf, nan
 _LEADING_NUMBER = re.compile(
-    r"[+-]?+(?:(?:\d++\.?+\d*+|\.\d++)(?:[eE][+-]?+\d++)?+|inf(?:inity)?+|nan)", re.IGNORECASE
+    r"[+-]?+(?:(?P<hex>0x(?:[0-9a-f]++\.?+[0-9a-f]*+|\.[0-9a-f]++)(?:p[+-]?+\d++)?+)"
+    r"|(?:\d++\.?+\d*+|\.\d++)(?:e[+-]?+\d++)?+|inf(?:inity)?+|nan)",
+    re.IGNORECASE,
 )
 #: #INCLUDE files within #INCLUDE files, at most (a file that includes itself stops there)
 MAX_INCLUDE_DEPTH = 9
+#: #INCLUDE lines read in all, and the bytes of all the files they read: an INI with its
+#: includes is a configuration, not more (a few files of 100 includes each had read for ever)
+MAX_INCLUDES, MAX_INCLUDED_BYTES = 1000, CONFIG_CAP_BYTES
 #: the code points ``surrogateescape`` gives the bytes that are not UTF-8
 _NOT_UTF8 = re.compile("[\udc80-\udcff]")
 
@@ -49,6 +56,8 @@ class IniFile:
     bad: dict[str, tuple[str, str, int]]
     #: values read as their leading number, with text after it ignored (as LinuxCNC does)
     trailing: list[str] = field(default_factory=list)
+    #: #INCLUDE files read so far, and their bytes (bounded by MAX_INCLUDES, MAX_INCLUDED_BYTES)
+    included: list[int] = field(default_factory=lambda: [0, 0])
 
     def get(self, section: str, key: str) -> tuple[str, str, int] | None:
         return self.sections.get(section, {}).get(key)
@@ -60,10 +69,12 @@ class IniFile:
             return None
         text, file, line = entry
         m = _LEADING_NUMBER.match(text)
-        value = float(m.group()) if m else math.nan
+        value = math.nan if m is None else _float(m)
         if not math.isfinite(value):
             raise ConfigError(
-                f"[{section}] {key} = {shown(text)}: expected a number", file=file, line=line
+                f"[{section}] {key} = {shown(text)}: expected a number (a finite one)",
+                file=file,
+                line=line,
             )
         if m and m.end() < len(text):
             note = (
@@ -73,6 +84,16 @@ class IniFile:
             if note not in self.trailing:
                 self.trailing.append(note)
         return value
+
+
+def _float(m: re.Match[str]) -> float:
+    """The number :data:`_LEADING_NUMBER` matched (inf where it overflows, as strtod)."""
+    if m.group("hex") is None:
+        return float(m.group())
+    try:
+        return float.fromhex(m.group())
+    except OverflowError:
+        return -math.inf if m.group().startswith("-") else math.inf
 
 
 def decode_ini(data: bytes, path: str) -> str:
@@ -90,20 +111,25 @@ def read_ini(path: Path) -> str:
 
 
 def _logical_lines(text: str) -> list[tuple[int, str]]:
-    """(first line number, text) with backslash-continued lines joined, as LinuxCNC does."""
+    """(first line number, text) with backslash-continued lines joined, as LinuxCNC does: each
+    continuation stripped and joined with one space. The pieces are joined once, at the end of
+    the logical line (joining them line by line took quadratic time: 900,000 continuations,
+    under the file cap, took two minutes)."""
     out: list[tuple[int, str]] = []
-    pending: tuple[int, str] | None = None
+    start = 0  # the logical line's first line number; 0: none open
+    parts: list[str] = []
     for number, raw in enumerate(text.splitlines(), start=1):
-        line = raw.rstrip()
-        if pending is not None:
-            number, line = pending[0], pending[1] + " " + line.strip()
-            pending = None
-        if line.endswith("\\"):
-            pending = (number, line[:-1].rstrip())
-            continue
-        out.append((number, line))
-    if pending is not None:
-        out.append(pending)
+        first = start == 0
+        piece = raw.rstrip() if first else raw.strip()
+        start = number if first else start
+        if not piece.endswith("\\"):
+            parts.append(piece)
+            out.append((start, " ".join(parts)))
+            start, parts = 0, []
+        elif (kept := piece[:-1].rstrip()) or first:
+            parts.append(kept)  # an empty continuation adds no space (it was stripped away)
+    if start:
+        out.append((start, " ".join(parts)))
     return out
 
 
@@ -140,11 +166,21 @@ def _parse_into(ini: IniFile, text: str, path: str, depth: int, section: str | N
                 raise ConfigError(f"#INCLUDE {shown(name)}: {why}", file=path, line=number)
             inc = Path(path).parent / name
             try:
-                inc_text = decode_ini(read_capped(inc, "#INCLUDE file"), str(inc))
+                data = read_capped(inc, "#INCLUDE file")
+                inc_text = decode_ini(data, str(inc))
             except ConfigError as exc:
                 raise ConfigError(
                     f"#INCLUDE {name}: {exc.message}", file=path, line=number
                 ) from None
+            ini.included[0] += 1
+            ini.included[1] += len(data)
+            if ini.included[0] > MAX_INCLUDES or ini.included[1] > MAX_INCLUDED_BYTES:
+                raise ConfigError(
+                    f"#INCLUDE {name}: more than {MAX_INCLUDES} #INCLUDE files, or more than "
+                    f"{MAX_INCLUDED_BYTES // 2**20} MB of them, in one configuration",
+                    file=path,
+                    line=number,
+                )
             section = _parse_into(ini, inc_text, str(inc), depth + 1, section)
             continue
         if not line or line[0] in "#;":

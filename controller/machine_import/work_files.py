@@ -15,6 +15,7 @@ programs that need one set it with G10 L2 R) and the rotary axes' values.
 
 from __future__ import annotations
 
+import math
 import re
 from pathlib import Path
 from typing import Any
@@ -22,7 +23,7 @@ from typing import Any
 from gantry_sim.controller.errors import ConfigError, GcodeError, shown
 from gantry_sim.controller.gcode.tools import parse_tool_table
 from gantry_sim.controller.machine_import.common import read_text
-from gantry_sim.controller.machine_work import SYSTEM_KEYS
+from gantry_sim.controller.machine_work import MAX_MM, SYSTEM_KEYS
 
 #: [work] key -> first numbered parameter (X; Y and Z follow)
 WORK_PARAMETERS = {
@@ -33,7 +34,9 @@ WORK_PARAMETERS = {
 #: a parameter line; possessive quantifiers (``*+``, ``++``): a line it refuses fails in linear
 #: time (``\d+\.?\d*`` splits a run of digits as many ways as it has digits)
 _PARAM_LINE = re.compile(
-    r"^\s*+(\d++)\s++([-+]?+(?:\d++(?:\.\d*+)?+|\.\d++)(?:[eE][-+]?+\d++)?+)\s*+$"
+    r"^\s*+(\d++)\s++([-+]?+(?:(?:\d++(?:\.\d*+)?+|\.\d++)(?:[eE][-+]?+\d++)?+"
+    r"|inf(?:inity)?+|nan))\s*+$",
+    re.IGNORECASE,
 )
 _SYSTEM_NAMES = ("G54", "G55", "G56", "G57", "G58", "G59", "G59.1", "G59.2", "G59.3")
 
@@ -86,11 +89,35 @@ def import_tools(
 
 def read_parameter_file(path: Path) -> dict[int, float]:
     """linuxcnc.var: ``<number> <value>`` lines -> {number: value}; other lines are skipped."""
-    values: dict[int, float] = {}
-    for line in read_text(path, "LinuxCNC parameter file").splitlines():
+    return {k: v for k, (v, _) in read_parameter_lines(path).items()}
+
+
+def read_parameter_lines(path: Path) -> dict[int, tuple[float, int]]:
+    """linuxcnc.var -> {number: (value, line)}; ``1e999``, ``inf`` and ``nan`` are read as
+    LinuxCNC's ``%lf`` reads them (:func:`import_work` refuses them where they are used)."""
+    values: dict[int, tuple[float, int]] = {}
+    for number, line in enumerate(read_text(path, "LinuxCNC parameter file").splitlines(), 1):
         if m := _PARAM_LINE.match(line):
-            values[int(m.group(1))] = float(m.group(2))
+            values[int(m.group(1))] = (float(m.group(2)), number)
     return values
+
+
+def _offset(p: dict[int, tuple[float, int]], base: int, scale: float, path: Path) -> list[float]:
+    """#base..#base+2 [mm] (absent: 0); a value that is not finite, or beyond what a [work]
+    offset holds, is a ConfigError at its line of the parameter file."""
+    out = []
+    for k in range(base, base + 3):
+        value, line = p.get(k, (0.0, 0))
+        mm = value * scale
+        if not (math.isfinite(mm) and abs(mm) < MAX_MM):
+            raise ConfigError(
+                f"#{k} = {value:g}: a stored offset must be a finite number of magnitude below "
+                f"{MAX_MM:g} mm",
+                file=str(path),
+                line=line,
+            )
+        out.append(mm)
+    return out
 
 
 def import_work(
@@ -112,7 +139,8 @@ def import_work(
             "(the stored offsets are all zero)"
         )
         return None
-    p = read_parameter_file(path)
+    lines = read_parameter_lines(path)
+    p = {k: v for k, (v, _) in lines.items()}
     out: dict[str, Any] = {}
     keys = dict(WORK_PARAMETERS)
     g92 = any(p.get(5211 + i, 0.0) for i in range(3))
@@ -125,7 +153,8 @@ def import_work(
         keys["g92_mm"] = 5211
     elif g92:
         unmapped.append(f"G92 offset #5211-#5213 in {name} (not in effect: #5210 is 0)")
-    index = int(p.get(5220, 1.0) + 0.0001)  # as LinuxCNC reads it; 1..9, else G54
+    raw = p.get(5220, 1.0)
+    index = int(raw + 0.0001) if math.isfinite(raw) else 1  # as LinuxCNC: 1..9, else G54
     if 2 <= index <= 9:
         code = _SYSTEM_NAMES[index - 1]
         unmapped.append(
@@ -133,7 +162,7 @@ def import_work(
             f"them in G54 (write {code} at the program's start)"
         )
     for key, base in keys.items():
-        vec = [p.get(base + i, 0.0) * scale for i in range(3)]
+        vec = _offset(lines, base, scale, path)
         if any(vec):
             out[key] = vec
     for i, system in enumerate(_SYSTEM_NAMES):
