@@ -193,3 +193,11 @@ def test_a_setting_the_machine_file_cannot_hold_is_an_error_at_its_line(
     path = _dump(tmp_path, text)
     assert main(["machine", "import", "grbl", str(path)]) == 2
     assert f"{path}:{line}: error: {what}" in capsys.readouterr().err
+
+
+def test_a_huge_bad_value_is_shown_cut_short(tmp_path, capsys):
+    # a million-digit value had been echoed whole: a 1 MB error message
+    path = _dump(tmp_path, "$110=" + "9" * 1_000_000 + "x\n")
+    assert main(["machine", "import", "grbl", str(path)]) == 2
+    err = capsys.readouterr().err
+    assert f"{path}:1: error: $110 = " in err and len(err) < 400

@@ -273,3 +273,18 @@ def test_a_following_error_of_zero_is_left_to_the_bundled_value(tmp_path):
     imp = import_linuxcnc(_ini(tmp_path, text), TARGET)
     assert "max_following_error_mm" not in imp.values.get("servo", {})
     assert any("[JOINT_0] FERROR = 0" in a for a in imp.assumed)
+
+
+def test_out_may_not_be_the_file_being_imported(tmp_path, capsys):
+    # it had silently replaced the INI with the machine file
+    ini = _ini(tmp_path, _x(""))
+    before = ini.read_text()
+    assert main(["machine", "import", "linuxcnc", str(ini), "--out", str(ini)]) == 2
+    assert "--out is the file being imported" in capsys.readouterr().err
+    assert ini.read_text() == before
+
+
+def test_a_tool_table_that_is_no_regular_file_is_said_so(tmp_path):
+    (tmp_path / "tools").mkdir()
+    imp = import_linuxcnc(_ini(tmp_path, _x("") + "[EMCIO]\nTOOL_TABLE = tools\n"), TARGET)
+    assert any("TOOL_TABLE tools: not a regular file beside the INI" in a for a in imp.assumed)

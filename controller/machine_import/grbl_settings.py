@@ -134,7 +134,9 @@ def parse_settings(text: str, path: str) -> dict[int, tuple[float, int]]:
         except ValueError:
             value = math.nan
         if not math.isfinite(value):
-            raise ConfigError(f"${n} = {m.group(2)!r}: expected a number", file=path, line=number)
+            raise ConfigError(
+                f"${n} = {shown(m.group(2))}: expected a number", file=path, line=number
+            )
         out.setdefault(n, (value, number))
     if not out:
         raise ConfigError("no $N=VALUE line: not a grbl $$ dump", file=path)

@@ -41,6 +41,11 @@ _PARAM_LINE = re.compile(
 _SYSTEM_NAMES = ("G54", "G55", "G56", "G57", "G58", "G59", "G59.1", "G59.2", "G59.3")
 
 
+def _missing(path: Path) -> str:
+    """Why ``path``, which is not a regular file, is not read."""
+    return "not a regular file" if path.exists() else "no such file"
+
+
 def _beside(ini: Path, name: str) -> Path:
     path = Path(name).expanduser()
     return path if path.is_absolute() else ini.parent / path
@@ -53,7 +58,7 @@ def import_tools(
     path = _beside(ini, name)
     if not path.is_file():
         assumed.append(
-            f"[EMCIO] TOOL_TABLE {name}: no such file beside the INI: [tools] not written"
+            f"[EMCIO] TOOL_TABLE {name}: {_missing(path)} beside the INI: [tools] not written"
         )
         return None
     skipped: list[tuple[int, str]] = []
@@ -135,7 +140,8 @@ def import_work(
     path = _beside(ini, name)
     if not path.is_file():
         assumed.append(
-            f"[RS274NGC] PARAMETER_FILE {name}: no such file beside the INI: [work] not written "
+            f"[RS274NGC] PARAMETER_FILE {name}: {_missing(path)} beside the INI: [work] not "
+            "written "
             "(the stored offsets are all zero)"
         )
         return None

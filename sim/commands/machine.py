@@ -105,6 +105,14 @@ def work_table(info: dict) -> str:
     return "\n".join(lines)
 
 
+def _same_file(a: Path, b: Path) -> bool:
+    """Whether ``a`` and ``b`` name one existing file."""
+    try:
+        return a.samefile(b)
+    except OSError:  # either is missing, or not a path to compare (standard input)
+        return False
+
+
 def _import(args: argparse.Namespace) -> int:
     from gantry_sim.controller.config import load_machine_config
     from gantry_sim.controller.errors import ConfigError
@@ -122,6 +130,11 @@ def _import(args: argparse.Namespace) -> int:
     text = to_toml(imported)
     if args.out is not None and (args.out.is_dir() or not args.out.parent.is_dir()):
         raise ConfigError("--out must be a file in an existing folder", file=str(args.out))
+    if args.out is not None and _same_file(args.out, args.file):
+        raise ConfigError(
+            "--out is the file being imported; write the machine file elsewhere",
+            file=str(args.out),
+        )
     import tempfile
 
     with tempfile.TemporaryDirectory() as tmp:  # the file must load and run on the bundled model
