@@ -201,3 +201,10 @@ def test_a_huge_bad_value_is_shown_cut_short(tmp_path, capsys):
     assert main(["machine", "import", "grbl", str(path)]) == 2
     err = capsys.readouterr().err
     assert f"{path}:1: error: $110 = " in err and len(err) < 400
+
+
+def test_an_offset_no_machine_file_holds_is_an_error_at_its_line(tmp_path, capsys):
+    # it had been refused only as the written file was loaded back, naming no line
+    path = _dump(tmp_path, "$130=200\n$131=200\n$132=200\n[G54:1e300,0.000,0.000]\n")
+    assert main(["machine", "import", "grbl", str(path)]) == 2
+    assert f"{path}:4: error: [G54:...]: each number must be within" in capsys.readouterr().err

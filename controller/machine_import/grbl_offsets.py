@@ -14,11 +14,16 @@ import math
 import re
 
 from gantry_sim.controller.errors import ConfigError
+from gantry_sim.controller.machine_work import MAX_MM
 from gantry_sim.controller.units import MM_PER_INCH
 
 _OFFSET_LINE = re.compile(r"^\[(G5[4-9]|G28|G30|G92):([^\]]*)\]$")
 #: the ``$#`` entries that are grbl machine coordinates (G92 is a work-coordinate offset)
 _MACHINE_KEYS = ("g54_mm", "g55_mm", "g56_mm", "g57_mm", "g58_mm", "g59_mm", "g28_mm", "g30_mm")
+
+
+#: the largest $# number read: a [work] offset's range (MAX_MM) in inches, less grbl's travel
+REPORTED_MAX = MAX_MM / MM_PER_INCH / 2
 
 
 def parse_offsets(text: str, path: str) -> dict[str, list[float]]:
@@ -37,6 +42,13 @@ def parse_offsets(text: str, path: str) -> dict[str, list[float]]:
         if len(vec) != 3 or not all(math.isfinite(v) for v in vec):
             raise ConfigError(
                 f"[{m.group(1)}:...]: expected three numbers x,y,z", file=path, line=number
+            )
+        if any(abs(v) >= REPORTED_MAX for v in vec):  # [G54:1e300,0,0]
+            raise ConfigError(
+                f"[{m.group(1)}:...]: each number must be within +-{REPORTED_MAX:g} (the "
+                f"machine file's offsets stay below {MAX_MM:g} mm, in inches too)",
+                file=path,
+                line=number,
             )
         out[f"{m.group(1).lower()}_mm"] = vec
     return out
