@@ -288,3 +288,15 @@ def test_a_tool_table_that_is_no_regular_file_is_said_so(tmp_path):
     (tmp_path / "tools").mkdir()
     imp = import_linuxcnc(_ini(tmp_path, _x("") + "[EMCIO]\nTOOL_TABLE = tools\n"), TARGET)
     assert any("TOOL_TABLE tools: not a regular file beside the INI" in a for a in imp.assumed)
+
+
+def test_a_stored_origin_beyond_the_shortened_travel_is_said(tmp_path):
+    # a mill of +-600 mm X on the model's 600 mm: its G54 at X -456 is off the written travel
+    (tmp_path / "m.var").write_text("5221 -456\n")
+    text = _x("MIN_LIMIT = -600\nMAX_LIMIT = 600\n") + "[RS274NGC]\nPARAMETER_FILE = m.var\n"
+    imp = import_linuxcnc(_ini(tmp_path, text), TARGET)
+    assert imp.values["travel"]["min_mm"][0] == -300.0
+    assert any(
+        a.startswith("g54_mm [-456.0, 0.0, 0.0] lies outside [travel]") and "in G54" in a
+        for a in imp.assumed
+    )

@@ -115,3 +115,23 @@ def fit_travel(
             f"joint range ([sim] work_origin_joint_mm = {[round(v, 6) for v in origin]})"
         )
     return out_lo, out_hi, origin
+
+
+def outside_travel(
+    work: dict[str, list[float]], lo: list[float], hi: list[float], assumed: list[str]
+) -> None:
+    """Say so where a [work] origin or stored position [mm] lies outside the written [travel]
+    ``lo``..``hi`` [mm] (a travel shortened to the model's joint range: the machine's own
+    reaches it). G92 is an offset, not a position, and is not checked."""
+    for key, pos in work.items():
+        if key == "g92_mm" or all(
+            a - 1e-9 <= p <= b + 1e-9 for p, a, b in zip(pos, lo, hi, strict=True)
+        ):
+            continue
+        code = key.removesuffix("_mm").replace("_", ".").upper()
+        what = f"a program's {code}" if code in ("G28", "G30") else f"a program in {code}"
+        assumed.append(
+            f"{key} {[round(p, 6) for p in pos]} lies outside [travel] "
+            f"{[round(a, 6) for a in lo]}..{[round(b, 6) for b in hi]}: {what} leaves the "
+            "travel (the model is smaller than the machine; --work-offset places a program)"
+        )

@@ -100,20 +100,3 @@ def place_offsets(
             "offsets kept)" + ("; G92 written" if "g92_mm" in out else "")
         )
     return out
-
-
-def outside_travel(
-    work: dict[str, list[float]], lo: list[float], hi: list[float], assumed: list[str]
-) -> None:
-    """Say so when a stored G28/G30 position [mm] lies outside the written [travel] (a travel
-    shortened to the model's joint range: the position is where grbl's is, beyond it)."""
-    for key in ("g28_mm", "g30_mm"):
-        pos = work.get(key)
-        if pos is not None and any(
-            not (a - 1e-9 <= p <= b + 1e-9) for p, a, b in zip(pos, lo, hi, strict=True)
-        ):
-            assumed.append(
-                f"{key} {[round(p, 6) for p in pos]} lies outside [travel] "
-                f"{[round(a, 6) for a in lo]}..{[round(b, 6) for b in hi]}: a program's "
-                f"{key[:3].upper()} leaves the travel"
-            )

@@ -51,9 +51,14 @@ from pathlib import Path
 
 from gantry_sim.controller.config import value_fault
 from gantry_sim.controller.errors import ConfigError, cut, shown
-from gantry_sim.controller.machine_import.common import Imported, Target, fit_travel, read_text
-from gantry_sim.controller.machine_import.grbl_offsets import (
+from gantry_sim.controller.machine_import.common import (
+    Imported,
+    Target,
+    fit_travel,
     outside_travel,
+    read_text,
+)
+from gantry_sim.controller.machine_import.grbl_offsets import (
     parse_offsets,
     place_offsets,
 )

@@ -44,6 +44,7 @@ from gantry_sim.controller.machine_import.common import (
     Imported,
     Target,
     fit_travel,
+    outside_travel,
 )
 from gantry_sim.controller.machine_import.gains import ZETA, force_gains
 from gantry_sim.controller.machine_import.ini_limits import (
@@ -265,6 +266,10 @@ def _assemble(ini, path, target, scale, limits, pid, ferror, assumed, unmapped) 
         keep_g92 = not ini.number("RS274NGC", "DISABLE_G92_PERSISTENCE")
         if work := import_work(Path(path), name[0], scale, assumed, notes, keep_g92):
             values["work"] = work
+            if "min_mm" in values["travel"]:
+                outside_travel(
+                    work, values["travel"]["min_mm"], values["travel"]["max_mm"], assumed
+                )
     if (startup := ini.get("RS274NGC", "RS274NGC_STARTUP_CODE")) is not None:
         notes.append(
             f"[RS274NGC] RS274NGC_STARTUP_CODE = {shown(startup[0])} (the codes LinuxCNC runs "
