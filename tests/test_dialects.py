@@ -79,6 +79,18 @@ def test_g2core_reads_what_its_normalizer_and_canonical_machine_leave() -> None:
     assert refused.line == 6 and "zero feed" in refused.message
 
 
+def test_g2core_has_32_tools() -> None:
+    """g2core.h TOOLS = 32: cm_select_tool (STAT_T_WORD_IS_INVALID), cm_set_tl_offset
+    (STAT_H_WORD_IS_INVALID) and cm_set_g10_data (STAT_P_WORD_IS_INVALID) refuse more;
+    synthetos/tg_pytest's g43-tool-offset.json expects status 181 for T33. The linuxcnc
+    dialect takes them: with no tool table every tool number is accepted (ToolTable)."""
+    for line in ("T33 M6", "G43 H33", "G10 L1 P33 Z1", "G10 L10 P0 Z1"):
+        err = error_of(f"G21\n{line}\nG0 X1\n", "g2core")
+        assert err.line == 2 and ("tools 0 to 32" in err.message or "1 to 32" in err.message)
+        assert run(f"G21\n{line.replace('P0', 'P1')}\nG0 X1\nM2\n", "linuxcnc")
+    assert run("G21\nT32 M6\nG43 H32\nG10 L1 P32 Z1\nG0 X1\n", "g2core")
+
+
 def test_g2core_takes_the_last_of_repeated_words() -> None:
     """g2core's parser stores each word as it reads it (gcode_parser.cpp _parse_gcode_block,
     SET_NON_MODAL / SET_MODAL) and checks neither repeats nor modal groups: the last wins.

@@ -203,6 +203,12 @@ def _check_g10_numbers(v: dict[str, float], d: Dialect) -> None:
     level = round(v["L"])
     if d.g10_levels is not None and level not in d.g10_levels:
         raise GcodeError(f"G10 L{level} is not supported: {d.name} has no G10 L{level}")
+    if d.max_tool_number is not None and level in (1, 10):
+        p = math.trunc(v.get("P", 0.0))
+        if not 1 <= p <= d.max_tool_number:
+            raise GcodeError(
+                f"G10 L{level} P{p}: {d.name}'s tool table has tools 1 to {d.max_tool_number}"
+            )
     if d.g10_p0_current or level not in (2, 20):
         return
     p = math.trunc(v.get("P", 0.0))

@@ -254,6 +254,9 @@ class Dialect:
             (grbl 1.1: gcode.c sets no least radius, and mc_arc cuts a radius of 0 into no
             segment, so its closing mc_line goes straight there); False: refused as a
             zero-radius arc.
+        max_tool_number: the largest tool number of T, H and G10 L1/L10 P (g2core: its
+            tool table's TOOLS, 32: cm_select_tool, cm_set_tl_offset and cm_set_g10_data
+            refuse more); None: rs274's C int (words.MAX_TOOL_NUMBER).
         bad_arc_moves_nothing: a G2/G3 with no centre (no offset and no R, an R of 0, both
             offsets 0, or an R whose end is its start) moves nothing and the program goes on,
             its F kept (Marlin: G2_G3.cpp plans only ``if (arc_offset)``, else answers "G2/G3
@@ -350,6 +353,7 @@ class Dialect:
     g93_arc_per_segment: bool = False
     zero_radius_straight: bool = False
     bad_arc_moves_nothing: bool = False
+    max_tool_number: int | None = None
     g10_p_truncated: bool = False
     permissive_blocks: bool = False
     next_action_stops_motion: bool = False
@@ -452,6 +456,7 @@ G2CORE = Dialect(
     g10_levels=frozenset((1, 2, 10, 20)),  # cm_set_g10_data: "L11 not supported atm"
     g10_p0_current=False,  # cm_set_g10_data: P below G54 is STAT_P_WORD_IS_INVALID
     g10_g2core=True,
+    max_tool_number=32,  # g2core.h TOOLS
 )
 
 MARLIN = Dialect(

@@ -132,9 +132,15 @@ def _m_list(dialect: Dialect | None) -> str:
 MAX_TOOL_NUMBER = 2**31 - 1
 
 
-def check_tool_number(letter: str, value: float) -> None:
+def check_tool_number(letter: str, value: float, dialect: Dialect | None = None) -> None:
     """GcodeError when the tool number ``value`` of word ``letter`` (T, H, M61's Q) is beyond
-    :data:`MAX_TOOL_NUMBER`."""
+    :data:`MAX_TOOL_NUMBER`, or the dialect's own largest (``Dialect.max_tool_number``)."""
+    if dialect is not None and dialect.max_tool_number is not None:
+        top = dialect.max_tool_number
+        if value >= top + 1:
+            raise GcodeError(
+                f"{letter}{value:g}: {dialect.name} has tools 0 to {top} (its tool table's size)"
+            )
     if value >= MAX_TOOL_NUMBER + 0.5:
         raise GcodeError(
             f"{letter}{value:.17g} is beyond the largest tool number: tool numbers are 0 to "
@@ -313,7 +319,9 @@ def check_words(w: Words, motion: int | None, dialect: Dialect) -> None:
     if v.get("T", 0.0) < 0.0:
         raise GcodeError("negative T word; tool numbers are >= 0")
     if "T" not in dialect.ignored_letters:
-        check_tool_number("T", v.get("T", 0.0))
+        check_tool_number("T", v.get("T", 0.0), dialect)
+    if "H" in v and dialect.max_tool_number is not None:  # rs274's H: tool_offsets._whole
+        check_tool_number("H", v["H"], dialect)
     if w.m.get("tool_change") == 61 and v.get("Q", -1.0) < 0.0:
         raise GcodeError("M61 needs a Q word >= 0: the tool number now in the spindle")
     if w.m.get("tool_change") == 61:
