@@ -91,6 +91,15 @@ def test_g2core_has_32_tools() -> None:
     assert run("G21\nT32 M6\nG43 H32\nG10 L1 P32 Z1\nG0 X1\n", "g2core")
 
 
+def test_g2core_reads_an_m_code_by_its_whole_number() -> None:
+    """gcode_parser.cpp: ``switch ((uint8_t)value)`` for M words, so M3.5 is M3; M50 reads its
+    point (.0 feed, .1 traverse override control, which _execute_gcode_block leaves unrun;
+    others STAT_GCODE_COMMAND_UNSUPPORTED). Both had been refused here."""
+    assert run("G21\nM3.5 S1000\nM50.1\nG0 X1\n", "g2core")[0].end == (1.0, 0.0, 0.0)
+    assert "unsupported M code M50.2" in error_of("G21\nM50.2\nG0 X1\n", "g2core").message
+    assert "M3.5" in error_of("G21\nM3.5 S1000\nG0 X1\nM2\n", "linuxcnc").message
+
+
 def test_g2core_takes_the_last_of_repeated_words() -> None:
     """g2core's parser stores each word as it reads it (gcode_parser.cpp _parse_gcode_block,
     SET_NON_MODAL / SET_MODAL) and checks neither repeats nor modal groups: the last wins.
@@ -1238,12 +1247,11 @@ def test_g2core_runs_the_gc_pair_of_a_json_line_with_other_pairs() -> None:
     assert [m.end for m in run(text, "g2core")] == [(10.0, 0.0, 0.0), (10.0, 3.0, 0.0)]
 
 
-def test_g2core_refusal_of_m50_1_does_not_say_g2core_lacks_it() -> None:
+def test_g2core_runs_m50_1_as_it_does_and_says_what_it_lacks() -> None:
     """gcode_parser.cpp ``_parse_gcode_block`` has M50.1 (``case 50``, ``_point`` 1: the
-    traverse override switch, its execution commented out); gantry-sim does not read it, and
-    its refusal must not claim g2core lacks it (h4 reproducer m50_1)."""
-    message = error_of("G21\nM50.1 P1\n", "g2core").message
-    assert "unsupported M code M50.1" in message and "has no" not in message
+    traverse override switch, its execution commented out): accepted and nothing done, as
+    g2core does (it had been refused here, h4 reproducer m50_1); M19 it lacks."""
+    assert run("G21\nM50.1 P1\nG0 X1\n", "g2core")[0].end == (1.0, 0.0, 0.0)
     assert "g2core has no M19" in error_of("M19\n", "g2core").message
 
 

@@ -120,6 +120,10 @@ class Dialect:
             other G word is read as its whole number (g2core: ``switch ((uint8_t)value)`` in
             gcode_parser.cpp, ``_point`` consulted for G28, G30, G38, G43, G61, G90, G91 and
             G92 only: G59.1 is G59, G1.5 G1, G17.1 G17); None: every decimal part counts.
+        m_whole_codes: M codes are read by their whole part (g2core's ``switch ((uint8_t)value)``:
+            M3.5 is M3), except M50, whose .1 (traverse override control, not modelled) is
+            accepted and does nothing and whose other decimals are refused; False: an M code
+            is a whole number (rs274's read_integer_value).
         letters: the word letters the controller knows; None: LinuxCNC's.
         system_lines: ``$`` lines are system commands (grbl); ``$J=`` is a jog.
         home_all_axes: G28/G30 send every axis home, axis words only add a first move (g2core's
@@ -305,6 +309,7 @@ class Dialect:
     g_codes: frozenset[int] | None = None
     m_codes: frozenset[int] | None = None
     g_point_codes: frozenset[int] | None = None
+    m_whole_codes: bool = False
     letters: frozenset[str] | None = None
     system_lines: bool = False
     home_all_axes: bool = False
@@ -452,6 +457,7 @@ G2CORE = Dialect(
     g_codes=_G2CORE_G,
     m_codes=_G2CORE_M,
     g_point_codes=frozenset((280, 300, 380, 430, 610, 900, 910, 920)),
+    m_whole_codes=True,
     coordinate_systems=6,  # g2core.h COORDS
     g10_levels=frozenset((1, 2, 10, 20)),  # cm_set_g10_data: "L11 not supported atm"
     g10_p0_current=False,  # cm_set_g10_data: P below G54 is STAT_P_WORD_IS_INVALID

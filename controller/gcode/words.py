@@ -113,7 +113,8 @@ def _g_code(value: float, dialect: Dialect | None) -> int | None:
 
 def _has_none(dialect: Dialect | None, value: float) -> str:
     """ " (g2core has no M98)" where the dialect has M codes of its own, else "" (also for a
-    decimal code: g2core has M50.1, which gantry-sim does not read)."""
+    decimal code, which may be one of the dialect's: g2core's M50.2 is refused, its M50.1
+    not)."""
     if dialect is None or dialect.m_codes is None or value != int(value):
         return ""
     return f" ({dialect.name} has no M{value:g})"
@@ -221,6 +222,13 @@ def read_words(
         elif letter == "M":
             if (dialect or LINUXCNC).rs274_code_numbers:
                 value = whole_number("M", value)  # rs274's read_integer_value: M5.0001 is M5
+            if dialect is not None and dialect.m_whole_codes and 0.0 <= value < 256.0:
+                whole = float(math.trunc(value))
+                point = math.floor(10.0 * value + 0.5) - 10.0 * whole  # _point(): std::round
+                if whole == 50.0 and point == 1:
+                    continue  # M50.1: g2core's traverse override control, which it leaves unrun
+                if whole != 50.0 or point == 0:
+                    value = whole
             code = _code(value, False)
             group = None if code is None else M_GROUPS.get(code)
             if code is None or group is None:
