@@ -91,6 +91,16 @@ def test_g2core_has_32_tools() -> None:
     assert run("G21\nT32 M6\nG43 H32\nG10 L1 P32 Z1\nG0 X1\n", "g2core")
 
 
+def test_g2core_reads_one_sign_before_a_number() -> None:
+    """util.cpp c_atof reads one sign; the next word then starts at the second, which is no
+    letter: STAT_INVALID_OR_MALFORMED_COMMAND, and nothing of the line runs. rs274 reads
+    X--5 as -(-5) = 5 (checked with rs274 -g, 2026-12-02), which gantry had done for g2core."""
+    err = error_of("G21\nG0 X--5\n", "g2core")
+    assert err.line == 2 and "one sign" in err.message
+    assert run("G21\nG0 X-5 Y+2 (-- a comment --)\n", "g2core")[0].end == (-5.0, 2.0, 0.0)
+    assert run("G21\nG0 X--5\nM2\n", "linuxcnc")[0].end == (5.0, 0.0, 0.0)
+
+
 def test_g2core_reads_an_m_code_by_its_whole_number() -> None:
     """gcode_parser.cpp: ``switch ((uint8_t)value)`` for M words, so M3.5 is M3; M50 reads its
     point (.0 feed, .1 traverse override control, which _execute_gcode_block leaves unrun;

@@ -28,6 +28,17 @@ def _plain(tree: tuple) -> bool:
     return tree[0] == "num" or (tree[0] == "neg" and tree[1][0] == "num")
 
 
+def check_signs(block: Block, d: Dialect) -> None:
+    """One sign at most before a number (grbl's read_float, g2core's c_atof: ``X--5`` is a
+    bad number format; rs274 reads it as -(-5))."""
+    signs = _SIGNS.search(strip_line(block.text).replace(COMMENT, ""))
+    if signs is not None:
+        raise GcodeError(
+            f"bad number format '{signs.group()}...': {d.name} reads one sign (+ or -) at most "
+            "before a number"
+        )
+
+
 def check_plain(block: Block, d: Dialect) -> None:
     """No parameters or expressions (a dialect without LinuxCNC's language), and one sign at
     most before a number (grbl's read_float: ``X+-1`` is error 2, a bad number format). The
@@ -48,12 +59,7 @@ def check_plain(block: Block, d: Dialect) -> None:
             f"bad number format after {letter}: {letter} takes a plain number ('#' parameters "
             f"and [expressions] are LinuxCNC's, {d.name} has none)"
         )
-    signs = _SIGNS.search(strip_line(block.text).replace(COMMENT, ""))
-    if signs is not None:
-        raise GcodeError(
-            f"bad number format '{signs.group()}...': {d.name} reads one sign (+ or -) at most "
-            "before a number"
-        )
+    check_signs(block, d)
     if d.read_order == "grbl":
         _check_grbl_read_order(block, d)
 

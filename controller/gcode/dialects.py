@@ -120,6 +120,9 @@ class Dialect:
             other G word is read as its whole number (g2core: ``switch ((uint8_t)value)`` in
             gcode_parser.cpp, ``_point`` consulted for G28, G30, G38, G43, G61, G90, G91 and
             G92 only: G59.1 is G59, G1.5 G1, G17.1 G17); None: every decimal part counts.
+        one_sign: a number takes one sign at most (g2core's c_atof reads one, and the word
+            after it is malformed: ``X--5`` is refused, nothing of the line runs); a dialect
+            without the language always checks this (grbl).
         m_whole_codes: M codes are read by their whole part (g2core's ``switch ((uint8_t)value)``:
             M3.5 is M3), except M50, whose .1 (traverse override control, not modelled) is
             accepted and does nothing and whose other decimals are refused; False: an M code
@@ -310,6 +313,7 @@ class Dialect:
     m_codes: frozenset[int] | None = None
     g_point_codes: frozenset[int] | None = None
     m_whole_codes: bool = False
+    one_sign: bool = False
     letters: frozenset[str] | None = None
     system_lines: bool = False
     home_all_axes: bool = False
@@ -458,6 +462,7 @@ G2CORE = Dialect(
     m_codes=_G2CORE_M,
     g_point_codes=frozenset((280, 300, 380, 430, 610, 900, 910, 920)),
     m_whole_codes=True,
+    one_sign=True,
     coordinate_systems=6,  # g2core.h COORDS
     g10_levels=frozenset((1, 2, 10, 20)),  # cm_set_g10_data: "L11 not supported atm"
     g10_p0_current=False,  # cm_set_g10_data: P below G54 is STAT_P_WORD_IS_INVALID

@@ -50,6 +50,7 @@ from gantry_sim.controller.gcode.dialect_checks import (
     check_jog,
     check_jog_after,
     check_plain,
+    check_signs,
     jog_moves_as_g1,
 )
 from gantry_sim.controller.gcode.dialects import Dialect, coded, get_dialect
@@ -189,6 +190,8 @@ class Interpreter:
         d = self.dialect
         if not d.language:
             check_plain(block, d)
+        elif d.one_sign:
+            check_signs(block, d)
         if block.bare:
             bare = self._marlin_bare(block)
             if bare is None:
