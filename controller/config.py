@@ -57,6 +57,7 @@ def _number(
         return f
 
     check.what = what  # type: ignore[attr-defined]
+    check.top = hi  # type: ignore[attr-defined]
     return check
 
 
@@ -64,6 +65,7 @@ def _vec3(item: Callable[[Any], float], what: str | None = None) -> Callable[[An
     if what is None:
         what = getattr(item, "what", "a finite number").removeprefix("a finite number ")
     text = f"a list of 3 numbers [x, y, z], each {what}"
+    top = getattr(item, "top", math.inf)
 
     def check(v: Any) -> Vec3:
         if not isinstance(v, list) or len(v) != 3:
@@ -73,6 +75,7 @@ def _vec3(item: Callable[[Any], float], what: str | None = None) -> Callable[[An
         except ValueError:
             raise ValueError(text) from None
 
+    check.top = top  # type: ignore[attr-defined]
     return check
 
 
@@ -303,6 +306,12 @@ def value_fault(section: str, key: str, value: float, vector: bool) -> str | Non
     except ValueError as exc:
         return str(exc).replace("a list of 3 numbers [x, y, z], each ", "a finite number ")
     return None
+
+
+def value_top(section: str, key: str) -> float:
+    """The largest value ``[section] key`` holds (on each axis, for a vector key); inf where
+    its range has no top."""
+    return float(getattr(SCHEMA[section][key], "top", math.inf))
 
 
 def _overlay(merged: dict[str, dict[str, Any]], data: dict[str, Any], path: Path) -> None:

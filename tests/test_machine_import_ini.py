@@ -63,6 +63,18 @@ def test_a_machine_file_whose_travel_leaves_out_the_work_origin_is_refused(tmp_p
         load_machine_config(DEFAULT_MACHINE, path)
 
 
+def test_a_limit_beyond_the_machine_files_reads_as_none(tmp_path):
+    # LinuxCNC's idiom for no limit (1e99, its own default of MAX_LINEAR_VELOCITY; its
+    # sim/axis/db_demo configurations): refused before, now the largest the file holds
+    imp = import_linuxcnc(
+        _ini(tmp_path, _x("MAX_VELOCITY = 1e99\nMAX_ACCELERATION = 1e308\n", "MAX_JERK = 1\n")),
+        TARGET,
+    )
+    assert imp.values["limits"]["max_velocity_mm_per_s"][0] == 1e5
+    assert imp.values["limits"]["max_acceleration_mm_per_s2"][0] == 1e6
+    assert any("MAX_VELOCITY = 1e+99 read as no limit" in a for a in imp.assumed)
+
+
 def test_a_number_is_its_leading_number_as_linuxcnc_reads_it(tmp_path):
     imp = import_linuxcnc(
         _ini(tmp_path, _x("MAX_VELOCITY = 100 # mm/s\nMAX_ACCELERATION = 1000mm\n")), TARGET
@@ -134,10 +146,10 @@ def test_text_that_is_not_utf8_is_refused_only_where_linuxcnc_reads_it(tmp_path)
 @pytest.mark.parametrize(
     ("text", "line", "what"),
     [
-        (  # 1e308 inch is more than a float holds: had been exit 3 (a non-finite TOML value)
-            _x("MAX_VELOCITY = 1e308\n").replace("LINEAR_UNITS = mm", "LINEAR_UNITS = inch"),
+        (  # below the machine file's 0.01 mm/s: no idiom for "none"
+            _x("MAX_VELOCITY = 1e-9\n").replace("LINEAR_UNITS = mm", "LINEAR_UNITS = inch"),
             4,
-            "[AXIS_X] MAX_VELOCITY = '1e308' gives [limits] max_velocity_mm_per_s = inf",
+            "[AXIS_X] MAX_VELOCITY = '1e-9' gives [limits] max_velocity_mm_per_s = 2.54e-08",
         ),
         (
             _x("MIN_LIMIT = -1e308\nMAX_LIMIT = 1\n").replace("= mm", "= inch"),

@@ -10,7 +10,7 @@ from __future__ import annotations
 
 import math
 
-from gantry_sim.controller.config import value_fault
+from gantry_sim.controller.config import value_fault, value_top
 from gantry_sim.controller.errors import ConfigError, shown
 from gantry_sim.controller.machine_import.ini_reader import IniFile
 
@@ -54,4 +54,13 @@ def number_as(
     value = raw * factor
     if (unchecked_below_zero and raw <= 0.0) or (finite_only and math.isfinite(value)):
         return value
+    if dest[0] == "limits" and value > (top := value_top(*dest)):
+        # LinuxCNC's idiom for "no limit" (1e99 is its own default of MAX_LINEAR_VELOCITY)
+        note = (
+            f"[{section}] {key} = {raw:g} read as no limit: [{dest[0]}] {dest[1]} = {top:g}, the "
+            "largest the machine file holds"
+        )
+        if note not in ini.trailing:
+            ini.trailing.append(note)
+        return top
     return require(ini, section, key, value, dest, vector)

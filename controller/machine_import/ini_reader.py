@@ -54,7 +54,8 @@ class IniFile:
     path: str
     sections: dict[str, dict[str, tuple[str, str, int]]]
     bad: dict[str, tuple[str, str, int]]
-    #: values read as their leading number, with text after it ignored (as LinuxCNC does)
+    #: how values were read, for the import's notes: as their leading number, with text after
+    #: it ignored (as LinuxCNC does), or a limit beyond the machine file's as none
     trailing: list[str] = field(default_factory=list)
     #: #INCLUDE files read so far, and their bytes (bounded by MAX_INCLUDES, MAX_INCLUDED_BYTES)
     included: list[int] = field(default_factory=lambda: [0, 0])
