@@ -56,11 +56,9 @@ def number_as(
         return value
     if dest[0] == "limits" and value > (top := value_top(*dest)):
         # LinuxCNC's idiom for "no limit" (1e99 is its own default of MAX_LINEAR_VELOCITY)
-        note = (
+        ini.note(
             f"[{section}] {key} = {raw:g} read as no limit: [{dest[0]}] {dest[1]} = {top:g}, the "
             "largest the machine file holds"
         )
-        if note not in ini.trailing:
-            ini.trailing.append(note)
         return top
     return require(ini, section, key, value, dest, vector)

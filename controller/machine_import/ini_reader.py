@@ -54,9 +54,9 @@ class IniFile:
     path: str
     sections: dict[str, dict[str, tuple[str, str, int]]]
     bad: dict[str, tuple[str, str, int]]
-    #: how values were read, for the import's notes: as their leading number, with text after
-    #: it ignored (as LinuxCNC does), or a limit beyond the machine file's as none
-    trailing: list[str] = field(default_factory=list)
+    #: how values were read, for the import's notes (:meth:`note`): as their leading number,
+    #: with text after it ignored (as LinuxCNC does), or a limit beyond the machine file's as none
+    notes: list[str] = field(default_factory=list)
     #: #INCLUDE files read so far, and their bytes (bounded by MAX_INCLUDES, MAX_INCLUDED_BYTES)
     included: list[int] = field(default_factory=lambda: [0, 0])
 
@@ -78,13 +78,16 @@ class IniFile:
                 line=line,
             )
         if m and m.end() < len(text):
-            note = (
+            self.note(
                 f"{file}:{line}: [{section}] {key} = {shown(text)} read as {value:g}, the text "
                 "after the number ignored (as LinuxCNC does)"
             )
-            if note not in self.trailing:
-                self.trailing.append(note)
         return value
+
+    def note(self, text: str) -> None:
+        """Keep ``text`` among :attr:`notes`, once (a value is read once per axis using it)."""
+        if text not in self.notes:
+            self.notes.append(text)
 
 
 def _float(m: re.Match[str]) -> float:

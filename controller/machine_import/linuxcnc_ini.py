@@ -275,7 +275,7 @@ def _assemble(ini, path, target, scale, limits, pid, ferror, assumed, unmapped) 
             f"[RS274NGC] RS274NGC_STARTUP_CODE = {shown(startup[0])} (the codes LinuxCNC runs "
             "before every program: put them at the program's start)"
         )
-    assumed += ini.trailing  # complete now: every number has been read
+    assumed += ini.notes  # complete now: every number has been read
     return Imported(
         source=str(path),
         kind="LinuxCNC INI",
